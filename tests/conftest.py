@@ -1,0 +1,34 @@
+"""Shared fixtures: the real recordings beside the project, and explicit seeds."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+SHARED_DATA = Path(os.environ.get("SOCIALAFF_SHARED_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
+
+
+def shared_path(*parts: str) -> Path:
+    """Path under ../shared/data; skips the test with a reason when it is absent."""
+    path = SHARED_DATA.joinpath(*parts)
+    if not path.exists():
+        pytest.skip(f"real recordings not available at {path} (they live in ../shared/data beside the project)")
+    return path
+
+
+@pytest.fixture
+def seed(request: pytest.FixtureRequest) -> int:
+    """An explicit seed, printed so a failure can be replayed."""
+    marker = request.node.get_closest_marker("seed")
+    value = int(marker.args[0]) if marker else 12345
+    print(f"seed = {value}")
+    return value
+
+
+@pytest.fixture
+def rng(seed: int) -> np.random.Generator:
+    """A Generator seeded from :func:`seed`."""
+    return np.random.default_rng(seed)
