@@ -5,8 +5,11 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import numpy as np
-import pytest
+# Offscreen rendering on headless machines; must be set before mujoco is imported.
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
 
 SHARED_DATA = Path(os.environ.get("SOCIALAFF_SHARED_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
 

@@ -65,7 +65,8 @@ def load_interaction(path: str | Path) -> Interaction:
     if not path.is_file():
         raise DataError("no such file", path=path)
     try:
-        with np.load(path, allow_pickle=False) as data:
+        # Read the bytes first: np.load leaks its file handle when the archive is corrupt.
+        with np.load(io.BytesIO(path.read_bytes()), allow_pickle=False) as data:
             present = set(data.files)
             missing = [k for k in _REQUIRED if k not in present]
             if missing:

@@ -1,0 +1,57 @@
+"""``socialaff-sim data``: synthesize, inspect and convert datasets."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..data import load_dataset, save_dataset
+from ..data.summary import format_summary
+
+__all__ = ["register"]
+
+
+def _synth(args: argparse.Namespace) -> int:
+    from ..data.synthetic import generate_dataset
+
+    dataset = generate_dataset(seed=args.seed)
+    print(format_summary(dataset))
+    if args.out:
+        paths = save_dataset(dataset, args.out)
+        print(f"\nwrote {len(paths)} files to {args.out} (read back with: socialaff-sim data inspect npz:{args.out})")
+    return 0
+
+
+def _inspect(args: argparse.Namespace) -> int:
+    print(format_summary(load_dataset(args.spec)))
+    return 0
+
+
+def _convert(args: argparse.Namespace) -> int:
+    dataset = load_dataset(args.spec)
+    out = Path(args.out)
+    paths = save_dataset(dataset, out)
+    print(f"wrote {len(paths)} interaction files to {out}")
+    return 0
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``data`` and its sub-commands."""
+    data = subparsers.add_parser("data", help="synthesize, inspect and convert datasets")
+    sub = data.add_subparsers(dest="data_command", metavar="ACTION")
+    sub.required = True
+    spec_help = "dataset spec: sbu:PATH, handover:PATH, nuisi:PATH, hhoi:PATH, npz:DIR or synthetic[:SEED]"
+
+    p = sub.add_parser("synth", help="generate the embedded synthetic dataset and print its summary")
+    p.add_argument("--seed", type=int, default=0, help="generator seed (default 0)")
+    p.add_argument("--out", help="also write it as npz files to this folder")
+    p.set_defaults(func=_synth)
+
+    p = sub.add_parser("inspect", help="per-class counts, lengths, fps and key-joint availability")
+    p.add_argument("spec", metavar="PATH_OR_SPEC", help=spec_help)
+    p.set_defaults(func=_inspect)
+
+    p = sub.add_parser("convert", help="convert a dataset to the project's npz format")
+    p.add_argument("spec", metavar="SPEC", help=spec_help)
+    p.add_argument("--out", required=True, help="output folder (one .npz per interaction)")
+    p.set_defaults(func=_convert)

@@ -1,0 +1,89 @@
+"""A plain (non-editable) wheel install finds its assets and task files; CI runs the README's test command."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+_PROBE = r"""
+import json, sys, tomllib
+from pathlib import Path
+import mujoco
+import socialaff_sim
+from socialaff_sim import resources
+assets = resources.assets_dir()
+envs = resources.envs_dir()
+xmls = sorted(p for p in assets.rglob("*.xml"))
+tomls = sorted(envs.glob("*.toml"))
+model = mujoco.MjModel.from_xml_path(str(xmls[0]))
+task = tomllib.loads(tomls[0].read_text())
+print(json.dumps({
+    "package": socialaff_sim.__file__,
+    "assets": sorted(str(p.relative_to(assets)) for p in assets.rglob("*") if p.is_file()),
+    "envs": sorted(str(p.relative_to(envs)) for p in envs.rglob("*") if p.is_file()),
+    "nbody": model.nbody,
+    "task_keys": sorted(task),
+}))
+"""
+
+
+def _files(folder: Path) -> list[str]:
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
+
+
+def test_wheel_in_fresh_venv_ships_assets_and_envs(tmp_path: Path) -> None:
+    import json
+
+    wheel_dir = tmp_path / "wheel"
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheel_dir), str(ROOT)],
+        check=True,
+        capture_output=True,
+    )
+    wheels = list(wheel_dir.glob("socialaff_sim-*.whl"))
+    assert len(wheels) == 1, wheels
+    venv = tmp_path / "venv"
+    # --system-site-packages reuses the already installed dependencies (mujoco, ...), not this package.
+    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True)
+    py = venv / "bin" / "python"
+    subprocess.run([str(py), "-m", "pip", "install", "--no-deps", "-q", str(wheels[0])], check=True, capture_output=True)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    out = subprocess.run(
+        [str(py), "-c", _PROBE], check=True, capture_output=True, text=True, cwd=tmp_path, env=env
+    ).stdout
+    info = json.loads(out.strip().splitlines()[-1])
+    assert Path(info["package"]).is_relative_to(venv), info["package"]
+    assert info["assets"] == _files(ROOT / "assets")
+    assert info["envs"] == _files(ROOT / "envs")
+    assert info["nbody"] > 1
+    assert info["task_keys"]
+
+
+def test_ci_runs_exactly_the_readme_test_command() -> None:
+    readme = (ROOT / "README.md").read_text()
+    ci = (ROOT / ".ci" / "run").read_text()
+    blocks = [b.split("```", 1)[0].strip() for b in readme.split("```bash")[1:]]
+    test_cmds = [b for b in blocks if "pytest" in b]
+    assert test_cmds, "README.md has no test command in a ```bash block"
+    assert test_cmds[0] in ci
+
+
+def test_pyproject_declares_the_design_card_packages() -> None:
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    deps = " ".join(meta["project"]["dependencies"]).lower()
+    for name in ("mujoco", "dm-control", "numpy", "scipy", "mink", "gymnasium", "daqp"):
+        assert name in deps, name
+    assert meta["project"]["scripts"]["socialaff-sim"] == "socialaff_sim.cli.main:main"
+
+
+@pytest.mark.parametrize("folder", ["assets", "envs", "socialaff_sim", "tests", "scripts"])
+def test_design_card_layout(folder: str) -> None:
+    assert (ROOT / folder).is_dir()
+    assert (ROOT / "socialaff_sim" / "py.typed").is_file()
