@@ -82,14 +82,14 @@ def format_summary(dataset: Dataset) -> str:
             f"{_fps_text(r.fps):>10}  {','.join(r.layouts)}"
         )
     lines += ["", "key-joint availability (fraction of frames tracked, agent 0 | agent 1; '-' = layout lacks it):"]
-    head = f"{'class':<20}" + "".join(f"{k:>22}" for k in KEY_JOINTS) + f"{'object':>8}"
+    head = f"{'class':<20}" + "".join(f"{k:>13}" for k in KEY_JOINTS) + f"{'object':>8}"
     lines += [head, "-" * len(head)]
     for r in rows:
         cells = []
         for k in range(N_KEY):
             a0, a1 = r.key_available[:, k]
             cells.append("-|-" if a0 == 0 and a1 == 0 else f"{a0:.2f}|{a1:.2f}")
-        lines.append(f"{r.label:<20}" + "".join(f"{c:>22}" for c in cells) + f"{'yes' if r.has_object else 'no':>8}")
+        lines.append(f"{r.label:<20}" + "".join(f"{c:>13}" for c in cells) + f"{'yes' if r.has_object else 'no':>8}")
     subs = [r for r in rows if r.subevents]
     if subs:
         lines += ["", "ground-truth sub-events:"]

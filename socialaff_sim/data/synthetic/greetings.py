@@ -1,0 +1,120 @@
+"""Scripts of the two greetings: ``shake_hands`` and ``high_five``.
+
+Both start with the two agents walking toward each other (``approach``) and
+stopping where the contact is comfortably within both actors' reach (see
+:func:`.stage.face_to_face`).
+
+* shake_hands: ``reach`` (right wrists to a meeting point between the agents at
+  about elbow height, trunks leaning in), ``shake`` (hands joined, a vertical
+  oscillation of a few centimetres at 2–3 Hz), ``retract`` (hands back to the sides).
+* high_five: ``raise`` (one hand, the right one or with probability
+  ``left_hand_probability`` the left one, lifted above the shoulder), ``strike``
+  (the raised hands meet above both shoulders and rebound), ``retract``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .body import Actor, BodyTrack, forward_kinematics
+from .config import SUBEVENTS, SyntheticConfig
+from .gait import hanging_hands
+from .ik import rot_z, unit
+from .motion import blend, keyframes, plan_timeline, ramp
+from .scripted import Scripted, contact_mask
+from .stage import FACING, face_to_face, pair_height, shoulder_offset, standing_root, trunk, walk_in
+
+__all__ = ["script_shake_hands", "script_high_five", "SHAKE_HANDS_TIMING", "HIGH_FIVE_TIMING"]
+
+SHAKE_HANDS_TIMING = ((1.5, 2.5), (0.5, 0.9), (0.9, 1.8), (0.5, 0.9))
+"""Duration range (s) of each sub-event of ``shake_hands`` before the tempo factor."""
+HIGH_FIVE_TIMING = ((1.5, 2.5), (0.45, 0.8), (0.35, 0.7), (0.5, 0.9))
+"""Duration range (s) of each sub-event of ``high_five`` before the tempo factor."""
+
+_YAWS = FACING
+
+
+def script_shake_hands(
+    actors: tuple[Actor, Actor], fps: float, rng: np.random.Generator, config: SyntheticConfig
+) -> Scripted:
+    """Approach, reach, shake and retract with the right hands (stage frame)."""
+    tl = plan_timeline(SUBEVENTS["shake_hands"], SHAKE_HANDS_TIMING, fps, rng, config)
+    t = tl.t
+    leans = tuple(rng.uniform(0.03, 0.14, 2))
+    meet = face_to_face(
+        actors,
+        sides=(1, 1),
+        leans=leans,
+        fractions=tuple(rng.uniform(0.86, 0.94, 2)),
+        palm=False,
+        height=pair_height(actors, 0.6, 0.67, rng),
+        gap=rng.uniform(0.04, 0.08),
+        lateral=rng.uniform(-0.12, 0.12),
+        skew=rng.uniform(-0.04, 0.04),
+    )
+    amplitude = rng.uniform(0.025, 0.055)
+    freq = rng.uniform(2.0, 3.0)
+    t2, t3 = tl.start(2), tl.end(2)
+    u = np.clip((t - t2) / (t3 - t2), 0.0, 1.0)
+    shake = amplitude * np.sin(2 * np.pi * freq * (t - t2)) * np.sin(np.pi * u)
+    walks = walk_in(tl, actors, meet, rng)
+    joints = []
+    for i, (actor, ends) in enumerate(zip(actors, (meet.end0, meet.end1), strict=True)):
+        root_xy, ankles = walks[i]
+        lean = keyframes(t, [tl.start(1), tl.end(1), tl.start(3), tl.end(3)], [0.02, leans[i], leans[i], 0.02])
+        root = standing_root(actor, root_xy, _YAWS[i], ankles)
+        body = trunk(actor, root, _YAWS[i], lean)
+        hands = hanging_hands(actor, body, root_xy, ankles)
+        contact = ends[None, :] + shake[:, None] * np.array([0.0, 0.0, 1.0])
+        w = ramp(t, tl.start(1), tl.end(1)) - ramp(t, tl.start(3), tl.end(3))
+        hands[:, 1] = blend(hands[:, 1], contact, w)
+        track = BodyTrack(root=root, yaw=np.full(t.shape, _YAWS[i]), lean=lean, ankles=ankles, hands=hands)
+        joints.append(forward_kinematics(actor, track))
+    occluded = contact_mask(tl, [2], [(0, 1), (1, 1)])
+    return Scripted(timeline=tl, joints=np.stack(joints, axis=1), object=None, occluded=occluded)
+
+
+def script_high_five(
+    actors: tuple[Actor, Actor], fps: float, rng: np.random.Generator, config: SyntheticConfig
+) -> Scripted:
+    """Approach, raise, strike and retract with one hand each, both the same side (stage frame)."""
+    tl = plan_timeline(SUBEVENTS["high_five"], HIGH_FIVE_TIMING, fps, rng, config)
+    t = tl.t
+    side = 0 if rng.random() < config.left_hand_probability else 1
+    leans = tuple(rng.uniform(0.0, 0.1, 2))
+    shoulder_z = max(
+        a.standing_root_height + shoulder_offset(a, yaw, lean, side)[2]
+        for a, yaw, lean in zip(actors, _YAWS, leans, strict=True)
+    )
+    meet = face_to_face(
+        actors,
+        sides=(side, side),
+        leans=leans,
+        fractions=tuple(rng.uniform(0.82, 0.93, 2)),
+        palm=False,
+        height=shoulder_z + rng.uniform(0.12, 0.28),
+        gap=rng.uniform(0.08, 0.13),
+        lateral=rng.uniform(-0.15, 0.15),
+        skew=rng.uniform(-0.05, 0.05),
+    )
+    t_contact = tl.at(2, rng.uniform(0.45, 0.65))
+    rebound_share = rng.uniform(0.25, 0.5)
+    walks = walk_in(tl, actors, meet, rng)
+    joints = []
+    for i, (actor, contact) in enumerate(zip(actors, (meet.end0, meet.end1), strict=True)):
+        root_xy, ankles = walks[i]
+        lean = keyframes(t, [tl.start(1), tl.end(1), tl.start(3), tl.end(3)], [0.02, leans[i], leans[i], 0.02])
+        root = standing_root(actor, root_xy, _YAWS[i], ankles)
+        body = trunk(actor, root, _YAWS[i], lean)
+        hands = hanging_hands(actor, body, root_xy, ankles)
+        # Raised hand: up, a little forward and out from the shoulder, in the agent's heading frame.
+        local = unit(np.array([rng.uniform(0.15, 0.35), 0.3 * (1 if side == 0 else -1), 0.9]))
+        raised = body.shoulders[tl.bounds[2], side] + 0.8 * actor.arm_length * (rot_z(_YAWS[i]) @ local)
+        rebound = contact + rebound_share * (raised - contact)
+        strike = keyframes(t, [tl.start(2), t_contact, tl.end(2)], [raised, contact, rebound])
+        w = ramp(t, tl.start(1), tl.end(1)) - ramp(t, tl.start(3), tl.end(3))
+        hands[:, side] = blend(hands[:, side], strike, w)
+        track = BodyTrack(root=root, yaw=np.full(t.shape, _YAWS[i]), lean=lean, ankles=ankles, hands=hands)
+        joints.append(forward_kinematics(actor, track))
+    occluded = contact_mask(tl, [2], [(0, side), (1, side)])
+    return Scripted(timeline=tl, joints=np.stack(joints, axis=1), object=None, occluded=occluded)
