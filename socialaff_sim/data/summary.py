@@ -64,8 +64,8 @@ def summarize(dataset: Dataset) -> list[ClassSummary]:
 
 def _fps_text(fps: tuple[float, ...]) -> str:
     if len(fps) <= 2:
-        return "/".join(f"{f:g}" for f in fps)
-    return f"{min(fps):g}-{max(fps):g}"
+        return "/".join(f"{f:.4g}" for f in fps)
+    return f"{min(fps):.1f}-{max(fps):.1f}"
 
 
 def format_summary(dataset: Dataset) -> str:
@@ -73,13 +73,13 @@ def format_summary(dataset: Dataset) -> str:
     rows = summarize(dataset)
     total = sum(r.count for r in rows)
     lines = [f"dataset {dataset.name!r}: {total} instances in {len(rows)} classes"]
-    head = f"{'class':<20}{'n':>4}{'pairs':>6}{'frames min/mean/max':>22}{'mean s':>8}{'fps':>10}  layout"
+    head = f"{'class':<20}{'n':>4}{'pairs':>6}{'frames min/mean/max':>22}{'mean s':>8}{'fps':>12}  layout"
     lines += ["", head, "-" * len(head)]
     for r in rows:
         lines.append(
             f"{r.label:<20}{r.count:>4}{r.actor_pairs:>6}"
             f"{f'{r.frames_min}/{r.frames_mean:.0f}/{r.frames_max}':>22}{r.seconds_mean:>8.1f}"
-            f"{_fps_text(r.fps):>10}  {','.join(r.layouts)}"
+            f"{_fps_text(r.fps):>12}  {','.join(r.layouts)}"
         )
     lines += ["", "key-joint availability (fraction of frames tracked, agent 0 | agent 1; '-' = layout lacks it):"]
     head = f"{'class':<20}" + "".join(f"{k:>13}" for k in KEY_JOINTS) + f"{'object':>8}"

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 from ...errors import ConfigError, choices
 
@@ -62,7 +62,7 @@ class SyntheticConfig:
     room_half_extent: float = 1.5
     """E, metres: the pair is shifted by a uniform offset in [-E, E]² and turned by a uniform yaw."""
     left_hand_probability: float = 0.3
-    """p_L, probability that a one-handed contact (high five, pull up, hand over receiver) uses the left hand."""
+    """p_L, probability that a one-handed action (high five, pull-up grip, cup receiver, throw) uses the left hand."""
     noise: bool = True
     """Whether to add Kinect-like corruption; ``False`` keeps the clean forward-kinematics data."""
     jitter_sd: float = 0.015
@@ -121,8 +121,3 @@ class SyntheticConfig:
             raise bad("jitter_correlation", "a number in [0, 1)")
         if not isinstance(self.noise, bool):
             raise bad("noise", "True or False")
-
-    @classmethod
-    def field_names(cls) -> tuple[str, ...]:
-        """Names of all settings (for command-line overrides and error messages)."""
-        return tuple(f.name for f in fields(cls))

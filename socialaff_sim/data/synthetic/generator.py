@@ -133,7 +133,8 @@ def generate_instance(
         found = tuple(a.actor_id for a in actors)
         raise ConfigError(f"generate_instance: expected two different actors, found {found}")
     motion_rng, place_rng, noise_rng = rng.spawn(3)
-    fps = float(motion_rng.uniform(*config.fps_range))
+    lo, hi = config.fps_range
+    fps = float(np.clip(round(motion_rng.uniform(lo, hi), 2), lo, hi))  # a rate like 12.37 fps
     scripted = SCRIPTS[label]((actors[0], actors[1]), fps, motion_rng, config)
     joints, obj = place_in_room(scripted, place_rng, config.room_half_extent)
     valid = None

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .body import Actor, BodyTrack, forward_kinematics
+from .body import SIDE_SIGN, Actor, BodyTrack, forward_kinematics
 from .config import SUBEVENTS, SyntheticConfig
 from .gait import hanging_hands
 from .ik import rot_z, unit
@@ -82,17 +82,25 @@ def script_high_five(
     t = tl.t
     side = 0 if rng.random() < config.left_hand_probability else 1
     leans = tuple(rng.uniform(0.0, 0.1, 2))
-    shoulder_z = max(
-        a.standing_root_height + shoulder_offset(a, yaw, lean, side)[2]
-        for a, yaw, lean in zip(actors, _YAWS, leans, strict=True)
+    shoulders = np.array(
+        [
+            a.standing_root_height + shoulder_offset(a, yaw, lean, side)[2]
+            for a, yaw, lean in zip(actors, _YAWS, leans, strict=True)
+        ]
     )
+    reach = np.array([a.arm_length for a in actors])
+    # Above both shoulders, but no higher than the shorter actor reaches while still stretching forward.
+    height = min(shoulders.max() + rng.uniform(0.12, 0.28), float(np.min(shoulders + 0.85 * reach)))
+    height = max(height, shoulders.max() + 0.04)
+    needed = np.sqrt((height - shoulders) ** 2 + 0.15**2 + 0.17**2) / reach  # up, forward and across
+    fractions = np.clip(np.maximum(rng.uniform(0.82, 0.93, 2), needed), None, 0.97)
     meet = face_to_face(
         actors,
         sides=(side, side),
         leans=leans,
-        fractions=tuple(rng.uniform(0.82, 0.93, 2)),
+        fractions=tuple(fractions),
         palm=False,
-        height=shoulder_z + rng.uniform(0.12, 0.28),
+        height=height,
         gap=rng.uniform(0.08, 0.13),
         lateral=rng.uniform(-0.15, 0.15),
         skew=rng.uniform(-0.05, 0.05),
@@ -108,7 +116,7 @@ def script_high_five(
         body = trunk(actor, root, _YAWS[i], lean)
         hands = hanging_hands(actor, body, root_xy, ankles)
         # Raised hand: up, a little forward and out from the shoulder, in the agent's heading frame.
-        local = unit(np.array([rng.uniform(0.15, 0.35), 0.3 * (1 if side == 0 else -1), 0.9]))
+        local = unit(np.array([rng.uniform(0.15, 0.35), 0.3 * SIDE_SIGN[side], 0.9]))
         raised = body.shoulders[tl.bounds[2], side] + 0.8 * actor.arm_length * (rot_z(_YAWS[i]) @ local)
         rebound = contact + rebound_share * (raised - contact)
         strike = keyframes(t, [tl.start(2), t_contact, tl.end(2)], [raised, contact, rebound])

@@ -32,7 +32,7 @@ from .stage import shoulder_offset, standing_root, trunk
 
 __all__ = ["script_throw_catch", "THROW_CATCH_TIMING"]
 
-THROW_CATCH_TIMING = ((0.5, 0.9), (0.3, 0.5), (0.55, 0.85), (0.3, 0.5), (0.5, 1.0))
+THROW_CATCH_TIMING = ((0.5, 0.9), (0.3, 0.5), (0.6, 0.9), (0.3, 0.5), (0.6, 1.2))
 """Duration range (s) of each sub-event of ``throw_catch`` before the tempo factor."""
 
 _SIDE_NAMES = ("left", "right")
@@ -100,13 +100,12 @@ def script_throw_catch(
     a0, a1 = actors
     side = 0 if rng.random() < config.left_hand_probability else 1
     distance = rng.uniform(2.5, 3.5)
-    y1 = rng.uniform(-0.4, 0.4)
-    yaw0 = float(np.arctan2(y1, distance))
+    yaw0 = rng.uniform(-0.15, 0.15)  # agent 1 stands a little off agent 0's initial heading
     yaw1 = yaw0 + np.pi
     t_rel, t_catch = tl.start(2), tl.start(3)
 
     # Agent 1: where it will catch (its own frame: ahead, a bit to a side, below the shoulders).
-    root1_xy = np.array([distance, y1])
+    root1_xy = distance * np.array([np.cos(yaw0), np.sin(yaw0)])
     heading1 = np.array([np.cos(yaw1), np.sin(yaw1), 0.0])
     left1 = np.array([-np.sin(yaw1), np.cos(yaw1), 0.0])
     catch = np.array([*root1_xy, a1.shoulder_height - rng.uniform(0.1, 0.35)])
