@@ -1,0 +1,37 @@
+"""Evaluation (Experiment 1 of the paper): the method protocol, metrics, actor-disjoint cross-validation, reports."""
+
+from .crossval import EvaluationConfig
+from .metrics import joint_error, key_joint_error, matched_accuracy, parse_confusion
+from .protocol import (
+    DEFAULT_N_OBSERVED,
+    METHODS,
+    Prediction,
+    ReactionMethod,
+    available_methods,
+    get_method,
+    observed_part,
+    prediction_from_joints,
+    register_method,
+)
+from .report import format_tables, write_results
+from .runner import evaluate
+
+__all__ = [
+    "DEFAULT_N_OBSERVED",
+    "METHODS",
+    "EvaluationConfig",
+    "Prediction",
+    "ReactionMethod",
+    "available_methods",
+    "evaluate",
+    "format_tables",
+    "get_method",
+    "joint_error",
+    "key_joint_error",
+    "matched_accuracy",
+    "observed_part",
+    "parse_confusion",
+    "prediction_from_joints",
+    "register_method",
+    "write_results",
+]

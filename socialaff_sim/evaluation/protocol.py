@@ -1,0 +1,254 @@
+"""The protocol every reaction-synthesis method implements, and the registry of methods.
+
+A *method* learns, from the instances of one interaction class, how agent 1
+reacts to agent 0, and then predicts agent 1's whole skeleton track for a new
+instance of that class. The full model, its ablations V1/V2 and the HMM and
+Interaction-ProMP baselines all implement :class:`ReactionMethod`, so the
+evaluation treats them alike.
+
+What ``predict`` may look at
+    agent 0's whole track, the object's whole track, and agent 1's first
+    ``n_observed`` frames (T0 = 10 by default) — never agent 1's later frames
+    nor the ground-truth sub-events. The evaluator enforces this: it passes the
+    output of :func:`observed_part`, in which agent 1's frames from
+    ``n_observed`` on are NaN and marked invalid and the sub-events are removed.
+
+Registering a method
+    ``register_method(name, factory)`` adds a factory (a picklable callable
+    with no arguments returning a fresh, unfitted method, e.g. a module-level
+    function or class) under ``name``. The baselines ``"hmm"`` and ``"promp"``
+    are registered here; the full model and its ablations (``"full"``,
+    ``"v1"``, ``"v2"``) are registered by the synthesis module when it is
+    imported (``socialaff_sim.inference`` imports it). :func:`get_method` first
+    imports the modules in :data:`METHOD_PROVIDERS`, then fails with an error
+    listing the available names.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
+
+import numpy as np
+
+from ..data.interaction import MIN_FRAMES, Interaction
+from ..data.skeletons import N_KEY
+from ..errors import ConfigError, ModelError, choices
+
+if TYPE_CHECKING:
+    if sys.version_info >= (3, 11):
+        from typing import Self
+    else:
+        from typing_extensions import Self
+
+__all__ = [
+    "DEFAULT_N_OBSERVED",
+    "METHODS",
+    "METHOD_PROVIDERS",
+    "MethodFactory",
+    "Prediction",
+    "ReactionMethod",
+    "available_methods",
+    "get_method",
+    "observed_part",
+    "prediction_from_joints",
+    "register_method",
+]
+
+DEFAULT_N_OBSERVED = 10
+"""T0: frames of agent 1 observed before the synthesis starts (the paper's setting)."""
+
+
+@dataclass(frozen=True, eq=False)
+class Prediction:
+    """A method's prediction of agent 1 for one instance.
+
+    Arrays are validated and stored read-only on construction.
+    """
+
+    joints: np.ndarray
+    """(T, J, 3) float64, metres, world frame of the instance: agent 1's full skeleton;
+    frames ``t < n_observed`` equal the observation."""
+    key_joints: np.ndarray
+    """(T, 5, 3) float64, metres: the method's estimate of agent 1's five key joints
+    (NaN where the layout lacks one)."""
+    subevents: np.ndarray | None
+    """(T,) int64: the inferred sub-event per frame (−1 where none), or ``None`` if the
+    method does not parse sub-events. Labels are the method's own; the evaluation
+    matches them to the ground truth."""
+    n_observed: int
+    """T0: how many of agent 1's frames the method saw."""
+
+    def __post_init__(self) -> None:
+        joints = np.array(self.joints, dtype=np.float64, copy=True)
+        if joints.ndim != 3 or joints.shape[2] != 3:
+            raise ModelError(f"Prediction.joints: expected shape (T, J, 3), found {joints.shape}")
+        keys = np.array(self.key_joints, dtype=np.float64, copy=True)
+        if keys.shape != (joints.shape[0], N_KEY, 3):
+            raise ModelError(f"Prediction.key_joints: expected shape {(joints.shape[0], N_KEY, 3)}, found {keys.shape}")
+        joints.setflags(write=False)
+        keys.setflags(write=False)
+        object.__setattr__(self, "joints", joints)
+        object.__setattr__(self, "key_joints", keys)
+        if self.subevents is not None:
+            sub = np.asarray(self.subevents)
+            if sub.shape != (joints.shape[0],) or (sub.size and not np.issubdtype(sub.dtype, np.integer)):
+                raise ModelError(f"Prediction.subevents: expected ({joints.shape[0]},) integers, found {sub.dtype} {sub.shape}")
+            sub = sub.astype(np.int64)
+            sub.setflags(write=False)
+            object.__setattr__(self, "subevents", sub)
+        n_obs = int(self.n_observed)
+        if not 0 <= n_obs <= joints.shape[0]:
+            raise ModelError(f"Prediction.n_observed: expected 0..{joints.shape[0]}, found {self.n_observed}")
+        object.__setattr__(self, "n_observed", n_obs)
+
+    @property
+    def n_frames(self) -> int:
+        """Number of frames T."""
+        return int(self.joints.shape[0])
+
+
+@runtime_checkable
+class ReactionMethod(Protocol):
+    """A method that learns agent 1's reaction and synthesizes it for new instances.
+
+    Implementations keep settings in the constructor, learn in :meth:`fit`
+    (returning ``self``; learned attributes end in ``_``) and raise
+    :class:`~socialaff_sim.errors.NotFittedError` if :meth:`predict` is called first.
+    """
+
+    name: str
+    """Short name used in tables (e.g. ``"hmm"``)."""
+
+    def fit(self, interactions: Sequence[Interaction], *, rng: np.random.Generator) -> Self:
+        """Learn from the training instances of one interaction class (all share the label and layout)."""
+        ...
+
+    def predict(self, interaction: Interaction, *, n_observed: int, rng: np.random.Generator) -> Prediction:
+        """Predict agent 1's whole track for ``interaction``.
+
+        Uses agent 0's whole track, the object's track and agent 1's first
+        ``n_observed`` frames only (see the module docstring).
+        """
+        ...
+
+
+MethodFactory = Callable[[], ReactionMethod]
+"""A picklable callable with no arguments returning a fresh, unfitted method."""
+
+
+def _hmm() -> ReactionMethod:
+    from ..baselines.hmm import MultiLevelHMM
+
+    return MultiLevelHMM()
+
+
+def _promp() -> ReactionMethod:
+    from ..baselines.promp import InteractionProMP
+
+    return InteractionProMP()
+
+
+METHODS: dict[str, MethodFactory] = {"hmm": _hmm, "promp": _promp}
+"""Method factories by name. Add to it only through :func:`register_method`."""
+
+METHOD_PROVIDERS: tuple[str, ...] = ("socialaff_sim.inference",)
+"""Modules imported by :func:`get_method` so that they can register their methods."""
+
+
+def register_method(name: str, factory: MethodFactory, *, replace: bool = False) -> None:
+    """Make ``factory`` available as method ``name`` (snake_case).
+
+    Registering the same factory twice is harmless; another factory under a taken
+    name needs ``replace=True``. The factory must be picklable (a module-level
+    function or class, or a ``functools.partial`` of one) because the evaluation
+    runs methods in worker processes.
+    """
+    if not isinstance(name, str) or not name.isidentifier() or name != name.lower():
+        raise ConfigError(f"register_method: expected a lower-case identifier as name, found {name!r}")
+    if not callable(factory):
+        raise ConfigError(f"register_method({name!r}): expected a callable factory, found {type(factory).__name__}")
+    old = METHODS.get(name)
+    if old is not None and old is not factory and not replace:
+        raise ConfigError(f"register_method: method {name!r} is already registered; pass replace=True to override it")
+    METHODS[name] = factory
+
+
+def _load_providers() -> None:
+    for module in METHOD_PROVIDERS:
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name != module:
+                raise
+
+
+def available_methods() -> tuple[str, ...]:
+    """Names of every registered method (after importing :data:`METHOD_PROVIDERS`), sorted."""
+    _load_providers()
+    return tuple(sorted(METHODS))
+
+
+def get_method(name: str) -> MethodFactory:
+    """The factory registered under ``name``; the error lists the available methods."""
+    if name not in METHODS:
+        _load_providers()
+    try:
+        return METHODS[name]
+    except KeyError:
+        raise ConfigError(
+            f"unknown method {name!r}; available methods: {choices(sorted(METHODS))} "
+            "(the full model and its ablations 'full', 'v1', 'v2' are registered by the synthesis module "
+            "of socialaff_sim.inference once it is installed)"
+        ) from None
+
+
+def observed_part(interaction: Interaction, n_observed: int) -> Interaction:
+    """What a method may see: agent 1 after frame ``n_observed`` hidden (NaN, invalid), no sub-events."""
+    T = interaction.n_frames
+    if not 1 <= n_observed < T:
+        raise ConfigError(
+            f"n_observed: expected 1..{T - 1} for {interaction.instance_id or 'the instance'} (T = {T}), found {n_observed}"
+        )
+    joints = interaction.joints.copy()
+    valid = np.array(interaction.valid, copy=True)
+    joints[n_observed:, 1] = np.nan
+    valid[n_observed:, 1] = False
+    return interaction.replace(joints=joints, valid=valid, subevents=None)
+
+
+def prediction_from_joints(
+    observed: Interaction,
+    joints: np.ndarray,
+    *,
+    n_observed: int,
+    key_joints: np.ndarray | None = None,
+    subevents: np.ndarray | None = None,
+) -> Prediction:
+    """Build a :class:`Prediction`, copying agent 1's observed prefix into the first frames.
+
+    ``joints`` (T, J, 3), metres, world frame: the synthesized skeleton. Without
+    ``key_joints`` they are read from the skeleton through the layout. The prefix
+    (frames < ``n_observed``) of both arrays is replaced by the observation
+    (gaps filled in time) wherever it is finite.
+    """
+    out = np.array(joints, dtype=np.float64, copy=True)
+    layout = observed.layout
+    if key_joints is None:
+        keys = np.full((out.shape[0], N_KEY, 3), np.nan)
+        for k, idx in enumerate(layout.key_indices):
+            if idx is not None:
+                keys[:, k] = out[:, idx]
+    else:
+        keys = np.array(key_joints, dtype=np.float64, copy=True)
+    prefix = observed.slice(0, max(n_observed, MIN_FRAMES))  # filling gaps needs only the prefix
+    seen = prefix.filled_joints()[:n_observed, 1]
+    ok = np.isfinite(seen)
+    out[:n_observed][ok] = seen[ok]
+    seen_keys = prefix.key_joints()[:n_observed, 1]
+    ok = np.isfinite(seen_keys)
+    keys[:n_observed][ok] = seen_keys[ok]
+    return Prediction(joints=out, key_joints=keys, subevents=subevents, n_observed=n_observed)

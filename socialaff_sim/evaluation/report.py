@@ -1,0 +1,130 @@
+"""Write an evaluation's results: ``results.json``, a Markdown table like the paper's Table 1, a bar chart."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from .._atomic import atomic_path, atomic_write_text
+
+__all__ = ["format_tables", "write_results", "plot_results"]
+
+_METRICS = (("key_joint_error_m", "Average key-joint error (m)"), ("joint_error_m", "Average joint error, full skeleton (m)"))
+
+
+def _clean(value: Any) -> Any:
+    """NaN/inf → None (strict JSON)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, Mapping):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    return value
+
+
+def _cell(value: float | None, best: bool) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "–"
+    text = f"{value:.3f}"
+    return f"**{text}**" if best else text
+
+
+def format_tables(results: Mapping[str, Any]) -> str:
+    """Markdown: per metric a table with methods as rows and interactions + average as columns."""
+    per = results["per_interaction"]
+    labels = list(per)
+    methods = list(results["average"])
+    settings = results.get("settings", {})
+    lines = [f"# Experiment 1 on `{results['dataset']}`", ""]
+    folds, t0 = settings.get("n_folds", "?"), settings.get("n_observed", "?")
+    lines.append(
+        f"Average distance between synthesized and ground-truth agent-1 joints over the synthesized "
+        f"frames (t ≥ T0 = {t0}), {folds}-fold actor-disjoint cross-validation. Lower is better; "
+        "the best of each column is bold."
+    )
+    for key, title in _METRICS:
+        lines += ["", f"## {title}", ""]
+        lines.append("| Method | " + " | ".join(labels) + " | Average |")
+        lines.append("|---|" + "---:|" * (len(labels) + 1))
+        columns = [[per[lab][m][key] for m in methods] for lab in labels]
+        columns.append([results["average"][m][key] for m in methods])
+        best = [min((v for v in col if v is not None and not math.isnan(v)), default=None) for col in columns]
+        for i, m in enumerate(methods):
+            cells = [_cell(col[i], col[i] is not None and col[i] == b) for col, b in zip(columns, best, strict=True)]
+            lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    lines += ["", "Test instances per interaction: " + ", ".join(
+        f"{lab} {per[lab][methods[0]]['n_test']}" for lab in labels
+    ) + "."]
+    excluded = {k: v for k, v in results.get("excluded", {}).items() if v}
+    if excluded:
+        lines.append("Excluded as too short (T ≤ T0 + 1): " + ", ".join(f"{k} {v}" for k, v in excluded.items()) + ".")
+    parse = results.get("parse_accuracy") or {}
+    if parse:
+        lines += ["", "## Sub-event parse accuracy (frames, after optimal label matching)", ""]
+        lines.append("| Method | " + " | ".join(labels) + " |")
+        lines.append("|---|" + "---:|" * len(labels))
+        for m in methods:
+            if not any(m in parse.get(lab, {}) for lab in labels):
+                continue  # the method does not parse sub-events
+            cells = [_cell(parse.get(lab, {}).get(m), False) for lab in labels]
+            lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    lines += ["", "Fit + predict time summed over tasks (s): " + ", ".join(
+        f"{m} {results['seconds'][m]:.1f}" for m in methods
+    ) + "."]
+    return "\n".join(lines) + "\n"
+
+
+def plot_results(results: Mapping[str, Any], path: str | Path) -> Path:
+    """Grouped bar chart (PNG) of both errors per interaction and on average."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    per = results["per_interaction"]
+    labels = list(per) + ["average"]
+    methods = list(results["average"])
+    fig, axes = plt.subplots(1, 2, figsize=(max(10.0, 2.2 * len(labels)), 4.2), squeeze=False)
+    width = 0.8 / max(len(methods), 1)
+    x = np.arange(len(labels))
+    for ax, (key, title) in zip(axes[0], _METRICS, strict=True):
+        for i, m in enumerate(methods):
+            vals = [per[lab][m][key] for lab in labels[:-1]] + [results["average"][m][key]]
+            vals = [np.nan if v is None else v for v in vals]
+            ax.bar(x + (i - (len(methods) - 1) / 2) * width, vals, width, label=m)
+        ax.set_xticks(x, labels, rotation=30, ha="right")
+        ax.set_ylabel("metres")
+        ax.set_title(title)
+    axes[0][0].legend()
+    fig.suptitle(f"Experiment 1 on {results['dataset']}")
+    fig.tight_layout()
+    path = Path(path)
+    with atomic_path(path, suffix=".png") as tmp:
+        fig.savefig(tmp, format="png", dpi=120)
+    plt.close(fig)
+    return path
+
+
+def write_results(results: Mapping[str, Any], out_dir: str | Path) -> dict[str, Path]:
+    """Write ``results.json``, ``results.md`` and ``results.png`` into ``out_dir``; returns their paths.
+
+    The chart needs matplotlib (``pip install socialaff-sim[plot]``); without it the
+    returned mapping has no ``"chart"`` entry.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    clean = _clean(results)
+    paths = {"json": out / "results.json", "markdown": out / "results.md"}
+    atomic_write_text(paths["json"], json.dumps(clean, indent=2, allow_nan=False) + "\n")
+    atomic_write_text(paths["markdown"], format_tables(clean))
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        return paths
+    paths["chart"] = plot_results(clean, out / "results.png")
+    return paths

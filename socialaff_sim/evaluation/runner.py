@@ -1,0 +1,219 @@
+"""Run Experiment 1: every (class, fold, method) task on an executor, then aggregate.
+
+Executors: a local process pool (default), a Ray cluster (optional extra
+``socialaff-sim[distributed]``) or the calling process. Results are identical
+whichever is used (only the timings differ).
+
+The process pool starts its workers with the ``spawn`` method, so a script
+that calls :func:`evaluate` must guard its entry point with
+``if __name__ == "__main__":``, and registered method factories must be
+importable by name (module-level functions or classes).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
+from multiprocessing import get_context
+
+import numpy as np
+
+from ..data.dataset import Dataset
+from ..errors import ConfigError, choices
+from .crossval import EvaluationConfig, Task, TaskResult, make_tasks, run_task
+from .metrics import matched_accuracy
+from .protocol import get_method
+
+__all__ = ["evaluate", "run_tasks"]
+
+Progress = Callable[[str], None]
+
+
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")
+
+
+@contextmanager
+def _single_threaded_children() -> Iterator[None]:
+    """Set the BLAS/OpenMP thread variables to 1 for processes spawned inside the block.
+
+    One task per core: without this each worker's BLAS would start a thread per
+    core and the workers would oversubscribe the machine. The parent's own
+    environment is restored afterwards.
+    """
+    saved = {k: os.environ.get(k) for k in _THREAD_VARS}
+    os.environ.update({k: "1" for k in _THREAD_VARS})
+    try:
+        yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def _run_process(tasks: Sequence[Task], workers: int | None, progress: Progress | None) -> list[TaskResult]:
+    n = max(min(workers or os.cpu_count() or 1, len(tasks)), 1)
+    out = []
+    # "spawn": fresh interpreters that read the thread variables at start-up (a fork would
+    # inherit the parent's already initialized BLAS thread pool).
+    with _single_threaded_children(), ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn")) as pool:
+        futures = {pool.submit(run_task, t): t for t in tasks}
+        for k, fut in enumerate(as_completed(futures), 1):
+            res = fut.result()
+            out.append(res)
+            if progress:
+                progress(f"[{k}/{len(tasks)}] {res.method} on {res.label} fold {res.fold}: {res.seconds:.1f} s")
+    return out
+
+
+def _run_ray(tasks: Sequence[Task], workers: int | None, address: str | None, progress: Progress | None) -> list[TaskResult]:
+    try:
+        import ray
+    except ImportError:
+        raise ConfigError(
+            "executor 'ray' needs Ray, which is not installed: pip install socialaff-sim[distributed] "
+            "(or use --executor process)"
+        ) from None
+    started = not ray.is_initialized()
+    if started:
+        kwargs: dict[str, object] = {"include_dashboard": False, "log_to_driver": False}
+        if address is not None:
+            kwargs["address"] = address
+        elif workers is not None:
+            kwargs["num_cpus"] = workers
+        ray.init(**kwargs)
+    try:
+        remote = ray.remote(num_cpus=1)(run_task)
+        pending = {remote.remote(t): t for t in tasks}
+        out = []
+        while pending:
+            done, _ = ray.wait(list(pending), num_returns=1)
+            for ref in done:
+                pending.pop(ref)
+                res = ray.get(ref)
+                out.append(res)
+                if progress:
+                    progress(f"[{len(out)}/{len(tasks)}] {res.method} on {res.label} fold {res.fold}: {res.seconds:.1f} s")
+        return out
+    finally:
+        if started:
+            ray.shutdown()
+
+
+def run_tasks(tasks: Sequence[Task], config: EvaluationConfig, progress: Progress | None = None) -> list[TaskResult]:
+    """Run tasks on the configured executor; results sorted by (class, fold, method)."""
+    if not tasks:
+        return []
+    if config.executor == "serial":
+        out = []
+        for k, t in enumerate(tasks, 1):
+            out.append(run_task(t))
+            if progress:
+                progress(f"[{k}/{len(tasks)}] {t.method} on {t.label} fold {t.fold}: {out[-1].seconds:.1f} s")
+    elif config.executor == "process":
+        out = _run_process(tasks, config.workers, progress)
+    else:
+        out = _run_ray(tasks, config.workers, config.address, progress)
+    return sorted(out, key=lambda r: (r.label, r.fold, r.method))
+
+
+def _mean(values: list[float]) -> float:
+    finite = [v for v in values if not math.isnan(v)]
+    return float(np.mean(finite)) if finite else float("nan")
+
+
+def evaluate(
+    dataset: Dataset,
+    methods: Sequence[str],
+    *,
+    interactions: Sequence[str] | None = None,
+    config: EvaluationConfig | None = None,
+    progress: Progress | None = None,
+) -> dict[str, object]:
+    """Experiment 1 on ``dataset``: k-fold actor-disjoint cross-validation of each method per class.
+
+    Returns the content of ``results.json``::
+
+        {"dataset": str,
+         "per_interaction": {class: {method: {"key_joint_error_m", "joint_error_m", "n_test"}}},
+         "average": {method: {"key_joint_error_m", "joint_error_m"}},
+         "seconds": {method: float},
+         "parse_accuracy": {class: {method: float}},   # where ground truth and a parse exist
+         "excluded": {class: int},                      # test instances with T <= T0 + 1
+         "per_instance": {class: {method: [{"instance_id", "fold", "key_joint_error_m", "joint_error_m"}]}},
+         "settings": {...}}
+
+    A class's error is the mean over its test instances of each instance's mean
+    distance over the synthesized frames; ``average`` is the mean over classes;
+    ``seconds`` sums each method's fit + predict wall time over its tasks. Parse
+    accuracy matches the method's labels to the ground truth one-to-one per fold
+    (pooled over the fold's test instances, all frames with a ground-truth label)
+    and weighs the folds by their labelled frames. Test instances with
+    T ≤ T0 + 1 are left out of testing (counted in ``excluded``) but still train.
+    """
+    config = config or EvaluationConfig()
+    if not methods:
+        raise ConfigError("methods: expected at least one method name")
+    if len(set(methods)) != len(methods):
+        raise ConfigError(f"methods: each method at most once, found {list(methods)}")
+    factories = [(m, get_method(m)) for m in methods]
+    labels = list(interactions) if interactions else list(dataset.labels)
+    unknown = [lab for lab in labels if lab not in dataset.labels]
+    if unknown:
+        raise ConfigError(f"interactions: {unknown} not in dataset {dataset.name!r}; present: {choices(dataset.labels)}")
+    tasks, excluded, n_test = make_tasks(dataset, factories, labels, config)
+    results = run_tasks(tasks, config, progress)
+
+    per_interaction: dict[str, dict[str, dict[str, float | int]]] = {}
+    per_instance: dict[str, dict[str, list[dict[str, object]]]] = {}
+    parse: dict[str, dict[str, float]] = {}
+    seconds = {m: 0.0 for m in methods}
+    for label in labels:
+        per_interaction[label], per_instance[label] = {}, {}
+        for m in methods:
+            mine = [r for r in results if r.label == label and r.method == m]
+            scores = [(r.fold, s) for r in mine for s in r.scores]
+            per_interaction[label][m] = {
+                "key_joint_error_m": _mean([s.key_joint_error_m for _, s in scores]),
+                "joint_error_m": _mean([s.joint_error_m for _, s in scores]),
+                "n_test": len(scores),
+            }
+            per_instance[label][m] = [
+                {"instance_id": s.instance_id, "fold": f, "key_joint_error_m": s.key_joint_error_m, "joint_error_m": s.joint_error_m}
+                for f, s in scores
+            ]
+            seconds[m] += sum(r.seconds for r in mine)
+            parsed = [r for r in mine if r.confusion is not None]
+            if parsed:
+                acc = [matched_accuracy(r.confusion, r.n_labelled) * r.n_labelled for r in parsed]
+                total = sum(r.n_labelled for r in parsed)
+                if total:
+                    parse.setdefault(label, {})[m] = float(sum(acc) / total)
+    average = {
+        m: {
+            key: _mean([float(per_interaction[lab][m][key]) for lab in labels])
+            for key in ("key_joint_error_m", "joint_error_m")
+        }
+        for m in methods
+    }
+    return {
+        "dataset": dataset.name,
+        "per_interaction": per_interaction,
+        "average": average,
+        "seconds": seconds,
+        "parse_accuracy": parse,
+        "excluded": excluded,
+        "per_instance": per_instance,
+        "settings": {
+            "n_folds": config.n_folds,
+            "n_observed": config.n_observed,
+            "seed": config.seed,
+            "methods": list(methods),
+            "interactions": labels,
+            "n_test_available": n_test,
+        },
+    }
