@@ -1,0 +1,1 @@
+"""Robot descriptions, human-to-robot scaling and mink inverse kinematics."""

@@ -1,0 +1,106 @@
+"""Where the robot's key-joint targets come from: a recording now, the synthesizer later.
+
+A :class:`KeyJointSource` yields, frame by frame, the five key joints of agent 1
+(the agent the robot plays) in the interaction's own data frame, plus the name
+of the current sub-event when it knows one. The simulator scales them onto the
+robot (:class:`~socialaff_sim.retarget.scaling.KeyJointScaler`).
+
+A source must be causal when it stands in for a model: ``targets(t)`` may use the
+observed human (agent 0) and object up to frame ``t`` only. The ground-truth
+source reads agent 1's recorded track and is the reference every model is
+compared with.
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import NamedTuple, Protocol, runtime_checkable
+
+import numpy as np
+
+from ..data.interaction import Interaction
+from ..errors import SimulationError
+
+__all__ = ["SourceFrame", "KeyJointSource", "GroundTruthSource", "model_source", "SYNTHESIS_MODULE", "SYNTHESIS_HOOK"]
+
+SYNTHESIS_MODULE = "socialaff_sim.inference.synthesis"
+"""Module of the online synthesizer (Algorithm 2)."""
+SYNTHESIS_HOOK = "key_joint_source"
+"""Function of that module: ``key_joint_source(model_path) -> KeyJointSource``."""
+
+
+class SourceFrame(NamedTuple):
+    """One frame of targets."""
+
+    keys: np.ndarray
+    """(5, 3) float64, metres, data frame: agent 1's base, left/right wrist, left/right ankle (NaN where unknown)."""
+    subevent: str | None
+    """The current sub-event's name, or ``None``."""
+
+
+@runtime_checkable
+class KeyJointSource(Protocol):
+    """Anything that proposes agent 1's key joints frame by frame."""
+
+    def reset(self, interaction: Interaction) -> None:
+        """Start on a new instance (agent 0, the object and the frame rate are known from it)."""
+
+    def targets(self, t: int) -> SourceFrame:
+        """Agent 1's key joints at frame ``t`` (0 ≤ t < T) and the current sub-event."""
+
+
+class GroundTruthSource:
+    """Agent 1's recorded key joints and the recorded sub-events."""
+
+    def __init__(self) -> None:
+        self._keys: np.ndarray | None = None
+        self._sub: list[str | None] = []
+
+    def reset(self, interaction: Interaction) -> None:
+        self._keys = interaction.key_joints()[:, 1]
+        names = interaction.subevent_names
+        sub = interaction.subevents
+        self._sub = [None] * interaction.n_frames if sub is None else [names[i] if i >= 0 else None for i in sub]
+
+    def targets(self, t: int) -> SourceFrame:
+        if self._keys is None:
+            raise SimulationError("GroundTruthSource.targets called before reset(interaction)")
+        if not 0 <= t < len(self._keys):
+            raise SimulationError(f"frame {t} is outside the instance (0 ≤ t < {len(self._keys)})")
+        return SourceFrame(self._keys[t].copy(), self._sub[t])
+
+
+def model_source(model_path: str | Path | None) -> KeyJointSource:
+    """The affordance model's online synthesis as a :class:`KeyJointSource`.
+
+    It comes from ``socialaff_sim.inference.synthesis.key_joint_source(model_path)``;
+    a clear :class:`SimulationError` says so when that module or function is not
+    (yet) part of the installed package, or when no model file is given.
+    """
+    if model_path is None:
+        raise SimulationError("--source model needs --model MODEL.npz (a fitted affordance model); "
+                              "use --source gt to replay the recorded agent 1 instead")
+    path = Path(model_path)
+    if not path.exists():
+        raise SimulationError(f"{path}: no such model file (fit one with: socialaff-sim fit)")
+    try:
+        module = importlib.import_module(SYNTHESIS_MODULE)
+    except ModuleNotFoundError as exc:
+        if exc.name is not None and SYNTHESIS_MODULE.startswith(exc.name):
+            raise SimulationError(
+                f"--source model needs the online synthesizer ({SYNTHESIS_MODULE}), which this installation "
+                "does not have yet; use --source gt to replay the recorded agent 1"
+            ) from None
+        raise
+    hook = getattr(module, SYNTHESIS_HOOK, None)
+    if hook is None:
+        raise SimulationError(
+            f"{SYNTHESIS_MODULE} has no {SYNTHESIS_HOOK}(model_path) returning a KeyJointSource; "
+            "use --source gt to replay the recorded agent 1"
+        )
+    source = hook(path)
+    if not isinstance(source, KeyJointSource):
+        raise SimulationError(f"{SYNTHESIS_MODULE}.{SYNTHESIS_HOOK} returned {type(source).__name__}, "
+                              "which lacks reset(interaction) and targets(t)")
+    return source

@@ -1,0 +1,1 @@
+"""MuJoCo scene, replayed human, physics loop, sub-goal scoring and rendering."""

@@ -1,0 +1,105 @@
+"""Run one instance through the whole loop and summarise it (the content of ``metrics.json``)."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ..data.interaction import Interaction
+from ..data.skeletons import KEY_JOINTS
+from ..retarget.sources import KeyJointSource
+from .simulator import Simulator, StepResult
+
+__all__ = ["run_episode", "summarize", "ERROR_OK"]
+
+ERROR_OK = 0.02
+"""Key-frame error (m) under which a reachable target counts as met."""
+
+
+def run_episode(
+    sim: Simulator,
+    source: KeyJointSource,
+    interaction: Interaction,
+    *,
+    on_frame: Callable[[Simulator, StepResult | None, str | None], None] | None = None,
+) -> dict[str, Any]:
+    """Replay ``interaction`` with the robot driven by ``source``; returns :func:`summarize`'s metrics.
+
+    ``on_frame(sim, result, subevent)`` is called after the reset (``result`` None)
+    and after every step, e.g. to render frames; its time is excluded from the
+    loop's wall time.
+    """
+    source.reset(interaction)
+    wall = 0.0
+    tic = time.perf_counter()
+    first = source.targets(0)
+    sim.reset(interaction)
+    sim.settle(sim.retarget(first.keys, frame=0))
+    wall += time.perf_counter() - tic
+    if on_frame is not None:
+        on_frame(sim, None, first.subevent)
+    while not sim.done:
+        tic = time.perf_counter()
+        frame = source.targets(sim.frame + 1)
+        result = sim.step(sim.retarget(frame.keys, frame=sim.frame + 1), subevent=frame.subevent)
+        wall += time.perf_counter() - tic
+        if on_frame is not None:
+            on_frame(sim, result, frame.subevent)
+    return summarize(sim, wall)
+
+
+def _stats(x: np.ndarray) -> dict[str, float | None]:
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return {"mean": None, "p50": None, "p95": None, "max": None}
+    return {"mean": float(x.mean()), "p50": float(np.median(x)), "p95": float(np.percentile(x, 95)), "max": float(x.max())}
+
+
+def summarize(sim: Simulator, wall_seconds: float) -> dict[str, Any]:
+    """Metrics of the episode just run by ``sim`` (JSON-serialisable)."""
+    res = sim.results
+    inter = sim.interaction
+    assert inter is not None
+    err = np.array([r.ik_error for r in res]).reshape(-1, 5)
+    reach = np.array([r.reachable for r in res]).reshape(-1, 5)
+    avail = np.broadcast_to(inter.key_available(), err.shape)
+    ik_time = np.array([r.ik_seconds for r in res])
+    sim_time = sim.time
+    scorer = sim.scorer
+    per_key = {
+        name: {"all": _stats(err[:, k]), "reachable": _stats(err[reach[:, k] & avail[:, k], k]),
+               "reachable_fraction": float(reach[:, k].mean()) if len(reach) else None}
+        for k, name in enumerate(KEY_JOINTS)
+    }
+    ok = err[reach & avail]
+    return {
+        "instance": inter.instance_id,
+        "interaction": inter.label,
+        "task": sim.task.interaction,
+        "robot": sim.robot.name,
+        "frames": inter.n_frames,
+        "fps": inter.fps,
+        "simulated_seconds": sim_time,
+        "physics_steps_per_frame": sim.n_sub,
+        "subgoals": [
+            {"name": s.name, "kind": s.kind, "success": s.success, "time": s.time, "contact_seconds": s.contact_time}
+            for s in scorer.subgoals
+        ],
+        "success": all(s.success for s in scorer.subgoals) and not scorer.failed,
+        "failures": [
+            {"kind": f.kind, "threshold": f.threshold, "triggered": f.triggered, "time": f.time, "worst": f.worst}
+            for f in scorer.failures
+        ],
+        "ik_error_m": per_key,
+        "ik_error_reachable_within_2cm": float((ok <= ERROR_OK).mean()) if ok.size else None,
+        "ik_ms_per_frame": _stats(ik_time * 1e3),
+        "ik_iterations_mean": float(np.mean([r.ik_iterations for r in res])) if res else 0.0,
+        "contact_force_on_human_n": {"max": scorer.max_force_on_human,
+                                     "per_frame": [round(r.force_on_human, 3) for r in res]},
+        "object_released_at": None if sim.carry is None else scorer.tracks.release_time,
+        "wall_seconds": wall_seconds,
+        "real_time_factor": sim_time / wall_seconds if wall_seconds > 0 else None,
+    }

@@ -1,0 +1,142 @@
+"""Preparing a robot's MJCF for the scene, and tuning its servos once compiled.
+
+* :func:`robot_mjcf` loads the model, reads its home posture, turns on gravity
+  compensation, excludes contacts between bodies that overlap by design, and
+  (for the IK model) makes rigid the joints that cannot move a key frame;
+* :func:`tune_servos` gives every position servo critically damped gains.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+from dm_control import mjcf
+
+from ..retarget.robot import RobotSpec
+
+__all__ = ["robot_mjcf", "tune_servos", "SELF_CONTACT_HOPS"]
+
+
+def robot_mjcf(robot: RobotSpec, physics: bool) -> tuple[mjcf.RootElement, dict[str, float]]:
+    """The robot's MJCF (namespace ``robot``) and its home joint angles by joint name (rad)."""
+    rob = robot.build_mjcf()
+    home: dict[str, float] = {}
+    if robot.posture_keyframe is not None:
+        key = rob.find("key", robot.posture_keyframe)
+        values = np.atleast_1d(np.asarray(key.qpos, dtype=np.float64))
+        i = 0
+        for j in rob.find_all("joint"):
+            width = {"free": 7, "ball": 4}.get(j.type or "hinge", 1)
+            if width == 1 and i < len(values):
+                home[j.name] = float(values[i])
+            i += width
+    home.update(robot.posture_joints)
+    for k in rob.find_all("key"):
+        k.remove()
+    rob.model = "robot"
+    for body in rob.find_all("body"):
+        body.gravcomp = 1.0
+    for b1, b2 in _near_body_pairs(robot, rob):
+        rob.contact.add("exclude", body1=b1, body2=b2)
+    if not physics:
+        _freeze_for_ik(robot, rob, home)
+    if physics:
+        for act in rob.find_all("actuator"):
+            if act.tag == "general" and act.biastype == "affine":
+                act.dyntype = "none"  # servos act at once: the lag comes from their gains alone
+    return rob, home
+
+
+def _freeze_for_ik(robot: RobotSpec, rob: mjcf.RootElement, home: dict[str, float]) -> None:
+    """Make rigid, in the IK model, the joints that cannot move any key frame (head, fingers, toes...).
+
+    A joint moves a key frame only if its body is the frame's body or one of its
+    ancestors. The others, when their home angle is 0, are removed (the physics
+    model keeps them at home), which shrinks the IK's QP. Actuators are dropped.
+    """
+    movers: set = set()
+    for ref in robot.frames:
+        el = rob.find(ref.kind, ref.name)
+        b = el if ref.kind == "body" else el.parent
+        while b is not None and getattr(b, "tag", None) == "body":
+            movers.add(b)
+            b = b.parent
+    for act in rob.find_all("actuator"):
+        act.remove()
+    for j in rob.find_all("joint"):
+        if j.parent not in movers and abs(home.get(j.name, 0.0)) < 1e-12:
+            j.remove()
+
+
+SELF_CONTACT_HOPS = 3
+"""Robot bodies this close in the kinematic tree (joints between them) do not collide, unless
+one of them belongs to a forearm or hand, which the IK keeps clear of the body instead."""
+
+
+def _near_body_pairs(robot: RobotSpec, rob: mjcf.RootElement) -> list[tuple[str, str]]:
+    """Body pairs whose geoms overlap by design (shoulders into the chest, spine segments, hips)."""
+    bodies = [b for b in rob.find_all("body") if b.find_all("geom", immediate_children_only=True)]
+    parent = {b: b.parent for b in rob.find_all("body")}
+
+    def chain(b: object) -> list:
+        out = [b]
+        while parent.get(out[-1]) is not None and parent[out[-1]] in parent:
+            out.append(parent[out[-1]])
+        return out
+
+    distal: set = set()
+    for ref in robot.frames[1:3]:
+        el = rob.find(ref.kind, ref.name)
+        wrist = el if ref.kind == "body" else el.parent
+        top = wrist.parent if wrist.parent in parent else wrist
+        distal.update([top, *top.find_all("body")])
+    pairs = []
+    chains = {b: chain(b) for b in bodies}
+    for i, a in enumerate(bodies):
+        for b in bodies[i + 1:]:
+            if a in distal or b in distal:
+                continue
+            ca, cb = chains[a], chains[b]
+            common = next((x for x in ca if x in cb), None)
+            if common is None:
+                continue
+            hops = ca.index(common) + cb.index(common)
+            if 1 < hops <= SELF_CONTACT_HOPS:
+                pairs.append((a.name, b.name))
+    return pairs
+
+
+def tune_servos(model: mujoco.MjModel, robot_qadr: np.ndarray, home_qpos: np.ndarray, act_ids: np.ndarray,
+                joint_ids: np.ndarray, bandwidth: float) -> None:
+    """Make every robot position servo a critically damped PD of natural frequency ``bandwidth`` (rad/s).
+
+    Per joint, kp = I·ω² and kv = 2·I·ω with I the joint's effective inertia
+    (joint-space mass matrix diagonal plus armature) at the home posture; the
+    servo's force limit is kept, its control becomes the target angle itself, and
+    the joint's passive spring (some models, e.g. the CMU humanoid, have one) is
+    removed so that the servo alone sets the posture.
+    """
+    m = model
+    d = mujoco.MjData(m)
+    d.qpos[robot_qadr] = home_qpos
+    mujoco.mj_forward(m, d)
+    M = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, M)
+    ids = act_ids
+    jnt = m.actuator_trnid[ids, 0]
+    dof = m.jnt_dofadr[jnt]
+    inertia = np.diag(M)[dof] + m.dof_armature[dof]
+    kp = inertia * bandwidth**2
+    kv = 2.0 * inertia * bandwidth
+    m.actuator_gaintype[ids] = int(mujoco.mjtGain.mjGAIN_FIXED)
+    m.actuator_biastype[ids] = int(mujoco.mjtBias.mjBIAS_AFFINE)
+    m.actuator_gainprm[ids, :] = 0.0
+    m.actuator_gainprm[ids, 0] = kp
+    m.actuator_biasprm[ids, :] = 0.0
+    m.actuator_biasprm[ids, 1] = -kp
+    m.actuator_biasprm[ids, 2] = -kv
+    m.actuator_gear[ids, 0] = 1.0
+    limited = m.jnt_limited[jnt].astype(bool)
+    m.actuator_ctrllimited[ids] = limited
+    m.actuator_ctrlrange[ids] = np.where(limited[:, None], m.jnt_range[jnt], 0.0)
+    m.jnt_stiffness[joint_ids] = 0.0

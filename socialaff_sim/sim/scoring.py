@@ -1,0 +1,219 @@
+"""Physics scoring of a task's sub-goals and failure conditions from MuJoCo contacts.
+
+:class:`SubgoalScorer` reads ``data.contact`` after every physics step:
+
+* ``contact`` sub-goals accumulate the time during which any geom of the robot
+  group touches any geom of the human group (contact distance ≤ 0); success when
+  the total reaches ``min_duration``;
+* ``catch``: after the release, a robot-hand contact with the object that comes
+  before any object-floor contact;
+* ``object_in_hand``: judged at the end: the object touched a robot hand without a
+  break longer than :data:`GAP` over at least the last ``min_duration`` s and
+  never touched the floor after the release;
+* failures: robot self-penetration deeper than the threshold, a total normal
+  force of the robot on the human (from ``mj_contactForce``, smoothed over
+  :data:`FORCE_TIME_CONSTANT`) above the threshold, the object touching the
+  floor after the release.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from .scene import Scene
+from .tasks import TaskSpec
+
+__all__ = ["SubgoalResult", "FailureResult", "SubgoalScorer", "GAP"]
+
+GAP = 0.1
+"""Longest break (s) in a contact that still counts as continuous holding."""
+FORCE_TIME_CONSTANT = 0.05
+"""τ (s) of the exponential moving average applied to the force on the human before the
+``contact_force`` test, so that a single stiff physics step does not count as a push."""
+
+
+@dataclass
+class SubgoalResult:
+    """State of one sub-goal."""
+
+    name: str
+    kind: str
+    success: bool = False
+    time: float | None = None
+    """Simulated time (s) at which the sub-goal was met (for ``object_in_hand``: start of the final hold)."""
+    contact_time: float = 0.0
+    """Seconds of qualifying contact so far."""
+
+
+@dataclass
+class FailureResult:
+    """State of one failure condition."""
+
+    kind: str
+    threshold: float
+    triggered: bool = False
+    time: float | None = None
+    """Simulated time (s) of the first violation."""
+    worst: float = 0.0
+    """Largest value seen (metres of penetration, newtons, or 1 for a drop)."""
+
+
+@dataclass
+class _Tracks:
+    released: bool = False
+    release_time: float | None = None
+    floor_time: float | None = None
+    hold_since: dict[str, float | None] = field(default_factory=dict)
+    last_hold: dict[str, float] = field(default_factory=dict)
+
+
+def _robot_masks(scene: Scene) -> dict[str, np.ndarray]:
+    hands = scene.hand_geom
+    collide = scene.robot_geom & ((scene.model.geom_contype != 0) | (scene.model.geom_conaffinity != 0))
+    arms = scene.arm_geom
+    return {"left_hand": hands[0], "right_hand": hands[1], "hands": hands[0] | hands[1],
+            "arms": arms[0] | arms[1], "body": collide}
+
+
+class SubgoalScorer:
+    """Scores one :class:`TaskSpec` on one :class:`Scene`; :meth:`reset` before every episode."""
+
+    def __init__(self, scene: Scene, task: TaskSpec) -> None:
+        self.scene, self.task = scene, task
+        m = scene.model
+        n = m.ngeom
+        robot = _robot_masks(scene)
+        self._robot_any = robot["body"]
+        self._human_any = np.zeros(n, dtype=bool)
+        self._human_any[scene.human_geom_ids] = True
+        self._pairs = []
+        for sg in task.subgoals:
+            a = robot[sg.robot]
+            if sg.kind == "contact":
+                b = np.zeros(n, dtype=bool)
+                b[scene.human_geom_ids[list(scene.body.groups[sg.human or "body"])]] = True
+            else:
+                b = np.zeros(n, dtype=bool)
+                if scene.object_geom >= 0:
+                    b[scene.object_geom] = True
+            self._pairs.append((a, b))
+        self._force = np.zeros(6)
+        self.reset()
+
+    def reset(self) -> None:
+        """Clear all accumulated state."""
+        self.subgoals = [SubgoalResult(sg.name, sg.kind) for sg in self.task.subgoals]
+        self.failures = [FailureResult(f.kind, f.threshold) for f in self.task.failures]
+        self.tracks = _Tracks()
+        self.max_force_on_human = 0.0
+        self.last_force = 0.0
+        self.force_filtered = 0.0
+        self.max_force_filtered = 0.0
+        self._dt = 0.0
+        self.time = 0.0
+
+    @property
+    def failed(self) -> bool:
+        """Whether any failure condition has triggered."""
+        return any(f.triggered for f in self.failures)
+
+    def mark_release(self, t: float) -> None:
+        """The human let go of the object at simulated time ``t``."""
+        if not self.tracks.released:
+            self.tracks.released = True
+            self.tracks.release_time = t
+
+    def update(self, data: mujoco.MjData, dt: float, t: float, subevent: str | None) -> None:
+        """Account for one physics step of ``dt`` s ending at time ``t`` (call after ``mj_step``)."""
+        self.time = t
+        self._dt = dt
+        n = data.ncon
+        if n:
+            geom = data.contact.geom[:n]
+            dist = data.contact.dist[:n]
+            touching = dist <= 0.0
+            g1, g2 = geom[:, 0], geom[:, 1]
+        else:
+            g1 = g2 = np.zeros(0, dtype=np.int64)
+            dist = np.zeros(0)
+            touching = np.zeros(0, dtype=bool)
+        self._score_subgoals(g1, g2, touching, dt, t, subevent)
+        self._score_failures(data, g1, g2, dist, touching, t)
+
+    def _pair_active(self, k: int, g1: np.ndarray, g2: np.ndarray, touching: np.ndarray) -> bool:
+        a, b = self._pairs[k]
+        hit = ((a[g1] & b[g2]) | (a[g2] & b[g1])) & touching
+        return bool(hit.any())
+
+    def _score_subgoals(self, g1: np.ndarray, g2: np.ndarray, touching: np.ndarray, dt: float, t: float,
+                        subevent: str | None) -> None:
+        tr = self.tracks
+        obj = self.scene.object_geom
+        if obj >= 0 and tr.released and tr.floor_time is None and len(g1):
+            floor = self.scene.floor_geom
+            on_floor = (((g1 == obj) & (g2 == floor)) | ((g2 == obj) & (g1 == floor))) & touching
+            if on_floor.any():
+                tr.floor_time = t
+        for k, (sg, res) in enumerate(zip(self.task.subgoals, self.subgoals, strict=True)):
+            active = len(g1) > 0 and self._pair_active(k, g1, g2, touching)
+            if sg.kind == "contact":
+                if active and (not sg.subevents or subevent in sg.subevents):
+                    res.contact_time += dt
+                    if not res.success and res.contact_time >= sg.min_duration - 1e-9:
+                        res.success, res.time = True, t
+            elif sg.kind == "catch":
+                if active and tr.released:
+                    res.contact_time += dt
+                    if not res.success and tr.floor_time is None:
+                        res.success, res.time = True, t
+            else:  # object_in_hand: track the current hold, judged in finish()
+                if active and tr.released:
+                    res.contact_time += dt
+                    last = tr.last_hold.get(sg.name)
+                    if last is None or t - last > GAP + 1e-9:
+                        tr.hold_since[sg.name] = t
+                    tr.last_hold[sg.name] = t
+
+    def _score_failures(self, data: mujoco.MjData, g1: np.ndarray, g2: np.ndarray, dist: np.ndarray,
+                        touching: np.ndarray, t: float) -> None:
+        robot, human = self._robot_any, self._human_any
+        on_human = np.flatnonzero(((robot[g1] & human[g2]) | (robot[g2] & human[g1])) & touching)
+        total = 0.0
+        for i in on_human:
+            mujoco.mj_contactForce(self.scene.model, data, int(i), self._force)
+            total += abs(self._force[0])
+        self.last_force = total
+        self.max_force_on_human = max(self.max_force_on_human, total)
+        a = min(1.0, self._dt / FORCE_TIME_CONSTANT)
+        self.force_filtered += a * (total - self.force_filtered)
+        self.max_force_filtered = max(self.max_force_filtered, self.force_filtered)
+        selfpen = robot[g1] & robot[g2]
+        depth = float(-dist[selfpen].min()) if selfpen.any() else 0.0
+        for f in self.failures:
+            if f.kind == "self_collision":
+                value, bad = depth, depth > f.threshold
+            elif f.kind == "contact_force":
+                value = self.force_filtered
+                bad = value > f.threshold
+            else:
+                value = 1.0 if self.tracks.floor_time is not None else 0.0
+                bad = value > 0
+            f.worst = max(f.worst, value)
+            if bad and not f.triggered:
+                f.triggered, f.time = True, t
+
+    def finish(self, t_end: float) -> None:
+        """Judge the end-of-episode sub-goals (``object_in_hand``) at time ``t_end``."""
+        tr = self.tracks
+        for sg, res in zip(self.task.subgoals, self.subgoals, strict=True):
+            if sg.kind != "object_in_hand":
+                continue
+            since, last = tr.hold_since.get(sg.name), tr.last_hold.get(sg.name)
+            held = (
+                since is not None and last is not None and t_end - last <= GAP + 1e-9
+                and last - since >= sg.min_duration - 1e-9 and tr.floor_time is None
+            )
+            res.success, res.time = bool(held), (since if held else None)

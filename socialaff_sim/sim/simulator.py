@@ -1,0 +1,417 @@
+"""The physics loop: a robot retargeted onto key-joint targets, facing a replayed human.
+
+One :class:`Simulator` owns its MuJoCo models and data (no global state). It is
+built for one robot and one task; :meth:`Simulator.reset` loads an instance
+(compiling a scene once per skeleton layout, then reusing it), and
+:meth:`Simulator.step` advances one data frame: the five robot-frame targets go
+through mink IK, the robot's position servos and its base anchor track the
+solution over the frame's physics steps while the human moves to the next
+frame, and the task's sub-goals and failures are scored on the contacts.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from ..data.interaction import Interaction
+from ..errors import SimulationError
+from ..retarget.ik import IKConfig, IKModel, RobotIK
+from ..retarget.robot import RobotSpec, load_robot
+from ..retarget.scaling import KeyJointScaler, RobotFrame, ScalingConfig, measure_robot
+from .carry import CarryPlan, grip_on_contact, hold_object, park_object, plan_carry, release_object
+from .human import HumanPose, pose_human, world_offset
+from .scene import Scene, build_scene, pose_compliant, set_human_sizes
+from .scoring import SubgoalScorer
+from .tasks import TaskSpec, load_task
+
+__all__ = ["SimConfig", "StepResult", "Simulator"]
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """Settings of the physics loop."""
+
+    timestep: float = 0.004
+    """Δt, physics step in seconds (shortened so a data frame holds a whole number of steps)."""
+    servo_bandwidth: float | None = 25.0
+    """ω, natural frequency of the critically damped joint servos, rad/s (``None``: the model's own gains)."""
+    ik: IKConfig = field(default_factory=IKConfig)
+    """Retargeting IK settings."""
+    scaling: ScalingConfig = field(default_factory=ScalingConfig)
+    """Human-to-robot scaling settings."""
+    grip: bool = True
+    """Whether a robot hand touching the object grips it (its grip weld switches on and stays on)."""
+    settle_iterations: int = 40
+    """IK steps spent at reset to reach the first frame's targets before physics starts."""
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """What one :meth:`Simulator.step` did."""
+
+    frame: int
+    """The data frame reached."""
+    time: float
+    """Simulated time, s."""
+    targets: np.ndarray
+    """(5, 3) robot-frame targets used (NaN entries replaced by the home offsets), metres."""
+    ik_error: np.ndarray
+    """(5,) IK residual of each key frame, metres."""
+    reachable: np.ndarray
+    """(5,) bool: target within the limb's length of its shoulder/hip (the base always) and, for a
+    wrist, in free space (farther than ``ScalingConfig.contact_far`` from the human and the object)."""
+    ik_iterations: int
+    ik_seconds: float
+    """CPU time of the IK in the calling thread, s."""
+    subevent: str | None
+    force_on_human: float
+    """Total normal force of the robot on the human, averaged over the step's physics steps, N."""
+    subgoals: dict[str, bool]
+    """Success so far of each sub-goal (``object_in_hand`` is only judged at the end)."""
+    failed: bool
+    """Whether a failure condition has triggered (now or earlier)."""
+    done: bool
+    """Whether the last frame has been reached."""
+
+
+@dataclass
+class _Stage:
+    scene: Scene
+    data: mujoco.MjData
+    ik_scene: Scene
+    ik: RobotIK
+    scorer: SubgoalScorer
+    ik_map: np.ndarray
+    """(nq_ik,) position of each IK coordinate in the physics robot's coordinates."""
+
+
+def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    out = np.empty(4)
+    mujoco.mju_mulQuat(out, a, b)
+    return out
+
+
+def _nlerp(q0: np.ndarray, q1: np.ndarray, a: float | np.ndarray) -> np.ndarray:
+    """Normalised linear interpolation of quaternions (..., 4), shortest way round."""
+    sign = np.where(np.sum(q0 * q1, axis=-1, keepdims=True) < 0, -1.0, 1.0)
+    q = (1.0 - a) * q0 + a * sign * q1
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+class Simulator:
+    """A robot facing a replayed human, stepped one data frame at a time."""
+
+    def __init__(self, robot: str | Path | RobotSpec, task: str | Path | TaskSpec, config: SimConfig | None = None) -> None:
+        self.robot = robot if isinstance(robot, RobotSpec) else load_robot(robot)
+        self.task = task if isinstance(task, TaskSpec) else load_task(task)
+        self.config = config or SimConfig()
+        self._stages: dict[str, _Stage] = {}
+        self._stage: _Stage | None = None
+        self.interaction: Interaction | None = None
+
+    # -- set-up -----------------------------------------------------------------------
+    def _get_stage(self, inter: Interaction) -> _Stage:
+        name = inter.layout.name
+        if name not in self._stages:
+            obj = self.task.object.spec if self.task.object is not None else None
+            scene = build_scene(self.robot, inter.layout, obj, timestep=self.config.timestep,
+                                servo_bandwidth=self.config.servo_bandwidth)
+            ik_scene = build_scene(self.robot, inter.layout, None, physics=False)
+            ik_model = IKModel(
+                model=ik_scene.model, frame_kinds=ik_scene.frame_kinds, frame_ids=ik_scene.frame_ids,
+                home_qpos=ik_scene.home_qpos, hand_geoms=tuple(np.flatnonzero(h) for h in ik_scene.hand_geom),
+                arm_geoms=tuple(np.flatnonzero(a) for a in ik_scene.arm_geom),
+                robot_geoms=np.flatnonzero(ik_scene.robot_geom & ((ik_scene.model.geom_contype != 0) | (ik_scene.model.geom_conaffinity != 0))),
+                human_geoms=ik_scene.human_geom_ids, human_mocap=ik_scene.human_mocap,
+                max_joint_velocity=self.robot.max_joint_velocity,
+            )
+            if not np.array_equal(ik_scene.robot_qadr, np.arange(ik_scene.model.nq)):
+                raise SimulationError("IK scene: the robot must own every coordinate")
+            phys_index = {n: i for i, n in enumerate(scene.robot_joint_names)}
+            ik_map = np.concatenate([np.arange(7), 6 + np.array([phys_index[n] for n in ik_scene.robot_joint_names[1:]], dtype=np.int64)])
+            self._stages[name] = _Stage(scene, mujoco.MjData(scene.model), ik_scene, RobotIK(ik_model, self.config.ik),
+                                        SubgoalScorer(scene, self.task), ik_map)
+            if not hasattr(self, "measurements"):
+                self.measurements = measure_robot(ik_scene.model, ik_scene.home_qpos, ik_scene.frame_kinds,
+                                                  ik_scene.frame_ids, ik_scene.limb_body_ids)
+                self._home_keys = self._fk_keys(ik_scene, ik_scene.home_qpos)
+        return self._stages[name]
+
+    @staticmethod
+    def _fk_keys(scene: Scene, qpos: np.ndarray) -> np.ndarray:
+        d = mujoco.MjData(scene.model)
+        d.qpos[:] = qpos
+        mujoco.mj_kinematics(scene.model, d)
+        return np.array([d.site_xpos[i] if k == "site" else d.xpos[i] for k, i in zip(scene.frame_kinds, scene.frame_ids, strict=True)])
+
+    def _exemptions(self, stage: _Stage) -> list[tuple[int, list[int]]]:
+        """Hand/human geom pairs the task's contact sub-goals need (left out of collision avoidance)."""
+        sides = {"left_hand": (0,), "right_hand": (1,), "hands": (0, 1), "body": (0, 1)}
+        out = []
+        for sg in self.task.subgoals:
+            if sg.kind != "contact" or sg.human is None:
+                continue
+            geoms = [int(g) for g in stage.ik_scene.human_geom_ids[list(stage.ik_scene.body.groups[sg.human])]]
+            out += [(s, geoms) for s in sides[sg.robot]]
+        return out
+
+    def reset(self, interaction: Interaction, initial_targets: np.ndarray | None = None) -> None:
+        """Load an instance at frame 0; ``initial_targets`` (5, 3) robot frame sets the starting posture."""
+        stage = self._stage = self._get_stage(interaction)
+        self.interaction = inter = interaction
+        scene, data = stage.scene, stage.data
+        self.offset = world_offset(inter)
+        self.pose: HumanPose = pose_human(scene.body, inter, self.offset)
+        set_human_sizes(scene, self.pose.half_lengths)
+        set_human_sizes(stage.ik_scene, self.pose.half_lengths)
+        self.scaler = KeyJointScaler(self.measurements, self.config.scaling)
+        self.frame_R: RobotFrame = self.scaler.reset(inter, self.offset)
+        self._yaw = self.frame_R.yaw
+        self.carry: CarryPlan | None = None
+        if self.task.object is not None and inter.object is not None:
+            self.carry = plan_carry(inter, self.offset, self.task.object, scene.body.hand_joints)
+        self._obj_track = None if inter.object is None else inter.object + self.offset
+
+        fps = inter.fps
+        self.n_sub = max(1, int(round(1.0 / (fps * self.config.timestep))))
+        scene.model.opt.timestep = 1.0 / (fps * self.n_sub)
+        ik = stage.ik
+        ik.set_contact_exemptions(self._exemptions(stage))
+        ik.set_human(self.pose.pos[0], self.pose.quat[0])
+        q0 = self._home_in_world(stage)
+        ik.reset(q0)
+        self.frame = 0
+        self.time = 0.0
+        self.results: list[StepResult] = []
+        self._start(q0)
+        if initial_targets is not None:
+            self.settle(initial_targets)
+
+    def settle(self, targets: np.ndarray) -> None:
+        """Before the first step: put the robot straight into the IK posture for robot-frame ``targets`` (5, 3)."""
+        self._require()
+        if self.frame != 0:
+            raise SimulationError(f"settle is only possible at frame 0, the simulator is at frame {self.frame}")
+        ik = self._stage.ik  # type: ignore[union-attr]
+        world = self.frame_R.to_world(self._fill_targets(np.asarray(targets, dtype=np.float64)))
+        q = self._q
+        for _ in range(self.config.settle_iterations):
+            q = ik.solve(world, self._yaw, dt=1.0).qpos
+        self._start(q)
+
+    def _start(self, q0: np.ndarray) -> None:
+        stage = self._stage
+        assert stage is not None
+        scene, data = stage.scene, stage.data
+        mujoco.mj_resetData(scene.model, data)
+        data.mocap_pos[scene.human_mocap] = self.pose.pos[0]
+        data.mocap_quat[scene.human_mocap] = self.pose.quat[0]
+        pose_compliant(scene, data, self.pose.pos[0], self.pose.quat[0])
+        self._q = q0.copy()
+        data.qpos[scene.robot_qadr] = self._to_physics(q0)
+        data.mocap_pos[scene.anchor_mocap] = q0[:3]
+        data.mocap_quat[scene.anchor_mocap] = q0[3:7]
+        data.ctrl[scene.act_ids] = scene.ctrl_for(data.qpos)
+        self._released = False
+        if scene.object_geom >= 0:
+            self._place_object(0.0, moving=False)
+        mujoco.mj_forward(scene.model, data)
+        stage.scorer.reset()
+        if self.carry is not None and self.carry.release_frame == 0:
+            self._release(0)
+        self.last_targets = self.frame_R.to_robot(self._fk_keys(stage.ik_scene, q0))
+
+    def _to_physics(self, q_ik: np.ndarray) -> np.ndarray:
+        """Robot coordinates of the physics scene (..., nq_r) from IK ones (..., nq_ik); frozen joints at home."""
+        stage = self._stage
+        assert stage is not None
+        q_ik = np.asarray(q_ik)
+        out = np.broadcast_to(stage.scene.home_qpos, (*q_ik.shape[:-1], len(stage.scene.home_qpos))).copy()
+        out[..., stage.ik_map] = q_ik
+        return out
+
+    def _home_in_world(self, stage: _Stage) -> np.ndarray:
+        q = stage.ik_scene.home_qpos.copy()
+        q[:3] = self.frame_R.to_world(q[:3])
+        yaw_q = np.array([np.cos(self._yaw / 2), 0.0, 0.0, np.sin(self._yaw / 2)])
+        q[3:7] = _quat_mul(yaw_q, q[3:7])
+        return q
+
+    def _fill_targets(self, targets: np.ndarray) -> np.ndarray:
+        if targets.shape != (5, 3):
+            raise SimulationError(f"targets: expected shape (5, 3) (robot frame, metres), found {targets.shape}")
+        out = targets.copy()
+        home = self._home_keys
+        if not np.isfinite(out[0]).all():
+            out[0] = home[0]
+        bad = ~np.isfinite(out).all(axis=1)
+        out[bad] = out[0] + (home[bad] - home[0])
+        return out
+
+    # -- object -----------------------------------------------------------------------
+    def _place_object(self, s: float, moving: bool) -> None:
+        stage = self._stage
+        assert stage is not None
+        if self.carry is None:
+            park_object(stage.scene, stage.data, float(self.task.object.spec.size[0]))  # type: ignore[union-attr]
+        else:
+            hold_object(stage.scene, stage.data, self.carry, s, moving)
+
+    def _release(self, s: float) -> None:
+        stage = self._stage
+        assert stage is not None and self.carry is not None
+        self._released = True
+        release_object(stage.scene, stage.data, self.carry, s)
+        stage.scorer.mark_release(self.time)
+
+    # -- stepping ---------------------------------------------------------------------
+    @property
+    def n_frames(self) -> int:
+        return 0 if self.interaction is None else self.interaction.n_frames
+
+    @property
+    def done(self) -> bool:
+        return self.interaction is not None and self.frame >= self.n_frames - 1
+
+    def retarget(self, keys: np.ndarray, frame: int | None = None) -> np.ndarray:
+        """(5, 3) robot-frame targets from agent 1's key joints ``keys`` (5, 3) in the data frame at ``frame``."""
+        self._require()
+        t = self.frame + 1 if frame is None else frame
+        t = min(max(t, 0), self.n_frames - 1)
+        obj = None if self._obj_track is None else self._obj_track[t]
+        return self.scaler(np.asarray(keys, dtype=np.float64) + self.offset, self.pose.joints[t], obj)
+
+    def _require(self) -> None:
+        if self._stage is None or self.interaction is None:
+            raise SimulationError("call Simulator.reset(interaction) first")
+
+    def step(self, targets: np.ndarray, subevent: str | None = None) -> StepResult:
+        """Advance one data frame toward robot-frame ``targets`` (5, 3), metres (NaN rows: keep home offsets)."""
+        self._require()
+        if self.done:
+            raise SimulationError(f"the instance has ended (frame {self.frame} of {self.n_frames}); call reset")
+        stage = self._stage
+        assert stage is not None
+        scene, data, scorer, ik = stage.scene, stage.data, stage.scorer, stage.ik
+        fps = self.interaction.fps  # type: ignore[union-attr]
+        t0, t1 = self.frame, self.frame + 1
+        tg = self._fill_targets(np.asarray(targets, dtype=np.float64))
+        world = self.frame_R.to_world(tg)
+        ik.set_human(self.pose.pos[t1], self.pose.quat[t1])
+        tic = time.thread_time()
+        res = ik.solve(world, self._yaw, dt=1.0 / fps)
+        ik_seconds = time.thread_time() - tic
+
+        q_prev, q_new = self._to_physics(self._q), self._to_physics(res.qpos)
+        n = self.n_sub
+        a = (np.arange(1, n + 1) / n)[:, None]
+        qs = (1 - a) * q_prev + a * q_new  # (n, nq_r)
+        qs[:, 3:7] = _nlerp(q_prev[3:7], q_new[3:7], a)
+        full = np.repeat(data.qpos[None], n, axis=0)
+        full[:, scene.robot_qadr] = qs
+        vel = np.zeros(scene.model.nv)
+        vel[scene.robot_vadr[6:]] = (q_new[7:] - q_prev[7:]) * fps
+        ctrls = scene.ctrl_for(full, vel)  # (n, n_act)
+        hp = (1 - a[:, :, None]) * self.pose.pos[t0] + a[:, :, None] * self.pose.pos[t1]
+        hq = _nlerp(self.pose.quat[t0], self.pose.quat[t1], a[:, :, None])
+        dt = scene.model.opt.timestep
+        force = 0.0
+        carrying = self.carry is not None and not self._released
+        for k in range(n):
+            data.mocap_pos[scene.human_mocap] = hp[k]
+            data.mocap_quat[scene.human_mocap] = hq[k]
+            data.mocap_pos[scene.anchor_mocap] = qs[k, :3]
+            data.mocap_quat[scene.anchor_mocap] = qs[k, 3:7]
+            data.ctrl[scene.act_ids] = ctrls[k]
+            if carrying:
+                s0 = t0 + k / n
+                if s0 + 1.0 / n > self.carry.release_frame - 1 + 1e-9:  # type: ignore[union-attr]
+                    self._release(s0)
+                    carrying = False
+                else:
+                    self._place_object(s0, moving=True)
+            mujoco.mj_step(scene.model, data)
+            self.time += dt
+            scorer.update(data, dt, self.time, subevent)
+            force += scorer.last_force
+            if self.config.grip and scene.object_geom >= 0 and data.ncon:
+                grip_on_contact(scene, data)
+        force /= n
+        self._q = res.qpos
+        self.frame = t1
+        self.last_targets = tg
+        if self.done:
+            scorer.finish(self.time)
+        result = StepResult(
+            frame=t1, time=self.time, targets=tg, ik_error=res.errors, reachable=self._reachable(tg, world, t1),
+            ik_iterations=res.iterations, ik_seconds=ik_seconds, subevent=subevent, force_on_human=force,
+            subgoals={r.name: r.success for r in scorer.subgoals}, failed=scorer.failed, done=self.done,
+        )
+        self.results.append(result)
+        return result
+
+    def _reachable(self, tg: np.ndarray, world: np.ndarray, t: int) -> np.ndarray:
+        """Which targets the IK should meet: within the limb's length of its shoulder/hip and, for
+        a wrist, farther than ``contact_far`` from the human and the object (closer in, collision
+        avoidance and the wanted contact decide where the hand may go)."""
+        m = self.measurements
+        out = np.ones(5, dtype=bool)
+        out[1:3] = np.linalg.norm(tg[1:3] - (tg[0] + m.shoulders), axis=1) <= m.arm
+        out[3:5] = np.linalg.norm(tg[3:5] - (tg[0] + m.hips), axis=1) <= m.leg
+        near = self.pose.joints[t]
+        if self._obj_track is not None:
+            near = np.vstack([near, self._obj_track[t][None]])
+        clearance = np.linalg.norm(world[1:3, None, :] - near[None], axis=-1).min(axis=1)
+        out[1:3] &= clearance > self.config.scaling.contact_far
+        return out
+
+    # -- observations -----------------------------------------------------------------
+    @property
+    def scene(self) -> Scene:
+        self._require()
+        return self._stage.scene  # type: ignore[union-attr]
+
+    @property
+    def data(self) -> mujoco.MjData:
+        self._require()
+        return self._stage.data  # type: ignore[union-attr]
+
+    @property
+    def scorer(self) -> SubgoalScorer:
+        self._require()
+        return self._stage.scorer  # type: ignore[union-attr]
+
+    def human_key_joints(self, frame: int | None = None) -> np.ndarray:
+        """(5, 3) agent 0's key joints at ``frame`` (default: the current one), robot frame, metres (NaN if absent)."""
+        self._require()
+        t = self.frame if frame is None else frame
+        keys = self.interaction.key_joints()[t, 0] + self.offset  # type: ignore[union-attr]
+        return self.frame_R.to_robot(keys)
+
+    def object_position(self) -> np.ndarray | None:
+        """(3,) the simulated object's centre, robot frame, metres; ``None`` without an object track."""
+        self._require()
+        if self.carry is None:
+            return None
+        return self.frame_R.to_robot(self.data.xpos[self.scene.object_body])
+
+    def robot_key_frames(self) -> np.ndarray:
+        """(5, 3) the robot's key frames in physics, robot frame, metres."""
+        sc, d = self.scene, self.data
+        world = np.array([d.site_xpos[i] if k == "site" else d.xpos[i] for k, i in zip(sc.frame_kinds, sc.frame_ids, strict=True)])
+        return self.frame_R.to_robot(world)
+
+    def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Hinge angles (rad) and velocities (rad/s) of the robot, (n_joints,) each, in robot joint order."""
+        sc, d = self.scene, self.data
+        return d.qpos[sc.robot_qadr[7:]].copy(), d.qvel[sc.robot_vadr[6:]].copy()
+
+    @property
+    def ik_qpos(self) -> np.ndarray:
+        """(nq_ik,) the latest IK solution (free joint then the IK's hinges), world frame."""
+        return self._q.copy()

@@ -1,0 +1,179 @@
+"""Robot mappings, body measurements and the human-to-robot scaling of key joints."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from socialaff_sim.data.interaction import Interaction
+from socialaff_sim.data.skeletons import get_layout
+from socialaff_sim.errors import ConfigError
+from socialaff_sim.resources import asset_path
+from socialaff_sim.retarget.robot import available_robots, load_robot
+from socialaff_sim.retarget.scaling import (
+    BodyMeasurements,
+    KeyJointScaler,
+    ScalingConfig,
+    measure_human,
+    measure_robot,
+    smoothstep,
+)
+from socialaff_sim.sim.scene import build_scene
+
+LAYOUT = get_layout("kinect_v2")
+
+
+def standing(T: int = 4, height: float = 1.0, x: float = 0.0, facing: float = 1.0, arm=(0.3, 0.25)) -> np.ndarray:
+    """(T, 25, 3) a Kinect v2 skeleton standing at x, facing +x (facing=1) or -x (-1), arms hanging."""
+    n = LAYOUT.joint_names
+    j = np.zeros((len(n), 3))
+    y = lambda side: (0.18 if side == "left" else -0.18) * facing  # noqa: E731
+    hip = lambda side: (0.09 if side == "left" else -0.09) * facing  # noqa: E731
+    j[n.index("spine_base")] = (x, 0, height)
+    j[n.index("spine_mid")] = (x, 0, height + 0.25)
+    j[n.index("spine_shoulder")] = (x, 0, height + 0.45)
+    j[n.index("neck")] = (x, 0, height + 0.52)
+    j[n.index("head")] = (x, 0, height + 0.65)
+    for s in ("left", "right"):
+        sh = np.array([x, y(s), height + 0.45])
+        j[n.index(f"{s}_shoulder")] = sh
+        j[n.index(f"{s}_elbow")] = sh - (0, 0, arm[0])
+        j[n.index(f"{s}_wrist")] = sh - (0, 0, arm[0] + arm[1])
+        j[n.index(f"{s}_hand")] = sh - (0, 0, arm[0] + arm[1] + 0.08)
+        j[n.index(f"{s}_hand_tip")] = sh - (0, 0, arm[0] + arm[1] + 0.15)
+        j[n.index(f"{s}_thumb")] = sh - (-0.03 * facing, 0, arm[0] + arm[1] + 0.1)
+        hp = np.array([x, hip(s), height - 0.05])
+        j[n.index(f"{s}_hip")] = hp
+        j[n.index(f"{s}_knee")] = hp - (0, 0, 0.45)
+        j[n.index(f"{s}_ankle")] = hp - (0, 0, 0.88)
+        j[n.index(f"{s}_foot")] = hp - (-0.1 * facing, 0, 0.93)
+    return np.repeat(j[None], T, axis=0)
+
+
+def pair(distance: float = 1.2, height1: float = 1.0, arm1=(0.3, 0.25)) -> Interaction:
+    a0 = standing(height=1.0, x=0.0, facing=1.0)
+    a1 = standing(height=height1, x=distance, facing=-1.0, arm=arm1)
+    return Interaction("shake_hands", 10.0, np.stack([a0, a1], axis=1), LAYOUT.joint_names, ("a", "b"))
+
+
+def test_shipped_robots_and_mapping_contents() -> None:
+    assert {"cmu", "ours"} <= set(available_robots())
+    ours = load_robot("ours")
+    assert ours.mjcf_path == asset_path("robots/ours.xml").resolve()
+    assert [f.name for f in ours.frames] == ["base", "left_wrist", "right_wrist", "left_ankle", "right_ankle"]
+    cmu = load_robot("cmu")
+    assert cmu.builtin == "dm_control.cmu_humanoid" and cmu.mjcf_path is None
+    assert cmu.build_mjcf().find("body", "lwrist") is not None
+
+
+def test_unknown_robot_lists_choices() -> None:
+    with pytest.raises(ConfigError, match=r"unknown robot 'r2d2'; shipped robots: 'cmu' or 'ours'"):
+        load_robot("r2d2")
+
+
+def _mapping(tmp_path: Path, replace: tuple[str, str] | None = None) -> Path:
+    text = asset_path("robots/ours.toml").read_text().replace('mjcf = "ours.xml"', f'mjcf = "{asset_path("robots/ours.xml")}"')
+    if replace:
+        text = text.replace(*replace)
+    path = tmp_path / "mine.toml"
+    path.write_text(text)
+    return path
+
+
+def test_a_mapping_file_anywhere_works(tmp_path: Path) -> None:
+    spec = load_robot(_mapping(tmp_path))
+    assert spec.name == "ours" and spec.posture_keyframe == "home"
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "pattern"),
+    [
+        ('base = "site:base"', 'base = "joint:base"', r"key 'frames\.base': expected 'site:NAME' or 'body:NAME'"),
+        ('left_wrist = "site:left_wrist"', "", r"key 'frames\.left_wrist': expected a value"),
+        ("max_joint_velocity = 8.0", "max_joint_velocity = -1.0", r"limits\.max_joint_velocity'.*\[0\.001, 1000\.0\]"),
+        ('keyframe = "home"', 'keyframe = "rest"', r"posture\.keyframe 'rest' is not in the model; keyframes: 'home'"),
+        ('base = "site:base"', 'base = "site:pelvis_site"', r"frame 'site:pelvis_site' is not in the robot model; sites present: 'base'"),
+    ],
+)
+def test_mapping_errors(tmp_path: Path, old: str, new: str, pattern: str) -> None:
+    path = _mapping(tmp_path, (old, new))
+    with pytest.raises(ConfigError, match=pattern) as info:
+        spec = load_robot(path)
+        spec.build_mjcf()
+    assert str(path) in str(info.value)
+
+
+def test_robot_measurements_match_the_model_by_hand() -> None:
+    # ours.xml: upper arm 0.28 + forearm 0.27; thigh 0.26 + shin 0.24; shoulders 0.215 out.
+    scene = build_scene(load_robot("ours"), LAYOUT, physics=False)
+    m = measure_robot(scene.model, scene.home_qpos, scene.frame_kinds, scene.frame_ids, scene.limb_body_ids)
+    np.testing.assert_allclose(m.arm, 0.55, atol=1e-9)
+    np.testing.assert_allclose(m.leg, 0.50, atol=1e-9)
+    np.testing.assert_allclose(m.shoulders[:, 1], [0.215, -0.215], atol=1e-9)
+    np.testing.assert_allclose(m.shoulders[:, 2], 0.08 + 0.36, atol=1e-9)  # torso joint + shoulder height
+    # Standing on the floor: base height = 0.62 minus how far the feet sink below their soles.
+    np.testing.assert_allclose(m.base_height, 0.62 - (0.08 - 0.08), atol=3e-3)
+
+
+def test_human_measurements() -> None:
+    h = measure_human(pair(), 1, np.zeros(3))
+    np.testing.assert_allclose(h.arm, 0.55, atol=1e-9)
+    np.testing.assert_allclose(h.leg, 0.88, atol=1e-9)
+    np.testing.assert_allclose(h.base_height, 1.0, atol=1e-9)
+    # Agent 1 faces -x, toward agent 0: its heading frame's +y (left) is world -y.
+    np.testing.assert_allclose(h.shoulders, [[0.0, 0.18, 0.45], [0.0, -0.18, 0.45]], atol=1e-9)
+
+
+def test_smoothstep() -> None:
+    x = np.linspace(-0.5, 1.5, 21)
+    y = smoothstep(x)
+    ref = np.where(x < 0, 0.0, np.where(x > 1, 1.0, 3 * x**2 - 2 * x**3))
+    np.testing.assert_allclose(y, ref, atol=1e-12)
+
+
+ROBOT = BodyMeasurements(arm=0.4, leg=0.5, base_height=0.6, shoulders=np.array([[0, 0.2, 0.3], [0, -0.2, 0.3]]),
+                         hips=np.array([[0, 0.1, -0.05], [0, -0.1, -0.05]]))
+
+
+def test_scaling_closed_form_far_from_the_partner() -> None:
+    inter = pair(distance=3.0)
+    scaler = KeyJointScaler(ROBOT)
+    frame = scaler.reset(inter, np.zeros(3))
+    # Placement: k = (arm0 + arm_r) / (arm0 + arm1) of the way from agent 0.
+    k = (0.55 + 0.4) / (0.55 + 0.55)
+    np.testing.assert_allclose(frame.origin, [3.0 * k, 0, 0], atol=1e-9)
+    np.testing.assert_allclose(frame.yaw, np.pi, atol=1e-9)
+    keys = inter.key_joints()[0, 1].copy()
+    keys[1] += (-0.2, 0.0, 0.3)  # left wrist raised toward the partner, still far from it
+    out = scaler(keys, inter.joints[0, 0])
+    np.testing.assert_allclose(scaler.contact_weights(keys, inter.joints[0, 0]), [0.0, 0.0], atol=1e-12)
+    s_arm, s_leg = 0.4 / 0.55, 0.5 / 0.88
+    np.testing.assert_allclose(out[0], [0, 0, 0.6], atol=1e-9)
+    # In the robot frame x points at the partner: the raise toward it is +0.2 forward.
+    local_wrist = np.array([0.2, 0.18, 1.45 - 0.55 + 0.3]) - np.array([0, 0, 1.0])
+    expect = out[0] + ROBOT.shoulders[0] + s_arm * (local_wrist - np.array([0, 0.18, 0.45]))
+    np.testing.assert_allclose(out[1], expect, atol=1e-9)
+    expect_ankle = out[0] + ROBOT.hips[1] + s_leg * (np.array([0, -0.09, 0.07 - 1.0]) - np.array([0, -0.09, -0.05]))
+    np.testing.assert_allclose(out[4], expect_ankle, atol=1e-9)
+
+
+def test_contact_preservation_uses_the_recording_near_the_partner() -> None:
+    inter = pair(distance=1.0)
+    scaler = KeyJointScaler(ROBOT, ScalingConfig(contact_push=0.0))
+    scaler.reset(inter, np.zeros(3))
+    partner = inter.joints[0, 0]
+    keys = inter.key_joints()[0, 1].copy()
+    hand0 = partner[LAYOUT.index("right_hand")]
+    keys[2] = hand0 + (0.05, 0.0, 0.0)  # agent 1's right wrist 5 cm from agent 0's hand
+    out = scaler(keys, partner)
+    np.testing.assert_allclose(scaler.frame.to_world(out[2]), keys[2], atol=1e-9)
+    assert scaler.contact_weights(keys, partner)[1] == 1.0
+    # With the push, the target goes 5 cm further, straight toward the partner's nearest joint.
+    pushed = KeyJointScaler(ROBOT)
+    pushed.reset(inter, np.zeros(3))
+    moved = pushed.frame.to_world(pushed(keys, partner)[2])
+    nearest = min(partner, key=lambda p: float(np.linalg.norm(p - keys[2])))
+    u = (nearest - keys[2]) / np.linalg.norm(nearest - keys[2])
+    np.testing.assert_allclose(moved, keys[2] + 0.05 * u, atol=1e-9)

@@ -1,0 +1,222 @@
+"""The MuJoCo scene: robots on the floor, the replayed human's capsules, real contacts, servos."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from socialaff_sim.data.interaction import Interaction
+from socialaff_sim.data.skeletons import get_layout
+from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
+from socialaff_sim.errors import SimulationError
+from socialaff_sim.retarget.robot import load_robot
+from socialaff_sim.sim.human import FOOT_CLEARANCE, bone_quaternions, human_body, pose_human, world_offset
+from socialaff_sim.sim.scene import ObjectSpec, Scene, build_scene, pose_compliant, set_human_sizes
+from socialaff_sim.sim.simulator import Simulator
+
+LAYOUT = get_layout("kinect_v2")
+
+
+@pytest.fixture(scope="module")
+def data():
+    return generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=1))
+
+
+@pytest.fixture(scope="module", params=["ours", "cmu"])
+def scene(request: pytest.FixtureRequest) -> Scene:
+    return build_scene(load_robot(request.param), LAYOUT, ObjectSpec("sphere", (0.1,), 0.15))
+
+
+def posed(scene: Scene, human_at: np.ndarray | None = None) -> mujoco.MjData:
+    d = mujoco.MjData(scene.model)
+    d.qpos[scene.robot_qadr] = scene.home_qpos
+    far = np.array([10.0, 10.0, 1.0]) if human_at is None else human_at
+    n = len(scene.human_mocap)
+    pos = far + np.arange(n)[:, None] * [0.0, 0.3, 0.0]
+    quat = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+    d.mocap_pos[scene.human_mocap] = pos
+    d.mocap_quat[scene.human_mocap] = quat
+    pose_compliant(scene, d, pos, quat)
+    qa = scene.object_qadr
+    d.qpos[qa:qa + 3] = (-5.0, -5.0, 0.1)
+    mujoco.mj_forward(scene.model, d)
+    return d
+
+
+def test_robot_stands_on_the_floor_at_home(scene: Scene) -> None:
+    d = posed(scene)
+    m = scene.model
+    fromto = np.zeros(6)
+    robot = np.flatnonzero(scene.robot_geom & (m.geom_contype != 0))
+    gap = min(mujoco.mj_geomDistance(m, d, int(g), scene.floor_geom, 1.0, fromto) for g in robot)
+    np.testing.assert_allclose(gap, 0.0, atol=1e-3)
+    # No part of the robot touches another at home.
+    pairs = [(c.geom1, c.geom2) for c in d.contact[: d.ncon]]
+    assert not [p for p in pairs if scene.robot_geom[p[0]] and scene.robot_geom[p[1]]]
+
+
+def test_proportions_of_our_robot_differ_from_a_person() -> None:
+    sc = build_scene(load_robot("ours"), LAYOUT, physics=False)
+    d = mujoco.MjData(sc.model)
+    d.qpos[:] = sc.home_qpos
+    mujoco.mj_forward(sc.model, d)
+    head = sc.model.geom("robot/head").id  # an upright box: its top is centre + half height
+    top = d.geom_xpos[head, 2] + sc.model.geom_size[head, 2]
+    assert 1.25 < top < 1.35
+    arm = np.linalg.norm(d.site_xpos[sc.model.site("robot/left_wrist").id] - d.xpos[sc.model.body("robot/left_forearm").id]) + 0.28
+    leg = 0.26 + 0.24
+    # A person: arm ≈ 0.31 and leg ≈ 0.49 of the stature; this robot: long arms, short legs.
+    assert arm / top > 0.4 and leg / top < 0.4
+
+
+def test_bone_quaternions_turn_z_onto_the_bone(rng: np.random.Generator) -> None:
+    dirs = rng.normal(size=(50, 3))
+    dirs[0] = (0, 0, 1)
+    dirs[1] = (0, 0, -1)
+    q = bone_quaternions(dirs)
+    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-12)
+    for qi, di in zip(q, dirs, strict=True):
+        out = np.zeros(3)
+        mujoco.mju_rotVecQuat(out, np.array([0.0, 0.0, 1.0]), qi)
+        np.testing.assert_allclose(out, di / np.linalg.norm(di), atol=1e-12)
+    np.testing.assert_allclose(bone_quaternions(np.zeros(3)), [1, 0, 0, 0])
+
+
+def test_capsules_join_the_skeleton_joints(scene: Scene, data) -> None:
+    inter = data.of_label("shake_hands")[0]
+    offset = world_offset(inter)
+    pose = pose_human(scene.body, inter, offset)
+    set_human_sizes(scene, pose.half_lengths)
+    d = posed(scene)
+    t = inter.n_frames // 2
+    d.mocap_pos[scene.human_mocap] = pose.pos[t]
+    d.mocap_quat[scene.human_mocap] = pose.quat[t]
+    pose_compliant(scene, d, pose.pos[t], pose.quat[t])
+    mujoco.mj_kinematics(scene.model, d)
+    joints = pose.joints[t]
+    for b, (p, c) in enumerate(scene.body.bones):
+        g = scene.human_geom_ids[b]
+        axis = d.geom_xmat[g].reshape(3, 3)[:, 2]
+        half = scene.model.geom_size[g, 1]
+        length = np.linalg.norm(joints[c] - joints[p])
+        # The ends sit on the joints up to the difference between this frame's bone length and the median.
+        slack = abs(length - 2 * half) / 2 + 1e-9
+        assert np.linalg.norm(d.geom_xpos[g] - axis * half - joints[p]) <= slack + 1e-9
+        assert np.linalg.norm(d.geom_xpos[g] + axis * half - joints[c]) <= slack + 1e-9
+    hand = scene.human_geom_ids[scene.n_bones + 1]
+    np.testing.assert_allclose(d.geom_xpos[hand], joints[LAYOUT.index("right_hand")], atol=1e-9)
+
+
+def test_world_offset_puts_the_floor_at_zero() -> None:
+    T = 6
+    joints = np.zeros((T, 2, LAYOUT.n_joints, 3))
+    joints[..., 2] = 1.0
+    joints[:, :, LAYOUT.index("left_foot"), 2] = 0.5
+    joints[:, 0, :, 0] = 2.0
+    joints[:, 1, :, 0] = 3.0
+    inter = Interaction("shake_hands", 10.0, joints, LAYOUT.joint_names, ("a", "b"))
+    np.testing.assert_allclose(world_offset(inter), [-2.5, 0.0, -(0.5 - FOOT_CLEARANCE)], atol=1e-12)
+
+
+def test_a_robot_hand_touches_a_human_hand(scene: Scene) -> None:
+    m = scene.model
+    d = posed(scene)
+    # Put the human's right hand sphere right on the robot's right hand.
+    hand_geom = np.flatnonzero(scene.hand_geom[1])[0]
+    target = d.geom_xpos[hand_geom] + (0.02, 0.0, 0.0)
+    sphere = scene.n_bones + 1
+    pos = np.array(d.mocap_pos[scene.human_mocap])
+    pos[sphere] = target
+    quat = np.array(d.mocap_quat[scene.human_mocap])
+    d.mocap_pos[scene.human_mocap] = pos
+    pose_compliant(scene, d, pos, quat)
+    mujoco.mj_forward(m, d)
+    sphere_geom = scene.human_geom_ids[sphere]
+    hits = [i for i in range(d.ncon)
+            if {d.contact.geom1[i], d.contact.geom2[i]} & {sphere_geom} and (scene.hand_geom[1][d.contact.geom1[i]] or scene.hand_geom[1][d.contact.geom2[i]])]
+    assert hits
+    force = np.zeros(6)
+    mujoco.mj_contactForce(m, d, hits[0], force)
+    assert force[0] > 0.0
+
+
+def test_collision_bits(scene: Scene) -> None:
+    m = scene.model
+    h = scene.human_geom_ids
+    assert (m.geom_contype[h] == 2).all() and (m.geom_conaffinity[h] == 0).all()  # not with itself or the floor
+    r = np.flatnonzero(scene.robot_geom & (m.geom_contype != 0))
+    assert (m.geom_conaffinity[r] & 2).all()  # the robot feels the human
+    # Per-body filters agree with the geoms' bits (MuJoCo's broadphase uses both).
+    for g in r:
+        b = m.geom_bodyid[g]
+        assert m.body_conaffinity[b] & m.geom_conaffinity[g] == m.geom_conaffinity[g]
+
+
+def test_servos_hold_their_targets_and_are_critically_damped(scene: Scene) -> None:
+    m = scene.model
+    d = posed(scene)
+    target = d.qpos.copy()
+    d.ctrl[scene.act_ids] = scene.ctrl_for(target)
+    mujoco.mj_forward(m, d)
+    np.testing.assert_allclose(d.actuator_force[scene.act_ids], 0.0, atol=1e-6)
+    # Displace one joint: the servo pushes back with kp·δ, kp = I·ω² (I from the mass matrix).
+    a = 0
+    qa, va = scene.act_qadr[a], scene.act_vadr[a]
+    d.qpos[qa] -= 0.01
+    mujoco.mj_forward(m, d)
+    M = np.zeros((m.nv, m.nv))
+    d2 = posed(scene)
+    mujoco.mj_fullM(m, d2, M)
+    inertia = M[va, va] + m.dof_armature[va]
+    lo, hi = m.actuator_forcerange[scene.act_ids[a]]
+    expected = np.clip(inertia * 25.0**2 * 0.01, lo, hi)
+    np.testing.assert_allclose(d.actuator_force[scene.act_ids[a]], expected, rtol=1e-6)
+    np.testing.assert_allclose(-m.actuator_biasprm[scene.act_ids[a], 2], 2 * inertia * 25.0, rtol=1e-9)
+
+
+def test_human_body_groups_for_every_layout() -> None:
+    for name in ("kinect_v2", "sbu15", "zed_body34", "nuitrack10", "key5"):
+        body = human_body(get_layout(name))
+        B = body.n_bones
+        assert body.groups["body"] == tuple(range(B + 2))
+        assert B in body.groups["left_hand"] and B + 1 in body.groups["right_hand"]
+        assert set(body.groups["hands"]) <= set(body.groups["wrists"])
+        assert set(body.compliant) >= set(body.groups["wrists"])
+
+
+def test_simulators_share_nothing(data) -> None:
+    inter = data.of_label("shake_hands")[0]
+    a, b = Simulator("ours", "shake_hands"), Simulator("ours", "shake_hands")
+    a.reset(inter)
+    b.reset(inter)
+    assert a.scene.model is not b.scene.model and a.data is not b.data
+    before = b.data.qpos.copy()
+    for _ in range(3):
+        a.step(a.robot_key_frames() + (0.05, 0.0, 0.0))
+    np.testing.assert_array_equal(b.data.qpos, before)
+    assert b.frame == 0 and a.frame == 3
+
+
+def test_simulator_api_contract(data) -> None:
+    inter = data.of_label("hand_over")[0]
+    sim = Simulator("ours", "hand_over")
+    with pytest.raises(SimulationError, match="reset"):
+        sim.step(np.zeros((5, 3)))
+    sim.reset(inter)
+    human = sim.human_key_joints()
+    assert human.shape == (5, 3) and human[0, 0] > 0.3  # the partner stands ahead, along +x
+    assert sim.object_position() is not None
+    q, qd = sim.joint_state()
+    assert q.shape == qd.shape == (len(sim.scene.robot_joint_names) - 1,)
+    keys = sim.robot_key_frames()
+    targets = keys.copy()
+    targets[3:] = np.nan  # unknown ankles keep their home offsets from the base
+    res = sim.step(targets)
+    assert res.frame == 1 and np.isfinite(res.targets).all() and res.ik_error.shape == (5,)
+    with pytest.raises(SimulationError, match=r"shape \(5, 3\)"):
+        sim.step(np.zeros((4, 3)))
+    while not sim.done:
+        sim.step(sim.robot_key_frames())
+    with pytest.raises(SimulationError, match="has ended"):
+        sim.step(keys)

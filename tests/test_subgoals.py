@@ -1,0 +1,213 @@
+"""Physics scoring of sub-goals and failures, and the ground-truth replay on synthetic data."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import mujoco
+import numpy as np
+import pytest
+
+from socialaff_sim.data.skeletons import get_layout
+from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
+from socialaff_sim.retarget.robot import load_robot
+from socialaff_sim.retarget.sources import GroundTruthSource
+from socialaff_sim.sim.carry import fit_flight
+from socialaff_sim.sim.episode import run_episode
+from socialaff_sim.sim.scene import Scene, build_scene, pose_compliant
+from socialaff_sim.sim.scoring import FORCE_TIME_CONSTANT, SubgoalScorer
+from socialaff_sim.sim.simulator import SimConfig, Simulator
+from socialaff_sim.sim.tasks import FailureSpec, SubgoalSpec, load_task
+
+LAYOUT = get_layout("kinect_v2")
+
+
+@pytest.fixture(scope="module")
+def data():
+    return generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=2))
+
+
+@pytest.fixture(scope="module")
+def scene() -> Scene:
+    return build_scene(load_robot("ours"), LAYOUT, None)
+
+
+def task_with(subgoals: list[SubgoalSpec], failures: list[FailureSpec]):
+    return dataclasses.replace(load_task("shake_hands"), subgoals=tuple(subgoals), failures=tuple(failures))
+
+
+def human_away(scene: Scene, d: mujoco.MjData) -> np.ndarray:
+    n = len(scene.human_mocap)
+    pos = np.array([10.0, 10.0, 1.0]) + np.arange(n)[:, None] * [0.0, 0.3, 0.0]
+    quat = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+    d.mocap_pos[scene.human_mocap] = pos
+    d.mocap_quat[scene.human_mocap] = quat
+    pose_compliant(scene, d, pos, quat)
+    return pos
+
+
+def test_contact_time_accumulates_to_min_duration(scene: Scene) -> None:
+    m = scene.model
+    d = mujoco.MjData(m)
+    d.qpos[scene.robot_qadr] = scene.home_qpos
+    pos = human_away(scene, d)
+    mujoco.mj_forward(m, d)
+    palm = np.flatnonzero(scene.hand_geom[1])[0]
+    task = task_with([SubgoalSpec("touch", "contact", "right_hand", "hands", 0.1, ())], [])
+    scorer = SubgoalScorer(scene, task)
+    dt = 0.004
+    t = 0.0
+    steps_touching = 0
+    for k in range(60):
+        touching = 10 <= k < 45
+        pos[scene.n_bones + 1] = d.geom_xpos[palm] + ((0.06 if touching else 1.0), 0.0, 0.0)
+        d.mocap_pos[scene.human_mocap] = pos
+        pose_compliant(scene, d, pos, np.array(d.mocap_quat[scene.human_mocap]))
+        mujoco.mj_forward(m, d)  # contacts of this placement, no dynamics needed
+        t += dt
+        scorer.update(d, dt, t, None)
+        steps_touching += touching
+    res = scorer.subgoals[0]
+    np.testing.assert_allclose(res.contact_time, steps_touching * dt, atol=1e-12)
+    assert res.success
+    # Met on the step where 0.1 s of contact had accumulated: the 25th touching step.
+    np.testing.assert_allclose(res.time, (10 + 25) * dt, atol=1e-9)
+
+
+def test_subevent_window_and_other_hand(scene: Scene) -> None:
+    m = scene.model
+    d = mujoco.MjData(m)
+    d.qpos[scene.robot_qadr] = scene.home_qpos
+    pos = human_away(scene, d)
+    palm = np.flatnonzero(scene.hand_geom[1])[0]
+    mujoco.mj_forward(m, d)
+    pos[scene.n_bones + 1] = d.geom_xpos[palm] + (0.06, 0.0, 0.0)
+    d.mocap_pos[scene.human_mocap] = pos
+    pose_compliant(scene, d, pos, np.array(d.mocap_quat[scene.human_mocap]))
+    mujoco.mj_forward(m, d)
+    task = task_with([
+        SubgoalSpec("windowed", "contact", "right_hand", "hands", 0.0, ("shake",)),
+        SubgoalSpec("left_only", "contact", "left_hand", "hands", 0.0, ()),
+    ], [])
+    scorer = SubgoalScorer(scene, task)
+    scorer.update(d, 0.01, 0.01, "reach")
+    assert not scorer.subgoals[0].success and not scorer.subgoals[1].success
+    scorer.update(d, 0.01, 0.02, "shake")
+    assert scorer.subgoals[0].success and not scorer.subgoals[1].success
+
+
+def test_self_collision_threshold(scene: Scene) -> None:
+    m = scene.model
+    d = mujoco.MjData(m)
+    human_away(scene, d)
+    q = scene.home_qpos.copy()
+    task = task_with([SubgoalSpec("x", "contact", "hands", "hands", 1.0, ())], [FailureSpec("self_collision", 0.02)])
+    names = list(scene.robot_joint_names)
+    # Bend the left forearm across the chest and roll the arm inward until it sinks into the torso.
+    depths = []
+    q[6 + names.index("robot/left_shoulder_yaw")] = -0.8
+    q[6 + names.index("robot/left_elbow")] = -1.5
+    for roll in np.linspace(0.3, -0.3, 13):
+        q[6 + names.index("robot/left_shoulder_roll")] = roll
+        d.qpos[scene.robot_qadr] = q
+        mujoco.mj_forward(m, d)
+        robot = scene.robot_geom
+        pen = [-d.contact.dist[i] for i in range(d.ncon) if robot[d.contact.geom1[i]] and robot[d.contact.geom2[i]]]
+        depths.append(max(pen, default=0.0))
+        scorer = SubgoalScorer(scene, task)
+        scorer.update(d, 0.004, 0.004, None)
+        assert scorer.failed == (depths[-1] > 0.02)
+        np.testing.assert_allclose(scorer.failures[0].worst, depths[-1], atol=1e-12)
+    assert min(depths) < 0.02 < max(depths)  # the sweep covers both outcomes
+
+
+def test_force_on_human_is_smoothed_contact_force(scene: Scene) -> None:
+    m = scene.model
+    d = mujoco.MjData(m)
+    d.qpos[scene.robot_qadr] = scene.home_qpos
+    pos = human_away(scene, d)
+    mujoco.mj_forward(m, d)
+    palm = np.flatnonzero(scene.hand_geom[0])[0]
+    task = task_with([SubgoalSpec("x", "contact", "hands", "hands", 1.0, ())], [FailureSpec("contact_force", 1e9)])
+    scorer = SubgoalScorer(scene, task)
+    dt, ema, peak, f6 = 0.004, 0.0, 0.0, np.zeros(6)
+    human = set(scene.human_geom_ids.tolist())
+    start = d.geom_xpos[palm] + (0.08, 0.0, 0.0)
+    pos[scene.n_bones] = start
+    pose_compliant(scene, d, pos, np.array(d.mocap_quat[scene.human_mocap]))
+    d.ctrl[scene.act_ids] = scene.ctrl_for(d.qpos)
+    for k in range(40):
+        pos[scene.n_bones] = start - (0.003 * k, 0.0, 0.0)  # the left hand sphere pressed ever deeper
+        d.mocap_pos[scene.human_mocap] = pos
+        mujoco.mj_step(m, d)
+        scorer.update(d, dt, (k + 1) * dt, None)
+        total = 0.0
+        for i in range(d.ncon):
+            g1, g2 = d.contact.geom1[i], d.contact.geom2[i]
+            if d.contact.dist[i] <= 0 and ((g1 in human and scene.robot_geom[g2]) or (g2 in human and scene.robot_geom[g1])):
+                mujoco.mj_contactForce(m, d, i, f6)
+                total += f6[0]
+        ema += dt / FORCE_TIME_CONSTANT * (total - ema)
+        peak = max(peak, total)
+    assert peak > 1.0
+    np.testing.assert_allclose(scorer.max_force_on_human, peak, rtol=1e-9)
+    np.testing.assert_allclose(scorer.force_filtered, ema, rtol=1e-9)
+
+
+def test_flight_fit_recovers_a_throw(rng: np.random.Generator) -> None:
+    p0, v0, fps = np.array([0.1, 0.2, 1.0]), np.array([3.0, -0.5, 2.5]), 12.0
+    t = np.arange(5) / fps
+    track = p0 + v0 * t[:, None] + 0.5 * np.array([0, 0, -9.81]) * t[:, None] ** 2
+    p, v = fit_flight(track, fps)
+    np.testing.assert_allclose(p, p0, atol=1e-12)
+    np.testing.assert_allclose(v, v0, atol=1e-10)
+    noisy, vn = fit_flight(track + rng.normal(0, 0.005, track.shape), fps)
+    assert np.linalg.norm(vn - v0) < 0.3
+
+
+def replay(inter, robot: str = "ours", config: SimConfig | None = None) -> dict:
+    sim = Simulator(robot, inter.label, config)
+    return run_episode(sim, GroundTruthSource(), inter)
+
+
+def test_ground_truth_hand_over_keeps_the_cup(data) -> None:
+    metrics = replay(data.of_label("hand_over")[0])
+    assert metrics["subgoals"][0]["success"] and not metrics["success"] is False
+    assert metrics["object_released_at"] is not None
+    # Without grasping the same motion drops the cup.
+    dropped = replay(data.of_label("hand_over")[0], config=SimConfig(grip=False))
+    assert not dropped["subgoals"][0]["success"]
+    assert {f["kind"] for f in dropped["failures"] if f["triggered"]} == {"object_dropped"}
+
+
+def test_ground_truth_handshake_and_catch(data) -> None:
+    shake = replay(data.of_label("shake_hands")[0])
+    assert shake["success"], shake["subgoals"]
+    catch = replay(data.of_label("throw_catch")[0])
+    assert catch["subgoals"][0]["success"], catch["failures"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("robot", "floor"), [("ours", 0.6), ("cmu", 0.25)])
+def test_ground_truth_success_rate(robot: str, floor: float) -> None:
+    # Regression floors at the measured levels (scripts/bench_sim.py): "ours" cannot reach a tall
+    # partner's overhead high five; the CMU humanoid's stiff heavy arms exceed the force limits more.
+    dataset = generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=4))
+    results = {label: [replay(i, robot)["success"] for i in dataset.of_label(label)] for label in dataset.labels}
+    rate = np.mean([s for v in results.values() for s in v])
+    print(robot, {k: np.mean(v) for k, v in results.items()}, rate)
+    assert rate >= floor
+
+
+def test_real_handover_recording_replays() -> None:
+    from conftest import shared_path
+
+    from socialaff_sim.data.handover import load_handover
+
+    inter = load_handover(shared_path("handover_h2h", "motion_normal_1.pkl"))[0]
+    sim = Simulator("ours", "hand_over")
+    metrics = run_episode(sim, GroundTruthSource(), inter)
+    assert sim.carry is not None and 0 < sim.carry.release_frame < inter.n_frames  # given, then taken
+    assert metrics["frames"] == inter.n_frames and metrics["object_released_at"] is not None
+    assert metrics["ik_error_reachable_within_2cm"] >= 0.9
+    print(metrics["subgoals"], [f for f in metrics["failures"] if f["triggered"]])
