@@ -1,11 +1,28 @@
-"""Inference: full-body fit (and, later, DP parsing and online synthesis of Algorithm 2).
+"""Inference: DP parsing of a running interaction, online synthesis (Algorithm 2) and full-body fit.
 
-Hook for the evaluation: :func:`socialaff_sim.evaluation.get_method` imports this
-package before looking a method up, so the synthesis module should be imported
-here and call ``socialaff_sim.evaluation.register_method`` for ``"full"``,
-``"v1"`` and ``"v2"`` at import time (with module-level, picklable factories).
+Importing this package registers the methods ``"full"``, ``"v1"`` and ``"v2"`` with
+:func:`socialaff_sim.evaluation.register_method`.
 """
 
 from .body_fit import BodyFitConfig, BodyFitter, instance_frame, kmeans, two_bone_ik
+from .methods import VARIANTS, AffordanceMethod, ModelSource, key_joint_source, synthesize
+from .online_parse import PrefixParse, parse_prefix
+from .synthesis import OnlineSynthesizer, SynthesisConfig, SynthesisStep
 
-__all__ = ["BodyFitConfig", "BodyFitter", "instance_frame", "kmeans", "two_bone_ik"]
+__all__ = [
+    "VARIANTS",
+    "AffordanceMethod",
+    "BodyFitConfig",
+    "BodyFitter",
+    "ModelSource",
+    "OnlineSynthesizer",
+    "PrefixParse",
+    "SynthesisConfig",
+    "SynthesisStep",
+    "instance_frame",
+    "key_joint_source",
+    "kmeans",
+    "parse_prefix",
+    "synthesize",
+    "two_bone_ik",
+]

@@ -24,7 +24,7 @@ from ..errors import SimulationError
 
 __all__ = ["SourceFrame", "KeyJointSource", "GroundTruthSource", "model_source", "SYNTHESIS_MODULE", "SYNTHESIS_HOOK"]
 
-SYNTHESIS_MODULE = "socialaff_sim.inference.synthesis"
+SYNTHESIS_MODULE = "socialaff_sim.inference"
 """Module of the online synthesizer (Algorithm 2)."""
 SYNTHESIS_HOOK = "key_joint_source"
 """Function of that module: ``key_joint_source(model_path) -> KeyJointSource``."""

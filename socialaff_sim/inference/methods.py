@@ -1,0 +1,165 @@
+"""The full model and its ablations as evaluation methods, and as the simulator's key-joint source.
+
+``"full"`` is the social affordance model with Algorithm 2; ``"v1"`` drops joint selection and
+grouping, ``"v2"`` drops latent sub-events (the paper's two ablations). All three implement
+:class:`~socialaff_sim.evaluation.protocol.ReactionMethod` and are registered on import.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..data.interaction import Interaction
+from ..errors import ConfigError, ModelError, NotFittedError, SimulationError, choices
+from ..evaluation.protocol import Prediction, register_method
+from ..model.affordance import SocialAffordanceModel
+from ..model.config import AffordanceConfig
+from .body_fit import BodyFitConfig, BodyFitter
+from .synthesis import OnlineSynthesizer, SynthesisConfig
+
+__all__ = ["AffordanceMethod", "VARIANTS", "ModelSource", "key_joint_source", "synthesize"]
+
+VARIANTS: dict[str, dict[str, bool]] = {
+    "full": {},
+    "v1": {"use_grouping": False},
+    "v2": {"use_subevents": False},
+}
+"""Model-config changes of each variant."""
+
+
+def synthesize(
+    model: SocialAffordanceModel,
+    interaction: Interaction,
+    *,
+    rng: np.random.Generator,
+    body: BodyFitter | None = None,
+    config: SynthesisConfig | None = None,
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, np.ndarray]:
+    """Run the online synthesizer over a whole instance.
+
+    Returns key joints (T, 5, 3) metres world, skeletons (T, J, 3) or ``None`` without a body
+    fitter, sub-event per frame (T,) int64 (−1 while observed) and beliefs (T, S).
+    """
+    syn = OnlineSynthesizer(model, body, config)
+    syn.reset(interaction, rng=rng)
+    steps = [syn.step() for _ in range(interaction.n_frames)]
+    keys = np.stack([s.key_joints for s in steps])
+    subs = np.array([s.subevent for s in steps], dtype=np.int64)
+    beliefs = np.stack([s.belief for s in steps])
+    if body is None:
+        return keys, None, subs, beliefs
+    n_obs = syn.config.n_observed
+    skel = interaction.filled_joints()[:, 1].copy()
+    frame = model.frame_of(interaction)
+    skel[n_obs:] = body.fit_poses(keys[n_obs:], frame)
+    return keys, skel, subs, beliefs
+
+
+class AffordanceMethod:
+    """The social affordance model (or an ablation) as a :class:`ReactionMethod`."""
+
+    def __init__(
+        self,
+        variant: str = "full",
+        *,
+        model_config: AffordanceConfig | None = None,
+        learning: object | None = None,
+        synthesis: SynthesisConfig | None = None,
+        body: BodyFitConfig | None = None,
+    ) -> None:
+        if variant not in VARIANTS:
+            raise ConfigError(f"variant: expected {choices(VARIANTS)}, found {variant!r}")
+        self.name = variant
+        self.variant = variant
+        self.model_config = dataclasses.replace(model_config or AffordanceConfig(), **VARIANTS[variant])
+        self.learning = learning
+        self.synthesis = synthesis or SynthesisConfig()
+        self.body = body or BodyFitConfig()
+
+    def fit(self, interactions: Sequence[Interaction], *, rng: np.random.Generator) -> AffordanceMethod:
+        """Learn the model (Algorithm 1) and the body clusters of agent 1."""
+        inters = list(interactions)
+        self.model_ = SocialAffordanceModel(self.model_config, self.learning).fit(inters, rng=rng)
+        self.body_ = BodyFitter(self.body).fit_interactions(inters, agent=1, rng=rng)
+        return self
+
+    def predict(self, interaction: Interaction, *, n_observed: int, rng: np.random.Generator) -> Prediction:
+        """Synthesize agent 1 after ``n_observed`` frames."""
+        if not hasattr(self, "model_"):
+            raise NotFittedError(f"method {self.name!r}: call fit(interactions, rng=...) before predict")
+        cfg = dataclasses.replace(self.synthesis, n_observed=n_observed)
+        keys, skel, subs, _ = synthesize(self.model_, interaction, rng=rng, body=self.body_, config=cfg)
+        assert skel is not None  # a body fitter was given
+        return Prediction(joints=skel, key_joints=keys, subevents=subs, n_observed=n_observed)
+
+
+def _full() -> AffordanceMethod:
+    return AffordanceMethod("full")
+
+
+def _v1() -> AffordanceMethod:
+    return AffordanceMethod("v1")
+
+
+def _v2() -> AffordanceMethod:
+    return AffordanceMethod("v2")
+
+
+register_method("full", _full)
+register_method("v1", _v1)
+register_method("v2", _v2)
+
+
+class ModelSource:
+    """The online synthesizer as the simulator's :class:`~socialaff_sim.retarget.sources.KeyJointSource`.
+
+    Frames must be requested in order (``targets(0)``, ``targets(1)``, …), as a simulator does;
+    agent 1's first T0 frames are the recording, the rest is synthesized causally.
+    """
+
+    def __init__(self, model: SocialAffordanceModel, *, seed: int = 0, config: SynthesisConfig | None = None) -> None:
+        self.model = model
+        self.seed = seed
+        self.config = config or SynthesisConfig()
+        self._syn: OnlineSynthesizer | None = None
+        self._cache: list = []
+
+    def reset(self, interaction: Interaction) -> None:
+        """Start on an instance."""
+        self._syn = OnlineSynthesizer(self.model, None, self.config)
+        self._syn.reset(interaction, rng=np.random.default_rng(self.seed))
+        self._cache = []
+
+    def targets(self, t: int):  # noqa: ANN201 (SourceFrame, imported lazily to keep retarget optional)
+        """Agent 1's key joints at frame ``t`` (data frame) and the current sub-event's name."""
+        from ..retarget.sources import SourceFrame
+
+        if self._syn is None:
+            raise SimulationError("ModelSource.targets called before reset(interaction)")
+        while len(self._cache) <= t:
+            if self._syn.done:
+                raise SimulationError(f"frame {t} is outside the instance (0 ≤ t < {len(self._cache)})")
+            self._cache.append(self._syn.step())
+        step = self._cache[t]
+        return SourceFrame(step.key_joints.copy(), step.subevent_name)
+
+    @property
+    def belief(self) -> np.ndarray:
+        """(S,) the latest sub-event belief."""
+        if not self._cache:
+            S = self.model.n_subevents_
+            return np.full(S, 1.0 / S)
+        return self._cache[-1].belief
+
+
+def key_joint_source(model_path: str | Path, *, seed: int = 0, config: SynthesisConfig | None = None) -> ModelSource:
+    """A :class:`ModelSource` for the model saved at ``model_path``."""
+    try:
+        model = SocialAffordanceModel.load(model_path)
+    except ModelError:
+        raise
+    return ModelSource(model, seed=seed, config=config)

@@ -1,0 +1,327 @@
+"""Online synthesis of agent 1's motion in reaction to agent 0 (Algorithm 2 of the paper).
+
+After ``T0`` observed frames of both agents, every ``ΔT`` frames the synthesizer
+
+1. parses the track so far by dynamic programming, the last sub-event still running
+   (:func:`~socialaff_sim.inference.online_parse.parse_prefix`), which gives the current
+   sub-event s, its start and a belief over sub-events;
+2. samples the remaining duration of s from its log-normal prior (conditioned on the time
+   already elapsed), which fixes the predicted end frame;
+3. draws ``N`` candidate configurations of agent 1's key joints at that end — half around the
+   spatial reference of each affordable joint (its group's mass centre, or the other agent's base),
+   half by a displacement from the sub-event's start drawn from the motion potential; Null joints
+   keep their offset from agent 1's base (they are static relative to the body) — and keeps the
+   most likely under the spatial and motion potentials;
+4. interpolates agent 1's key joints linearly from its last synthesized position to that
+   configuration and emits the next ``ΔT`` frames; a full-body skeleton is fitted to them
+   (:class:`~socialaff_sim.inference.body_fit.BodyFitter`).
+
+It runs one frame at a time (:meth:`OnlineSynthesizer.step`), reading agent 0 and the object
+causally: at frame t only frames before t are used, unless ``lookahead`` is set, in which case the
+spatial references use agent 0's recorded position at the predicted end (the setting of an offline
+evaluation where agent 0's whole track is given, as it is to the baselines).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..data.interaction import Interaction
+from ..data.skeletons import N_KEY
+from ..errors import ConfigError, ModelError, choices
+from ..learning.atomic import cut_atoms
+from ..model.potentials import reference_weights
+from .online_parse import PrefixParse, parse_prefix
+
+if TYPE_CHECKING:
+    from ..model.affordance import SocialAffordanceModel
+    from .body_fit import BodyFitter
+
+__all__ = ["SynthesisConfig", "SynthesisStep", "OnlineSynthesizer", "sample_remaining_seconds"]
+
+_AGENT1 = np.arange(N_KEY, 2 * N_KEY)
+_OTHERS = np.r_[np.arange(N_KEY), 2 * N_KEY]
+_DURATION_MODES = ("sample", "median")
+
+
+@dataclass(frozen=True)
+class SynthesisConfig:
+    """Settings of Algorithm 2 with the paper's defaults; change them with ``dataclasses.replace``."""
+
+    n_observed: int = 10
+    """T0, frames of both agents observed before synthesis starts."""
+    delta_t: int = 5
+    """ΔT, frames synthesized between two re-plannings."""
+    n_samples: int = 100
+    """N, candidate key-joint configurations drawn per re-planning."""
+    spatial_fraction: float = 0.5
+    """Share of the N candidates drawn around the spatial references (the rest from the motion potential)."""
+    duration: str = "sample"
+    """How the remaining duration is chosen: ``"sample"`` (the paper) or ``"median"`` of the conditional log-normal."""
+    refine_sweeps: int = 2
+    """Sweeps of per-joint coordinate ascent over the drawn candidates (0: keep the best whole draw, as in the paper)."""
+    lookahead: bool = False
+    """Use agent 0's (and the object's) recorded position at the predicted end for the spatial
+    references instead of the latest observed one (offline evaluation only; the simulator is causal)."""
+
+    def __post_init__(self) -> None:
+        if self.n_observed < 2:
+            raise ConfigError(f"n_observed (T0): expected at least 2 frames, found {self.n_observed}")
+        if self.delta_t < 1:
+            raise ConfigError(f"delta_t (ΔT): expected at least 1 frame, found {self.delta_t}")
+        if self.n_samples < 1:
+            raise ConfigError(f"n_samples (N): expected at least 1, found {self.n_samples}")
+        if not 0.0 <= self.spatial_fraction <= 1.0:
+            raise ConfigError(f"spatial_fraction: expected a value in [0, 1], found {self.spatial_fraction}")
+        if self.duration not in _DURATION_MODES:
+            raise ConfigError(f"duration: expected {choices(_DURATION_MODES)}, found {self.duration!r}")
+
+
+@dataclass(frozen=True)
+class SynthesisStep:
+    """What the synthesizer emits for one frame."""
+
+    t: int
+    """Frame index."""
+    key_joints: np.ndarray
+    """(5, 3) float64, metres, world frame: agent 1's key joints (NaN where the layout lacks one)."""
+    skeleton: np.ndarray | None
+    """(J, 3) float64, metres, world frame: agent 1's full skeleton, or ``None`` without a body fitter."""
+    belief: np.ndarray
+    """(S,) float64: belief over the current sub-event (uniform before T0)."""
+    subevent: int
+    """Index of the current sub-event (−1 while agent 1 is still observed)."""
+    subevent_name: str | None
+    """Its name, or ``None``."""
+    observed: bool
+    """True for the first T0 frames, which are copied from the observation."""
+
+
+def sample_remaining_seconds(
+    mu: float, sigma: float, elapsed: float, rng: np.random.Generator, *, median: bool = False
+) -> float:
+    """A total duration D > ``elapsed`` (seconds) from LogNormal(μ, σ) conditioned on D > elapsed.
+
+    Inverse-CDF sampling on the truncated part: u ~ U(F(elapsed), 1), D = F⁻¹(u);
+    ``median`` takes u halfway instead.
+    """
+    from scipy.special import ndtr, ndtri
+
+    if not (np.isfinite(mu) and np.isfinite(sigma)):
+        return elapsed
+    lo = float(ndtr((np.log(max(elapsed, 1e-9)) - mu) / sigma))
+    u = lo + (1.0 - lo) * (0.5 if median else float(rng.random()))
+    u = min(max(u, lo), 1.0 - 1e-12)
+    return max(float(np.exp(mu + sigma * ndtri(u))), elapsed)
+
+
+class OnlineSynthesizer:
+    """Agent 1's key joints (and skeleton), frame by frame, from a fitted affordance model."""
+
+    def __init__(
+        self, model: SocialAffordanceModel, body: BodyFitter | None = None, config: SynthesisConfig | None = None
+    ) -> None:
+        model._check()
+        self.model = model
+        self.body = body
+        self.config = config or SynthesisConfig()
+        self._inter: Interaction | None = None
+
+    # -- episode -----------------------------------------------------------------------------------
+    def reset(self, interaction: Interaction, *, rng: np.random.Generator) -> None:
+        """Start on an instance: agent 0 and the object are read causally, agent 1's first T0 frames observed."""
+        cfg = self.config
+        if interaction.n_frames <= cfg.n_observed:
+            raise ModelError(
+                f"instance {interaction.instance_id!r}: synthesis needs more than T0 = {cfg.n_observed} frames, "
+                f"found {interaction.n_frames}"
+            )
+        if interaction.label != self.model.label_:
+            raise ModelError(f"instance {interaction.instance_id!r} is a {interaction.label!r}; the model is of {self.model.label_!r}")
+        self._inter = interaction
+        self._rng = rng
+        self._frame = self.model.frame_of(interaction)
+        track = self.model.canonical_track(interaction, self._frame)
+        # Agent 0 and the object over the whole instance, for lookahead references only.
+        self._others = track[:, _OTHERS].copy()
+        track[cfg.n_observed :, _AGENT1] = np.nan  # never read agent 1 beyond the observation
+        self._track = track
+        self._t = 0
+        self._planned_until = cfg.n_observed
+        self._parse: PrefixParse | None = None
+        self._available = self.model.available_.copy()
+        S = self.model.n_subevents_
+        self._belief = np.full(S, 1.0 / S)
+
+    @property
+    def t(self) -> int:
+        """The next frame :meth:`step` will emit."""
+        return self._t
+
+    @property
+    def done(self) -> bool:
+        """Whether every frame of the instance has been emitted."""
+        return self._inter is not None and self._t >= self._inter.n_frames
+
+    def step(self) -> SynthesisStep:
+        """Emit the next frame."""
+        if self._inter is None:
+            raise ModelError("OnlineSynthesizer.step called before reset(interaction, rng=...)")
+        if self.done:
+            raise ModelError(f"instance {self._inter.instance_id!r} has no frame {self._t}: synthesis is finished")
+        t = self._t
+        cfg = self.config
+        observed = t < cfg.n_observed
+        if not observed and t >= self._planned_until:
+            self._replan(t)
+        keys_c = self._track[t, _AGENT1]
+        keys_w = self._frame.to_world(keys_c)
+        skeleton = None
+        if self.body is not None:
+            if observed:
+                skeleton = self._inter.filled_joints()[t, 1]
+            else:
+                skeleton = self.body.fit_pose(keys_c, self._frame) if np.isfinite(keys_c[0]).all() else None
+        sub = -1 if observed or self._parse is None else self._parse.current
+        self._t += 1
+        return SynthesisStep(
+            t=t,
+            key_joints=keys_w,
+            skeleton=skeleton,
+            belief=self._belief.copy(),
+            subevent=sub,
+            subevent_name=None if sub < 0 else self.model.subevent_names_[sub],
+            observed=observed,
+        )
+
+    # -- planning ----------------------------------------------------------------------------------
+    def _replan(self, t: int) -> None:
+        inter = self._inter
+        assert inter is not None  # internal invariant: set by reset
+        model, cfg = self.model, self.config
+        prefix = self._track[:t]
+        lc = model.learning
+        bounds = cut_atoms(
+            prefix, inter.fps, self._available, model.centroids_,
+            min_frames=lc.min_atomic_frames, max_seconds=lc.max_atomic_seconds, tau=lc.velocity_seconds,
+        )
+        parse = parse_prefix(model, prefix, inter.fps, bounds)
+        self._parse, self._belief = parse, parse.belief
+        s, start = parse.current, parse.start
+        mu, sigma = model.duration_params_[s]
+        total = sample_remaining_seconds(
+            mu, sigma, (t - start) / inter.fps, self._rng, median=cfg.duration == "median"
+        )
+        end = max(start + int(round(total * inter.fps)), t + 1)  # exclusive end frame of the sub-event
+        last = end - 1
+        target = self._best_configuration(s, t, start, last)
+        T = inter.n_frames
+        stop = min(t + cfg.delta_t, T)
+        prev = self._track[t - 1, _AGENT1]
+        frames = np.arange(t, stop)
+        w = ((frames - (t - 1)) / max(last - (t - 1), 1)).clip(0.0, 1.0)
+        self._track[t:stop, _AGENT1] = prev[None] + w[:, None, None] * (target - prev)[None]
+        self._planned_until = stop
+
+    def _best_configuration(self, s: int, t: int, start: int, last: int) -> np.ndarray:
+        """(5, 3) canonical: agent 1's key joints at frame ``last``, the best of N candidates."""
+        model, cfg = self.model, self.config
+        T = self._track.shape[0]
+        config = self._track[t - 1].copy()
+        if cfg.lookahead:
+            config[_OTHERS] = self._others[min(last, T - 1)]
+        before = self._track[max(start - 1, 0)]
+        z = model.grouping_[s].copy()
+        z[~self._available] = -1
+        prev = config[_AGENT1].copy()
+        N = cfg.n_samples
+        cand = np.repeat(config[None], N, axis=0)
+        aff = _AGENT1[z[_AGENT1] > 0]
+        if aff.size:
+            n_sp = int(round(cfg.spatial_fraction * N))
+            up = model.vertical_up_[s]  # (2, 11): P(dz > 0) of spatial offsets and of displacements
+            W = reference_weights(z, other_side=model.config.other_side_reference)[aff]
+            refs = W @ np.nan_to_num(config)  # (A, 3)
+            sp = _draw_vectors(model.spatial_params_[s, aff], up[0, aff], n_sp, self._rng) + refs[None]
+            mo = _draw_vectors(model.motion_params_[s, aff], up[1, aff], N - n_sp, self._rng) + before[aff][None]
+            cand[:, aff] = np.concatenate([sp, mo])
+        # Joints not sampled (Null) stay static relative to agent 1's base, which may have moved.
+        base = N_KEY
+        shift = cand[:, base] - prev[0] if base in aff else np.zeros((N, 3))
+        static = _AGENT1[self._available[_AGENT1] & ~np.isin(_AGENT1, aff)]
+        cand[:, static] = prev[static - N_KEY][None] + shift[:, None]
+        best = self._select(s, z, cand, before, shift, static)
+        out = best[_AGENT1].copy()
+        out[~self._available[_AGENT1]] = np.nan
+        return out
+
+
+    def _score(self, s: int, z: np.ndarray, configs: np.ndarray, before: np.ndarray) -> np.ndarray:
+        """(N,) log spatial + log motion (+ vertical signs) of N configurations (N, 11, 3)."""
+        model = self.model
+        disp = configs - before[None]
+        score = model.log_spatial(s, configs) + model.log_motion(s, disp) + _sign_loglik(model, s, z, configs, disp)
+        return np.where(np.isnan(score), -np.inf, score)
+
+    def _select(
+        self, s: int, z: np.ndarray, cand: np.ndarray, before: np.ndarray, shift: np.ndarray, static: np.ndarray
+    ) -> np.ndarray:
+        """The most likely configuration (11, 3) over the candidates and their per-joint recombinations.
+
+        Start from the best of the N whole candidates, then, joint by joint (``refine_sweeps`` times),
+        try each candidate's position of that joint with the others held: a coordinate ascent over
+        the N^A combinations of the A sampled joints' draws, on the same objective.
+        """
+        score = self._score(s, z, cand, before)
+        k = int(np.argmax(score))
+        best, best_score = cand[k].copy(), score[k]
+        sampled = _AGENT1[z[_AGENT1] > 0]
+        base = N_KEY
+        for _ in range(self.config.refine_sweeps):
+            improved = False
+            for j in sampled:
+                trial = np.repeat(best[None], cand.shape[0], axis=0)
+                trial[:, j] = cand[:, j]
+                if j == base:  # the body moves with its base: static joints follow
+                    trial[:, static] = best[static][None] + (cand[:, base] - best[base])[:, None]
+                sc = self._score(s, z, trial, before)
+                i = int(np.argmax(sc))
+                if sc[i] > best_score + 1e-12:
+                    best, best_score, improved = trial[i].copy(), sc[i], True
+            if not improved:
+                break
+        return best
+
+
+def _draw_vectors(params: np.ndarray, up: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, K, 3) vectors from K parameter rows (k_h, λ_h, k_v, λ_v, μ, κ) and P(dz > 0) (K,)."""
+    K = params.shape[0]
+    if n == 0:
+        return np.zeros((0, K, 3))
+    kh, lh, kv, lv, mu, kap = np.nan_to_num(params, nan=1.0).T
+    h = lh * rng.weibull(kh, size=(n, K))
+    v = lv * rng.weibull(kv, size=(n, K))
+    sign = np.where(rng.random((n, K)) < up, 1.0, -1.0)
+    th = rng.vonmises(mu, np.maximum(kap, 1e-9), size=(n, K))
+    return np.stack([h * np.cos(th), h * np.sin(th), sign * v], axis=-1)
+
+
+def _sign_loglik(model: SocialAffordanceModel, s: int, z: np.ndarray, cand: np.ndarray, disp: np.ndarray) -> np.ndarray:
+    """(N,) log-probability of the vertical signs of agent 1's offsets and displacements.
+
+    The potentials score |dz| only; the learned frequencies of dz > 0 resolve up from down.
+    """
+    up = np.clip(model.vertical_up_[s], 1e-3, 1 - 1e-3)
+    aff = _AGENT1[z[_AGENT1] > 0]
+    out = np.zeros(cand.shape[0])
+    if aff.size:
+        W = reference_weights(z, other_side=model.config.other_side_reference)[aff]
+        off_z = cand[:, aff, 2] - np.einsum("kj,nj->nk", W, np.nan_to_num(cand[:, :, 2]))
+        out += np.where(off_z > 0, np.log(up[0, aff]), np.log1p(-up[0, aff])).sum(axis=1)
+    moving = _AGENT1[z[_AGENT1] >= 0]
+    if moving.size:
+        out += np.where(disp[:, moving, 2] > 0, np.log(up[1, moving]), np.log1p(-up[1, moving])).sum(axis=1)
+    return out

@@ -1,0 +1,137 @@
+"""Algorithm 1 of the paper: atomic intervals, then Metropolis-Hastings over parses with an inner
+Gibbs loop over the joint groupings.
+
+One outer iteration is a sweep: one MH proposal for every training instance in turn (each
+instance's kernel leaves the target invariant, so the sweep does too). The state with the
+highest log P* visited is returned (a maximum a posteriori estimate); ``trace`` holds the log P*
+of the current state after every iteration (entry 0: the initial parse).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model.config import AffordanceConfig
+from .atomic import AtomicIntervals, atomic_intervals
+from .config import LearningConfig
+from .initial import hard_em_parses
+from .mh import mh_step
+from .parse import Parse, ParseSpace
+from .scorer import AffordanceTarget
+
+__all__ = ["LearningResult", "learn", "make_spaces"]
+
+
+@dataclass(frozen=True)
+class LearningResult:
+    """What Algorithm 1 found."""
+
+    parses: tuple[Parse, ...]
+    """Best parse of every training instance."""
+    spaces: tuple[ParseSpace, ...]
+    """The instances' atomic intervals and proposal weights."""
+    atoms: AtomicIntervals
+    """K-means centroids and atom bounds."""
+    grouping: np.ndarray
+    """(S, 11) int64 best grouping of every sub-event type."""
+    log_posterior: float
+    """log P* of the returned state."""
+    trace: np.ndarray
+    """(iterations + 1,) float64: log P* of the current state after each iteration."""
+    acceptance: np.ndarray
+    """(iterations,) float64: fraction of accepted proposals in each iteration."""
+    moves: dict[str, tuple[int, int]]
+    """Per dynamics: (proposed, accepted) counts."""
+    type_updates: int
+    """Inner-loop runs (sub-event types re-fitted)."""
+    seconds: dict[str, float]
+    """Wall-clock seconds of the stages: "atoms" (K-means), "init" (initial parses and groupings), "mcmc"."""
+
+
+def make_spaces(atoms: AtomicIntervals, n_labels: int, acfg: AffordanceConfig) -> list[ParseSpace]:
+    """One :class:`ParseSpace` per instance with the model's label constraints."""
+    return [
+        ParseSpace(b, d, n_labels, acfg.distinct_neighbours, 1 if acfg.unique_labels else None)
+        for b, d in zip(atoms.bounds, atoms.change, strict=True)
+    ]
+
+
+def learn(
+    tracks: Sequence[np.ndarray],
+    fps: Sequence[float],
+    available: np.ndarray,
+    n_labels: int,
+    acfg: AffordanceConfig,
+    lcfg: LearningConfig,
+    *,
+    rng: np.random.Generator,
+    progress: bool = False,
+    desc: str = "fit",
+) -> LearningResult:
+    """Run Algorithm 1 on canonical tracks (each (T_i, 11, 3) metres) of one interaction."""
+    clock = time.perf_counter()
+    seconds: dict[str, float] = {}
+    atoms = atomic_intervals(
+        tracks, fps, available, n_clusters=lcfg.n_clusters, min_frames=lcfg.min_atomic_frames,
+        max_seconds=lcfg.max_atomic_seconds, tau=lcfg.velocity_seconds, rng=rng, max_iter=lcfg.kmeans_iterations,
+    )
+    spaces = make_spaces(atoms, n_labels, acfg)
+    seconds["atoms"] = time.perf_counter() - clock
+    if acfg.use_subevents:
+        parses = [sp.initial_parse(n_labels) for sp in spaces]
+        if lcfg.init_rounds and n_labels > 1:
+            parses = hard_em_parses(
+                tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng=rng, rounds=lcfg.init_rounds
+            )
+    else:
+        parses = [Parse((0,), (0,)) for _ in spaces]
+    target = AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng)
+    current = target.log_prob
+    seconds["init"] = time.perf_counter() - clock - seconds["atoms"]
+    best = (current, tuple(target.parses), target.groupings())
+    iterations = lcfg.iterations if acfg.use_subevents and n_labels > 1 else 0
+    trace = [current]
+    acceptance = []
+    moves = {"split": [0, 0], "merge": [0, 0], "relabel": [0, 0], "shift": [0, 0]}
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm  # noqa: PLC0415
+
+        bar = tqdm(total=iterations, desc=desc, unit="it", leave=False)
+    try:
+        for _ in range(iterations):
+            accepted = 0
+            for i, space in enumerate(spaces):
+                step = mh_step(space, i, target.parses[i], current, target, lcfg, rng)
+                current, ok = step.log_p, step.accepted
+                if step.move is not None:
+                    moves[step.move][0] += 1
+                    moves[step.move][1] += int(ok)
+                accepted += int(ok)
+                if current > best[0]:
+                    best = (current, tuple(target.parses), target.groupings())
+            acceptance.append(accepted / max(len(spaces), 1))
+            trace.append(current)
+            if bar is not None:
+                bar.update(1)
+                bar.set_postfix(logP=f"{current:.1f}", acc=f"{np.mean(acceptance):.2f}")
+    finally:
+        if bar is not None:
+            bar.close()
+    seconds["mcmc"] = time.perf_counter() - clock - seconds["atoms"] - seconds["init"]
+    return LearningResult(
+        parses=best[1],
+        spaces=tuple(spaces),
+        atoms=atoms,
+        grouping=best[2],
+        log_posterior=float(best[0]),
+        trace=np.asarray(trace),
+        acceptance=np.asarray(acceptance),
+        moves={k: (v[0], v[1]) for k, v in moves.items()},
+        type_updates=target.n_type_updates,
+        seconds=seconds,
+    )

@@ -1,0 +1,90 @@
+"""Settings of the learning algorithm (Shu, Ryoo & Zhu, IJCAI 2016, section 4, Algorithm 1)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any
+
+from ..errors import ConfigError
+
+__all__ = ["LearningConfig"]
+
+
+@dataclass(frozen=True)
+class LearningConfig:
+    """Algorithm 1 settings with the paper's defaults; change them with ``dataclasses.replace``."""
+
+    iterations: int = 100
+    """Outer iterations. One iteration is a sweep of Metropolis-Hastings proposals, one per training
+    instance in turn, each followed by the inner Gibbs loop on the sub-event types it touches."""
+    n_clusters: int = 50
+    """K of the K-means over all training frames that defines the atomic time intervals."""
+    kmeans_iterations: int = 50
+    """Most Lloyd iterations of that K-means (it stops earlier when the assignment is stable)."""
+    min_atomic_frames: int = 2
+    """Runs of one cluster shorter than this many frames are merged into the more similar neighbour."""
+    max_atomic_seconds: float = 0.3
+    """Atoms longer than this (seconds) are cut into equal parts, so that boundaries can be placed finely."""
+    velocity_seconds: float = 0.5
+    """τ, seconds: weight of the joint velocities (m/s × τ) against the positions (m) in the K-means features."""
+    init_rounds: int = 10
+    """Most rounds of hard-EM (fit, then DP re-segmentation) refining the equal-part initial parses
+    (0: start the chain from the equal parts)."""
+    p_merge: float = 0.4
+    """Probability of the merge dynamics Q1 (given that no shift was drawn)."""
+    p_split: float = 0.4
+    """Probability of the split dynamics Q2 (given that no shift was drawn)."""
+    p_relabel: float = 0.2
+    """Probability of the relabel dynamics Q3 (given that no shift was drawn)."""
+    p_shift: float = 0.5
+    """Probability of the boundary-shift dynamics, our addition: a parse boundary moves to a neighbouring
+    atomic boundary (a merge immediately followed by a split of the merged interval, labels kept).
+    Otherwise one of the paper's dynamics is drawn with p_merge / p_split / p_relabel. 0 gives the
+    paper's chain exactly; with one interval per sub-event type, its split and relabel have no
+    admissible choice and its merges are rejected, so the chain cannot move without shifts."""
+    lam: float = 1.0
+    """λ of the proposals: a split picks atomic boundary b with probability ∝ exp(λ d_b), a merge picks a
+    parse boundary with probability ∝ exp(−λ d_b), d_b ∈ [0, 1] the normalized motion change at b."""
+    gibbs_max_sweeps: int = 10
+    """Most Gibbs sweeps of the inner loop over Z^s per sub-event type and proposal."""
+    gibbs_patience: int = 2
+    """The inner loop stops when a sweep changes nothing or the best joint probability has not improved
+    for this many sweeps."""
+    initial_gibbs_sweeps: int = 30
+    """Most Gibbs sweeps for each type on the initial parse (same stopping rule)."""
+
+    def __post_init__(self) -> None:
+        def bad(name: str, expected: str) -> ConfigError:
+            return ConfigError(f"LearningConfig.{name}: expected {expected}, found {getattr(self, name)!r}")
+
+        for name in ("n_clusters", "kmeans_iterations", "min_atomic_frames", "gibbs_max_sweeps",
+                     "gibbs_patience", "initial_gibbs_sweeps"):
+            if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
+                raise bad(name, "an integer >= 1")
+        for name in ("iterations", "init_rounds"):
+            if not isinstance(getattr(self, name), int) or getattr(self, name) < 0:
+                raise bad(name, "an integer >= 0")
+        probs = (self.p_merge, self.p_split, self.p_relabel)
+        if min(probs) < 0 or abs(sum(probs) - 1.0) > 1e-9:
+            raise bad("p_merge", f"p_merge + p_split + p_relabel = 1 with each >= 0 (found {probs})")
+        if not 0.0 <= self.p_shift < 1.0:
+            raise bad("p_shift", "a probability in [0, 1)")
+        if not self.max_atomic_seconds > 0:
+            raise bad("max_atomic_seconds", "a number > 0")
+        if self.velocity_seconds < 0:
+            raise bad("velocity_seconds", "a number >= 0")
+        if self.lam < 0:
+            raise bad("lam", "a number >= 0")
+
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as a JSON-compatible dict."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> LearningConfig:
+        """Inverse of :meth:`to_dict`; unknown keys are a :class:`~socialaff_sim.errors.ConfigError`."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ConfigError(f"LearningConfig: unknown fields {unknown}; valid fields: {sorted(known)}")
+        return cls(**data)

@@ -1,0 +1,100 @@
+"""Settings of the social affordance model (Shu, Ryoo & Zhu, IJCAI 2016, section 3)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any
+
+from ..errors import ConfigError
+
+__all__ = ["AffordanceConfig", "DEFAULT_N_SUBEVENTS", "default_n_subevents"]
+
+DEFAULT_N_SUBEVENTS = 4
+"""|S| used when neither the config nor the synthetic dataset names one for an interaction."""
+
+
+@dataclass(frozen=True)
+class AffordanceConfig:
+    """Model settings with the paper's defaults; change them with ``dataclasses.replace``."""
+
+    n_subevents: int | None = None
+    """|S|, the size of the sub-event dictionary of the interaction. ``None``: the number of
+    ground-truth sub-events of the synthetic dataset for that label when it has one, else
+    :data:`DEFAULT_N_SUBEVENTS` (see :func:`default_n_subevents`)."""
+    beta: float = 0.3
+    """β, the Bernoulli probability that a key joint is selected (affordable, not Null)."""
+    gamma: float = 1.0
+    """γ, the concentration of the Chinese-restaurant-process prior over functional groups."""
+    transition_alpha: float = 1.0
+    """α, add-α smoothing of the transition frequencies p(s_k | s_{k−1}) and of the start distribution."""
+    other_side_reference: bool = True
+    """A grouped joint's spatial reference is the mass centre of its group mates on the *other* side of the
+    interaction (the other agent's joints and the object; for the object, both agents' joints), so a group
+    expresses relations between the agents rather than one body's posture. False: all group mates."""
+    use_grouping: bool = True
+    """False gives ablation V1 ("no joint selection and grouping"): Z is not learned; every available
+    key joint is affordable and lone (spatial potential relative to the other agent's base, Weibull/von
+    Mises motion potential) and the grouping prior is dropped."""
+    use_subevents: bool = True
+    """False gives ablation V2 ("no latent sub-events"): |S| = 1, one sub-event spans each whole
+    instance, and no Metropolis-Hastings over parses is run."""
+    distinct_neighbours: bool = True
+    """Consecutive intervals of a parse carry different labels (a sub-event is a maximal interval)."""
+    unique_labels: bool = True
+    """Each sub-event type occupies at most one interval of an instance: the paper's interactions are
+    read as a sequence of distinct sub-events (approach, reach, shake, retract). False lets a type recur."""
+    min_subevent_seconds: float = 0.0
+    """Shortest allowed sub-event interval, seconds (0: no limit)."""
+    eps: float = 1e-3
+    """ε, metres: floor of every distance fed to a Weibull or exponential (1 mm)."""
+    shape_min: float = 0.3
+    """Lower clamp of a fitted Weibull shape k."""
+    shape_max: float = 20.0
+    """Upper clamp of a fitted Weibull shape k (reached by N = 1 or identical samples)."""
+    kappa_max: float = 200.0
+    """Cap of a fitted von Mises concentration κ (reached by N = 1 or identical angles)."""
+    sigma_min: float = 0.05
+    """Floor of the fitted log-normal σ of sub-event durations (log-seconds)."""
+
+    def __post_init__(self) -> None:
+        def bad(name: str, expected: str) -> ConfigError:
+            return ConfigError(f"AffordanceConfig.{name}: expected {expected}, found {getattr(self, name)!r}")
+
+        if self.n_subevents is not None and (not isinstance(self.n_subevents, int) or self.n_subevents < 1):
+            raise bad("n_subevents", "None or an integer >= 1")
+        if not 0.0 < self.beta < 1.0:
+            raise bad("beta", "a probability in (0, 1)")
+        for name in ("gamma", "eps", "shape_min", "shape_max", "kappa_max", "sigma_min"):
+            if not float(getattr(self, name)) > 0:
+                raise bad(name, "a number > 0")
+        if self.transition_alpha < 0:
+            raise bad("transition_alpha", "a number >= 0")
+        if self.min_subevent_seconds < 0:
+            raise bad("min_subevent_seconds", "a number >= 0 (seconds)")
+        if self.shape_min >= self.shape_max:
+            raise bad("shape_min", f"a value below shape_max = {self.shape_max}")
+
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as a JSON-compatible dict."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> AffordanceConfig:
+        """Inverse of :meth:`to_dict`; unknown keys are a :class:`~socialaff_sim.errors.ConfigError`."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ConfigError(f"AffordanceConfig: unknown fields {unknown}; valid fields: {sorted(known)}")
+        return cls(**data)
+
+
+def default_n_subevents(label: str) -> int:
+    """|S| for an interaction label: the synthetic dataset's sub-event count if it defines the label, else 4."""
+    try:
+        from ..data import synthetic  # noqa: PLC0415  (optional module, written separately)
+    except ImportError:
+        return DEFAULT_N_SUBEVENTS
+    table = getattr(synthetic, "SUBEVENTS", {})
+    if label in table:
+        return max(1, len(table[label]))
+    return DEFAULT_N_SUBEVENTS

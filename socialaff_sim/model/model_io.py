@@ -1,0 +1,195 @@
+"""The affordance model's file format: one ``.npz`` holding arrays plus a JSON metadata string.
+
+Layout (format ``socialaff_sim.affordance_model``, version :data:`MODEL_FORMAT_VERSION`):
+
+``meta``
+    0-d unicode array: JSON object with ``format``, ``format_version``, ``package_version``,
+    ``label``, ``subevent_names``, ``joint_names``, ``instance_ids``, ``config``
+    (:class:`~socialaff_sim.model.config.AffordanceConfig` fields), ``learning``
+    (:class:`~socialaff_sim.learning.config.LearningConfig` fields), ``log_posterior``,
+    ``acceptance_rate``, ``moves`` and ``fit_seconds``.
+``available`` (11,) bool; ``grouping`` (S, 11) int64; ``spatial_params`` and ``motion_params``
+    (S, 11, 6) float64; ``duration_params`` (S, 2) float64 (μ, σ of log seconds); ``transitions``
+    (S, S) and ``start_probs`` (S,) float64; ``centroids`` (K, D) float64 (K-means of the atoms);
+``mean_end`` (S, 11, 3) float64, metres: mean canonical key-joint configuration at each type's end;
+``vertical_up`` (S, 2, 11) float64: frequency of dz > 0 of spatial offsets and displacements;
+``trace`` (I + 1,) and ``acceptance`` (I,) float64;
+``parse_rows`` (R, 3) int64 (start frame, stop frame, label) of all training parses, split per
+    instance by ``parse_offsets`` (n + 1,) int64.
+
+Files are written atomically and read with ``allow_pickle=False``; no code objects are stored.
+A missing, truncated or malformed file, or one of another format version, raises
+:class:`~socialaff_sim.errors.ModelFileError` naming the file and the field.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import zipfile
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .. import __version__
+from .._atomic import atomic_write_bytes
+from ..errors import ConfigError, ModelFileError
+from .config import AffordanceConfig
+from .joints import JOINT_NAMES, N_JOINTS
+
+if TYPE_CHECKING:
+    from .affordance import SocialAffordanceModel
+
+__all__ = ["MODEL_FORMAT", "MODEL_FORMAT_VERSION", "save_model", "load_model"]
+
+MODEL_FORMAT = "socialaff_sim.affordance_model"
+MODEL_FORMAT_VERSION = 1
+"""Version written into every model file; readers reject other versions."""
+
+_ARRAYS = (
+    "available", "grouping", "spatial_params", "motion_params", "duration_params", "transitions",
+    "start_probs", "centroids", "mean_end", "vertical_up", "trace", "acceptance", "parse_rows", "parse_offsets",
+)
+
+
+def save_model(model: SocialAffordanceModel, path: str | Path) -> Path:
+    """Write a fitted model to ``path`` atomically; returns the path."""
+    path = Path(path)
+    parses = model.parses_
+    rows = np.concatenate(parses) if parses else np.zeros((0, 3), np.int64)
+    offsets = np.concatenate([[0], np.cumsum([len(p) for p in parses])]).astype(np.int64)
+    meta = {
+        "format": MODEL_FORMAT,
+        "format_version": MODEL_FORMAT_VERSION,
+        "package_version": __version__,
+        "label": model.label_,
+        "subevent_names": list(model.subevent_names_),
+        "joint_names": list(JOINT_NAMES),
+        "instance_ids": list(model.instance_ids_),
+        "config": model.config.to_dict(),
+        "learning": model.learning.to_dict(),
+        "log_posterior": float(model.log_posterior_),
+        "acceptance_rate": float(model.acceptance_rate_),
+        "moves": {k: list(v) for k, v in model.moves_.items()},
+        "fit_seconds": dict(model.__dict__.get("fit_seconds_", {})),
+    }
+    arrays = {
+        "meta": np.array(json.dumps(meta)),
+        "available": model.available_,
+        "grouping": model.grouping_,
+        "spatial_params": model.spatial_params_,
+        "motion_params": model.motion_params_,
+        "duration_params": model.duration_params_,
+        "transitions": model.transitions_,
+        "start_probs": model.start_probs_,
+        "centroids": model.centroids_,
+        "mean_end": model.mean_end_,
+        "vertical_up": model.vertical_up_,
+        "trace": np.asarray(model.trace_, float),
+        "acceptance": np.asarray(model.acceptance_, float),
+        "parse_rows": rows.astype(np.int64).reshape(-1, 3),
+        "parse_offsets": offsets,
+    }
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **arrays)  # type: ignore[arg-type]
+    atomic_write_bytes(path, buf.getvalue())
+    return path
+
+
+def _check_shape(path: Path, name: str, arr: np.ndarray, shape: tuple[int | None, ...], kinds: str) -> np.ndarray:
+    ok = arr.ndim == len(shape) and all(want is None or got == want for got, want in zip(arr.shape, shape))
+    if not ok or arr.dtype.kind not in kinds:
+        want = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
+        raise ModelFileError(f"{path}: field {name!r}: expected shape {want} of kind {kinds!r}, found {arr.shape} {arr.dtype}")
+    return arr
+
+
+def load_model(path: str | Path) -> SocialAffordanceModel:
+    """Read a model file written by :func:`save_model` (see the module doc for the checks)."""
+    from ..learning.config import LearningConfig  # noqa: PLC0415
+    from .affordance import SocialAffordanceModel  # noqa: PLC0415
+
+    path = Path(path)
+    if not path.is_file():
+        raise ModelFileError(f"{path}: no such model file")
+    try:
+        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
+            present = set(data.files)
+            missing = [k for k in ("meta", *_ARRAYS) if k not in present]
+            if missing:
+                raise ModelFileError(
+                    f"{path}: field {missing[0]!r}: missing (a model file holds 'meta' and {list(_ARRAYS)}); "
+                    "is this a model written by 'socialaff-sim fit'?"
+                )
+            raw = {k: data[k] for k in ("meta", *_ARRAYS)}
+    except ModelFileError:
+        raise
+    except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError) as exc:
+        raise ModelFileError(f"{path}: not a readable model file (truncated or not an .npz): {exc}") from None
+    meta_arr = raw["meta"]
+    if meta_arr.shape != () or meta_arr.dtype.kind != "U":
+        raise ModelFileError(f"{path}: field 'meta': expected a JSON string, found {meta_arr.dtype} {meta_arr.shape}")
+    try:
+        meta: dict[str, Any] = json.loads(str(meta_arr))
+    except json.JSONDecodeError as exc:
+        raise ModelFileError(f"{path}: field 'meta': not valid JSON ({exc})") from None
+    if meta.get("format") != MODEL_FORMAT:
+        raise ModelFileError(f"{path}: field 'format': expected {MODEL_FORMAT!r}, found {meta.get('format')!r}")
+    if meta.get("format_version") != MODEL_FORMAT_VERSION:
+        raise ModelFileError(
+            f"{path}: field 'format_version': expected {MODEL_FORMAT_VERSION}, found {meta.get('format_version')!r} "
+            f"(written by socialaff_sim {meta.get('package_version', '?')}); re-fit the model with this version"
+        )
+    try:
+        config = AffordanceConfig.from_dict(meta["config"])
+        learning = LearningConfig.from_dict(meta["learning"])
+        label = str(meta["label"])
+        names = tuple(str(n) for n in meta["subevent_names"])
+        ids = [str(i) for i in meta["instance_ids"]]
+    except (KeyError, TypeError, ConfigError) as exc:
+        raise ModelFileError(f"{path}: field 'meta': malformed metadata ({exc})") from None
+    S = len(names)
+    J = N_JOINTS
+    a = raw
+    _check_shape(path, "available", a["available"], (J,), "b")
+    _check_shape(path, "grouping", a["grouping"], (S, J), "iu")
+    _check_shape(path, "spatial_params", a["spatial_params"], (S, J, 6), "f")
+    _check_shape(path, "motion_params", a["motion_params"], (S, J, 6), "f")
+    _check_shape(path, "duration_params", a["duration_params"], (S, 2), "f")
+    _check_shape(path, "transitions", a["transitions"], (S, S), "f")
+    _check_shape(path, "start_probs", a["start_probs"], (S,), "f")
+    _check_shape(path, "centroids", a["centroids"], (None, None), "f")
+    _check_shape(path, "mean_end", a["mean_end"], (S, J, 3), "f")
+    _check_shape(path, "vertical_up", a["vertical_up"], (S, 2, J), "f")
+    _check_shape(path, "trace", a["trace"], (None,), "f")
+    _check_shape(path, "acceptance", a["acceptance"], (None,), "f")
+    _check_shape(path, "parse_rows", a["parse_rows"], (None, 3), "iu")
+    offsets = _check_shape(path, "parse_offsets", a["parse_offsets"], (len(ids) + 1,), "iu")
+    if offsets[0] != 0 or np.any(np.diff(offsets) < 0) or offsets[-1] != a["parse_rows"].shape[0]:
+        raise ModelFileError(f"{path}: field 'parse_offsets': expected increasing offsets from 0 to {a['parse_rows'].shape[0]}")
+
+    model = SocialAffordanceModel(config, learning)
+    model.label_ = label
+    model.n_subevents_ = S
+    model.subevent_names_ = names
+    model.instance_ids_ = ids
+    model.available_ = a["available"].astype(bool)
+    model.grouping_ = a["grouping"].astype(np.int64)
+    model.spatial_params_ = a["spatial_params"].astype(float)
+    model.motion_params_ = a["motion_params"].astype(float)
+    model.duration_params_ = a["duration_params"].astype(float)
+    model.transitions_ = a["transitions"].astype(float)
+    model.start_probs_ = a["start_probs"].astype(float)
+    model.centroids_ = a["centroids"].astype(float)
+    model.mean_end_ = a["mean_end"].astype(float)
+    model.vertical_up_ = a["vertical_up"].astype(float)
+    model.trace_ = a["trace"].astype(float)
+    model.acceptance_ = a["acceptance"].astype(float)
+    rows = a["parse_rows"].astype(np.int64)
+    model.parses_ = [rows[offsets[i] : offsets[i + 1]] for i in range(len(ids))]
+    model.log_posterior_ = float(meta.get("log_posterior", np.nan))
+    model.acceptance_rate_ = float(meta.get("acceptance_rate", np.nan))
+    model.moves_ = {str(k): (int(v[0]), int(v[1])) for k, v in meta.get("moves", {}).items()}
+    model.fit_seconds_ = {str(k): float(v) for k, v in meta.get("fit_seconds", {}).items()}
+    return model

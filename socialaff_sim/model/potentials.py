@@ -1,0 +1,167 @@
+"""Spatial and motion potentials of one sub-event type, given its joint grouping Z^s.
+
+Grouping vector ``z`` (11,) int: ``-1`` absent joint, ``0`` Null, ``h >= 1`` functional group h.
+
+* Spatial potential (affordable joints, at a sub-event's last frame): the offset of the
+  joint from its reference point — the mass centre (mean) of the *other* members of its
+  group, or for a lone joint :data:`~socialaff_sim.model.joints.LONE_REFERENCE` (the other
+  agent's base; the object: the midpoint of the two bases) — scored by a Weibull on the
+  horizontal distance, a Weibull on the vertical distance |dz| and a von Mises on the
+  horizontal angle in the canonical frame.
+* Motion potential (the displacement over the sub-event): Weibull / Weibull / von Mises for
+  affordable joints; exponential / exponential / von Mises for Null joints.
+
+Parameter rows are ``(k_h, λ_h, k_v, λ_v, μ, κ)``: Weibull shape and scale (metres) of the
+horizontal and vertical distance, and the von Mises mean (radians) and concentration. An
+exponential with mean m is stored as the Weibull (k = 1, λ = m), which it is. Unused rows are NaN.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import AffordanceConfig
+from .densities import expon_logpdf, fit_expon, fit_vonmises, fit_weibull, vonmises_logpdf, weibull_logpdf
+from .features import polar
+from .joints import N_JOINTS, reference_row
+
+__all__ = [
+    "N_PARAMS",
+    "TypePotentials",
+    "reference_weights",
+    "fit_offsets",
+    "fit_null_motion",
+    "fit_type_potentials",
+    "log_spatial",
+    "log_motion",
+]
+
+N_PARAMS = 6
+
+
+def reference_weights(z: np.ndarray, *, other_side: bool) -> np.ndarray:
+    """(11, 11) float64: row j holds the weights of joint j's spatial reference point (zero unless affordable)."""
+    z = np.asarray(z)
+    W = np.zeros((N_JOINTS, N_JOINTS))
+    for j in np.flatnonzero(z > 0):
+        others = np.flatnonzero(z == z[j])
+        W[j] = reference_row(int(j), others[others != j], other_side)
+    return W
+
+
+def _references(weights: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Reference points (N, K, 3) of K weight rows (K, 11) over configurations (N, 11, 3).
+
+    Only joints with a non-zero weight are read, so absent (NaN) joints elsewhere do not leak in.
+    """
+    cols = np.flatnonzero(weights.any(axis=0))
+    return np.einsum("kj,njd->nkd", weights[:, cols], end[:, cols])
+
+
+def _fit_rows(vecs: np.ndarray, cfg: AffordanceConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Weibull/Weibull/von Mises fits of K rows of N vectors ``(K, N, 3)`` → params (K, 6), log-lik (K,)."""
+    K = vecs.shape[0]
+    h, v, th = polar(vecs, cfg.eps)
+    w = fit_weibull(np.concatenate([h, v]), eps=cfg.eps, shape_min=cfg.shape_min, shape_max=cfg.shape_max)
+    vm = fit_vonmises(th, kappa_max=cfg.kappa_max)
+    params = np.stack([w.shape[:K], w.scale[:K], w.shape[K:], w.scale[K:], vm.mu, vm.kappa], axis=1)
+    return params, w.loglik[:K] + w.loglik[K:] + vm.loglik
+
+
+def fit_offsets(end: np.ndarray, joints: np.ndarray, weights: np.ndarray, cfg: AffordanceConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Fit the spatial potential of K (joint, reference) pairs at once.
+
+    ``end`` (N, 11, 3) metres; ``joints`` (K,) int; ``weights`` (K, 11) reference weights.
+    Returns params (K, 6) and the log-likelihood of each pair summed over the N samples (K,).
+    """
+    offsets = (end[:, joints] - _references(weights, end)).transpose(1, 0, 2)
+    return _fit_rows(offsets, cfg)
+
+
+def fit_null_motion(disp: np.ndarray, cfg: AffordanceConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Exponential/exponential/von Mises motion fits of every joint ``disp`` (N, J, 3) → params (J, 6), log-lik (J,)."""
+    vecs = disp.transpose(1, 0, 2)
+    J = vecs.shape[0]
+    h, v, th = polar(vecs, cfg.eps)
+    e = fit_expon(np.concatenate([h, v]), eps=cfg.eps)
+    vm = fit_vonmises(th, kappa_max=cfg.kappa_max)
+    ones = np.ones(J)
+    params = np.stack([ones, e.mean[:J], ones, e.mean[J:], vm.mu, vm.kappa], axis=1)
+    return params, e.loglik[:J] + e.loglik[J:] + vm.loglik
+
+
+def fit_affordable_motion(disp: np.ndarray, cfg: AffordanceConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Weibull/Weibull/von Mises motion fits of every joint ``disp`` (N, J, 3) → params (J, 6), log-lik (J,)."""
+    return _fit_rows(disp.transpose(1, 0, 2), cfg)
+
+
+@dataclass(frozen=True)
+class TypePotentials:
+    """Fitted potentials of one sub-event type."""
+
+    spatial: np.ndarray
+    """(11, 6) float64: spatial parameter rows (NaN unless affordable)."""
+    motion: np.ndarray
+    """(11, 6) float64: motion parameter rows (exponential as k = 1 for Null; NaN if absent)."""
+    loglik: float
+    """Log-likelihood of the training samples under these potentials."""
+
+
+def fit_type_potentials(end: np.ndarray, disp: np.ndarray, z: np.ndarray, cfg: AffordanceConfig) -> TypePotentials:
+    """Maximum-likelihood potentials of one type from its N samples (``end``, ``disp``: (N, 11, 3))."""
+    z = np.asarray(z)
+    spatial = np.full((N_JOINTS, N_PARAMS), np.nan)
+    motion = np.full((N_JOINTS, N_PARAMS), np.nan)
+    ll = 0.0
+    aff = np.flatnonzero(z > 0)
+    null = np.flatnonzero(z == 0)
+    if end.shape[0] == 0:
+        return TypePotentials(spatial, motion, 0.0)
+    if aff.size:
+        W = reference_weights(z, other_side=cfg.other_side_reference)
+        p, l_sp = fit_offsets(end, aff, W[aff], cfg)
+        spatial[aff] = p
+        pm, l_mo = fit_affordable_motion(disp[:, aff], cfg)
+        motion[aff] = pm
+        ll += float(l_sp.sum() + l_mo.sum())
+    if null.size:
+        pn, l_n = fit_null_motion(disp[:, null], cfg)
+        motion[null] = pn
+        ll += float(l_n.sum())
+    return TypePotentials(spatial, motion, ll)
+
+
+def _score_rows(vecs: np.ndarray, params: np.ndarray, eps: float, expon: np.ndarray) -> np.ndarray:
+    """Log-density of vectors (N, K, 3) under K parameter rows (K, 6) → (N,) summed over K."""
+    h, v, th = polar(vecs, eps)
+    kh, lh, kv, lv, mu, kap = params.T
+    dist = np.where(
+        expon,
+        expon_logpdf(h, lh) + expon_logpdf(v, lv),
+        weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv),
+    )
+    return (dist + vonmises_logpdf(th, mu, kap)).sum(axis=-1)
+
+
+def log_spatial(pot: TypePotentials, z: np.ndarray, end: np.ndarray, eps: float, *, other_side: bool) -> np.ndarray:
+    """Spatial log-potential of N configurations ``end`` (N, 11, 3) canonical metres → (N,)."""
+    z = np.asarray(z)
+    end = np.asarray(end, float)
+    aff = np.flatnonzero(z > 0)
+    if aff.size == 0:
+        return np.zeros(end.shape[0])
+    W = reference_weights(z, other_side=other_side)[aff]
+    offsets = end[:, aff] - _references(W, end)
+    return _score_rows(offsets, pot.spatial[aff], eps, np.zeros(aff.size, bool))
+
+
+def log_motion(pot: TypePotentials, z: np.ndarray, disp: np.ndarray, eps: float) -> np.ndarray:
+    """Motion log-potential of N displacement sets ``disp`` (N, 11, 3) metres → (N,)."""
+    z = np.asarray(z)
+    used = np.flatnonzero(z >= 0)
+    disp = np.asarray(disp, float)
+    if used.size == 0:
+        return np.zeros(disp.shape[0])
+    return _score_rows(disp[:, used], pot.motion[used], eps, z[used] == 0)

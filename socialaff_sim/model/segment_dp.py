@@ -1,0 +1,105 @@
+"""Best parse of an instance over candidate cut points by dynamic programming (semi-Markov Viterbi).
+
+Given the log score of every candidate interval ``seg[a, b, s]`` (cut points a < b, label s),
+log start probabilities and log transition probabilities, find the labelled partition of
+``[0, B]`` into intervals between cut points that maximizes
+
+    log p(s_1) + Σ_k log p(s_k | s_{k−1}) + Σ_k seg[a_k, b_k, s_k],
+
+optionally with consecutive labels different (``distinct``) and each label used at most once
+(``unique``; the state then carries the set of labels used, 2^|S| of them).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["best_segmentation", "segmentation_tables", "backtrace"]
+
+
+def segmentation_tables(
+    seg: np.ndarray,
+    log_start: np.ndarray,
+    log_trans: np.ndarray,
+    *,
+    distinct: bool = True,
+    unique: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The DP tables: ``best`` (B + 1, M, S) — the best score of a parse of ``[0, b)`` whose last
+    interval is labelled s with used-label set m (M = 2^S if ``unique`` else 1) — and the
+    back-pointers ``back`` (B + 1, M, S, 3) holding (previous cut, previous mask, previous label)."""
+    seg = np.where(np.isnan(seg), -np.inf, seg)
+    B = seg.shape[0] - 1
+    S = log_start.shape[0]
+    M = 1 << S if unique else 1
+    trans = np.array(log_trans, dtype=float)
+    if distinct:
+        np.fill_diagonal(trans, -np.inf)
+    best = np.full((B + 1, M, S), -np.inf)
+    back = np.full((B + 1, M, S, 3), -1, dtype=np.int64)  # (a, mask, s) of the previous interval
+    masks = np.arange(M)
+    bits = 1 << np.arange(S)
+    for b in range(1, B + 1):
+        # A first interval [0, b).
+        first_mask = bits if unique else np.zeros(S, np.int64)
+        best[b, first_mask, np.arange(S)] = log_start + seg[0, b]
+        if b == 1:
+            continue
+        # cand[a, m, s', s] for previous cut a in 1..b-1
+        cand = best[1:b, :, :, None] + trans[None, None] + seg[1:b, b][:, None, None, :]
+        flat = cand.transpose(1, 3, 0, 2).reshape(M, S, -1)  # (m, s, a·S + s')
+        arg = np.argmax(flat, axis=2)
+        val = np.take_along_axis(flat, arg[:, :, None], axis=2)[:, :, 0]
+        prev_a = arg // S + 1
+        prev_s = arg % S
+        for s in range(S):
+            if unique:
+                ms = masks[(masks & bits[s]) == 0]
+                tgt = ms | bits[s]
+            else:
+                ms = tgt = masks
+            v = val[ms, s]
+            better = v > best[b, tgt, s]
+            if better.any():
+                t = tgt[better]
+                best[b, t, s] = v[better]
+                back[b, t, s, 0] = prev_a[ms[better], s]
+                back[b, t, s, 1] = ms[better]
+                back[b, t, s, 2] = prev_s[ms[better], s]
+    return best, back
+
+
+def backtrace(back: np.ndarray, b: int, m: int, s: int) -> list[tuple[int, int, int]]:
+    """The intervals ``[(a, b, s), ...]`` of the parse ending at cut ``b`` in state (``m``, ``s``)."""
+    out = []
+    while True:
+        a, pm, ps = back[b, m, s]
+        out.append((int(max(a, 0)), b, int(s)))
+        if a < 0:
+            break
+        b, m, s = int(a), int(pm), int(ps)
+    return out[::-1]
+
+
+def best_segmentation(
+    seg: np.ndarray,
+    log_start: np.ndarray,
+    log_trans: np.ndarray,
+    *,
+    distinct: bool = True,
+    unique: bool = False,
+) -> tuple[float, list[tuple[int, int, int]]]:
+    """Maximize over parses; returns (best log score, [(a, b, s), ...]) or (-inf, []) if none is allowed.
+
+    ``seg``: (B + 1, B + 1, S) float64 (only a < b is read; −inf or NaN forbids an interval).
+    """
+    best, back = segmentation_tables(seg, log_start, log_trans, distinct=distinct, unique=unique)
+    B = best.shape[0] - 1
+    S = best.shape[2]
+    flat_best = best[B].reshape(-1)
+    idx = int(np.argmax(flat_best))
+    m, s = divmod(idx, S)
+    total = float(flat_best[idx])
+    if not np.isfinite(total):
+        return -np.inf, []
+    return total, backtrace(back, B, m, s)
