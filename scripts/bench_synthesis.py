@@ -1,0 +1,69 @@
+"""Synthesis speed (Algorithm 2): synthesized frames per second on one core, per interaction.
+
+Fits one model per synthetic interaction on 18 instances (the learning settings are a
+flag; synthesis speed does not depend on them), then synthesizes agent 1 for the 6
+held-out instances and reports frames per second and the key-joint error.
+
+    OMP_NUM_THREADS=1 python scripts/bench_synthesis.py [--iterations 100] [--seed 0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from socialaff_sim.data.synthetic import INTERACTIONS, generate_dataset  # noqa: E402
+from socialaff_sim.evaluation.metrics import key_joint_error  # noqa: E402
+from socialaff_sim.evaluation.protocol import Prediction, observed_part  # noqa: E402
+from socialaff_sim.inference import BodyFitter, SynthesisConfig, synthesize  # noqa: E402
+from socialaff_sim.learning.config import LearningConfig  # noqa: E402
+from socialaff_sim.model.affordance import SocialAffordanceModel  # noqa: E402
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--iterations", type=int, default=100, help="outer MCMC iterations of the fitted models")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--interactions", nargs="*", default=list(INTERACTIONS))
+    args = parser.parse_args()
+    data = generate_dataset(args.seed)
+    print(f"{'interaction':<14}{'frames':>8}{'seconds':>9}{'frames/s':>10}{'key err m':>11}{'+skeleton f/s':>15}")
+    total_frames = total_secs = 0.0
+    for label in args.interactions:
+        items = list(data.of_label(label))
+        train, test = items[:18], items[18:]
+        rng = np.random.default_rng(args.seed)
+        model = SocialAffordanceModel(learning=LearningConfig(iterations=args.iterations)).fit(train, rng=rng)
+        body = BodyFitter().fit_interactions(train, agent=1, rng=rng)
+        cfg = SynthesisConfig()
+        frames = 0
+        errs = []
+        start = time.perf_counter()
+        for k, inter in enumerate(test):
+            keys, _, subs, _ = synthesize(model, observed_part(inter, cfg.n_observed), rng=np.random.default_rng(k))
+            frames += inter.n_frames - cfg.n_observed
+        secs = time.perf_counter() - start
+        start = time.perf_counter()
+        for k, inter in enumerate(test):
+            keys, skel, subs, _ = synthesize(
+                model, observed_part(inter, cfg.n_observed), rng=np.random.default_rng(k), body=body
+            )
+            pred = Prediction(joints=skel, key_joints=keys, subevents=subs, n_observed=cfg.n_observed)
+            errs.append(key_joint_error(pred, inter))
+        secs_body = time.perf_counter() - start
+        total_frames += frames
+        total_secs += secs
+        print(
+            f"{label:<14}{frames:>8}{secs:>9.2f}{frames / secs:>10.0f}{np.mean(errs):>11.3f}{frames / secs_body:>15.0f}",
+            flush=True,
+        )
+    print(f"{'all':<14}{int(total_frames):>8}{total_secs:>9.2f}{total_frames / total_secs:>10.0f}")
+
+
+if __name__ == "__main__":
+    main()
