@@ -3,33 +3,50 @@
 from __future__ import annotations
 
 import argparse
+import sys
+import time
 from pathlib import Path
-
-from ..data.summary import format_summary
 
 __all__ = ["register"]
 
 
 def _run(args: argparse.Namespace) -> int:
-    from ..data.synthetic import INTERACTIONS, generate_dataset
+    from ..data.synthetic import INTERACTIONS
+    from ..demo import DemoConfig, run_demo
 
-    dataset = generate_dataset(seed=args.seed)
-    if args.interaction:
-        dataset = dataset.of_label(args.interaction)
-    print(format_summary(dataset))
+    labels = [args.interaction] if args.interaction else list(INTERACTIONS)
+    config = DemoConfig(iterations=args.iterations, robot=args.robot, video=not args.no_video, seed=args.seed)
+    start = time.perf_counter()
+    done = 0
+    total = 3 * len(labels)
+
+    def progress(message: str) -> None:
+        nonlocal done
+        done += 1
+        print(f"[{done}/{total} {time.perf_counter() - start:6.1f} s] {message}", file=sys.stderr, flush=True)
+
+    results = run_demo(args.out, labels, config, progress=progress if not args.quiet else None)
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    from .._atomic import atomic_write_text
-
-    atomic_write_text(out / "dataset_summary.txt", format_summary(dataset) + "\n")
-    print(f"\nwrote {out / 'dataset_summary.txt'}  (interactions available: {', '.join(INTERACTIONS)})")
+    print(f"\n{'interaction':<14}{'key-joint error m (full / hmm / promp)':>40}{'sub-goals (synth / gt)':>26}")
+    for r in results:
+        errs = " / ".join(f"{r.errors.get(m, float('nan')):.3f}" for m in ("full", *config.baselines))
+        sub = lambda m: f"{sum(g['success'] for g in m['subgoals'])}/{len(m['subgoals'])}"  # noqa: E731
+        print(f"{r.label:<14}{errs:>40}{sub(r.simulation) + ' / ' + sub(r.reference):>26}")
+    notes = {r.video_note for r in results if not r.video}
+    for note in notes:
+        print(f"video: {note}", file=sys.stderr)
+    print(f"\nwrote {out / 'report.md'} (with figures{' and videos' if not notes else ''}) in {time.perf_counter() - start:.0f} s")
     return 0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``demo``."""
-    p = subparsers.add_parser("demo", help="run the main job on the embedded synthetic dataset")
+    p = subparsers.add_parser("demo", help="learn, synthesize, simulate and report on the embedded synthetic dataset")
     p.add_argument("--interaction", help="one interaction (default: all five)")
     p.add_argument("--out", default="demo_out", help="output folder (default: demo_out)")
+    p.add_argument("--iterations", type=int, default=30, help="MCMC iterations of the learning (default 30)")
+    p.add_argument("--robot", default="ours", help="robot to simulate: ours or cmu (default ours)")
+    p.add_argument("--no-video", action="store_true", help="skip rendering")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--seed", type=int, default=0, help="seed of the synthetic data and of every sampler")
     p.set_defaults(func=_run)

@@ -1,0 +1,6 @@
+"""The main job end to end on the embedded synthetic dataset: learn, synthesize, simulate, report."""
+
+from .pipeline import DemoConfig, InteractionResult, run_demo, run_interaction
+from .report import write_report
+
+__all__ = ["DemoConfig", "InteractionResult", "run_demo", "run_interaction", "write_report"]

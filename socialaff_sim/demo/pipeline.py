@@ -1,0 +1,200 @@
+"""One interaction through the whole loop: learn a model, synthesize the robot's reaction to a
+held-out human, compare with the baselines, retarget and simulate it in MuJoCo, render it."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..data.dataset import Dataset
+from ..errors import ConfigError, RenderingUnavailableError, choices
+
+__all__ = ["DemoConfig", "InteractionResult", "run_interaction", "run_demo"]
+
+Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class DemoConfig:
+    """Settings of the demo: the real algorithms with settings that finish quickly."""
+
+    iterations: int = 30
+    """Outer MCMC iterations of Algorithm 1 (the paper uses 100)."""
+    n_test: int = 3
+    """Held-out instances per interaction (actors never seen in training) for the error table."""
+    baselines: tuple[str, ...] = ("hmm", "promp")
+    """Methods the full model is compared with on the held-out instances."""
+    robot: str = "ours"
+    """Robot simulated: ``"ours"`` (assets/robots/ours.xml) or ``"cmu"``."""
+    video: bool = True
+    """Render an MP4 and a contact sheet of the simulated reaction (needs EGL offscreen rendering)."""
+    width: int = 640
+    """Video width, pixels."""
+    height: int = 480
+    """Video height, pixels."""
+    seed: int = 0
+    """Seed of the data and every sampler."""
+
+
+@dataclass
+class InteractionResult:
+    """What the demo produced for one interaction (paths are relative to the output folder)."""
+
+    label: str
+    instance: str
+    subevents: list[tuple[str, float]]
+    """Learned sub-events and their mean durations, seconds."""
+    groupings_png: str
+    synthesis_png: str
+    errors: dict[str, float]
+    """Average key-joint error (m) of each method over the held-out instances."""
+    n_test: int
+    simulation: dict[str, Any] = field(default_factory=dict)
+    """Metrics of the simulated reaction (source = model) ."""
+    reference: dict[str, Any] = field(default_factory=dict)
+    """Metrics of the ground-truth replay through the same pipeline."""
+    video: str | None = None
+    contact_sheet: str | None = None
+    video_note: str = ""
+    seconds: dict[str, float] = field(default_factory=dict)
+
+
+def _held_out(items: list, n_test: int) -> tuple[list, list]:
+    """Split so that the test instances' actor pairs never appear in training."""
+    pairs = sorted({tuple(sorted(i.actors)) for i in items})
+    test_pairs: set[tuple[str, ...]] = set()
+    test: list = []
+    for pair in reversed(pairs):
+        if len(test) >= n_test:
+            break
+        test_pairs.add(pair)
+        test = [i for i in items if tuple(sorted(i.actors)) in test_pairs]
+    train = [i for i in items if tuple(sorted(i.actors)) not in test_pairs]
+    return train, test[:n_test]
+
+
+def run_interaction(
+    dataset: Dataset, label: str, out: Path, config: DemoConfig, progress: Progress | None = None
+) -> InteractionResult:
+    """Run the loop for one interaction, writing figures and the video into ``out``."""
+    from ..model.figures import draw_groupings
+    from ..evaluation.metrics import key_joint_error
+    from ..evaluation.protocol import Prediction, get_method, observed_part
+    from ..inference import BodyFitter, ModelSource, SynthesisConfig, synthesize
+    from ..inference.plot import plot_key_joint_tracks
+    from ..learning.config import LearningConfig
+    from ..model.affordance import SocialAffordanceModel
+    from ..sim.episode import run_episode
+    from ..retarget.sources import GroundTruthSource
+    from ..sim.simulator import Simulator
+    from ..sim.tasks import task_for_label
+
+    say = progress or (lambda _msg: None)
+    seconds: dict[str, float] = {}
+    items = list(dataset.of_label(label))
+    train, test = _held_out(items, config.n_test)
+    rng = np.random.default_rng(config.seed)
+    n_obs = SynthesisConfig().n_observed
+
+    say(f"{label}: learning sub-events and joint groupings from {len(train)} instances (Algorithm 1)")
+    tic = time.perf_counter()
+    model = SocialAffordanceModel(learning=LearningConfig(iterations=config.iterations)).fit(train, rng=rng)
+    body = BodyFitter().fit_interactions(train, agent=1, rng=rng)
+    model.save(out / f"{label}_model.npz")
+    groupings = draw_groupings(model, out / f"{label}_groupings.png")
+    seconds["learning"] = time.perf_counter() - tic
+
+    say(f"{label}: synthesizing the reaction to {len(test)} held-out humans and fitting the baselines")
+    tic = time.perf_counter()
+    errors: dict[str, list[float]] = {"full": []}
+    shown = test[0]
+    for k, inter in enumerate(test):
+        keys, skel, subs, _ = synthesize(
+            model, observed_part(inter, n_obs), rng=np.random.default_rng(config.seed + k), body=body
+        )
+        pred = Prediction(joints=skel, key_joints=keys, subevents=subs, n_observed=n_obs)
+        errors["full"].append(key_joint_error(pred, inter))
+        if inter is shown:
+            frame = model.frame_of(inter)
+            synthesis_png = plot_key_joint_tracks(
+                out / f"{label}_synthesis.png", inter.fps,
+                frame.to_canonical(inter.key_joints()[:, 1]), frame.to_canonical(keys), subs, model.subevent_names_,
+                human=frame.to_canonical(inter.key_joints()[:, 0]), n_observed=n_obs,
+                title=f"{label} {inter.instance_id}: agent 1, ground truth vs synthesized",
+            )
+    for name in config.baselines:
+        method = get_method(name)().fit(train, rng=np.random.default_rng(config.seed))
+        errors[name] = [
+            key_joint_error(method.predict(observed_part(i, n_obs), n_observed=n_obs, rng=np.random.default_rng(config.seed)), i)
+            for i in test
+        ]
+    seconds["synthesis_and_baselines"] = time.perf_counter() - tic
+
+    say(f"{label}: retargeting onto the {config.robot!r} robot with mink and simulating in MuJoCo")
+    tic = time.perf_counter()
+    task = task_for_label(label)
+    reference = run_episode(Simulator(config.robot, task), GroundTruthSource(), shown)
+    sim = Simulator(config.robot, task)
+    source = ModelSource(model, seed=config.seed)
+    video = sheet = None
+    note = "disabled"
+    if config.video:
+        from ..sim.video import EpisodeRecorder
+
+        try:
+            recorder = EpisodeRecorder(sim, out / f"{label}.mp4", out / f"{label}_sheet.png",
+                                       width=config.width, height=config.height)
+        except RenderingUnavailableError as exc:
+            recorder, note = None, f"not rendered: {exc}"
+        if recorder is not None:
+            with recorder:
+                simulation = run_episode(sim, source, shown, on_frame=recorder)
+            video, sheet, note = f"{label}.mp4", f"{label}_sheet.png", "rendered"
+        else:
+            simulation = run_episode(sim, source, shown)
+    else:
+        simulation = run_episode(sim, source, shown)
+    seconds["simulation"] = time.perf_counter() - tic
+    return InteractionResult(
+        label=label,
+        instance=shown.instance_id,
+        subevents=[(n, float(d)) for n, d in zip(model.subevent_names_, model.mean_durations_, strict=True)],
+        groupings_png=groupings.name,
+        synthesis_png=synthesis_png.name,
+        errors={k: float(np.mean(v)) for k, v in errors.items()},
+        n_test=len(test),
+        simulation=simulation,
+        reference=reference,
+        video=video,
+        contact_sheet=sheet,
+        video_note=note,
+        seconds=seconds,
+    )
+
+
+def run_demo(
+    out: str | Path,
+    interactions: Sequence[str] | None = None,
+    config: DemoConfig | None = None,
+    progress: Progress | None = None,
+) -> list[InteractionResult]:
+    """The whole demo on the synthetic dataset; writes everything (and ``report.md``) into ``out``."""
+    from ..data.synthetic import INTERACTIONS, generate_dataset
+    from .report import write_report
+
+    config = config or DemoConfig()
+    labels = list(interactions) if interactions else list(INTERACTIONS)
+    unknown = [x for x in labels if x not in INTERACTIONS]
+    if unknown:
+        raise ConfigError(f"demo: unknown interaction {unknown[0]!r}; choose from {choices(INTERACTIONS)}")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    dataset = generate_dataset(config.seed)
+    results = [run_interaction(dataset, label, out, config, progress) for label in labels]
+    write_report(out / "report.md", results, config)
+    return results

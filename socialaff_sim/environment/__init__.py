@@ -1,0 +1,36 @@
+"""The Gymnasium environment: a humanoid robot plays agent 1 of an interaction, facing a replayed person.
+
+Importing this package registers the ids of :data:`~socialaff_sim.environment.registration.ENV_IDS`
+(``SocialAffordance-v0`` and one per interaction, e.g. ``SocialAffordance-ShakeHands-v0``);
+see docs/environment.md.
+"""
+
+from .adapters import AdapterFrame, AffordanceAdapter, AffordanceScore, GroundTruthAdapter, RobotPose
+from .config import ACTION_MODES, PHYSICS_PRESETS, EnvConfig, physics_config
+from .env import SocialAffordanceEnv
+from .model_adapter import ModelAdapter, ModelScorer, load_models
+from .registration import ENV_IDS, MAX_EPISODE_STEPS, register_envs
+from .reward import RewardConfig, RewardTracker
+
+__all__ = [
+    "ACTION_MODES",
+    "PHYSICS_PRESETS",
+    "ENV_IDS",
+    "MAX_EPISODE_STEPS",
+    "AdapterFrame",
+    "AffordanceAdapter",
+    "AffordanceScore",
+    "EnvConfig",
+    "GroundTruthAdapter",
+    "ModelAdapter",
+    "ModelScorer",
+    "RewardConfig",
+    "RewardTracker",
+    "RobotPose",
+    "SocialAffordanceEnv",
+    "load_models",
+    "physics_config",
+    "register_envs",
+]
+
+register_envs()

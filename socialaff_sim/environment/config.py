@@ -1,0 +1,96 @@
+"""Settings of the Gymnasium environment: observation history, action bounds, physics preset.
+
+:class:`EnvConfig` holds everything about the environment that is not the data,
+the robot, the reward or the adapter; :class:`~socialaff_sim.environment.env.SocialAffordanceEnv`
+builds one from its keyword arguments (so that ``gymnasium.make(..., history=8)``
+works) and validates it here, in one place.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from ..errors import ConfigError, choices
+from ..sim.simulator import SimConfig
+
+__all__ = ["ACTION_MODES", "PHYSICS_PRESETS", "EnvConfig", "physics_config"]
+
+ACTION_MODES = ("targets", "residual")
+"""``targets``: the five key-frame targets themselves; ``residual``: offsets added to the adapter's proposal."""
+
+PHYSICS_PRESETS = ("fast", "accurate")
+"""Physics settings by name; see :func:`physics_config`."""
+
+
+def physics_config(preset: str) -> SimConfig:
+    """The simulator settings of a physics preset.
+
+    * ``accurate``: the simulator's defaults (:class:`~socialaff_sim.sim.simulator.SimConfig`,
+      physics step Δt = 4 ms, i.e. about 20 physics steps per data frame at 12 fps);
+    * ``fast``: twice the default Δt (8 ms: half as many physics steps per data frame) and at most
+      two IK iterations per frame: what makes the environment reach its speed target on one core.
+      The servos (ω = 25 rad/s) stay well resolved (ω·Δt = 0.2); contacts are softer, and replaying the
+      recorded agent 1 meets every sub-goal a little less often (docs/environment.md, "Speed").
+    """
+    base = SimConfig()
+    if preset == "accurate":
+        return base
+    if preset == "fast":
+        return replace(base, timestep=2.0 * base.timestep, ik=replace(base.ik, iterations=min(2, base.ik.iterations)))
+    raise ConfigError(f"physics: expected {choices(PHYSICS_PRESETS)}, found {preset!r}")
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """How observations and actions are laid out (not the paper's: the environment is ours)."""
+
+    action_mode: str = "targets"
+    """Action mode, one of :data:`ACTION_MODES`."""
+    history: int = 4
+    """H, frames of the human's key joints (and of the object) in each observation."""
+    target_low: tuple[float, float, float] = (-1.0, -1.5, 0.0)
+    """Lower bound (x, y, z) of every key-frame target in ``targets`` mode, metres, robot frame."""
+    target_high: tuple[float, float, float] = (3.0, 1.5, 2.5)
+    """Upper bound (x, y, z) of every key-frame target in ``targets`` mode, metres, robot frame."""
+    residual_bound: float = 0.3
+    """ρ, metres: a ``residual`` action is an offset in [−ρ, ρ] per coordinate."""
+    position_bound: float = 6.0
+    """P, metres: positions in observations are clipped to [−P, P] (the observation bounds)."""
+    velocity_bound: float = 30.0
+    """V, rad/s: joint velocities in observations are clipped to [−V, V]."""
+    terminate_on_failure: bool = True
+    """Whether a failure condition of the task file (self-collision, force on the person, a drop)
+    ends the episode (``terminated``); otherwise it is only penalised once."""
+    max_frames: int | None = None
+    """Cut every instance to its first this many frames (short episodes, e.g. in tests); ``None``: whole instances."""
+    physics: str = "fast"
+    """Physics preset, one of :data:`PHYSICS_PRESETS` (see :func:`physics_config`)."""
+    render_width: int = 640
+    """Width of ``rgb_array`` frames, pixels."""
+    render_height: int = 480
+    """Height of ``rgb_array`` frames, pixels."""
+
+    def __post_init__(self) -> None:
+        def bad(name: str, expected: str) -> ConfigError:
+            return ConfigError(f"SocialAffordanceEnv: argument {name!r}: expected {expected}, found {getattr(self, name)!r}")
+
+        if self.action_mode not in ACTION_MODES:
+            raise bad("action_mode", choices(ACTION_MODES))
+        if self.physics not in PHYSICS_PRESETS:
+            raise bad("physics", choices(PHYSICS_PRESETS))
+        if not isinstance(self.history, int) or self.history < 1:
+            raise bad("history", "an integer >= 1")
+        if self.max_frames is not None and (not isinstance(self.max_frames, int) or self.max_frames < 3):
+            raise bad("max_frames", "None or an integer >= 3 (an episode needs at least two steps)")
+        for name in ("residual_bound", "position_bound", "velocity_bound"):
+            if not float(getattr(self, name)) > 0:
+                raise bad(name, "a number > 0")
+        if len(self.target_low) != 3 or len(self.target_high) != 3:
+            raise bad("target_low", "three numbers (x, y, z), and three for target_high")
+        if any(lo >= hi for lo, hi in zip(self.target_low, self.target_high, strict=True)):
+            raise bad("target_low", f"values below target_high = {self.target_high}")
+        if max(abs(v) for v in (*self.target_low, *self.target_high)) > self.position_bound:
+            raise bad("target_low", f"targets within the observation bound ±{self.position_bound} m")
+        for name in ("render_width", "render_height"):
+            if not isinstance(getattr(self, name), int) or not 16 <= getattr(self, name) <= 4096:
+                raise bad(name, "an integer in [16, 4096] pixels")

@@ -1,0 +1,337 @@
+"""The Gymnasium environment: a robot reacting to a replayed person, one data frame per step.
+
+An episode replays one human instance (agent 0 of an interaction, chosen by the
+reset seed from the environment's instances) in MuJoCo physics, with the robot
+facing them; the robot is driven by the action through mink IK and its position
+servos (:class:`~socialaff_sim.sim.simulator.Simulator`), and each step advances
+one frame of the recording. Observations are documented in
+:mod:`socialaff_sim.environment.observation`, rewards in
+:mod:`socialaff_sim.environment.reward`, actions below and in docs/environment.md.
+
+Actions, a (5, 3) float32 :class:`~gymnasium.spaces.Box` (rows: base, left wrist,
+right wrist, left ankle, right ankle; metres, robot frame), clipped to the space:
+
+* ``targets``: the key-frame targets themselves, in ``EnvConfig.target_low … target_high``;
+* ``residual``: offsets in [−ρ, ρ] added to the adapter's proposal for the frame
+  (the ``proposal`` entry of the observation), so a policy learns corrections.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from ..data.skeletons import N_KEY
+from ..errors import ConfigError, SimulationError, choices
+from ..retarget.robot import RobotSpec, load_robot
+from ..sim.simulator import Simulator, StepResult
+from .adapters import AdapterFrame, AffordanceAdapter, GroundTruthAdapter, RobotPose
+from .bodymap import RobotToAgent
+from .config import EnvConfig, physics_config
+from .instances import DataSpec, EpisodePool, load_pool
+from .model_adapter import ModelAdapter, ModelSpec, load_models
+from .observation import ObservationLayout
+from .rendering import FrameRenderer, HumanViewer, display_available
+from .reward import RewardConfig, RewardTracker
+
+__all__ = ["SocialAffordanceEnv"]
+
+RESET_OPTIONS = ("interaction", "instance")
+
+
+class SocialAffordanceEnv(gym.Env):
+    """Play agent 1 of a two-person interaction with a humanoid robot, facing a replayed person.
+
+    Parameters
+    ----------
+    interactions:
+        Label(s) to play (e.g. ``"shake_hands"``); ``None``: every label of the data.
+    data:
+        Dataset spec (``"synthetic"``, ``"synthetic:SEED"``, ``"sbu:PATH"``, ...), a Dataset or a list of instances.
+    robot:
+        ``"ours"``, ``"cmu"`` or a robot mapping file (docs/robots.md).
+    action_mode:
+        ``"targets"`` or ``"residual"`` (see the module docstring).
+    model:
+        A fitted affordance model (file, object, or one per label): its synthesis gives the proposal and the
+        sub-event belief, its spatial potentials the affordance reward. ``None``: the ground-truth adapter.
+    adapter:
+        A custom :class:`~socialaff_sim.environment.adapters.AffordanceAdapter` (instead of ``model``).
+    history, max_frames, physics, terminate_on_failure, render_width, render_height:
+        Fields of :class:`~socialaff_sim.environment.config.EnvConfig`.
+    reward:
+        Term weights (:class:`~socialaff_sim.environment.reward.RewardConfig`).
+    proxy_sigma:
+        σ (m) of the ground-truth adapter's Gaussian proxy score (used when ``model`` is ``None``).
+    render_mode:
+        ``None``, ``"rgb_array"`` or ``"human"`` (needs a display).
+    """
+
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array", "human"], "render_fps": 12}
+
+    def __init__(
+        self,
+        interactions: str | Sequence[str] | None = None,
+        data: DataSpec = "synthetic",
+        robot: str | Path | RobotSpec = "ours",
+        action_mode: str = "targets",
+        model: ModelSpec | None = None,
+        adapter: AffordanceAdapter | None = None,
+        history: int = 4,
+        max_frames: int | None = None,
+        physics: str = "fast",
+        reward: RewardConfig | None = None,
+        terminate_on_failure: bool = True,
+        proxy_sigma: float = 0.1,
+        render_mode: str | None = None,
+        render_width: int = 640,
+        render_height: int = 480,
+    ) -> None:
+        self._init_kwargs = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
+        self.config = EnvConfig(
+            action_mode=action_mode, history=history, max_frames=max_frames, physics=physics,
+            terminate_on_failure=terminate_on_failure, render_width=render_width, render_height=render_height,
+        )
+        if render_mode not in (None, *type(self).metadata["render_modes"]):
+            raise ConfigError(f"render_mode: expected None, {choices(type(self).metadata['render_modes'])}, found {render_mode!r}")
+        self.render_mode = render_mode
+        self._viewer = HumanViewer() if render_mode == "human" else None
+        self._frames = FrameRenderer(render_width, render_height) if render_mode == "rgb_array" else None
+        self.pool: EpisodePool = load_pool(data, interactions, max_frames)
+        if model is not None and adapter is not None:
+            raise ConfigError("give either model= (a fitted affordance model) or adapter= (a custom adapter), not both")
+        if adapter is None:
+            adapter = ModelAdapter(load_models(model, self.pool.labels)) if model is not None else GroundTruthAdapter(proxy_sigma)
+        elif not isinstance(adapter, AffordanceAdapter):
+            raise ConfigError(f"adapter: expected an AffordanceAdapter (kind, subevent_names, reset, observe, "
+                              f"log_likelihood), found {type(adapter).__name__}")
+        self.adapter: AffordanceAdapter = adapter
+        self.robot = robot if isinstance(robot, RobotSpec) else load_robot(robot)
+        self._sim_config = physics_config(self.config.physics)
+        self._sims: dict[str, Simulator] = {}
+        self._to_agent = RobotToAgent()
+        first = self.pool.instances[0]
+        probe = self._simulator(first.label)
+        probe.reset(first)
+        n_joints = len(probe.joint_state()[0])
+        names = {lbl: self.adapter.subevent_names(lbl, self.pool.instances) for lbl in self.pool.labels}
+        self.rewards = RewardTracker([self.pool.tasks[lbl] for lbl in self.pool.labels], reward)
+        self.layout = ObservationLayout(
+            history=self.config.history, n_joints=n_joints, n_subevents=max(1, *(len(n) for n in names.values())),
+            interactions=self.pool.labels, subgoals=self.rewards.subgoal_names,
+            position_bound=self.config.position_bound, velocity_bound=self.config.velocity_bound,
+        )
+        self.observation_space = self.layout.space()
+        cfg = self.config
+        if cfg.action_mode == "targets":
+            low = np.tile(np.asarray(cfg.target_low, np.float32), (N_KEY, 1))
+            high = np.tile(np.asarray(cfg.target_high, np.float32), (N_KEY, 1))
+            self.action_space = spaces.Box(low=low, high=high, dtype=np.float32)
+        else:
+            r = np.float32(cfg.residual_bound)
+            self.action_space = spaces.Box(low=-r, high=r, shape=(N_KEY, 3), dtype=np.float32)
+        modes = ["rgb_array"] + (["human"] if display_available() else [])
+        self.metadata = {"render_modes": modes, "render_fps": float(first.fps)}
+        self._index: int | None = None
+        self._actions: list[np.ndarray] = []
+
+    # -- episode state -------------------------------------------------------------------
+    def _simulator(self, label: str) -> Simulator:
+        if label not in self._sims:
+            self._sims[label] = Simulator(self.robot, self.pool.tasks[label], self._sim_config)
+        return self._sims[label]
+
+    @property
+    def simulator(self) -> Simulator:
+        """The simulator of the current episode."""
+        self._require()
+        return self._sim
+
+    def _require(self) -> None:
+        if self._index is None:
+            raise SimulationError("SocialAffordanceEnv: call reset() before step() or render()")
+
+    def _retarget(self, frame: AdapterFrame, t: int) -> None:
+        """Set the proposal for frame ``t``: the adapter's, retargeted (``_reference``, NaN rows where it has
+        none) and with those rows holding the robot's key frames (``_proposal``, the observation's)."""
+        sim = self._sim
+        self._reference = sim.retarget(frame.proposal, frame=t)
+        out = self._reference.copy()
+        bad = ~np.isfinite(out).all(axis=1)
+        if bad.any():
+            out[bad] = sim.robot_key_frames()[bad]
+        self._proposal = out
+
+    def _start(self, index: int, adapter_seed: int) -> None:
+        inter = self.pool.instances[index]
+        self._index, self._adapter_seed = index, adapter_seed
+        self._actions = []
+        self._sim = sim = self._simulator(inter.label)
+        self.adapter.reset(inter, rng=np.random.default_rng(adapter_seed))
+        self._to_agent.reset()
+        first = self.adapter.observe(0)
+        sim.reset(inter)
+        sim.settle(sim.retarget(first.proposal, frame=0))
+        idx = inter.layout.key_indices
+        self._human_mask = np.array([i is not None for i in idx], dtype=np.float32)
+        track = np.zeros((inter.n_frames, N_KEY, 3))
+        for k, i in enumerate(idx):
+            if i is not None:
+                track[:, k] = sim.frame_R.to_robot(sim.pose.joints[:, i])
+        self._human_track = track
+        obj = sim.object_position()
+        self._obj_hist = np.zeros((self.config.history, 3)) if obj is None else np.tile(obj, (self.config.history, 1))
+        self.rewards.reset(sim.task)
+        self._frame = self.adapter.observe(min(1, inter.n_frames - 1))
+        self._retarget(self._frame, 1)
+        self._scored_frame = first
+        self._robot_keys = sim.robot_key_frames()
+        self._last: StepResult | None = None
+        self._last_terms: dict[str, float] = {}
+        self._done = False
+        self.metadata["render_fps"] = float(inter.fps)
+
+    def _advance(self, action: np.ndarray) -> tuple[float, dict[str, float], StepResult]:
+        sim, cfg = self._sim, self.config
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape == (N_KEY * 3,):
+            a = a.reshape(N_KEY, 3)
+        if a.shape != (N_KEY, 3):
+            raise SimulationError(f"action: expected shape (5, 3) (rows base, wrists, ankles; metres), found {a.shape}")
+        if not np.isfinite(a).all():
+            raise SimulationError("action: expected finite numbers, found NaN or inf")
+        a = np.clip(a, self.action_space.low, self.action_space.high)
+        self._actions.append(a.copy())
+        targets = a if cfg.action_mode == "targets" else self._proposal + a
+        res = sim.step(targets, subevent=self._frame.subevent_name)
+        t = sim.frame
+        obj_r = sim.object_position()
+        obj_data = None if obj_r is None else sim.frame_R.to_world(obj_r) - sim.offset
+        self._robot_keys = robot_keys = sim.robot_key_frames()
+        pose = RobotPose(t, robot_keys, self._reference, obj_data, lambda: self._to_agent(sim, robot_keys, t))
+        score = self.adapter.log_likelihood(self._frame.subevent, pose)
+        terms = self.rewards.step(score, sim.scorer)
+        self._scored_frame = self._frame
+        if obj_r is not None:
+            self._obj_hist = np.vstack([self._obj_hist[1:], obj_r[None]])
+        if not sim.done:
+            self._frame = self.adapter.observe(t + 1)
+            self._retarget(self._frame, t + 1)
+        self._last, self._last_terms = res, terms
+        self._done = sim.done or (cfg.terminate_on_failure and sim.scorer.failed)
+        return RewardTracker.total(terms), terms, res
+
+    # -- observation and info ----------------------------------------------------------------
+    def _observation(self) -> dict[str, np.ndarray]:
+        sim = self._sim
+        q, qd = sim.joint_state()
+        return self.layout.build(
+            human_track=self._human_track, human_mask=self._human_mask, object_history=self._obj_hist,
+            object_present=sim.carry is not None, robot_keys=self._robot_keys, joint_pos=q, joint_vel=qd,
+            proposal=self._proposal, belief=self._frame.belief,
+            interaction=self.pool.instances[self._index].label,  # type: ignore[index]
+            subgoal_progress=self.rewards.progress(sim.scorer), frame=sim.frame, n_frames=sim.n_frames,
+        )
+
+    def _info(self, terms: dict[str, float] | None) -> dict[str, Any]:
+        sim = self._sim
+        inter = self.pool.instances[self._index]  # type: ignore[index]
+        scorer = sim.scorer
+        frame = self._scored_frame
+        subgoals = {r.name: bool(r.success) for r in scorer.subgoals}
+        info: dict[str, Any] = {
+            "interaction": inter.label,
+            "instance": inter.instance_id,
+            "frame": int(sim.frame),
+            "subevent": frame.subevent_name,
+            "subevent_index": int(frame.subevent),
+            "subgoals": subgoals,
+            "success": bool(all(subgoals.values()) and not scorer.failed),
+            "failed": bool(scorer.failed),
+            "failures": {f.kind: bool(f.triggered) for f in scorer.failures},
+            "adapter": self.adapter.kind,
+        }
+        if terms is not None and self._last is not None:
+            info["ik_error"] = np.array(self._last.ik_error, dtype=np.float64)
+            info["force_on_human"] = float(self._last.force_on_human)
+            info.update({f"reward_{k}": float(v) for k, v in terms.items()})
+        return info
+
+    # -- Gymnasium API -----------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Start an episode on an instance drawn with the env's RNG (``options``: ``interaction`` or ``instance`` id)."""
+        super().reset(seed=seed)
+        options = dict(options or {})
+        unknown = sorted(set(options) - set(RESET_OPTIONS))
+        if unknown:
+            raise ConfigError(f"reset options: unknown keys {choices(unknown)}; valid keys: {choices(RESET_OPTIONS)}")
+        candidates = self.pool.indices(interaction=options.get("interaction"), instance=options.get("instance"))
+        index = candidates[int(self.np_random.integers(len(candidates)))]
+        self._start(index, int(self.np_random.integers(2**63)))
+        if self.render_mode == "human":
+            self.render()
+        return self._observation(), self._info(None)
+
+    def step(self, action: np.ndarray) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        """Advance one frame of the recording; see the module docstring for the action."""
+        self._require()
+        if self._done:
+            raise SimulationError("SocialAffordanceEnv: the episode has ended (terminated); call reset()")
+        reward, terms, _ = self._advance(action)
+        if self.render_mode == "human":
+            self.render()
+        return self._observation(), reward, bool(self._done), False, self._info(terms)
+
+    def render(self) -> np.ndarray | None:
+        """``rgb_array``: (H, W, 3) uint8 frame with a caption; ``human``: refresh the window; else ``None``."""
+        if self.render_mode is None:
+            return None
+        self._require()
+        sim = self._sim
+        if self._viewer is not None:
+            self._viewer.show(sim)
+            return None
+        assert self._frames is not None
+        inter = self.pool.instances[self._index]  # type: ignore[index]
+        name = self._scored_frame.subevent_name
+        total = RewardTracker.total(self._last_terms) if self._last_terms else 0.0
+        caption = [f"{inter.label}  {inter.instance_id}  frame {sim.frame}/{sim.n_frames - 1}",
+                   f"sub-event: {name or '?'}   reward {total:+.2f}"]
+        return self._frames.render(sim, caption)
+
+    def close(self) -> None:
+        """Free the renderers (idempotent)."""
+        if self._frames is not None:
+            self._frames.close()
+        if self._viewer is not None:
+            self._viewer.close()
+
+    # -- pickling ----------------------------------------------------------------------------
+    def __getstate__(self) -> dict[str, Any]:
+        rng = self._np_random
+        return {
+            "kwargs": self._init_kwargs,
+            "rng": None if rng is None else rng.bit_generator.state,
+            "seed": self._np_random_seed,
+            "spec": self.spec,
+            "episode": None if self._index is None else (self._index, self._adapter_seed, [a.copy() for a in self._actions]),
+        }
+
+    def __setstate__(self, state: Mapping[str, Any]) -> None:
+        """Rebuild from the constructor arguments, then replay the current episode's actions (deterministic)."""
+        self.__init__(**state["kwargs"])  # type: ignore[misc]
+        self.spec = state["spec"]
+        if state["rng"] is not None:
+            gen = np.random.Generator(getattr(np.random, state["rng"]["bit_generator"])())
+            gen.bit_generator.state = state["rng"]
+            self._np_random, self._np_random_seed = gen, state["seed"]
+        if state["episode"] is not None:
+            index, adapter_seed, actions = state["episode"]
+            self._start(index, adapter_seed)
+            for a in actions:
+                self._advance(a)
