@@ -224,3 +224,12 @@ def test_actor_disjoint_folds(rng: np.random.Generator) -> None:
         assert len(test) > 0
     with pytest.raises(DataError, match="actor pairs"):
         actor_disjoint_folds(items[:2], 4, rng=np.random.default_rng(0))
+
+
+def test_saved_files_get_ordinary_permissions(tmp_path: Path, rng: np.random.Generator) -> None:
+    import os
+
+    mask = os.umask(0)
+    os.umask(mask)
+    path = save_interaction(make(rng), tmp_path / "perm.npz")
+    assert path.stat().st_mode & 0o777 == 0o666 & ~mask
