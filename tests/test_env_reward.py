@@ -153,7 +153,7 @@ def test_robot_to_agent_inverts_the_scaler(data):
             np.testing.assert_allclose(back[[0, 3, 4]], keys[t, [0, 3, 4]], atol=1e-9)  # base and ankles: exact
             frames += 1
             exact += np.abs(sim.retarget(back, frame=t) - target).max() <= 1e-5  # wrists: a preimage
-            obj = None if inter.object is None else inter.object[t] + sim.offset
+            obj = sim.object_anchors(t)
             if not sim.scaler.contact_weights(keys[t] + sim.offset, sim.pose.joints[t], obj).any():
                 np.testing.assert_allclose(back[1:3], keys[t, 1:3], atol=1e-6)  # away from the partner: the recording
             else:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -13,11 +14,13 @@ from socialaff_sim.errors import ConfigError
 from socialaff_sim.resources import asset_path
 from socialaff_sim.retarget.robot import available_robots, load_robot
 from socialaff_sim.retarget.scaling import (
+    LOOKAHEAD_POINTS,
     BodyMeasurements,
     KeyJointScaler,
     ScalingConfig,
     measure_human,
     measure_robot,
+    object_anchors,
     smoothstep,
 )
 from socialaff_sim.sim.scene import build_scene
@@ -92,7 +95,7 @@ def test_a_mapping_file_anywhere_works(tmp_path: Path) -> None:
     [
         ('base = "site:base"', 'base = "joint:base"', r"key 'frames\.base': expected 'site:NAME' or 'body:NAME'"),
         ('left_wrist = "site:left_wrist"', "", r"key 'frames\.left_wrist': expected a value"),
-        ("max_joint_velocity = 8.0", "max_joint_velocity = -1.0", r"limits\.max_joint_velocity'.*\[0\.001, 1000\.0\]"),
+        ("max_joint_velocity = 12.0", "max_joint_velocity = -1.0", r"limits\.max_joint_velocity'.*\[0\.001, 1000\.0\]"),
         ('keyframe = "home"', 'keyframe = "rest"', r"posture\.keyframe 'rest' is not in the model; keyframes: 'home'"),
         ('base = "site:base"', 'base = "site:pelvis_site"', r"frame 'site:pelvis_site' is not in the robot model; sites present: 'base'"),
     ],
@@ -106,13 +109,13 @@ def test_mapping_errors(tmp_path: Path, old: str, new: str, pattern: str) -> Non
 
 
 def test_robot_measurements_match_the_model_by_hand() -> None:
-    # ours.xml: upper arm 0.28 + forearm 0.27; thigh 0.26 + shin 0.24; shoulders 0.215 out.
+    # ours.xml: upper arm 0.44 + forearm 0.40; thigh 0.26 + shin 0.24; shoulders 0.235 out, 0.40 above the torso joint.
     scene = build_scene(load_robot("ours"), LAYOUT, physics=False)
     m = measure_robot(scene.model, scene.home_qpos, scene.frame_kinds, scene.frame_ids, scene.limb_body_ids)
-    np.testing.assert_allclose(m.arm, 0.55, atol=1e-9)
+    np.testing.assert_allclose(m.arm, 0.84, atol=1e-9)
     np.testing.assert_allclose(m.leg, 0.50, atol=1e-9)
-    np.testing.assert_allclose(m.shoulders[:, 1], [0.215, -0.215], atol=1e-9)
-    np.testing.assert_allclose(m.shoulders[:, 2], 0.08 + 0.36, atol=1e-9)  # torso joint + shoulder height
+    np.testing.assert_allclose(m.shoulders[:, 1], [0.235, -0.235], atol=1e-9)
+    np.testing.assert_allclose(m.shoulders[:, 2], 0.08 + 0.40, atol=1e-9)  # torso joint + shoulder height
     # Standing on the floor: base height = 0.62 minus how far the feet sink below their soles.
     np.testing.assert_allclose(m.base_height, 0.62 - (0.08 - 0.08), atol=3e-3)
 
@@ -161,8 +164,10 @@ def test_scaling_closed_form_far_from_the_partner() -> None:
 
 def test_contact_preservation_uses_the_recording_near_the_partner() -> None:
     inter = pair(distance=1.0)
-    scaler = KeyJointScaler(ROBOT, ScalingConfig(contact_push=0.0))
+    # No push at all: δ = 0 and hands of equal length (the human's wrist→hand is 0.08 m in `standing`).
+    scaler = KeyJointScaler(dataclasses.replace(ROBOT, hand=0.08), ScalingConfig(contact_push=0.0))
     scaler.reset(inter, np.zeros(3))
+    np.testing.assert_allclose(scaler.push, 0.0, atol=1e-12)
     partner = inter.joints[0, 0]
     keys = inter.key_joints()[0, 1].copy()
     hand0 = partner[LAYOUT.index("right_hand")]
@@ -170,10 +175,80 @@ def test_contact_preservation_uses_the_recording_near_the_partner() -> None:
     out = scaler(keys, partner)
     np.testing.assert_allclose(scaler.frame.to_world(out[2]), keys[2], atol=1e-9)
     assert scaler.contact_weights(keys, partner)[1] == 1.0
-    # With the push, the target goes 5 cm further, straight toward the partner's nearest joint.
+    # With the push, the wrist goes δ + hand_h − hand_r further, straight toward the partner's nearest joint:
+    # the middle of the robot's hand (here 0 m past its wrist) lands δ past the middle of agent 1's (0.08 m).
     pushed = KeyJointScaler(ROBOT)
     pushed.reset(inter, np.zeros(3))
+    np.testing.assert_allclose(pushed.human.hand, 0.08, atol=1e-9)
+    np.testing.assert_allclose(pushed.push, 0.05 + 0.08 - 0.0, atol=1e-12)
+    assert pushed.config.contact_push == pushed.push  # what the config reports is what is applied
     moved = pushed.frame.to_world(pushed(keys, partner)[2])
     nearest = min(partner, key=lambda p: float(np.linalg.norm(p - keys[2])))
     u = (nearest - keys[2]) / np.linalg.norm(nearest - keys[2])
-    np.testing.assert_allclose(moved, keys[2] + 0.05 * u, atol=1e-9)
+    np.testing.assert_allclose(moved, keys[2] + 0.13 * u, atol=1e-9)
+
+
+def test_object_anchors_follow_a_ballistic_path() -> None:
+    fps = 12.0
+    t = np.arange(6) / fps
+    p0, v0 = np.array([0.0, 1.0, 1.5]), np.array([3.0, -0.5, 2.0])
+    track = p0 + v0 * t[:, None] - 0.5 * 9.81 * t[:, None] ** 2 * np.array([0.0, 0.0, 1.0])
+    anchors = object_anchors(track, 3, fps, lookahead=0.25)
+    assert anchors.shape == (1 + LOOKAHEAD_POINTS, 3)
+    np.testing.assert_allclose(anchors[0], track[3], atol=1e-12)
+    # From the frame-to-frame velocity (exact for this track up to the half-step gravity term).
+    v = (track[3] - track[2]) * fps
+    s = np.linspace(0.25 / LOOKAHEAD_POINTS, 0.25, LOOKAHEAD_POINTS)
+    expect = track[3] + v * s[:, None] - 0.5 * 9.81 * s[:, None] ** 2 * np.array([0.0, 0.0, 1.0])
+    np.testing.assert_allclose(anchors[1:], expect, atol=1e-12)
+    np.testing.assert_allclose(object_anchors(track, 0, fps, 0.25), track[:1], atol=0)  # no previous frame
+    np.testing.assert_allclose(object_anchors(track, 4, fps, 0.0), track[4:5], atol=0)  # no lookahead
+
+
+def test_contact_placement_keeps_the_contact_within_reach() -> None:
+    # Agent 1 (1.2 m away) touches agent 0's right hand with its right wrist in every frame.
+    inter = pair(distance=1.2)
+    joints = np.array(inter.joints)
+    n = LAYOUT.joint_names
+    meet = np.array([0.6, -0.05, 1.0])
+    joints[:, 0, n.index("right_hand")] = meet + (-0.05, 0.0, 0.0)
+    joints[:, 1, n.index("right_wrist")] = meet + (0.05, 0.0, 0.0)
+    inter = inter.replace(joints=joints)
+    scaler = KeyJointScaler(ROBOT, ScalingConfig(max_extension=0.9, body_clearance=0.0))
+    scaler.reset(inter, np.zeros(3))
+    # Independent check: at the chosen k the robot's right shoulder is exactly e·arm_r from the wrist,
+    # e = agent 1's own extension there (capped at 0.9), and no farther k would do.
+    wrist = joints[0, 1, n.index("right_wrist")]
+    e = min(np.linalg.norm(wrist - joints[0, 1, n.index("right_shoulder")]) / scaler.human.arm, 0.9)
+
+    def shoulder_gap(k: float) -> float:
+        base = np.array([1.2 * k, 0.0, ROBOT.base_height + scaler.s_leg * (1.0 - scaler.human.base_height)])
+        shoulder = base + scaler.frame.rotation @ ROBOT.shoulders[1]
+        return float(np.linalg.norm(wrist - shoulder))
+
+    assert scaler.contact_k is not None
+    np.testing.assert_allclose(scaler.k, scaler.contact_k, atol=1e-12)
+    np.testing.assert_allclose(shoulder_gap(scaler.k), e * ROBOT.arm, atol=1e-9)
+    assert shoulder_gap(scaler.k + 0.01) > e * ROBOT.arm
+    # Without contact samples the arm ratio places it.
+    far = KeyJointScaler(ROBOT, ScalingConfig(contact_radius=0.01))
+    far.reset(inter, np.zeros(3))
+    assert far.contact_k is None
+    np.testing.assert_allclose(far.k, (0.55 + ROBOT.arm) / (0.55 + far.human.arm), atol=1e-9)
+
+
+def test_body_clearance_moves_the_robot_back() -> None:
+    inter = pair(distance=0.5)
+    robot = dataclasses.replace(ROBOT, trunk_radius=0.3)
+    scaler = KeyJointScaler(robot, ScalingConfig(contact_placement=False, body_clearance=0.1))
+    scaler.reset(inter, np.zeros(3))
+    # Brute force: the smallest k on a 0.01 grid from the arm ratio at which the robot's axis is at least
+    # 0.3 + 0.1 from every trunk, head and leg joint of agent 0 (horizontally).
+    k0 = (0.55 + 0.4) / (0.55 + 0.55)
+    n = LAYOUT.joint_names
+    body = np.array([inter.joints[0, 0, j, :2] for j, name in enumerate(n)
+                     if not any(p in name for p in ("elbow", "wrist", "hand", "thumb", "tip"))])
+    ks = np.arange(k0, 2.0 + 1e-9, 0.01)
+    clear = [np.linalg.norm(body - np.array([0.5 * k, 0.0]), axis=1).min() >= 0.4 for k in ks]
+    np.testing.assert_allclose(scaler.k, ks[int(np.argmax(clear))], atol=1e-9)
+    assert scaler.k > k0

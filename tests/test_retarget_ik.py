@@ -1,4 +1,5 @@
-"""mink IK: the limits bind (joint range, velocity, collision), reachable targets are met."""
+"""mink IK: the limits bind (joint range, velocity, base speed, collision), the collision rows and the key-frame
+task are exact derivatives (finite differences), a person moving in pushes the robot out, reachable targets are met."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 
 from socialaff_sim.data.skeletons import get_layout
+from socialaff_sim.retarget.collision import collision_pairs
 from socialaff_sim.retarget.ik import IKConfig, IKModel, RobotIK
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.scene import Scene, build_scene, set_human_sizes
@@ -151,7 +153,7 @@ def test_velocity_limit_caps_each_frame(stick: Scene) -> None:
 
 
 def test_collision_pair_keeps_its_distance(stick: Scene) -> None:
-    config = IKConfig(min_distance=0.02)
+    config = IKConfig(min_distance=0.02, contact_depth=0.0)
     ik = ik_for(stick, 1.0, config)  # slow enough that the 10 cm detection range sees it coming
     targets = ik.frame_positions().copy()
     hand = targets[1].copy()
@@ -164,7 +166,7 @@ def test_collision_pair_keeps_its_distance(stick: Scene) -> None:
     half = np.full(stick.n_bones, 0.05)
     half[bone] = 0.3
     set_human_sizes(stick, half)
-    ik.set_contact_exemptions([])  # rebuild: the capsule changed size
+    ik.set_contact_exemptions([])  # rebuild the pairs for the new sizes
     ik.set_human(pos, quat)
     palm = stick.model.geom("robot/lpalm").id
     capsule = stick.human_geom_ids[bone]
@@ -180,6 +182,120 @@ def test_collision_pair_keeps_its_distance(stick: Scene) -> None:
         ik.solve(targets, 0.0, dt=0.05)
     d = mujoco.mj_geomDistance(stick.model, ik.configuration.data, palm, int(capsule), 1.0, fromto)
     np.testing.assert_allclose(d, -config.contact_depth, atol=5e-3)
+
+
+def _far_human(scene: Scene, ik: RobotIK) -> tuple[np.ndarray, np.ndarray]:
+    pos = np.array(ik.configuration.data.mocap_pos[scene.human_mocap])
+    return pos, np.tile([1.0, 0.0, 0.0, 0.0], (len(pos), 1))
+
+
+def test_collision_rows_are_distance_gradients(stick: Scene, rng: np.random.Generator) -> None:
+    """Each row G of the collision limit is −∂d/∂q: checked against finite differences of mj_geomDistance."""
+    ik = ik_for(stick, 2.0)
+    m = stick.model
+    pos, quat = _far_human(stick, ik)
+    hand = ik.frame_positions()[1]
+    # A hand sphere of the person 6 cm ahead of the robot's left palm, the trunk capsule near the pelvis.
+    pos[stick.n_bones] = hand + (0.04 + 0.05 + 0.06, 0.0, 0.0)
+    bone = stick.body.bone_names.index("spine_base__spine_mid")
+    pos[bone] = ik.frame_positions()[0] + (0.1 + 0.11 + 0.05, 0.05, 0.0)
+    set_human_sizes(stick, np.full(stick.n_bones, 0.05))
+    ik.set_contact_exemptions([])
+    ik.set_human(pos, quat)
+    ik.configuration.update(ik.configuration.q + np.concatenate([np.zeros(7), rng.uniform(-0.3, 0.3, m.nq - 7)]))
+    lim = ik.collision_limit
+    c = lim.compute_qp_inequalities(ik.configuration, 0.1)
+    assert not c.inactive and len(c.h) >= 2
+    q0 = ik.configuration.q
+    fromto = np.zeros(6)
+    checked = 0
+    for (a, b), row, dist in zip(lim.last_active, c.G, lim.last_distance, strict=True):
+        d0 = mujoco.mj_geomDistance(m, ik.configuration.data, int(a), int(b), 1.0, fromto)
+        if abs(dist - d0) > 1e-6 or (lim.last_active == (a, b)).all(axis=1).sum() > 1:
+            continue  # one of several contact points of a pair (a capsule along a box face): a one-sided gradient
+        checked += 1
+        for _ in range(3):
+            v = rng.normal(size=m.nv) * 1e-5
+            q = q0.copy()
+            mujoco.mj_integratePos(m, q, v, 1.0)
+            ik.configuration.update(q)
+            d1 = mujoco.mj_geomDistance(m, ik.configuration.data, int(a), int(b), 1.0, fromto)
+            ik.configuration.update(q0)
+            np.testing.assert_allclose(-row @ v, d1 - d0, atol=2e-8, rtol=0.02)
+    assert checked >= 2
+
+
+def test_key_frames_task_is_its_own_derivative(stick: Scene, rng: np.random.Generator) -> None:
+    ik = ik_for(stick, 2.0)
+    task, cfg, m = ik.key_task, ik.configuration, stick.model
+    ik._set_targets(ik.frame_positions() + rng.normal(0, 0.05, (5, 3)), 0.3)
+    cfg.update(cfg.q + np.concatenate([np.zeros(7), rng.uniform(-0.3, 0.3, m.nq - 7)]))
+    e0, J = task.compute_error(cfg), task.compute_jacobian(cfg)
+    assert e0.shape == (15 + 3 * len(task.oriented),) and J.shape == (len(e0), m.nv)
+    np.testing.assert_allclose(e0[:15], (ik.frame_positions() - task.target_positions).ravel(), atol=1e-12)
+    q0 = cfg.q
+    for _ in range(3):
+        v = rng.normal(size=m.nv) * 1e-6
+        q = q0.copy()
+        mujoco.mj_integratePos(m, q, v, 1.0)
+        cfg.update(q)
+        e1 = task.compute_error(cfg)
+        cfg.update(q0)
+        # Positions exactly; orientation rows to first order at this (small) orientation error.
+        np.testing.assert_allclose(J[:15] @ v, (e1 - e0)[:15], atol=1e-10, rtol=1e-4)
+        np.testing.assert_allclose(J[15:] @ v, (e1 - e0)[15:], atol=1e-10, rtol=0.05)
+
+
+def test_person_moving_in_pushes_the_trunk_out(stick: Scene) -> None:
+    config = IKConfig(min_distance=0.02, max_push=0.02)
+    ik = ik_for(stick, 2.0, config)
+    pos, quat = _far_human(stick, ik)
+    base = ik.frame_positions()[0]
+    bone = stick.body.bone_names.index("spine_base__spine_mid")
+    half = np.full(stick.n_bones, 0.05)
+    half[bone] = 0.3
+    set_human_sizes(stick, half)
+    ik.set_contact_exemptions([])
+    pelvis = stick.model.geom("robot/pelvis").id
+    capsule = int(stick.human_geom_ids[bone])
+    fromto = np.zeros(6)
+    # The person's upright capsule (r = 0.11) 5 mm into the pelvis box (half depth 0.1): 0.205 from its centre.
+    pos[bone] = base + (0.205, 0.0, 0.0)
+    ik.set_human(pos, quat)
+    targets = ik.frame_positions().copy()
+    d = [mujoco.mj_geomDistance(stick.model, ik.configuration.data, pelvis, capsule, 1.0, fromto)]
+    for _ in range(4):
+        ik.solve(targets, 0.0, dt=0.1)
+        d.append(mujoco.mj_geomDistance(stick.model, ik.configuration.data, pelvis, capsule, 1.0, fromto))
+    d = np.array(d)
+    assert d[0] < 0
+    steps = np.diff(d)
+    assert (steps > 0).all() and (steps <= config.max_push + 1e-6).all()  # pushed out, at most max_push a step
+    assert d[-1] >= config.min_distance - 1e-3
+
+
+def test_base_speed_binds(stick: Scene) -> None:
+    config = IKConfig(max_base_speed=0.5, iterations=1)
+    ik = ik_for(stick, 2.0, config)
+    targets = ik.frame_positions() + (1.0, 0.0, 0.0)  # everything one metre ahead
+    before = ik.configuration.q[:3]
+    ik.solve(targets, 0.0, dt=0.1)
+    moved = ik.configuration.q[:3] - before
+    np.testing.assert_allclose(moved[0], 0.5 * 0.1, rtol=1e-6)  # binding
+    assert np.abs(moved).max() <= 0.05 + 1e-9
+
+
+def test_collision_pairs_follow_mujoco_filters(stick: Scene) -> None:
+    m = stick.model
+    arm = np.flatnonzero(stick.arm_geom[0])
+    robot = np.flatnonzero(stick.robot_geom & (m.geom_contype != 0))
+    pairs = collision_pairs(m, arm, robot)
+    bodies = {tuple(sorted((m.body(int(m.geom_bodyid[a])).name, m.body(int(m.geom_bodyid[b])).name))) for a, b in pairs}
+    assert ("robot/larm", "robot/pelvis") not in bodies  # parent and child
+    assert ("robot/lhand", "robot/pelvis") not in bodies  # lhand has no joint: welded to larm, a child of the pelvis
+    assert ("robot/larm", "robot/rarm") in bodies and ("robot/lhand", "robot/rleg") in bodies
+    assert not any(m.geom_bodyid[a] == m.geom_bodyid[b] for a, b in pairs)
+    assert len({tuple(sorted(p)) for p in pairs.tolist()}) == len(pairs)
 
 
 def test_solve_ik_gets_keywords(stick: Scene, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -211,8 +327,7 @@ def test_reachable_targets_are_met_within_2cm(robot: str, rng: np.random.Generat
     amp = 0.25 * rng.uniform(0.0, 1.0, len(hinge))
     phase = rng.uniform(0, 2 * np.pi, len(hinge))
     d = mujoco.MjData(m)
-    pairs = [(a, b) for arm, rest in ik._self_pairs for a in arm for b in rest
-             if m.geom_bodyid[a] != m.geom_bodyid[b] and m.body_parentid[m.geom_bodyid[a]] != m.geom_bodyid[b]]
+    pairs = [(int(a), int(b)) for side in ik._self_pairs for a, b in side]
     fromto = np.zeros(6)
     errors, clear = [], []
     for t in range(T):

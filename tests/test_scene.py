@@ -13,6 +13,8 @@ from socialaff_sim.errors import SimulationError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.human import FOOT_CLEARANCE, bone_quaternions, human_body, pose_human, world_offset
 from socialaff_sim.sim.scene import ObjectSpec, Scene, build_scene, pose_compliant, set_human_sizes
+from socialaff_sim.sim.reach import ReachModel, point_segment_distance, reachable_targets
+from socialaff_sim.sim.robot_mjcf import limit_hand_force
 from socialaff_sim.sim.simulator import Simulator
 
 LAYOUT = get_layout("kinect_v2")
@@ -64,10 +66,73 @@ def test_proportions_of_our_robot_differ_from_a_person() -> None:
     head = sc.model.geom("robot/head").id  # an upright box: its top is centre + half height
     top = d.geom_xpos[head, 2] + sc.model.geom_size[head, 2]
     assert 1.25 < top < 1.35
-    arm = np.linalg.norm(d.site_xpos[sc.model.site("robot/left_wrist").id] - d.xpos[sc.model.body("robot/left_forearm").id]) + 0.28
+    upper = np.linalg.norm(d.xpos[sc.model.body("robot/left_forearm").id] - d.xpos[sc.model.body("robot/left_upper_arm").id])
+    arm = np.linalg.norm(d.site_xpos[sc.model.site("robot/left_wrist").id] - d.xpos[sc.model.body("robot/left_forearm").id]) + upper
     leg = 0.26 + 0.24
-    # A person: arm ≈ 0.31 and leg ≈ 0.49 of the stature; this robot: long arms, short legs.
-    assert arm / top > 0.4 and leg / top < 0.4
+    # A person: arm ≈ 0.31 and leg ≈ 0.49 of the stature; this robot: very long arms, short legs.
+    np.testing.assert_allclose(arm, 0.84, atol=1e-9)
+    assert arm / top > 0.6 and leg / top < 0.4
+
+
+def test_hand_force_caps_the_arm_torques() -> None:
+    sc = build_scene(load_robot("ours"), LAYOUT, None)
+    before = sc.model.actuator_forcerange.copy()
+    limit_hand_force(sc, 50.0)
+    m = sc.model
+    d = mujoco.MjData(m)
+    d.qpos[sc.robot_qadr] = sc.home_qpos
+    mujoco.mj_kinematics(m, d)
+    wrist = d.site_xpos[m.site("robot/left_wrist").id]
+    # The hand's far end: the palm box's corner farthest from the wrist, by hand (box half sizes 0.025, 0.05, 0.055
+    # centred 0.06 below the wrist) against the thumb capsule; the bounding sphere of each bounds it from above.
+    palm = m.geom("robot/left_palm").id
+    reach = np.linalg.norm(d.geom_xpos[palm] - wrist) + m.geom_rbound[palm]
+    for name in ("left_shoulder_pitch", "left_elbow"):
+        a = m.actuator(f"robot/{name}").id
+        j = m.actuator_trnid[a, 0]
+        lever = np.linalg.norm(wrist - d.xanchor[j]) + reach
+        np.testing.assert_allclose(m.actuator_forcerange[a], [-50.0 * lever, 50.0 * lever], rtol=1e-9)
+        assert m.actuator_forcelimited[a]
+    # Legs and waist keep the model's own limits; a cap never raises a limit.
+    for name in ("left_knee", "waist_pitch"):
+        a = m.actuator(f"robot/{name}").id
+        np.testing.assert_array_equal(m.actuator_forcerange[a], before[a])
+    a = m.actuator("robot/left_wrist_roll").id
+    capped = m.actuator_forcerange[a].copy()
+    assert capped[1] < before[a, 1]  # 50 N at a lever of a hand length is below the wrist servo's 15 N·m
+    limit_hand_force(sc, 1e6)
+    np.testing.assert_array_equal(m.actuator_forcerange[a], capped)
+
+
+def test_point_segment_distance_against_sampling(rng: np.random.Generator) -> None:
+    p = rng.normal(size=(7, 3))
+    a, b = rng.normal(size=(5, 3)), rng.normal(size=(5, 3))
+    b[0] = a[0]  # a point-like segment
+    s = np.linspace(0.0, 1.0, 20001)
+    brute = np.array([[np.linalg.norm(pi - (aj + s[:, None] * (bj - aj)), axis=1).min() for aj, bj in zip(a, b, strict=True)]
+                      for pi in p])
+    np.testing.assert_allclose(point_segment_distance(p, a, b), brute, atol=1e-6)
+
+
+def test_reachable_targets_by_hand() -> None:
+    model = ReachModel(arm=0.5, leg=0.4, shoulders=np.array([[0.0, 0.2, 0.4], [0.0, -0.2, 0.4]]),
+                       hips=np.array([[0.0, 0.1, 0.0], [0.0, -0.1, 0.0]]), hand_reach=np.array([0.1, 0.1]),
+                       hand_centre=np.array([0.05, 0.05]), trunk_radius=0.2, shoulder_height=0.4, base_height=0.6,
+                       height=1.3, clearance=0.01)
+    base = np.array([0.0, 0.0, 0.6])
+    targets = np.array([base, base + (0.45, 0.2, 0.4), base + (0.3, -0.2, 0.9), base + (0.0, 0.1, -0.39),
+                        base + (0.0, -0.1, -0.41)])
+    # One person capsule: a vertical segment 1 m ahead, radius 0.1.
+    seg_a, seg_b, r = np.array([[1.0, 0.0, 0.0]]), np.array([[1.0, 0.0, 2.0]]), np.array([0.1])
+    out = reachable_targets(model, targets, targets, seg_a, seg_b, r)
+    # Left wrist 0.45 from its shoulder (≤ 0.5) and 0.45 from the capsule (≥ 0.1 + 0.01): reachable. Right wrist
+    # 0.5 above and 0.3 ahead of its shoulder: 0.58 > 0.5. Left ankle 0.39 below its hip (≤ 0.4), right 0.41.
+    np.testing.assert_array_equal(out, [True, True, False, True, False])
+    # The capsule 0.2 m straight ahead of the left wrist (surface 0.1 m away): within the hand's reach plus clearance.
+    near_a, near_b = seg_a + (-0.35, 0.2, 0.0), seg_b + (-0.35, 0.2, 0.0)
+    np.testing.assert_array_equal(reachable_targets(model, targets, targets, near_a, near_b, r)[1], False)
+    # The capsule 0.25 m from the base's axis (< 0.2 + 0.1 + 0.01): the base, and so everything, is out of reach.
+    assert not reachable_targets(model, targets, targets, seg_a - (0.75, 0, 0), seg_b - (0.75, 0, 0), r).any()
 
 
 def test_bone_quaternions_turn_z_onto_the_bone(rng: np.random.Generator) -> None:

@@ -12,9 +12,11 @@ from socialaff_sim.data.skeletons import get_layout
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
-from socialaff_sim.sim.carry import fit_flight
+from socialaff_sim.data.interaction import Interaction
+from socialaff_sim.sim.carry import fit_flight, plan_carry
+from socialaff_sim.sim.human import human_body
 from socialaff_sim.sim.episode import run_episode
-from socialaff_sim.sim.scene import Scene, build_scene, pose_compliant
+from socialaff_sim.sim.scene import ObjectSpec, Scene, build_scene, pose_compliant
 from socialaff_sim.sim.scoring import FORCE_TIME_CONSTANT, SubgoalScorer
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.tasks import FailureSpec, SubgoalSpec, load_task
@@ -154,6 +156,75 @@ def test_force_on_human_is_smoothed_contact_force(scene: Scene) -> None:
     np.testing.assert_allclose(scorer.force_filtered, ema, rtol=1e-9)
 
 
+@pytest.fixture(scope="module")
+def cup_scene() -> Scene:
+    return build_scene(load_robot("ours"), LAYOUT, ObjectSpec("cylinder", (0.045, 0.06), 0.25))
+
+
+def test_a_gripped_object_counts_as_held_without_touching(cup_scene: Scene) -> None:
+    m = cup_scene.model
+    task = dataclasses.replace(load_task("hand_over"), failures=())
+    dt, steps = 0.004, 100  # 0.4 s, more than the 0.3 s asked for
+
+    def run(grip: bool, release: bool) -> bool:
+        d = mujoco.MjData(m)
+        d.qpos[cup_scene.robot_qadr] = cup_scene.home_qpos
+        human_away(cup_scene, d)
+        qa = cup_scene.object_qadr
+        d.qpos[qa:qa + 3] = (0.5, 0.0, 1.0)  # in the air, touching nothing
+        d.eq_active[cup_scene.grip_eq[1]] = grip
+        mujoco.mj_forward(m, d)
+        scorer = SubgoalScorer(cup_scene, task)
+        if release:
+            scorer.mark_release(0.0)
+        for k in range(steps):
+            scorer.update(d, dt, (k + 1) * dt, None)
+        scorer.finish(steps * dt)
+        return scorer.subgoals[0].success
+
+    assert run(grip=True, release=True)
+    assert not run(grip=False, release=True)  # neither touched nor gripped
+    assert not run(grip=True, release=False)  # the person still holds it
+
+
+def test_quiet_steps_score_like_full_ones(data) -> None:
+    """The shortcut for steps without a relevant contact changes nothing: same run, shortcut disabled."""
+    inter = data.of_label("hand_over")[0]
+    results = []
+    for shortcut in (True, False):
+        sim = Simulator("ours", "hand_over")
+        sim.reset(inter)
+        if not shortcut:
+            sim.scorer._interesting[:] = True
+        src = GroundTruthSource()
+        src.reset(inter)
+        sim.settle(sim.retarget(src.targets(0).keys, frame=0))
+        while not sim.done:
+            f = src.targets(sim.frame + 1)
+            sim.step(sim.retarget(f.keys, frame=sim.frame + 1), subevent=f.subevent)
+        sc = sim.scorer
+        results.append(([(r.success, r.time, r.contact_time) for r in sc.subgoals],
+                        [(f.triggered, f.worst) for f in sc.failures], sc.max_force_filtered, sim.data.qpos.copy()))
+    assert results[0][:3] == results[1][:3]
+    np.testing.assert_array_equal(results[0][3], results[1][3])
+
+
+def test_the_carrying_hand_is_the_nearer_one() -> None:
+    T = 20
+    joints = np.zeros((T, 2, LAYOUT.n_joints, 3))
+    joints[..., 2] = 1.0
+    joints[:, 1, :, 0] = 1.2
+    n = LAYOUT.joint_names
+    t = np.arange(T)
+    # The right hand moves about with the object 6 cm from it; the left hangs perfectly still, far away.
+    joints[:, 0, n.index("right_hand")] = np.stack([0.3 + 0.02 * np.sin(t), -0.2 + 0.02 * np.cos(t), 1.0 + 0.01 * t], axis=1)
+    joints[:, 0, n.index("left_hand")] = (0.0, 0.3, 0.7)
+    obj = joints[:, 0, n.index("right_hand")] + (0.06, 0.0, 0.0)
+    inter = Interaction("hand_over", 10.0, joints, n, ("a", "b"), object=obj)
+    plan = plan_carry(inter, np.zeros(3), load_task("hand_over").object, human_body(LAYOUT).hand_joints)
+    assert plan.hand == "right_hand" and plan.release_frame == T  # never let go
+
+
 def test_flight_fit_recovers_a_throw(rng: np.random.Generator) -> None:
     p0, v0, fps = np.array([0.1, 0.2, 1.0]), np.array([3.0, -0.5, 2.5]), 12.0
     t = np.arange(5) / fps
@@ -174,10 +245,9 @@ def test_ground_truth_hand_over_keeps_the_cup(data) -> None:
     metrics = replay(data.of_label("hand_over")[0])
     assert metrics["subgoals"][0]["success"] and not metrics["success"] is False
     assert metrics["object_released_at"] is not None
-    # Without grasping the same motion drops the cup.
+    # Without grasping the same motion does not end with the cup in hand.
     dropped = replay(data.of_label("hand_over")[0], config=SimConfig(grip=False))
-    assert not dropped["subgoals"][0]["success"]
-    assert {f["kind"] for f in dropped["failures"] if f["triggered"]} == {"object_dropped"}
+    assert not dropped["subgoals"][0]["success"] and not dropped["success"]
 
 
 def test_ground_truth_handshake_and_catch(data) -> None:
@@ -188,10 +258,11 @@ def test_ground_truth_handshake_and_catch(data) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("robot", "floor"), [("ours", 0.6), ("cmu", 0.25)])
+@pytest.mark.parametrize(("robot", "floor"), [("ours", 0.9), ("cmu", 0.75)])
 def test_ground_truth_success_rate(robot: str, floor: float) -> None:
-    # Regression floors at the measured levels (scripts/bench_sim.py): "ours" cannot reach a tall
-    # partner's overhead high five; the CMU humanoid's stiff heavy arms exceed the force limits more.
+    # Regression floors below the measured levels (scripts/bench_sim.py, all 120 synthetic instances: ours 98 %,
+    # cmu 89 %). The misses left are physical: a high five's brief contact missed by the servos' lag, the CMU
+    # humanoid's short arms pulling a rising person, a ball slipping between two hands.
     dataset = generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=4))
     results = {label: [replay(i, robot)["success"] for i in dataset.of_label(label)] for label in dataset.labels}
     rate = np.mean([s for v in results.values() for s in v])

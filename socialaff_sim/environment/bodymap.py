@@ -154,7 +154,8 @@ class RobotToAgent:
         # Wrists: the scaled target of a world wrist x is C + s_arm·x (C from the base and the shoulders).
         y = frame.to_world(out_r[1:3])
         C = frame.to_world(out_r[0] + r.shoulders - sc.s_arm * h.shoulders) - sc.s_arm * keys[0]
-        obj = None if inter.object is None else inter.object[t] + sim.offset
-        anchors = partner if obj is None else np.vstack([partner, obj[None]])
+        # The same object anchors the scaler reacts to: the object and its path just ahead.
+        obj = sim.object_anchors(t)
+        anchors = partner if obj is None else np.vstack([partner, obj])
         keys[1:3] = self._previous = _WristMap(anchors, len(partner), sc, C).solve(y, self._previous)
         return keys - sim.offset

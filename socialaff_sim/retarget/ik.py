@@ -1,19 +1,23 @@
 """Differential inverse kinematics of the robot's five key frames with mink.
 
-Tasks: one :class:`mink.FrameTask` per key frame (positions; plus orientation for
-the base, kept upright and facing the partner, and the feet, kept flat) and a
-:class:`mink.PostureTask` toward the home posture that settles the redundancy.
-Limits: :class:`mink.ConfigurationLimit` (joint ranges), :class:`mink.VelocityLimit`
-(every hinge), and two :class:`mink.CollisionAvoidanceLimit`: one keeps the whole
-robot ``min_distance`` clear of the human's capsules, except the pairs the task
-requires to touch (a robot hand or forearm and the named human parts), and the
-forearms and hands clear of the rest of the robot; the other lets those required
-pairs touch, at most ``contact_depth`` deep.
+Tasks: a frame task per key frame (positions; plus orientation for the base, kept
+upright and facing the partner, and the feet, kept flat), stacked into one mink
+task (:class:`~.key_task.KeyFramesTask`), and a :class:`mink.PostureTask` toward
+the home posture that settles the redundancy.
+Limits: :class:`mink.ConfigurationLimit` (joint ranges) and
+:class:`mink.VelocityLimit` (every hinge), merged into one box on Δq per data frame
+(:class:`~.joint_limits.JointBoxLimit`), and collision avoidance
+(:class:`~.collision.GeomPairLimit`): the whole robot keeps ``min_distance``
+clear of the person, except that a hand may press at most
+``contact_depth`` into the parts the task wants touched; the forearms and hands
+keep clear of the rest of the robot. A person moving into the robot pushes it
+back out (at most ``max_push`` per step).
 
-Each call of :meth:`RobotIK.solve` runs up to ``iterations`` QP steps for one
-data frame of period ``dt``; the velocity limit bounds the joints' total change
-over the frame to ``v_max · dt``; it stops early once every key frame is within
-``tolerance`` or an iteration no longer helps.
+Each call of :meth:`RobotIK.solve` takes one data frame of period ``dt``: it warm
+starts from the previous frame's solution and runs QP steps (at least one) until
+every key frame worth it is within ``tolerance`` of its target, ``iterations``
+steps were taken, or a step no longer helps (``min_progress``). Smoothly moving targets need one step (the
+Gauss-Newton step of a frame's motion is nearly exact), fast ones a second.
 """
 
 from __future__ import annotations
@@ -26,76 +30,11 @@ import mujoco
 import numpy as np
 
 from ..errors import SimulationError
+from .collision import GeomPairLimit, collision_pairs
+from .joint_limits import JointBoxLimit
+from .key_task import KeyFramesTask
 
-__all__ = ["IKConfig", "IKModel", "IKResult", "RobotIK", "JointBoxLimit", "ActiveRowsLimit"]
-
-
-class JointBoxLimit(mink.Limit):
-    """A mink ConfigurationLimit and VelocityLimit on the same joints, merged into one box per frame.
-
-    Row for row it is the tighter of the two limits' bounds on Δq, computed from
-    their ranges, gain and velocities: ``gain·(q_max − q)`` (and below) and
-    ``v_max·dt``. The velocity bound applies to the whole data frame: across the
-    IK iterations of one frame the joints may move at most ``v_max·dt`` from where
-    the frame started (:meth:`begin_frame`), so a single iteration can use all of
-    it. Merging halves the QP's inequality rows.
-    """
-
-    def __init__(self, model: mujoco.MjModel, config_limit: mink.ConfigurationLimit,
-                 velocity_limit: mink.VelocityLimit) -> None:
-        if not np.array_equal(config_limit.indices, velocity_limit.indices):
-            raise SimulationError("joint limits: the velocity limit must cover exactly the range-limited joints, in order")
-        if len(config_limit._ball_qposadr):
-            raise SimulationError("joint limits: ball joints are not supported")
-        self.config_limit = config_limit
-        self.velocity_limit = velocity_limit
-        dofs = np.asarray(config_limit.indices, dtype=np.int64)
-        self._qadr = model.jnt_qposadr[model.dof_jntid[dofs]] if dofs.size else np.zeros(0, dtype=np.int64)
-        # Hinge and slide coordinates are scalars: q_max ⊖ q is a plain difference, and G never changes.
-        self._lower = config_limit.lower[self._qadr]
-        self._upper = config_limit.upper[self._qadr]
-        self._G = (np.vstack([config_limit.projection_matrix, -config_limit.projection_matrix])
-                   if config_limit.projection_matrix is not None else None)
-        self._start = np.zeros(len(self._qadr))
-
-    def begin_frame(self, q: np.ndarray) -> None:
-        """Remember the configuration (nq,) the current frame starts from."""
-        self._start = np.asarray(q)[self._qadr].copy()
-
-    def compute_qp_inequalities(self, configuration: mink.Configuration, dt: float) -> mink.Constraint:
-        if self._G is None:
-            return mink.Constraint()
-        q = configuration.data.qpos[self._qadr]
-        gain = self.config_limit.gain
-        step = self.velocity_limit.limit * dt
-        moved = q - self._start
-        upper = np.maximum(np.minimum(gain * (self._upper - q), step - moved), 0.0)
-        lower = np.maximum(np.minimum(gain * (q - self._lower), step + moved), 0.0)
-        return mink.Constraint(G=self._G, h=np.concatenate([upper, lower]))
-
-
-class ActiveRowsLimit(mink.Limit):
-    """A mink collision limit with its inactive rows dropped and its bound put in Δq units.
-
-    ``mink.solve_ik`` solves for the displacement Δq (its configuration and velocity
-    limits bound Δq), but mink 1.3's :class:`mink.CollisionAvoidanceLimit` returns
-    the bound gain·(d − d_min)/dt, a velocity. Multiplying by dt makes it the
-    intended displacement bound gain·(d − d_min) for any frame period (the two
-    agree only for dt = 1 s). Rows without a nearby pair (infinite bound) are
-    dropped before the QP, whose solve time grows with its rows.
-    """
-
-    def __init__(self, inner: mink.CollisionAvoidanceLimit) -> None:
-        self.inner = inner
-
-    def compute_qp_inequalities(self, configuration: mink.Configuration, dt: float) -> mink.Constraint:
-        c = self.inner.compute_qp_inequalities(configuration, dt)
-        if c.inactive:
-            return c
-        keep = np.isfinite(c.h)
-        if not keep.any():
-            return mink.Constraint()
-        return mink.Constraint(G=c.G[keep], h=c.h[keep] * dt)
+__all__ = ["IKConfig", "IKModel", "IKResult", "RobotIK", "JointBoxLimit", "GeomPairLimit", "KeyFramesTask"]
 
 
 @dataclass(frozen=True)
@@ -103,7 +42,12 @@ class IKConfig:
     """Weights, limits and stopping rule of the retargeting IK."""
 
     position_cost: float = 1.0
-    """Cost of a key frame's position error (per metre)."""
+    """Cost of a wrist's or an ankle's position error (per metre)."""
+    unreachable_weight: float = 0.3
+    """Factor on the position cost of a target the caller marks out of reach (``care``)."""
+    base_position_cost: float = 5.0
+    """Cost of the base's position error (per metre): the robot stands where it is placed, and a
+    wrist out of reach does not drag it along."""
     base_orientation_cost: float = 2.0
     """Cost of the base's orientation error (per radian)."""
     foot_orientation_cost: float = 0.05
@@ -112,21 +56,30 @@ class IKConfig:
     """Cost of departing from the home posture (per radian)."""
     damping: float = 1e-4
     """Levenberg-Marquardt damping of the QP."""
-    iterations: int = 3
+    iterations: int = 2
     """Most QP steps per data frame."""
-    tolerance: float = 0.015
+    tolerance: float = 0.01
     """Stop once every key frame is this close to its target, metres."""
     min_progress: float = 0.002
-    """Also stop when an iteration reduced the largest key-frame error by less than this, metres
-    (the target is out of reach: a limit or the collision avoidance holds the frame back)."""
+    """Also stop when a step reduced the largest error among the targets worth it by less than this,
+    metres (a limit or the collision avoidance holds the frame back)."""
     min_distance: float = 0.01
-    """Distance collision avoidance keeps between a robot hand and the human, metres."""
-    contact_depth: float = 0.0
-    """How far a hand may press into the human where the task wants them to touch, metres."""
+    """Distance collision avoidance keeps between the robot and the person, metres."""
+    contact_depth: float | None = 0.05
+    """How far a hand or forearm may press into the person where the task wants them to touch,
+    metres (``None``: no limit there; physics alone resolves the contact)."""
     detection_distance: float = 0.1
-    """Distance below which a hand-human pair enters the QP, metres."""
+    """Distance below which a robot-person geom pair enters the QP, metres."""
+    self_detection_distance: float = 0.05
+    """Distance below which a pair of robot geoms (a forearm or hand and the rest) enters the QP, metres."""
     collision_gain: float = 0.85
-    """Fraction of the remaining gap a hand may close per step."""
+    """Fraction of the remaining gap a pair may close per step."""
+    max_push: float = 0.02
+    """Most a step moves the robot's trunk and legs back out of a person who has moved into them, metres."""
+    max_base_speed: float = 2.0
+    """Speed limit of the floating base's translation, m/s (bounds each QP step to this times dt)."""
+    max_base_turn: float = 3.0
+    """Speed limit of the floating base's rotation, rad/s (bounds each QP step to this times dt)."""
     solver: str = "daqp"
     """QP solver name understood by qpsolvers."""
 
@@ -174,86 +127,119 @@ class RobotIK:
     def __init__(self, ik_model: IKModel, config: IKConfig | None = None) -> None:
         self.spec = ik_model
         self.config = c = config or IKConfig()
+        if c.iterations < 1:
+            raise SimulationError(f"IKConfig.iterations: expected at least 1, found {c.iterations}")
         m = ik_model.model
         if m.nq != len(ik_model.home_qpos):
             raise SimulationError(f"IK model has nq = {m.nq}, home posture has {len(ik_model.home_qpos)} values")
         self.configuration = mink.Configuration(m, ik_model.home_qpos)
-        self.frame_tasks = []
-        for k, (kind, fid) in enumerate(zip(ik_model.frame_kinds, ik_model.frame_ids, strict=True)):
-            rot = c.base_orientation_cost if k == 0 else (c.foot_orientation_cost if k >= 3 else 0.0)
-            self.frame_tasks.append(
-                mink.FrameTask(frame_name=int(fid), frame_type=kind, position_cost=c.position_cost, orientation_cost=rot)
-            )
+        orientation = [c.base_orientation_cost, 0.0, 0.0, c.foot_orientation_cost, c.foot_orientation_cost]
+        self._position_cost = np.array([c.base_position_cost] + [c.position_cost] * 4)
+        self.key_task = KeyFramesTask(m, ik_model.frame_kinds, ik_model.frame_ids, self._position_cost, orientation)
         self.posture_task = mink.PostureTask(m, cost=c.posture_cost)
         self.posture_task.set_target(ik_model.home_qpos)
-        hinges = [m.joint(j).name for j in range(m.njnt) if int(m.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))]
         self.config_limit = mink.ConfigurationLimit(m)
-        limited = [n for n in hinges if m.jnt_limited[m.joint(n).id]]
+        hinge = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+        limited = [m.joint(j).name for j in range(m.njnt) if int(m.jnt_type[j]) in hinge and m.jnt_limited[j]]
         self.velocity_limit = mink.VelocityLimit(m, {n: ik_model.max_joint_velocity for n in limited})
-        self._box = JointBoxLimit(m, self.config_limit, self.velocity_limit)
-        self.collision_limit: mink.CollisionAvoidanceLimit | None = None
-        self.contact_limit: mink.CollisionAvoidanceLimit | None = None
-        robot = [int(g) for g in ik_model.robot_geoms]
+        free = [j for j in range(m.njnt) if int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_FREE)]
+        free_dofs = (m.jnt_dofadr[free[0]] + np.arange(6)) if free else None
+        free_speed = np.array([c.max_base_speed] * 3 + [c.max_base_turn] * 3)
+        self._box = JointBoxLimit(m, self.config_limit, self.velocity_limit, free_dofs, free_speed)
+        robot = np.asarray(ik_model.robot_geoms, dtype=np.int64)
+        self._set_collision_bits()
         self._self_pairs = [
-            ([int(g) for g in ik_model.arm_geoms[s]], [g for g in robot if g not in set(ik_model.arm_geoms[s].tolist())])
+            collision_pairs(m, np.asarray(ik_model.arm_geoms[s]), np.setdiff1d(robot, ik_model.arm_geoms[s]))
             for s in (0, 1)
         ]
+        self.collision_limit: GeomPairLimit
         self.set_contact_exemptions([])
-        self._home_rot = self._frame_rotations(ik_model.home_qpos)
-
+        self._home_quat = self._frame_quats(ik_model.home_qpos)
+        self._fixed_yaw: float | None = None
 
     # -- set-up ---------------------------------------------------------------------
-    def _frame_rotations(self, q: np.ndarray) -> list[np.ndarray]:
+    def _frame_quats(self, q: np.ndarray) -> np.ndarray:
+        """(5, 4) orientations (w, x, y, z) of the key frames at configuration ``q``."""
         self.configuration.update(q)
         d = self.configuration.data
-        out = []
-        for kind, fid in zip(self.spec.frame_kinds, self.spec.frame_ids, strict=True):
-            xmat = d.site_xmat[fid] if kind == "site" else d.xmat[fid]
-            out.append(np.array(xmat).reshape(3, 3))
+        out = np.zeros((5, 4))
+        for k, (kind, fid) in enumerate(zip(self.spec.frame_kinds, self.spec.frame_ids, strict=True)):
+            mujoco.mju_mat2Quat(out[k], d.site_xmat[fid] if kind == "site" else d.xmat[fid])
         return out
 
-    def _avoidance(self, pairs: list[tuple[list[int], list[int]]], min_distance: float) -> mink.CollisionAvoidanceLimit | None:
-        pairs = [(a, b) for a, b in pairs if a and b]
-        if not pairs:
-            return None
-        c = self.config
-        return mink.CollisionAvoidanceLimit(
-            self.spec.model, geom_pairs=pairs, gain=c.collision_gain,
-            minimum_distance_from_collisions=min_distance, collision_detection_distance=c.detection_distance,
-        )
+    def _set_collision_bits(self) -> None:
+        """Let MuJoCo's collision detection in the IK model find only the pairs the IK watches.
+
+        Bits: person (contype 2, conaffinity 0); trunk, i.e. every collidable robot geom
+        but the forearms and hands (1, 2: the person only); forearms and hands (4, 7: the
+        person, the trunk and each other). Trunk pairs and the person's own pairs never
+        reach the narrow phase.
+        """
+        m = self.spec.model
+        human = np.asarray(self.spec.human_geoms, dtype=np.int64)
+        robot = np.asarray(self.spec.robot_geoms, dtype=np.int64)
+        arms = np.concatenate([np.asarray(a, dtype=np.int64) for a in self.spec.arm_geoms])
+        trunk = np.setdiff1d(robot, arms)
+        for geoms, contype, conaffinity in ((human, 2, 0), (trunk, 1, 2), (arms, 4, 7)):
+            m.geom_contype[geoms] = contype
+            m.geom_conaffinity[geoms] = conaffinity
+        for b in np.unique(m.geom_bodyid[np.concatenate([human, robot])]):
+            mine = m.geom_bodyid == b
+            m.body_contype[b] = np.bitwise_or.reduce(m.geom_contype[mine])
+            m.body_conaffinity[b] = np.bitwise_or.reduce(m.geom_conaffinity[mine])
 
     def set_contact_exemptions(self, exempt: Sequence[tuple[int, Sequence[int]]]) -> None:
-        """Rebuild the human collision avoidance; (hand side 0/1, human geom ids) pairs may touch.
+        """Rebuild the collision pairs; (hand side 0/1, human geom ids): those parts may be touched.
 
-        The listed human geoms may touch that side's hand and forearm: those pairs keep
-        a limit too, but one that lets them press ``contact_depth`` into the human
-        instead of stopping ``min_distance`` short, so a required contact happens
-        without the hand being driven deep into the person.
+        The listed human geoms may touch that side's hand (its forearm keeps clear): the pairs keep
+        a limit, but one that lets them press ``contact_depth`` into the person
+        instead of stopping ``min_distance`` short (or none, with ``contact_depth=None``),
+        so a required contact happens without the hand being driven deep into the person.
         Call it again whenever the human's capsule sizes change (the limit caches bounding radii).
         """
+        c = self.config
+        m = self.spec.model
         free: dict[int, set[int]] = {0: set(), 1: set()}
         for side, geoms in exempt:
             free[int(side)].update(int(g) for g in geoms)
-        human = [int(g) for g in self.spec.human_geoms]
-        arms = {int(g) for side in (0, 1) for g in self.spec.arm_geoms[side]}
-        trunk = [int(g) for g in self.spec.robot_geoms if int(g) not in arms]
-        apart, touch = [(trunk, human)], []
-        for side in (0, 1):
-            arm = [int(g) for g in self.spec.arm_geoms[side]]
-            apart.append((arm, [g for g in human if g not in free[side]]))
-            touch.append((arm, sorted(free[side])))
-        c = self.config
-        self._apart = apart
-        self.collision_limit = self._avoidance(apart + self._self_pairs, c.min_distance)
-        self.contact_limit = self._avoidance(touch, -c.contact_depth)
+        human = np.asarray(self.spec.human_geoms, dtype=np.int64)
+        robot = np.asarray(self.spec.robot_geoms, dtype=np.int64)
+        arms = [np.asarray(self.spec.arm_geoms[s], dtype=np.int64) for s in (0, 1)]
+        trunk = np.setdiff1d(robot, np.concatenate(arms))
+        parts: list[tuple[np.ndarray, float, float, bool]] = [
+            (collision_pairs(m, trunk, human), c.min_distance, c.detection_distance, True)]
+        for s in (0, 1):
+            touch = np.array(sorted(free[s]), dtype=np.int64)
+            hand = np.intersect1d(arms[s], np.asarray(self.spec.hand_geoms[s], dtype=np.int64))
+            # Only the hand may touch the wanted parts; the forearm keeps clear of them like of the rest.
+            # A hand or forearm the person moves into is held, not pushed: around a hand in contact the
+            # person's capsules surround it from several sides, and pushes would contradict each other.
+            clear = np.concatenate([collision_pairs(m, arms[s], np.setdiff1d(human, touch)),
+                                    collision_pairs(m, np.setdiff1d(arms[s], hand), touch)])
+            parts.append((clear, c.min_distance, c.detection_distance, False))
+            if c.contact_depth is not None:
+                parts.append((collision_pairs(m, hand, touch), -c.contact_depth, c.detection_distance, False))
+            parts.append((self._self_pairs[s], c.min_distance, c.self_detection_distance, False))
+        pairs = np.concatenate([p for p, *_ in parts])
+        # A geom pair listed twice (a forearm against the other forearm) keeps one row.
+        _, first = np.unique(np.sort(pairs, axis=1), axis=0, return_index=True)
+        first.sort()
+
+        def column(k: int) -> np.ndarray:
+            return np.concatenate([np.full(len(p[0]), p[k]) for p in parts])[first]
+
+        # Contact margins (MuJoCo adds a pair's two): person–robot pairs reach the detection
+        # distance, robot–robot pairs the (shorter) self-detection distance.
+        margins = np.zeros(m.ngeom)
+        half_self = 0.5 * min(c.self_detection_distance, c.detection_distance)
+        margins[robot] = half_self
+        margins[human] = c.detection_distance - half_self
+        self.collision_limit = GeomPairLimit(m, pairs[first], column(1), column(2), column(3),
+                                             gain=c.collision_gain, max_push=c.max_push, margins=margins)
 
     def limits(self) -> list[mink.Limit]:
         """The limits passed to the QP."""
-        out: list[mink.Limit] = [self._box]
-        for lim in (self.collision_limit, self.contact_limit):
-            if lim is not None:
-                out.append(ActiveRowsLimit(lim))
-        return out
+        return [self._box, self.collision_limit]
 
     def reset(self, qpos: np.ndarray) -> None:
         """Start from configuration ``qpos`` (nq,), at rest."""
@@ -264,44 +250,74 @@ class RobotIK:
         d = self.configuration.data
         d.mocap_pos[self.spec.human_mocap] = pos
         d.mocap_quat[self.spec.human_mocap] = quat
+        self.configuration.update()  # mocap poses reach geom_xpos only through the kinematics
 
     # -- solving --------------------------------------------------------------------
     def frame_positions(self) -> np.ndarray:
         """(5, 3) current key-frame positions, world frame."""
-        d = self.configuration.data
-        return np.array([d.site_xpos[i] if k == "site" else d.xpos[i]
-                         for k, i in zip(self.spec.frame_kinds, self.spec.frame_ids, strict=True)])
+        return self.key_task.positions(self.configuration.data)
 
-    def solve(self, targets: np.ndarray, yaw: float, dt: float) -> IKResult:
+    def _set_targets(self, targets: np.ndarray, yaw: float) -> None:
+        """Point the key-frame task at ``targets`` (5, 3): base and feet at their home orientation
+        turned by ``yaw`` (the wrists' orientation is free)."""
+        if self._fixed_yaw != yaw:
+            turn = np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)])
+            quats = np.zeros((5, 4))
+            for k in range(5):
+                mujoco.mju_mulQuat(quats[k], turn, self._home_quat[k])
+            self._target_quats = quats
+            self._fixed_yaw = yaw
+        self.key_task.set_targets(targets, self._target_quats)
+
+    def _step(self, dt: float) -> np.ndarray:
+        """One QP step; a push-out the QP cannot meet together with the joint limits is dropped."""
+        c, cfg = self.config, self.configuration
+        tasks = [self.key_task, self.posture_task]
+        lim = self.collision_limit
+        try:
+            return mink.solve_ik(configuration=cfg, tasks=tasks, dt=dt, solver=c.solver, damping=c.damping,
+                                 limits=self.limits())
+        except mink.NoSolutionFound:
+            lim.allow_push = False
+            try:
+                return mink.solve_ik(configuration=cfg, tasks=tasks, dt=dt, solver=c.solver, damping=c.damping,
+                                     limits=self.limits())
+            except mink.NoSolutionFound:
+                return np.zeros(cfg.model.nv)
+            finally:
+                lim.allow_push = True
+
+    def solve(self, targets: np.ndarray, yaw: float, dt: float, care: np.ndarray | None = None) -> IKResult:
         """Move toward world-frame ``targets`` (5, 3) over one frame of ``dt`` seconds.
 
         ``yaw`` (rad) turns the base's and the feet's home orientations to face the partner.
+        ``care`` (5,) bool, optional: the targets within reach. The first step (always taken)
+        moves toward all five, those out of reach with ``unreachable_weight`` times their cost;
+        more steps are taken only while one within reach is farther than ``tolerance``
+        (a target the person's body or a limb's length puts out of reach cannot be met, and
+        chasing it would only spend time).
         """
         targets = np.asarray(targets, dtype=np.float64)
         if targets.shape != (5, 3) or not np.isfinite(targets).all():
             raise SimulationError(f"IK targets: expected a finite (5, 3) array, found shape {targets.shape}")
         if dt <= 0:
             raise SimulationError(f"IK frame period: expected dt > 0, found {dt}")
-        cy, sy = np.cos(yaw), np.sin(yaw)
-        rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
-        cfg = self.configuration
-        current = self._frame_rotations(cfg.q)
-        for k, task in enumerate(self.frame_tasks):
-            # Wrists are points: their target turns with them, so the SE(3) error is purely translational.
-            r = current[k] if k in (1, 2) else rz @ self._home_rot[k]
-            task.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(r), targets[k]))
-        tasks = [*self.frame_tasks, self.posture_task]
-        c = self.config
-        limits = self.limits()
+        watch = np.ones(5, dtype=bool) if care is None else np.asarray(care, dtype=bool)
+        c, cfg = self.config, self.configuration
+        # A target out of reach still draws its limb, but more weakly: through the joints the limbs share
+        # (the waist) it would otherwise pull the reachable targets off theirs.
+        self.key_task.cost[:15] = np.repeat(self._position_cost * np.where(watch, 1.0, c.unreachable_weight), 3)
         self._box.begin_frame(cfg.q)
         errors = np.linalg.norm(self.frame_positions() - targets, axis=1)
         it = 0
-        while it < c.iterations and errors.max() > c.tolerance:
-            vel = mink.solve_ik(configuration=cfg, tasks=tasks, dt=dt, solver=c.solver, damping=c.damping, limits=limits)
-            cfg.integrate_inplace(vel, dt)
-            before = errors.max()
+        self._set_targets(targets, yaw)
+        # The first step is always taken (the limits hold even when the targets are already met: a person
+        # moving into the robot pushes it out); more only while a target worth it is off by > tolerance.
+        while it < c.iterations and (it == 0 or errors[watch].max(initial=0.0) > c.tolerance):
+            cfg.integrate_inplace(self._step(dt), dt)
+            before = errors[watch].max(initial=0.0)
             errors = np.linalg.norm(self.frame_positions() - targets, axis=1)
             it += 1
-            if before - errors.max() < c.min_progress:
+            if before - errors[watch].max(initial=0.0) < c.min_progress:
                 break
         return IKResult(qpos=cfg.q, errors=errors, iterations=it)

@@ -17,28 +17,46 @@ with s_arm = arm_r / arm_h and s_leg = leg_r / leg_h the ratios of limb lengths
 (shoulder→elbow→wrist and hip→knee→ankle, measured along the chains on both
 bodies) and shoulder/hip offsets measured from the base at rest.
 
-Placement. The robot keeps agent 1's bearing from the partner at every frame but
-at k = (arm_0 + arm_r) / (arm_0 + arm_1) times the distance, so that its shorter
-(or longer) reach still meets the partner's where the two people touched.
+Placement. The robot keeps agent 1's bearing from the partner (p₀, the partner's
+base) at every frame, at k times agent 1's distance: base = p₀ + k·(b₁ − p₀)
+horizontally. k is chosen once per instance so that the interaction's contacts
+stay within the robot's reach: at every contact sample (a frame where one of
+agent 1's wrists is at, or within ``sample_band`` of, its closest approach to the
+partner or the object, when that approach comes within ``contact_radius``) the
+robot's shoulder must be within e·arm_r of agent 1's wrist, e the extension agent
+1's own arm had there (|wrist − shoulder| / arm₁, at most ``max_extension``). Each
+sample allows k in an interval (a quadratic in k); the robot stands as far back as
+all samples allow (the smallest upper end), within [``k_min``, ``k_max``]. Samples
+no k brings within reach (a contact far below a tall robot's shoulders, met by
+bending) are left out. Without usable samples, k = (arm₀ + arm_r) / (arm₀ + arm₁),
+so that its shorter (or longer) reach still meets the partner's. Finally k is
+raised, if needed, until the robot's trunk clears the partner's trunk, head and
+legs by ``body_clearance`` at every frame: the arms (and bending) must then make
+up the distance, but the robot never stands where the person's body will be. This matters for a robot of unlike build: a short
+robot with long arms meets a tall person's raised hand only from close by.
 
 Contact preservation. Near the partner (or the object) the interaction, not the
 body, sets where a wrist must be: each wrist target is blended toward agent 1's
 unscaled wrist position with weight w = smoothstep((far − d) / (far − near)),
 where d is the distance from agent 1's wrist to the nearest joint of agent 0 or
 the object. Far from everything the scaled target is used; in contact, the
-recorded one, pushed w·δ further toward agent 0's nearest joint so that the
-robot's hand closes the gap its different shape leaves (the IK stops it at the
-person's surface).
+recorded one, pushed w·δ_w toward that nearest joint (or the object's centre)
+so that the robot's hand closes the gap its different shape leaves (the IK
+stops it at the person's surface; a ball or a cup is squeezed between two
+hands). δ_w = δ + hand_h − hand_r aims the middle of the robot's hand, not its
+wrist, δ beyond the middle of agent 1's hand: a robot hand reaching farther past
+its wrist than a person's is held back by the difference.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from ..data.interaction import Interaction
+from .measure import BodyMeasurements, heading_matrix, measure_human, measure_robot
 
 __all__ = [
     "ScalingConfig",
@@ -48,6 +66,7 @@ __all__ = [
     "measure_robot",
     "KeyJointScaler",
     "smoothstep",
+    "object_anchors",
 ]
 
 
@@ -57,38 +76,42 @@ class ScalingConfig:
 
     contact_near: float = 0.12
     """d_near, metres: at or below this wrist-to-partner distance the recorded wrist position is used."""
-    contact_far: float = 0.35
-    """d_far, metres: at or above this distance the scaled wrist position is used."""
+    contact_far: float = 0.6
+    """d_far, metres: at or above this distance the scaled wrist position is used (a wide band keeps the
+    blend from moving the target faster than the hand approaching the partner)."""
     contact_push: float = 0.05
-    """δ, metres: in contact (weight w) a wrist target is moved w·δ further toward the nearest joint
-    of agent 0, so that the robot's hand, shaped unlike a human one, still closes the gap (the IK's
-    collision limit stops it a few millimetres into the person)."""
+    """δ, metres: in contact (weight w) the middle of the robot's hand is aimed w·δ beyond the middle of
+    agent 1's, toward the nearest joint of agent 0, so that a hand shaped unlike a human one still
+    closes the gap (the IK's contact limit stops it ``IKConfig.contact_depth`` into the person). The
+    wrist target moves by δ_w = δ + hand_h − hand_r (the hands' lengths from the wrist; see
+    :attr:`KeyJointScaler.push`), which after :meth:`KeyJointScaler.reset` is also the scaler's
+    ``config.contact_push``."""
+    object_lookahead: float = 0.25
+    """Seconds: the wrists react to the object's recorded track extrapolated this far ahead (a ballistic
+    path from its last two frames; see :func:`object_anchors`), so that two hands close where a thrown
+    ball is about to be rather than where it is."""
+    push_to_object: bool = True
+    """Whether the push also applies toward the object (two hands closing on a ball or a cup), not only
+    toward the partner's joints."""
     scale_placement: bool = True
-    """Whether the robot's distance to the partner is scaled by the reach ratio (else agent 1's spot is used)."""
-
-
-@dataclass(frozen=True)
-class BodyMeasurements:
-    """Limb lengths and offsets of one body, metres."""
-
-    arm: float
-    """Shoulder→elbow→wrist chain length (mean of both sides)."""
-    leg: float
-    """Hip→knee→ankle chain length (mean of both sides)."""
-    base_height: float
-    """Height of the base above the floor when standing."""
-    shoulders: np.ndarray
-    """(2, 3) left/right shoulder offset from the base in the body's heading frame (x forward, z up)."""
-    hips: np.ndarray
-    """(2, 3) left/right hip offset from the base in the heading frame."""
-
-
-# Typical adult proportions used where a layout lacks the joints to measure them.
-_DEFAULT_HUMAN = BodyMeasurements(
-    arm=0.56, leg=0.84, base_height=0.95,
-    shoulders=np.array([[0.0, 0.18, 0.45], [0.0, -0.18, 0.45]]),
-    hips=np.array([[0.0, 0.09, -0.05], [0.0, -0.09, -0.05]]),
-)
+    """Whether the robot's distance to the partner is scaled by k (else agent 1's spot is used, k = 1)."""
+    contact_placement: bool = True
+    """Whether k comes from the contact samples (else, and without samples, from the arm ratio)."""
+    contact_radius: float = 0.25
+    """d_c, metres: a wrist of agent 1 whose closest approach to the partner (or the object) comes within
+    this distance marks a contact, used to place the robot."""
+    sample_band: float = 0.03
+    """Metres: the frames within this distance of a contact's closest approach are its samples."""
+    max_extension: float = 0.9
+    """e_max: the most a contact may stretch the robot's arm, as a fraction of its length."""
+    k_min: float = 0.5
+    """Smallest placement factor k."""
+    k_max: float = 2.0
+    """Largest placement factor k."""
+    body_clearance: float = 0.15
+    """c_b, metres: the robot's trunk (its ``trunk_radius`` about the base's vertical axis) keeps at
+    least this far from the partner's trunk, head and legs joints at every frame (k is raised until
+    it does: a robot must not stand where the person's body will be)."""
 
 
 def smoothstep(x: np.ndarray | float) -> np.ndarray:
@@ -97,13 +120,26 @@ def smoothstep(x: np.ndarray | float) -> np.ndarray:
     return x * x * (3.0 - 2.0 * x)
 
 
-def _yaw_matrix(heading: np.ndarray) -> np.ndarray:
-    """(3, 3) rotation whose columns are the heading frame's axes in world coordinates."""
-    x = np.array([heading[0], heading[1], 0.0])
-    n = np.linalg.norm(x)
-    x = np.array([1.0, 0.0, 0.0]) if n < 1e-9 else x / n
-    z = np.array([0.0, 0.0, 1.0])
-    return np.stack([x, np.cross(z, x), z], axis=1)
+LOOKAHEAD_POINTS = 4
+"""Points of the object's extrapolated path used as anchors (besides the object itself)."""
+GRAVITY = 9.81
+"""g, m/s²."""
+
+
+def object_anchors(track: np.ndarray, t: int, fps: float, lookahead: float) -> np.ndarray:
+    """(1 + LOOKAHEAD_POINTS, 3) the object at frame ``t`` of ``track`` (T, 3) and where it is about to be.
+
+    The path is a ballistic extrapolation over ``lookahead`` s from the velocity of frames
+    t − 1 → t (causal: nothing after frame t is read). A still or carried object's path stays
+    near it; without a previous frame or a lookahead only the object itself is returned.
+    """
+    here = np.asarray(track[t], dtype=np.float64)
+    if t < 1 or lookahead <= 0:
+        return here[None]
+    v = (here - track[t - 1]) * fps
+    s = np.linspace(lookahead / LOOKAHEAD_POINTS, lookahead, LOOKAHEAD_POINTS)[:, None]
+    ahead = here + v * s - 0.5 * GRAVITY * s**2 * np.array([0.0, 0.0, 1.0])
+    return np.vstack([here[None], ahead])
 
 
 @dataclass(frozen=True)
@@ -129,104 +165,14 @@ class RobotFrame:
         return (np.asarray(p) - self.origin) @ self.rotation
 
 
-def _chain(joints: np.ndarray, names: tuple[str, ...], parts: tuple[str, ...]) -> float | None:
-    if not all(p in names for p in parts):
-        return None
-    idx = [names.index(p) for p in parts]
-    seg = np.linalg.norm(np.diff(joints[:, idx], axis=1), axis=-1)  # (T, len-1)
-    ok = np.isfinite(seg).all(axis=1)
-    if not ok.any():
-        return None
-    return float(np.median(seg[ok], axis=0).sum())
-
-
-def measure_human(inter: Interaction, agent: int, offset: np.ndarray) -> BodyMeasurements:
-    """Limb lengths of one agent (medians over frames); typical adult values where joints are missing.
-
-    ``offset`` (3,) shifts the data into the world frame (floor at z = 0).
-    """
-    joints = inter.filled_joints()[:, agent] + offset
-    names = inter.joint_names
-    key = inter.key_joints()[:, agent] + offset
-    other = inter.key_joints()[0, 1 - agent] + offset
-    heading = _yaw_matrix(other[0] - key[0, 0])
-    arms = [_chain(joints, names, (f"{s}_shoulder", f"{s}_elbow", f"{s}_wrist")) for s in ("left", "right")]
-    if None in arms:
-        arms = [_chain(joints, names, (f"{s}_shoulder", f"{s}_elbow", f"{s}_hand")) for s in ("left", "right")]
-    legs = [_chain(joints, names, (f"{s}_hip", f"{s}_knee", f"{s}_ankle")) for s in ("left", "right")]
-    if None in legs:
-        legs = [_chain(joints, names, (f"{s}_hip", f"{s}_knee", f"{s}_foot")) for s in ("left", "right")]
-    base = key[:, 0]
-    d = _DEFAULT_HUMAN
-
-    def offsets(kind: str, default: np.ndarray) -> np.ndarray:
-        out = default.copy()
-        for i, s in enumerate(("left", "right")):
-            n = f"{s}_{kind}"
-            if n in names:
-                rel = (joints[:, names.index(n)] - base) @ heading
-                ok = np.isfinite(rel).all(axis=1)
-                if ok.any():
-                    out[i] = np.median(rel[ok], axis=0)
-        return out
-
-    height = float(np.nanmedian(base[:, 2])) if np.isfinite(base[:, 2]).any() else d.base_height
-    return BodyMeasurements(
-        arm=float(np.mean(arms)) if None not in arms else d.arm,  # type: ignore[arg-type]
-        leg=float(np.mean(legs)) if None not in legs else d.leg,  # type: ignore[arg-type]
-        base_height=height,
-        shoulders=offsets("shoulder", d.shoulders),
-        hips=offsets("hip", d.hips),
-    )
-
-
-def _path_length(model: mujoco.MjModel, data: mujoco.MjData, root_body: int, kind: str, fid: int) -> float:
-    """Length of the chain of body origins from ``root_body`` down to a site or body."""
-    if kind == "site":
-        body = int(model.site_bodyid[fid])
-        total = float(np.linalg.norm(data.site_xpos[fid] - data.xpos[body]))
-    else:
-        body, total = fid, 0.0
-    while body != root_body:
-        parent = int(model.body_parentid[body])
-        if parent <= 0:
-            raise ValueError(f"body {model.body(root_body).name!r} is not an ancestor of the key frame")
-        total += float(np.linalg.norm(data.xpos[body] - data.xpos[parent]))
-        body = parent
-    return total
-
-
-def measure_robot(model: mujoco.MjModel, qpos: np.ndarray, frame_kinds: tuple[str, ...], frame_ids: np.ndarray,
-                  limb_body_ids: np.ndarray) -> BodyMeasurements:
-    """Measurements of a robot at ``qpos`` (its home posture, robot frame, facing +x).
-
-    ``limb_body_ids`` (4,): bodies where the left/right arm and left/right leg chains start.
-    """
-    data = mujoco.MjData(model)
-    data.qpos[:] = qpos
-    mujoco.mj_kinematics(model, data)
-
-    def pos(kind: str, i: int) -> np.ndarray:
-        return np.array(data.site_xpos[i] if kind == "site" else data.xpos[i])
-
-    base = pos(frame_kinds[0], int(frame_ids[0]))
-    arms = [_path_length(model, data, int(limb_body_ids[s]), frame_kinds[1 + s], int(frame_ids[1 + s])) for s in (0, 1)]
-    legs = [_path_length(model, data, int(limb_body_ids[2 + s]), frame_kinds[3 + s], int(frame_ids[3 + s])) for s in (0, 1)]
-    return BodyMeasurements(
-        arm=float(np.mean(arms)),
-        leg=float(np.mean(legs)),
-        base_height=float(base[2]),
-        shoulders=np.array([data.xpos[int(limb_body_ids[s])] - base for s in (0, 1)]),
-        hips=np.array([data.xpos[int(limb_body_ids[2 + s])] - base for s in (0, 1)]),
-    )
-
-
 class KeyJointScaler:
     """Maps agent 1's key joints (world frame) to robot-frame targets for one instance."""
 
     def __init__(self, robot: BodyMeasurements, config: ScalingConfig | None = None) -> None:
         self.robot = robot
-        self.config = config or ScalingConfig()
+        self._base_config = config or ScalingConfig()
+        self.config = self._base_config
+        self.push = self.config.contact_push
 
     def reset(self, inter: Interaction, offset: np.ndarray) -> RobotFrame:
         """Measure the instance's people and place the robot; returns the robot frame."""
@@ -236,18 +182,104 @@ class KeyJointScaler:
         partner = measure_human(inter, 0, offset)
         a0 = np.array([key0[0, 0, 0], key0[0, 0, 1], 0.0])
         a1 = np.array([key0[1, 0, 0], key0[1, 0, 1], 0.0])
-        self._agent_frame = RobotFrame(a1, _yaw_matrix(a0 - a1))
-        k = 1.0
-        if self.config.scale_placement:
-            k = (partner.arm + self.robot.arm) / (partner.arm + self.human.arm)
-        self.k = k
-        origin = a0 + (a1 - a0) * k
-        self.frame = RobotFrame(origin, _yaw_matrix(a0 - a1))
+        self._agent_frame = RobotFrame(a1, heading_matrix(a0 - a1))
         idx = inter.layout.key_indices[0]
         self._partner_base = 0 if idx is None else idx
         self.s_arm = self.robot.arm / self.human.arm
         self.s_leg = self.robot.leg / self.human.leg
+        # The push is meant for the middle of the hand: a robot hand reaching farther past its wrist
+        # than a person's needs its wrist held back by the difference (and a shorter one, pushed on).
+        base = self._base_config
+        self.push = base.contact_push + self.human.hand - self.robot.hand
+        """Effective push δ_w of the wrist toward the partner in contact, metres (also ``config.contact_push``)."""
+        self.config = dataclasses.replace(base, contact_push=self.push)
+        c = self.config
+        k = (partner.arm + self.robot.arm) / (partner.arm + self.human.arm)
+        self.contact_k: float | None = None
+        """k required by the contact samples (``None`` without samples or with contact placement off)."""
+        if c.contact_placement:
+            self.contact_k = self._contact_k(inter, offset, heading_matrix(a0 - a1))
+            if self.contact_k is not None:
+                k = self.contact_k
+        if c.scale_placement and self.robot.trunk_radius > 0:
+            k = max(k, self._clearance_k(inter, offset, k))
+        self.k = float(np.clip(k, c.k_min, c.k_max)) if c.scale_placement else 1.0
+        origin = a0 + (a1 - a0) * self.k
+        self.frame = RobotFrame(origin, heading_matrix(a0 - a1))
         return self.frame
+
+    def _clearance_k(self, inter: Interaction, offset: np.ndarray, k0: float) -> float:
+        """The smallest k ≥ ``k0`` (in steps of 0.01, up to ``k_max``) at which the robot's trunk clears the
+        partner's trunk, head and legs by ``body_clearance`` at every frame (``k0`` when it already does)."""
+        c, r = self.config, self.robot
+        names = inter.joint_names
+        body = [j for j, n in enumerate(names) if not any(p in n for p in ("elbow", "wrist", "hand", "thumb", "tip"))]
+        joints = inter.filled_joints()[:, 0][:, body] + offset  # (T, J, 3) the partner's body joints
+        keys = inter.key_joints()[:, 1] + offset
+        p0 = (inter.filled_joints()[:, 0, self._partner_base] + offset)[:, :2]
+        D = keys[:, 0, :2] - p0  # (T, 2)
+        ok = np.isfinite(D).all(axis=1) & np.isfinite(p0).all(axis=1)
+        top = r.height if r.height > 0 else np.inf
+        relevant = np.isfinite(joints).all(axis=2) & (joints[..., 2] <= top) & ok[:, None]
+        if not relevant.any():
+            return k0
+        ks = np.arange(k0, max(k0, c.k_max) + 1e-9, 0.01)
+        base = p0[None, :, :] + ks[:, None, None] * D[None, :, :]  # (K, T, 2)
+        gap = np.linalg.norm(base[:, :, None, :] - joints[None, :, :, :2], axis=-1)  # (K, T, J)
+        clear = np.where(relevant[None], gap >= r.trunk_radius + c.body_clearance, True).all(axis=(1, 2))
+        return float(ks[np.argmax(clear)]) if clear.any() else float(ks[-1])
+
+    def _contact_k(self, inter: Interaction, offset: np.ndarray, rotation: np.ndarray) -> float | None:
+        """The largest k keeping every contact sample within the robot's reach (see the module notes)."""
+        c, h, r = self.config, self.human, self.robot
+        joints = inter.filled_joints() + offset  # (T, 2, J, 3)
+        keys = inter.key_joints()[:, 1] + offset  # (T, 5, 3)
+        partner = joints[:, 0]
+        anchors = partner if inter.object is None else np.concatenate([partner, (inter.object + offset)[:, None]], axis=1)
+        dist = np.linalg.norm(keys[:, 1:3, None, :] - anchors[:, None, :, :], axis=-1)  # (T, 2, A)
+        closest = np.min(np.where(np.isfinite(dist), dist, np.inf), axis=2)  # (T, 2)
+        # A wrist whose closest approach comes within contact_radius touches there: its samples are the
+        # frames within sample_band of that approach (or within contact_near).
+        approach = closest.min(axis=0)  # (2,)
+        near = (closest <= np.maximum(c.contact_near, approach + c.sample_band)) & (approach <= c.contact_radius)
+        t_idx, side = np.nonzero(near)
+        if not len(t_idx):
+            return None
+        wrist = keys[t_idx, 1 + side]
+        base1 = keys[t_idx, 0]
+        p0 = partner[t_idx, self._partner_base]
+        ok = np.isfinite(wrist).all(axis=1) & np.isfinite(base1).all(axis=1) & np.isfinite(p0).all(axis=1)
+        if not ok.any():
+            return None
+        t_idx, side, wrist, base1, p0 = t_idx[ok], side[ok], wrist[ok], base1[ok], p0[ok]
+        names = inter.joint_names
+        shoulder_h = base1 + (h.shoulders[side] @ self._agent_frame.rotation.T)
+        for s, name in enumerate(("left_shoulder", "right_shoulder")):
+            if name in names:
+                rows = side == s
+                measured = joints[t_idx[rows], 1, names.index(name)]
+                good = np.isfinite(measured).all(axis=1)
+                shoulder_h[np.flatnonzero(rows)[good]] = measured[good]
+        extension = np.minimum(np.linalg.norm(wrist - shoulder_h, axis=1) / h.arm, c.max_extension)
+        reach = extension * r.arm
+        # Robot shoulder for placement k: p₀ + k·(b₁ − p₀) horizontally, at the scaled base height, plus its offset.
+        D = np.zeros_like(base1)
+        D[:, :2] = base1[:, :2] - p0[:, :2]
+        A = np.zeros_like(base1)
+        A[:, :2] = p0[:, :2]
+        A[:, 2] = r.base_height + self.s_leg * (base1[:, 2] - h.base_height)
+        A += r.shoulders[side] @ rotation.T - wrist
+        dd = np.einsum("ij,ij->i", D, D)
+        ad = np.einsum("ij,ij->i", A, D)
+        aa = np.einsum("ij,ij->i", A, A)
+        disc = ad * ad - dd * (aa - reach * reach)
+        # Largest k within reach. A sample no placement brings within reach (a contact far below
+        # a tall robot's shoulders, which it meets by bending) says nothing about where to stand.
+        valid = (dd > 1e-6) & (disc >= 0)
+        if not valid.any():
+            return None
+        upper = (-ad[valid] + np.sqrt(disc[valid])) / dd[valid]
+        return float(upper.min())
 
     def scaled(self, keys: np.ndarray, partner_base: np.ndarray) -> np.ndarray:
         """(5, 3) robot-frame targets from agent 1's key joints ``keys`` (5, 3), world frame, by scaling alone.
@@ -268,7 +300,7 @@ class KeyJointScaler:
 
     def _nearest(self, keys: np.ndarray, partner: np.ndarray, obj: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Distance (2,), nearest anchor (2, 3) and whether it is a joint of agent 0 (2,) for each wrist."""
-        anchors = partner if obj is None else np.vstack([partner, obj[None]])
+        anchors = partner if obj is None else np.vstack([partner, np.asarray(obj, dtype=np.float64).reshape(-1, 3)])
         is_joint = np.arange(len(anchors)) < len(partner)
         ok = np.isfinite(anchors).all(axis=1)
         anchors, is_joint = anchors[ok], is_joint[ok]
@@ -281,7 +313,8 @@ class KeyJointScaler:
     def contact_weights(self, keys: np.ndarray, partner: np.ndarray, obj: np.ndarray | None = None) -> np.ndarray:
         """(2,) blend weight of the recorded position for the left and right wrist.
 
-        ``partner`` (J, 3): agent 0's joints; ``obj`` (3,) or ``None``; all world frame.
+        ``partner`` (J, 3): agent 0's joints; ``obj`` (3,) or (K, 3) (the object and, e.g., where it is
+        about to be; see :func:`object_anchors`) or ``None``; all world frame.
         """
         d, _, _ = self._nearest(np.asarray(keys, dtype=np.float64), partner, obj)
         c = self.config
@@ -301,6 +334,7 @@ class KeyJointScaler:
         toward = anchor - recorded
         n = np.linalg.norm(toward, axis=1, keepdims=True)
         unit = np.divide(toward, n, out=np.zeros_like(toward), where=n > 1e-9)
-        recorded += (w * c.contact_push * is_joint)[:, None] * unit
+        pushed = is_joint | c.push_to_object
+        recorded += (w * c.contact_push * pushed)[:, None] * unit
         out[1:3] = w[:, None] * self.frame.to_robot(recorded) + (1.0 - w[:, None]) * out[1:3]
         return out

@@ -3,8 +3,8 @@
 Until the release the object's free joint is set every physics step to the
 recorded track (linearly interpolated between frames) with the track's velocity,
 so it pushes the robot but nothing pushes it. The carrying hand of agent 0
-is the one whose distance to the object varies least over the first quarter of
-the instance, and the hold offset that distance over the first frames (tracked
+is the one nearer the object (median distance over the first quarter of the
+instance), and the hold offset that distance over the first frames (tracked
 objects are often recorded at a point some way from the hand); the release frame
 is the first frame at which the distance departs from the hold offset by more
 than ``release_distance``; from the step that reaches it on, MuJoCo moves the object. Its
@@ -96,9 +96,10 @@ def plan_carry(inter: Interaction, offset: np.ndarray, task: ObjectTask, hand_jo
     T = len(track)
     head = dist[: max(HOLD_FRAMES, T // 4)]
     if task.carried_by == "auto":
-        # The carrying hand keeps its distance to the object while the other hand moves about.
-        spread = np.where(np.isfinite(head).all(axis=0), head.std(axis=0), np.inf)
-        side = int(np.argmin(spread)) if np.isfinite(spread).any() else 0
+        # The carrying hand is the one nearer the object (median over the first quarter).
+        near = np.where(np.isfinite(head), head, np.nan)
+        median = np.array([np.nanmedian(near[:, k]) if np.isfinite(near[:, k]).any() else np.inf for k in (0, 1)])
+        side = int(np.argmin(median)) if np.isfinite(median).any() else 0
     else:
         side = 0 if task.carried_by == "left_hand" else 1
     grip = float(np.median(dist[:HOLD_FRAMES, side]))
@@ -162,11 +163,14 @@ def park_object(scene: Scene, data: mujoco.MjData, radius: float) -> None:
 def grip_on_contact(scene: Scene, data: mujoco.MjData) -> None:
     """Switch on the grip weld of every robot hand whose hand or forearm touches the object, at their current relative pose."""
     n = data.ncon
+    if not n or data.eq_active[scene.grip_eq].all():
+        return
     geom = data.contact.geom[:n]
     obj = scene.object_geom
-    other = np.concatenate([geom[geom[:, 0] == obj, 1], geom[geom[:, 1] == obj, 0]])
-    if other.size == 0:
+    hit = geom == obj
+    if not hit.any():
         return
+    other = geom[:, ::-1][hit]  # the geom each object contact touches
     m = scene.model
     for side in (0, 1):
         eq = scene.grip_eq[side]

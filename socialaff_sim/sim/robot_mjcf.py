@@ -3,10 +3,14 @@
 * :func:`robot_mjcf` loads the model, reads its home posture, turns on gravity
   compensation, excludes contacts between bodies that overlap by design, and
   (for the IK model) makes rigid the joints that cannot move a key frame;
-* :func:`tune_servos` gives every position servo critically damped gains.
+* :func:`tune_servos` gives every position servo critically damped gains;
+* :func:`limit_hand_force` caps the arm servos' torques so that a hand presses
+  with a bounded force.
 """
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -14,7 +18,10 @@ from dm_control import mjcf
 
 from ..retarget.robot import RobotSpec
 
-__all__ = ["robot_mjcf", "tune_servos", "SELF_CONTACT_HOPS"]
+if TYPE_CHECKING:
+    from .scene import Scene
+
+__all__ = ["robot_mjcf", "tune_servos", "limit_hand_force", "SELF_CONTACT_HOPS"]
 
 
 def robot_mjcf(robot: RobotSpec, physics: bool) -> tuple[mjcf.RootElement, dict[str, float]]:
@@ -140,3 +147,38 @@ def tune_servos(model: mujoco.MjModel, robot_qadr: np.ndarray, home_qpos: np.nda
     m.actuator_ctrllimited[ids] = limited
     m.actuator_ctrlrange[ids] = np.where(limited[:, None], m.jnt_range[jnt], 0.0)
     m.jnt_stiffness[joint_ids] = 0.0
+
+
+def limit_hand_force(scene: Scene, force: float) -> None:
+    """Cap each arm servo's torque at ``force`` (N) times its lever arm to the hand, at home.
+
+    The arm of a side is the subtree of its limb root (the shoulder body). A joint's
+    lever arm is the distance from its anchor to the wrist frame plus the hand's
+    reach beyond the wrist (the farthest point of the hand's geoms' bounding spheres),
+    so a hand pushing on something at its far end meets at most about ``force``.
+    A servo's own smaller limit is kept.
+    """
+    m = scene.model
+    d = mujoco.MjData(m)
+    d.qpos[scene.robot_qadr] = scene.home_qpos
+    mujoco.mj_kinematics(m, d)
+    inside = np.zeros(m.nbody, dtype=bool)
+    jnt = m.actuator_trnid[scene.act_ids, 0]
+    for s in (0, 1):
+        inside[:] = False
+        inside[int(scene.limb_body_ids[s])] = True
+        for b in range(int(scene.limb_body_ids[s]) + 1, m.nbody):  # MuJoCo numbers a body after its parent
+            inside[b] = inside[m.body_parentid[b]]
+        kind, fid = scene.frame_kinds[1 + s], int(scene.frame_ids[1 + s])
+        wrist = np.array(d.site_xpos[fid] if kind == "site" else d.xpos[fid])
+        hand = np.flatnonzero(scene.hand_geom[s])
+        reach = float((np.linalg.norm(d.geom_xpos[hand] - wrist, axis=1) + m.geom_rbound[hand]).max()) if len(hand) else 0.0
+        for a, j in zip(scene.act_ids, jnt, strict=True):
+            if not inside[m.jnt_bodyid[j]]:
+                continue
+            limit = force * (float(np.linalg.norm(wrist - d.xanchor[j])) + reach)
+            if m.actuator_forcelimited[a]:
+                lo, hi = m.actuator_forcerange[a]
+                limit = min(limit, -lo, hi)
+            m.actuator_forcelimited[a] = 1
+            m.actuator_forcerange[a] = (-limit, limit)

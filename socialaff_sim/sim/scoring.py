@@ -7,9 +7,13 @@
   the total reaches ``min_duration``;
 * ``catch``: after the release, a robot-hand contact with the object that comes
   before any object-floor contact;
-* ``object_in_hand``: judged at the end: the object touched a robot hand without a
-  break longer than :data:`GAP` over at least the last ``min_duration`` s and
-  never touched the floor after the release;
+* for both object sub-goals, a hand of the group whose grip weld holds the
+  object counts as touching it (the weld keeps the object at its pose of first
+  contact, which need not remain a touching contact);
+* ``object_in_hand``: judged at the end: the person has let go, the object touched
+  a robot hand without a break longer than :data:`GAP` over at least the last
+  ``min_duration`` s (a hold that began while both held it counts) and never
+  touched the floor after the release;
 * failures: robot self-penetration deeper than the threshold, a total normal
   force of the robot on the human (from ``mj_contactForce``, smoothed over
   :data:`FORCE_TIME_CONSTANT`) above the threshold, the object touching the
@@ -100,7 +104,26 @@ class SubgoalScorer:
                 if scene.object_geom >= 0:
                     b[scene.object_geom] = True
             self._pairs.append((a, b))
+        # A hand of an object sub-goal's group whose grip weld holds the object counts as holding it
+        # (the weld keeps it at the pose of first contact, which need not stay a touching contact).
+        self._grips = []
+        for sg, (a, _) in zip(task.subgoals, self._pairs, strict=True):
+            sides = [s for s in (0, 1) if sg.kind != "contact" and scene.grip_eq[s] >= 0 and (a & scene.hand_geom[s]).any()]
+            self._grips.append(np.array([scene.grip_eq[s] for s in sides], dtype=np.int64))
+        self._any_grip = any(len(g) for g in self._grips)
         self._force = np.zeros(6)
+        # Contacts that can matter: the robot with the person or with itself, the object with the
+        # robot or the floor. The rest (the robot's feet on the floor, the person holding the
+        # object) are passed over at once. Codes: 0 other, 1 robot, 2 person, 3 object, 4 floor.
+        self._code = np.where(self._robot_any, 1, np.where(self._human_any, 2, 0)).astype(np.int64)
+        if scene.object_geom >= 0:
+            self._code[scene.object_geom] = 3
+        if scene.floor_geom >= 0:
+            self._code[scene.floor_geom] = 4
+        table = np.zeros((5, 5), dtype=bool)
+        for a, b in ((1, 1), (1, 2), (1, 3), (3, 4)):
+            table[a, b] = table[b, a] = True
+        self._interesting = table.ravel()
         self.reset()
 
     def reset(self) -> None:
@@ -114,6 +137,8 @@ class SubgoalScorer:
         self.max_force_filtered = 0.0
         self._dt = 0.0
         self.time = 0.0
+        self.robot_on_object = False
+        """Whether a robot geom touched (or came within margin of) the object at the last step."""
 
     @property
     def failed(self) -> bool:
@@ -131,17 +156,38 @@ class SubgoalScorer:
         self.time = t
         self._dt = dt
         n = data.ncon
+        gripped = [bool(data.eq_active[g].any()) if len(g) else False for g in self._grips] if self._any_grip else None
+        keep = None
         if n:
-            geom = data.contact.geom[:n]
-            dist = data.contact.dist[:n]
-            touching = dist <= 0.0
+            con = data.contact
+            geom = con.geom[:n]
             g1, g2 = geom[:, 0], geom[:, 1]
-        else:
-            g1 = g2 = np.zeros(0, dtype=np.int64)
-            dist = np.zeros(0)
-            touching = np.zeros(0, dtype=bool)
-        self._score_subgoals(g1, g2, touching, dt, t, subevent)
-        self._score_failures(data, g1, g2, dist, touching, t)
+            cls = self._code[g1] * 5 + self._code[g2]
+            keep = self._interesting[cls]
+        if keep is None or not keep.any():
+            self.robot_on_object = False
+            if gripped is not None and any(gripped):
+                none = np.zeros(0, dtype=np.int64)
+                self._score_subgoals(none, none, np.zeros(0, dtype=bool), dt, t, subevent, gripped)
+            self._quiet_step(t)
+            return
+        self.robot_on_object = bool(((cls == 8) | (cls == 16)).any())  # robot–object, either order
+        dist = con.dist[:n]
+        touching = (dist <= 0.0) & keep
+        self._score_subgoals(g1, g2, touching, dt, t, subevent, gripped)
+        self._score_failures(data, g1, g2, np.where(keep, dist, 0.0), touching, t)
+
+    def _quiet_step(self, t: float) -> None:
+        """A step without any contact: what :meth:`update` does then, without the array work."""
+        self.last_force = 0.0
+        self.force_filtered -= min(1.0, self._dt / FORCE_TIME_CONSTANT) * self.force_filtered
+        dropped = 1.0 if self.tracks.floor_time is not None else 0.0
+        for f in self.failures:
+            value = self.force_filtered if f.kind == "contact_force" else dropped if f.kind == "object_dropped" else 0.0
+            bad = value > f.threshold if f.kind != "object_dropped" else value > 0
+            f.worst = max(f.worst, value)
+            if bad and not f.triggered:
+                f.triggered, f.time = True, t
 
     def _pair_active(self, k: int, g1: np.ndarray, g2: np.ndarray, touching: np.ndarray) -> bool:
         a, b = self._pairs[k]
@@ -149,7 +195,7 @@ class SubgoalScorer:
         return bool(hit.any())
 
     def _score_subgoals(self, g1: np.ndarray, g2: np.ndarray, touching: np.ndarray, dt: float, t: float,
-                        subevent: str | None) -> None:
+                        subevent: str | None, gripped: list[bool] | None = None) -> None:
         tr = self.tracks
         obj = self.scene.object_geom
         if obj >= 0 and tr.released and tr.floor_time is None and len(g1):
@@ -158,7 +204,7 @@ class SubgoalScorer:
             if on_floor.any():
                 tr.floor_time = t
         for k, (sg, res) in enumerate(zip(self.task.subgoals, self.subgoals, strict=True)):
-            active = len(g1) > 0 and self._pair_active(k, g1, g2, touching)
+            active = (len(g1) > 0 and self._pair_active(k, g1, g2, touching)) or bool(gripped and gripped[k])
             if sg.kind == "contact":
                 if active and (not sg.subevents or subevent in sg.subevents):
                     res.contact_time += dt
@@ -169,8 +215,8 @@ class SubgoalScorer:
                     res.contact_time += dt
                     if not res.success and tr.floor_time is None:
                         res.success, res.time = True, t
-            else:  # object_in_hand: track the current hold, judged in finish()
-                if active and tr.released:
+            else:  # object_in_hand: track the current hold (it may begin while the person still holds it)
+                if active:
                     res.contact_time += dt
                     last = tr.last_hold.get(sg.name)
                     if last is None or t - last > GAP + 1e-9:
@@ -213,7 +259,7 @@ class SubgoalScorer:
                 continue
             since, last = tr.hold_since.get(sg.name), tr.last_hold.get(sg.name)
             held = (
-                since is not None and last is not None and t_end - last <= GAP + 1e-9
+                tr.released and since is not None and last is not None and t_end - last <= GAP + 1e-9
                 and last - since >= sg.min_duration - 1e-9 and tr.floor_time is None
             )
             res.success, res.time = bool(held), (since if held else None)

@@ -11,6 +11,7 @@ frame, and the task's sub-goals and failures are scored on the contacts.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,11 +23,14 @@ from ..data.interaction import Interaction
 from ..errors import SimulationError
 from ..retarget.ik import IKConfig, IKModel, RobotIK
 from ..retarget.robot import RobotSpec, load_robot
-from ..retarget.scaling import KeyJointScaler, RobotFrame, ScalingConfig, measure_robot
-from .carry import CarryPlan, grip_on_contact, hold_object, park_object, plan_carry, release_object
+from ..retarget.scaling import KeyJointScaler, RobotFrame, ScalingConfig, measure_robot, object_anchors
+from .carry import CarryPlan, hold_object, park_object, plan_carry, release_object
 from .human import HumanPose, pose_human, world_offset
+from .reach import ReachModel, human_segments, reach_model, reachable_targets
+from .robot_mjcf import limit_hand_force
 from .scene import Scene, build_scene, pose_compliant, set_human_sizes
 from .scoring import SubgoalScorer
+from .substeps import FrameStepper
 from .tasks import TaskSpec, load_task
 
 __all__ = ["SimConfig", "StepResult", "Simulator"]
@@ -40,14 +44,19 @@ class SimConfig:
     """Δt, physics step in seconds (shortened so a data frame holds a whole number of steps)."""
     servo_bandwidth: float | None = 25.0
     """ω, natural frequency of the critically damped joint servos, rad/s (``None``: the model's own gains)."""
+    hand_force: float | None = 60.0
+    """F_max, newtons: the arm servos' torque limits are set so that a hand pushes with at most about
+    this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,
+    never above the model's own limit); ``None`` keeps the model's limits. With gravity compensation
+    the arms need little torque to move, so this mostly bounds how hard the robot can press on a person."""
     ik: IKConfig = field(default_factory=IKConfig)
     """Retargeting IK settings."""
     scaling: ScalingConfig = field(default_factory=ScalingConfig)
     """Human-to-robot scaling settings."""
     grip: bool = True
     """Whether a robot hand touching the object grips it (its grip weld switches on and stays on)."""
-    settle_iterations: int = 40
-    """IK steps spent at reset to reach the first frame's targets before physics starts."""
+    settle_iterations: int = 20
+    """IK solves spent at reset to reach the first frame's targets before physics starts."""
 
 
 @dataclass(frozen=True)
@@ -63,8 +72,9 @@ class StepResult:
     ik_error: np.ndarray
     """(5,) IK residual of each key frame, metres."""
     reachable: np.ndarray
-    """(5,) bool: target within the limb's length of its shoulder/hip (the base always) and, for a
-    wrist, in free space (farther than ``ScalingConfig.contact_far`` from the human and the object)."""
+    """(5,) bool: whether each target is reachable by the criterion of :mod:`socialaff_sim.sim.reach`
+    (within the limb's length, the hand or trunk clear of the person by its own size); IK error is
+    judged on these."""
     ik_iterations: int
     ik_seconds: float
     """CPU time of the IK in the calling thread, s."""
@@ -88,19 +98,14 @@ class _Stage:
     scorer: SubgoalScorer
     ik_map: np.ndarray
     """(nq_ik,) position of each IK coordinate in the physics robot's coordinates."""
+    stepper: FrameStepper
+    reach: ReachModel
 
 
 def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     out = np.empty(4)
     mujoco.mju_mulQuat(out, a, b)
     return out
-
-
-def _nlerp(q0: np.ndarray, q1: np.ndarray, a: float | np.ndarray) -> np.ndarray:
-    """Normalised linear interpolation of quaternions (..., 4), shortest way round."""
-    sign = np.where(np.sum(q0 * q1, axis=-1, keepdims=True) < 0, -1.0, 1.0)
-    q = (1.0 - a) * q0 + a * sign * q1
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
 
 class Simulator:
@@ -121,12 +126,14 @@ class Simulator:
             obj = self.task.object.spec if self.task.object is not None else None
             scene = build_scene(self.robot, inter.layout, obj, timestep=self.config.timestep,
                                 servo_bandwidth=self.config.servo_bandwidth)
+            if self.config.hand_force is not None:
+                limit_hand_force(scene, self.config.hand_force)
             ik_scene = build_scene(self.robot, inter.layout, None, physics=False)
+            collide = ik_scene.robot_geom & ((ik_scene.model.geom_contype != 0) | (ik_scene.model.geom_conaffinity != 0))
             ik_model = IKModel(
                 model=ik_scene.model, frame_kinds=ik_scene.frame_kinds, frame_ids=ik_scene.frame_ids,
                 home_qpos=ik_scene.home_qpos, hand_geoms=tuple(np.flatnonzero(h) for h in ik_scene.hand_geom),
-                arm_geoms=tuple(np.flatnonzero(a) for a in ik_scene.arm_geom),
-                robot_geoms=np.flatnonzero(ik_scene.robot_geom & ((ik_scene.model.geom_contype != 0) | (ik_scene.model.geom_conaffinity != 0))),
+                arm_geoms=tuple(np.flatnonzero(a) for a in ik_scene.arm_geom), robot_geoms=np.flatnonzero(collide),
                 human_geoms=ik_scene.human_geom_ids, human_mocap=ik_scene.human_mocap,
                 max_joint_velocity=self.robot.max_joint_velocity,
             )
@@ -134,12 +141,21 @@ class Simulator:
                 raise SimulationError("IK scene: the robot must own every coordinate")
             phys_index = {n: i for i, n in enumerate(scene.robot_joint_names)}
             ik_map = np.concatenate([np.arange(7), 6 + np.array([phys_index[n] for n in ik_scene.robot_joint_names[1:]], dtype=np.int64)])
-            self._stages[name] = _Stage(scene, mujoco.MjData(scene.model), ik_scene, RobotIK(ik_model, self.config.ik),
-                                        SubgoalScorer(scene, self.task), ik_map)
             if not hasattr(self, "measurements"):
                 self.measurements = measure_robot(ik_scene.model, ik_scene.home_qpos, ik_scene.frame_kinds,
                                                   ik_scene.frame_ids, ik_scene.limb_body_ids)
                 self._home_keys = self._fk_keys(ik_scene, ik_scene.home_qpos)
+            meas = self.measurements
+            reach = reach_model(scene, meas.arm, meas.leg, meas.shoulders, meas.hips, self.config.ik.min_distance)
+            if meas.trunk_radius == 0.0:
+                self.measurements = dataclasses.replace(meas, trunk_radius=reach.trunk_radius, height=reach.height,
+                                                        hand=float(np.mean(reach.hand_centre)))
+            data = mujoco.MjData(scene.model)
+            scorer = SubgoalScorer(scene, self.task)
+            self._stages[name] = _Stage(
+                scene, data, ik_scene, RobotIK(ik_model, self.config.ik), scorer, ik_map, FrameStepper(scene, data, scorer),
+                reach,
+            )
         return self._stages[name]
 
     @staticmethod
@@ -169,6 +185,7 @@ class Simulator:
         self.pose: HumanPose = pose_human(scene.body, inter, self.offset)
         set_human_sizes(scene, self.pose.half_lengths)
         set_human_sizes(stage.ik_scene, self.pose.half_lengths)
+        self._segments = human_segments(self.pose, scene.body.radii)
         self.scaler = KeyJointScaler(self.measurements, self.config.scaling)
         self.frame_R: RobotFrame = self.scaler.reset(inter, self.offset)
         self._yaw = self.frame_R.yaw
@@ -283,8 +300,17 @@ class Simulator:
         self._require()
         t = self.frame + 1 if frame is None else frame
         t = min(max(t, 0), self.n_frames - 1)
-        obj = None if self._obj_track is None else self._obj_track[t]
-        return self.scaler(np.asarray(keys, dtype=np.float64) + self.offset, self.pose.joints[t], obj)
+        return self.scaler(np.asarray(keys, dtype=np.float64) + self.offset, self.pose.joints[t], self.object_anchors(t))
+
+    def object_anchors(self, frame: int) -> np.ndarray | None:
+        """(K, 3) world frame: the recorded object at ``frame`` and its path over the next
+        ``ScalingConfig.object_lookahead`` s (:func:`~socialaff_sim.retarget.scaling.object_anchors`);
+        ``None`` without an object track. These are the object anchors the scaler reacts to."""
+        self._require()
+        if self._obj_track is None:
+            return None
+        fps = self.interaction.fps  # type: ignore[union-attr]
+        return object_anchors(self._obj_track, frame, fps, self.config.scaling.object_lookahead)
 
     def _require(self) -> None:
         if self._stage is None or self.interaction is None:
@@ -297,78 +323,49 @@ class Simulator:
             raise SimulationError(f"the instance has ended (frame {self.frame} of {self.n_frames}); call reset")
         stage = self._stage
         assert stage is not None
-        scene, data, scorer, ik = stage.scene, stage.data, stage.scorer, stage.ik
         fps = self.interaction.fps  # type: ignore[union-attr]
         t0, t1 = self.frame, self.frame + 1
         tg = self._fill_targets(np.asarray(targets, dtype=np.float64))
         world = self.frame_R.to_world(tg)
-        ik.set_human(self.pose.pos[t1], self.pose.quat[t1])
+        seg_a, seg_b, radius = self._segments
+        reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
+        ik = stage.ik
         tic = time.thread_time()
-        res = ik.solve(world, self._yaw, dt=1.0 / fps)
+        ik.set_human(self.pose.pos[t1], self.pose.quat[t1])
+        res = ik.solve(world, self._yaw, dt=1.0 / fps, care=reachable)
         ik_seconds = time.thread_time() - tic
 
-        q_prev, q_new = self._to_physics(self._q), self._to_physics(res.qpos)
-        n = self.n_sub
-        a = (np.arange(1, n + 1) / n)[:, None]
-        qs = (1 - a) * q_prev + a * q_new  # (n, nq_r)
-        qs[:, 3:7] = _nlerp(q_prev[3:7], q_new[3:7], a)
-        full = np.repeat(data.qpos[None], n, axis=0)
-        full[:, scene.robot_qadr] = qs
-        vel = np.zeros(scene.model.nv)
-        vel[scene.robot_vadr[6:]] = (q_new[7:] - q_prev[7:]) * fps
-        ctrls = scene.ctrl_for(full, vel)  # (n, n_act)
-        hp = (1 - a[:, :, None]) * self.pose.pos[t0] + a[:, :, None] * self.pose.pos[t1]
-        hq = _nlerp(self.pose.quat[t0], self.pose.quat[t1], a[:, :, None])
-        dt = scene.model.opt.timestep
-        force = 0.0
-        carrying = self.carry is not None and not self._released
-        for k in range(n):
-            data.mocap_pos[scene.human_mocap] = hp[k]
-            data.mocap_quat[scene.human_mocap] = hq[k]
-            data.mocap_pos[scene.anchor_mocap] = qs[k, :3]
-            data.mocap_quat[scene.anchor_mocap] = qs[k, 3:7]
-            data.ctrl[scene.act_ids] = ctrls[k]
-            if carrying:
+        carry = None
+        if self.carry is not None and not self._released:
+            plan, n = self.carry, self.n_sub
+
+            def carry(k: int, now: float) -> bool:
                 s0 = t0 + k / n
-                if s0 + 1.0 / n > self.carry.release_frame - 1 + 1e-9:  # type: ignore[union-attr]
+                if s0 + 1.0 / n > plan.release_frame - 1 + 1e-9:
+                    self.time = now
                     self._release(s0)
-                    carrying = False
-                else:
-                    self._place_object(s0, moving=True)
-            mujoco.mj_step(scene.model, data)
-            self.time += dt
-            scorer.update(data, dt, self.time, subevent)
-            force += scorer.last_force
-            if self.config.grip and scene.object_geom >= 0 and data.ncon:
-                grip_on_contact(scene, data)
-        force /= n
+                    return False
+                self._place_object(s0, moving=True)
+                return True
+
+        self.time, force = stage.stepper.run(
+            self.n_sub, fps, self._to_physics(self._q), self._to_physics(res.qpos),
+            (self.pose.pos[t0], self.pose.pos[t1]), (self.pose.quat[t0], self.pose.quat[t1]), self.time, subevent,
+            grip=self.config.grip, carry=carry,
+        )
+        scorer = stage.scorer
         self._q = res.qpos
         self.frame = t1
         self.last_targets = tg
         if self.done:
             scorer.finish(self.time)
         result = StepResult(
-            frame=t1, time=self.time, targets=tg, ik_error=res.errors, reachable=self._reachable(tg, world, t1),
+            frame=t1, time=self.time, targets=tg, ik_error=res.errors, reachable=reachable,
             ik_iterations=res.iterations, ik_seconds=ik_seconds, subevent=subevent, force_on_human=force,
             subgoals={r.name: r.success for r in scorer.subgoals}, failed=scorer.failed, done=self.done,
         )
         self.results.append(result)
         return result
-
-    def _reachable(self, tg: np.ndarray, world: np.ndarray, t: int) -> np.ndarray:
-        """Which targets the IK should meet: within the limb's length of its shoulder/hip and, for
-        a wrist, farther than ``contact_far`` from the human and the object (closer in, collision
-        avoidance and the wanted contact decide where the hand may go)."""
-        m = self.measurements
-        out = np.ones(5, dtype=bool)
-        out[1:3] = np.linalg.norm(tg[1:3] - (tg[0] + m.shoulders), axis=1) <= m.arm
-        out[3:5] = np.linalg.norm(tg[3:5] - (tg[0] + m.hips), axis=1) <= m.leg
-        near = self.pose.joints[t]
-        if self._obj_track is not None:
-            near = np.vstack([near, self._obj_track[t][None]])
-        clearance = np.linalg.norm(world[1:3, None, :] - near[None], axis=-1).min(axis=1)
-        out[1:3] &= clearance > self.config.scaling.contact_far
-        return out
 
     # -- observations -----------------------------------------------------------------
     @property

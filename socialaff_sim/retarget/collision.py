@@ -1,0 +1,148 @@
+"""Collision avoidance between geom pairs as one mink limit, built for a per-frame IK budget.
+
+:class:`GeomPairLimit` plays the part of :class:`mink.CollisionAvoidanceLimit`
+with three differences that matter here:
+
+* its bound is a displacement, in the same units as mink's other limits on Δq:
+  ``−∂d/∂q · Δq ≤ gain · (d − d_min)`` (mink 1.3 divides that bound by dt, which
+  is right only for dt = 1 s);
+* each pair has its own ``d_min`` and detection distance: the robot keeps clear of
+  most of the person but may press ``contact_depth`` into the parts a sub-goal
+  wants touched;
+* a pair found closer than ``d_min`` because the *person* moved into the robot
+  (which the robot cannot prevent) may get a negative bound, down to ``−max_push``:
+  the solution then moves the robot back out instead of merely not going deeper.
+
+The distances come from MuJoCo's own collision detection rather than from one
+``mj_geomDistance`` call per pair: every geom in a pair gets a contact margin
+equal to its largest detection distance, so ``mujoco.mj_collision`` reports
+every pair closer than that (broad- and narrow-phase in C), and
+``mujoco.mj_makeConstraint`` turns the contacts into Jacobian rows (their
+normal directions, ``∂d/∂q``). This needs the model to itself: the limit sets
+the margins, makes every contact frictionless (one row each) and turns off the
+other constraint types (joint limits, equalities, friction loss), which the IK
+handles as limits of its own. The person's capsule sizes may change afterwards
+(MuJoCo reads them at each call).
+"""
+
+from __future__ import annotations
+
+import mink
+import mujoco
+import numpy as np
+
+__all__ = ["GeomPairLimit", "collision_pairs"]
+
+
+def collision_pairs(model: mujoco.MjModel, group_a: np.ndarray, group_b: np.ndarray) -> np.ndarray:
+    """(P, 2) int: pairs (a, b), a from ``group_a`` and b from ``group_b``, of geoms that can collide.
+
+    Left out, as MuJoCo's collision detection does: pairs on the same body (or on
+    bodies welded together), pairs whose bodies are parent and child, pairs whose
+    contype/conaffinity bits never meet, and body pairs the model excludes. Each
+    unordered pair appears once.
+    """
+    a = np.unique(np.asarray(group_a, dtype=np.int64).ravel())
+    b = np.unique(np.asarray(group_b, dtype=np.int64).ravel())
+    if a.size == 0 or b.size == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    ga, gb = (x.ravel() for x in np.meshgrid(a, b, indexing="ij"))
+    weld = model.body_weldid
+    wa, wb = weld[model.geom_bodyid[ga]], weld[model.geom_bodyid[gb]]
+    pa, pb = weld[model.body_parentid[wa]], weld[model.body_parentid[wb]]
+    bits = ((model.geom_contype[ga] & model.geom_conaffinity[gb]) != 0) | (
+        (model.geom_contype[gb] & model.geom_conaffinity[ga]) != 0)
+    keep = (wa != wb) & (wa != pb) & (wb != pa) & bits
+    if model.nexclude:
+        signature = model.exclude_signature
+        ba, bb = model.geom_bodyid[ga], model.geom_bodyid[gb]
+        sig = (np.minimum(ba, bb).astype(np.int64) << 16) + np.maximum(ba, bb)
+        keep &= ~np.isin(sig, signature)
+    pairs = np.stack([ga[keep], gb[keep]], axis=1)
+    _, first = np.unique(np.sort(pairs, axis=1), axis=0, return_index=True)
+    return pairs[np.sort(first)]
+
+
+class GeomPairLimit(mink.Limit):
+    """Keep each geom pair at least its ``d_min`` apart, as linear inequalities on Δq.
+
+    ``pairs`` (P, 2) geom ids; ``min_distance`` (P,) metres (negative: may press
+    that deep); ``detection`` (P,) metres: a pair farther apart is left out of the
+    QP; ``push`` (P,) bool: whether the pair may get a negative bound. ``gain`` is
+    the fraction of the remaining gap a pair may close per step, ``max_push`` (m)
+    the most a pair is pushed apart per step. ``margins`` (ngeom,), optional: each
+    geom's contact margin; MuJoCo reports a pair closer than the *sum* of its two
+    margins, which must reach the pair's detection distance (by default each geom
+    gets half the largest detection distance of its pairs). Changes ``model`` (see
+    the module notes).
+    """
+
+    def __init__(self, model: mujoco.MjModel, pairs: np.ndarray, min_distance: np.ndarray, detection: np.ndarray,
+                 push: np.ndarray, *, gain: float = 0.85, max_push: float = 0.02, margins: np.ndarray | None = None) -> None:
+        self.model = model
+        pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+        n = len(pairs)
+        self.pairs = pairs
+        self.min_distance = np.broadcast_to(np.asarray(min_distance, dtype=np.float64), (n,)).copy()
+        self.detection = np.broadcast_to(np.asarray(detection, dtype=np.float64), (n,)).copy()
+        self.push = np.broadcast_to(np.asarray(push, dtype=bool), (n,)).copy()
+        self.gain = float(gain)
+        self.max_push = float(max_push)
+        self.allow_push = True
+        """Switched off by the caller for a retry when a push made the QP infeasible."""
+        G = model.ngeom
+        g1, g2 = pairs[:, 0], pairs[:, 1]
+        self._dmin = np.zeros((G, G))
+        self._detect = np.full((G, G), -np.inf)  # not a pair: never close enough
+        self._push = np.zeros((G, G), dtype=bool)
+        for a, b in ((g1, g2), (g2, g1)):
+            self._dmin[a, b] = self.min_distance
+            self._detect[a, b] = self.detection
+            self._push[a, b] = self.push
+        if margins is None:
+            margin = np.zeros(G)
+            np.maximum.at(margin, g1, 0.5 * self.detection)
+            np.maximum.at(margin, g2, 0.5 * self.detection)
+        else:
+            margin = np.asarray(margins, dtype=np.float64)
+            short = margin[g1] + margin[g2] < self.detection - 1e-12
+            if short.any():
+                raise ValueError(f"GeomPairLimit: margins sum below the detection distance for {int(short.sum())} pairs")
+        model.geom_margin[:] = margin
+        model.geom_gap[:] = 0.0
+        model.geom_condim[:] = 1
+        model.opt.jacobian = int(mujoco.mjtJacobian.mjJAC_DENSE)
+        model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_EQUALITY | mujoco.mjtDisableBit.mjDSBL_LIMIT
+                                      | mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS)
+        model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+        self.last_active = np.zeros((0, 2), dtype=np.int64)
+        """Geom pairs that produced a row at the last call (for tests and diagnostics)."""
+        self.last_distance = np.zeros(0)
+        """Their distances (m) at that call."""
+
+    def compute_qp_inequalities(self, configuration: mink.Configuration, dt: float) -> mink.Constraint:
+        model, data = self.model, configuration.data
+        mujoco.mj_collision(model, data)
+        n = data.ncon
+        self.last_active, self.last_distance = np.zeros((0, 2), dtype=np.int64), np.zeros(0)
+        if not n:
+            return mink.Constraint()
+        con = data.contact
+        geom = con.geom[:n]
+        g1, g2 = geom[:, 0], geom[:, 1]
+        dist = con.dist[:n]
+        if not (dist < self._detect[g1, g2]).any():
+            return mink.Constraint()
+        mujoco.mj_makeConstraint(model, data)
+        nefc = data.nefc
+        # One frictionless row per contact: efc_J · q̇ is the rate at which the pair separates.
+        cid = data.efc_id[:nefc]
+        rows = np.flatnonzero(dist[cid] < self._detect[g1[cid], g2[cid]])
+        cid = cid[rows]
+        a, b = g1[cid], g2[cid]
+        d = dist[cid]
+        jac = data.efc_J[: nefc * model.nv].reshape(nefc, model.nv)[rows]
+        self.last_active, self.last_distance = np.stack([a, b], axis=1), d
+        bound = self.gain * (d - self._dmin[a, b])
+        floor = np.where(self._push[a, b] & self.allow_push, -self.max_push, 0.0)
+        return mink.Constraint(G=-jac, h=np.maximum(bound, floor))
