@@ -16,7 +16,13 @@ configuration (one core: run it alone) and report
   atomic intervals, and of those refined by the same hard-EM the learner uses — whether the
   model's objective prefers the ground-truth segmentation.
 
-Run: ``python scripts/bench_learning.py [--instances 18] [--iterations 100] [--seed 0] [--diagnose] [--p-shift P]``.
+The model's optional corrections (see :class:`~socialaff_sim.model.config.AffordanceConfig` and
+:class:`~socialaff_sim.learning.config.LearningConfig`; paper defaults otherwise) are switched with
+``--likelihood held_out``, ``--vector-density cartesian``, ``--duration-density log_seconds`` and
+``--init-starts N``.
+
+Run: ``python scripts/bench_learning.py [--instances 18] [--iterations 100] [--seed 0] [--diagnose] [--p-shift P]
+[--interactions NAME ...] [--likelihood L] [--vector-density D] [--duration-density D] [--init-starts N]``.
 """
 
 from __future__ import annotations
@@ -114,17 +120,27 @@ def main() -> int:
     ap.add_argument("--interactions", nargs="*", default=None, help="subset of the interactions")
     ap.add_argument("--diagnose", action="store_true", help="also score the ground-truth parses under the model")
     ap.add_argument("--p-shift", type=float, default=None, help="override LearningConfig.p_shift (0: the paper's chain)")
+    ap.add_argument("--likelihood", default=None, help="override AffordanceConfig.likelihood (profile, held_out)")
+    ap.add_argument("--vector-density", default=None, help="override AffordanceConfig.vector_density (polar, cartesian)")
+    ap.add_argument("--duration-density", default=None,
+                    help="override AffordanceConfig.duration_density (seconds, log_seconds)")
+    ap.add_argument("--init-starts", type=int, default=None, help="override LearningConfig.init_starts")
     args = ap.parse_args()
     data = generate_dataset(seed=args.seed)
     learning = dataclasses.replace(LearningConfig(), iterations=args.iterations)
     if args.p_shift is not None:
         learning = dataclasses.replace(learning, p_shift=args.p_shift)
+    if args.init_starts is not None:
+        learning = dataclasses.replace(learning, init_starts=args.init_starts)
+    overrides = {"likelihood": args.likelihood, "vector_density": args.vector_density,
+                 "duration_density": args.duration_density}
+    config = AffordanceConfig(**{k: v for k, v in overrides.items() if v is not None})
     accs = []
     head = f"{'interaction':12s} {'acc':>6s} {'grouped':>8s} {'atoms s':>8s} {'init s':>7s} {'mcmc s':>7s} {'accept':>7s}"
     print(head + ("  log P*: learned / GT / GT+EM" if args.diagnose else "") + "  contact joints -> grouping of that type")
     for label in args.interactions or data.labels:
         inters = list(data.of_label(label))[: args.instances]
-        model = SocialAffordanceModel(AffordanceConfig(), learning)
+        model = SocialAffordanceModel(config, learning)
         model.fit(inters, rng=np.random.default_rng(args.seed))
         acc, match = frame_accuracy(model, inters)
         gt_index = SUBEVENTS[label].index(CONTACT[label])
@@ -142,6 +158,7 @@ def main() -> int:
         names = ",".join(JOINT_NAMES[j] for j in joints)
         print(f"{line}  {names} -> {z.tolist()}", flush=True)
     print(f"mean frame accuracy {np.mean(accs):.3f} over {len(accs)} interactions")
+    print(f"config: {config}; init_starts={learning.init_starts}")
     return 0
 
 

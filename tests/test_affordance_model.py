@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from socialaff_sim.data import save_dataset
 from socialaff_sim.data.dataset import Dataset
@@ -22,6 +23,7 @@ from socialaff_sim.model.config import AffordanceConfig, default_n_subevents
 from socialaff_sim.model.densities import fit_lognorm
 from socialaff_sim.model.features import type_samples
 from socialaff_sim.model.joints import N_JOINTS, OBJECT, available_joints, canonical_joints
+from socialaff_sim.model.potentials import reference_weights
 from socialaff_sim.model.transitions import count_transitions, transition_loglik
 
 FAST = LearningConfig(iterations=3)
@@ -140,13 +142,17 @@ def test_score_and_best_parse(fitted: SocialAffordanceModel, hand_over: Dataset)
     assert fitted.score([inter]) == pytest.approx(total / inter.n_frames)
 
 
-def test_incremental_target_matches_a_fresh_evaluation(hand_over: Dataset, rng: np.random.Generator) -> None:
+@pytest.mark.parametrize(
+    "options",
+    [{}, {"likelihood": "held_out", "vector_density": "cartesian", "duration_density": "log_seconds"}],
+)
+def test_incremental_target_matches_a_fresh_evaluation(hand_over: Dataset, rng: np.random.Generator, options: dict) -> None:
     """After accepted MH moves, the cached per-type statistics equal a from-scratch evaluation."""
     inters = list(hand_over)[:5]
     tracks = [canonical_joints(i) for i in inters]
     fps = [i.fps for i in inters]
     av = available_joints(tracks)
-    acfg, lcfg = AffordanceConfig(), LearningConfig(init_rounds=0)
+    acfg, lcfg = AffordanceConfig(**options), LearningConfig(init_rounds=0)
     res = learn(tracks, fps, av, 4, acfg, dataclasses.replace(lcfg, iterations=0), rng=rng)
     target = AffordanceTarget(tracks, fps, list(res.spaces), list(res.parses), av, 4, acfg, lcfg, rng)
     current = target.log_prob
@@ -164,10 +170,26 @@ def test_incremental_target_matches_a_fresh_evaluation(hand_over: Dataset, rng: 
         feats = type_samples(tracks, fps, spans, s)
         lik = TypeLikelihood(feats.end, feats.disp, av, acfg)
         assert ts.potential == pytest.approx(joint_log_prob(lik, ts.z, acfg.beta, acfg.gamma), abs=1e-8)
-        dur = fit_lognorm(feats.seconds).loglik[0] if len(feats) else 0.0
+        if not len(feats):
+            dur = 0.0
+        elif acfg.likelihood == "held_out":  # each duration under the log-normal fitted to the others
+            x = feats.seconds
+            dur = sum(
+                stats.lognorm.logpdf(x[n], *_lognorm_args(np.delete(x, n))) for n in range(x.size)
+            ) if x.size > 1 else fit_lognorm(x).loglik[0]
+        else:
+            dur = fit_lognorm(feats.seconds).loglik[0]
+        if len(feats) and acfg.duration_density == "log_seconds":
+            dur += np.log(feats.seconds).sum()
         assert ts.duration == pytest.approx(dur, abs=1e-9)
         expected += ts.potential + ts.duration
     assert target.log_prob == pytest.approx(expected, abs=1e-8)
+
+
+def _lognorm_args(x: np.ndarray) -> tuple[float, int, float]:
+    """scipy.stats.lognorm (s, loc, scale) of the floored ML fit of durations ``x``."""
+    f = fit_lognorm(x, sigma_min=AffordanceConfig().sigma_min)
+    return float(f.sigma[0]), 0, float(np.exp(f.mu[0]))
 
 
 def test_ablations(hand_over: Dataset) -> None:
@@ -207,5 +229,39 @@ def test_config_defaults_and_round_trip() -> None:
     assert AffordanceConfig.from_dict(cfg.to_dict()) == cfg and LearningConfig.from_dict(lc.to_dict()) == lc
     with pytest.raises(ConfigError, match="unknown fields"):
         AffordanceConfig.from_dict({"nope": 1})
+    assert (cfg.likelihood, cfg.vector_density, cfg.duration_density, lc.init_starts) == ("profile", "polar", "seconds", 0)
+    for name in ("likelihood", "vector_density", "duration_density"):
+        with pytest.raises(ConfigError, match=name):
+            AffordanceConfig(**{name: "nope"})
+    with pytest.raises(ConfigError, match="init_starts"):
+        LearningConfig(init_starts=-1)
+    with pytest.raises(ConfigError, match="init_dirichlet"):
+        LearningConfig(init_dirichlet=0.0)
     assert default_n_subevents("throw_catch") == 5
     assert default_n_subevents("not_in_the_synthetic_set") == 4
+
+
+def test_corrected_objective_options_fit_and_hooks(hand_over: Dataset) -> None:
+    """The non-paper options fit end to end, and the hooks add the documented Jacobians to the paper's potentials."""
+    options = {"likelihood": "held_out", "vector_density": "cartesian", "duration_density": "log_seconds"}
+    learning = dataclasses.replace(FAST, init_starts=2)
+    model = SocialAffordanceModel(AffordanceConfig(**options), learning).fit(list(hand_over)[:6], rng=np.random.default_rng(0))
+    assert model.log_posterior_ >= model.trace_.max() - 1e-9
+    # The same learned potentials scored as the paper's polar densities.
+    polar = SocialAffordanceModel(AffordanceConfig(), learning)
+    polar.__dict__.update({k: v for k, v in model.__dict__.items() if k.endswith("_")})
+    track = model.canonical_track(hand_over[6])
+    feats = model.interval_features(track, np.array([0, 4]), np.array([9, 20]), hand_over[6].fps)
+    for s in range(model.n_subevents_):
+        z = model.grouping_[s]
+        W = reference_weights(np.where(model.available_, z, -1), other_side=True)
+        aff = np.flatnonzero((z > 0) & model.available_)
+        off = feats.end[:, aff] - np.einsum("kj,njd->nkd", W[aff][:, model.available_], feats.end[:, model.available_])
+        jac = -np.log(2.0 * np.maximum(np.hypot(off[..., 0], off[..., 1]), model.config.eps)).sum(axis=1)
+        np.testing.assert_allclose(model.log_spatial(s, feats.end), polar.log_spatial(s, feats.end) + jac, rtol=1e-12)
+        d = feats.disp[:, model.available_]
+        jac_m = -np.log(2.0 * np.maximum(np.hypot(d[..., 0], d[..., 1]), model.config.eps)).sum(axis=1)
+        np.testing.assert_allclose(model.log_motion(s, feats.disp), polar.log_motion(s, feats.disp) + jac_m, rtol=1e-12)
+        np.testing.assert_allclose(
+            model.log_duration(s, feats.seconds), polar.log_duration(s, feats.seconds) + np.log(feats.seconds), rtol=1e-12
+        )

@@ -12,6 +12,11 @@ from socialaff_sim.model.densities import (
     fit_lognorm,
     fit_vonmises,
     fit_weibull,
+    heldout_expon,
+    heldout_lognorm,
+    heldout_vonmises,
+    heldout_weibull,
+    leave_one_out_rows,
     lognorm_logpdf,
     vonmises_logpdf,
     weibull_logpdf,
@@ -141,3 +146,66 @@ def test_lognorm_fit_floors_sigma() -> None:
     assert fit.sigma[0] == 0.05
     ref = stats.lognorm(0.05, scale=1.5).logpdf(x[0]).sum()
     assert fit.loglik[0] == pytest.approx(ref, rel=1e-10)
+
+
+def _brute_heldout(x: np.ndarray, fit, logpdf) -> np.ndarray:  # noqa: ANN001
+    """Σ_n logpdf(x_n | fit(x without n)) per row, by an explicit loop (the reference)."""
+    out = np.zeros(x.shape[0])
+    for b in range(x.shape[0]):
+        for n in range(x.shape[1]):
+            params = fit(np.delete(x[b], n))
+            out[b] += logpdf(x[b, n], *params)
+    return out
+
+
+def test_leave_one_out_rows() -> None:
+    x = np.arange(8.0).reshape(2, 4)
+    rows = leave_one_out_rows(x)
+    assert rows.shape == (2, 4, 3)
+    for b in range(2):
+        for n in range(4):
+            np.testing.assert_array_equal(rows[b, n], np.delete(x[b], n))
+
+
+def test_heldout_loglik_matches_a_brute_force_loop(rng: np.random.Generator) -> None:
+    """Held-out log-likelihoods: each sample under the fit without it, scored by scipy.stats."""
+    x = rng.weibull(2.0, (3, 9)) * 0.4 + 1e-4
+    theta = rng.vonmises(0.5, 3.0, (3, 9))
+    eps = 1e-3
+
+    def wfit(v):  # noqa: ANN001, ANN202
+        f = fit_weibull(v, eps=eps)
+        return float(f.shape[0]), float(f.scale[0])
+
+    ref = _brute_heldout(np.maximum(x, eps), wfit, lambda v, k, lam: stats.weibull_min.logpdf(v, k, scale=lam))
+    np.testing.assert_allclose(heldout_weibull(x, eps=eps), ref, rtol=1e-9)
+
+    def vfit(v):  # noqa: ANN001, ANN202
+        f = fit_vonmises(v)
+        return float(f.mu[0]), float(f.kappa[0])
+
+    ref = _brute_heldout(theta, vfit, lambda v, mu, kap: stats.vonmises.logpdf(v, kap, loc=mu))
+    np.testing.assert_allclose(heldout_vonmises(theta), ref, rtol=1e-9)
+    ref = _brute_heldout(np.maximum(x, eps), lambda v: (float(np.mean(v)),), lambda v, m: stats.expon.logpdf(v, scale=m))
+    np.testing.assert_allclose(heldout_expon(x, eps=eps), ref, rtol=1e-9)
+
+    def lfit(v):  # noqa: ANN001, ANN202
+        f = fit_lognorm(v, sigma_min=0.05)
+        return float(f.mu[0]), float(f.sigma[0])
+
+    ref = _brute_heldout(x, lfit, lambda v, mu, sig: stats.lognorm.logpdf(v, sig, scale=np.exp(mu)))
+    np.testing.assert_allclose(heldout_lognorm(x, sigma_min=0.05), ref, rtol=1e-9)
+
+
+def test_heldout_loglik_is_below_the_maximized_one_and_falls_back_for_one_sample(rng: np.random.Generator) -> None:
+    x = rng.weibull(1.5, (4, 12))
+    assert np.all(heldout_weibull(x) < fit_weibull(x).loglik)
+    assert np.all(heldout_expon(x) < fit_expon(x).loglik)
+    one = np.array([[0.3]])
+    np.testing.assert_allclose(heldout_weibull(one), fit_weibull(one).loglik, atol=0.0)
+    np.testing.assert_allclose(heldout_vonmises(one), fit_vonmises(one).loglik, atol=0.0)
+    np.testing.assert_allclose(heldout_expon(one), fit_expon(one).loglik, atol=0.0)
+    np.testing.assert_allclose(heldout_lognorm(one), fit_lognorm(one).loglik, atol=0.0)
+    # Near-identical samples: the maximized fit hugs them; one sample apart costs the held-out score dearly.
+    tight = np.array([[0.5] * 8 + [0.8]])
+    assert heldout_weibull(tight)[0] < fit_weibull(tight).loglik[0] - 20.0

@@ -101,9 +101,10 @@ def _data(rng: np.random.Generator, n: int = 6) -> tuple[np.ndarray, np.ndarray,
     return end, disp, available
 
 
-def test_memoized_likelihood_matches_direct_fit(rng: np.random.Generator) -> None:
+@pytest.mark.parametrize("likelihood", ["profile", "held_out"])
+def test_memoized_likelihood_matches_direct_fit(rng: np.random.Generator, likelihood: str) -> None:
     end, disp, available = _data(rng)
-    cfg = AffordanceConfig()
+    cfg = AffordanceConfig(likelihood=likelihood)
     lik = TypeLikelihood(end, disp, available, cfg)
     for z in ([0] * 10 + [-1], [1, 1, 0, 2, 2, 2, 0, 3, 0, 4, -1], list(range(1, 11)) + [-1]):
         direct = fit_type_potentials(end, disp, np.array(z), cfg).loglik

@@ -67,6 +67,18 @@ def test_parse_frames_and_initial_parse() -> None:
     assert not space.is_valid(Parse((0, 2), (1, 1)))
 
 
+def test_fraction_parse_cuts_at_the_nearest_atom_boundaries() -> None:
+    bounds = np.array([0, 3, 5, 9, 12, 20])
+    space = ParseSpace(bounds, np.zeros(bounds.size), 3, True, 1)
+    # cuts at 0.2 T = 4 (nearest boundary 3 or 5: the first, 3) and 0.7 T = 14 (nearest 12)
+    p = space.fraction_parse(np.array([2.0, 5.0, 3.0]))  # normalized: 0.2, 0.5, 0.3
+    assert space.frame_spans(p) == [(0, 3, 0), (3, 12, 1), (12, 20, 2)]
+    # a part too thin to reach a new boundary collapses; never more parts than labels
+    q = space.fraction_parse(np.array([0.5, 0.01, 0.01, 0.48]))
+    assert space.is_valid(q) and q.n_intervals <= 3
+    assert space.fraction_parse(np.full(3, 1.0 / 3)) == space.initial_parse(3)
+
+
 def _proposal_table(space: ParseSpace, cfg: LearningConfig, rng: np.random.Generator, n: int):
     """Per state: empirical proposal counts and the (log q forward, log q reverse) of each target."""
     table = {}

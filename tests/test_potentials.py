@@ -12,7 +12,7 @@ from socialaff_sim.model.config import AffordanceConfig
 from socialaff_sim.model.features import interval_features, polar
 from socialaff_sim.model.frame import canonical_frame
 from socialaff_sim.model.joints import JOINT_NAMES, LONE_REFERENCE, N_JOINTS, OBJECT, canonical_joints
-from socialaff_sim.model.potentials import fit_type_potentials, log_motion, log_spatial, reference_weights
+from socialaff_sim.model.potentials import TypePotentials, fit_type_potentials, log_motion, log_spatial, reference_weights
 
 
 def test_canonical_frame_axes_and_round_trip(rng: np.random.Generator) -> None:
@@ -153,3 +153,43 @@ def test_log_potentials_match_scipy_and_the_fit(rng: np.random.Generator) -> Non
     assert ls.sum() + lm.sum() == pytest.approx(pot.loglik, rel=1e-10)
     # Vectorized over candidates: scoring one at a time gives the same numbers.
     np.testing.assert_allclose([log_spatial(pot, z, end[i : i + 1], cfg.eps, other_side=side)[0] for i in range(5)], ls[:5], rtol=1e-12)
+
+
+def test_held_out_loglik_scores_each_sample_under_the_fit_without_it(rng: np.random.Generator) -> None:
+    """likelihood="held_out": Σ_n log φ(x_n | potentials fitted to the other samples)."""
+    end, disp = _known_samples(rng, 8)
+    z = np.array([1, 2, 2, 0, 0, 1, 0, 2, 3, 0, -1])
+    end[:, OBJECT] = np.nan
+    disp[:, OBJECT] = np.nan
+    cfg = AffordanceConfig(likelihood="held_out")
+    side = cfg.other_side_reference
+    ref = 0.0
+    for n in range(end.shape[0]):
+        rest = np.delete(np.arange(end.shape[0]), n)
+        pot = fit_type_potentials(end[rest], disp[rest], z, cfg)
+        ref += log_spatial(pot, z, end[n : n + 1], cfg.eps, other_side=side)[0] + log_motion(pot, z, disp[n : n + 1], cfg.eps)[0]
+    held = fit_type_potentials(end, disp, z, cfg)
+    assert held.loglik == pytest.approx(ref, rel=1e-9)
+    profile = fit_type_potentials(end, disp, z, AffordanceConfig())
+    np.testing.assert_array_equal(held.spatial, profile.spatial)  # the parameters are the full-sample fits
+    assert held.loglik < profile.loglik
+
+
+def test_cartesian_vector_density_integrates_to_one_over_offsets() -> None:
+    """vector_density="cartesian": the spatial potential is a density of the offset vector (m⁻³)."""
+    z = np.full(N_JOINTS, -1)
+    z[5] = 0
+    z[2] = 1  # lone: relative to agent 1's base (joint 5)
+    spatial = np.full((N_JOINTS, 6), np.nan)
+    spatial[2] = (2.5, 0.5, 2.0, 0.3, 1.0, 2.0)
+    pot = TypePotentials(spatial, np.full((N_JOINTS, 6), np.nan), float("nan"))
+    step = 0.04
+    axis = np.arange(-1.4, 1.4, step) + step / 2
+    gx, gy, gz = np.meshgrid(axis, axis, axis[7:-7], indexing="ij")  # |dz| < 1.12 m
+    end = np.zeros((gx.size, N_JOINTS, 3))
+    end[:, 2] = np.stack([gx.ravel(), gy.ravel(), gz.ravel()], axis=1)
+    log_dens = log_spatial(pot, z, end, 1e-9, other_side=True, cartesian=True)
+    assert np.exp(log_dens).sum() * step**3 == pytest.approx(1.0, abs=5e-3)
+    polar_only = log_spatial(pot, z, end, 1e-9, other_side=True)
+    h = np.hypot(end[:, 2, 0], end[:, 2, 1])
+    np.testing.assert_allclose(log_dens, polar_only - np.log(2.0 * h), rtol=1e-12, atol=1e-9)

@@ -3,7 +3,8 @@
 1. Atomic time intervals (:mod:`.atomic`): K-means (50 clusters) over all training frames,
    runs of one cluster, short runs merged and long ones cut.
 2. Initial parses (:mod:`.initial`): |S| equal parts labelled in order, refined by hard-EM
-   (fit, then dynamic-programming re-segmentation) — our addition, see below.
+   (fit, then dynamic-programming re-segmentation) — our addition, see below; optionally also
+   ``LearningConfig.init_starts`` random-fraction splits, the refinement with the highest log P* kept.
 3. Outer loop (:mod:`.mh`): Metropolis-Hastings over parses with the paper's merge / split /
    relabel dynamics (0.4 / 0.4 / 0.2, λ = 1) plus a boundary-shift dynamics, exact reverse-move
    probabilities in the acceptance ratio. One iteration = one proposal per training instance.

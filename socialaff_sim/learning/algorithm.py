@@ -1,6 +1,8 @@
 """Algorithm 1 of the paper: atomic intervals, then Metropolis-Hastings over parses with an inner
 Gibbs loop over the joint groupings.
 
+The chain starts from the best (highest log P*) hard-EM refinement of the equal-part parses and of
+``LearningConfig.init_starts`` random-fraction splits (our addition; 0 by default).
 One outer iteration is a sweep: one MH proposal for every training instance in turn (each
 instance's kernel leaves the target invariant, so the sweep does too). The state with the
 highest log P* visited is returned (a maximum a posteriori estimate); ``trace`` holds the log P*
@@ -60,6 +62,35 @@ def make_spaces(atoms: AtomicIntervals, n_labels: int, acfg: AffordanceConfig) -
     ]
 
 
+def _initial_target(
+    tracks: Sequence[np.ndarray],
+    fps: Sequence[float],
+    spaces: list[ParseSpace],
+    available: np.ndarray,
+    n_labels: int,
+    acfg: AffordanceConfig,
+    lcfg: LearningConfig,
+    rng: np.random.Generator,
+) -> AffordanceTarget:
+    """The chain's start: the best (highest log P*) of the hard-EM refinements of the equal parts and
+    of ``lcfg.init_starts`` Dirichlet-fraction splits (see :class:`LearningConfig`)."""
+    if not acfg.use_subevents:
+        parses = [Parse((0,), (0,)) for _ in spaces]
+        return AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng)
+    fractions = [np.full(n_labels, 1.0 / n_labels)]
+    if n_labels > 1:
+        fractions += [rng.dirichlet(np.full(n_labels, lcfg.init_dirichlet)) for _ in range(lcfg.init_starts)]
+    candidates = []
+    for k, fr in enumerate(fractions):
+        parses = [sp.initial_parse(n_labels) if k == 0 else sp.fraction_parse(fr) for sp in spaces]
+        if lcfg.init_rounds and n_labels > 1:
+            parses = hard_em_parses(
+                tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng=rng, rounds=lcfg.init_rounds
+            )
+        candidates.append(AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng))
+    return max(candidates, key=lambda t: t.log_prob)  # the first (equal parts) wins ties
+
+
 def learn(
     tracks: Sequence[np.ndarray],
     fps: Sequence[float],
@@ -81,15 +112,7 @@ def learn(
     )
     spaces = make_spaces(atoms, n_labels, acfg)
     seconds["atoms"] = time.perf_counter() - clock
-    if acfg.use_subevents:
-        parses = [sp.initial_parse(n_labels) for sp in spaces]
-        if lcfg.init_rounds and n_labels > 1:
-            parses = hard_em_parses(
-                tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng=rng, rounds=lcfg.init_rounds
-            )
-    else:
-        parses = [Parse((0,), (0,)) for _ in spaces]
-    target = AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng)
+    target = _initial_target(tracks, fps, spaces, available, n_labels, acfg, lcfg, rng)
     current = target.log_prob
     seconds["init"] = time.perf_counter() - clock - seconds["atoms"]
     best = (current, tuple(target.parses), target.groupings())

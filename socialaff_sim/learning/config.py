@@ -30,6 +30,14 @@ class LearningConfig:
     init_rounds: int = 10
     """Most rounds of hard-EM (fit, then DP re-segmentation) refining the equal-part initial parses
     (0: start the chain from the equal parts)."""
+    init_starts: int = 0
+    """Extra starting points of the initial parses, our addition: besides the |S| equal parts, this many
+    splits of every instance into |S| consecutive parts with fractions drawn from a symmetric
+    Dirichlet(``init_dirichlet``) (one draw shared by all instances, from the caller's Generator). Each
+    start is refined by hard-EM and the one with the highest log P* seeds the chain. The chain's local
+    moves rarely cross between the basins different starts reach. 0 (default): the equal parts only."""
+    init_dirichlet: float = 2.0
+    """Concentration of the Dirichlet that draws the fractions of the extra starts."""
     p_merge: float = 0.4
     """Probability of the merge dynamics Q1 (given that no shift was drawn)."""
     p_split: float = 0.4
@@ -61,7 +69,7 @@ class LearningConfig:
                      "gibbs_patience", "initial_gibbs_sweeps"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 raise bad(name, "an integer >= 1")
-        for name in ("iterations", "init_rounds"):
+        for name in ("iterations", "init_rounds", "init_starts"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 0:
                 raise bad(name, "an integer >= 0")
         probs = (self.p_merge, self.p_split, self.p_relabel)
@@ -73,6 +81,8 @@ class LearningConfig:
             raise bad("max_atomic_seconds", "a number > 0")
         if self.velocity_seconds < 0:
             raise bad("velocity_seconds", "a number >= 0")
+        if not self.init_dirichlet > 0:
+            raise bad("init_dirichlet", "a number > 0")
         if self.lam < 0:
             raise bad("lam", "a number >= 0")
 

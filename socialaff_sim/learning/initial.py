@@ -87,9 +87,13 @@ def hard_em_parses(
                     continue
                 zs = z[s]
                 score = (
-                    log_spatial(pots[s], zs, feats.end, acfg.eps, other_side=acfg.other_side_reference)
-                    + log_motion(pots[s], zs, feats.disp, acfg.eps)
+                    log_spatial(
+                        pots[s], zs, feats.end, acfg.eps, other_side=acfg.other_side_reference,
+                        cartesian=acfg.vector_density == "cartesian",
+                    )
+                    + log_motion(pots[s], zs, feats.disp, acfg.eps, cartesian=acfg.vector_density == "cartesian")
                     + lognorm_logpdf(feats.seconds, *durs[s])
+                    + (np.log(feats.seconds) if acfg.duration_density == "log_seconds" else 0.0)
                 )
                 short = (b[ib] - b[ia]) < acfg.min_subevent_seconds * f
                 seg[ia, ib, s] = np.where(np.isnan(score) | short, -np.inf, score)

@@ -125,12 +125,24 @@ class ParseSpace:
 
     def initial_parse(self, n_intervals: int) -> Parse:
         """About ``n_intervals`` equal parts at atom boundaries, labelled 0, 1, 2, … in order."""
+        n = max(1, min(n_intervals, self.n_atoms, self.n_labels))
+        return self._parse_at(np.arange(1, n) / n)
+
+    def fraction_parse(self, fractions: np.ndarray) -> Parse:
+        """Consecutive parts with the given positive fractions (n,) of the instance's frames (normalized),
+        cut at the nearest atom boundaries and labelled 0, 1, 2, … in order; parts that collapse onto
+        one boundary are dropped and at most ``n_labels`` parts are made."""
+        fr = np.asarray(fractions, float)[: self.n_labels]
+        return self._parse_at(np.cumsum(fr)[:-1] / fr.sum())
+
+    def _parse_at(self, cuts: np.ndarray) -> Parse:
+        """Parts cut at the atom boundaries nearest to the given fractions (increasing, in (0, 1)) of T."""
         A = self.n_atoms
-        n = max(1, min(n_intervals, A, self.n_labels))
         T = float(self.bounds[-1])
-        targets = T * np.arange(1, n) / n
         starts = [0]
-        for tgt in targets:
+        for tgt in T * np.asarray(cuts, float):
+            if A < 2:
+                break
             b = int(np.argmin(np.abs(self.bounds[1:A] - tgt))) + 1
             if b > starts[-1]:
                 starts.append(b)

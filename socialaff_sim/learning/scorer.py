@@ -4,7 +4,9 @@ log P*(G) = Σ_s max_{Z^s} [log p(Z^s) + log p(G_s | Z^s)]       (inner loop, pe
           + Σ_s Σ_{k: s_k = s} log LogNormal(duration_k; μ_s, σ_s)
           + Σ_i [log p(s_1) + Σ_k log p(s_k | s_{k−1})]
 (uniform p(c) is a constant and omitted). Every parameter is at its maximum-likelihood value
-for the current parses; the start and transition frequencies use add-α smoothing,
+for the current parses (with ``AffordanceConfig.likelihood == "held_out"`` each sample is instead
+scored under the fit without it; ``vector_density`` and ``duration_density`` choose what the
+potentials and the duration prior are densities of); the start and transition frequencies use add-α smoothing,
 p(s′ | s) = (n_ss′ + α) / (n_s + α m) with m the number of allowed successors (|S| − 1 when
 consecutive labels must differ, else |S|) and p(s) = (n_s + α) / (N + α |S|).
 
@@ -21,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.config import AffordanceConfig
-from ..model.densities import fit_lognorm
+from ..model.densities import fit_lognorm, heldout_lognorm
 from ..model.grouping import canonical_ids
 from ..model.transitions import transition_loglik
 from ..model.features import IntervalFeatures, type_samples
@@ -30,7 +32,7 @@ from .gibbs import gibbs_optimize
 from .likelihood import TypeLikelihood
 from .parse import Parse, ParseSpace
 
-__all__ = ["TypeState", "AffordanceTarget", "lone_grouping"]
+__all__ = ["TypeState", "AffordanceTarget", "duration_loglik", "lone_grouping"]
 
 
 def lone_grouping(available: np.ndarray) -> np.ndarray:
@@ -56,6 +58,21 @@ class TypeState:
     def value(self) -> float:
         """The type's share of log P*."""
         return self.potential + self.duration
+
+
+def duration_loglik(seconds: np.ndarray, acfg: AffordanceConfig) -> float:
+    """Log-normal log-likelihood of one type's durations (seconds): maximized or held-out
+    (``acfg.likelihood``), as a density of seconds or of log seconds (``acfg.duration_density``);
+    0 with no samples."""
+    if seconds.size == 0:
+        return 0.0
+    if acfg.likelihood == "held_out":
+        ll = float(heldout_lognorm(seconds, sigma_min=acfg.sigma_min)[0])
+    else:
+        ll = float(fit_lognorm(seconds, sigma_min=acfg.sigma_min).loglik[0])
+    if acfg.duration_density == "log_seconds":
+        ll += float(np.log(seconds).sum())  # density of log x: x f(x)
+    return ll
 
 
 class AffordanceTarget:
@@ -110,7 +127,7 @@ class AffordanceTarget:
         feats = self._samples(s, override)
         lik = TypeLikelihood(feats.end, feats.disp, self.available, self.acfg)
         secs = feats.seconds
-        duration = float(fit_lognorm(secs, sigma_min=self.acfg.sigma_min).loglik[0]) if secs.size else 0.0
+        duration = duration_loglik(secs, self.acfg)
         if not self.acfg.use_grouping:
             z = lone_grouping(self.available)
             return TypeState(lik, z, lik.loglik(z), duration)

@@ -244,18 +244,30 @@ class SocialAffordanceModel:
         s = self._check_s(s)
         cfg = self.config
         pot = self.potentials(s)
-        return _nan_to_neginf(log_spatial(pot, self._z(s), np.asarray(end, float), cfg.eps, other_side=cfg.other_side_reference))
+        return _nan_to_neginf(log_spatial(
+            pot, self._z(s), np.asarray(end, float), cfg.eps, other_side=cfg.other_side_reference,
+            cartesian=cfg.vector_density == "cartesian",
+        ))
 
     def log_motion(self, s: int, disp: np.ndarray) -> np.ndarray:
         """Motion log-potential of N displacement sets ``disp`` (N, 11, 3) over a type-``s`` interval → (N,)."""
         s = self._check_s(s)
-        return _nan_to_neginf(log_motion(self.potentials(s), self._z(s), np.asarray(disp, float), self.config.eps))
+        return _nan_to_neginf(log_motion(
+            self.potentials(s), self._z(s), np.asarray(disp, float), self.config.eps,
+            cartesian=self.config.vector_density == "cartesian",
+        ))
 
     def log_duration(self, s: int, seconds: np.ndarray | float) -> np.ndarray:
-        """Log-normal log-density of durations (seconds) of type ``s``; −inf for a type never seen in training."""
+        """Log-normal log-density of durations (seconds) of type ``s`` (of log seconds when
+        ``config.duration_density == "log_seconds"``); −inf for a type never seen in training."""
         s = self._check_s(s)
         mu, sig = self.duration_params_[s]
-        return _nan_to_neginf(lognorm_logpdf(np.asarray(seconds, float), mu, sig))
+        x = np.asarray(seconds, float)
+        out = lognorm_logpdf(x, mu, sig)
+        if self.config.duration_density == "log_seconds":
+            with np.errstate(divide="ignore"):
+                out = out + np.log(x)  # density of log seconds: x f(x)
+        return _nan_to_neginf(out)
 
     def interval_log_score(self, features: IntervalFeatures, s: int) -> np.ndarray:
         """(M,) log spatial + log motion + log duration of M candidate intervals labelled ``s``."""

@@ -5,9 +5,18 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from typing import Any
 
-from ..errors import ConfigError
+from ..errors import ConfigError, choices
 
-__all__ = ["AffordanceConfig", "DEFAULT_N_SUBEVENTS", "default_n_subevents"]
+__all__ = ["AffordanceConfig", "DEFAULT_N_SUBEVENTS", "DURATION_DENSITIES", "LIKELIHOODS", "VECTOR_DENSITIES", "default_n_subevents"]
+
+LIKELIHOODS = ("profile", "held_out")
+"""Valid values of :attr:`AffordanceConfig.likelihood`."""
+
+DURATION_DENSITIES = ("seconds", "log_seconds")
+"""Valid values of :attr:`AffordanceConfig.duration_density`."""
+
+VECTOR_DENSITIES = ("polar", "cartesian")
+"""Valid values of :attr:`AffordanceConfig.vector_density`."""
 
 DEFAULT_N_SUBEVENTS = 4
 """|S| used when neither the config nor the synthetic dataset names one for an interaction."""
@@ -55,6 +64,28 @@ class AffordanceConfig:
     """Cap of a fitted von Mises concentration κ (reached by N = 1 or identical angles)."""
     sigma_min: float = 0.05
     """Floor of the fitted log-normal σ of sub-event durations (log-seconds)."""
+    likelihood: str = "profile"
+    """How the learning objective P* scores the training samples of a type under its potentials and
+    duration prior. ``"profile"`` (the paper): Σ_n log p(x_n | θ̂), θ̂ the maximum-likelihood fit to the
+    same samples — it rewards parses whose samples a fit can hug (tiny, near-identical intervals, a
+    Weibull shape or κ pushed to its cap); the default. ``"held_out"``: the leave-one-instance-out
+    predictive log-likelihood Σ_n log p(x_n | θ̂_−n), θ̂_−n fitted without sample n (with one interval
+    per type and instance, that is without instance n); a type with one sample keeps the profile
+    value. The learned parameters are the full-sample ML fits in both cases."""
+    duration_density: str = "seconds"
+    """What the log-normal duration prior is a density of. ``"seconds"`` (the paper): of the duration
+    x in seconds, f(x) = exp(−(log x − μ)²/2σ²) / (x σ √(2π)); its 1/x factor makes every short interval
+    likelier than a long one of the same relative spread, so splitting a motion into tiny pieces is
+    rewarded. ``"log_seconds"``: of log x (the normal N(μ, σ²), i.e. x f(x)), which scores
+    durations by their relative spread only."""
+    vector_density: str = "polar"
+    """What the spatial and motion potentials are densities of. ``"polar"`` (the paper's product): of
+    (h, |dz|, θ), the horizontal distance, vertical distance and angle of the vector (a joint's offset
+    from its reference, or its displacement). ``"cartesian"``: of the vector itself, i.e. the polar
+    product times the Jacobian 1 / (2h) (the polar map has Jacobian h; |dz| folds ±dz). Different
+    groupings put a joint's end position relative to different reference points, so only the
+    Cartesian form compares densities of the same position in the inner loop; the polar form rewards
+    far references (a tight contact offset has an ill-defined angle and gains nothing from being small)."""
 
     def __post_init__(self) -> None:
         def bad(name: str, expected: str) -> ConfigError:
@@ -71,6 +102,18 @@ class AffordanceConfig:
             raise bad("transition_alpha", "a number >= 0")
         if self.min_subevent_seconds < 0:
             raise bad("min_subevent_seconds", "a number >= 0 (seconds)")
+        if self.likelihood not in LIKELIHOODS:
+            raise ConfigError(
+                f"AffordanceConfig.likelihood: expected {choices(LIKELIHOODS)}, found {self.likelihood!r}"
+            )
+        if self.duration_density not in DURATION_DENSITIES:
+            raise ConfigError(
+                f"AffordanceConfig.duration_density: expected {choices(DURATION_DENSITIES)}, found {self.duration_density!r}"
+            )
+        if self.vector_density not in VECTOR_DENSITIES:
+            raise ConfigError(
+                f"AffordanceConfig.vector_density: expected {choices(VECTOR_DENSITIES)}, found {self.vector_density!r}"
+            )
         if self.shape_min >= self.shape_max:
             raise bad("shape_min", f"a value below shape_max = {self.shape_max}")
 

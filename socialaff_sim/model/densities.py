@@ -40,6 +40,11 @@ __all__ = [
     "fit_expon",
     "fit_lognorm",
     "vonmises_mean_resultant",
+    "leave_one_out_rows",
+    "heldout_weibull",
+    "heldout_vonmises",
+    "heldout_expon",
+    "heldout_lognorm",
 ]
 
 LOG_2PI = float(np.log(2.0 * np.pi))
@@ -127,6 +132,7 @@ def fit_weibull(
     shape_max: float = 20.0,
     tol: float = 1e-10,
     max_steps: int = 30,
+    k0: np.ndarray | None = None,
 ) -> WeibullFit:
     """Maximum-likelihood Weibull per row of ``x`` (B, N) (a 1-D x is one row).
 
@@ -134,7 +140,7 @@ def fit_weibull(
     equation g(k) = Σ x^k log x / Σ x^k − 1/k − mean(log x) = 0, which is
     increasing in k with g'(k) = Var_w(log x) + 1/k² (weights ∝ x^k); Newton
     steps are taken in log k from the moment estimate k₀ = π / (√6 · sd(log x))
-    until the step is below ``tol``, and the result is clamped to
+    (or from ``k0`` (B,), a warm start, when given) until the step is below ``tol``, and the result is clamped to
     ``[shape_min, shape_max]`` (all-equal values or N = 1 give ``shape_max``).
     The scale is then closed-form, λ = (mean x^k)^(1/k), and the log-likelihood
     N log k − N k log λ + (k − 1) Σ log x − N.
@@ -150,6 +156,8 @@ def fit_weibull(
     sd = L.std(axis=1)
     with np.errstate(divide="ignore"):
         k = np.where(sd > 0, np.pi / (np.sqrt(6.0) * sd), shape_max)
+    if k0 is not None:
+        k = np.where(sd > 0, np.asarray(k0, float), shape_max)
     k = np.minimum(np.maximum(k, shape_min), shape_max)
     active = sd > 1e-12
     Lc = L - Lbar[:, None]  # centring keeps the weighted moments well conditioned
@@ -188,11 +196,13 @@ def _a_ratio(kappa: np.ndarray) -> np.ndarray:
     return i1e(kappa) / i0e(kappa)
 
 
-def fit_vonmises(theta: np.ndarray, *, kappa_max: float = 200.0, tol: float = 1e-12, max_steps: int = 20) -> VonMisesFit:
+def fit_vonmises(
+    theta: np.ndarray, *, kappa_max: float = 200.0, tol: float = 1e-12, max_steps: int = 20, kappa0: np.ndarray | None = None
+) -> VonMisesFit:
     """Maximum-likelihood von Mises per row of ``theta`` (B, N).
 
     μ = atan2(mean sin, mean cos); κ solves A(κ) = I1(κ)/I0(κ) = R̄, started at
-    R̄(2 − R̄²)/(1 − R̄²) and refined by Newton with A'(κ) = 1 − A/κ − A²,
+    R̄(2 − R̄²)/(1 − R̄²) (or at ``kappa0`` (B,), a warm start, when given) and refined by Newton with A'(κ) = 1 − A/κ − A²,
     capped at ``kappa_max`` (R̄ = 1, e.g. N = 1, gives ``kappa_max``).
     Log-likelihood: N (κ R̄ − κ − log 2π − log i0e(κ)).
     """
@@ -207,6 +217,8 @@ def fit_vonmises(theta: np.ndarray, *, kappa_max: float = 200.0, tol: float = 1e
     capped = R >= a_max
     Rs = np.where(capped, 0.5, R)
     kappa = Rs * (2.0 - Rs * Rs) / (1.0 - Rs * Rs)
+    if kappa0 is not None:
+        kappa = np.where(np.isfinite(kappa0) & (kappa0 > 0), np.minimum(kappa0, kappa_max), kappa)
     for _ in range(max_steps):
         A = _a_ratio(kappa)
         dA = 1.0 - A / np.maximum(kappa, 1e-300) - A * A
@@ -247,3 +259,74 @@ def fit_lognorm(x: np.ndarray, *, sigma_min: float = 0.05) -> LogNormFit:
     sigma = np.maximum(np.sqrt(var), sigma_min)
     ll = -L.sum(axis=1) - N * np.log(sigma) - 0.5 * N * LOG_2PI - 0.5 * N * var / sigma**2
     return LogNormFit(mu, sigma, ll)
+
+
+# -- held-out (leave-one-out) log-likelihoods -------------------------------------------------
+# Σ_n log f(x_n; θ̂_−n): every sample is scored under the parameters fitted to the other N − 1
+# samples of its row. Unlike the maximized log-likelihood Σ_n log f(x_n; θ̂), it does not
+# reward a fit to few or near-identical samples (a Weibull shape or a κ pushed to its cap by
+# a tight sample costs dearly when one held-out sample falls outside). A row with N < 2 has no
+# held-out fit and keeps its maximized log-likelihood (documented fallback); N = 0 gives 0.
+
+
+def leave_one_out_rows(x: np.ndarray) -> np.ndarray:
+    """(B, N, N − 1): row b, slice n holds the samples of row b of ``x`` (B, N) without sample n."""
+    x = _rows(x)
+    N = x.shape[1]
+    idx = np.arange(N)
+    keep = np.broadcast_to(idx, (N, N))[~np.eye(N, dtype=bool)].reshape(N, N - 1)
+    return x[:, keep]
+
+
+def heldout_weibull(
+    x: np.ndarray, *, eps: float = 1e-3, shape_min: float = 0.3, shape_max: float = 20.0, full: WeibullFit | None = None
+) -> np.ndarray:
+    """(B,) held-out Weibull log-likelihood per row of ``x`` (B, N), values floored at ``eps``.
+
+    ``full``: the rows' full-sample fit when already known (its shapes warm-start the held-out fits)."""
+    x = np.maximum(_rows(x), eps)
+    B, N = x.shape
+    if full is None:
+        full = fit_weibull(x, eps=eps, shape_min=shape_min, shape_max=shape_max)
+    if N < 2:
+        return full.loglik
+    f = fit_weibull(
+        leave_one_out_rows(x).reshape(B * N, N - 1), eps=eps, shape_min=shape_min, shape_max=shape_max,
+        k0=np.repeat(full.shape, N),  # warm start: the held-out shapes are near the full-sample one
+    )
+    return weibull_logpdf(x.reshape(-1), f.shape, f.scale).reshape(B, N).sum(axis=1)
+
+
+def heldout_vonmises(theta: np.ndarray, *, kappa_max: float = 200.0, full: VonMisesFit | None = None) -> np.ndarray:
+    """(B,) held-out von Mises log-likelihood per row of ``theta`` (B, N).
+
+    ``full``: the rows' full-sample fit when already known (its κ warm-start the held-out fits)."""
+    theta = _rows(theta)
+    B, N = theta.shape
+    if full is None:
+        full = fit_vonmises(theta, kappa_max=kappa_max)
+    if N < 2:
+        return full.loglik
+    f = fit_vonmises(leave_one_out_rows(theta).reshape(B * N, N - 1), kappa_max=kappa_max, kappa0=np.repeat(full.kappa, N))
+    return vonmises_logpdf(theta.reshape(-1), f.mu, f.kappa).reshape(B, N).sum(axis=1)
+
+
+def heldout_expon(x: np.ndarray, *, eps: float = 1e-3) -> np.ndarray:
+    """(B,) held-out exponential log-likelihood per row of ``x`` (B, N); the held-out mean is
+    closed-form, m_−n = (Σ x − x_n) / (N − 1)."""
+    x = np.maximum(_rows(x), eps)
+    B, N = x.shape
+    if N < 2:
+        return fit_expon(x, eps=eps).loglik
+    m = (x.sum(axis=1, keepdims=True) - x) / (N - 1)
+    return expon_logpdf(x, m).sum(axis=1)
+
+
+def heldout_lognorm(x: np.ndarray, *, sigma_min: float = 0.05) -> np.ndarray:
+    """(B,) held-out log-normal log-likelihood per row of ``x`` (B, N) of positive values."""
+    x = _rows(x)
+    B, N = x.shape
+    if N < 2:
+        return fit_lognorm(x, sigma_min=sigma_min).loglik
+    f = fit_lognorm(leave_one_out_rows(x).reshape(B * N, N - 1), sigma_min=sigma_min)
+    return lognorm_logpdf(x.reshape(-1), f.mu, f.sigma).reshape(B, N).sum(axis=1)

@@ -14,6 +14,13 @@ Grouping vector ``z`` (11,) int: ``-1`` absent joint, ``0`` Null, ``h >= 1`` fun
 Parameter rows are ``(k_h, λ_h, k_v, λ_v, μ, κ)``: Weibull shape and scale (metres) of the
 horizontal and vertical distance, and the von Mises mean (radians) and concentration. An
 exponential with mean m is stored as the Weibull (k = 1, λ = m), which it is. Unused rows are NaN.
+
+The fits return the maximum-likelihood parameters and a log-likelihood of the samples: the
+maximized one (``AffordanceConfig.likelihood == "profile"``, the paper's) or the held-out one
+(``"held_out"``, each sample under the parameters fitted without it; see
+:mod:`~socialaff_sim.model.densities`). With ``AffordanceConfig.vector_density == "cartesian"``
+every term also carries the Jacobian 1 / (2h) of :func:`cartesian_correction`, making it a density
+of the offset or displacement vector rather than of its polar coordinates.
 """
 
 from __future__ import annotations
@@ -23,7 +30,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from .config import AffordanceConfig
-from .densities import expon_logpdf, fit_expon, fit_vonmises, fit_weibull, vonmises_logpdf, weibull_logpdf
+from .densities import (
+    expon_logpdf,
+    fit_expon,
+    fit_vonmises,
+    fit_weibull,
+    heldout_expon,
+    heldout_vonmises,
+    heldout_weibull,
+    vonmises_logpdf,
+    weibull_logpdf,
+)
 from .features import polar
 from .joints import N_JOINTS, reference_row
 
@@ -31,6 +48,7 @@ __all__ = [
     "N_PARAMS",
     "TypePotentials",
     "reference_weights",
+    "cartesian_correction",
     "fit_offsets",
     "fit_null_motion",
     "fit_type_potentials",
@@ -64,20 +82,38 @@ def _fit_rows(vecs: np.ndarray, cfg: AffordanceConfig) -> tuple[np.ndarray, np.n
     """Weibull/Weibull/von Mises fits of K rows of N vectors ``(K, N, 3)`` → params (K, 6), log-lik (K,)."""
     K = vecs.shape[0]
     h, v, th = polar(vecs, cfg.eps)
-    w = fit_weibull(np.concatenate([h, v]), eps=cfg.eps, shape_min=cfg.shape_min, shape_max=cfg.shape_max)
+    hv = np.concatenate([h, v])
+    w = fit_weibull(hv, eps=cfg.eps, shape_min=cfg.shape_min, shape_max=cfg.shape_max)
     vm = fit_vonmises(th, kappa_max=cfg.kappa_max)
     params = np.stack([w.shape[:K], w.scale[:K], w.shape[K:], w.scale[K:], vm.mu, vm.kappa], axis=1)
+    if cfg.likelihood == "held_out":
+        lw = heldout_weibull(hv, eps=cfg.eps, shape_min=cfg.shape_min, shape_max=cfg.shape_max, full=w)
+        return params, lw[:K] + lw[K:] + heldout_vonmises(th, kappa_max=cfg.kappa_max, full=vm)
     return params, w.loglik[:K] + w.loglik[K:] + vm.loglik
+
+
+def cartesian_correction(vecs: np.ndarray, eps: float) -> np.ndarray:
+    """log |∂(h, |dz|, θ) / ∂(dx, dy, dz)| = −log h − log 2 of vectors ``(..., 3)`` (h floored at ``eps``).
+
+    Added to the polar log-density f_h(h) f_v(|dz|) f_θ(θ), it gives the density of the offset vector
+    itself (metres⁻³): the polar map has Jacobian h, and |dz| folds ±dz onto one value.
+    """
+    h = np.maximum(np.hypot(vecs[..., 0], vecs[..., 1]), eps)
+    return -np.log(h) - np.log(2.0)
 
 
 def fit_offsets(end: np.ndarray, joints: np.ndarray, weights: np.ndarray, cfg: AffordanceConfig) -> tuple[np.ndarray, np.ndarray]:
     """Fit the spatial potential of K (joint, reference) pairs at once.
 
     ``end`` (N, 11, 3) metres; ``joints`` (K,) int; ``weights`` (K, 11) reference weights.
-    Returns params (K, 6) and the log-likelihood of each pair summed over the N samples (K,).
+    Returns params (K, 6) and the log-likelihood of each pair summed over the N samples (K,)
+    (with :func:`cartesian_correction` when ``cfg.vector_density == "cartesian"``).
     """
     offsets = (end[:, joints] - _references(weights, end)).transpose(1, 0, 2)
-    return _fit_rows(offsets, cfg)
+    params, ll = _fit_rows(offsets, cfg)
+    if cfg.vector_density == "cartesian":
+        ll = ll + cartesian_correction(offsets, cfg.eps).sum(axis=1)
+    return params, ll
 
 
 def fit_null_motion(disp: np.ndarray, cfg: AffordanceConfig) -> tuple[np.ndarray, np.ndarray]:
@@ -85,16 +121,28 @@ def fit_null_motion(disp: np.ndarray, cfg: AffordanceConfig) -> tuple[np.ndarray
     vecs = disp.transpose(1, 0, 2)
     J = vecs.shape[0]
     h, v, th = polar(vecs, cfg.eps)
-    e = fit_expon(np.concatenate([h, v]), eps=cfg.eps)
+    hv = np.concatenate([h, v])
+    e = fit_expon(hv, eps=cfg.eps)
     vm = fit_vonmises(th, kappa_max=cfg.kappa_max)
     ones = np.ones(J)
     params = np.stack([ones, e.mean[:J], ones, e.mean[J:], vm.mu, vm.kappa], axis=1)
-    return params, e.loglik[:J] + e.loglik[J:] + vm.loglik
+    if cfg.likelihood == "held_out":
+        le = heldout_expon(hv, eps=cfg.eps)
+        ll = le[:J] + le[J:] + heldout_vonmises(th, kappa_max=cfg.kappa_max, full=vm)
+    else:
+        ll = e.loglik[:J] + e.loglik[J:] + vm.loglik
+    if cfg.vector_density == "cartesian":
+        ll = ll + cartesian_correction(vecs, cfg.eps).sum(axis=1)
+    return params, ll
 
 
 def fit_affordable_motion(disp: np.ndarray, cfg: AffordanceConfig) -> tuple[np.ndarray, np.ndarray]:
     """Weibull/Weibull/von Mises motion fits of every joint ``disp`` (N, J, 3) → params (J, 6), log-lik (J,)."""
-    return _fit_rows(disp.transpose(1, 0, 2), cfg)
+    vecs = disp.transpose(1, 0, 2)
+    params, ll = _fit_rows(vecs, cfg)
+    if cfg.vector_density == "cartesian":
+        ll = ll + cartesian_correction(vecs, cfg.eps).sum(axis=1)
+    return params, ll
 
 
 @dataclass(frozen=True)
@@ -106,7 +154,7 @@ class TypePotentials:
     motion: np.ndarray
     """(11, 6) float64: motion parameter rows (exponential as k = 1 for Null; NaN if absent)."""
     loglik: float
-    """Log-likelihood of the training samples under these potentials."""
+    """Log-likelihood of the training samples: maximized or held-out (``AffordanceConfig.likelihood``)."""
 
 
 def fit_type_potentials(end: np.ndarray, disp: np.ndarray, z: np.ndarray, cfg: AffordanceConfig) -> TypePotentials:
@@ -145,8 +193,12 @@ def _score_rows(vecs: np.ndarray, params: np.ndarray, eps: float, expon: np.ndar
     return (dist + vonmises_logpdf(th, mu, kap)).sum(axis=-1)
 
 
-def log_spatial(pot: TypePotentials, z: np.ndarray, end: np.ndarray, eps: float, *, other_side: bool) -> np.ndarray:
-    """Spatial log-potential of N configurations ``end`` (N, 11, 3) canonical metres → (N,)."""
+def log_spatial(
+    pot: TypePotentials, z: np.ndarray, end: np.ndarray, eps: float, *, other_side: bool, cartesian: bool = False
+) -> np.ndarray:
+    """Spatial log-potential of N configurations ``end`` (N, 11, 3) canonical metres → (N,).
+
+    ``cartesian``: add :func:`cartesian_correction` of every offset (``vector_density == "cartesian"``)."""
     z = np.asarray(z)
     end = np.asarray(end, float)
     aff = np.flatnonzero(z > 0)
@@ -154,14 +206,22 @@ def log_spatial(pot: TypePotentials, z: np.ndarray, end: np.ndarray, eps: float,
         return np.zeros(end.shape[0])
     W = reference_weights(z, other_side=other_side)[aff]
     offsets = end[:, aff] - _references(W, end)
-    return _score_rows(offsets, pot.spatial[aff], eps, np.zeros(aff.size, bool))
+    out = _score_rows(offsets, pot.spatial[aff], eps, np.zeros(aff.size, bool))
+    if cartesian:
+        out = out + cartesian_correction(offsets, eps).sum(axis=-1)
+    return out
 
 
-def log_motion(pot: TypePotentials, z: np.ndarray, disp: np.ndarray, eps: float) -> np.ndarray:
-    """Motion log-potential of N displacement sets ``disp`` (N, 11, 3) metres → (N,)."""
+def log_motion(pot: TypePotentials, z: np.ndarray, disp: np.ndarray, eps: float, *, cartesian: bool = False) -> np.ndarray:
+    """Motion log-potential of N displacement sets ``disp`` (N, 11, 3) metres → (N,).
+
+    ``cartesian``: add :func:`cartesian_correction` of every displacement (``vector_density == "cartesian"``)."""
     z = np.asarray(z)
     used = np.flatnonzero(z >= 0)
     disp = np.asarray(disp, float)
     if used.size == 0:
         return np.zeros(disp.shape[0])
-    return _score_rows(disp[:, used], pot.motion[used], eps, z[used] == 0)
+    out = _score_rows(disp[:, used], pot.motion[used], eps, z[used] == 0)
+    if cartesian:
+        out = out + cartesian_correction(disp[:, used], eps).sum(axis=-1)
+    return out
