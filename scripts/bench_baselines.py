@@ -16,7 +16,10 @@ averages is printed together with the equivalent CLI commands.
 Usage::
 
     python scripts/bench_baselines.py [--out bench_out/baselines] [--workers 2] [--seed 0]
-        [--datasets synthetic sbu handover] [--wait 0]
+        [--datasets synthetic sbu handover] [--wait 0] [--json PATH]
+
+``--json PATH`` also writes the summary (averages per dataset and method, wall
+seconds, the equivalent CLI command, skipped datasets) to PATH, atomically.
 
 ``--wait S`` polls up to S seconds for the synthetic generator / loaders to
 become importable (they may still be being written).
@@ -26,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import json
 import os
 import sys
 import time
@@ -33,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from socialaff_sim._atomic import atomic_write_text
 from socialaff_sim.data import Interaction, load_dataset
 from socialaff_sim.evaluation import EvaluationConfig, Prediction, evaluate, prediction_from_joints, register_method, write_results
 
@@ -80,18 +85,22 @@ def main() -> int:
     parser.add_argument("--seed", type=int, default=0, help="run seed")
     parser.add_argument("--datasets", nargs="+", choices=list(DATASETS), default=list(DATASETS))
     parser.add_argument("--wait", type=float, default=0.0, help="seconds to poll for missing data modules")
+    parser.add_argument("--json", default=None, help="also write the summary here (atomically)")
     args = parser.parse_args()
 
     register_method("hold_last", HoldLast)
     methods = ["hmm", "promp", "hold_last"]
     summary = []
+    skipped: dict[str, str] = {}
     for name in args.datasets:
         spec, interactions, module = DATASETS[name]
         if not _wait_for(module, args.wait):
             print(f"[{name}] skipped: {module} is not importable yet")
+            skipped[name] = f"{module} is not importable"
             continue
         if not spec.startswith("synthetic") and not Path(spec.partition(":")[2]).exists():
             print(f"[{name}] skipped: recordings not found at {spec.partition(':')[2]}")
+            skipped[name] = f"recordings not found at {spec.partition(':')[2]}"
             continue
         start = time.perf_counter()
         data = load_dataset(spec)
@@ -120,6 +129,17 @@ def main() -> int:
     for _, _, _, cli in summary:
         print("  " + cli)
     print(f"\nrun: {sys.executable} scripts/bench_baselines.py --out {args.out} --workers {args.workers} --seed {args.seed}")
+    if args.json:
+        result = {
+            "seed": args.seed, "workers": args.workers, "n_folds": 4, "methods": methods, "skipped": skipped,
+            "datasets": {
+                name: {"spec": DATASETS[name][0], "interactions": DATASETS[name][1], "wall_s": wall, "cli": cli,
+                       "average": {m: {k: results["average"][m][k] for k in ("key_joint_error_m", "joint_error_m")}
+                                   for m in methods}}
+                for name, results, wall, cli in summary
+            },
+        }
+        atomic_write_text(args.json, json.dumps(result, indent=2))
     return 0
 
 

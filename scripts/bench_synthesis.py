@@ -4,12 +4,15 @@ Fits one model per synthetic interaction on 18 instances (the learning settings 
 flag; synthesis speed does not depend on them), then synthesizes agent 1 for the 6
 held-out instances and reports frames per second and the key-joint error.
 
-    OMP_NUM_THREADS=1 python scripts/bench_synthesis.py [--iterations 100] [--seed 0]
+    OMP_NUM_THREADS=1 python scripts/bench_synthesis.py [--iterations 100] [--seed 0] [--json PATH]
+
+``--json PATH`` also writes the table to PATH (atomically).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import time
 
@@ -17,6 +20,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+from socialaff_sim._atomic import atomic_write_text  # noqa: E402
 from socialaff_sim.data.synthetic import INTERACTIONS, generate_dataset  # noqa: E402
 from socialaff_sim.evaluation.metrics import key_joint_error  # noqa: E402
 from socialaff_sim.evaluation.protocol import Prediction, observed_part  # noqa: E402
@@ -30,10 +34,12 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=100, help="outer MCMC iterations of the fitted models")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--interactions", nargs="*", default=list(INTERACTIONS))
+    parser.add_argument("--json", default=None, help="also write the table here (atomically)")
     args = parser.parse_args()
     data = generate_dataset(args.seed)
     print(f"{'interaction':<14}{'frames':>8}{'seconds':>9}{'frames/s':>10}{'key err m':>11}{'+skeleton f/s':>15}")
     total_frames = total_secs = 0.0
+    rows: dict[str, dict] = {}
     for label in args.interactions:
         items = list(data.of_label(label))
         train, test = items[:18], items[18:]
@@ -62,7 +68,14 @@ def main() -> None:
             f"{label:<14}{frames:>8}{secs:>9.2f}{frames / secs:>10.0f}{np.mean(errs):>11.3f}{frames / secs_body:>15.0f}",
             flush=True,
         )
+        rows[label] = {"test_instances": len(test), "frames": frames, "seconds": secs, "frames_per_s": frames / secs,
+                       "key_joint_error_m": float(np.mean(errs)), "frames_per_s_with_skeleton": frames / secs_body}
     print(f"{'all':<14}{int(total_frames):>8}{total_secs:>9.2f}{total_frames / total_secs:>10.0f}")
+    if args.json:
+        result = {"seed": args.seed, "iterations": args.iterations, "n_observed": SynthesisConfig().n_observed,
+                  "seconds_clock": "wall (time.perf_counter)", "interactions": rows,
+                  "all": {"frames": int(total_frames), "seconds": total_secs, "frames_per_s": total_frames / total_secs}}
+        atomic_write_text(args.json, json.dumps(result, indent=2))
 
 
 if __name__ == "__main__":

@@ -84,12 +84,20 @@ def test_video_and_contact_sheet_files(inter, tmp_path: Path) -> None:
     with rec:
         run_episode(sim, GroundTruthSource(), inter, on_frame=rec)
     assert rec.n_written == inter.n_frames
-    # Read through a closed reader: mimread leaves ffmpeg's pipes to the garbage collector.
-    reader = imageio.get_reader(tmp_path / "v.mp4")
-    try:
-        frames = [reader.get_data(i) for i in range(reader.count_frames())]
-    finally:
-        reader.close()
+    # imageio's ffmpeg reader leaves its subprocess pipes to the garbage collector (a third-party
+    # ResourceWarning, an error under -W error); read it back and collect inside an ignore block.
+    import gc
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ResourceWarning)
+        reader = imageio.get_reader(tmp_path / "v.mp4")
+        try:
+            frames = [reader.get_data(i) for i in range(reader.count_frames())]
+        finally:
+            reader.close()
+            del reader
+            gc.collect()
     assert len(frames) == inter.n_frames and frames[0].shape == (128, 160, 3)
     from PIL import Image
 

@@ -1,0 +1,77 @@
+"""scripts/benchmark.py: runs a bench script in a subprocess and writes the page from its result.
+
+Only the cheapest section (learning, ``--quick``: 6 instances, 5 iterations, one interaction,
+a few seconds) is run; the figures themselves are not asserted (no timed assertions), only that
+the page carries what the script measured, with the machine facts and the command.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPT = ROOT / "scripts" / "benchmark.py"
+
+
+def _load_script():  # noqa: ANN202
+    spec = importlib.util.spec_from_file_location("benchmark_script", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look the module up while the class is built
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        sys.modules.pop(spec.name, None)
+    return module
+
+
+def test_quick_learning_page(tmp_path: Path) -> None:
+    out, work = tmp_path / "bench.md", tmp_path / "work"
+    proc = subprocess.run(
+        [sys.executable, str(SCRIPT), "--quick", "--only", "learning", "--out", str(out), "--work", str(work)],
+        cwd=ROOT, capture_output=True, text=True, timeout=120, check=False,
+        env=dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl")),
+    )
+    assert proc.returncode == 0, proc.stderr
+    page = out.read_text()
+    # header: machine facts read at run time
+    for fact in ("| CPU |", "| cores |", "| memory |", "| Python |", "| numpy / scipy |", "| mujoco / mink / gymnasium |",
+                 "| date (UTC) |", "| load average before |", "| load average after |"):
+        assert fact in page, fact
+    assert f"| Python | {sys.version.split()[0]} |" in page
+    assert "Quick run" in page and "not the target configuration" in page
+    # the exact command, single-core
+    assert ("OMP_NUM_THREADS=1 python scripts/bench_learning.py --instances 6 --iterations 5 "
+            "--interactions shake_hands --json $TMP/learning.json") in page
+    # the table, carrying the figure the bench script wrote to its JSON
+    result = json.loads((work / "learning.json").read_text())
+    acc = result["interactions"]["shake_hands"]["frame_accuracy"]
+    row = re.search(r"^\| shake_hands \| ([0-9.]+) \| (yes|no) \|", page, flags=re.M)
+    assert row is not None, page
+    assert row.group(1) == f"{acc:.3f}"
+    assert "| interaction | parse frame accuracy |" in page
+    assert "not judged (quick settings)" in page
+    assert "## Synthesis" not in page  # --only skips the other sections
+
+
+def test_failed_command_is_reported(tmp_path: Path) -> None:
+    bm = _load_script()
+    run = bm.Run("broken", ["{py}", "-c", "import sys; print('no such figure'); sys.exit(3)"], "missing.json")
+    bm.execute(run, tmp_path, "", timeout=60)
+    assert not run.ok and run.data is None
+    assert "exit code 3" in run.error and "no such figure" in run.error
+    sec = bm.Section("learning", "Learning", [run], bm._learning, load=["0.1", "0.2"])
+    text = "\n".join(bm.render(sec, quick=False))
+    assert "**Failed**" in text and "exit code 3" in text
+    assert "| interaction |" not in text  # no table without a result
+
+
+def test_library_does_not_import_scripts() -> None:
+    offenders = [str(p.relative_to(ROOT)) for p in (ROOT / "socialaff_sim").rglob("*.py")
+                 if re.search(r"^\s*(from|import)\s+(scripts|benchmark)\b", p.read_text(), flags=re.M)]
+    assert offenders == []
