@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import sys
+import types
 from pathlib import Path
 
 # Offscreen rendering on headless machines; must be set before mujoco is imported.
@@ -35,3 +37,26 @@ def seed(request: pytest.FixtureRequest) -> int:
 def rng(seed: int) -> np.random.Generator:
     """A Generator seeded from :func:`seed`."""
     return np.random.default_rng(seed)
+
+
+@pytest.fixture
+def fake_rospy(monkeypatch: pytest.MonkeyPatch) -> type:
+    """A stand-in ``rospy.rostime.Time`` (state [secs, nsecs], like genpy) so tests can write such pickles."""
+
+    class Time:
+        def __init__(self, secs: int, nsecs: int) -> None:
+            self.secs, self.nsecs = secs, nsecs
+
+        def __getstate__(self) -> list[int]:
+            return [self.secs, self.nsecs]
+
+        def __setstate__(self, state: list[int]) -> None:
+            self.secs, self.nsecs = state
+
+    Time.__module__, Time.__qualname__ = "rospy.rostime", "Time"
+    rospy, rostime = types.ModuleType("rospy"), types.ModuleType("rospy.rostime")
+    rostime.Time = Time  # type: ignore[attr-defined]
+    rospy.rostime = rostime  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "rospy", rospy)
+    monkeypatch.setitem(sys.modules, "rospy.rostime", rostime)
+    return Time

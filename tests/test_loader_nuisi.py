@@ -6,8 +6,6 @@ import dataclasses
 import os
 import re
 import shutil
-import sys
-import types
 from pathlib import Path
 
 import numpy as np
@@ -134,26 +132,6 @@ def _camera(agent: int, pitch_deg: float = 10.0) -> tuple[np.ndarray, np.ndarray
     r = np.cross([0.0, sign, 0.0], [0.0, 0.0, 1.0])  # the camera's right: forward × up
     d = np.cross(f, r)  # down, so that (r, d, f) is right-handed
     return centre, np.stack([r, d, f])
-
-
-@pytest.fixture
-def fake_rospy(monkeypatch: pytest.MonkeyPatch) -> type:
-    class Time:
-        def __init__(self, secs: int, nsecs: int) -> None:
-            self.secs, self.nsecs = secs, nsecs
-
-        def __getstate__(self):
-            return [self.secs, self.nsecs]
-
-        def __setstate__(self, state):
-            self.secs, self.nsecs = state
-
-    Time.__module__, Time.__qualname__ = "rospy.rostime", "Time"
-    rospy, rostime = types.ModuleType("rospy"), types.ModuleType("rospy.rostime")
-    rostime.Time, rospy.rostime = Time, rostime  # type: ignore[attr-defined]
-    monkeypatch.setitem(sys.modules, "rospy", rospy)
-    monkeypatch.setitem(sys.modules, "rospy.rostime", rostime)
-    return Time
 
 
 def _write_agent(path: Path, time_cls: type, stamps_ns: np.ndarray, world: np.ndarray, agent: int,

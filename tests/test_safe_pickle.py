@@ -9,8 +9,6 @@ import os
 import pickle
 import pickletools
 import subprocess
-import sys
-import types
 import zipfile
 from pathlib import Path
 
@@ -181,29 +179,6 @@ def test_missing_file_is_a_data_error(tmp_path: Path) -> None:
 
 
 # -- ROS time stamps ------------------------------------------------------------------------------------
-@pytest.fixture
-def fake_rospy(monkeypatch: pytest.MonkeyPatch) -> type:
-    """A stand-in ``rospy.rostime.Time`` (state [secs, nsecs], like genpy) so tests can write such pickles."""
-
-    class Time:
-        def __init__(self, secs: int, nsecs: int) -> None:
-            self.secs, self.nsecs = secs, nsecs
-
-        def __getstate__(self):
-            return [self.secs, self.nsecs]
-
-        def __setstate__(self, state):
-            self.secs, self.nsecs = state
-
-    Time.__module__, Time.__qualname__ = "rospy.rostime", "Time"
-    rospy, rostime = types.ModuleType("rospy"), types.ModuleType("rospy.rostime")
-    rostime.Time = Time  # type: ignore[attr-defined]
-    rospy.rostime = rostime  # type: ignore[attr-defined]
-    monkeypatch.setitem(sys.modules, "rospy", rospy)
-    monkeypatch.setitem(sys.modules, "rospy.rostime", rostime)
-    return Time
-
-
 def test_ros_time_stamps_become_plain_values(fake_rospy: type) -> None:
     stamps = np.empty(3, dtype=object)
     stamps[:] = [fake_rospy(1656508537, 848842220), fake_rospy(1656508537, 973480602), fake_rospy(1656508538, 0)]

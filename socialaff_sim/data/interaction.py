@@ -10,7 +10,7 @@ from typing import Any, cast
 import numpy as np
 
 from ..errors import DataError
-from .skeletons import KEY_JOINTS, N_KEY, SkeletonLayout, layout_for_joint_names
+from .skeletons import N_KEY, SkeletonLayout, layout_for_joint_names
 
 __all__ = ["Interaction", "MIN_FRAMES", "LABEL_PATTERN"]
 

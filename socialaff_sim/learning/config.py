@@ -2,16 +2,16 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
-from typing import Any
+from dataclasses import dataclass
 
+from .._config import DictConfig
 from ..errors import ConfigError
 
 __all__ = ["LearningConfig"]
 
 
 @dataclass(frozen=True)
-class LearningConfig:
+class LearningConfig(DictConfig):
     """Algorithm 1 settings with the paper's defaults; change them with ``dataclasses.replace``."""
 
     iterations: int = 100
@@ -85,16 +85,3 @@ class LearningConfig:
             raise bad("init_dirichlet", "a number > 0")
         if self.lam < 0:
             raise bad("lam", "a number >= 0")
-
-    def to_dict(self) -> dict[str, Any]:
-        """The settings as a JSON-compatible dict."""
-        return {f.name: getattr(self, f.name) for f in fields(self)}
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> LearningConfig:
-        """Inverse of :meth:`to_dict`; unknown keys are a :class:`~socialaff_sim.errors.ConfigError`."""
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(data) - known)
-        if unknown:
-            raise ConfigError(f"LearningConfig: unknown fields {unknown}; valid fields: {sorted(known)}")
-        return cls(**data)

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
-from typing import Any
+from dataclasses import dataclass
 
+from .._config import DictConfig
 from ..errors import ConfigError, choices
 
 __all__ = ["AffordanceConfig", "DEFAULT_N_SUBEVENTS", "DURATION_DENSITIES", "LIKELIHOODS", "VECTOR_DENSITIES", "default_n_subevents"]
@@ -23,7 +23,7 @@ DEFAULT_N_SUBEVENTS = 4
 
 
 @dataclass(frozen=True)
-class AffordanceConfig:
+class AffordanceConfig(DictConfig):
     """Model settings with the paper's defaults; change them with ``dataclasses.replace``."""
 
     n_subevents: int | None = None
@@ -116,19 +116,6 @@ class AffordanceConfig:
             )
         if self.shape_min >= self.shape_max:
             raise bad("shape_min", f"a value below shape_max = {self.shape_max}")
-
-    def to_dict(self) -> dict[str, Any]:
-        """The settings as a JSON-compatible dict."""
-        return {f.name: getattr(self, f.name) for f in fields(self)}
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> AffordanceConfig:
-        """Inverse of :meth:`to_dict`; unknown keys are a :class:`~socialaff_sim.errors.ConfigError`."""
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(data) - known)
-        if unknown:
-            raise ConfigError(f"AffordanceConfig: unknown fields {unknown}; valid fields: {sorted(known)}")
-        return cls(**data)
 
 
 def default_n_subevents(label: str) -> int:

@@ -180,7 +180,7 @@ class Simulator:
         """Load an instance at frame 0; ``initial_targets`` (5, 3) robot frame sets the starting posture."""
         stage = self._stage = self._get_stage(interaction)
         self.interaction = inter = interaction
-        scene, data = stage.scene, stage.data
+        scene = stage.scene
         self.offset = world_offset(inter)
         self.pose: HumanPose = pose_human(scene.body, inter, self.offset)
         set_human_sizes(scene, self.pose.half_lengths)
