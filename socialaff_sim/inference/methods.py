@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..data.interaction import Interaction
-from ..errors import ConfigError, ModelError, NotFittedError, SimulationError, choices
+from ..errors import ConfigError, NotFittedError, SimulationError, choices
 from ..evaluation.protocol import Prediction, register_method
 from ..model.affordance import SocialAffordanceModel
 from ..model.config import AffordanceConfig
@@ -158,8 +158,4 @@ class ModelSource:
 
 def key_joint_source(model_path: str | Path, *, seed: int = 0, config: SynthesisConfig | None = None) -> ModelSource:
     """A :class:`ModelSource` for the model saved at ``model_path``."""
-    try:
-        model = SocialAffordanceModel.load(model_path)
-    except ModelError:
-        raise
-    return ModelSource(model, seed=seed, config=config)
+    return ModelSource(SocialAffordanceModel.load(model_path), seed=seed, config=config)

@@ -144,6 +144,10 @@ class OnlineSynthesizer:
             raise ModelError(f"instance {interaction.instance_id!r} is a {interaction.label!r}; the model is of {self.model.label_!r}")
         self._inter = interaction
         self._rng = rng
+        # Agent 1's observed skeletons, gap-filled once per instance rather than once per observed frame.
+        self._observed_skeleton = (
+            interaction.filled_joints()[: cfg.n_observed, 1] if self.body is not None else None
+        )
         self._frame = self.model.frame_of(interaction)
         track = self.model.canonical_track(interaction, self._frame)
         # Agent 0 and the object over the whole instance, for lookahead references only.
@@ -183,7 +187,7 @@ class OnlineSynthesizer:
         skeleton = None
         if self.body is not None:
             if observed:
-                skeleton = self._inter.filled_joints()[t, 1]
+                skeleton = self._observed_skeleton[t]  # type: ignore[index]
             else:
                 skeleton = self.body.fit_pose(keys_c, self._frame) if np.isfinite(keys_c[0]).all() else None
         sub = -1 if observed or self._parse is None else self._parse.current
@@ -254,7 +258,7 @@ class OnlineSynthesizer:
         shift = cand[:, base] - prev[0] if base in aff else np.zeros((N, 3))
         static = _AGENT1[self._available[_AGENT1] & ~np.isin(_AGENT1, aff)]
         cand[:, static] = prev[static - N_KEY][None] + shift[:, None]
-        best = self._select(s, z, cand, before, shift, static)
+        best = self._select(s, z, cand, before, static)
         out = best[_AGENT1].copy()
         out[~self._available[_AGENT1]] = np.nan
         return out
@@ -268,7 +272,7 @@ class OnlineSynthesizer:
         return np.where(np.isnan(score), -np.inf, score)
 
     def _select(
-        self, s: int, z: np.ndarray, cand: np.ndarray, before: np.ndarray, shift: np.ndarray, static: np.ndarray
+        self, s: int, z: np.ndarray, cand: np.ndarray, before: np.ndarray, static: np.ndarray
     ) -> np.ndarray:
         """The most likely configuration (11, 3) over the candidates and their per-joint recombinations.
 
