@@ -11,7 +11,8 @@ Contents of the world:
   an IK solution maps one to one onto the physics state, and the forces the base
   takes show up in the weld's constraint force;
 * the human: one mocap body per skeleton bone carrying a capsule, and one sphere
-  per hand (see :mod:`socialaff_sim.sim.human`);
+  per hand (see :mod:`socialaff_sim.sim.human`; its bodies, sizes and compliant
+  parts are set by :mod:`socialaff_sim.sim.scene_human`);
 * the object, when the task has one: a free body, with one inactive weld per
   robot hand (``grip_left``/``grip_right``) that the simulator switches on when
   that hand touches it (a suction-style gripper, see :mod:`.simulator`).
@@ -32,21 +33,14 @@ from dm_control import mjcf
 from ..data.skeletons import SkeletonLayout
 from ..errors import SimulationError
 from ..retarget.robot import RobotSpec
-from .human import HAND_SPHERE_RADIUS, HumanBody, human_body
+from .human import HumanBody, human_body
 from .robot_mjcf import robot_mjcf, tune_servos
+from .scene_human import HUMAN_RGBA, add_human, part_names, pose_compliant, set_human_sizes
 
 __all__ = ["ObjectSpec", "Scene", "build_scene", "set_human_sizes", "pose_compliant", "HUMAN_RGBA", "ROBOT_RGBA", "OBJECT_RGBA"]
 
-HUMAN_RGBA = (0.85, 0.2, 0.2, 1.0)
 ROBOT_RGBA = (0.25, 0.75, 0.3, 1.0)
 OBJECT_RGBA = (0.95, 0.8, 0.2, 1.0)
-HUMAN_CONTACT = {"solref": (0.03, 1.0), "solimp": (0.6, 0.9, 0.02, 0.5, 2), "solmix": 1000.0}
-"""Contact softness of the human's capsules (flesh, not steel); solmix makes them set the pair's values."""
-HUMAN_DENSITY = 1000.0
-"""kg/m³ of the compliant arm parts of the human (about that of flesh)."""
-HUMAN_WELD_SOLREF = (0.02, 1.0)
-"""Time constant (s) and damping ratio of the soft welds holding the human's forearms and hands
-to the recording: a hand of half a kilogram yields about 1 cm under 12 N."""
 GRIP_SOLREF = (0.01, 1.0)
 """Time constant (s) and damping ratio of the grip welds between a robot hand and the object."""
 
@@ -148,26 +142,6 @@ class Scene:
         return np.where(limited, np.clip(ctrl, lo, hi), ctrl)
 
 
-def _add_human(root: mjcf.RootElement, body: HumanBody, physics: bool) -> None:
-    names = [f"human_{n}" for n in body.bone_names] + ["human_left_hand_sphere", "human_right_hand_sphere"]
-    compliant = set(body.compliant) if physics else set()
-    for i, name in enumerate(names):
-        if i < body.n_bones:
-            shape = {"type": "capsule", "size": [float(body.radii[i]), 0.05]}
-        else:
-            shape = {"type": "sphere", "size": [HAND_SPHERE_RADIUS]}
-        geom = {"name": name, "contype": 2, "conaffinity": 0, "rgba": HUMAN_RGBA, "group": 1, **HUMAN_CONTACT, **shape}
-        if i not in compliant:
-            root.worldbody.add("body", name=name, mocap=True).add("geom", **geom)
-            continue
-        target = root.worldbody.add("body", name=f"{name}_target", mocap=True)
-        part = root.worldbody.add("body", name=name, gravcomp=1.0)
-        part.add("freejoint", name=name)
-        part.add("geom", density=HUMAN_DENSITY, **geom)
-        root.equality.add("weld", name=name, body1=target, body2=part, relpose=(0, 0, 0, 1, 0, 0, 0),
-                          solref=HUMAN_WELD_SOLREF, solimp=(0.9, 0.95, 0.001, 0.5, 2))
-
-
 def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None = None,
                 *, physics: bool = True, timestep: float = 0.004, servo_bandwidth: float | None = 25.0) -> Scene:
     """Compile the scene for one robot, one skeleton layout and an optional object.
@@ -199,7 +173,7 @@ def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None
     frame = root.worldbody.attach(rob)
     frame.add("freejoint", name="root")
     body = human_body(layout)
-    _add_human(root, body, physics)
+    add_human(root, body, physics)
     if physics:
         anchor = root.worldbody.add("body", name="robot_anchor", mocap=True)
         root.equality.add("weld", name="robot_anchor", body1=anchor, body2="robot/",
@@ -279,7 +253,7 @@ def _index(model: mujoco.MjModel, robot: RobotSpec, body: HumanBody, rob: mjcf.R
         sub = np.array([b == top or _is_descendant(model, b, top) for b in range(model.nbody)])
         arm_geom[s] = sub[model.geom_bodyid] & collide
 
-    hnames = [f"human_{n}" for n in body.bone_names] + ["human_left_hand_sphere", "human_right_hand_sphere"]
+    hnames = part_names(body)
     human_geom_ids = np.array([_mj_id(model, "geom", n) for n in hnames])
     human_body_ids = [_mj_id(model, "body", n) for n in hnames]
     mocap_bodies = [b if model.body_mocapid[b] >= 0 else _mj_id(model, "body", f"{n}_target")
@@ -383,37 +357,3 @@ def _lowest_point(model: mujoco.MjModel, qadr: np.ndarray, robot_q: np.ndarray, 
         z[box] = z[box] + np.einsum("gj,gj->g", rz[box], aabb[:, :3])
         reach[box] = np.einsum("gj,gj->g", np.abs(rz[box]), aabb[:, 3:])
     return float((z - reach).min())
-
-
-def set_human_sizes(scene: Scene, half_lengths: np.ndarray) -> None:
-    """Give the human's capsules their half-lengths (B,) metres, keeping MuJoCo's bounds and masses consistent."""
-    m = scene.model
-    g = scene.human_geom_ids[: scene.n_bones]
-    r = m.geom_size[g, 0]
-    m.geom_size[g, 1] = half_lengths
-    m.geom_rbound[g] = half_lengths + r
-    m.geom_aabb[g, 3:] = np.stack([r, r, half_lengths + r], axis=1)
-    free = scene.human_free_qadr[: scene.n_bones] >= 0
-    if free.any():
-        # Capsule mass and inertia about its centre (z along the axis), density HUMAN_DENSITY.
-        gb = g[free]
-        body = m.geom_bodyid[gb]
-        rr, hh = r[free], half_lengths[free]
-        m_cyl = HUMAN_DENSITY * np.pi * rr**2 * 2 * hh
-        m_hem = HUMAN_DENSITY * 2.0 / 3.0 * np.pi * rr**3
-        mass = m_cyl + 2 * m_hem
-        izz = m_cyl * rr**2 / 2 + 2 * m_hem * 2 * rr**2 / 5
-        ixx = (m_cyl * (3 * rr**2 + 4 * hh**2) / 12
-               + 2 * m_hem * (2 * rr**2 / 5 + hh**2 + 3 * hh * rr / 8))
-        m.body_mass[body] = mass
-        m.body_inertia[body] = np.stack([ixx, ixx, izz], axis=1)
-        m.body_subtreemass[body] = mass
-
-
-def pose_compliant(scene: Scene, data: mujoco.MjData, pos: np.ndarray, quat: np.ndarray) -> None:
-    """Put the compliant human parts exactly on their targets ``pos`` (B + 2, 3), ``quat`` (B + 2, 4), at rest."""
-    free = scene.human_free_qadr >= 0
-    qa, va = scene.human_free_qadr[free], scene.human_free_vadr[free]
-    data.qpos[qa[:, None] + np.arange(3)] = pos[free]
-    data.qpos[qa[:, None] + np.arange(3, 7)] = quat[free]
-    data.qvel[va[:, None] + np.arange(6)] = 0.0

@@ -21,15 +21,15 @@ import numpy as np
 
 from ..data.interaction import Interaction
 from ..errors import SimulationError
-from ..retarget.ik import IKConfig, IKModel, RobotIK
+from ..retarget.ik import IKConfig, RobotIK
 from ..retarget.robot import RobotSpec, load_robot
 from ..retarget.scaling import KeyJointScaler, RobotFrame, ScalingConfig, measure_robot, object_anchors
 from .carry import CarryPlan, hold_object, park_object, plan_carry, release_object
 from .human import HumanPose, pose_human, world_offset
-from .reach import ReachModel, human_segments, reach_model, reachable_targets
-from .robot_mjcf import limit_hand_force
-from .scene import Scene, build_scene, pose_compliant, set_human_sizes
+from .reach import human_segments, reach_model, reachable_targets
+from .scene import Scene, pose_compliant, set_human_sizes
 from .scoring import SubgoalScorer
+from .stage import Stage, compile_scenes, contact_exemptions, key_frames, key_frames_at
 from .substeps import FrameStepper
 from .tasks import TaskSpec, load_task
 
@@ -89,19 +89,6 @@ class StepResult:
     """Whether the last frame has been reached."""
 
 
-@dataclass
-class _Stage:
-    scene: Scene
-    data: mujoco.MjData
-    ik_scene: Scene
-    ik: RobotIK
-    scorer: SubgoalScorer
-    ik_map: np.ndarray
-    """(nq_ik,) position of each IK coordinate in the physics robot's coordinates."""
-    stepper: FrameStepper
-    reach: ReachModel
-
-
 def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     out = np.empty(4)
     mujoco.mju_mulQuat(out, a, b)
@@ -115,36 +102,23 @@ class Simulator:
         self.robot = robot if isinstance(robot, RobotSpec) else load_robot(robot)
         self.task = task if isinstance(task, TaskSpec) else load_task(task)
         self.config = config or SimConfig()
-        self._stages: dict[str, _Stage] = {}
-        self._stage: _Stage | None = None
+        self._stages: dict[str, Stage] = {}
+        self._stage: Stage | None = None
         self.interaction: Interaction | None = None
 
     # -- set-up -----------------------------------------------------------------------
-    def _get_stage(self, inter: Interaction) -> _Stage:
+    def _get_stage(self, inter: Interaction) -> Stage:
         name = inter.layout.name
         if name not in self._stages:
             obj = self.task.object.spec if self.task.object is not None else None
-            scene = build_scene(self.robot, inter.layout, obj, timestep=self.config.timestep,
-                                servo_bandwidth=self.config.servo_bandwidth)
-            if self.config.hand_force is not None:
-                limit_hand_force(scene, self.config.hand_force)
-            ik_scene = build_scene(self.robot, inter.layout, None, physics=False)
-            collide = ik_scene.robot_geom & ((ik_scene.model.geom_contype != 0) | (ik_scene.model.geom_conaffinity != 0))
-            ik_model = IKModel(
-                model=ik_scene.model, frame_kinds=ik_scene.frame_kinds, frame_ids=ik_scene.frame_ids,
-                home_qpos=ik_scene.home_qpos, hand_geoms=tuple(np.flatnonzero(h) for h in ik_scene.hand_geom),
-                arm_geoms=tuple(np.flatnonzero(a) for a in ik_scene.arm_geom), robot_geoms=np.flatnonzero(collide),
-                human_geoms=ik_scene.human_geom_ids, human_mocap=ik_scene.human_mocap,
-                max_joint_velocity=self.robot.max_joint_velocity,
+            scene, ik_scene, ik_model, ik_map = compile_scenes(
+                self.robot, inter.layout, obj, timestep=self.config.timestep,
+                servo_bandwidth=self.config.servo_bandwidth, hand_force=self.config.hand_force,
             )
-            if not np.array_equal(ik_scene.robot_qadr, np.arange(ik_scene.model.nq)):
-                raise SimulationError("IK scene: the robot must own every coordinate")
-            phys_index = {n: i for i, n in enumerate(scene.robot_joint_names)}
-            ik_map = np.concatenate([np.arange(7), 6 + np.array([phys_index[n] for n in ik_scene.robot_joint_names[1:]], dtype=np.int64)])
             if not hasattr(self, "measurements"):
                 self.measurements = measure_robot(ik_scene.model, ik_scene.home_qpos, ik_scene.frame_kinds,
                                                   ik_scene.frame_ids, ik_scene.limb_body_ids)
-                self._home_keys = self._fk_keys(ik_scene, ik_scene.home_qpos)
+                self._home_keys = key_frames_at(ik_scene, ik_scene.home_qpos)
             meas = self.measurements
             reach = reach_model(scene, meas.arm, meas.leg, meas.shoulders, meas.hips, self.config.ik.min_distance)
             if meas.trunk_radius == 0.0:
@@ -152,29 +126,11 @@ class Simulator:
                                                         hand=float(np.mean(reach.hand_centre)))
             data = mujoco.MjData(scene.model)
             scorer = SubgoalScorer(scene, self.task)
-            self._stages[name] = _Stage(
+            self._stages[name] = Stage(
                 scene, data, ik_scene, RobotIK(ik_model, self.config.ik), scorer, ik_map, FrameStepper(scene, data, scorer),
                 reach,
             )
         return self._stages[name]
-
-    @staticmethod
-    def _fk_keys(scene: Scene, qpos: np.ndarray) -> np.ndarray:
-        d = mujoco.MjData(scene.model)
-        d.qpos[:] = qpos
-        mujoco.mj_kinematics(scene.model, d)
-        return np.array([d.site_xpos[i] if k == "site" else d.xpos[i] for k, i in zip(scene.frame_kinds, scene.frame_ids, strict=True)])
-
-    def _exemptions(self, stage: _Stage) -> list[tuple[int, list[int]]]:
-        """Hand/human geom pairs the task's contact sub-goals need (left out of collision avoidance)."""
-        sides = {"left_hand": (0,), "right_hand": (1,), "hands": (0, 1), "body": (0, 1)}
-        out = []
-        for sg in self.task.subgoals:
-            if sg.kind != "contact" or sg.human is None:
-                continue
-            geoms = [int(g) for g in stage.ik_scene.human_geom_ids[list(stage.ik_scene.body.groups[sg.human])]]
-            out += [(s, geoms) for s in sides[sg.robot]]
-        return out
 
     def reset(self, interaction: Interaction, initial_targets: np.ndarray | None = None) -> None:
         """Load an instance at frame 0; ``initial_targets`` (5, 3) robot frame sets the starting posture."""
@@ -198,7 +154,7 @@ class Simulator:
         self.n_sub = max(1, int(round(1.0 / (fps * self.config.timestep))))
         scene.model.opt.timestep = 1.0 / (fps * self.n_sub)
         ik = stage.ik
-        ik.set_contact_exemptions(self._exemptions(stage))
+        ik.set_contact_exemptions(contact_exemptions(self.task.subgoals, stage.ik_scene))
         ik.set_human(self.pose.pos[0], self.pose.quat[0])
         q0 = self._home_in_world(stage)
         ik.reset(q0)
@@ -241,7 +197,7 @@ class Simulator:
         stage.scorer.reset()
         if self.carry is not None and self.carry.release_frame == 0:
             self._release(0)
-        self.last_targets = self.frame_R.to_robot(self._fk_keys(stage.ik_scene, q0))
+        self.last_targets = self.frame_R.to_robot(key_frames_at(stage.ik_scene, q0))
 
     def _to_physics(self, q_ik: np.ndarray) -> np.ndarray:
         """Robot coordinates of the physics scene (..., nq_r) from IK ones (..., nq_ik); frozen joints at home."""
@@ -252,7 +208,7 @@ class Simulator:
         out[..., stage.ik_map] = q_ik
         return out
 
-    def _home_in_world(self, stage: _Stage) -> np.ndarray:
+    def _home_in_world(self, stage: Stage) -> np.ndarray:
         q = stage.ik_scene.home_qpos.copy()
         q[:3] = self.frame_R.to_world(q[:3])
         yaw_q = np.array([np.cos(self._yaw / 2), 0.0, 0.0, np.sin(self._yaw / 2)])
@@ -399,9 +355,7 @@ class Simulator:
 
     def robot_key_frames(self) -> np.ndarray:
         """(5, 3) the robot's key frames in physics, robot frame, metres."""
-        sc, d = self.scene, self.data
-        world = np.array([d.site_xpos[i] if k == "site" else d.xpos[i] for k, i in zip(sc.frame_kinds, sc.frame_ids, strict=True)])
-        return self.frame_R.to_robot(world)
+        return self.frame_R.to_robot(key_frames(self.scene, self.data))
 
     def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
         """Hinge angles (rad) and velocities (rad/s) of the robot, (n_joints,) each, in robot joint order."""

@@ -1,0 +1,184 @@
+"""The Markdown body of each section of scripts/benchmark.py, rendered from its commands' results.
+
+One function per section (learning, synthesis, ik, physics, env, demo, accuracy) takes the
+section's runs (``benchmark.Run``: ``data`` is the command's parsed JSON result, with ``ok``,
+``shown``, ``wall_s`` and ``error``) and whether they used ``--quick`` settings, and returns the
+lines of its table, its notes and its verdicts against the targets; :func:`table`, :func:`verdict`
+and :func:`f` are the shared formatting. Only scripts/benchmark.py imports this module (it keeps
+the functions' script-private names); the library never does.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from benchmark import Run
+
+
+def table(head: list[str], rows: list[list[str]]) -> list[str]:
+    return ["| " + " | ".join(head) + " |", "|" + "---|" * len(head), *("| " + " | ".join(r) + " |" for r in rows)]
+
+
+def verdict(value: float, target: float, *, at_least: bool, quick: bool) -> str:
+    if quick:
+        return "not judged (quick settings)"
+    ok = value >= target if at_least else value <= target
+    return "met" if ok else "**missed**"
+
+
+def f(x: object, fmt: str = ".3f") -> str:
+    return "–" if x is None else format(x, fmt)
+
+
+def _learning(runs: list[Run], quick: bool) -> list[str]:
+    d = runs[0].data
+    rows, fits = [], []
+    for label, r in d["interactions"].items():
+        fits.append(r["fit_s"])
+        rows.append([label, f(r["frame_accuracy"]), "yes" if r["contact_joints_grouped"] else "no", f(r["atoms_s"], ".1f"),
+                     f(r["init_s"], ".1f"), f(r["mcmc_s"], ".1f"), f(r["fit_s"], ".1f"), f(r["acceptance"])])
+    grouped = sum(r["contact_joints_grouped"] for r in d["interactions"].values())
+    n = len(d["interactions"])
+    rows.append(["**mean**", f"**{d['mean_frame_accuracy']:.3f}**", f"{grouped} / {n}", "", "", "", "", ""])
+    out = table(["interaction", "parse frame accuracy", "contact joints grouped", "atoms s", "init s",
+                 f"MCMC s ({d['iterations']} it)", "fit s", "acceptance"], rows)
+    out += ["", f"{d['instances']} training instances per interaction, seed {d['seed']}; seconds are wall time.", "",
+            f"- Parse frame accuracy ≥ 0.85 averaged over the interactions: {d['mean_frame_accuracy']:.3f}, "
+            + verdict(d["mean_frame_accuracy"], 0.85, at_least=True, quick=quick) + ".",
+            f"- Contact joints in one group in every interaction: {grouped} / {n}, "
+            + verdict(grouped, n, at_least=True, quick=quick) + ".",
+            f"- Fit (100 outer iterations, ~18 instances) < 60 s on one core: slowest {max(fits):.1f} s, "
+            + verdict(max(fits), 60.0, at_least=False, quick=quick) + "."]
+    return out
+
+
+def _synthesis(runs: list[Run], quick: bool) -> list[str]:
+    d = runs[0].data
+    rows = [[label, str(r["frames"]), f(r["frames_per_s"], ".0f"), f(r["frames_per_s_with_skeleton"], ".0f"),
+             f(r["key_joint_error_m"])] for label, r in d["interactions"].items()]
+    errs = [r["key_joint_error_m"] for r in d["interactions"].values()]
+    mean_err = sum(errs) / len(errs)
+    a = d["all"]
+    rows.append(["**all**", str(a["frames"]), f"**{a['frames_per_s']:.0f}**", "", f"**{mean_err:.3f}** (mean)"])
+    out = table(["interaction", "frames", "frames/s (key joints)", "frames/s (+ full skeleton)", "key-joint error (m)"],
+                rows)
+    out += ["", f"Models fitted with {d['iterations']} MCMC iterations on 18 instances, synthesis of the held-out rest, "
+            f"T0 = {d['n_observed']}; seconds are wall time.", "",
+            f"- ≥ 200 synthesized frames/s on one core: {a['frames_per_s']:.0f}, "
+            + verdict(a["frames_per_s"], 200.0, at_least=True, quick=quick) + ".",
+            f"- Full-model key-joint error ≤ 0.07 m: {mean_err:.3f} m, "
+            + verdict(mean_err, 0.07, at_least=False, quick=quick) + "."]
+    return out
+
+
+def _ik(runs: list[Run], quick: bool) -> list[str]:
+    d = runs[0].data
+    rows = [[k, str(s["instances"]), str(s["frames"]), f"{s['ik_ms_mean']:.2f} ({s['ik_ms_p95']:.2f})",
+             f(s["ik_iterations_mean"], ".2f"), f"{100 * s['err_reachable_within_2cm']:.1f} % "
+             f"({100 * s['err_reachable_p95_m']:.1f} / {100 * s['err_reachable_max_m']:.1f} cm)",
+             f"{100 * s['reachable_fraction']:.0f} %", f"{100 * s['err_all_p95_m']:.1f} cm"] for k, s in d.items()]
+    out = table(["robot / interaction", "instances", "frames", "IK ms/frame, mean (p95)", "QP steps/frame",
+                 "reachable targets within 2 cm (p95 / max error)", "share judged reachable", "p95 error, all targets"],
+                rows)
+    out.append("")
+    out.append("Ground-truth agent-1 replay, whole sequences; IK time is CPU time of the calling thread.")
+    out.append("")
+    for k, s in d.items():
+        if k.endswith("/all"):
+            out.append(f"- {k}: IK ≤ 1 ms/frame (mean) {s['ik_ms_mean']:.2f} ms, "
+                       + verdict(s["ik_ms_mean"], 1.0, at_least=False, quick=quick)
+                       + f"; error ≤ 2 cm wherever reachable: {100 * s['err_reachable_within_2cm']:.1f} % within, "
+                       + verdict(s["err_reachable_within_2cm"], 1.0, at_least=True, quick=quick) + ".")
+    return out
+
+
+def _physics(runs: list[Run], quick: bool) -> list[str]:
+    d = runs[0].data
+    rows = [[k, str(s["instances"]), f"{s['real_time_factor_mean']:.1f}× ({s['real_time_factor_min']:.1f}×)",
+             f"{round(s['success_rate'] * s['instances'])}/{s['instances']} ({100 * s['success_rate']:.0f} %)",
+             ", ".join(f"{n} {c}" for n, c in s["failures"].items()) or "none"] for k, s in d.items()]
+    out = table(["robot / interaction", "instances", "real-time factor, mean (min)", "GT replay success",
+                 "failure conditions seen"], rows)
+    out += ["", "Real-time factor: simulated seconds / CPU seconds of reset, settle and all steps, without rendering. "
+            "Success: every sub-goal met and no failure condition.", ""]
+    for k, s in d.items():
+        if k.endswith("/all"):
+            out.append(f"- {k}: ≥ 10× real time on one core: mean {s['real_time_factor_mean']:.1f}×, "
+                       + verdict(s["real_time_factor_mean"], 10.0, at_least=True, quick=quick)
+                       + f" (min {s['real_time_factor_min']:.1f}×); GT replay success "
+                       f"{100 * s['success_rate']:.0f} % (reported; the target compares synthesized motion to it).")
+    return out
+
+
+def _env(runs: list[Run], quick: bool) -> list[str]:
+    rows, out_lines = [], []
+    for run in runs:
+        if not run.ok:
+            rows.append([run.key, "failed", "", "", "", ""])
+            continue
+        r = run.data
+        rows.append([f"robot {r['robot']}, physics {r['physics']}, policy {r['policy']}", f(r["cpu_steps_per_s"], ".0f"),
+                     f(r["cpu_steps_per_s_with_resets"], ".0f"), f(r["wall_steps_per_s"], ".0f"),
+                     f(r["cpu_ms_per_reset"], ".0f"), f"{r['success_rate']:.2f} ({r['episodes_finished']} episodes)"])
+    out = table(["setting", "steps/s (CPU)", "steps/s incl. resets (CPU)", "steps/s (wall)", "ms per reset (CPU)",
+                 "replay success"], rows)
+    first = runs[0]
+    if first.ok:
+        v = first.data["cpu_steps_per_s"]
+        out_lines = [f"- ≥ 300 env steps/s in one process without rendering (default setting): {v:.0f}, "
+                     + verdict(v, 300.0, at_least=True, quick=quick) + "."]
+    return out + ["", *out_lines]
+
+
+def _demo(runs: list[Run], quick: bool) -> list[str]:
+    rows, lines = [], []
+    for run, target in zip(runs, (300.0, 60.0) if len(runs) == 2 else (60.0,), strict=True):
+        rows.append([f"`{run.shown}`", f"{run.wall_s:.0f}" if run.ok else "failed", f"< {target:.0f}"])
+        if run.ok:
+            lines.append(f"- `{run.key}`: {run.wall_s:.0f} s, " + verdict(run.wall_s, target, at_least=False, quick=quick)
+                         + ".")
+    out = table(["command", "wall s", "target s"], rows)
+    return out + ["", "Wall time of the whole command (interpreter start included), without rendering the video "
+                  "(`--no-video`), so the targets' video step is not counted.", "", *lines]
+
+
+def _accuracy(runs: list[Run], quick: bool) -> list[str]:
+    out: list[str] = []
+    ev = runs[0]
+    if ev.ok:
+        d = ev.data
+        per, avg = d["per_interaction"], d["average"]
+        labels = list(per)
+        parse = d.get("parse_accuracy") or {}
+        rows = []
+        for m in avg:
+            acc = [parse[lab][m] for lab in labels if m in parse.get(lab, {}) and parse[lab][m] is not None]
+            rows.append([m, *(f(per[lab][m]["key_joint_error_m"]) for lab in labels), f(avg[m]["key_joint_error_m"]),
+                         f(avg[m]["joint_error_m"]), f(sum(acc) / len(acc)) if acc else "–",
+                         f(d.get("seconds", {}).get(m), ".1f")])
+        out += [f"Experiment 1 on `{d['dataset']}` (`{ev.shown}`), average error (m) over the synthesized frames "
+                "(key joints per interaction, then the averages):", ""]
+        out += table(["method", *labels, "average key joints", "average full skeleton", "parse frame accuracy (mean)",
+                      "fit + predict s (summed over tasks)"], rows)
+        if "full" in avg and avg["full"]["key_joint_error_m"] is not None:
+            v = avg["full"]["key_joint_error_m"]
+            out += ["", f"- Full model's average key-joint error ≤ 0.07 m: {v:.3f} m, "
+                    + verdict(v, 0.07, at_least=False, quick=quick) + "."]
+    else:
+        out += [f"`{ev.shown}` **failed**:", "", "```", ev.error, "```"]
+    bl = runs[1]
+    out.append("")
+    if bl.ok:
+        d = bl.data
+        methods = d["methods"]
+        rows = [[f"{name} ({', '.join(r['interactions'] or ['all'])})",
+                 *(f"{f(r['average'][m]['key_joint_error_m'])} / {f(r['average'][m]['joint_error_m'])}"
+                         for m in methods), f(r["wall_s"], ".0f")] for name, r in d["datasets"].items()]
+        out += [f"Baselines on real recordings (`{bl.shown}`), {d['n_folds']} actor-disjoint folds, "
+                "key-joint / full-skeleton error (m); `hold_last` keeps agent 1's last observed pose (a reference):", ""]
+        out += table(["dataset", *methods, "wall s"], rows)
+        out += [f"- {name}: skipped, {why}" for name, why in d["skipped"].items()]
+    else:
+        out += [f"`{bl.shown}` **failed**:", "", "```", bl.error, "```"]
+    return out

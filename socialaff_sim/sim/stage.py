@@ -1,0 +1,99 @@
+"""What a :class:`~socialaff_sim.sim.simulator.Simulator` compiles once per skeleton layout.
+
+A :class:`Stage` holds the physics scene with its MjData, the IK scene (robot and
+human only, :func:`~socialaff_sim.sim.scene.build_scene` with ``physics=False``)
+with the mink IK on it, the sub-goal scorer, the frame stepper and the reach
+model. The simulator builds one the first time it resets an instance of a layout
+(:func:`compile_scenes` does the compiling) and reuses it for every later one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from ..data.skeletons import SkeletonLayout
+from ..errors import SimulationError
+from ..retarget.ik import IKModel, RobotIK
+from ..retarget.robot import RobotSpec
+from .reach import ReachModel
+from .robot_mjcf import limit_hand_force
+from .scene import ObjectSpec, Scene, build_scene
+from .scoring import SubgoalScorer
+from .substeps import FrameStepper
+from .tasks import SubgoalSpec
+
+__all__ = ["Stage", "compile_scenes", "key_frames", "key_frames_at", "contact_exemptions"]
+
+
+@dataclass
+class Stage:
+    """The compiled resources of one skeleton layout."""
+
+    scene: Scene
+    """The physics scene."""
+    data: mujoco.MjData
+    ik_scene: Scene
+    """The IK scene: robot and human only."""
+    ik: RobotIK
+    scorer: SubgoalScorer
+    ik_map: np.ndarray
+    """(nq_ik,) position of each IK coordinate in the physics robot's coordinates."""
+    stepper: FrameStepper
+    reach: ReachModel
+
+
+def compile_scenes(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None, *, timestep: float,
+                   servo_bandwidth: float | None, hand_force: float | None) -> tuple[Scene, Scene, IKModel, np.ndarray]:
+    """The physics scene, the IK scene, the IK model on the latter and ``ik_map`` (see :class:`Stage`).
+
+    ``timestep`` (s) and ``servo_bandwidth`` (rad/s) go to :func:`build_scene`;
+    ``hand_force`` (N, ``None``: the model's limits) to :func:`~socialaff_sim.sim.robot_mjcf.limit_hand_force`.
+    """
+    scene = build_scene(robot, layout, obj, timestep=timestep, servo_bandwidth=servo_bandwidth)
+    if hand_force is not None:
+        limit_hand_force(scene, hand_force)
+    ik_scene = build_scene(robot, layout, None, physics=False)
+    collide = ik_scene.robot_geom & ((ik_scene.model.geom_contype != 0) | (ik_scene.model.geom_conaffinity != 0))
+    ik_model = IKModel(
+        model=ik_scene.model, frame_kinds=ik_scene.frame_kinds, frame_ids=ik_scene.frame_ids,
+        home_qpos=ik_scene.home_qpos, hand_geoms=tuple(np.flatnonzero(h) for h in ik_scene.hand_geom),
+        arm_geoms=tuple(np.flatnonzero(a) for a in ik_scene.arm_geom), robot_geoms=np.flatnonzero(collide),
+        human_geoms=ik_scene.human_geom_ids, human_mocap=ik_scene.human_mocap,
+        max_joint_velocity=robot.max_joint_velocity,
+    )
+    if not np.array_equal(ik_scene.robot_qadr, np.arange(ik_scene.model.nq)):
+        raise SimulationError("IK scene: the robot must own every coordinate")
+    phys_index = {n: i for i, n in enumerate(scene.robot_joint_names)}
+    ik_map = np.concatenate([np.arange(7), 6 + np.array([phys_index[n] for n in ik_scene.robot_joint_names[1:]], dtype=np.int64)])
+    return scene, ik_scene, ik_model, ik_map
+
+
+def key_frames(scene: Scene, data: mujoco.MjData) -> np.ndarray:
+    """(5, 3) world positions of the robot's key frames in ``data`` (kinematics already run), metres."""
+    return np.array([data.site_xpos[i] if k == "site" else data.xpos[i]
+                     for k, i in zip(scene.frame_kinds, scene.frame_ids, strict=True)])
+
+
+def key_frames_at(scene: Scene, qpos: np.ndarray) -> np.ndarray:
+    """(5, 3) world positions of the robot's key frames at scene coordinates ``qpos`` (nq,), metres."""
+    d = mujoco.MjData(scene.model)
+    d.qpos[:] = qpos
+    mujoco.mj_kinematics(scene.model, d)
+    return key_frames(scene, d)
+
+
+def contact_exemptions(subgoals: Sequence[SubgoalSpec], ik_scene: Scene) -> list[tuple[int, list[int]]]:
+    """Hand/human geom pairs the ``contact`` sub-goals need (left out of the IK's collision avoidance):
+    (hand side 0 left / 1 right, human geom ids of ``ik_scene``) per robot hand of each such sub-goal."""
+    sides = {"left_hand": (0,), "right_hand": (1,), "hands": (0, 1), "body": (0, 1)}
+    out = []
+    for sg in subgoals:
+        if sg.kind != "contact" or sg.human is None:
+            continue
+        geoms = [int(g) for g in ik_scene.human_geom_ids[list(ik_scene.body.groups[sg.human])]]
+        out += [(s, geoms) for s in sides[sg.robot]]
+    return out
