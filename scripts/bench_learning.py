@@ -128,6 +128,9 @@ def main() -> int:
     ap.add_argument("--duration-density", default=None,
                     help="override AffordanceConfig.duration_density (seconds, log_seconds)")
     ap.add_argument("--init-starts", type=int, default=None, help="override LearningConfig.init_starts")
+    ap.add_argument("--init-type-passes", type=int, default=None, help="override LearningConfig.init_type_passes")
+    ap.add_argument("--path-noise", choices=("on", "off"), default=None, help="override AffordanceConfig.path_noise")
+    ap.add_argument("--path-profile", default=None, help="override AffordanceConfig.path_profile (minjerk, linear)")
     ap.add_argument("--json", default=None, help="also write the table here (atomically)")
     args = ap.parse_args()
     data = generate_dataset(seed=args.seed)
@@ -136,8 +139,11 @@ def main() -> int:
         learning = dataclasses.replace(learning, p_shift=args.p_shift)
     if args.init_starts is not None:
         learning = dataclasses.replace(learning, init_starts=args.init_starts)
+    if args.init_type_passes is not None:
+        learning = dataclasses.replace(learning, init_type_passes=args.init_type_passes)
     overrides = {"likelihood": args.likelihood, "vector_density": args.vector_density,
-                 "duration_density": args.duration_density}
+                 "duration_density": args.duration_density, "path_profile": args.path_profile,
+                 "path_noise": None if args.path_noise is None else args.path_noise == "on"}
     config = AffordanceConfig(**{k: v for k, v in overrides.items() if v is not None})
     accs = []
     rows: dict[str, dict] = {}
@@ -171,7 +177,7 @@ def main() -> int:
         if args.diagnose:
             rows[label].update(log_p_learned=model.log_posterior_, log_p_gt=p_gt, log_p_gt_em=p_em)
     print(f"mean frame accuracy {np.mean(accs):.3f} over {len(accs)} interactions")
-    print(f"config: {config}; init_starts={learning.init_starts}")
+    print(f"config: {config}; init_starts={learning.init_starts}; init_type_passes={learning.init_type_passes}")
     if args.json:
         result = {
             "seed": args.seed, "instances": args.instances, "iterations": args.iterations,

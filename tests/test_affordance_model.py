@@ -116,8 +116,9 @@ def test_hooks(fitted: SocialAffordanceModel, hand_over: Dataset, rng: np.random
     feats = fitted.interval_features(track, starts, stops, inter.fps)
     for s in range(fitted.n_subevents_):
         score = fitted.interval_log_score(feats, s)
-        parts = fitted.log_spatial(s, feats.end) + fitted.log_motion(s, feats.disp) + fitted.log_duration(s, feats.seconds)
-        np.testing.assert_allclose(score, parts)
+        parts = (fitted.log_spatial(s, feats.end) + fitted.log_motion(s, feats.disp)
+                 + fitted.log_duration(s, feats.seconds) + fitted.log_path(s, feats))
+        np.testing.assert_allclose(score, parts, rtol=1e-12)
         assert score.shape == (4,)
         cand = feats.end[:1] + rng.normal(0, 0.05, (100, N_JOINTS, 3))
         assert fitted.log_spatial(s, cand).shape == (100,)
@@ -182,8 +183,30 @@ def test_incremental_target_matches_a_fresh_evaluation(hand_over: Dataset, rng: 
         if len(feats) and acfg.duration_density == "log_seconds":
             dur += np.log(feats.seconds).sum()
         assert ts.duration == pytest.approx(dur, abs=1e-9)
-        expected += ts.potential + ts.duration
+        assert ts.path == pytest.approx(_path_reference(tracks, spans, s, av, acfg), rel=1e-9)
+        expected += ts.potential + ts.duration + ts.path
     assert target.log_prob == pytest.approx(expected, abs=1e-8)
+
+
+def _path_reference(tracks, spans, s: int, av: np.ndarray, acfg: AffordanceConfig) -> float:  # noqa: ANN001
+    """Path-noise log-likelihood of type s by a frame loop and scipy.stats.norm at the closed-form σ."""
+    if not acfg.path_noise:
+        return 0.0
+    resid = []
+    for x, sp in zip(tracks, spans, strict=True):
+        for f0, f1, lab in sp:
+            if lab != s:
+                continue
+            a, e = max(f0 - 1, 0), f1 - 1
+            for t in range(a + 1, e):
+                v = (t - a) / (e - a)
+                u = 10 * v**3 - 15 * v**4 + 6 * v**5
+                resid.append(x[t, av] - (x[a, av] + u * (x[e, av] - x[a, av])))
+    if not resid:
+        return 0.0
+    r = np.stack(resid)  # (n, J, 3)
+    sigma = np.maximum(np.sqrt((r**2).sum(axis=(0, 2)) / (3 * r.shape[0])), acfg.path_sigma_min)
+    return float(stats.norm.logpdf(r, scale=sigma[None, :, None]).sum())
 
 
 def _lognorm_args(x: np.ndarray) -> tuple[float, int, float]:

@@ -2,7 +2,8 @@
 Gibbs loop over the joint groupings.
 
 The chain starts from the best (highest log P*) hard-EM refinement of the equal-part parses and of
-``LearningConfig.init_starts`` random-fraction splits (our addition; 0 by default).
+``LearningConfig.init_starts`` random-fraction splits (our addition; 0 by default), improved by
+type-level merge-and-split passes (:mod:`~socialaff_sim.learning.restructure`, our addition).
 One outer iteration is a sweep: one MH proposal for every training instance in turn (each
 instance's kernel leaves the target invariant, so the sweep does too). The state with the
 highest log P* visited is returned (a maximum a posteriori estimate); ``trace`` holds the log P*
@@ -23,6 +24,7 @@ from .config import LearningConfig
 from .initial import hard_em_parses
 from .mh import mh_step
 from .parse import Parse, ParseSpace
+from .restructure import restructure
 from .scorer import AffordanceTarget
 
 __all__ = ["LearningResult", "learn", "make_spaces"]
@@ -88,7 +90,23 @@ def _initial_target(
                 tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng=rng, rounds=lcfg.init_rounds
             )
         candidates.append(AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng))
-    return max(candidates, key=lambda t: t.log_prob)  # the first (equal parts) wins ties
+    start = max(candidates, key=lambda t: t.log_prob)  # the first (equal parts) wins ties
+    if lcfg.init_type_passes == 0 or n_labels < 3:
+        return start
+
+    def refine(ps: list[Parse]) -> list[Parse]:
+        return hard_em_parses(
+            tracks, fps, spaces, ps, available, n_labels, acfg, lcfg, rng=rng, rounds=lcfg.init_type_rounds
+        )
+
+    def target(ps: list[Parse]) -> AffordanceTarget:
+        return AffordanceTarget(tracks, fps, spaces, ps, available, n_labels, acfg, lcfg, rng)
+
+    parses, value = restructure(
+        spaces, start.parses, n_labels, refine=refine, score=lambda ps: target(ps).log_prob,
+        passes=lcfg.init_type_passes,
+    )
+    return start if value <= start.log_prob else target(parses)
 
 
 def learn(

@@ -36,6 +36,12 @@ class LearningConfig(DictConfig):
     Dirichlet(``init_dirichlet``) (one draw shared by all instances, from the caller's Generator). Each
     start is refined by hard-EM and the one with the highest log P* seeds the chain. The chain's local
     moves rarely cross between the basins different starts reach. 0 (default): the equal parts only."""
+    init_type_passes: int = 3
+    """Most passes of type-level merge-and-split moves on the best initial parses, our addition
+    (:mod:`~socialaff_sim.learning.restructure`): merge two adjacent types and split a third in every
+    instance at once, refine by hard-EM, keep it if log P* rises. 0: none (the start is hard-EM's)."""
+    init_type_rounds: int = 3
+    """Hard-EM rounds refining each candidate of those moves."""
     init_dirichlet: float = 2.0
     """Concentration of the Dirichlet that draws the fractions of the extra starts."""
     p_merge: float = 0.4
@@ -69,7 +75,7 @@ class LearningConfig(DictConfig):
                      "gibbs_patience", "initial_gibbs_sweeps"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 raise bad(name, "an integer >= 1")
-        for name in ("iterations", "init_rounds", "init_starts"):
+        for name in ("iterations", "init_rounds", "init_starts", "init_type_passes", "init_type_rounds"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 0:
                 raise bad(name, "an integer >= 0")
         probs = (self.p_merge, self.p_split, self.p_relabel)

@@ -24,6 +24,7 @@ import numpy as np
 from ..model.config import AffordanceConfig
 from ..model.densities import fit_lognorm, lognorm_logpdf
 from ..model.features import interval_features, type_samples
+from ..model.path import fit_path_noise, path_loglik
 from ..model.potentials import fit_type_potentials, log_motion, log_spatial
 from ..model.segment_dp import best_segmentation
 from ..model.transitions import count_transitions, smoothed_probs
@@ -31,7 +32,7 @@ from .config import LearningConfig
 from .gibbs import gibbs_optimize
 from .likelihood import TypeLikelihood
 from .parse import Parse, ParseSpace
-from .scorer import lone_grouping
+from .scorer import lone_grouping, path_profile_of
 
 __all__ = ["hard_em_parses"]
 
@@ -55,8 +56,9 @@ def hard_em_parses(
     for _ in range(rounds):
         spans = [sp.frame_spans(p) for sp, p in zip(spaces, parses, strict=True)]
         pots, durs = [], []
+        sigmas = np.full((S, available.shape[0]), np.nan)
         for s in range(S):
-            feats = type_samples(list(tracks), list(fps), spans, s)
+            feats = type_samples(list(tracks), list(fps), spans, s, path_profile_of(acfg))
             if len(feats) == 0:
                 pots.append(None)
                 durs.append(None)
@@ -72,6 +74,8 @@ def hard_em_parses(
             pots.append(fit_type_potentials(feats.end, feats.disp, z[s], acfg))
             ln = fit_lognorm(feats.seconds, sigma_min=acfg.sigma_min)
             durs.append((float(ln.mu[0]), float(ln.sigma[0])))
+            if acfg.path_noise and feats.path_sq is not None:
+                sigmas[s] = fit_path_noise(np.where(available, feats.path_sq, np.nan), feats.path_n, acfg.path_sigma_min)[0]
         p_start, p_trans = smoothed_probs(*count_transitions(spans, S), acfg.transition_alpha, acfg.distinct_neighbours)
         with np.errstate(divide="ignore"):
             log_s, log_t = np.log(p_start), np.log(p_trans)
@@ -80,7 +84,7 @@ def hard_em_parses(
             b = space.bounds
             B = b.shape[0] - 1
             ia, ib = np.triu_indices(B + 1, k=1)
-            feats = interval_features(x, b[ia], b[ib], f)
+            feats = interval_features(x, b[ia], b[ib], f, path_profile_of(acfg))
             seg = np.full((B + 1, B + 1, S), -np.inf)
             for s in range(S):
                 if pots[s] is None:
@@ -95,6 +99,8 @@ def hard_em_parses(
                     + lognorm_logpdf(feats.seconds, *durs[s])
                     + (np.log(feats.seconds) if acfg.duration_density == "log_seconds" else 0.0)
                 )
+                if feats.path_sq is not None and feats.path_n is not None:
+                    score = score + path_loglik(feats.path_sq, feats.path_n, sigmas[s]).sum(axis=1)
                 short = (b[ib] - b[ia]) < acfg.min_subevent_seconds * f
                 seg[ia, ib, s] = np.where(np.isnan(score) | short, -np.inf, score)
             total, rows = best_segmentation(

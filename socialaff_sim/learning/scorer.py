@@ -26,13 +26,14 @@ from ..model.config import AffordanceConfig
 from ..model.densities import fit_lognorm, heldout_lognorm
 from ..model.grouping import canonical_ids
 from ..model.transitions import transition_loglik
-from ..model.features import IntervalFeatures, type_samples
+from ..model.features import IntervalFeatures, interval_features
+from ..model.path import fit_path_noise
 from .config import LearningConfig
 from .gibbs import gibbs_optimize
 from .likelihood import TypeLikelihood
 from .parse import Parse, ParseSpace
 
-__all__ = ["TypeState", "AffordanceTarget", "duration_loglik", "lone_grouping"]
+__all__ = ["TypeState", "AffordanceTarget", "duration_loglik", "lone_grouping", "path_profile_of", "path_term"]
 
 
 def lone_grouping(available: np.ndarray) -> np.ndarray:
@@ -53,11 +54,14 @@ class TypeState:
     """log p(Z^s) + log p(G_s | Z^s) at the best grouping found."""
     duration: float
     """Log-normal log-likelihood of the type's durations (seconds) at the ML parameters."""
+    path: float = 0.0
+    """Path-noise log-likelihood of the frames inside the type's intervals at the ML σ
+    (0 unless ``AffordanceConfig.path_noise``)."""
 
     @property
     def value(self) -> float:
         """The type's share of log P*."""
-        return self.potential + self.duration
+        return self.potential + self.duration + self.path
 
 
 def duration_loglik(seconds: np.ndarray, acfg: AffordanceConfig) -> float:
@@ -73,6 +77,19 @@ def duration_loglik(seconds: np.ndarray, acfg: AffordanceConfig) -> float:
     if acfg.duration_density == "log_seconds":
         ll += float(np.log(seconds).sum())  # density of log x: x f(x)
     return ll
+
+
+def path_profile_of(acfg: AffordanceConfig) -> str | None:
+    """The path profile the features need: ``acfg.path_profile`` with path noise on, else None."""
+    return acfg.path_profile if acfg.path_noise else None
+
+
+def path_term(feats: IntervalFeatures, available: np.ndarray, acfg: AffordanceConfig) -> float:
+    """Path-noise log-likelihood of one type's interior frames at the ML σ (0 unless ``acfg.path_noise``)."""
+    if not acfg.path_noise or len(feats) == 0 or feats.path_sq is None or feats.path_n is None:
+        return 0.0
+    sq = np.where(available, feats.path_sq, np.nan)
+    return float(fit_path_noise(sq, feats.path_n, acfg.path_sigma_min)[1].sum())
 
 
 class AffordanceTarget:
@@ -99,6 +116,7 @@ class AffordanceTarget:
         self.acfg, self.lcfg, self.rng = acfg, lcfg, rng
         self.distinct = spaces[0].distinct_neighbours if spaces else True
         self.spans = [sp.frame_spans(p) for sp, p in zip(self.spaces, self.parses, strict=True)]
+        self._features: dict[tuple[int, int, int], IntervalFeatures] = {}
         self.trans = np.zeros((self.S, self.S))
         self.start = np.zeros(self.S)
         for sp in self.spans:
@@ -120,23 +138,36 @@ class AffordanceTarget:
             trans[a, b] += sign
 
     def _samples(self, s: int, override: dict[int, list[tuple[int, int, int]]]) -> IntervalFeatures:
-        spans = [override.get(i, sp) for i, sp in enumerate(self.spans)]
-        return type_samples(self.tracks, self.fps, spans, s)
+        """Features of the intervals labelled ``s`` (as :func:`type_samples`), memoized per interval:
+        a proposal changes one instance, so the other instances' rows are look-ups."""
+        keys = [(i, f0, f1) for i, sp in enumerate(self.spans) for f0, f1, lab in override.get(i, sp) if lab == s]
+        missing: dict[int, list[tuple[int, int]]] = {}
+        for i, f0, f1 in keys:
+            if (i, f0, f1) not in self._features:
+                missing.setdefault(i, []).append((f0, f1))
+        profile = path_profile_of(self.acfg)
+        for i, rows in missing.items():
+            f0s, f1s = np.array(rows, dtype=np.int64).T
+            feats = interval_features(self.tracks[i], f0s, f1s, self.fps[i], profile)
+            for m, (f0, f1) in enumerate(rows):
+                self._features[(i, f0, f1)] = feats.take(np.array([m]))
+        return IntervalFeatures.concat([self._features[k] for k in keys], self.available.shape[0])
 
     def _type_state(self, s: int, override: dict, z0: np.ndarray, max_sweeps: int) -> TypeState:
         feats = self._samples(s, override)
         lik = TypeLikelihood(feats.end, feats.disp, self.available, self.acfg)
         secs = feats.seconds
         duration = duration_loglik(secs, self.acfg)
+        path = path_term(feats, self.available, self.acfg)
         if not self.acfg.use_grouping:
             z = lone_grouping(self.available)
-            return TypeState(lik, z, lik.loglik(z), duration)
+            return TypeState(lik, z, lik.loglik(z), duration, path)
         res = gibbs_optimize(
             lik, z0, beta=self.acfg.beta, gamma=self.acfg.gamma, rng=self.rng,
             max_sweeps=max_sweeps, patience=self.lcfg.gibbs_patience,
         )
         self.n_type_updates += 1
-        return TypeState(lik, res.z, res.log_joint, duration)
+        return TypeState(lik, res.z, res.log_joint, duration, path)
 
     def _total(self, types: list[TypeState], trans: np.ndarray, start: np.ndarray) -> float:
         t = transition_loglik(start, trans, self.acfg.transition_alpha, self.distinct)

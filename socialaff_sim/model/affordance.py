@@ -22,6 +22,7 @@ from .densities import fit_lognorm, lognorm_logpdf
 from .features import IntervalFeatures, interval_features, type_samples
 from .frame import CanonicalFrame
 from .joints import JOINT_NAMES, available_joints, canonical_joints, instance_frame
+from .path import fit_path_noise, path_loglik
 from .potentials import TypePotentials, fit_type_potentials, log_motion, log_spatial
 from .segment_dp import best_segmentation
 from .transitions import count_transitions, smoothed_probs
@@ -147,8 +148,10 @@ class SocialAffordanceModel:
         durations = np.full((S, 2), np.nan)
         mean_end = np.full((S, len(JOINT_NAMES), 3), np.nan)
         vertical_up = np.full((S, 2, len(JOINT_NAMES)), 0.5)
+        path_sigma = np.full((S, len(JOINT_NAMES)), np.nan)
+        profile = cfg.path_profile if cfg.path_noise else None
         for s in range(S):
-            feats = type_samples(tracks, fps, spans, s)
+            feats = type_samples(tracks, fps, spans, s, profile)
             if len(feats):
                 pot = fit_type_potentials(feats.end, feats.disp, grouping[s], cfg)
                 spatial[s], motion[s] = pot.spatial, pot.motion
@@ -156,6 +159,9 @@ class SocialAffordanceModel:
                 durations[s] = (ln.mu[0], ln.sigma[0])
                 mean_end[s] = feats.end.mean(axis=0)
                 vertical_up[s] = _vertical_up(feats.end, feats.disp, grouping[s], cfg.other_side_reference)
+                if feats.path_sq is not None and feats.path_n is not None:
+                    sq = np.where(available, feats.path_sq, np.nan)
+                    path_sigma[s] = fit_path_noise(sq, feats.path_n, cfg.path_sigma_min)[0]
         start, trans = count_transitions(spans, S)
         self.start_probs_, self.transitions_ = smoothed_probs(
             start, trans, cfg.transition_alpha, cfg.distinct_neighbours
@@ -170,6 +176,7 @@ class SocialAffordanceModel:
         self.centroids_ = np.asarray(centroids, float)
         self.mean_end_ = mean_end
         self.vertical_up_ = vertical_up
+        self.path_sigma_ = path_sigma
 
     # -- learned views -------------------------------------------------------------------------
     def __getattr__(self, name: str) -> object:
@@ -234,10 +241,11 @@ class SocialAffordanceModel:
         """(T, 11, 3) float64, metres: the model joints in the (given or own) canonical frame."""
         return canonical_joints(interaction, frame)
 
-    @staticmethod
-    def interval_features(track: np.ndarray, starts: np.ndarray, stops: np.ndarray, fps: float) -> IntervalFeatures:
-        """Features of candidate intervals ``[starts, stops)`` of a canonical track (vectorized)."""
-        return interval_features(track, starts, stops, fps)
+    def interval_features(self, track: np.ndarray, starts: np.ndarray, stops: np.ndarray, fps: float) -> IntervalFeatures:
+        """Features of candidate intervals ``[starts, stops)`` of a canonical track (vectorized; with
+        the path residuals when ``config.path_noise``)."""
+        cfg = self.config
+        return interval_features(track, starts, stops, fps, cfg.path_profile if cfg.path_noise else None)
 
     def log_spatial(self, s: int, end: np.ndarray) -> np.ndarray:
         """Spatial log-potential of N key-joint configurations ``end`` (N, 11, 3) at a type-``s`` end → (N,)."""
@@ -269,10 +277,19 @@ class SocialAffordanceModel:
                 out = out + np.log(x)  # density of log seconds: x f(x)
         return _nan_to_neginf(out)
 
+    def log_path(self, s: int, features: IntervalFeatures) -> np.ndarray:
+        """(M,) path-noise log-likelihood of M intervals' interior frames under type ``s``
+        (0 without ``config.path_noise`` or when the features carry no path residuals)."""
+        s = self._check_s(s)
+        if not self.config.path_noise or features.path_sq is None or features.path_n is None:
+            return np.zeros(len(features))
+        return path_loglik(features.path_sq, features.path_n, self.path_sigma_[s]).sum(axis=1)
+
     def interval_log_score(self, features: IntervalFeatures, s: int) -> np.ndarray:
-        """(M,) log spatial + log motion + log duration of M candidate intervals labelled ``s``."""
+        """(M,) log spatial + log motion + log duration (+ log path) of M candidate intervals labelled ``s``."""
         spatial = self.log_spatial(s, features.end)
-        return spatial + self.log_motion(s, features.disp) + self.log_duration(s, features.seconds)
+        score = spatial + self.log_motion(s, features.disp) + self.log_duration(s, features.seconds)
+        return score + self.log_path(s, features)
 
     def _z(self, s: int) -> np.ndarray:
         z = self.grouping_[s].copy()
@@ -301,7 +318,7 @@ class SocialAffordanceModel:
         bounds = self.atom_bounds(interaction, x)
         B = bounds.shape[0] - 1
         a, b = np.triu_indices(B + 1, k=1)
-        feats = interval_features(x, bounds[a], bounds[b], interaction.fps)
+        feats = self.interval_features(x, bounds[a], bounds[b], interaction.fps)
         seg = np.full((B + 1, B + 1, self.n_subevents_), -np.inf)
         short = (bounds[b] - bounds[a]) < self.config.min_subevent_seconds * interaction.fps
         for s in range(self.n_subevents_):

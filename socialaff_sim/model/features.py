@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ModelError
+from .path import path_residuals
 
 __all__ = ["IntervalFeatures", "interval_features", "polar", "type_samples"]
 
@@ -23,31 +24,48 @@ class IntervalFeatures:
     the displacements of consecutive sub-events add up to the whole motion."""
     seconds: np.ndarray
     """(M,) float64, seconds: interval lengths, frames / fps."""
+    path_sq: np.ndarray | None = None
+    """(M, 11) float64, m²: per joint, the summed squared distance of the interval's interior frames
+    from the straight path between its ends (:func:`~socialaff_sim.model.path.path_residuals`);
+    None where the frames in between are not known (e.g. synthesized candidates)."""
+    path_n: np.ndarray | None = None
+    """(M,) int64: the number of those interior frames (None with ``path_sq``)."""
 
     def __len__(self) -> int:
         return int(self.seconds.shape[0])
 
     def take(self, idx: np.ndarray) -> IntervalFeatures:
         """The features of a subset of the intervals."""
-        return IntervalFeatures(self.end[idx], self.disp[idx], self.seconds[idx])
+        if self.path_sq is None or self.path_n is None:
+            return IntervalFeatures(self.end[idx], self.disp[idx], self.seconds[idx])
+        return IntervalFeatures(self.end[idx], self.disp[idx], self.seconds[idx], self.path_sq[idx], self.path_n[idx])
 
     @staticmethod
     def concat(parts: list[IntervalFeatures], n_joints: int = 11) -> IntervalFeatures:
         """Stack several feature sets (an empty list gives M = 0)."""
         if not parts:
-            return IntervalFeatures(np.zeros((0, n_joints, 3)), np.zeros((0, n_joints, 3)), np.zeros(0))
+            return IntervalFeatures(
+                np.zeros((0, n_joints, 3)), np.zeros((0, n_joints, 3)), np.zeros(0),
+                np.zeros((0, n_joints)), np.zeros(0, np.int64),
+            )
+        with_path = all(p.path_sq is not None and p.path_n is not None for p in parts)
         return IntervalFeatures(
             np.concatenate([p.end for p in parts]),
             np.concatenate([p.disp for p in parts]),
             np.concatenate([p.seconds for p in parts]),
+            np.concatenate([p.path_sq for p in parts]) if with_path else None,  # type: ignore[misc]
+            np.concatenate([p.path_n for p in parts]) if with_path else None,  # type: ignore[misc]
         )
 
 
-def interval_features(x: np.ndarray, starts: np.ndarray, stops: np.ndarray, fps: float) -> IntervalFeatures:
+def interval_features(
+    x: np.ndarray, starts: np.ndarray, stops: np.ndarray, fps: float, path_profile: str | None = None
+) -> IntervalFeatures:
     """Features of intervals ``[starts[m], stops[m])`` (frames, stop exclusive) of one track.
 
     ``x``: (T, 11, 3) canonical joints of the instance. Vectorized over the M intervals,
-    so a dynamic programme can score every (start, end) candidate at once.
+    so a dynamic programme can score every (start, end) candidate at once. ``path_profile``:
+    also the path residuals with that time profile (``AffordanceConfig.path_profile``); None: not.
     """
     starts = np.asarray(starts, dtype=np.int64).reshape(-1)
     stops = np.asarray(stops, dtype=np.int64).reshape(-1)
@@ -59,7 +77,11 @@ def interval_features(x: np.ndarray, starts: np.ndarray, stops: np.ndarray, fps:
         )
     end = x[stops - 1]
     before = x[np.maximum(starts - 1, 0)]
-    return IntervalFeatures(end=end, disp=end - before, seconds=(stops - starts) / float(fps))
+    seconds = (stops - starts) / float(fps)
+    if path_profile is None:
+        return IntervalFeatures(end=end, disp=end - before, seconds=seconds)
+    sq, n = path_residuals(x, starts, stops, path_profile)
+    return IntervalFeatures(end=end, disp=end - before, seconds=seconds, path_sq=sq, path_n=n)
 
 
 def polar(v: np.ndarray, eps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -75,18 +97,14 @@ def type_samples(
     fps: list[float],
     spans: list[list[tuple[int, int, int]]],
     s: int,
+    path_profile: str | None = None,
 ) -> IntervalFeatures:
     """Features of every interval labelled ``s`` in the parses ``spans`` (per instance, rows
     ``(start frame, stop frame, label)``) of canonical ``tracks`` (each (T_i, 11, 3))."""
-    ends, befores, secs = [], [], []
+    parts = []
     for x, f, sp in zip(tracks, fps, spans, strict=True):
-        for f0, f1, lab in sp:
-            if lab == s:
-                ends.append(x[f1 - 1])
-                befores.append(x[max(f0 - 1, 0)])
-                secs.append((f1 - f0) / f)
-    if not ends:
-        n = tracks[0].shape[1] if tracks else 11
-        return IntervalFeatures.concat([], n)
-    end = np.stack(ends)
-    return IntervalFeatures(end, end - np.stack(befores), np.asarray(secs, dtype=float))
+        rows = [(f0, f1) for f0, f1, lab in sp if lab == s]
+        if rows:
+            f0s, f1s = np.array(rows, dtype=np.int64).T
+            parts.append(interval_features(x, f0s, f1s, f, path_profile))
+    return IntervalFeatures.concat(parts, tracks[0].shape[1] if tracks else 11)

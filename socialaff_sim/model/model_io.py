@@ -13,6 +13,8 @@ Layout (format ``socialaff_sim.affordance_model``, version :data:`MODEL_FORMAT_V
     (S, S) and ``start_probs`` (S,) float64; ``centroids`` (K, D) float64 (K-means of the atoms);
 ``mean_end`` (S, 11, 3) float64, metres: mean canonical key-joint configuration at each type's end;
 ``vertical_up`` (S, 2, 11) float64: frequency of dz > 0 of spatial offsets and displacements;
+``path_sigma`` (S, 11) float64, metres: path-noise σ per type and joint (NaN where unused or
+    without ``path_noise``);
 ``trace`` (I + 1,) and ``acceptance`` (I,) float64;
 ``parse_rows`` (R, 3) int64 (start frame, stop frame, label) of all training parses, split per
     instance by ``parse_offsets`` (n + 1,) int64.
@@ -44,12 +46,12 @@ if TYPE_CHECKING:
 __all__ = ["MODEL_FORMAT", "MODEL_FORMAT_VERSION", "save_model", "load_model"]
 
 MODEL_FORMAT = "socialaff_sim.affordance_model"
-MODEL_FORMAT_VERSION = 1
+MODEL_FORMAT_VERSION = 2
 """Version written into every model file; readers reject other versions."""
 
 _ARRAYS = (
     "available", "grouping", "spatial_params", "motion_params", "duration_params", "transitions",
-    "start_probs", "centroids", "mean_end", "vertical_up", "trace", "acceptance", "parse_rows", "parse_offsets",
+    "start_probs", "centroids", "mean_end", "vertical_up", "path_sigma", "trace", "acceptance", "parse_rows", "parse_offsets",
 )
 
 
@@ -86,6 +88,7 @@ def save_model(model: SocialAffordanceModel, path: str | Path) -> Path:
         "centroids": model.centroids_,
         "mean_end": model.mean_end_,
         "vertical_up": model.vertical_up_,
+        "path_sigma": model.path_sigma_,
         "trace": np.asarray(model.trace_, float),
         "acceptance": np.asarray(model.acceptance_, float),
         "parse_rows": rows.astype(np.int64).reshape(-1, 3),
@@ -162,6 +165,7 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     _check_shape(path, "centroids", a["centroids"], (None, None), "f")
     _check_shape(path, "mean_end", a["mean_end"], (S, J, 3), "f")
     _check_shape(path, "vertical_up", a["vertical_up"], (S, 2, J), "f")
+    _check_shape(path, "path_sigma", a["path_sigma"], (S, J), "f")
     _check_shape(path, "trace", a["trace"], (None,), "f")
     _check_shape(path, "acceptance", a["acceptance"], (None,), "f")
     _check_shape(path, "parse_rows", a["parse_rows"], (None, 3), "iu")
@@ -184,6 +188,7 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     model.centroids_ = a["centroids"].astype(float)
     model.mean_end_ = a["mean_end"].astype(float)
     model.vertical_up_ = a["vertical_up"].astype(float)
+    model.path_sigma_ = a["path_sigma"].astype(float)
     model.trace_ = a["trace"].astype(float)
     model.acceptance_ = a["acceptance"].astype(float)
     rows = a["parse_rows"].astype(np.int64)
