@@ -74,6 +74,8 @@ def summarize(rows: list[dict]) -> dict:
         "ik_ms_p95": float(np.percentile(ik, 95)),
         "ik_iterations_mean": float(np.concatenate([r["iters"] for r in rows]).mean()),
         "reachable_fraction": float(np.mean([r["reach_fraction"] for r in rows])),
+        "reachable_targets": int(err.size),
+        "reachable_misses": int((err > ERROR_OK).sum()),
         "err_reachable_within_2cm": float((err <= ERROR_OK).mean()),
         "err_reachable_p95_m": float(np.percentile(err, 95)),
         "err_reachable_max_m": float(err.max()),
@@ -81,6 +83,7 @@ def summarize(rows: list[dict]) -> dict:
         "real_time_factor_mean": float(np.mean([r["rtf"] for r in rows])),
         "real_time_factor_min": float(min(r["rtf"] for r in rows)),
         "success_rate": float(np.mean([r["success"] for r in rows])),
+        "successes": int(sum(r["success"] for r in rows)),
         "failures": {k: int(sum(k in r["failures"] for r in rows)) for k in sorted({f for r in rows for f in r["failures"]})},
         "unmet_subgoals": int(sum(bool(r["unmet"]) for r in rows)),
     }
@@ -88,10 +91,12 @@ def summarize(rows: list[dict]) -> dict:
 
 def line(key: str, s: dict) -> str:
     return (f"{key:24s} IK {s['ik_ms_mean']:.2f} ms (p95 {s['ik_ms_p95']:.2f}, {s['ik_iterations_mean']:.2f} it)  "
-            f"reachable {100 * s['reachable_fraction']:.0f}%: ≤2cm {100 * s['err_reachable_within_2cm']:.1f}% "
-            f"(p95 {100 * s['err_reachable_p95_m']:.1f} cm; all p95 {100 * s['err_all_p95_m']:.1f} cm)  "
+            f"reachable {100 * s['reachable_fraction']:.0f}%: ≤2cm {100 * s['err_reachable_within_2cm']:.2f}% "
+            f"({s['reachable_misses']} of {s['reachable_targets']} off; p95 {100 * s['err_reachable_p95_m']:.1f} cm, "
+            f"max {100 * s['err_reachable_max_m']:.1f} cm; all p95 {100 * s['err_all_p95_m']:.1f} cm)  "
             f"RTF {s['real_time_factor_mean']:.1f}x (min {s['real_time_factor_min']:.1f})  "
-            f"success {100 * s['success_rate']:.0f}%  unmet {s['unmet_subgoals']} failures {s['failures']}")
+            f"success {100 * s['success_rate']:.0f}% ({s['successes']}/{s['instances']})  "
+            f"unmet {s['unmet_subgoals']} failures {s['failures']}")
 
 
 def main() -> None:

@@ -16,8 +16,15 @@ back out (at most ``max_push`` per step).
 Each call of :meth:`RobotIK.solve` takes one data frame of period ``dt``: it warm
 starts from the previous frame's solution and runs QP steps (at least one) until
 every key frame worth it is within ``tolerance`` of its target, ``iterations``
-steps were taken, or a step no longer helps (``min_progress``). Smoothly moving targets need one step (the
-Gauss-Newton step of a frame's motion is nearly exact), fast ones a second.
+steps were taken, or ``patience`` steps in a row brought no progress
+(``min_progress``) on the best error of the frame. Smoothly moving targets need one
+step (the Gauss-Newton step of a frame's motion is nearly exact); a target that
+moves by decimetres in a frame (a fast swing) is overshot by the first step, which
+may leave it farther off than before, and met by the next two to five.
+
+A step is checked against the collision pairs the QP did not see: when it carries
+one through its limit (a fast hand sweeping into the thigh from beyond the
+detection distance), it is solved again with that pair in the QP (``backtracks``).
 """
 
 from __future__ import annotations
@@ -56,13 +63,17 @@ class IKConfig:
     """Cost of departing from the home posture (per radian)."""
     damping: float = 1e-4
     """Levenberg-Marquardt damping of the QP."""
-    iterations: int = 2
-    """Most QP steps per data frame."""
+    iterations: int = 8
+    """Most QP steps per data frame (taken only while a target within reach is off by more than
+    ``tolerance``)."""
     tolerance: float = 0.01
     """Stop once every key frame is this close to its target, metres."""
     min_progress: float = 0.002
-    """Also stop when a step reduced the largest error among the targets worth it by less than this,
-    metres (a limit or the collision avoidance holds the frame back)."""
+    """Progress that counts: a step that brings the largest error among the targets worth it this much
+    below the smallest so far this frame, metres."""
+    patience: int = 2
+    """Also stop after this many steps in a row without progress (a limit or the collision avoidance
+    holds the frame back)."""
     min_distance: float = 0.01
     """Distance collision avoidance keeps between the robot and the person, metres."""
     contact_depth: float | None = 0.05
@@ -74,6 +85,12 @@ class IKConfig:
     """Distance below which a pair of robot geoms (a forearm or hand and the rest) enters the QP, metres."""
     collision_gain: float = 0.85
     """Fraction of the remaining gap a pair may close per step."""
+    collision_slack: float = 0.003
+    """A QP step that leaves a collision pair more than this inside its limit, where it was not before
+    the step, is solved again with that pair in the QP, metres (the QP sees only pairs within the
+    detection distance: a long step can pass a hand through the thigh)."""
+    backtracks: int = 3
+    """Most re-solves of such a step, then most halvings before it is dropped (0: no check)."""
     max_push: float = 0.02
     """Most a step moves the robot's trunk and legs back out of a person who has moved into them, metres."""
     max_base_speed: float = 2.0
@@ -118,7 +135,7 @@ class IKResult:
     errors: np.ndarray
     """(5,) distance of each key frame to its target, metres."""
     iterations: int
-    """QP steps taken."""
+    """QP steps taken (a step solved again for a collision pair counts once)."""
 
 
 class RobotIK:
@@ -127,8 +144,9 @@ class RobotIK:
     def __init__(self, ik_model: IKModel, config: IKConfig | None = None) -> None:
         self.spec = ik_model
         self.config = c = config or IKConfig()
-        if c.iterations < 1:
-            raise SimulationError(f"IKConfig.iterations: expected at least 1, found {c.iterations}")
+        for name, low in (("iterations", 1), ("patience", 1), ("backtracks", 0)):
+            if getattr(c, name) < low:
+                raise SimulationError(f"IKConfig.{name}: expected at least {low}, found {getattr(c, name)}")
         m = ik_model.model
         if m.nq != len(ik_model.home_qpos):
             raise SimulationError(f"IK model has nq = {m.nq}, home posture has {len(ik_model.home_qpos)} values")
@@ -231,9 +249,9 @@ class RobotIK:
         # Contact margins (MuJoCo adds a pair's two): person–robot pairs reach the detection
         # distance, robot–robot pairs the (shorter) self-detection distance.
         margins = np.zeros(m.ngeom)
-        half_self = 0.5 * min(c.self_detection_distance, c.detection_distance)
+        half_self = 0.5 * c.self_detection_distance
         margins[robot] = half_self
-        margins[human] = c.detection_distance - half_self
+        margins[human] = max(c.detection_distance - half_self, 0.0)
         self.collision_limit = GeomPairLimit(m, pairs[first], column(1), column(2), column(3),
                                              gain=c.collision_gain, max_push=c.max_push, margins=margins)
 
@@ -287,6 +305,34 @@ class RobotIK:
             finally:
                 lim.allow_push = True
 
+    def _take_step(self, dt: float) -> None:
+        """One QP step that carries no collision pair through its limit.
+
+        The QP sees only the pairs within their detection distance; when the step brings another
+        pair inside its limit (:meth:`GeomPairLimit.crossed`: a fast hand sweeping into the thigh), it
+        is solved again with that pair watched, at most ``backtracks`` times. If the step still
+        crosses (each new step can meet new pairs, and the rows are linear in Δq), it is halved, at
+        most ``backtracks`` times, and the shortest kept.
+        """
+        c, cfg, lim = self.config, self.configuration, self.collision_limit
+        v = self._step(dt)
+        start = cfg.q
+        cfg.integrate_inplace(v, dt)
+        resolves = halvings = 0
+        while c.backtracks and len(crossing := lim.crossed(cfg, c.collision_slack)):
+            cfg.update(start)
+            if resolves < c.backtracks and lim.watch(crossing):
+                resolves += 1
+                v = self._step(dt)
+            elif halvings < c.backtracks:
+                halvings += 1
+                v = 0.5 * v
+            else:
+                cfg.integrate_inplace(v, dt)  # the shortest step is kept (dropping it can freeze the robot)
+                break
+            cfg.integrate_inplace(v, dt)
+        lim.unwatch()
+
     def solve(self, targets: np.ndarray, yaw: float, dt: float, care: np.ndarray | None = None) -> IKResult:
         """Move toward world-frame ``targets`` (5, 3) over one frame of ``dt`` seconds.
 
@@ -313,11 +359,19 @@ class RobotIK:
         self._set_targets(targets, yaw)
         # The first step is always taken (the limits hold even when the targets are already met: a person
         # moving into the robot pushes it out); more only while a target worth it is off by > tolerance.
+        # A step may make matters worse before the next ones converge (a long move linearised in one step
+        # overshoots), so only ``patience`` steps in a row without progress on the best so far end the frame.
+        best = errors[watch].max(initial=0.0)
+        stalled = 0
         while it < c.iterations and (it == 0 or errors[watch].max(initial=0.0) > c.tolerance):
-            cfg.integrate_inplace(self._step(dt), dt)
-            before = errors[watch].max(initial=0.0)
+            self._take_step(dt)
             errors = np.linalg.norm(self.frame_positions() - targets, axis=1)
             it += 1
-            if before - errors[watch].max(initial=0.0) < c.min_progress:
-                break
+            worst = errors[watch].max(initial=0.0)
+            if worst < best - c.min_progress:
+                best, stalled = worst, 0
+            else:
+                best, stalled = min(best, worst), stalled + 1
+                if stalled >= c.patience:
+                    break
         return IKResult(qpos=cfg.q, errors=errors, iterations=it)

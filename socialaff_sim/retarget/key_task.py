@@ -17,6 +17,7 @@ Jacobian in world axes).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import mink
@@ -27,13 +28,21 @@ __all__ = ["KeyFramesTask"]
 
 
 def _right_jacobian_inverse(e: np.ndarray) -> np.ndarray:
-    """(3, 3) inverse right Jacobian of SO(3) at rotation vector ``e`` (3,)."""
-    theta = float(np.linalg.norm(e))
-    K = np.array([[0.0, -e[2], e[1]], [e[2], 0.0, -e[0]], [-e[1], e[0], 0.0]])
-    if theta < 1e-6:
-        return np.eye(3) + 0.5 * K + K @ K / 12.0
-    c = 1.0 / theta**2 - (1.0 + np.cos(theta)) / (2.0 * theta * np.sin(theta))
-    return np.eye(3) + 0.5 * K + c * (K @ K)
+    """(3, 3) inverse right Jacobian of SO(3) at rotation vector ``e`` (3,): I + K/2 + c·K², K = [e]×.
+
+    Written out in scalars: it is evaluated for three frames in every QP step.
+    """
+    x, y, z = float(e[0]), float(e[1]), float(e[2])
+    t2 = x * x + y * y + z * z
+    if t2 < 1e-12:
+        c = 1.0 / 12.0
+    else:
+        t = math.sqrt(t2)
+        c = 1.0 / t2 - (1.0 + math.cos(t)) / (2.0 * t * math.sin(t))
+    xy, xz, yz = c * x * y, c * x * z, c * y * z
+    return np.array([[1.0 - c * (y * y + z * z), xy - 0.5 * z, xz + 0.5 * y],
+                     [xy + 0.5 * z, 1.0 - c * (x * x + z * z), yz - 0.5 * x],
+                     [xz - 0.5 * y, yz + 0.5 * x, 1.0 - c * (x * x + y * y)]])
 
 
 class KeyFramesTask(mink.Task):
@@ -69,7 +78,10 @@ class KeyFramesTask(mink.Task):
         self._jacr = np.zeros((3, model.nv))
         self._quat = np.zeros(4)
         self._diff = np.zeros(3)
-        self._rot = np.zeros(9)
+        self._frames = [(k, kind == "site", fid, k in self.oriented)
+                        for k, (kind, fid) in enumerate(zip(self.kinds, self.ids, strict=True))]
+        self._error = np.zeros(3 * n + 3 * len(self.oriented))
+        self._jac = np.zeros((len(self._error), model.nv))
 
     def set_targets(self, positions: np.ndarray, quats: np.ndarray | None = None) -> None:
         """Targets: ``positions`` (n, 3) metres and, optionally, ``quats`` (n, 4) (w, x, y, z)."""
@@ -87,24 +99,27 @@ class KeyFramesTask(mink.Task):
     def _error_and_jacobian(self, configuration: mink.Configuration) -> tuple[np.ndarray, np.ndarray]:
         m, d = self.model, configuration.data
         n = len(self.ids)
-        rows_e, rows_j = [], []
-        for k, (kind, fid) in enumerate(zip(self.kinds, self.ids, strict=True)):
-            if kind == "site":
-                mujoco.mj_jacSite(m, d, self._jacp[k], self._jacr if k in self.oriented else None, fid)
+        error, jac = self._error, self._jac
+        error[: 3 * n] = (self.positions(d) - self.target_positions).ravel()
+        row = 3 * n
+        for k, site, fid, oriented in self._frames:
+            jacr = self._jacr if oriented else None
+            if site:
+                mujoco.mj_jacSite(m, d, self._jacp[k], jacr, fid)
             else:
-                mujoco.mj_jacBody(m, d, self._jacp[k], self._jacr if k in self.oriented else None, fid)
-            if k in self.oriented:
-                mujoco.mju_mat2Quat(self._quat, d.site_xmat[fid] if kind == "site" else d.xmat[fid])
-                target = self.target_quats[k]
+                mujoco.mj_jacBody(m, d, self._jacp[k], jacr, fid)
+            if oriented:
+                xmat = d.site_xmat[fid] if site else d.xmat[fid]
+                mujoco.mju_mat2Quat(self._quat, xmat)
                 # Rotation from the target to the frame, in the target's axes: q_t ⊗ exp(e) = q.
-                mujoco.mju_subQuat(self._diff, self._quat, target)
-                mujoco.mju_quat2Mat(self._rot, self._quat)
-                rows_e.append(self._diff.copy())
-                # q = q_t ⊗ exp(e): the frame's body angular velocity Rᵀω is J_r(e)·ė, so ė = J_r(e)⁻¹·Rᵀ·J_ω·q̇.
-                rows_j.append(_right_jacobian_inverse(self._diff) @ (self._rot.reshape(3, 3).T @ self._jacr))
-        error = np.concatenate([(self.positions(d) - self.target_positions).ravel(), *rows_e])
-        jac = np.concatenate([self._jacp.reshape(3 * n, m.nv), *rows_j]) if rows_j else self._jacp.reshape(3 * n, m.nv).copy()
-        return error, jac
+                mujoco.mju_subQuat(self._diff, self._quat, self.target_quats[k])
+                error[row:row + 3] = self._diff
+                # q = q_t ⊗ exp(e): the frame's body angular velocity Rᵀω is J_r(e)·ė,
+                # so ė = J_r(e)⁻¹·Rᵀ·J_ω·q̇.
+                jac[row:row + 3] = (_right_jacobian_inverse(self._diff) @ xmat.reshape(3, 3).T) @ self._jacr
+                row += 3
+        jac[: 3 * n] = self._jacp.reshape(3 * n, m.nv)
+        return error.copy(), jac.copy()
 
     def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
         return self._error_and_jacobian(configuration)[0]

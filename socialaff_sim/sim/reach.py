@@ -14,23 +14,31 @@ achieved, so that a solver miss is never explained away):
   least ``hand_reach + clearance`` from every capsule of the person: then the
   hand fits there whichever way it points. Closer to the person, collision
   avoidance (or, for a wanted contact, the person's surface) decides where the
-  hand stops, and the contact is judged by the sub-goal instead;
+  hand stops, and the contact is judged by the sub-goal instead. Nor is a wrist
+  reachable within ``wrist_core + clearance`` of the robot's own base (the geoms
+  welded to the base body, placed at the base target): the wrist frame lies
+  ``wrist_core`` deep inside its forearm or hand, which the IK keeps
+  ``clearance`` away from the base whatever the posture (a thrown ball met at the
+  tall CMU humanoid's hip height puts wrist targets inside its pelvis);
 * an ankle, when the base is reachable and the ankle lies within the leg's length
   of its hip.
 
-Joint ranges, self-collision and the joint velocity limit are not part of the
+Joint ranges, the joint velocity limit and self-collision with the parts that
+move relative to the base (spine, thighs, the other arm) are not part of the
 test: a target they make unreachable counts as a miss (the criterion errs
-toward counting misses, never toward hiding them). The contact bands of the
-scaler (``ScalingConfig.contact_far``) play no part.
+toward counting misses, never toward hiding them: the base's shapes and the
+wrist core are taken from inside the geoms, so they never exclude too much).
+The contact bands of the scaler (``ScalingConfig.contact_far``) play no part.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
+from ..retarget.collision import collision_pairs
 from .human import HAND_SPHERE_RADIUS, HumanPose
 from .scene import Scene
 
@@ -66,7 +74,18 @@ class ReachModel:
     height: float
     """Height of the robot's top (its highest collidable geom) above the floor."""
     clearance: float
-    """Distance the IK keeps from the person (``IKConfig.min_distance``)."""
+    """Distance the IK keeps from the person and the forearms and hands from the rest of the robot
+    (``IKConfig.min_distance``)."""
+    wrist_core: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    """(2,) radius of a ball about each wrist frame inside that arm's own collidable geoms (0: none)."""
+    base_a: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    """(P, 3) one end of each capsule inside a collidable geom welded to the base (the geoms the
+    forearms and hands keep clear of), offset from the base, robot frame at home (the base target's
+    orientation)."""
+    base_b: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    """(P, 3) the other end."""
+    base_r: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """(P,) their radii."""
 
 
 def _directions(n: int = 200) -> np.ndarray:
@@ -106,6 +125,58 @@ def _support(model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray, u: n
     return data.geom_xpos[geoms] @ u + reach
 
 
+def inner_capsules(model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Capsules inside ``geoms`` as segment ends a, b (G, 3) and radii (G,), world frame, metres.
+
+    Exact for spheres and capsules; a box gets the capsule along its longest axis as thick as its
+    smallest half-size, a cylinder the capsule as thick as the smaller of its radius and half-height,
+    an ellipsoid the sphere of its smallest semi-axis; other types a point (radius 0).
+    """
+    g = np.asarray(geoms, dtype=np.int64)
+    T = mujoco.mjtGeom
+    kind, size = model.geom_type[g], model.geom_size[g]
+    axes = data.geom_xmat[g].reshape(-1, 3, 3)  # columns: the geom's axes in world coordinates
+    centre = data.geom_xpos[g]
+    radius = np.zeros(len(g))
+    half = np.zeros(len(g))
+    axis = axes[:, :, 2]
+    sphere, capsule = kind == int(T.mjGEOM_SPHERE), kind == int(T.mjGEOM_CAPSULE)
+    radius[sphere | capsule] = size[sphere | capsule, 0]
+    half[capsule] = size[capsule, 1]
+    cyl = kind == int(T.mjGEOM_CYLINDER)
+    radius[cyl] = np.minimum(size[cyl, 0], size[cyl, 1])
+    half[cyl] = size[cyl, 1] - radius[cyl]
+    box = np.flatnonzero(kind == int(T.mjGEOM_BOX))
+    longest = np.argmax(size[box], axis=1)
+    radius[box] = size[box].min(axis=1)
+    half[box] = size[box, longest] - radius[box]
+    axis[box] = axes[box, :, longest]
+    ell = kind == int(T.mjGEOM_ELLIPSOID)
+    radius[ell] = size[ell].min(axis=1)
+    return centre - half[:, None] * axis, centre + half[:, None] * axis, radius
+
+
+def _base_parts(scene: Scene, core: np.ndarray, data: mujoco.MjData, base: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Inner capsules (ends relative to ``base`` (3,), radii) of the collidable geoms welded to the
+    base body that both wrist-core geoms ``core`` (2,) may collide with."""
+    m = scene.model
+    kind, fid = scene.frame_kinds[0], int(scene.frame_ids[0])
+    body = int(m.site_bodyid[fid]) if kind == "site" else fid
+    collide = scene.robot_geom & ((m.geom_contype != 0) | (m.geom_conaffinity != 0))
+    T = mujoco.mjtGeom
+    shaped = np.isin(m.geom_type, [int(t) for t in (T.mjGEOM_SPHERE, T.mjGEOM_CAPSULE, T.mjGEOM_CYLINDER,
+                                                        T.mjGEOM_BOX, T.mjGEOM_ELLIPSOID)])
+    welded = np.flatnonzero(collide & shaped & (m.body_weldid[m.geom_bodyid] == m.body_weldid[body]))
+    for g in core[core >= 0]:
+        welded = np.intersect1d(welded, collision_pairs(m, np.array([g]), welded, bits=False)[:, 1])
+    if core.min() < 0:
+        welded = welded[:0]
+    a, b, r = inner_capsules(m, data, welded)
+    return a - base, b - base, r
+
+
 def _subtree(model: mujoco.MjModel, root: int) -> np.ndarray:
     """(nbody,) bool: ``root`` and its descendants."""
     inside = np.zeros(model.nbody, dtype=bool)
@@ -137,12 +208,25 @@ def reach_model(scene: Scene, arm: float, leg: float, shoulders: np.ndarray, hip
     angles = np.linspace(0.0, 2 * np.pi, 16, endpoint=False)
     radius = max(float((_support(m, d, trunk, np.array([np.cos(a), np.sin(a), 0.0]))
                         - base[:2] @ np.array([np.cos(a), np.sin(a)])).max()) for a in angles) if len(trunk) else 0.0
+    # The wrist core: the deepest the wrist frame lies inside one of its arm's geoms.
+    core = np.full(2, -1, dtype=np.int64)
+    depth = np.zeros(2)
+    for s in (0, 1):
+        arm_geoms = np.flatnonzero(scene.arm_geom[s])
+        if len(arm_geoms):
+            a, b, r = inner_capsules(m, d, arm_geoms)
+            inside = r - point_segment_distance(frame_pos(1 + s)[None], a, b)[0]
+            k = int(np.argmax(inside))
+            if inside[k] > 0:
+                core[s], depth[s] = arm_geoms[k], inside[k]
+    base_a, base_b, base_r = _base_parts(scene, core, d, base)
     return ReachModel(
         arm=float(arm), leg=float(leg), shoulders=np.asarray(shoulders, dtype=np.float64),
         hips=np.asarray(hips, dtype=np.float64), hand_reach=hand, trunk_radius=radius,
         hand_centre=np.array([np.linalg.norm(d.subtree_com[scene.grip_body[s]] - frame_pos(1 + s)) for s in (0, 1)]),
         shoulder_height=float(np.mean(np.asarray(shoulders)[:, 2])), base_height=float(base[2]),
         height=float(_support(m, d, np.flatnonzero(collide), np.array([0.0, 0.0, 1.0])).max()), clearance=float(clearance),
+        wrist_core=depth, base_a=base_a, base_b=base_b, base_r=base_r,
     )
 
 
@@ -196,5 +280,8 @@ def reachable_targets(model: ReachModel, targets: np.ndarray, world: np.ndarray,
     hip = targets[0] + model.hips
     out[1:3] = (np.linalg.norm(targets[1:3] - shoulder, axis=1) <= model.arm) & (
         hand_gap >= model.hand_reach + model.clearance)
+    if len(model.base_r):
+        own = point_segment_distance(targets[1:3], targets[0] + model.base_a, targets[0] + model.base_b) - model.base_r
+        out[1:3] &= own.min(axis=1) >= model.wrist_core + model.clearance
     out[3:5] = np.linalg.norm(targets[3:5] - hip, axis=1) <= model.leg
     return out
