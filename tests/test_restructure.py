@@ -75,8 +75,8 @@ def test_restructure_only_accepts_improvements() -> None:
         return float(sum((sp.frame_labels(p) == sp.frame_labels(t)).mean()
                          for sp, p, t in zip(spaces, ps, target, strict=True)))
 
-    out, value = restructure(spaces, start, 4, refine=lambda ps: ps, score=score, passes=3)
+    out, value = restructure(spaces, start, 4, refine=lambda ps, r: ps, score=score, passes=3, rounds=3)
     assert value == pytest.approx(score(out), abs=1e-12)
     assert out == target and value == pytest.approx(2.0, abs=1e-12)
-    same, v0 = restructure(spaces, target, 4, refine=lambda ps: ps, score=score, passes=3)
+    same, v0 = restructure(spaces, target, 4, refine=lambda ps, r: ps, score=score, passes=3, rounds=3)
     assert same == target and v0 == pytest.approx(2.0, abs=1e-12)

@@ -94,9 +94,13 @@ def _initial_target(
     if lcfg.init_type_passes == 0 or n_labels < 3:
         return start
 
-    def refine(ps: list[Parse]) -> list[Parse]:
+    warm = start.groupings()
+
+    def refine(ps: list[Parse], rounds: int) -> list[Parse]:
+        if rounds == 0:
+            return ps
         return hard_em_parses(
-            tracks, fps, spaces, ps, available, n_labels, acfg, lcfg, rng=rng, rounds=lcfg.init_type_rounds
+            tracks, fps, spaces, ps, available, n_labels, acfg, lcfg, rng=rng, rounds=rounds, groupings=warm
         )
 
     def target(ps: list[Parse]) -> AffordanceTarget:
@@ -104,7 +108,7 @@ def _initial_target(
 
     parses, value = restructure(
         spaces, start.parses, n_labels, refine=refine, score=lambda ps: target(ps).log_prob,
-        passes=lcfg.init_type_passes,
+        passes=lcfg.init_type_passes, rounds=lcfg.init_type_rounds,
     )
     return start if value <= start.log_prob else target(parses)
 

@@ -49,10 +49,16 @@ def hard_em_parses(
     *,
     rng: np.random.Generator,
     rounds: int,
+    groupings: np.ndarray | None = None,
 ) -> list[Parse]:
-    """Refine ``parses`` by alternating parameter fits and DP re-segmentation (see module doc)."""
+    """Refine ``parses`` by alternating parameter fits and DP re-segmentation (see module doc).
+
+    ``groupings`` (S, 11) int64 warm-starts the Gibbs inner loop of each type (default: all Null)."""
     parses = list(parses)
-    z = [np.where(available, 0, -1).astype(np.int64) for _ in range(S)]
+    if groupings is None:
+        z = [np.where(available, 0, -1).astype(np.int64) for _ in range(S)]
+    else:
+        z = [np.where(available, np.asarray(g, np.int64), -1) for g in groupings]
     for _ in range(rounds):
         spans = [sp.frame_spans(p) for sp, p in zip(spaces, parses, strict=True)]
         pots, durs = [], []

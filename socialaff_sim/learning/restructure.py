@@ -11,10 +11,10 @@ all instances at once, in the spirit of split-merge samplers for mixtures:
   first), which frees label b;
 * split every interval of another type c at the atom boundary nearest its middle, the second
   half taking label b;
-* refine the result by a few rounds of hard-EM and score it by log P*.
+* refine the result by hard-EM and score it by log P*.
 
-Each pass tries every admissible (b, c) and keeps the best candidate if it beats the current
-log P*; the search stops when a pass finds no improvement or after ``LearningConfig.init_type_passes``.
+Each pass screens every admissible (b, c) after one hard-EM round, refines the three best further,
+and keeps the best if it beats the current log P*; the search stops when a pass finds no improvement or after ``LearningConfig.init_type_passes``.
 It is a deterministic coordinate ascent on the same objective, before the chain starts.
 """
 
@@ -66,19 +66,23 @@ def restructure(
     parses: Sequence[Parse],
     n_labels: int,
     *,
-    refine: Callable[[list[Parse]], list[Parse]],
+    refine: Callable[[list[Parse], int], list[Parse]],
     score: Callable[[list[Parse]], float],
     passes: int,
+    rounds: int,
+    keep: int = 3,
 ) -> tuple[list[Parse], float]:
     """Best parses found by type-level merge-and-split passes (see the module doc) and their score.
 
-    ``refine`` improves a set of parses (hard-EM); ``score`` gives log P* of a set.
+    ``refine(parses, rounds)`` improves a set of parses (hard-EM); ``score`` gives log P* of a set.
+    Each pass screens every admissible move after one refining round and refines the ``keep``
+    best of them for ``rounds`` rounds.
     """
     current = list(parses)
     best = score(current)
     S = n_labels
     for _ in range(passes):
-        found: tuple[float, list[Parse]] | None = None
+        screened: list[tuple[float, list[Parse]]] = []
         for b in range(S):
             for c in range(S):
                 if b == c:
@@ -86,10 +90,15 @@ def restructure(
                 cand = [merge_split(p, sp, b, c) for p, sp in zip(current, spaces, strict=True)]
                 if any(p is None for p in cand):
                     continue
-                refined = refine([p for p in cand if p is not None])
-                value = score(refined)
-                if found is None or value > found[0]:
-                    found = (value, refined)
+                once = refine([p for p in cand if p is not None], 1)
+                screened.append((score(once), once))
+        screened.sort(key=lambda item: -item[0])
+        found: tuple[float, list[Parse]] | None = None
+        for _, once in screened[:keep]:
+            refined = refine(once, max(rounds - 1, 0)) if rounds > 1 else once
+            value = score(refined)
+            if found is None or value > found[0]:
+                found = (value, refined)
         if found is None or not found[0] > best:
             break
         best, current = found

@@ -23,6 +23,7 @@ from .features import IntervalFeatures, interval_features, type_samples
 from .frame import CanonicalFrame
 from .joints import JOINT_NAMES, available_joints, canonical_joints, instance_frame
 from .path import fit_path_noise, path_loglik
+from .type_stats import name_subevents, vertical_up_frequencies
 from .potentials import TypePotentials, fit_type_potentials, log_motion, log_spatial
 from .segment_dp import best_segmentation
 from .transitions import count_transitions, smoothed_probs
@@ -137,7 +138,7 @@ class SocialAffordanceModel:
         self.log_posterior_ = res.log_posterior
         self.moves_ = dict(res.moves)
         self.fit_seconds_ = dict(res.seconds)
-        self.subevent_names_ = _name_subevents(inters, spans, n_sub)
+        self.subevent_names_ = name_subevents(inters, spans, n_sub)
         return self
 
     def _set_learned(self, *, label, available, grouping, spans, tracks, fps, centroids) -> None:  # noqa: ANN001
@@ -158,7 +159,7 @@ class SocialAffordanceModel:
                 ln = fit_lognorm(feats.seconds, sigma_min=cfg.sigma_min)
                 durations[s] = (ln.mu[0], ln.sigma[0])
                 mean_end[s] = feats.end.mean(axis=0)
-                vertical_up[s] = _vertical_up(feats.end, feats.disp, grouping[s], cfg.other_side_reference)
+                vertical_up[s] = vertical_up_frequencies(feats.end, feats.disp, grouping[s], cfg.other_side_reference)
                 if feats.path_sq is not None and feats.path_n is not None:
                     sq = np.where(available, feats.path_sq, np.nan)
                     path_sigma[s] = fit_path_noise(sq, feats.path_n, cfg.path_sigma_min)[0]
@@ -365,38 +366,5 @@ class SocialAffordanceModel:
         return f"SocialAffordanceModel({self.label_!r}, |S|={self.n_subevents_}, {len(self.parses_)} training instances)"
 
 
-def _vertical_up(end: np.ndarray, disp: np.ndarray, z: np.ndarray, other_side: bool) -> np.ndarray:
-    """(2, 11) add-one smoothed frequency of dz > 0 of spatial offsets and of displacements."""
-    from .potentials import reference_weights  # noqa: PLC0415
-
-    W = reference_weights(z, other_side=other_side)
-    off_z = end[:, :, 2] - np.nan_to_num(end[:, :, 2]) @ W.T
-    n = end.shape[0]
-    return np.stack([((off_z > 0).sum(axis=0) + 1.0) / (n + 2.0), ((disp[:, :, 2] > 0).sum(axis=0) + 1.0) / (n + 2.0)])
-
-
 def _nan_to_neginf(x: np.ndarray) -> np.ndarray:
     return np.where(np.isnan(x), -np.inf, x)
-
-
-def _name_subevents(inters: list[Interaction], spans: list[list[tuple[int, int, int]]], S: int) -> tuple[str, ...]:
-    """Name learned types after the ground-truth sub-events they overlap most (optimal one-to-one
-    matching over frames) when every instance has them with the same names; else s0, s1, …"""
-    from scipy.optimize import linear_sum_assignment  # noqa: PLC0415
-
-    names = [f"s{s}" for s in range(S)]
-    gt_names = {i.subevent_names for i in inters}
-    if len(gt_names) != 1 or any(i.subevents is None for i in inters) or not next(iter(gt_names)):
-        return tuple(names)
-    gt = next(iter(gt_names))
-    overlap = np.zeros((S, len(gt)))
-    for inter, sp in zip(inters, spans, strict=True):
-        for f0, f1, s in sp:
-            g = inter.subevents[f0:f1]  # type: ignore[index]
-            g = g[g >= 0]
-            overlap[s] += np.bincount(g, minlength=len(gt))
-    rows, cols = linear_sum_assignment(-overlap)
-    for r, c in zip(rows, cols, strict=True):
-        if overlap[r, c] > 0:
-            names[r] = gt[c]
-    return tuple(names)
