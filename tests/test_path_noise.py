@@ -88,6 +88,9 @@ def test_fit_floors_sigma_and_skips_nan_joints() -> None:
     assert np.isnan(sigma[1]) and ll[1] == 0.0
     ref = stats.norm.logpdf(np.zeros(21), scale=0.01).sum()
     assert ll[0] == pytest.approx(ref, rel=1e-12)
+    masked, ll_masked = fit_path_noise(np.array([[0.3, 0.2]]), np.array([5]), sigma_min=0.01, available=np.array([False, True]))
+    assert np.isnan(masked[0]) and ll_masked[0] == 0.0
+    assert masked[1] == pytest.approx(np.sqrt(0.2 / 15), rel=1e-12)
 
 
 def test_features_carry_path_residuals_only_when_asked(rng: np.random.Generator) -> None:

@@ -32,7 +32,7 @@ from .config import LearningConfig
 from .gibbs import gibbs_optimize
 from .likelihood import TypeLikelihood
 from .parse import Parse, ParseSpace
-from .scorer import lone_grouping, path_profile_of
+from .scorer import lone_grouping
 
 __all__ = ["hard_em_parses"]
 
@@ -64,7 +64,7 @@ def hard_em_parses(
         pots, durs = [], []
         sigmas = np.full((S, available.shape[0]), np.nan)
         for s in range(S):
-            feats = type_samples(list(tracks), list(fps), spans, s, path_profile_of(acfg))
+            feats = type_samples(list(tracks), list(fps), spans, s, acfg.feature_path_profile)
             if len(feats) == 0:
                 pots.append(None)
                 durs.append(None)
@@ -81,7 +81,7 @@ def hard_em_parses(
             ln = fit_lognorm(feats.seconds, sigma_min=acfg.sigma_min)
             durs.append((float(ln.mu[0]), float(ln.sigma[0])))
             if acfg.path_noise and feats.path_sq is not None:
-                sigmas[s] = fit_path_noise(np.where(available, feats.path_sq, np.nan), feats.path_n, acfg.path_sigma_min)[0]
+                sigmas[s] = fit_path_noise(feats.path_sq, feats.path_n, acfg.path_sigma_min, available)[0]
         p_start, p_trans = smoothed_probs(*count_transitions(spans, S), acfg.transition_alpha, acfg.distinct_neighbours)
         with np.errstate(divide="ignore"):
             log_s, log_t = np.log(p_start), np.log(p_trans)
@@ -90,7 +90,7 @@ def hard_em_parses(
             b = space.bounds
             B = b.shape[0] - 1
             ia, ib = np.triu_indices(B + 1, k=1)
-            feats = interval_features(x, b[ia], b[ib], f, path_profile_of(acfg))
+            feats = interval_features(x, b[ia], b[ib], f, acfg.feature_path_profile)
             seg = np.full((B + 1, B + 1, S), -np.inf)
             for s in range(S):
                 if pots[s] is None:

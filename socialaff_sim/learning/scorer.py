@@ -33,7 +33,7 @@ from .gibbs import gibbs_optimize
 from .likelihood import TypeLikelihood
 from .parse import Parse, ParseSpace
 
-__all__ = ["TypeState", "AffordanceTarget", "duration_loglik", "lone_grouping", "path_profile_of", "path_term"]
+__all__ = ["TypeState", "AffordanceTarget", "duration_loglik", "lone_grouping", "path_term"]
 
 
 def lone_grouping(available: np.ndarray) -> np.ndarray:
@@ -79,17 +79,11 @@ def duration_loglik(seconds: np.ndarray, acfg: AffordanceConfig) -> float:
     return ll
 
 
-def path_profile_of(acfg: AffordanceConfig) -> str | None:
-    """The path profile the features need: ``acfg.path_profile`` with path noise on, else None."""
-    return acfg.path_profile if acfg.path_noise else None
-
-
 def path_term(feats: IntervalFeatures, available: np.ndarray, acfg: AffordanceConfig) -> float:
     """Path-noise log-likelihood of one type's interior frames at the ML σ (0 unless ``acfg.path_noise``)."""
     if not acfg.path_noise or len(feats) == 0 or feats.path_sq is None or feats.path_n is None:
         return 0.0
-    sq = np.where(available, feats.path_sq, np.nan)
-    return float(fit_path_noise(sq, feats.path_n, acfg.path_sigma_min)[1].sum())
+    return float(fit_path_noise(feats.path_sq, feats.path_n, acfg.path_sigma_min, available)[1].sum())
 
 
 class AffordanceTarget:
@@ -145,7 +139,7 @@ class AffordanceTarget:
         for i, f0, f1 in keys:
             if (i, f0, f1) not in self._features:
                 missing.setdefault(i, []).append((f0, f1))
-        profile = path_profile_of(self.acfg)
+        profile = self.acfg.feature_path_profile
         for i, rows in missing.items():
             f0s, f1s = np.array(rows, dtype=np.int64).T
             feats = interval_features(self.tracks[i], f0s, f1s, self.fps[i], profile)

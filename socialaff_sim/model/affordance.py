@@ -150,9 +150,8 @@ class SocialAffordanceModel:
         mean_end = np.full((S, len(JOINT_NAMES), 3), np.nan)
         vertical_up = np.full((S, 2, len(JOINT_NAMES)), 0.5)
         path_sigma = np.full((S, len(JOINT_NAMES)), np.nan)
-        profile = cfg.path_profile if cfg.path_noise else None
         for s in range(S):
-            feats = type_samples(tracks, fps, spans, s, profile)
+            feats = type_samples(tracks, fps, spans, s, cfg.feature_path_profile)
             if len(feats):
                 pot = fit_type_potentials(feats.end, feats.disp, grouping[s], cfg)
                 spatial[s], motion[s] = pot.spatial, pot.motion
@@ -161,8 +160,7 @@ class SocialAffordanceModel:
                 mean_end[s] = feats.end.mean(axis=0)
                 vertical_up[s] = vertical_up_frequencies(feats.end, feats.disp, grouping[s], cfg.other_side_reference)
                 if feats.path_sq is not None and feats.path_n is not None:
-                    sq = np.where(available, feats.path_sq, np.nan)
-                    path_sigma[s] = fit_path_noise(sq, feats.path_n, cfg.path_sigma_min)[0]
+                    path_sigma[s] = fit_path_noise(feats.path_sq, feats.path_n, cfg.path_sigma_min, available)[0]
         start, trans = count_transitions(spans, S)
         self.start_probs_, self.transitions_ = smoothed_probs(
             start, trans, cfg.transition_alpha, cfg.distinct_neighbours
@@ -245,8 +243,7 @@ class SocialAffordanceModel:
     def interval_features(self, track: np.ndarray, starts: np.ndarray, stops: np.ndarray, fps: float) -> IntervalFeatures:
         """Features of candidate intervals ``[starts, stops)`` of a canonical track (vectorized; with
         the path residuals when ``config.path_noise``)."""
-        cfg = self.config
-        return interval_features(track, starts, stops, fps, cfg.path_profile if cfg.path_noise else None)
+        return interval_features(track, starts, stops, fps, self.config.feature_path_profile)
 
     def log_spatial(self, s: int, end: np.ndarray) -> np.ndarray:
         """Spatial log-potential of N key-joint configurations ``end`` (N, 11, 3) at a type-``s`` end → (N,)."""

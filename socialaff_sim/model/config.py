@@ -101,6 +101,11 @@ class AffordanceConfig(DictConfig):
     path_sigma_min: float = 0.01
     """Floor of a fitted path-noise σ, metres (1 cm, about the skeleton noise)."""
 
+    @property
+    def feature_path_profile(self) -> str | None:
+        """The path profile interval features must carry: ``path_profile`` with path noise on, else None."""
+        return self.path_profile if self.path_noise else None
+
     def __post_init__(self) -> None:
         def bad(name: str, expected: str) -> ConfigError:
             return ConfigError(f"AffordanceConfig.{name}: expected {expected}, found {getattr(self, name)!r}")

@@ -79,11 +79,16 @@ def path_residuals(
     return sq, n
 
 
-def fit_path_noise(sq: np.ndarray, n: np.ndarray, sigma_min: float) -> tuple[np.ndarray, np.ndarray]:
+def fit_path_noise(
+    sq: np.ndarray, n: np.ndarray, sigma_min: float, available: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Maximum-likelihood σ (J,) metres of N intervals' residual sums ``sq`` (N, J), interior counts
     ``n`` (N,), with the log-likelihood (J,) of their residuals at that σ; σ is floored at
-    ``sigma_min``. Joints with NaN sums get σ = NaN and log-likelihood 0."""
+    ``sigma_min``. Joints with NaN sums, or outside ``available`` (J,) bool when given, get
+    σ = NaN and log-likelihood 0."""
     sq = np.asarray(sq, float)
+    if available is not None:
+        sq = np.where(np.asarray(available, bool), sq, np.nan)
     frames = float(np.sum(n))
     total = sq.sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
