@@ -10,10 +10,12 @@ After ``T0`` observed frames of both agents, every ``ΔT`` frames the synthesize
 3. draws ``N`` candidate configurations of agent 1's key joints at that end — half around the
    spatial reference of each affordable joint (its group's mass centre, or the other agent's base),
    half by a displacement from the sub-event's start drawn from the motion potential; Null joints
-   keep their offset from agent 1's base (they are static relative to the body) — and keeps the
-   most likely under the spatial and motion potentials;
-4. interpolates agent 1's key joints linearly from its last synthesized position to that
-   configuration and emits the next ``ΔT`` frames; a full-body skeleton is fitted to them
+   keep their offset from agent 1's base (they are static relative to the body); optionally a share
+   of them body-coherent (``coherent_fraction``) — and keeps the most likely under the spatial and
+   motion potentials;
+4. interpolates agent 1's key joints from its last synthesized position to that configuration,
+   linearly (the paper) or along the rest of a minimum-jerk profile (``interpolation``), and emits
+   the next ``ΔT`` frames; a full-body skeleton is fitted to them
    (:class:`~socialaff_sim.inference.body_fit.BodyFitter`).
 
 It runs one frame at a time (:meth:`OnlineSynthesizer.step`), reading agent 0 and the object
@@ -33,6 +35,7 @@ from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError, choices
 from ..learning.atomic import cut_atoms
+from ..model.path import profile
 from ..model.potentials import reference_weights
 from .online_parse import PrefixParse, parse_prefix
 
@@ -40,11 +43,12 @@ if TYPE_CHECKING:
     from ..model.affordance import SocialAffordanceModel
     from .body_fit import BodyFitter
 
-__all__ = ["SynthesisConfig", "SynthesisStep", "OnlineSynthesizer", "sample_remaining_seconds"]
+__all__ = ["SynthesisConfig", "SynthesisStep", "OnlineSynthesizer", "sample_remaining_seconds", "remaining_fraction"]
 
 _AGENT1 = np.arange(N_KEY, 2 * N_KEY)
 _OTHERS = np.r_[np.arange(N_KEY), 2 * N_KEY]
 _DURATION_MODES = ("sample", "median")
+_INTERPOLATIONS = ("linear", "minjerk")
 
 
 @dataclass(frozen=True)
@@ -61,9 +65,18 @@ class SynthesisConfig:
     """Share of the N candidates drawn around the spatial references (the rest from the motion potential)."""
     duration: str = "sample"
     """How the remaining duration is chosen: ``"sample"`` (the paper) or ``"median"`` of the conditional log-normal."""
+    coherent_fraction: float = 0.0
+    """Share of the N candidates whose non-base joints each, with probability ½, keep their offset from agent 1's
+    base (they move with the drawn base) instead of their own draw: body-coherent candidates, so the potentials of
+    all joints inform the body's position (0: every joint drawn independently, as in the paper)."""
     refine_sweeps: int = 0
     """Sweeps of per-joint coordinate ascent over the drawn candidates; 0 keeps the best whole draw, as in the
     paper (on the synthetic data two sweeps tripled the cost without lowering the error)."""
+    interpolation: str = "linear"
+    """Time profile of the way from agent 1's last synthesized pose to the planned end configuration:
+    ``"linear"`` (the paper) or ``"minjerk"``, the rest of the minimum-jerk profile 10v³ − 15v⁴ + 6v⁵ of the
+    running sub-event (v = elapsed fraction from its anchor frame to its predicted end), the profile the
+    model's path-noise term assumes."""
     lookahead: bool = False
     """Use agent 0's (and the object's) recorded position at the predicted end for the spatial
     references instead of the latest observed one (offline evaluation only; the simulator is causal)."""
@@ -75,8 +88,12 @@ class SynthesisConfig:
             raise ConfigError(f"delta_t (ΔT): expected at least 1 frame, found {self.delta_t}")
         if self.n_samples < 1:
             raise ConfigError(f"n_samples (N): expected at least 1, found {self.n_samples}")
+        if not 0.0 <= self.coherent_fraction <= 1.0:
+            raise ConfigError(f"coherent_fraction: expected a value in [0, 1], found {self.coherent_fraction}")
         if not 0.0 <= self.spatial_fraction <= 1.0:
             raise ConfigError(f"spatial_fraction: expected a value in [0, 1], found {self.spatial_fraction}")
+        if self.interpolation not in _INTERPOLATIONS:
+            raise ConfigError(f"interpolation: expected {choices(_INTERPOLATIONS)}, found {self.interpolation!r}")
         if self.duration not in _DURATION_MODES:
             raise ConfigError(f"duration: expected {choices(_DURATION_MODES)}, found {self.duration!r}")
 
@@ -117,6 +134,19 @@ def sample_remaining_seconds(
     u = lo + (1.0 - lo) * (0.5 if median else float(rng.random()))
     u = min(max(u, lo), 1.0 - 1e-12)
     return max(float(np.exp(mu + sigma * ndtri(u))), elapsed)
+
+
+def remaining_fraction(frames: np.ndarray, prev: int, anchor: int, last: int) -> np.ndarray:
+    """(F,) share w ∈ [0, 1] of the remaining way, from frame ``prev`` to the end frame ``last``, covered
+    at ``frames`` under the minimum-jerk profile u of a movement from frame ``anchor`` to ``last``:
+    w = (u(v_f) − u(v_prev)) / (1 − u(v_prev)), v = (f − anchor) / (last − anchor), clipped to [0, 1];
+    w = 1 from ``last`` on."""
+    span = max(last - anchor, 1)
+    v = ((np.asarray(frames, float) - anchor) / span).clip(0.0, 1.0)
+    u0 = float(profile(np.array(min(max((prev - anchor) / span, 0.0), 1.0)), "minjerk"))
+    if u0 >= 1.0:
+        return np.ones(v.shape)
+    return ((profile(v, "minjerk") - u0) / (1.0 - u0)).clip(0.0, 1.0)
 
 
 class OnlineSynthesizer:
@@ -204,9 +234,16 @@ class OnlineSynthesizer:
 
     # -- planning ----------------------------------------------------------------------------------
     def _replan(self, t: int) -> None:
+        s, start = self._current(t)
+        last = self._end_frame(s, start, t)
+        target = self._best_configuration(s, t, start, last)
+        self._emit(t, start, last, target)
+
+    def _current(self, t: int) -> tuple[int, int]:
+        """The running sub-event and its first frame, from the online parse of frames [0, t)."""
         inter = self._inter
         assert inter is not None  # internal invariant: set by reset
-        model, cfg = self.model, self.config
+        model = self.model
         prefix = self._track[:t]
         lc = model.learning
         bounds = cut_atoms(
@@ -215,19 +252,28 @@ class OnlineSynthesizer:
         )
         parse = parse_prefix(model, prefix, inter.fps, bounds)
         self._parse, self._belief = parse, parse.belief
-        s, start = parse.current, parse.start
-        mu, sigma = model.duration_params_[s]
+        return parse.current, parse.start
+
+    def _end_frame(self, s: int, start: int, t: int) -> int:
+        """The predicted last frame (≥ t) of the running sub-event ``s`` begun at ``start``."""
+        inter = self._inter
+        assert inter is not None  # internal invariant: set by reset
+        mu, sigma = self.model.duration_params_[s]
         total = sample_remaining_seconds(
-            mu, sigma, (t - start) / inter.fps, self._rng, median=cfg.duration == "median"
+            mu, sigma, (t - start) / inter.fps, self._rng, median=self.config.duration == "median"
         )
-        end = max(start + int(round(total * inter.fps)), t + 1)  # exclusive end frame of the sub-event
-        last = end - 1
-        target = self._best_configuration(s, t, start, last)
-        T = inter.n_frames
-        stop = min(t + cfg.delta_t, T)
+        return max(start + int(round(total * inter.fps)), t + 1) - 1
+
+    def _emit(self, t: int, start: int, last: int, target: np.ndarray) -> None:
+        """Write agent 1's key joints for frames [t, t + ΔT) on the way from frame t − 1 to ``target`` at ``last``."""
+        cfg = self.config
+        stop = min(t + cfg.delta_t, self._track.shape[0])
         prev = self._track[t - 1, _AGENT1]
         frames = np.arange(t, stop)
-        w = ((frames - (t - 1)) / max(last - (t - 1), 1)).clip(0.0, 1.0)
+        if cfg.interpolation == "minjerk":
+            w = remaining_fraction(frames, t - 1, max(start - 1, 0), last)
+        else:
+            w = ((frames - (t - 1)) / max(last - (t - 1), 1)).clip(0.0, 1.0)
         self._track[t:stop, _AGENT1] = prev[None] + w[:, None, None] * (target - prev)[None]
         self._planned_until = stop
 
@@ -253,6 +299,14 @@ class OnlineSynthesizer:
             sp = _draw_vectors(model.spatial_params_[s, aff], up[0, aff], n_sp, self._rng) + refs[None]
             mo = _draw_vectors(model.motion_params_[s, aff], up[1, aff], N - n_sp, self._rng) + before[aff][None]
             cand[:, aff] = np.concatenate([sp, mo])
+            base = N_KEY
+            n_co = int(round(cfg.coherent_fraction * N))
+            if n_co and base in aff:
+                rows = self._rng.permutation(N)[:n_co]
+                others = aff[aff != base]
+                follow = self._rng.random((n_co, others.size)) < 0.5
+                rigid = prev[others - N_KEY][None] + (cand[rows, base] - prev[0])[:, None]
+                cand[rows[:, None], others[None]] = np.where(follow[..., None], rigid, cand[rows[:, None], others[None]])
         # Joints not sampled (Null) stay static relative to agent 1's base, which may have moved.
         base = N_KEY
         shift = cand[:, base] - prev[0] if base in aff else np.zeros((N, 3))
