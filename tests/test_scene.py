@@ -285,3 +285,46 @@ def test_simulator_api_contract(data) -> None:
         sim.step(sim.robot_key_frames())
     with pytest.raises(SimulationError, match="has ended"):
         sim.step(keys)
+
+
+def test_causal_placement_ignores_agent1_future(data) -> None:
+    """With placement_frames, the robot's stance and scale come from agent 1's first frames only."""
+    inter = data.of_label("shake_hands")[0]
+    joints = inter.joints.copy()
+    joints[12:, 1, :, :2] += 0.6  # agent 1's future moves far away
+    moved = inter.replace(joints=joints)
+    sim = Simulator("ours", "shake_hands")
+    frames = {}
+    for name, x, n in (("orig", inter, 10), ("moved", moved, 10), ("orig_all", inter, None), ("moved_all", moved, None)):
+        sim.reset(x, placement_frames=n)
+        frames[name] = (sim.frame_R.origin.copy(), sim.scaler.k, sim.offset.copy())
+    for a, b in zip(frames["orig"], frames["moved"], strict=True):
+        np.testing.assert_allclose(a, b, atol=1e-12)
+    assert not np.allclose(frames["orig_all"][0], frames["moved_all"][0], atol=1e-3)  # the whole track does move it
+    with pytest.raises(SimulationError, match="placement_frames"):
+        sim.reset(inter, placement_frames=0)
+
+
+def test_run_episode_places_a_causal_source_from_its_frames(data, monkeypatch: pytest.MonkeyPatch) -> None:
+    from socialaff_sim.inference.methods import ModelSource
+    from socialaff_sim.inference.synthesis import SynthesisConfig
+    from socialaff_sim.retarget.sources import GroundTruthSource
+    from socialaff_sim.sim.episode import run_episode
+
+    class Causal(GroundTruthSource):
+        placement_frames = 7
+
+    inter = data.of_label("shake_hands")[0]
+    sim = Simulator("ours", "shake_hands")
+    seen: list[int | None] = []
+    reset = Simulator.reset
+
+    def spy(self, interaction, initial_targets=None, *, placement_frames=None):  # noqa: ANN001, ANN202
+        seen.append(placement_frames)
+        return reset(self, interaction, initial_targets, placement_frames=placement_frames)
+
+    monkeypatch.setattr(Simulator, "reset", spy)
+    run_episode(sim, Causal(), inter)
+    run_episode(sim, GroundTruthSource(), inter)
+    assert seen == [7, None]
+    assert ModelSource(None, config=SynthesisConfig(n_observed=12)).placement_frames == 12  # type: ignore[arg-type]

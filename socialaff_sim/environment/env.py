@@ -175,7 +175,8 @@ class SocialAffordanceEnv(gym.Env):
         self.adapter.reset(inter, rng=np.random.default_rng(adapter_seed))
         self._to_agent.reset()
         first = self.adapter.observe(0)
-        sim.reset(inter)
+        # The model's synthesis sees agent 1's first T0 frames only, and so does the robot's placement.
+        sim.reset(inter, placement_frames=getattr(self.adapter, "placement_frames", None))
         sim.settle(sim.retarget(first.proposal, frame=0))
         idx = inter.layout.key_indices
         self._human_mask = np.array([i is not None for i in idx], dtype=np.float32)

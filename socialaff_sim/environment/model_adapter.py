@@ -151,6 +151,11 @@ class ModelAdapter:
     def kind(self) -> str:
         return "model"
 
+    @property
+    def placement_frames(self) -> int:
+        """Frames of agent 1's recording the synthesis sees (T0): the simulator places the robot from these only."""
+        return next(iter(self._synth.values())).config.n_observed
+
     def subevent_names(self, label: str, instances: Sequence[Interaction]) -> tuple[str, ...]:
         return self.scorer.subevent_names(label)
 

@@ -148,6 +148,11 @@ class ModelSource:
         return SourceFrame(step.key_joints.copy(), step.subevent_name)
 
     @property
+    def placement_frames(self) -> int:
+        """Frames of agent 1's recording the source sees (T0): the simulator places the robot from these only."""
+        return self.config.n_observed
+
+    @property
     def belief(self) -> np.ndarray:
         """(S,) the latest sub-event belief."""
         if not self._cache:

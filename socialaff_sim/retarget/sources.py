@@ -41,7 +41,12 @@ class SourceFrame(NamedTuple):
 
 @runtime_checkable
 class KeyJointSource(Protocol):
-    """Anything that proposes agent 1's key joints frame by frame."""
+    """Anything that proposes agent 1's key joints frame by frame.
+
+    A causal source may also have an ``placement_frames: int`` attribute, the number of agent 1's
+    recorded frames it sees; the simulator then places the robot from those frames only
+    (:meth:`~socialaff_sim.sim.simulator.Simulator.reset`).
+    """
 
     def reset(self, interaction: Interaction) -> None:
         """Start on a new instance (agent 0, the object and the frame rate are known from it)."""

@@ -36,7 +36,8 @@ def run_episode(
     wall = 0.0
     tic = time.perf_counter()
     first = source.targets(0)
-    sim.reset(interaction)
+    # A causal source (the model's synthesis) declares how much of agent 1's recording it sees.
+    sim.reset(interaction, placement_frames=getattr(source, "placement_frames", None))
     sim.settle(sim.retarget(first.keys, frame=0))
     wall += time.perf_counter() - tic
     if on_frame is not None:

@@ -132,18 +132,25 @@ class Simulator:
             )
         return self._stages[name]
 
-    def reset(self, interaction: Interaction, initial_targets: np.ndarray | None = None) -> None:
-        """Load an instance at frame 0; ``initial_targets`` (5, 3) robot frame sets the starting posture."""
+    def reset(
+        self, interaction: Interaction, initial_targets: np.ndarray | None = None, *, placement_frames: int | None = None
+    ) -> None:
+        """Load an instance at frame 0; ``initial_targets`` (5, 3) robot frame sets the starting posture.
+
+        ``placement_frames``: place and scale the robot from agent 1's first that many frames only (a causal
+        source, such as the model's synthesis after T0 observed frames, may not see agent 1's recorded
+        future); None: from the whole recording (ground-truth replay)."""
         stage = self._stage = self._get_stage(interaction)
         self.interaction = inter = interaction
+        placed = inter if placement_frames is None else _agent1_prefix(inter, placement_frames)
         scene = stage.scene
-        self.offset = world_offset(inter)
+        self.offset = world_offset(placed)
         self.pose: HumanPose = pose_human(scene.body, inter, self.offset)
         set_human_sizes(scene, self.pose.half_lengths)
         set_human_sizes(stage.ik_scene, self.pose.half_lengths)
         self._segments = human_segments(self.pose, scene.body.radii)
         self.scaler = KeyJointScaler(self.measurements, self.config.scaling)
-        self.frame_R: RobotFrame = self.scaler.reset(inter, self.offset)
+        self.frame_R: RobotFrame = self.scaler.reset(placed, self.offset)
         self._yaw = self.frame_R.yaw
         self.carry: CarryPlan | None = None
         if self.task.object is not None and inter.object is not None:
@@ -366,3 +373,15 @@ class Simulator:
     def ik_qpos(self) -> np.ndarray:
         """(nq_ik,) the latest IK solution (free joint then the IK's hinges), world frame."""
         return self._q.copy()
+
+
+def _agent1_prefix(inter: Interaction, n: int) -> Interaction:
+    """The instance with agent 1 after frame ``n`` marked invalid (its filled joints hold frame n − 1)."""
+    if not 1 <= n <= inter.n_frames:
+        raise SimulationError(f"placement_frames: expected 1..{inter.n_frames} for this instance, found {n}")
+    joints = inter.joints.copy()
+    valid = np.array(inter.valid, copy=True)
+    joints[n:, 1] = np.nan
+    valid[n:, 1] = False
+    return inter.replace(joints=joints, valid=valid)
+
