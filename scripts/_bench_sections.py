@@ -176,6 +176,26 @@ def _experiment(ev: Run, quick: bool, *, synthetic: bool) -> list[str]:
     return out + [""]
 
 
+def _simsynth(runs: list[Run], quick: bool) -> list[str]:
+    d = runs[0].data
+    rows = []
+    for label, r in d["summary"].items():
+        g, y = r["gt"], r["synth"]
+        name = "**all**" if label == "all" else label
+        rows.append([name, str(r["instances"]), f"{g['success_rate']:.2f}", f"{y['success_rate']:.2f}", f(r["ratio"], ".2f"),
+                     f(y.get("key_joint_error_m")), ", ".join(y.get("commonest_failures", [])) or "–"])
+    st = d["settings"]
+    out = table(["interaction", "test instances", "GT replay success", "synthesized success", "ratio",
+                 "synthesized key-joint error (m)", "commonest synthesized failures"], rows)
+    ratio = d["summary"]["all"]["ratio"]
+    out += ["", f"{st['folds_run']} of {st['folds']} actor-disjoint folds, models fitted with {st['iterations']} MCMC "
+            f"iterations on each fold's training instances, robot `{st['robot']}`, T0 = {st['n_observed']}; the robot is "
+            "placed from agent 1's first T0 frames for synthesized motion, from the whole recording for the replay.", "",
+            f"- Synthesized sub-goal success ≥ 90 % of the ground-truth replay's: {ratio:.2f}, "
+            + verdict(ratio if ratio is not None else 0.0, 0.90, at_least=True, quick=quick) + "."]
+    return out
+
+
 def _accuracy(runs: list[Run], quick: bool) -> list[str]:
     out: list[str] = []
     for ev in runs[:-1]:

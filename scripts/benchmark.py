@@ -43,10 +43,10 @@ from socialaff_sim._atomic import atomic_write_text
 _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:  # run as `python scripts/benchmark.py` it is sys.path[0]; the tests load this file by path
     sys.path.append(_HERE)
-from _bench_sections import _accuracy, _demo, _env, _ik, _learning, _physics, _synthesis, table  # noqa: E402
+from _bench_sections import _accuracy, _demo, _env, _ik, _learning, _physics, _simsynth, _synthesis, table  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-SECTIONS = ("learning", "synthesis", "ik", "physics", "env", "demo", "accuracy")
+SECTIONS = ("learning", "synthesis", "ik", "physics", "simsynth", "env", "demo", "accuracy")
 TAIL = 25  # lines of stderr shown for a failed command
 
 
@@ -193,6 +193,7 @@ def sections(quick: bool, workers: int) -> dict[str, Section]:
     synth = ["--iterations", "5", "--interactions", "shake_hands"] if quick else []
     sim = Run("bench_sim", [py, "scripts/bench_sim.py", "--robots", "ours", "cmu", "--json", "{tmp}/sim.json"]
               + (["--labels", "shake_hands", "--per-label", "2"] if quick else []), "sim.json")
+    simsynth = ["--interactions", "shake_hands", "--quick", "--iterations", "3", "--max-test", "2"] if quick else []
     steps = "200" if quick else "3000"
     env_runs = [Run("env_default", [py, "scripts/bench_env.py", "--steps", steps, "--json", "{tmp}/env.json"], "env.json")]
     if not quick:
@@ -236,6 +237,10 @@ def sections(quick: bool, workers: int) -> dict[str, Section]:
         "ik": Section("ik", "Retargeting with mink: IK time and key-frame error, issue 5", [sim], _ik),
         "physics": Section("physics", "Physics: real-time factor and ground-truth replay success, issue 5", [sim],
                            _physics),
+        "simsynth": Section("simsynth", "Synthesized motion in physics: sub-goal success against the ground truth, issue 5",
+                            [Run("bench_sim_synth", [py, "scripts/bench_sim_synth.py", *simsynth, "--workers",
+                                                     str(workers), "--json", "{tmp}/simsynth.json"], "simsynth.json")],
+                            _simsynth),
         "env": Section("env", "Gymnasium environment, issue 6", env_runs, _env),
         "demo": Section("demo", "Demo, issue 7", demo, _demo),
         "accuracy": Section("accuracy", "Accuracy (Experiment 1), issues 4 and 7",
