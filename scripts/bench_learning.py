@@ -37,7 +37,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from socialaff_sim._atomic import atomic_write_text
-from socialaff_sim.data.synthetic import SUBEVENTS, generate_dataset
+from socialaff_sim.data.synthetic import SUBEVENTS, SyntheticConfig, generate_dataset
 from socialaff_sim.learning.algorithm import make_spaces
 from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.learning.initial import hard_em_parses
@@ -131,9 +131,13 @@ def main() -> int:
     ap.add_argument("--init-type-passes", type=int, default=None, help="override LearningConfig.init_type_passes")
     ap.add_argument("--path-noise", choices=("on", "off"), default=None, help="override AffordanceConfig.path_noise")
     ap.add_argument("--path-profile", default=None, help="override AffordanceConfig.path_profile (minjerk, linear)")
+    ap.add_argument("--left-hand-probability", type=float, default=None,
+                    help="override SyntheticConfig.left_hand_probability (0: every one-handed action uses the right hand)")
     ap.add_argument("--json", default=None, help="also write the table here (atomically)")
     args = ap.parse_args()
-    data = generate_dataset(seed=args.seed)
+    synth = SyntheticConfig() if args.left_hand_probability is None else SyntheticConfig(
+        left_hand_probability=args.left_hand_probability)
+    data = generate_dataset(seed=args.seed, config=synth)
     learning = dataclasses.replace(LearningConfig(), iterations=args.iterations)
     if args.p_shift is not None:
         learning = dataclasses.replace(learning, p_shift=args.p_shift)
