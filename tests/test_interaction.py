@@ -233,3 +233,16 @@ def test_saved_files_get_ordinary_permissions(tmp_path: Path, rng: np.random.Gen
     os.umask(mask)
     path = save_interaction(make(rng), tmp_path / "perm.npz")
     assert path.stat().st_mode & 0o777 == 0o666 & ~mask
+
+
+def test_hide_agent_after(rng: np.random.Generator) -> None:
+    inter = make(rng, T=12)
+    before = inter.joints.copy()
+    hidden = inter.hide_agent_after(1, 5)
+    assert np.isnan(hidden.joints[5:, 1]).all() and not hidden.valid[5:, 1].any()
+    np.testing.assert_array_equal(hidden.joints[:5], inter.joints[:5])
+    np.testing.assert_array_equal(hidden.joints[:, 0], inter.joints[:, 0])
+    np.testing.assert_array_equal(hidden.valid[:, 0], inter.valid[:, 0])
+    filled = hidden.filled_joints()
+    np.testing.assert_allclose(filled[5:, 1], np.broadcast_to(inter.filled_joints()[4, 1], filled[5:, 1].shape), atol=0)
+    np.testing.assert_array_equal(inter.joints, before)  # the original is untouched

@@ -218,6 +218,15 @@ class Interaction:
             subevents=None if self.subevents is None else self.subevents[sl],
         )
 
+    def hide_agent_after(self, agent: int, n: int) -> Interaction:
+        """A copy with ``agent``'s frames from ``n`` on unknown (NaN, invalid); :meth:`filled_joints`
+        then holds its frame n − 1."""
+        joints = self.joints.copy()
+        valid = np.array(self._valid_mask, copy=True)
+        joints[n:, agent] = np.nan
+        valid[n:, agent] = False
+        return self.replace(joints=joints, valid=valid)
+
     def replace(self, **changes: Any) -> Interaction:
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)

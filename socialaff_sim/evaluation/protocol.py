@@ -213,11 +213,7 @@ def observed_part(interaction: Interaction, n_observed: int) -> Interaction:
         raise ConfigError(
             f"n_observed: expected 1..{T - 1} for {interaction.instance_id or 'the instance'} (T = {T}), found {n_observed}"
         )
-    joints = interaction.joints.copy()
-    valid = np.array(interaction.valid, copy=True)
-    joints[n_observed:, 1] = np.nan
-    valid[n_observed:, 1] = False
-    return interaction.replace(joints=joints, valid=valid, subevents=None)
+    return interaction.hide_agent_after(1, n_observed).replace(subevents=None)
 
 
 def prediction_from_joints(

@@ -74,7 +74,8 @@ def restructure(
 ) -> tuple[list[Parse], float]:
     """Best parses found by type-level merge-and-split passes (see the module doc) and their score.
 
-    ``refine(parses, rounds)`` improves a set of parses (hard-EM); ``score`` gives log P* of a set.
+    ``refine(parses, rounds)`` improves a set of parses by that many hard-EM rounds (0: unchanged); ``score``
+    gives log P* of a set.
     Each pass screens every admissible move after one refining round and refines the ``keep``
     best of them for ``rounds`` rounds.
     """
@@ -95,7 +96,7 @@ def restructure(
         screened.sort(key=lambda item: -item[0])
         found: tuple[float, list[Parse]] | None = None
         for _, once in screened[:keep]:
-            refined = refine(once, max(rounds - 1, 0)) if rounds > 1 else once
+            refined = refine(once, max(rounds - 1, 0))
             value = score(refined)
             if found is None or value > found[0]:
                 found = (value, refined)

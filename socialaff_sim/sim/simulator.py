@@ -379,9 +379,5 @@ def _agent1_prefix(inter: Interaction, n: int) -> Interaction:
     """The instance with agent 1 after frame ``n`` marked invalid (its filled joints hold frame n − 1)."""
     if not 1 <= n <= inter.n_frames:
         raise SimulationError(f"placement_frames: expected 1..{inter.n_frames} for this instance, found {n}")
-    joints = inter.joints.copy()
-    valid = np.array(inter.valid, copy=True)
-    joints[n:, 1] = np.nan
-    valid[n:, 1] = False
-    return inter.replace(joints=joints, valid=valid)
+    return inter.hide_agent_after(1, n)
 
