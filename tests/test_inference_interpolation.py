@@ -79,9 +79,9 @@ def test_coherent_candidates_keep_the_body_shape(fitted, seed: int) -> None:  # 
     seen: list[np.ndarray] = []
 
     class Spy(OnlineSynthesizer):
-        def _select(self, s, z, cand, before, static):  # noqa: ANN001, ANN202
+        def _select(self, s, z, cand, before, static, prior):  # noqa: ANN001, ANN202
             seen.append((cand[:, _AGENT1].copy(), self._track[self._t - 1, _AGENT1].copy(), z[_AGENT1].copy()))
-            return super()._select(s, z, cand, before, static)
+            return super()._select(s, z, cand, before, static, prior)
 
     syn = Spy(model, None, cfg)
     syn.reset(observed_part(inter, cfg.n_observed), rng=np.random.default_rng(seed))

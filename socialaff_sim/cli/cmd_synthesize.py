@@ -28,7 +28,10 @@ def _run(args: argparse.Namespace) -> int:
     if not others:
         raise ModelError(f"{args.data}: the full-body fit needs other {model.label_!r} instances besides {inter.instance_id!r}")
     body = BodyFitter().fit_interactions(others, agent=1, rng=np.random.default_rng(args.seed))
-    config = dataclasses.replace(SynthesisConfig(), n_observed=args.observed, lookahead=args.lookahead)
+    if args.mode == "offline":
+        config = SynthesisConfig.offline(n_observed=args.observed)
+    else:
+        config = dataclasses.replace(SynthesisConfig(), n_observed=args.observed, lookahead=args.lookahead)
     start = time.perf_counter()
     keys, skel, subs, _ = synthesize(
         model, observed_part(inter, args.observed), rng=np.random.default_rng(args.seed), body=body, config=config
@@ -82,5 +85,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--observed", type=int, default=10, help="T0: observed frames of agent 1 (default 10)")
     p.add_argument("--seed", type=int, default=0, help="seed of the synthesis (default 0)")
-    p.add_argument("--lookahead", action="store_true", help="use agent 0's recorded future (offline evaluation setting)")
+    p.add_argument(
+        "--mode", choices=("offline", "online"), default="offline",
+        help="offline (default, as 'evaluate' runs the model): agent 0's whole track is read, its parse fixes the "
+        "sub-events; online: the paper's causal Algorithm 2, as the simulator runs it",
+    )
+    p.add_argument("--lookahead", action="store_true", help="online mode: use agent 0's recorded position at the predicted end")
     p.set_defaults(func=_run)

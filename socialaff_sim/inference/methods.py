@@ -1,7 +1,10 @@
 """The full model and its ablations as evaluation methods, and as the simulator's key-joint source.
 
 ``"full"`` is the social affordance model with Algorithm 2; ``"v1"`` drops joint selection and
-grouping, ``"v2"`` drops latent sub-events (the paper's two ablations). All three implement
+grouping, ``"v2"`` drops latent sub-events (the paper's two ablations). The protocol gives every
+method agent 0's whole recorded track, so these three synthesize with
+:meth:`~socialaff_sim.inference.synthesis.SynthesisConfig.offline`; ``"full_online"`` is the full
+model with the paper's causal Algorithm 2 (``SynthesisConfig()``), as the simulator runs it. All four implement
 :class:`~socialaff_sim.evaluation.protocol.ReactionMethod` and are registered on import.
 """
 
@@ -70,14 +73,15 @@ class AffordanceMethod:
         learning: object | None = None,
         synthesis: SynthesisConfig | None = None,
         body: BodyFitConfig | None = None,
+        name: str | None = None,
     ) -> None:
         if variant not in VARIANTS:
             raise ConfigError(f"variant: expected {choices(VARIANTS)}, found {variant!r}")
-        self.name = variant
+        self.name = name or variant
         self.variant = variant
         self.model_config = dataclasses.replace(model_config or AffordanceConfig(), **VARIANTS[variant])
         self.learning = learning
-        self.synthesis = synthesis or SynthesisConfig()
+        self.synthesis = synthesis or SynthesisConfig.offline()
         self.body = body or BodyFitConfig()
 
     def fit(self, interactions: Sequence[Interaction], *, rng: np.random.Generator) -> AffordanceMethod:
@@ -109,7 +113,12 @@ def _v2() -> AffordanceMethod:
     return AffordanceMethod("v2")
 
 
+def _full_online() -> AffordanceMethod:
+    return AffordanceMethod("full", synthesis=SynthesisConfig(), name="full_online")
+
+
 register_method("full", _full)
+register_method("full_online", _full_online)
 register_method("v1", _v1)
 register_method("v2", _v2)
 

@@ -13,6 +13,8 @@ After ``T0`` observed frames of both agents, every ``ΔT`` frames the synthesize
    keep their offset from agent 1's base (they are static relative to the body); optionally a share
    of them body-coherent (``coherent_fraction``) — and keeps the most likely under the spatial and
    motion potentials;
+   With ``end_prior="regression"`` the model's end-configuration regression adds draws and a joint
+   Gaussian term over agent 1's five key joints (:class:`~socialaff_sim.inference.candidates.RegressionPrior`);
 4. interpolates agent 1's key joints from its last synthesized position to that configuration,
    linearly (the paper) or along the rest of a minimum-jerk profile (``interpolation``), and emits
    the next ``ΔT`` frames; a full-body skeleton is fitted to them
@@ -21,7 +23,8 @@ After ``T0`` observed frames of both agents, every ``ΔT`` frames the synthesize
 It runs one frame at a time (:meth:`OnlineSynthesizer.step`), reading agent 0 and the object
 causally: at frame t only frames before t are used, unless ``lookahead`` is set, in which case the
 spatial references use agent 0's recorded position at the predicted end (the setting of an offline
-evaluation where agent 0's whole track is given, as it is to the baselines).
+evaluation where agent 0's whole track is given, as it is to the baselines); there ``parse="observed"``
+replaces steps 1–2 by one parse of agent 0's whole track (:meth:`SynthesisConfig.offline` sets all of it).
 """
 
 from __future__ import annotations
@@ -35,8 +38,11 @@ from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError, choices
 from ..learning.atomic import cut_atoms
-from ..model.path import profile
 from ..model.potentials import reference_weights
+from .candidates import AGENT1 as _AGENT1
+from .candidates import RegressionPrior, draw_vectors, sign_loglik
+from .timing import remaining_fraction, sample_remaining_seconds
+from .observed_parse import parse_observed
 from .online_parse import PrefixParse, parse_prefix
 
 if TYPE_CHECKING:
@@ -45,10 +51,11 @@ if TYPE_CHECKING:
 
 __all__ = ["SynthesisConfig", "SynthesisStep", "OnlineSynthesizer", "sample_remaining_seconds", "remaining_fraction"]
 
-_AGENT1 = np.arange(N_KEY, 2 * N_KEY)
 _OTHERS = np.r_[np.arange(N_KEY), 2 * N_KEY]
 _DURATION_MODES = ("sample", "median")
 _INTERPOLATIONS = ("linear", "minjerk")
+_PARSES = ("online", "observed")
+_END_PRIORS = ("none", "regression")
 
 
 @dataclass(frozen=True)
@@ -80,6 +87,19 @@ class SynthesisConfig:
     lookahead: bool = False
     """Use agent 0's (and the object's) recorded position at the predicted end for the spatial
     references instead of the latest observed one (offline evaluation only; the simulator is causal)."""
+    parse: str = "online"
+    """How the running sub-event and its end are found: ``"online"`` (the paper), a DP over the frames
+    so far and a duration drawn from the log-normal prior; or ``"observed"``, one DP over agent 0's
+    (and the object's) whole recorded track before synthesis starts
+    (:func:`~socialaff_sim.inference.observed_parse.parse_observed`; offline only, needs ``lookahead``)."""
+    observed_parse_step: int = 2
+    """Frames between the cut points of the ``"observed"`` parse."""
+    end_prior: str = "none"
+    """``"regression"``: also score candidates by the model's end-configuration regression, a Gaussian
+    over agent 1's five key joints jointly (:mod:`~socialaff_sim.model.end_regression`), and draw
+    ``prior_samples`` more candidates from it; ``"none"``: the paper's potentials alone."""
+    prior_samples: int = 50
+    """Candidates drawn from the end-configuration regression, on top of the N, when ``end_prior`` is on."""
 
     def __post_init__(self) -> None:
         if self.n_observed < 2:
@@ -94,8 +114,26 @@ class SynthesisConfig:
             raise ConfigError(f"spatial_fraction: expected a value in [0, 1], found {self.spatial_fraction}")
         if self.interpolation not in _INTERPOLATIONS:
             raise ConfigError(f"interpolation: expected {choices(_INTERPOLATIONS)}, found {self.interpolation!r}")
+        if self.parse not in _PARSES:
+            raise ConfigError(f"parse: expected {choices(_PARSES)}, found {self.parse!r}")
+        if self.parse == "observed" and not self.lookahead:
+            raise ConfigError("parse='observed' reads agent 0's recorded future: it needs lookahead=True (offline evaluation)")
+        if self.end_prior not in _END_PRIORS:
+            raise ConfigError(f"end_prior: expected {choices(_END_PRIORS)}, found {self.end_prior!r}")
+        if self.observed_parse_step < 1 or self.prior_samples < 0:
+            raise ConfigError(
+                f"observed_parse_step, prior_samples: expected >= 1 and >= 0, found {self.observed_parse_step}, {self.prior_samples}"
+            )
         if self.duration not in _DURATION_MODES:
             raise ConfigError(f"duration: expected {choices(_DURATION_MODES)}, found {self.duration!r}")
+
+    @classmethod
+    def offline(cls, **changes: object) -> SynthesisConfig:
+        """The settings for an offline evaluation, where agent 0's whole track is given (as to every
+        method of the protocol): lookahead, the ``"observed"`` parse, the end-configuration regression
+        and minimum-jerk interpolation. ``SynthesisConfig()`` is the paper's causal Algorithm 2."""
+        base = dict(lookahead=True, parse="observed", end_prior="regression", interpolation="minjerk")
+        return cls(**{**base, **changes})  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)
@@ -116,37 +154,6 @@ class SynthesisStep:
     """Its name, or ``None``."""
     observed: bool
     """True for the first T0 frames, which are copied from the observation."""
-
-
-def sample_remaining_seconds(
-    mu: float, sigma: float, elapsed: float, rng: np.random.Generator, *, median: bool = False
-) -> float:
-    """A total duration D > ``elapsed`` (seconds) from LogNormal(μ, σ) conditioned on D > elapsed.
-
-    Inverse-CDF sampling on the truncated part: u ~ U(F(elapsed), 1), D = F⁻¹(u);
-    ``median`` takes u halfway instead.
-    """
-    from scipy.special import ndtr, ndtri
-
-    if not (np.isfinite(mu) and np.isfinite(sigma)):
-        return elapsed
-    lo = float(ndtr((np.log(max(elapsed, 1e-9)) - mu) / sigma))
-    u = lo + (1.0 - lo) * (0.5 if median else float(rng.random()))
-    u = min(max(u, lo), 1.0 - 1e-12)
-    return max(float(np.exp(mu + sigma * ndtri(u))), elapsed)
-
-
-def remaining_fraction(frames: np.ndarray, prev: int, anchor: int, last: int) -> np.ndarray:
-    """(F,) share w ∈ [0, 1] of the remaining way, from frame ``prev`` to the end frame ``last``, covered
-    at ``frames`` under the minimum-jerk profile u of a movement from frame ``anchor`` to ``last``:
-    w = (u(v_f) − u(v_prev)) / (1 − u(v_prev)), v = (f − anchor) / (last − anchor), clipped to [0, 1];
-    w = 1 from ``last`` on."""
-    span = max(last - anchor, 1)
-    v = ((np.asarray(frames, float) - anchor) / span).clip(0.0, 1.0)
-    u0 = float(profile(np.array(min(max((prev - anchor) / span, 0.0), 1.0)), "minjerk"))
-    if u0 >= 1.0:
-        return np.ones(v.shape)
-    return ((profile(v, "minjerk") - u0) / (1.0 - u0)).clip(0.0, 1.0)
 
 
 class OnlineSynthesizer:
@@ -190,6 +197,15 @@ class OnlineSynthesizer:
         self._available = self.model.available_.copy()
         S = self.model.n_subevents_
         self._belief = np.full(S, 1.0 / S)
+        self._rows: np.ndarray | None = None
+        if cfg.parse == "observed":
+            self._rows = parse_observed(self.model, self._observed_track(), interaction.fps, step=cfg.observed_parse_step)
+
+    def _observed_track(self) -> np.ndarray:
+        """(T, 11, 3) canonical: agent 0 and the object over the whole instance, agent 1 NaN."""
+        x = np.full((self._others.shape[0], 2 * N_KEY + 1, 3), np.nan)
+        x[:, _OTHERS] = self._others
+        return x
 
     @property
     def t(self) -> int:
@@ -241,6 +257,11 @@ class OnlineSynthesizer:
 
     def _current(self, t: int) -> tuple[int, int]:
         """The running sub-event and its first frame, from the online parse of frames [0, t)."""
+        if self._rows is not None:
+            row = self._row(t)
+            S = self.model.n_subevents_
+            self._belief = np.eye(S)[row[2]]
+            return int(row[2]), int(row[0])
         inter = self._inter
         assert inter is not None  # internal invariant: set by reset
         model = self.model
@@ -256,6 +277,8 @@ class OnlineSynthesizer:
 
     def _end_frame(self, s: int, start: int, t: int) -> int:
         """The predicted last frame (≥ t) of the running sub-event ``s`` begun at ``start``."""
+        if self._rows is not None:
+            return max(int(self._row(t)[1]) - 1, t)
         inter = self._inter
         assert inter is not None  # internal invariant: set by reset
         mu, sigma = self.model.duration_params_[s]
@@ -263,6 +286,12 @@ class OnlineSynthesizer:
             mu, sigma, (t - start) / inter.fps, self._rng, median=self.config.duration == "median"
         )
         return max(start + int(round(total * inter.fps)), t + 1) - 1
+
+    def _row(self, t: int) -> np.ndarray:
+        """The observed parse's interval (start, stop, label) holding frame ``t``."""
+        assert self._rows is not None  # internal invariant: parse == "observed"
+        k = int(np.searchsorted(self._rows[:, 1], t, side="right"))
+        return self._rows[min(k, len(self._rows) - 1)]
 
     def _emit(self, t: int, start: int, last: int, target: np.ndarray) -> None:
         """Write agent 1's key joints for frames [t, t + ΔT) on the way from frame t − 1 to ``target`` at ``last``."""
@@ -296,8 +325,8 @@ class OnlineSynthesizer:
             up = model.vertical_up_[s]  # (2, 11): P(dz > 0) of spatial offsets and of displacements
             W = reference_weights(z, other_side=model.config.other_side_reference)[aff]
             refs = W @ np.nan_to_num(config)  # (A, 3)
-            sp = _draw_vectors(model.spatial_params_[s, aff], up[0, aff], n_sp, self._rng) + refs[None]
-            mo = _draw_vectors(model.motion_params_[s, aff], up[1, aff], N - n_sp, self._rng) + before[aff][None]
+            sp = draw_vectors(model.spatial_params_[s, aff], up[0, aff], n_sp, self._rng) + refs[None]
+            mo = draw_vectors(model.motion_params_[s, aff], up[1, aff], N - n_sp, self._rng) + before[aff][None]
             cand[:, aff] = np.concatenate([sp, mo])
             base = N_KEY
             n_co = int(round(cfg.coherent_fraction * N))
@@ -312,21 +341,33 @@ class OnlineSynthesizer:
         shift = cand[:, base] - prev[0] if base in aff else np.zeros((N, 3))
         static = _AGENT1[self._available[_AGENT1] & ~np.isin(_AGENT1, aff)]
         cand[:, static] = prev[static - N_KEY][None] + shift[:, None]
-        best = self._select(s, z, cand, before, static)
+        prior = None
+        reg = model.end_regression_[s] if cfg.end_prior == "regression" else None
+        if reg is not None:
+            prior = RegressionPrior.at(reg, config, before, self._available)
+            extra = np.repeat(config[None], cfg.prior_samples, axis=0)
+            extra[:, _AGENT1] = prior.draw(cfg.prior_samples, self._rng)
+            cand = np.concatenate([cand, extra])
+        best = self._select(s, z, cand, before, static, prior)
         out = best[_AGENT1].copy()
         out[~self._available[_AGENT1]] = np.nan
         return out
 
 
-    def _score(self, s: int, z: np.ndarray, configs: np.ndarray, before: np.ndarray) -> np.ndarray:
-        """(N,) log spatial + log motion (+ vertical signs) of N configurations (N, 11, 3)."""
+    def _score(
+        self, s: int, z: np.ndarray, configs: np.ndarray, before: np.ndarray, prior: RegressionPrior | None
+    ) -> np.ndarray:
+        """(N,) log spatial + log motion (+ vertical signs, + the regression prior) of N configurations (N, 11, 3)."""
         model = self.model
         disp = configs - before[None]
-        score = model.log_spatial(s, configs) + model.log_motion(s, disp) + _sign_loglik(model, s, z, configs, disp)
+        score = model.log_spatial(s, configs) + model.log_motion(s, disp) + sign_loglik(model, s, z, configs, disp)
+        if prior is not None:
+            score = score + prior.log_density(configs)
         return np.where(np.isnan(score), -np.inf, score)
 
     def _select(
-        self, s: int, z: np.ndarray, cand: np.ndarray, before: np.ndarray, static: np.ndarray
+        self, s: int, z: np.ndarray, cand: np.ndarray, before: np.ndarray, static: np.ndarray,
+        prior: RegressionPrior | None,
     ) -> np.ndarray:
         """The most likely configuration (11, 3) over the candidates and their per-joint recombinations.
 
@@ -334,7 +375,7 @@ class OnlineSynthesizer:
         try each candidate's position of that joint with the others held: a coordinate ascent over
         the N^A combinations of the A sampled joints' draws, on the same objective.
         """
-        score = self._score(s, z, cand, before)
+        score = self._score(s, z, cand, before, prior)
         k = int(np.argmax(score))
         best, best_score = cand[k].copy(), score[k]
         sampled = _AGENT1[z[_AGENT1] > 0]
@@ -346,7 +387,7 @@ class OnlineSynthesizer:
                 trial[:, j] = cand[:, j]
                 if j == base:  # the body moves with its base: static joints follow
                     trial[:, static] = best[static][None] + (cand[:, base] - best[base])[:, None]
-                sc = self._score(s, z, trial, before)
+                sc = self._score(s, z, trial, before, prior)
                 i = int(np.argmax(sc))
                 if sc[i] > best_score + 1e-12:
                     best, best_score, improved = trial[i].copy(), sc[i], True
@@ -354,33 +395,3 @@ class OnlineSynthesizer:
                 break
         return best
 
-
-def _draw_vectors(params: np.ndarray, up: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
-    """(n, K, 3) vectors from K parameter rows (k_h, λ_h, k_v, λ_v, μ, κ) and P(dz > 0) (K,)."""
-    K = params.shape[0]
-    if n == 0:
-        return np.zeros((0, K, 3))
-    kh, lh, kv, lv, mu, kap = np.nan_to_num(params, nan=1.0).T
-    h = lh * rng.weibull(kh, size=(n, K))
-    v = lv * rng.weibull(kv, size=(n, K))
-    sign = np.where(rng.random((n, K)) < up, 1.0, -1.0)
-    th = rng.vonmises(mu, np.maximum(kap, 1e-9), size=(n, K))
-    return np.stack([h * np.cos(th), h * np.sin(th), sign * v], axis=-1)
-
-
-def _sign_loglik(model: SocialAffordanceModel, s: int, z: np.ndarray, cand: np.ndarray, disp: np.ndarray) -> np.ndarray:
-    """(N,) log-probability of the vertical signs of agent 1's offsets and displacements.
-
-    The potentials score |dz| only; the learned frequencies of dz > 0 resolve up from down.
-    """
-    up = np.clip(model.vertical_up_[s], 1e-3, 1 - 1e-3)
-    aff = _AGENT1[z[_AGENT1] > 0]
-    out = np.zeros(cand.shape[0])
-    if aff.size:
-        W = reference_weights(z, other_side=model.config.other_side_reference)[aff]
-        off_z = cand[:, aff, 2] - np.einsum("kj,nj->nk", W, np.nan_to_num(cand[:, :, 2]))
-        out += np.where(off_z > 0, np.log(up[0, aff]), np.log1p(-up[0, aff])).sum(axis=1)
-    moving = _AGENT1[z[_AGENT1] >= 0]
-    if moving.size:
-        out += np.where(disp[:, moving, 2] > 0, np.log(up[1, moving]), np.log1p(-up[1, moving])).sum(axis=1)
-    return out

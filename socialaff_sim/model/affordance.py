@@ -19,6 +19,7 @@ from ..data.interaction import Interaction
 from ..errors import ModelError, NotFittedError, choices
 from .config import AffordanceConfig, default_n_subevents
 from .densities import fit_lognorm, lognorm_logpdf
+from .end_regression import EndRegression, fit_end_regression
 from .features import IntervalFeatures, interval_features, type_samples
 from .frame import CanonicalFrame
 from .joints import JOINT_NAMES, available_joints, canonical_joints, instance_frame
@@ -72,6 +73,11 @@ class SocialAffordanceModel:
     vertical_up_ : (S, 2, 11) float64
         Frequency of dz > 0 of each joint's spatial offset (row 0) and displacement (row 1) per type,
         add-one smoothed: the potentials score |dz|, and synthesis needs to know up from down.
+    path_sigma_ : (S, 11) float64, metres
+        Path-noise σ per type and joint (NaN where unused or without ``config.path_noise``).
+    end_regression_ : list of EndRegression or None
+        Per type, agent 1's end configuration regressed on its context
+        (:mod:`~socialaff_sim.model.end_regression`; ``None`` for a type with fewer than 3 intervals).
     centroids_ : (K, D) float64
         K-means centroids of the atomic intervals (new instances are cut with them).
     parses_ : list of (K_i, 3) int64
@@ -150,6 +156,7 @@ class SocialAffordanceModel:
         mean_end = np.full((S, len(JOINT_NAMES), 3), np.nan)
         vertical_up = np.full((S, 2, len(JOINT_NAMES)), 0.5)
         path_sigma = np.full((S, len(JOINT_NAMES)), np.nan)
+        end_regressions: list[EndRegression | None] = []
         for s in range(S):
             feats = type_samples(tracks, fps, spans, s, cfg.feature_path_profile)
             if len(feats):
@@ -161,6 +168,10 @@ class SocialAffordanceModel:
                 vertical_up[s] = vertical_up_frequencies(feats.end, feats.disp, grouping[s], cfg.other_side_reference)
                 if feats.path_sq is not None and feats.path_n is not None:
                     path_sigma[s] = fit_path_noise(feats.path_sq, feats.path_n, cfg.path_sigma_min, available)[0]
+            end_regressions.append(
+                fit_end_regression(feats.end, feats.end - feats.disp, available, sigma_min=cfg.end_sigma_min)
+                if len(feats) else None
+            )
         start, trans = count_transitions(spans, S)
         self.start_probs_, self.transitions_ = smoothed_probs(
             start, trans, cfg.transition_alpha, cfg.distinct_neighbours
@@ -176,6 +187,7 @@ class SocialAffordanceModel:
         self.mean_end_ = mean_end
         self.vertical_up_ = vertical_up
         self.path_sigma_ = path_sigma
+        self.end_regression_ = end_regressions
 
     # -- learned views -------------------------------------------------------------------------
     def __getattr__(self, name: str) -> object:
@@ -288,6 +300,23 @@ class SocialAffordanceModel:
         spatial = self.log_spatial(s, features.end)
         score = spatial + self.log_motion(s, features.disp) + self.log_duration(s, features.seconds)
         return score + self.log_path(s, features)
+
+    def observed_log_score(self, features: IntervalFeatures, s: int, joints: np.ndarray) -> np.ndarray:
+        """(M,) log motion (+ log path) of the ``joints`` (11,) bool only, plus log duration, of M
+        candidate intervals labelled ``s``: the terms an observed subset of the joints can be scored by
+        alone (spatial potentials need every member of a group)."""
+        s = self._check_s(s)
+        z = self._z(s)
+        z[~np.asarray(joints, bool)] = -1
+        cfg = self.config
+        score = _nan_to_neginf(log_motion(
+            self.potentials(s), z, np.asarray(features.disp, float), cfg.eps,
+            cartesian=cfg.vector_density == "cartesian",
+        )) + self.log_duration(s, features.seconds)
+        if cfg.path_noise and features.path_sq is not None and features.path_n is not None:
+            sigma = np.where(joints, self.path_sigma_[s], np.nan)
+            score = score + path_loglik(features.path_sq, features.path_n, sigma).sum(axis=1)
+        return score
 
     def _z(self, s: int) -> np.ndarray:
         z = self.grouping_[s].copy()

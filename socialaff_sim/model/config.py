@@ -100,6 +100,9 @@ class AffordanceConfig(DictConfig):
     minimum-jerk movement from rest to rest, or ``"linear"``, constant speed."""
     path_sigma_min: float = 0.01
     """Floor of a fitted path-noise σ, metres (1 cm, about the skeleton noise)."""
+    end_sigma_min: float = 0.01
+    """σ_min of the end-configuration regression's residual covariance, metres (our addition, used by
+    synthesis only; :mod:`~socialaff_sim.model.end_regression`)."""
 
     @property
     def feature_path_profile(self) -> str | None:
@@ -114,7 +117,7 @@ class AffordanceConfig(DictConfig):
             raise bad("n_subevents", "None or an integer >= 1")
         if not 0.0 < self.beta < 1.0:
             raise bad("beta", "a probability in (0, 1)")
-        for name in ("gamma", "eps", "shape_min", "shape_max", "kappa_max", "sigma_min", "path_sigma_min"):
+        for name in ("gamma", "eps", "shape_min", "shape_max", "kappa_max", "sigma_min", "path_sigma_min", "end_sigma_min"):
             if not float(getattr(self, name)) > 0:
                 raise bad(name, "a number > 0")
         if self.transition_alpha < 0:

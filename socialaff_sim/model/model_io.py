@@ -15,6 +15,9 @@ Layout (format ``socialaff_sim.affordance_model``, version :data:`MODEL_FORMAT_V
 ``vertical_up`` (S, 2, 11) float64: frequency of dz > 0 of spatial offsets and displacements;
 ``path_sigma`` (S, 11) float64, metres: path-noise σ per type and joint (NaN where unused or
     without ``path_noise``);
+``end_context_mean``, ``end_context_scale`` (S, C), ``end_target_mean`` (S, 15), ``end_coef`` (S, C, 15),
+    ``end_cov`` (S, 15, 15) and ``end_ridge`` (S,) float64: the end-configuration regressions
+    (:mod:`~socialaff_sim.model.end_regression`), all NaN for a type without one;
 ``trace`` (I + 1,) and ``acceptance`` (I,) float64;
 ``parse_rows`` (R, 3) int64 (start frame, stop frame, label) of all training parses, split per
     instance by ``parse_offsets`` (n + 1,) int64.
@@ -38,6 +41,7 @@ from .. import __version__
 from .._atomic import atomic_write_bytes
 from ..errors import ConfigError, ModelFileError
 from .config import AffordanceConfig
+from .end_regression import EndRegression, n_context
 from .joints import JOINT_NAMES, N_JOINTS
 
 if TYPE_CHECKING:
@@ -46,12 +50,13 @@ if TYPE_CHECKING:
 __all__ = ["MODEL_FORMAT", "MODEL_FORMAT_VERSION", "save_model", "load_model"]
 
 MODEL_FORMAT = "socialaff_sim.affordance_model"
-MODEL_FORMAT_VERSION = 2
+MODEL_FORMAT_VERSION = 3
 """Version written into every model file; readers reject other versions."""
 
 _ARRAYS = (
     "available", "grouping", "spatial_params", "motion_params", "duration_params", "transitions",
-    "start_probs", "centroids", "mean_end", "vertical_up", "path_sigma", "trace", "acceptance", "parse_rows", "parse_offsets",
+    "start_probs", "centroids", "mean_end", "vertical_up", "path_sigma", "end_context_mean", "end_context_scale", "end_target_mean", "end_coef", "end_cov", "end_ridge",
+    "trace", "acceptance", "parse_rows", "parse_offsets",
 )
 
 
@@ -89,6 +94,7 @@ def save_model(model: SocialAffordanceModel, path: str | Path) -> Path:
         "mean_end": model.mean_end_,
         "vertical_up": model.vertical_up_,
         "path_sigma": model.path_sigma_,
+        **_end_arrays(model.end_regression_, n_context(model.available_)),
         "trace": np.asarray(model.trace_, float),
         "acceptance": np.asarray(model.acceptance_, float),
         "parse_rows": rows.astype(np.int64).reshape(-1, 3),
@@ -98,6 +104,33 @@ def save_model(model: SocialAffordanceModel, path: str | Path) -> Path:
     np.savez_compressed(buf, **arrays)  # type: ignore[arg-type]
     atomic_write_bytes(path, buf.getvalue())
     return path
+
+
+_END_FIELDS = ("context_mean", "context_scale", "target_mean", "coef", "cov", "ridge")
+
+
+def _end_arrays(regs: list[EndRegression | None], C: int) -> dict[str, np.ndarray]:
+    """The regressions stacked per type, NaN for a type without one."""
+    S = len(regs)
+    shapes = {"context_mean": (C,), "context_scale": (C,), "target_mean": (15,), "coef": (C, 15), "cov": (15, 15), "ridge": ()}
+    out = {k: np.full((S, *shp), np.nan) for k, shp in shapes.items()}
+    for s, reg in enumerate(regs):
+        if reg is not None:
+            for k in _END_FIELDS:
+                out[k][s] = getattr(reg, k)
+    return {f"end_{k}": v for k, v in out.items()}
+
+
+def _end_regressions(a: dict[str, np.ndarray], S: int) -> list[EndRegression | None]:
+    regs: list[EndRegression | None] = []
+    for s in range(S):
+        if np.isnan(a["end_ridge"][s]):
+            regs.append(None)
+            continue
+        fields = {k: a[f"end_{k}"][s].astype(float) for k in _END_FIELDS}
+        fields["ridge"] = float(fields["ridge"])
+        regs.append(EndRegression(**fields))  # type: ignore[arg-type]
+    return regs
 
 
 def _check_shape(path: Path, name: str, arr: np.ndarray, shape: tuple[int | None, ...], kinds: str) -> np.ndarray:
@@ -119,17 +152,22 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     try:
         with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
             present = set(data.files)
-            missing = [k for k in ("meta", *_ARRAYS) if k not in present]
-            if missing:
-                raise ModelFileError(
-                    f"{path}: field {missing[0]!r}: missing (a model file holds 'meta' and {list(_ARRAYS)}); "
-                    "is this a model written by 'socialaff-sim fit'?"
-                )
-            raw = {k: data[k] for k in ("meta", *_ARRAYS)}
+            raw = {k: data[k] for k in ("meta", *_ARRAYS) if k in present}
     except ModelFileError:
         raise
     except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError) as exc:
         raise ModelFileError(f"{path}: not a readable model file (truncated or not an .npz): {exc}") from None
+    missing = [k for k in ("meta", *_ARRAYS) if k not in raw]
+
+    def check_missing() -> None:
+        if missing:
+            raise ModelFileError(
+                f"{path}: field {missing[0]!r}: missing (a model file holds 'meta' and {list(_ARRAYS)}); "
+                "is this a model written by 'socialaff-sim fit'?"
+            )
+
+    if "meta" in missing:
+        check_missing()
     meta_arr = raw["meta"]
     if meta_arr.shape != () or meta_arr.dtype.kind != "U":
         raise ModelFileError(f"{path}: field 'meta': expected a JSON string, found {meta_arr.dtype} {meta_arr.shape}")
@@ -144,6 +182,7 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
             f"{path}: field 'format_version': expected {MODEL_FORMAT_VERSION}, found {meta.get('format_version')!r} "
             f"(written by socialaff_sim {meta.get('package_version', '?')}); re-fit the model with this version"
         )
+    check_missing()
     try:
         config = AffordanceConfig.from_dict(meta["config"])
         learning = LearningConfig.from_dict(meta["learning"])
@@ -166,6 +205,10 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     _check_shape(path, "mean_end", a["mean_end"], (S, J, 3), "f")
     _check_shape(path, "vertical_up", a["vertical_up"], (S, 2, J), "f")
     _check_shape(path, "path_sigma", a["path_sigma"], (S, J), "f")
+    C = n_context(a["available"].astype(bool))
+    for name, shape in (("end_context_mean", (S, C)), ("end_context_scale", (S, C)), ("end_target_mean", (S, 15)),
+                        ("end_coef", (S, C, 15)), ("end_cov", (S, 15, 15)), ("end_ridge", (S,))):
+        _check_shape(path, name, a[name], shape, "f")
     _check_shape(path, "trace", a["trace"], (None,), "f")
     _check_shape(path, "acceptance", a["acceptance"], (None,), "f")
     _check_shape(path, "parse_rows", a["parse_rows"], (None, 3), "iu")
@@ -189,6 +232,7 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     model.mean_end_ = a["mean_end"].astype(float)
     model.vertical_up_ = a["vertical_up"].astype(float)
     model.path_sigma_ = a["path_sigma"].astype(float)
+    model.end_regression_ = _end_regressions(a, S)
     model.trace_ = a["trace"].astype(float)
     model.acceptance_ = a["acceptance"].astype(float)
     rows = a["parse_rows"].astype(np.int64)

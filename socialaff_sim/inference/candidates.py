@@ -1,0 +1,88 @@
+"""Candidate end configurations of agent 1 for Algorithm 2: drawing and the extra score terms.
+
+The spatial and motion potentials score |dz| and a horizontal angle; :func:`draw_vectors` draws
+offsets from them and :func:`sign_loglik` adds the learned up/down frequencies. The optional
+end-configuration regression (:mod:`~socialaff_sim.model.end_regression`) contributes draws
+around its prediction and a joint Gaussian term (:class:`RegressionPrior`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..data.skeletons import N_KEY
+from ..model.end_regression import EndRegression, end_context
+from ..model.potentials import reference_weights
+
+if TYPE_CHECKING:
+    from ..model.affordance import SocialAffordanceModel
+
+__all__ = ["AGENT1", "draw_vectors", "sign_loglik", "RegressionPrior"]
+
+AGENT1 = np.arange(N_KEY, 2 * N_KEY)
+"""Indices of agent 1's key joints among the 11 model joints."""
+
+
+def draw_vectors(params: np.ndarray, up: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, K, 3) vectors from K parameter rows (k_h, λ_h, k_v, λ_v, μ, κ) and P(dz > 0) (K,)."""
+    K = params.shape[0]
+    if n == 0:
+        return np.zeros((0, K, 3))
+    kh, lh, kv, lv, mu, kap = np.nan_to_num(params, nan=1.0).T
+    h = lh * rng.weibull(kh, size=(n, K))
+    v = lv * rng.weibull(kv, size=(n, K))
+    sign = np.where(rng.random((n, K)) < up, 1.0, -1.0)
+    th = rng.vonmises(mu, np.maximum(kap, 1e-9), size=(n, K))
+    return np.stack([h * np.cos(th), h * np.sin(th), sign * v], axis=-1)
+
+
+def sign_loglik(model: SocialAffordanceModel, s: int, z: np.ndarray, cand: np.ndarray, disp: np.ndarray) -> np.ndarray:
+    """(N,) log-probability of the vertical signs of agent 1's offsets and displacements.
+
+    The potentials score |dz| only; the learned frequencies of dz > 0 resolve up from down.
+    """
+    up = np.clip(model.vertical_up_[s], 1e-3, 1 - 1e-3)
+    aff = AGENT1[z[AGENT1] > 0]
+    out = np.zeros(cand.shape[0])
+    if aff.size:
+        W = reference_weights(z, other_side=model.config.other_side_reference)[aff]
+        off_z = cand[:, aff, 2] - np.einsum("kj,nj->nk", W, np.nan_to_num(cand[:, :, 2]))
+        out += np.where(off_z > 0, np.log(up[0, aff]), np.log1p(-up[0, aff])).sum(axis=1)
+    moving = AGENT1[z[AGENT1] >= 0]
+    if moving.size:
+        out += np.where(disp[:, moving, 2] > 0, np.log(up[1, moving]), np.log1p(-up[1, moving])).sum(axis=1)
+    return out
+
+
+@dataclass(frozen=True)
+class RegressionPrior:
+    """The end-configuration regression of one re-planning: its prediction and Gaussian."""
+
+    regression: EndRegression
+    mean: np.ndarray
+    """(5, 3) canonical metres: predicted agent 1 key joints at the end."""
+    anchor: np.ndarray
+    """(3,) canonical metres: agent 0's base at the end (the regression's origin)."""
+
+    @classmethod
+    def at(cls, regression: EndRegression, config: np.ndarray, before: np.ndarray, available: np.ndarray) -> RegressionPrior:
+        """The prior for the end configuration ``config`` (11, 3) (agent 0 and the object as
+        expected at the end) after the previous-frame configuration ``before`` (11, 3)."""
+        ctx = end_context(config[None], before[None], available)
+        mean = regression.predict(ctx)[0].reshape(N_KEY, 3) + config[0]
+        return cls(regression, mean, config[0].copy())
+
+    def draw(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        """(n, 5, 3) agent 1 key-joint configurations from the Gaussian."""
+        L = np.linalg.cholesky(self.regression.cov)
+        eps = rng.standard_normal((n, L.shape[0])) @ L.T
+        return self.mean[None] + eps.reshape(n, N_KEY, 3)
+
+    def log_density(self, configs: np.ndarray) -> np.ndarray:
+        """(N,) log-density of configurations (N, 11, 3) (agent 1's absent joints read as the mean)."""
+        a1 = np.asarray(configs, float)[:, AGENT1]
+        res = np.where(np.isfinite(a1), a1 - self.mean[None], 0.0).reshape(a1.shape[0], -1)
+        return self.regression.log_density(res)

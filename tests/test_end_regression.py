@@ -1,0 +1,186 @@
+"""End-configuration regression (model) and the offline synthesis that uses it with the observed parse."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from socialaff_sim.data.dataset import Dataset
+from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
+from socialaff_sim.errors import ConfigError, ModelError
+from socialaff_sim.evaluation import get_method
+from socialaff_sim.evaluation.protocol import observed_part
+from socialaff_sim.inference import SynthesisConfig, synthesize
+from socialaff_sim.inference.candidates import RegressionPrior
+from socialaff_sim.inference.observed_parse import observed_joints, parse_observed
+from socialaff_sim.learning.config import LearningConfig
+from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.model.end_regression import EndRegression, _ridge, end_context, fit_end_regression, n_context
+
+FAST = LearningConfig(iterations=3)
+
+
+@pytest.fixture(scope="module")
+def shake() -> Dataset:
+    return generate_dataset(0, SyntheticConfig(interactions=("shake_hands",), instances_per_interaction=8))
+
+
+@pytest.fixture(scope="module")
+def model(shake: Dataset) -> SocialAffordanceModel:
+    return SocialAffordanceModel(learning=FAST).fit(list(shake)[:6], rng=np.random.default_rng(0))
+
+
+def _configs(rng: np.random.Generator, M: int, available: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    end = rng.normal(size=(M, 11, 3))
+    before = rng.normal(size=(M, 11, 3))
+    end[:, ~available] = np.nan
+    before[:, ~available] = np.nan
+    return end, before
+
+
+def test_ridge_matches_an_augmented_least_squares(rng: np.random.Generator) -> None:
+    X = rng.normal(size=(12, 5))
+    Y = rng.normal(size=(12, 3))
+    lam = 2.5
+    mean, scale, y_mean, coef = _ridge(X, Y, lam)
+    Z = (X - mean) / scale
+    # Independent reference: ridge is least squares on the system stacked with sqrt(λ) I.
+    A = np.vstack([Z, np.sqrt(lam) * np.eye(5)])
+    B = np.vstack([Y - y_mean, np.zeros((5, 3))])
+    ref = np.linalg.lstsq(A, B, rcond=None)[0]
+    np.testing.assert_allclose(coef, ref, atol=1e-10)
+    np.testing.assert_allclose(mean, X.mean(axis=0), atol=1e-12)
+
+
+def test_regression_recovers_a_planted_linear_relation(rng: np.random.Generator) -> None:
+    available = np.ones(11, bool)
+    available[10] = False
+    end, before = _configs(rng, 40, available)
+    C = n_context(available)
+    ctx = end_context(end, before, available)
+    assert ctx.shape == (40, C)
+    W = rng.normal(scale=0.3, size=(C, 15))
+    target = ctx @ W + 0.001 * rng.normal(size=(40, 15))
+    end[:, 5:10] = target.reshape(40, 5, 3) + end[:, 0:1]
+    reg = fit_end_regression(end, before, available, sigma_min=0.01)
+    assert isinstance(reg, EndRegression)
+    assert reg.ridge <= 1.0  # nearly noiseless: the LOO choice is a small penalty
+    rel = np.linalg.norm(reg.predict(ctx) - target) / np.linalg.norm(target)
+    assert rel < 0.03, rel  # the ridge shrinks a little; pure noise would give ≈ 1
+    assert np.all(np.linalg.eigvalsh(reg.cov) >= 0.01**2 - 1e-12)
+
+
+def test_regression_picks_a_large_penalty_for_pure_noise(rng: np.random.Generator) -> None:
+    available = np.ones(11, bool)
+    end, before = _configs(rng, 15, available)
+    end[:, 5:10] = end[:, 0:1] + rng.normal(size=(15, 5, 3))  # target independent of the context
+    reg = fit_end_regression(end, before, available, sigma_min=0.01)
+    assert reg is not None and reg.ridge >= 100.0
+    assert fit_end_regression(end[:2], before[:2], available, sigma_min=0.01) is None
+
+
+def test_log_density_matches_scipy(rng: np.random.Generator) -> None:
+    A = rng.normal(size=(15, 15))
+    cov = A @ A.T / 15 + 0.01 * np.eye(15)
+    reg = EndRegression(np.zeros(3), np.ones(3), np.zeros(15), np.zeros((3, 15)), cov, 1.0)
+    res = rng.normal(size=(7, 15))
+    np.testing.assert_allclose(reg.log_density(res), stats.multivariate_normal(np.zeros(15), cov).logpdf(res), rtol=1e-10)
+
+
+def test_prior_draws_follow_the_gaussian(model: SocialAffordanceModel, shake: Dataset, rng: np.random.Generator) -> None:
+    s = next(k for k, r in enumerate(model.end_regression_) if r is not None)
+    track = model.canonical_track(shake[7])
+    prior = RegressionPrior.at(model.end_regression_[s], track[30], track[20], model.available_)
+    draws = prior.draw(4000, rng)
+    np.testing.assert_allclose(draws.mean(axis=0), prior.mean, atol=5 * np.sqrt(np.diag(model.end_regression_[s].cov)).max() / np.sqrt(4000) + 1e-3)
+    emp = np.cov(draws.reshape(4000, -1).T)
+    np.testing.assert_allclose(emp, model.end_regression_[s].cov, atol=0.15 * np.abs(model.end_regression_[s].cov).max())
+
+
+def test_model_fits_and_saves_the_regressions(model: SocialAffordanceModel, tmp_path) -> None:  # noqa: ANN001
+    assert len(model.end_regression_) == model.n_subevents_
+    assert any(r is not None for r in model.end_regression_)
+    loaded = SocialAffordanceModel.load(model.save(tmp_path / "m.npz"))
+    for a, b in zip(model.end_regression_, loaded.end_regression_, strict=True):
+        assert (a is None) == (b is None)
+        if a is not None:
+            for name in ("context_mean", "context_scale", "target_mean", "coef", "cov"):
+                np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+            assert a.ridge == b.ridge
+
+
+def _brute_observed(model: SocialAffordanceModel, x: np.ndarray, fps: float, bounds: np.ndarray) -> float:
+    S = model.n_subevents_
+    B = len(bounds) - 1
+    cfg = model.config
+    joints = observed_joints(model)
+    best = -np.inf
+    for k in range(B):
+        for cuts in itertools.combinations(range(1, B), k):
+            pts = [0, *cuts, B]
+            for labels in itertools.product(range(S), repeat=len(pts) - 1):
+                if cfg.distinct_neighbours and S > 1 and any(a == b for a, b in zip(labels, labels[1:])):
+                    continue
+                if cfg.unique_labels and len(set(labels)) < len(labels):
+                    continue
+                score = model.log_start_probs_[labels[0]]
+                score += sum(model.log_transitions_[a, b] for a, b in zip(labels, labels[1:]))
+                for (p, q), s in zip(zip(pts, pts[1:]), labels):
+                    a, b = bounds[p], bounds[q]
+                    if b - a < cfg.min_subevent_seconds * fps:
+                        score = -np.inf
+                        break
+                    f = model.interval_features(x, np.array([a]), np.array([b]), fps)
+                    score += model.observed_log_score(f, s, joints)[0]
+                best = max(best, score)
+    return best
+
+
+def test_observed_parse_matches_brute_force(model: SocialAffordanceModel, shake: Dataset) -> None:
+    inter = shake[7]
+    x = model.canonical_track(inter)[:24].copy()
+    x[:, 5:10] = np.nan  # agent 1 is never read
+    rows = parse_observed(model, x, inter.fps, step=6)
+    xf = np.where(observed_joints(model)[None, :, None], x, 0.0)
+    score = model.log_start_probs_[rows[0, 2]] + sum(model.log_transitions_[a, b] for a, b in zip(rows[:-1, 2], rows[1:, 2]))
+    score += sum(
+        model.observed_log_score(model.interval_features(xf, np.array([a]), np.array([b]), inter.fps), s, observed_joints(model))[0]
+        for a, b, s in rows
+    )
+    brute = _brute_observed(model, xf, inter.fps, np.array([0, 6, 12, 18, 24]))
+    assert np.isclose(score, brute, rtol=0, atol=1e-9)
+    assert rows[0, 0] == 0 and rows[-1, 1] == 24 and np.all(rows[1:, 0] == rows[:-1, 1])
+    with pytest.raises(ModelError, match="observed joints"):
+        parse_observed(model, np.full_like(x, np.nan), inter.fps)
+
+
+def test_offline_synthesis_reads_no_agent1_future_and_is_deterministic(model: SocialAffordanceModel, shake: Dataset) -> None:
+    cfg = SynthesisConfig.offline()
+    inter = shake[7]
+    keys = synthesize(model, observed_part(inter, 10), rng=np.random.default_rng(2), config=cfg)[0]
+    again = synthesize(model, observed_part(inter, 10), rng=np.random.default_rng(2), config=cfg)[0]
+    np.testing.assert_array_equal(keys, again)
+    # Agent 1's recording after T0 is never read: changing it changes nothing.
+    joints = inter.joints.copy()
+    joints[10:, 1] += 0.7
+    moved = synthesize(model, inter.replace(joints=joints), rng=np.random.default_rng(2), config=cfg)[0]
+    np.testing.assert_array_equal(keys, moved)
+    assert np.isfinite(keys).all()
+    gt = inter.key_joints()[:, 1]
+    hold = np.linalg.norm(gt[9][None] - gt[10:], axis=-1).mean()
+    assert np.linalg.norm(keys[10:] - gt[10:], axis=-1).mean() < hold  # better than holding the last pose
+
+
+def test_config_checks_and_methods() -> None:
+    with pytest.raises(ConfigError, match="lookahead"):
+        SynthesisConfig(parse="observed")
+    with pytest.raises(ConfigError, match="'online' or 'observed'"):
+        SynthesisConfig(parse="batch")
+    with pytest.raises(ConfigError, match="'none' or 'regression'"):
+        SynthesisConfig(end_prior="pose")
+    assert get_method("full")().synthesis == SynthesisConfig.offline()
+    online = get_method("full_online")()
+    assert online.name == "full_online" and online.synthesis == SynthesisConfig()
