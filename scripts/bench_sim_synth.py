@@ -9,8 +9,9 @@ key-joint source exactly as ``socialaff-sim simulate --source model`` does
 through ``socialaff_sim.sim.episode.run_episode`` twice, with the same simulator:
 
 * ``gt``: agent 1's recorded key joints (``GroundTruthSource``), the reference;
-* ``synth``: the online synthesis of agent 1's five key joints from the observed human
-  (agent 1's first T0 frames are the recording, the rest is synthesized causally).
+* ``synth``: the synthesis of agent 1's five key joints from the observed human
+  (agent 1's first T0 frames are the recording, the rest is synthesized causally, or with
+  ``--synthesis offline`` after reading the human's whole recording, as the evaluation does).
 
 Each run goes observed human → key joints → human-to-robot scaling → mink IK → MuJoCo
 physics → sub-goal scoring. Per instance: success (every sub-goal met and no failure
@@ -136,7 +137,7 @@ def run_fold(label: str, fold: int, train: list[Interaction], test: list[Interac
         path = model.save(Path(tmp) / f"{label}_fold{fold}.npz")
         if opts["save_models"]:
             model.save(Path(opts["save_models"]) / f"{label}_fold{fold}.npz")
-        sources = {"gt": GroundTruthSource(), "synth": model_source(path)}
+        sources = {"gt": GroundTruthSource(), "synth": model_source(path, offline=opts["synthesis"] == "offline")}
         tic = time.perf_counter()
         for inter in test:
             row: dict[str, Any] = {"instance": inter.instance_id, "interaction": label, "fold": fold,
@@ -230,6 +231,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                     help="run only the first K of those folds (default: all)")
     ap.add_argument("--quick", action="store_true", help="run only the first fold (same as --run-folds 1)")
     ap.add_argument("--iterations", type=int, default=100, help="outer MCMC iterations of Algorithm 1 (default 100)")
+    ap.add_argument("--synthesis", choices=("online", "offline"), default="online",
+                    help="online (default): causal synthesis; offline: reads the human's whole recording first")
     ap.add_argument("--robot", default="ours", help="robot: ours or cmu (default ours)")
     ap.add_argument("--seed", type=int, default=0, help="dataset, split and fitting seed (default 0)")
     ap.add_argument("--max-train", type=int, default=None, help="at most this many training instances per fold")
@@ -256,7 +259,8 @@ def main(argv: list[str] | None = None) -> dict:
     if unknown:
         sys.exit(f"--interactions: unknown {unknown}; valid: {list(data.labels)}")
     n_obs = SynthesisConfig().n_observed
-    opts = {"seed": args.seed, "iterations": args.iterations, "robot": args.robot, "save_models": args.save_models}
+    opts = {"seed": args.seed, "iterations": args.iterations, "robot": args.robot, "save_models": args.save_models,
+            "synthesis": args.synthesis}
     tasks, excluded = [], {}
     for label in labels:
         insts = data.of_label(label).interactions
@@ -295,7 +299,7 @@ def main(argv: list[str] | None = None) -> dict:
           f"({args.workers} worker(s))", flush=True)
     result = {
         "settings": {"seed": args.seed, "folds": args.folds, "folds_run": run_folds, "iterations": args.iterations,
-                     "robot": args.robot, "interactions": labels, "max_train": args.max_train, "max_test": args.max_test,
+                     "robot": args.robot, "synthesis": args.synthesis, "interactions": labels, "max_train": args.max_train, "max_test": args.max_test,
                      "n_observed": n_obs, "workers": args.workers, "target_ratio": TARGET_RATIO,
                      "omp_num_threads": os.environ.get("OMP_NUM_THREADS")},
         "summary": summary,

@@ -18,7 +18,14 @@ from socialaff_sim.inference.candidates import RegressionPrior
 from socialaff_sim.inference.observed_parse import observed_joints, parse_observed
 from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.model.affordance import SocialAffordanceModel
-from socialaff_sim.model.end_regression import EndRegression, _ridge, end_context, fit_end_regression, n_context
+from socialaff_sim.model.end_regression import (
+    EndRegression,
+    _ridge,
+    end_context,
+    fit_end_regression,
+    interval_samples,
+    n_context,
+)
 
 FAST = LearningConfig(iterations=3)
 
@@ -33,12 +40,11 @@ def model(shake: Dataset) -> SocialAffordanceModel:
     return SocialAffordanceModel(learning=FAST).fit(list(shake)[:6], rng=np.random.default_rng(0))
 
 
-def _configs(rng: np.random.Generator, M: int, available: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    end = rng.normal(size=(M, 11, 3))
-    before = rng.normal(size=(M, 11, 3))
-    end[:, ~available] = np.nan
-    before[:, ~available] = np.nan
-    return end, before
+def _configs(rng: np.random.Generator, M: int, available: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    end, before, first = rng.normal(size=(3, M, 11, 3))
+    for x in (end, before, first):
+        x[:, ~available] = np.nan
+    return end, before, first
 
 
 def test_ridge_matches_an_augmented_least_squares(rng: np.random.Generator) -> None:
@@ -58,14 +64,14 @@ def test_ridge_matches_an_augmented_least_squares(rng: np.random.Generator) -> N
 def test_regression_recovers_a_planted_linear_relation(rng: np.random.Generator) -> None:
     available = np.ones(11, bool)
     available[10] = False
-    end, before = _configs(rng, 40, available)
+    end, before, first = _configs(rng, 60, available)
     C = n_context(available)
-    ctx = end_context(end, before, available)
-    assert ctx.shape == (40, C)
+    ctx = end_context(end, before, first, available)
+    assert ctx.shape == (60, C)
     W = rng.normal(scale=0.3, size=(C, 15))
-    target = ctx @ W + 0.001 * rng.normal(size=(40, 15))
-    end[:, 5:10] = target.reshape(40, 5, 3) + end[:, 0:1]
-    reg = fit_end_regression(end, before, available, sigma_min=0.01)
+    target = ctx @ W + 0.001 * rng.normal(size=(60, 15))
+    end[:, 5:10] = target.reshape(60, 5, 3) + end[:, 0:1]
+    reg = fit_end_regression(end, before, first, available, sigma_min=0.01)
     assert isinstance(reg, EndRegression)
     assert reg.ridge <= 1.0  # nearly noiseless: the LOO choice is a small penalty
     rel = np.linalg.norm(reg.predict(ctx) - target) / np.linalg.norm(target)
@@ -75,11 +81,11 @@ def test_regression_recovers_a_planted_linear_relation(rng: np.random.Generator)
 
 def test_regression_picks_a_large_penalty_for_pure_noise(rng: np.random.Generator) -> None:
     available = np.ones(11, bool)
-    end, before = _configs(rng, 15, available)
+    end, before, first = _configs(rng, 15, available)
     end[:, 5:10] = end[:, 0:1] + rng.normal(size=(15, 5, 3))  # target independent of the context
-    reg = fit_end_regression(end, before, available, sigma_min=0.01)
+    reg = fit_end_regression(end, before, first, available, sigma_min=0.01)
     assert reg is not None and reg.ridge >= 100.0
-    assert fit_end_regression(end[:2], before[:2], available, sigma_min=0.01) is None
+    assert fit_end_regression(end[:2], before[:2], first[:2], available, sigma_min=0.01) is None
 
 
 def test_log_density_matches_scipy(rng: np.random.Generator) -> None:
@@ -93,8 +99,9 @@ def test_log_density_matches_scipy(rng: np.random.Generator) -> None:
 def test_prior_draws_follow_the_gaussian(model: SocialAffordanceModel, shake: Dataset, rng: np.random.Generator) -> None:
     s = next(k for k, r in enumerate(model.end_regression_) if r is not None)
     track = model.canonical_track(shake[7])
-    prior = RegressionPrior.at(model.end_regression_[s], track[30], track[20], model.available_)
+    prior = RegressionPrior.at(model.end_regression_[s], track[30], track[20], track[0], model.available_)
     draws = prior.draw(4000, rng)
+    np.testing.assert_array_equal(draws[0], prior.mean)  # the mode is the first candidate
     np.testing.assert_allclose(draws.mean(axis=0), prior.mean, atol=5 * np.sqrt(np.diag(model.end_regression_[s].cov)).max() / np.sqrt(4000) + 1e-3)
     emp = np.cov(draws.reshape(4000, -1).T)
     np.testing.assert_allclose(emp, model.end_regression_[s].cov, atol=0.15 * np.abs(model.end_regression_[s].cov).max())
@@ -184,3 +191,15 @@ def test_config_checks_and_methods() -> None:
     assert get_method("full")().synthesis == SynthesisConfig.offline()
     online = get_method("full_online")()
     assert online.name == "full_online" and online.synthesis == SynthesisConfig()
+
+
+def test_interval_samples_pick_end_previous_and_first_frames(rng: np.random.Generator) -> None:
+    x1, x2 = rng.normal(size=(6, 11, 3)), rng.normal(size=(4, 11, 3))
+    end, before, first = interval_samples([x1, x2], [[(0, 2, 1), (2, 6, 0)], [(0, 4, 1)]], 1)
+    np.testing.assert_array_equal(end, np.stack([x1[1], x2[3]]))
+    np.testing.assert_array_equal(before, np.stack([x1[0], x2[0]]))  # an interval at frame 0 starts from itself
+    np.testing.assert_array_equal(first, np.stack([x1[0], x2[0]]))
+    end0, before0, _ = interval_samples([x1, x2], [[(0, 2, 1), (2, 6, 0)], [(0, 4, 1)]], 0)
+    np.testing.assert_array_equal(end0, x1[5:6])
+    np.testing.assert_array_equal(before0, x1[1:2])
+    assert interval_samples([x1], [[(0, 6, 0)]], 2)[0].shape == (0, 11, 3)

@@ -22,7 +22,7 @@ def _source(args: argparse.Namespace) -> object:
 
     if args.source == "gt":
         return GroundTruthSource()
-    return model_source(args.model)
+    return model_source(args.model, offline=args.synthesis == "offline")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -100,6 +100,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "or the path of a mapping .toml (docs/robots.md); default ours")
     p.add_argument("--source", choices=("model", "gt"), default="model",
                    help="key joints from the affordance model's synthesis, or the recorded agent 1 (gt)")
+    p.add_argument("--synthesis", choices=("online", "offline"), default="online",
+                   help="with --source model: online (default) reacts causally to the human; offline reads the "
+                   "replayed human's whole recording first, as 'evaluate' does")
     p.add_argument("--task", help="task file name or path (default: the one whose interaction matches the instance)")
     p.add_argument("--out", required=True, help="output folder for metrics.json, video.mp4, contact_sheet.png")
     p.add_argument("--no-video", action="store_true", help="skip rendering")

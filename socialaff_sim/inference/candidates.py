@@ -68,17 +68,21 @@ class RegressionPrior:
     """(3,) canonical metres: agent 0's base at the end (the regression's origin)."""
 
     @classmethod
-    def at(cls, regression: EndRegression, config: np.ndarray, before: np.ndarray, available: np.ndarray) -> RegressionPrior:
+    def at(
+        cls, regression: EndRegression, config: np.ndarray, before: np.ndarray, first: np.ndarray, available: np.ndarray
+    ) -> RegressionPrior:
         """The prior for the end configuration ``config`` (11, 3) (agent 0 and the object as
-        expected at the end) after the previous-frame configuration ``before`` (11, 3)."""
-        ctx = end_context(config[None], before[None], available)
+        expected at the end) after the previous-frame configuration ``before`` (11, 3), in an
+        instance that began with ``first`` (11, 3)."""
+        ctx = end_context(config[None], before[None], first[None], available)
         mean = regression.predict(ctx)[0].reshape(N_KEY, 3) + config[0]
         return cls(regression, mean, config[0].copy())
 
     def draw(self, n: int, rng: np.random.Generator) -> np.ndarray:
-        """(n, 5, 3) agent 1 key-joint configurations from the Gaussian."""
+        """(n, 5, 3) agent 1 key-joint configurations: the mean, then n − 1 draws from the Gaussian."""
         L = np.linalg.cholesky(self.regression.cov)
         eps = rng.standard_normal((n, L.shape[0])) @ L.T
+        eps[:1] = 0.0  # the mode itself is always a candidate
         return self.mean[None] + eps.reshape(n, N_KEY, 3)
 
     def log_density(self, configs: np.ndarray) -> np.ndarray:

@@ -170,6 +170,11 @@ class ModelSource:
         return self._cache[-1].belief
 
 
-def key_joint_source(model_path: str | Path, *, seed: int = 0, config: SynthesisConfig | None = None) -> ModelSource:
-    """A :class:`ModelSource` for the model saved at ``model_path``."""
+def key_joint_source(
+    model_path: str | Path, *, seed: int = 0, config: SynthesisConfig | None = None, offline: bool = False
+) -> ModelSource:
+    """A :class:`ModelSource` for the model saved at ``model_path``; ``offline`` (without ``config``) reads
+    the human's whole recorded track (:meth:`SynthesisConfig.offline`), else the synthesis is causal."""
+    if config is None and offline:
+        config = SynthesisConfig.offline()
     return ModelSource(SocialAffordanceModel.load(model_path), seed=seed, config=config)

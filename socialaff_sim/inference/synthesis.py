@@ -344,7 +344,7 @@ class OnlineSynthesizer:
         prior = None
         reg = model.end_regression_[s] if cfg.end_prior == "regression" else None
         if reg is not None:
-            prior = RegressionPrior.at(reg, config, before, self._available)
+            prior = RegressionPrior.at(reg, config, before, self._track[0], self._available)
             extra = np.repeat(config[None], cfg.prior_samples, axis=0)
             extra[:, _AGENT1] = prior.draw(cfg.prior_samples, self._rng)
             cand = np.concatenate([cand, extra])

@@ -19,7 +19,7 @@ from ..data.interaction import Interaction
 from ..errors import ModelError, NotFittedError, choices
 from .config import AffordanceConfig, default_n_subevents
 from .densities import fit_lognorm, lognorm_logpdf
-from .end_regression import EndRegression, fit_end_regression
+from .end_regression import EndRegression, fit_end_regression, interval_samples
 from .features import IntervalFeatures, interval_features, type_samples
 from .frame import CanonicalFrame
 from .joints import JOINT_NAMES, available_joints, canonical_joints, instance_frame
@@ -169,8 +169,7 @@ class SocialAffordanceModel:
                 if feats.path_sq is not None and feats.path_n is not None:
                     path_sigma[s] = fit_path_noise(feats.path_sq, feats.path_n, cfg.path_sigma_min, available)[0]
             end_regressions.append(
-                fit_end_regression(feats.end, feats.end - feats.disp, available, sigma_min=cfg.end_sigma_min)
-                if len(feats) else None
+                fit_end_regression(*interval_samples(tracks, spans, s), available, sigma_min=cfg.end_sigma_min)
             )
         start, trans = count_transitions(spans, S)
         self.start_probs_, self.transitions_ = smoothed_probs(

@@ -7,7 +7,9 @@ from the interval's context to agent 1's end configuration, with a Gaussian resi
 
 Context (all relative to the anchor, agent 0's base at the interval's end, canonical metres):
 agent 0's other four key joints at the end, the object at the end (when the model uses one),
-agent 1's five key joints on the frame before the interval, and the anchor itself.
+agent 1's five key joints on the frame before the interval and on the instance's first frame
+(always observed: in synthesis it keeps the errors of earlier sub-events from compounding),
+and the anchor itself.
 Target: agent 1's five key joints at the end relative to the anchor, flattened to 15 values.
 
 The ridge penalty λ is chosen per type by leave-one-out error over a fixed grid; the residual
@@ -24,7 +26,7 @@ import numpy as np
 from ..data.skeletons import N_KEY
 from .joints import OBJECT
 
-__all__ = ["EndRegression", "RIDGE_GRID", "end_context", "fit_end_regression", "n_context"]
+__all__ = ["EndRegression", "RIDGE_GRID", "end_context", "fit_end_regression", "interval_samples", "n_context"]
 
 RIDGE_GRID = (0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1e3, 1e4, 1e6)
 """λ values tried (on standardized context)."""
@@ -34,19 +36,34 @@ _TARGET = 3 * N_KEY
 
 def n_context(available: np.ndarray) -> int:
     """Length of the context vector for a model using the joints ``available`` (11,)."""
-    return 3 * ((N_KEY - 1) + N_KEY + 1 + int(bool(available[OBJECT])))
+    return 3 * ((N_KEY - 1) + 2 * N_KEY + 1 + int(bool(available[OBJECT])))
 
 
-def end_context(end: np.ndarray, before: np.ndarray, available: np.ndarray) -> np.ndarray:
-    """(M, C) context of M intervals from their end (M, 11, 3) and previous-frame (M, 11, 3)
-    configurations, canonical metres; absent joints read as 0 (they are absent in every sample)."""
+def interval_samples(
+    tracks: list[np.ndarray], spans: list[list[tuple[int, int, int]]], s: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """End, previous-frame and first-frame configurations (M, 11, 3) of every interval labelled ``s``
+    in the parses ``spans`` (rows start, stop exclusive, label) of canonical ``tracks`` (T_i, 11, 3)."""
+    rows = [(x[b - 1], x[max(a - 1, 0)], x[0]) for x, sp in zip(tracks, spans, strict=True) for a, b, lab in sp if lab == s]
+    if not rows:
+        empty = np.zeros((0, tracks[0].shape[1] if tracks else 11, 3))
+        return empty, empty.copy(), empty.copy()
+    end, before, first = (np.stack(c) for c in zip(*rows))
+    return end, before, first
+
+
+def end_context(end: np.ndarray, before: np.ndarray, first: np.ndarray, available: np.ndarray) -> np.ndarray:
+    """(M, C) context of M intervals from their end, previous-frame and instance-first-frame
+    configurations (each (M, 11, 3), canonical metres); absent joints read as 0 (they are absent in
+    every sample)."""
     end = np.asarray(end, float)
-    before = np.asarray(before, float)
     anchor = end[:, 0:1]
     parts = [end[:, 1:N_KEY] - anchor]
     if available[OBJECT]:
         parts.append(end[:, OBJECT : OBJECT + 1] - anchor)
-    parts += [before[:, N_KEY : 2 * N_KEY] - anchor, anchor]
+    for cfg in (before, first):
+        parts.append(np.asarray(cfg, float)[:, N_KEY : 2 * N_KEY] - anchor)
+    parts.append(anchor)
     return np.nan_to_num(np.concatenate([p.reshape(end.shape[0], -1) for p in parts], axis=1))
 
 
@@ -97,11 +114,12 @@ def _ridge(context: np.ndarray, target: np.ndarray, lam: float) -> tuple[np.ndar
 
 
 def fit_end_regression(
-    end: np.ndarray, before: np.ndarray, available: np.ndarray, *, sigma_min: float, grid: tuple[float, ...] = RIDGE_GRID
+    end: np.ndarray, before: np.ndarray, first: np.ndarray, available: np.ndarray, *, sigma_min: float,
+    grid: tuple[float, ...] = RIDGE_GRID,
 ) -> EndRegression | None:
-    """Fit one type's regression from M ≥ 3 intervals' end and previous-frame configurations
-    (M, 11, 3) canonical metres; ``None`` with fewer intervals."""
-    X = end_context(end, before, available)
+    """Fit one type's regression from M ≥ 3 intervals' end, previous-frame and instance-first-frame
+    configurations (M, 11, 3) canonical metres; ``None`` with fewer intervals."""
+    X = end_context(end, before, first, available)
     Y = _target(end)
     M = X.shape[0]
     if M < 3:

@@ -76,8 +76,11 @@ class GroundTruthSource:
         return SourceFrame(self._keys[t].copy(), self._sub[t])
 
 
-def model_source(model_path: str | Path | None) -> KeyJointSource:
+def model_source(model_path: str | Path | None, *, offline: bool = False) -> KeyJointSource:
     """The affordance model's online synthesis as a :class:`KeyJointSource`.
+
+    ``offline``: the synthesis reads the replayed human's whole recorded track
+    (``SynthesisConfig.offline()``, as the evaluation does) instead of reacting causally.
 
     It comes from ``socialaff_sim.inference.synthesis.key_joint_source(model_path)``;
     a clear :class:`SimulationError` says so when that module or function is not
@@ -104,7 +107,7 @@ def model_source(model_path: str | Path | None) -> KeyJointSource:
             f"{SYNTHESIS_MODULE} has no {SYNTHESIS_HOOK}(model_path) returning a KeyJointSource; "
             "use --source gt to replay the recorded agent 1"
         )
-    source = hook(path)
+    source = hook(path, offline=True) if offline else hook(path)
     if not isinstance(source, KeyJointSource):
         raise SimulationError(f"{SYNTHESIS_MODULE}.{SYNTHESIS_HOOK} returned {type(source).__name__}, "
                               "which lacks reset(interaction) and targets(t)")
