@@ -4,7 +4,10 @@ Fits one model per synthetic interaction on 18 instances (the learning settings 
 flag; synthesis speed does not depend on them), then synthesizes agent 1 for the 6
 held-out instances and reports frames per second and the key-joint error.
 
-    OMP_NUM_THREADS=1 python scripts/bench_synthesis.py [--iterations 100] [--seed 0] [--json PATH]
+    OMP_NUM_THREADS=1 python scripts/bench_synthesis.py [--synthesis offline|online] [--iterations 100] [--seed 0] [--json PATH]
+
+``--synthesis offline`` (default) is ``SynthesisConfig.offline()``, as ``socialaff-sim evaluate`` runs the
+model; ``online`` is the paper's causal Algorithm 2 (``SynthesisConfig()``), as the simulator runs it.
 
 ``--json PATH`` also writes the table to PATH (atomically).
 """
@@ -34,6 +37,7 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=100, help="outer MCMC iterations of the fitted models")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--interactions", nargs="*", default=list(INTERACTIONS))
+    parser.add_argument("--synthesis", choices=("offline", "online"), default="offline")
     parser.add_argument("--json", default=None, help="also write the table here (atomically)")
     args = parser.parse_args()
     data = generate_dataset(args.seed)
@@ -46,18 +50,20 @@ def main() -> None:
         rng = np.random.default_rng(args.seed)
         model = SocialAffordanceModel(learning=LearningConfig(iterations=args.iterations)).fit(train, rng=rng)
         body = BodyFitter().fit_interactions(train, agent=1, rng=rng)
-        cfg = SynthesisConfig()
+        cfg = SynthesisConfig.offline() if args.synthesis == "offline" else SynthesisConfig()
         frames = 0
         errs = []
         start = time.perf_counter()
         for k, inter in enumerate(test):
-            keys, _, subs, _ = synthesize(model, observed_part(inter, cfg.n_observed), rng=np.random.default_rng(k))
+            keys, _, subs, _ = synthesize(
+                model, observed_part(inter, cfg.n_observed), rng=np.random.default_rng(k), config=cfg
+            )
             frames += inter.n_frames - cfg.n_observed
         secs = time.perf_counter() - start
         start = time.perf_counter()
         for k, inter in enumerate(test):
             keys, skel, subs, _ = synthesize(
-                model, observed_part(inter, cfg.n_observed), rng=np.random.default_rng(k), body=body
+                model, observed_part(inter, cfg.n_observed), rng=np.random.default_rng(k), body=body, config=cfg
             )
             pred = Prediction(joints=skel, key_joints=keys, subevents=subs, n_observed=cfg.n_observed)
             errs.append(key_joint_error(pred, inter))
@@ -72,7 +78,7 @@ def main() -> None:
                        "key_joint_error_m": float(np.mean(errs)), "frames_per_s_with_skeleton": frames / secs_body}
     print(f"{'all':<14}{int(total_frames):>8}{total_secs:>9.2f}{total_frames / total_secs:>10.0f}")
     if args.json:
-        result = {"seed": args.seed, "iterations": args.iterations, "n_observed": SynthesisConfig().n_observed,
+        result = {"seed": args.seed, "iterations": args.iterations, "synthesis": args.synthesis, "n_observed": SynthesisConfig().n_observed,
                   "seconds_clock": "wall (time.perf_counter)", "interactions": rows,
                   "all": {"frames": int(total_frames), "seconds": total_secs, "frames_per_s": total_frames / total_secs}}
         atomic_write_text(args.json, json.dumps(result, indent=2))
