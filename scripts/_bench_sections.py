@@ -53,11 +53,16 @@ def _learning(runs: list[Run], quick: bool) -> list[str]:
     return out
 
 
+def _failed(run: Run) -> list[str]:
+    """Lines reporting a command that failed, with its error."""
+    return [f"`{run.shown}` **failed**:", "", "```", run.error, "```", ""]
+
+
 def _synthesis(runs: list[Run], quick: bool) -> list[str]:
     out: list[str] = []
     for run in runs:
         if not run.ok:
-            out += [f"`{run.shown}` **failed**:", "", "```", run.error, "```", ""]
+            out += _failed(run)
             continue
         d = run.data
         mode = d.get("synthesis", "online")
@@ -155,7 +160,7 @@ def _demo(runs: list[Run], quick: bool) -> list[str]:
 def _experiment(ev: Run, quick: bool, *, synthetic: bool) -> list[str]:
     """Table and verdicts of one ``socialaff-sim evaluate`` run."""
     if not ev.ok:
-        return [f"`{ev.shown}` **failed**:", "", "```", ev.error, "```", ""]
+        return _failed(ev)
     d = ev.data
     per, avg = d["per_interaction"], d["average"]
     labels = list(per)
@@ -189,7 +194,7 @@ def _simsynth(runs: list[Run], quick: bool) -> list[str]:
     out: list[str] = []
     for run in runs:
         if not run.ok:
-            out += [f"`{run.shown}` **failed**:", "", "```", run.error, "```", ""]
+            out += _failed(run)
             continue
         d = run.data
         st = d["settings"]
@@ -231,5 +236,5 @@ def _accuracy(runs: list[Run], quick: bool) -> list[str]:
         out += table(["dataset", *methods, "wall s"], rows)
         out += [f"- {name}: skipped, {why}" for name, why in d["skipped"].items()]
     else:
-        out += [f"`{bl.shown}` **failed**:", "", "```", bl.error, "```"]
+        out += _failed(bl)[:-1]
     return out

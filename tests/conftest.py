@@ -39,6 +39,38 @@ def rng(seed: int) -> np.random.Generator:
     return np.random.default_rng(seed)
 
 
+@pytest.fixture(scope="session")
+def shake8():  # noqa: ANN201 (Dataset, imported lazily)
+    """Eight synthetic shake_hands instances (seed 0), shared by the synthesis tests."""
+    from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
+
+    return generate_dataset(0, SyntheticConfig(interactions=("shake_hands",), instances_per_interaction=8))
+
+
+@pytest.fixture(scope="session")
+def shake8_model(shake8):  # noqa: ANN001, ANN201
+    """A model fitted on the first six of :func:`shake8` with 3 MCMC iterations (seed 0)."""
+    from socialaff_sim.learning.config import LearningConfig
+    from socialaff_sim.model.affordance import SocialAffordanceModel
+
+    return SocialAffordanceModel(learning=LearningConfig(iterations=3)).fit(list(shake8)[:6], rng=np.random.default_rng(0))
+
+
+def labelled_partitions(B: int, S: int, *, distinct: bool, unique: bool):  # noqa: ANN201 (Iterator)
+    """Every parse of B cut-point intervals: (points, labels) with points 0 = p_0 < … < p_K = B, for brute force."""
+    import itertools
+
+    for k in range(B):
+        for cuts in itertools.combinations(range(1, B), k):
+            pts = [0, *cuts, B]
+            for labels in itertools.product(range(S), repeat=len(pts) - 1):
+                if distinct and S > 1 and any(a == b for a, b in zip(labels, labels[1:])):
+                    continue
+                if unique and len(set(labels)) < len(labels):
+                    continue
+                yield pts, labels
+
+
 @pytest.fixture
 def fake_rospy(monkeypatch: pytest.MonkeyPatch) -> type:
     """A stand-in ``rospy.rostime.Time`` (state [secs, nsecs], like genpy) so tests can write such pickles."""

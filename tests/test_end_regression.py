@@ -2,21 +2,18 @@
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 import pytest
+from conftest import labelled_partitions
 from scipy import stats
 
 from socialaff_sim.data.dataset import Dataset
-from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError, ModelError
 from socialaff_sim.evaluation import get_method
 from socialaff_sim.evaluation.protocol import observed_part
 from socialaff_sim.inference import SynthesisConfig, synthesize
 from socialaff_sim.inference.candidates import RegressionPrior
 from socialaff_sim.inference.observed_parse import observed_joints, parse_observed
-from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.model.affordance import SocialAffordanceModel
 from socialaff_sim.model.end_regression import (
     EndRegression,
@@ -27,17 +24,16 @@ from socialaff_sim.model.end_regression import (
     n_context,
 )
 
-FAST = LearningConfig(iterations=3)
 
 
 @pytest.fixture(scope="module")
-def shake() -> Dataset:
-    return generate_dataset(0, SyntheticConfig(interactions=("shake_hands",), instances_per_interaction=8))
+def shake(shake8: Dataset) -> Dataset:
+    return shake8
 
 
 @pytest.fixture(scope="module")
-def model(shake: Dataset) -> SocialAffordanceModel:
-    return SocialAffordanceModel(learning=FAST).fit(list(shake)[:6], rng=np.random.default_rng(0))
+def model(shake8_model: SocialAffordanceModel) -> SocialAffordanceModel:
+    return shake8_model
 
 
 def _configs(rng: np.random.Generator, M: int, available: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -125,24 +121,17 @@ def _brute_observed(model: SocialAffordanceModel, x: np.ndarray, fps: float, bou
     cfg = model.config
     joints = observed_joints(model)
     best = -np.inf
-    for k in range(B):
-        for cuts in itertools.combinations(range(1, B), k):
-            pts = [0, *cuts, B]
-            for labels in itertools.product(range(S), repeat=len(pts) - 1):
-                if cfg.distinct_neighbours and S > 1 and any(a == b for a, b in zip(labels, labels[1:])):
-                    continue
-                if cfg.unique_labels and len(set(labels)) < len(labels):
-                    continue
-                score = model.log_start_probs_[labels[0]]
-                score += sum(model.log_transitions_[a, b] for a, b in zip(labels, labels[1:]))
-                for (p, q), s in zip(zip(pts, pts[1:]), labels):
-                    a, b = bounds[p], bounds[q]
-                    if b - a < cfg.min_subevent_seconds * fps:
-                        score = -np.inf
-                        break
-                    f = model.interval_features(x, np.array([a]), np.array([b]), fps)
-                    score += model.observed_log_score(f, s, joints)[0]
-                best = max(best, score)
+    for pts, labels in labelled_partitions(B, S, distinct=cfg.distinct_neighbours, unique=cfg.unique_labels):
+        score = model.log_start_probs_[labels[0]]
+        score += sum(model.log_transitions_[a, b] for a, b in zip(labels, labels[1:]))
+        for (p, q), s in zip(zip(pts, pts[1:]), labels):
+            a, b = bounds[p], bounds[q]
+            if b - a < cfg.min_subevent_seconds * fps:
+                score = -np.inf
+                break
+            f = model.interval_features(x, np.array([a]), np.array([b]), fps)
+            score += model.observed_log_score(f, s, joints)[0]
+        best = max(best, score)
     return best
 
 

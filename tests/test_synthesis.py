@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 import pytest
+from conftest import labelled_partitions
 from scipy import stats
 
 from socialaff_sim.data.dataset import Dataset
-from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError, ModelError, NotFittedError
 from socialaff_sim.evaluation import get_method
 from socialaff_sim.evaluation.protocol import observed_part
@@ -31,13 +29,13 @@ FAST = LearningConfig(iterations=3)
 
 
 @pytest.fixture(scope="module")
-def shake() -> Dataset:
-    return generate_dataset(0, SyntheticConfig(interactions=("shake_hands",), instances_per_interaction=8))
+def shake(shake8: Dataset) -> Dataset:
+    return shake8
 
 
 @pytest.fixture(scope="module")
-def model(shake: Dataset) -> SocialAffordanceModel:
-    return SocialAffordanceModel(learning=FAST).fit(list(shake)[:6], rng=np.random.default_rng(0))
+def model(shake8_model: SocialAffordanceModel) -> SocialAffordanceModel:
+    return shake8_model
 
 
 @pytest.fixture(scope="module")
@@ -51,24 +49,17 @@ def _brute_force(model: SocialAffordanceModel, track: np.ndarray, fps: float, bo
     B = len(bounds) - 1
     cfg = model.config
     best = np.full(S, -np.inf)
-    for k in range(B):  # number of inner cut points used
-        for cuts in itertools.combinations(range(1, B), k):
-            pts = [0, *cuts, B]
-            for labels in itertools.product(range(S), repeat=len(pts) - 1):
-                if cfg.distinct_neighbours and S > 1 and any(a == b for a, b in zip(labels, labels[1:])):
-                    continue
-                if cfg.unique_labels and len(set(labels)) < len(labels):
-                    continue
-                score = model.log_start_probs_[labels[0]]
-                score += sum(model.log_transitions_[a, b] for a, b in zip(labels, labels[1:]))
-                for (p, q), s in zip(zip(pts, pts[1:]), labels):
-                    a, b = bounds[p], bounds[q]
-                    if q < B:
-                        f = model.interval_features(track, np.array([a]), np.array([b]), fps)
-                        score += model.interval_log_score(f, s)[0]
-                    else:
-                        score += log_duration_survival(model, s, np.array([(b - a) / fps]))[0]
-                best[labels[-1]] = max(best[labels[-1]], score)
+    for pts, labels in labelled_partitions(B, S, distinct=cfg.distinct_neighbours, unique=cfg.unique_labels):
+        score = model.log_start_probs_[labels[0]]
+        score += sum(model.log_transitions_[a, b] for a, b in zip(labels, labels[1:]))
+        for (p, q), s in zip(zip(pts, pts[1:]), labels):
+            a, b = bounds[p], bounds[q]
+            if q < B:
+                f = model.interval_features(track, np.array([a]), np.array([b]), fps)
+                score += model.interval_log_score(f, s)[0]
+            else:
+                score += log_duration_survival(model, s, np.array([(b - a) / fps]))[0]
+        best[labels[-1]] = max(best[labels[-1]], score)
     return best
 
 
