@@ -13,6 +13,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from collections.abc import Iterator
+
     from benchmark import Run
 
 
@@ -58,12 +60,18 @@ def _failed(run: Run) -> list[str]:
     return [f"`{run.shown}` **failed**:", "", "```", run.error, "```", ""]
 
 
+def _ok_runs(runs: list[Run], out: list[str]) -> Iterator[Run]:
+    """The runs that succeeded; each failed one is reported into ``out`` instead."""
+    for run in runs:
+        if run.ok:
+            yield run
+        else:
+            out += _failed(run)
+
+
 def _synthesis(runs: list[Run], quick: bool) -> list[str]:
     out: list[str] = []
-    for run in runs:
-        if not run.ok:
-            out += _failed(run)
-            continue
+    for run in _ok_runs(runs, out):
         d = run.data
         mode = d.get("synthesis", "online")
         rows = [[label, str(r["frames"]), f(r["frames_per_s"], ".0f"), f(r["frames_per_s_with_skeleton"], ".0f"),
@@ -192,10 +200,7 @@ def _experiment(ev: Run, quick: bool, *, synthetic: bool) -> list[str]:
 
 def _simsynth(runs: list[Run], quick: bool) -> list[str]:
     out: list[str] = []
-    for run in runs:
-        if not run.ok:
-            out += _failed(run)
-            continue
+    for run in _ok_runs(runs, out):
         d = run.data
         st = d["settings"]
         mode = st.get("synthesis", "online")
