@@ -15,14 +15,9 @@ from socialaff_sim.inference import SynthesisConfig, synthesize
 from socialaff_sim.inference.candidates import RegressionPrior
 from socialaff_sim.inference.observed_parse import observed_joints, parse_observed
 from socialaff_sim.model.affordance import SocialAffordanceModel
-from socialaff_sim.model.end_regression import (
-    EndRegression,
-    _ridge,
-    end_context,
-    fit_end_regression,
-    interval_samples,
-    n_context,
-)
+from socialaff_sim.model.end_regression import end_context, fit_end_regression, interval_samples, n_context
+from socialaff_sim.model.frame_regression import fit_frame_regression, frame_context, frame_samples, n_frame_context
+from socialaff_sim.model.ridge import RidgeRegression, fit_ridge, ridge_solve
 
 
 
@@ -47,7 +42,7 @@ def test_ridge_matches_an_augmented_least_squares(rng: np.random.Generator) -> N
     X = rng.normal(size=(12, 5))
     Y = rng.normal(size=(12, 3))
     lam = 2.5
-    mean, scale, y_mean, coef = _ridge(X, Y, lam)
+    mean, scale, y_mean, coef = ridge_solve(X, Y, lam)
     Z = (X - mean) / scale
     # Independent reference: ridge is least squares on the system stacked with sqrt(λ) I.
     A = np.vstack([Z, np.sqrt(lam) * np.eye(5)])
@@ -68,7 +63,7 @@ def test_regression_recovers_a_planted_linear_relation(rng: np.random.Generator)
     target = ctx @ W + 0.001 * rng.normal(size=(60, 15))
     end[:, 5:10] = target.reshape(60, 5, 3) + end[:, 0:1]
     reg = fit_end_regression(end, before, first, available, sigma_min=0.01)
-    assert isinstance(reg, EndRegression)
+    assert isinstance(reg, RidgeRegression)
     assert reg.ridge <= 1.0  # nearly noiseless: the LOO choice is a small penalty
     rel = np.linalg.norm(reg.predict(ctx) - target) / np.linalg.norm(target)
     assert rel < 0.03, rel  # the ridge shrinks a little; pure noise would give ≈ 1
@@ -87,7 +82,7 @@ def test_regression_picks_a_large_penalty_for_pure_noise(rng: np.random.Generato
 def test_log_density_matches_scipy(rng: np.random.Generator) -> None:
     A = rng.normal(size=(15, 15))
     cov = A @ A.T / 15 + 0.01 * np.eye(15)
-    reg = EndRegression(np.zeros(3), np.ones(3), np.zeros(15), np.zeros((3, 15)), cov, 1.0)
+    reg = RidgeRegression(np.zeros(3), np.ones(3), np.zeros(15), np.zeros((3, 15)), cov, 1.0)
     res = rng.normal(size=(7, 15))
     np.testing.assert_allclose(reg.log_density(res), stats.multivariate_normal(np.zeros(15), cov).logpdf(res), rtol=1e-10)
 
@@ -104,10 +99,13 @@ def test_prior_draws_follow_the_gaussian(model: SocialAffordanceModel, shake: Da
 
 
 def test_model_fits_and_saves_the_regressions(model: SocialAffordanceModel, tmp_path) -> None:  # noqa: ANN001
-    assert len(model.end_regression_) == model.n_subevents_
+    assert len(model.end_regression_) == len(model.frame_regression_) == model.n_subevents_
     assert any(r is not None for r in model.end_regression_)
+    assert any(r is not None for r in model.frame_regression_)
     loaded = SocialAffordanceModel.load(model.save(tmp_path / "m.npz"))
-    for a, b in zip(model.end_regression_, loaded.end_regression_, strict=True):
+    pairs = [*zip(model.end_regression_, loaded.end_regression_, strict=True),
+             *zip(model.frame_regression_, loaded.frame_regression_, strict=True)]
+    for a, b in pairs:
         assert (a is None) == (b is None)
         if a is not None:
             for name in ("context_mean", "context_scale", "target_mean", "coef", "cov"):
@@ -177,6 +175,9 @@ def test_config_checks_and_methods() -> None:
         SynthesisConfig(parse="batch")
     with pytest.raises(ConfigError, match="'none' or 'regression'"):
         SynthesisConfig(end_prior="pose")
+    with pytest.raises(ConfigError, match="frame_weight"):
+        SynthesisConfig(frame_weight=1.5)
+    assert SynthesisConfig.reactive().frame_weight == 0.5 and not SynthesisConfig.reactive().lookahead
     assert get_method("full")().synthesis == SynthesisConfig.offline()
     online = get_method("full_online")()
     assert online.name == "full_online" and online.synthesis == SynthesisConfig()
@@ -192,3 +193,62 @@ def test_interval_samples_pick_end_previous_and_first_frames(rng: np.random.Gene
     np.testing.assert_array_equal(end0, x1[5:6])
     np.testing.assert_array_equal(before0, x1[1:2])
     assert interval_samples([x1], [[(0, 6, 0)]], 2)[0].shape == (0, 11, 3)
+
+
+def test_group_held_out_error_picks_the_penalty_a_manual_loop_picks(rng: np.random.Generator) -> None:
+    X = rng.normal(size=(30, 4))
+    Y = X @ rng.normal(size=(4, 2)) + 0.5 * rng.normal(size=(30, 2))
+    groups = np.repeat(np.arange(6), 5)
+    grid = (0.01, 1.0, 100.0)
+    reg = fit_ridge(X, Y, groups, sigma_min=0.01, grid=grid)
+    errs = []
+    for lam in grid:  # independent loop: held-out squared error per group
+        sq = 0.0
+        for g in range(6):
+            tr, te = groups != g, groups == g
+            Xs, Ys = X[tr], Y[tr]
+            mu, sd, ym = Xs.mean(0), Xs.std(0), Ys.mean(0)
+            B = np.linalg.lstsq(np.vstack([(Xs - mu) / sd, np.sqrt(lam) * np.eye(4)]),
+                                np.vstack([Ys - ym, np.zeros((4, 2))]), rcond=None)[0]
+            sq += (((X[te] - mu) / sd @ B + ym - Y[te]) ** 2).sum()
+        errs.append(sq)
+    assert reg.ridge == grid[int(np.argmin(errs))]
+
+
+def test_frame_samples_and_a_planted_frame_relation(rng: np.random.Generator) -> None:
+    x1, x2 = rng.normal(size=(6, 11, 3)), rng.normal(size=(5, 11, 3))
+    frames, first, phase, groups = frame_samples([x1, x2], [[(0, 2, 1), (2, 6, 0)], [(1, 5, 0)]], 0)
+    np.testing.assert_array_equal(frames, np.concatenate([x1[2:6], x2[1:5]]))
+    np.testing.assert_array_equal(first, np.concatenate([np.repeat(x1[:1], 4, 0), np.repeat(x2[:1], 4, 0)]))
+    np.testing.assert_allclose(phase, [0.25, 0.5, 0.75, 1.0] * 2, atol=1e-12)
+    np.testing.assert_array_equal(groups, [0] * 4 + [1] * 4)
+    # Agent 1 a linear function of the frame context: recovered.
+    available = np.ones(11, bool)
+    M = 80
+    frames = rng.normal(size=(M, 11, 3))
+    first = rng.normal(size=(M, 11, 3))
+    phase = rng.random(M)
+    ctx = frame_context(frames, first, phase, available)
+    assert ctx.shape == (M, n_frame_context(available))
+    target = ctx @ rng.normal(scale=0.3, size=(ctx.shape[1], 15))
+    frames[:, 5:10] = target.reshape(M, 5, 3) + frames[:, 0:1]
+    reg = fit_frame_regression(frames, first, phase, np.arange(M) % 8, available, sigma_min=0.01)
+    assert reg is not None
+    rel = np.linalg.norm(reg.predict(ctx) - target) / np.linalg.norm(target)
+    assert rel < 0.03, rel
+    assert fit_frame_regression(frames, first, phase, np.arange(M) % 2, available, sigma_min=0.01) is None
+
+
+def test_frame_blend_keeps_the_track_continuous_and_causal(model: SocialAffordanceModel, shake: Dataset) -> None:
+    cfg = SynthesisConfig.reactive()
+    inter = observed_part(shake[7], 10)
+    keys = synthesize(model, inter, rng=np.random.default_rng(4), config=cfg)[0]
+    steps = np.linalg.norm(np.diff(keys, axis=0), axis=-1)
+    assert steps[9:].max() < 0.25  # no jump at T0 or at a re-planning (the fading offset starts at the last pose)
+    cut = 25
+    joints = inter.joints.copy()
+    joints[cut:, 0] += np.array([0.5, -0.3, 0.2])
+    moved = synthesize(model, inter.replace(joints=joints), rng=np.random.default_rng(4), config=cfg)[0]
+    np.testing.assert_array_equal(keys[: cut + 1], moved[: cut + 1])
+    plain = synthesize(model, inter, rng=np.random.default_rng(4), config=SynthesisConfig())[0]
+    assert not np.allclose(plain[10:], keys[10:])  # the frame regression does take part

@@ -203,14 +203,14 @@ def test_load_models_checks_labels(model, tmp_path):
 def test_model_adapter_drives_the_synthesizer(model, data):
     """With a model, the proposal is the online synthesis (T0 frames copied from agent 1), the belief
     the synthesizer's, and the affordance term the model's spatial potential."""
-    from socialaff_sim.inference.synthesis import OnlineSynthesizer
+    from socialaff_sim.inference.synthesis import OnlineSynthesizer, SynthesisConfig
 
     inter = data.of_label("hand_over")[2]
     env = SocialAffordanceEnv(data=[inter], model={"hand_over": model}, action_mode="residual", max_frames=16)
     assert isinstance(env.adapter, ModelAdapter)
     assert env.observation_space["subevent_belief"].shape == (model.n_subevents_,)
     obs, info = env.reset(seed=4)
-    syn = OnlineSynthesizer(model)
+    syn = OnlineSynthesizer(model, None, SynthesisConfig.reactive())  # the adapter's default
     syn.reset(env.pool.instances[0], rng=np.random.default_rng(env._adapter_seed))
     steps = [syn.step() for _ in range(16)]
     t, scored = 0, 0

@@ -178,7 +178,7 @@ def test_model_source_replays_the_synthesizer(model: SocialAffordanceModel, shak
     inter = shake[7]
     source.reset(inter)
     frames = [source.targets(t) for t in range(inter.n_frames)]
-    keys = synthesize(model, inter, rng=np.random.default_rng(3))[0]
+    keys = synthesize(model, inter, rng=np.random.default_rng(3), config=SynthesisConfig.reactive())[0]
     np.testing.assert_allclose(np.stack([f.keys for f in frames]), keys, atol=1e-12)
     assert frames[0].subevent is None and frames[-1].subevent in model.subevent_names_
     np.testing.assert_allclose(source.belief.sum(), 1.0, atol=1e-9)

@@ -101,7 +101,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--source", choices=("model", "gt"), default="model",
                    help="key joints from the affordance model's synthesis, or the recorded agent 1 (gt)")
     p.add_argument("--synthesis", choices=("online", "offline"), default="online",
-                   help="with --source model: online (default) reacts causally to the human; offline reads the "
+                   help="with --source model: online (default) reacts causally to the human (SynthesisConfig.reactive()); offline reads the "
                    "replayed human's whole recording first, as 'evaluate' does")
     p.add_argument("--task", help="task file name or path (default: the one whose interaction matches the instance)")
     p.add_argument("--out", required=True, help="output folder for metrics.json, video.mp4, contact_sheet.png")

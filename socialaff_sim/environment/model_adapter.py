@@ -134,14 +134,15 @@ class ModelAdapter:
     """A fitted model's online synthesis (proposal, belief) and spatial potentials (reward).
 
     The synthesizer (:class:`~socialaff_sim.inference.synthesis.OnlineSynthesizer`, Algorithm 2,
-    without the full-body fit) copies agent 1's first T0 frames from the recording and then plans
+    without the full-body fit; by default ``SynthesisConfig.reactive()``, causal) copies agent 1's first T0 frames from the recording and then plans
     every ΔT frames from agent 0 and the object observed so far; its belief is uniform and its
     sub-event unknown (−1) over those T0 frames. Instances must be longer than T0.
     """
 
     def __init__(self, models: Mapping[str, SocialAffordanceModel], config: SynthesisConfig | None = None) -> None:
-        from ..inference.synthesis import OnlineSynthesizer  # noqa: PLC0415 (inference is only needed with a model)
+        from ..inference.synthesis import OnlineSynthesizer, SynthesisConfig  # noqa: PLC0415 (inference is only needed with a model)
 
+        config = config or SynthesisConfig.reactive()
         self.scorer = ModelScorer(models)
         self._synth = {lbl: OnlineSynthesizer(m, None, config) for lbl, m in self.scorer.models.items()}
         self._current: Any = None

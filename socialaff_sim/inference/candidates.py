@@ -14,7 +14,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..data.skeletons import N_KEY
-from ..model.end_regression import EndRegression, end_context
+from ..model.end_regression import end_context
+from ..model.ridge import RidgeRegression
 from ..model.potentials import reference_weights
 
 if TYPE_CHECKING:
@@ -61,7 +62,7 @@ def sign_loglik(model: SocialAffordanceModel, s: int, z: np.ndarray, cand: np.nd
 class RegressionPrior:
     """The end-configuration regression of one re-planning: its prediction and Gaussian."""
 
-    regression: EndRegression
+    regression: RidgeRegression
     mean: np.ndarray
     """(5, 3) canonical metres: predicted agent 1 key joints at the end."""
     anchor: np.ndarray
@@ -69,7 +70,7 @@ class RegressionPrior:
 
     @classmethod
     def at(
-        cls, regression: EndRegression, config: np.ndarray, before: np.ndarray, first: np.ndarray, available: np.ndarray
+        cls, regression: RidgeRegression, config: np.ndarray, before: np.ndarray, first: np.ndarray, available: np.ndarray
     ) -> RegressionPrior:
         """The prior for the end configuration ``config`` (11, 3) (agent 0 and the object as
         expected at the end) after the previous-frame configuration ``before`` (11, 3), in an

@@ -133,7 +133,7 @@ class ModelSource:
     def __init__(self, model: SocialAffordanceModel, *, seed: int = 0, config: SynthesisConfig | None = None) -> None:
         self.model = model
         self.seed = seed
-        self.config = config or SynthesisConfig()
+        self.config = config or SynthesisConfig.reactive()
         self._syn: OnlineSynthesizer | None = None
         self._cache: list = []
 
@@ -174,7 +174,8 @@ def key_joint_source(
     model_path: str | Path, *, seed: int = 0, config: SynthesisConfig | None = None, offline: bool = False
 ) -> ModelSource:
     """A :class:`ModelSource` for the model saved at ``model_path``; ``offline`` (without ``config``) reads
-    the human's whole recorded track (:meth:`SynthesisConfig.offline`), else the synthesis is causal."""
+    the human's whole recorded track (:meth:`SynthesisConfig.offline`), else the synthesis is causal
+    (:meth:`SynthesisConfig.reactive`)."""
     if config is None and offline:
         config = SynthesisConfig.offline()
     return ModelSource(SocialAffordanceModel.load(model_path), seed=seed, config=config)

@@ -36,11 +36,14 @@ import numpy as np
 
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
-from ..errors import ConfigError, ModelError, choices
+from ..errors import ModelError
 from ..learning.atomic import cut_atoms
 from ..model.potentials import reference_weights
 from .candidates import AGENT1 as _AGENT1
+from ..model.frame_regression import frame_context
+from ..model.ridge import RidgeRegression
 from .candidates import RegressionPrior, draw_vectors, sign_loglik
+from .synthesis_config import SynthesisConfig
 from .timing import remaining_fraction, sample_remaining_seconds
 from .observed_parse import parse_observed
 from .online_parse import PrefixParse, parse_prefix
@@ -52,88 +55,6 @@ if TYPE_CHECKING:
 __all__ = ["SynthesisConfig", "SynthesisStep", "OnlineSynthesizer", "sample_remaining_seconds", "remaining_fraction"]
 
 _OTHERS = np.r_[np.arange(N_KEY), 2 * N_KEY]
-_DURATION_MODES = ("sample", "median")
-_INTERPOLATIONS = ("linear", "minjerk")
-_PARSES = ("online", "observed")
-_END_PRIORS = ("none", "regression")
-
-
-@dataclass(frozen=True)
-class SynthesisConfig:
-    """Settings of Algorithm 2 with the paper's defaults; change them with ``dataclasses.replace``."""
-
-    n_observed: int = 10
-    """T0, frames of both agents observed before synthesis starts."""
-    delta_t: int = 5
-    """ΔT, frames synthesized between two re-plannings."""
-    n_samples: int = 100
-    """N, candidate key-joint configurations drawn per re-planning."""
-    spatial_fraction: float = 0.5
-    """Share of the N candidates drawn around the spatial references (the rest from the motion potential)."""
-    duration: str = "sample"
-    """How the remaining duration is chosen: ``"sample"`` (the paper) or ``"median"`` of the conditional log-normal."""
-    coherent_fraction: float = 0.0
-    """Share of the N candidates whose non-base joints each, with probability ½, keep their offset from agent 1's
-    base (they move with the drawn base) instead of their own draw: body-coherent candidates, so the potentials of
-    all joints inform the body's position (0: every joint drawn independently, as in the paper)."""
-    refine_sweeps: int = 0
-    """Sweeps of per-joint coordinate ascent over the drawn candidates; 0 keeps the best whole draw, as in the
-    paper (on the synthetic data two sweeps tripled the cost without lowering the error)."""
-    interpolation: str = "linear"
-    """Time profile of the way from agent 1's last synthesized pose to the planned end configuration:
-    ``"linear"`` (the paper) or ``"minjerk"``, the rest of the minimum-jerk profile 10v³ − 15v⁴ + 6v⁵ of the
-    running sub-event (v = elapsed fraction from its anchor frame to its predicted end), the profile the
-    model's path-noise term assumes."""
-    lookahead: bool = False
-    """Use agent 0's (and the object's) recorded position at the predicted end for the spatial
-    references instead of the latest observed one (offline evaluation only; the simulator is causal)."""
-    parse: str = "online"
-    """How the running sub-event and its end are found: ``"online"`` (the paper), a DP over the frames
-    so far and a duration drawn from the log-normal prior; or ``"observed"``, one DP over agent 0's
-    (and the object's) whole recorded track before synthesis starts
-    (:func:`~socialaff_sim.inference.observed_parse.parse_observed`; offline only, needs ``lookahead``)."""
-    observed_parse_step: int = 2
-    """Frames between the cut points of the ``"observed"`` parse."""
-    end_prior: str = "none"
-    """``"regression"``: also score candidates by the model's end-configuration regression, a Gaussian
-    over agent 1's five key joints jointly (:mod:`~socialaff_sim.model.end_regression`), and draw
-    ``prior_samples`` more candidates from it; ``"none"``: the paper's potentials alone."""
-    prior_samples: int = 50
-    """Candidates drawn from the end-configuration regression, on top of the N, when ``end_prior`` is on."""
-
-    def __post_init__(self) -> None:
-        if self.n_observed < 2:
-            raise ConfigError(f"n_observed (T0): expected at least 2 frames, found {self.n_observed}")
-        if self.delta_t < 1:
-            raise ConfigError(f"delta_t (ΔT): expected at least 1 frame, found {self.delta_t}")
-        if self.n_samples < 1:
-            raise ConfigError(f"n_samples (N): expected at least 1, found {self.n_samples}")
-        if not 0.0 <= self.coherent_fraction <= 1.0:
-            raise ConfigError(f"coherent_fraction: expected a value in [0, 1], found {self.coherent_fraction}")
-        if not 0.0 <= self.spatial_fraction <= 1.0:
-            raise ConfigError(f"spatial_fraction: expected a value in [0, 1], found {self.spatial_fraction}")
-        if self.interpolation not in _INTERPOLATIONS:
-            raise ConfigError(f"interpolation: expected {choices(_INTERPOLATIONS)}, found {self.interpolation!r}")
-        if self.parse not in _PARSES:
-            raise ConfigError(f"parse: expected {choices(_PARSES)}, found {self.parse!r}")
-        if self.parse == "observed" and not self.lookahead:
-            raise ConfigError("parse='observed' reads agent 0's recorded future: it needs lookahead=True (offline evaluation)")
-        if self.end_prior not in _END_PRIORS:
-            raise ConfigError(f"end_prior: expected {choices(_END_PRIORS)}, found {self.end_prior!r}")
-        if self.observed_parse_step < 1 or self.prior_samples < 0:
-            raise ConfigError(
-                f"observed_parse_step, prior_samples: expected >= 1 and >= 0, found {self.observed_parse_step}, {self.prior_samples}"
-            )
-        if self.duration not in _DURATION_MODES:
-            raise ConfigError(f"duration: expected {choices(_DURATION_MODES)}, found {self.duration!r}")
-
-    @classmethod
-    def offline(cls, **changes: object) -> SynthesisConfig:
-        """The settings for an offline evaluation, where agent 0's whole track is given (as to every
-        method of the protocol): lookahead, the ``"observed"`` parse, the end-configuration regression
-        and minimum-jerk interpolation. ``SynthesisConfig()`` is the paper's causal Algorithm 2."""
-        base = dict(lookahead=True, parse="observed", end_prior="regression", interpolation="minjerk")
-        return cls(**{**base, **changes})  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)
@@ -253,7 +174,7 @@ class OnlineSynthesizer:
         s, start = self._current(t)
         last = self._end_frame(s, start, t)
         target = self._best_configuration(s, t, start, last)
-        self._emit(t, start, last, target)
+        self._emit(t, s, start, last, target)
 
     def _current(self, t: int) -> tuple[int, int]:
         """The running sub-event and its first frame, from the online parse of frames [0, t)."""
@@ -293,8 +214,9 @@ class OnlineSynthesizer:
         k = int(np.searchsorted(self._rows[:, 1], t, side="right"))
         return self._rows[min(k, len(self._rows) - 1)]
 
-    def _emit(self, t: int, start: int, last: int, target: np.ndarray) -> None:
-        """Write agent 1's key joints for frames [t, t + ΔT) on the way from frame t − 1 to ``target`` at ``last``."""
+    def _emit(self, t: int, s: int, start: int, last: int, target: np.ndarray) -> None:
+        """Write agent 1's key joints for frames [t, t + ΔT) on the way from frame t − 1 to ``target`` at ``last``
+        (blended with the frame regression of sub-event ``s`` begun at ``start`` when ``frame_weight`` > 0)."""
         cfg = self.config
         stop = min(t + cfg.delta_t, self._track.shape[0])
         prev = self._track[t - 1, _AGENT1]
@@ -303,8 +225,31 @@ class OnlineSynthesizer:
             w = remaining_fraction(frames, t - 1, max(start - 1, 0), last)
         else:
             w = ((frames - (t - 1)) / max(last - (t - 1), 1)).clip(0.0, 1.0)
-        self._track[t:stop, _AGENT1] = prev[None] + w[:, None, None] * (target - prev)[None]
+        path = prev[None] + w[:, None, None] * (target - prev)[None]
+        reg = self.model.frame_regression_[s] if cfg.frame_weight > 0 else None
+        if reg is not None:
+            path = (1.0 - cfg.frame_weight) * path + cfg.frame_weight * self._frame_prediction(reg, t, stop, start, last, prev)
+        self._track[t:stop, _AGENT1] = path
         self._planned_until = stop
+
+    def _frame_prediction(
+        self, reg: RidgeRegression, t: int, stop: int, start: int, last: int, prev: np.ndarray
+    ) -> np.ndarray:
+        """(F, 5, 3) canonical: the frame regression over frames [t, stop), shifted to start at ``prev``
+        (agent 1 at t − 1) with the shift fading over ``frame_decay`` frames. Agent 0 is read at each
+        frame with ``lookahead``, else at its latest observed frame t − 1."""
+        cfg = self.config
+        frames = np.arange(t - 1, stop)
+        seen = frames if cfg.lookahead else np.minimum(frames, t - 1)
+        config = np.empty((frames.size, 2 * N_KEY + 1, 3))
+        config[:, _OTHERS] = self._others[seen]
+        phase = ((frames - start + 1) / max(last - start + 1, 1)).clip(0.0, 1.0)
+        first = np.repeat(self._track[:1], frames.size, axis=0)
+        ctx = frame_context(config, first, phase, self._available)
+        pred = reg.predict(ctx).reshape(-1, N_KEY, 3) + config[:, 0:1]
+        fade = np.exp(-(frames[1:] - (t - 1)) / cfg.frame_decay)[:, None, None]
+        out = pred[1:] + fade * (np.nan_to_num(prev) - pred[0])[None]
+        return np.where(np.isfinite(prev)[None], out, np.nan)
 
     def _best_configuration(self, s: int, t: int, start: int, last: int) -> np.ndarray:
         """(5, 3) canonical: agent 1's key joints at frame ``last``, the best of N candidates."""

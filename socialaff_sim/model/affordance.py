@@ -19,7 +19,9 @@ from ..data.interaction import Interaction
 from ..errors import ModelError, NotFittedError, choices
 from .config import AffordanceConfig, default_n_subevents
 from .densities import fit_lognorm, lognorm_logpdf
-from .end_regression import EndRegression, fit_end_regression, interval_samples
+from .end_regression import fit_end_regression, interval_samples
+from .frame_regression import fit_frame_regression, frame_samples
+from .ridge import RidgeRegression
 from .features import IntervalFeatures, interval_features, type_samples
 from .frame import CanonicalFrame
 from .joints import JOINT_NAMES, available_joints, canonical_joints, instance_frame
@@ -75,9 +77,12 @@ class SocialAffordanceModel:
         add-one smoothed: the potentials score |dz|, and synthesis needs to know up from down.
     path_sigma_ : (S, 11) float64, metres
         Path-noise σ per type and joint (NaN where unused or without ``config.path_noise``).
-    end_regression_ : list of EndRegression or None
+    end_regression_ : list of RidgeRegression or None
         Per type, agent 1's end configuration regressed on its context
         (:mod:`~socialaff_sim.model.end_regression`; ``None`` for a type with fewer than 3 intervals).
+    frame_regression_ : list of RidgeRegression or None
+        Per type, agent 1's configuration at each frame regressed on agent 0's at that frame
+        (:mod:`~socialaff_sim.model.frame_regression`; ``None`` for a type seen in fewer than 3 instances).
     centroids_ : (K, D) float64
         K-means centroids of the atomic intervals (new instances are cut with them).
     parses_ : list of (K_i, 3) int64
@@ -156,7 +161,8 @@ class SocialAffordanceModel:
         mean_end = np.full((S, len(JOINT_NAMES), 3), np.nan)
         vertical_up = np.full((S, 2, len(JOINT_NAMES)), 0.5)
         path_sigma = np.full((S, len(JOINT_NAMES)), np.nan)
-        end_regressions: list[EndRegression | None] = []
+        end_regressions: list[RidgeRegression | None] = []
+        frame_regressions: list[RidgeRegression | None] = []
         for s in range(S):
             feats = type_samples(tracks, fps, spans, s, cfg.feature_path_profile)
             if len(feats):
@@ -168,9 +174,9 @@ class SocialAffordanceModel:
                 vertical_up[s] = vertical_up_frequencies(feats.end, feats.disp, grouping[s], cfg.other_side_reference)
                 if feats.path_sq is not None and feats.path_n is not None:
                     path_sigma[s] = fit_path_noise(feats.path_sq, feats.path_n, cfg.path_sigma_min, available)[0]
-            end_regressions.append(
-                fit_end_regression(*interval_samples(tracks, spans, s), available, sigma_min=cfg.end_sigma_min)
-            )
+            sig = cfg.end_sigma_min
+            end_regressions.append(fit_end_regression(*interval_samples(tracks, spans, s), available, sigma_min=sig))
+            frame_regressions.append(fit_frame_regression(*frame_samples(tracks, spans, s), available, sigma_min=sig))
         start, trans = count_transitions(spans, S)
         self.start_probs_, self.transitions_ = smoothed_probs(
             start, trans, cfg.transition_alpha, cfg.distinct_neighbours
@@ -187,6 +193,7 @@ class SocialAffordanceModel:
         self.vertical_up_ = vertical_up
         self.path_sigma_ = path_sigma
         self.end_regression_ = end_regressions
+        self.frame_regression_ = frame_regressions
 
     # -- learned views -------------------------------------------------------------------------
     def __getattr__(self, name: str) -> object:

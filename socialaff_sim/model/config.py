@@ -101,8 +101,8 @@ class AffordanceConfig(DictConfig):
     path_sigma_min: float = 0.01
     """Floor of a fitted path-noise σ, metres (1 cm, about the skeleton noise)."""
     end_sigma_min: float = 0.01
-    """σ_min of the end-configuration regression's residual covariance, metres (our addition, used by
-    synthesis only; :mod:`~socialaff_sim.model.end_regression`)."""
+    """σ_min of the end-configuration and frame regressions' residual covariances, metres (our addition,
+    used by synthesis only; :mod:`~socialaff_sim.model.end_regression`, :mod:`~socialaff_sim.model.frame_regression`)."""
 
     @property
     def feature_path_profile(self) -> str | None:

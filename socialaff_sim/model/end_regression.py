@@ -12,26 +12,19 @@ agent 1's five key joints on the frame before the interval and on the instance's
 and the anchor itself.
 Target: agent 1's five key joints at the end relative to the anchor, flattened to 15 values.
 
-The ridge penalty λ is chosen per type by leave-one-out error over a fixed grid; the residual
-covariance is the leave-one-out residuals' covariance shrunk halfway to its diagonal, plus
-σ_min² on the diagonal.
+The ridge penalty λ is chosen per type by leave-one-out error (:func:`~socialaff_sim.model.ridge.fit_ridge`).
 """
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..data.skeletons import N_KEY
 from .joints import OBJECT
+from .ridge import RidgeRegression, fit_ridge
 
-__all__ = ["EndRegression", "RIDGE_GRID", "end_context", "fit_end_regression", "interval_samples", "n_context"]
+__all__ = ["end_context", "fit_end_regression", "interval_samples", "n_context"]
 
-RIDGE_GRID = (0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1e3, 1e4, 1e6)
-"""λ values tried (on standardized context)."""
-
-_TARGET = 3 * N_KEY
 
 
 def n_context(available: np.ndarray) -> int:
@@ -73,50 +66,9 @@ def _target(end: np.ndarray) -> np.ndarray:
     return np.nan_to_num((end[:, N_KEY : 2 * N_KEY] - end[:, 0:1]).reshape(end.shape[0], -1))
 
 
-@dataclass(frozen=True)
-class EndRegression:
-    """The fitted regression of one sub-event type."""
-
-    context_mean: np.ndarray
-    """(C,) mean of the training context."""
-    context_scale: np.ndarray
-    """(C,) standard deviation of the training context (1 where constant)."""
-    target_mean: np.ndarray
-    """(15,) metres: mean target."""
-    coef: np.ndarray
-    """(C, 15): coefficients on the standardized context."""
-    cov: np.ndarray
-    """(15, 15) metres²: residual covariance."""
-    ridge: float
-    """λ, the ridge penalty chosen by leave-one-out error."""
-
-    def predict(self, context: np.ndarray) -> np.ndarray:
-        """(M, 15) mean target of contexts (M, C)."""
-        z = (np.asarray(context, float) - self.context_mean) / self.context_scale
-        return z @ self.coef + self.target_mean
-
-    def log_density(self, residual: np.ndarray) -> np.ndarray:
-        """(M,) Gaussian log-density of residuals (M, 15) under ``cov``."""
-        L = np.linalg.cholesky(self.cov)
-        y = np.linalg.solve(L, np.asarray(residual, float).T)
-        logdet = 2.0 * np.log(np.diag(L)).sum()
-        return -0.5 * ((y**2).sum(axis=0) + logdet + self.cov.shape[0] * np.log(2.0 * np.pi))
-
-
-def _ridge(context: np.ndarray, target: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    mean = context.mean(axis=0)
-    scale = context.std(axis=0)
-    scale = np.where(scale > 1e-9, scale, 1.0)
-    z = (context - mean) / scale
-    y_mean = target.mean(axis=0)
-    coef = np.linalg.solve(z.T @ z + lam * np.eye(z.shape[1]), z.T @ (target - y_mean))
-    return mean, scale, y_mean, coef
-
-
 def fit_end_regression(
-    end: np.ndarray, before: np.ndarray, first: np.ndarray, available: np.ndarray, *, sigma_min: float,
-    grid: tuple[float, ...] = RIDGE_GRID,
-) -> EndRegression | None:
+    end: np.ndarray, before: np.ndarray, first: np.ndarray, available: np.ndarray, *, sigma_min: float
+) -> RidgeRegression | None:
     """Fit one type's regression from M ≥ 3 intervals' end, previous-frame and instance-first-frame
     configurations (M, 11, 3) canonical metres; ``None`` with fewer intervals."""
     X = end_context(end, before, first, available)
@@ -124,19 +76,4 @@ def fit_end_regression(
     M = X.shape[0]
     if M < 3:
         return None
-    best: tuple[float, float, np.ndarray] | None = None
-    for lam in grid:
-        res = np.empty_like(Y)
-        for i in range(M):  # leave-one-out: M small solves of size C
-            keep = np.arange(M) != i
-            mean, scale, y_mean, coef = _ridge(X[keep], Y[keep], lam)
-            res[i] = Y[i] - (((X[i] - mean) / scale) @ coef + y_mean)
-        err = float(np.mean(res**2))
-        if best is None or err < best[0]:
-            best = (err, lam, res)
-    assert best is not None  # grid is non-empty
-    _, lam, res = best
-    mean, scale, y_mean, coef = _ridge(X, Y, lam)
-    S = res.T @ res / M
-    cov = 0.5 * S + 0.5 * np.diag(np.diag(S)) + sigma_min**2 * np.eye(_TARGET)
-    return EndRegression(mean, scale, y_mean, coef, cov, float(lam))
+    return fit_ridge(X, Y, np.arange(M), sigma_min=sigma_min)

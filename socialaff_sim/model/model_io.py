@@ -18,6 +18,9 @@ Layout (format ``socialaff_sim.affordance_model``, version :data:`MODEL_FORMAT_V
 ``end_context_mean``, ``end_context_scale`` (S, C), ``end_target_mean`` (S, 15), ``end_coef`` (S, C, 15),
     ``end_cov`` (S, 15, 15) and ``end_ridge`` (S,) float64: the end-configuration regressions
     (:mod:`~socialaff_sim.model.end_regression`), all NaN for a type without one;
+``frame_context_mean``, ``frame_context_scale`` (S, C'), ``frame_target_mean`` (S, 15), ``frame_coef`` (S, C', 15),
+    ``frame_cov`` (S, 15, 15) and ``frame_ridge`` (S,) float64: the frame regressions
+    (:mod:`~socialaff_sim.model.frame_regression`), likewise;
 ``trace`` (I + 1,) and ``acceptance`` (I,) float64;
 ``parse_rows`` (R, 3) int64 (start frame, stop frame, label) of all training parses, split per
     instance by ``parse_offsets`` (n + 1,) int64.
@@ -41,7 +44,9 @@ from .. import __version__
 from .._atomic import atomic_write_bytes
 from ..errors import ConfigError, ModelFileError
 from .config import AffordanceConfig
-from .end_regression import EndRegression, n_context
+from .end_regression import n_context
+from .frame_regression import n_frame_context
+from .ridge import RidgeRegression
 from .joints import JOINT_NAMES, N_JOINTS
 
 if TYPE_CHECKING:
@@ -56,7 +61,7 @@ MODEL_FORMAT_VERSION = 3
 _ARRAYS = (
     "available", "grouping", "spatial_params", "motion_params", "duration_params", "transitions",
     "start_probs", "centroids", "mean_end", "vertical_up", "path_sigma", "end_context_mean", "end_context_scale", "end_target_mean", "end_coef", "end_cov", "end_ridge",
-    "trace", "acceptance", "parse_rows", "parse_offsets",
+    "frame_context_mean", "frame_context_scale", "frame_target_mean", "frame_coef", "frame_cov", "frame_ridge", "trace", "acceptance", "parse_rows", "parse_offsets",
 )
 
 
@@ -94,7 +99,8 @@ def save_model(model: SocialAffordanceModel, path: str | Path) -> Path:
         "mean_end": model.mean_end_,
         "vertical_up": model.vertical_up_,
         "path_sigma": model.path_sigma_,
-        **_end_arrays(model.end_regression_, n_context(model.available_)),
+        **_ridge_arrays("end", model.end_regression_, n_context(model.available_)),
+        **_ridge_arrays("frame", model.frame_regression_, n_frame_context(model.available_)),
         "trace": np.asarray(model.trace_, float),
         "acceptance": np.asarray(model.acceptance_, float),
         "parse_rows": rows.astype(np.int64).reshape(-1, 3),
@@ -106,30 +112,30 @@ def save_model(model: SocialAffordanceModel, path: str | Path) -> Path:
     return path
 
 
-_END_FIELDS = ("context_mean", "context_scale", "target_mean", "coef", "cov", "ridge")
+_RIDGE_FIELDS = ("context_mean", "context_scale", "target_mean", "coef", "cov", "ridge")
 
 
-def _end_arrays(regs: list[EndRegression | None], C: int) -> dict[str, np.ndarray]:
-    """The regressions stacked per type, NaN for a type without one."""
+def _ridge_arrays(prefix: str, regs: list[RidgeRegression | None], C: int) -> dict[str, np.ndarray]:
+    """The regressions stacked per type, NaN for a type without one, keys ``<prefix>_<field>``."""
     S = len(regs)
     shapes = {"context_mean": (C,), "context_scale": (C,), "target_mean": (15,), "coef": (C, 15), "cov": (15, 15), "ridge": ()}
     out = {k: np.full((S, *shp), np.nan) for k, shp in shapes.items()}
     for s, reg in enumerate(regs):
         if reg is not None:
-            for k in _END_FIELDS:
+            for k in _RIDGE_FIELDS:
                 out[k][s] = getattr(reg, k)
-    return {f"end_{k}": v for k, v in out.items()}
+    return {f"{prefix}_{k}": v for k, v in out.items()}
 
 
-def _end_regressions(a: dict[str, np.ndarray], S: int) -> list[EndRegression | None]:
-    regs: list[EndRegression | None] = []
+def _ridge_regressions(prefix: str, a: dict[str, np.ndarray], S: int) -> list[RidgeRegression | None]:
+    regs: list[RidgeRegression | None] = []
     for s in range(S):
-        if np.isnan(a["end_ridge"][s]):
+        if np.isnan(a[f"{prefix}_ridge"][s]):
             regs.append(None)
             continue
-        fields = {k: a[f"end_{k}"][s].astype(float) for k in _END_FIELDS}
+        fields = {k: a[f"{prefix}_{k}"][s].astype(float) for k in _RIDGE_FIELDS}
         fields["ridge"] = float(fields["ridge"])
-        regs.append(EndRegression(**fields))  # type: ignore[arg-type]
+        regs.append(RidgeRegression(**fields))  # type: ignore[arg-type]
     return regs
 
 
@@ -205,10 +211,11 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     _check_shape(path, "mean_end", a["mean_end"], (S, J, 3), "f")
     _check_shape(path, "vertical_up", a["vertical_up"], (S, 2, J), "f")
     _check_shape(path, "path_sigma", a["path_sigma"], (S, J), "f")
-    C = n_context(a["available"].astype(bool))
-    for name, shape in (("end_context_mean", (S, C)), ("end_context_scale", (S, C)), ("end_target_mean", (S, 15)),
-                        ("end_coef", (S, C, 15)), ("end_cov", (S, 15, 15)), ("end_ridge", (S,))):
-        _check_shape(path, name, a[name], shape, "f")
+    avail = a["available"].astype(bool)
+    for prefix, C in (("end", n_context(avail)), ("frame", n_frame_context(avail))):
+        for name, shape in (("context_mean", (S, C)), ("context_scale", (S, C)), ("target_mean", (S, 15)),
+                            ("coef", (S, C, 15)), ("cov", (S, 15, 15)), ("ridge", (S,))):
+            _check_shape(path, f"{prefix}_{name}", a[f"{prefix}_{name}"], shape, "f")
     _check_shape(path, "trace", a["trace"], (None,), "f")
     _check_shape(path, "acceptance", a["acceptance"], (None,), "f")
     _check_shape(path, "parse_rows", a["parse_rows"], (None, 3), "iu")
@@ -232,7 +239,8 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     model.mean_end_ = a["mean_end"].astype(float)
     model.vertical_up_ = a["vertical_up"].astype(float)
     model.path_sigma_ = a["path_sigma"].astype(float)
-    model.end_regression_ = _end_regressions(a, S)
+    model.end_regression_ = _ridge_regressions("end", a, S)
+    model.frame_regression_ = _ridge_regressions("frame", a, S)
     model.trace_ = a["trace"].astype(float)
     model.acceptance_ = a["acceptance"].astype(float)
     rows = a["parse_rows"].astype(np.int64)

@@ -1,0 +1,110 @@
+"""Settings of the online synthesizer (Algorithm 2), with the paper's defaults and two presets."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..errors import ConfigError, choices
+
+__all__ = ["SynthesisConfig"]
+
+_DURATION_MODES = ("sample", "median")
+_INTERPOLATIONS = ("linear", "minjerk")
+_PARSES = ("online", "observed")
+_END_PRIORS = ("none", "regression")
+
+
+@dataclass(frozen=True)
+class SynthesisConfig:
+    """Settings of Algorithm 2 with the paper's defaults; change them with ``dataclasses.replace``."""
+
+    n_observed: int = 10
+    """T0, frames of both agents observed before synthesis starts."""
+    delta_t: int = 5
+    """ΔT, frames synthesized between two re-plannings."""
+    n_samples: int = 100
+    """N, candidate key-joint configurations drawn per re-planning."""
+    spatial_fraction: float = 0.5
+    """Share of the N candidates drawn around the spatial references (the rest from the motion potential)."""
+    duration: str = "sample"
+    """How the remaining duration is chosen: ``"sample"`` (the paper) or ``"median"`` of the conditional log-normal."""
+    coherent_fraction: float = 0.0
+    """Share of the N candidates whose non-base joints each, with probability ½, keep their offset from agent 1's
+    base (they move with the drawn base) instead of their own draw: body-coherent candidates, so the potentials of
+    all joints inform the body's position (0: every joint drawn independently, as in the paper)."""
+    refine_sweeps: int = 0
+    """Sweeps of per-joint coordinate ascent over the drawn candidates; 0 keeps the best whole draw, as in the
+    paper (on the synthetic data two sweeps tripled the cost without lowering the error)."""
+    interpolation: str = "linear"
+    """Time profile of the way from agent 1's last synthesized pose to the planned end configuration:
+    ``"linear"`` (the paper) or ``"minjerk"``, the rest of the minimum-jerk profile 10v³ − 15v⁴ + 6v⁵ of the
+    running sub-event (v = elapsed fraction from its anchor frame to its predicted end), the profile the
+    model's path-noise term assumes."""
+    lookahead: bool = False
+    """Use agent 0's (and the object's) recorded position at the predicted end for the spatial
+    references instead of the latest observed one (offline evaluation only; the simulator is causal)."""
+    parse: str = "online"
+    """How the running sub-event and its end are found: ``"online"`` (the paper), a DP over the frames
+    so far and a duration drawn from the log-normal prior; or ``"observed"``, one DP over agent 0's
+    (and the object's) whole recorded track before synthesis starts
+    (:func:`~socialaff_sim.inference.observed_parse.parse_observed`; offline only, needs ``lookahead``)."""
+    observed_parse_step: int = 2
+    """Frames between the cut points of the ``"observed"`` parse."""
+    end_prior: str = "none"
+    """``"regression"``: also score candidates by the model's end-configuration regression, a Gaussian
+    over agent 1's five key joints jointly (:mod:`~socialaff_sim.model.end_regression`), and draw
+    ``prior_samples`` more candidates from it; ``"none"``: the paper's potentials alone."""
+    prior_samples: int = 50
+    """Candidates drawn from the end-configuration regression, on top of the N, when ``end_prior`` is on."""
+    frame_weight: float = 0.0
+    """Share of the model's frame regression (agent 1 at each frame from agent 0 at that frame,
+    :mod:`~socialaff_sim.model.frame_regression`) in every synthesized frame, the rest being the
+    interpolation toward the planned end; 0: the interpolation alone, as in the paper."""
+    frame_decay: float = 5.0
+    """Frames over which the frame regression's offset from the last emitted pose fades (it starts where
+    the synthesized track is, so the track stays continuous)."""
+
+    def __post_init__(self) -> None:
+        if self.n_observed < 2:
+            raise ConfigError(f"n_observed (T0): expected at least 2 frames, found {self.n_observed}")
+        if self.delta_t < 1:
+            raise ConfigError(f"delta_t (ΔT): expected at least 1 frame, found {self.delta_t}")
+        if self.n_samples < 1:
+            raise ConfigError(f"n_samples (N): expected at least 1, found {self.n_samples}")
+        if not 0.0 <= self.coherent_fraction <= 1.0:
+            raise ConfigError(f"coherent_fraction: expected a value in [0, 1], found {self.coherent_fraction}")
+        if not 0.0 <= self.spatial_fraction <= 1.0:
+            raise ConfigError(f"spatial_fraction: expected a value in [0, 1], found {self.spatial_fraction}")
+        if self.interpolation not in _INTERPOLATIONS:
+            raise ConfigError(f"interpolation: expected {choices(_INTERPOLATIONS)}, found {self.interpolation!r}")
+        if self.parse not in _PARSES:
+            raise ConfigError(f"parse: expected {choices(_PARSES)}, found {self.parse!r}")
+        if self.parse == "observed" and not self.lookahead:
+            raise ConfigError("parse='observed' reads agent 0's recorded future: it needs lookahead=True (offline evaluation)")
+        if self.end_prior not in _END_PRIORS:
+            raise ConfigError(f"end_prior: expected {choices(_END_PRIORS)}, found {self.end_prior!r}")
+        if not 0.0 <= self.frame_weight <= 1.0:
+            raise ConfigError(f"frame_weight: expected a value in [0, 1], found {self.frame_weight}")
+        if not self.frame_decay > 0:
+            raise ConfigError(f"frame_decay: expected a number of frames > 0, found {self.frame_decay}")
+        if self.observed_parse_step < 1 or self.prior_samples < 0:
+            raise ConfigError(
+                f"observed_parse_step, prior_samples: expected >= 1 and >= 0, found {self.observed_parse_step}, {self.prior_samples}"
+            )
+        if self.duration not in _DURATION_MODES:
+            raise ConfigError(f"duration: expected {choices(_DURATION_MODES)}, found {self.duration!r}")
+
+    @classmethod
+    def reactive(cls, **changes: object) -> SynthesisConfig:
+        """Causal settings for a robot reacting to a person (the simulator's and the environment's
+        default): the paper's Algorithm 2 plus an equal share of the frame regression, which reads
+        agent 0 only up to the latest observed frame."""
+        return cls(**{"frame_weight": 0.5, **changes})  # type: ignore[arg-type]
+
+    @classmethod
+    def offline(cls, **changes: object) -> SynthesisConfig:
+        """The settings for an offline evaluation, where agent 0's whole track is given (as to every
+        method of the protocol): lookahead, the ``"observed"`` parse, the end-configuration regression
+        and minimum-jerk interpolation. ``SynthesisConfig()`` is the paper's causal Algorithm 2."""
+        base = dict(lookahead=True, parse="observed", end_prior="regression", interpolation="minjerk", frame_weight=0.5)
+        return cls(**{**base, **changes})  # type: ignore[arg-type]

@@ -1,0 +1,86 @@
+"""Ridge regression with a Gaussian residual, its penalty chosen by held-out error.
+
+The shared estimator of the model's two regressions of agent 1's configuration
+(:mod:`~socialaff_sim.model.end_regression`, :mod:`~socialaff_sim.model.frame_regression`).
+The context is standardized; λ is chosen over a fixed grid by leave-one-group-out error (a group
+per training instance, or per sample); the residual covariance is the held-out residuals'
+covariance shrunk halfway to its diagonal, plus σ_min² on the diagonal.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["RIDGE_GRID", "RidgeRegression", "fit_ridge", "ridge_solve"]
+
+RIDGE_GRID = (0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1e3, 1e4, 1e6)
+"""λ values tried (on standardized context)."""
+
+
+@dataclass(frozen=True)
+class RidgeRegression:
+    """A fitted linear-Gaussian map from a context (C,) to a target (D,)."""
+
+    context_mean: np.ndarray
+    """(C,) mean of the training context."""
+    context_scale: np.ndarray
+    """(C,) standard deviation of the training context (1 where constant)."""
+    target_mean: np.ndarray
+    """(D,) mean target."""
+    coef: np.ndarray
+    """(C, D): coefficients on the standardized context."""
+    cov: np.ndarray
+    """(D, D): residual covariance."""
+    ridge: float
+    """λ, the penalty chosen by held-out error."""
+
+    def predict(self, context: np.ndarray) -> np.ndarray:
+        """(M, D) mean target of contexts (M, C)."""
+        z = (np.asarray(context, float) - self.context_mean) / self.context_scale
+        return z @ self.coef + self.target_mean
+
+    def log_density(self, residual: np.ndarray) -> np.ndarray:
+        """(M,) Gaussian log-density of residuals (M, D) under ``cov``."""
+        L = np.linalg.cholesky(self.cov)
+        y = np.linalg.solve(L, np.asarray(residual, float).T)
+        logdet = 2.0 * np.log(np.diag(L)).sum()
+        return -0.5 * ((y**2).sum(axis=0) + logdet + self.cov.shape[0] * np.log(2.0 * np.pi))
+
+
+def ridge_solve(context: np.ndarray, target: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(context mean, context scale, target mean, coefficients) of ridge with penalty λ on the standardized context."""
+    mean = context.mean(axis=0)
+    scale = context.std(axis=0)
+    scale = np.where(scale > 1e-9, scale, 1.0)
+    z = (context - mean) / scale
+    y_mean = target.mean(axis=0)
+    coef = np.linalg.solve(z.T @ z + lam * np.eye(z.shape[1]), z.T @ (target - y_mean))
+    return mean, scale, y_mean, coef
+
+
+def fit_ridge(
+    context: np.ndarray, target: np.ndarray, groups: np.ndarray, *, sigma_min: float, grid: tuple[float, ...] = RIDGE_GRID
+) -> RidgeRegression:
+    """Fit contexts (M, C) to targets (M, D); λ by leave-one-group-out error over ``groups`` (M,) (at least 2 groups)."""
+    X = np.asarray(context, float)
+    Y = np.asarray(target, float)
+    groups = np.asarray(groups)
+    ids = np.unique(groups)
+    best: tuple[float, float, np.ndarray] | None = None
+    for lam in grid:
+        res = np.empty_like(Y)
+        for g in ids:  # one small solve of size C per held-out group
+            out = groups == g
+            mean, scale, y_mean, coef = ridge_solve(X[~out], Y[~out], lam)
+            res[out] = Y[out] - (((X[out] - mean) / scale) @ coef + y_mean)
+        err = float(np.mean(res**2))
+        if best is None or err < best[0]:
+            best = (err, lam, res)
+    assert best is not None  # grid is non-empty
+    _, lam, res = best
+    mean, scale, y_mean, coef = ridge_solve(X, Y, lam)
+    S = res.T @ res / X.shape[0]
+    cov = 0.5 * S + 0.5 * np.diag(np.diag(S)) + sigma_min**2 * np.eye(Y.shape[1])
+    return RidgeRegression(mean, scale, y_mean, coef, cov, float(lam))
