@@ -15,8 +15,8 @@ import numpy as np
 
 from ..data.skeletons import N_KEY
 from ..model.end_regression import end_context
-from ..model.ridge import RidgeRegression
 from ..model.potentials import reference_weights
+from ..model.ridge import RidgeRegression
 
 if TYPE_CHECKING:
     from ..model.affordance import SocialAffordanceModel
@@ -65,8 +65,6 @@ class RegressionPrior:
     regression: RidgeRegression
     mean: np.ndarray
     """(5, 3) canonical metres: predicted agent 1 key joints at the end."""
-    anchor: np.ndarray
-    """(3,) canonical metres: agent 0's base at the end (the regression's origin)."""
 
     @classmethod
     def at(
@@ -77,7 +75,7 @@ class RegressionPrior:
         instance that began with ``first`` (11, 3)."""
         ctx = end_context(config[None], before[None], first[None], available)
         mean = regression.predict(ctx)[0].reshape(N_KEY, 3) + config[0]
-        return cls(regression, mean, config[0].copy())
+        return cls(regression, mean)
 
     def draw(self, n: int, rng: np.random.Generator) -> np.ndarray:
         """(n, 5, 3) agent 1 key-joint configurations: the mean, then n − 1 draws from the Gaussian."""

@@ -38,15 +38,15 @@ from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ModelError
 from ..learning.atomic import cut_atoms
-from ..model.potentials import reference_weights
-from .candidates import AGENT1 as _AGENT1
 from ..model.frame_regression import frame_context
+from ..model.potentials import reference_weights
 from ..model.ridge import RidgeRegression
+from .candidates import AGENT1 as _AGENT1
 from .candidates import RegressionPrior, draw_vectors, sign_loglik
-from .synthesis_config import SynthesisConfig
-from .timing import remaining_fraction, sample_remaining_seconds
 from .observed_parse import parse_observed
 from .online_parse import PrefixParse, parse_prefix
+from .synthesis_config import SynthesisConfig
+from .timing import remaining_fraction, sample_remaining_seconds
 
 if TYPE_CHECKING:
     from ..model.affordance import SocialAffordanceModel

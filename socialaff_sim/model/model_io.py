@@ -112,14 +112,18 @@ def save_model(model: SocialAffordanceModel, path: str | Path) -> Path:
     return path
 
 
-_RIDGE_FIELDS = ("context_mean", "context_scale", "target_mean", "coef", "cov", "ridge")
+def _ridge_shapes(C: int) -> dict[str, tuple[int, ...]]:
+    """Shape of each field of one type's regression with a context of length C (target: 15)."""
+    return {"context_mean": (C,), "context_scale": (C,), "target_mean": (15,), "coef": (C, 15), "cov": (15, 15), "ridge": ()}
+
+
+_RIDGE_FIELDS = tuple(_ridge_shapes(0))
 
 
 def _ridge_arrays(prefix: str, regs: list[RidgeRegression | None], C: int) -> dict[str, np.ndarray]:
     """The regressions stacked per type, NaN for a type without one, keys ``<prefix>_<field>``."""
     S = len(regs)
-    shapes = {"context_mean": (C,), "context_scale": (C,), "target_mean": (15,), "coef": (C, 15), "cov": (15, 15), "ridge": ()}
-    out = {k: np.full((S, *shp), np.nan) for k, shp in shapes.items()}
+    out = {k: np.full((S, *shp), np.nan) for k, shp in _ridge_shapes(C).items()}
     for s, reg in enumerate(regs):
         if reg is not None:
             for k in _RIDGE_FIELDS:
@@ -213,9 +217,8 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     _check_shape(path, "path_sigma", a["path_sigma"], (S, J), "f")
     avail = a["available"].astype(bool)
     for prefix, C in (("end", n_context(avail)), ("frame", n_frame_context(avail))):
-        for name, shape in (("context_mean", (S, C)), ("context_scale", (S, C)), ("target_mean", (S, 15)),
-                            ("coef", (S, C, 15)), ("cov", (S, 15, 15)), ("ridge", (S,))):
-            _check_shape(path, f"{prefix}_{name}", a[f"{prefix}_{name}"], shape, "f")
+        for name, shape in _ridge_shapes(C).items():
+            _check_shape(path, f"{prefix}_{name}", a[f"{prefix}_{name}"], (S, *shape), "f")
     _check_shape(path, "trace", a["trace"], (None,), "f")
     _check_shape(path, "acceptance", a["acceptance"], (None,), "f")
     _check_shape(path, "parse_rows", a["parse_rows"], (None, 3), "iu")
