@@ -154,7 +154,9 @@ def test_observed_parse_matches_brute_force(model: SocialAffordanceModel, shake:
 def test_offline_synthesis_reads_no_agent1_future_and_is_deterministic(model: SocialAffordanceModel, shake: Dataset) -> None:
     cfg = SynthesisConfig.offline()
     inter = shake[7]
-    keys = synthesize(model, observed_part(inter, 10), rng=np.random.default_rng(2), config=cfg)[0]
+    keys, _, subs, beliefs = synthesize(model, observed_part(inter, 10), rng=np.random.default_rng(2), config=cfg)
+    assert np.all(subs[:10] == -1) and np.all(subs[10:] >= 0)  # the observed parse's sub-event is reported
+    np.testing.assert_allclose(beliefs[10:].max(axis=1), 1.0, atol=0)
     again = synthesize(model, observed_part(inter, 10), rng=np.random.default_rng(2), config=cfg)[0]
     np.testing.assert_array_equal(keys, again)
     # Agent 1's recording after T0 is never read: changing it changes nothing.

@@ -44,7 +44,7 @@ from ..model.ridge import RidgeRegression
 from .candidates import AGENT1 as _AGENT1
 from .candidates import RegressionPrior, draw_vectors, sign_loglik
 from .observed_parse import parse_observed
-from .online_parse import PrefixParse, parse_prefix
+from .online_parse import parse_prefix
 from .synthesis_config import SynthesisConfig
 from .timing import remaining_fraction, sample_remaining_seconds
 
@@ -114,7 +114,7 @@ class OnlineSynthesizer:
         self._track = track
         self._t = 0
         self._planned_until = cfg.n_observed
-        self._parse: PrefixParse | None = None
+        self._sub = -1  # the running sub-event of the latest re-planning
         self._available = self.model.available_.copy()
         S = self.model.n_subevents_
         self._belief = np.full(S, 1.0 / S)
@@ -157,7 +157,7 @@ class OnlineSynthesizer:
                 skeleton = self._observed_skeleton[t]  # type: ignore[index]
             else:
                 skeleton = self.body.fit_pose(keys_c, self._frame) if np.isfinite(keys_c[0]).all() else None
-        sub = -1 if observed or self._parse is None else self._parse.current
+        sub = -1 if observed else self._sub
         self._t += 1
         return SynthesisStep(
             t=t,
@@ -172,6 +172,7 @@ class OnlineSynthesizer:
     # -- planning ----------------------------------------------------------------------------------
     def _replan(self, t: int) -> None:
         s, start = self._current(t)
+        self._sub = s
         last = self._end_frame(s, start, t)
         target = self._best_configuration(s, t, start, last)
         self._emit(t, s, start, last, target)
@@ -193,7 +194,7 @@ class OnlineSynthesizer:
             min_frames=lc.min_atomic_frames, max_seconds=lc.max_atomic_seconds, tau=lc.velocity_seconds,
         )
         parse = parse_prefix(model, prefix, inter.fps, bounds)
-        self._parse, self._belief = parse, parse.belief
+        self._belief = parse.belief
         return parse.current, parse.start
 
     def _end_frame(self, s: int, start: int, t: int) -> int:
