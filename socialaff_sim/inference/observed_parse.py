@@ -19,7 +19,6 @@ import numpy as np
 from ..data.skeletons import N_KEY
 from ..errors import ModelError
 from ..model.joints import OBJECT
-from ..model.segment_dp import best_segmentation
 
 if TYPE_CHECKING:
     from ..model.affordance import SocialAffordanceModel
@@ -49,22 +48,9 @@ def parse_observed(model: SocialAffordanceModel, track: np.ndarray, fps: float, 
     if not np.isfinite(track[:, joints]).all():
         raise ModelError("parse_observed: the observed joints (agent 0 and the object) must be finite in every frame")
     bounds = np.unique(np.r_[np.arange(0, T, step), T])
-    B = bounds.shape[0] - 1
-    a, b = np.triu_indices(B + 1, k=1)
     # Agent 1's joints are unused: fill them so the feature code sees finite numbers.
     x = np.where(joints[None, :, None], track, 0.0)
-    feats = model.interval_features(x, bounds[a], bounds[b], fps)
-    S = model.n_subevents_
-    seg = np.full((B + 1, B + 1, S), -np.inf)
-    short = (bounds[b] - bounds[a]) < model.config.min_subevent_seconds * fps
-    for s in range(S):
-        seg[a, b, s] = np.where(short, -np.inf, model.observed_log_score(feats, s, joints))
-    cfg = model.config
-    _, spans = best_segmentation(
-        seg, model.log_start_probs_, model.log_transitions_,
-        distinct=cfg.distinct_neighbours and S > 1, unique=cfg.unique_labels,
-    )
-    if not spans:
-        s0 = int(np.argmax(model.log_start_probs_))
-        return np.array([[0, T, s0]], dtype=np.int64)
-    return np.array([(bounds[p], bounds[q], s) for p, q, s in spans], dtype=np.int64).reshape(-1, 3)
+    _, rows = model.parse_over(x, fps, bounds, lambda feats, s: model.observed_log_score(feats, s, joints))
+    if not len(rows):
+        return np.array([[0, T, int(np.argmax(model.log_start_probs_))]], dtype=np.int64)
+    return rows

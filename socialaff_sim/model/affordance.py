@@ -8,7 +8,7 @@ canonical interaction frame of :mod:`socialaff_sim.model.frame`.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -348,14 +348,21 @@ class SocialAffordanceModel:
     def best_parse(self, interaction: Interaction) -> tuple[float, np.ndarray]:
         """Best parse over the instance's atomic intervals: (log probability, (K, 3) int64 rows start, stop, label)."""
         x = self.canonical_track(interaction)
-        bounds = self.atom_bounds(interaction, x)
+        return self.parse_over(x, interaction.fps, self.atom_bounds(interaction, x), self.interval_log_score)
+
+    def parse_over(
+        self, track: np.ndarray, fps: float, bounds: np.ndarray, score: Callable[[IntervalFeatures, int], np.ndarray]
+    ) -> tuple[float, np.ndarray]:
+        """Best parse of a canonical ``track`` (T, 11, 3) over the cut points ``bounds`` (B + 1,), every
+        interval scored by ``score(features, s)`` → (M,): (log probability, (K, 3) int64 rows start, stop,
+        label); (−inf, no rows) when no parse is allowed."""
         B = bounds.shape[0] - 1
         a, b = np.triu_indices(B + 1, k=1)
-        feats = self.interval_features(x, bounds[a], bounds[b], interaction.fps)
+        feats = self.interval_features(track, bounds[a], bounds[b], fps)
         seg = np.full((B + 1, B + 1, self.n_subevents_), -np.inf)
-        short = (bounds[b] - bounds[a]) < self.config.min_subevent_seconds * interaction.fps
+        short = (bounds[b] - bounds[a]) < self.config.min_subevent_seconds * fps
         for s in range(self.n_subevents_):
-            seg[a, b, s] = np.where(short, -np.inf, self.interval_log_score(feats, s))
+            seg[a, b, s] = np.where(short, -np.inf, score(feats, s))
         cfg = self.config
         total, spans = best_segmentation(
             seg, self.log_start_probs_, self.log_transitions_,
