@@ -21,16 +21,6 @@ from socialaff_sim.model.ridge import RidgeRegression, fit_ridge, ridge_solve
 
 
 
-@pytest.fixture(scope="module")
-def shake(shake8: Dataset) -> Dataset:
-    return shake8
-
-
-@pytest.fixture(scope="module")
-def model(shake8_model: SocialAffordanceModel) -> SocialAffordanceModel:
-    return shake8_model
-
-
 def _configs(rng: np.random.Generator, M: int, available: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     end, before, first = rng.normal(size=(3, M, 11, 3))
     for x in (end, before, first):
@@ -87,24 +77,24 @@ def test_log_density_matches_scipy(rng: np.random.Generator) -> None:
     np.testing.assert_allclose(reg.log_density(res), stats.multivariate_normal(np.zeros(15), cov).logpdf(res), rtol=1e-10)
 
 
-def test_prior_draws_follow_the_gaussian(model: SocialAffordanceModel, shake: Dataset, rng: np.random.Generator) -> None:
-    s = next(k for k, r in enumerate(model.end_regression_) if r is not None)
-    track = model.canonical_track(shake[7])
-    prior = RegressionPrior.at(model.end_regression_[s], track[30], track[20], track[0], model.available_)
+def test_prior_draws_follow_the_gaussian(shake8_model: SocialAffordanceModel, shake8: Dataset, rng: np.random.Generator) -> None:
+    s = next(k for k, r in enumerate(shake8_model.end_regression_) if r is not None)
+    track = shake8_model.canonical_track(shake8[7])
+    prior = RegressionPrior.at(shake8_model.end_regression_[s], track[30], track[20], track[0], shake8_model.available_)
     draws = prior.draw(4000, rng)
     np.testing.assert_array_equal(draws[0], prior.mean)  # the mode is the first candidate
-    np.testing.assert_allclose(draws.mean(axis=0), prior.mean, atol=5 * np.sqrt(np.diag(model.end_regression_[s].cov)).max() / np.sqrt(4000) + 1e-3)
+    np.testing.assert_allclose(draws.mean(axis=0), prior.mean, atol=5 * np.sqrt(np.diag(shake8_model.end_regression_[s].cov)).max() / np.sqrt(4000) + 1e-3)
     emp = np.cov(draws.reshape(4000, -1).T)
-    np.testing.assert_allclose(emp, model.end_regression_[s].cov, atol=0.15 * np.abs(model.end_regression_[s].cov).max())
+    np.testing.assert_allclose(emp, shake8_model.end_regression_[s].cov, atol=0.15 * np.abs(shake8_model.end_regression_[s].cov).max())
 
 
-def test_model_fits_and_saves_the_regressions(model: SocialAffordanceModel, tmp_path) -> None:  # noqa: ANN001
-    assert len(model.end_regression_) == len(model.frame_regression_) == model.n_subevents_
-    assert any(r is not None for r in model.end_regression_)
-    assert any(r is not None for r in model.frame_regression_)
-    loaded = SocialAffordanceModel.load(model.save(tmp_path / "m.npz"))
-    pairs = [*zip(model.end_regression_, loaded.end_regression_, strict=True),
-             *zip(model.frame_regression_, loaded.frame_regression_, strict=True)]
+def test_model_fits_and_saves_the_regressions(shake8_model: SocialAffordanceModel, tmp_path) -> None:  # noqa: ANN001
+    assert len(shake8_model.end_regression_) == len(shake8_model.frame_regression_) == shake8_model.n_subevents_
+    assert any(r is not None for r in shake8_model.end_regression_)
+    assert any(r is not None for r in shake8_model.frame_regression_)
+    loaded = SocialAffordanceModel.load(shake8_model.save(tmp_path / "m.npz"))
+    pairs = [*zip(shake8_model.end_regression_, loaded.end_regression_, strict=True),
+             *zip(shake8_model.frame_regression_, loaded.frame_regression_, strict=True)]
     for a, b in pairs:
         assert (a is None) == (b is None)
         if a is not None:
@@ -133,36 +123,36 @@ def _brute_observed(model: SocialAffordanceModel, x: np.ndarray, fps: float, bou
     return best
 
 
-def test_observed_parse_matches_brute_force(model: SocialAffordanceModel, shake: Dataset) -> None:
-    inter = shake[7]
-    x = model.canonical_track(inter)[:24].copy()
+def test_observed_parse_matches_brute_force(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
+    inter = shake8[7]
+    x = shake8_model.canonical_track(inter)[:24].copy()
     x[:, 5:10] = np.nan  # agent 1 is never read
-    rows = parse_observed(model, x, inter.fps, step=6)
-    xf = np.where(observed_joints(model)[None, :, None], x, 0.0)
-    score = model.log_start_probs_[rows[0, 2]] + sum(model.log_transitions_[a, b] for a, b in zip(rows[:-1, 2], rows[1:, 2]))
+    rows = parse_observed(shake8_model, x, inter.fps, step=6)
+    xf = np.where(observed_joints(shake8_model)[None, :, None], x, 0.0)
+    score = shake8_model.log_start_probs_[rows[0, 2]] + sum(shake8_model.log_transitions_[a, b] for a, b in zip(rows[:-1, 2], rows[1:, 2]))
     score += sum(
-        model.observed_log_score(model.interval_features(xf, np.array([a]), np.array([b]), inter.fps), s, observed_joints(model))[0]
+        shake8_model.observed_log_score(shake8_model.interval_features(xf, np.array([a]), np.array([b]), inter.fps), s, observed_joints(shake8_model))[0]
         for a, b, s in rows
     )
-    brute = _brute_observed(model, xf, inter.fps, np.array([0, 6, 12, 18, 24]))
+    brute = _brute_observed(shake8_model, xf, inter.fps, np.array([0, 6, 12, 18, 24]))
     assert np.isclose(score, brute, rtol=0, atol=1e-9)
     assert rows[0, 0] == 0 and rows[-1, 1] == 24 and np.all(rows[1:, 0] == rows[:-1, 1])
     with pytest.raises(ModelError, match="observed joints"):
-        parse_observed(model, np.full_like(x, np.nan), inter.fps)
+        parse_observed(shake8_model, np.full_like(x, np.nan), inter.fps)
 
 
-def test_offline_synthesis_reads_no_agent1_future_and_is_deterministic(model: SocialAffordanceModel, shake: Dataset) -> None:
+def test_offline_synthesis_reads_no_agent1_future_and_is_deterministic(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
     cfg = SynthesisConfig.offline()
-    inter = shake[7]
-    keys, _, subs, beliefs = synthesize(model, observed_part(inter, 10), rng=np.random.default_rng(2), config=cfg)
+    inter = shake8[7]
+    keys, _, subs, beliefs = synthesize(shake8_model, observed_part(inter, 10), rng=np.random.default_rng(2), config=cfg)
     assert np.all(subs[:10] == -1) and np.all(subs[10:] >= 0)  # the observed parse's sub-event is reported
     np.testing.assert_allclose(beliefs[10:].max(axis=1), 1.0, atol=0)
-    again = synthesize(model, observed_part(inter, 10), rng=np.random.default_rng(2), config=cfg)[0]
+    again = synthesize(shake8_model, observed_part(inter, 10), rng=np.random.default_rng(2), config=cfg)[0]
     np.testing.assert_array_equal(keys, again)
     # Agent 1's recording after T0 is never read: changing it changes nothing.
     joints = inter.joints.copy()
     joints[10:, 1] += 0.7
-    moved = synthesize(model, inter.replace(joints=joints), rng=np.random.default_rng(2), config=cfg)[0]
+    moved = synthesize(shake8_model, inter.replace(joints=joints), rng=np.random.default_rng(2), config=cfg)[0]
     np.testing.assert_array_equal(keys, moved)
     assert np.isfinite(keys).all()
     gt = inter.key_joints()[:, 1]
@@ -241,16 +231,16 @@ def test_frame_samples_and_a_planted_frame_relation(rng: np.random.Generator) ->
     assert fit_frame_regression(frames, first, phase, np.arange(M) % 2, available, sigma_min=0.01) is None
 
 
-def test_frame_blend_keeps_the_track_continuous_and_causal(model: SocialAffordanceModel, shake: Dataset) -> None:
+def test_frame_blend_keeps_the_track_continuous_and_causal(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
     cfg = SynthesisConfig.reactive()
-    inter = observed_part(shake[7], 10)
-    keys = synthesize(model, inter, rng=np.random.default_rng(4), config=cfg)[0]
+    inter = observed_part(shake8[7], 10)
+    keys = synthesize(shake8_model, inter, rng=np.random.default_rng(4), config=cfg)[0]
     steps = np.linalg.norm(np.diff(keys, axis=0), axis=-1)
     assert steps[9:].max() < 0.25  # no jump at T0 or at a re-planning (the fading offset starts at the last pose)
     cut = 25
     joints = inter.joints.copy()
     joints[cut:, 0] += np.array([0.5, -0.3, 0.2])
-    moved = synthesize(model, inter.replace(joints=joints), rng=np.random.default_rng(4), config=cfg)[0]
+    moved = synthesize(shake8_model, inter.replace(joints=joints), rng=np.random.default_rng(4), config=cfg)[0]
     np.testing.assert_array_equal(keys[: cut + 1], moved[: cut + 1])
-    plain = synthesize(model, inter, rng=np.random.default_rng(4), config=SynthesisConfig())[0]
+    plain = synthesize(shake8_model, inter, rng=np.random.default_rng(4), config=SynthesisConfig())[0]
     assert not np.allclose(plain[10:], keys[10:])  # the frame regression does take part
