@@ -19,10 +19,10 @@ configuration (one core: run it alone) and report
 The model's optional corrections (see :class:`~socialaff_sim.model.config.AffordanceConfig` and
 :class:`~socialaff_sim.learning.config.LearningConfig`; paper defaults otherwise) are switched with
 ``--likelihood held_out``, ``--vector-density cartesian``, ``--duration-density log_seconds`` and
-``--init-starts N``.
+``--init-starts N``; ``--active-hand off`` keeps each agent's left/right labels as recorded (the paper).
 
 Run: ``python scripts/bench_learning.py [--instances 18] [--iterations 100] [--seed 0] [--diagnose] [--p-shift P]
-[--interactions NAME ...] [--likelihood L] [--vector-density D] [--duration-density D] [--init-starts N]
+[--interactions NAME ...] [--likelihood L] [--vector-density D] [--duration-density D] [--init-starts N] [--active-hand on|off]
 [--json PATH]``; ``--json`` also writes the table (and the settings) to PATH, atomically.
 """
 
@@ -46,7 +46,7 @@ from socialaff_sim.learning.scorer import AffordanceTarget
 from socialaff_sim.learning.atomic import AtomicIntervals, motion_change
 from socialaff_sim.model.affordance import SocialAffordanceModel
 from socialaff_sim.model.config import AffordanceConfig
-from socialaff_sim.model.joints import JOINT_NAMES, OBJECT, canonical_joints
+from socialaff_sim.model.joints import JOINT_NAMES, OBJECT
 
 CONTACT = {"shake_hands": "shake", "high_five": "strike", "pull_up": "pull", "throw_catch": "catch", "hand_over": "transfer"}
 WRISTS = (1, 2)  # left, right key-joint indices
@@ -69,12 +69,13 @@ def frame_accuracy(model: SocialAffordanceModel, inters) -> tuple[float, np.ndar
     return float(C[r, c].sum() / C.sum()), match
 
 
-def contact_joints(label: str, inters) -> tuple[int, ...]:  # noqa: ANN001
-    """Model joint indices that touch in the contact sub-event (majority over instances)."""
+def contact_joints(label: str, inters, model: SocialAffordanceModel) -> tuple[int, ...]:  # noqa: ANN001
+    """Model joint indices that touch in the contact sub-event (majority over instances), in the
+    model's labels (after its active-hand relabelling, when on)."""
     gt = SUBEVENTS[label].index(CONTACT[label])
     votes: Counter = Counter()
     for inter in inters:
-        x = canonical_joints(inter)
+        x = model.canonical_track(inter)
         t = np.flatnonzero(inter.subevents == gt)[-1]
         if label == "throw_catch":
             d = [np.linalg.norm(x[t, 5 + w] - x[t, OBJECT]) for w in WRISTS]
@@ -99,7 +100,7 @@ def gt_parse(space: ParseSpace, sub: np.ndarray) -> Parse:
 
 def diagnose(model: SocialAffordanceModel, inters, seed: int) -> tuple[float, float]:  # noqa: ANN001
     """log P* of the ground-truth parses (snapped) and of their hard-EM refinement."""
-    tracks = [canonical_joints(i) for i in inters]
+    tracks = [model.canonical_track(i) for i in inters]
     fps = [i.fps for i in inters]
     bounds = [model.atom_bounds(i, t) for i, t in zip(inters, tracks, strict=True)]
     change = [motion_change(t, model.available_, b, f) for t, b, f in zip(tracks, bounds, fps, strict=True)]
@@ -130,6 +131,8 @@ def main() -> int:
     ap.add_argument("--init-starts", type=int, default=None, help="override LearningConfig.init_starts")
     ap.add_argument("--init-type-passes", type=int, default=None, help="override LearningConfig.init_type_passes")
     ap.add_argument("--path-noise", choices=("on", "off"), default=None, help="override AffordanceConfig.path_noise")
+    ap.add_argument("--active-hand", choices=("on", "off"), default=None,
+                    help="override AffordanceConfig.active_hand (off: the paper's labels as recorded)")
     ap.add_argument("--path-profile", default=None, help="override AffordanceConfig.path_profile (minjerk, linear)")
     ap.add_argument("--left-hand-probability", type=float, default=None,
                     help="override SyntheticConfig.left_hand_probability (0: every one-handed action uses the right hand)")
@@ -147,7 +150,8 @@ def main() -> int:
         learning = dataclasses.replace(learning, init_type_passes=args.init_type_passes)
     overrides = {"likelihood": args.likelihood, "vector_density": args.vector_density,
                  "duration_density": args.duration_density, "path_profile": args.path_profile,
-                 "path_noise": None if args.path_noise is None else args.path_noise == "on"}
+                 "path_noise": None if args.path_noise is None else args.path_noise == "on",
+                 "active_hand": None if args.active_hand is None else args.active_hand == "on"}
     config = AffordanceConfig(**{k: v for k, v in overrides.items() if v is not None})
     accs = []
     rows: dict[str, dict] = {}
@@ -160,7 +164,7 @@ def main() -> int:
         acc, match = frame_accuracy(model, inters)
         gt_index = SUBEVENTS[label].index(CONTACT[label])
         s = int(np.flatnonzero(match == gt_index)[0]) if (match == gt_index).any() else -1
-        joints = contact_joints(label, inters)
+        joints = contact_joints(label, inters, model)
         z = model.grouping_[s] if s >= 0 else np.zeros(len(JOINT_NAMES), int)
         grouped = bool(z[joints[0]] > 0 and all(z[j] == z[joints[0]] for j in joints))
         accs.append(acc)

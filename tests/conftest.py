@@ -92,3 +92,14 @@ def fake_rospy(monkeypatch: pytest.MonkeyPatch) -> type:
     monkeypatch.setitem(sys.modules, "rospy", rospy)
     monkeypatch.setitem(sys.modules, "rospy.rostime", rostime)
     return Time
+
+
+def swap_sides(inter, agents):  # noqa: ANN001, ANN201 (Interaction -> Interaction)
+    """The instance with every left_*/right_* joint of each agent in ``agents`` exchanged, by name (positions kept)."""
+    names = list(inter.joint_names)
+    order = np.array([names.index("right_" + n[5:]) if n.startswith("left_") else
+                      names.index("left_" + n[6:]) if n.startswith("right_") else i for i, n in enumerate(names)])
+    joints, valid = inter.joints.copy(), np.array(inter.valid, copy=True)
+    for a in agents:
+        joints[:, a], valid[:, a] = inter.joints[:, a][:, order], np.asarray(inter.valid)[:, a][:, order]
+    return inter.replace(joints=joints, valid=valid)

@@ -10,6 +10,7 @@ from scipy import stats
 
 from socialaff_sim.data import save_dataset
 from socialaff_sim.data.dataset import Dataset
+from socialaff_sim.data.interaction import Interaction
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError, ModelError, NotFittedError
 from socialaff_sim.learning.algorithm import learn
@@ -22,7 +23,7 @@ from socialaff_sim.model.affordance import SocialAffordanceModel
 from socialaff_sim.model.config import AffordanceConfig, default_n_subevents
 from socialaff_sim.model.densities import fit_lognorm
 from socialaff_sim.model.features import type_samples
-from socialaff_sim.model.joints import N_JOINTS, OBJECT, available_joints, canonical_joints
+from socialaff_sim.model.joints import JOINT_NAMES, N_JOINTS, OBJECT, available_joints, canonical_joints
 from socialaff_sim.model.potentials import reference_weights
 from socialaff_sim.model.transitions import count_transitions, transition_loglik
 
@@ -77,9 +78,26 @@ def test_learned_attributes(fitted: SocialAffordanceModel, hand_over: Dataset) -
         assert len(set(rows[:, 2].tolist())) == len(rows)  # each type at most once (unique_labels)
 
 
+def _active_hand_track(inter: Interaction) -> np.ndarray:
+    """canonical_joints with each agent's left/right key joints swapped, by name, where its left wrist's
+    summed frame-to-frame travel is the longer (an independent rewrite of the model's relabelling)."""
+    x = canonical_joints(inter)
+    out = x.copy()
+    for a in (0, 1):
+        travel = {side: sum(np.linalg.norm(x[t + 1, JOINT_NAMES.index(f"agent{a}.{side}_wrist")]
+                                           - x[t, JOINT_NAMES.index(f"agent{a}.{side}_wrist")])
+                            for t in range(len(x) - 1)) for side in ("left", "right")}
+        if travel["left"] > travel["right"]:
+            for part in ("wrist", "ankle"):
+                i, j = JOINT_NAMES.index(f"agent{a}.left_{part}"), JOINT_NAMES.index(f"agent{a}.right_{part}")
+                out[:, [i, j]] = x[:, [j, i]]
+    return out
+
+
 def test_final_parameters_are_the_fit_of_the_final_parses(fitted: SocialAffordanceModel, hand_over: Dataset) -> None:
     inters = list(hand_over)[:6]
-    tracks = [canonical_joints(i) for i in inters]
+    tracks = [_active_hand_track(i) for i in inters]
+    assert any(not np.array_equal(t, canonical_joints(i), equal_nan=True) for t, i in zip(tracks, inters, strict=True))
     spans = [[tuple(r) for r in rows.tolist()] for rows in fitted.parses_]
     for s in range(fitted.n_subevents_):
         feats = type_samples(tracks, [i.fps for i in inters], spans, s)

@@ -17,7 +17,7 @@ from socialaff_sim.model.model_io import MODEL_FORMAT_VERSION
 
 ARRAYS = (
     "available_", "grouping_", "spatial_params_", "motion_params_", "duration_params_", "transitions_",
-    "start_probs_", "centroids_", "mean_end_", "vertical_up_", "trace_", "acceptance_",
+    "start_probs_", "centroids_", "mean_end_", "vertical_up_", "hand_coupling_", "trace_", "acceptance_",
 )
 
 

@@ -26,6 +26,7 @@ from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError, SimulationError, choices
 from ..model.affordance import SocialAffordanceModel
 from ..model.densities import vonmises_logpdf, weibull_logpdf
+from ..model.handedness import KEY_SWAP
 from ..model.joints import OBJECT
 from .adapters import AdapterFrame, AffordanceScore, RobotPose
 
@@ -107,14 +108,18 @@ class ModelScorer:
         self.model = m = self._model_of(interaction.label)
         self.label = interaction.label
         self.frame = m.frame_of(interaction)
-        self.track = m.canonical_track(interaction, self.frame)  # (T, 11, 3): agent 0 is the observed human
+        raw = m.canonical_track(interaction, self.frame, hands=np.zeros(2, bool))
+        # Agent 1's labels follow the model's partner rule (as in synthesis), not the recording's own flag.
+        self.hands = m.reaction_hands(raw)
+        self.track = m.canonical_track(interaction, self.frame, hands=self.hands)  # (T, 11, 3): agent 0 is the observed human
 
     def configuration(self, keys: np.ndarray, t: int, obj: np.ndarray | None) -> np.ndarray:
         """(11, 3) canonical model joints: agent 0 and the object at frame ``t``, agent 1 = ``keys`` (data frame)."""
         if self.model is None:
             raise SimulationError("ModelScorer: call reset(interaction) first")
         x = self.track[t].copy()
-        x[N_KEY : 2 * N_KEY] = self.frame.to_canonical(np.asarray(keys, float))
+        keys_c = self.frame.to_canonical(np.asarray(keys, float))
+        x[N_KEY : 2 * N_KEY] = keys_c[KEY_SWAP] if self.hands[1] else keys_c
         if obj is not None:
             x[OBJECT] = self.frame.to_canonical(np.asarray(obj, float))
         return x

@@ -39,6 +39,7 @@ from ..data.skeletons import N_KEY
 from ..errors import ModelError
 from ..learning.atomic import cut_atoms
 from ..model.frame_regression import frame_context
+from ..model.handedness import KEY_SWAP, relabel
 from ..model.potentials import reference_weights
 from ..model.ridge import RidgeRegression
 from .candidates import AGENT1 as _AGENT1
@@ -107,11 +108,14 @@ class OnlineSynthesizer:
             interaction.filled_joints()[: cfg.n_observed, 1] if self.body is not None else None
         )
         self._frame = self.model.frame_of(interaction)
-        track = self.model.canonical_track(interaction, self._frame)
+        track = self.model.canonical_track(interaction, self._frame, hands=np.zeros(2, bool))  # as recorded
+        track[cfg.n_observed :, _AGENT1] = np.nan  # never read agent 1 beyond the observation
+        self._raw = track.copy()
         # Agent 0 and the object over the whole instance, for lookahead references only.
         self._others = track[:, _OTHERS].copy()
-        track[cfg.n_observed :, _AGENT1] = np.nan  # never read agent 1 beyond the observation
         self._track = track
+        self._hands = np.zeros(2, bool)
+        self._set_hands(cfg.n_observed)
         self._t = 0
         self._planned_until = cfg.n_observed
         self._sub = -1  # the running sub-event of the latest re-planning
@@ -121,6 +125,19 @@ class OnlineSynthesizer:
         self._rows: np.ndarray | None = None
         if cfg.parse == "observed":
             self._rows = parse_observed(self.model, self._observed_track(), interaction.fps, step=cfg.observed_parse_step)
+
+    def _set_hands(self, t: int) -> None:
+        """Relabel the working tracks by the active-hand flags known at frame ``t`` (agent 0's whole track
+        with ``lookahead``, else its frames before ``t`` and ``hand_margin``); a flag that changes relabels
+        the history too, so emitted frames keep their recorded labels and the track stays continuous."""
+        cfg = self.config
+        hands = self.model.reaction_hands(self._raw, *((None, 0.0) if cfg.lookahead else (t, cfg.hand_margin)))
+        change = hands != self._hands
+        if change.any():
+            self._track = relabel(self._track, change)
+            if change[0]:
+                self._others[:, :N_KEY] = self._others[:, KEY_SWAP]
+            self._hands = hands
 
     def _observed_track(self) -> np.ndarray:
         """(T, 11, 3) canonical: agent 0 and the object over the whole instance, agent 1 NaN."""
@@ -150,6 +167,8 @@ class OnlineSynthesizer:
         if not observed and t >= self._planned_until:
             self._replan(t)
         keys_c = self._track[t, _AGENT1]
+        if self._hands[1]:
+            keys_c = keys_c[KEY_SWAP]  # back to the recorded labels
         keys_w = self._frame.to_world(keys_c)
         skeleton = None
         if self.body is not None:
@@ -171,6 +190,7 @@ class OnlineSynthesizer:
 
     # -- planning ----------------------------------------------------------------------------------
     def _replan(self, t: int) -> None:
+        self._set_hands(t)
         s, start = self._current(t)
         self._sub = s
         last = self._end_frame(s, start, t)

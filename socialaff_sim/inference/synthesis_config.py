@@ -63,6 +63,12 @@ class SynthesisConfig:
     frame_decay: float = 5.0
     """Frames over which the frame regression's offset from the last emitted pose fades (it starts where
     the synthesized track is, so the track stays continuous)."""
+    hand_margin: float = 0.2
+    """Metres, causal synthesis with a model whose ``config.active_hand`` is on: agent 0 counts as
+    left-active only once its left wrist's path so far exceeds its right's by this much (right-active
+    until then). Early frames are walking, whose arm swing moves both wrists alike; on the synthetic
+    data 0.2 m never commits to the wrong side. With ``lookahead`` the whole track decides, margin 0,
+    as in training."""
 
     def __post_init__(self) -> None:
         if self.n_observed < 2:
@@ -85,6 +91,8 @@ class SynthesisConfig:
             raise ConfigError(f"end_prior: expected {choices(_END_PRIORS)}, found {self.end_prior!r}")
         if not 0.0 <= self.frame_weight <= 1.0:
             raise ConfigError(f"frame_weight: expected a value in [0, 1], found {self.frame_weight}")
+        if not self.hand_margin >= 0:
+            raise ConfigError(f"hand_margin: expected metres >= 0, found {self.hand_margin}")
         if not self.frame_decay > 0:
             raise ConfigError(f"frame_decay: expected a number of frames > 0, found {self.frame_decay}")
         if self.observed_parse_step < 1 or self.prior_samples < 0:

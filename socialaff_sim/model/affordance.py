@@ -18,18 +18,16 @@ import numpy as np
 from ..data.interaction import Interaction
 from ..errors import ModelError, NotFittedError, choices
 from .config import AffordanceConfig, default_n_subevents
-from .densities import fit_lognorm, lognorm_logpdf
-from .end_regression import fit_end_regression, interval_samples
-from .frame_regression import fit_frame_regression, frame_samples
-from .ridge import RidgeRegression
-from .features import IntervalFeatures, interval_features, type_samples
+from .densities import lognorm_logpdf
+from .estimate import estimate_parameters
+from .features import IntervalFeatures, interval_features
 from .frame import CanonicalFrame
+from .handedness import fit_hand_coupling, hand_flags, left_active, partner_flag, relabel
 from .joints import JOINT_NAMES, available_joints, canonical_joints, instance_frame
-from .path import fit_path_noise, path_loglik
-from .type_stats import name_subevents, vertical_up_frequencies
-from .potentials import TypePotentials, fit_type_potentials, log_motion, log_spatial
+from .path import path_loglik
+from .potentials import TypePotentials, log_motion, log_spatial
 from .segment_dp import best_segmentation
-from .transitions import count_transitions, smoothed_probs
+from .type_stats import name_subevents
 
 if TYPE_CHECKING:
     from ..learning.config import LearningConfig
@@ -83,6 +81,10 @@ class SocialAffordanceModel:
     frame_regression_ : list of RidgeRegression or None
         Per type, agent 1's configuration at each frame regressed on agent 0's at that frame
         (:mod:`~socialaff_sim.model.frame_regression`; ``None`` for a type seen in fewer than 3 instances).
+    hand_coupling_ : (2, 2) float64
+        p(agent 1 left-active | agent 0 left-active) over the training instances, rows agent 0's flag
+        (0 right, 1 left), add-one smoothed (:mod:`~socialaff_sim.model.handedness`; used with
+        ``config.active_hand``).
     centroids_ : (K, D) float64
         K-means centroids of the atomic intervals (new instances are cut with them).
     parses_ : list of (K_i, 3) int64
@@ -126,7 +128,10 @@ class SocialAffordanceModel:
         n_sub = self.config.n_subevents or default_n_subevents(label)
         if not self.config.use_subevents:
             n_sub = 1
-        tracks = [canonical_joints(i) for i in inters]
+        raw = [canonical_joints(i) for i in inters]
+        flags = np.array([hand_flags(x) for x in raw]).reshape(-1, 2)
+        tracks = [relabel(x, f) if self.config.active_hand else x for x, f in zip(raw, flags, strict=True)]
+        self.hand_coupling_ = fit_hand_coupling(flags)
         available = available_joints(tracks)
         fps = [i.fps for i in inters]
         res = learn(tracks, fps, available, n_sub, self.config, self.learning, rng=rng, progress=progress, desc=label)
@@ -153,47 +158,13 @@ class SocialAffordanceModel:
         return self
 
     def _set_learned(self, *, label, available, grouping, spans, tracks, fps, centroids) -> None:  # noqa: ANN001
-        S = grouping.shape[0]
-        cfg = self.config
-        spatial = np.full((S, len(JOINT_NAMES), 6), np.nan)
-        motion = np.full_like(spatial, np.nan)
-        durations = np.full((S, 2), np.nan)
-        mean_end = np.full((S, len(JOINT_NAMES), 3), np.nan)
-        vertical_up = np.full((S, 2, len(JOINT_NAMES)), 0.5)
-        path_sigma = np.full((S, len(JOINT_NAMES)), np.nan)
-        end_regressions: list[RidgeRegression | None] = []
-        frame_regressions: list[RidgeRegression | None] = []
-        for s in range(S):
-            feats = type_samples(tracks, fps, spans, s, cfg.feature_path_profile)
-            if len(feats):
-                pot = fit_type_potentials(feats.end, feats.disp, grouping[s], cfg)
-                spatial[s], motion[s] = pot.spatial, pot.motion
-                ln = fit_lognorm(feats.seconds, sigma_min=cfg.sigma_min)
-                durations[s] = (ln.mu[0], ln.sigma[0])
-                mean_end[s] = feats.end.mean(axis=0)
-                vertical_up[s] = vertical_up_frequencies(feats.end, feats.disp, grouping[s], cfg.other_side_reference)
-                if feats.path_sq is not None and feats.path_n is not None:
-                    path_sigma[s] = fit_path_noise(feats.path_sq, feats.path_n, cfg.path_sigma_min, available)[0]
-            sig = cfg.end_sigma_min
-            end_regressions.append(fit_end_regression(*interval_samples(tracks, spans, s), available, sigma_min=sig))
-            frame_regressions.append(fit_frame_regression(*frame_samples(tracks, spans, s), available, sigma_min=sig))
-        start, trans = count_transitions(spans, S)
-        self.start_probs_, self.transitions_ = smoothed_probs(
-            start, trans, cfg.transition_alpha, cfg.distinct_neighbours
-        )
+        for name, value in estimate_parameters(grouping, spans, tracks, fps, available, self.config).items():
+            setattr(self, name, value)
         self.label_ = label
-        self.n_subevents_ = S
+        self.n_subevents_ = grouping.shape[0]
         self.available_ = np.asarray(available, bool)
         self.grouping_ = np.asarray(grouping, np.int64)
-        self.spatial_params_ = spatial
-        self.motion_params_ = motion
-        self.duration_params_ = durations
         self.centroids_ = np.asarray(centroids, float)
-        self.mean_end_ = mean_end
-        self.vertical_up_ = vertical_up
-        self.path_sigma_ = path_sigma
-        self.end_regression_ = end_regressions
-        self.frame_regression_ = frame_regressions
 
     # -- learned views -------------------------------------------------------------------------
     def __getattr__(self, name: str) -> object:
@@ -253,10 +224,30 @@ class SocialAffordanceModel:
         """The canonical frame of an instance (world ↔ canonical), fixed by its first frame."""
         return instance_frame(interaction)
 
-    @staticmethod
-    def canonical_track(interaction: Interaction, frame: CanonicalFrame | None = None) -> np.ndarray:
-        """(T, 11, 3) float64, metres: the model joints in the (given or own) canonical frame."""
-        return canonical_joints(interaction, frame)
+    def canonical_track(
+        self, interaction: Interaction, frame: CanonicalFrame | None = None, hands: np.ndarray | None = None
+    ) -> np.ndarray:
+        """(T, 11, 3) float64, metres: the model joints in the (given or own) canonical frame.
+
+        With ``config.active_hand`` each agent's key joints are relabelled by its flag in ``hands``
+        (2,) bool (``None``: the instance's own :func:`~socialaff_sim.model.handedness.hand_flags`,
+        which read both agents' whole tracks; synthesis passes :meth:`reaction_hands` instead).
+        """
+        x = canonical_joints(interaction, frame)
+        if not self.config.active_hand:
+            return x
+        return relabel(x, hand_flags(x) if hands is None else np.asarray(hands, bool))
+
+    def reaction_hands(self, track: np.ndarray, stop: int | None = None, margin: float = 0.0) -> np.ndarray:
+        """(2,) bool: the relabelling flags when agent 1 is to be synthesized: agent 0's own flag from its
+        frames ``[0, stop)`` of ``track`` (T, 11, 3, as recorded; left only by more than ``margin`` metres
+        of wrist path), agent 1's the likeliest partner flag (``hand_coupling_``). All False without
+        ``config.active_hand``."""
+        self._check()
+        if not self.config.active_hand:
+            return np.zeros(2, bool)
+        f0 = left_active(track, 0, stop, margin)
+        return np.array([f0, partner_flag(self.hand_coupling_, f0)])
 
     def interval_features(self, track: np.ndarray, starts: np.ndarray, stops: np.ndarray, fps: float) -> IntervalFeatures:
         """Features of candidate intervals ``[starts, stops)`` of a canonical track (vectorized; with

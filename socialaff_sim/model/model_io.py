@@ -21,6 +21,7 @@ Layout (format ``socialaff_sim.affordance_model``, version :data:`MODEL_FORMAT_V
 ``frame_context_mean``, ``frame_context_scale`` (S, C'), ``frame_target_mean`` (S, 15), ``frame_coef`` (S, C', 15),
     ``frame_cov`` (S, 15, 15) and ``frame_ridge`` (S,) float64: the frame regressions
     (:mod:`~socialaff_sim.model.frame_regression`), likewise;
+``hand_coupling`` (2, 2) float64: p(agent 1 left-active | agent 0's flag) (:mod:`~socialaff_sim.model.handedness`);
 ``trace`` (I + 1,) and ``acceptance`` (I,) float64;
 ``parse_rows`` (R, 3) int64 (start frame, stop frame, label) of all training parses, split per
     instance by ``parse_offsets`` (n + 1,) int64.
@@ -55,13 +56,13 @@ if TYPE_CHECKING:
 __all__ = ["MODEL_FORMAT", "MODEL_FORMAT_VERSION", "save_model", "load_model"]
 
 MODEL_FORMAT = "socialaff_sim.affordance_model"
-MODEL_FORMAT_VERSION = 3
+MODEL_FORMAT_VERSION = 4
 """Version written into every model file; readers reject other versions."""
 
 _ARRAYS = (
     "available", "grouping", "spatial_params", "motion_params", "duration_params", "transitions",
     "start_probs", "centroids", "mean_end", "vertical_up", "path_sigma", "end_context_mean", "end_context_scale", "end_target_mean", "end_coef", "end_cov", "end_ridge",
-    "frame_context_mean", "frame_context_scale", "frame_target_mean", "frame_coef", "frame_cov", "frame_ridge", "trace", "acceptance", "parse_rows", "parse_offsets",
+    "frame_context_mean", "frame_context_scale", "frame_target_mean", "frame_coef", "frame_cov", "frame_ridge", "hand_coupling", "trace", "acceptance", "parse_rows", "parse_offsets",
 )
 
 
@@ -101,6 +102,7 @@ def save_model(model: SocialAffordanceModel, path: str | Path) -> Path:
         "path_sigma": model.path_sigma_,
         **_ridge_arrays("end", model.end_regression_, n_context(model.available_)),
         **_ridge_arrays("frame", model.frame_regression_, n_frame_context(model.available_)),
+        "hand_coupling": model.hand_coupling_,
         "trace": np.asarray(model.trace_, float),
         "acceptance": np.asarray(model.acceptance_, float),
         "parse_rows": rows.astype(np.int64).reshape(-1, 3),
@@ -219,6 +221,7 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     for prefix, C in (("end", n_context(avail)), ("frame", n_frame_context(avail))):
         for name, shape in _ridge_shapes(C).items():
             _check_shape(path, f"{prefix}_{name}", a[f"{prefix}_{name}"], (S, *shape), "f")
+    _check_shape(path, "hand_coupling", a["hand_coupling"], (2, 2), "f")
     _check_shape(path, "trace", a["trace"], (None,), "f")
     _check_shape(path, "acceptance", a["acceptance"], (None,), "f")
     _check_shape(path, "parse_rows", a["parse_rows"], (None, 3), "iu")
@@ -244,6 +247,7 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     model.path_sigma_ = a["path_sigma"].astype(float)
     model.end_regression_ = _ridge_regressions("end", a, S)
     model.frame_regression_ = _ridge_regressions("frame", a, S)
+    model.hand_coupling_ = a["hand_coupling"].astype(float)
     model.trace_ = a["trace"].astype(float)
     model.acceptance_ = a["acceptance"].astype(float)
     rows = a["parse_rows"].astype(np.int64)
