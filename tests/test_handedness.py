@@ -124,16 +124,20 @@ def test_causal_flag_switches_once_and_keeps_the_emitted_frames(shake8: Dataset,
     syn = OnlineSynthesizer(model, None, config)
     syn.reset(inter, rng=np.random.default_rng(5))
     x = canonical_joints(inter)
-    flags, keys = [], []
+    flags, keys, plan = [], [], config.n_observed
     for _ in range(inter.n_frames):
-        before = syn._hands.copy()  # noqa: SLF001 (the state under test)
+        before, planned = syn._hands.copy(), syn._planned_until  # noqa: SLF001 (the state under test)
         step = syn.step()
         keys.append(step.key_joints)
         flags.append(bool(syn._hands[0]))  # noqa: SLF001
         assert syn._hands[1] == syn._hands[0]  # noqa: SLF001
         if before[0] != syn._hands[0]:
-            # The switch happens at a re-planning frame t, decided by frames [0, t) with the margin.
-            assert left_active(x, 0, step.t, config.hand_margin) and not left_active(x, 0, step.t - config.delta_t, config.hand_margin)
+            # The switch happens at a re-planning frame t, decided by frames [0, t) with the margin,
+            # and was not yet due at the plan before.
+            assert syn._planned_until != planned  # noqa: SLF001
+            assert left_active(x, 0, step.t, config.hand_margin) and not left_active(x, 0, plan, config.hand_margin)
+        if syn._planned_until != planned:  # noqa: SLF001
+            plan = step.t
     switches = np.flatnonzero(np.diff(np.array(flags, int)))
     print("flag switches at frames", switches + 1)
     assert switches.size == 1 and not flags[0] and flags[-1]

@@ -100,3 +100,34 @@ def test_coherent_candidates_keep_the_body_shape(fitted, seed: int) -> None:  # 
         if aff.size:
             assert 0.2 < rigid[:, aff].mean() < 0.8
     assert rigid_rows > 0
+
+
+def _replan_frames(model, inter, config):  # noqa: ANN001, ANN202
+    """Frames at which the synthesizer planned, and the observed parse's rows when it has one."""
+    from socialaff_sim.inference.synthesis import OnlineSynthesizer
+
+    syn = OnlineSynthesizer(model, None, config)
+    syn.reset(inter, rng=np.random.default_rng(4))
+    plans = []
+    for _ in range(inter.n_frames):
+        before = syn._planned_until  # noqa: SLF001 (the state under test)
+        step = syn.step()
+        if syn._planned_until != before and not step.observed:  # noqa: SLF001
+            plans.append(step.t)
+    return plans, syn._rows  # noqa: SLF001
+
+
+def test_replanning_every_delta_t_and_at_each_subevent_end(fitted) -> None:  # noqa: ANN001
+    model, inter = fitted
+    T0, dT = 10, 5
+    paper, _ = _replan_frames(model, inter, SynthesisConfig())
+    assert paper == list(range(T0, inter.n_frames, dT))  # Algorithm 2: every ΔT frames
+    plans, rows = _replan_frames(model, inter, SynthesisConfig.offline())
+    starts = [int(a) for a, _, _ in rows if a > T0]
+    print("observed parse", rows.tolist(), "plans", plans)
+    assert starts and set(starts) <= set(plans)  # a new sub-event is always planned for at its first frame
+    # Between two plans: never more than ΔT frames, and never across a sub-event boundary.
+    for a, b in zip(plans, plans[1:] + [inter.n_frames]):
+        assert 1 <= b - a <= dT
+        assert not any(a < s < b for s in starts)
+    assert SynthesisConfig.reactive().replan_at_end and not SynthesisConfig().replan_at_end

@@ -236,10 +236,12 @@ class OnlineSynthesizer:
         return self._rows[min(k, len(self._rows) - 1)]
 
     def _emit(self, t: int, s: int, start: int, last: int, target: np.ndarray) -> None:
-        """Write agent 1's key joints for frames [t, t + ΔT) on the way from frame t − 1 to ``target`` at ``last``
+        """Write agent 1's key joints for frames [t, t + ΔT) (up to ``last`` with ``replan_at_end``) on the way from frame t − 1 to ``target`` at ``last``
         (blended with the frame regression of sub-event ``s`` begun at ``start`` when ``frame_weight`` > 0)."""
         cfg = self.config
         stop = min(t + cfg.delta_t, self._track.shape[0])
+        if cfg.replan_at_end:
+            stop = min(stop, last + 1)  # last >= t: at least one frame
         prev = self._track[t - 1, _AGENT1]
         frames = np.arange(t, stop)
         if cfg.interpolation == "minjerk":

@@ -60,6 +60,10 @@ class SynthesisConfig:
     """Share of the model's frame regression (agent 1 at each frame from agent 0 at that frame,
     :mod:`~socialaff_sim.model.frame_regression`) in every synthesized frame, the rest being the
     interpolation toward the planned end; 0: the interpolation alone, as in the paper."""
+    replan_at_end: bool = False
+    """Also re-plan at the predicted end of the running sub-event when that comes before the next ΔT
+    boundary, so the next sub-event's first frames head for its own end instead of holding this one's
+    end configuration. False: every ΔT frames, as in the paper."""
     frame_decay: float = 5.0
     """Frames over which the frame regression's offset from the last emitted pose fades (it starts where
     the synthesized track is, so the track stays continuous)."""
@@ -106,13 +110,17 @@ class SynthesisConfig:
     def reactive(cls, **changes: object) -> SynthesisConfig:
         """Causal settings for a robot reacting to a person (the simulator's and the environment's
         default): the paper's Algorithm 2 plus an equal share of the frame regression, which reads
-        agent 0 only up to the latest observed frame."""
-        return cls(**{"frame_weight": 0.5, **changes})  # type: ignore[arg-type]
+        agent 0 only up to the latest observed frame, and a re-planning at each predicted sub-event end."""
+        return cls(**{"frame_weight": 0.5, "replan_at_end": True, **changes})  # type: ignore[arg-type]
 
     @classmethod
     def offline(cls, **changes: object) -> SynthesisConfig:
         """The settings for an offline evaluation, where agent 0's whole track is given (as to every
-        method of the protocol): lookahead, the ``"observed"`` parse, the end-configuration regression
-        and minimum-jerk interpolation. ``SynthesisConfig()`` is the paper's causal Algorithm 2."""
-        base = dict(lookahead=True, parse="observed", end_prior="regression", interpolation="minjerk", frame_weight=0.5)
+        method of the protocol): lookahead, the ``"observed"`` parse, the end-configuration regression,
+        minimum-jerk interpolation, the frame regression and a re-planning at each sub-event end.
+        ``SynthesisConfig()`` is the paper's causal Algorithm 2."""
+        base = dict(
+            lookahead=True, parse="observed", end_prior="regression", interpolation="minjerk", frame_weight=0.5,
+            replan_at_end=True,
+        )
         return cls(**{**base, **changes})  # type: ignore[arg-type]
