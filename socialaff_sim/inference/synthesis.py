@@ -190,7 +190,8 @@ class OnlineSynthesizer:
 
     # -- planning ----------------------------------------------------------------------------------
     def _replan(self, t: int) -> None:
-        self._set_hands(t)
+        if not self.config.lookahead:  # with lookahead the flags were fixed at reset
+            self._set_hands(t)
         s, start = self._current(t)
         self._sub = s
         last = self._end_frame(s, start, t)
