@@ -107,7 +107,7 @@ class AffordanceConfig(DictConfig):
     """Our addition, on by default: per instance and agent, relabel the left and right key joints so the
     wrist that travels farther is "right" (:mod:`~socialaff_sim.model.handedness`). Actors who use
     either hand then share one joint grouping per sub-event (contact wrists grouped in 5 of 5 synthetic
-    interactions against 3 of 5 without; docs/benchmarks.md). False: the paper's model, labels as recorded."""
+    interactions against 3 of 5 without; docs/analysis.md). False: the paper's model, labels as recorded."""
 
     @property
     def feature_path_profile(self) -> str | None:
