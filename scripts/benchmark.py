@@ -12,7 +12,11 @@ Sections: learning, synthesis, ik, physics (ik and physics share one run of
 bench_sim.py), env, demo, accuracy (long: the full cross-validation). Usage::
 
     python scripts/benchmark.py [--quick] [--only learning,synthesis,...] [--out docs/benchmarks.md]
-        [--workers 2] [--timeout 5400] [--work DIR]
+        [--workers 2] [--timeout 5400] [--work DIR] [--keep-others]
+
+Every section starts with the commit and time of the run that measured it. ``--keep-others``
+re-runs only the ``--only`` sections and keeps the others from the page already at ``--out``
+(a section from a page written before sections carried that line gets it from the page's header).
 
 ``--quick`` uses small settings (few instances and iterations) to check that the
 pipeline runs; its figures are labelled as such and not judged against targets.
@@ -27,6 +31,7 @@ import datetime as dt
 import json
 import os
 import platform
+import re
 import shlex
 import shutil
 import subprocess
@@ -251,8 +256,8 @@ def sections(quick: bool, workers: int) -> dict[str, Section]:
     }
 
 
-def render(sec: Section, quick: bool) -> list[str]:
-    out = [f"## {sec.title}", ""]
+def render(sec: Section, quick: bool, provenance: str = "") -> list[str]:
+    out = [f"## {sec.title}", ""] + ([provenance, ""] if provenance else [])
     if quick:
         out += ["*Quick run: small settings, not the target configuration.*", ""]
     out += ["```", *dict.fromkeys(r.shown for r in sec.runs), "```", ""]
@@ -276,6 +281,29 @@ def render(sec: Section, quick: bool) -> list[str]:
     return out + [""]
 
 
+PROVENANCE = "*Measured at commit {commit}, {date} UTC.*"
+"""The line under each section's title saying which run produced it (pages merge sections of several runs)."""
+
+
+def kept_sections(page: str, titles: dict[str, str]) -> dict[str, list[str]]:
+    """Sections of an earlier ``page`` by name (``titles``: name -> title), each as its lines, with a
+    provenance line taken from that page's header where the section has none of its own."""
+    facts = dict(re.findall(r"^\| (socialaff-sim|date \(UTC\)) \| (.+?) \|$", page, flags=re.M))
+    commit = facts.get("socialaff-sim", "?").split("commit ")[-1]
+    fallback = PROVENANCE.format(commit=commit, date=facts.get("date (UTC)", "?"))
+    chunks = re.split(r"^(?=## )", page, flags=re.M)
+    by_title = {c.splitlines()[0][3:].strip(): c.rstrip("\n").splitlines() for c in chunks if c.startswith("## ")}
+    out = {}
+    for name, title in titles.items():
+        lines = by_title.get(title)
+        if lines is None:
+            continue
+        if not any(ln.startswith("*Measured at commit ") for ln in lines[:4]):
+            lines = lines[:2] + [fallback, ""] + lines[2:]
+        out[name] = lines + [""]
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="small settings (not the target configuration)")
@@ -284,6 +312,8 @@ def main() -> int:
     ap.add_argument("--workers", type=int, default=2, help="process-pool workers of the accuracy section (default 2)")
     ap.add_argument("--timeout", type=float, default=5400.0, help="seconds allowed per command (default 5400)")
     ap.add_argument("--work", default=None, help="keep the commands' raw outputs in this folder (default: temporary)")
+    ap.add_argument("--keep-others", action="store_true",
+                    help="keep the sections not in --only from the page already at --out (each says which run made it)")
     args = ap.parse_args()
     only = [s.strip() for s in args.only.split(",") if s.strip()]
     unknown = [s for s in only if s not in SECTIONS]
@@ -297,10 +327,17 @@ def main() -> int:
     started = dt.datetime.now(dt.timezone.utc)
     load_before, facts, t0 = _load(), machine_facts(), time.perf_counter()
     all_secs = sections(args.quick, args.workers)
+    kept: dict[str, list[str]] = {}
+    if args.keep_others and Path(args.out).is_file():
+        others = {n: sec.title for n, sec in all_secs.items() if n not in only}
+        kept = kept_sections(Path(args.out).read_text(encoding="utf-8"), others)
+    provenance = PROVENANCE.format(commit=facts["socialaff-sim"].split("commit ")[-1],
+                                   date=started.strftime("%Y-%m-%d %H:%M"))
     body: list[str] = []
     try:
         for name in SECTIONS:
             if name not in only:
+                body += kept.get(name, [])
                 continue
             sec = all_secs[name]
             sec.load.append(_load().split(" (")[0])
@@ -313,7 +350,7 @@ def main() -> int:
                         continue
                     execute(run, tmp, cli, args.timeout)
             sec.load.append(_load().split(" (")[0])
-            body += render(sec, args.quick)
+            body += render(sec, args.quick, provenance)
     finally:
         if tmp_ctx is not None:
             tmp_ctx.cleanup()
@@ -329,7 +366,8 @@ def main() -> int:
              "are in [analysis.md](analysis.md).", ""]
     facts_rows = [[k, v] for k, v in facts.items()]
     facts_rows += [["date (UTC)", started.strftime("%Y-%m-%d %H:%M")], ["load average before", load_before],
-                   ["load average after", _load()], ["sections", ", ".join(only)],
+                   ["load average after", _load()],
+                   ["sections", ", ".join(only) + (f"; kept from earlier runs: {', '.join(kept)}" if kept else "")],
                    ["total wall time", f"{total:.0f} s"]]
     head += table(["machine", ""], facts_rows) + [""]
     if not args.quick:

@@ -75,3 +75,44 @@ def test_library_does_not_import_scripts() -> None:
     offenders = [str(p.relative_to(ROOT)) for p in (ROOT / "socialaff_sim").rglob("*.py")
                  if re.search(r"^\s*(from|import)\s+(scripts|benchmark)\b", p.read_text(), flags=re.M)]
     assert offenders == []
+
+
+def test_kept_sections_carry_their_own_run() -> None:
+    bm = _load_script()
+    page = "\n".join([
+        "# Benchmarks", "", "| machine | |", "|---|---|", "| socialaff-sim | 0.1.0, commit abc1234 |",
+        "| date (UTC) | 2026-01-01 10:00 |", "",
+        "## Learning (Algorithm 1), issue 3", "", "old learning table", "",
+        "## Demo, issue 7", "", "*Measured at commit def5678, 2026-02-02 11:00 UTC.*", "", "demo table", "",
+    ])
+    kept = bm.kept_sections(page, {"learning": "Learning (Algorithm 1), issue 3", "demo": "Demo, issue 7",
+                                   "env": "Gymnasium environment, issue 6"})
+    assert set(kept) == {"learning", "demo"}  # a section the page lacks is not invented
+    assert kept["learning"][:4] == ["## Learning (Algorithm 1), issue 3", "",
+                                    "*Measured at commit abc1234, 2026-01-01 10:00 UTC.*", ""]
+    assert "old learning table" in kept["learning"]
+    assert kept["demo"][2] == "*Measured at commit def5678, 2026-02-02 11:00 UTC.*"  # its own line, not the header's
+    assert sum(ln.startswith("*Measured") for ln in kept["demo"]) == 1
+
+
+def test_keep_others_reruns_only_the_chosen_section(tmp_path: Path) -> None:
+    out = tmp_path / "bench.md"
+    out.write_text("\n".join([
+        "# Benchmarks", "", "| socialaff-sim | 0.1.0, commit abc1234 |", "| date (UTC) | 2026-01-01 10:00 |", "",
+        "## Learning (Algorithm 1), issue 3", "", "OLD LEARNING", "",
+        "## Synthesis (Algorithm 2), issue 4", "", "OLD SYNTHESIS", "",
+    ]) + "\n")
+    proc = subprocess.run(
+        [sys.executable, str(SCRIPT), "--quick", "--only", "learning", "--keep-others", "--out", str(out)],
+        cwd=ROOT, capture_output=True, text=True, timeout=120, check=False,
+        env=dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl")),
+    )
+    assert proc.returncode == 0, proc.stderr
+    page = out.read_text()
+    assert "OLD LEARNING" not in page and "OLD SYNTHESIS" in page
+    learning, synthesis = page.index("## Learning"), page.index("## Synthesis")
+    assert learning < synthesis  # the page keeps the sections' order
+    assert "*Measured at commit abc1234, 2026-01-01 10:00 UTC.*" in page[synthesis:]
+    own = re.search(r"\*Measured at commit (.+?), (\d{4}-\d\d-\d\d \d\d:\d\d) UTC\.\*", page[learning:synthesis])
+    assert own is not None and own.group(1) != "abc1234"
+    assert "| sections | learning; kept from earlier runs: synthesis |" in page
