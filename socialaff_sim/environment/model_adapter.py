@@ -26,7 +26,7 @@ from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError, SimulationError, choices
 from ..model.affordance import SocialAffordanceModel
 from ..model.densities import vonmises_logpdf, weibull_logpdf
-from ..model.handedness import KEY_SWAP
+from ..model.handedness import KEY_SWAP, relabel
 from ..model.joints import OBJECT
 from .adapters import AdapterFrame, AffordanceScore, RobotPose
 
@@ -111,7 +111,7 @@ class ModelScorer:
         raw = m.canonical_track(interaction, self.frame, hands=np.zeros(2, bool))
         # Agent 1's labels follow the model's partner rule (as in synthesis), not the recording's own flag.
         self.hands = m.reaction_hands(raw)
-        self.track = m.canonical_track(interaction, self.frame, hands=self.hands)  # (T, 11, 3): agent 0 is the observed human
+        self.track = relabel(raw, self.hands)  # (T, 11, 3): agent 0 is the observed human
 
     def configuration(self, keys: np.ndarray, t: int, obj: np.ndarray | None) -> np.ndarray:
         """(11, 3) canonical model joints: agent 0 and the object at frame ``t``, agent 1 = ``keys`` (data frame)."""

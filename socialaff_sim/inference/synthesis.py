@@ -111,8 +111,7 @@ class OnlineSynthesizer:
         track = self.model.canonical_track(interaction, self._frame, hands=np.zeros(2, bool))  # as recorded
         track[cfg.n_observed :, _AGENT1] = np.nan  # never read agent 1 beyond the observation
         self._raw = track.copy()
-        # Agent 0 and the object over the whole instance, for lookahead references only.
-        self._others = track[:, _OTHERS].copy()
+        # Agent 0 and the object stay in the track over the whole instance (read beyond t - 1 with lookahead only).
         self._track = track
         self._hands = np.zeros(2, bool)
         self._set_hands(cfg.n_observed)
@@ -135,14 +134,12 @@ class OnlineSynthesizer:
         change = hands != self._hands
         if change.any():
             self._track = relabel(self._track, change)
-            if change[0]:
-                self._others[:, :N_KEY] = self._others[:, KEY_SWAP]
             self._hands = hands
 
     def _observed_track(self) -> np.ndarray:
         """(T, 11, 3) canonical: agent 0 and the object over the whole instance, agent 1 NaN."""
-        x = np.full((self._others.shape[0], 2 * N_KEY + 1, 3), np.nan)
-        x[:, _OTHERS] = self._others
+        x = np.full_like(self._track, np.nan)
+        x[:, _OTHERS] = self._track[:, _OTHERS]
         return x
 
     @property
@@ -266,7 +263,7 @@ class OnlineSynthesizer:
         frames = np.arange(t - 1, stop)
         seen = frames if cfg.lookahead else np.minimum(frames, t - 1)
         config = np.empty((frames.size, 2 * N_KEY + 1, 3))
-        config[:, _OTHERS] = self._others[seen]
+        config[:, _OTHERS] = self._track[seen[:, None], _OTHERS]
         phase = ((frames - start + 1) / max(last - start + 1, 1)).clip(0.0, 1.0)
         first = np.repeat(self._track[:1], frames.size, axis=0)
         ctx = frame_context(config, first, phase, self._available)
@@ -281,7 +278,7 @@ class OnlineSynthesizer:
         T = self._track.shape[0]
         config = self._track[t - 1].copy()
         if cfg.lookahead:
-            config[_OTHERS] = self._others[min(last, T - 1)]
+            config[_OTHERS] = self._track[min(last, T - 1), _OTHERS]
         before = self._track[max(start - 1, 0)]
         z = model.grouping_[s].copy()
         z[~self._available] = -1
