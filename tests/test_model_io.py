@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import io
 import json
 from pathlib import Path
@@ -13,6 +14,7 @@ from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ModelFileError
 from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.model.contact_keys import ContactKeys
 from socialaff_sim.model.model_io import MODEL_FORMAT_VERSION
 
 ARRAYS = (
@@ -49,6 +51,22 @@ def test_round_trip(model: SocialAffordanceModel, saved: Path, data) -> None:  #
     assert loaded.score(data[5:]) == model.score(data[5:])
     with np.load(saved, allow_pickle=False) as npz:  # nothing pickled
         assert all(npz[k].dtype != object for k in npz.files)
+
+
+def test_contact_keys_round_trip(model: SocialAffordanceModel, tmp_path: Path) -> None:
+    m = copy.deepcopy(model)
+    keys = ContactKeys.empty(m.n_subevents_)
+    keys.phase[1, 2], keys.mate[1, 2], keys.offset[1, 2] = 0.45, 2, [0.12, 0.01, -0.02]
+    keys.phase[0, 1], keys.mate[0, 1], keys.offset[0, 1] = 0.7, 10, [0.0, 0.05, 0.0]
+    m.contact_keys_ = keys
+    loaded = SocialAffordanceModel.load(m.save(tmp_path / "k.npz"))
+    for field in ("phase", "mate", "offset"):
+        np.testing.assert_array_equal(getattr(loaded.contact_keys_, field), getattr(keys, field), err_msg=field)
+    assert loaded.contact_keys_.of_type(1)[0][:3] == (7, 2, 0.45)
+    bad = keys.mate.copy()
+    bad[1, 2] = -1  # a phase without a mate
+    with pytest.raises(ModelFileError, match="'contact_mate': expected a joint index"):
+        SocialAffordanceModel.load(_rewrite(tmp_path / "k.npz", tmp_path / "bad.npz", contact_mate=bad))
 
 
 def _rewrite(src: Path, dst: Path, **changes) -> Path:  # noqa: ANN003

@@ -117,6 +117,7 @@ class OnlineSynthesizer:
         self._set_hands(cfg.n_observed)
         self._t = 0
         self._planned_until = cfg.n_observed
+        self._span = (0, 0)  # (first, last frame) of the running sub-event at the latest re-planning
         self._sub = -1  # the running sub-event of the latest re-planning
         self._available = self.model.available_.copy()
         S = self.model.n_subevents_
@@ -163,6 +164,8 @@ class OnlineSynthesizer:
         observed = t < cfg.n_observed
         if not observed and t >= self._planned_until:
             self._replan(t)
+        if not observed and cfg.contact_width > 0:
+            self._pull_contacts(t)
         keys_c = self._track[t, _AGENT1]
         if self._hands[1]:
             keys_c = keys_c[KEY_SWAP]  # back to the recorded labels
@@ -192,8 +195,24 @@ class OnlineSynthesizer:
         s, start = self._current(t)
         self._sub = s
         last = self._end_frame(s, start, t)
+        self._span = (start, last)
         target = self._best_configuration(s, t, start, last)
         self._emit(t, s, start, last, target)
+
+    def _pull_contacts(self, t: int) -> None:
+        """Blend agent 1's wrists at frame t toward their contact keyframes in the running sub-event
+        (touched joint + learned offset), weight exp(−½((t − t*)/σ)²) with t* at the keyframe's phase."""
+        cfg = self.config
+        start, last = self._span
+        seen = t if cfg.lookahead else t - 1
+        for j, mate, phase, offset in self.model.contact_keys_.of_type(self._sub):
+            dt = (t - (start + phase * (last - start))) / cfg.contact_width
+            if abs(dt) > 3.0:
+                continue
+            goal = self._track[seen, mate] + offset
+            if np.isfinite(goal).all() and np.isfinite(self._track[t, j]).all():
+                w = np.exp(-0.5 * dt * dt)
+                self._track[t, j] += w * (goal - self._track[t, j])
 
     def _current(self, t: int) -> tuple[int, int]:
         """The running sub-event and its first frame, from the online parse of frames [0, t)."""

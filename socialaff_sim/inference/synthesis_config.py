@@ -64,6 +64,11 @@ class SynthesisConfig:
     """Also re-plan at the predicted end of the running sub-event when that comes before the next ΔT
     boundary, so the next sub-event's first frames head for its own end instead of holding this one's
     end configuration. False: every ΔT frames, as in the paper."""
+    contact_width: float = 0.0
+    """σ, frames: width of the pull of agent 1's wrist toward its contact keyframe (the model's
+    ``contact_keys_``: the touched joint's position plus the learned offset, read at the frame with
+    ``lookahead``, else at the latest observed one) around the keyframe's phase in the running
+    sub-event, a Gaussian weight that is 1 at the keyframe. 0: no pull, as in the paper."""
     frame_decay: float = 5.0
     """Frames over which the frame regression's offset from the last emitted pose fades (it starts where
     the synthesized track is, so the track stays continuous)."""
@@ -97,6 +102,8 @@ class SynthesisConfig:
             raise ConfigError(f"frame_weight: expected a value in [0, 1], found {self.frame_weight}")
         if not self.hand_margin >= 0:
             raise ConfigError(f"hand_margin: expected metres >= 0, found {self.hand_margin}")
+        if not self.contact_width >= 0:
+            raise ConfigError(f"contact_width: expected a number of frames >= 0, found {self.contact_width}")
         if not self.frame_decay > 0:
             raise ConfigError(f"frame_decay: expected a number of frames > 0, found {self.frame_decay}")
         if self.observed_parse_step < 1 or self.prior_samples < 0:
@@ -117,10 +124,11 @@ class SynthesisConfig:
     def offline(cls, **changes: object) -> SynthesisConfig:
         """The settings for an offline evaluation, where agent 0's whole track is given (as to every
         method of the protocol): lookahead, the ``"observed"`` parse, the end-configuration regression,
-        minimum-jerk interpolation, the frame regression and a re-planning at each sub-event end.
+        minimum-jerk interpolation, the frame regression, a re-planning at each sub-event end and the pull
+        toward contact keyframes.
         ``SynthesisConfig()`` is the paper's causal Algorithm 2."""
         base = dict(
             lookahead=True, parse="observed", end_prior="regression", interpolation="minjerk", frame_weight=0.5,
-            replan_at_end=True,
+            replan_at_end=True, contact_width=1.5,
         )
         return cls(**{**base, **changes})  # type: ignore[arg-type]

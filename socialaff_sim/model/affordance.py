@@ -69,7 +69,7 @@ class SocialAffordanceModel:
     start_probs_ : (S,) float64
         p(s_1).
     mean_end_ : (S, 11, 3) float64, metres
-        Mean canonical configuration at the end of each type (for display and as a template).
+        Mean canonical configuration at the end of each type (display, template).
     vertical_up_ : (S, 2, 11) float64
         Frequency of dz > 0 of each joint's spatial offset (row 0) and displacement (row 1) per type,
         add-one smoothed: the potentials score |dz|, and synthesis needs to know up from down.
@@ -82,9 +82,10 @@ class SocialAffordanceModel:
         Per type, agent 1's configuration at each frame regressed on agent 0's at that frame
         (:mod:`~socialaff_sim.model.frame_regression`; ``None`` for a type seen in fewer than 3 instances).
     hand_coupling_ : (2, 2) float64
-        p(agent 1 left-active | agent 0 left-active) over the training instances, rows agent 0's flag
-        (0 right, 1 left), add-one smoothed (:mod:`~socialaff_sim.model.handedness`; used with
-        ``config.active_hand``).
+        p(agent 1 left-active | agent 0's flag), rows agent 0 right/left, add-one smoothed over the
+        training instances (:mod:`~socialaff_sim.model.handedness`; used with ``config.active_hand``).
+    contact_keys_ : ContactKeys
+        Per type, agent 1's wrists' touches inside the sub-event (:mod:`~socialaff_sim.model.contact_keys`).
     centroids_ : (K, D) float64
         K-means centroids of the atomic intervals (new instances are cut with them).
     parses_ : list of (K_i, 3) int64

@@ -108,6 +108,10 @@ class AffordanceConfig(DictConfig):
     wrist that travels farther is "right" (:mod:`~socialaff_sim.model.handedness`). Actors who use
     either hand then share one joint grouping per sub-event (contact wrists grouped in 5 of 5 synthetic
     interactions against 3 of 5 without; docs/analysis.md). False: the paper's model, labels as recorded."""
+    contact_radius: float = 0.2
+    """Metres, our addition (used by synthesis only): an approach of agent 1's wrist to a group mate inside a
+    sub-event is learned as a contact keyframe when its mean closest distance is below this and the mean
+    distance at the interval's end is not (:mod:`~socialaff_sim.model.contact_keys`)."""
 
     @property
     def feature_path_profile(self) -> str | None:
@@ -122,7 +126,7 @@ class AffordanceConfig(DictConfig):
             raise bad("n_subevents", "None or an integer >= 1")
         if not 0.0 < self.beta < 1.0:
             raise bad("beta", "a probability in (0, 1)")
-        for name in ("gamma", "eps", "shape_min", "shape_max", "kappa_max", "sigma_min", "path_sigma_min", "end_sigma_min"):
+        for name in ("gamma", "eps", "shape_min", "shape_max", "kappa_max", "sigma_min", "path_sigma_min", "end_sigma_min", "contact_radius"):
             if not float(getattr(self, name)) > 0:
                 raise bad(name, "a number > 0")
         if self.transition_alpha < 0:

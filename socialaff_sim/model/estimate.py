@@ -1,7 +1,7 @@
 """Maximum-likelihood estimates of every learned parameter from parsed, grouped training tracks.
 
 The closing step of learning (and of nothing else): given the final parses and groupings, fit each
-sub-event type's potentials, duration prior, path noise and regressions, and the transition frequencies.
+sub-event type's potentials, duration prior, path noise, regressions and contact keyframes, and the transition frequencies.
 """
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .config import AffordanceConfig
+from .contact_keys import fit_contact_keys
 from .densities import fit_lognorm
 from .end_regression import fit_end_regression, interval_samples
 from .features import type_samples
@@ -74,6 +75,7 @@ def estimate_parameters(
         "path_sigma_": path_sigma,
         "end_regression_": end_regressions,
         "frame_regression_": frame_regressions,
+        "contact_keys_": fit_contact_keys(grouping, spans, tracks, available, cfg.contact_radius),
         "start_probs_": start_probs,
         "transitions_": transitions,
     }
