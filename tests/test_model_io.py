@@ -58,9 +58,11 @@ def test_contact_keys_round_trip(model: SocialAffordanceModel, tmp_path: Path) -
     keys = ContactKeys.empty(m.n_subevents_)
     keys.phase[1, 2], keys.mate[1, 2], keys.offset[1, 2] = 0.45, 2, [0.12, 0.01, -0.02]
     keys.phase[0, 1], keys.mate[0, 1], keys.offset[0, 1] = 0.7, 10, [0.0, 0.05, 0.0]
+    keys.pose[1, 2], keys.spread[1, 2] = [0.4, 0.0, 0.7], 0.13
+    keys.pose[0, 1], keys.spread[0, 1] = [0.5, 0.1, 0.3], 0.1
     m.contact_keys_ = keys
     loaded = SocialAffordanceModel.load(m.save(tmp_path / "k.npz"))
-    for field in ("phase", "mate", "offset"):
+    for field in ("phase", "mate", "offset", "pose", "spread"):
         np.testing.assert_array_equal(getattr(loaded.contact_keys_, field), getattr(keys, field), err_msg=field)
     assert loaded.contact_keys_.of_type(1)[0][:3] == (7, 2, 0.45)
     bad = keys.mate.copy()

@@ -164,7 +164,7 @@ class OnlineSynthesizer:
         observed = t < cfg.n_observed
         if not observed and t >= self._planned_until:
             self._replan(t)
-        if not observed and cfg.contact_width > 0:
+        if not observed and cfg.contact != "none":
             self._pull_contacts(t)
         keys_c = self._track[t, _AGENT1]
         if self._hands[1]:
@@ -200,19 +200,24 @@ class OnlineSynthesizer:
         self._emit(t, s, start, last, target)
 
     def _pull_contacts(self, t: int) -> None:
-        """Blend agent 1's wrists at frame t toward their contact keyframes in the running sub-event
-        (touched joint + learned offset), weight exp(−½((t − t*)/σ)²) with t* at the keyframe's phase."""
+        """Blend agent 1's wrists at frame t toward their contact keyframes (touched joint + learned offset)
+        with weight exp(−½ d²): d = (t − t*) / σ around the keyframe's phase t* in the running sub-event
+        (``"timed"``), or the distance of the touched joint from its contact pose relative to agent 0's
+        base over ``trigger_scale`` × the keyframe's spread, at frame t − 1 (``"triggered"``)."""
         cfg = self.config
+        timed = cfg.contact == "timed"
         start, last = self._span
-        seen = t if cfg.lookahead else t - 1
-        for j, mate, phase, offset in self.model.contact_keys_.of_type(self._sub):
-            dt = (t - (start + phase * (last - start))) / cfg.contact_width
-            if abs(dt) > 3.0:
+        x0 = self._track[t if timed else t - 1]
+        keys = self.model.contact_keys_
+        for key in keys.of_type(self._sub) if timed else keys.all():
+            if timed:
+                d = (t - (start + key.phase * (last - start))) / cfg.contact_width
+            else:
+                d = float(np.linalg.norm(x0[key.mate] - x0[0] - key.pose)) / (cfg.trigger_scale * key.spread)
+            goal = x0[key.mate] + key.offset
+            if abs(d) > 3.0 or not (np.isfinite(d) and np.isfinite(goal).all() and np.isfinite(self._track[t, key.joint]).all()):
                 continue
-            goal = self._track[seen, mate] + offset
-            if np.isfinite(goal).all() and np.isfinite(self._track[t, j]).all():
-                w = np.exp(-0.5 * dt * dt)
-                self._track[t, j] += w * (goal - self._track[t, j])
+            self._track[t, key.joint] += np.exp(-0.5 * d * d) * (goal - self._track[t, key.joint])
 
     def _current(self, t: int) -> tuple[int, int]:
         """The running sub-event and its first frame, from the online parse of frames [0, t)."""

@@ -12,6 +12,7 @@ _DURATION_MODES = ("sample", "median")
 _INTERPOLATIONS = ("linear", "minjerk")
 _PARSES = ("online", "observed")
 _END_PRIORS = ("none", "regression")
+_CONTACTS = ("none", "timed", "triggered")
 
 
 @dataclass(frozen=True)
@@ -64,11 +65,20 @@ class SynthesisConfig:
     """Also re-plan at the predicted end of the running sub-event when that comes before the next ΔT
     boundary, so the next sub-event's first frames head for its own end instead of holding this one's
     end configuration. False: every ΔT frames, as in the paper."""
-    contact_width: float = 0.0
-    """σ, frames: width of the pull of agent 1's wrist toward its contact keyframe (the model's
-    ``contact_keys_``: the touched joint's position plus the learned offset, read at the frame with
-    ``lookahead``, else at the latest observed one) around the keyframe's phase in the running
-    sub-event, a Gaussian weight that is 1 at the keyframe. 0: no pull, as in the paper."""
+    contact: str = "none"
+    """Pull of agent 1's wrist toward its contact keyframes (the model's ``contact_keys_``): toward the
+    touched joint plus the learned offset, with a Gaussian weight that is 1 at the keyframe.
+    ``"timed"`` (needs ``lookahead``): around the keyframe's phase in the running sub-event, σ =
+    ``contact_width`` frames, agent 0 read at the frame itself. ``"triggered"`` (causal): while the
+    touched joint, at the latest observed frame, is near where it was at the touches in training
+    relative to agent 0's base (σ = ``trigger_scale`` × the keyframe's spread); the online parse's clock
+    is too uncertain to time a touch of two or three frames. ``"none"``: no pull, as in the paper."""
+    contact_width: float = 1.5
+    """σ, frames: width of the ``"timed"`` pull around the keyframe's phase."""
+    trigger_scale: float = 1.5
+    """σ of the ``"triggered"`` pull in units of the keyframe's spread: above 1 the robot's hand starts
+    toward the person's before it reaches its contact pose (a touch lasts two or three frames, and the
+    pose is read one frame late)."""
     frame_decay: float = 5.0
     """Frames over which the frame regression's offset from the last emitted pose fades (it starts where
     the synthesized track is, so the track stays continuous)."""
@@ -102,8 +112,14 @@ class SynthesisConfig:
             raise ConfigError(f"frame_weight: expected a value in [0, 1], found {self.frame_weight}")
         if not self.hand_margin >= 0:
             raise ConfigError(f"hand_margin: expected metres >= 0, found {self.hand_margin}")
-        if not self.contact_width >= 0:
-            raise ConfigError(f"contact_width: expected a number of frames >= 0, found {self.contact_width}")
+        if not self.contact_width > 0:
+            raise ConfigError(f"contact_width: expected a number of frames > 0, found {self.contact_width}")
+        if not self.trigger_scale > 0:
+            raise ConfigError(f"trigger_scale: expected a number > 0, found {self.trigger_scale}")
+        if self.contact not in _CONTACTS:
+            raise ConfigError(f"contact: expected {choices(_CONTACTS)}, found {self.contact!r}")
+        if self.contact == "timed" and not self.lookahead:
+            raise ConfigError("contact='timed' reads agent 0 at the keyframe's frame: it needs lookahead=True (offline); use 'triggered' causally")
         if not self.frame_decay > 0:
             raise ConfigError(f"frame_decay: expected a number of frames > 0, found {self.frame_decay}")
         if self.observed_parse_step < 1 or self.prior_samples < 0:
@@ -117,8 +133,9 @@ class SynthesisConfig:
     def reactive(cls, **changes: object) -> SynthesisConfig:
         """Causal settings for a robot reacting to a person (the simulator's and the environment's
         default): the paper's Algorithm 2 plus an equal share of the frame regression, which reads
-        agent 0 only up to the latest observed frame, and a re-planning at each predicted sub-event end."""
-        return cls(**{"frame_weight": 0.5, "replan_at_end": True, **changes})  # type: ignore[arg-type]
+        agent 0 only up to the latest observed frame, a re-planning at each predicted sub-event end, and the
+        pull toward contact keyframes triggered by agent 0's touching joint reaching its contact pose."""
+        return cls(**{"frame_weight": 0.5, "replan_at_end": True, "contact": "triggered", **changes})  # type: ignore[arg-type]
 
     @classmethod
     def offline(cls, **changes: object) -> SynthesisConfig:
@@ -129,6 +146,6 @@ class SynthesisConfig:
         ``SynthesisConfig()`` is the paper's causal Algorithm 2."""
         base = dict(
             lookahead=True, parse="observed", end_prior="regression", interpolation="minjerk", frame_weight=0.5,
-            replan_at_end=True, contact_width=1.5,
+            replan_at_end=True, contact="timed",
         )
         return cls(**{**base, **changes})  # type: ignore[arg-type]

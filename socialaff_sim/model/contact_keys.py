@@ -11,27 +11,47 @@ closest approach to the nearest such mate. When that approach is a contact on av
 closest distance below ``radius``) that is not there at the interval's ends (mean distances at its
 first and last frame at least ``radius``: a contact at an end is already the end configuration the
 potentials describe), the type carries a *contact keyframe* for the wrist: its mean phase in the
-interval, the mate it touches most often, and the wrist's mean offset from that mate at the
-contact (canonical frame). Synthesis pulls the wrist toward ``mate + offset`` around that phase
-(:attr:`~socialaff_sim.inference.synthesis_config.SynthesisConfig.contact_width`).
+interval, the mate it touches most often, the wrist's mean offset from that mate at the contact
+(canonical frame), and where that mate then is relative to agent 0's base (mean and RMS spread).
+Synthesis pulls the wrist toward ``mate + offset``: offline around the keyframe's phase, causally
+while the mate is near its contact pose
+(:attr:`~socialaff_sim.inference.synthesis_config.SynthesisConfig.contact`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from ..data.skeletons import N_KEY
 from .joints import OBJECT
 
-__all__ = ["ContactKeys", "fit_contact_keys", "WRISTS1"]
+__all__ = ["ContactKeys", "Keyframe", "fit_contact_keys", "WRISTS1"]
 
 WRISTS1 = np.array([N_KEY + 1, N_KEY + 2])
 """Model indices of agent 1's wrists, the joints that can carry a contact keyframe (hands are what touch)."""
 
 _MATES = np.r_[np.arange(N_KEY), OBJECT]
+
+
+class Keyframe(NamedTuple):
+    """One learned contact keyframe (see :class:`ContactKeys` for the fields' meaning)."""
+
+    joint: int
+    """Model index of agent 1's joint (a wrist)."""
+    mate: int
+    """Model index of the touched joint."""
+    phase: float
+    """Mean phase of the touch in its interval."""
+    offset: np.ndarray
+    """(3,) metres: agent 1's joint minus the mate at the touch."""
+    pose: np.ndarray
+    """(3,) metres: the mate relative to agent 0's base at the touch."""
+    spread: float
+    """Metres: RMS spread of ``pose``."""
 
 
 @dataclass(frozen=True)
@@ -45,16 +65,28 @@ class ContactKeys:
     """(S, 5) int64: model index of the touched joint (agent 0's key joint or the object), −1 where none."""
     offset: np.ndarray
     """(S, 5, 3) float64, metres, canonical: mean position of agent 1's joint minus its mate's at the contact."""
+    pose: np.ndarray
+    """(S, 5, 3) float64, metres, canonical: mean position of the mate relative to agent 0's base at the contact."""
+    spread: np.ndarray
+    """(S, 5) float64, metres: RMS distance of those mate positions from ``pose`` (at least ``radius`` / 2)."""
 
     @classmethod
     def empty(cls, S: int) -> ContactKeys:
         """No contact keyframe in any of ``S`` types."""
-        return cls(np.full((S, N_KEY), np.nan), np.full((S, N_KEY), -1, np.int64), np.full((S, N_KEY, 3), np.nan))
+        nan3 = np.full((S, N_KEY, 3), np.nan)
+        return cls(np.full((S, N_KEY), np.nan), np.full((S, N_KEY), -1, np.int64), nan3, nan3.copy(), np.full((S, N_KEY), np.nan))
 
-    def of_type(self, s: int) -> list[tuple[int, int, float, np.ndarray]]:
-        """The keyframes of type ``s`` as (agent-1 model index, mate index, phase, offset (3,))."""
+    def of_type(self, s: int) -> list[Keyframe]:
+        """The keyframes of type ``s``."""
         k = np.flatnonzero(np.isfinite(self.phase[s]))
-        return [(N_KEY + int(i), int(self.mate[s, i]), float(self.phase[s, i]), self.offset[s, i]) for i in k]
+        return [
+            Keyframe(N_KEY + int(i), int(self.mate[s, i]), float(self.phase[s, i]), self.offset[s, i], self.pose[s, i], float(self.spread[s, i]))
+            for i in k
+        ]
+
+    def all(self) -> list[Keyframe]:
+        """The keyframes of every type."""
+        return [key for s in range(self.phase.shape[0]) for key in self.of_type(s)]
 
 
 def fit_contact_keys(
@@ -80,7 +112,7 @@ def fit_contact_keys(
             mates = _MATES[(z[_MATES] == z[j]) & available[_MATES]]
             if mates.size == 0:
                 continue
-            phases, closest, ends, nearest, offsets = [], [], [], [], []  # ends: (first, last) frame
+            phases, closest, ends, nearest, offsets, poses = [], [], [], [], [], []  # ends: (first, last) frame
             for x, sp in zip(tracks, spans, strict=True):
                 for a, b, lab in sp:
                     if lab != s or b - a < 3:
@@ -97,6 +129,7 @@ def fit_contact_keys(
                     ends.append((per_frame[0], per_frame[-1]))
                     nearest.append(m)
                     offsets.append(x[a + f, j] - x[a + f, m])
+                    poses.append(x[a + f, m] - x[a + f, 0])
             if not closest:
                 continue
             ends_arr = np.asarray(ends)
@@ -111,4 +144,8 @@ def fit_contact_keys(
             keys.phase[s, i] = float(np.mean(phases))
             keys.mate[s, i] = m
             keys.offset[s, i] = np.mean(np.asarray(offsets)[near == m], axis=0)
+            at = np.asarray(poses)[near == m]
+            keys.pose[s, i] = np.nanmean(at, axis=0)
+            rms = np.sqrt(np.nanmean(np.sum((at - keys.pose[s, i]) ** 2, axis=1)))
+            keys.spread[s, i] = max(float(rms), 0.5 * radius)  # one instance (or identical ones) has no spread
     return keys

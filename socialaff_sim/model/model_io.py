@@ -22,8 +22,9 @@ Layout (format ``socialaff_sim.affordance_model``, version :data:`MODEL_FORMAT_V
     ``frame_cov`` (S, 15, 15) and ``frame_ridge`` (S,) float64: the frame regressions
     (:mod:`~socialaff_sim.model.frame_regression`), likewise;
 ``hand_coupling`` (2, 2) float64: p(agent 1 left-active | agent 0's flag) (:mod:`~socialaff_sim.model.handedness`);
-``contact_phase`` (S, 5) float64, ``contact_mate`` (S, 5) int64 and ``contact_offset`` (S, 5, 3) float64, metres:
-    agent 1's contact keyframes (:mod:`~socialaff_sim.model.contact_keys`; NaN / −1 where none);
+``contact_phase`` (S, 5) float64, ``contact_mate`` (S, 5) int64, ``contact_offset`` and ``contact_pose`` (S, 5, 3)
+    float64, metres, and ``contact_spread`` (S, 5) float64, metres: agent 1's contact keyframes
+    (:mod:`~socialaff_sim.model.contact_keys`; NaN / −1 where none);
 ``trace`` (I + 1,) and ``acceptance`` (I,) float64;
 ``parse_rows`` (R, 3) int64 (start frame, stop frame, label) of all training parses, split per
     instance by ``parse_offsets`` (n + 1,) int64.
@@ -60,14 +61,14 @@ if TYPE_CHECKING:
 __all__ = ["MODEL_FORMAT", "MODEL_FORMAT_VERSION", "save_model", "load_model"]
 
 MODEL_FORMAT = "socialaff_sim.affordance_model"
-MODEL_FORMAT_VERSION = 5
+MODEL_FORMAT_VERSION = 6
 """Version written into every model file; readers reject other versions."""
 
 _ARRAYS = (
     "available", "grouping", "spatial_params", "motion_params", "duration_params", "transitions",
     "start_probs", "centroids", "mean_end", "vertical_up", "path_sigma", "end_context_mean", "end_context_scale", "end_target_mean", "end_coef", "end_cov", "end_ridge",
     "frame_context_mean", "frame_context_scale", "frame_target_mean", "frame_coef", "frame_cov", "frame_ridge", "hand_coupling",
-    "contact_phase", "contact_mate", "contact_offset", "trace", "acceptance", "parse_rows", "parse_offsets",
+    "contact_phase", "contact_mate", "contact_offset", "contact_pose", "contact_spread", "trace", "acceptance", "parse_rows", "parse_offsets",
 )
 
 
@@ -111,6 +112,8 @@ def save_model(model: SocialAffordanceModel, path: str | Path) -> Path:
         "contact_phase": model.contact_keys_.phase,
         "contact_mate": model.contact_keys_.mate.astype(np.int64),
         "contact_offset": model.contact_keys_.offset,
+        "contact_pose": model.contact_keys_.pose,
+        "contact_spread": model.contact_keys_.spread,
         "trace": np.asarray(model.trace_, float),
         "acceptance": np.asarray(model.acceptance_, float),
         "parse_rows": rows.astype(np.int64).reshape(-1, 3),
@@ -233,6 +236,8 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     _check_shape(path, "contact_phase", a["contact_phase"], (S, N_KEY), "f")
     mates = _check_shape(path, "contact_mate", a["contact_mate"], (S, N_KEY), "iu")
     _check_shape(path, "contact_offset", a["contact_offset"], (S, N_KEY, 3), "f")
+    _check_shape(path, "contact_pose", a["contact_pose"], (S, N_KEY, 3), "f")
+    _check_shape(path, "contact_spread", a["contact_spread"], (S, N_KEY), "f")
     if np.any((mates < -1) | (mates >= J)) or np.any(np.isfinite(a["contact_phase"]) != (mates >= 0)):
         raise ModelFileError(f"{path}: field 'contact_mate': expected a joint index in [0, {J}) where contact_phase is set, -1 elsewhere")
     _check_shape(path, "trace", a["trace"], (None,), "f")
@@ -262,7 +267,8 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     model.frame_regression_ = _ridge_regressions("frame", a, S)
     model.hand_coupling_ = a["hand_coupling"].astype(float)
     model.contact_keys_ = ContactKeys(
-        a["contact_phase"].astype(float), a["contact_mate"].astype(np.int64), a["contact_offset"].astype(float)
+        a["contact_phase"].astype(float), a["contact_mate"].astype(np.int64), a["contact_offset"].astype(float),
+        a["contact_pose"].astype(float), a["contact_spread"].astype(float),
     )
     model.trace_ = a["trace"].astype(float)
     model.acceptance_ = a["acceptance"].astype(float)
