@@ -134,17 +134,18 @@ def fit_contact_keys(
                 continue
             ends_arr = np.asarray(ends)
             ends_arr[~np.isfinite(ends_arr)] = np.nan  # an end frame missing the joint says nothing
-            if not (np.isfinite(ends_arr).any(axis=0).all() and np.mean(closest) < radius):
-                continue
-            if not np.all(np.nanmean(ends_arr, axis=0) >= radius):
+            # Released at both ends: each end seen at least once (so its mean is defined), its mean ≥ radius.
+            released = np.isfinite(ends_arr).any(axis=0).all() and np.all(np.nanmean(ends_arr, axis=0) >= radius)
+            if not (np.mean(closest) < radius and released):
                 continue
             near = np.asarray(nearest)
             m = int(np.bincount(near).argmax())
+            touches = near == m
             i = j - N_KEY
             keys.phase[s, i] = float(np.mean(phases))
             keys.mate[s, i] = m
-            keys.offset[s, i] = np.mean(np.asarray(offsets)[near == m], axis=0)
-            at = np.asarray(poses)[near == m]
+            keys.offset[s, i] = np.mean(np.asarray(offsets)[touches], axis=0)
+            at = np.asarray(poses)[touches]
             keys.pose[s, i] = np.nanmean(at, axis=0)
             rms = np.sqrt(np.nanmean(np.sum((at - keys.pose[s, i]) ** 2, axis=1)))
             keys.spread[s, i] = max(float(rms), 0.5 * radius)  # one instance (or identical ones) has no spread
