@@ -223,7 +223,7 @@ def sections(quick: bool, workers: int) -> dict[str, Section]:
     if not quick:  # the full model on the real recordings beside the project, where they are
         shared = ROOT.parent / "shared" / "data"
         real = [("sbu", "sbu_kinect_interaction", "shaking_hands", "full,v1,v2,hmm,promp"),
-                ("handover", "handover_h2h", "hand_over", "full,hmm,promp")]
+                ("handover", "handover_h2h", "hand_over", "full,v1,v2,hmm,promp")]
         for kind, folder, label, methods in real:
             if (shared / folder).is_dir():
                 accuracy.append(Run(f"evaluate_{kind}", [

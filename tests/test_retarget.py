@@ -95,7 +95,7 @@ def test_a_mapping_file_anywhere_works(tmp_path: Path) -> None:
     [
         ('base = "site:base"', 'base = "joint:base"', r"key 'frames\.base': expected 'site:NAME' or 'body:NAME'"),
         ('left_wrist = "site:left_wrist"', "", r"key 'frames\.left_wrist': expected a value"),
-        ("max_joint_velocity = 12.0", "max_joint_velocity = -1.0", r"limits\.max_joint_velocity'.*\[0\.001, 1000\.0\]"),
+        ("max_joint_velocity = 20.0", "max_joint_velocity = -1.0", r"limits\.max_joint_velocity'.*\[0\.001, 1000\.0\]"),
         ('keyframe = "home"', 'keyframe = "rest"', r"posture\.keyframe 'rest' is not in the model; keyframes: 'home'"),
         ('base = "site:base"', 'base = "site:pelvis_site"', r"frame 'site:pelvis_site' is not in the robot model; sites present: 'base'"),
     ],
@@ -235,6 +235,54 @@ def test_contact_placement_keeps_the_contact_within_reach() -> None:
     far.reset(inter, np.zeros(3))
     assert far.contact_k is None
     np.testing.assert_allclose(far.k, (0.55 + ROBOT.arm) / (0.55 + far.human.arm), atol=1e-9)
+
+
+def test_online_placement_moves_in_on_a_contact_of_the_given_keys() -> None:
+    # Placed from a recording without a contact (arms hanging), the robot starts at the arm ratio; a causal
+    # source then reaches agent 0's right hand with agent 1's right wrist.
+    inter = pair(distance=1.2)
+    n = LAYOUT.joint_names
+    meet = np.array([0.6, -0.05, 1.0])
+    partner = np.array(inter.joints[0, 0])
+    partner[n.index("right_hand")] = meet + (-0.05, 0.0, 0.0)
+    keys = np.array(inter.key_joints()[0, 1])
+    keys[2] = meet + (0.05, 0.0, 0.0)  # right wrist
+    far_keys = np.array(inter.key_joints()[0, 1])
+    cfg = ScalingConfig(max_extension=0.9, body_clearance=0.0, placement_speed=0.6)
+    scaler = KeyJointScaler(ROBOT, cfg)
+    scaler.reset(inter, np.zeros(3))
+    k0 = (0.55 + ROBOT.arm) / (0.55 + scaler.human.arm)
+    assert scaler.contact_k is None
+    np.testing.assert_allclose(scaler.k, k0, atol=1e-9)
+    scaler(far_keys, partner)  # no wrist near the partner: the robot stays
+    np.testing.assert_allclose(scaler.k, k0, atol=1e-12)
+    # Independent check of where it ends: the robot's right shoulder exactly e·arm_r from the wrist there.
+    shoulder_h = keys[0] + np.array([0.0, 0.18, 0.45])  # agent 1 faces -x: its right shoulder is at +y
+    e = min(np.linalg.norm(keys[2] - shoulder_h) / scaler.human.arm, 0.9)
+
+    def shoulder_gap(k: float) -> float:
+        base = np.array([1.2 * k, 0.0, ROBOT.base_height + scaler.s_leg * (1.0 - scaler.human.base_height)])
+        return float(np.linalg.norm(keys[2] - (base + scaler.frame.rotation @ ROBOT.shoulders[1])))
+
+    ks = [scaler.k]
+    for _ in range(40):
+        scaler(keys, partner)
+        ks.append(scaler.k)
+    steps = -np.diff(ks)
+    # At most placement_speed / fps metres of base motion a frame (1.2 m from the partner), never back out.
+    assert (steps >= 0).all() and steps.max() <= 0.6 / 10.0 / 1.2 + 1e-12 and steps[0] > 0
+    np.testing.assert_allclose(shoulder_gap(scaler.k), e * ROBOT.arm, atol=1e-9)
+    assert scaler.k < k0
+    final = scaler.k
+    for _ in range(3):
+        scaler(far_keys, partner)
+    assert scaler.k == final  # a wrist moving away does not move the robot back
+    # Off: the robot keeps its first placement.
+    fixed = KeyJointScaler(ROBOT, dataclasses.replace(cfg, online_placement=False))
+    fixed.reset(inter, np.zeros(3))
+    for _ in range(5):
+        fixed(keys, partner)
+    np.testing.assert_allclose(fixed.k, k0, atol=1e-9)
 
 
 def test_body_clearance_moves_the_robot_back() -> None:

@@ -63,7 +63,7 @@ class IKConfig:
     """Cost of departing from the home posture (per radian)."""
     damping: float = 1e-4
     """Levenberg-Marquardt damping of the QP."""
-    iterations: int = 8
+    iterations: int = 30
     """Most QP steps per data frame (taken only while a target within reach is off by more than
     ``tolerance``)."""
     tolerance: float = 0.01
@@ -71,7 +71,7 @@ class IKConfig:
     min_progress: float = 0.002
     """Progress that counts: a step that brings the largest error among the targets worth it this much
     below the smallest so far this frame, metres."""
-    patience: int = 2
+    patience: int = 6
     """Also stop after this many steps in a row without progress (a limit or the collision avoidance
     holds the frame back)."""
     min_distance: float = 0.01

@@ -35,6 +35,12 @@ legs by ``body_clearance`` at every frame: the arms (and bending) must then make
 up the distance, but the robot never stands where the person's body will be. This matters for a robot of unlike build: a short
 robot with long arms meets a tall person's raised hand only from close by.
 
+Online placement. A causal source (the model's synthesis reacting to the person) shows the
+scaler only agent 1's first frames, usually without a contact, so k starts at the arm ratio. With
+``online_placement`` the scaler then takes contact samples from the keys it is given, frame by
+frame (a wrist within ``contact_radius`` of the partner or the object), and lowers k to the largest
+value keeping them within reach, the base moving in at most ``placement_speed``.
+
 Contact preservation. Near the partner (or the object) the interaction, not the
 body, sets where a wrist must be: each wrist target is blended toward agent 1's
 unscaled wrist position with weight w = smoothstep((far − d) / (far − near)),
@@ -104,6 +110,12 @@ class ScalingConfig:
     """Metres: the frames within this distance of a contact's closest approach are its samples."""
     max_extension: float = 0.9
     """e_max: the most a contact may stretch the robot's arm, as a fraction of its length."""
+    online_placement: bool = True
+    """Whether a robot placed without contact samples (a causal source shows only agent 1's first frames)
+    moves in as the track it is given makes contact: each wrist within ``contact_radius`` of the partner
+    or the object lowers k to what keeps that wrist within reach (never raises it)."""
+    placement_speed: float = 0.6
+    """v_p, m/s: the most the online placement moves the robot's base toward the partner."""
     k_min: float = 0.5
     """Smallest placement factor k."""
     k_max: float = 2.0
@@ -173,6 +185,7 @@ class KeyJointScaler:
         self._base_config = config or ScalingConfig()
         self.config = self._base_config
         self.push = self.config.contact_push
+        self._online = False  # set by reset: whether k follows the contacts of the keys it is given
 
     def reset(self, inter: Interaction, offset: np.ndarray) -> RobotFrame:
         """Measure the instance's people and place the robot; returns the robot frame."""
@@ -204,6 +217,13 @@ class KeyJointScaler:
         if c.scale_placement and self.robot.trunk_radius > 0:
             k = max(k, self._clearance_k(inter, offset, k))
         self.k = float(np.clip(k, c.k_min, c.k_max)) if c.scale_placement else 1.0
+        self._online = c.online_placement and c.contact_placement and c.scale_placement and self.contact_k is None
+        # Moving in never undercuts the trunk's clearance from the person (over the frames placed from).
+        self._k_floor = c.k_min
+        if self._online and self.robot.trunk_radius > 0:
+            self._k_floor = self._clearance_k(inter, offset, c.k_min)
+        self._k_step = c.placement_speed / max(inter.fps, 1e-9)  # metres of base motion per frame
+        self._k_goal = self.k
         origin = a0 + (a1 - a0) * self.k
         self.frame = RobotFrame(origin, heading_matrix(a0 - a1))
         return self.frame
@@ -231,7 +251,7 @@ class KeyJointScaler:
 
     def _contact_k(self, inter: Interaction, offset: np.ndarray, rotation: np.ndarray) -> float | None:
         """The largest k keeping every contact sample within the robot's reach (see the module notes)."""
-        c, h, r = self.config, self.human, self.robot
+        c, h = self.config, self.human
         joints = inter.filled_joints() + offset  # (T, 2, J, 3)
         keys = inter.key_joints()[:, 1] + offset  # (T, 5, 3)
         partner = joints[:, 0]
@@ -260,6 +280,14 @@ class KeyJointScaler:
                 measured = joints[t_idx[rows], 1, names.index(name)]
                 good = np.isfinite(measured).all(axis=1)
                 shoulder_h[np.flatnonzero(rows)[good]] = measured[good]
+        return self._k_within_reach(wrist, base1, p0, side, shoulder_h, rotation)
+
+    def _k_within_reach(self, wrist: np.ndarray, base1: np.ndarray, p0: np.ndarray, side: np.ndarray,
+                        shoulder_h: np.ndarray, rotation: np.ndarray) -> float | None:
+        """The largest k keeping N contact samples within the robot's reach: agent 1's ``wrist``, ``base1``,
+        agent 0's base ``p0`` and agent 1's shoulder ``shoulder_h`` (N, 3) world frame, the wrist's
+        ``side`` (N,) 0/1; ``None`` when no sample can be brought within reach."""
+        c, h, r = self.config, self.human, self.robot
         extension = np.minimum(np.linalg.norm(wrist - shoulder_h, axis=1) / h.arm, c.max_extension)
         reach = extension * r.arm
         # Robot shoulder for placement k: p₀ + k·(b₁ − p₀) horizontally, at the scaled base height, plus its offset.
@@ -280,6 +308,22 @@ class KeyJointScaler:
             return None
         upper = (-ad[valid] + np.sqrt(disc[valid])) / dd[valid]
         return float(upper.min())
+
+    def _place_online(self, keys: np.ndarray, d: np.ndarray, p0: np.ndarray) -> None:
+        """Lower k toward what the wrists within ``contact_radius`` (distances ``d`` (2,)) of agent 1's
+        ``keys`` (5, 3) need, agent 0's base at ``p0`` (3,), all world frame (see the module notes)."""
+        c = self.config
+        side = np.flatnonzero(d <= c.contact_radius)
+        if len(side) and np.isfinite(keys[0]).all() and np.isfinite(keys[1 + side]).all():
+            base1 = np.repeat(keys[None, 0], len(side), axis=0)
+            shoulder_h = base1 + self.human.shoulders[side] @ self._agent_frame.rotation.T
+            k = self._k_within_reach(keys[1 + side], base1, np.repeat(p0[None], len(side), axis=0), side,
+                                     shoulder_h, self.frame.rotation)
+            if k is not None:
+                self._k_goal = min(self._k_goal, max(k, self._k_floor))
+        if self._k_goal < self.k:
+            spread = float(np.linalg.norm(keys[0, :2] - p0[:2])) if np.isfinite(keys[0]).all() else 0.0
+            self.k = max(self._k_goal, self.k - self._k_step / max(spread, 1e-3))
 
     def scaled(self, keys: np.ndarray, partner_base: np.ndarray) -> np.ndarray:
         """(5, 3) robot-frame targets from agent 1's key joints ``keys`` (5, 3), world frame, by scaling alone.
@@ -326,9 +370,11 @@ class KeyJointScaler:
         p0 = partner[self._partner_base]
         if not np.isfinite(p0).all():
             p0 = self.frame.origin + self.frame.rotation[:, 0]
-        out = self.scaled(keys, p0)
         c = self.config
         d, anchor, is_joint = self._nearest(keys, partner, obj)
+        if self._online:
+            self._place_online(keys, d, p0)
+        out = self.scaled(keys, p0)
         w = smoothstep((c.contact_far - d) / (c.contact_far - c.contact_near))
         recorded = keys[1:3].copy()
         toward = anchor - recorded
