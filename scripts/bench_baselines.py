@@ -16,19 +16,18 @@ averages is printed together with the equivalent CLI commands.
 Usage::
 
     python scripts/bench_baselines.py [--out bench_out/baselines] [--workers 2] [--seed 0]
-        [--datasets synthetic sbu handover] [--wait 0] [--json PATH]
+        [--datasets synthetic sbu handover] [--json PATH]
 
 ``--json PATH`` also writes the summary (averages per dataset and method, wall
 seconds, the equivalent CLI command, skipped datasets) to PATH, atomically.
 
-``--wait S`` polls up to S seconds for the synthetic generator / loaders to
-become importable (they may still be being written).
+A dataset whose recordings are not found (the real ones live beside the project,
+in ../shared/data, or under $SOCIALAFF_SHARED_DATA) is skipped with a message.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import os
 import sys
@@ -45,10 +44,10 @@ ROOT = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("SOCIALAFF_SHARED_DATA", ROOT.parent / "shared" / "data"))
 
 DATASETS = {
-    # name: (spec, interactions or None for all, module that must be importable)
-    "synthetic": ("synthetic:0", None, "socialaff_sim.data.synthetic"),
-    "sbu": (f"sbu:{SHARED / 'sbu_kinect_interaction'}", ["shaking_hands"], "socialaff_sim.data.sbu"),
-    "handover": (f"handover:{SHARED / 'handover_h2h'}", ["hand_over"], "socialaff_sim.data.handover"),
+    # name: (spec, interactions or None for all)
+    "synthetic": ("synthetic:0", None),
+    "sbu": (f"sbu:{SHARED / 'sbu_kinect_interaction'}", ["shaking_hands"]),
+    "handover": (f"handover:{SHARED / 'handover_h2h'}", ["hand_over"]),
 }
 
 
@@ -66,25 +65,12 @@ class HoldLast:
         return prediction_from_joints(interaction, joints, n_observed=n_observed)
 
 
-def _wait_for(module: str, seconds: float) -> bool:
-    deadline = time.monotonic() + seconds
-    while True:
-        try:
-            importlib.import_module(module)
-            return True
-        except ImportError:
-            if time.monotonic() >= deadline:
-                return False
-            time.sleep(10.0)
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="bench_out/baselines", help="output folder")
     parser.add_argument("--workers", type=int, default=2, help="process-pool workers")
     parser.add_argument("--seed", type=int, default=0, help="run seed")
     parser.add_argument("--datasets", nargs="+", choices=list(DATASETS), default=list(DATASETS))
-    parser.add_argument("--wait", type=float, default=0.0, help="seconds to poll for missing data modules")
     parser.add_argument("--json", default=None, help="also write the summary here (atomically)")
     args = parser.parse_args()
 
@@ -93,11 +79,7 @@ def main() -> int:
     summary = []
     skipped: dict[str, str] = {}
     for name in args.datasets:
-        spec, interactions, module = DATASETS[name]
-        if not _wait_for(module, args.wait):
-            print(f"[{name}] skipped: {module} is not importable yet")
-            skipped[name] = f"{module} is not importable"
-            continue
+        spec, interactions = DATASETS[name]
         if not spec.startswith("synthetic") and not Path(spec.partition(":")[2]).exists():
             print(f"[{name}] skipped: recordings not found at {spec.partition(':')[2]}")
             skipped[name] = f"recordings not found at {spec.partition(':')[2]}"

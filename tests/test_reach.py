@@ -123,7 +123,6 @@ def test_cmu_base_parts_are_its_pelvis(cmu: Scene) -> None:
 
 def test_cmu_ik_keeps_the_wrist_core_off_its_pelvis(cmu: Scene) -> None:
     """The reason of the clause: aimed at the middle of its pelvis, the wrist stops the core plus the clearance away."""
-    m = cmu.model
     reach = _reach_of(cmu)
     ik = ik_for(cmu, 8.0)
     start = ik.frame_positions()

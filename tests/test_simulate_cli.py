@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import pytest
@@ -11,7 +10,6 @@ import pytest
 from socialaff_sim.cli.main import main
 from socialaff_sim.data import save_dataset
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
-from socialaff_sim.retarget.sources import SYNTHESIS_MODULE
 
 
 @pytest.fixture(scope="module")
@@ -41,17 +39,18 @@ def test_gt_replay_writes_metrics(data_dir: Path, tmp_path: Path, capsys: pytest
     assert "hands_clasped" in printed and "real-time factor" in printed
 
 
-def test_model_source_needs_the_synthesizer(data_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                                            capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_broken_model_file_is_named(data_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     model = tmp_path / "model.npz"
-    model.write_bytes(b"")
-    monkeypatch.setitem(sys.modules, SYNTHESIS_MODULE, None)  # as if the module were not installed
+    model.write_bytes(b"")  # truncated: not an .npz
     rc = main(["simulate", "--model", str(model), "--data", f"npz:{data_dir}", "--instance", "shake_hands_000",
                "--out", str(tmp_path / "run"), "--no-video"])
     assert rc == 2
     err = capsys.readouterr().err
-    assert SYNTHESIS_MODULE in err and "--source gt" in err
+    assert str(model) in err and "not a readable model file" in err
     assert not (tmp_path / "run" / "metrics.json").exists()
+    rc = main(["simulate", "--model", str(tmp_path / "absent.npz"), "--data", f"npz:{data_dir}", "--instance",
+               "shake_hands_000", "--out", str(tmp_path / "run"), "--no-video"])
+    assert rc == 2 and "absent.npz: no such model file" in capsys.readouterr().err
 
 
 def test_bad_arguments_are_reported(data_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

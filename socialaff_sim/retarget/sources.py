@@ -1,19 +1,19 @@
-"""Where the robot's key-joint targets come from: a recording now, the synthesizer later.
+"""Where the robot's key-joint targets come from: a recording, or the affordance model's synthesis.
 
 A :class:`KeyJointSource` yields, frame by frame, the five key joints of agent 1
 (the agent the robot plays) in the interaction's own data frame, plus the name
 of the current sub-event when it knows one. The simulator scales them onto the
 robot (:class:`~socialaff_sim.retarget.scaling.KeyJointScaler`).
 
-A source must be causal when it stands in for a model: ``targets(t)`` may use the
-observed human (agent 0) and object up to frame ``t`` only. The ground-truth
+A source reacting to the person is causal: ``targets(t)`` uses the observed
+human (agent 0) and object up to frame ``t`` only (the model's synthesis is, unless
+asked to read the whole recording offline). The ground-truth
 source reads agent 1's recorded track and is the reference every model is
 compared with.
 """
 
 from __future__ import annotations
 
-import importlib
 from pathlib import Path
 from typing import NamedTuple, Protocol, runtime_checkable
 
@@ -22,12 +22,7 @@ import numpy as np
 from ..data.interaction import Interaction
 from ..errors import SimulationError
 
-__all__ = ["SourceFrame", "KeyJointSource", "GroundTruthSource", "model_source", "SYNTHESIS_MODULE", "SYNTHESIS_HOOK"]
-
-SYNTHESIS_MODULE = "socialaff_sim.inference"
-"""Module of the online synthesizer (Algorithm 2)."""
-SYNTHESIS_HOOK = "key_joint_source"
-"""Function of that module: ``key_joint_source(model_path) -> KeyJointSource``."""
+__all__ = ["SourceFrame", "KeyJointSource", "GroundTruthSource", "model_source"]
 
 
 class SourceFrame(NamedTuple):
@@ -77,14 +72,12 @@ class GroundTruthSource:
 
 
 def model_source(model_path: str | Path | None, *, offline: bool = False) -> KeyJointSource:
-    """The affordance model's online synthesis as a :class:`KeyJointSource`.
+    """The affordance model's online synthesis as a :class:`KeyJointSource`
+    (:func:`socialaff_sim.inference.key_joint_source`).
 
     ``offline``: the synthesis reads the replayed human's whole recorded track
     (``SynthesisConfig.offline()``, as the evaluation does) instead of reacting causally.
-
-    It comes from ``socialaff_sim.inference.synthesis.key_joint_source(model_path)``;
-    a clear :class:`SimulationError` says so when that module or function is not
-    (yet) part of the installed package, or when no model file is given.
+    A clear :class:`SimulationError` says so when no model file is given or it does not exist.
     """
     if model_path is None:
         raise SimulationError("--source model needs --model MODEL.npz (a fitted affordance model); "
@@ -92,23 +85,7 @@ def model_source(model_path: str | Path | None, *, offline: bool = False) -> Key
     path = Path(model_path)
     if not path.exists():
         raise SimulationError(f"{path}: no such model file (fit one with: socialaff-sim fit)")
-    try:
-        module = importlib.import_module(SYNTHESIS_MODULE)
-    except ModuleNotFoundError as exc:
-        if exc.name is not None and SYNTHESIS_MODULE.startswith(exc.name):
-            raise SimulationError(
-                f"--source model needs the online synthesizer ({SYNTHESIS_MODULE}), which this installation "
-                "does not have yet; use --source gt to replay the recorded agent 1"
-            ) from None
-        raise
-    hook = getattr(module, SYNTHESIS_HOOK, None)
-    if hook is None:
-        raise SimulationError(
-            f"{SYNTHESIS_MODULE} has no {SYNTHESIS_HOOK}(model_path) returning a KeyJointSource; "
-            "use --source gt to replay the recorded agent 1"
-        )
-    source = hook(path, offline=True) if offline else hook(path)
-    if not isinstance(source, KeyJointSource):
-        raise SimulationError(f"{SYNTHESIS_MODULE}.{SYNTHESIS_HOOK} returned {type(source).__name__}, "
-                              "which lacks reset(interaction) and targets(t)")
-    return source
+    # Imported here: the synthesizer (and the model behind it) is loaded only when a model drives the robot.
+    from ..inference.methods import key_joint_source
+
+    return key_joint_source(path, offline=offline)
