@@ -283,6 +283,8 @@ def test_online_placement_moves_in_on_a_contact_of_the_given_keys() -> None:
     for _ in range(5):
         fixed(keys, partner)
     np.testing.assert_allclose(fixed.k, k0, atol=1e-9)
+    with pytest.raises(ConfigError, match=r"placement_speed: expected a speed ≥ 0 m/s, found -1"):
+        ScalingConfig(placement_speed=-1.0)
 
 
 def test_body_clearance_moves_the_robot_back() -> None:

@@ -62,6 +62,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..data.interaction import Interaction
+from ..errors import ConfigError
 from .measure import BodyMeasurements, heading_matrix, measure_human, measure_robot
 
 __all__ = [
@@ -124,6 +125,10 @@ class ScalingConfig:
     """c_b, metres: the robot's trunk (its ``trunk_radius`` about the base's vertical axis) keeps at
     least this far from the partner's trunk, head and legs joints at every frame (k is raised until
     it does: a robot must not stand where the person's body will be)."""
+
+    def __post_init__(self) -> None:
+        if not self.placement_speed >= 0:
+            raise ConfigError(f"ScalingConfig.placement_speed: expected a speed ≥ 0 m/s, found {self.placement_speed}")
 
 
 def smoothstep(x: np.ndarray | float) -> np.ndarray:
