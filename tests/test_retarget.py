@@ -302,3 +302,32 @@ def test_body_clearance_moves_the_robot_back() -> None:
     clear = [np.linalg.norm(body - np.array([0.5 * k, 0.0]), axis=1).min() >= 0.4 for k in ks]
     np.testing.assert_allclose(scaler.k, ks[int(np.argmax(clear))], atol=1e-9)
     assert scaler.k > k0
+
+
+def test_a_contact_wrist_stays_clear_of_the_robots_trunk() -> None:
+    # Agent 0 reaches in to 10 cm in front of agent 1 (1.2 m away), where agent 1's right wrist meets its
+    # hand in every frame: a broad robot placed by reach alone would meet it inside its own trunk.
+    inter = pair(distance=1.2)
+    joints = np.array(inter.joints)
+    n = LAYOUT.joint_names
+    meet = np.array([1.05, -0.05, 1.0])
+    joints[:, 0, n.index("right_hand")] = meet + (-0.05, 0.0, 0.0)
+    joints[:, 1, n.index("right_wrist")] = meet + (0.05, 0.0, 0.0)
+    inter = inter.replace(joints=joints)
+    robot = dataclasses.replace(ROBOT, trunk_radius=0.3)
+    scaler = KeyJointScaler(robot, ScalingConfig(body_clearance=0.0, wrist_clearance=0.05))
+    scaler.reset(inter, np.zeros(3))
+    # Closed form: the base on the line at 1.2·k, the wrist at (1.1, −0.05): (1.2k − 1.1)² + 0.05² = 0.35².
+    k = (1.1 + np.sqrt(0.35**2 - 0.05**2)) / 1.2
+    np.testing.assert_allclose(scaler.k, k, atol=1e-9)
+    np.testing.assert_allclose(scaler.contact_k, k, atol=1e-9)
+    # It is the reach's upper bound that gives way: by reach alone the robot would stand closer.
+    slim = KeyJointScaler(ROBOT, ScalingConfig(body_clearance=0.0))
+    slim.reset(inter, np.zeros(3))
+    assert slim.contact_k is not None and slim.contact_k < k - 0.05
+    # No clearance asked: the trunk's radius alone.
+    flush = KeyJointScaler(robot, ScalingConfig(body_clearance=0.0, wrist_clearance=0.0))
+    flush.reset(inter, np.zeros(3))
+    np.testing.assert_allclose(flush.k, (1.1 + np.sqrt(0.3**2 - 0.05**2)) / 1.2, atol=1e-9)
+    with pytest.raises(ConfigError, match=r"wrist_clearance: expected a distance ≥ 0 m, found -0.1"):
+        ScalingConfig(wrist_clearance=-0.1)

@@ -13,11 +13,15 @@ import numpy as np
 import pytest
 
 from socialaff_sim.data.skeletons import get_layout
+from socialaff_sim.data.synthetic import generate_dataset
+from socialaff_sim.errors import SimulationError
 from socialaff_sim.retarget.collision import collision_pairs
 from socialaff_sim.retarget.ik import IKConfig, IKModel, RobotIK
 from socialaff_sim.retarget.key_task import _right_jacobian_inverse
 from socialaff_sim.retarget.robot import load_robot
+from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.scene import Scene, build_scene, set_human_sizes
+from socialaff_sim.sim.simulator import SimConfig, Simulator
 
 LAYOUT = get_layout("kinect_v2")
 
@@ -464,3 +468,51 @@ def test_right_jacobian_inverse_against_the_closed_form(rng: np.random.Generator
         else:
             jr = np.eye(3) - (1 - np.cos(theta)) / theta**2 * K + (theta - np.sin(theta)) / theta**3 * K @ K
         np.testing.assert_allclose(_right_jacobian_inverse(e), np.linalg.inv(jr), atol=1e-9, rtol=1e-7)
+
+
+def _replay_misses(robot: str, label: str, index: int, ik: IKConfig) -> tuple[list[tuple[int, int, float]], int]:
+    """Replay the ground truth of one default synthetic instance; the reachable targets off by > 2 cm
+    (frame, key frame, error) and the steps undone."""
+    inter = generate_dataset(seed=0).of_label(label).interactions[index]
+    sim = Simulator(robot, label, SimConfig(ik=ik))
+    sim.reset(inter)
+    undone = []
+    solve = sim._stage.ik.solve  # type: ignore[union-attr]
+
+    def counting(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        res = solve(*args, **kwargs)
+        undone.append(res.undone)
+        return res
+
+    sim._stage.ik.solve = counting  # type: ignore[union-attr, method-assign]
+    src = GroundTruthSource()
+    src.reset(inter)
+    sim.settle(sim.retarget(src.targets(0).keys, frame=0))
+    while not sim.done:
+        f = src.targets(sim.frame + 1)
+        sim.step(sim.retarget(f.keys, frame=sim.frame + 1), subevent=f.subevent)
+    avail = inter.key_available()
+    misses = [(r.frame, k, float(r.ik_error[k])) for r in sim.results for k in range(5)
+              if r.reachable[k] and avail[k] and r.ik_error[k] > 0.02]
+    return misses, int(sum(undone))
+
+
+def test_hands_closing_on_a_ball_do_not_trade_places() -> None:
+    """The catch of default synthetic throw-and-catch instance 3 on Stubby puts its two wrist targets 2–3 cm
+    apart, both pushed into the ball. Step after step the collision avoidance between the hands pushed one
+    off as the other arrived, and the frame ended with both 7–9 cm off (issue 5). Undoing a step that makes
+    the worst error grow by more than ``max_worsening`` lets the damped steps settle both."""
+    misses, undone = _replay_misses("ours", "throw_catch", 3, IKConfig())
+    assert misses == [] and undone > 0
+    misses, undone = _replay_misses("ours", "throw_catch", 3, IKConfig(max_worsening=None))
+    assert undone == 0 and len(misses) >= 1 and max(e for _, _, e in misses) > 0.05, misses
+
+
+@pytest.mark.parametrize(("field", "value", "pattern"), [
+    ("max_worsening", -0.01, r"IKConfig.max_worsening: expected a distance ≥ 0 m or None, found -0.01"),
+    ("damping_growth", 0.5, r"IKConfig.damping_growth: expected at least 1.0, found 0.5"),
+    ("max_damping", 1e-5, r"IKConfig.max_damping: expected at least 0.0001, found 1e-05"),
+])
+def test_undo_settings_are_checked(stick: Scene, field: str, value: float, pattern: str) -> None:
+    with pytest.raises(SimulationError, match=pattern):
+        ik_for(stick, 8.0, IKConfig(**{field: value}))

@@ -63,6 +63,16 @@ class IKConfig:
     """Cost of departing from the home posture (per radian)."""
     damping: float = 1e-4
     """Levenberg-Marquardt damping of the QP."""
+    max_worsening: float | None = 0.02
+    """A QP step after a frame's first that leaves the largest error among the targets worth it more
+    than this above where the step started, metres, is undone, and the next one taken with
+    ``damping_growth`` times the damping (two hands closing on a ball 2–3 cm apart can otherwise trade
+    places step after step, the collision avoidance between them pushing one off as the other
+    arrives); ``None``: no step is undone."""
+    damping_growth: float = 10.0
+    """Factor on the damping after an undone step (and its inverse after a kept one, down to ``damping``)."""
+    max_damping: float = 10.0
+    """Most damping the growth reaches."""
     iterations: int = 30
     """Most QP steps per data frame (taken only while a target within reach is off by more than
     ``tolerance``)."""
@@ -135,7 +145,9 @@ class IKResult:
     errors: np.ndarray
     """(5,) distance of each key frame to its target, metres."""
     iterations: int
-    """QP steps taken (a step solved again for a collision pair counts once)."""
+    """QP steps taken (a step solved again for a collision pair counts once; an undone step counts)."""
+    undone: int = 0
+    """Steps undone for making matters worse (``IKConfig.max_worsening``)."""
 
 
 class RobotIK:
@@ -144,9 +156,12 @@ class RobotIK:
     def __init__(self, ik_model: IKModel, config: IKConfig | None = None) -> None:
         self.spec = ik_model
         self.config = c = config or IKConfig()
-        for name, low in (("iterations", 1), ("patience", 1), ("backtracks", 0)):
-            if getattr(c, name) < low:
+        for name, low in (("iterations", 1), ("patience", 1), ("backtracks", 0), ("damping_growth", 1.0),
+                          ("max_damping", c.damping)):
+            if not getattr(c, name) >= low:
                 raise SimulationError(f"IKConfig.{name}: expected at least {low}, found {getattr(c, name)}")
+        if c.max_worsening is not None and not c.max_worsening >= 0:
+            raise SimulationError(f"IKConfig.max_worsening: expected a distance ≥ 0 m or None, found {c.max_worsening}")
         m = ik_model.model
         if m.nq != len(ik_model.home_qpos):
             raise SimulationError(f"IK model has nq = {m.nq}, home posture has {len(ik_model.home_qpos)} values")
@@ -174,6 +189,7 @@ class RobotIK:
         self.set_contact_exemptions([])
         self._home_quat = self._frame_quats(ik_model.home_qpos)
         self._fixed_yaw: float | None = None
+        self._damping = c.damping
 
     # -- set-up ---------------------------------------------------------------------
     def _frame_quats(self, q: np.ndarray) -> np.ndarray:
@@ -293,12 +309,12 @@ class RobotIK:
         tasks = [self.key_task, self.posture_task]
         lim = self.collision_limit
         try:
-            return mink.solve_ik(configuration=cfg, tasks=tasks, dt=dt, solver=c.solver, damping=c.damping,
+            return mink.solve_ik(configuration=cfg, tasks=tasks, dt=dt, solver=c.solver, damping=self._damping,
                                  limits=self.limits())
         except mink.NoSolutionFound:
             lim.allow_push = False
             try:
-                return mink.solve_ik(configuration=cfg, tasks=tasks, dt=dt, solver=c.solver, damping=c.damping,
+                return mink.solve_ik(configuration=cfg, tasks=tasks, dt=dt, solver=c.solver, damping=self._damping,
                                      limits=self.limits())
             except mink.NoSolutionFound:
                 return np.zeros(cfg.model.nv)
@@ -363,10 +379,22 @@ class RobotIK:
         # overshoots), so only ``patience`` steps in a row without progress on the best so far end the frame.
         best = errors[watch].max(initial=0.0)
         stalled = 0
+        self._damping = c.damping
+        undone = 0
         while it < c.iterations and (it == 0 or errors[watch].max(initial=0.0) > c.tolerance):
+            start, start_errors = cfg.q.copy(), errors
             self._take_step(dt)
             errors = np.linalg.norm(self.frame_positions() - targets, axis=1)
             it += 1
+            # Not the first step: that one must stand (it may push the robot out of a person moving into it).
+            if (it > 1 and c.max_worsening is not None
+                    and errors[watch].max(initial=0.0) > start_errors[watch].max(initial=0.0) + c.max_worsening):
+                cfg.update(start)
+                errors = start_errors
+                undone += 1
+                self._damping = min(self._damping * c.damping_growth, c.max_damping)
+            else:
+                self._damping = max(self._damping / c.damping_growth, c.damping)
             worst = errors[watch].max(initial=0.0)
             if worst < best - c.min_progress:
                 best, stalled = worst, 0
@@ -374,4 +402,4 @@ class RobotIK:
                 best, stalled = min(best, worst), stalled + 1
                 if stalled >= c.patience:
                     break
-        return IKResult(qpos=cfg.q, errors=errors, iterations=it)
+        return IKResult(qpos=cfg.q, errors=errors, iterations=it, undone=undone)

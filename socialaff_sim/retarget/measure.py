@@ -14,7 +14,7 @@ import numpy as np
 
 from ..data.interaction import Interaction
 
-__all__ = ["BodyMeasurements", "measure_human", "measure_robot", "heading_matrix"]
+__all__ = ["BodyMeasurements", "RobotFrame", "measure_human", "measure_robot", "heading_matrix"]
 
 
 @dataclass(frozen=True)
@@ -151,3 +151,26 @@ def measure_robot(model: mujoco.MjModel, qpos: np.ndarray, frame_kinds: tuple[st
         shoulders=np.array([data.xpos[int(limb_body_ids[s])] - base for s in (0, 1)]),
         hips=np.array([data.xpos[int(limb_body_ids[2 + s])] - base for s in (0, 1)]),
     )
+
+
+@dataclass(frozen=True)
+class RobotFrame:
+    """The robot frame in world coordinates: a point on the floor and a yaw."""
+
+    origin: np.ndarray
+    """(3,) metres, z = 0."""
+    rotation: np.ndarray
+    """(3, 3): columns are the robot frame's x, y, z axes in world coordinates."""
+
+    @property
+    def yaw(self) -> float:
+        """Heading angle, radians."""
+        return float(np.arctan2(self.rotation[1, 0], self.rotation[0, 0]))
+
+    def to_world(self, p: np.ndarray) -> np.ndarray:
+        """Points (..., 3) from the robot frame to the world frame."""
+        return np.asarray(p) @ self.rotation.T + self.origin
+
+    def to_robot(self, p: np.ndarray) -> np.ndarray:
+        """Points (..., 3) from the world frame to the robot frame."""
+        return (np.asarray(p) - self.origin) @ self.rotation

@@ -28,7 +28,11 @@ robot's shoulder must be within e·arm_r of agent 1's wrist, e the extension age
 sample allows k in an interval (a quadratic in k); the robot stands as far back as
 all samples allow (the smallest upper end), within [``k_min``, ``k_max``]. Samples
 no k brings within reach (a contact far below a tall robot's shoulders, met by
-bending) are left out. Without usable samples, k = (arm₀ + arm_r) / (arm₀ + arm₁),
+bending) are left out. k is also at least what puts every sample's wrist
+``trunk_radius`` + ``wrist_clearance`` horizontally from the robot's base axis,
+and this lower bound wins over the reach's upper one: in contact the robot's wrist
+is sent to agent 1's, and a ball caught at a slim person's chest would otherwise
+be met inside a broader robot's chest. Without usable samples, k = (arm₀ + arm_r) / (arm₀ + arm₁),
 so that its shorter (or longer) reach still meets the partner's. Finally k is
 raised, if needed, until the robot's trunk clears the partner's trunk, head and
 legs by ``body_clearance`` at every frame: the arms (and bending) must then make
@@ -39,7 +43,8 @@ Online placement. A causal source (the model's synthesis reacting to the person)
 scaler only agent 1's first frames, usually without a contact, so k starts at the arm ratio. With
 ``online_placement`` the scaler then takes contact samples from the keys it is given, frame by
 frame (a wrist within ``contact_radius`` of the partner or the object), and lowers k to the largest
-value keeping them within reach, the base moving in at most ``placement_speed``.
+value keeping them within reach (but their wrists clear of its trunk), the base moving in at most
+``placement_speed``.
 
 Contact preservation. Near the partner (or the object) the interaction, not the
 body, sets where a wrist must be: each wrist target is blended toward agent 1's
@@ -63,7 +68,8 @@ import numpy as np
 
 from ..data.interaction import Interaction
 from ..errors import ConfigError
-from .measure import BodyMeasurements, heading_matrix, measure_human, measure_robot
+from .anchors import GRAVITY, LOOKAHEAD_POINTS, object_anchors
+from .measure import BodyMeasurements, RobotFrame, heading_matrix, measure_human, measure_robot
 
 __all__ = [
     "ScalingConfig",
@@ -74,6 +80,8 @@ __all__ = [
     "KeyJointScaler",
     "smoothstep",
     "object_anchors",
+    "LOOKAHEAD_POINTS",
+    "GRAVITY",
 ]
 
 
@@ -125,61 +133,22 @@ class ScalingConfig:
     """c_b, metres: the robot's trunk (its ``trunk_radius`` about the base's vertical axis) keeps at
     least this far from the partner's trunk, head and legs joints at every frame (k is raised until
     it does: a robot must not stand where the person's body will be)."""
+    wrist_clearance: float = 0.05
+    """c_w, metres: at every contact sample agent 1's wrist (where the robot's wrist is sent in contact)
+    lies at least ``trunk_radius`` + c_w horizontally from the robot's base axis (k is raised until it
+    does: a ball caught at a person's chest must not be met inside a broader robot's chest)."""
 
     def __post_init__(self) -> None:
         if not self.placement_speed >= 0:
             raise ConfigError(f"ScalingConfig.placement_speed: expected a speed ≥ 0 m/s, found {self.placement_speed}")
+        if not self.wrist_clearance >= 0:
+            raise ConfigError(f"ScalingConfig.wrist_clearance: expected a distance ≥ 0 m, found {self.wrist_clearance}")
 
 
 def smoothstep(x: np.ndarray | float) -> np.ndarray:
     """3x² − 2x³ on [0, 1], clamped outside."""
     x = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0)
     return x * x * (3.0 - 2.0 * x)
-
-
-LOOKAHEAD_POINTS = 4
-"""Points of the object's extrapolated path used as anchors (besides the object itself)."""
-GRAVITY = 9.81
-"""g, m/s²."""
-
-
-def object_anchors(track: np.ndarray, t: int, fps: float, lookahead: float) -> np.ndarray:
-    """(1 + LOOKAHEAD_POINTS, 3) the object at frame ``t`` of ``track`` (T, 3) and where it is about to be.
-
-    The path is a ballistic extrapolation over ``lookahead`` s from the velocity of frames
-    t − 1 → t (causal: nothing after frame t is read). A still or carried object's path stays
-    near it; without a previous frame or a lookahead only the object itself is returned.
-    """
-    here = np.asarray(track[t], dtype=np.float64)
-    if t < 1 or lookahead <= 0:
-        return here[None]
-    v = (here - track[t - 1]) * fps
-    s = np.linspace(lookahead / LOOKAHEAD_POINTS, lookahead, LOOKAHEAD_POINTS)[:, None]
-    ahead = here + v * s - 0.5 * GRAVITY * s**2 * np.array([0.0, 0.0, 1.0])
-    return np.vstack([here[None], ahead])
-
-
-@dataclass(frozen=True)
-class RobotFrame:
-    """The robot frame in world coordinates: a point on the floor and a yaw."""
-
-    origin: np.ndarray
-    """(3,) metres, z = 0."""
-    rotation: np.ndarray
-    """(3, 3): columns are the robot frame's x, y, z axes in world coordinates."""
-
-    @property
-    def yaw(self) -> float:
-        """Heading angle, radians."""
-        return float(np.arctan2(self.rotation[1, 0], self.rotation[0, 0]))
-
-    def to_world(self, p: np.ndarray) -> np.ndarray:
-        """Points (..., 3) from the robot frame to the world frame."""
-        return np.asarray(p) @ self.rotation.T + self.origin
-
-    def to_robot(self, p: np.ndarray) -> np.ndarray:
-        """Points (..., 3) from the world frame to the robot frame."""
-        return (np.asarray(p) - self.origin) @ self.rotation
 
 
 class KeyJointScaler:
@@ -255,7 +224,8 @@ class KeyJointScaler:
         return float(ks[np.argmax(clear)]) if clear.any() else float(ks[-1])
 
     def _contact_k(self, inter: Interaction, offset: np.ndarray, rotation: np.ndarray) -> float | None:
-        """The largest k keeping every contact sample within the robot's reach (see the module notes)."""
+        """The largest k keeping every contact sample within the robot's reach, raised to keep their wrists
+        clear of the robot's trunk (see the module notes); ``None`` without samples that bound k."""
         c, h = self.config, self.human
         joints = inter.filled_joints() + offset  # (T, 2, J, 3)
         keys = inter.key_joints()[:, 1] + offset  # (T, 5, 3)
@@ -285,7 +255,29 @@ class KeyJointScaler:
                 measured = joints[t_idx[rows], 1, names.index(name)]
                 good = np.isfinite(measured).all(axis=1)
                 shoulder_h[np.flatnonzero(rows)[good]] = measured[good]
-        return self._k_within_reach(wrist, base1, p0, side, shoulder_h, rotation)
+        reach = self._k_within_reach(wrist, base1, p0, side, shoulder_h, rotation)
+        front = self._k_clear_of_trunk(wrist, base1, p0)
+        if reach is None:
+            return front
+        return reach if front is None else max(reach, front)
+
+    def _k_clear_of_trunk(self, wrist: np.ndarray, base1: np.ndarray, p0: np.ndarray) -> float | None:
+        """The smallest k putting every contact sample's ``wrist`` (N, 3) at least ``trunk_radius`` +
+        ``wrist_clearance`` horizontally from the robot's base axis, agent 1's base ``base1`` and agent 0's
+        ``p0`` (N, 3) world frame; ``None`` when no sample needs it (the wrist is clear at every k)."""
+        if self.robot.trunk_radius <= 0:
+            return None
+        r = self.robot.trunk_radius + self.config.wrist_clearance
+        W = wrist[:, :2] - p0[:, :2]
+        D = base1[:, :2] - p0[:, :2]
+        # |W − k·D| ≥ r: outside the roots of a quadratic in k; the robot stands back (the larger root).
+        dd = np.einsum("ij,ij->i", D, D)
+        wd = np.einsum("ij,ij->i", W, D)
+        disc = wd * wd - dd * (np.einsum("ij,ij->i", W, W) - r * r)
+        need = (dd > 1e-6) & (disc > 0)
+        if not need.any():
+            return None
+        return float(((wd[need] + np.sqrt(disc[need])) / dd[need]).max())
 
     def _k_within_reach(self, wrist: np.ndarray, base1: np.ndarray, p0: np.ndarray, side: np.ndarray,
                         shoulder_h: np.ndarray, rotation: np.ndarray) -> float | None:
@@ -322,10 +314,11 @@ class KeyJointScaler:
         if len(side) and np.isfinite(keys[0]).all() and np.isfinite(keys[1 + side]).all():
             base1 = np.repeat(keys[None, 0], len(side), axis=0)
             shoulder_h = base1 + self.human.shoulders[side] @ self._agent_frame.rotation.T
-            k = self._k_within_reach(keys[1 + side], base1, np.repeat(p0[None], len(side), axis=0), side,
-                                     shoulder_h, self.frame.rotation)
+            p0s = np.repeat(p0[None], len(side), axis=0)
+            k = self._k_within_reach(keys[1 + side], base1, p0s, side, shoulder_h, self.frame.rotation)
             if k is not None:
-                self._k_goal = min(self._k_goal, max(k, self._k_floor))
+                front = self._k_clear_of_trunk(keys[1 + side], base1, p0s)
+                self._k_goal = min(self._k_goal, max(k, self._k_floor, -np.inf if front is None else front))
         if self._k_goal < self.k:
             spread = float(np.linalg.norm(keys[0, :2] - p0[:2])) if np.isfinite(keys[0]).all() else 0.0
             self.k = max(self._k_goal, self.k - self._k_step / max(spread, 1e-3))
