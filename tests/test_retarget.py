@@ -320,11 +320,19 @@ def test_a_contact_wrist_stays_clear_of_the_robots_trunk() -> None:
     # Closed form: the base on the line at 1.2·k, the wrist at (1.1, −0.05): (1.2k − 1.1)² + 0.05² = 0.35².
     k = (1.1 + np.sqrt(0.35**2 - 0.05**2)) / 1.2
     np.testing.assert_allclose(scaler.k, k, atol=1e-9)
-    np.testing.assert_allclose(scaler.contact_k, k, atol=1e-9)
+    np.testing.assert_allclose(scaler.trunk_k, k, atol=1e-9)
     # It is the reach's upper bound that gives way: by reach alone the robot would stand closer.
+    assert scaler.contact_k is not None and scaler.contact_k < k - 0.05
     slim = KeyJointScaler(ROBOT, ScalingConfig(body_clearance=0.0))
     slim.reset(inter, np.zeros(3))
-    assert slim.contact_k is not None and slim.contact_k < k - 0.05
+    assert slim.trunk_k is None
+    np.testing.assert_allclose(slim.k, scaler.contact_k, atol=1e-12)
+    # Without a contact sample in reach the bound still holds, over the arm ratio.
+    short = KeyJointScaler(dataclasses.replace(robot, arm=0.05), ScalingConfig(body_clearance=0.0))
+    short.reset(inter, np.zeros(3))
+    assert short.contact_k is None and short.trunk_k is not None
+    k0 = (0.55 + 0.05) / (0.55 + short.human.arm)
+    np.testing.assert_allclose(short.k, max(k0, short.trunk_k), atol=1e-12)
     # No clearance asked: the trunk's radius alone.
     flush = KeyJointScaler(robot, ScalingConfig(body_clearance=0.0, wrist_clearance=0.0))
     flush.reset(inter, np.zeros(3))

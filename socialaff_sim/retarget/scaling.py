@@ -183,11 +183,16 @@ class KeyJointScaler:
         c = self.config
         k = (partner.arm + self.robot.arm) / (partner.arm + self.human.arm)
         self.contact_k: float | None = None
-        """k required by the contact samples (``None`` without samples or with contact placement off)."""
+        """k the contact samples' reach requires (``None`` without samples in reach or with contact placement off)."""
+        self.trunk_k: float | None = None
+        """Smallest k keeping the contact samples' wrists clear of the robot's trunk (``None`` when no sample
+        bounds it or with contact placement off)."""
         if c.contact_placement:
-            self.contact_k = self._contact_k(inter, offset, heading_matrix(a0 - a1))
+            self.contact_k, self.trunk_k = self._contact_bounds(inter, offset, heading_matrix(a0 - a1))
             if self.contact_k is not None:
                 k = self.contact_k
+            if self.trunk_k is not None:
+                k = max(k, self.trunk_k)
         if c.scale_placement and self.robot.trunk_radius > 0:
             k = max(k, self._clearance_k(inter, offset, k))
         self.k = float(np.clip(k, c.k_min, c.k_max)) if c.scale_placement else 1.0
@@ -195,7 +200,7 @@ class KeyJointScaler:
         # Moving in never undercuts the trunk's clearance from the person (over the frames placed from).
         self._k_floor = c.k_min
         if self._online and self.robot.trunk_radius > 0:
-            self._k_floor = self._clearance_k(inter, offset, c.k_min)
+            self._k_floor = max(self._clearance_k(inter, offset, c.k_min), self.trunk_k or c.k_min)
         self._k_step = c.placement_speed / max(inter.fps, 1e-9)  # metres of base motion per frame
         self._k_goal = self.k
         origin = a0 + (a1 - a0) * self.k
@@ -223,9 +228,10 @@ class KeyJointScaler:
         clear = np.where(relevant[None], gap >= r.trunk_radius + c.body_clearance, True).all(axis=(1, 2))
         return float(ks[np.argmax(clear)]) if clear.any() else float(ks[-1])
 
-    def _contact_k(self, inter: Interaction, offset: np.ndarray, rotation: np.ndarray) -> float | None:
-        """The largest k keeping every contact sample within the robot's reach, raised to keep their wrists
-        clear of the robot's trunk (see the module notes); ``None`` without samples that bound k."""
+    def _contact_bounds(self, inter: Interaction, offset: np.ndarray, rotation: np.ndarray
+                        ) -> tuple[float | None, float | None]:
+        """The largest k keeping every contact sample within the robot's reach and the smallest keeping their
+        wrists clear of its trunk (see the module notes); ``None`` where no sample bounds k."""
         c, h = self.config, self.human
         joints = inter.filled_joints() + offset  # (T, 2, J, 3)
         keys = inter.key_joints()[:, 1] + offset  # (T, 5, 3)
@@ -239,13 +245,13 @@ class KeyJointScaler:
         near = (closest <= np.maximum(c.contact_near, approach + c.sample_band)) & (approach <= c.contact_radius)
         t_idx, side = np.nonzero(near)
         if not len(t_idx):
-            return None
+            return None, None
         wrist = keys[t_idx, 1 + side]
         base1 = keys[t_idx, 0]
         p0 = partner[t_idx, self._partner_base]
         ok = np.isfinite(wrist).all(axis=1) & np.isfinite(base1).all(axis=1) & np.isfinite(p0).all(axis=1)
         if not ok.any():
-            return None
+            return None, None
         t_idx, side, wrist, base1, p0 = t_idx[ok], side[ok], wrist[ok], base1[ok], p0[ok]
         names = inter.joint_names
         shoulder_h = base1 + (h.shoulders[side] @ self._agent_frame.rotation.T)
@@ -255,11 +261,8 @@ class KeyJointScaler:
                 measured = joints[t_idx[rows], 1, names.index(name)]
                 good = np.isfinite(measured).all(axis=1)
                 shoulder_h[np.flatnonzero(rows)[good]] = measured[good]
-        reach = self._k_within_reach(wrist, base1, p0, side, shoulder_h, rotation)
-        front = self._k_clear_of_trunk(wrist, base1, p0)
-        if reach is None:
-            return front
-        return reach if front is None else max(reach, front)
+        return (self._k_within_reach(wrist, base1, p0, side, shoulder_h, rotation),
+                self._k_clear_of_trunk(wrist, base1, p0))
 
     def _k_clear_of_trunk(self, wrist: np.ndarray, base1: np.ndarray, p0: np.ndarray) -> float | None:
         """The smallest k putting every contact sample's ``wrist`` (N, 3) at least ``trunk_radius`` +
