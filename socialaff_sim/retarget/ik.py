@@ -25,6 +25,9 @@ may leave it farther off than before, and met by the next two to five.
 A step is checked against the collision pairs the QP did not see: when it carries
 one through its limit (a fast hand sweeping into the thigh from beyond the
 detection distance), it is solved again with that pair in the QP (``backtracks``).
+A step after the first that makes the worst error grow by more than
+``max_worsening`` is undone and the next one damped more (two hands closing on a
+ball, each pushing the other off its target, otherwise trade places step after step).
 """
 
 from __future__ import annotations
@@ -78,7 +81,7 @@ class IKConfig:
     ``tolerance``)."""
     tolerance: float = 0.01
     """Stop once every key frame is this close to its target, metres."""
-    min_progress: float = 0.002
+    min_progress: float = 0.001
     """Progress that counts: a step that brings the largest error among the targets worth it this much
     below the smallest so far this frame, metres."""
     patience: int = 6
