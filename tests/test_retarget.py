@@ -205,15 +205,20 @@ def test_object_anchors_follow_a_ballistic_path() -> None:
     np.testing.assert_allclose(object_anchors(track, 4, fps, 0.0), track[4:5], atol=0)  # no lookahead
 
 
-def test_contact_placement_keeps_the_contact_within_reach() -> None:
-    # Agent 1 (1.2 m away) touches agent 0's right hand with its right wrist in every frame.
+def touching(meet: np.ndarray) -> Interaction:
+    """:func:`pair` 1.2 m apart, agent 1's right wrist meeting agent 0's right hand about ``meet`` (3,) in every frame."""
     inter = pair(distance=1.2)
     joints = np.array(inter.joints)
     n = LAYOUT.joint_names
-    meet = np.array([0.6, -0.05, 1.0])
     joints[:, 0, n.index("right_hand")] = meet + (-0.05, 0.0, 0.0)
     joints[:, 1, n.index("right_wrist")] = meet + (0.05, 0.0, 0.0)
-    inter = inter.replace(joints=joints)
+    return inter.replace(joints=joints)
+
+
+def test_contact_placement_keeps_the_contact_within_reach() -> None:
+    # Agent 1 (1.2 m away) touches agent 0's right hand with its right wrist in every frame.
+    inter = touching(np.array([0.6, -0.05, 1.0]))
+    joints, n = inter.joints, LAYOUT.joint_names
     scaler = KeyJointScaler(ROBOT, ScalingConfig(max_extension=0.9, body_clearance=0.0))
     scaler.reset(inter, np.zeros(3))
     # Independent check: at the chosen k the robot's right shoulder is exactly e·arm_r from the wrist,
@@ -307,13 +312,7 @@ def test_body_clearance_moves_the_robot_back() -> None:
 def test_a_contact_wrist_stays_clear_of_the_robots_trunk() -> None:
     # Agent 0 reaches in to 10 cm in front of agent 1 (1.2 m away), where agent 1's right wrist meets its
     # hand in every frame: a broad robot placed by reach alone would meet it inside its own trunk.
-    inter = pair(distance=1.2)
-    joints = np.array(inter.joints)
-    n = LAYOUT.joint_names
-    meet = np.array([1.05, -0.05, 1.0])
-    joints[:, 0, n.index("right_hand")] = meet + (-0.05, 0.0, 0.0)
-    joints[:, 1, n.index("right_wrist")] = meet + (0.05, 0.0, 0.0)
-    inter = inter.replace(joints=joints)
+    inter = touching(np.array([1.05, -0.05, 1.0]))
     robot = dataclasses.replace(ROBOT, trunk_radius=0.3)
     scaler = KeyJointScaler(robot, ScalingConfig(body_clearance=0.0, wrist_clearance=0.05))
     scaler.reset(inter, np.zeros(3))

@@ -20,6 +20,7 @@ from socialaff_sim.retarget.ik import IKConfig, IKModel, RobotIK
 from socialaff_sim.retarget.key_task import _right_jacobian_inverse
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
+from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.scene import Scene, build_scene, set_human_sizes
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 
@@ -485,12 +486,7 @@ def _replay_misses(robot: str, label: str, index: int, ik: IKConfig) -> tuple[li
         return res
 
     sim._stage.ik.solve = counting  # type: ignore[union-attr, method-assign]
-    src = GroundTruthSource()
-    src.reset(inter)
-    sim.settle(sim.retarget(src.targets(0).keys, frame=0))
-    while not sim.done:
-        f = src.targets(sim.frame + 1)
-        sim.step(sim.retarget(f.keys, frame=sim.frame + 1), subevent=f.subevent)
+    run_episode(sim, GroundTruthSource(), inter)
     avail = inter.key_available()
     misses = [(r.frame, k, float(r.ik_error[k])) for r in sim.results for k in range(5)
               if r.reachable[k] and avail[k] and r.ik_error[k] > 0.02]
