@@ -497,7 +497,7 @@ def test_hands_closing_on_a_ball_do_not_trade_places() -> None:
     """The catch of default synthetic throw-and-catch instance 3 on Stubby puts its two wrist targets 2–3 cm
     apart, both pushed into the ball. Step after step the collision avoidance between the hands pushed one
     off as the other arrived, and the frame ended with both 7–9 cm off (issue 5). Undoing a step that makes
-    the worst error grow by more than ``max_worsening`` lets the damped steps settle both."""
+    the weighted RMS error grow by more than ``max_worsening`` lets the damped steps settle both."""
     misses, undone = _replay_misses("ours", "throw_catch", 3, IKConfig())
     assert misses == [] and undone > 0
     misses, undone = _replay_misses("ours", "throw_catch", 3, IKConfig(max_worsening=None))

@@ -25,7 +25,7 @@ may leave it farther off than before, and met by the next two to five.
 A step is checked against the collision pairs the QP did not see: when it carries
 one through its limit (a fast hand sweeping into the thigh from beyond the
 detection distance), it is solved again with that pair in the QP (``backtracks``).
-A step after the first that makes the worst error grow by more than
+A step after the first that makes the weighted RMS error grow by more than
 ``max_worsening`` is undone and the next one damped more (two hands closing on a
 ball, each pushing the other off its target, otherwise trade places step after step).
 """
@@ -66,12 +66,12 @@ class IKConfig:
     """Cost of departing from the home posture (per radian)."""
     damping: float = 1e-4
     """Levenberg-Marquardt damping of the QP."""
-    max_worsening: float | None = 0.02
-    """A QP step after a frame's first that leaves the largest error among the targets worth it more
-    than this above where the step started, metres, is undone, and the next one taken with
-    ``damping_growth`` times the damping (two hands closing on a ball 2–3 cm apart can otherwise trade
-    places step after step, the collision avoidance between them pushing one off as the other
-    arrives); ``None``: no step is undone."""
+    max_worsening: float | None = 0.01
+    """A QP step after a frame's first that raises the key frames' root-mean-square position error,
+    weighted by their costs (a target out of reach at ``unreachable_weight``), by more than this,
+    metres, is undone, and the next one taken with ``damping_growth`` times the damping (two hands
+    closing on a ball 2–3 cm apart can otherwise trade places step after step, the collision
+    avoidance between them pushing one off as the other arrives); ``None``: no step is undone."""
     damping_growth: float = 10.0
     """Factor on the damping after an undone step (and its inverse after a kept one, down to ``damping``)."""
     max_damping: float = 10.0
@@ -371,7 +371,8 @@ class RobotIK:
         c, cfg = self.config, self.configuration
         # A target out of reach still draws its limb, but more weakly: through the joints the limbs share
         # (the waist) it would otherwise pull the reachable targets off theirs.
-        self.key_task.cost[:15] = np.repeat(self._position_cost * np.where(watch, 1.0, c.unreachable_weight), 3)
+        weight = self._position_cost * np.where(watch, 1.0, c.unreachable_weight)
+        self.key_task.cost[:15] = np.repeat(weight, 3)
         self._box.begin_frame(cfg.q)
         errors = np.linalg.norm(self.frame_positions() - targets, axis=1)
         it = 0
@@ -391,7 +392,7 @@ class RobotIK:
             it += 1
             # Not the first step: that one must stand (it may push the robot out of a person moving into it).
             if (it > 1 and c.max_worsening is not None
-                    and errors[watch].max(initial=0.0) > start_errors[watch].max(initial=0.0) + c.max_worsening):
+                    and _rms(errors, weight) > _rms(start_errors, weight) + c.max_worsening):
                 cfg.update(start)
                 errors = start_errors
                 undone += 1
@@ -406,3 +407,8 @@ class RobotIK:
                 if stalled >= c.patience:
                     break
         return IKResult(qpos=cfg.q, errors=errors, iterations=it, undone=undone)
+
+
+def _rms(errors: np.ndarray, weight: np.ndarray) -> float:
+    """Root mean square of the key frames' ``errors`` (5,) metres, weighted by ``weight`` (5,) (their costs)."""
+    return float(np.sqrt(np.sum(weight * errors**2) / np.sum(weight)))
