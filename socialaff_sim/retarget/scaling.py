@@ -28,12 +28,12 @@ robot's shoulder must be within e·arm_r of agent 1's wrist, e the extension age
 sample allows k in an interval (a quadratic in k); the robot stands as far back as
 all samples allow (the smallest upper end), within [``k_min``, ``k_max``]. Samples
 no k brings within reach (a contact far below a tall robot's shoulders, met by
-bending) are left out. k is also at least what puts every sample's wrist
-``trunk_radius`` + ``wrist_clearance`` horizontally from the robot's base axis,
-and this lower bound wins over the reach's upper one: in contact the robot's wrist
-is sent to agent 1's, and a ball caught at a slim person's chest would otherwise
-be met inside a broader robot's chest. Without usable samples, k = (arm₀ + arm_r) / (arm₀ + arm₁),
-so that its shorter (or longer) reach still meets the partner's. Finally k is
+bending) are left out. Without usable samples, k = (arm₀ + arm_r) / (arm₀ + arm₁),
+so that its shorter (or longer) reach still meets the partner's. Either way k is
+then at least what puts every sample's wrist ``trunk_radius`` + ``wrist_clearance``
+horizontally from the robot's base axis (this lower bound wins over the reach's
+upper one): in contact the robot's wrist is sent to agent 1's, and a ball caught at
+a slim person's chest would otherwise be met inside a broader robot's chest. Finally k is
 raised, if needed, until the robot's trunk clears the partner's trunk, head and
 legs by ``body_clearance`` at every frame: the arms (and bending) must then make
 up the distance, but the robot never stands where the person's body will be. This matters for a robot of unlike build: a short
