@@ -232,7 +232,7 @@ class KeyJointScaler:
                         ) -> tuple[float | None, float | None]:
         """The largest k keeping every contact sample within the robot's reach and the smallest keeping their
         wrists clear of its trunk (see the module notes); ``None`` where no sample bounds k."""
-        c, h = self.config, self.human
+        c = self.config
         joints = inter.filled_joints() + offset  # (T, 2, J, 3)
         keys = inter.key_joints()[:, 1] + offset  # (T, 5, 3)
         partner = joints[:, 0]
@@ -254,13 +254,24 @@ class KeyJointScaler:
             return None, None
         t_idx, side, wrist, base1, p0 = t_idx[ok], side[ok], wrist[ok], base1[ok], p0[ok]
         names = inter.joint_names
-        shoulder_h = base1 + (h.shoulders[side] @ self._agent_frame.rotation.T)
+        shoulder_h = self._shoulders(base1, side)
         for s, name in enumerate(("left_shoulder", "right_shoulder")):
             if name in names:
                 rows = side == s
                 measured = joints[t_idx[rows], 1, names.index(name)]
                 good = np.isfinite(measured).all(axis=1)
                 shoulder_h[np.flatnonzero(rows)[good]] = measured[good]
+        return self._bounds(wrist, base1, p0, side, shoulder_h, rotation)
+
+    def _shoulders(self, base1: np.ndarray, side: np.ndarray) -> np.ndarray:
+        """(N, 3) agent 1's ``side`` (N,) shoulder, world frame, from its base ``base1`` (N, 3) and its
+        measured offset (where the recording has no shoulder joint to read)."""
+        return base1 + self.human.shoulders[side] @ self._agent_frame.rotation.T
+
+    def _bounds(self, wrist: np.ndarray, base1: np.ndarray, p0: np.ndarray, side: np.ndarray,
+                shoulder_h: np.ndarray, rotation: np.ndarray) -> tuple[float | None, float | None]:
+        """Of N contact samples (arguments as in :meth:`_k_within_reach`): the largest k keeping them within
+        reach and the smallest keeping their wrists clear of the robot's trunk (``None`` where no bound)."""
         return (self._k_within_reach(wrist, base1, p0, side, shoulder_h, rotation),
                 self._k_clear_of_trunk(wrist, base1, p0))
 
@@ -316,11 +327,9 @@ class KeyJointScaler:
         side = np.flatnonzero(d <= c.contact_radius)
         if len(side) and np.isfinite(keys[0]).all() and np.isfinite(keys[1 + side]).all():
             base1 = np.repeat(keys[None, 0], len(side), axis=0)
-            shoulder_h = base1 + self.human.shoulders[side] @ self._agent_frame.rotation.T
-            p0s = np.repeat(p0[None], len(side), axis=0)
-            k = self._k_within_reach(keys[1 + side], base1, p0s, side, shoulder_h, self.frame.rotation)
+            k, front = self._bounds(keys[1 + side], base1, np.repeat(p0[None], len(side), axis=0), side,
+                                    self._shoulders(base1, side), self.frame.rotation)
             if k is not None:
-                front = self._k_clear_of_trunk(keys[1 + side], base1, p0s)
                 self._k_goal = min(self._k_goal, max(k, self._k_floor, -np.inf if front is None else front))
         if self._k_goal < self.k:
             spread = float(np.linalg.norm(keys[0, :2] - p0[:2])) if np.isfinite(keys[0]).all() else 0.0
