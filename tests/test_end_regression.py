@@ -15,8 +15,14 @@ from socialaff_sim.inference import SynthesisConfig, synthesize
 from socialaff_sim.inference.candidates import RegressionPrior
 from socialaff_sim.inference.observed_parse import observed_joints, parse_observed
 from socialaff_sim.model.affordance import SocialAffordanceModel
-from socialaff_sim.model.end_regression import end_context, fit_end_regression, interval_samples, n_context
-from socialaff_sim.model.frame_regression import fit_frame_regression, frame_context, frame_samples, n_frame_context
+from socialaff_sim.model.end_regression import end_context, fit_end_regression, interval_samples, n_context, offset_columns
+from socialaff_sim.model.frame_regression import (
+    fit_frame_regression,
+    frame_context,
+    frame_offset_columns,
+    frame_samples,
+    n_frame_context,
+)
 from socialaff_sim.model.ridge import RidgeRegression, fit_ridge, ridge_solve
 
 
@@ -98,9 +104,10 @@ def test_model_fits_and_saves_the_regressions(shake8_model: SocialAffordanceMode
     for a, b in pairs:
         assert (a is None) == (b is None)
         if a is not None:
-            for name in ("context_mean", "context_scale", "target_mean", "coef", "cov"):
-                np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
-            assert a.ridge == b.ridge
+            for name in ("context_mean", "context_scale", "target_mean", "coef", "cov", "ridge", "offset_columns", "offset_weight"):
+                np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+            ctx = np.random.default_rng(0).normal(size=(3, a.context_mean.size))
+            np.testing.assert_array_equal(a.predict(ctx), b.predict(ctx))
 
 
 def _brute_observed(model: SocialAffordanceModel, x: np.ndarray, fps: float, bounds: np.ndarray) -> float:
@@ -175,16 +182,82 @@ def test_config_checks_and_methods() -> None:
     assert online.name == "full_online" and online.synthesis == SynthesisConfig()
 
 
-def test_interval_samples_pick_end_previous_and_first_frames(rng: np.random.Generator) -> None:
+def test_interval_samples_pick_end_previous_and_reference_frames(rng: np.random.Generator) -> None:
     x1, x2 = rng.normal(size=(6, 11, 3)), rng.normal(size=(4, 11, 3))
-    end, before, first = interval_samples([x1, x2], [[(0, 2, 1), (2, 6, 0)], [(0, 4, 1)]], 1)
+    end, before, ref = interval_samples([x1, x2], [[(0, 2, 1), (2, 6, 0)], [(0, 4, 1)]], 1, reference=4)
     np.testing.assert_array_equal(end, np.stack([x1[1], x2[3]]))
     np.testing.assert_array_equal(before, np.stack([x1[0], x2[0]]))  # an interval at frame 0 starts from itself
-    np.testing.assert_array_equal(first, np.stack([x1[0], x2[0]]))
-    end0, before0, _ = interval_samples([x1, x2], [[(0, 2, 1), (2, 6, 0)], [(0, 4, 1)]], 0)
+    np.testing.assert_array_equal(ref, np.stack([x1[4], x2[3]]))  # x2 is shorter: its last frame
+    end0, before0, _ = interval_samples([x1, x2], [[(0, 2, 1), (2, 6, 0)], [(0, 4, 1)]], 0, reference=4)
     np.testing.assert_array_equal(end0, x1[5:6])
     np.testing.assert_array_equal(before0, x1[1:2])
-    assert interval_samples([x1], [[(0, 6, 0)]], 2)[0].shape == (0, 11, 3)
+    assert interval_samples([x1], [[(0, 6, 0)]], 2, reference=4)[0].shape == (0, 11, 3)
+
+
+def test_offset_columns_hold_agent_1_at_the_reference_frame(rng: np.random.Generator) -> None:
+    for obj in (False, True):
+        available = np.ones(11, bool)
+        available[10] = obj
+        end, before, ref = _configs(rng, 4, available)
+        cols = offset_columns(available)
+        np.testing.assert_allclose(
+            end_context(end, before, ref, available)[:, cols], (ref[:, 5:10] - end[:, 0:1]).reshape(4, 15), atol=1e-12
+        )
+        fcols = frame_offset_columns(available)
+        np.testing.assert_allclose(
+            frame_context(end, ref, np.full(4, 0.5), available)[:, fcols], (ref[:, 5:10] - end[:, 0:1]).reshape(4, 15), atol=1e-12
+        )
+
+
+def test_the_offset_is_chosen_when_agent_1_stays_where_it_was_observed(rng: np.random.Generator) -> None:
+    # Few noisy samples of "agent 1 ends where it was last observed": shrinking toward the
+    # reference pose (α = 1) predicts better than shrinking toward the training mean.
+    available = np.ones(11, bool)
+    available[10] = False
+    M = 8
+    end, before, ref = _configs(rng, M, available)
+    end[:, 5:10] = ref[:, 5:10] + 0.02 * rng.normal(size=(M, 5, 3))
+    reg = fit_end_regression(end, before, ref, available, sigma_min=0.01)
+    assert reg is not None and reg.offset_weight == 1.0
+    new_end, new_before, new_ref = _configs(rng, 20, available)
+    pred = reg.predict(end_context(new_end, new_before, new_ref, available)).reshape(20, 5, 3) + new_end[:, 0:1]
+    err = np.linalg.norm(pred - new_ref[:, 5:10], axis=-1).mean()
+    assert err < 0.25, err  # the pose moves by ≈ 1.6 m between samples; the training mean would be that far off
+    # A target independent of the reference pose: α = 0.
+    end[:, 5:10] = end[:, 0:1] + 1.0 + 0.02 * rng.normal(size=(M, 5, 3))
+    reg0 = fit_end_regression(end, before, ref, available, sigma_min=0.01)
+    assert reg0 is not None and reg0.offset_weight == 0.0
+
+
+def _manual_held_out(X: np.ndarray, Y: np.ndarray, groups: np.ndarray, lam: float) -> float:
+    """Held-out squared error summed over groups and coordinates, by an independent loop (augmented least squares)."""
+    C = X.shape[1]
+    sq = np.zeros(Y.shape[1])
+    for g in np.unique(groups):
+        tr, te = groups != g, groups == g
+        mu, sd, ym = X[tr].mean(0), X[tr].std(0), Y[tr].mean(0)
+        B = np.linalg.lstsq(np.vstack([(X[tr] - mu) / sd, np.sqrt(lam) * np.eye(C)]),
+                            np.vstack([Y[tr] - ym, np.zeros((C, Y.shape[1]))]), rcond=None)[0]
+        sq += (((X[te] - mu) / sd @ B + ym - Y[te]) ** 2).sum(axis=0)
+    return float(sq.sum())
+
+
+def test_held_out_error_chooses_the_offset_and_penalty_a_manual_loop_chooses(rng: np.random.Generator) -> None:
+    X = rng.normal(size=(24, 5))
+    Y = 0.8 * X[:, [3, 4]] + 0.4 * rng.normal(size=(24, 2))  # mostly the offset columns: α = 1 should win
+    groups = np.repeat(np.arange(6), 4)
+    grid = (0.1, 10.0, 1e3)
+    cols = np.array([3, 4])
+    reg = fit_ridge(X, Y, groups, sigma_min=0.01, grid=grid, offset_columns=cols)
+    settings = [(a, lam) for a in (0.0, 1.0) for lam in grid]
+    errs = [_manual_held_out(X, Y - a * X[:, cols], groups, lam) for a, lam in settings]
+    print("held-out squared error by (α, λ):", dict(zip(settings, np.round(errs, 3).tolist())))
+    alpha, lam = settings[int(np.argmin(errs))]
+    assert (reg.offset_weight, reg.ridge) == (alpha, lam)
+    assert alpha == 1.0
+    # The prediction is the ridge of the shifted targets plus α times the offset columns.
+    mu, sd, ym, coef = ridge_solve(X, Y - alpha * X[:, cols], lam)
+    np.testing.assert_allclose(reg.predict(X[:3]), (X[:3] - mu) / sd @ coef + ym + alpha * X[:3, cols], atol=1e-10)
 
 
 def test_group_held_out_error_picks_the_penalty_a_manual_loop_picks(rng: np.random.Generator) -> None:
@@ -193,25 +266,15 @@ def test_group_held_out_error_picks_the_penalty_a_manual_loop_picks(rng: np.rand
     groups = np.repeat(np.arange(6), 5)
     grid = (0.01, 1.0, 100.0)
     reg = fit_ridge(X, Y, groups, sigma_min=0.01, grid=grid)
-    errs = []
-    for lam in grid:  # independent loop: held-out squared error per group
-        sq = 0.0
-        for g in range(6):
-            tr, te = groups != g, groups == g
-            Xs, Ys = X[tr], Y[tr]
-            mu, sd, ym = Xs.mean(0), Xs.std(0), Ys.mean(0)
-            B = np.linalg.lstsq(np.vstack([(Xs - mu) / sd, np.sqrt(lam) * np.eye(4)]),
-                                np.vstack([Ys - ym, np.zeros((4, 2))]), rcond=None)[0]
-            sq += (((X[te] - mu) / sd @ B + ym - Y[te]) ** 2).sum()
-        errs.append(sq)
-    assert reg.ridge == grid[int(np.argmin(errs))]
+    errs = [_manual_held_out(X, Y, groups, lam) for lam in grid]
+    assert reg.ridge == grid[int(np.argmin(errs))] and reg.offset_weight == 0.0
 
 
 def test_frame_samples_and_a_planted_frame_relation(rng: np.random.Generator) -> None:
     x1, x2 = rng.normal(size=(6, 11, 3)), rng.normal(size=(5, 11, 3))
-    frames, first, phase, groups = frame_samples([x1, x2], [[(0, 2, 1), (2, 6, 0)], [(1, 5, 0)]], 0)
+    frames, ref, phase, groups = frame_samples([x1, x2], [[(0, 2, 1), (2, 6, 0)], [(1, 5, 0)]], 0, reference=5)
     np.testing.assert_array_equal(frames, np.concatenate([x1[2:6], x2[1:5]]))
-    np.testing.assert_array_equal(first, np.concatenate([np.repeat(x1[:1], 4, 0), np.repeat(x2[:1], 4, 0)]))
+    np.testing.assert_array_equal(ref, np.concatenate([np.repeat(x1[5:6], 4, 0), np.repeat(x2[4:5], 4, 0)]))
     np.testing.assert_allclose(phase, [0.25, 0.5, 0.75, 1.0] * 2, atol=1e-12)
     np.testing.assert_array_equal(groups, [0] * 4 + [1] * 4)
     # Agent 1 a linear function of the frame context: recovered.

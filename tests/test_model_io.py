@@ -139,3 +139,13 @@ def test_save_is_atomic(model: SocialAffordanceModel, saved: Path, monkeypatch: 
         model.save(saved)
     assert saved.read_bytes() == before
     assert [p.name for p in saved.parent.iterdir()] == [saved.name]
+
+
+
+def test_an_offset_weight_other_than_0_or_1_is_rejected(saved: Path, tmp_path: Path) -> None:
+    with np.load(saved, allow_pickle=False) as npz:
+        w = npz["end_offset_weight"].copy()
+    assert np.isfinite(w).any()
+    w[np.isfinite(w)] = 0.5
+    with pytest.raises(ModelFileError, match="'end_offset_weight': expected 0 or 1 where end_ridge is set, found \\[0.5\\]"):
+        SocialAffordanceModel.load(_rewrite(saved, tmp_path / "w.npz", end_offset_weight=w))

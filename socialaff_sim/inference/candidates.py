@@ -68,12 +68,12 @@ class RegressionPrior:
 
     @classmethod
     def at(
-        cls, regression: RidgeRegression, config: np.ndarray, before: np.ndarray, first: np.ndarray, available: np.ndarray
+        cls, regression: RidgeRegression, config: np.ndarray, before: np.ndarray, reference: np.ndarray, available: np.ndarray
     ) -> RegressionPrior:
         """The prior for the end configuration ``config`` (11, 3) (agent 0 and the object as
         expected at the end) after the previous-frame configuration ``before`` (11, 3), in an
-        instance that began with ``first`` (11, 3)."""
-        ctx = end_context(config[None], before[None], first[None], available)
+        instance whose reference frame (T0 − 1, the last observed) was ``reference`` (11, 3)."""
+        ctx = end_context(config[None], before[None], reference[None], available)
         mean = regression.predict(ctx)[0].reshape(N_KEY, 3) + config[0]
         return cls(regression, mean)
 

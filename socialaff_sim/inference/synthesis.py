@@ -289,8 +289,9 @@ class OnlineSynthesizer:
         config = np.empty((frames.size, 2 * N_KEY + 1, 3))
         config[:, _OTHERS] = self._track[seen[:, None], _OTHERS]
         phase = ((frames - start + 1) / max(last - start + 1, 1)).clip(0.0, 1.0)
-        first = np.repeat(self._track[:1], frames.size, axis=0)
-        ctx = frame_context(config, first, phase, self._available)
+        # The regressions' reference frame: agent 1's last observed pose (frame T0 − 1).
+        ref = np.repeat(self._track[self.config.n_observed - 1][None], frames.size, axis=0)
+        ctx = frame_context(config, ref, phase, self._available)
         pred = reg.predict(ctx).reshape(-1, N_KEY, 3) + config[:, 0:1]
         fade = np.exp(-(frames[1:] - (t - 1)) / cfg.frame_decay)[:, None, None]
         out = pred[1:] + fade * (np.nan_to_num(prev) - pred[0])[None]
@@ -334,7 +335,7 @@ class OnlineSynthesizer:
         prior = None
         reg = model.end_regression_[s] if cfg.end_prior == "regression" else None
         if reg is not None:
-            prior = RegressionPrior.at(reg, config, before, self._track[0], self._available)
+            prior = RegressionPrior.at(reg, config, before, self._track[cfg.n_observed - 1], self._available)
             extra = np.repeat(config[None], cfg.prior_samples, axis=0)
             extra[:, _AGENT1] = prior.draw(cfg.prior_samples, self._rng)
             cand = np.concatenate([cand, extra])

@@ -112,6 +112,10 @@ class AffordanceConfig(DictConfig):
     """Metres, our addition (used by synthesis only): an approach of agent 1's wrist to a group mate inside a
     sub-event is learned as a contact keyframe when its mean closest distance is below this and the mean
     distance at the interval's end is not (:mod:`~socialaff_sim.model.contact_keys`)."""
+    n_observed: int = 10
+    """T0, our addition (used by synthesis only): the regressions read agent 1 at frame T0 − 1 of each
+    training instance, the last frame observed before synthesis starts (the paper's evaluation observes
+    T0 = 10; a synthesizer with another T0 reads its own last observed frame)."""
 
     @property
     def feature_path_profile(self) -> str | None:
@@ -129,6 +133,8 @@ class AffordanceConfig(DictConfig):
         for name in ("gamma", "eps", "shape_min", "shape_max", "kappa_max", "sigma_min", "path_sigma_min", "end_sigma_min", "contact_radius"):
             if not float(getattr(self, name)) > 0:
                 raise bad(name, "a number > 0")
+        if not isinstance(self.n_observed, int) or self.n_observed < 1:
+            raise bad("n_observed", "an integer >= 1 (frames)")
         if self.transition_alpha < 0:
             raise bad("transition_alpha", "a number >= 0")
         if self.min_subevent_seconds < 0:

@@ -62,8 +62,9 @@ def estimate_parameters(
             if feats.path_sq is not None and feats.path_n is not None:
                 path_sigma[s] = fit_path_noise(feats.path_sq, feats.path_n, cfg.path_sigma_min, available)[0]
         sig = cfg.end_sigma_min
-        end_regressions.append(fit_end_regression(*interval_samples(tracks, spans, s), available, sigma_min=sig))
-        frame_regressions.append(fit_frame_regression(*frame_samples(tracks, spans, s), available, sigma_min=sig))
+        ref = cfg.n_observed - 1
+        end_regressions.append(fit_end_regression(*interval_samples(tracks, spans, s, ref), available, sigma_min=sig))
+        frame_regressions.append(fit_frame_regression(*frame_samples(tracks, spans, s, ref), available, sigma_min=sig))
     start, trans = count_transitions(spans, S)
     start_probs, transitions = smoothed_probs(start, trans, cfg.transition_alpha, cfg.distinct_neighbours)
     return {

@@ -7,9 +7,11 @@ leave-one-instance-out error) predicts agent 1's five key joints at each frame f
 observed at that frame.
 
 Context (relative to the anchor, agent 0's base at the frame, canonical metres): agent 0's other four
-key joints, the object (when the model uses one), agent 1's five key joints on the instance's first
-frame, the anchor itself, and the phase u ∈ (0, 1] of the frame in its interval and u².
-Target: agent 1's five key joints relative to the anchor (15 values).
+key joints, the object (when the model uses one), agent 1's five key joints on the instance's
+reference frame (T0 − 1, the last observed before synthesis), the anchor itself, and the phase
+u ∈ (0, 1] of the frame in its interval and u².
+Target: agent 1's five key joints relative to the anchor (15 values); as for the end regression,
+the ridge may shrink toward agent 1's pose at the reference frame (:func:`offset_columns`).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from ..data.skeletons import N_KEY
 from .joints import OBJECT
 from .ridge import RidgeRegression, fit_ridge
 
-__all__ = ["fit_frame_regression", "frame_context", "frame_samples", "n_frame_context"]
+__all__ = ["fit_frame_regression", "frame_context", "frame_samples", "frame_offset_columns", "n_frame_context"]
 
 
 def n_frame_context(available: np.ndarray) -> int:
@@ -28,47 +30,54 @@ def n_frame_context(available: np.ndarray) -> int:
     return 3 * ((N_KEY - 1) + N_KEY + 1 + int(bool(available[OBJECT]))) + 2
 
 
-def frame_context(frames: np.ndarray, first: np.ndarray, phase: np.ndarray, available: np.ndarray) -> np.ndarray:
-    """(M, C) context of M frames (M, 11, 3) of instances that began with ``first`` (M, 11, 3), at
-    phases ``phase`` (M,); absent joints read as 0."""
+def frame_offset_columns(available: np.ndarray) -> np.ndarray:
+    """(15,) int64: the frame context's columns of agent 1's key joints at the reference frame, in target order."""
+    start = 3 * ((N_KEY - 1) + int(bool(available[OBJECT])))
+    return np.arange(start, start + 3 * N_KEY)
+
+
+def frame_context(frames: np.ndarray, reference: np.ndarray, phase: np.ndarray, available: np.ndarray) -> np.ndarray:
+    """(M, C) context of M frames (M, 11, 3) of instances whose reference frame was ``reference``
+    (M, 11, 3), at phases ``phase`` (M,); absent joints read as 0."""
     frames = np.asarray(frames, float)
     anchor = frames[:, 0:1]
     parts = [frames[:, 1:N_KEY] - anchor]
     if available[OBJECT]:
         parts.append(frames[:, OBJECT : OBJECT + 1] - anchor)
-    parts += [np.asarray(first, float)[:, N_KEY : 2 * N_KEY] - anchor, anchor]
+    parts += [np.asarray(reference, float)[:, N_KEY : 2 * N_KEY] - anchor, anchor]
     u = np.asarray(phase, float)[:, None]
     return np.concatenate([np.nan_to_num(np.concatenate([p.reshape(frames.shape[0], -1) for p in parts], axis=1)), u, u**2], axis=1)
 
 
 def frame_samples(
-    tracks: list[np.ndarray], spans: list[list[tuple[int, int, int]]], s: int
+    tracks: list[np.ndarray], spans: list[list[tuple[int, int, int]]], s: int, reference: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Every frame of every interval labelled ``s``: frames (M, 11, 3), their instance's first frame
-    (M, 11, 3), their phase (M,) = (f − start + 1) / (stop − start), and their instance index (M,)."""
-    frames, firsts, phases, groups = [], [], [], []
+    """Every frame of every interval labelled ``s``: frames (M, 11, 3), their instance's reference
+    frame (M, 11, 3) (frame ``reference``, or the last if the instance is shorter), their phase (M,)
+    = (f − start + 1) / (stop − start), and their instance index (M,)."""
+    frames, refs, phases, groups = [], [], [], []
     for i, (x, sp) in enumerate(zip(tracks, spans, strict=True)):
         for a, b, lab in sp:
             if lab != s:
                 continue
             f = np.arange(a, b)
             frames.append(x[f])
-            firsts.append(np.repeat(x[:1], f.size, axis=0))
+            refs.append(np.repeat(x[min(reference, len(x) - 1)][None], f.size, axis=0))
             phases.append((f - a + 1) / (b - a))
             groups.append(np.full(f.size, i))
     if not frames:
         J = tracks[0].shape[1] if tracks else 11
         return np.zeros((0, J, 3)), np.zeros((0, J, 3)), np.zeros(0), np.zeros(0, np.int64)
-    return np.concatenate(frames), np.concatenate(firsts), np.concatenate(phases), np.concatenate(groups)
+    return np.concatenate(frames), np.concatenate(refs), np.concatenate(phases), np.concatenate(groups)
 
 
 def fit_frame_regression(
-    frames: np.ndarray, first: np.ndarray, phase: np.ndarray, groups: np.ndarray, available: np.ndarray, *, sigma_min: float
+    frames: np.ndarray, reference: np.ndarray, phase: np.ndarray, groups: np.ndarray, available: np.ndarray, *, sigma_min: float
 ) -> RidgeRegression | None:
     """Fit one type's frame regression; ``None`` unless the frames come from at least 3 instances."""
     if np.unique(groups).size < 3:
         return None
     frames = np.asarray(frames, float)
-    X = frame_context(frames, first, phase, available)
+    X = frame_context(frames, reference, phase, available)
     Y = np.nan_to_num((frames[:, N_KEY : 2 * N_KEY] - frames[:, 0:1]).reshape(frames.shape[0], -1))
-    return fit_ridge(X, Y, groups, sigma_min=sigma_min)
+    return fit_ridge(X, Y, groups, sigma_min=sigma_min, offset_columns=frame_offset_columns(available))

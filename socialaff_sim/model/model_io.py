@@ -16,10 +16,10 @@ Layout (format ``socialaff_sim.affordance_model``, version :data:`MODEL_FORMAT_V
 ``path_sigma`` (S, 11) float64, metres: path-noise σ per type and joint (NaN where unused or
     without ``path_noise``);
 ``end_context_mean``, ``end_context_scale`` (S, C), ``end_target_mean`` (S, 15), ``end_coef`` (S, C, 15),
-    ``end_cov`` (S, 15, 15) and ``end_ridge`` (S,) float64: the end-configuration regressions
-    (:mod:`~socialaff_sim.model.end_regression`), all NaN for a type without one;
+    ``end_cov`` (S, 15, 15), ``end_ridge`` and ``end_offset_weight`` (S,) float64: the end-configuration
+    regressions (:mod:`~socialaff_sim.model.end_regression`), all NaN for a type without one;
 ``frame_context_mean``, ``frame_context_scale`` (S, C'), ``frame_target_mean`` (S, 15), ``frame_coef`` (S, C', 15),
-    ``frame_cov`` (S, 15, 15) and ``frame_ridge`` (S,) float64: the frame regressions
+    ``frame_cov`` (S, 15, 15), ``frame_ridge`` and ``frame_offset_weight`` (S,) float64: the frame regressions
     (:mod:`~socialaff_sim.model.frame_regression`), likewise;
 ``hand_coupling`` (2, 2) float64: p(agent 1 left-active | agent 0's flag) (:mod:`~socialaff_sim.model.handedness`);
 ``contact_phase`` (S, 5) float64, ``contact_mate`` (S, 5) int64, ``contact_offset`` and ``contact_pose`` (S, 5, 3)
@@ -50,8 +50,8 @@ from ..errors import ConfigError, ModelFileError
 from ..data.skeletons import N_KEY
 from .config import AffordanceConfig
 from .contact_keys import ContactKeys
-from .end_regression import n_context
-from .frame_regression import n_frame_context
+from .end_regression import n_context, offset_columns
+from .frame_regression import frame_offset_columns, n_frame_context
 from .ridge import RidgeRegression
 from .joints import JOINT_NAMES, N_JOINTS
 
@@ -61,13 +61,13 @@ if TYPE_CHECKING:
 __all__ = ["MODEL_FORMAT", "MODEL_FORMAT_VERSION", "save_model", "load_model"]
 
 MODEL_FORMAT = "socialaff_sim.affordance_model"
-MODEL_FORMAT_VERSION = 6
+MODEL_FORMAT_VERSION = 7
 """Version written into every model file; readers reject other versions."""
 
 _ARRAYS = (
     "available", "grouping", "spatial_params", "motion_params", "duration_params", "transitions",
-    "start_probs", "centroids", "mean_end", "vertical_up", "path_sigma", "end_context_mean", "end_context_scale", "end_target_mean", "end_coef", "end_cov", "end_ridge",
-    "frame_context_mean", "frame_context_scale", "frame_target_mean", "frame_coef", "frame_cov", "frame_ridge", "hand_coupling",
+    "start_probs", "centroids", "mean_end", "vertical_up", "path_sigma", "end_context_mean", "end_context_scale", "end_target_mean", "end_coef", "end_cov", "end_ridge", "end_offset_weight",
+    "frame_context_mean", "frame_context_scale", "frame_target_mean", "frame_coef", "frame_cov", "frame_ridge", "frame_offset_weight", "hand_coupling",
     "contact_phase", "contact_mate", "contact_offset", "contact_pose", "contact_spread", "trace", "acceptance", "parse_rows", "parse_offsets",
 )
 
@@ -127,7 +127,10 @@ def save_model(model: SocialAffordanceModel, path: str | Path) -> Path:
 
 def _ridge_shapes(C: int) -> dict[str, tuple[int, ...]]:
     """Shape of each field of one type's regression with a context of length C (target: 15)."""
-    return {"context_mean": (C,), "context_scale": (C,), "target_mean": (15,), "coef": (C, 15), "cov": (15, 15), "ridge": ()}
+    return {
+        "context_mean": (C,), "context_scale": (C,), "target_mean": (15,), "coef": (C, 15), "cov": (15, 15), "ridge": (),
+        "offset_weight": (),
+    }
 
 
 _RIDGE_FIELDS = tuple(_ridge_shapes(0))
@@ -144,15 +147,16 @@ def _ridge_arrays(prefix: str, regs: list[RidgeRegression | None], C: int) -> di
     return {f"{prefix}_{k}": v for k, v in out.items()}
 
 
-def _ridge_regressions(prefix: str, a: dict[str, np.ndarray], S: int) -> list[RidgeRegression | None]:
+def _ridge_regressions(prefix: str, a: dict[str, np.ndarray], S: int, columns: np.ndarray) -> list[RidgeRegression | None]:
+    """The regressions of the arrays ``<prefix>_<field>``; ``columns`` (15,): their offset columns."""
     regs: list[RidgeRegression | None] = []
     for s in range(S):
         if np.isnan(a[f"{prefix}_ridge"][s]):
             regs.append(None)
             continue
-        fields = {k: a[f"{prefix}_{k}"][s].astype(float) for k in _RIDGE_FIELDS}
-        fields["ridge"] = float(fields["ridge"])
-        regs.append(RidgeRegression(**fields))  # type: ignore[arg-type]
+        fields: dict[str, Any] = {k: a[f"{prefix}_{k}"][s].astype(float) for k in _RIDGE_FIELDS}
+        fields["ridge"], fields["offset_weight"] = float(fields["ridge"]), float(fields["offset_weight"])
+        regs.append(RidgeRegression(**fields, offset_columns=columns.copy()))
     return regs
 
 
@@ -232,6 +236,11 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     for prefix, C in (("end", n_context(avail)), ("frame", n_frame_context(avail))):
         for name, shape in _ridge_shapes(C).items():
             _check_shape(path, f"{prefix}_{name}", a[f"{prefix}_{name}"], (S, *shape), "f")
+        have, w = np.isfinite(a[f"{prefix}_ridge"]), a[f"{prefix}_offset_weight"]
+        if not np.all(np.isin(w[have], (0.0, 1.0))):
+            raise ModelFileError(
+                f"{path}: field '{prefix}_offset_weight': expected 0 or 1 where {prefix}_ridge is set, found {np.unique(w[have]).tolist()}"
+            )
     _check_shape(path, "hand_coupling", a["hand_coupling"], (2, 2), "f")
     _check_shape(path, "contact_phase", a["contact_phase"], (S, N_KEY), "f")
     mates = _check_shape(path, "contact_mate", a["contact_mate"], (S, N_KEY), "iu")
@@ -263,8 +272,8 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     model.mean_end_ = a["mean_end"].astype(float)
     model.vertical_up_ = a["vertical_up"].astype(float)
     model.path_sigma_ = a["path_sigma"].astype(float)
-    model.end_regression_ = _ridge_regressions("end", a, S)
-    model.frame_regression_ = _ridge_regressions("frame", a, S)
+    model.end_regression_ = _ridge_regressions("end", a, S, offset_columns(avail))
+    model.frame_regression_ = _ridge_regressions("frame", a, S, frame_offset_columns(avail))
     model.hand_coupling_ = a["hand_coupling"].astype(float)
     model.contact_keys_ = ContactKeys(
         a["contact_phase"].astype(float), a["contact_mate"].astype(np.int64), a["contact_offset"].astype(float),

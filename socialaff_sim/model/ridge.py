@@ -5,6 +5,11 @@ The shared estimator of the model's two regressions of agent 1's configuration
 The context is standardized; λ is chosen over a fixed grid by leave-one-group-out error (a group
 per training instance, or per sample); the residual covariance is the held-out residuals'
 covariance shrunk halfway to its diagonal, plus σ_min² on the diagonal.
+
+A regression may carry *offset columns*: context columns that hold a baseline guess of the target
+(agent 1's last observed pose). With offset weight α = 1 the ridge models the target minus that
+baseline, so the penalty shrinks toward "as last observed" instead of toward the training mean;
+α ∈ {0, 1} is chosen with λ by the same held-out error.
 """
 
 from __future__ import annotations
@@ -35,11 +40,19 @@ class RidgeRegression:
     """(D, D): residual covariance."""
     ridge: float
     """λ, the penalty chosen by held-out error."""
+    offset_columns: np.ndarray | None = None
+    """(D,) int64: the context column holding each target's baseline guess, or ``None``."""
+    offset_weight: float = 0.0
+    """α ∈ {0, 1}: weight of the offset columns added to the prediction, chosen by held-out error."""
 
     def predict(self, context: np.ndarray) -> np.ndarray:
         """(M, D) mean target of contexts (M, C)."""
-        z = (np.asarray(context, float) - self.context_mean) / self.context_scale
-        return z @ self.coef + self.target_mean
+        context = np.asarray(context, float)
+        z = (context - self.context_mean) / self.context_scale
+        out = z @ self.coef + self.target_mean
+        if self.offset_columns is not None and self.offset_weight:
+            out = out + self.offset_weight * context[:, self.offset_columns]
+        return out
 
     def log_density(self, residual: np.ndarray) -> np.ndarray:
         """(M,) Gaussian log-density of residuals (M, D) under ``cov``."""
@@ -61,26 +74,45 @@ def ridge_solve(context: np.ndarray, target: np.ndarray, lam: float) -> tuple[np
 
 
 def fit_ridge(
-    context: np.ndarray, target: np.ndarray, groups: np.ndarray, *, sigma_min: float, grid: tuple[float, ...] = RIDGE_GRID
+    context: np.ndarray,
+    target: np.ndarray,
+    groups: np.ndarray,
+    *,
+    sigma_min: float,
+    grid: tuple[float, ...] = RIDGE_GRID,
+    offset_columns: np.ndarray | None = None,
 ) -> RidgeRegression:
-    """Fit contexts (M, C) to targets (M, D); λ by leave-one-group-out error over ``groups`` (M,) (at least 2 groups)."""
+    """Fit contexts (M, C) to targets (M, D); λ (and, given ``offset_columns`` (D,), the offset weight
+    α ∈ {0, 1}) by leave-one-group-out error over ``groups`` (M,) (at least 2 groups)."""
     X = np.asarray(context, float)
     Y = np.asarray(target, float)
     groups = np.asarray(groups)
-    ids = np.unique(groups)
-    best: tuple[float, float, np.ndarray] | None = None
-    for lam in grid:
-        res = np.empty_like(Y)
-        for g in ids:  # one small solve of size C per held-out group
-            out = groups == g
-            mean, scale, y_mean, coef = ridge_solve(X[~out], Y[~out], lam)
-            res[out] = Y[out] - (((X[out] - mean) / scale) @ coef + y_mean)
-        err = float(np.mean(res**2))
-        if best is None or err < best[0]:
-            best = (err, lam, res)
+    cols = None if offset_columns is None else np.asarray(offset_columns, np.int64)
+    best: tuple[float, float, float, np.ndarray] | None = None
+    for alpha in (0.0,) if cols is None else (0.0, 1.0):
+        for lam in grid:
+            res = _held_out_residuals(X, _shifted(X, Y, cols, alpha), groups, lam)
+            err = float(np.mean(res**2))
+            if best is None or err < best[0]:  # ties keep α = 0 and the smaller λ
+                best = (err, alpha, lam, res)
     assert best is not None  # grid is non-empty
-    _, lam, res = best
-    mean, scale, y_mean, coef = ridge_solve(X, Y, lam)
+    _, alpha, lam, res = best
+    mean, scale, y_mean, coef = ridge_solve(X, _shifted(X, Y, cols, alpha), lam)
     S = res.T @ res / X.shape[0]
     cov = 0.5 * S + 0.5 * np.diag(np.diag(S)) + sigma_min**2 * np.eye(Y.shape[1])
-    return RidgeRegression(mean, scale, y_mean, coef, cov, float(lam))
+    return RidgeRegression(mean, scale, y_mean, coef, cov, float(lam), cols, float(alpha))
+
+
+def _shifted(X: np.ndarray, Y: np.ndarray, cols: np.ndarray | None, alpha: float) -> np.ndarray:
+    """The targets minus α times their offset columns."""
+    return Y - alpha * X[:, cols] if alpha and cols is not None else Y
+
+
+def _held_out_residuals(X: np.ndarray, Y: np.ndarray, groups: np.ndarray, lam: float) -> np.ndarray:
+    """(M, D) residuals of each group's targets under the ridge fitted without that group."""
+    res = np.empty_like(Y)
+    for g in np.unique(groups):  # one small solve of size C per held-out group
+        out = groups == g
+        mean, scale, y_mean, coef = ridge_solve(X[~out], Y[~out], lam)
+        res[out] = Y[out] - (((X[out] - mean) / scale) @ coef + y_mean)
+    return res
