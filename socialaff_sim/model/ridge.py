@@ -90,8 +90,9 @@ def fit_ridge(
     cols = None if offset_columns is None else np.asarray(offset_columns, np.int64)
     best: tuple[float, float, float, np.ndarray] | None = None
     for alpha in (0.0,) if cols is None else (0.0, 1.0):
+        Ya = _shifted(X, Y, cols, alpha)
         for lam in grid:
-            res = _held_out_residuals(X, _shifted(X, Y, cols, alpha), groups, lam)
+            res = _held_out_residuals(X, Ya, groups, lam)
             err = float(np.mean(res**2))
             if best is None or err < best[0]:  # ties keep α = 0 and the smaller λ
                 best = (err, alpha, lam, res)
