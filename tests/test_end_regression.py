@@ -204,9 +204,12 @@ def test_offset_columns_hold_agent_1_at_the_reference_frame(rng: np.random.Gener
             end_context(end, before, ref, available)[:, cols], (ref[:, 5:10] - end[:, 0:1]).reshape(4, 15), atol=1e-12
         )
         fcols = frame_offset_columns(available)
-        np.testing.assert_allclose(
-            frame_context(end, ref, np.full(4, 0.5), available)[:, fcols], (ref[:, 5:10] - end[:, 0:1]).reshape(4, 15), atol=1e-12
-        )
+        phase = np.array([0.1, 0.4, 0.7, 1.0])
+        ctx = frame_context(end, ref, phase, available)
+        np.testing.assert_allclose(ctx[:, fcols], (ref[:, 5:10] - end[:, 0:1]).reshape(4, 15), atol=1e-12)
+        # The last 15 columns: the same pose scaled by the phase u, after u and u².
+        np.testing.assert_allclose(ctx[:, -17:-15], np.stack([phase, phase**2], axis=1), atol=1e-12)
+        np.testing.assert_allclose(ctx[:, -15:], phase[:, None] * ctx[:, fcols], atol=1e-12)
 
 
 def test_the_offset_is_chosen_when_agent_1_stays_where_it_was_observed(rng: np.random.Generator) -> None:
@@ -292,6 +295,35 @@ def test_frame_samples_and_a_planted_frame_relation(rng: np.random.Generator) ->
     rel = np.linalg.norm(reg.predict(ctx) - target) / np.linalg.norm(target)
     assert rel < 0.03, rel
     assert fit_frame_regression(frames, first, phase, np.arange(M) % 2, available, sigma_min=0.01) is None
+
+
+def test_frame_regression_follows_an_approach_from_the_reference_pose(rng: np.random.Generator) -> None:
+    # Agent 1 moves from its reference pose (relative to agent 0's base) to a fixed stance in front of
+    # agent 0 as the phase u runs: (1 − u)·ref + u·stance, a product of u and the pose. With the
+    # phase-scaled columns it is linear in the context and recovered; the fit is checked on fresh
+    # instances against the closed form.
+    available = np.ones(11, bool)
+    available[10] = False
+    stance = rng.normal(scale=0.3, size=15)
+
+    def instances(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        m = 12
+        frames = rng.normal(size=(n * m, 11, 3))
+        frames[:, 10] = np.nan
+        ref = np.repeat(rng.normal(size=(n, 11, 3)), m, axis=0)
+        ref[:, 0] = frames[:, 0]  # agent 0's base does not move, so ref − anchor is the reference pose
+        phase = np.tile((np.arange(m) + 1) / m, n)
+        rel = (1 - phase[:, None]) * (ref[:, 5:10] - ref[:, 0:1]).reshape(-1, 15) + phase[:, None] * stance
+        frames[:, 5:10] = rel.reshape(-1, 5, 3) + frames[:, 0:1]
+        return frames, ref, phase, np.repeat(np.arange(n), m)
+
+    frames, ref, phase, groups = instances(30)
+    reg = fit_frame_regression(frames, ref, phase, groups, available, sigma_min=0.001)
+    assert reg is not None
+    test_frames, test_ref, test_phase, _ = instances(5)
+    truth = (test_frames[:, 5:10] - test_frames[:, 0:1]).reshape(-1, 15)
+    pred = reg.predict(frame_context(test_frames, test_ref, test_phase, available))
+    np.testing.assert_allclose(pred, truth, atol=0.02)
 
 
 def test_frame_blend_keeps_the_track_continuous_and_causal(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:

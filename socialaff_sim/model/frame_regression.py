@@ -8,8 +8,11 @@ observed at that frame.
 
 Context (relative to the anchor, agent 0's base at the frame, canonical metres): agent 0's other four
 key joints, the object (when the model uses one), agent 1's five key joints on the instance's
-reference frame (T0 − 1, the last observed before synthesis), the anchor itself, and the phase
-u ∈ (0, 1] of the frame in its interval and u².
+reference frame (T0 − 1, the last observed before synthesis), the anchor itself, the phase
+u ∈ (0, 1] of the frame in its interval and u², and agent 1's reference pose scaled by u. The last
+part lets agent 1's way from where it was last observed grow with the phase: its distance to agent 0
+shrinks over an approach in proportion to how far the approach has got, a product the ridge cannot
+form from u and the pose alone.
 Target: agent 1's five key joints relative to the anchor (15 values); as for the end regression,
 the ridge may shrink toward agent 1's pose at the reference frame (:func:`offset_columns`).
 """
@@ -27,7 +30,7 @@ __all__ = ["fit_frame_regression", "frame_context", "frame_samples", "frame_offs
 
 def n_frame_context(available: np.ndarray) -> int:
     """Length of the frame context for a model using the joints ``available`` (11,)."""
-    return 3 * ((N_KEY - 1) + N_KEY + 1 + int(bool(available[OBJECT]))) + 2
+    return 3 * ((N_KEY - 1) + 2 * N_KEY + 1 + int(bool(available[OBJECT]))) + 2
 
 
 def frame_offset_columns(available: np.ndarray) -> np.ndarray:
@@ -44,9 +47,11 @@ def frame_context(frames: np.ndarray, reference: np.ndarray, phase: np.ndarray, 
     parts = [frames[:, 1:N_KEY] - anchor]
     if available[OBJECT]:
         parts.append(frames[:, OBJECT : OBJECT + 1] - anchor)
-    parts += [np.asarray(reference, float)[:, N_KEY : 2 * N_KEY] - anchor, anchor]
+    ref = np.asarray(reference, float)[:, N_KEY : 2 * N_KEY] - anchor
+    parts += [ref, anchor]
+    x = np.nan_to_num(np.concatenate([p.reshape(frames.shape[0], -1) for p in parts], axis=1))
     u = np.asarray(phase, float)[:, None]
-    return np.concatenate([np.nan_to_num(np.concatenate([p.reshape(frames.shape[0], -1) for p in parts], axis=1)), u, u**2], axis=1)
+    return np.concatenate([x, u, u**2, u * np.nan_to_num(ref.reshape(frames.shape[0], -1))], axis=1)
 
 
 def frame_samples(

@@ -61,7 +61,7 @@ if TYPE_CHECKING:
 __all__ = ["MODEL_FORMAT", "MODEL_FORMAT_VERSION", "save_model", "load_model"]
 
 MODEL_FORMAT = "socialaff_sim.affordance_model"
-MODEL_FORMAT_VERSION = 7
+MODEL_FORMAT_VERSION = 8
 """Version written into every model file; readers reject other versions."""
 
 _ARRAYS = (
