@@ -326,6 +326,30 @@ def test_frame_regression_follows_an_approach_from_the_reference_pose(rng: np.ra
     np.testing.assert_allclose(pred, truth, atol=0.02)
 
 
+def test_causal_frame_prediction_heads_for_the_pose_of_the_latest_frame(
+    shake8_model: SocialAffordanceModel, shake8: Dataset
+) -> None:
+    # Without lookahead agent 0 and the phase are both read at t − 1: every frame of the block is the
+    # same regression pose p approached from the last emitted pose, out_k = p + e^(−k/decay)·(prev − p).
+    from socialaff_sim.inference.synthesis import OnlineSynthesizer
+
+    cfg = SynthesisConfig.reactive()
+    syn = OnlineSynthesizer(shake8_model, None, cfg)
+    syn.reset(observed_part(shake8[7], 10), rng=np.random.default_rng(4))
+    for _ in range(cfg.n_observed + 7):
+        syn.step()
+    t, start, last = syn.t, *syn._span  # noqa: SLF001 (the state under test)
+    s = syn._sub  # noqa: SLF001
+    reg = shake8_model.frame_regression_[s]
+    assert reg is not None
+    prev = syn._track[t - 1, 5:10]  # noqa: SLF001
+    out = syn._frame_prediction(reg, t, t + 6, start, last, prev)  # noqa: SLF001
+    fade = np.exp(-np.arange(1, 7) / cfg.frame_decay)[:, None, None]
+    pose = (out - fade * prev[None]) / (1.0 - fade)
+    np.testing.assert_allclose(pose, np.broadcast_to(pose[0], pose.shape), atol=1e-9)
+    assert np.linalg.norm(pose[0] - prev, axis=-1).max() > 1e-3  # the regression does move the track
+
+
 def test_frame_blend_keeps_the_track_continuous_and_causal(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
     cfg = SynthesisConfig.reactive()
     inter = observed_part(shake8[7], 10)

@@ -282,13 +282,16 @@ class OnlineSynthesizer:
     ) -> np.ndarray:
         """(F, 5, 3) canonical: the frame regression over frames [t, stop), shifted to start at ``prev``
         (agent 1 at t − 1) with the shift fading over ``frame_decay`` frames. Agent 0 is read at each
-        frame with ``lookahead``, else at its latest observed frame t − 1."""
+        frame with ``lookahead``; else agent 0 and the phase are both those of frame t − 1, the latest
+        observed, so the track heads from ``prev`` toward where the regression puts agent 1 now."""
         cfg = self.config
         frames = np.arange(t - 1, stop)
         seen = frames if cfg.lookahead else np.minimum(frames, t - 1)
         config = np.empty((frames.size, 2 * N_KEY + 1, 3))
         config[:, _OTHERS] = self._track[seen[:, None], _OTHERS]
-        phase = ((frames - start + 1) / max(last - start + 1, 1)).clip(0.0, 1.0)
+        # The phase goes with agent 0's frame: the regression learnt them in pairs, and a phase run on
+        # ahead of a person held still asks for a pose it never saw.
+        phase = ((seen - start + 1) / max(last - start + 1, 1)).clip(0.0, 1.0)
         # The regressions' reference frame: agent 1's last observed pose (frame T0 − 1).
         ref = np.repeat(self._track[self.config.n_observed - 1][None], frames.size, axis=0)
         ctx = frame_context(config, ref, phase, self._available)
