@@ -133,7 +133,7 @@ class SynthesisConfig:
     def reactive(cls, **changes: object) -> SynthesisConfig:
         """Causal settings for a robot reacting to a person (the simulator's and the environment's
         default): the paper's Algorithm 2 plus an equal share of the frame regression, which reads
-        agent 0 only up to the latest observed frame, a re-planning at each predicted sub-event end, and the
+        agent 0, and the phase, at the latest observed frame, a re-planning at each predicted sub-event end, and the
         pull toward contact keyframes triggered by agent 0's touching joint reaching its contact pose."""
         return cls(**{"frame_weight": 0.5, "replan_at_end": True, "contact": "triggered", **changes})  # type: ignore[arg-type]
 
