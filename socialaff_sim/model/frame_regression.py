@@ -47,11 +47,10 @@ def frame_context(frames: np.ndarray, reference: np.ndarray, phase: np.ndarray, 
     parts = [frames[:, 1:N_KEY] - anchor]
     if available[OBJECT]:
         parts.append(frames[:, OBJECT : OBJECT + 1] - anchor)
-    ref = np.asarray(reference, float)[:, N_KEY : 2 * N_KEY] - anchor
-    parts += [ref, anchor]
+    parts += [np.asarray(reference, float)[:, N_KEY : 2 * N_KEY] - anchor, anchor]
     x = np.nan_to_num(np.concatenate([p.reshape(frames.shape[0], -1) for p in parts], axis=1))
     u = np.asarray(phase, float)[:, None]
-    return np.concatenate([x, u, u**2, u * np.nan_to_num(ref.reshape(frames.shape[0], -1))], axis=1)
+    return np.concatenate([x, u, u**2, u * x[:, frame_offset_columns(available)]], axis=1)
 
 
 def frame_samples(
