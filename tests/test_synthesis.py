@@ -169,6 +169,30 @@ def test_methods_are_registered_and_follow_the_protocol(shake: Dataset) -> None:
         AffordanceMethod("v3")
 
 
+def test_chains_average_independent_fits(shake: Dataset) -> None:
+    seed = 7
+    print(f"seed = {seed}")
+    train, test = list(shake)[:6], observed_part(shake[7], 10)
+    method = AffordanceMethod("full", learning=FAST, chains=2).fit(train, rng=np.random.default_rng(seed))
+    pred = method.predict(test, n_observed=10, rng=np.random.default_rng(seed + 1))
+    # Reference: two models learnt from the spawned generators, synthesized one by one.
+    models = [SocialAffordanceModel(method.model_config, FAST).fit(train, rng=r) for r in np.random.default_rng(seed).spawn(2)]
+    assert [m.parses_[0].tolist() for m in models] == [m.parses_[0].tolist() for m in method.models_]
+    cfg = SynthesisConfig.offline(n_observed=10)  # what the method synthesizes with
+    runs = [synthesize(m, test, rng=r, config=cfg)[0] for m, r in zip(models, np.random.default_rng(seed + 1).spawn(2), strict=True)]
+    np.testing.assert_allclose(pred.key_joints, np.mean(runs, axis=0), rtol=0, atol=1e-12)
+    assert not np.allclose(runs[0][10:], runs[1][10:], atol=1e-3)  # the chains differ, so the mean is neither
+    np.testing.assert_array_equal(pred.joints[:10], test.filled_joints()[:10, 1])
+    assert pred.joints.shape == test.joints[:, 1].shape and np.isfinite(pred.joints[10:]).all()
+    # One chain is the plain method: the caller's generator is used as it is.
+    one = AffordanceMethod("full", learning=FAST).fit(train, rng=np.random.default_rng(seed))
+    keys = synthesize(one.model_, test, rng=np.random.default_rng(seed + 1), config=cfg)[0]
+    np.testing.assert_array_equal(one.predict(test, n_observed=10, rng=np.random.default_rng(seed + 1)).key_joints, keys)
+    for bad in (0, 1.5, True):
+        with pytest.raises(ConfigError, match="chains: expected an integer >= 1"):
+            AffordanceMethod("full", chains=bad)  # type: ignore[arg-type]
+
+
 def test_model_source_replays_the_synthesizer(model: SocialAffordanceModel, shake: Dataset, tmp_path) -> None:  # noqa: ANN001
     from socialaff_sim.inference import key_joint_source
 

@@ -24,7 +24,7 @@ from ..model.config import AffordanceConfig
 from .body_fit import BodyFitConfig, BodyFitter
 from .synthesis import OnlineSynthesizer, SynthesisConfig
 
-__all__ = ["AffordanceMethod", "VARIANTS", "ModelSource", "key_joint_source", "synthesize"]
+__all__ = ["AffordanceMethod", "VARIANTS", "ModelSource", "fit_skeleton", "key_joint_source", "synthesize"]
 
 VARIANTS: dict[str, dict[str, bool]] = {
     "full": {},
@@ -55,15 +55,27 @@ def synthesize(
     beliefs = np.stack([s.belief for s in steps])
     if body is None:
         return keys, None, subs, beliefs
-    n_obs = syn.config.n_observed
+    return keys, fit_skeleton(body, model, interaction, keys, syn.config.n_observed), subs, beliefs
+
+
+def fit_skeleton(
+    body: BodyFitter, model: SocialAffordanceModel, interaction: Interaction, keys: np.ndarray, n_observed: int
+) -> np.ndarray:
+    """(T, J, 3) metres world: agent 1's recorded skeleton for the first ``n_observed`` frames, then
+    full-body poses fitted to the key joints ``keys`` (T, 5, 3) metres world."""
     skel = interaction.filled_joints()[:, 1].copy()
-    frame = model.frame_of(interaction)
-    skel[n_obs:] = body.fit_poses(keys[n_obs:], frame)
-    return keys, skel, subs, beliefs
+    skel[n_observed:] = body.fit_poses(keys[n_observed:], model.frame_of(interaction))
+    return skel
 
 
 class AffordanceMethod:
-    """The social affordance model (or an ablation) as a :class:`ReactionMethod`."""
+    """The social affordance model (or an ablation) as a :class:`ReactionMethod`.
+
+    With ``chains`` K > 1 the model is learnt K times by independent MCMC chains (generators spawned
+    from the caller's) and the prediction is the mean of the K syntheses' key joints: an estimate of
+    the posterior-predictive mean over parses instead of one chain's parse. The full skeleton is fitted
+    to that mean; the sub-events reported are the first chain's.
+    """
 
     def __init__(
         self,
@@ -74,10 +86,14 @@ class AffordanceMethod:
         synthesis: SynthesisConfig | None = None,
         body: BodyFitConfig | None = None,
         name: str | None = None,
+        chains: int = 1,
     ) -> None:
         if variant not in VARIANTS:
             raise ConfigError(f"variant: expected {choices(VARIANTS)}, found {variant!r}")
+        if isinstance(chains, bool) or not isinstance(chains, int) or chains < 1:
+            raise ConfigError(f"chains: expected an integer >= 1, found {chains!r}")
         self.name = name or variant
+        self.chains = chains
         self.variant = variant
         self.model_config = dataclasses.replace(model_config or AffordanceConfig(), **VARIANTS[variant])
         self.learning = learning
@@ -87,7 +103,9 @@ class AffordanceMethod:
     def fit(self, interactions: Sequence[Interaction], *, rng: np.random.Generator) -> AffordanceMethod:
         """Learn the model (Algorithm 1) and the body clusters of agent 1."""
         inters = list(interactions)
-        self.model_ = SocialAffordanceModel(self.model_config, self.learning).fit(inters, rng=rng)
+        rngs = [rng] if self.chains == 1 else rng.spawn(self.chains)
+        self.models_ = [SocialAffordanceModel(self.model_config, self.learning).fit(inters, rng=r) for r in rngs]
+        self.model_ = self.models_[0]
         self.body_ = BodyFitter(self.body).fit_interactions(inters, agent=1, rng=rng)
         return self
 
@@ -96,9 +114,16 @@ class AffordanceMethod:
         if not hasattr(self, "model_"):
             raise NotFittedError(f"method {self.name!r}: call fit(interactions, rng=...) before predict")
         cfg = dataclasses.replace(self.synthesis, n_observed=n_observed)
-        keys, skel, subs, _ = synthesize(self.model_, interaction, rng=rng, body=self.body_, config=cfg)
-        assert skel is not None  # a body fitter was given
-        return Prediction(joints=skel, key_joints=keys, subevents=subs, n_observed=n_observed)
+        if len(self.models_) == 1:
+            keys, skel, subs, _ = synthesize(self.model_, interaction, rng=rng, body=self.body_, config=cfg)
+            assert skel is not None  # a body fitter was given
+            return Prediction(joints=skel, key_joints=keys, subevents=subs, n_observed=n_observed)
+        runs = [
+            synthesize(m, interaction, rng=r, config=cfg) for m, r in zip(self.models_, rng.spawn(len(self.models_)), strict=True)
+        ]
+        keys = np.mean([r[0] for r in runs], axis=0)
+        skel = fit_skeleton(self.body_, self.model_, interaction, keys, cfg.n_observed)
+        return Prediction(joints=skel, key_joints=keys, subevents=runs[0][2], n_observed=n_observed)
 
 
 def _full() -> AffordanceMethod:
