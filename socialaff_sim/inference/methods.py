@@ -114,14 +114,9 @@ class AffordanceMethod:
         if not hasattr(self, "model_"):
             raise NotFittedError(f"method {self.name!r}: call fit(interactions, rng=...) before predict")
         cfg = dataclasses.replace(self.synthesis, n_observed=n_observed)
-        if len(self.models_) == 1:
-            keys, skel, subs, _ = synthesize(self.model_, interaction, rng=rng, body=self.body_, config=cfg)
-            assert skel is not None  # a body fitter was given
-            return Prediction(joints=skel, key_joints=keys, subevents=subs, n_observed=n_observed)
-        runs = [
-            synthesize(m, interaction, rng=r, config=cfg) for m, r in zip(self.models_, rng.spawn(len(self.models_)), strict=True)
-        ]
-        keys = np.mean([r[0] for r in runs], axis=0)
+        rngs = [rng] if len(self.models_) == 1 else rng.spawn(len(self.models_))
+        runs = [synthesize(m, interaction, rng=r, config=cfg) for m, r in zip(self.models_, rngs, strict=True)]
+        keys = np.mean([r[0] for r in runs], axis=0)  # exactly the one synthesis when K = 1
         skel = fit_skeleton(self.body_, self.model_, interaction, keys, cfg.n_observed)
         return Prediction(joints=skel, key_joints=keys, subevents=runs[0][2], n_observed=n_observed)
 
