@@ -20,6 +20,7 @@ from socialaff_sim.inference import (
     parse_prefix,
     synthesize,
 )
+from socialaff_sim.inference.methods import REGISTERED_CHAINS
 from socialaff_sim.inference.online_parse import log_duration_survival
 from socialaff_sim.inference.synthesis import sample_remaining_seconds
 from socialaff_sim.learning.config import LearningConfig
@@ -157,7 +158,8 @@ def test_synthesizer_errors(model: SocialAffordanceModel, shake: Dataset) -> Non
 def test_methods_are_registered_and_follow_the_protocol(shake: Dataset) -> None:
     for name in ("full", "v1", "v2"):
         method = get_method(name)()
-        assert isinstance(method, AffordanceMethod) and method.name == name
+        assert isinstance(method, AffordanceMethod) and method.name == name and method.chains == REGISTERED_CHAINS
+    assert get_method("full_online")().chains == 1  # the simulator's single model
     method = AffordanceMethod("v2", learning=FAST)
     with pytest.raises(NotFittedError):
         method.predict(shake[7], n_observed=10, rng=np.random.default_rng(0))
