@@ -26,7 +26,9 @@ from ..model.config import AffordanceConfig
 from .body_fit import BodyFitConfig, BodyFitter
 from .synthesis import OnlineSynthesizer, SynthesisConfig
 
-__all__ = ["AffordanceMethod", "REGISTERED_CHAINS", "VARIANTS", "ModelSource", "fit_skeleton", "key_joint_source", "synthesize"]
+__all__ = [
+    "AffordanceMethod", "REGISTERED_CHAINS", "VARIANTS", "ModelSource", "fit_skeleton", "key_joint_source", "synthesize",
+]
 
 VARIANTS: dict[str, dict[str, bool]] = {
     "full": {},
@@ -39,7 +41,8 @@ REGISTERED_CHAINS = 3
 """K, the independent MCMC chains the registered ``"full"``, ``"v1"`` and ``"v2"`` methods average.
 
 One chain's parse depends on its seed: on the SBU handshakes the fit's seed alone moves the full model's
-error from 0.127 to 0.136 m. Three chains cost three fits and lower that spread (docs/analysis.md, session 10).
+error from 0.127 to 0.136 m. Three chains cost three fits; they lowered the full model's error on all three
+datasets of the accuracy benchmark (docs/analysis.md, sessions 10 and 11).
 """
 
 
