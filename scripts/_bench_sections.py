@@ -200,8 +200,10 @@ def _experiment(ev: Run, quick: bool, *, synthetic: bool) -> list[str]:
     if "full" in errs:
         v = errs["full"]
         best = min(errs, key=errs.__getitem__)
+        # Four decimals: the table's three can show a tie as a 0.001 m gap.
         out += ["", f"- Full model lowest average key-joint error of {len(errs)} methods: lowest is {best} "
-                f"({errs[best]:.3f} m), " + verdict(float(best == "full"), 1.0, at_least=True, quick=quick) + "."]
+                f"({errs[best]:.4f} m{'' if best == 'full' else f'; full {v:.4f} m'}), "
+                + verdict(float(best == "full"), 1.0, at_least=True, quick=quick) + "."]
         if "hmm" in errs:
             out += [f"- HMM's error ≥ 2× the full model's: {errs['hmm'] / v:.2f}×, "
                     + verdict(errs["hmm"] / v, 2.0, at_least=True, quick=quick) + "."]
