@@ -80,6 +80,11 @@ def fit_skeleton(
     return skel
 
 
+def _chain_generators(rng: np.random.Generator, k: int) -> list[np.random.Generator]:
+    """One generator per chain: the caller's own for one chain (so K = 1 is the plain method), else K spawned."""
+    return [rng] if k == 1 else rng.spawn(k)
+
+
 class AffordanceMethod:
     """The social affordance model (or an ablation) as a :class:`ReactionMethod`.
 
@@ -115,8 +120,10 @@ class AffordanceMethod:
     def fit(self, interactions: Sequence[Interaction], *, rng: np.random.Generator) -> AffordanceMethod:
         """Learn the model (Algorithm 1) and the body clusters of agent 1."""
         inters = list(interactions)
-        rngs = [rng] if self.chains == 1 else rng.spawn(self.chains)
-        self.models_ = [SocialAffordanceModel(self.model_config, self.learning).fit(inters, rng=r) for r in rngs]
+        self.models_ = [
+            SocialAffordanceModel(self.model_config, self.learning).fit(inters, rng=r)
+            for r in _chain_generators(rng, self.chains)
+        ]
         self.model_ = self.models_[0]
         self.body_ = BodyFitter(self.body).fit_interactions(inters, agent=1, rng=rng)
         return self
@@ -126,7 +133,7 @@ class AffordanceMethod:
         if not hasattr(self, "model_"):
             raise NotFittedError(f"method {self.name!r}: call fit(interactions, rng=...) before predict")
         cfg = dataclasses.replace(self.synthesis, n_observed=n_observed)
-        rngs = [rng] if len(self.models_) == 1 else rng.spawn(len(self.models_))
+        rngs = _chain_generators(rng, len(self.models_))
         runs = [synthesize(m, interaction, rng=r, config=cfg) for m, r in zip(self.models_, rngs, strict=True)]
         keys = np.mean([r[0] for r in runs], axis=0)  # exactly the one synthesis when K = 1
         skel = fit_skeleton(self.body_, self.model_, interaction, keys, cfg.n_observed)
