@@ -210,7 +210,19 @@ def _experiment(ev: Run, quick: bool, *, synthetic: bool) -> list[str]:
         if synthetic:
             out += [f"- Full model's average key-joint error ≤ 0.07 m: {v:.3f} m, "
                     + verdict(v, 0.07, at_least=False, quick=quick) + "."]
+    out += _paired_line(d.get("paired"))
     return out + [""]
+
+
+def _paired_line(paired: dict | None) -> list[str]:
+    """One line: each method minus the reference, with its bootstrap interval (``results.json``'s ``paired``)."""
+    cells = (paired or {}).get("differences", {}).get("key_joint_error_m")
+    if not cells:
+        return []
+    level = f"{100 * paired['confidence']:g} %"
+    parts = [f"{m} {c['mean_m']:+.4f} [{c['low_m']:+.4f}, {c['high_m']:+.4f}] {c['verdict']}" for m, c in cells.items()]
+    return [f"- Paired key-joint differences to {paired['reference']} (m, {level} bootstrap interval over the test "
+            "instances; the variation from refitting is not in it): " + "; ".join(parts) + "."]
 
 
 def _simsynth(runs: list[Run], quick: bool) -> list[str]:

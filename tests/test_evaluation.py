@@ -197,6 +197,14 @@ def test_evaluation_schema_exclusion_and_executor_independence(hold_registered: 
     # ProMP uses the human's motion; holding the last pose cannot follow the arm.
     assert serial["average"]["promp"]["key_joint_error_m"] < serial["average"]["hold"]["key_joint_error_m"]
     assert "hold" in serial["parse_accuracy"]["shake_hands"]
+    # Without "full" the first method is the paired reference; the difference is that of the averages.
+    paired = serial["paired"]
+    assert paired["reference"] == "hold" and "paired" not in pooled  # one method: nothing to pair
+    for metric in ("key_joint_error_m", "joint_error_m"):
+        cell = paired["differences"][metric]["promp"]
+        np.testing.assert_allclose(cell["mean_m"], serial["average"]["promp"][metric] - serial["average"]["hold"][metric], rtol=1e-9)
+        assert cell["low_m"] <= cell["mean_m"] <= cell["high_m"] and cell["n_instances"] == 16
+    assert paired["differences"]["key_joint_error_m"]["promp"]["verdict"] == "lower"
     other_seed = evaluate(data, ["hold"], interactions=["shake_hands"], config=EvaluationConfig(executor="serial", seed=6))
     assert other_seed["per_interaction"]["shake_hands"]["hold"] != serial["per_interaction"]["shake_hands"]["hold"]
 
@@ -205,6 +213,7 @@ def test_evaluation_schema_exclusion_and_executor_independence(hold_registered: 
     assert loaded["per_interaction"] == serial["per_interaction"]
     table = paths["markdown"].read_text()
     assert "| hold |" in table and "| promp |" in table and "hand_over | shake_hands | Average" in table
+    assert "## Paired differences to `hold`" in table and "| lower |" in table
     assert paths["chart"].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 

@@ -1,5 +1,6 @@
 """Evaluation (Experiment 1 of the paper): the method protocol, metrics, actor-disjoint cross-validation, reports."""
 
+from .compare import PairedDifference, paired_differences
 from .crossval import EvaluationConfig
 from .metrics import joint_error, key_joint_error, matched_accuracy, parse_confusion
 from .protocol import (
@@ -20,6 +21,7 @@ __all__ = [
     "DEFAULT_N_OBSERVED",
     "METHODS",
     "EvaluationConfig",
+    "PairedDifference",
     "Prediction",
     "ReactionMethod",
     "available_methods",
@@ -30,6 +32,7 @@ __all__ = [
     "key_joint_error",
     "matched_accuracy",
     "observed_part",
+    "paired_differences",
     "parse_confusion",
     "prediction_from_joints",
     "register_method",

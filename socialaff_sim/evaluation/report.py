@@ -72,10 +72,30 @@ def format_tables(results: Mapping[str, Any]) -> str:
                 continue  # the method does not parse sub-events
             cells = [_cell(parse.get(lab, {}).get(m), False) for lab in labels]
             lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    lines += _paired_lines(results.get("paired"))
     lines += ["", "Fit + predict time summed over tasks (s): " + ", ".join(
         f"{m} {results['seconds'][m]:.1f}" for m in methods
     ) + "."]
     return "\n".join(lines) + "\n"
+
+
+def _paired_lines(paired: Mapping[str, Any] | None) -> list[str]:
+    """The paired-difference table, or nothing without one."""
+    if not paired or not paired.get("differences", {}).get("key_joint_error_m"):
+        return []
+    ref, level = paired["reference"], 100 * paired["confidence"]
+    lines = ["", f"## Paired differences to `{ref}` (key joints, m)", ""]
+    lines.append(
+        f"Each method's error minus {ref}'s on the same test instances, averaged like the table above; "
+        f"the interval is a {level:g} % stratified bootstrap over the instances ({paired['n_resamples']} resamples). "
+        "Negative: lower than the reference."
+    )
+    lines += ["", f"| Method | Difference | {level:g} % interval | Instances | Verdict |", "|---|---:|---:|---:|---|"]
+    for m, d in paired["differences"]["key_joint_error_m"].items():
+        lines.append(
+            f"| {m} | {d['mean_m']:+.4f} | [{d['low_m']:+.4f}, {d['high_m']:+.4f}] | {d['n_instances']} | {d['verdict']} |"
+        )
+    return lines
 
 
 def plot_results(results: Mapping[str, Any], path: str | Path) -> Path:

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..data.dataset import Dataset
 from ..errors import ConfigError, choices
+from .compare import paired_differences
 from .crossval import EvaluationConfig, Task, TaskResult, make_tasks, run_task
 from .metrics import matched_accuracy
 from .protocol import get_method
@@ -30,6 +31,11 @@ from .protocol import get_method
 __all__ = ["evaluate", "run_tasks"]
 
 Progress = Callable[[str], None]
+
+PAIRED_CONFIDENCE = 0.95
+"""Confidence level of the paired bootstrap intervals in ``results.json``."""
+PAIRED_RESAMPLES = 10_000
+"""Bootstrap resamples of those intervals."""
 
 
 _THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")
@@ -145,6 +151,8 @@ def evaluate(
          "parse_accuracy": {class: {method: float}},   # where ground truth and a parse exist
          "excluded": {class: int},                      # test instances with T <= T0 + 1
          "per_instance": {class: {method: [{"instance_id", "fold", "key_joint_error_m", "joint_error_m"}]}},
+         "paired": {"reference": method, "confidence": 0.95, "n_resamples": int,   # with two or more methods
+                    "differences": {metric: {method: {"mean_m", "low_m", "high_m", "n_instances", "verdict"}}}},
          "settings": {...}}
 
     A class's error is the mean over its test instances of each instance's mean
@@ -154,6 +162,9 @@ def evaluate(
     (pooled over the fold's test instances, all frames with a ground-truth label)
     and weighs the folds by their labelled frames. Test instances with
     T ≤ T0 + 1 are left out of testing (counted in ``excluded``) but still train.
+    ``paired`` compares every method with the reference (``"full"`` when evaluated, else the
+    first method) instance by instance (:func:`~socialaff_sim.evaluation.compare.paired_differences`;
+    its bootstrap draws from a generator seeded by ``config.seed``).
     """
     config = config or EvaluationConfig()
     if not methods:
@@ -200,7 +211,7 @@ def evaluate(
         }
         for m in methods
     }
-    return {
+    out: dict[str, object] = {
         "dataset": dataset.name,
         "per_interaction": per_interaction,
         "average": average,
@@ -217,3 +228,21 @@ def evaluate(
             "n_test_available": n_test,
         },
     }
+    if len(methods) > 1:
+        out["paired"] = _paired(out, "full" if "full" in methods else methods[0], config.seed)
+    return out
+
+
+def _paired(results: dict[str, object], reference: str, seed: int) -> dict[str, object]:
+    """The ``paired`` entry of ``results.json``: each method minus ``reference``, per metric."""
+    differences: dict[str, dict[str, dict[str, object]]] = {}
+    for k, metric in enumerate(("key_joint_error_m", "joint_error_m")):
+        # spawn key 2: apart from the folds' (0, …) and the tasks' (1, …) streams of the same seed
+        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(2, k)))
+        pairs = paired_differences(results, reference, metric=metric, confidence=PAIRED_CONFIDENCE,
+                                   n_resamples=PAIRED_RESAMPLES, rng=rng)
+        differences[metric] = {
+            m: {"mean_m": p.mean_m, "low_m": p.low_m, "high_m": p.high_m, "n_instances": p.n_instances, "verdict": p.verdict}
+            for m, p in pairs.items()
+        }
+    return {"reference": reference, "confidence": PAIRED_CONFIDENCE, "n_resamples": PAIRED_RESAMPLES, "differences": differences}
