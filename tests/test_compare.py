@@ -42,7 +42,7 @@ def test_a_class_with_one_instance_adds_a_constant(rng: np.random.Generator) -> 
     np.testing.assert_allclose([mean, low, high], [(m1 + 0.3) / 2, (l1 + 0.3) / 2, (h1 + 0.3) / 2], rtol=0, atol=1e-12)
 
 
-def _results(per_class: dict[str, dict[str, list[tuple[str, int, float]]]]) -> dict[str, object]:
+def _results(per_class: dict[str, dict[str, list[tuple[str, int, float | None]]]]) -> dict[str, object]:
     methods = list(next(iter(per_class.values())))
     return {
         "average": {m: {} for m in methods},
@@ -53,10 +53,10 @@ def _results(per_class: dict[str, dict[str, list[tuple[str, int, float]]]]) -> d
     }
 
 
-def test_pairs_by_instance_and_fold_and_drops_nan() -> None:
-    ref = [("x0", 0, 0.10), ("x1", 0, 0.20), ("x2", 1, 0.30), ("x3", 1, float("nan"))]
+def test_pairs_by_instance_and_fold_and_drops_missing_errors() -> None:
+    ref = [("x0", 0, 0.10), ("x1", 0, 0.20), ("x2", 1, 0.30), ("x3", 1, None)]  # None: as a saved results.json has NaN
     lower = [("x3", 1, 0.05), ("x2", 1, 0.25), ("x1", 0, 0.15), ("x0", 0, 0.05)]  # other order; 0.05 lower each
-    same = [(i, f, e + d) for (i, f, e), d in zip(ref, (0.01, -0.01, 0.0, 0.0), strict=True)]
+    same = [(i, f, None if e is None else e + d) for (i, f, e), d in zip(ref, (0.01, -0.01, 0.0, 0.0), strict=True)]
     results = _results({"a": {"full": ref, "lower": lower, "same": same}, "b": {"full": ref[:2], "lower": lower[2:], "same": same[:2]}})
     out = paired_differences(results, "full", n_resamples=2000, rng=np.random.default_rng(0))
     assert set(out) == {"lower", "same"}

@@ -78,7 +78,11 @@ def paired_difference(
 
 
 def _scores(per_instance: Mapping[str, Mapping[str, Sequence[Mapping[str, object]]]], label: str, method: str, metric: str) -> dict[tuple[str, int], float]:
-    return {(str(r["instance_id"]), int(r["fold"])): float(r[metric]) for r in per_instance[label][method]}  # type: ignore[arg-type]
+    """{(instance, fold): error}; a missing error (``None`` in a saved results.json) reads as NaN."""
+    return {
+        (str(r["instance_id"]), int(r["fold"])): math.nan if r[metric] is None else float(r[metric])  # type: ignore[arg-type]
+        for r in per_instance[label][method]
+    }
 
 
 def paired_differences(
