@@ -15,12 +15,14 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "scripts" / "benchmark.py"
 
 
-def _load_script():  # noqa: ANN202
-    spec = importlib.util.spec_from_file_location("benchmark_script", SCRIPT)
+def _load_script(path: Path = SCRIPT, name: str = "benchmark_script"):  # noqa: ANN202
+    spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # dataclasses look the module up while the class is built
     try:
@@ -118,33 +120,21 @@ def test_keep_others_reruns_only_the_chosen_section(tmp_path: Path) -> None:
     assert "| sections | learning; kept from earlier runs: synthesis |" in page
 
 
-def test_accuracy_verdicts_and_paired_line_from_a_results_file(tmp_path: Path) -> None:
+def test_accuracy_verdicts_and_paired_line_from_a_results_file(monkeypatch: pytest.MonkeyPatch) -> None:
     # A real evaluation (toy data, serial) with a method registered as "full", rendered as the page would.
     from test_evaluation import HoldLastPose, toy_dataset
 
     from socialaff_sim.evaluation import METHODS, EvaluationConfig, evaluate
 
-    saved = dict(METHODS)
-    METHODS["full"] = HoldLastPose
-    try:
-        results = evaluate(toy_dataset(seed=3, per_pair=2), ["full", "promp"], config=EvaluationConfig(executor="serial", seed=0))
-    finally:
-        METHODS.clear()
-        METHODS.update(saved)
-    module = _load_script()
-    run = module.Run("evaluate", [])
+    monkeypatch.setitem(METHODS, "full", HoldLastPose)
+    results = evaluate(toy_dataset(seed=3, per_pair=2), ["full", "promp"], config=EvaluationConfig(executor="serial", seed=0))
+    run = _load_script().Run("evaluate", [])
     run.ok, run.data, run.shown = True, json.loads(json.dumps(results)), "socialaff-sim evaluate ..."
-    lines = _sections()._experiment(run, False, synthetic=True)
+    sections = _load_script(ROOT / "scripts" / "_bench_sections.py", "_bench_sections_t")
+    lines = sections._experiment(run, False, synthetic=True)
     text = "\n".join(lines)
     cell = results["paired"]["differences"]["key_joint_error_m"]["promp"]
     assert cell["verdict"] == "lower"  # ProMP follows the human's arm, holding the pose does not
     assert "lowest is promp" in text and "**missed**" in text
     assert (f"Paired key-joint differences to full (m, 95 % bootstrap interval over the test instances; the variation "
             f"from refitting is not in it): promp {cell['mean_m']:+.4f} [{cell['low_m']:+.4f}, {cell['high_m']:+.4f}] lower.") in text
-
-
-def _sections():  # noqa: ANN202
-    spec = importlib.util.spec_from_file_location("_bench_sections_t", ROOT / "scripts" / "_bench_sections.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module

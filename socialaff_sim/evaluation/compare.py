@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError, choices
+from .metrics import METRICS
 
 __all__ = ["PairedDifference", "paired_difference", "paired_differences"]
 
@@ -101,15 +102,15 @@ def paired_differences(
     methods = list(results["average"])  # type: ignore[call-overload]
     if reference not in methods:
         raise ConfigError(f"reference: {reference!r} is not among the evaluated methods {choices(methods)}")
-    if metric not in ("key_joint_error_m", "joint_error_m"):
-        raise ConfigError(f"metric: expected one of {choices(['key_joint_error_m', 'joint_error_m'])}, found {metric!r}")
+    if metric not in METRICS:
+        raise ConfigError(f"metric: expected one of {choices(METRICS)}, found {metric!r}")
+    refs = {label: _scores(per_instance, label, reference, metric) for label in per_instance}  # type: ignore[arg-type, union-attr]
     out: dict[str, PairedDifference] = {}
     for m in methods:
         if m == reference:
             continue
         diffs = []
-        for label in per_instance:  # type: ignore[union-attr]
-            ref = _scores(per_instance, label, reference, metric)  # type: ignore[arg-type]
+        for label, ref in refs.items():
             other = _scores(per_instance, label, m, metric)  # type: ignore[arg-type]
             d = [other[k] - ref[k] for k in ref if k in other and math.isfinite(other[k]) and math.isfinite(ref[k])]
             if d:

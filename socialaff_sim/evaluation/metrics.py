@@ -9,7 +9,10 @@ from ..data.interaction import Interaction
 from ..errors import ModelError
 from .protocol import Prediction
 
-__all__ = ["mean_joint_distance", "key_joint_error", "joint_error", "parse_confusion", "matched_accuracy"]
+__all__ = ["METRICS", "mean_joint_distance", "key_joint_error", "joint_error", "parse_confusion", "matched_accuracy"]
+
+METRICS: tuple[str, ...] = ("key_joint_error_m", "joint_error_m")
+"""The two errors every evaluated instance, class and method carries (results.json keys, metres)."""
 
 
 def mean_joint_distance(pred: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> float:

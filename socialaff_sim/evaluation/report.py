@@ -9,10 +9,11 @@ from pathlib import Path
 from typing import Any
 
 from .._atomic import atomic_path, atomic_write_text
+from .metrics import METRICS
 
 __all__ = ["format_tables", "write_results", "plot_results"]
 
-_METRICS = (("key_joint_error_m", "Average key-joint error (m)"), ("joint_error_m", "Average joint error, full skeleton (m)"))
+_METRICS = tuple(zip(METRICS, ("Average key-joint error (m)", "Average joint error, full skeleton (m)"), strict=True))
 
 
 def _clean(value: Any) -> Any:

@@ -25,7 +25,7 @@ from ..data.dataset import Dataset
 from ..errors import ConfigError, choices
 from .compare import paired_differences
 from .crossval import EvaluationConfig, Task, TaskResult, make_tasks, run_task
-from .metrics import matched_accuracy
+from .metrics import METRICS, matched_accuracy
 from .protocol import get_method
 
 __all__ = ["evaluate", "run_tasks"]
@@ -207,7 +207,7 @@ def evaluate(
     average = {
         m: {
             key: _mean([float(per_interaction[lab][m][key]) for lab in labels])
-            for key in ("key_joint_error_m", "joint_error_m")
+            for key in METRICS
         }
         for m in methods
     }
@@ -236,7 +236,7 @@ def evaluate(
 def _paired(results: dict[str, object], reference: str, seed: int) -> dict[str, object]:
     """The ``paired`` entry of ``results.json``: each method minus ``reference``, per metric."""
     differences: dict[str, dict[str, dict[str, object]]] = {}
-    for k, metric in enumerate(("key_joint_error_m", "joint_error_m")):
+    for k, metric in enumerate(METRICS):
         # spawn key 2: apart from the folds' (0, …) and the tasks' (1, …) streams of the same seed
         rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(2, k)))
         pairs = paired_differences(results, reference, metric=metric, confidence=PAIRED_CONFIDENCE,
