@@ -16,9 +16,16 @@ first T0 frames (σ_y) — and reads agent 1's key joints off the posterior mean
 trained on agent 1's skeletons turns them into a full skeleton.
 
 Phase estimation: Maeda et al. estimate the phase speed from the observed
-prefix because the duration is unknown online. Here agent 0's whole track is
-observed, so the duration T of the test instance is known and the phase of
-frame t is exactly t / (T − 1), the same normalization as in training.
+prefix because the duration is unknown online; so does this baseline under the
+``causal`` and ``paper`` protocols (:meth:`InteractionProMP.start`). At each
+call the duration T̂ of the running instance is chosen among
+:attr:`ProMPConfig.n_durations` quantiles of the training durations (at least
+the frames asked for) as the one whose mean agent-0 (and object) trajectory,
+relative to its first frame, is nearest (least squares) to the observed prefix
+relative to its first frame; frame t then has phase t / (T̂ − 1), clipped to 1.
+That is the phase-ratio search of Interaction ProMPs with the covariance left
+out of the match. Under ``offline`` (and in :meth:`InteractionProMP.predict`)
+the whole track is given, so T is known and the phase is exactly t / (T − 1).
 """
 
 from __future__ import annotations
@@ -73,6 +80,8 @@ class ProMPConfig:
     relative_to_start: bool = True
     """Model agent 1's key joints relative to its own base at the first frame (always observed),
     so that where agent 1 happens to stand does not have to be explained by the few demonstrations."""
+    n_durations: int = 15
+    """Candidate durations of the causal phase estimate (quantiles of the training durations)."""
     body_fit: BodyFitConfig = field(default_factory=BodyFitConfig)
     """Full-body fit of the predicted key joints."""
 
@@ -170,6 +179,9 @@ class InteractionProMP:
         self.keys_ = np.flatnonzero(layout.key_available)
         self.has_object_ = all(i.object is not None for i in interactions)
         trajs = [self._trajectories(i)[0] for i in interactions]
+        durations = np.array([i.n_frames for i in interactions], dtype=np.float64)
+        q = np.quantile(durations, np.linspace(0.0, 1.0, self.config.n_durations))
+        self.durations_ = np.unique(np.round(q).astype(np.int64))
         self.n_dof_agent0_ = 3 * len(self.keys_) + (3 if self.has_object_ else 0)
         w = np.stack([self.weights(y).ravel() for y in trajs])
         missing = np.isnan(w)
@@ -199,8 +211,36 @@ class InteractionProMP:
         dof_cov = self.config.offset_var * np.eye(n_dof) + self.config.rigid_offset_var * same
         return np.kron(dof_cov, np.ones((n, n)))
 
-    def predict_key_joints(self, interaction: Interaction, *, n_observed: int) -> np.ndarray:
-        """(T, 5, 3) agent 1's key joints, canonical frame, metres: the posterior mean trajectory."""
+    def estimate_duration(self, interaction: Interaction, at_least: int) -> int:
+        """T̂, frames: the candidate duration (≥ ``at_least``) whose mean agent-0/object trajectory best
+        matches the instance's frames so far, both relative to their first frame (module docstring)."""
+        if not hasattr(self, "mean_"):
+            raise NotFittedError("InteractionProMP: call fit(...) before predict(...)")
+        cands = self.durations_[self.durations_ >= at_least]
+        if cands.size == 0:
+            return int(at_least)
+        if cands.size == 1:
+            return int(cands[0])
+        y, _ = self._trajectories(interaction)
+        d0, n, t = self.n_dof_agent0_, self.config.n_basis, interaction.n_frames
+        obs = y[:, :d0] - y[:1, :d0]
+        ok = np.isfinite(obs)
+        mean0 = self.mean_.reshape(-1, n)[:d0]  # (d0, N)
+        errors = []
+        for T_hat in cands:
+            phi = rbf_basis(np.arange(t) / max(T_hat - 1, 1), n, self.config.basis_width)
+            mu = phi @ mean0.T
+            errors.append(float(np.mean(np.where(ok, obs - (mu - mu[:1]), 0.0) ** 2)))
+        return int(cands[int(np.argmin(errors))])
+
+    def predict_key_joints(
+        self, interaction: Interaction, *, n_observed: int, duration: int | None = None, visible: int | None = None
+    ) -> np.ndarray:
+        """(T, 5, 3) agent 1's key joints, canonical frame, metres: the posterior mean trajectory.
+
+        ``duration``: the instance's length used for the phase (default: its own T); frames past it
+        have phase 1. ``visible``: agent 0's and the object's frames from this one on are not
+        conditioned on (default: all)."""
         if not hasattr(self, "mean_"):
             raise NotFittedError("InteractionProMP: call fit(...) before predict(...)")
         cfg = self.config
@@ -209,7 +249,10 @@ class InteractionProMP:
         d0 = self.n_dof_agent0_
         seen = np.isfinite(y)
         seen[n_observed:, d0:] = False  # agent 1 after the prefix is never used
-        phi = rbf_basis(np.linspace(0.0, 1.0, T), n, cfg.basis_width)
+        if visible is not None:
+            seen[visible:, :d0] = False  # frames held past the view are no observation
+        span = max((duration or T) - 1, 1)
+        phi = rbf_basis(np.minimum(np.arange(T) / span, 1.0), n, cfg.basis_width)
         n_dof = y.shape[1]
         hth = np.zeros((n_dof, n, n_dof, n))
         hty = np.zeros((n_dof, n))
@@ -226,6 +269,12 @@ class InteractionProMP:
         out[:, self.keys_] = traj.reshape(T, len(self.keys_), 3) + anchor
         return out
 
+    def start(self, *, n_observed: int, offline: bool, rng: np.random.Generator) -> _ProMPReactor:
+        """A reactor for one instance: the known duration when ``offline``, else the phase estimate."""
+        if not hasattr(self, "mean_"):
+            raise NotFittedError("InteractionProMP: call fit(...) before start(...)")
+        return _ProMPReactor(self, n_observed, offline)
+
     def predict(self, interaction: Interaction, *, n_observed: int, rng: np.random.Generator) -> Prediction:
         """Condition on the observation, then fit agent 1's full skeleton to the predicted key joints."""
         if hasattr(self, "layout_") and interaction.layout.name != self.layout_.name:
@@ -234,3 +283,27 @@ class InteractionProMP:
         frame = instance_frame(interaction)
         joints = frame.to_world(self.body_.fit_poses(keys))
         return prediction_from_joints(interaction, joints, n_observed=n_observed, key_joints=frame.to_world(keys))
+
+
+class _ProMPReactor:
+    """The Interaction ProMP on one instance, block by block: condition on the view, with the phase
+    of the known (offline) or estimated duration."""
+
+    def __init__(self, promp: InteractionProMP, n_observed: int, offline: bool) -> None:
+        self.promp = promp
+        self.n_observed = n_observed
+        self.offline = offline
+
+    def react(self, view: Interaction, start: int, stop: int) -> Prediction:
+        """Agent 1's frames [start, stop)."""
+        promp = self.promp
+        if view.layout.name != promp.layout_.name:
+            raise ModelError(f"ProMP: trained on layout {promp.layout_.name!r}, asked for {view.layout.name!r}")
+        duration = view.n_frames if self.offline else promp.estimate_duration(view, stop)
+        longer = view.extend_held(stop)
+        keys = promp.predict_key_joints(
+            longer, n_observed=self.n_observed, duration=duration, visible=view.n_frames
+        )[start:stop]
+        frame = instance_frame(view)
+        joints = frame.to_world(promp.body_.fit_poses(keys))
+        return Prediction(joints=joints, key_joints=frame.to_world(keys), subevents=None, n_observed=0)

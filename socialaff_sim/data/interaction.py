@@ -227,6 +227,24 @@ class Interaction:
         valid[n:, agent] = False
         return self.replace(joints=joints, valid=valid)
 
+    def extend_held(self, n_frames: int) -> Interaction:
+        """A copy lengthened to ``n_frames`` frames whose new frames carry no information: both agents'
+        joints unknown (NaN, invalid, so :meth:`filled_joints` holds each joint's last valid frame), the
+        object held at its last frame, sub-events unlabelled. ``n_frames`` ≤ T returns the instance itself.
+
+        The evaluation uses it to ask a method for frames beyond what it may see (see
+        :mod:`socialaff_sim.evaluation.protocol`)."""
+        T = self.n_frames
+        extra = int(n_frames) - T
+        if extra <= 0:
+            return self
+        J = self.joints.shape[2]
+        joints = np.concatenate([self.joints, np.full((extra, 2, J, 3), np.nan)])
+        valid = np.concatenate([self._valid_mask, np.zeros((extra, 2, J), dtype=bool)])
+        obj = None if self.object is None else np.concatenate([self.object, np.repeat(self.object[-1:], extra, axis=0)])
+        sub = None if self.subevents is None else np.concatenate([self.subevents, np.full(extra, -1, dtype=np.int64)])
+        return self.replace(joints=joints, valid=valid, object=obj, subevents=sub)
+
     def replace(self, **changes: Any) -> Interaction:
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)

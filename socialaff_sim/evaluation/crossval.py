@@ -1,7 +1,8 @@
-"""Actor-disjoint cross-validation tasks: one (interaction class, fold, method) per task.
+"""Cross-validation tasks: one (interaction class, fold, method) per task.
 
-Each task fits a fresh method on the fold's training instances and predicts
-every test instance from its observed part (:func:`.protocol.observed_part`).
+Each task fits a fresh method on the fold's training instances (folds from
+:func:`.splits.make_folds`) and runs it on every test instance under the run's
+evaluation protocol (:func:`.streaming.run_protocol`).
 Its random generator is derived from the run seed and the task's identity
 alone (class name, fold, method name), so results do not depend on the
 executor, the number of workers or the order in which tasks run.
@@ -9,6 +10,7 @@ executor, the number of workers or the order in which tasks run.
 
 from __future__ import annotations
 
+import inspect
 import time
 import zlib
 from collections.abc import Sequence
@@ -16,15 +18,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..data.dataset import Dataset, actor_disjoint_folds
+from ..data.dataset import Dataset
 from ..data.interaction import Interaction
 from ..errors import ConfigError, ModelError, SocialAffError, choices
 from .metrics import joint_error, key_joint_error, parse_confusion
-from .protocol import DEFAULT_N_OBSERVED, MethodFactory, Prediction, observed_part
+from .protocol import DEFAULT_N_OBSERVED, MethodFactory, Prediction, ReactionMethod
+from .splits import SPLITS, make_folds
+from .streaming import PAPER_DELTA_T, PROTOCOLS, run_protocol
 
-__all__ = ["EvaluationConfig", "Task", "TaskResult", "InstanceScore", "make_tasks", "run_task", "task_seed"]
+__all__ = ["EvaluationConfig", "Task", "TaskResult", "InstanceScore", "make_method", "make_tasks", "run_task", "task_seed"]
 
 EXECUTORS = ("process", "ray", "serial")
+PRESETS = ("default", "paper")
 
 
 @dataclass(frozen=True)
@@ -32,7 +37,18 @@ class EvaluationConfig:
     """Settings of Experiment 1."""
 
     n_folds: int = 4
-    """k: actor-disjoint cross-validation folds per interaction class."""
+    """k: cross-validation folds per interaction class."""
+    protocol: str = "causal"
+    """What a method sees when it produces agent 1's frames: ``"causal"``, ``"paper"`` or ``"offline"``
+    (an upper bound); see :mod:`.streaming`."""
+    split: str = "pair"
+    """How the folds hold data apart: ``"pair"``, ``"actor"``, ``"recording"`` or ``"block"``
+    (optimistic); see :mod:`.splits`."""
+    preset: str = "default"
+    """Configuration preset handed to the method factories that take one: ``"default"`` or ``"paper"``."""
+    max_test: int | None = None
+    """At most this many test instances per fold (the first in the fold's order), for time-limited runs;
+    ``None``: all. Tables of such runs say so."""
     n_observed: int = DEFAULT_N_OBSERVED
     """T0: frames of agent 1 observed before synthesis."""
     seed: int = 0
@@ -45,6 +61,14 @@ class EvaluationConfig:
     """Ray cluster address (``executor="ray"``); ``None`` starts a local Ray instance."""
 
     def __post_init__(self) -> None:
+        if self.protocol not in PROTOCOLS:
+            raise ConfigError(f"protocol: expected {choices(PROTOCOLS)}, found {self.protocol!r}")
+        if self.split not in SPLITS:
+            raise ConfigError(f"split: expected {choices(SPLITS)}, found {self.split!r}")
+        if self.preset not in PRESETS:
+            raise ConfigError(f"preset: expected {choices(PRESETS)}, found {self.preset!r}")
+        if self.max_test is not None and self.max_test < 1:
+            raise ConfigError(f"max_test: expected at least 1, found {self.max_test}")
         if self.executor not in EXECUTORS:
             raise ConfigError(f"executor: expected {choices(EXECUTORS)}, found {self.executor!r}")
         if self.n_folds < 2:
@@ -81,6 +105,8 @@ class Task:
     test: tuple[Interaction, ...]
     n_observed: int
     seed: int
+    protocol: str = "causal"
+    preset: str = "default"
 
 
 @dataclass(frozen=True)
@@ -121,40 +147,45 @@ def make_tasks(
     for label in labels:
         insts = dataset.of_label(label).interactions
         try:
-            folds = actor_disjoint_folds(insts, config.n_folds, rng=fold_rng(config.seed, label))
+            folds = make_folds(insts, config.n_folds, config.split, rng=fold_rng(config.seed, label))
         except SocialAffError as exc:
-            raise ConfigError(f"interaction {label!r}: {exc}") from None
+            raise ConfigError(f"interaction {label!r}, --split {config.split}: {exc}") from None
         short = [i.n_frames <= config.n_observed + 1 for i in insts]
         excluded[label] = int(sum(short))
         n_test[label] = 0
         for f, (train, test) in enumerate(folds):
-            test_set = tuple(insts[i] for i in test if not short[i])
+            test_set = tuple(insts[i] for i in test if not short[i])[: config.max_test]
             n_test[label] += len(test_set)
             if not test_set:
                 continue
             for name, factory in methods:
                 tasks.append(
-                    Task(label, f, name, factory, tuple(insts[i] for i in train), test_set, config.n_observed, config.seed)
+                    Task(label, f, name, factory, tuple(insts[i] for i in train), test_set, config.n_observed, config.seed,
+                         config.protocol, config.preset)
                 )
     return tasks, excluded, n_test
+
+
+def make_method(factory: MethodFactory, preset: str) -> ReactionMethod:
+    """A fresh method from ``factory``, handing it ``preset`` when it takes one."""
+    try:
+        takes = "preset" in inspect.signature(factory).parameters
+    except (TypeError, ValueError):  # a builtin or C callable: no preset keyword
+        takes = False
+    return factory(preset=preset) if takes else factory()
 
 
 def run_task(task: Task) -> TaskResult:
     """Fit the method on the training instances and score every test instance."""
     rng = np.random.default_rng(task_seed(task.seed, task.label, task.fold, task.method))
     start = time.perf_counter()
-    method = task.factory()
+    method = make_method(task.factory, task.preset)
     try:
         method.fit(task.train, rng=rng)
-        predictions: list[Prediction] = []
-        for inst in task.test:
-            pred = method.predict(observed_part(inst, task.n_observed), n_observed=task.n_observed, rng=rng)
-            if not isinstance(pred, Prediction) or pred.n_frames != inst.n_frames or pred.n_observed != task.n_observed:
-                raise ModelError(
-                    f"expected a Prediction of {inst.n_frames} frames with n_observed = {task.n_observed}, "
-                    f"found {type(pred).__name__}"
-                )
-            predictions.append(pred)
+        predictions: list[Prediction] = [
+            run_protocol(method, inst, protocol=task.protocol, n_observed=task.n_observed, rng=rng, delta_t=PAPER_DELTA_T)
+            for inst in task.test
+        ]
         seconds = time.perf_counter() - start
         scores = tuple(
             InstanceScore(inst.instance_id, key_joint_error(p, inst), joint_error(p, inst))

@@ -1,27 +1,38 @@
 """The protocol every reaction-synthesis method implements, and the registry of methods.
 
 A *method* learns, from the instances of one interaction class, how agent 1
-reacts to agent 0, and then predicts agent 1's whole skeleton track for a new
-instance of that class. The full model, its ablations V1/V2 and the HMM and
-Interaction-ProMP baselines all implement :class:`ReactionMethod`, so the
-evaluation treats them alike.
+reacts to agent 0, and then produces agent 1's track for a new instance of that
+class. The full model, its ablations V1/V2, the HMM and Interaction-ProMP
+baselines and the trivial ``hold`` and ``constvel`` baselines all implement
+:class:`ReactionMethod`, so the evaluation treats them alike.
 
-What ``predict`` may look at
-    agent 0's whole track, the object's whole track, and agent 1's first
-    ``n_observed`` frames (T0 = 10 by default) — never agent 1's later frames
-    nor the ground-truth sub-events. The evaluator enforces this: it passes the
-    output of :func:`observed_part`, in which agent 1's frames from
-    ``n_observed`` on are NaN and marked invalid and the sub-events are removed.
+How the evaluation asks (:mod:`.streaming`, one *evaluation protocol* for every method of a run)
+    The method's :meth:`~ReactionMethod.start` returns a :class:`Reactor` for one test instance;
+    the evaluator then calls :meth:`Reactor.react` with a *view* — an :class:`Interaction` holding
+    only what the protocol lets the method see at that moment — and the range of agent 1's frames
+    it wants next. A view is the instance cut after its visible frames (so later frames of agent 0
+    and of the object do not exist in it), with agent 1 hidden from frame T0 on and no sub-events.
+    Under ``causal`` the view for frame t holds frames ``[0, t]``; a method asked for frames beyond
+    its view lengthens it itself with :meth:`Interaction.extend_held` (unknown joints, held object).
+
+A method without ``start`` (only ``predict``) is run through
+:class:`~socialaff_sim.evaluation.streaming.PrefixReactor`, which calls ``predict`` on each view.
+
+``predict`` (whole track at once)
+    agent 0's whole track, the object's whole track and agent 1's first ``n_observed`` frames —
+    the offline setting; :func:`observed_part` builds its input.
 
 Registering a method
     ``register_method(name, factory)`` adds a factory (a picklable callable
-    with no arguments returning a fresh, unfitted method, e.g. a module-level
-    function or class) under ``name``. The baselines ``"hmm"`` and ``"promp"``
-    are registered here; the full model and its ablations (``"full"``,
-    ``"v1"``, ``"v2"``) are registered by the synthesis module when it is
-    imported (``socialaff_sim.inference`` imports it). :func:`get_method` first
-    imports the modules in :data:`METHOD_PROVIDERS`, then fails with an error
-    listing the available names.
+    returning a fresh, unfitted method, e.g. a module-level function or class)
+    under ``name``; a factory with a ``preset`` keyword receives the run's preset
+    name (``"default"`` or ``"paper"``). ``"hmm"``, ``"promp"``, ``"hold"`` and
+    ``"constvel"`` are registered here; the full model and its ablations
+    (``"full"``, ``"v1"``, ``"v2"``) are registered by
+    :mod:`socialaff_sim.inference.methods` when it is imported
+    (``socialaff_sim.inference`` imports it). :func:`get_method` first imports
+    the modules in :data:`METHOD_PROVIDERS`, then fails with an error listing
+    the available names.
 """
 
 from __future__ import annotations
@@ -51,9 +62,11 @@ __all__ = [
     "MethodFactory",
     "Prediction",
     "ReactionMethod",
+    "Reactor",
     "available_methods",
     "get_method",
     "observed_part",
+    "protocol_view",
     "prediction_from_joints",
     "register_method",
 ]
@@ -136,8 +149,31 @@ class ReactionMethod(Protocol):
         ...
 
 
-MethodFactory = Callable[[], ReactionMethod]
-"""A picklable callable with no arguments returning a fresh, unfitted method."""
+@runtime_checkable
+class Reactor(Protocol):
+    """A method running on one test instance, asked for agent 1's frames block by block."""
+
+    def react(self, view: Interaction, start: int, stop: int) -> Prediction:
+        """Agent 1's frames ``[start, stop)`` given ``view`` (see the module docstring).
+
+        Returns a :class:`Prediction` of ``stop − start`` frames (``n_observed`` 0) in the world
+        frame of the instance. Calls come in order with growing views and consecutive ranges.
+        """
+        ...
+
+
+@runtime_checkable
+class StreamingMethod(ReactionMethod, Protocol):
+    """A :class:`ReactionMethod` that reacts block by block (what the evaluation uses when present)."""
+
+    def start(self, *, n_observed: int, offline: bool, rng: np.random.Generator) -> Reactor:
+        """A fresh reactor for one test instance; ``offline``: the first view will hold agent 0's whole
+        track (the ``offline`` protocol), else views grow frame by frame or block by block."""
+        ...
+
+
+MethodFactory = Callable[..., ReactionMethod]
+"""A picklable callable returning a fresh, unfitted method; it may take a keyword ``preset`` (str)."""
 
 
 def _hmm() -> ReactionMethod:
@@ -152,7 +188,19 @@ def _promp() -> ReactionMethod:
     return InteractionProMP()
 
 
-METHODS: dict[str, MethodFactory] = {"hmm": _hmm, "promp": _promp}
+def _hold() -> ReactionMethod:
+    from ..baselines.simple import HoldPose
+
+    return HoldPose()
+
+
+def _constvel() -> ReactionMethod:
+    from ..baselines.simple import ConstantVelocity
+
+    return ConstantVelocity()
+
+
+METHODS: dict[str, MethodFactory] = {"hmm": _hmm, "promp": _promp, "hold": _hold, "constvel": _constvel}
 """Method factories by name. Add to it only through :func:`register_method`."""
 
 METHOD_PROVIDERS: tuple[str, ...] = ("socialaff_sim.inference",)
@@ -214,6 +262,14 @@ def observed_part(interaction: Interaction, n_observed: int) -> Interaction:
             f"n_observed: expected 1..{T - 1} for {interaction.instance_id or 'the instance'} (T = {T}), found {n_observed}"
         )
     return interaction.hide_agent_after(1, n_observed).replace(subevents=None)
+
+
+def protocol_view(interaction: Interaction, visible: int, n_observed: int) -> Interaction:
+    """What a method may see when agent 0 (and the object) are known up to frame ``visible − 1``:
+    the instance cut to frames ``[0, visible)``, agent 1 hidden from ``n_observed`` on, no sub-events."""
+    if not n_observed < visible <= interaction.n_frames:
+        raise ConfigError(f"visible: expected {n_observed + 1}..{interaction.n_frames} frames, found {visible}")
+    return observed_part(interaction.slice(0, visible), n_observed)
 
 
 def prediction_from_joints(

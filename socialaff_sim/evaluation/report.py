@@ -1,4 +1,5 @@
-"""Write an evaluation's results: ``results.json``, a Markdown table like the paper's Table 1, a bar chart."""
+"""Write an evaluation's results: ``results.json`` (schema: :func:`~socialaff_sim.evaluation.runner.evaluate`),
+a Markdown table like the paper's Table 1 titled with the protocol, split and preset, and a bar chart."""
 
 from __future__ import annotations
 
@@ -40,13 +41,18 @@ def format_tables(results: Mapping[str, Any]) -> str:
     labels = list(per)
     methods = list(results["average"])
     settings = results.get("settings", {})
-    lines = [f"# Experiment 1 on `{results['dataset']}`", ""]
-    folds, t0 = settings.get("n_folds", "?"), settings.get("n_observed", "?")
+    title = results.get("title") or f"`{results['dataset']}`"
+    lines = [f"# Experiment 1: {title}", ""]
+    t0 = settings.get("n_observed", "?")
     lines.append(
         f"Average distance between synthesized and ground-truth agent-1 joints over the synthesized "
-        f"frames (t ≥ T0 = {t0}), {folds}-fold actor-disjoint cross-validation. Lower is better; "
-        "the best of each column is bold."
+        f"frames (t ≥ T0 = {t0}); protocol `{results.get('protocol', '?')}`, split `{results.get('split', '?')}`, "
+        f"preset `{results.get('preset', '?')}`. Lower is better; the best of each column is bold."
     )
+    if results.get("upper_bound"):
+        lines.append("Offline protocol: every method saw agent 0's whole track — an upper bound, not a reaction.")
+    if results.get("optimistic"):
+        lines.append("Block split: the same people and session are in training and test — optimistic.")
     for key, title in _METRICS:
         lines += ["", f"## {title}", ""]
         lines.append("| Method | " + " | ".join(labels) + " | Average |")
@@ -81,21 +87,26 @@ def format_tables(results: Mapping[str, Any]) -> str:
 
 
 def _paired_lines(paired: Mapping[str, Any] | None) -> list[str]:
-    """The paired-difference table, or nothing without one."""
-    if not paired or not paired.get("differences", {}).get("key_joint_error_m"):
-        return []
-    ref, level = paired["reference"], 100 * paired["confidence"]
-    lines = ["", f"## Paired differences to `{ref}` (key joints, m)", ""]
-    lines.append(
-        f"Each method's error minus {ref}'s on the same test instances, averaged like the table above; "
-        f"the interval is a {level:g} % stratified bootstrap over the instances ({paired['n_resamples']} resamples). "
-        "Negative: lower than the reference."
-    )
-    lines += ["", f"| Method | Difference | {level:g} % interval | Instances | Verdict |", "|---|---:|---:|---:|---|"]
-    for m, d in paired["differences"]["key_joint_error_m"].items():
+    """The paired-difference tables (against ``hold`` and against the best baseline), or nothing."""
+    lines: list[str] = []
+    names = {"hold": "`hold`", "best_baseline": "the best baseline"}
+    for comparison, entry in (paired or {}).items():
+        diffs = entry.get("differences", {}).get("key_joint_error_m")
+        if not diffs:
+            continue
+        ref, level = entry["reference"], 100 * entry["confidence"]
+        what = names.get(comparison, comparison)
+        lines += ["", f"## Paired differences to {what} (`{ref}`), key joints, m", ""]
         lines.append(
-            f"| {m} | {d['mean_m']:+.4f} | [{d['low_m']:+.4f}, {d['high_m']:+.4f}] | {d['n_instances']} | {d['verdict']} |"
+            f"Each method's error minus {ref}'s on the same test instances, averaged like the table above; "
+            f"the interval is a {level:g} % stratified bootstrap over the instances ({entry['n_resamples']} resamples). "
+            "Negative: lower than the reference."
         )
+        lines += ["", f"| Method | Difference | {level:g} % interval | Instances | Verdict |", "|---|---:|---:|---:|---|"]
+        for m, d in diffs.items():
+            lines.append(
+                f"| {m} | {d['mean_m']:+.4f} | [{d['low_m']:+.4f}, {d['high_m']:+.4f}] | {d['n_instances']} | {d['verdict']} |"
+            )
     return lines
 
 
@@ -122,7 +133,8 @@ def plot_results(results: Mapping[str, Any], path: str | Path) -> Path:
         ax.set_ylabel("metres")
         ax.set_title(title)
     axes[0][0].legend()
-    fig.suptitle(f"Experiment 1 on {results['dataset']}")
+    fig.suptitle(f"Experiment 1 on {results['dataset']}: {results.get('protocol', '?')} protocol, "
+                 f"{results.get('split', '?')} split, preset {results.get('preset', '?')}")
     fig.tight_layout()
     path = Path(path)
     with atomic_path(path, suffix=".png") as tmp:

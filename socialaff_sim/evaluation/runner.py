@@ -27,8 +27,9 @@ from .compare import paired_differences
 from .crossval import EvaluationConfig, Task, TaskResult, make_tasks, run_task
 from .metrics import METRICS, matched_accuracy
 from .protocol import get_method
+from .splits import OPTIMISTIC_SPLITS
 
-__all__ = ["evaluate", "run_tasks"]
+__all__ = ["BASELINES", "best_baseline", "evaluate", "run_tasks", "run_title"]
 
 Progress = Callable[[str], None]
 
@@ -132,6 +133,10 @@ def _mean(values: list[float]) -> float:
     return float(np.mean(finite)) if finite else float("nan")
 
 
+BASELINES: tuple[str, ...] = ("hold", "constvel", "hmm", "promp")
+"""The baselines among which the best (lowest average key-joint error) is the second paired reference."""
+
+
 def evaluate(
     dataset: Dataset,
     methods: Sequence[str],
@@ -140,20 +145,34 @@ def evaluate(
     config: EvaluationConfig | None = None,
     progress: Progress | None = None,
 ) -> dict[str, object]:
-    """Experiment 1 on ``dataset``: k-fold actor-disjoint cross-validation of each method per class.
+    """k-fold cross-validation of each method per class under one protocol and split.
 
-    Returns the content of ``results.json``::
+    Returns the content of ``results.json`` (strict JSON once NaN is written as null)::
 
         {"dataset": str,
+         "protocol": "causal" | "paper" | "offline",  # what the methods saw (evaluation.streaming)
+         "split": "pair" | "actor" | "recording" | "block",  # how the folds hold data apart (evaluation.splits)
+         "preset": "default" | "paper",                # configurations of the affordance methods
+         "upper_bound": bool,                          # true for the offline protocol
+         "optimistic": bool,                           # true for the block split
+         "title": str,                                 # one line naming all of the above, for every table
          "per_interaction": {class: {method: {"key_joint_error_m", "joint_error_m", "n_test"}}},
          "average": {method: {"key_joint_error_m", "joint_error_m"}},
          "seconds": {method: float},
          "parse_accuracy": {class: {method: float}},   # where ground truth and a parse exist
          "excluded": {class: int},                      # test instances with T <= T0 + 1
          "per_instance": {class: {method: [{"instance_id", "fold", "key_joint_error_m", "joint_error_m"}]}},
-         "paired": {"reference": method, "confidence": 0.95, "n_resamples": int,   # with two or more methods
-                    "differences": {metric: {method: {"mean_m", "low_m", "high_m", "n_instances", "verdict"}}}},
-         "settings": {...}}
+         "paired": {comparison: {"reference": method, "confidence": 0.95, "n_resamples": int,
+                                 "differences": {metric: {method: {"mean_m", "low_m", "high_m",
+                                                                   "n_instances", "verdict"}}}}},
+         "settings": {"n_folds", "n_observed", "seed", "protocol", "split", "preset", "max_test",
+                      "methods", "interactions", "n_test_available"}}
+
+    ``paired`` has up to two comparisons: ``"hold"`` (every method minus ``hold``, when ``hold`` was
+    evaluated) and ``"best_baseline"`` (every method minus the evaluated baseline of :data:`BASELINES`
+    with the lowest average key-joint error; its name is the entry's ``reference``), each instance by
+    instance (:func:`~socialaff_sim.evaluation.compare.paired_differences`; the bootstrap draws from
+    a generator seeded by ``config.seed``). A difference is negative when the method is lower.
 
     A class's error is the mean over its test instances of each instance's mean
     distance over the synthesized frames; ``average`` is the mean over classes;
@@ -162,9 +181,6 @@ def evaluate(
     (pooled over the fold's test instances, all frames with a ground-truth label)
     and weighs the folds by their labelled frames. Test instances with
     T ≤ T0 + 1 are left out of testing (counted in ``excluded``) but still train.
-    ``paired`` compares every method with the reference (``"full"`` when evaluated, else the
-    first method) instance by instance (:func:`~socialaff_sim.evaluation.compare.paired_differences`;
-    its bootstrap draws from a generator seeded by ``config.seed``).
     """
     config = config or EvaluationConfig()
     if not methods:
@@ -213,6 +229,12 @@ def evaluate(
     }
     out: dict[str, object] = {
         "dataset": dataset.name,
+        "protocol": config.protocol,
+        "split": config.split,
+        "preset": config.preset,
+        "upper_bound": config.protocol == "offline",
+        "optimistic": config.split in OPTIMISTIC_SPLITS,
+        "title": run_title(dataset.name, config),
         "per_interaction": per_interaction,
         "average": average,
         "seconds": seconds,
@@ -223,22 +245,49 @@ def evaluate(
             "n_folds": config.n_folds,
             "n_observed": config.n_observed,
             "seed": config.seed,
+            "protocol": config.protocol,
+            "split": config.split,
+            "preset": config.preset,
+            "max_test": config.max_test,
             "methods": list(methods),
             "interactions": labels,
             "n_test_available": n_test,
         },
     }
+    paired: dict[str, object] = {}
     if len(methods) > 1:
-        out["paired"] = _paired(out, "full" if "full" in methods else methods[0], config.seed)
+        if "hold" in methods:
+            paired["hold"] = _paired(out, "hold", config.seed, 0)
+        best = best_baseline(average)
+        if best is not None:
+            paired["best_baseline"] = _paired(out, best, config.seed, 1)
+    out["paired"] = paired
     return out
 
 
-def _paired(results: dict[str, object], reference: str, seed: int) -> dict[str, object]:
-    """The ``paired`` entry of ``results.json``: each method minus ``reference``, per metric."""
+def run_title(dataset: str, config: EvaluationConfig) -> str:
+    """One line naming the dataset, protocol, split and preset (with "upper bound" / "optimistic" where due)."""
+    protocol = f"{config.protocol} protocol" + (" (upper bound: agent 0's future is seen)" if config.protocol == "offline" else "")
+    split = f"{config.n_folds}-fold {config.split}-disjoint split" if config.split != "block" else (
+        f"{config.n_folds}-fold block split (optimistic: same people and session in training and test)"
+    )
+    limited = f", at most {config.max_test} test instances per fold" if config.max_test else ""
+    return f"`{dataset}`, {protocol}, {split}, preset {config.preset}{limited}"
+
+
+def best_baseline(average: dict[str, dict[str, float]]) -> str | None:
+    """The evaluated baseline of :data:`BASELINES` with the lowest average key-joint error, if any."""
+    scored = [(average[m]["key_joint_error_m"], m) for m in BASELINES if m in average]
+    scored = [(v, m) for v, m in scored if not math.isnan(v)]
+    return min(scored)[1] if scored else None
+
+
+def _paired(results: dict[str, object], reference: str, seed: int, comparison: int) -> dict[str, object]:
+    """One entry of ``paired`` in ``results.json``: each method minus ``reference``, per metric."""
     differences: dict[str, dict[str, dict[str, object]]] = {}
     for k, metric in enumerate(METRICS):
         # spawn key 2: apart from the folds' (0, …) and the tasks' (1, …) streams of the same seed
-        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(2, k)))
+        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(2, comparison, k)))
         pairs = paired_differences(results, reference, metric=metric, confidence=PAIRED_CONFIDENCE,
                                    n_resamples=PAIRED_RESAMPLES, rng=rng)
         differences[metric] = {

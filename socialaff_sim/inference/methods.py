@@ -1,13 +1,19 @@
 """The full model and its ablations as evaluation methods, and as the simulator's key-joint source.
 
 ``"full"`` is the social affordance model with Algorithm 2; ``"v1"`` drops joint selection and
-grouping, ``"v2"`` drops latent sub-events (the paper's two ablations). The protocol gives every
-method agent 0's whole recorded track, so these three synthesize with
-:meth:`~socialaff_sim.inference.synthesis.SynthesisConfig.offline`; ``"full_online"`` is the full
-model with the paper's causal Algorithm 2 (``SynthesisConfig()``), as the simulator runs it. All four implement
-:class:`~socialaff_sim.evaluation.protocol.ReactionMethod` and are registered on import. The registered
-``"full"``, ``"v1"`` and ``"v2"`` average :data:`REGISTERED_CHAINS` MCMC chains; ``"full_online"`` learns one
-model, as the simulator does.
+grouping, ``"v2"`` drops latent sub-events (the paper's two ablations). All implement
+:class:`~socialaff_sim.evaluation.protocol.ReactionMethod` and its streaming ``start``: under the
+``causal`` and ``paper`` evaluation protocols the online synthesizer is fed the growing view
+(:meth:`~socialaff_sim.inference.synthesis.OnlineSynthesizer.observe`) and runs with
+:attr:`AffordanceMethod.synthesis` (default :meth:`SynthesisConfig.reactive`); under ``offline`` it
+gets agent 0's whole track and runs with :attr:`AffordanceMethod.offline_synthesis` (default
+:meth:`SynthesisConfig.offline`, lookahead). The registered methods learn one MCMC chain each, like
+every other method (one fit per fold); ``chains`` > 1 averages several chains' syntheses (a 3-chain
+ensemble lowered the offline error in docs/analysis.md, sessions 10–11, at three times the cost — not
+like for like against one-fit baselines, so it is not the default). ``"full_online"`` is the full
+model with the paper's Algorithm 2 settings (``SynthesisConfig()``) under every protocol.
+A factory's ``preset`` (``"default"`` or ``"paper"``) selects the model, learning and synthesis
+configurations (:func:`preset_configs`).
 """
 
 from __future__ import annotations
@@ -26,8 +32,14 @@ from ..model.config import AffordanceConfig
 from .body_fit import BodyFitConfig, BodyFitter
 from .synthesis import OnlineSynthesizer, SynthesisConfig
 
+try:  # the paper presets (issue 23) live in their own module; without it only "default" is offered
+    from .presets import preset as _preset
+except ImportError:  # pragma: no cover - depends on the installed version
+    _preset = None
+
 __all__ = [
-    "AffordanceMethod", "REGISTERED_CHAINS", "VARIANTS", "ModelSource", "fit_skeleton", "key_joint_source", "synthesize",
+    "AffordanceMethod", "PRESETS", "REGISTERED_CHAINS", "VARIANTS", "ModelSource", "fit_skeleton", "key_joint_source",
+    "preset_configs", "synthesize",
 ]
 
 VARIANTS: dict[str, dict[str, bool]] = {
@@ -37,13 +49,30 @@ VARIANTS: dict[str, dict[str, bool]] = {
 }
 """Model-config changes of each variant."""
 
-REGISTERED_CHAINS = 3
-"""K, the independent MCMC chains the registered ``"full"``, ``"v1"`` and ``"v2"`` methods average.
-
-One chain's parse depends on its seed: on the SBU handshakes the fit's seed alone moves the full model's
-error from 0.127 to 0.136 m. Three chains cost three fits; they lowered the full model's error on all three
-datasets of the accuracy benchmark (docs/analysis.md, sessions 10 and 11).
+REGISTERED_CHAINS = 1
+"""K, the MCMC chains the registered ``"full"``, ``"v1"`` and ``"v2"`` methods learn: one, as every other
+method fits once per fold. One chain's parse depends on its seed (on the SBU handshakes the fit's seed
+alone moved the offline error from 0.127 to 0.136 m); ``AffordanceMethod(chains=3)`` is the ensemble that
+lowered the offline errors in docs/analysis.md (sessions 10 and 11) at three times the fit cost.
 """
+
+PRESETS: tuple[str, ...] = ("default", "paper")
+"""Names of the configuration presets a method factory accepts."""
+
+
+def preset_configs(name: str) -> tuple[AffordanceConfig, object | None, SynthesisConfig]:
+    """(model, learning, causal synthesis) configurations of preset ``name``.
+
+    ``"default"``: the package's defaults with :meth:`SynthesisConfig.reactive`; ``"paper"``: the
+    paper-exact configurations of :mod:`socialaff_sim.inference.presets`."""
+    if name not in PRESETS:
+        raise ConfigError(f"preset: expected {choices(PRESETS)}, found {name!r}")
+    if name == "default":
+        return AffordanceConfig(), None, SynthesisConfig.reactive()
+    if _preset is None:
+        raise ConfigError("preset 'paper' needs socialaff_sim.inference.presets, which this installation lacks")
+    chosen = _preset(name)
+    return chosen.affordance, chosen.learning, chosen.synthesis
 
 
 def synthesize(
@@ -92,6 +121,9 @@ class AffordanceMethod:
     from the caller's) and the prediction is the mean of the K syntheses' key joints: an estimate of
     the posterior-predictive mean over parses instead of one chain's parse. The full skeleton is fitted
     to that mean; the sub-events reported are the first chain's.
+
+    ``synthesis`` is used when agent 0 is seen causally (default :meth:`SynthesisConfig.reactive`),
+    ``offline_synthesis`` when agent 0's whole track is given (default :meth:`SynthesisConfig.offline`).
     """
 
     def __init__(
@@ -101,6 +133,7 @@ class AffordanceMethod:
         model_config: AffordanceConfig | None = None,
         learning: object | None = None,
         synthesis: SynthesisConfig | None = None,
+        offline_synthesis: SynthesisConfig | None = None,
         body: BodyFitConfig | None = None,
         name: str | None = None,
         chains: int = 1,
@@ -114,8 +147,18 @@ class AffordanceMethod:
         self.variant = variant
         self.model_config = dataclasses.replace(model_config or AffordanceConfig(), **VARIANTS[variant])
         self.learning = learning
-        self.synthesis = synthesis or SynthesisConfig.offline()
+        self.synthesis = synthesis or SynthesisConfig.reactive()
+        self.offline_synthesis = offline_synthesis or SynthesisConfig.offline()
         self.body = body or BodyFitConfig()
+
+    @classmethod
+    def from_preset(cls, variant: str = "full", preset: str = "default", **kwargs: object) -> AffordanceMethod:
+        """The method with the configurations of ``preset`` (:func:`preset_configs`). The paper has no
+        offline synthesis, so under the paper preset the offline protocol runs the paper's too."""
+        model, learning, synthesis = preset_configs(preset)
+        offline = SynthesisConfig.offline() if preset == "default" else synthesis
+        return cls(variant, model_config=model, learning=learning, synthesis=synthesis, offline_synthesis=offline,
+                   **kwargs)  # type: ignore[arg-type]
 
     def fit(self, interactions: Sequence[Interaction], *, rng: np.random.Generator) -> AffordanceMethod:
         """Learn the model (Algorithm 1) and the body clusters of agent 1."""
@@ -128,32 +171,76 @@ class AffordanceMethod:
         self.body_ = BodyFitter(self.body).fit_interactions(inters, agent=1, rng=rng)
         return self
 
-    def predict(self, interaction: Interaction, *, n_observed: int, rng: np.random.Generator) -> Prediction:
-        """Synthesize agent 1 after ``n_observed`` frames."""
+    def _check(self) -> None:
         if not hasattr(self, "model_"):
             raise NotFittedError(f"method {self.name!r}: call fit(interactions, rng=...) before predict")
-        cfg = dataclasses.replace(self.synthesis, n_observed=n_observed)
+
+    def predict(self, interaction: Interaction, *, n_observed: int, rng: np.random.Generator) -> Prediction:
+        """Synthesize agent 1 after ``n_observed`` frames, reading agent 0's whole track (offline)."""
+        self._check()
+        cfg = dataclasses.replace(self.offline_synthesis, n_observed=n_observed)
         rngs = _chain_generators(rng, len(self.models_))
         runs = [synthesize(m, interaction, rng=r, config=cfg) for m, r in zip(self.models_, rngs, strict=True)]
         keys = np.mean([r[0] for r in runs], axis=0)  # exactly the one synthesis when K = 1
         skel = fit_skeleton(self.body_, self.model_, interaction, keys, cfg.n_observed)
         return Prediction(joints=skel, key_joints=keys, subevents=runs[0][2], n_observed=n_observed)
 
-
-def _full() -> AffordanceMethod:
-    return AffordanceMethod("full", chains=REGISTERED_CHAINS)
-
-
-def _v1() -> AffordanceMethod:
-    return AffordanceMethod("v1", chains=REGISTERED_CHAINS)
+    def start(self, *, n_observed: int, offline: bool, rng: np.random.Generator) -> _AffordanceReactor:
+        """A reactor for one test instance (see the module docstring)."""
+        self._check()
+        cfg = dataclasses.replace(self.offline_synthesis if offline else self.synthesis, n_observed=n_observed)
+        return _AffordanceReactor(self, cfg, rng)
 
 
-def _v2() -> AffordanceMethod:
-    return AffordanceMethod("v2", chains=REGISTERED_CHAINS)
+class _AffordanceReactor:
+    """One online synthesizer per chain, fed the protocol's views as they grow."""
+
+    def __init__(self, method: AffordanceMethod, config: SynthesisConfig, rng: np.random.Generator) -> None:
+        self.method = method
+        self.config = config
+        self.rngs = _chain_generators(rng, len(method.models_))
+        self.synths: list[OnlineSynthesizer] = []
+
+    def react(self, view: Interaction, start: int, stop: int) -> Prediction:
+        """Agent 1's frames [start, stop): step every chain's synthesizer up to ``stop``."""
+        longer = view.extend_held(stop)
+        if not self.synths:
+            self.synths = [OnlineSynthesizer(m, None, self.config) for m in self.method.models_]
+            for syn, r in zip(self.synths, self.rngs, strict=True):
+                syn.reset(longer, rng=r)
+            self._frame = self.method.model_.frame_of(view)
+        else:
+            for syn in self.synths:
+                syn.observe(longer)
+        blocks = []
+        for syn in self.synths:
+            steps = []
+            while syn.t < stop:
+                step = syn.step()
+                if step.t >= start:
+                    steps.append(step)
+            blocks.append(steps)
+        keys = np.mean([[st.key_joints for st in steps] for steps in blocks], axis=0)
+        subs = np.array([st.subevent for st in blocks[0]], dtype=np.int64)
+        joints = self.method.body_.fit_poses(keys, self._frame)
+        return Prediction(joints=joints, key_joints=keys, subevents=subs, n_observed=0)
+
+
+def _full(preset: str = "default") -> AffordanceMethod:
+    return AffordanceMethod.from_preset("full", preset, chains=REGISTERED_CHAINS)
+
+
+def _v1(preset: str = "default") -> AffordanceMethod:
+    return AffordanceMethod.from_preset("v1", preset, chains=REGISTERED_CHAINS)
+
+
+def _v2(preset: str = "default") -> AffordanceMethod:
+    return AffordanceMethod.from_preset("v2", preset, chains=REGISTERED_CHAINS)
 
 
 def _full_online() -> AffordanceMethod:
-    return AffordanceMethod("full", synthesis=SynthesisConfig(), name="full_online")
+    cfg = SynthesisConfig()
+    return AffordanceMethod("full", synthesis=cfg, offline_synthesis=cfg, name="full_online")
 
 
 register_method("full", _full)

@@ -126,6 +126,26 @@ class OnlineSynthesizer:
         if cfg.parse == "observed":
             self._rows = parse_observed(self.model, self._observed_track(), interaction.fps, step=cfg.observed_parse_step)
 
+    def observe(self, view: Interaction) -> None:
+        """Stream mode: take agent 0's and the object's frames from ``view``, the running instance as
+        known now (its first frames, possibly lengthened by :meth:`Interaction.extend_held`), growing
+        the instance when ``view`` is longer. Agent 1's frames (observed and emitted) are kept. With it
+        the synthesizer never holds more of agent 0 than the caller has shown (the evaluation's
+        protocols, :mod:`socialaff_sim.evaluation.streaming`)."""
+        if self._inter is None:
+            raise ModelError("OnlineSynthesizer.observe called before reset(interaction, rng=...)")
+        T, old = view.n_frames, self._track.shape[0]
+        if T < self._t:
+            raise ModelError(f"observe: the view has {T} frames, but {self._t} were emitted already")
+        track = self.model.canonical_track(view, self._frame, hands=np.zeros(2, bool))
+        if T > old:
+            pad = np.full((T - old,) + self._track.shape[1:], np.nan)
+            self._track = np.concatenate([self._track, pad])
+            self._raw = np.concatenate([self._raw, pad])
+        self._raw[:T, _OTHERS] = track[:, _OTHERS]
+        self._track[:T, _OTHERS] = relabel(track, self._hands)[:, _OTHERS]
+        self._inter = view
+
     def _set_hands(self, t: int) -> None:
         """Relabel the working tracks by the active-hand flags known at frame ``t`` (agent 0's whole track
         with ``lookahead``, else its frames before ``t`` and ``hand_margin``); a flag that changes relabels

@@ -1,0 +1,138 @@
+"""Cross-validation splits of one interaction class, named for what they hold apart.
+
+``pair``
+    No test (actor A, actor B) pair appears in training (instances grouped by their unordered actor
+    pair). The actors themselves may: on SBU actor s01 is tested with s02 and trained on with s03.
+``actor``
+    No test actor appears in training at all. The actors are dealt to k groups; fold f tests every
+    instance with an actor of group f and trains on the instances with no actor of group f, so an
+    instance whose two actors fall in two groups is tested in both folds (paired comparisons key on
+    (instance, fold)) and instances are left out of some trainings. It needs actor ids shared across
+    recordings: where each actor id occurs in one recording only (the handovers name actors by
+    recording) or a class has fewer than k actors, the split is refused with an error.
+``recording``
+    No test recording appears in training: instances grouped by their recording
+    (:func:`recording_of`). Where every instance is its own recording (SBU, the handovers) this is an
+    instance split whose pairs and actors do recur.
+``block``
+    Within each recording, the instances in time order (dataset order) are cut into k contiguous
+    blocks; fold f tests block f of every recording. For data such as NuiSI, where a class is one
+    recording of one pair, it is the only split possible. Optimistic: the same people, session and
+    camera set-up are in training and test.
+
+Groups (pairs, actors, recordings) are dealt to folds greedily by size after a seeded shuffle,
+which balances the folds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Hashable, Sequence
+
+import numpy as np
+
+from ..data.interaction import Interaction
+from ..errors import ConfigError, DataError, choices
+
+__all__ = ["OPTIMISTIC_SPLITS", "SPLITS", "make_folds", "recording_of"]
+
+SPLITS: tuple[str, ...] = ("pair", "actor", "recording", "block")
+"""Split names; the first is the default."""
+
+OPTIMISTIC_SPLITS: tuple[str, ...] = ("block",)
+"""Splits whose tables carry the word "optimistic" (same people and session in training and test)."""
+
+Fold = tuple[np.ndarray, np.ndarray]
+
+
+def recording_of(interaction: Interaction) -> str:
+    """The recording an instance was cut from: its ``source`` up to a time range ``" @ …"`` that loaders
+    cutting one continuous recording into instances append (the NuiSI loader does), else the whole source
+    (or the instance id when there is no source)."""
+    return interaction.source.split(" @ ")[0] if interaction.source else interaction.instance_id
+
+
+def _deal(groups: dict[Hashable, list[int]], n_folds: int, rng: np.random.Generator) -> list[list[int]]:
+    """Groups of instance indices dealt to ``n_folds`` folds, largest first after a seeded shuffle."""
+    keys = list(groups)
+    order = rng.permutation(len(keys))
+    keys = sorted((keys[i] for i in order), key=lambda k: -len(groups[k]))
+    load = np.zeros(n_folds, dtype=np.int64)
+    members: list[list[int]] = [[] for _ in range(n_folds)]
+    for k in keys:
+        f = int(np.argmin(load))
+        members[f].extend(groups[k])
+        load[f] += len(groups[k])
+    return members
+
+
+def _from_tests(tests: list[list[int]], n: int) -> list[Fold]:
+    return [(np.setdiff1d(np.arange(n), t), np.array(sorted(t), dtype=np.int64)) for t in tests]
+
+
+def _grouped(keys: Sequence[Hashable], n_folds: int, what: str, rng: np.random.Generator) -> list[Fold]:
+    groups: dict[Hashable, list[int]] = {}
+    for i, k in enumerate(keys):
+        groups.setdefault(k, []).append(i)
+    if len(groups) < n_folds:
+        raise DataError(f"{n_folds} {what}-disjoint folds need at least {n_folds} {what}s, found {len(groups)}: {choices(list(map(str, groups)))}")
+    return _from_tests(_deal(groups, n_folds, rng), len(keys))
+
+
+def _actor_folds(insts: Sequence[Interaction], n_folds: int, rng: np.random.Generator) -> list[Fold]:
+    recordings: dict[str, set[str]] = {}
+    for inter in insts:
+        for a in inter.actors:
+            recordings.setdefault(a, set()).add(recording_of(inter))
+    if all(len(r) == 1 for r in recordings.values()):
+        raise DataError(
+            "actor split: every actor id occurs in one recording only, so the data carries no actor identities "
+            "shared across recordings (use --split pair or recording)"
+        )
+    actors = sorted(recordings)
+    if len(actors) < n_folds:
+        raise DataError(f"actor split: {n_folds} folds need at least {n_folds} actors, found {len(actors)}: {choices(actors)}")
+    # deal the actors, weighted by how many instances they take part in
+    counts = {a: [i for i, inter in enumerate(insts) if a in inter.actors] for a in actors}
+    members = _deal({a: [a] * len(counts[a]) for a in actors}, n_folds, rng)  # type: ignore[misc]
+    folds = []
+    for f, group in enumerate(members):
+        held = set(group)
+        test = [i for i, inter in enumerate(insts) if held & set(inter.actors)]
+        train = np.array([i for i in range(len(insts)) if i not in set(test)], dtype=np.int64)
+        if not test or train.size == 0:
+            raise DataError(
+                f"actor split: fold {f} (actors {choices(sorted(held))}) leaves {'no test' if not test else 'no training'} "
+                "instance; every instance shares an actor with it"
+            )
+        folds.append((train, np.array(test, dtype=np.int64)))
+    return folds
+
+
+def _block_folds(insts: Sequence[Interaction], n_folds: int) -> list[Fold]:
+    by_recording: dict[str, list[int]] = {}
+    for i, inter in enumerate(insts):
+        by_recording.setdefault(recording_of(inter), []).append(i)
+    tests: list[list[int]] = [[] for _ in range(n_folds)]
+    for members in by_recording.values():
+        if len(members) < n_folds:
+            raise DataError(f"block split: {n_folds} blocks need at least {n_folds} instances per recording, found {len(members)}")
+        for f, block in enumerate(np.array_split(np.array(members), n_folds)):
+            tests[f].extend(int(i) for i in block)
+    return _from_tests(tests, len(insts))
+
+
+def make_folds(insts: Sequence[Interaction], n_folds: int, split: str, *, rng: np.random.Generator) -> list[Fold]:
+    """``n_folds`` (train, test) index arrays of ``insts`` (one class) under ``split`` (module docstring).
+
+    Raises :class:`~socialaff_sim.errors.DataError` when the data cannot be split so."""
+    if split not in SPLITS:
+        raise ConfigError(f"split: expected {choices(SPLITS)}, found {split!r}")
+    if n_folds < 2:
+        raise ConfigError(f"n_folds: expected at least 2, found {n_folds}")
+    if split == "pair":
+        return _grouped([tuple(sorted(i.actors)) for i in insts], n_folds, "actor-pair", rng)
+    if split == "recording":
+        return _grouped([recording_of(i) for i in insts], n_folds, "recording", rng)
+    if split == "actor":
+        return _actor_folds(insts, n_folds, rng)
+    return _block_folds(insts, n_folds)
