@@ -9,7 +9,8 @@ that is stopped keeps what finished. Usage::
 
     python scripts/bench_accuracy.py --out DIR [--datasets synthetic sbu handover nuisi]
         [--protocol causal] [--preset default] [--methods full,v1,v2,hmm,promp,hold,constvel]
-        [--folds 4] [--workers 2] [--seed 0] [--max-test handover=8 ...] [--doc docs/benchmarks.md]
+        [--folds 4] [--workers 2] [--seed 0] [--max-test handover=8 ...] [--data-root ../shared/data]
+        [--doc docs/benchmarks.md]
 
 ``--doc`` replaces the section between this script's markers in that file (appends it at the end the
 first time). Splits: ``pair`` for the synthetic set, SBU and the handovers, ``block`` for NuiSI (each
@@ -30,11 +31,11 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"
-DATASETS = {
+DATASETS = {  # name: (spec with {root} for the shared data folder, split)
     "synthetic": ("synthetic", "pair"),
-    "sbu": (f"sbu:{DATA / 'sbu_kinect_interaction'}", "pair"),
-    "handover": (f"handover:{DATA / 'handover_h2h'}", "pair"),
-    "nuisi": (f"nuisi:{DATA / 'nuisi_v1'}", "block"),
+    "sbu": ("sbu:{root}/sbu_kinect_interaction", "pair"),
+    "handover": ("handover:{root}/handover_h2h", "pair"),
+    "nuisi": ("nuisi:{root}/nuisi_v1", "block"),
 }
 METHODS = "full,v1,v2,hmm,promp,hold,constvel"
 START, END = "<!-- bench_accuracy:start -->", "<!-- bench_accuracy:end -->"
@@ -112,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--max-test", nargs="*", default=[], metavar="DATASET=N",
                     help="limit the test instances per fold of a dataset (time-limited runs; the table says so)")
+    ap.add_argument("--data-root", type=Path, default=DATA, help=f"the shared recordings (default {DATA})")
     ap.add_argument("--doc", type=Path, help="Markdown file whose accuracy-sweep section is replaced")
     args = ap.parse_args(argv)
     limits = {k: int(v) for k, v in (item.split("=", 1) for item in args.max_test)}
@@ -124,6 +126,7 @@ def main(argv: list[str] | None = None) -> int:
     section = args.out / f"accuracy_{args.protocol}_{args.preset}.md"
     for name in args.datasets:
         spec, split = DATASETS[name]
+        spec = spec.format(root=args.data_root)
         out = args.out / f"{name}_{args.protocol}_{args.preset}"
         cmd = ["nice", "-n", "10", sys.executable, "-m", "socialaff_sim.cli.main", "evaluate", "--data", spec,
                "--methods", args.methods, "--protocol", args.protocol, "--split", split, "--preset", args.preset,
