@@ -189,21 +189,26 @@ class AffordanceMethod:
         """A reactor for one test instance (see the module docstring)."""
         self._check()
         cfg = dataclasses.replace(self.offline_synthesis if offline else self.synthesis, n_observed=n_observed)
-        return _AffordanceReactor(self, cfg, rng)
+        return _AffordanceReactor(self, cfg, rng, offline)
 
 
 class _AffordanceReactor:
     """One online synthesizer per chain, fed the protocol's views as they grow."""
 
-    def __init__(self, method: AffordanceMethod, config: SynthesisConfig, rng: np.random.Generator) -> None:
+    def __init__(self, method: AffordanceMethod, config: SynthesisConfig, rng: np.random.Generator, offline: bool) -> None:
         self.method = method
+        self.offline = offline
         self.config = config
         self.rngs = _chain_generators(rng, len(method.models_))
         self.synths: list[OnlineSynthesizer] = []
 
     def react(self, view: Interaction, start: int, stop: int) -> Prediction:
-        """Agent 1's frames [start, stop): step every chain's synthesizer up to ``stop``."""
-        longer = view.extend_held(stop)
+        """Agent 1's frames [start, stop): step every chain's synthesizer up to ``stop``.
+
+        Streaming, the synthesizer gets the view lengthened by ΔT held frames past ``stop``, so that it
+        plans ΔT frames ahead as it does on a whole track (the held frames carry no information);
+        offline, the view is the whole instance."""
+        longer = view.extend_held(stop if self.offline else stop + self.config.delta_t)
         if not self.synths:
             self.synths = [OnlineSynthesizer(m, None, self.config) for m in self.method.models_]
             for syn, r in zip(self.synths, self.rngs, strict=True):
