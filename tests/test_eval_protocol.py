@@ -216,3 +216,30 @@ def test_trivial_baselines_need_fit_and_ignore_agent_zero(rng: np.random.Generat
         moved = inst.replace(joints=np.concatenate([inst.joints[:, :1] + 0.5, inst.joints[:, 1:]], axis=1))
         b = run_protocol(method, moved, protocol="causal", n_observed=T0, rng=rng)
         np.testing.assert_array_equal(a.joints, b.joints)
+
+
+# -- causal ProMP -------------------------------------------------------------------------------
+def _scaled(duration: int, k: int) -> Interaction:
+    """One arm raise and lowering stretched over ``duration`` frames; agent 1 mirrors it (phase only)."""
+    s = np.arange(duration) / (duration - 1)
+    a0 = place(standing_skeleton(1.2 * np.sin(np.pi * s)), np.zeros(2), 0.0)
+    a1 = place(standing_skeleton(1.0 * np.sin(np.pi * s) ** 2), np.array([1.2, 0.0]), np.pi)
+    return Interaction("wave", 10.0, np.stack([a0, a1], axis=1), KINECT.joint_names, (f"a{k}", f"b{k}"),
+                       instance_id=f"wave_{k}")
+
+
+def test_causal_promp_estimates_the_duration_from_the_prefix() -> None:
+    from socialaff_sim.baselines.promp import InteractionProMP
+
+    train = [_scaled(d, k) for k, d in enumerate((20, 25, 30, 35, 40))]
+    promp = InteractionProMP().fit(train, rng=np.random.default_rng(0))
+    assert {20, 30, 40} <= set(promp.durations_.tolist())
+    inst = _scaled(30, 9)
+    for seen in (12, 18, 24):
+        assert promp.estimate_duration(protocol_view(inst, seen, T0), seen) == 30
+    # never shorter than the frames asked for
+    assert promp.estimate_duration(protocol_view(inst, 24, T0), 33) >= 33
+    causal = run_protocol(promp, inst, protocol="causal", n_observed=T0, rng=np.random.default_rng(0))
+    offline = run_protocol(promp, inst, protocol="offline", n_observed=T0, rng=np.random.default_rng(0))
+    # with the duration found, the causal prediction is close to the one that knows it
+    assert key_joint_error(causal, inst) < key_joint_error(offline, inst) + 0.05

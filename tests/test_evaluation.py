@@ -1,4 +1,4 @@
-"""Experiment 1 machinery: protocol, registry, metrics, actor-disjoint cross-validation, reports, CLI."""
+"""Experiment 1 machinery: protocol, registry, metrics, cross-validation, reports, CLI."""
 
 from __future__ import annotations
 
@@ -197,9 +197,14 @@ def test_evaluation_schema_exclusion_and_executor_independence(hold_registered: 
     # ProMP uses the human's motion; holding the last pose cannot follow the arm.
     assert serial["average"]["promp"]["key_joint_error_m"] < serial["average"]["hold"]["key_joint_error_m"]
     assert "hold" in serial["parse_accuracy"]["shake_hands"]
-    # Without "full" the first method is the paired reference; the difference is that of the averages.
-    paired = serial["paired"]
-    assert paired["reference"] == "hold" and "paired" not in pooled  # one method: nothing to pair
+    # Paired against hold and against the best baseline (here hold or promp); the difference is that of the averages.
+    assert serial["protocol"] == "causal" and serial["split"] == "pair" and serial["preset"] == "default"
+    assert serial["settings"]["protocol"] == "causal" and not serial["upper_bound"] and not serial["optimistic"]
+    assert "causal protocol" in serial["title"] and "pair-disjoint" in serial["title"]
+    best = min(("hold", "promp"), key=lambda m: serial["average"][m]["key_joint_error_m"])
+    assert serial["paired"]["best_baseline"]["reference"] == best == "promp"
+    paired = serial["paired"]["hold"]
+    assert paired["reference"] == "hold" and pooled["paired"] == {}  # one method: nothing to pair
     for metric in ("key_joint_error_m", "joint_error_m"):
         cell = paired["differences"][metric]["promp"]
         np.testing.assert_allclose(cell["mean_m"], serial["average"]["promp"][metric] - serial["average"]["hold"][metric], rtol=1e-9)
@@ -213,13 +218,14 @@ def test_evaluation_schema_exclusion_and_executor_independence(hold_registered: 
     assert loaded["per_interaction"] == serial["per_interaction"]
     table = paths["markdown"].read_text()
     assert "| hold |" in table and "| promp |" in table and "hand_over | shake_hands | Average" in table
-    assert "## Paired differences to `hold`" in table and "| lower |" in table
+    assert "## Paired differences to `hold` (`hold`)" in table and "| lower |" in table
+    assert "## Paired differences to the best baseline (`promp`)" in table and "causal protocol" in table
     assert paths["chart"].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_errors_name_the_problem(hold_registered: None) -> None:
     data = toy_dataset(seed=2, n_pairs=3)
-    with pytest.raises(ConfigError, match="4 actor-disjoint folds need at least 4 actor pairs"):
+    with pytest.raises(ConfigError, match="--split pair: 4 pair-disjoint folds need at least 4 actor pairs"):
         evaluate(data, ["hold"], config=EvaluationConfig(executor="serial"))
     with pytest.raises(ConfigError, match="not in dataset"):
         evaluate(data, ["hold"], interactions=["wave"], config=EvaluationConfig(executor="serial", n_folds=3))

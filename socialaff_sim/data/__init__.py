@@ -1,6 +1,6 @@
 """Data layer: the interaction model, skeleton layouts, file formats and loaders."""
 
-from .dataset import Dataset, actor_disjoint_folds
+from .dataset import Dataset, actor_disjoint_folds, pair_disjoint_folds
 from .interaction import MIN_FRAMES, Interaction
 from .npz_format import FORMAT_VERSION, load_interaction, load_npz_dataset, save_dataset, save_interaction
 from .skeletons import KEY_JOINTS, LAYOUTS, N_KEY, SkeletonLayout, get_layout
@@ -17,6 +17,7 @@ __all__ = [
     "N_KEY",
     "SkeletonLayout",
     "actor_disjoint_folds",
+    "pair_disjoint_folds",
     "get_layout",
     "load_dataset",
     "load_interaction",

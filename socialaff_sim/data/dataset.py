@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import DataError, choices
 from .interaction import Interaction
 
-__all__ = ["Dataset", "actor_disjoint_folds"]
+__all__ = ["Dataset", "actor_disjoint_folds", "pair_disjoint_folds"]
 
 
 @dataclass(frozen=True)
@@ -74,14 +74,17 @@ class Dataset:
         return Dataset(self.name, tuple(i for i in self.interactions if i.instance_id in keep), self.notes)
 
 
-def actor_disjoint_folds(
+def pair_disjoint_folds(
     interactions: Sequence[Interaction], n_folds: int, *, rng: np.random.Generator
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """Split into ``n_folds`` (train, test) index arrays whose actor *pairs* are disjoint.
 
     Instances are grouped by their unordered actor pair, so a test pair never
-    appears in training. Groups are dealt to folds greedily by size after a
-    seeded shuffle, which balances the fold sizes.
+    appears in training — but its actors may, with other partners: these folds
+    are pair-disjoint, not actor-disjoint (for those, and for recording and block
+    splits, see :func:`socialaff_sim.evaluation.splits.make_folds`). Groups are
+    dealt to folds greedily by size after a seeded shuffle, which balances the
+    fold sizes.
     """
     if n_folds < 2:
         raise DataError(f"n_folds: expected at least 2, found {n_folds}")
@@ -90,7 +93,7 @@ def actor_disjoint_folds(
         groups.setdefault(tuple(sorted(inter.actors)), []).append(idx)
     if len(groups) < n_folds:
         raise DataError(
-            f"n_folds: {n_folds} actor-disjoint folds need at least {n_folds} actor pairs, "
+            f"n_folds: {n_folds} pair-disjoint folds need at least {n_folds} actor pairs, "
             f"found {len(groups)}: {choices(groups)}"
         )
     keys = list(groups)
@@ -109,3 +112,8 @@ def actor_disjoint_folds(
         train = np.setdiff1d(np.arange(n), test)
         folds.append((train, test))
     return folds
+
+
+actor_disjoint_folds = pair_disjoint_folds
+"""The former, misleading name of :func:`pair_disjoint_folds` (the folds were always pair-disjoint), kept
+for existing scripts."""

@@ -4,12 +4,13 @@
     No test (actor A, actor B) pair appears in training (instances grouped by their unordered actor
     pair). The actors themselves may: on SBU actor s01 is tested with s02 and trained on with s03.
 ``actor``
-    No test actor appears in training at all. The actors are dealt to k groups; fold f tests every
-    instance with an actor of group f and trains on the instances with no actor of group f, so an
-    instance whose two actors fall in two groups is tested in both folds (paired comparisons key on
-    (instance, fold)) and instances are left out of some trainings. It needs actor ids shared across
-    recordings: where each actor id occurs in one recording only (the handovers name actors by
-    recording) or a class has fewer than k actors, the split is refused with an error.
+    No test actor appears in training at all. The actors are dealt to k groups; fold f tests the
+    instances whose actors both belong to group f and trains on the instances with no actor of
+    group f. An instance whose two actors fall in different groups is tested in no fold (the
+    results' ``n_test`` shows how many were), and trains only in the folds that hold out neither
+    of its actors. It needs actor ids shared across recordings: where each actor id occurs in one
+    recording only (the handovers name actors by recording), a class has fewer than k actors or a
+    fold would have no test or no training instance, the split is refused with an error.
 ``recording``
     No test recording appears in training: instances grouped by their recording
     (:func:`recording_of`). Where every instance is its own recording (SBU, the handovers) this is an
@@ -69,12 +70,15 @@ def _from_tests(tests: list[list[int]], n: int) -> list[Fold]:
     return [(np.setdiff1d(np.arange(n), t), np.array(sorted(t), dtype=np.int64)) for t in tests]
 
 
-def _grouped(keys: Sequence[Hashable], n_folds: int, what: str, rng: np.random.Generator) -> list[Fold]:
+def _grouped(keys: Sequence[Hashable], n_folds: int, what: str, groups_name: str, rng: np.random.Generator) -> list[Fold]:
     groups: dict[Hashable, list[int]] = {}
     for i, k in enumerate(keys):
         groups.setdefault(k, []).append(i)
     if len(groups) < n_folds:
-        raise DataError(f"{n_folds} {what}-disjoint folds need at least {n_folds} {what}s, found {len(groups)}: {choices(list(map(str, groups)))}")
+        raise DataError(
+            f"{n_folds} {what}-disjoint folds need at least {n_folds} {groups_name}, found {len(groups)}: "
+            f"{choices(list(map(str, groups)))}"
+        )
     return _from_tests(_deal(groups, n_folds, rng), len(keys))
 
 
@@ -91,20 +95,20 @@ def _actor_folds(insts: Sequence[Interaction], n_folds: int, rng: np.random.Gene
     actors = sorted(recordings)
     if len(actors) < n_folds:
         raise DataError(f"actor split: {n_folds} folds need at least {n_folds} actors, found {len(actors)}: {choices(actors)}")
-    # deal the actors, weighted by how many instances they take part in
-    counts = {a: [i for i, inter in enumerate(insts) if a in inter.actors] for a in actors}
-    members = _deal({a: [a] * len(counts[a]) for a in actors}, n_folds, rng)  # type: ignore[misc]
+    counts = {a: sum(a in inter.actors for inter in insts) for a in actors}
+    groups = _deal({a: [a] * counts[a] for a in actors}, n_folds, rng)  # dealt by how often they take part
     folds = []
-    for f, group in enumerate(members):
+    for f, group in enumerate(groups):
         held = set(group)
-        test = [i for i, inter in enumerate(insts) if held & set(inter.actors)]
-        train = np.array([i for i in range(len(insts)) if i not in set(test)], dtype=np.int64)
-        if not test or train.size == 0:
+        test = [i for i, inter in enumerate(insts) if set(inter.actors) <= held]
+        train = [i for i, inter in enumerate(insts) if not held & set(inter.actors)]
+        if not test or not train:
             raise DataError(
-                f"actor split: fold {f} (actors {choices(sorted(held))}) leaves {'no test' if not test else 'no training'} "
-                "instance; every instance shares an actor with it"
+                f"actor split: fold {f} holds out actors {choices(sorted(held))}, which leaves "
+                f"{'no instance with only those actors to test' if not test else 'no training instance without them'} "
+                "(use fewer folds, or --split pair)"
             )
-        folds.append((train, np.array(test, dtype=np.int64)))
+        folds.append((np.array(train, dtype=np.int64), np.array(test, dtype=np.int64)))
     return folds
 
 
@@ -130,9 +134,9 @@ def make_folds(insts: Sequence[Interaction], n_folds: int, split: str, *, rng: n
     if n_folds < 2:
         raise ConfigError(f"n_folds: expected at least 2, found {n_folds}")
     if split == "pair":
-        return _grouped([tuple(sorted(i.actors)) for i in insts], n_folds, "actor-pair", rng)
+        return _grouped([tuple(sorted(i.actors)) for i in insts], n_folds, "pair", "actor pairs", rng)
     if split == "recording":
-        return _grouped([recording_of(i) for i in insts], n_folds, "recording", rng)
+        return _grouped([recording_of(i) for i in insts], n_folds, "recording", "recordings", rng)
     if split == "actor":
         return _actor_folds(insts, n_folds, rng)
     return _block_folds(insts, n_folds)
