@@ -244,7 +244,7 @@ def _simsynth(runs: list[Run], quick: bool) -> list[str]:
         out += table(["interaction", "test instances", "GT replay success", "synthesized success", "ratio",
                       "synthesized key-joint error (m)", "commonest synthesized failures"], rows)
         ratio = d["summary"]["all"]["ratio"]
-        out += ["", f"{st['folds_run']} of {st['folds']} actor-disjoint folds, models fitted with {st['iterations']} MCMC "
+        out += ["", f"{st['folds_run']} of {st['folds']} pair-disjoint folds, models fitted with {st['iterations']} MCMC "
                 f"iterations on each fold's training instances, robot `{st['robot']}`, T0 = {st['n_observed']}; the robot "
                 "is placed from agent 1's first T0 frames for synthesized motion, from the whole recording for the replay.",
                 "", f"- Synthesized ({mode}) sub-goal success ≥ 90 % of the ground-truth replay's: {ratio:.2f}, "
@@ -263,7 +263,7 @@ def _accuracy(runs: list[Run], quick: bool) -> list[str]:
         rows = [[f"{name} ({', '.join(r['interactions'] or ['all'])})",
                  *(f"{f(r['average'][m]['key_joint_error_m'])} / {f(r['average'][m]['joint_error_m'])}"
                          for m in methods), f(r["wall_s"], ".0f")] for name, r in d["datasets"].items()]
-        out += [f"Baselines on real recordings (`{bl.shown}`), {d['n_folds']} actor-disjoint folds, "
+        out += [f"Baselines on real recordings (`{bl.shown}`), {d['n_folds']} pair-disjoint folds, "
                 "key-joint / full-skeleton error (m); `hold_last` keeps agent 1's last observed pose (a reference):", ""]
         out += table(["dataset", *methods, "wall s"], rows)
         out += [f"- {name}: skipped, {why}" for name, why in d["skipped"].items()]

@@ -1,6 +1,6 @@
 """Benchmark the baselines (multi-level HMM, Interaction ProMP) under the paper's Experiment 1.
 
-Runs the evaluation (4 actor-disjoint folds, T0 = 10) on
+Runs the evaluation (4 pair-disjoint folds, T0 = 10) on
 
 * the embedded synthetic dataset (all five interactions),
 * the real SBU Kinect Interaction handshakes (``shaking_hands``),
@@ -98,7 +98,7 @@ def main() -> int:
                + f" --methods hmm,promp --folds 4 --seed {args.seed} --workers {args.workers} --out {out}")
         summary.append((name, results, wall, cli))
 
-    print("\n# Summary: average key-joint / full-skeleton error (m), 4 actor-disjoint folds, T0 = 10\n")
+    print("\n# Summary: average key-joint / full-skeleton error (m), 4 pair-disjoint folds, T0 = 10\n")
     print("| dataset | " + " | ".join(methods) + " | wall s |")
     print("|---|" + "---:|" * (len(methods) + 1))
     for name, results, wall, _ in summary:

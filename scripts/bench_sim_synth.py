@@ -1,6 +1,6 @@
 """Sub-goal success of synthesized motion against the ground-truth replay, in physics (issue 5).
 
-The whole loop, per synthetic interaction: the instances are split into actor-disjoint
+The whole loop, per synthetic interaction: the instances are split into pair-disjoint
 folds (``socialaff_sim.data.dataset.actor_disjoint_folds``, the fold generator of
 ``socialaff-sim evaluate``); on each fold an affordance model is fitted on the training
 instances (Algorithm 1), saved to a temporary file and wired in as the simulator's
@@ -226,7 +226,7 @@ def print_table(summary: dict[str, dict]) -> None:
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--interactions", nargs="+", default=None, help="interaction labels (default: all five)")
-    ap.add_argument("--folds", type=int, default=4, help="actor-disjoint folds per interaction (default 4)")
+    ap.add_argument("--folds", type=int, default=4, help="pair-disjoint folds per interaction (default 4)")
     ap.add_argument("--run-folds", type=int, default=None, metavar="K",
                     help="run only the first K of those folds (default: all)")
     ap.add_argument("--quick", action="store_true", help="run only the first fold (same as --run-folds 1)")
@@ -271,7 +271,7 @@ def main(argv: list[str] | None = None) -> dict:
             te = [insts[i] for i in test if insts[i].n_frames > n_obs + 1][: args.max_test]
             if te:
                 tasks.append((label, f, tr, te, opts))
-    print(f"{len(tasks)} (interaction, fold) runs: {args.folds}-fold actor-disjoint split, {run_folds} fold(s) run, "
+    print(f"{len(tasks)} (interaction, fold) runs: {args.folds}-fold pair-disjoint split, {run_folds} fold(s) run, "
           f"{args.iterations} MCMC iterations, robot {args.robot}, seed {args.seed}", flush=True)
     if args.workers > 1:
         with ProcessPoolExecutor(max_workers=args.workers) as pool:

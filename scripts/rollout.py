@@ -1,7 +1,7 @@
 """Roll out policies in the Gymnasium environment: random vs the affordance model's own synthesis.
 
 For each interaction of the synthetic dataset, the instances are split into
-actor-disjoint train and test parts; a model is fitted on the train part (or
+pair-disjoint train and test parts; a model is fitted on the train part (or
 loaded from ``--models DIR/<interaction>.npz``) and every policy plays the test
 instances:
 

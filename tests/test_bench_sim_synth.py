@@ -1,7 +1,7 @@
 """scripts/bench_sim_synth.py: the synthesized-vs-ground-truth sub-goal benchmark, on a tiny setting.
 
 One interaction, 3 training instances, 1 MCMC iteration, 1 test instance of the first
-actor-disjoint fold. The figures are not judged (the model is barely fitted); what is
+pair-disjoint fold. The figures are not judged (the model is barely fitted); what is
 checked is that the JSON carries what the loop did: each source's episode is replayed
 independently with the library (``run_episode`` with the recorded track, and with the
 saved model through ``key_joint_source``) and must give the same sub-goals and failures,
@@ -88,7 +88,7 @@ def test_tiny_run_matches_an_independent_replay(bench, tmp_path: Path, capsys: p
     assert settings["interactions"] == ["shake_hands"] and settings["robot"] == "ours"
     (fold,) = result["folds"]
     assert fold["train"] == 3 and fold["test"] == 1
-    assert not set(fold["train_actor_pairs"]) & set(fold["test_actor_pairs"])  # actor-disjoint
+    assert not set(fold["train_actor_pairs"]) & set(fold["test_actor_pairs"])  # pair-disjoint
     (row,) = result["instances"]
     assert "+".join(sorted(row["actors"])) in fold["test_actor_pairs"]
 

@@ -1,4 +1,4 @@
-"""A dataset: a named collection of interactions, with actor-disjoint folds."""
+"""A dataset: a named collection of interactions, with pair-disjoint folds."""
 
 from __future__ import annotations
 

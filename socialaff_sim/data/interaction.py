@@ -44,7 +44,7 @@ class Interaction:
     joint_names: tuple[str, ...]
     """J joint names; must match a layout in :data:`~socialaff_sim.data.skeletons.LAYOUTS`."""
     actors: tuple[str, str]
-    """Actor ids of agent 0 and agent 1 (for actor-disjoint folds)."""
+    """Actor ids of agent 0 and agent 1 (for pair- and actor-disjoint folds, :mod:`socialaff_sim.evaluation.splits`)."""
     object: np.ndarray | None = None
     """(T, 3) float64, metres: the object's track, or ``None``."""
     valid: np.ndarray | None = None

@@ -2,7 +2,7 @@
 
 Layout: ``<root>/<set>/<class>/<seq>/skeleton_pos.txt``. A set such as
 ``s01s02`` names the two actors (agent 0 = person 1 = ``s01``, agent 1 =
-person 2 = ``s02``), so actor-disjoint folds come from sets. Each line holds a
+person 2 = ``s02``), so pair- and actor-disjoint folds come from sets. Each line holds a
 frame index and then 15 joints × (x, y, z) of person 1 and of person 2, in the
 dataset's normalised coordinates; 15 fps (:data:`SBU_FPS`).
 

@@ -1,4 +1,4 @@
-"""Evaluation (Experiment 1 of the paper): the method protocol, metrics, actor-disjoint cross-validation, reports."""
+"""Evaluation (Experiment 1 of the paper): the method protocol, metrics, cross-validation (pair-, actor-, recording- or block-disjoint folds) under a causal, paper or offline protocol, reports."""
 
 from .compare import PairedDifference, paired_differences
 from .crossval import EvaluationConfig
