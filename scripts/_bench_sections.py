@@ -215,14 +215,18 @@ def _experiment(ev: Run, quick: bool, *, synthetic: bool) -> list[str]:
 
 
 def _paired_line(paired: dict | None) -> list[str]:
-    """One line: each method minus the reference, with its bootstrap interval (``results.json``'s ``paired``)."""
-    cells = (paired or {}).get("differences", {}).get("key_joint_error_m")
-    if not cells:
-        return []
-    level = f"{100 * paired['confidence']:g} %"
-    parts = [f"{m} {c['mean_m']:+.4f} [{c['low_m']:+.4f}, {c['high_m']:+.4f}] {c['verdict']}" for m, c in cells.items()]
-    return [f"- Paired key-joint differences to {paired['reference']} (m, {level} bootstrap interval over the test "
-            "instances; the variation from refitting is not in it): " + "; ".join(parts) + "."]
+    """One line per comparison (against hold, against the best baseline): each method minus the
+    reference, with its bootstrap interval (``results.json``'s ``paired``)."""
+    out = []
+    for entry in (paired or {}).values():
+        cells = entry.get("differences", {}).get("key_joint_error_m")
+        if not cells:
+            continue
+        level = f"{100 * entry['confidence']:g} %"
+        parts = [f"{m} {c['mean_m']:+.4f} [{c['low_m']:+.4f}, {c['high_m']:+.4f}] {c['verdict']}" for m, c in cells.items()]
+        out.append(f"- Paired key-joint differences to {entry['reference']} (m, {level} bootstrap interval over the test "
+                   "instances; the variation from refitting is not in it): " + "; ".join(parts) + ".")
+    return out
 
 
 def _simsynth(runs: list[Run], quick: bool) -> list[str]:

@@ -127,14 +127,17 @@ def test_accuracy_verdicts_and_paired_line_from_a_results_file(monkeypatch: pyte
     from socialaff_sim.evaluation import METHODS, EvaluationConfig, evaluate
 
     monkeypatch.setitem(METHODS, "full", HoldLastPose)
-    results = evaluate(toy_dataset(seed=3, per_pair=2), ["full", "promp"], config=EvaluationConfig(executor="serial", seed=0))
+    results = evaluate(toy_dataset(seed=3, per_pair=2), ["full", "promp", "hold"], config=EvaluationConfig(executor="serial", seed=0))
     run = _load_script().Run("evaluate", [])
     run.ok, run.data, run.shown = True, json.loads(json.dumps(results)), "socialaff-sim evaluate ..."
     sections = _load_script(ROOT / "scripts" / "_bench_sections.py", "_bench_sections_t")
     lines = sections._experiment(run, False, synthetic=True)
     text = "\n".join(lines)
-    cell = results["paired"]["differences"]["key_joint_error_m"]["promp"]
+    cell = results["paired"]["hold"]["differences"]["key_joint_error_m"]["promp"]
     assert cell["verdict"] == "lower"  # ProMP follows the human's arm, holding the pose does not
     assert "lowest is promp" in text and "**missed**" in text
-    assert (f"Paired key-joint differences to full (m, 95 % bootstrap interval over the test instances; the variation "
-            f"from refitting is not in it): promp {cell['mean_m']:+.4f} [{cell['low_m']:+.4f}, {cell['high_m']:+.4f}] lower.") in text
+    assert (f"Paired key-joint differences to hold (m, 95 % bootstrap interval over the test instances; the variation "
+            f"from refitting is not in it): ") in text
+    assert f"promp {cell['mean_m']:+.4f} [{cell['low_m']:+.4f}, {cell['high_m']:+.4f}] lower" in text
+    best = results["paired"]["best_baseline"]
+    assert best["reference"] == "promp" and "Paired key-joint differences to promp (m, 95 %" in text

@@ -164,8 +164,8 @@ def test_hold_keeps_the_last_observed_pose(protocol: str) -> None:
     method = get_method("hold")().fit([inst], rng=np.random.default_rng(0))
     pred = run_protocol(method, inst, protocol=protocol, n_observed=T0, rng=np.random.default_rng(0))
     np.testing.assert_array_equal(pred.joints[T0:], np.repeat(inst.joints[T0 - 1 : T0, 1], inst.n_frames - T0, axis=0))
-    hand = KINECT.index("right_hand")
-    np.testing.assert_array_equal(pred.key_joints[T0:, 1], np.repeat(inst.joints[T0 - 1 : T0, 1, hand], inst.n_frames - T0, axis=0))
+    keys = [inst.layout.key_indices[k] for k in range(5)]
+    np.testing.assert_array_equal(pred.key_joints[T0:], np.repeat(inst.joints[T0 - 1 : T0, 1, keys], inst.n_frames - T0, axis=0))
 
 
 def test_velocity_estimate_is_the_least_squares_slope(rng: np.random.Generator) -> None:
