@@ -9,7 +9,8 @@ that is stopped keeps what finished. Usage::
 
     python scripts/bench_accuracy.py --out DIR [--datasets synthetic sbu handover nuisi]
         [--protocol causal] [--preset default] [--methods full,v1,v2,hmm,promp,hold,constvel]
-        [--folds 4] [--workers 2] [--seed 0] [--max-test handover=8 ...] [--data-root ../shared/data]
+        [--folds 4] [--workers 2] [--seed 0] [--max-folds sbu=1 ...] [--max-test handover=8 ...]
+        [--data-root ../shared/data]
         [--doc docs/benchmarks.md]
 
 ``--doc`` replaces the section between this script's markers in that file (appends it at the end the
@@ -111,12 +112,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--folds", type=int, default=4)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--max-folds", nargs="*", default=[], metavar="DATASET=N",
+                    help="run only the first N folds of a dataset (time-limited runs; the table says so)")
     ap.add_argument("--max-test", nargs="*", default=[], metavar="DATASET=N",
                     help="limit the test instances per fold of a dataset (time-limited runs; the table says so)")
     ap.add_argument("--data-root", type=Path, default=DATA, help=f"the shared recordings (default {DATA})")
     ap.add_argument("--doc", type=Path, help="Markdown file whose accuracy-sweep section is replaced")
     args = ap.parse_args(argv)
     limits = {k: int(v) for k, v in (item.split("=", 1) for item in args.max_test)}
+    fold_limits = {k: int(v) for k, v in (item.split("=", 1) for item in args.max_folds)}
     args.out.mkdir(parents=True, exist_ok=True)
     when = dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     body = [f"## Accuracy, causal-first evaluation (issue 23): `{args.protocol}` protocol, preset `{args.preset}`", "",
@@ -134,6 +138,8 @@ def main(argv: list[str] | None = None) -> int:
                "--out", str(out), "--quiet"]
         if name in limits:
             cmd += ["--max-test", str(limits[name])]
+        if name in fold_limits:
+            cmd += ["--max-folds", str(fold_limits[name])]
         shown = "OMP_NUM_THREADS=1 " + " ".join(shlex.quote(c) for c in cmd[3:]).replace(sys.executable, "python")
         shown = shown.replace("python -m socialaff_sim.cli.main", "socialaff-sim")
         run: dict[str, object] = {"load_before": _load()}

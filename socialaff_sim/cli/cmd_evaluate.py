@@ -34,6 +34,7 @@ def run(args: argparse.Namespace) -> int:
         protocol=args.protocol,
         split=args.split,
         preset=args.preset,
+        max_folds=args.max_folds,
         max_test=args.max_test,
     )
     methods = _names([args.methods])
@@ -87,6 +88,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--preset", choices=PRESETS, default=PRESETS[0], help="configurations of full/v1/v2 (default: default)")
     p.add_argument("--folds", type=int, default=4, help="cross-validation folds per class (default 4)")
+    p.add_argument(
+        "--max-folds", type=int, metavar="N",
+        help="run only the first N of the folds (time-limited runs; the tables say so; default: all)",
+    )
     p.add_argument(
         "--max-test", type=int, metavar="N",
         help="at most N test instances per fold (time-limited runs; the tables say so; default: all)",

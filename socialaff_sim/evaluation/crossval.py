@@ -46,6 +46,9 @@ class EvaluationConfig:
     (optimistic); see :mod:`.splits`."""
     preset: str = "default"
     """Configuration preset handed to the method factories that take one: ``"default"`` or ``"paper"``."""
+    max_folds: int | None = None
+    """Run only the first this many of the ``n_folds`` folds (each keeps the training set of a k-fold
+    split), for time-limited runs; ``None``: all. Tables of such runs say so."""
     max_test: int | None = None
     """At most this many test instances per fold (the first in the fold's order), for time-limited runs;
     ``None``: all. Tables of such runs say so."""
@@ -67,6 +70,8 @@ class EvaluationConfig:
             raise ConfigError(f"split: expected {choices(SPLITS)}, found {self.split!r}")
         if self.preset not in PRESETS:
             raise ConfigError(f"preset: expected {choices(PRESETS)}, found {self.preset!r}")
+        if self.max_folds is not None and not 1 <= self.max_folds <= self.n_folds:
+            raise ConfigError(f"max_folds: expected 1..{self.n_folds} (n_folds), found {self.max_folds}")
         if self.max_test is not None and self.max_test < 1:
             raise ConfigError(f"max_test: expected at least 1, found {self.max_test}")
         if self.executor not in EXECUTORS:
@@ -153,7 +158,7 @@ def make_tasks(
         short = [i.n_frames <= config.n_observed + 1 for i in insts]
         excluded[label] = int(sum(short))
         n_test[label] = 0
-        for f, (train, test) in enumerate(folds):
+        for f, (train, test) in enumerate(folds[: config.max_folds]):
             test_set = tuple(insts[i] for i in test if not short[i])[: config.max_test]
             n_test[label] += len(test_set)
             if not test_set:

@@ -165,7 +165,7 @@ def evaluate(
          "paired": {comparison: {"reference": method, "confidence": 0.95, "n_resamples": int,
                                  "differences": {metric: {method: {"mean_m", "low_m", "high_m",
                                                                    "n_instances", "verdict"}}}}},
-         "settings": {"n_folds", "n_observed", "seed", "protocol", "split", "preset", "max_test",
+         "settings": {"n_folds", "n_observed", "seed", "protocol", "split", "preset", "max_folds", "max_test",
                       "methods", "interactions", "n_test_available"}}
 
     ``paired`` has up to two comparisons: ``"hold"`` (every method minus ``hold``, when ``hold`` was
@@ -248,6 +248,7 @@ def evaluate(
             "protocol": config.protocol,
             "split": config.split,
             "preset": config.preset,
+            "max_folds": config.max_folds,
             "max_test": config.max_test,
             "methods": list(methods),
             "interactions": labels,
@@ -271,7 +272,8 @@ def run_title(dataset: str, config: EvaluationConfig) -> str:
     split = f"{config.n_folds}-fold {config.split}-disjoint split" if config.split != "block" else (
         f"{config.n_folds}-fold block split (optimistic: same people and session in training and test)"
     )
-    limited = f", at most {config.max_test} test instances per fold" if config.max_test else ""
+    limited = f", only the first {config.max_folds} of the {config.n_folds} folds run" if config.max_folds else ""
+    limited += f", at most {config.max_test} test instances per fold" if config.max_test else ""
     return f"`{dataset}`, {protocol}, {split}, preset {config.preset}{limited}"
 
 
