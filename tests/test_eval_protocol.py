@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Sequence
 
@@ -243,3 +244,42 @@ def test_causal_promp_estimates_the_duration_from_the_prefix() -> None:
     offline = run_protocol(promp, inst, protocol="offline", n_observed=T0, rng=np.random.default_rng(0))
     # with the duration found, the causal prediction is close to the one that knows it
     assert key_joint_error(causal, inst) < key_joint_error(offline, inst) + 0.05
+
+
+# -- results name their protocol, split and preset ------------------------------------------------
+def test_results_and_tables_name_protocol_split_and_preset(tmp_path) -> None:  # noqa: ANN001
+    from socialaff_sim.cli.main import main
+    from socialaff_sim.data import Dataset, save_dataset
+    from socialaff_sim.evaluation import EvaluationConfig, evaluate, format_tables, write_results
+    from socialaff_sim.evaluation.runner import best_baseline
+
+    data = toy_dataset(seed=5, per_pair=2)
+    cont = Dataset("cont", tuple(i.replace(source=f"one.npz @ {k}") for k, i in enumerate(data.interactions)))
+    res = evaluate(cont, ["hold", "constvel", "promp"],
+                   config=EvaluationConfig(n_folds=2, protocol="offline", split="block", executor="serial"))
+    assert (res["protocol"], res["split"], res["preset"]) == ("offline", "block", "default")
+    assert res["upper_bound"] and res["optimistic"]
+    table = format_tables(res)
+    assert "upper bound" in table and "optimistic" in table and "offline protocol" in table.splitlines()[0]
+    averages = {m: res["average"][m]["key_joint_error_m"] for m in res["average"]}
+    assert res["paired"]["best_baseline"]["reference"] == min(averages, key=averages.get) == best_baseline(res["average"])
+    for m, cell in res["paired"]["hold"]["differences"]["key_joint_error_m"].items():
+        np.testing.assert_allclose(cell["mean_m"], averages[m] - averages["hold"], rtol=1e-9)
+    paths = write_results(res, tmp_path / "out")
+    assert '"protocol": "offline"' in paths["json"].read_text()
+    causal = evaluate(data, ["hold"], config=EvaluationConfig(n_folds=2, max_folds=1, executor="serial"))
+    assert not causal["upper_bound"] and "upper bound" not in format_tables(causal)
+    assert "only the first 1 of the 2 folds" in causal["title"]
+    assert {r["fold"] for r in causal["per_instance"]["shake_hands"]["hold"]} == {0}
+
+    save_dataset(data, tmp_path / "data")
+    out = tmp_path / "cli"
+    assert main(["evaluate", "--data", f"npz:{tmp_path / 'data'}", "--methods", "hold,constvel", "--folds", "2",
+                 "--protocol", "paper", "--split", "recording", "--out", str(out), "--executor", "serial", "--quiet"]) == 0
+    saved = json.loads((out / "results.json").read_text())
+    assert (saved["protocol"], saved["split"], saved["settings"]["protocol"]) == ("paper", "recording", "paper")
+    assert main(["evaluate", "--data", f"npz:{tmp_path / 'data'}", "--methods", "hold", "--split", "actor",
+                 "--out", str(out), "--executor", "serial"]) == 2  # toy pairs share no actors across pairs
+    with pytest.raises(SystemExit) as exc:  # argparse's choices: exit 2 with the valid protocols
+        main(["evaluate", "--data", f"npz:{tmp_path / 'data'}", "--methods", "hold", "--protocol", "future", "--out", str(out)])
+    assert exc.value.code == 2
