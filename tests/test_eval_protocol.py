@@ -283,3 +283,15 @@ def test_results_and_tables_name_protocol_split_and_preset(tmp_path) -> None:  #
     with pytest.raises(SystemExit) as exc:  # argparse's choices: exit 2 with the valid protocols
         main(["evaluate", "--data", f"npz:{tmp_path / 'data'}", "--methods", "hold", "--protocol", "future", "--out", str(out)])
     assert exc.value.code == 2
+
+
+def test_extend_held_adds_frames_that_carry_no_information(rng: np.random.Generator) -> None:
+    inst = toy_dataset(seed=6, labels=("hand_over",), per_pair=1).interactions[0]
+    T = inst.n_frames
+    longer = inst.extend_held(T + 4)
+    assert longer.n_frames == T + 4 and inst.extend_held(T) is inst and inst.extend_held(T - 3) is inst
+    assert not np.asarray(longer.valid)[T:].any() and np.isnan(longer.joints[T:]).all()
+    np.testing.assert_array_equal(longer.filled_joints()[T:], np.repeat(inst.joints[-1:], 4, axis=0))
+    np.testing.assert_array_equal(longer.object[T:], np.repeat(inst.object[-1:], 4, axis=0))
+    assert (longer.subevents[T:] == -1).all() and longer.same_as(longer.slice(0, T + 4))
+    assert inst.same_as(longer.slice(0, T))

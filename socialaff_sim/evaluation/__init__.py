@@ -8,6 +8,8 @@ from .protocol import (
     METHODS,
     Prediction,
     ReactionMethod,
+    Reactor,
+    StreamingMethod,
     available_methods,
     get_method,
     observed_part,
@@ -16,25 +18,34 @@ from .protocol import (
 )
 from .report import format_tables, write_results
 from .runner import evaluate
+from .splits import SPLITS, make_folds
+from .streaming import PROTOCOLS, PrefixReactor, run_protocol
 
 __all__ = [
     "DEFAULT_N_OBSERVED",
     "METHODS",
+    "PROTOCOLS",
+    "SPLITS",
     "EvaluationConfig",
     "PairedDifference",
     "Prediction",
+    "PrefixReactor",
     "ReactionMethod",
+    "Reactor",
+    "StreamingMethod",
     "available_methods",
     "evaluate",
     "format_tables",
     "get_method",
     "joint_error",
     "key_joint_error",
+    "make_folds",
     "matched_accuracy",
     "observed_part",
     "paired_differences",
     "parse_confusion",
     "prediction_from_joints",
     "register_method",
+    "run_protocol",
     "write_results",
 ]

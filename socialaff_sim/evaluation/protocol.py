@@ -63,6 +63,7 @@ __all__ = [
     "Prediction",
     "ReactionMethod",
     "Reactor",
+    "StreamingMethod",
     "available_methods",
     "get_method",
     "observed_part",

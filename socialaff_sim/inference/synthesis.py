@@ -127,11 +127,8 @@ class OnlineSynthesizer:
             self._rows = parse_observed(self.model, self._observed_track(), interaction.fps, step=cfg.observed_parse_step)
 
     def observe(self, view: Interaction) -> None:
-        """Stream mode: take agent 0's and the object's frames from ``view``, the running instance as
-        known now (its first frames, possibly lengthened by :meth:`Interaction.extend_held`), growing
-        the instance when ``view`` is longer. Agent 1's frames (observed and emitted) are kept. With it
-        the synthesizer never holds more of agent 0 than the caller has shown (the evaluation's
-        protocols, :mod:`socialaff_sim.evaluation.streaming`)."""
+        """Stream mode: agent 0's and the object's frames from ``view``, the instance as known now (grown
+        if longer); agent 1's frames are kept. The evaluation's protocols feed views this way."""
         if self._inter is None:
             raise ModelError("OnlineSynthesizer.observe called before reset(interaction, rng=...)")
         T, old = view.n_frames, self._track.shape[0]
