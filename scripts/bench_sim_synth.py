@@ -56,7 +56,7 @@ from socialaff_sim.data.synthetic import generate_dataset  # noqa: E402
 from socialaff_sim.evaluation.crossval import fold_rng  # noqa: E402
 from socialaff_sim.inference import SynthesisConfig  # noqa: E402
 from socialaff_sim.learning.config import LearningConfig  # noqa: E402
-from socialaff_sim.model.affordance import SocialAffordanceModel  # noqa: E402
+from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
 from socialaff_sim.retarget.sources import GroundTruthSource, KeyJointSource, SourceFrame, model_source  # noqa: E402
 from socialaff_sim.sim.episode import ERROR_OK, run_episode  # noqa: E402
 from socialaff_sim.sim.simulator import Simulator  # noqa: E402

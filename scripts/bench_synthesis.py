@@ -30,7 +30,7 @@ from socialaff_sim.evaluation.metrics import key_joint_error  # noqa: E402
 from socialaff_sim.evaluation.protocol import Prediction, observed_part  # noqa: E402
 from socialaff_sim.inference import BodyFitter, SynthesisConfig, synthesize  # noqa: E402
 from socialaff_sim.learning.config import LearningConfig  # noqa: E402
-from socialaff_sim.model.affordance import SocialAffordanceModel  # noqa: E402
+from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
 
 
 MODES = {"offline": SynthesisConfig.offline, "reactive": SynthesisConfig.reactive, "paper": SynthesisConfig}

@@ -19,7 +19,7 @@ from socialaff_sim.learning.gibbs import joint_log_prob
 from socialaff_sim.learning.likelihood import TypeLikelihood
 from socialaff_sim.learning.mh import mh_step
 from socialaff_sim.learning.scorer import AffordanceTarget
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 from socialaff_sim.model.config import AffordanceConfig, default_n_subevents
 from socialaff_sim.model.densities import fit_lognorm
 from socialaff_sim.model.features import type_samples

@@ -10,7 +10,7 @@ import pytest
 from socialaff_sim.data.dataset import Dataset
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.inference.synthesis import OnlineSynthesizer, SynthesisConfig
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 from socialaff_sim.model.contact_keys import ContactKeys, fit_contact_keys
 from socialaff_sim.model.joints import JOINT_NAMES, N_JOINTS
 

@@ -24,7 +24,7 @@ from socialaff_sim.inference.methods import REGISTERED_CHAINS
 from socialaff_sim.inference.online_parse import log_duration_survival
 from socialaff_sim.inference.synthesis import sample_remaining_seconds
 from socialaff_sim.learning.config import LearningConfig
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 
 FAST = LearningConfig(iterations=3)
 

@@ -19,7 +19,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..evaluation.protocol import Prediction, observed_part
     from ..inference import BodyFitter, SynthesisConfig, synthesize
     from ..inference.plot import plot_key_joint_tracks
-    from ..model.affordance import SocialAffordanceModel
+    from ..learning.estimator import SocialAffordanceModel
 
     model = SocialAffordanceModel.load(args.model)
     dataset = load_dataset(args.data).of_label(model.label_)

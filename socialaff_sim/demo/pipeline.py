@@ -88,7 +88,7 @@ def run_interaction(
     from ..inference import BodyFitter, ModelSource, SynthesisConfig, synthesize
     from ..inference.plot import plot_key_joint_tracks
     from ..learning.config import LearningConfig
-    from ..model.affordance import SocialAffordanceModel
+    from ..learning.estimator import SocialAffordanceModel
     from ..sim.episode import run_episode
     from ..retarget.sources import GroundTruthSource
     from ..sim.simulator import Simulator

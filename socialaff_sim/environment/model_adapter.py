@@ -1,6 +1,6 @@
 """The affordance model behind the environment's adapter protocol.
 
-:class:`ModelScorer` turns a fitted :class:`~socialaff_sim.model.affordance.SocialAffordanceModel`
+:class:`ModelScorer` turns a fitted :class:`~socialaff_sim.learning.SocialAffordanceModel`
 into the environment's affordance reward: the robot's agent-1-equivalent key
 joints, with agent 0's observed key joints and the object, form one configuration
 of the model's 11 joints in the instance's canonical frame, scored by the current
@@ -24,7 +24,7 @@ import numpy as np
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError, SimulationError, choices
-from ..model.affordance import SocialAffordanceModel
+from ..learning.estimator import SocialAffordanceModel
 from ..model.densities import vonmises_logpdf, weibull_logpdf
 from ..model.handedness import KEY_SWAP, relabel
 from ..model.joints import OBJECT

@@ -19,7 +19,7 @@ from ..model.potentials import reference_weights
 from ..model.ridge import RidgeRegression
 
 if TYPE_CHECKING:
-    from ..model.affordance import SocialAffordanceModel
+    from ..learning.estimator import SocialAffordanceModel
 
 __all__ = ["AGENT1", "draw_vectors", "sign_loglik", "RegressionPrior"]
 

@@ -21,7 +21,7 @@ import numpy as np
 from ..data.interaction import Interaction
 from ..errors import ConfigError, NotFittedError, SimulationError, choices
 from ..evaluation.protocol import Prediction, register_method
-from ..model.affordance import SocialAffordanceModel
+from ..learning.estimator import SocialAffordanceModel
 from ..model.config import AffordanceConfig
 from .body_fit import BodyFitConfig, BodyFitter
 from .synthesis import OnlineSynthesizer, SynthesisConfig

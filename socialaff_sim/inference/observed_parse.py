@@ -4,7 +4,7 @@ Offline evaluation gives every method agent 0's (and the object's) whole recorde
 agent 1's only for the first T0 frames. The sub-events can then be parsed once, over the whole
 instance, from what is observed: each candidate interval is scored by the motion (and path-noise)
 terms of agent 0's joints and the object plus its log-normal duration, with the learned
-transitions (:meth:`~socialaff_sim.model.affordance.SocialAffordanceModel.observed_log_score`).
+transitions (:meth:`~socialaff_sim.model.affordance.AffordanceParameters.observed_log_score`).
 Spatial potentials are left out: each needs every member of its group, and the groups mix both
 agents. Cut points are every ``step`` frames rather than the learned atoms, whose K-means
 descriptions include agent 1's motion.
@@ -21,7 +21,7 @@ from ..errors import ModelError
 from ..model.joints import OBJECT
 
 if TYPE_CHECKING:
-    from ..model.affordance import SocialAffordanceModel
+    from ..learning.estimator import SocialAffordanceModel
 
 __all__ = ["observed_joints", "parse_observed"]
 

@@ -19,7 +19,7 @@ from scipy.special import log_ndtr, logsumexp
 from ..model.segment_dp import backtrace, segmentation_tables
 
 if TYPE_CHECKING:
-    from ..model.affordance import SocialAffordanceModel
+    from ..learning.estimator import SocialAffordanceModel
 
 __all__ = ["PrefixParse", "parse_prefix", "log_duration_survival"]
 

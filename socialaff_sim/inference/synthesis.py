@@ -50,7 +50,7 @@ from .synthesis_config import SynthesisConfig
 from .timing import remaining_fraction, sample_remaining_seconds
 
 if TYPE_CHECKING:
-    from ..model.affordance import SocialAffordanceModel
+    from ..learning.estimator import SocialAffordanceModel
     from .body_fit import BodyFitter
 
 __all__ = ["SynthesisConfig", "SynthesisStep", "OnlineSynthesizer", "sample_remaining_seconds", "remaining_fraction"]

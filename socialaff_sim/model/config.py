@@ -5,7 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .._config import DictConfig
+from ..data.synthetic.config import SUBEVENTS
 from ..errors import ConfigError, choices
+from .path import PATH_PROFILES
 
 __all__ = ["AffordanceConfig", "DEFAULT_N_SUBEVENTS", "DURATION_DENSITIES", "LIKELIHOODS", "VECTOR_DENSITIES", "default_n_subevents"]
 
@@ -151,8 +153,6 @@ class AffordanceConfig(DictConfig):
             raise ConfigError(
                 f"AffordanceConfig.vector_density: expected {choices(VECTOR_DENSITIES)}, found {self.vector_density!r}"
             )
-        from .path import PATH_PROFILES  # noqa: PLC0415
-
         if self.path_profile not in PATH_PROFILES:
             raise ConfigError(
                 f"AffordanceConfig.path_profile: expected {choices(PATH_PROFILES)}, found {self.path_profile!r}"
@@ -163,11 +163,6 @@ class AffordanceConfig(DictConfig):
 
 def default_n_subevents(label: str) -> int:
     """|S| for an interaction label: the synthetic dataset's sub-event count if it defines the label, else 4."""
-    try:
-        from ..data import synthetic  # noqa: PLC0415  (optional module, written separately)
-    except ImportError:
-        return DEFAULT_N_SUBEVENTS
-    table = getattr(synthetic, "SUBEVENTS", {})
-    if label in table:
-        return max(1, len(table[label]))
+    if label in SUBEVENTS:
+        return max(1, len(SUBEVENTS[label]))
     return DEFAULT_N_SUBEVENTS
