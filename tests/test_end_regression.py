@@ -10,7 +10,7 @@ from scipy import stats
 from socialaff_sim.data.dataset import Dataset
 from socialaff_sim.errors import ConfigError, ModelError
 from socialaff_sim.evaluation import get_method
-from socialaff_sim.evaluation.protocol import observed_part
+from socialaff_sim.inference.protocol import observed_part
 from socialaff_sim.inference import SynthesisConfig, synthesize
 from socialaff_sim.inference.candidates import RegressionPrior
 from socialaff_sim.inference.observed_parse import observed_joints, parse_observed

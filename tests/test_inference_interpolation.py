@@ -9,7 +9,7 @@ import pytest
 
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError
-from socialaff_sim.evaluation.protocol import observed_part
+from socialaff_sim.inference.protocol import observed_part
 from socialaff_sim.inference import SynthesisConfig, synthesize
 from socialaff_sim.inference.synthesis import remaining_fraction
 from socialaff_sim.learning.config import LearningConfig

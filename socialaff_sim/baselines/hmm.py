@@ -36,7 +36,7 @@ import numpy as np
 
 from ..data.interaction import Interaction
 from ..errors import ModelError, NotFittedError
-from ..evaluation.protocol import Prediction, prediction_from_joints
+from ..inference.protocol import Prediction, prediction_from_joints
 from ..inference.body_fit import instance_frame, kmeans
 from ..model.frame import CanonicalFrame
 from .two_level_hmm import TwoLevelHMM
@@ -174,7 +174,7 @@ def _features(inter: Interaction) -> _Features:
 
 
 class MultiLevelHMM:
-    """The multi-level HMM baseline as a :class:`~socialaff_sim.evaluation.protocol.ReactionMethod`."""
+    """The multi-level HMM baseline as a :class:`~socialaff_sim.inference.protocol.ReactionMethod`."""
 
     name = "hmm"
 

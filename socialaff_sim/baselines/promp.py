@@ -33,7 +33,7 @@ from scipy.linalg import cho_factor, cho_solve
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ModelError, NotFittedError
-from ..evaluation.protocol import Prediction, prediction_from_joints
+from ..inference.protocol import Prediction, prediction_from_joints
 from ..inference.body_fit import BodyFitConfig, BodyFitter, instance_frame
 
 __all__ = ["InteractionProMP", "ProMPConfig", "rbf_basis", "condition_gaussian", "condition_on_statistics"]
@@ -126,7 +126,7 @@ def condition_gaussian(
 
 
 class InteractionProMP:
-    """Interaction ProMP as a :class:`~socialaff_sim.evaluation.protocol.ReactionMethod`.
+    """Interaction ProMP as a :class:`~socialaff_sim.inference.protocol.ReactionMethod`.
 
     Learned attributes: ``keys_`` (indices of the key joints the layout has),
     ``has_object_``, ``mean_`` (D·N,) and ``cov_`` (D·N, D·N) of the stacked

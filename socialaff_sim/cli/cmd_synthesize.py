@@ -16,7 +16,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..data import load_dataset, save_interaction
     from ..errors import ModelError
     from ..evaluation.metrics import joint_error, key_joint_error
-    from ..evaluation.protocol import Prediction, observed_part
+    from ..inference.protocol import Prediction, observed_part
     from ..inference import BodyFitter, SynthesisConfig, synthesize
     from ..inference.plot import plot_key_joint_tracks
     from ..learning.estimator import SocialAffordanceModel

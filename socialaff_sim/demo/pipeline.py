@@ -84,8 +84,10 @@ def run_interaction(
     """Run the loop for one interaction, writing figures and the video into ``out``."""
     from ..model.figures import draw_groupings
     from ..evaluation.metrics import key_joint_error
-    from ..evaluation.protocol import Prediction, get_method, observed_part
-    from ..inference import BodyFitter, ModelSource, SynthesisConfig, synthesize
+    from ..evaluation.registry import get_method
+    from ..inference.protocol import Prediction, observed_part
+    from ..inference import BodyFitter, SynthesisConfig, synthesize
+    from ..retarget.model_source import ModelSource
     from ..inference.plot import plot_key_joint_tracks
     from ..learning.config import LearningConfig
     from ..learning.estimator import SocialAffordanceModel

@@ -20,7 +20,7 @@ from ..data.dataset import Dataset, actor_disjoint_folds
 from ..data.interaction import Interaction
 from ..errors import ConfigError, ModelError, SocialAffError, choices
 from .metrics import joint_error, key_joint_error, parse_confusion
-from .protocol import DEFAULT_N_OBSERVED, MethodFactory, Prediction, observed_part
+from ..inference.protocol import DEFAULT_N_OBSERVED, MethodFactory, Prediction, observed_part
 
 __all__ = ["EvaluationConfig", "Task", "TaskResult", "InstanceScore", "make_tasks", "run_task", "task_seed"]
 
