@@ -17,21 +17,19 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError, SimulationError, choices
+from ..inference.synthesis import OnlineSynthesizer, SynthesisConfig
 from ..learning.estimator import SocialAffordanceModel
 from ..model.densities import vonmises_logpdf, weibull_logpdf
 from ..model.handedness import KEY_SWAP, relabel
 from ..model.joints import OBJECT
 from .adapters import AdapterFrame, AffordanceScore, RobotPose
-
-if TYPE_CHECKING:
-    from ..inference.synthesis import SynthesisConfig
 
 __all__ = ["ModelSpec", "load_models", "weibull_max_logpdf", "spatial_upper_bound", "ModelScorer", "ModelAdapter"]
 
@@ -145,8 +143,6 @@ class ModelAdapter:
     """
 
     def __init__(self, models: Mapping[str, SocialAffordanceModel], config: SynthesisConfig | None = None) -> None:
-        from ..inference.synthesis import OnlineSynthesizer, SynthesisConfig  # noqa: PLC0415 (inference is only needed with a model)
-
         config = config or SynthesisConfig.reactive()
         self.scorer = ModelScorer(models)
         self._synth = {lbl: OnlineSynthesizer(m, None, config) for lbl, m in self.scorer.models.items()}
