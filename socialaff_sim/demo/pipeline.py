@@ -38,21 +38,21 @@ class DemoConfig:
     """Settings of the demo: the real algorithms with settings that finish quickly."""
 
     iterations: int = 30
-    """Outer MCMC iterations of Algorithm 1 (the paper uses 100)."""
+    """[—]: Outer MCMC iterations of Algorithm 1 (the paper uses 100)."""
     n_test: int = 3
-    """Held-out instances per interaction (actors never seen in training) for the error table."""
+    """[—]: Held-out instances per interaction (actors never seen in training) for the error table."""
     baselines: tuple[str, ...] = ("hmm", "promp")
-    """Methods the full model is compared with on the held-out instances."""
+    """[—]: Methods the full model is compared with on the held-out instances."""
     robot: str = "ours"
-    """Robot simulated: ``"ours"`` (assets/robots/ours.xml) or ``"cmu"``."""
+    """[—]: Robot simulated: ``"ours"`` (assets/robots/ours.xml) or ``"cmu"``."""
     video: bool = True
-    """Render an MP4 and a contact sheet of the simulated reaction (needs EGL offscreen rendering)."""
+    """[—]: Render an MP4 and a contact sheet of the simulated reaction (needs EGL offscreen rendering)."""
     width: int = 640
-    """Video width, pixels."""
+    """[px]: Video width, pixels."""
     height: int = 480
-    """Video height, pixels."""
+    """[px]: Video height, pixels."""
     seed: int = 0
-    """Seed of the data and every sampler."""
+    """[—]: Seed of the data and every sampler."""
 
 
 @dataclass
