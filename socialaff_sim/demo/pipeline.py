@@ -21,6 +21,7 @@ from ..inference.protocol import Prediction, observed_part
 from ..learning.config import LearningConfig
 from ..learning.estimator import SocialAffordanceModel
 from ..model.figures import draw_groupings
+from ..model.joints import instance_frame
 from ..retarget.model_source import ModelSource
 from ..retarget.sources import GroundTruthSource
 from ..sim.episode import run_episode
@@ -124,7 +125,7 @@ def run_interaction(
         pred = Prediction(joints=skel, key_joints=keys, subevents=subs, n_observed=n_obs)
         errors["full"].append(key_joint_error(pred, inter))
         if inter is shown:
-            frame = model.frame_of(inter)
+            frame = instance_frame(inter)
             synthesis_png = plot_key_joint_tracks(
                 out / f"{label}_synthesis.png", inter.fps,
                 frame.to_canonical(inter.key_joints()[:, 1]), frame.to_canonical(keys), subs, model.subevent_names_,

@@ -28,7 +28,7 @@ from ..inference.synthesis import OnlineSynthesizer, SynthesisConfig
 from ..learning.estimator import SocialAffordanceModel
 from ..model.densities import vonmises_logpdf, weibull_logpdf
 from ..model.handedness import KEY_SWAP, relabel
-from ..model.joints import OBJECT
+from ..model.joints import OBJECT, canonical_joints, instance_frame
 from .adapters import AdapterFrame, AffordanceScore, RobotPose
 
 __all__ = ["ModelSpec", "load_models", "weibull_max_logpdf", "spatial_upper_bound", "ModelScorer", "ModelAdapter"]
@@ -105,8 +105,8 @@ class ModelScorer:
     def reset(self, interaction: Interaction) -> None:
         self.model = m = self._model_of(interaction.label)
         self.label = interaction.label
-        self.frame = m.frame_of(interaction)
-        raw = m.canonical_track(interaction, self.frame, hands=np.zeros(2, bool))
+        self.frame = instance_frame(interaction)
+        raw = canonical_joints(interaction, self.frame)  # as recorded
         # Agent 1's labels follow the model's partner rule (as in synthesis), not the recording's own flag.
         self.hands = m.reaction_hands(raw)
         self.track = relabel(raw, self.hands)  # (T, 11, 3): agent 0 is the observed human

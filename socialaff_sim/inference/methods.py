@@ -21,6 +21,7 @@ from ..data.interaction import Interaction
 from ..errors import ConfigError, NotFittedError, choices
 from ..learning.estimator import SocialAffordanceModel
 from ..model.config import AffordanceConfig
+from ..model.joints import instance_frame
 from .body_fit import BodyFitConfig, BodyFitter
 from .protocol import Prediction
 from .synthesis import OnlineSynthesizer, SynthesisConfig
@@ -73,7 +74,7 @@ def fit_skeleton(
     """(T, J, 3) metres world: agent 1's recorded skeleton for the first ``n_observed`` frames, then
     full-body poses fitted to the key joints ``keys`` (T, 5, 3) metres world."""
     skel = interaction.filled_joints()[:, 1].copy()
-    skel[n_observed:] = body.fit_poses(keys[n_observed:], model.frame_of(interaction))
+    skel[n_observed:] = body.fit_poses(keys[n_observed:], instance_frame(interaction))
     return skel
 
 

@@ -21,6 +21,7 @@ from ..errors import ModelError, choices
 from ..model.affordance import AffordanceParameters
 from ..model.config import AffordanceConfig, default_n_subevents
 from ..model.handedness import fit_hand_coupling, hand_flags, relabel
+from ..model.frame import CanonicalFrame
 from ..model.joints import JOINT_NAMES, available_joints, canonical_joints
 from ..model.type_stats import name_subevents
 from .algorithm import learn
@@ -97,6 +98,21 @@ class SocialAffordanceModel(AffordanceParameters):
         return self
 
     # -- parsing and scoring --------------------------------------------------------------------
+    def canonical_track(
+        self, interaction: Interaction, frame: CanonicalFrame | None = None, hands: np.ndarray | None = None
+    ) -> np.ndarray:
+        """(T, 11, 3) float64, metres: the model joints in the (given or own) canonical frame.
+
+        With ``config.active_hand`` each agent's key joints are relabelled by its flag in ``hands``
+        (2,) bool (``None``: the instance's own :func:`~socialaff_sim.model.handedness.hand_flags`,
+        which read both agents' whole tracks). Synthesis reads the recorded labels instead
+        (:class:`~socialaff_sim.inference.observed.ObservedInteraction`) and relabels them with :meth:`reaction_hands`).
+        """
+        x = canonical_joints(interaction, frame)
+        if not self.config.active_hand:
+            return x
+        return relabel(x, hand_flags(x) if hands is None else np.asarray(hands, bool))
+
     def atom_bounds(self, interaction: Interaction, track: np.ndarray | None = None) -> np.ndarray:
         """(A + 1,) int64: atomic-interval bounds of an instance from the learned K-means centroids."""
         self._check()

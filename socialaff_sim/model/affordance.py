@@ -13,15 +13,13 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..data.interaction import Interaction
 from ..errors import ModelError, NotFittedError
 from .config import AffordanceConfig
 from .densities import lognorm_logpdf
 from .estimate import estimate_parameters
 from .features import IntervalFeatures, interval_features
-from .frame import CanonicalFrame
-from .handedness import hand_flags, left_active, partner_flag, relabel
-from .joints import JOINT_NAMES, canonical_joints, instance_frame
+from .handedness import left_active, partner_flag
+from .joints import JOINT_NAMES
 from .path import path_loglik
 from .potentials import TypePotentials, log_motion, log_spatial
 from .segment_dp import best_segmentation
@@ -162,30 +160,11 @@ class AffordanceParameters:
         return TypePotentials(self.spatial_params_[s], self.motion_params_[s], float("nan"))
 
     # -- hooks for inference / synthesis -------------------------------------------------------
-    @staticmethod
-    def frame_of(interaction: Interaction) -> CanonicalFrame:
-        """The canonical frame of an instance (world ↔ canonical), fixed by its first frame."""
-        return instance_frame(interaction)
-
-    def canonical_track(
-        self, interaction: Interaction, frame: CanonicalFrame | None = None, hands: np.ndarray | None = None
-    ) -> np.ndarray:
-        """(T, 11, 3) float64, metres: the model joints in the (given or own) canonical frame.
-
-        With ``config.active_hand`` each agent's key joints are relabelled by its flag in ``hands``
-        (2,) bool (``None``: the instance's own :func:`~socialaff_sim.model.handedness.hand_flags`,
-        which read both agents' whole tracks; synthesis passes :meth:`reaction_hands` instead).
-        """
-        x = canonical_joints(interaction, frame)
-        if not self.config.active_hand:
-            return x
-        return relabel(x, hand_flags(x) if hands is None else np.asarray(hands, bool))
-
     def reaction_hands(self, track: np.ndarray, stop: int | None = None, margin: float = 0.0) -> np.ndarray:
-        """(2,) bool: the relabelling flags when agent 1 is to be synthesized: agent 0's own flag from its
-        frames ``[0, stop)`` of ``track`` (T, 11, 3, as recorded; left only by more than ``margin`` metres
-        of wrist path), agent 1's the likeliest partner flag (``hand_coupling_``). All False without
-        ``config.active_hand``."""
+        """(2,) bool: the relabelling flags (:func:`~socialaff_sim.model.handedness.relabel`) when agent 1 is
+        to be synthesized: agent 0's own flag from its frames ``[0, stop)`` of ``track`` (T, 11, 3, as
+        recorded; left only by more than ``margin`` metres of wrist path), agent 1's the likeliest partner
+        flag (``hand_coupling_``). All False without ``config.active_hand``."""
         self._check()
         if not self.config.active_hand:
             return np.zeros(2, bool)
