@@ -16,7 +16,7 @@ from socialaff_sim.baselines.simple import ConstantVelocity, ConstVelConfig, Hol
 from socialaff_sim.data import Interaction
 from socialaff_sim.errors import ConfigError, ModelError
 from socialaff_sim.evaluation import Prediction, get_method, key_joint_error, observed_part
-from socialaff_sim.evaluation.protocol import StreamingMethod, prediction_from_joints, protocol_view
+from socialaff_sim.inference.protocol import StreamingMethod, prediction_from_joints, protocol_view
 from socialaff_sim.evaluation.streaming import PrefixReactor, run_protocol, schedule
 from socialaff_sim.inference import AffordanceMethod, BodyFitter, SynthesisConfig, synthesize
 

@@ -28,7 +28,7 @@ import numpy as np
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError, NotFittedError
-from ..evaluation.protocol import Prediction, prediction_from_joints
+from ..inference.protocol import Prediction, prediction_from_joints
 
 __all__ = ["ConstantVelocity", "ConstVelConfig", "HoldPose", "damped_displacement", "velocity_estimate"]
 
@@ -38,9 +38,9 @@ class ConstVelConfig:
     """Settings of the ``constvel`` baseline (fixed a priori, see the module docstring)."""
 
     window: int = 5
-    """K, frames: the last K observed frames give each joint's velocity (least-squares slope)."""
+    """K [frames]: The last K observed frames give each joint's velocity (least-squares slope)."""
     time_constant_s: float = 1.0
-    """τ, seconds: decay time of the continued velocity (``math.inf``: no decay)."""
+    """τ [s]: Decay time of the continued velocity (``math.inf``: no decay)."""
 
     def __post_init__(self) -> None:
         if self.window < 2:

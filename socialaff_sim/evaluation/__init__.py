@@ -1,21 +1,18 @@
-"""Evaluation (Experiment 1 of the paper): the method protocol, metrics, cross-validation (pair-, actor-, recording- or block-disjoint folds) under a causal, paper or offline protocol, reports."""
+"""Evaluation (Experiment 1 of the paper): cross-validation (pair-, actor-, recording- or block-disjoint folds) under a causal, paper or offline protocol, metrics, paired comparisons, reports."""
 
-from .compare import PairedDifference, paired_differences
-from .crossval import EvaluationConfig
-from .metrics import joint_error, key_joint_error, matched_accuracy, parse_confusion
-from .protocol import (
+from ..inference.protocol import (
     DEFAULT_N_OBSERVED,
-    METHODS,
     Prediction,
     ReactionMethod,
     Reactor,
     StreamingMethod,
-    available_methods,
-    get_method,
     observed_part,
     prediction_from_joints,
-    register_method,
 )
+from .compare import PairedDifference, paired_differences
+from .crossval import EvaluationConfig
+from .metrics import joint_error, key_joint_error, matched_accuracy, parse_confusion
+from .registry import METHODS, available_methods, get_method, register_method
 from .report import format_tables, write_results
 from .runner import evaluate
 from .splits import SPLITS, make_folds

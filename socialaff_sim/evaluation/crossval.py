@@ -22,7 +22,7 @@ from ..data.dataset import Dataset
 from ..data.interaction import Interaction
 from ..errors import ConfigError, ModelError, SocialAffError, choices
 from .metrics import joint_error, key_joint_error, parse_confusion
-from .protocol import DEFAULT_N_OBSERVED, MethodFactory, Prediction, ReactionMethod
+from ..inference.protocol import DEFAULT_N_OBSERVED, MethodFactory, Prediction, ReactionMethod
 from .splits import SPLITS, make_folds
 from .streaming import PAPER_DELTA_T, PROTOCOLS, run_protocol
 
@@ -37,31 +37,31 @@ class EvaluationConfig:
     """Settings of Experiment 1."""
 
     n_folds: int = 4
-    """k: cross-validation folds per interaction class."""
+    """k [—]: cross-validation folds per interaction class."""
     protocol: str = "causal"
-    """What a method sees when it produces agent 1's frames: ``"causal"``, ``"paper"`` or ``"offline"``
+    """[—]: What a method sees when it produces agent 1's frames: ``"causal"``, ``"paper"`` or ``"offline"``
     (an upper bound); see :mod:`.streaming`."""
     split: str = "pair"
-    """How the folds hold data apart: ``"pair"``, ``"actor"``, ``"recording"`` or ``"block"``
+    """[—]: How the folds hold data apart: ``"pair"``, ``"actor"``, ``"recording"`` or ``"block"``
     (optimistic); see :mod:`.splits`."""
     preset: str = "default"
-    """Configuration preset handed to the method factories that take one: ``"default"`` or ``"paper"``."""
+    """[—]: Configuration preset handed to the method factories that take one: ``"default"`` or ``"paper"``."""
     max_folds: int | None = None
-    """Run only the first this many of the ``n_folds`` folds (each keeps the training set of a k-fold
+    """[—]: Run only the first this many of the ``n_folds`` folds (each keeps the training set of a k-fold
     split), for time-limited runs; ``None``: all. Tables of such runs say so."""
     max_test: int | None = None
-    """At most this many test instances per fold (the first in the fold's order), for time-limited runs;
+    """[—]: At most this many test instances per fold (the first in the fold's order), for time-limited runs;
     ``None``: all. Tables of such runs say so."""
     n_observed: int = DEFAULT_N_OBSERVED
-    """T0: frames of agent 1 observed before synthesis."""
+    """T0 [frames]: frames of agent 1 observed before synthesis."""
     seed: int = 0
-    """Run seed: the folds and every task's generator derive from it."""
+    """[—]: Run seed: the folds and every task's generator derive from it."""
     executor: str = "process"
-    """Where tasks run: ``"process"`` (local process pool), ``"ray"`` (a Ray cluster) or ``"serial"`` (this process)."""
+    """[—]: Where tasks run: ``"process"`` (local process pool), ``"ray"`` (a Ray cluster) or ``"serial"`` (this process)."""
     workers: int | None = None
-    """Parallel workers (process pool size, or Ray CPUs of a local instance); ``None``: all CPUs."""
+    """[—]: Parallel workers (process pool size, or Ray CPUs of a local instance); ``None``: all CPUs."""
     address: str | None = None
-    """Ray cluster address (``executor="ray"``); ``None`` starts a local Ray instance."""
+    """[—]: Ray cluster address (``executor="ray"``); ``None`` starts a local Ray instance."""
 
     def __post_init__(self) -> None:
         if self.protocol not in PROTOCOLS:

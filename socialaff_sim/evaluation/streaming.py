@@ -31,7 +31,15 @@ import numpy as np
 
 from ..data.interaction import Interaction
 from ..errors import ConfigError, ModelError, choices
-from .protocol import Prediction, ReactionMethod, Reactor, StreamingMethod, observed_part, prediction_from_joints, protocol_view
+from ..inference.protocol import (
+    Prediction,
+    ReactionMethod,
+    Reactor,
+    StreamingMethod,
+    observed_part,
+    prediction_from_joints,
+    protocol_view,
+)
 
 __all__ = ["PAPER_DELTA_T", "PROTOCOLS", "PrefixReactor", "run_protocol", "schedule"]
 

@@ -1,8 +1,8 @@
-"""The full model and its ablations as evaluation methods, and as the simulator's key-joint source.
+"""The full model and its ablations as evaluation methods.
 
 ``"full"`` is the social affordance model with Algorithm 2; ``"v1"`` drops joint selection and
 grouping, ``"v2"`` drops latent sub-events (the paper's two ablations). All implement
-:class:`~socialaff_sim.evaluation.protocol.ReactionMethod` and its streaming ``start``: under the
+:class:`~socialaff_sim.inference.protocol.ReactionMethod` and its streaming ``start``: under the
 ``causal`` and ``paper`` evaluation protocols the online synthesizer is fed the growing view
 (:meth:`~socialaff_sim.inference.synthesis.OnlineSynthesizer.observe`) and runs with
 :attr:`AffordanceMethod.synthesis` (default :meth:`SynthesisConfig.reactive`); under ``offline`` it
@@ -12,24 +12,24 @@ every other method (one fit per fold); ``chains`` > 1 averages several chains' s
 ensemble lowered the offline error in docs/analysis.md, sessions 10–11, at three times the cost — not
 like for like against one-fit baselines, so it is not the default). ``"full_online"`` is the full
 model with the paper's Algorithm 2 settings (``SynthesisConfig()``) under every protocol.
-A factory's ``preset`` (``"default"`` or ``"paper"``) selects the model, learning and synthesis
-configurations (:func:`preset_configs`).
+:mod:`socialaff_sim.evaluation.registry` registers them by name; a factory's ``preset`` (``"default"``
+or ``"paper"``) selects the model, learning and synthesis configurations (:func:`preset_configs`).
 """
 
 from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from pathlib import Path
 
 import numpy as np
 
 from ..data.interaction import Interaction
-from ..errors import ConfigError, NotFittedError, SimulationError, choices
-from ..evaluation.protocol import Prediction, register_method
-from ..model.affordance import SocialAffordanceModel
+from ..errors import ConfigError, NotFittedError, choices
+from ..learning.estimator import SocialAffordanceModel
 from ..model.config import AffordanceConfig
+from ..model.joints import instance_frame
 from .body_fit import BodyFitConfig, BodyFitter
+from .protocol import Prediction
 from .synthesis import OnlineSynthesizer, SynthesisConfig
 
 try:  # the paper presets (issue 23) live in their own module; without it only "default" is offered
@@ -37,10 +37,7 @@ try:  # the paper presets (issue 23) live in their own module; without it only "
 except ImportError:  # pragma: no cover - depends on the installed version
     _preset = None
 
-__all__ = [
-    "AffordanceMethod", "PRESETS", "REGISTERED_CHAINS", "VARIANTS", "ModelSource", "fit_skeleton", "key_joint_source",
-    "preset_configs", "synthesize",
-]
+__all__ = ["AffordanceMethod", "PRESETS", "REGISTERED_CHAINS", "VARIANTS", "fit_skeleton", "preset_configs", "synthesize"]
 
 VARIANTS: dict[str, dict[str, bool]] = {
     "full": {},
@@ -105,7 +102,7 @@ def fit_skeleton(
     """(T, J, 3) metres world: agent 1's recorded skeleton for the first ``n_observed`` frames, then
     full-body poses fitted to the key joints ``keys`` (T, 5, 3) metres world."""
     skel = interaction.filled_joints()[:, 1].copy()
-    skel[n_observed:] = body.fit_poses(keys[n_observed:], model.frame_of(interaction))
+    skel[n_observed:] = body.fit_poses(keys[n_observed:], instance_frame(interaction))
     return skel
 
 
@@ -213,7 +210,7 @@ class _AffordanceReactor:
             self.synths = [OnlineSynthesizer(m, None, self.config) for m in self.method.models_]
             for syn, r in zip(self.synths, self.rngs, strict=True):
                 syn.reset(longer, rng=r)
-            self._frame = self.method.model_.frame_of(view)
+            self._frame = instance_frame(view)
         else:
             for syn in self.synths:
                 syn.observe(longer)
@@ -229,84 +226,3 @@ class _AffordanceReactor:
         subs = np.array([st.subevent for st in blocks[0]], dtype=np.int64)
         joints = self.method.body_.fit_poses(keys, self._frame)
         return Prediction(joints=joints, key_joints=keys, subevents=subs, n_observed=0)
-
-
-def _full(preset: str = "default") -> AffordanceMethod:
-    return AffordanceMethod.from_preset("full", preset, chains=REGISTERED_CHAINS)
-
-
-def _v1(preset: str = "default") -> AffordanceMethod:
-    return AffordanceMethod.from_preset("v1", preset, chains=REGISTERED_CHAINS)
-
-
-def _v2(preset: str = "default") -> AffordanceMethod:
-    return AffordanceMethod.from_preset("v2", preset, chains=REGISTERED_CHAINS)
-
-
-def _full_online() -> AffordanceMethod:
-    cfg = SynthesisConfig()
-    return AffordanceMethod("full", synthesis=cfg, offline_synthesis=cfg, name="full_online")
-
-
-register_method("full", _full)
-register_method("full_online", _full_online)
-register_method("v1", _v1)
-register_method("v2", _v2)
-
-
-class ModelSource:
-    """The online synthesizer as the simulator's :class:`~socialaff_sim.retarget.sources.KeyJointSource`.
-
-    Frames must be requested in order (``targets(0)``, ``targets(1)``, …), as a simulator does;
-    agent 1's first T0 frames are the recording, the rest is synthesized causally.
-    """
-
-    def __init__(self, model: SocialAffordanceModel, *, seed: int = 0, config: SynthesisConfig | None = None) -> None:
-        self.model = model
-        self.seed = seed
-        self.config = config or SynthesisConfig.reactive()
-        self._syn: OnlineSynthesizer | None = None
-        self._cache: list = []
-
-    def reset(self, interaction: Interaction) -> None:
-        """Start on an instance."""
-        self._syn = OnlineSynthesizer(self.model, None, self.config)
-        self._syn.reset(interaction, rng=np.random.default_rng(self.seed))
-        self._cache = []
-
-    def targets(self, t: int):  # noqa: ANN201 (SourceFrame, imported lazily to keep retarget optional)
-        """Agent 1's key joints at frame ``t`` (data frame) and the current sub-event's name."""
-        from ..retarget.sources import SourceFrame
-
-        if self._syn is None:
-            raise SimulationError("ModelSource.targets called before reset(interaction)")
-        while len(self._cache) <= t:
-            if self._syn.done:
-                raise SimulationError(f"frame {t} is outside the instance (0 ≤ t < {len(self._cache)})")
-            self._cache.append(self._syn.step())
-        step = self._cache[t]
-        return SourceFrame(step.key_joints.copy(), step.subevent_name)
-
-    @property
-    def placement_frames(self) -> int:
-        """Frames of agent 1's recording the source sees (T0): the simulator places the robot from these only."""
-        return self.config.n_observed
-
-    @property
-    def belief(self) -> np.ndarray:
-        """(S,) the latest sub-event belief."""
-        if not self._cache:
-            S = self.model.n_subevents_
-            return np.full(S, 1.0 / S)
-        return self._cache[-1].belief
-
-
-def key_joint_source(
-    model_path: str | Path, *, seed: int = 0, config: SynthesisConfig | None = None, offline: bool = False
-) -> ModelSource:
-    """A :class:`ModelSource` for the model saved at ``model_path``; ``offline`` (without ``config``) reads
-    the human's whole recorded track (:meth:`SynthesisConfig.offline`), else the synthesis is causal
-    (:meth:`SynthesisConfig.reactive`)."""
-    if config is None and offline:
-        config = SynthesisConfig.offline()
-    return ModelSource(SocialAffordanceModel.load(model_path), seed=seed, config=config)

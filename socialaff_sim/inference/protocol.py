@@ -1,4 +1,4 @@
-"""The protocol every reaction-synthesis method implements, and the registry of methods.
+"""The protocol every reaction-synthesis method implements: its result type and what it may see.
 
 A *method* learns, from the instances of one interaction class, how agent 1
 reacts to agent 0, and then produces agent 1's track for a new instance of that
@@ -6,38 +6,32 @@ class. The full model, its ablations V1/V2, the HMM and Interaction-ProMP
 baselines and the trivial ``hold`` and ``constvel`` baselines all implement
 :class:`ReactionMethod`, so the evaluation treats them alike.
 
-How the evaluation asks (:mod:`.streaming`, one *evaluation protocol* for every method of a run)
-    The method's :meth:`~ReactionMethod.start` returns a :class:`Reactor` for one test instance;
-    the evaluator then calls :meth:`Reactor.react` with a *view* — an :class:`Interaction` holding
-    only what the protocol lets the method see at that moment — and the range of agent 1's frames
-    it wants next. A view is the instance cut after its visible frames (so later frames of agent 0
-    and of the object do not exist in it), with agent 1 hidden from frame T0 on and no sub-events.
-    Under ``causal`` the view for frame t holds frames ``[0, t]``; a method asked for frames beyond
-    its view lengthens it itself with :meth:`Interaction.extend_held` (unknown joints, held object).
+How the evaluation asks (:mod:`socialaff_sim.evaluation.streaming`; one protocol for every method of a run)
+    A :class:`StreamingMethod`'s :meth:`~StreamingMethod.start` returns a :class:`Reactor` for one
+    test instance; the evaluator then calls :meth:`Reactor.react` with a *view* — an
+    :class:`Interaction` holding only what the protocol lets the method see at that moment
+    (:func:`protocol_view`) — and the range of agent 1's frames it wants next. A view is the
+    instance cut after its visible frames (later frames of agent 0 and of the object do not exist
+    in it), with agent 1 hidden from frame T0 on and no sub-events. Under the ``causal`` protocol
+    the view for frame t holds frames ``[0, t]``; a method asked for frames beyond its view
+    lengthens it itself with :meth:`Interaction.extend_held` (unknown joints, held object). A
+    method with only ``predict`` is run on each view by
+    :class:`~socialaff_sim.evaluation.streaming.PrefixReactor`.
 
-A method without ``start`` (only ``predict``) is run through
-:class:`~socialaff_sim.evaluation.streaming.PrefixReactor`, which calls ``predict`` on each view.
+What ``predict`` may look at
+    agent 0's whole track, the object's whole track, and agent 1's first
+    ``n_observed`` frames (T0 = 10 by default) — never agent 1's later frames
+    nor the ground-truth sub-events: the offline setting. :func:`observed_part`
+    builds its input, in which agent 1's frames from ``n_observed`` on are NaN
+    and marked invalid and the sub-events are removed.
 
-``predict`` (whole track at once)
-    agent 0's whole track, the object's whole track and agent 1's first ``n_observed`` frames —
-    the offline setting; :func:`observed_part` builds its input.
-
-Registering a method
-    ``register_method(name, factory)`` adds a factory (a picklable callable
-    returning a fresh, unfitted method, e.g. a module-level function or class)
-    under ``name``; a factory with a ``preset`` keyword receives the run's preset
-    name (``"default"`` or ``"paper"``). ``"hmm"``, ``"promp"``, ``"hold"`` and
-    ``"constvel"`` are registered here; the full model and its ablations
-    (``"full"``, ``"v1"``, ``"v2"``) are registered by
-    :mod:`socialaff_sim.inference.methods` when it is imported
-    (``socialaff_sim.inference`` imports it). :func:`get_method` first imports
-    the modules in :data:`METHOD_PROVIDERS`, then fails with an error listing
-    the available names.
+The contract sits here, below the methods (:mod:`socialaff_sim.inference.methods`,
+:mod:`socialaff_sim.baselines`) that implement it; the registry of methods by name and the
+evaluation that runs them are one layer up (:mod:`socialaff_sim.evaluation.registry`).
 """
 
 from __future__ import annotations
 
-import importlib
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -47,7 +41,7 @@ import numpy as np
 
 from ..data.interaction import MIN_FRAMES, Interaction
 from ..data.skeletons import N_KEY
-from ..errors import ConfigError, ModelError, choices
+from ..errors import ConfigError, ModelError
 
 if TYPE_CHECKING:
     if sys.version_info >= (3, 11):
@@ -57,19 +51,14 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_N_OBSERVED",
-    "METHODS",
-    "METHOD_PROVIDERS",
     "MethodFactory",
     "Prediction",
     "ReactionMethod",
     "Reactor",
     "StreamingMethod",
-    "available_methods",
-    "get_method",
     "observed_part",
-    "protocol_view",
     "prediction_from_joints",
-    "register_method",
+    "protocol_view",
 ]
 
 DEFAULT_N_OBSERVED = 10
@@ -175,84 +164,6 @@ class StreamingMethod(ReactionMethod, Protocol):
 
 MethodFactory = Callable[..., ReactionMethod]
 """A picklable callable returning a fresh, unfitted method; it may take a keyword ``preset`` (str)."""
-
-
-def _hmm() -> ReactionMethod:
-    from ..baselines.hmm import MultiLevelHMM
-
-    return MultiLevelHMM()
-
-
-def _promp() -> ReactionMethod:
-    from ..baselines.promp import InteractionProMP
-
-    return InteractionProMP()
-
-
-def _hold() -> ReactionMethod:
-    from ..baselines.simple import HoldPose
-
-    return HoldPose()
-
-
-def _constvel() -> ReactionMethod:
-    from ..baselines.simple import ConstantVelocity
-
-    return ConstantVelocity()
-
-
-METHODS: dict[str, MethodFactory] = {"hmm": _hmm, "promp": _promp, "hold": _hold, "constvel": _constvel}
-"""Method factories by name. Add to it only through :func:`register_method`."""
-
-METHOD_PROVIDERS: tuple[str, ...] = ("socialaff_sim.inference",)
-"""Modules imported by :func:`get_method` so that they can register their methods."""
-
-
-def register_method(name: str, factory: MethodFactory, *, replace: bool = False) -> None:
-    """Make ``factory`` available as method ``name`` (snake_case).
-
-    Registering the same factory twice is harmless; another factory under a taken
-    name needs ``replace=True``. The factory must be picklable (a module-level
-    function or class, or a ``functools.partial`` of one) because the evaluation
-    runs methods in worker processes.
-    """
-    if not isinstance(name, str) or not name.isidentifier() or name != name.lower():
-        raise ConfigError(f"register_method: expected a lower-case identifier as name, found {name!r}")
-    if not callable(factory):
-        raise ConfigError(f"register_method({name!r}): expected a callable factory, found {type(factory).__name__}")
-    old = METHODS.get(name)
-    if old is not None and old is not factory and not replace:
-        raise ConfigError(f"register_method: method {name!r} is already registered; pass replace=True to override it")
-    METHODS[name] = factory
-
-
-def _load_providers() -> None:
-    for module in METHOD_PROVIDERS:
-        try:
-            importlib.import_module(module)
-        except ModuleNotFoundError as exc:
-            if exc.name != module:
-                raise
-
-
-def available_methods() -> tuple[str, ...]:
-    """Names of every registered method (after importing :data:`METHOD_PROVIDERS`), sorted."""
-    _load_providers()
-    return tuple(sorted(METHODS))
-
-
-def get_method(name: str) -> MethodFactory:
-    """The factory registered under ``name``; the error lists the available methods."""
-    if name not in METHODS:
-        _load_providers()
-    try:
-        return METHODS[name]
-    except KeyError:
-        raise ConfigError(
-            f"unknown method {name!r}; available methods: {choices(sorted(METHODS))} "
-            "(the full model and its ablations 'full', 'v1', 'v2' are registered by the synthesis module "
-            "of socialaff_sim.inference once it is installed)"
-        ) from None
 
 
 def observed_part(interaction: Interaction, n_observed: int) -> Interaction:
