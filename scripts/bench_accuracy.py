@@ -50,8 +50,8 @@ def _commit() -> str:
     try:
         return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
                               check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
+    except (OSError, subprocess.CalledProcessError):  # e.g. run from an exported snapshot of a commit
+        return os.environ.get("SOCIALAFF_COMMIT", "unknown")
 
 
 def _f(x: object, fmt: str = ".3f") -> str:
