@@ -3,7 +3,8 @@
 Completed intervals are scored as in learning (spatial + motion potentials at their end,
 log-normal duration). The last, open interval has not reached its end, so it is scored only
 by the probability that its duration exceeds the time elapsed so far (the log-normal survival
-function). Maximizing over parses with :func:`~socialaff_sim.model.segment_dp.segmentation_tables`
+function; ``open_interval="survival"``), or, as in the paper's DP, like every other interval, as if it
+ended at the latest frame (``"closed"``). Maximizing over parses with :func:`~socialaff_sim.model.segment_dp.segmentation_tables`
 gives, for every label s, the best parse whose open interval is labelled s; normalizing those
 gives the belief over the current sub-event.
 """
@@ -55,17 +56,21 @@ def log_duration_survival(model: SocialAffordanceModel, s: int, seconds: np.ndar
     return log_ndtr(-(np.log(secs) - mu) / sigma)
 
 
-def parse_prefix(model: SocialAffordanceModel, track: np.ndarray, fps: float, bounds: np.ndarray) -> PrefixParse:
+def parse_prefix(
+    model: SocialAffordanceModel, track: np.ndarray, fps: float, bounds: np.ndarray, open_interval: str = "survival"
+) -> PrefixParse:
     """Best parse of the canonical ``track`` (t, 11, 3) over the cut points ``bounds`` (B + 1,), ending at t.
 
     ``bounds`` starts at 0 and ends at t = len(track); intervals run between consecutive or
-    non-consecutive cut points.
+    non-consecutive cut points. ``open_interval``: ``"survival"`` scores the last interval by its
+    duration's survival function, ``"closed"`` like the others
+    (:attr:`~socialaff_sim.inference.synthesis_config.SynthesisConfig.open_interval`).
     """
     bounds = np.asarray(bounds, dtype=np.int64)
     B = bounds.shape[0] - 1
     S = model.n_subevents_
     a, b = np.triu_indices(B + 1, k=1)
-    closed = b < B
+    closed = b < B if open_interval == "survival" else np.ones(a.shape, bool)
     seg = np.full((B + 1, B + 1, S), -np.inf)
     ca, cb = a[closed], b[closed]
     if ca.size:
@@ -74,9 +79,10 @@ def parse_prefix(model: SocialAffordanceModel, track: np.ndarray, fps: float, bo
         for s in range(S):
             seg[ca, cb, s] = np.where(short, -np.inf, model.interval_log_score(feats, s))
     oa = a[~closed]
-    elapsed = (bounds[B] - bounds[oa]) / fps
-    for s in range(S):
-        seg[oa, B, s] = log_duration_survival(model, s, elapsed)
+    if oa.size:
+        elapsed = (bounds[B] - bounds[oa]) / fps
+        for s in range(S):
+            seg[oa, B, s] = log_duration_survival(model, s, elapsed)
     cfg = model.config
     best, back = segmentation_tables(
         seg,

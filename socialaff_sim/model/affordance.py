@@ -99,7 +99,11 @@ class SocialAffordanceModel:
     log_posterior_ : float
         log P* of the returned (best visited) state.
     moves_ : dict[str, tuple[int, int]]
-        (proposed, accepted) per dynamics.
+        (proposed, accepted) per dynamics (proposals with no admissible choice count as rejected).
+    history_ : dict[str, ndarray]
+        Per outer iteration: ``"log_posterior"`` (I + 1,), ``"temperature"`` (I,), and per dynamics m
+        ``"proposed_<m>"`` / ``"accepted_<m>"`` (I,) int64 (:func:`~socialaff_sim.learning.history.new_history`).
+        Set by :meth:`fit` only; a loaded model has ``trace_``, ``acceptance_`` and ``moves_`` but no history.
     fit_seconds_ : dict[str, float]
         Wall-clock seconds of the stages of :meth:`fit`.
     """
@@ -154,6 +158,7 @@ class SocialAffordanceModel:
         self.acceptance_rate_ = float(res.acceptance.mean()) if res.acceptance.size else 0.0
         self.log_posterior_ = res.log_posterior
         self.moves_ = dict(res.moves)
+        self.history_ = dict(res.history)
         self.fit_seconds_ = dict(res.seconds)
         self.subevent_names_ = name_subevents(inters, spans, n_sub)
         return self
@@ -261,7 +266,7 @@ class SocialAffordanceModel:
         cfg = self.config
         pot = self.potentials(s)
         return _nan_to_neginf(log_spatial(
-            pot, self._z(s), np.asarray(end, float), cfg.eps, other_side=cfg.other_side_reference,
+            pot, self._z(s), np.asarray(end, float), cfg.eps, other_side=cfg.other_side_reference, include_self=cfg.reference_self,
             cartesian=cfg.vector_density == "cartesian",
         ))
 
