@@ -52,9 +52,11 @@ def main() -> None:
     ap.add_argument("--iterations", type=int, default=30)
     ap.add_argument("--presets", nargs="*", default=["default", "paper"])
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--temperature", type=float, default=None, help="override LearningConfig.temperature (T0) of every preset")
     args = ap.parse_args()
     data = load_dataset(args.data)
-    print(f"data {args.data}, {args.instances} instances, {args.iterations} iterations, seed {args.seed}")
+    print(f"data {args.data}, {args.instances} instances, {args.iterations} iterations, seed {args.seed}, "
+          f"temperature {args.temperature if args.temperature is not None else 'of the preset'}")
     print("| preset | interaction | merge | split | relabel | shift | init acc | start acc | learned acc | log P* start -> end |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for label in args.interactions:
@@ -62,6 +64,8 @@ def main() -> None:
         for name in args.presets:
             p = preset(name)
             learning = dataclasses.replace(p.learning, iterations=args.iterations)
+            if args.temperature is not None:
+                learning = dataclasses.replace(learning, temperature=args.temperature)
             model = SocialAffordanceModel(p.affordance, learning).fit(inters, rng=np.random.default_rng(args.seed))
             rates = acceptance_rates(model.history_)
             cells = [f"{a}/{n} ({r:.1%})" if (n := rates.get(m, (0, 0, 0))[0]) else "—"

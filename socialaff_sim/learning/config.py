@@ -59,7 +59,7 @@ class LearningConfig(DictConfig):
     atomic boundary (a merge immediately followed by a split of the merged interval, labels kept).
     Otherwise one of the paper's dynamics is drawn with p_merge / p_split / p_relabel. 0 (the paper):
     no shift move."""
-    temperature: float = 1.0
+    temperature: float = 100.0
     """T₀ ≥ 1 of the tempered chain, our addition: iteration i of I accepts with
     min(1, (P*'/P*)^(1/T_i) q_rev/q_fwd), T_i = T₀^(1 − i/(I − 1)) cooling geometrically to 1 at the
     last iteration (simulated annealing; the returned state is the best visited). A one-atom change of
