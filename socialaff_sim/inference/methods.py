@@ -4,7 +4,7 @@
 grouping, ``"v2"`` drops latent sub-events (the paper's two ablations). The protocol gives every
 method agent 0's whole recorded track, so these three synthesize with
 :meth:`~socialaff_sim.inference.synthesis.SynthesisConfig.offline`; ``"full_online"`` is the full
-model with the paper's causal Algorithm 2 (``SynthesisConfig()``), as the simulator runs it. All four implement
+model with the default causal Algorithm 2 (``SynthesisConfig()``), as the simulator runs it. All four implement
 :class:`~socialaff_sim.evaluation.protocol.ReactionMethod` and are registered on import. The registered
 ``"full"``, ``"v1"`` and ``"v2"`` average :data:`REGISTERED_CHAINS` MCMC chains; ``"full_online"`` learns one
 model, as the simulator does.

@@ -41,9 +41,10 @@ class SocialAffordanceModel:
     Parameters
     ----------
     config:
-        Model settings (|S|, β, γ, floors, ablation switches); defaults are the paper's.
+        Model settings (|S|, β, γ, floors, ablation switches); ``AffordanceConfig.paper()`` for the paper's model.
     learning:
-        Algorithm 1 settings (:class:`~socialaff_sim.learning.config.LearningConfig`); defaults are the paper's.
+        Algorithm 1 settings (:class:`~socialaff_sim.learning.config.LearningConfig`); ``LearningConfig.paper()``
+        for the paper's Algorithm 1.
 
     Attributes (after :meth:`fit` or :meth:`load`; S = |S|, 11 model joints)
     ----------------------------------------------------------------------
