@@ -42,7 +42,7 @@ REGISTERED_CHAINS = 3
 
 One chain's parse depends on its seed: on the SBU handshakes the fit's seed alone moves the full model's
 error from 0.127 to 0.136 m. Three chains cost three fits; they lowered the full model's error on all three
-datasets of the accuracy benchmark (docs/analysis.md, sessions 10 and 11).
+datasets of the accuracy benchmark (the history of docs/analysis.md, sessions 10 and 11; docs/design.md).
 """
 
 
