@@ -24,7 +24,7 @@ from socialaff_sim.data import load_dataset
 from socialaff_sim.inference.presets import preset
 from socialaff_sim.learning.algorithm import learn
 from socialaff_sim.learning.history import acceptance_rates
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning.estimator import SocialAffordanceModel
 from socialaff_sim.model.handedness import hand_flags, relabel
 from socialaff_sim.model.joints import available_joints, canonical_joints
 

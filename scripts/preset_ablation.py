@@ -30,11 +30,11 @@ from scipy.optimize import linear_sum_assignment
 
 from socialaff_sim.data import load_dataset
 from socialaff_sim.evaluation.metrics import mean_joint_distance
-from socialaff_sim.evaluation.protocol import observed_part
+from socialaff_sim.inference.protocol import observed_part
 from socialaff_sim.inference import synthesize
 from socialaff_sim.inference.presets import Preset, preset
 from socialaff_sim.learning.mh import MOVES
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning.estimator import SocialAffordanceModel
 
 # (row name, which config, field): the paper's value is read from the paper preset.
 DIFFERENCES: tuple[tuple[str, str, str], ...] = (

@@ -10,10 +10,10 @@ import pytest
 from scipy import stats
 
 from socialaff_sim.data.dataset import Dataset
-from socialaff_sim.evaluation.protocol import observed_part
+from socialaff_sim.inference.protocol import observed_part
 from socialaff_sim.inference import BodyFitter, OnlineSynthesizer, SynthesisConfig
 from socialaff_sim.inference.synthesis import _AGENT1
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning.estimator import SocialAffordanceModel
 
 
 class _Recorder(OnlineSynthesizer):

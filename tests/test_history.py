@@ -12,7 +12,7 @@ from socialaff_sim.data.npz_format import save_dataset
 from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.learning.history import acceptance_rates, new_history, summary_line
 from socialaff_sim.learning.mh import MOVES
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning.estimator import SocialAffordanceModel
 
 
 def test_history_counts_every_proposal(shake8: Dataset, caplog: pytest.LogCaptureFixture) -> None:

@@ -11,13 +11,13 @@ from conftest import labelled_partitions
 
 from socialaff_sim.data.dataset import Dataset
 from socialaff_sim.errors import ConfigError
-from socialaff_sim.evaluation.protocol import observed_part
+from socialaff_sim.inference.protocol import observed_part
 from socialaff_sim.inference import OnlineSynthesizer, SynthesisConfig, parse_prefix, synthesize
 from socialaff_sim.inference.presets import PRESETS, Preset, preset
 from socialaff_sim.learning.algorithm import learn, make_spaces, temperatures
 from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.learning.mh import draw_move
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning.estimator import SocialAffordanceModel
 from socialaff_sim.model.config import AffordanceConfig
 from socialaff_sim.model.joints import available_joints, canonical_joints
 from socialaff_sim.model.potentials import reference_weights

@@ -15,8 +15,8 @@ def run(args: argparse.Namespace) -> int:
     """Load the data, fit, save, print a summary."""
     from ..data import load_dataset  # noqa: PLC0415
     from ..inference.presets import preset  # noqa: PLC0415
+    from ..learning.estimator import SocialAffordanceModel  # noqa: PLC0415
     from ..learning.history import summary_line  # noqa: PLC0415
-    from ..model.affordance import SocialAffordanceModel  # noqa: PLC0415
 
     data = load_dataset(args.data).of_label(args.interaction)
     chosen = preset(args.preset)
