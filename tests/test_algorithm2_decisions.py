@@ -35,10 +35,11 @@ class _Recorder(OnlineSynthesizer):
         return last
 
 
-def _run(model: SocialAffordanceModel, inter, config: SynthesisConfig, seed: int = 0) -> _Recorder:  # noqa: ANN001
+def _run(model: SocialAffordanceModel, inter, config: SynthesisConfig, seed: int = 0, plans: int | None = None) -> _Recorder:  # noqa: ANN001
+    """Synthesize the instance (or only until ``plans`` re-plannings were made)."""
     syn = _Recorder(model, None, config)
     syn.reset(observed_part(inter, config.n_observed), rng=np.random.default_rng(seed))
-    while not syn.done:
+    while not syn.done and (plans is None or len(syn.plans) < plans):
         syn.step()
     return syn
 
@@ -90,7 +91,7 @@ def test_duration_choice_sample_follows_the_conditional_law(shake8_model: Social
     inter = shake8[6]
     lasts = []
     for seed in range(6):
-        syn = _run(shake8_model, inter, SynthesisConfig.paper(), seed=seed)
+        syn = _run(shake8_model, inter, SynthesisConfig.paper(), seed=seed, plans=1)
         t, s, start, last = syn.plans[0]
         assert last >= t
         lasts.append(last)
@@ -116,11 +117,11 @@ def test_sub_event_switch_follows_the_prefix_parse(shake8_model: SocialAffordanc
 
     inter = shake8[6]
     m = shake8_model
-    syn = _run(m, inter, SynthesisConfig())
+    syn = _run(m, inter, SynthesisConfig(), plans=12)
     labels = {p[1] for p in syn.plans}
     assert len(labels) >= 2  # the sub-event does switch on this instance
     lc = m.learning
-    for t, s, start, _ in syn.plans[:6]:
+    for t, s, start, _ in syn.plans:
         prefix = syn._track[:t]
         bounds = cut_atoms(prefix, inter.fps, m.available_, m.centroids_, min_frames=lc.min_atomic_frames,
                            max_seconds=lc.max_atomic_seconds, tau=lc.velocity_seconds)
