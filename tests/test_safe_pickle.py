@@ -284,3 +284,45 @@ def test_array_subclasses_are_refused() -> None:
     stream = pickle.dumps(Crafted(), protocol=4)
     with pytest.raises(UnsafePickleError):
         restricted_loads(stream, allowed=NUMPY_ARRAY_GLOBALS, expect=np.ndarray)
+
+
+# -- a matrix of crafted streams: dangerous globals × every opcode that resolves a global ----------------
+DANGEROUS = [
+    "os.system", "posix.system", "nt.system", "os.popen", "os.execv", "os.remove", "subprocess.Popen",
+    "subprocess.call", "subprocess.check_output", "builtins.eval", "builtins.exec", "builtins.compile",
+    "builtins.open", "builtins.getattr", "builtins.setattr", "builtins.__import__", "builtins.globals",
+    "builtins.print", "__builtin__.eval", "importlib.import_module", "shutil.rmtree", "pickle.loads",
+    "_pickle.loads", "marshal.loads", "types.FunctionType", "types.CodeType", "ctypes.CDLL", "socket.socket",
+    "webbrowser.open", "numpy.load", "numpy.fromfile", "numpy.testing._private.utils.runstring",
+    "numpy.ctypeslib.load_library", "pty.spawn", "code.interact",
+]
+
+
+def _short_unicode(text: str) -> bytes:
+    raw = text.encode()
+    return b"\x8c" + bytes([len(raw)]) + raw
+
+
+def _stream(opcode: str, dotted: str) -> bytes:
+    """A hand-written stream that resolves ``dotted`` through ``opcode`` and calls it with no arguments."""
+    module, name = dotted.rsplit(".", 1)
+    m, n = module.encode(), name.encode()
+    if opcode == "GLOBAL":  # protocol 0: c<module>\n<name>\n, then () and REDUCE
+        return b"c" + m + b"\n" + n + b"\n)R."
+    if opcode == "STACK_GLOBAL":  # protocol 4
+        return b"\x80\x04" + _short_unicode(module) + _short_unicode(name) + b"\x93)R."
+    if opcode == "INST":  # protocol 0: MARK, INST <module>\n<name>\n calls it with the marked items
+        return b"(i" + m + b"\n" + n + b"\n."
+    if opcode == "OBJ":  # protocol 1: MARK, GLOBAL, OBJ calls it with the items after it
+        return b"(c" + m + b"\n" + n + b"\no."
+    raise AssertionError(opcode)
+
+
+@pytest.mark.parametrize("opcode", ["GLOBAL", "STACK_GLOBAL", "INST", "OBJ"])
+@pytest.mark.parametrize("dotted", DANGEROUS)
+def test_crafted_stream_matrix_is_refused_by_both_allow_lists(opcode: str, dotted: str) -> None:
+    stream = _stream(opcode, dotted)
+    assert any(op.name == opcode for op, _, _ in pickletools.genops(stream))  # the stream is what it claims
+    for allowed in (NUMPY_ARRAY_GLOBALS, ROS_TIME_GLOBALS):
+        with pytest.raises(UnsafePickleError, match=f"forbidden global {dotted.replace('.', '[.]')}"):
+            restricted_loads(stream, allowed=allowed, expect=object)
