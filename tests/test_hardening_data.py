@@ -239,3 +239,27 @@ def test_a_forbidden_pickle_stops_even_a_lenient_load(tmp_path: Path) -> None:
         load_handover(tmp_path)
     (tmp_path / "motion_normal_2.pkl").write_bytes(b"")
     assert len(load_handover(tmp_path)) == 1  # an empty file is only skipped
+
+
+# -- names from file names in the other loaders --------------------------------------------------------------
+def test_handover_overlong_file_name_is_skipped_not_written_anywhere(tmp_path: Path) -> None:
+    src = shared_path("handover_h2h")
+    shutil.copy(src / "motion_normal_1.pkl", tmp_path / "motion_normal_1.pkl")
+    long_name = f"motion_normal_{'9' * 130}.pkl"  # a valid pattern whose stem (the id) is 144 characters
+    shutil.copy(src / "motion_normal_0.pkl", tmp_path / long_name)
+    ds = load_handover(tmp_path)
+    assert [i.instance_id for i in ds] == ["motion_normal_1"]
+    assert long_name in ds.notes["skipped_files"] and "instance_id" in ds.notes["skipped_files"]
+    with pytest.raises(DataError, match="instance_id"):
+        load_handover(tmp_path, policy="strict")
+
+
+def test_nuisi_option_like_and_overlong_stems_are_skipped(tmp_path: Path) -> None:
+    src = shared_path("nuisi_v1")
+    for stem in ("wave1", f"wave{'1' * 130}", "-wave2"):
+        for k in (1, 2):
+            shutil.copy(src / f"wave1_agent{k}.bag.npz", tmp_path / f"{stem}_agent{k}.bag.npz")
+    ds = load_nuisi(tmp_path)
+    assert {i.instance_id.rsplit("_", 1)[0] for i in ds} == {"wave1"}
+    skipped = ds.notes["skipped_files"]
+    assert "-wave2_agent1.bag.npz: unknown interaction '-wave'" in skipped and "instance_id" in skipped

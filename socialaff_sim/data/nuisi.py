@@ -60,6 +60,7 @@ from numpy.lib import format as npy_format
 from ..errors import ConfigError, DataError, choices
 from .dataset import Dataset
 from .interaction import MIN_FRAMES, Interaction
+from .names import stem_problem
 from .npz_reader import _READ_ERRORS, read_npz
 from .policy import DEFAULT_POLICY, SkippedFiles
 from .safe_pickle import ROS_TIME_GLOBALS, RosTime, restricted_loads
@@ -284,9 +285,12 @@ def _pairs(root: Path, skipped: SkippedFiles) -> list[tuple[str, str, Path, Path
         if agent == "2":
             continue  # the pair is taken with its agent-1 file
         prefix = re.sub(r"\d+$", "", stem).lower()
-        if prefix not in NUISI_LABELS:
-            skipped.skip(a1, f"unknown interaction {prefix!r}; known: {choices(NUISI_LABELS)}")
-            skipped.skip(files[partner], f"unknown interaction {prefix!r}; known: {choices(NUISI_LABELS)}")
+        bad_id = stem_problem(f"{stem}_000")  # the instance ids are "<stem>_<k>"
+        problem = (f"unknown interaction {prefix!r}; known: {choices(NUISI_LABELS)}" if prefix not in NUISI_LABELS
+                   else None if bad_id is None else f"field 'instance_id': {bad_id}")
+        if problem is not None:
+            skipped.skip(a1, problem)
+            skipped.skip(files[partner], problem)
             continue
         pairs.append((stem, NUISI_LABELS[prefix], a1, files[partner]))
     if not pairs:

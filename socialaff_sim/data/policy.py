@@ -54,7 +54,7 @@ class SkippedFiles:
         except DataError as exc:
             if self.policy == "strict":
                 raise
-            self.files.append((Path(path), exc.detail))
+            self.files.append((Path(path), f"field {exc.field!r}: {exc.detail}" if exc.field else exc.detail))
 
     def report(self, notes: dict[str, float | str]) -> None:
         """Log one warning listing the skipped files and keep the list in ``notes["skipped_files"]``."""
