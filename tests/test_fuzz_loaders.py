@@ -20,7 +20,7 @@ from hypothesis.extra import numpy as hnp
 from socialaff_sim.data import LAYOUTS, Interaction, load_interaction
 from socialaff_sim.data.npz_format import _to_bytes
 from socialaff_sim.errors import SocialAffError
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning.estimator import SocialAffordanceModel
 
 FUZZ = settings(max_examples=60, deadline=None, derandomize=True, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])

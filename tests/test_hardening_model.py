@@ -13,8 +13,8 @@ import pytest
 from numpy.lib import format as npy_format
 
 from socialaff_sim.errors import ModelFileError
-from socialaff_sim.model.affordance import SocialAffordanceModel
-from socialaff_sim.model.model_io import MODEL_FORMAT_VERSION
+from socialaff_sim.learning.estimator import SocialAffordanceModel
+from socialaff_sim.learning.model_io import MODEL_FORMAT_VERSION
 
 
 @pytest.fixture(scope="module")

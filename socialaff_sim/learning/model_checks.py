@@ -1,4 +1,4 @@
-"""Value checks of a model file's contents, run by :func:`~socialaff_sim.model.model_io.load_model`
+"""Value checks of a model file's contents, run by :func:`~socialaff_sim.learning.model_io.read_model`
 after the shape checks: the metadata's schema, finite values, probabilities in range and summing to 1.
 
 A file that passes holds numbers the model's code can use: nothing NaN where the code does not

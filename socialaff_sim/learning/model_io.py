@@ -39,7 +39,8 @@ from __future__ import annotations
 import io
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 
@@ -48,18 +49,17 @@ from .._atomic import atomic_write_bytes
 from ..data.npz_reader import read_npz
 from ..errors import ConfigError, DataError, ModelFileError
 from ..data.skeletons import N_KEY
-from .config import AffordanceConfig
-from .contact_keys import ContactKeys
-from .end_regression import n_context, offset_columns
-from .frame_regression import frame_offset_columns, n_frame_context
-from .ridge import RidgeRegression
-from .joints import JOINT_NAMES, N_JOINTS
+from ..model.affordance import AffordanceParameters
+from ..model.config import AffordanceConfig
+from ..model.contact_keys import ContactKeys
+from ..model.end_regression import n_context, offset_columns
+from ..model.frame_regression import frame_offset_columns, n_frame_context
+from ..model.ridge import RidgeRegression
+from ..model.joints import JOINT_NAMES, N_JOINTS
+from .config import LearningConfig
 from .model_checks import check_meta, check_values
 
-if TYPE_CHECKING:
-    from .affordance import SocialAffordanceModel
-
-__all__ = ["MODEL_FORMAT", "MODEL_FORMAT_VERSION", "save_model", "load_model"]
+__all__ = ["MODEL_FORMAT", "MODEL_FORMAT_VERSION", "save_model", "read_model"]
 
 MODEL_FORMAT = "socialaff_sim.affordance_model"
 MODEL_FORMAT_VERSION = 8
@@ -73,8 +73,9 @@ _ARRAYS = (
 )
 
 
-def save_model(model: SocialAffordanceModel, path: str | Path) -> Path:
-    """Write a fitted model to ``path`` atomically; returns the path."""
+def save_model(model: AffordanceParameters, path: str | Path) -> Path:
+    """Write a fitted model (a :class:`~socialaff_sim.learning.SocialAffordanceModel`) to ``path``
+    atomically; returns the path."""
     path = Path(path)
     parses = model.parses_
     rows = np.concatenate(parses) if parses else np.zeros((0, 3), np.int64)
@@ -88,7 +89,7 @@ def save_model(model: SocialAffordanceModel, path: str | Path) -> Path:
         "joint_names": list(JOINT_NAMES),
         "instance_ids": list(model.instance_ids_),
         "config": model.config.to_dict(),
-        "learning": model.learning.to_dict(),
+        "learning": model.learning.to_dict(),  # type: ignore[attr-defined]  # the estimator's settings
         "log_posterior": float(model.log_posterior_),
         "acceptance_rate": float(model.acceptance_rate_),
         "moves": {k: list(v) for k, v in model.moves_.items()},
@@ -169,11 +170,10 @@ def _check_shape(path: Path, name: str, arr: np.ndarray, shape: tuple[int | None
     return arr
 
 
-def load_model(path: str | Path) -> SocialAffordanceModel:
-    """Read a model file written by :func:`save_model` (see the module doc for the checks)."""
-    from ..learning.config import LearningConfig  # noqa: PLC0415
-    from .affordance import SocialAffordanceModel  # noqa: PLC0415
-
+def read_model(path: str | Path) -> tuple[AffordanceConfig, LearningConfig, dict[str, Any]]:
+    """Read a model file written by :func:`save_model` (see the module doc for the checks): the model's
+    settings, the learning settings and the learned attributes by name
+    (:meth:`socialaff_sim.learning.SocialAffordanceModel.load` builds the model from them)."""
     path = Path(path)
     if not path.is_file():
         raise ModelFileError(f"{path}: no such model file")
@@ -260,7 +260,7 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
 
     check_values(path, a, S, avail)
 
-    model = SocialAffordanceModel(config, learning)
+    model = SimpleNamespace()  # the learned attributes, by name
     model.label_ = label
     model.n_subevents_ = S
     model.subevent_names_ = names
@@ -291,4 +291,4 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     model.acceptance_rate_ = float(meta.get("acceptance_rate", np.nan))
     model.moves_ = {str(k): (int(v[0]), int(v[1])) for k, v in meta.get("moves", {}).items()}
     model.fit_seconds_ = {str(k): float(v) for k, v in meta.get("fit_seconds", {}).items()}
-    return model
+    return config, learning, vars(model)
