@@ -18,7 +18,7 @@ from scipy.special import log_ndtr, logsumexp
 from ..model.affordance import AffordanceParameters
 from ..model.segment_dp import backtrace, segmentation_tables
 
-__all__ = ["PrefixParse", "parse_prefix", "log_duration_survival"]
+__all__ = ["PrefixParse", "parse_prefix", "closed_scores", "log_duration_survival"]
 
 
 @dataclass(frozen=True)
@@ -52,32 +52,58 @@ def log_duration_survival(model: AffordanceParameters, s: int, seconds: np.ndarr
     return log_ndtr(-(np.log(secs) - mu) / sigma)
 
 
-def parse_prefix(model: AffordanceParameters, track: np.ndarray, fps: float, bounds: np.ndarray) -> PrefixParse:
+def closed_scores(model: AffordanceParameters, track: np.ndarray, fps: float, starts: np.ndarray, stops: np.ndarray) -> np.ndarray:
+    """(M, S) log scores of M closed intervals ``[starts, stops)`` (frames of ``track``) under every type:
+    spatial + motion potentials at their end, log-normal duration (and path noise); −inf for an
+    interval shorter than ``config.min_subevent_seconds``. An interval's score reads only frames
+    ``starts − 1`` to ``stops − 1`` of ``track``."""
+    starts = np.asarray(starts, dtype=np.int64)
+    stops = np.asarray(stops, dtype=np.int64)
+    S = model.n_subevents_
+    out = np.full((starts.shape[0], S), -np.inf)
+    if starts.size:
+        feats = model.interval_features(track, starts, stops, fps)
+        short = (stops - starts) < model.config.min_subevent_seconds * fps
+        for s in range(S):
+            out[:, s] = np.where(short, -np.inf, model.interval_log_score(feats, s))
+    return out
+
+
+def parse_prefix(
+    model: AffordanceParameters,
+    track: np.ndarray,
+    fps: float,
+    bounds: np.ndarray,
+    *,
+    closed: np.ndarray | None = None,
+    log_start: np.ndarray | None = None,
+) -> PrefixParse:
     """Best parse of the canonical ``track`` (t, 11, 3) over the cut points ``bounds`` (B + 1,), ending at t.
 
     ``bounds`` starts at 0 and ends at t = len(track); intervals run between consecutive or
-    non-consecutive cut points.
+    non-consecutive cut points. ``closed``: the scores of the closed intervals, (P, S) in the order of
+    ``np.triu_indices(B + 1, 1)`` restricted to stops before cut B (:func:`closed_scores`; computed here
+    when None). ``log_start``: (S,) log prior of the first interval's label (default: the model's start
+    probabilities).
     """
     bounds = np.asarray(bounds, dtype=np.int64)
     B = bounds.shape[0] - 1
     S = model.n_subevents_
     a, b = np.triu_indices(B + 1, k=1)
-    closed = b < B
+    is_closed = b < B
     seg = np.full((B + 1, B + 1, S), -np.inf)
-    ca, cb = a[closed], b[closed]
-    if ca.size:
-        feats = model.interval_features(track, bounds[ca], bounds[cb], fps)
-        short = (bounds[cb] - bounds[ca]) < model.config.min_subevent_seconds * fps
-        for s in range(S):
-            seg[ca, cb, s] = np.where(short, -np.inf, model.interval_log_score(feats, s))
-    oa = a[~closed]
+    ca, cb = a[is_closed], b[is_closed]
+    if closed is None:
+        closed = closed_scores(model, track, fps, bounds[ca], bounds[cb])
+    seg[ca, cb] = closed
+    oa = a[~is_closed]
     elapsed = (bounds[B] - bounds[oa]) / fps
     for s in range(S):
         seg[oa, B, s] = log_duration_survival(model, s, elapsed)
     cfg = model.config
     best, back = segmentation_tables(
         seg,
-        model.log_start_probs_,
+        model.log_start_probs_ if log_start is None else log_start,
         model.log_transitions_,
         distinct=cfg.distinct_neighbours and S > 1,
         unique=cfg.unique_labels,
