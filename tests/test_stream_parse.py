@@ -1,0 +1,127 @@
+"""The online parse on long streams: work bounded by the window, equal to the unbounded parse where
+the window covers the stream, cached scores equal to fresh ones, deterministic per seed."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from socialaff_sim.data.dataset import Dataset
+from socialaff_sim.data.interaction import Interaction
+from socialaff_sim.errors import ConfigError
+from socialaff_sim.inference import OnlineSynthesizer, SynthesisConfig, parse_prefix
+from socialaff_sim.inference.stream_parse import StreamParser
+from socialaff_sim.learning import SocialAffordanceModel
+from socialaff_sim.learning.atomic import cut_atoms
+from socialaff_sim.model.joints import canonical_joints, instance_frame
+
+
+def _stream(parts: list[Interaction], n_frames: int) -> Interaction:
+    """``parts`` end to end (cycled) cut to ``n_frames`` frames: a stream longer than any recording."""
+    reps = -(-n_frames // sum(p.n_frames for p in parts))
+    seq = parts * reps
+    return parts[0].replace(
+        joints=np.concatenate([p.joints for p in seq])[:n_frames],
+        valid=np.concatenate([np.isfinite(p.joints).all(axis=-1) if p.valid is None else p.valid for p in seq])[:n_frames],
+        object=None, subevents=None, subevent_names=(), instance_id="stream",
+    )
+
+
+def _run(model: SocialAffordanceModel, inter: Interaction, cfg: SynthesisConfig, seed: int):  # noqa: ANN202
+    """Key joints (T, 5, 3), sub-events (T,), beliefs (T, S) and the parse counts of every re-planning."""
+    syn = OnlineSynthesizer(model, None, cfg)
+    syn.reset(inter, rng=np.random.default_rng(seed))
+    keys, subs, beliefs, work = [], [], [], []
+    parses = 0
+    for _ in range(inter.n_frames):
+        t = syn.t
+        step = syn.step()
+        keys.append(step.key_joints)
+        subs.append(step.subevent)
+        beliefs.append(step.belief)
+        w = syn.work
+        if w is not None and w.totals.get("parses", 0) > parses:
+            parses = w.totals["parses"]
+            work.append((t, w.frames, w.cuts, w.dp_cells, w.scored, w.cached))
+    return np.array(keys), np.array(subs), np.array(beliefs), np.array(work)
+
+
+@pytest.fixture(scope="module")
+def stream(shake8: Dataset) -> Interaction:
+    return _stream(list(shake8)[6:], 300)
+
+
+def test_work_per_parse_is_bounded_by_the_window(shake8_model: SocialAffordanceModel, stream: Interaction) -> None:
+    S = shake8_model.n_subevents_
+    W = 30  # frames: parse_window 1 s at 30 Hz
+    cfg = SynthesisConfig.reactive(parse_window=W / stream.fps)
+    _, _, _, work = _run(shake8_model, stream, cfg, 0)
+    t, frames, cuts, cells, scored, cached = work.T
+    assert t.max() > 5 * W  # the stream runs well past the window
+    assert frames.max() == W and np.all(frames[t >= W] == W)
+    assert cuts.max() <= W + 1 and cells.max() <= (W + 1) ** 2 * S
+    assert scored.max() <= W * (W - 1) // 2  # new closed intervals: pairs of cuts inside the window
+    assert cached.max() <= W * (W - 1) // 2  # evicted once their start leaves the window
+    # The unbounded parse (the paper's) reads every frame since the start: its work grows with t.
+    _, _, _, full = _run(shake8_model, stream, dataclasses.replace(cfg, parse_window=None), 0)
+    assert full[-1, 1] == full[-1, 0] > W and full[-1, 3] > (W + 1) ** 2 * S
+
+
+def test_window_covering_the_stream_equals_the_unbounded_parse(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
+    inter = _stream(list(shake8)[6:], 140)
+    for base in (SynthesisConfig.reactive(), SynthesisConfig()):
+        a = _run(shake8_model, inter, dataclasses.replace(base, parse_window=None), 3)
+        b = _run(shake8_model, inter, dataclasses.replace(base, parse_window=inter.n_frames / inter.fps), 3)
+        for x, y in zip(a[:3], b[:3]):
+            np.testing.assert_array_equal(x, y)
+
+
+def test_cached_scores_equal_a_fresh_parse_of_the_whole_prefix(shake8_model: SocialAffordanceModel, stream: Interaction) -> None:
+    model = shake8_model
+    track = canonical_joints(stream, instance_frame(stream))[:160]
+    lc = model.learning
+    atoms = dict(min_frames=lc.min_atomic_frames, max_seconds=lc.max_atomic_seconds, tau=lc.velocity_seconds)
+    parser = StreamParser(model, stream.fps, None, **atoms)
+    fresh = 0
+    for t in range(12, 160, 7):
+        got, w0 = parser.parse(track, t, model.available_)
+        bounds = cut_atoms(track[:t], stream.fps, model.available_, model.centroids_, **atoms)
+        ref = parse_prefix(model, track[:t], stream.fps, bounds)  # scored from scratch
+        fresh += (len(bounds) - 1) * (len(bounds) - 2) // 2  # closed intervals a fresh parse scores
+        assert w0 == 0
+        np.testing.assert_array_equal(got.intervals, ref.intervals)
+        np.testing.assert_allclose(got.belief, ref.belief, rtol=1e-9, atol=1e-12)
+    assert parser.work.totals["scored"] < fresh / 3  # most scores came from the cache
+
+
+def test_windowed_parse_rows_are_absolute_and_cover_the_window(shake8_model: SocialAffordanceModel, stream: Interaction) -> None:
+    model = shake8_model
+    track = canonical_joints(stream, instance_frame(stream))
+    lc = model.learning
+    parser = StreamParser(model, stream.fps, 40, min_frames=lc.min_atomic_frames, max_seconds=lc.max_atomic_seconds,
+                          tau=lc.velocity_seconds)
+    for t in (30, 40, 41, 120, 299):
+        parse, w0 = parser.parse(track, t, model.available_)
+        assert w0 == max(t - 40, 0)
+        rows = parse.intervals
+        assert rows[0, 0] == w0 and rows[-1, 1] == t and np.all(rows[1:, 0] == rows[:-1, 1])
+        assert all(key[0] >= w0 for key in parser._scores)
+        np.testing.assert_allclose(parse.belief.sum(), 1.0)
+
+
+def test_same_seed_same_stream_synthesis(shake8_model: SocialAffordanceModel, stream: Interaction) -> None:
+    cfg = SynthesisConfig.reactive(parse_window=1.0)
+    a = _run(shake8_model, stream, cfg, 7)
+    b = _run(shake8_model, stream, cfg, 7)
+    c = _run(shake8_model, stream, cfg, 8)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
+    assert not np.array_equal(a[0], c[0])
+
+
+@pytest.mark.parametrize("window", [0.0, -1.0])
+def test_parse_window_must_be_positive(window: float) -> None:
+    with pytest.raises(ConfigError, match="parse_window"):
+        SynthesisConfig(parse_window=window)
