@@ -44,7 +44,7 @@ def _run(model: SocialAffordanceModel, inter: Interaction, cfg: SynthesisConfig,
         w = syn.work
         if w is not None and w.totals.get("parses", 0) > parses:
             parses = w.totals["parses"]
-            work.append((t, w.frames, w.cuts, w.dp_cells, w.scored, w.cached))
+            work.append((t, w.frames, w.cuts, w.dp_rows, w.dp_cells, w.scored, w.cached))
     return np.array(keys), np.array(subs), np.array(beliefs), np.array(work)
 
 
@@ -55,18 +55,20 @@ def stream(shake8: Dataset) -> Interaction:
 
 def test_work_per_parse_is_bounded_by_the_window(shake8_model: SocialAffordanceModel, stream: Interaction) -> None:
     S = shake8_model.n_subevents_
-    W = 30  # frames: parse_window 1 s at 30 Hz
+    W, H = 30, 15  # frames: parse_window 1 s at 30 Hz, and its hop
     cfg = SynthesisConfig.reactive(parse_window=W / stream.fps)
     _, _, _, work = _run(shake8_model, stream, cfg, 0)
-    t, frames, cuts, cells, scored, cached = work.T
-    assert t.max() > 5 * W  # the stream runs well past the window
-    assert frames.max() == W and np.all(frames[t >= W] == W)
-    assert cuts.max() <= W + 1 and cells.max() <= (W + 1) ** 2 * S
-    assert scored.max() <= W * (W - 1) // 2  # new closed intervals: pairs of cuts inside the window
-    assert cached.max() <= W * (W - 1) // 2  # evicted once their start leaves the window
+    t, frames, cuts, rows, cells, scored, cached = work.T
+    F = W + H - 1  # the longest window
+    M = 1 << S if shake8_model.config.unique_labels else 1
+    assert t.max() > 5 * F  # the stream runs well past the window
+    assert frames.max() == F and frames[t >= W + H].min() == W
+    assert cuts.max() <= F + 1 and rows.max() <= F and cells.max() <= F * F * M * S * S
+    assert scored.max() <= F * (F - 1) // 2 and cached.max() <= F * (F - 1) // 2  # pairs of cuts in the window
+    assert rows.sum() < 0.5 * (cuts - 1).sum()  # most DP rows are reused from the previous parse
     # The unbounded parse (the paper's) reads every frame since the start: its work grows with t.
     _, _, _, full = _run(shake8_model, stream, dataclasses.replace(cfg, parse_window=None), 0)
-    assert full[-1, 1] == full[-1, 0] > W and full[-1, 3] > (W + 1) ** 2 * S
+    assert full[-1, 1] == full[-1, 0] > 5 * F and full[-1, 2] > 2 * (F + 1)
 
 
 def test_window_covering_the_stream_equals_the_unbounded_parse(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
@@ -102,9 +104,9 @@ def test_windowed_parse_rows_are_absolute_and_cover_the_window(shake8_model: Soc
     lc = model.learning
     parser = StreamParser(model, stream.fps, 40, min_frames=lc.min_atomic_frames, max_seconds=lc.max_atomic_seconds,
                           tau=lc.velocity_seconds)
-    for t in (30, 40, 41, 120, 299):
+    for t in (30, 40, 59, 60, 61, 120, 299):
         parse, w0 = parser.parse(track, t, model.available_)
-        assert w0 == max(t - 40, 0)
+        assert w0 == (0 if t < 60 else (t - 40) // 20 * 20) and 40 <= t - w0 < 60 or t < 40
         rows = parse.intervals
         assert rows[0, 0] == w0 and rows[-1, 1] == t and np.all(rows[1:, 0] == rows[:-1, 1])
         assert all(key[0] >= w0 for key in parser._scores)

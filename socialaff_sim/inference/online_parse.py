@@ -18,7 +18,7 @@ from scipy.special import log_ndtr, logsumexp
 from ..model.affordance import AffordanceParameters
 from ..model.segment_dp import backtrace, segmentation_tables
 
-__all__ = ["PrefixParse", "parse_prefix", "closed_scores", "log_duration_survival"]
+__all__ = ["PrefixParse", "parse_prefix", "closed_scores", "parse_segments", "log_duration_survival"]
 
 
 @dataclass(frozen=True)
@@ -31,6 +31,8 @@ class PrefixParse:
     """(S,) float64: posterior weight of each label being the current sub-event (max-product, normalized)."""
     score: float
     """Log score of the best parse."""
+    tables: tuple[np.ndarray, np.ndarray] | None = None
+    """The DP tables ``(best, back)`` (:func:`~socialaff_sim.model.segment_dp.segmentation_tables`), for reuse."""
 
     @property
     def current(self) -> int:
@@ -74,29 +76,39 @@ def parse_prefix(
     track: np.ndarray,
     fps: float,
     bounds: np.ndarray,
-    *,
-    closed: np.ndarray | None = None,
-    log_start: np.ndarray | None = None,
 ) -> PrefixParse:
     """Best parse of the canonical ``track`` (t, 11, 3) over the cut points ``bounds`` (B + 1,), ending at t.
 
     ``bounds`` starts at 0 and ends at t = len(track); intervals run between consecutive or
-    non-consecutive cut points. ``closed``: the scores of the closed intervals, (P, S) in the order of
-    ``np.triu_indices(B + 1, 1)`` restricted to stops before cut B (:func:`closed_scores`; computed here
-    when None). ``log_start``: (S,) log prior of the first interval's label (default: the model's start
-    probabilities).
+    non-consecutive cut points.
     """
     bounds = np.asarray(bounds, dtype=np.int64)
     B = bounds.shape[0] - 1
-    S = model.n_subevents_
     a, b = np.triu_indices(B + 1, k=1)
-    is_closed = b < B
-    seg = np.full((B + 1, B + 1, S), -np.inf)
-    ca, cb = a[is_closed], b[is_closed]
-    if closed is None:
-        closed = closed_scores(model, track, fps, bounds[ca], bounds[cb])
-    seg[ca, cb] = closed
-    oa = a[~is_closed]
+    ca, cb = a[b < B], b[b < B]
+    seg = np.full((B + 1, B + 1, model.n_subevents_), -np.inf)
+    seg[ca, cb] = closed_scores(model, track, fps, bounds[ca], bounds[cb])
+    return parse_segments(model, seg, bounds, fps)
+
+
+def parse_segments(
+    model: AffordanceParameters,
+    seg: np.ndarray,
+    bounds: np.ndarray,
+    fps: float,
+    *,
+    log_start: np.ndarray | None = None,
+    rows: tuple[np.ndarray, np.ndarray] | None = None,
+) -> PrefixParse:
+    """:func:`parse_prefix` from the closed intervals' scores ``seg`` (B + 1, B + 1, S) (entry [a, b] for
+    cuts a < b < B; the open column b = B is filled here, in place). ``log_start``: (S,) log prior of
+    the first interval's label (default: the model's start probabilities). ``rows``: DP rows reused
+    from an earlier parse (:func:`~socialaff_sim.model.segment_dp.segmentation_tables`); the result's
+    ``tables`` can be passed on the same way."""
+    bounds = np.asarray(bounds, dtype=np.int64)
+    B = bounds.shape[0] - 1
+    S = model.n_subevents_
+    oa = np.arange(B)
     elapsed = (bounds[B] - bounds[oa]) / fps
     for s in range(S):
         seg[oa, B, s] = log_duration_survival(model, s, elapsed)
@@ -107,6 +119,7 @@ def parse_prefix(
         model.log_transitions_,
         distinct=cfg.distinct_neighbours and S > 1,
         unique=cfg.unique_labels,
+        rows=rows,
     )
     final = best[B]  # (M, S)
     per_label = final.max(axis=0)
@@ -115,8 +128,8 @@ def parse_prefix(
         s0 = int(np.argmax(model.log_start_probs_))
         belief = np.zeros(S)
         belief[s0] = 1.0
-        return PrefixParse(np.array([[0, int(bounds[B]), s0]], dtype=np.int64), belief, -np.inf)
+        return PrefixParse(np.array([[0, int(bounds[B]), s0]], dtype=np.int64), belief, -np.inf, (best, back))
     belief = np.exp(per_label - logsumexp(per_label))
     m, s = divmod(int(np.argmax(final.reshape(-1))), S)
-    rows = [(int(bounds[p]), int(bounds[q]), k) for p, q, k in backtrace(back, B, m, s)]
-    return PrefixParse(np.array(rows, dtype=np.int64), belief, float(final[m, s]))
+    out = [(int(bounds[p]), int(bounds[q]), k) for p, q, k in backtrace(back, B, m, s)]
+    return PrefixParse(np.array(out, dtype=np.int64), belief, float(final[m, s]), (best, back))
