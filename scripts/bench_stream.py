@@ -97,27 +97,31 @@ def run_stream(model: SocialAffordanceModel, inter: Interaction, cfg: SynthesisC
     syn.reset(inter, rng=np.random.default_rng(seed))
     T = inter.n_frames
     ms = np.empty(T)
+    cpu = np.empty(T)
     rss = []
     edges = (np.linspace(0, T, parts + 1).astype(int) if parts else np.r_[np.arange(0, T, int(60 * inter.fps)), T])
     load = os.getloadavg()
     ref = reference_seconds(np.random.default_rng(0))
     start = time.perf_counter()
     for t in range(T):
-        t0 = time.perf_counter()
+        c0, t0 = time.thread_time(), time.perf_counter()
         syn.step()
         ms[t] = (time.perf_counter() - t0) * 1e3
+        cpu[t] = (time.thread_time() - c0) * 1e3
         if t + 1 in edges:
             rss.append(_rss_mib())
     wall = time.perf_counter() - start
     synth = ms[cfg.n_observed:]
+    cpu_synth = cpu[cfg.n_observed:]
     per = []
     for k in range(len(edges) - 1):
         lo, hi = max(edges[k], cfg.n_observed), edges[k + 1]
-        per.append({**_stats(ms[lo:hi]), "span": [int(edges[k]), int(hi)], "rss_mib": rss[k]})
+        per.append({**_stats(ms[lo:hi]), "cpu": _stats(cpu[lo:hi]), "span": [int(edges[k]), int(hi)], "rss_mib": rss[k]})
     return {"instance": inter.instance_id, "n_frames": T, "fps": inter.fps, "wall_s": wall,
-            "frames_per_s": T / wall, **_stats(synth), "parts": per,
+            "frames_per_s": T / wall, **_stats(synth), "cpu_s": float(cpu.sum() / 1e3),
+            "frames_per_cpu_s": T / max(float(cpu.sum() / 1e3), 1e-9), "cpu": _stats(cpu_synth), "parts": per,
             "load_avg_1_5_15": [round(x, 2) for x in load], "reference_s": ref,
-            "work": dict(getattr(syn, "work", {}) or {})}
+            "parse_totals": dict(syn.work.totals) if syn.work is not None else {}}
 
 
 def main() -> None:
@@ -172,17 +176,20 @@ def main() -> None:
             p.error(f"--synthesis: unknown mode {mode!r}; choose from {', '.join(MODES)}")
         cfg = MODES[mode]()
         if args.window is not None:
-            cfg = dataclasses.replace(cfg, parse_window=args.window)
+            cfg = dataclasses.replace(cfg, parse_window=args.window if args.window > 0 else None)
         rows = []
         for kind, inter, parts in streams:
             r = {"kind": kind, **run_stream(model, inter, cfg, seed=args.seed, parts=parts)}
             rows.append(r)
-            print(f"[{mode}] {kind} {r['instance']}: {r['n_frames']} frames, {r['frames_per_s']:.0f} frames/s, "
-                  f"p50 {r['p50_ms']:.2f} ms, p99 {r['p99_ms']:.2f} ms, max {r['max_ms']:.1f} ms, "
+            c = r["cpu"]
+            print(f"[{mode}] {kind} {r['instance']}: {r['n_frames']} frames, wall {r['frames_per_s']:.0f} frames/s "
+                  f"p50 {r['p50_ms']:.2f} p99 {r['p99_ms']:.2f} max {r['max_ms']:.1f} ms; CPU {r['frames_per_cpu_s']:.0f} "
+                  f"frames/s p50 {c['p50_ms']:.2f} p99 {c['p99_ms']:.2f} max {c['max_ms']:.1f} ms; "
                   f"load {r['load_avg_1_5_15']}, reference {r['reference_s'] * 1e3:.1f} ms", flush=True)
             for q in r["parts"]:
-                print(f"    frames {q['span'][0]:>6}-{q['span'][1]:<6} mean {q['mean_ms']:7.2f}  p50 {q['p50_ms']:7.2f}  "
-                      f"p99 {q['p99_ms']:8.2f}  max {q['max_ms']:8.1f} ms  rss {q['rss_mib']:.0f} MiB", flush=True)
+                print(f"    frames {q['span'][0]:>6}-{q['span'][1]:<6} wall mean {q['mean_ms']:6.2f} p50 {q['p50_ms']:6.2f} "
+                      f"p99 {q['p99_ms']:7.2f} max {q['max_ms']:7.1f} | CPU mean {q['cpu']['mean_ms']:6.2f} "
+                      f"p99 {q['cpu']['p99_ms']:7.2f} ms | rss {q['rss_mib']:.0f} MiB", flush=True)
         out["modes"][mode] = {"config": dataclasses.asdict(cfg), "runs": rows}
     if args.json:
         atomic_write_text(args.json, json.dumps(out, indent=2))

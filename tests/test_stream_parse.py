@@ -15,6 +15,7 @@ from socialaff_sim.inference import OnlineSynthesizer, SynthesisConfig, parse_pr
 from socialaff_sim.inference.stream_parse import StreamParser
 from socialaff_sim.learning import SocialAffordanceModel
 from socialaff_sim.learning.atomic import cut_atoms
+from socialaff_sim.model.handedness import left_active, wrist_paths
 from socialaff_sim.model.joints import canonical_joints, instance_frame
 
 
@@ -127,3 +128,15 @@ def test_same_seed_same_stream_synthesis(shake8_model: SocialAffordanceModel, st
 def test_parse_window_must_be_positive(window: float) -> None:
     with pytest.raises(ConfigError, match="parse_window"):
         SynthesisConfig(parse_window=window)
+
+
+def test_running_wrist_paths_give_the_causal_hand_flag(rng: np.random.Generator) -> None:
+    track = np.cumsum(rng.normal(0.0, 0.02, (200, 11, 3)), axis=0)
+    track[rng.random(200) < 0.1, 1] = np.nan  # missing left-wrist frames add nothing
+    paths = wrist_paths(track, 0)
+    for stop in (0, 1, 2, 17, 100, 200):
+        k = max(stop, 1) - 1
+        ref = np.nansum(np.linalg.norm(np.diff(track[:stop, 1:3], axis=0), axis=-1), axis=0) if stop > 1 else np.zeros(2)
+        np.testing.assert_allclose(paths[k], ref, rtol=1e-12, atol=1e-12)
+        for margin in (0.0, 0.05, abs(ref[0] - ref[1]) + 1e-6):
+            assert (paths[k, 0] - paths[k, 1] > margin) == left_active(track, 0, stop, margin)

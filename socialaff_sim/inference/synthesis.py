@@ -38,7 +38,7 @@ from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ModelError
 from ..model.frame_regression import frame_context
-from ..model.handedness import KEY_SWAP, relabel
+from ..model.handedness import KEY_SWAP, relabel, wrist_paths
 from ..model.potentials import reference_weights
 from ..model.ridge import RidgeRegression
 from .candidates import AGENT1 as _AGENT1
@@ -106,6 +106,7 @@ class OnlineSynthesizer:
         )
         self._frame = obs.frame
         self._raw = obs.track  # as recorded
+        self._paths = wrist_paths(obs.track, 0)
         # Agent 0 and the object stay in the track over the whole instance (read beyond t - 1 with lookahead only).
         self._track = obs.track.copy()
         self._parser = None
@@ -134,7 +135,10 @@ class OnlineSynthesizer:
         with ``lookahead``, else its frames before ``t`` and ``hand_margin``); a flag that changes relabels
         the history too, so emitted frames keep their recorded labels and the track stays continuous."""
         cfg = self.config
-        hands = self.model.reaction_hands(self._raw, *((None, 0.0) if cfg.lookahead else (t, cfg.hand_margin)))
+        if cfg.lookahead:
+            hands = self.model.reaction_hands(self._raw, None, 0.0)
+        else:  # agent 0's wrist paths so far, from running sums: O(1) per re-planning on a stream of any length
+            hands = self.model.reaction_hands_at(self._paths, t, cfg.hand_margin)
         change = hands != self._hands
         if change.any():
             self._track = relabel(self._track, change)
