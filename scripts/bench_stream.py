@@ -121,7 +121,7 @@ def run_stream(model: SocialAffordanceModel, inter: Interaction, cfg: SynthesisC
             "frames_per_s": T / wall, **_stats(synth), "cpu_s": float(cpu.sum() / 1e3),
             "frames_per_cpu_s": T / max(float(cpu.sum() / 1e3), 1e-9), "cpu": _stats(cpu_synth), "parts": per,
             "load_avg_1_5_15": [round(x, 2) for x in load], "reference_s": ref,
-            "parse_totals": dict(syn.work.totals) if syn.work is not None else {}}
+            "parse_totals": dict(syn.work.totals) if getattr(syn, "work", None) is not None else {}}
 
 
 def main() -> None:
