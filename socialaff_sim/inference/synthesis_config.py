@@ -60,13 +60,13 @@ class SynthesisConfig:
     so far and a duration drawn from the log-normal prior; or ``"observed"``, one DP over agent 0's
     (and the object's) whole recorded track before synthesis starts
     (:func:`~socialaff_sim.inference.observed_parse.parse_observed`; offline only, needs ``lookahead``)."""
-    parse_window: float | None = 10.0
+    parse_window: float | None = 4.5
     """W [s]: the ``"online"`` parse reads the last W to 1.5 W seconds only (its start moves in hops of W / 2; its
-    atoms, its DP, a uniform label prior at the window's start once frame 0 has left it), and keeps the scores of intervals already seen, so a
-    re-planning costs the same after an hour as after a second
-    (:class:`~socialaff_sim.inference.stream_parse.StreamParser`). Instances no longer than W (every
-    recording of the shared sets: at most 6.5 s) are parsed exactly as with None: every frame since the
-    start, as in the paper, whose cost grows with the time elapsed."""
+    atoms, its DP, a uniform label prior at the window's start once frame 0 has left it), and keeps the scores
+    of intervals and the DP rows already computed, so a re-planning costs the same after an hour as after a
+    second (:class:`~socialaff_sim.inference.stream_parse.StreamParser`). Instances shorter than 1.5 W (6.75 s:
+    every recording of the shared sets, at most 6.7 s) are parsed exactly as with None: every frame since the
+    start, as in the paper, whose cost grows with the time elapsed. Smaller is faster (docs/benchmarks.md)."""
     observed_parse_step: int = 2
     """[frames]: Frames between the cut points of the ``"observed"`` parse."""
     end_prior: str = "none"
