@@ -140,3 +140,20 @@ def test_running_wrist_paths_give_the_causal_hand_flag(rng: np.random.Generator)
         np.testing.assert_allclose(paths[k], ref, rtol=1e-12, atol=1e-12)
         for margin in (0.0, 0.05, abs(ref[0] - ref[1]) + 1e-6):
             assert (paths[k, 0] - paths[k, 1] > margin) == left_active(track, 0, stop, margin)
+
+
+def test_incremental_windowed_parse_equals_a_fresh_one(shake8_model: SocialAffordanceModel, stream: Interaction) -> None:
+    model = shake8_model
+    track = canonical_joints(stream, instance_frame(stream))
+    lc = model.learning
+    atoms = dict(min_frames=lc.min_atomic_frames, max_seconds=lc.max_atomic_seconds, tau=lc.velocity_seconds)
+    parser = StreamParser(model, stream.fps, 40, **atoms)
+    reused = 0
+    for t in range(12, 300, 3):
+        got, w0 = parser.parse(track, t, model.available_)
+        reused += parser.work.cuts - 1 - parser.work.dp_rows
+        ref, r0 = StreamParser(model, stream.fps, 40, **atoms).parse(track, t, model.available_)  # no cache, no rows
+        assert w0 == r0
+        np.testing.assert_array_equal(got.intervals, ref.intervals)
+        np.testing.assert_allclose(got.belief, ref.belief, rtol=1e-9, atol=1e-12)
+    assert reused > 0
