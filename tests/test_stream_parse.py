@@ -4,6 +4,8 @@ the window covers the stream, cached scores equal to fresh ones, deterministic p
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -157,3 +159,15 @@ def test_incremental_windowed_parse_equals_a_fresh_one(shake8_model: SocialAffor
         np.testing.assert_array_equal(got.intervals, ref.intervals)
         np.testing.assert_allclose(got.belief, ref.belief, rtol=1e-9, atol=1e-12)
     assert reused > 0
+
+
+def test_bench_stream_script_records_latency_per_part(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
+    spec = importlib.util.spec_from_file_location("bench_stream_t", Path(__file__).resolve().parents[1] / "scripts" / "bench_stream.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    inter = bench.concatenate(list(shake8)[6:], 150, "s")
+    assert inter.n_frames == 150 and np.array_equal(inter.joints[: shake8[6].n_frames], shake8[6].joints, equal_nan=True)
+    out = bench.run_stream(shake8_model, inter, SynthesisConfig.reactive(parse_window=1.0), seed=0, parts=3)
+    assert [p["span"] for p in out["parts"]] == [[0, 50], [50, 100], [100, 150]]
+    assert sum(p["frames"] for p in out["parts"]) == 150 - SynthesisConfig().n_observed == out["frames"]
+    assert out["parse_totals"]["parses"] > 0 and out["n_frames"] == 150
