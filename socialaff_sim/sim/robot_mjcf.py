@@ -21,25 +21,12 @@ from ..retarget.robot import RobotSpec
 if TYPE_CHECKING:
     from .scene import Scene
 
-__all__ = ["robot_mjcf", "tune_servos", "limit_hand_force", "SELF_CONTACT_HOPS"]
+__all__ = ["robot_mjcf", "motors_to_servos", "tune_servos", "limit_hand_force", "SELF_CONTACT_HOPS"]
 
 
 def robot_mjcf(robot: RobotSpec, physics: bool) -> tuple[mjcf.RootElement, dict[str, float]]:
     """The robot's MJCF (namespace ``robot``) and its home joint angles by joint name (rad)."""
-    rob = robot.build_mjcf()
-    home: dict[str, float] = {}
-    if robot.posture_keyframe is not None:
-        key = rob.find("key", robot.posture_keyframe)
-        values = np.atleast_1d(np.asarray(key.qpos, dtype=np.float64))
-        i = 0
-        for j in rob.find_all("joint"):
-            width = {"free": 7, "ball": 4}.get(j.type or "hinge", 1)
-            if width == 1 and i < len(values):
-                home[j.name] = float(values[i])
-            i += width
-    home.update(robot.posture_joints)
-    for k in rob.find_all("key"):
-        k.remove()
+    rob, home = robot.build_model()
     rob.model = "robot"
     for body in rob.find_all("body"):
         body.gravcomp = 1.0
@@ -48,10 +35,53 @@ def robot_mjcf(robot: RobotSpec, physics: bool) -> tuple[mjcf.RootElement, dict[
     if not physics:
         _freeze_for_ik(robot, rob, home)
     if physics:
+        motors_to_servos(rob)
         for act in rob.find_all("actuator"):
             if act.tag == "general" and act.biastype == "affine":
                 act.dyntype = "none"  # servos act at once: the lag comes from their gains alone
     return rob, home
+
+
+def _pair(value: object) -> tuple[float, float] | None:
+    if value is None:
+        return None
+    v = np.asarray(value, dtype=np.float64).ravel()
+    return (float(v[0]), float(v[1])) if v.size == 2 and v[0] < v[1] else None
+
+
+def motors_to_servos(rob: mjcf.RootElement) -> int:
+    """Replace every torque actuator (``<motor>``) on a joint by a position servo with the same torque limit.
+
+    Real robot models (Unitree H1, G1) drive their joints with motors whose control is
+    a torque; the simulator drives joint angles, so each motor becomes a ``<position>``
+    actuator (its gains are set later by :func:`tune_servos`) whose force range is the
+    motor's torque limit: the tightest of its control range times its gear, its own
+    force range and the joint's ``actuatorfrcrange``. Returns the number replaced.
+    """
+    n = 0
+    for act in list(rob.find_all("actuator")):
+        if act.tag != "motor" or act.joint is None:
+            continue
+        joint = act.joint if not isinstance(act.joint, str) else rob.find("joint", act.joint)
+        gear = float(np.asarray(act.gear if act.gear is not None else [1.0], dtype=np.float64).ravel()[0])
+        limits = []
+        ctrl = _pair(act.ctrlrange)
+        if ctrl is not None:
+            limits.append(max(abs(ctrl[0]), abs(ctrl[1])) * abs(gear))
+        for rng in (_pair(act.forcerange), _pair(getattr(joint, "actuatorfrcrange", None))):
+            if rng is not None:
+                limits.append(max(abs(rng[0]), abs(rng[1])))
+        name = act.name
+        act.remove()
+        kwargs: dict[str, object] = {"joint": joint, "kp": 1.0}
+        if name:
+            kwargs["name"] = name
+        if limits:
+            kwargs["forcelimited"] = True
+            kwargs["forcerange"] = [-min(limits), min(limits)]
+        rob.actuator.add("position", **kwargs)
+        n += 1
+    return n
 
 
 def _freeze_for_ik(robot: RobotSpec, rob: mjcf.RootElement, home: dict[str, float]) -> None:

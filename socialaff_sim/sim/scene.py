@@ -330,8 +330,9 @@ def _is_descendant(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
 def _lowest_point(model: mujoco.MjModel, qadr: np.ndarray, robot_q: np.ndarray, robot_geom: np.ndarray) -> float:
     """Lowest z of the robot's collidable geoms with its free joint at z = 0.
 
-    Exact for spheres, capsules, boxes, ellipsoids and cylinders (support
-    function along −z); other shapes use their bounding box.
+    Exact for spheres, capsules, boxes, ellipsoids, cylinders (support
+    function along −z) and meshes (their lowest vertex); other shapes use their
+    bounding box.
     """
     data = mujoco.MjData(model)
     data.qpos[qadr] = robot_q
@@ -351,8 +352,12 @@ def _lowest_point(model: mujoco.MjModel, qadr: np.ndarray, robot_q: np.ndarray, 
         np.where(kind == int(T.mjGEOM_CYLINDER),
                  np.abs(rz[:, 2]) * size[:, 1] + size[:, 0] * np.sqrt(np.clip(1 - rz[:, 2] ** 2, 0, 1)),
                  np.nan)))))
+    for i in np.flatnonzero(kind == int(T.mjGEOM_MESH)):  # meshes: their lowest vertex, exactly
+        mid = int(model.geom_dataid[g[i]])
+        verts = model.mesh_vert[model.mesh_vertadr[mid]:model.mesh_vertadr[mid] + model.mesh_vertnum[mid]]
+        reach[i] = -float((verts @ rz[i]).min())
     box = np.isnan(reach)
-    if box.any():  # meshes and the rest: the geom's bounding box
+    if box.any():  # the rest: the geom's bounding box
         aabb = model.geom_aabb[g[box]]
         z[box] = z[box] + np.einsum("gj,gj->g", rz[box], aabb[:, :3])
         reach[box] = np.einsum("gj,gj->g", np.abs(rz[box]), aabb[:, 3:])
