@@ -86,7 +86,11 @@ def summarize(sim: Simulator, wall_seconds: float) -> dict[str, Any]:
         "simulated_seconds": sim_time,
         "physics_steps_per_frame": sim.n_sub,
         "subgoals": [
-            {"name": s.name, "kind": s.kind, "success": s.success, "time": s.time, "contact_seconds": s.contact_time}
+            {"name": s.name, "kind": s.kind, "success": s.success, "achieved": s.success, "time": s.time,
+             "contact_seconds": s.contact_time, "current_at_end": s.current,
+             "in_contact_per_frame": [r.subgoals_now.get(s.name, False) for r in res],
+             "gap_m_per_frame": [None if r.subgoal_gaps.get(s.name) is None else round(float(r.subgoal_gaps[s.name]), 4)
+                                 for r in res]}
             for s in scorer.subgoals
         ],
         "success": all(s.success for s in scorer.subgoals) and not scorer.failed,

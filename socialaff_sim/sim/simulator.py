@@ -87,6 +87,10 @@ class StepResult:
     """Whether a failure condition has triggered (now or earlier)."""
     done: bool
     """Whether the last frame has been reached."""
+    subgoals_now: dict[str, bool] = field(default_factory=dict)
+    """Whether each sub-goal's contact holds now, at the frame's last physics step (not latched)."""
+    subgoal_gaps: dict[str, float | None] = field(default_factory=dict)
+    """Each sub-goal's gap (m) between its two groups' geoms at the end of the frame (``None``: beyond 1 m)."""
 
 
 def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -202,6 +206,7 @@ class Simulator:
             self._place_object(0.0, moving=False)
         mujoco.mj_forward(scene.model, data)
         stage.scorer.reset()
+        stage.scorer.measure_gaps(data)
         if self.carry is not None and self.carry.release_frame == 0:
             self._release(0)
         self.last_targets = self.frame_R.to_robot(key_frames_at(stage.ik_scene, q0))
@@ -322,10 +327,13 @@ class Simulator:
         self.last_targets = tg
         if self.done:
             scorer.finish(self.time)
+        scorer.measure_gaps(stage.data)
         result = StepResult(
             frame=t1, time=self.time, targets=tg, ik_error=res.errors, reachable=reachable,
             ik_iterations=res.iterations, ik_seconds=ik_seconds, subevent=subevent, force_on_human=force,
             subgoals={r.name: r.success for r in scorer.subgoals}, failed=scorer.failed, done=self.done,
+            subgoals_now={r.name: r.current for r in scorer.subgoals},
+            subgoal_gaps={r.name: r.gap for r in scorer.subgoals},
         )
         self.results.append(result)
         return result

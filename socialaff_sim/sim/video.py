@@ -17,12 +17,12 @@ __all__ = ["EpisodeRecorder", "contact_sheet", "caption_lines"]
 
 
 def caption_lines(sim: Simulator, subevent: str | None) -> list[str]:
-    """Two caption lines: time and sub-event, then the sub-goals met so far."""
+    """Caption lines: time and sub-event, then per sub-goal its contact now and whether it was ever achieved."""
     inter = sim.interaction
     assert inter is not None
     head = (f"{inter.label}  {sim.robot.name}  frame {sim.frame}/{sim.n_frames - 1}  "
             f"t = {sim.time:.2f} s  sub-event: {subevent or '-'}")
-    marks = [f"{s.name}: {'yes' if s.success else 'no'}" for s in sim.scorer.subgoals]
+    marks = [s.state_text() for s in sim.scorer.subgoals]
     fails = [f.kind for f in sim.scorer.failures if f.triggered]
     tail = "  ".join(marks) + ("   FAILED: " + ", ".join(fails) if fails else "")
     return [head, tail]
