@@ -59,7 +59,7 @@ def test_bad_arguments_are_reported(data_dir: Path, tmp_path: Path, capsys: pyte
     assert rc == 2 and "no instance 'nope'" in capsys.readouterr().err
     rc = main(["simulate", "--data", f"npz:{data_dir}", "--instance", "0", "--source", "gt", "--robot", "r2d2",
                "--out", str(tmp_path), "--no-video"])
-    assert rc == 2 and "shipped robots: 'cmu' or 'ours'" in capsys.readouterr().err
+    assert rc == 2 and "shipped robots: 'cmu', 'ours', 'unitree_g1' or 'unitree_h1'" in capsys.readouterr().err
     rc = main(["simulate", "--data", f"npz:{data_dir}", "--instance", "0", "--out", str(tmp_path), "--no-video"])
     assert rc == 2 and "--source model needs --model" in capsys.readouterr().err
 

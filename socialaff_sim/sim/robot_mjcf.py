@@ -1,7 +1,7 @@
 """Preparing a robot's MJCF for the scene, and tuning its servos once compiled.
 
 * :func:`robot_mjcf` loads the model, reads its home posture, turns on gravity
-  compensation, excludes contacts between bodies that overlap by design, and
+  compensation where asked (a kinematic puppet), excludes contacts between bodies that overlap by design, and
   (for the IK model) makes rigid the joints that cannot move a key frame;
 * :func:`tune_servos` gives every position servo critically damped gains;
 * :func:`limit_hand_force` caps the arm servos' torques so that a hand presses
@@ -24,12 +24,16 @@ if TYPE_CHECKING:
 __all__ = ["robot_mjcf", "motors_to_servos", "tune_servos", "limit_hand_force", "SELF_CONTACT_HOPS"]
 
 
-def robot_mjcf(robot: RobotSpec, physics: bool) -> tuple[mjcf.RootElement, dict[str, float]]:
-    """The robot's MJCF (namespace ``robot``) and its home joint angles by joint name (rad)."""
+def robot_mjcf(robot: RobotSpec, physics: bool, gravity_compensation: bool = False) -> tuple[mjcf.RootElement, dict[str, float]]:
+    """The robot's MJCF (namespace ``robot``) and its home joint angles by joint name (rad).
+
+    ``gravity_compensation``: every body gets ``gravcomp = 1`` (a weightless puppet); otherwise each
+    body's own setting in the model is kept (0 in the shipped and Unitree models)."""
     rob, home = robot.build_model()
     rob.model = "robot"
-    for body in rob.find_all("body"):
-        body.gravcomp = 1.0
+    if gravity_compensation:
+        for body in rob.find_all("body"):
+            body.gravcomp = 1.0
     for b1, b2 in _near_body_pairs(robot, rob):
         rob.contact.add("exclude", body1=b1, body2=b2)
     if not physics:
@@ -173,14 +177,28 @@ def tune_servos(model: mujoco.MjModel, robot_qadr: np.ndarray, home_qpos: np.nda
     m.actuator_biasprm[ids, 1] = -kp
     m.actuator_biasprm[ids, 2] = -kv
     m.actuator_gear[ids, 0] = 1.0
-    limited = m.jnt_limited[jnt].astype(bool)
-    m.actuator_ctrllimited[ids] = limited
-    m.actuator_ctrlrange[ids] = np.where(limited[:, None], m.jnt_range[jnt], 0.0)
+    # No control range: the reference is kept inside the joint's range by Scene.ctrl_for, and a
+    # feed-forward torque may push the control beyond it (sim.feedforward).
+    m.actuator_ctrllimited[ids] = 0
+    m.actuator_ctrlrange[ids] = 0.0
     m.jnt_stiffness[joint_ids] = 0.0
 
 
-def limit_hand_force(scene: Scene, force: float) -> None:
+def _subtree_mask(m: mujoco.MjModel, root: int) -> np.ndarray:
+    inside = np.zeros(m.nbody, dtype=bool)
+    inside[root] = True
+    for b in range(root + 1, m.nbody):  # MuJoCo numbers a body after its parent
+        inside[b] = inside[m.body_parentid[b]]
+    return inside
+
+
+def limit_hand_force(scene: Scene, force: float, weight: bool = False) -> None:
     """Cap each arm servo's torque at ``force`` (N) times its lever arm to the hand, at home.
+
+    ``weight``: the robot has its real weight (no gravity compensation); each cap then also
+    covers the torque that holds the part of the arm beyond the joint straight out sideways
+    (Σ m·g·r over its bodies, r their centres of mass's distances from the joint at home),
+    so that the press on a person stays bounded while the arm can still hold itself up.
 
     The arm of a side is the subtree of its limb root (the shoulder body). A joint's
     lever arm is the distance from its anchor to the wrist frame plus the hand's
@@ -207,6 +225,10 @@ def limit_hand_force(scene: Scene, force: float) -> None:
             if not inside[m.jnt_bodyid[j]]:
                 continue
             limit = force * (float(np.linalg.norm(wrist - d.xanchor[j])) + reach)
+            if weight:
+                below = _subtree_mask(m, int(m.jnt_bodyid[j]))
+                lever = np.linalg.norm(d.xipos[below] - d.xanchor[j], axis=1)
+                limit += float(np.linalg.norm(m.opt.gravity) * (m.body_mass[below] * lever).sum())
             if m.actuator_forcelimited[a]:
                 lo, hi = m.actuator_forcerange[a]
                 limit = min(limit, -lo, hi)

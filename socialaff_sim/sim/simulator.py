@@ -31,6 +31,9 @@ from .scene import Scene, pose_compliant, set_human_sizes
 from .scoring import SubgoalScorer
 from .stage import Stage, compile_scenes, contact_exemptions, key_frames, key_frames_at
 from .substeps import FrameStepper
+from .feedforward import StandingFeedforward
+from .footlock import FootLock, FootLockConfig
+from .support import FrameSupport, SupportMeter
 from .tasks import TaskSpec, load_task
 
 __all__ = ["SimConfig", "StepResult", "Simulator"]
@@ -44,6 +47,21 @@ class SimConfig:
     """Δt, physics step in seconds (shortened so a data frame holds a whole number of steps)."""
     servo_bandwidth: float | None = 25.0
     """ω, natural frequency of the critically damped joint servos, rad/s (``None``: the model's own gains)."""
+    gravity_compensation: bool = False
+    """Kinematic-puppet mode: every robot body gets MuJoCo's gravity compensation (``gravcomp = 1``), so
+    the robot is weightless and its servos never hold anything up. Off by default: gravity acts on the
+    robot, and the support it then gets from its harness is measured (:mod:`~socialaff_sim.sim.support`);
+    every figure says which mode ran (``metrics.json``'s ``support.mode``)."""
+    foot_lock: FootLockConfig | None = field(default_factory=FootLockConfig)
+    """When a standing foot's target is held where the foot came down (:mod:`~socialaff_sim.sim.footlock`);
+    ``None``: ankle targets are followed as given."""
+    harness_time_constant: float = 0.02
+    """τ_h, s: with the robot's real weight, its root hangs from the IK's base pose by a compliant harness, a
+    soft weld of this time constant (:func:`~socialaff_sim.sim.scene.build_scene`). Standing still on its feet,
+    the H1 takes 2.5 % of its weight from it at 0.02 s (1.7 % at 0.05 s; the rigid weld, 0.008 s: 11.5 %);
+    a robot whose feet do not reach sags by about 3.5 cm and hangs. At 0.05 s the base lagged the IK's by up
+    to 8 cm while walking and Stubby's handshake of shake_hands_000 missed. With gravity compensation the
+    root is held by the rigid weld (the setting before the robot had weight)."""
     hand_force: float | None = 60.0
     """F_max, newtons: the arm servos' torque limits are set so that a hand pushes with at most about
     this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,
@@ -91,6 +109,8 @@ class StepResult:
     """Whether each sub-goal's contact holds now, at the frame's last physics step (not latched)."""
     subgoal_gaps: dict[str, float | None] = field(default_factory=dict)
     """Each sub-goal's gap (m) between its two groups' geoms at the end of the frame (``None``: beyond 1 m)."""
+    support: FrameSupport | None = None
+    """The frame's outside support, foot sliding, penetration and effort (:mod:`~socialaff_sim.sim.support`)."""
 
 
 def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -108,6 +128,7 @@ class Simulator:
         self.config = config or SimConfig()
         self._stages: dict[str, Stage] = {}
         self._stage: Stage | None = None
+        self._footlock: FootLock | None = None
         self.interaction: Interaction | None = None
 
     # -- set-up -----------------------------------------------------------------------
@@ -118,6 +139,8 @@ class Simulator:
             scene, ik_scene, ik_model, ik_map = compile_scenes(
                 self.robot, inter.layout, obj, timestep=self.config.timestep,
                 servo_bandwidth=self.config.servo_bandwidth, hand_force=self.config.hand_force,
+                gravity_compensation=self.config.gravity_compensation,
+                harness_time_constant=None if self.config.gravity_compensation else self.config.harness_time_constant,
             )
             if not hasattr(self, "measurements"):
                 self.measurements = measure_robot(ik_scene.model, ik_scene.home_qpos, ik_scene.frame_kinds,
@@ -128,10 +151,13 @@ class Simulator:
             if meas.trunk_radius == 0.0:
                 self.measurements = dataclasses.replace(meas, trunk_radius=reach.trunk_radius, height=reach.height,
                                                         hand=float(np.mean(reach.hand_centre)))
+            puppet = self.config.gravity_compensation
+            meter = SupportMeter(scene)
             data = mujoco.MjData(scene.model)
             scorer = SubgoalScorer(scene, self.task)
             self._stages[name] = Stage(
-                scene, data, ik_scene, RobotIK(ik_model, self.config.ik), scorer, ik_map, FrameStepper(scene, data, scorer),
+                scene, data, ik_scene, RobotIK(ik_model, self.config.ik), scorer, ik_map,
+                FrameStepper(scene, data, scorer, meter, None if puppet else StandingFeedforward(scene)),
                 reach,
             )
         return self._stages[name]
@@ -207,6 +233,9 @@ class Simulator:
         mujoco.mj_forward(scene.model, data)
         stage.scorer.reset()
         stage.scorer.measure_gaps(data)
+        stage.stepper.support.reset()
+        self._footlock = None if self.config.foot_lock is None else FootLock(
+            (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), self.config.foot_lock)
         if self.carry is not None and self.carry.release_frame == 0:
             self._release(0)
         self.last_targets = self.frame_R.to_robot(key_frames_at(stage.ik_scene, q0))
@@ -295,6 +324,8 @@ class Simulator:
         t0, t1 = self.frame, self.frame + 1
         tg = self._fill_targets(np.asarray(targets, dtype=np.float64))
         world = self.frame_R.to_world(tg)
+        if self._footlock is not None:
+            world[3:5] = self._footlock.apply(world[3:5])
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
@@ -320,6 +351,8 @@ class Simulator:
             self.n_sub, fps, self._to_physics(self._q), self._to_physics(res.qpos),
             (self.pose.pos[t0], self.pose.pos[t1]), (self.pose.quat[t0], self.pose.quat[t1]), self.time, subevent,
             grip=self.config.grip, carry=carry,
+            feet=None if self._footlock is None else (self._footlock.planted[0] is not None,
+                                                        self._footlock.planted[1] is not None),
         )
         scorer = stage.scorer
         self._q = res.qpos
@@ -334,6 +367,7 @@ class Simulator:
             subgoals={r.name: r.success for r in scorer.subgoals}, failed=scorer.failed, done=self.done,
             subgoals_now={r.name: r.current for r in scorer.subgoals},
             subgoal_gaps={r.name: r.gap for r in scorer.subgoals},
+            support=stage.stepper.support.frames[-1] if stage.stepper.support.frames else None,
         )
         self.results.append(result)
         return result
@@ -348,6 +382,12 @@ class Simulator:
     def data(self) -> mujoco.MjData:
         self._require()
         return self._stage.data  # type: ignore[union-attr]
+
+    @property
+    def support(self) -> SupportMeter:
+        """The outside-support and effort meter of the current scene."""
+        self._require()
+        return self._stage.stepper.support  # type: ignore[union-attr]
 
     @property
     def scorer(self) -> SubgoalScorer:

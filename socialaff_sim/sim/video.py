@@ -11,13 +11,15 @@ import numpy as np
 from .._atomic import atomic_path
 from ..errors import RenderingUnavailableError
 from .render import SceneRenderer
+from .episode import support_caption
 from .simulator import Simulator, StepResult
 
 __all__ = ["EpisodeRecorder", "contact_sheet", "caption_lines"]
 
 
 def caption_lines(sim: Simulator, subevent: str | None) -> list[str]:
-    """Caption lines: time and sub-event, then per sub-goal its contact now and whether it was ever achieved."""
+    """Caption lines: time and sub-event; per sub-goal its contact now and whether it was ever achieved; the
+    physics mode with the frame's outside support, the feet's sliding so far and the servos' effort."""
     inter = sim.interaction
     assert inter is not None
     head = (f"{inter.label}  {sim.robot.name}  frame {sim.frame}/{sim.n_frames - 1}  "
@@ -25,7 +27,7 @@ def caption_lines(sim: Simulator, subevent: str | None) -> list[str]:
     marks = [s.state_text() for s in sim.scorer.subgoals]
     fails = [f.kind for f in sim.scorer.failures if f.triggered]
     tail = "  ".join(marks) + ("   FAILED: " + ", ".join(fails) if fails else "")
-    return [head, tail]
+    return [head, tail, support_caption(sim)]
 
 
 def contact_sheet(frames: list[np.ndarray], cols: int = 4) -> np.ndarray:
