@@ -37,7 +37,7 @@ from socialaff_sim.sim.simulator import SimConfig, Simulator
 
 MODES = {"weight": SimConfig(), "puppet": SimConfig(gravity_compensation=True)}
 KEYS = ("outside_support_mean", "outside_support_peak", "foot_slide_cm", "penetration_cm", "torque_ratio_max",
-        "saturated_fraction", "at_joint_limit_fraction")
+        "saturated_fraction", "at_joint_limit_fraction", "torso_tilt_deg_max")
 
 
 def main() -> None:

@@ -63,7 +63,8 @@ def _stats(x: np.ndarray) -> dict[str, float | None]:
 def _support_stats(frames: list[FrameSupport]) -> dict[str, float | None]:
     if not frames:
         return {k: None for k in ("outside_support_mean", "outside_support_peak", "foot_slide_cm", "penetration_cm",
-                                  "torque_ratio_max", "saturated_fraction", "at_joint_limit_fraction")}
+                                  "torque_ratio_max", "saturated_fraction", "at_joint_limit_fraction",
+                                  "torso_tilt_deg_max")}
     return {
         "outside_support_mean": float(np.mean([f.outside_mean for f in frames])),
         "outside_support_peak": float(max(f.outside_peak for f in frames)),
@@ -72,6 +73,7 @@ def _support_stats(frames: list[FrameSupport]) -> dict[str, float | None]:
         "torque_ratio_max": float(max(f.torque_ratio for f in frames)),
         "saturated_fraction": float(np.mean([f.saturated for f in frames])),
         "at_joint_limit_fraction": float(np.mean([f.at_limit for f in frames])),
+        "torso_tilt_deg_max": float(max(f.tilt_deg for f in frames)),
     }
 
 
@@ -91,14 +93,16 @@ def support_summary(sim: Simulator) -> dict[str, Any]:
 
 
 def support_caption(sim: Simulator) -> str:
-    """One caption line: the mode, and this frame's outside support and the episode's foot sliding so far."""
+    """One caption line: the mode; this frame's outside support (% of the weight), the episode's foot sliding
+    so far, this frame's largest servo force (% of its limit) and the torso's tilt from the vertical."""
     mode = "puppet (gravity compensated)" if sim.config.gravity_compensation else "real weight"
     frames = [r.support for r in sim.results if r.support is not None]
     if not frames:
         return f"{mode}"
     last = frames[-1]
-    return (f"{mode}: outside support {100 * last.outside_mean:.0f} % of weight, feet slid "
-            f"{100 * sum(f.slide for f in frames):.1f} cm, torque {100 * last.torque_ratio:.0f} % of limit")
+    return (f"{mode}: outside support {100 * last.outside_mean:.0f} %, feet slid "
+            f"{100 * sum(f.slide for f in frames):.0f} cm, torque {100 * last.torque_ratio:.0f} %, "
+            f"torso {last.tilt_deg:.0f} deg")
 
 
 def summarize(sim: Simulator, wall_seconds: float) -> dict[str, Any]:

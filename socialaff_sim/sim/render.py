@@ -141,9 +141,10 @@ class SceneRenderer:
         self._ctx = None
 
     def _aim(self) -> None:
-        """Side camera: looking across the robot-human axis at both of them."""
+        """Side camera: looking across the robot-human axis at both of them, where they are now (the robot's
+        root as simulated, not where it was placed: it walks in)."""
         sim = self.sim
-        robot = sim.frame_R.origin
+        robot = np.array(sim.data.qpos[sim.scene.robot_qadr[:3]])
         human = sim.pose.joints[min(sim.frame, sim.n_frames - 1)]
         human_xy = np.nanmean(human, axis=0)[:2] if np.isfinite(human).any() else robot[:2] + sim.frame_R.rotation[:2, 0]
         mid = 0.5 * (robot[:2] + human_xy)

@@ -66,13 +66,35 @@ def compile_scenes(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | N
         home_qpos=ik_scene.home_qpos, hand_geoms=tuple(np.flatnonzero(h) for h in ik_scene.hand_geom),
         arm_geoms=tuple(np.flatnonzero(a) for a in ik_scene.arm_geom), robot_geoms=np.flatnonzero(collide),
         human_geoms=ik_scene.human_geom_ids, human_mocap=ik_scene.human_mocap,
-        max_joint_velocity=robot.max_joint_velocity,
+        max_joint_velocity=robot.max_joint_velocity, torso_dofs=torso_dofs(ik_scene),
     )
     if not np.array_equal(ik_scene.robot_qadr, np.arange(ik_scene.model.nq)):
         raise SimulationError("IK scene: the robot must own every coordinate")
     phys_index = {n: i for i, n in enumerate(scene.robot_joint_names)}
     ik_map = np.concatenate([np.arange(7), 6 + np.array([phys_index[n] for n in ik_scene.robot_joint_names[1:]], dtype=np.int64)])
     return scene, ik_scene, ik_model, ik_map
+
+
+def torso_dofs(scene: Scene) -> np.ndarray:
+    """Dof indices of the spine: the hinges from the torso (the lowest body both shoulders hang from) down
+    to, not including, the robot's root body."""
+    m = scene.model
+
+    def chain(b: int) -> list[int]:
+        out = [b]
+        while int(m.body_parentid[out[-1]]) > 0:
+            out.append(int(m.body_parentid[out[-1]]))
+        return out
+
+    left, right = chain(int(scene.limb_body_ids[0])), set(chain(int(scene.limb_body_ids[1])))
+    torso = next((b for b in left[1:] if b in right), scene.root_body)
+    spine = []
+    for b in chain(torso):
+        if b == scene.root_body:
+            break
+        for j in range(int(m.body_jntadr[b]), int(m.body_jntadr[b]) + int(m.body_jntnum[b])):
+            spine.append(int(m.jnt_dofadr[j]))
+    return np.array(sorted(spine), dtype=np.int64)
 
 
 def key_frames(scene: Scene, data: mujoco.MjData) -> np.ndarray:

@@ -53,6 +53,17 @@ class FrameSupport:
     """Fraction of the frame's physics steps with a saturated servo."""
     at_limit: float
     """Fraction of the frame's physics steps with a robot joint at the end of its range."""
+    tilt_deg: float = 0.0
+    """Largest angle in the frame between the torso's up axis and the vertical, degrees (the torso: the
+    body both shoulders hang from)."""
+
+
+def _ancestry(model: mujoco.MjModel, body: int) -> list[int]:
+    """``body`` and its ancestors up to (not including) the world."""
+    out = [body]
+    while int(model.body_parentid[out[-1]]) > 0:
+        out.append(int(model.body_parentid[out[-1]]))
+    return out
 
 
 def _subtree(model: mujoco.MjModel, root: int) -> np.ndarray:
@@ -87,6 +98,14 @@ class SupportMeter:
             inside = _subtree(m, body)
             self._feet.append((body, inside[m.geom_bodyid] & scene.robot_geom))
         self._robot_geom = scene.robot_geom
+        left = _ancestry(m, int(scene.limb_body_ids[0]))
+        right = set(_ancestry(m, int(scene.limb_body_ids[1])))
+        self._torso = next((b for b in left[1:] if b in right), scene.root_body)
+        d0 = mujoco.MjData(m)
+        d0.qpos[scene.robot_qadr] = scene.home_qpos
+        mujoco.mj_kinematics(m, d0)
+        # The torso's own axis that points up at home (models differ in how their bodies' frames sit).
+        self._torso_up = d0.xmat[self._torso].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
         lim = np.where(m.actuator_forcelimited[scene.act_ids].astype(bool),
                        np.abs(m.actuator_forcerange[scene.act_ids]).max(axis=1), np.inf)
         self._act_limit = lim
@@ -112,6 +131,7 @@ class SupportMeter:
         self._out_sum = self._out_peak = self._slide_max = self._pen = self._ratio = 0.0
         self._slide = [0.0, 0.0]
         self._sat = self._lim = 0
+        self._tilt = 0.0
 
     def harness_force(self, data: mujoco.MjData) -> np.ndarray:
         """(3,) force (N, world frame) the harness weld exerts on the robot's root at the current state."""
@@ -162,13 +182,16 @@ class SupportMeter:
         if len(self._lim_qadr):
             q = data.qpos[self._lim_qadr]
             self._lim += bool(((q - self._lim_range[:, 0] <= AT_LIMIT) | (self._lim_range[:, 1] - q <= AT_LIMIT)).any())
+        up = data.xmat[self._torso].reshape(3, 3) @ self._torso_up
+        self._tilt = max(self._tilt, float(np.degrees(np.arccos(np.clip(up[2], -1.0, 1.0)))))
         self._n += 1
 
     def end_frame(self) -> FrameSupport:
         """Close the data frame: its figures (also appended to :attr:`frames`)."""
         n = max(self._n, 1)
         fs = FrameSupport(outside_mean=self._out_sum / n, outside_peak=self._out_peak, slide=max(self._slide),
-                          penetration=self._pen, torque_ratio=self._ratio, saturated=self._sat / n, at_limit=self._lim / n)
+                          penetration=self._pen, torque_ratio=self._ratio, saturated=self._sat / n, at_limit=self._lim / n,
+                          tilt_deg=self._tilt)
         self.frames.append(fs)
         self._clear_frame()
         return fs
