@@ -151,8 +151,9 @@ class SceneRenderer:
         sep = float(np.linalg.norm(human_xy - robot[:2]))
         cam = self._cam
         cam.type = mujoco.mjtCamera.mjCAMERA_FREE
-        cam.lookat[:] = (mid[0], mid[1], 0.95)
-        cam.distance = max(2.6, 1.3 * sep + 1.5)
+        # Far enough that both, 2 m tall, fit under the caption band (45° vertical field of view).
+        cam.lookat[:] = (mid[0], mid[1], 1.0)
+        cam.distance = max(3.4, 1.3 * sep + 1.5)
         cam.azimuth = float(np.degrees(sim.frame_R.yaw)) + 90.0
         cam.elevation = -12.0
 
