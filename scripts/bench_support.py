@@ -31,7 +31,8 @@ import numpy as np
 from socialaff_sim._atomic import atomic_write_text
 from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.retarget.robot import load_robot
-from socialaff_sim.retarget.sources import GroundTruthSource, model_source
+from socialaff_sim.retarget.model_source import model_source
+from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 

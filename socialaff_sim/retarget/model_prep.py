@@ -17,19 +17,38 @@ Errors name the mapping file and list what the model contains.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
 
 from dm_control import mjcf
 
 from ..errors import ConfigError, choices
 
-if TYPE_CHECKING:
-    from .robot import RobotSpec
-
-__all__ = ["FRAME_SITE_PREFIX", "prepare_model", "body_names", "keyframe_angles"]
+__all__ = ["FRAME_SITE_PREFIX", "FrameRef", "prepare_model", "body_names", "keyframe_angles"]
 
 FRAME_SITE_PREFIX = "keyframe_"
 """Name prefix of the sites added for key frames given as body offsets."""
+
+
+@dataclass(frozen=True)
+class FrameRef:
+    """A frame of the robot model: a site or a body, by its name in the robot's MJCF."""
+
+    kind: str
+    """``"site"`` or ``"body"``."""
+    name: str
+    """Element name inside the robot model (without the scene's namespace prefix)."""
+    body: str | None = None
+    """For a frame given as an offset from a body (``{ body = ..., pos = [...] }``): that body. The
+    mapping then adds a site ``name`` there (:meth:`RobotSpec.build_mjcf`); ``None`` otherwise."""
+    pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Offset (m) of the added site in ``body``'s frame."""
+
+    def __str__(self) -> str:
+        if self.body is not None:
+            return f"body:{self.body}+{list(self.pos)}"
+        return f"{self.kind}:{self.name}"
 
 
 def body_names(root: mjcf.RootElement) -> list[str]:
@@ -72,10 +91,10 @@ def _joint_type(el: mjcf.Element) -> str | None:
     return el.type or "hinge"
 
 
-def _remove_body(root: mjcf.RootElement, spec: RobotSpec, name: str) -> None:
+def _remove_body(root: mjcf.RootElement, mapping_file: Path, name: str) -> None:
     body = root.find("body", name)
     if body is None:
-        raise ConfigError(f"{spec.mapping_file}: ignore_bodies names {name!r}, not a body of the model; "
+        raise ConfigError(f"{mapping_file}: ignore_bodies names {name!r}, not a body of the model; "
                           f"bodies: {choices(body_names(root))}")
     joints = {j.name for j in body.find_all("joint") if j.name}
     bodies = {name} | {b.name for b in body.find_all("body") if b.name}
@@ -95,14 +114,17 @@ def _remove_body(root: mjcf.RootElement, spec: RobotSpec, name: str) -> None:
     body.remove()
 
 
-def prepare_model(root: mjcf.RootElement, spec: RobotSpec) -> None:
-    """Make ``root`` (the robot's MJCF) attachable under the scene's free joint; see the module docstring."""
-    for name in spec.ignore_bodies:
-        _remove_body(root, spec, name)
+def prepare_model(root: mjcf.RootElement, mapping_file: Path, ignore_bodies: Sequence[str],
+                  frames: Sequence[FrameRef]) -> None:
+    """Make ``root`` (the robot's MJCF) attachable under the scene's free joint; see the module docstring.
+
+    ``mapping_file`` names the mapping in errors; ``ignore_bodies`` and ``frames`` are the mapping's."""
+    for name in ignore_bodies:
+        _remove_body(root, mapping_file, name)
     tops = [b for b in root.worldbody.all_children() if b.tag == "body"]
     if len(tops) != 1:
         raise ConfigError(
-            f"{spec.mapping_file}: the robot model must have exactly one top-level body (the robot's root), "
+            f"{mapping_file}: the robot model must have exactly one top-level body (the robot's root), "
             f"found {len(tops)}: {choices([b.name or '(unnamed)' for b in tops])}; list the others in "
             "'ignore_bodies'"
         )
@@ -113,16 +135,16 @@ def prepare_model(root: mjcf.RootElement, spec: RobotSpec) -> None:
     for j in root.find_all("joint"):
         if _joint_type(j) in ("free", "ball"):
             where = j.parent.name or "(unnamed)"
-            raise ConfigError(f"{spec.mapping_file}: joint {j.name or '(unnamed)'!r} of body {where!r} is a "
+            raise ConfigError(f"{mapping_file}: joint {j.name or '(unnamed)'!r} of body {where!r} is a "
                               f"{_joint_type(j)} joint; only the root may be free, and joints below it must be "
                               "hinges or slides")
     for sensor in list(root.sensor.all_children()):
         sensor.remove()
-    for ref in spec.frames:
+    for ref in frames:
         if ref.body is None:
             continue
         body = root.find("body", ref.body)
         if body is None:
-            raise ConfigError(f"{spec.mapping_file}: frame {str(ref)!r}: body {ref.body!r} is not in the robot model; "
+            raise ConfigError(f"{mapping_file}: frame {str(ref)!r}: body {ref.body!r} is not in the robot model; "
                               f"bodies: {choices(body_names(root))}")
         body.add("site", name=ref.name, pos=list(ref.pos), size=[0.01], group=5)

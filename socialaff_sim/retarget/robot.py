@@ -20,7 +20,7 @@ from ..data.skeletons import KEY_JOINTS
 from ..errors import ConfigError, choices
 from ..resources import assets_dir
 from ._toml import Table, read_toml
-from .model_prep import FRAME_SITE_PREFIX, keyframe_angles, prepare_model
+from .model_prep import FRAME_SITE_PREFIX, FrameRef, keyframe_angles, prepare_model
 
 __all__ = ["FrameRef", "RobotSpec", "load_robot", "available_robots", "BUILTIN_MODELS"]
 
@@ -39,26 +39,6 @@ def _cmu_humanoid() -> mjcf.RootElement:
 
 BUILTIN_MODELS = {"dm_control.cmu_humanoid": _cmu_humanoid}
 """Models loaded from installed packages rather than from an MJCF file."""
-
-
-@dataclass(frozen=True)
-class FrameRef:
-    """A frame of the robot model: a site or a body, by its name in the robot's MJCF."""
-
-    kind: str
-    """``"site"`` or ``"body"``."""
-    name: str
-    """Element name inside the robot model (without the scene's namespace prefix)."""
-    body: str | None = None
-    """For a frame given as an offset from a body (``{ body = ..., pos = [...] }``): that body. The
-    mapping then adds a site ``name`` there (:meth:`RobotSpec.build_mjcf`); ``None`` otherwise."""
-    pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    """Offset (m) of the added site in ``body``'s frame."""
-
-    def __str__(self) -> str:
-        if self.body is not None:
-            return f"body:{self.body}+{list(self.pos)}"
-        return f"{self.kind}:{self.name}"
 
 
 @dataclass(frozen=True)
@@ -127,7 +107,7 @@ class RobotSpec:
                     f"keyframes: {choices(keys)}"
                 )
         home = keyframe_angles(root, self.posture_keyframe)
-        prepare_model(root, self)
+        prepare_model(root, self.mapping_file, self.ignore_bodies, self.frames)
         for ref in (*self.frames, *self.limb_roots):
             if root.find(ref.kind, ref.name) is None:
                 present = [e.name for e in root.find_all(ref.kind) if e.name]

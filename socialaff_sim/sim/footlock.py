@@ -25,9 +25,9 @@ class FootLockConfig:
     """When an ankle target counts as standing."""
 
     lift: float = 0.04
-    """h_lift, m: a target at most this far above the ankle's home height may be planted."""
+    """h_lift [m]: a target at most this far above the ankle's home height may be planted."""
     radius: float = 0.05
-    """r, m: a planted foot stays put while its target stays within this horizontal distance of where it was
+    """r [m]: a planted foot stays put while its target stays within this horizontal distance of where it was
     planted; beyond, the foot steps (the target is followed again)."""
 
 

@@ -41,40 +41,47 @@ __all__ = ["SimConfig", "StepResult", "Simulator"]
 
 @dataclass(frozen=True)
 class SimConfig:
-    """Settings of the physics loop."""
+    """Settings of the physics loop.
+
+    Fields by concept
+    -----------------
+    - Physics: timestep, servo_bandwidth, hand_force, grip, settle_iterations
+    - Weight and support: gravity_compensation, harness_time_constant, foot_lock
+    - Retargeting: ik, scaling
+    """
 
     timestep: float = 0.004
-    """Δt, physics step in seconds (shortened so a data frame holds a whole number of steps)."""
+    """Δt [s]: physics step in seconds (shortened so a data frame holds a whole number of steps)."""
     servo_bandwidth: float | None = 25.0
-    """ω, natural frequency of the critically damped joint servos, rad/s (``None``: the model's own gains)."""
+    """ω [rad/s]: natural frequency of the critically damped joint servos, rad/s (``None``: the model's own gains)."""
     gravity_compensation: bool = False
-    """Kinematic-puppet mode: every robot body gets MuJoCo's gravity compensation (``gravcomp = 1``), so
-    the robot is weightless and its servos never hold anything up. Off by default: gravity acts on the
-    robot, and the support it then gets from its harness is measured (:mod:`~socialaff_sim.sim.support`);
-    every figure says which mode ran (``metrics.json``'s ``support.mode``)."""
+    """[—]: Kinematic-puppet mode: every robot body gets MuJoCo's gravity compensation (``gravcomp = 1``), so
+    the robot is weightless and its servos never hold anything up; its root is held by a rigid weld. Off by
+    default: gravity acts on the robot, and the support it then gets from its harness is measured
+    (:mod:`~socialaff_sim.sim.support`); every figure says which mode ran (``metrics.json``'s ``support.mode``)."""
     foot_lock: FootLockConfig | None = field(default_factory=FootLockConfig)
-    """When a standing foot's target is held where the foot came down (:mod:`~socialaff_sim.sim.footlock`);
+    """[—]: When a standing foot's target is held where the foot came down (:mod:`~socialaff_sim.sim.footlock`);
     ``None``: ankle targets are followed as given."""
     harness_time_constant: float = 0.02
-    """τ_h, s: with the robot's real weight, its root hangs from the IK's base pose by a compliant harness, a
-    soft weld of this time constant (:func:`~socialaff_sim.sim.scene.build_scene`). Standing still on its feet,
-    the H1 takes 2.5 % of its weight from it at 0.02 s (1.7 % at 0.05 s; the rigid weld, 0.008 s: 11.5 %);
-    a robot whose feet do not reach sags by about 3.5 cm and hangs. At 0.05 s the base lagged the IK's by up
-    to 8 cm while walking and Stubby's handshake of shake_hands_000 missed. With gravity compensation the
-    root is held by the rigid weld (the setting before the robot had weight)."""
+    """τ_h [s]: with the robot's real weight, its root hangs from the IK's base pose by a compliant harness,
+    a soft weld of this time constant (:func:`~socialaff_sim.sim.scene.build_scene`). Standing still at home
+    on its feet, the robot takes 2.9 % (Stubby), 6.2 % (H1) or 1.7 % (G1) of its weight from it; a robot
+    whose feet do not reach sags by about 3.5 cm and hangs. At 0.05 s the base lagged the IK's by up to 8 cm
+    while walking and Stubby's handshake of shake_hands_000 missed. With gravity compensation the root is
+    held by the rigid weld (0.008 s; with weight it would carry 11.5 % of the standing H1's weight)."""
     hand_force: float | None = 60.0
-    """F_max, newtons: the arm servos' torque limits are set so that a hand pushes with at most about
+    """F_max [N]: the arm servos' torque limits are set so that a hand pushes with at most about
     this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,
     never above the model's own limit); ``None`` keeps the model's limits. With gravity compensation
     the arms need little torque to move, so this mostly bounds how hard the robot can press on a person."""
     ik: IKConfig = field(default_factory=IKConfig)
-    """Retargeting IK settings."""
+    """[—]: Retargeting IK settings."""
     scaling: ScalingConfig = field(default_factory=ScalingConfig)
-    """Human-to-robot scaling settings."""
+    """[—]: Human-to-robot scaling settings."""
     grip: bool = True
-    """Whether a robot hand touching the object grips it (its grip weld switches on and stays on)."""
+    """[—]: Whether a robot hand touching the object grips it (its grip weld switches on and stays on)."""
     settle_iterations: int = 20
-    """IK solves spent at reset to reach the first frame's targets before physics starts."""
+    """[—]: IK solves spent at reset to reach the first frame's targets before physics starts."""
 
 
 @dataclass(frozen=True)
