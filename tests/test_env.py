@@ -248,7 +248,7 @@ def test_module_prefixed_id_imports_the_package(tmp_path):
         "print(env.spec.id, info['interaction'])\n"
     )
     env = {**os.environ, "MUJOCO_GL": "egl"}
-    out = subprocess.run([sys.executable, "-W", "error", "-c", code], capture_output=True, text=True, env=env, timeout=120, cwd=tmp_path)
+    out = subprocess.run([sys.executable, "-W", "error", "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.split() == ["SocialAffordance-ShakeHands-v0", "shake_hands"]
 

@@ -196,6 +196,11 @@ def load_robot(robot: str | Path, mjcf: str | Path | None = None) -> RobotSpec:
             raise ConfigError(f"{path}: key 'mjcf': file {mjcf_path} does not exist")
     elif has_builtin:
         builtin = top.get_str("builtin", valid=BUILTIN_MODELS)
+    else:
+        raise ConfigError(
+            f"{path}: robot {name!r} needs its MJCF model, which the project does not ship: give its path "
+            f"(--mjcf PATH, or load_robot({name!r}, mjcf=PATH)); the model: {source}"
+        )
     ignore = tuple(top.get_str_list("ignore_bodies", []))
 
     frames_t = top.get_table("frames")
