@@ -50,6 +50,7 @@ DIFFERENCES: tuple[tuple[str, str, str], ...] = (
     ("tempering", "learning", "temperature"),
     ("dz sign term", "synthesis", "vertical_sign"),
     ("open-interval score", "synthesis", "open_interval"),
+    ("bounded parse window", "synthesis", "parse_window"),
 )
 
 

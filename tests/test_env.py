@@ -73,7 +73,9 @@ def test_spaces_documented_shapes(data):
 
 
 def test_observation_matches_simulator(data):
-    env = make(data, history=2, interactions="hand_over")
+    # All-zero targets crouch the robot into a ball; with its real weight that self-collides at once
+    # (the failure would end the episode): observations are what is checked here.
+    env = make(data, history=2, interactions="hand_over", terminate_on_failure=False)
     obs, _ = env.reset(seed=3)
     for _ in range(4):
         sim = env.simulator

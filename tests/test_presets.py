@@ -150,6 +150,7 @@ def test_paper_synthesis_settings() -> None:
     assert (c.n_observed, c.delta_t, c.n_samples) == (10, 5, 100)
     assert (c.duration, c.interpolation, c.parse, c.end_prior, c.contact) == ("sample", "linear", "online", "none", "none")
     assert not (c.lookahead or c.replan_at_end) and c.frame_weight == 0.0 and c.refine_sweeps == 0
+    assert c.parse_window is None and SynthesisConfig().parse_window is not None  # the DP reads every frame since the start
 
 
 def test_no_vertical_sign_term(paper_model: SocialAffordanceModel, shake8: Dataset) -> None:
@@ -198,3 +199,24 @@ def test_end_to_end_fit_and_synthesis_with_the_paper_preset(paper_model: SocialA
     assert (subs[cfg.n_observed:] >= 0).all()
     again = synthesize(paper_model, observed_part(inter, cfg.n_observed), rng=np.random.default_rng(0), config=cfg)[0]
     np.testing.assert_array_equal(keys, again)
+
+
+def test_stream_parser_scores_the_running_sub_event_as_parse_prefix_does(paper_model: SocialAffordanceModel, shake8: Dataset) -> None:
+    """The synthesizer's incremental parser gives the same parse as :func:`parse_prefix` with the same
+    ``open_interval`` (whole-stream window), re-planning after re-planning."""
+    from socialaff_sim.inference.stream_parse import StreamParser
+    from socialaff_sim.learning.atomic import cut_atoms
+
+    m = paper_model
+    inter = shake8[6]
+    track = m.canonical_track(inter)
+    lc = m.learning
+    kw = dict(min_frames=lc.min_atomic_frames, max_seconds=lc.max_atomic_seconds, tau=lc.velocity_seconds)
+    for mode in ("closed", "survival"):
+        parser = StreamParser(m, inter.fps, None, open_interval=mode, **kw)
+        for t in range(10, track.shape[0] + 1, 5):
+            got, w0 = parser.parse(track, t, m.available_)
+            bounds = cut_atoms(track[:t], inter.fps, m.available_, m.centroids_, **kw)
+            want = parse_prefix(m, track[:t], inter.fps, bounds, mode)
+            assert w0 == 0 and got.score == pytest.approx(want.score, abs=1e-9)
+            np.testing.assert_array_equal(got.intervals, want.intervals)

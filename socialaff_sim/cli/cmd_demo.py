@@ -18,7 +18,8 @@ def _run(args: argparse.Namespace) -> int:
     from ..demo import DemoConfig, run_demo
 
     labels = [args.interaction] if args.interaction else list(INTERACTIONS)
-    config = DemoConfig(iterations=args.iterations, robot=args.robot, video=not args.no_video, seed=args.seed)
+    config = DemoConfig(iterations=args.iterations, robot=args.robot, mjcf=args.mjcf, video=not args.no_video,
+                        seed=args.seed)
     start = time.perf_counter()
     done = 0
     total = 3 * len(labels)
@@ -49,7 +50,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--interaction", help="one interaction (default: all five)")
     p.add_argument("--out", default="demo_out", help="output folder (default: demo_out)")
     p.add_argument("--iterations", type=positive_int, default=30, help="MCMC iterations of the learning (default 30)")
-    p.add_argument("--robot", default="ours", help="robot to simulate: ours or cmu (default ours)")
+    p.add_argument("--robot", default="ours",
+                   help="robot to simulate: ours, cmu, unitree_h1, unitree_g1 (these two need --mjcf) or a mapping "
+                        ".toml (default ours)")
+    p.add_argument("--mjcf", help="the robot's MJCF file, for robots whose model the project does not ship "
+                                  "(unitree_h1: your h1.xml; unitree_g1: your g1_29dof.xml)")
     p.add_argument("--no-video", action="store_true", help="skip rendering")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the synthetic data and of every sampler")

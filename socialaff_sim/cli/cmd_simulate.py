@@ -37,15 +37,17 @@ def run(args: argparse.Namespace) -> int:
     from .._atomic import atomic_write_text
     from ..data import load_dataset
     from ..errors import RenderingUnavailableError
+    from ..retarget.robot import load_robot
     from ..sim.episode import run_episode
     from ..sim.simulator import Simulator
     from ..sim.tasks import load_task, task_for_label
 
+    robot = load_robot(args.robot, mjcf=args.mjcf)  # a wrong robot or --mjcf fails before any data is read
     source = _source(args)
     dataset = load_dataset(args.data, policy=args.policy, units=args.units)
     inter = dataset.by_id(args.instance)
     task = load_task(args.task) if args.task else task_for_label(inter.label)
-    sim = Simulator(args.robot, task)
+    sim = Simulator(robot, task)
     out = Path(args.out)
     with output_folder(out) as staging:  # metrics, video and sheet together or not at all
 
@@ -101,7 +103,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--instance", required=True, help="instance id (or a unique prefix, or a position index)")
     p.add_argument("--robot", default="ours",
                    help="robot: 'cmu' (dm_control CMU humanoid), 'ours' (the project's 1.3 m robot) "
-                        "or the path of a mapping .toml (docs/robots.md); default ours")
+                        "'unitree_h1', 'unitree_g1' (need --mjcf) or the path of a mapping .toml (docs/robots.md); "
+                        "default ours")
+    p.add_argument("--mjcf", help="the robot's MJCF file, for robots whose model the project does not ship "
+                                  "(unitree_h1: your h1.xml; unitree_g1: your g1_29dof.xml)")
     p.add_argument("--source", choices=("model", "gt"), default="model",
                    help="key joints from the affordance model's synthesis, or the recorded agent 1 (gt)")
     p.add_argument("--synthesis", choices=("online", "offline"), default="online",

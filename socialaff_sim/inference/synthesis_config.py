@@ -20,12 +20,12 @@ _OPEN_INTERVALS = ("survival", "closed")
 @dataclass(frozen=True)
 class SynthesisConfig:
     """Settings of Algorithm 2; change them with ``dataclasses.replace``. :meth:`paper` is Algorithm 2 as
-    the paper states it; the defaults differ from it in ``vertical_sign`` and ``open_interval`` only.
+    the paper states it; the defaults differ from it in ``vertical_sign``, ``open_interval`` and ``parse_window`` only.
 
     Fields by concept
     -----------------
     - Online schedule: n_observed, delta_t, replan_at_end
-    - Running sub-event and its end: parse, observed_parse_step, open_interval, duration, lookahead
+    - Running sub-event and its end: parse, parse_window, observed_parse_step, open_interval, duration, lookahead
     - Candidate end configurations: n_samples, spatial_fraction, coherent_fraction, refine_sweeps, vertical_sign,
       end_prior, prior_samples
     - Motion toward the chosen end: interpolation, frame_weight, frame_decay
@@ -63,6 +63,13 @@ class SynthesisConfig:
     so far and a duration drawn from the log-normal prior; or ``"observed"``, one DP over agent 0's
     (and the object's) whole recorded track before synthesis starts
     (:func:`~socialaff_sim.inference.observed_parse.parse_observed`; offline only, needs ``lookahead``)."""
+    parse_window: float | None = 4.5
+    """W [s]: the ``"online"`` parse reads the last W to 1.5 W seconds only (its start moves in hops of W / 2; its
+    atoms, its DP, a uniform label prior at the window's start once frame 0 has left it), and keeps the scores
+    of intervals and the DP rows already computed, so a re-planning costs the same after an hour as after a
+    second (:class:`~socialaff_sim.inference.stream_parse.StreamParser`). Instances shorter than 1.5 W (6.75 s:
+    every recording of the shared sets, at most 6.7 s) are parsed exactly as with None: every frame since the
+    start, as in the paper, whose cost grows with the time elapsed. Smaller is faster (docs/benchmarks.md)."""
     observed_parse_step: int = 2
     """[frames]: Frames between the cut points of the ``"observed"`` parse."""
     end_prior: str = "none"
@@ -151,19 +158,21 @@ class SynthesisConfig:
             )
         if self.open_interval not in _OPEN_INTERVALS:
             raise ConfigError(f"open_interval: expected {choices(_OPEN_INTERVALS)}, found {self.open_interval!r}")
+        if self.parse_window is not None and not self.parse_window > 0:
+            raise ConfigError(f"parse_window (W): expected seconds > 0 or None, found {self.parse_window}")
         if self.duration not in _DURATION_MODES:
             raise ConfigError(f"duration: expected {choices(_DURATION_MODES)}, found {self.duration!r}")
 
     @classmethod
     def paper(cls, **changes: object) -> SynthesisConfig:
         """Algorithm 2 as the paper states it: after T0 = 10 observed frames, every ΔT = 5 frames a DP over
-        the frames so far (the running sub-event scored as if it ended now), a duration drawn from the
+        all the frames so far (no window; the running sub-event scored as if it ended now), a duration drawn from the
         conditional log-normal, N = 100 candidates from the potentials (signs of dz at random), the most
         likely kept, linear interpolation; causal (no lookahead), no regression, no contact pull."""
         base: dict[str, object] = dict(
             n_observed=10, delta_t=5, n_samples=100, duration="sample", interpolation="linear", lookahead=False,
             parse="online", end_prior="none", frame_weight=0.0, replan_at_end=False, contact="none",
-            coherent_fraction=0.0, refine_sweeps=0, vertical_sign=False, open_interval="closed",
+            coherent_fraction=0.0, refine_sweeps=0, vertical_sign=False, open_interval="closed", parse_window=None,
         )
         return cls(**{**base, **changes})  # type: ignore[arg-type]
 
