@@ -295,3 +295,22 @@ def test_extend_held_adds_frames_that_carry_no_information(rng: np.random.Genera
     np.testing.assert_array_equal(longer.object[T:], np.repeat(inst.object[-1:], 4, axis=0))
     assert (longer.subevents[T:] == -1).all() and longer.same_as(longer.slice(0, T + 4))
     assert inst.same_as(longer.slice(0, T))
+
+
+def test_preset_reaches_the_affordance_methods_only() -> None:
+    import dataclasses
+
+    from socialaff_sim.evaluation.crossval import make_method
+    from socialaff_sim.inference.presets import preset
+    from socialaff_sim.model.config import AffordanceConfig
+
+    paper = preset("paper")
+    for name, changes in (("full", {}), ("v1", {"use_grouping": False}), ("v2", {"use_subevents": False})):
+        m = make_method(get_method(name), "paper")
+        assert m.model_config == dataclasses.replace(paper.affordance, **changes)
+        assert m.learning == paper.learning and m.synthesis == paper.synthesis == m.offline_synthesis
+        d = make_method(get_method(name), "default")
+        assert d.model_config == dataclasses.replace(AffordanceConfig(), **changes)
+        assert d.synthesis == SynthesisConfig.reactive() and d.offline_synthesis == SynthesisConfig.offline()
+        assert m.chains == d.chains == 1  # one fit per fold, like every baseline
+    assert isinstance(make_method(get_method("hold"), "paper"), HoldPose)

@@ -7,6 +7,9 @@ import sys
 import time
 from pathlib import Path
 
+from .._atomic import output_folder
+from .validate import declare_outputs, non_negative_int, positive_int
+
 __all__ = ["register"]
 
 
@@ -15,7 +18,8 @@ def _run(args: argparse.Namespace) -> int:
     from ..demo import DemoConfig, run_demo
 
     labels = [args.interaction] if args.interaction else list(INTERACTIONS)
-    config = DemoConfig(iterations=args.iterations, robot=args.robot, video=not args.no_video, seed=args.seed)
+    config = DemoConfig(iterations=args.iterations, robot=args.robot, mjcf=args.mjcf, video=not args.no_video,
+                        seed=args.seed)
     start = time.perf_counter()
     done = 0
     total = 3 * len(labels)
@@ -25,7 +29,8 @@ def _run(args: argparse.Namespace) -> int:
         done += 1
         print(f"[{done}/{total} {time.perf_counter() - start:6.1f} s] {message}", file=sys.stderr, flush=True)
 
-    results = run_demo(args.out, labels, config, progress=progress if not args.quiet else None)
+    with output_folder(args.out) as staging:  # the report and its files appear together; a second run is refused
+        results = run_demo(staging, labels, config, progress=progress if not args.quiet else None)
     out = Path(args.out)
     print(f"\n{'interaction':<14}{'key-joint error m (full / hmm / promp)':>40}{'sub-goals (synth / gt)':>26}")
     for r in results:
@@ -44,9 +49,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("demo", help="learn, synthesize, simulate and report on the embedded synthetic dataset")
     p.add_argument("--interaction", help="one interaction (default: all five)")
     p.add_argument("--out", default="demo_out", help="output folder (default: demo_out)")
-    p.add_argument("--iterations", type=int, default=30, help="MCMC iterations of the learning (default 30)")
-    p.add_argument("--robot", default="ours", help="robot to simulate: ours or cmu (default ours)")
+    p.add_argument("--iterations", type=positive_int, default=30, help="MCMC iterations of the learning (default 30)")
+    p.add_argument("--robot", default="ours",
+                   help="robot to simulate: ours, cmu, unitree_h1, unitree_g1 (these two need --mjcf) or a mapping "
+                        ".toml (default ours)")
+    p.add_argument("--mjcf", help="the robot's MJCF file, for robots whose model the project does not ship "
+                                  "(unitree_h1: your h1.xml; unitree_g1: your g1_29dof.xml)")
     p.add_argument("--no-video", action="store_true", help="skip rendering")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
-    p.add_argument("--seed", type=int, default=0, help="seed of the synthetic data and of every sampler")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the synthetic data and of every sampler")
+    declare_outputs(p, out="folder")
     p.set_defaults(func=_run)

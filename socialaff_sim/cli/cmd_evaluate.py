@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
+from .._atomic import output_folder
 from ..data import load_dataset
 from ..evaluation import DEFAULT_N_OBSERVED, EvaluationConfig, evaluate, format_tables, write_results
 from ..evaluation.crossval import EXECUTORS, PRESETS
 from ..evaluation.splits import SPLITS
 from ..evaluation.streaming import PROTOCOLS
+from .validate import add_data_options, declare_outputs, int_range, non_negative_int, positive_int
 
 __all__ = ["register", "run"]
 
@@ -23,7 +26,7 @@ def _names(values: list[str] | None) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """Load the data, run the evaluation, write DIR/results.{json,md,png} and print the tables."""
-    dataset = load_dataset(args.data)
+    dataset = load_dataset(args.data, policy=args.policy, units=args.units)
     config = EvaluationConfig(
         n_folds=args.folds,
         n_observed=args.n_observed,
@@ -45,7 +48,9 @@ def run(args: argparse.Namespace) -> int:
         config=config,
         progress=None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True)),
     )
-    paths = write_results(results, args.out)
+    with output_folder(args.out) as staging:  # results.json/.md/.png together; a second writer is refused
+        staged = write_results(results, staging)
+    paths = {k: Path(args.out) / p.relative_to(staging) for k, p in staged.items()}
     print(format_tables(results))
     print("wrote " + ", ".join(str(p) for p in paths.values()))
     if "chart" not in paths:
@@ -87,27 +92,29 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "recording: no test recording in training; block: contiguous blocks of each recording (optimistic)",
     )
     p.add_argument("--preset", choices=PRESETS, default=PRESETS[0], help="configurations of full/v1/v2 (default: default)")
-    p.add_argument("--folds", type=int, default=4, help="cross-validation folds per class (default 4)")
+    p.add_argument("--folds", type=int_range(2), default=4, help="cross-validation folds per class (default 4)")
     p.add_argument(
-        "--max-folds", type=int, metavar="N",
+        "--max-folds", type=positive_int, metavar="N",
         help="run only the first N of the folds (time-limited runs; the tables say so; default: all)",
     )
     p.add_argument(
-        "--max-test", type=int, metavar="N",
+        "--max-test", type=positive_int, metavar="N",
         help="at most N test instances per fold (time-limited runs; the tables say so; default: all)",
     )
     p.add_argument(
-        "--n-observed", type=int, default=DEFAULT_N_OBSERVED, metavar="T0",
+        "--n-observed", type=int_range(1), default=DEFAULT_N_OBSERVED, metavar="T0",
         help=f"frames of agent 1 observed before synthesis (default {DEFAULT_N_OBSERVED})",
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    p.add_argument("--seed", type=int, default=0, help="run seed for the folds and every method (default 0)")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="run seed for the folds and every method (default 0)")
     p.add_argument(
         "--executor", choices=EXECUTORS, default="process",
         help="process: local process pool (default); ray: a Ray cluster (pip install socialaff-sim[distributed]); "
         "serial: this process",
     )
     p.add_argument("--address", help="Ray cluster address (with --executor ray; default: start a local instance)")
-    p.add_argument("--workers", type=int, help="parallel workers (default: all CPUs)")
+    p.add_argument("--workers", type=positive_int, help="parallel workers (default: all CPUs)")
     p.add_argument("--quiet", action="store_true", help="no per-task progress on stderr")
+    add_data_options(p)
+    declare_outputs(p, out="folder")
     p.set_defaults(func=run)

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import argparse
 
+from .validate import declare_outputs
+
 __all__ = ["register", "run"]
+
 
 def run(args: argparse.Namespace) -> int:
     """Load a model, print it, optionally draw it."""
@@ -23,4 +26,5 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("show", help="print a learned model's sub-events and joint groupings")
     p.add_argument("model", metavar="MODEL.npz", help="a model written by 'socialaff-sim fit'")
     p.add_argument("--figure", metavar="PATH", help="also draw the grouping of each sub-event (PNG)")
+    declare_outputs(p, figure="file")
     p.set_defaults(func=run)

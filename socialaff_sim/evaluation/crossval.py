@@ -22,6 +22,7 @@ from ..data.dataset import Dataset
 from ..data.interaction import Interaction
 from ..errors import ConfigError, ModelError, SocialAffError, choices
 from .metrics import joint_error, key_joint_error, parse_confusion
+from ..inference.presets import PRESETS as _PRESETS
 from ..inference.protocol import DEFAULT_N_OBSERVED, MethodFactory, Prediction, ReactionMethod
 from .splits import SPLITS, make_folds
 from .streaming import PAPER_DELTA_T, PROTOCOLS, run_protocol
@@ -29,7 +30,7 @@ from .streaming import PAPER_DELTA_T, PROTOCOLS, run_protocol
 __all__ = ["EvaluationConfig", "Task", "TaskResult", "InstanceScore", "make_method", "make_tasks", "run_task", "task_seed"]
 
 EXECUTORS = ("process", "ray", "serial")
-PRESETS = ("default", "paper")
+PRESETS = _PRESETS
 
 
 @dataclass(frozen=True)

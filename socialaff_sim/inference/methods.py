@@ -9,9 +9,9 @@ grouping, ``"v2"`` drops latent sub-events (the paper's two ablations). All impl
 gets agent 0's whole track and runs with :attr:`AffordanceMethod.offline_synthesis` (default
 :meth:`SynthesisConfig.offline`, lookahead). The registered methods learn one MCMC chain each, like
 every other method (one fit per fold); ``chains`` > 1 averages several chains' syntheses (a 3-chain
-ensemble lowered the offline error in docs/analysis.md, sessions 10–11, at three times the cost — not
-like for like against one-fit baselines, so it is not the default). ``"full_online"`` is the full
-model with the paper's Algorithm 2 settings (``SynthesisConfig()``) under every protocol.
+ensemble lowered the offline error in the history of docs/analysis.md, sessions 10–11, at three times the
+cost — not like for like against one-fit baselines, so it is not the default). ``"full_online"`` is the
+full model with ``SynthesisConfig()`` under every protocol, as the simulator runs it.
 :mod:`socialaff_sim.evaluation.registry` registers them by name; a factory's ``preset`` (``"default"``
 or ``"paper"``) selects the model, learning and synthesis configurations (:func:`preset_configs`).
 """
@@ -25,17 +25,16 @@ import numpy as np
 
 from ..data.interaction import Interaction
 from ..errors import ConfigError, NotFittedError, choices
+from ..learning.config import LearningConfig
 from ..learning.estimator import SocialAffordanceModel
 from ..model.config import AffordanceConfig
 from ..model.joints import instance_frame
 from .body_fit import BodyFitConfig, BodyFitter
+from .presets import PRESETS
+from .presets import preset as named_preset
 from .protocol import Prediction
 from .synthesis import OnlineSynthesizer, SynthesisConfig
 
-try:  # the paper presets (issue 23) live in their own module; without it only "default" is offered
-    from .presets import preset as _preset
-except ImportError:  # pragma: no cover - depends on the installed version
-    _preset = None
 
 __all__ = ["AffordanceMethod", "PRESETS", "REGISTERED_CHAINS", "VARIANTS", "fit_skeleton", "preset_configs", "synthesize"]
 
@@ -50,26 +49,17 @@ REGISTERED_CHAINS = 1
 """K, the MCMC chains the registered ``"full"``, ``"v1"`` and ``"v2"`` methods learn: one, as every other
 method fits once per fold. One chain's parse depends on its seed (on the SBU handshakes the fit's seed
 alone moved the offline error from 0.127 to 0.136 m); ``AffordanceMethod(chains=3)`` is the ensemble that
-lowered the offline errors in docs/analysis.md (sessions 10 and 11) at three times the fit cost.
+lowered the offline errors (the history of docs/analysis.md, sessions 10 and 11; docs/design.md) at three
+times the fit cost.
 """
 
-PRESETS: tuple[str, ...] = ("default", "paper")
-"""Names of the configuration presets a method factory accepts."""
-
-
-def preset_configs(name: str) -> tuple[AffordanceConfig, object | None, SynthesisConfig]:
-    """(model, learning, causal synthesis) configurations of preset ``name``.
-
-    ``"default"``: the package's defaults with :meth:`SynthesisConfig.reactive`; ``"paper"``: the
-    paper-exact configurations of :mod:`socialaff_sim.inference.presets`."""
-    if name not in PRESETS:
-        raise ConfigError(f"preset: expected {choices(PRESETS)}, found {name!r}")
-    if name == "default":
-        return AffordanceConfig(), None, SynthesisConfig.reactive()
-    if _preset is None:
-        raise ConfigError("preset 'paper' needs socialaff_sim.inference.presets, which this installation lacks")
-    chosen = _preset(name)
-    return chosen.affordance, chosen.learning, chosen.synthesis
+def preset_configs(name: str) -> tuple[AffordanceConfig, LearningConfig, SynthesisConfig]:
+    """(model, learning, causal synthesis) configurations of preset ``name``
+    (:func:`~socialaff_sim.inference.presets.preset`), except that the ``"default"`` preset synthesizes
+    causally with :meth:`SynthesisConfig.reactive` (what the simulator and the environment run)."""
+    chosen = named_preset(name)  # the error lists the presets
+    synthesis = SynthesisConfig.reactive() if name == "default" else chosen.synthesis
+    return chosen.affordance, chosen.learning, synthesis
 
 
 def synthesize(

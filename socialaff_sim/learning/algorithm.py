@@ -5,13 +5,17 @@ The chain starts from the best (highest log P*) hard-EM refinement of the equal-
 ``LearningConfig.init_starts`` random-fraction splits (our addition; 0 by default), improved by
 type-level merge-and-split passes (:mod:`~socialaff_sim.learning.restructure`, our addition).
 One outer iteration is a sweep: one MH proposal for every training instance in turn (each
-instance's kernel leaves the target invariant, so the sweep does too). The state with the
-highest log P* visited is returned (a maximum a posteriori estimate); ``trace`` holds the log P*
-of the current state after every iteration (entry 0: the initial parse).
+instance's kernel leaves the (tempered) target invariant, so the sweep does too); with
+``LearningConfig.temperature`` T₀ > 1 iteration i runs at T_i = T₀^(1 − i/(I − 1)), cooling to 1.
+The state with the highest log P* visited is returned (a maximum a posteriori estimate); ``trace``
+holds the log P* of the current state after every iteration (entry 0: the initial parse) and
+``history`` the proposals and acceptances of every dynamics per iteration
+(:func:`~socialaff_sim.learning.history.new_history`), which are also logged.
 """
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -21,13 +25,24 @@ import numpy as np
 from ..model.config import AffordanceConfig
 from .atomic import AtomicIntervals, atomic_intervals
 from .config import LearningConfig
+from .history import new_history, summary_line
 from .initial import hard_em_parses
 from .mh import mh_step
 from .parse import Parse, ParseSpace
 from .restructure import restructure
 from .scorer import AffordanceTarget
 
-__all__ = ["LearningResult", "learn", "make_spaces"]
+__all__ = ["LearningResult", "learn", "make_spaces", "temperatures"]
+
+logger = logging.getLogger(__name__)
+
+
+def temperatures(cfg: LearningConfig, iterations: int) -> np.ndarray:
+    """(iterations,) float64: T_i = T₀^(1 − i/(I − 1)), from ``cfg.temperature`` down to 1 (all 1 when T₀ = 1)."""
+    if iterations == 0:
+        return np.zeros(0)
+    frac = np.arange(iterations) / max(iterations - 1, 1)
+    return np.power(float(cfg.temperature), 1.0 - frac)
 
 
 @dataclass(frozen=True)
@@ -36,6 +51,8 @@ class LearningResult:
 
     parses: tuple[Parse, ...]
     """Best parse of every training instance."""
+    start_parses: tuple[Parse, ...]
+    """The chain's first state (after the optional hard-EM and restructuring of the equal parts)."""
     spaces: tuple[ParseSpace, ...]
     """The instances' atomic intervals and proposal weights."""
     atoms: AtomicIntervals
@@ -49,7 +66,10 @@ class LearningResult:
     acceptance: np.ndarray
     """(iterations,) float64: fraction of accepted proposals in each iteration."""
     moves: dict[str, tuple[int, int]]
-    """Per dynamics: (proposed, accepted) counts."""
+    """Per dynamics: (proposed, accepted) counts (a proposal with no admissible choice counts as rejected)."""
+    history: dict[str, np.ndarray]
+    """Per iteration: log P*, temperature, proposals and acceptances of each dynamics (see
+    :func:`~socialaff_sim.learning.history.new_history`)."""
     type_updates: int
     """Inner-loop runs (sub-event types re-fitted)."""
     seconds: dict[str, float]
@@ -138,29 +158,36 @@ def learn(
     current = target.log_prob
     seconds["init"] = time.perf_counter() - clock - seconds["atoms"]
     best = (current, tuple(target.parses), target.groupings())
+    start_parses = tuple(target.parses)
     iterations = lcfg.iterations if acfg.use_subevents and n_labels > 1 else 0
     trace = [current]
     acceptance = []
     moves = {"split": [0, 0], "merge": [0, 0], "relabel": [0, 0], "shift": [0, 0]}
+    history = new_history(iterations, current)
+    temps = temperatures(lcfg, iterations)
+    history["temperature"][:] = temps
     bar = None
     if progress:
         from tqdm.auto import tqdm  # noqa: PLC0415
 
         bar = tqdm(total=iterations, desc=desc, unit="it", leave=False)
     try:
-        for _ in range(iterations):
+        for it in range(iterations):
             accepted = 0
             for i, space in enumerate(spaces):
-                step = mh_step(space, i, target.parses[i], current, target, lcfg, rng)
+                step = mh_step(space, i, target.parses[i], current, target, lcfg, rng, temperature=float(temps[it]))
                 current, ok = step.log_p, step.accepted
-                if step.move is not None:
-                    moves[step.move][0] += 1
-                    moves[step.move][1] += int(ok)
+                moves[step.move][0] += 1
+                moves[step.move][1] += int(ok)
+                history[f"proposed_{step.move}"][it] += 1
+                history[f"accepted_{step.move}"][it] += int(ok)
                 accepted += int(ok)
                 if current > best[0]:
                     best = (current, tuple(target.parses), target.groupings())
             acceptance.append(accepted / max(len(spaces), 1))
             trace.append(current)
+            history["log_posterior"][it + 1] = current
+            logger.debug("%s iteration %d: T %.3g, log P* %.2f, accepted %d of %d", desc, it, temps[it], current, accepted, len(spaces))
             if bar is not None:
                 bar.update(1)
                 bar.set_postfix(logP=f"{current:.1f}", acc=f"{np.mean(acceptance):.2f}")
@@ -168,8 +195,11 @@ def learn(
         if bar is not None:
             bar.close()
     seconds["mcmc"] = time.perf_counter() - clock - seconds["atoms"] - seconds["init"]
+    if iterations:
+        logger.info("%s: %s", desc, summary_line(history))
     return LearningResult(
         parses=best[1],
+        start_parses=start_parses,
         spaces=tuple(spaces),
         atoms=atoms,
         grouping=best[2],
@@ -177,6 +207,7 @@ def learn(
         trace=np.asarray(trace),
         acceptance=np.asarray(acceptance),
         moves={k: (v[0], v[1]) for k, v in moves.items()},
+        history=history,
         type_updates=target.n_type_updates,
         seconds=seconds,
     )
