@@ -8,6 +8,7 @@ import sys
 from ..data import load_dataset
 from ..evaluation import DEFAULT_N_OBSERVED, EvaluationConfig, evaluate, format_tables, write_results
 from ..evaluation.crossval import EXECUTORS
+from ..report import write_evaluation_page
 
 __all__ = ["register", "run"]
 
@@ -39,10 +40,12 @@ def run(args: argparse.Namespace) -> int:
         progress=None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True)),
     )
     paths = write_results(results, args.out)
+    page = write_evaluation_page(args.out)
     print(format_tables(results))
-    print("wrote " + ", ".join(str(p) for p in paths.values()))
+    print("wrote " + ", ".join(str(p) for p in [*paths.values(), page]))
     if "chart" not in paths:
         print("bar chart skipped: matplotlib is not installed (pip install socialaff-sim[plot])")
+    print(f"next: open {page.resolve().as_uri()} in a browser")
     return 0
 
 
@@ -81,5 +84,4 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--address", help="Ray cluster address (with --executor ray; default: start a local instance)")
     p.add_argument("--workers", type=int, help="parallel workers (default: all CPUs)")
-    p.add_argument("--quiet", action="store_true", help="no per-task progress on stderr")
     p.set_defaults(func=run)

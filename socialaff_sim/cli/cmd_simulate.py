@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 
@@ -27,9 +26,6 @@ def _source(args: argparse.Namespace) -> object:
 
 def run(args: argparse.Namespace) -> int:
     """Simulate one instance; returns 0 on completion (whatever the sub-goals' outcome)."""
-    # Offscreen rendering on a machine without a display: EGL, unless the user chose otherwise.
-    if not os.environ.get("DISPLAY"):
-        os.environ.setdefault("MUJOCO_GL", "egl")
     from .._atomic import atomic_write_text
     from ..data import load_dataset
     from ..errors import RenderingUnavailableError

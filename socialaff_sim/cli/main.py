@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import os
+import logging
 import sys
 from collections.abc import Sequence
 
-from .. import __version__
+from .. import GL_CHOICE, __version__
 from ..errors import SocialAffError
 
 __all__ = ["main", "build_parser"]
@@ -26,6 +26,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="socialaff-sim",
         description="Learn social affordance from two-person recordings and make a MuJoCo humanoid react.",
+        epilog="start with:\n  socialaff-sim demo --out demo_out      # then open demo_out/report.html\n"
+        "each command's own --help gives an example",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -38,16 +41,38 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # not part of this build
             raise
         module.register(sub)
+    for command in sub.choices.values():
+        _add_output_flags(command)
     return parser
+
+
+def _add_output_flags(parser: argparse.ArgumentParser) -> None:
+    """``--quiet`` and ``--verbose`` on every sub-command (a sub-command may define its own)."""
+    for flags, help_text in (
+        (("-q", "--quiet"), "no progress lines on stderr (results are still printed)"),
+        (("-v", "--verbose"), "also log the library's details on stderr (rendering backend, MCMC iterations, …)"),
+    ):
+        try:
+            parser.add_argument(*flags, action="store_true", help=help_text)
+        except argparse.ArgumentError:
+            continue  # already defined by the sub-command
+
+
+def _configure_logging(args: argparse.Namespace) -> None:
+    """The library logs; the CLI shows warnings, and with ``--verbose`` the package's INFO messages too."""
+    verbose = bool(getattr(args, "verbose", False)) and not getattr(args, "quiet", False)
+    logging.basicConfig(level=logging.WARNING, stream=sys.stderr, format="%(levelname)s %(name)s: %(message)s")
+    if verbose:  # our details only; other libraries keep to warnings
+        logging.getLogger("socialaff_sim").setLevel(logging.INFO)
+        logging.getLogger("socialaff_sim").info("rendering: %s", GL_CHOICE.reason)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the console script; returns the exit status."""
-    # Headless machines render offscreen through EGL; a user's own choice wins.
-    if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
-        os.environ["MUJOCO_GL"] = "egl"
+    # Importing the package chose MuJoCo's GL backend already (socialaff_sim._headless): EGL without a display.
     parser = build_parser()
     args = parser.parse_args(argv)
+    _configure_logging(args)
     try:
         return int(args.func(args) or 0)
     except SocialAffError as exc:

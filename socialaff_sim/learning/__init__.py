@@ -19,12 +19,13 @@ hundreds of nats; so from a poor start the paper's chain does not move. The shif
 moves a boundary in one step, and the hard-EM start moves all instances' parses together.
 """
 
-from .algorithm import LearningResult, learn
+from .algorithm import FitProgress, LearningResult, learn
 from .config import LearningConfig
 from .mh import FunctionTarget, ParseTarget, mh_step, propose
 from .parse import Parse, ParseSpace, enumerate_parses
 
 __all__ = [
+    "FitProgress",
     "FunctionTarget",
     "LearningConfig",
     "LearningResult",

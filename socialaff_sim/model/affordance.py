@@ -30,6 +30,7 @@ from .segment_dp import best_segmentation
 from .type_stats import name_subevents
 
 if TYPE_CHECKING:
+    from ..learning.algorithm import FitProgress
     from ..learning.config import LearningConfig
 
 __all__ = ["SocialAffordanceModel"]
@@ -114,9 +115,20 @@ class SocialAffordanceModel:
 
     # -- fitting -----------------------------------------------------------------------------
     def fit(
-        self, interactions: Sequence[Interaction], *, rng: np.random.Generator, progress: bool = False
+        self,
+        interactions: Sequence[Interaction],
+        *,
+        rng: np.random.Generator,
+        progress: bool = False,
+        callback: Callable[[FitProgress], None] | None = None,
     ) -> SocialAffordanceModel:
-        """Learn the model from instances of one interaction with Algorithm 1; returns ``self``."""
+        """Learn the model from instances of one interaction with Algorithm 1; returns ``self``.
+
+        ``progress`` shows a bar on stderr; ``callback`` receives a
+        :class:`~socialaff_sim.learning.algorithm.FitProgress` after the initial parse and after
+        every outer iteration, which the ``socialaff_sim.learning.algorithm`` logger also reports
+        at INFO level (``logging.basicConfig(level=logging.INFO)`` shows it).
+        """
         from ..learning.algorithm import learn  # noqa: PLC0415
 
         inters = list(interactions)
@@ -135,7 +147,8 @@ class SocialAffordanceModel:
         self.hand_coupling_ = fit_hand_coupling(flags)
         available = available_joints(tracks)
         fps = [i.fps for i in inters]
-        res = learn(tracks, fps, available, n_sub, self.config, self.learning, rng=rng, progress=progress, desc=label)
+        res = learn(tracks, fps, available, n_sub, self.config, self.learning, rng=rng, progress=progress, desc=label,
+                    callback=callback)
 
         spans = [sp.frame_spans(p) for sp, p in zip(res.spaces, res.parses, strict=True)]
         self._set_learned(
