@@ -7,6 +7,8 @@ import sys
 import time
 from pathlib import Path
 
+from .help_format import HelpFormatter
+
 __all__ = ["register"]
 
 
@@ -53,7 +55,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "simulate it in MuJoCo and write OUT/report.html with the videos (about 3-4 minutes for all five).",
         epilog="example:\n  socialaff-sim demo --interaction shake_hands --out demo_out   # about 40 s\n"
         "  then open demo_out/report.html in a browser",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        formatter_class=HelpFormatter,
     )
     p.add_argument("--interaction", help="one interaction (default: all five)")
     p.add_argument("--out", default="demo_out", help="output folder (default: demo_out)")

@@ -16,6 +16,8 @@ from collections.abc import Sequence
 from .. import GL_CHOICE, __version__
 from ..errors import SocialAffError
 
+from .help_format import HelpFormatter
+
 __all__ = ["main", "build_parser"]
 
 _COMMAND_MODULES = ("data", "fit", "show", "synthesize", "evaluate", "simulate", "demo")
@@ -28,7 +30,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Learn social affordance from two-person recordings and make a MuJoCo humanoid react.",
         epilog="start with:\n  socialaff-sim demo --out demo_out      # then open demo_out/report.html\n"
         "each command's own --help gives an example",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        formatter_class=HelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -56,6 +58,10 @@ def _add_output_flags(parser: argparse.ArgumentParser) -> None:
             parser.add_argument(*flags, action="store_true", help=help_text)
         except argparse.ArgumentError:
             continue  # already defined by the sub-command
+    for action in parser._actions:  # nested sub-commands (``data synth``) get them too
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                _add_output_flags(child)
 
 
 def _configure_logging(args: argparse.Namespace) -> None:
@@ -72,6 +78,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     # Importing the package chose MuJoCo's GL backend already (socialaff_sim._headless): EGL without a display.
     parser = build_parser()
     args = parser.parse_args(argv)
+    package_log = logging.getLogger("socialaff_sim")
+    level = package_log.level
     _configure_logging(args)
     try:
         return int(args.func(args) or 0)
@@ -81,6 +89,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    finally:
+        package_log.setLevel(level)  # main() called from Python leaves the caller's logging as it was
 
 
 if __name__ == "__main__":

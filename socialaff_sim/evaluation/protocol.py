@@ -201,8 +201,7 @@ def get_method(name: str) -> MethodFactory:
     except KeyError:
         raise ConfigError(
             f"unknown method {name!r}; available methods: {choices(sorted(METHODS))} "
-            "(the full model and its ablations 'full', 'v1', 'v2' are registered by the synthesis module "
-            "of socialaff_sim.inference once it is installed)"
+            "(add your own with socialaff_sim.evaluation.register_method(name, factory))"
         ) from None
 
 
