@@ -83,6 +83,18 @@ def test_frame_progress_reports_each_quarter_once_and_calls_the_recorder() -> No
                     "x: frame 6/8 (sub-event approach)", "x: frame 8/8 (sub-event approach)"]
 
 
+def test_simulate_reports_the_episode_unless_quiet(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    data = generate_dataset(0, SyntheticConfig(interactions=("shake_hands",), instances_per_interaction=1))
+    save_dataset(data, tmp_path / "data")
+    args = ["simulate", "--data", f"npz:{tmp_path / 'data'}", "--instance", "0", "--source", "gt", "--no-video"]
+    assert main([*args, "--out", str(tmp_path / "a")]) == 0
+    loud = capsys.readouterr().err
+    n = data[0].n_frames
+    assert "frames to simulate" in loud and f"frame {n}/{n}" in loud
+    assert main([*args, "--out", str(tmp_path / "b"), "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+
+
 def test_reporter_is_silent_when_quiet(capsys: pytest.CaptureFixture[str]) -> None:
     Reporter(quiet=True)("hidden")
     Reporter(quiet=False)("shown")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 import time
 
 import numpy as np
@@ -28,6 +29,9 @@ def run(args: argparse.Namespace) -> int:
     if args.subevents is not None:
         config = dataclasses.replace(config, n_subevents=args.subevents)
     model = SocialAffordanceModel(config, learning)
+    if not args.quiet:
+        print(f"fitting {args.interaction!r} on {len(data)} instances: atomic intervals and the initial parse, "
+              f"then {learning.iterations} MCMC iterations", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
     model.fit(list(data), rng=np.random.default_rng(args.seed), progress=not (args.no_progress or args.quiet))
     seconds = time.perf_counter() - t0

@@ -156,6 +156,7 @@ def learn(
     """
     clock = time.perf_counter()
     seconds: dict[str, float] = {}
+    _log.info("%s: %d instances; atomic intervals (K-means), then the initial parse", desc, len(tracks))
     atoms = atomic_intervals(
         tracks, fps, available, n_clusters=lcfg.n_clusters, min_frames=lcfg.min_atomic_frames,
         max_seconds=lcfg.max_atomic_seconds, tau=lcfg.velocity_seconds, rng=rng, max_iter=lcfg.kmeans_iterations,
