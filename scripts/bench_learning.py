@@ -44,7 +44,7 @@ from socialaff_sim.learning.initial import hard_em_parses
 from socialaff_sim.learning.parse import Parse, ParseSpace
 from socialaff_sim.learning.scorer import AffordanceTarget
 from socialaff_sim.learning.atomic import AtomicIntervals, motion_change
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 from socialaff_sim.model.config import AffordanceConfig
 from socialaff_sim.model.joints import JOINT_NAMES, OBJECT
 

@@ -5,7 +5,7 @@ folds (``socialaff_sim.data.dataset.actor_disjoint_folds``, the fold generator o
 ``socialaff-sim evaluate``); on each fold an affordance model is fitted on the training
 instances (Algorithm 1), saved to a temporary file and wired in as the simulator's
 key-joint source exactly as ``socialaff-sim simulate --source model`` does
-(``socialaff_sim.retarget.sources.model_source``). Every test instance is then run
+(``socialaff_sim.retarget.model_source.model_source``). Every test instance is then run
 through ``socialaff_sim.sim.episode.run_episode`` twice, with the same simulator:
 
 * ``gt``: agent 1's recorded key joints (``GroundTruthSource``), the reference;
@@ -56,8 +56,9 @@ from socialaff_sim.data.synthetic import generate_dataset  # noqa: E402
 from socialaff_sim.evaluation.crossval import fold_rng  # noqa: E402
 from socialaff_sim.inference import SynthesisConfig  # noqa: E402
 from socialaff_sim.learning.config import LearningConfig  # noqa: E402
-from socialaff_sim.model.affordance import SocialAffordanceModel  # noqa: E402
-from socialaff_sim.retarget.sources import GroundTruthSource, KeyJointSource, SourceFrame, model_source  # noqa: E402
+from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
+from socialaff_sim.retarget.model_source import model_source  # noqa: E402
+from socialaff_sim.retarget.sources import GroundTruthSource, KeyJointSource, SourceFrame  # noqa: E402
 from socialaff_sim.sim.episode import ERROR_OK, run_episode  # noqa: E402
 from socialaff_sim.sim.simulator import Simulator  # noqa: E402
 

@@ -27,10 +27,10 @@ import numpy as np  # noqa: E402
 from socialaff_sim._atomic import atomic_write_text  # noqa: E402
 from socialaff_sim.data.synthetic import INTERACTIONS, generate_dataset  # noqa: E402
 from socialaff_sim.evaluation.metrics import key_joint_error  # noqa: E402
-from socialaff_sim.evaluation.protocol import Prediction, observed_part  # noqa: E402
+from socialaff_sim.inference.protocol import Prediction, observed_part  # noqa: E402
 from socialaff_sim.inference import BodyFitter, SynthesisConfig, synthesize  # noqa: E402
 from socialaff_sim.learning.config import LearningConfig  # noqa: E402
-from socialaff_sim.model.affordance import SocialAffordanceModel  # noqa: E402
+from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
 
 
 MODES = {"offline": SynthesisConfig.offline, "reactive": SynthesisConfig.reactive, "paper": SynthesisConfig}

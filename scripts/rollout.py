@@ -40,7 +40,7 @@ from socialaff_sim.data.dataset import actor_disjoint_folds  # noqa: E402
 from socialaff_sim.data.synthetic import generate_dataset  # noqa: E402
 from socialaff_sim.environment import SocialAffordanceEnv  # noqa: E402
 from socialaff_sim.learning.config import LearningConfig  # noqa: E402
-from socialaff_sim.model.affordance import SocialAffordanceModel  # noqa: E402
+from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
 
 
 def play(env: SocialAffordanceEnv, instances: list[str], policy: str, seed: int) -> dict[str, object]:

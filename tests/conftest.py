@@ -51,7 +51,7 @@ def shake8():  # noqa: ANN201 (Dataset, imported lazily)
 def shake8_model(shake8):  # noqa: ANN001, ANN201
     """A model fitted on the first six of :func:`shake8` with 3 MCMC iterations (seed 0)."""
     from socialaff_sim.learning.config import LearningConfig
-    from socialaff_sim.model.affordance import SocialAffordanceModel
+    from socialaff_sim.learning import SocialAffordanceModel
 
     return SocialAffordanceModel(learning=LearningConfig(iterations=3)).fit(list(shake8)[:6], rng=np.random.default_rng(0))
 

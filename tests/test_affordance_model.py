@@ -19,11 +19,11 @@ from socialaff_sim.learning.gibbs import joint_log_prob
 from socialaff_sim.learning.likelihood import TypeLikelihood
 from socialaff_sim.learning.mh import mh_step
 from socialaff_sim.learning.scorer import AffordanceTarget
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 from socialaff_sim.model.config import AffordanceConfig, default_n_subevents
 from socialaff_sim.model.densities import fit_lognorm
 from socialaff_sim.model.features import type_samples
-from socialaff_sim.model.joints import JOINT_NAMES, N_JOINTS, OBJECT, available_joints, canonical_joints
+from socialaff_sim.model.joints import JOINT_NAMES, N_JOINTS, OBJECT, available_joints, canonical_joints, instance_frame
 from socialaff_sim.model.potentials import reference_weights
 from socialaff_sim.model.transitions import count_transitions, transition_loglik
 
@@ -126,7 +126,7 @@ def test_fit_is_deterministic(hand_over: Dataset, fitted: SocialAffordanceModel)
 
 def test_hooks(fitted: SocialAffordanceModel, hand_over: Dataset, rng: np.random.Generator) -> None:
     inter = hand_over[6]
-    frame = fitted.frame_of(inter)
+    frame = instance_frame(inter)
     track = fitted.canonical_track(inter, frame)
     np.testing.assert_allclose(frame.to_world(track[:, OBJECT]), inter.object, atol=1e-9)
     starts = np.array([0, 0, 5, 10])

@@ -71,7 +71,7 @@ def test_summary_counts_by_hand(bench) -> None:  # noqa: ANN001
 
 def test_tiny_run_matches_an_independent_replay(bench, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:  # noqa: ANN001
     from socialaff_sim.data.synthetic import generate_dataset
-    from socialaff_sim.inference import key_joint_source
+    from socialaff_sim.retarget.model_source import key_joint_source
     from socialaff_sim.retarget.sources import GroundTruthSource
     from socialaff_sim.sim.episode import run_episode
     from socialaff_sim.sim.simulator import Simulator

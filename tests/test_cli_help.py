@@ -12,7 +12,7 @@ from socialaff_sim.cli.main import build_parser, main
 from socialaff_sim.cli.progress import FrameProgress, Reporter
 from socialaff_sim.data import save_dataset
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 
 
 def _commands(parser: argparse.ArgumentParser, prefix: tuple[str, ...] = ()):  # noqa: ANN202

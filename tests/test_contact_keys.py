@@ -10,9 +10,9 @@ import pytest
 from socialaff_sim.data.dataset import Dataset
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.inference.synthesis import OnlineSynthesizer, SynthesisConfig
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 from socialaff_sim.model.contact_keys import ContactKeys, fit_contact_keys
-from socialaff_sim.model.joints import JOINT_NAMES, N_JOINTS
+from socialaff_sim.model.joints import JOINT_NAMES, N_JOINTS, instance_frame
 
 RW0, LW0, RW1, LW1, BASE1 = (JOINT_NAMES.index(n) for n in ("agent0.right_wrist", "agent0.left_wrist",
                                                           "agent1.right_wrist", "agent1.left_wrist", "agent1.base"))
@@ -160,7 +160,7 @@ def test_synthesizer_pulls_wrists_to_the_keyframe(shake8_model: SocialAffordance
             assert np.linalg.norm(after[RW1] - goal) <= 0.01 * np.linalg.norm(before[RW1] - goal) + 1e-9
     assert pulled >= 1  # at least one frame lands on a keyframe
     # The emitted joints are the pulled track (mapped back to the recorded labels and the world frame).
-    fr = model.frame_of(inter)
+    fr = instance_frame(inter)
     emitted = fr.to_canonical(np.stack([o.key_joints for o in out]))
     track = syn._track[:, 5:10]
     if syn._hands[1]:

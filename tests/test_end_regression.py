@@ -10,11 +10,11 @@ from scipy import stats
 from socialaff_sim.data.dataset import Dataset
 from socialaff_sim.errors import ConfigError, ModelError
 from socialaff_sim.evaluation import get_method
-from socialaff_sim.evaluation.protocol import observed_part
+from socialaff_sim.inference.protocol import observed_part
 from socialaff_sim.inference import SynthesisConfig, synthesize
 from socialaff_sim.inference.candidates import RegressionPrior
 from socialaff_sim.inference.observed_parse import observed_joints, parse_observed
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 from socialaff_sim.model.end_regression import end_context, fit_end_regression, interval_samples, n_context, offset_columns
 from socialaff_sim.model.frame_regression import (
     fit_frame_regression,

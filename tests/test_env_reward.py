@@ -23,7 +23,7 @@ from socialaff_sim.environment.model_adapter import load_models, spatial_upper_b
 from socialaff_sim.environment.reward import affordance_term
 from socialaff_sim.errors import ConfigError, ModelError
 from socialaff_sim.learning.config import LearningConfig
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 
 
 @pytest.fixture(scope="module")

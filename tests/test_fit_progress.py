@@ -11,7 +11,7 @@ import pytest
 from socialaff_sim.cli.main import main
 from socialaff_sim.data import save_dataset
 from socialaff_sim.learning import FitProgress, LearningConfig
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 
 
 def test_callback_and_log_follow_the_chain(shake8, caplog: pytest.LogCaptureFixture) -> None:  # noqa: ANN001

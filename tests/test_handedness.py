@@ -12,7 +12,7 @@ from conftest import swap_sides
 from socialaff_sim.data.dataset import Dataset
 from socialaff_sim.inference.synthesis import OnlineSynthesizer, SynthesisConfig
 from socialaff_sim.learning.config import LearningConfig
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 from socialaff_sim.model.config import AffordanceConfig
 from socialaff_sim.model.handedness import fit_hand_coupling, hand_flags, left_active, partner_flag, relabel
 from socialaff_sim.model.joints import JOINT_NAMES, canonical_joints

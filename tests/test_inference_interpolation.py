@@ -9,11 +9,11 @@ import pytest
 
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError
-from socialaff_sim.evaluation.protocol import observed_part
+from socialaff_sim.inference.protocol import observed_part
 from socialaff_sim.inference import SynthesisConfig, synthesize
 from socialaff_sim.inference.synthesis import remaining_fraction
 from socialaff_sim.learning.config import LearningConfig
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 
 
 def _minjerk(v: np.ndarray) -> np.ndarray:

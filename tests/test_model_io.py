@@ -13,9 +13,9 @@ import pytest
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ModelFileError
 from socialaff_sim.learning.config import LearningConfig
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 from socialaff_sim.model.contact_keys import ContactKeys
-from socialaff_sim.model.model_io import MODEL_FORMAT_VERSION
+from socialaff_sim.learning.model_io import MODEL_FORMAT_VERSION
 
 ARRAYS = (
     "available_", "grouping_", "spatial_params_", "motion_params_", "duration_params_", "transitions_",

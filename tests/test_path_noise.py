@@ -137,7 +137,7 @@ def test_model_scores_path_and_round_trips(tmp_path, shake_hands_fit_small) -> N
 def shake_hands_fit_small():  # noqa: ANN201
     from socialaff_sim.data.synthetic import generate_dataset
     from socialaff_sim.learning.config import LearningConfig
-    from socialaff_sim.model.affordance import SocialAffordanceModel
+    from socialaff_sim.learning import SocialAffordanceModel
 
     inters = list(generate_dataset(seed=3).of_label("shake_hands"))[:6]
     cfg = AffordanceConfig(path_noise=True)

@@ -306,7 +306,7 @@ def test_causal_placement_ignores_agent1_future(data) -> None:
 
 
 def test_run_episode_places_a_causal_source_from_its_frames(data, monkeypatch: pytest.MonkeyPatch) -> None:
-    from socialaff_sim.inference.methods import ModelSource
+    from socialaff_sim.retarget.model_source import ModelSource
     from socialaff_sim.inference.synthesis import SynthesisConfig
     from socialaff_sim.retarget.sources import GroundTruthSource
     from socialaff_sim.sim.episode import run_episode

@@ -10,11 +10,10 @@ from scipy import stats
 from socialaff_sim.data.dataset import Dataset
 from socialaff_sim.errors import ConfigError, ModelError, NotFittedError
 from socialaff_sim.evaluation import get_method
-from socialaff_sim.evaluation.protocol import observed_part
+from socialaff_sim.inference.protocol import observed_part
 from socialaff_sim.inference import (
     AffordanceMethod,
     BodyFitter,
-    ModelSource,
     OnlineSynthesizer,
     SynthesisConfig,
     parse_prefix,
@@ -23,8 +22,9 @@ from socialaff_sim.inference import (
 from socialaff_sim.inference.methods import REGISTERED_CHAINS
 from socialaff_sim.inference.online_parse import log_duration_survival
 from socialaff_sim.inference.synthesis import sample_remaining_seconds
+from socialaff_sim.retarget.model_source import ModelSource, key_joint_source
 from socialaff_sim.learning.config import LearningConfig
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 
 FAST = LearningConfig(iterations=3)
 
@@ -196,7 +196,6 @@ def test_chains_average_independent_fits(shake: Dataset) -> None:
 
 
 def test_model_source_replays_the_synthesizer(model: SocialAffordanceModel, shake: Dataset, tmp_path) -> None:  # noqa: ANN001
-    from socialaff_sim.inference import key_joint_source
 
     path = model.save(tmp_path / "m.npz")
     source = key_joint_source(path, seed=3)

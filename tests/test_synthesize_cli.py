@@ -9,7 +9,7 @@ import pytest
 
 from socialaff_sim.cli.main import main
 from socialaff_sim.data import load_interaction
-from socialaff_sim.model.affordance import SocialAffordanceModel
+from socialaff_sim.learning import SocialAffordanceModel
 
 
 @pytest.mark.parametrize("mode", ["offline", "online"])

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..data.interaction import Interaction
 from ..errors import ModelError, NotFittedError
-from ..evaluation.protocol import Prediction, prediction_from_joints
+from ..inference.protocol import Prediction, prediction_from_joints
 from ..inference.body_fit import instance_frame, kmeans
 from ..model.frame import CanonicalFrame
 from .two_level_hmm import TwoLevelHMM
@@ -55,25 +55,25 @@ class HMMConfig:
     """
 
     n_phases: int = 4
-    """S: hidden phases of the top level."""
+    """S [—]: hidden phases of the top level."""
     n_agent_clusters: int = 8
-    """K_r: status (pose and placement) clusters of the synthesized agent (agent 1)."""
+    """K_r [—]: status (pose and placement) clusters of the synthesized agent (agent 1)."""
     n_human_clusters: int = 8
-    """K_h: pose clusters of the human (agent 0)."""
+    """K_h [—]: pose clusters of the human (agent 0)."""
     n_object_clusters: int = 6
-    """K_o: clusters of the object's position relative to the human."""
+    """K_o [—]: clusters of the object's position relative to the human."""
     n_distance_bins: int = 5
-    """K_d: quantization levels of the inter-agent distance."""
+    """K_d [—]: quantization levels of the inter-agent distance."""
     n_orientation_bins: int = 5
-    """K_θ: quantization levels of the relative orientation (bearing)."""
+    """K_θ [—]: quantization levels of the relative orientation (bearing)."""
     pseudo_count: float = 0.1
-    """α: Dirichlet pseudo-count added to every expected count in EM."""
+    """α [—]: Dirichlet pseudo-count added to every expected count in EM."""
     max_iter: int = 40
-    """Most EM (Baum–Welch) iterations."""
+    """[—]: Most EM (Baum–Welch) iterations."""
     tol: float = 1e-4
-    """EM stops when the objective gains less than this per training frame (nats)."""
+    """[nats/frame]: EM stops when the objective gains less than this per training frame (nats)."""
     smoothing: float = 0.3
-    """β: weight of the new frame in the causal exponential smoothing of the output (1 = none)."""
+    """β [—]: weight of the new frame in the causal exponential smoothing of the output (1 = none)."""
 
 
 class _Bins:
@@ -174,7 +174,7 @@ def _features(inter: Interaction) -> _Features:
 
 
 class MultiLevelHMM:
-    """The multi-level HMM baseline as a :class:`~socialaff_sim.evaluation.protocol.ReactionMethod`."""
+    """The multi-level HMM baseline as a :class:`~socialaff_sim.inference.protocol.ReactionMethod`."""
 
     name = "hmm"
 

@@ -33,7 +33,7 @@ from scipy.linalg import cho_factor, cho_solve
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ModelError, NotFittedError
-from ..evaluation.protocol import Prediction, prediction_from_joints
+from ..inference.protocol import Prediction, prediction_from_joints
 from ..inference.body_fit import BodyFitConfig, BodyFitter, instance_frame
 
 __all__ = ["InteractionProMP", "ProMPConfig", "rbf_basis", "condition_gaussian", "condition_on_statistics"]
@@ -50,31 +50,31 @@ class ProMPConfig:
     """
 
     n_basis: int = 12
-    """N: Gaussian basis functions per degree of freedom."""
+    """N [—]: Gaussian basis functions per degree of freedom."""
     basis_width: float = 1.0
-    """h: standard deviation of each basis function, in units of the spacing 1 / (N − 1) of their centres."""
+    """h [1/(N−1)]: standard deviation of each basis function, in units of the spacing 1 / (N − 1) of their centres."""
     ridge: float = 1e-2
-    """λ: ridge regularization of the per-instance least-squares weight fit (keeps weights of
+    """λ [—]: ridge regularization of the per-instance least-squares weight fit (keeps weights of
     overlapping basis functions from oscillating)."""
     prior_var: float = 1e-2
-    """σ_w²: variance added to the diagonal of the weights' covariance, m²."""
+    """σ_w² [m²]: variance added to the diagonal of the weights' covariance, m²."""
     shrinkage: float = 0.5
-    """α: the weights' covariance is (1 − α)·S + α·diag(S) + σ_w² I + offsets, S the sample
+    """α [—]: the weights' covariance is (1 − α)·S + α·diag(S) + σ_w² I + offsets, S the sample
     covariance of the few demonstrations (shrinking the cross-covariances against overfitting)."""
     offset_var: float = 1e-2
-    """σ_o²: prior variance of a constant offset of each DoF's whole trajectory, m² (normalized
+    """σ_o² [m²]: prior variance of a constant offset of each DoF's whole trajectory, m² (normalized
     basis functions sum to one, so an offset adds the same value to all N weights of a DoF)."""
     rigid_offset_var: float = 1e-2
-    """σ_r²: prior variance of a shift of each agent's whole body along each axis, m²."""
+    """σ_r² [m²]: prior variance of a shift of each agent's whole body along each axis, m²."""
     obs_noise: float = 0.01
-    """σ_y: observation noise of agent 1's observed prefix when conditioning, metres."""
+    """σ_y [m]: observation noise of agent 1's observed prefix when conditioning, metres."""
     human_noise: float = 0.1
-    """σ_h: observation noise of agent 0's (and the object's) track when conditioning, metres."""
+    """σ_h [m]: observation noise of agent 0's (and the object's) track when conditioning, metres."""
     relative_to_start: bool = True
-    """Model agent 1's key joints relative to its own base at the first frame (always observed),
+    """[—]: Model agent 1's key joints relative to its own base at the first frame (always observed),
     so that where agent 1 happens to stand does not have to be explained by the few demonstrations."""
     body_fit: BodyFitConfig = field(default_factory=BodyFitConfig)
-    """Full-body fit of the predicted key joints."""
+    """[—]: Full-body fit of the predicted key joints."""
 
 
 def rbf_basis(phase: np.ndarray, n_basis: int, width: float = 1.0) -> np.ndarray:
@@ -126,7 +126,7 @@ def condition_gaussian(
 
 
 class InteractionProMP:
-    """Interaction ProMP as a :class:`~socialaff_sim.evaluation.protocol.ReactionMethod`.
+    """Interaction ProMP as a :class:`~socialaff_sim.inference.protocol.ReactionMethod`.
 
     Learned attributes: ``keys_`` (indices of the key joints the layout has),
     ``has_object_``, ``mean_`` (D·N,) and ``cov_`` (D·N, D·N) of the stacked

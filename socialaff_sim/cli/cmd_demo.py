@@ -7,6 +7,7 @@ import sys
 import time
 from pathlib import Path
 
+from ..report import write_demo_page
 from .help_format import HelpFormatter
 
 __all__ = ["register"]
@@ -15,7 +16,6 @@ __all__ = ["register"]
 def _run(args: argparse.Namespace) -> int:
     from ..data.synthetic import INTERACTIONS
     from ..demo import DemoConfig, run_demo
-    from ..report import write_demo_page
 
     labels = [args.interaction] if args.interaction else list(INTERACTIONS)
     config = DemoConfig(iterations=args.iterations, robot=args.robot, video=not args.no_video, seed=args.seed)

@@ -18,7 +18,7 @@ def run(args: argparse.Namespace) -> int:
     """Load the data, fit, save, print a summary."""
     from ..data import load_dataset  # noqa: PLC0415
     from ..learning.config import LearningConfig  # noqa: PLC0415
-    from ..model.affordance import SocialAffordanceModel  # noqa: PLC0415
+    from ..learning.estimator import SocialAffordanceModel  # noqa: PLC0415
     from ..model.config import AffordanceConfig  # noqa: PLC0415
 
     data = load_dataset(args.data).of_label(args.interaction)

@@ -10,7 +10,7 @@ __all__ = ["register", "run"]
 
 def run(args: argparse.Namespace) -> int:
     """Load a model, print it, optionally draw it."""
-    from ..model.affordance import SocialAffordanceModel  # noqa: PLC0415
+    from ..learning.estimator import SocialAffordanceModel  # noqa: PLC0415
     from ..model.figures import draw_groupings, format_model  # noqa: PLC0415
 
     model = SocialAffordanceModel.load(args.model)

@@ -21,7 +21,8 @@ __all__ = ["register", "run"]
 
 
 def _source(args: argparse.Namespace) -> object:
-    from ..retarget.sources import GroundTruthSource, model_source
+    from ..retarget.model_source import model_source
+    from ..retarget.sources import GroundTruthSource
 
     if args.source == "gt":
         return GroundTruthSource()

@@ -18,10 +18,11 @@ def _run(args: argparse.Namespace) -> int:
     from ..data import load_dataset, save_interaction
     from ..errors import ModelError
     from ..evaluation.metrics import joint_error, key_joint_error
-    from ..evaluation.protocol import Prediction, observed_part
+    from ..inference.protocol import Prediction, observed_part
     from ..inference import BodyFitter, SynthesisConfig, synthesize
     from ..inference.plot import plot_key_joint_tracks
-    from ..model.affordance import SocialAffordanceModel
+    from ..learning.estimator import SocialAffordanceModel
+    from ..model.joints import instance_frame
 
     model = SocialAffordanceModel.load(args.model)
     everything = load_dataset(args.data)
@@ -61,7 +62,7 @@ def _run(args: argparse.Namespace) -> int:
         instance_id=f"{inter.instance_id}_synth",
     )
     track_path = save_interaction(synthesized, out / f"{inter.instance_id}_synth.npz")
-    frame = model.frame_of(inter)
+    frame = instance_frame(inter)
     plot_path = plot_key_joint_tracks(
         out / f"{inter.instance_id}_synthesis.png",
         inter.fps,

@@ -84,27 +84,27 @@ class NuisiConfig:
     """Alignment and segmentation parameters for :func:`load_nuisi` (change with ``dataclasses.replace``)."""
 
     fps: float = 10.0
-    """f_s: rate of the common clock both agents are resampled to, Hz."""
+    """f_s [Hz]: rate of the common clock both agents are resampled to, Hz."""
     max_gap_s: float = 0.5
-    """Δt_max: longest gap between tracked samples bridged by interpolation, seconds."""
+    """Δt_max [s]: longest gap between tracked samples bridged by interpolation, seconds."""
     activity_low: float = 0.15
-    """θ_lo: normalised hand activity below which the hands are at rest (instance boundary)."""
+    """θ_lo [—]: normalised hand activity below which the hands are at rest (instance boundary)."""
     activity_high: float = 0.6
-    """θ_hi: normalised hand activity an instance must reach."""
+    """θ_hi [—]: normalised hand activity an instance must reach."""
     pad_frames: int = 1
-    """p: frames added on each side of an instance (within the recording)."""
+    """p [frames]: frames added on each side of an instance (within the recording)."""
     min_instance_frames: int = 8
-    """T_min: shortest instance kept, frames at ``fps``."""
+    """T_min [frames]: shortest instance kept, frames at ``fps``."""
     waist_height_m: float = 0.95
-    """h_w: assumed height of agent 0's median waist above the floor, metres."""
+    """h_w [m]: assumed height of agent 0's median waist above the floor, metres."""
     fit_yaw: bool = False
-    """Also fit agent 1's yaw at the contacts (else it is fixed by the facing assumption)."""
+    """[—]: Also fit agent 1's yaw at the contacts (else it is fixed by the facing assumption)."""
     contact_labels: tuple[str, ...] = ("clap", "fist_bump", "handshake", "high_five")
-    """Interactions whose active hands touch; agent 1 is placed from these contacts."""
+    """[—]: Interactions whose active hands touch; agent 1 is placed from these contacts."""
     same_hand_labels: tuple[str, ...] = ("handshake",)
-    """Interactions done with the same hand by both agents (handedness check)."""
+    """[—]: Interactions done with the same hand by both agents (handedness check)."""
     default_separation_m: float = 0.9
-    """d_0: waist-to-waist distance for contact-free interactions when no contact recording is loaded, metres."""
+    """d_0 [m]: waist-to-waist distance for contact-free interactions when no contact recording is loaded, metres."""
 
     def __post_init__(self) -> None:
         checks = {

@@ -4,7 +4,7 @@ held-out human, compare with the baselines, retarget and simulate it in MuJoCo, 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -12,9 +12,24 @@ from typing import Any
 import numpy as np
 
 from ..data.dataset import Dataset
-from ..errors import ConfigError, RenderingUnavailableError, choices
+from ..errors import RenderingUnavailableError
+from ..evaluation.metrics import key_joint_error
+from ..evaluation.registry import get_method
+from ..inference import BodyFitter, SynthesisConfig, synthesize
+from ..inference.plot import plot_key_joint_tracks
+from ..inference.protocol import Prediction, observed_part
+from ..learning.config import LearningConfig
+from ..learning.estimator import SocialAffordanceModel
+from ..model.figures import draw_groupings
+from ..model.joints import instance_frame
+from ..retarget.model_source import ModelSource
+from ..retarget.sources import GroundTruthSource
+from ..sim.episode import run_episode
+from ..sim.simulator import Simulator
+from ..sim.tasks import task_for_label
+from ..sim.video import EpisodeRecorder
 
-__all__ = ["DemoConfig", "InteractionResult", "run_interaction", "run_demo"]
+__all__ = ["DemoConfig", "InteractionResult", "Progress", "run_interaction"]
 
 Progress = Callable[[str], None]
 
@@ -24,21 +39,21 @@ class DemoConfig:
     """Settings of the demo: the real algorithms with settings that finish quickly."""
 
     iterations: int = 30
-    """Outer MCMC iterations of Algorithm 1 (the paper uses 100)."""
+    """[—]: Outer MCMC iterations of Algorithm 1 (the paper uses 100)."""
     n_test: int = 3
-    """Held-out instances per interaction (actors never seen in training) for the error table."""
+    """[—]: Held-out instances per interaction (actors never seen in training) for the error table."""
     baselines: tuple[str, ...] = ("hmm", "promp")
-    """Methods the full model is compared with on the held-out instances."""
+    """[—]: Methods the full model is compared with on the held-out instances."""
     robot: str = "ours"
-    """Robot simulated: ``"ours"`` (assets/robots/ours.xml) or ``"cmu"``."""
+    """[—]: Robot simulated: ``"ours"`` (assets/robots/ours.xml) or ``"cmu"``."""
     video: bool = True
-    """Render an MP4 and a contact sheet of the simulated reaction (needs EGL offscreen rendering)."""
+    """[—]: Render an MP4 and a contact sheet of the simulated reaction (needs EGL offscreen rendering)."""
     width: int = 640
-    """Video width, pixels."""
+    """[px]: Video width, pixels."""
     height: int = 480
-    """Video height, pixels."""
+    """[px]: Video height, pixels."""
     seed: int = 0
-    """Seed of the data and every sampler."""
+    """[—]: Seed of the data and every sampler."""
 
 
 @dataclass
@@ -82,18 +97,6 @@ def run_interaction(
     dataset: Dataset, label: str, out: Path, config: DemoConfig, progress: Progress | None = None
 ) -> InteractionResult:
     """Run the loop for one interaction, writing figures and the video into ``out``."""
-    from ..model.figures import draw_groupings
-    from ..evaluation.metrics import key_joint_error
-    from ..evaluation.protocol import Prediction, get_method, observed_part
-    from ..inference import BodyFitter, ModelSource, SynthesisConfig, synthesize
-    from ..inference.plot import plot_key_joint_tracks
-    from ..learning.config import LearningConfig
-    from ..model.affordance import SocialAffordanceModel
-    from ..sim.episode import run_episode
-    from ..retarget.sources import GroundTruthSource
-    from ..sim.simulator import Simulator
-    from ..sim.tasks import task_for_label
-
     say = progress or (lambda _msg: None)
     seconds: dict[str, float] = {}
     items = list(dataset.of_label(label))
@@ -122,7 +125,7 @@ def run_interaction(
         pred = Prediction(joints=skel, key_joints=keys, subevents=subs, n_observed=n_obs)
         errors["full"].append(key_joint_error(pred, inter))
         if inter is shown:
-            frame = model.frame_of(inter)
+            frame = instance_frame(inter)
             synthesis_png = plot_key_joint_tracks(
                 out / f"{label}_synthesis.png", inter.fps,
                 frame.to_canonical(inter.key_joints()[:, 1]), frame.to_canonical(keys), subs, model.subevent_names_,
@@ -146,8 +149,6 @@ def run_interaction(
     video = sheet = None
     note = "disabled"
     if config.video:
-        from ..sim.video import EpisodeRecorder
-
         try:
             recorder = EpisodeRecorder(sim, out / f"{label}.mp4", out / f"{label}_sheet.png",
                                        width=config.width, height=config.height)
@@ -177,26 +178,3 @@ def run_interaction(
         video_note=note,
         seconds=seconds,
     )
-
-
-def run_demo(
-    out: str | Path,
-    interactions: Sequence[str] | None = None,
-    config: DemoConfig | None = None,
-    progress: Progress | None = None,
-) -> list[InteractionResult]:
-    """The whole demo on the synthetic dataset; writes everything (and ``report.md``) into ``out``."""
-    from ..data.synthetic import INTERACTIONS, generate_dataset
-    from .report import write_report
-
-    config = config or DemoConfig()
-    labels = list(interactions) if interactions else list(INTERACTIONS)
-    unknown = [x for x in labels if x not in INTERACTIONS]
-    if unknown:
-        raise ConfigError(f"demo: unknown interaction {unknown[0]!r}; choose from {choices(INTERACTIONS)}")
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    dataset = generate_dataset(config.seed)
-    results = [run_interaction(dataset, label, out, config, progress) for label in labels]
-    write_report(out / "report.md", results, config)
-    return results

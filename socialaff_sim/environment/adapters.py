@@ -14,7 +14,7 @@ them. Two adapters ship:
   robot was given for that frame). It is an oracle (it reads agent 1's
   recording) and the reference every model is compared with.
 * :class:`~socialaff_sim.environment.model_adapter.ModelAdapter`: a fitted
-  :class:`~socialaff_sim.model.affordance.SocialAffordanceModel` scores the
+  :class:`~socialaff_sim.learning.SocialAffordanceModel` scores the
   robot under the current sub-event's spatial potentials, and the online
   synthesizer provides the proposal and the belief.
 

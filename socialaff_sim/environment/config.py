@@ -43,33 +43,41 @@ def physics_config(preset: str) -> SimConfig:
 
 @dataclass(frozen=True)
 class EnvConfig:
-    """How observations and actions are laid out (not the paper's: the environment is ours)."""
+    """How observations and actions are laid out (not the paper's: the environment is ours).
+
+    Fields by concept
+    -----------------
+    - Actions: action_mode, target_low, target_high, residual_bound
+    - Observations: history, position_bound, velocity_bound
+    - Episodes: terminate_on_failure, max_frames, physics
+    - Rendering: render_width, render_height
+    """
 
     action_mode: str = "targets"
-    """Action mode, one of :data:`ACTION_MODES`."""
+    """[—]: Action mode, one of :data:`ACTION_MODES`."""
     history: int = 4
-    """H, frames of the human's key joints (and of the object) in each observation."""
+    """H [frames]: frames of the human's key joints (and of the object) in each observation."""
     target_low: tuple[float, float, float] = (-1.0, -1.5, 0.0)
-    """Lower bound (x, y, z) of every key-frame target in ``targets`` mode, metres, robot frame."""
+    """[m]: Lower bound (x, y, z) of every key-frame target in ``targets`` mode, metres, robot frame."""
     target_high: tuple[float, float, float] = (3.0, 1.5, 2.5)
-    """Upper bound (x, y, z) of every key-frame target in ``targets`` mode, metres, robot frame."""
+    """[m]: Upper bound (x, y, z) of every key-frame target in ``targets`` mode, metres, robot frame."""
     residual_bound: float = 0.3
-    """ρ, metres: a ``residual`` action is an offset in [−ρ, ρ] per coordinate."""
+    """ρ [m]: a ``residual`` action is an offset in [−ρ, ρ] per coordinate."""
     position_bound: float = 6.0
-    """P, metres: positions in observations are clipped to [−P, P] (the observation bounds)."""
+    """P [m]: positions in observations are clipped to [−P, P] (the observation bounds)."""
     velocity_bound: float = 30.0
-    """V, rad/s: joint velocities in observations are clipped to [−V, V]."""
+    """V [rad/s]: joint velocities in observations are clipped to [−V, V]."""
     terminate_on_failure: bool = True
-    """Whether a failure condition of the task file (self-collision, force on the person, a drop)
+    """[—]: Whether a failure condition of the task file (self-collision, force on the person, a drop)
     ends the episode (``terminated``); otherwise it is only penalised once."""
     max_frames: int | None = None
-    """Cut every instance to its first this many frames (short episodes, e.g. in tests); ``None``: whole instances."""
+    """[frames]: Cut every instance to its first this many frames (short episodes, e.g. in tests); ``None``: whole instances."""
     physics: str = "fast"
-    """Physics preset, one of :data:`PHYSICS_PRESETS` (see :func:`physics_config`)."""
+    """[—]: Physics preset, one of :data:`PHYSICS_PRESETS` (see :func:`physics_config`)."""
     render_width: int = 640
-    """Width of ``rgb_array`` frames, pixels."""
+    """[px]: Width of ``rgb_array`` frames, pixels."""
     render_height: int = 480
-    """Height of ``rgb_array`` frames, pixels."""
+    """[px]: Height of ``rgb_array`` frames, pixels."""
 
     def __post_init__(self) -> None:
         def bad(name: str, expected: str) -> ConfigError:

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..data.dataset import Dataset
+from ..data.synthetic import INTERACTIONS, SyntheticConfig, generate_dataset
 from ..data.interaction import Interaction
 from ..data.specs import load_dataset
 from ..errors import ConfigError, DataError, choices
@@ -54,8 +55,6 @@ class EpisodePool:
 
 
 def _synthetic(spec: str, labels: tuple[str, ...] | None) -> Dataset:
-    from ..data.synthetic import INTERACTIONS, SyntheticConfig, generate_dataset
-
     _, _, rest = spec.partition(":")
     if rest and not rest.isdigit():
         raise DataError(f"dataset spec {spec!r}: expected 'synthetic' or 'synthetic:SEED' with an integer seed")

@@ -1,6 +1,6 @@
 """The affordance model behind the environment's adapter protocol.
 
-:class:`ModelScorer` turns a fitted :class:`~socialaff_sim.model.affordance.SocialAffordanceModel`
+:class:`ModelScorer` turns a fitted :class:`~socialaff_sim.learning.SocialAffordanceModel`
 into the environment's affordance reward: the robot's agent-1-equivalent key
 joints, with agent 0's observed key joints and the object, form one configuration
 of the model's 11 joints in the instance's canonical frame, scored by the current
@@ -17,21 +17,19 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError, SimulationError, choices
-from ..model.affordance import SocialAffordanceModel
+from ..inference.synthesis import OnlineSynthesizer, SynthesisConfig
+from ..learning.estimator import SocialAffordanceModel
 from ..model.densities import vonmises_logpdf, weibull_logpdf
 from ..model.handedness import KEY_SWAP, relabel
-from ..model.joints import OBJECT
+from ..model.joints import OBJECT, canonical_joints, instance_frame
 from .adapters import AdapterFrame, AffordanceScore, RobotPose
-
-if TYPE_CHECKING:
-    from ..inference.synthesis import SynthesisConfig
 
 __all__ = ["ModelSpec", "load_models", "weibull_max_logpdf", "spatial_upper_bound", "ModelScorer", "ModelAdapter"]
 
@@ -107,8 +105,8 @@ class ModelScorer:
     def reset(self, interaction: Interaction) -> None:
         self.model = m = self._model_of(interaction.label)
         self.label = interaction.label
-        self.frame = m.frame_of(interaction)
-        raw = m.canonical_track(interaction, self.frame, hands=np.zeros(2, bool))
+        self.frame = instance_frame(interaction)
+        raw = canonical_joints(interaction, self.frame)  # as recorded
         # Agent 1's labels follow the model's partner rule (as in synthesis), not the recording's own flag.
         self.hands = m.reaction_hands(raw)
         self.track = relabel(raw, self.hands)  # (T, 11, 3): agent 0 is the observed human
@@ -145,8 +143,6 @@ class ModelAdapter:
     """
 
     def __init__(self, models: Mapping[str, SocialAffordanceModel], config: SynthesisConfig | None = None) -> None:
-        from ..inference.synthesis import OnlineSynthesizer, SynthesisConfig  # noqa: PLC0415 (inference is only needed with a model)
-
         config = config or SynthesisConfig.reactive()
         self.scorer = ModelScorer(models)
         self._synth = {lbl: OnlineSynthesizer(m, None, config) for lbl, m in self.scorer.models.items()}

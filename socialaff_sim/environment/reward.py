@@ -41,15 +41,15 @@ class RewardConfig:
     """Weights of the reward terms (the environment's, not the paper's)."""
 
     affordance_weight: float = 1.0
-    """w_a, reward per step for a perfect affordance fit."""
+    """w_a [reward/step]: reward per step for a perfect affordance fit."""
     affordance_clip: float = 10.0
-    """L, nats per scored joint: ℓ̄ is clipped to [−L, 0], so the affordance term is 0 at or beyond it."""
+    """L [nats]: nats per scored joint: ℓ̄ is clipped to [−L, 0], so the affordance term is 0 at or beyond it."""
     progress_weight: float = 5.0
-    """w_p, reward for accumulating a sub-goal's whole ``min_duration`` of contact."""
+    """w_p [reward]: reward for accumulating a sub-goal's whole ``min_duration`` of contact."""
     success_bonus: float = 10.0
-    """w_s, reward once a sub-goal is met."""
+    """w_s [reward]: reward once a sub-goal is met."""
     failure_penalty: float = 20.0
-    """w_f, penalty (subtracted) once a failure condition triggers."""
+    """w_f [reward]: penalty (subtracted) once a failure condition triggers."""
 
     def __post_init__(self) -> None:
         for name in ("affordance_weight", "progress_weight", "success_bonus", "failure_penalty"):

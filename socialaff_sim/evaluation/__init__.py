@@ -3,17 +3,8 @@
 from .compare import PairedDifference, paired_differences
 from .crossval import EvaluationConfig
 from .metrics import joint_error, key_joint_error, matched_accuracy, parse_confusion
-from .protocol import (
-    DEFAULT_N_OBSERVED,
-    METHODS,
-    Prediction,
-    ReactionMethod,
-    available_methods,
-    get_method,
-    observed_part,
-    prediction_from_joints,
-    register_method,
-)
+from ..inference.protocol import DEFAULT_N_OBSERVED, Prediction, ReactionMethod, observed_part, prediction_from_joints
+from .registry import METHODS, available_methods, get_method, register_method
 from .report import format_tables, write_results
 from .runner import evaluate
 

@@ -20,7 +20,7 @@ from ..data.dataset import Dataset, actor_disjoint_folds
 from ..data.interaction import Interaction
 from ..errors import ConfigError, ModelError, SocialAffError, choices
 from .metrics import joint_error, key_joint_error, parse_confusion
-from .protocol import DEFAULT_N_OBSERVED, MethodFactory, Prediction, observed_part
+from ..inference.protocol import DEFAULT_N_OBSERVED, MethodFactory, Prediction, observed_part
 
 __all__ = ["EvaluationConfig", "Task", "TaskResult", "InstanceScore", "make_tasks", "run_task", "task_seed"]
 
@@ -32,17 +32,17 @@ class EvaluationConfig:
     """Settings of Experiment 1."""
 
     n_folds: int = 4
-    """k: actor-disjoint cross-validation folds per interaction class."""
+    """k [—]: actor-disjoint cross-validation folds per interaction class."""
     n_observed: int = DEFAULT_N_OBSERVED
-    """T0: frames of agent 1 observed before synthesis."""
+    """T0 [frames]: frames of agent 1 observed before synthesis."""
     seed: int = 0
-    """Run seed: the folds and every task's generator derive from it."""
+    """[—]: Run seed: the folds and every task's generator derive from it."""
     executor: str = "process"
-    """Where tasks run: ``"process"`` (local process pool), ``"ray"`` (a Ray cluster) or ``"serial"`` (this process)."""
+    """[—]: Where tasks run: ``"process"`` (local process pool), ``"ray"`` (a Ray cluster) or ``"serial"`` (this process)."""
     workers: int | None = None
-    """Parallel workers (process pool size, or Ray CPUs of a local instance); ``None``: all CPUs."""
+    """[—]: Parallel workers (process pool size, or Ray CPUs of a local instance); ``None``: all CPUs."""
     address: str | None = None
-    """Ray cluster address (``executor="ray"``); ``None`` starts a local Ray instance."""
+    """[—]: Ray cluster address (``executor="ray"``); ``None`` starts a local Ray instance."""
 
     def __post_init__(self) -> None:
         if self.executor not in EXECUTORS:

@@ -7,7 +7,7 @@ from scipy.optimize import linear_sum_assignment
 
 from ..data.interaction import Interaction
 from ..errors import ModelError
-from .protocol import Prediction
+from ..inference.protocol import Prediction
 
 __all__ = ["METRICS", "mean_joint_distance", "key_joint_error", "joint_error", "parse_confusion", "matched_accuracy"]
 

@@ -26,7 +26,7 @@ from ..errors import ConfigError, choices
 from .compare import paired_differences
 from .crossval import EvaluationConfig, Task, TaskResult, make_tasks, run_task
 from .metrics import METRICS, matched_accuracy
-from .protocol import get_method
+from .registry import get_method
 
 __all__ = ["evaluate", "run_tasks"]
 

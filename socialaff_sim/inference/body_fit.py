@@ -100,11 +100,11 @@ class BodyFitConfig:
     """Settings of the full-body fit."""
 
     n_clusters: int = 40
-    """K: number of K-means pose clusters of the training skeletons."""
+    """K [—]: number of K-means pose clusters of the training skeletons."""
     n_iter: int = 50
-    """Lloyd iterations of the K-means."""
+    """[—]: Lloyd iterations of the K-means."""
     max_frames: int = 20000
-    """Training frames kept for clustering (an even stride subsample above this)."""
+    """[frames]: Training frames kept for clustering (an even stride subsample above this)."""
 
 
 def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -9,17 +9,14 @@ around its prediction and a joint Gaussian term (:class:`RegressionPrior`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..data.skeletons import N_KEY
+from ..model.affordance import AffordanceParameters
 from ..model.end_regression import end_context
 from ..model.potentials import reference_weights
 from ..model.ridge import RidgeRegression
-
-if TYPE_CHECKING:
-    from ..model.affordance import SocialAffordanceModel
 
 __all__ = ["AGENT1", "draw_vectors", "sign_loglik", "RegressionPrior"]
 
@@ -40,7 +37,7 @@ def draw_vectors(params: np.ndarray, up: np.ndarray, n: int, rng: np.random.Gene
     return np.stack([h * np.cos(th), h * np.sin(th), sign * v], axis=-1)
 
 
-def sign_loglik(model: SocialAffordanceModel, s: int, z: np.ndarray, cand: np.ndarray, disp: np.ndarray) -> np.ndarray:
+def sign_loglik(model: AffordanceParameters, s: int, z: np.ndarray, cand: np.ndarray, disp: np.ndarray) -> np.ndarray:
     """(N,) log-probability of the vertical signs of agent 1's offsets and displacements.
 
     The potentials score |dz| only; the learned frequencies of dz > 0 resolve up from down.

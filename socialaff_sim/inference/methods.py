@@ -1,34 +1,32 @@
-"""The full model and its ablations as evaluation methods, and as the simulator's key-joint source.
+"""The full model and its ablations as evaluation methods.
 
 ``"full"`` is the social affordance model with Algorithm 2; ``"v1"`` drops joint selection and
 grouping, ``"v2"`` drops latent sub-events (the paper's two ablations). The protocol gives every
 method agent 0's whole recorded track, so these three synthesize with
 :meth:`~socialaff_sim.inference.synthesis.SynthesisConfig.offline`; ``"full_online"`` is the full
 model with the paper's causal Algorithm 2 (``SynthesisConfig()``), as the simulator runs it. All four implement
-:class:`~socialaff_sim.evaluation.protocol.ReactionMethod` and are registered on import. The registered
-``"full"``, ``"v1"`` and ``"v2"`` average :data:`REGISTERED_CHAINS` MCMC chains; ``"full_online"`` learns one
-model, as the simulator does.
+:class:`~socialaff_sim.inference.protocol.ReactionMethod`; :mod:`socialaff_sim.evaluation.registry` registers
+them by name. The registered ``"full"``, ``"v1"`` and ``"v2"`` average :data:`REGISTERED_CHAINS` MCMC chains;
+``"full_online"`` learns one model, as the simulator does.
 """
 
 from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from pathlib import Path
 
 import numpy as np
 
 from ..data.interaction import Interaction
-from ..errors import ConfigError, NotFittedError, SimulationError, choices
-from ..evaluation.protocol import Prediction, register_method
-from ..model.affordance import SocialAffordanceModel
+from ..errors import ConfigError, NotFittedError, choices
+from ..learning.estimator import SocialAffordanceModel
 from ..model.config import AffordanceConfig
+from ..model.joints import instance_frame
 from .body_fit import BodyFitConfig, BodyFitter
+from .protocol import Prediction
 from .synthesis import OnlineSynthesizer, SynthesisConfig
 
-__all__ = [
-    "AffordanceMethod", "REGISTERED_CHAINS", "VARIANTS", "ModelSource", "fit_skeleton", "key_joint_source", "synthesize",
-]
+__all__ = ["AffordanceMethod", "REGISTERED_CHAINS", "VARIANTS", "fit_skeleton", "synthesize"]
 
 VARIANTS: dict[str, dict[str, bool]] = {
     "full": {},
@@ -76,7 +74,7 @@ def fit_skeleton(
     """(T, J, 3) metres world: agent 1's recorded skeleton for the first ``n_observed`` frames, then
     full-body poses fitted to the key joints ``keys`` (T, 5, 3) metres world."""
     skel = interaction.filled_joints()[:, 1].copy()
-    skel[n_observed:] = body.fit_poses(keys[n_observed:], model.frame_of(interaction))
+    skel[n_observed:] = body.fit_poses(keys[n_observed:], instance_frame(interaction))
     return skel
 
 
@@ -138,83 +136,3 @@ class AffordanceMethod:
         keys = np.mean([r[0] for r in runs], axis=0)  # exactly the one synthesis when K = 1
         skel = fit_skeleton(self.body_, self.model_, interaction, keys, cfg.n_observed)
         return Prediction(joints=skel, key_joints=keys, subevents=runs[0][2], n_observed=n_observed)
-
-
-def _full() -> AffordanceMethod:
-    return AffordanceMethod("full", chains=REGISTERED_CHAINS)
-
-
-def _v1() -> AffordanceMethod:
-    return AffordanceMethod("v1", chains=REGISTERED_CHAINS)
-
-
-def _v2() -> AffordanceMethod:
-    return AffordanceMethod("v2", chains=REGISTERED_CHAINS)
-
-
-def _full_online() -> AffordanceMethod:
-    return AffordanceMethod("full", synthesis=SynthesisConfig(), name="full_online")
-
-
-register_method("full", _full)
-register_method("full_online", _full_online)
-register_method("v1", _v1)
-register_method("v2", _v2)
-
-
-class ModelSource:
-    """The online synthesizer as the simulator's :class:`~socialaff_sim.retarget.sources.KeyJointSource`.
-
-    Frames must be requested in order (``targets(0)``, ``targets(1)``, …), as a simulator does;
-    agent 1's first T0 frames are the recording, the rest is synthesized causally.
-    """
-
-    def __init__(self, model: SocialAffordanceModel, *, seed: int = 0, config: SynthesisConfig | None = None) -> None:
-        self.model = model
-        self.seed = seed
-        self.config = config or SynthesisConfig.reactive()
-        self._syn: OnlineSynthesizer | None = None
-        self._cache: list = []
-
-    def reset(self, interaction: Interaction) -> None:
-        """Start on an instance."""
-        self._syn = OnlineSynthesizer(self.model, None, self.config)
-        self._syn.reset(interaction, rng=np.random.default_rng(self.seed))
-        self._cache = []
-
-    def targets(self, t: int):  # noqa: ANN201 (SourceFrame, imported lazily to keep retarget optional)
-        """Agent 1's key joints at frame ``t`` (data frame) and the current sub-event's name."""
-        from ..retarget.sources import SourceFrame
-
-        if self._syn is None:
-            raise SimulationError("ModelSource.targets called before reset(interaction)")
-        while len(self._cache) <= t:
-            if self._syn.done:
-                raise SimulationError(f"frame {t} is outside the instance (0 ≤ t < {len(self._cache)})")
-            self._cache.append(self._syn.step())
-        step = self._cache[t]
-        return SourceFrame(step.key_joints.copy(), step.subevent_name)
-
-    @property
-    def placement_frames(self) -> int:
-        """Frames of agent 1's recording the source sees (T0): the simulator places the robot from these only."""
-        return self.config.n_observed
-
-    @property
-    def belief(self) -> np.ndarray:
-        """(S,) the latest sub-event belief."""
-        if not self._cache:
-            S = self.model.n_subevents_
-            return np.full(S, 1.0 / S)
-        return self._cache[-1].belief
-
-
-def key_joint_source(
-    model_path: str | Path, *, seed: int = 0, config: SynthesisConfig | None = None, offline: bool = False
-) -> ModelSource:
-    """A :class:`ModelSource` for the model saved at ``model_path``; ``offline`` (without ``config``) reads
-    the human's whole recorded track (:meth:`SynthesisConfig.offline`), else the synthesis is causal
-    (:meth:`SynthesisConfig.reactive`)."""
-    if config is None and offline:
-        config = SynthesisConfig.offline()
-    return ModelSource(SocialAffordanceModel.load(model_path), seed=seed, config=config)

@@ -4,7 +4,7 @@ Offline evaluation gives every method agent 0's (and the object's) whole recorde
 agent 1's only for the first T0 frames. The sub-events can then be parsed once, over the whole
 instance, from what is observed: each candidate interval is scored by the motion (and path-noise)
 terms of agent 0's joints and the object plus its log-normal duration, with the learned
-transitions (:meth:`~socialaff_sim.model.affordance.SocialAffordanceModel.observed_log_score`).
+transitions (:meth:`~socialaff_sim.model.affordance.AffordanceParameters.observed_log_score`).
 Spatial potentials are left out: each needs every member of its group, and the groups mix both
 agents. Cut points are every ``step`` frames rather than the learned atoms, whose K-means
 descriptions include agent 1's motion.
@@ -12,21 +12,17 @@ descriptions include agent 1's motion.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from ..data.skeletons import N_KEY
 from ..errors import ModelError
+from ..model.affordance import AffordanceParameters
 from ..model.joints import OBJECT
-
-if TYPE_CHECKING:
-    from ..model.affordance import SocialAffordanceModel
 
 __all__ = ["observed_joints", "parse_observed"]
 
 
-def observed_joints(model: SocialAffordanceModel) -> np.ndarray:
+def observed_joints(model: AffordanceParameters) -> np.ndarray:
     """(11,) bool: agent 0's key joints and the object, where the model uses them."""
     mask = np.zeros(model.available_.shape, bool)
     mask[:N_KEY] = True
@@ -34,7 +30,7 @@ def observed_joints(model: SocialAffordanceModel) -> np.ndarray:
     return mask & model.available_
 
 
-def parse_observed(model: SocialAffordanceModel, track: np.ndarray, fps: float, *, step: int = 2) -> np.ndarray:
+def parse_observed(model: AffordanceParameters, track: np.ndarray, fps: float, *, step: int = 2) -> np.ndarray:
     """Best parse of a canonical ``track`` (T, 11, 3) from the observed joints alone.
 
     Returns (K, 3) int64 rows (start frame, stop frame exclusive, label) covering [0, T).

@@ -11,15 +11,12 @@ gives the belief over the current sub-event.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.special import log_ndtr, logsumexp
 
+from ..model.affordance import AffordanceParameters
 from ..model.segment_dp import backtrace, segmentation_tables
-
-if TYPE_CHECKING:
-    from ..model.affordance import SocialAffordanceModel
 
 __all__ = ["PrefixParse", "parse_prefix", "log_duration_survival"]
 
@@ -46,7 +43,7 @@ class PrefixParse:
         return int(self.intervals[-1, 0])
 
 
-def log_duration_survival(model: SocialAffordanceModel, s: int, seconds: np.ndarray) -> np.ndarray:
+def log_duration_survival(model: AffordanceParameters, s: int, seconds: np.ndarray) -> np.ndarray:
     """log P(D > seconds) under type ``s``'s log-normal duration; −inf for a type never seen."""
     mu, sigma = model.duration_params_[s]
     secs = np.maximum(np.asarray(seconds, dtype=float), 1e-9)
@@ -55,7 +52,7 @@ def log_duration_survival(model: SocialAffordanceModel, s: int, seconds: np.ndar
     return log_ndtr(-(np.log(secs) - mu) / sigma)
 
 
-def parse_prefix(model: SocialAffordanceModel, track: np.ndarray, fps: float, bounds: np.ndarray) -> PrefixParse:
+def parse_prefix(model: AffordanceParameters, track: np.ndarray, fps: float, bounds: np.ndarray) -> PrefixParse:
     """Best parse of the canonical ``track`` (t, 11, 3) over the cut points ``bounds`` (B + 1,), ending at t.
 
     ``bounds`` starts at 0 and ends at t = len(track); intervals run between consecutive or

@@ -44,13 +44,14 @@ from ..model.potentials import reference_weights
 from ..model.ridge import RidgeRegression
 from .candidates import AGENT1 as _AGENT1
 from .candidates import RegressionPrior, draw_vectors, sign_loglik
+from .observed import ObservedInteraction
 from .observed_parse import parse_observed
 from .online_parse import parse_prefix
 from .synthesis_config import SynthesisConfig
 from .timing import remaining_fraction, sample_remaining_seconds
 
 if TYPE_CHECKING:
-    from ..model.affordance import SocialAffordanceModel
+    from ..learning.estimator import SocialAffordanceModel
     from .body_fit import BodyFitter
 
 __all__ = ["SynthesisConfig", "SynthesisStep", "OnlineSynthesizer", "sample_remaining_seconds", "remaining_fraction"]
@@ -94,11 +95,7 @@ class OnlineSynthesizer:
     def reset(self, interaction: Interaction, *, rng: np.random.Generator) -> None:
         """Start on an instance: agent 0 and the object are read causally, agent 1's first T0 frames observed."""
         cfg = self.config
-        if interaction.n_frames <= cfg.n_observed:
-            raise ModelError(
-                f"instance {interaction.instance_id!r}: synthesis needs more than T0 = {cfg.n_observed} frames, "
-                f"found {interaction.n_frames}"
-            )
+        obs = ObservedInteraction.of(interaction, cfg.n_observed)  # canonicalised once; agent 1 hidden after T0
         if interaction.label != self.model.label_:
             raise ModelError(
                 f"instance {interaction.instance_id!r} is a {interaction.label!r} interaction but the model learned "
@@ -111,12 +108,10 @@ class OnlineSynthesizer:
         self._observed_skeleton = (
             interaction.filled_joints()[: cfg.n_observed, 1] if self.body is not None else None
         )
-        self._frame = self.model.frame_of(interaction)
-        track = self.model.canonical_track(interaction, self._frame, hands=np.zeros(2, bool))  # as recorded
-        track[cfg.n_observed :, _AGENT1] = np.nan  # never read agent 1 beyond the observation
-        self._raw = track.copy()
+        self._frame = obs.frame
+        self._raw = obs.track  # as recorded
         # Agent 0 and the object stay in the track over the whole instance (read beyond t - 1 with lookahead only).
-        self._track = track
+        self._track = obs.track.copy()
         self._hands = np.zeros(2, bool)
         self._set_hands(cfg.n_observed)
         self._t = 0

@@ -17,56 +17,67 @@ _CONTACTS = ("none", "timed", "triggered")
 
 @dataclass(frozen=True)
 class SynthesisConfig:
-    """Settings of Algorithm 2 with the paper's defaults; change them with ``dataclasses.replace``."""
+    """Settings of Algorithm 2 with the paper's defaults; change them with ``dataclasses.replace``.
+
+    Fields by concept
+    -----------------
+    - Online schedule: n_observed, delta_t, replan_at_end
+    - Running sub-event and its end: parse, observed_parse_step, duration, lookahead
+    - Candidate end configurations: n_samples, spatial_fraction, coherent_fraction, refine_sweeps, end_prior,
+      prior_samples
+    - Motion toward the chosen end: interpolation, frame_weight, frame_decay
+    - Contacts: contact, contact_width, trigger_scale
+    - Handedness: hand_margin
+    """
 
     n_observed: int = 10
-    """T0, frames of both agents observed before synthesis starts."""
+    """T0 [frames]: frames of both agents observed before synthesis starts."""
     delta_t: int = 5
-    """ΔT, frames synthesized between two re-plannings."""
+    """ΔT [frames]: frames synthesized between two re-plannings."""
     n_samples: int = 100
-    """N, candidate key-joint configurations drawn per re-planning."""
+    """N [—]: candidate key-joint configurations drawn per re-planning."""
     spatial_fraction: float = 0.5
-    """Share of the N candidates drawn around the spatial references (the rest from the motion potential)."""
+    """[—]: Share of the N candidates drawn around the spatial references (the rest from the motion potential)."""
     duration: str = "sample"
-    """How the remaining duration is chosen: ``"sample"`` (the paper) or ``"median"`` of the conditional log-normal."""
+    """[—]: How the remaining duration is chosen: ``"sample"`` (the paper) or ``"median"`` of the conditional log-normal."""
     coherent_fraction: float = 0.0
-    """Share of the N candidates whose non-base joints each, with probability ½, keep their offset from agent 1's
+    """[—]: Share of the N candidates whose non-base joints each, with probability ½, keep their offset from agent 1's
     base (they move with the drawn base) instead of their own draw: body-coherent candidates, so the potentials of
     all joints inform the body's position (0: every joint drawn independently, as in the paper)."""
     refine_sweeps: int = 0
-    """Sweeps of per-joint coordinate ascent over the drawn candidates; 0 keeps the best whole draw, as in the
+    """[—]: Sweeps of per-joint coordinate ascent over the drawn candidates; 0 keeps the best whole draw, as in the
     paper (on the synthetic data two sweeps tripled the cost without lowering the error)."""
     interpolation: str = "linear"
-    """Time profile of the way from agent 1's last synthesized pose to the planned end configuration:
+    """[—]: Time profile of the way from agent 1's last synthesized pose to the planned end configuration:
     ``"linear"`` (the paper) or ``"minjerk"``, the rest of the minimum-jerk profile 10v³ − 15v⁴ + 6v⁵ of the
     running sub-event (v = elapsed fraction from its anchor frame to its predicted end), the profile the
     model's path-noise term assumes."""
     lookahead: bool = False
-    """Use agent 0's (and the object's) recorded position at the predicted end for the spatial
+    """[—]: Use agent 0's (and the object's) recorded position at the predicted end for the spatial
     references instead of the latest observed one (offline evaluation only; the simulator is causal)."""
     parse: str = "online"
-    """How the running sub-event and its end are found: ``"online"`` (the paper), a DP over the frames
+    """[—]: How the running sub-event and its end are found: ``"online"`` (the paper), a DP over the frames
     so far and a duration drawn from the log-normal prior; or ``"observed"``, one DP over agent 0's
     (and the object's) whole recorded track before synthesis starts
     (:func:`~socialaff_sim.inference.observed_parse.parse_observed`; offline only, needs ``lookahead``)."""
     observed_parse_step: int = 2
-    """Frames between the cut points of the ``"observed"`` parse."""
+    """[frames]: Frames between the cut points of the ``"observed"`` parse."""
     end_prior: str = "none"
-    """``"regression"``: also score candidates by the model's end-configuration regression, a Gaussian
+    """[—]: ``"regression"``: also score candidates by the model's end-configuration regression, a Gaussian
     over agent 1's five key joints jointly (:mod:`~socialaff_sim.model.end_regression`), and draw
     ``prior_samples`` more candidates from it; ``"none"``: the paper's potentials alone."""
     prior_samples: int = 50
-    """Candidates drawn from the end-configuration regression, on top of the N, when ``end_prior`` is on."""
+    """[—]: Candidates drawn from the end-configuration regression, on top of the N, when ``end_prior`` is on."""
     frame_weight: float = 0.0
-    """Share of the model's frame regression (agent 1 at each frame from agent 0 at that frame,
+    """[—]: Share of the model's frame regression (agent 1 at each frame from agent 0 at that frame,
     :mod:`~socialaff_sim.model.frame_regression`) in every synthesized frame, the rest being the
     interpolation toward the planned end; 0: the interpolation alone, as in the paper."""
     replan_at_end: bool = False
-    """Also re-plan at the predicted end of the running sub-event when that comes before the next ΔT
+    """[—]: Also re-plan at the predicted end of the running sub-event when that comes before the next ΔT
     boundary, so the next sub-event's first frames head for its own end instead of holding this one's
     end configuration. False: every ΔT frames, as in the paper."""
     contact: str = "none"
-    """Pull of agent 1's wrist toward its contact keyframes (the model's ``contact_keys_``): toward the
+    """[—]: Pull of agent 1's wrist toward its contact keyframes (the model's ``contact_keys_``): toward the
     touched joint plus the learned offset, with a Gaussian weight that is 1 at the keyframe.
     ``"timed"`` (needs ``lookahead``): around the keyframe's phase in the running sub-event, σ =
     ``contact_width`` frames, agent 0 read at the frame itself. ``"triggered"`` (causal): while the
@@ -74,16 +85,16 @@ class SynthesisConfig:
     relative to agent 0's base (σ = ``trigger_scale`` × the keyframe's spread); the online parse's clock
     is too uncertain to time a touch of two or three frames. ``"none"``: no pull, as in the paper."""
     contact_width: float = 1.5
-    """σ, frames: width of the ``"timed"`` pull around the keyframe's phase."""
+    """σ [frames]: width of the ``"timed"`` pull around the keyframe's phase."""
     trigger_scale: float = 1.5
-    """σ of the ``"triggered"`` pull in units of the keyframe's spread: above 1 the robot's hand starts
+    """[keyframe spread]: σ of the ``"triggered"`` pull in units of the keyframe's spread: above 1 the robot's hand starts
     toward the person's before it reaches its contact pose (a touch lasts two or three frames, and the
     pose is read one frame late)."""
     frame_decay: float = 5.0
-    """Frames over which the frame regression's offset from the last emitted pose fades (it starts where
+    """[frames]: Frames over which the frame regression's offset from the last emitted pose fades (it starts where
     the synthesized track is, so the track stays continuous)."""
     hand_margin: float = 0.2
-    """Metres, causal synthesis with a model whose ``config.active_hand`` is on: agent 0 counts as
+    """[m]: causal synthesis with a model whose ``config.active_hand`` is on: agent 0 counts as
     left-active only once its left wrist's path so far exceeds its right's by this much (right-active
     until then). Early frames are walking, whose arm swing moves both wrists alike; on the synthetic
     data 0.2 m never commits to the wrong side. With ``lookahead`` the whole track decides, margin 0,

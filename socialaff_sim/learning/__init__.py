@@ -1,5 +1,10 @@
 """Learning the affordance model: Algorithm 1 of Shu, Ryoo & Zhu (IJCAI 2016, section 4).
 
+:class:`SocialAffordanceModel` (:mod:`.estimator`) is the model users fit: settings in the
+constructor, ``fit(interactions, rng=...) -> self`` runs the steps below, ``save``/``load`` use the
+model file of :mod:`.model_io`. Its learned parameters are an
+:class:`~socialaff_sim.model.affordance.AffordanceParameters` (one layer down).
+
 1. Atomic time intervals (:mod:`.atomic`): K-means (50 clusters) over all training frames,
    runs of one cluster, short runs merged and long ones cut.
 2. Initial parses (:mod:`.initial`): |S| equal parts labelled in order, refined by hard-EM
@@ -21,7 +26,9 @@ moves a boundary in one step, and the hard-EM start moves all instances' parses 
 
 from .algorithm import FitProgress, LearningResult, learn
 from .config import LearningConfig
+from .estimator import SocialAffordanceModel, load_model
 from .mh import FunctionTarget, ParseTarget, mh_step, propose
+from .model_io import MODEL_FORMAT_VERSION, save_model
 from .parse import Parse, ParseSpace, enumerate_parses
 
 __all__ = [
@@ -29,11 +36,15 @@ __all__ = [
     "FunctionTarget",
     "LearningConfig",
     "LearningResult",
+    "MODEL_FORMAT_VERSION",
     "Parse",
     "ParseSpace",
     "ParseTarget",
+    "SocialAffordanceModel",
     "enumerate_parses",
     "learn",
+    "load_model",
     "mh_step",
     "propose",
+    "save_model",
 ]

@@ -12,60 +12,68 @@ __all__ = ["LearningConfig"]
 
 @dataclass(frozen=True)
 class LearningConfig(DictConfig):
-    """Algorithm 1 settings with the paper's defaults; change them with ``dataclasses.replace``."""
+    """Algorithm 1 settings with the paper's defaults; change them with ``dataclasses.replace``.
+
+    Fields by concept
+    -----------------
+    - Atomic time intervals: n_clusters, kmeans_iterations, min_atomic_frames, max_atomic_seconds, velocity_seconds
+    - Initial parses: init_rounds, init_starts, init_type_passes, init_type_rounds, init_dirichlet
+    - Outer loop: Metropolis-Hastings over parses: iterations, p_merge, p_split, p_relabel, p_shift, lam
+    - Inner loop: Gibbs sampling of the groupings: gibbs_max_sweeps, gibbs_patience, initial_gibbs_sweeps
+    """
 
     iterations: int = 100
-    """Outer iterations. One iteration is a sweep of Metropolis-Hastings proposals, one per training
+    """I [—]: Outer iterations. One iteration is a sweep of Metropolis-Hastings proposals, one per training
     instance in turn, each followed by the inner Gibbs loop on the sub-event types it touches."""
     n_clusters: int = 50
-    """K of the K-means over all training frames that defines the atomic time intervals."""
+    """K [—]: K of the K-means over all training frames that defines the atomic time intervals."""
     kmeans_iterations: int = 50
-    """Most Lloyd iterations of that K-means (it stops earlier when the assignment is stable)."""
+    """[—]: Most Lloyd iterations of that K-means (it stops earlier when the assignment is stable)."""
     min_atomic_frames: int = 2
-    """Runs of one cluster shorter than this many frames are merged into the more similar neighbour."""
+    """[frames]: Runs of one cluster shorter than this many frames are merged into the more similar neighbour."""
     max_atomic_seconds: float = 0.3
-    """Atoms longer than this (seconds) are cut into equal parts, so that boundaries can be placed finely."""
+    """[s]: Atoms longer than this (seconds) are cut into equal parts, so that boundaries can be placed finely."""
     velocity_seconds: float = 0.5
-    """τ, seconds: weight of the joint velocities (m/s × τ) against the positions (m) in the K-means features."""
+    """τ [s]: weight of the joint velocities (m/s × τ) against the positions (m) in the K-means features."""
     init_rounds: int = 10
-    """Most rounds of hard-EM (fit, then DP re-segmentation) refining the equal-part initial parses
+    """[—]: Most rounds of hard-EM (fit, then DP re-segmentation) refining the equal-part initial parses
     (0: start the chain from the equal parts)."""
     init_starts: int = 0
-    """Extra starting points of the initial parses, our addition: besides the |S| equal parts, this many
+    """[—]: Extra starting points of the initial parses, our addition: besides the |S| equal parts, this many
     splits of every instance into |S| consecutive parts with fractions drawn from a symmetric
     Dirichlet(``init_dirichlet``) (one draw shared by all instances, from the caller's Generator). Each
     start is refined by hard-EM and the one with the highest log P* seeds the chain. The chain's local
     moves rarely cross between the basins different starts reach. 0 (default): the equal parts only."""
     init_type_passes: int = 3
-    """Most passes of type-level merge-and-split moves on the best initial parses, our addition
+    """[—]: Most passes of type-level merge-and-split moves on the best initial parses, our addition
     (:mod:`~socialaff_sim.learning.restructure`): merge two adjacent types and split a third in every
     instance at once, refine by hard-EM, keep it if log P* rises. 0: none (the start is hard-EM's)."""
     init_type_rounds: int = 3
-    """Hard-EM rounds refining each candidate of those moves."""
+    """[—]: Hard-EM rounds refining each candidate of those moves."""
     init_dirichlet: float = 2.0
-    """Concentration of the Dirichlet that draws the fractions of the extra starts."""
+    """[—]: Concentration of the Dirichlet that draws the fractions of the extra starts."""
     p_merge: float = 0.4
-    """Probability of the merge dynamics Q1 (given that no shift was drawn)."""
+    """q(Q1) [—]: Probability of the merge dynamics Q1 (given that no shift was drawn)."""
     p_split: float = 0.4
-    """Probability of the split dynamics Q2 (given that no shift was drawn)."""
+    """q(Q2) [—]: Probability of the split dynamics Q2 (given that no shift was drawn)."""
     p_relabel: float = 0.2
-    """Probability of the relabel dynamics Q3 (given that no shift was drawn)."""
+    """q(Q3) [—]: Probability of the relabel dynamics Q3 (given that no shift was drawn)."""
     p_shift: float = 0.5
-    """Probability of the boundary-shift dynamics, our addition: a parse boundary moves to a neighbouring
+    """[—]: Probability of the boundary-shift dynamics, our addition: a parse boundary moves to a neighbouring
     atomic boundary (a merge immediately followed by a split of the merged interval, labels kept).
     Otherwise one of the paper's dynamics is drawn with p_merge / p_split / p_relabel. 0 gives the
     paper's chain exactly; with one interval per sub-event type, its split and relabel have no
     admissible choice and its merges are rejected, so the chain cannot move without shifts."""
     lam: float = 1.0
-    """λ of the proposals: a split picks atomic boundary b with probability ∝ exp(λ d_b), a merge picks a
+    """λ [—]: λ of the proposals: a split picks atomic boundary b with probability ∝ exp(λ d_b), a merge picks a
     parse boundary with probability ∝ exp(−λ d_b), d_b ∈ [0, 1] the normalized motion change at b."""
     gibbs_max_sweeps: int = 10
-    """Most Gibbs sweeps of the inner loop over Z^s per sub-event type and proposal."""
+    """[—]: Most Gibbs sweeps of the inner loop over Z^s per sub-event type and proposal."""
     gibbs_patience: int = 2
-    """The inner loop stops when a sweep changes nothing or the best joint probability has not improved
+    """[—]: The inner loop stops when a sweep changes nothing or the best joint probability has not improved
     for this many sweeps."""
     initial_gibbs_sweeps: int = 30
-    """Most Gibbs sweeps for each type on the initial parse (same stopping rule)."""
+    """[—]: Most Gibbs sweeps for each type on the initial parse (same stopping rule)."""
 
     def __post_init__(self) -> None:
         def bad(name: str, expected: str) -> ConfigError:

@@ -20,28 +20,28 @@ Reading of the paper used here (each point is documented in the module named):
   (:mod:`.transitions`); p(c) uniform (a constant).
 * Parameters are maximum-likelihood fits (:mod:`.densities`) with documented floors.
 
-:class:`SocialAffordanceModel` is learned by :mod:`socialaff_sim.learning` (Algorithm 1).
+:class:`AffordanceParameters` holds the learned parameters; the estimator that learns them with
+Algorithm 1, :class:`socialaff_sim.learning.SocialAffordanceModel`, and the model file live one
+layer up in :mod:`socialaff_sim.learning`.
 """
 
-from .affordance import SocialAffordanceModel
+from .affordance import AffordanceParameters
 from .config import DEFAULT_N_SUBEVENTS, AffordanceConfig, default_n_subevents
 from .features import IntervalFeatures, interval_features
 from .frame import CanonicalFrame, canonical_frame
 from .joints import JOINT_NAMES, N_JOINTS, OBJECT, canonical_joints, instance_frame
-from .model_io import MODEL_FORMAT_VERSION, load_model, save_model
 from .potentials import TypePotentials
 from .segment_dp import best_segmentation
 
 __all__ = [
     "AffordanceConfig",
+    "AffordanceParameters",
     "CanonicalFrame",
     "DEFAULT_N_SUBEVENTS",
     "IntervalFeatures",
     "JOINT_NAMES",
-    "MODEL_FORMAT_VERSION",
     "N_JOINTS",
     "OBJECT",
-    "SocialAffordanceModel",
     "TypePotentials",
     "best_segmentation",
     "canonical_frame",
@@ -49,6 +49,4 @@ __all__ = [
     "default_n_subevents",
     "instance_frame",
     "interval_features",
-    "load_model",
-    "save_model",
 ]

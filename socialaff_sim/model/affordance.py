@@ -1,52 +1,42 @@
-"""The social affordance model of one interaction category (Shu, Ryoo & Zhu, IJCAI 2016).
+"""The learned parameters of the social affordance model of one interaction (Shu, Ryoo & Zhu, IJCAI 2016).
 
-A model object is configured in its constructor, learns with :meth:`SocialAffordanceModel.fit`
-(Algorithm 1, :mod:`socialaff_sim.learning`) and then exposes its learned parameters (trailing
-underscore) and the scoring hooks the synthesizer uses. Everything geometric is in the
+:class:`AffordanceParameters` holds what Algorithm 1 learned (attributes with a trailing underscore)
+and the scoring hooks that parsing and synthesis use. It does not learn: the estimator
+:class:`socialaff_sim.learning.SocialAffordanceModel` (a subclass, one layer up) adds ``fit``,
+the atomic-interval cut of new instances, parsing and persistence. Everything geometric is in the
 canonical interaction frame of :mod:`socialaff_sim.model.frame`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import replace
-from pathlib import Path
-from typing import TYPE_CHECKING
+from collections.abc import Callable
 
 import numpy as np
 
-from ..data.interaction import Interaction
-from ..errors import ModelError, NotFittedError, choices
-from .config import AffordanceConfig, default_n_subevents
+from ..errors import ModelError, NotFittedError
+from .config import AffordanceConfig
 from .densities import lognorm_logpdf
 from .estimate import estimate_parameters
 from .features import IntervalFeatures, interval_features
-from .frame import CanonicalFrame
-from .handedness import fit_hand_coupling, hand_flags, left_active, partner_flag, relabel
-from .joints import JOINT_NAMES, available_joints, canonical_joints, instance_frame
+from .handedness import left_active, partner_flag
+from .joints import JOINT_NAMES
 from .path import path_loglik
 from .potentials import TypePotentials, log_motion, log_spatial
 from .segment_dp import best_segmentation
-from .type_stats import name_subevents
 
-if TYPE_CHECKING:
-    from ..learning.algorithm import FitProgress
-    from ..learning.config import LearningConfig
-
-__all__ = ["SocialAffordanceModel"]
+__all__ = ["AffordanceParameters"]
 
 
-class SocialAffordanceModel:
-    """Sub-events, joint groupings and potentials of one interaction, learned from examples.
+class AffordanceParameters:
+    """Sub-events, joint groupings and potentials of one interaction, as learned from examples.
 
     Parameters
     ----------
     config:
         Model settings (|S|, β, γ, floors, ablation switches); defaults are the paper's.
-    learning:
-        Algorithm 1 settings (:class:`~socialaff_sim.learning.config.LearningConfig`); defaults are the paper's.
 
-    Attributes (after :meth:`fit` or :meth:`load`; S = |S|, 11 model joints)
+    Attributes (set by :meth:`socialaff_sim.learning.SocialAffordanceModel.fit` or ``load``;
+    S = |S|, 11 model joints)
     ----------------------------------------------------------------------
     label_ : str
         The interaction learned.
@@ -102,74 +92,11 @@ class SocialAffordanceModel:
     moves_ : dict[str, tuple[int, int]]
         (proposed, accepted) per dynamics.
     fit_seconds_ : dict[str, float]
-        Wall-clock seconds of the stages of :meth:`fit`.
+        Wall-clock seconds of the stages of ``fit``.
     """
 
-    def __init__(self, config: AffordanceConfig | None = None, learning: LearningConfig | None = None) -> None:
-        from ..learning.config import LearningConfig  # noqa: PLC0415 (model does not depend on learning at import)
-
+    def __init__(self, config: AffordanceConfig | None = None) -> None:
         self.config = config if config is not None else AffordanceConfig()
-        self.learning = learning if learning is not None else LearningConfig()
-        if not isinstance(self.learning, LearningConfig):
-            raise ModelError(f"learning: expected a LearningConfig, found {type(self.learning).__name__}")
-
-    # -- fitting -----------------------------------------------------------------------------
-    def fit(
-        self,
-        interactions: Sequence[Interaction],
-        *,
-        rng: np.random.Generator,
-        progress: bool = False,
-        callback: Callable[[FitProgress], None] | None = None,
-    ) -> SocialAffordanceModel:
-        """Learn the model from instances of one interaction with Algorithm 1; returns ``self``.
-
-        ``progress`` shows a bar on stderr; ``callback`` receives a
-        :class:`~socialaff_sim.learning.algorithm.FitProgress` after the initial parse and after
-        every outer iteration, which the ``socialaff_sim.learning.algorithm`` logger also reports
-        at INFO level (``logging.basicConfig(level=logging.INFO)`` shows it).
-        """
-        from ..learning.algorithm import learn  # noqa: PLC0415
-
-        inters = list(interactions)
-        if not inters:
-            raise ModelError("fit: expected at least one interaction instance, found none")
-        labels = sorted({i.label for i in inters})
-        if len(labels) != 1:
-            raise ModelError(f"fit: one model learns one interaction; found the labels {choices(labels)}")
-        label = labels[0]
-        n_sub = self.config.n_subevents or default_n_subevents(label)
-        if not self.config.use_subevents:
-            n_sub = 1
-        raw = [canonical_joints(i) for i in inters]
-        flags = np.array([hand_flags(x) for x in raw]).reshape(-1, 2)
-        tracks = [relabel(x, f) if self.config.active_hand else x for x, f in zip(raw, flags, strict=True)]
-        self.hand_coupling_ = fit_hand_coupling(flags)
-        available = available_joints(tracks)
-        fps = [i.fps for i in inters]
-        res = learn(tracks, fps, available, n_sub, self.config, self.learning, rng=rng, progress=progress, desc=label,
-                    callback=callback)
-
-        spans = [sp.frame_spans(p) for sp, p in zip(res.spaces, res.parses, strict=True)]
-        self._set_learned(
-            label=label,
-            available=available,
-            grouping=res.grouping,
-            spans=spans,
-            tracks=tracks,
-            fps=fps,
-            centroids=res.atoms.centroids,
-        )
-        self.parses_ = [np.asarray(s, dtype=np.int64).reshape(-1, 3) for s in spans]
-        self.instance_ids_ = [i.instance_id for i in inters]
-        self.trace_ = res.trace
-        self.acceptance_ = res.acceptance
-        self.acceptance_rate_ = float(res.acceptance.mean()) if res.acceptance.size else 0.0
-        self.log_posterior_ = res.log_posterior
-        self.moves_ = dict(res.moves)
-        self.fit_seconds_ = dict(res.seconds)
-        self.subevent_names_ = name_subevents(inters, spans, n_sub)
-        return self
 
     def _set_learned(self, *, label, available, grouping, spans, tracks, fps, centroids) -> None:  # noqa: ANN001
         for name, value in estimate_parameters(grouping, spans, tracks, fps, available, self.config).items():
@@ -185,14 +112,14 @@ class SocialAffordanceModel:
         # Only called when normal lookup fails: a learned attribute read before fit.
         if name.endswith("_") and not name.startswith("__"):
             raise NotFittedError(
-                f"SocialAffordanceModel is not fitted yet ({name} is learned): call fit(interactions, rng=...) or load(path) first"
+                f"{type(self).__name__} is not fitted yet ({name} is learned): call fit(interactions, rng=...) or load(path) first"
             )
         raise AttributeError(name)
 
     def _check(self) -> None:
         if "grouping_" not in self.__dict__:
             raise NotFittedError(
-                "SocialAffordanceModel is not fitted yet: call fit(interactions, rng=...) or load(path) first"
+                f"{type(self).__name__} is not fitted yet: call fit(interactions, rng=...) or load(path) first"
             )
 
     def _check_s(self, s: int) -> int:
@@ -233,30 +160,11 @@ class SocialAffordanceModel:
         return TypePotentials(self.spatial_params_[s], self.motion_params_[s], float("nan"))
 
     # -- hooks for inference / synthesis -------------------------------------------------------
-    @staticmethod
-    def frame_of(interaction: Interaction) -> CanonicalFrame:
-        """The canonical frame of an instance (world ↔ canonical), fixed by its first frame."""
-        return instance_frame(interaction)
-
-    def canonical_track(
-        self, interaction: Interaction, frame: CanonicalFrame | None = None, hands: np.ndarray | None = None
-    ) -> np.ndarray:
-        """(T, 11, 3) float64, metres: the model joints in the (given or own) canonical frame.
-
-        With ``config.active_hand`` each agent's key joints are relabelled by its flag in ``hands``
-        (2,) bool (``None``: the instance's own :func:`~socialaff_sim.model.handedness.hand_flags`,
-        which read both agents' whole tracks; synthesis passes :meth:`reaction_hands` instead).
-        """
-        x = canonical_joints(interaction, frame)
-        if not self.config.active_hand:
-            return x
-        return relabel(x, hand_flags(x) if hands is None else np.asarray(hands, bool))
-
     def reaction_hands(self, track: np.ndarray, stop: int | None = None, margin: float = 0.0) -> np.ndarray:
-        """(2,) bool: the relabelling flags when agent 1 is to be synthesized: agent 0's own flag from its
-        frames ``[0, stop)`` of ``track`` (T, 11, 3, as recorded; left only by more than ``margin`` metres
-        of wrist path), agent 1's the likeliest partner flag (``hand_coupling_``). All False without
-        ``config.active_hand``."""
+        """(2,) bool: the relabelling flags (:func:`~socialaff_sim.model.handedness.relabel`) when agent 1 is
+        to be synthesized: agent 0's own flag from its frames ``[0, stop)`` of ``track`` (T, 11, 3, as
+        recorded; left only by more than ``margin`` metres of wrist path), agent 1's the likeliest partner
+        flag (``hand_coupling_``). All False without ``config.active_hand``."""
         self._check()
         if not self.config.active_hand:
             return np.zeros(2, bool)
@@ -334,27 +242,7 @@ class SocialAffordanceModel:
         z[~self.available_] = -1
         return z
 
-    # -- parsing and scoring --------------------------------------------------------------------
-    def atom_bounds(self, interaction: Interaction, track: np.ndarray | None = None) -> np.ndarray:
-        """(A + 1,) int64: atomic-interval bounds of an instance from the learned K-means centroids."""
-        from ..learning.atomic import cut_atoms  # noqa: PLC0415
-
-        self._check()
-        x = self.canonical_track(interaction) if track is None else track
-        if not np.isfinite(x[:, self.available_]).all():
-            missing = [JOINT_NAMES[j] for j in np.flatnonzero(self.available_ & ~np.isfinite(x).all(axis=(0, 2)))]
-            raise ModelError(f"instance {interaction.instance_id!r} lacks joints the model uses: {missing}")
-        lc = self.learning
-        return cut_atoms(
-            x, interaction.fps, self.available_, self.centroids_,
-            min_frames=lc.min_atomic_frames, max_seconds=lc.max_atomic_seconds, tau=lc.velocity_seconds,
-        )
-
-    def best_parse(self, interaction: Interaction) -> tuple[float, np.ndarray]:
-        """Best parse over the instance's atomic intervals: (log probability, (K, 3) int64 rows start, stop, label)."""
-        x = self.canonical_track(interaction)
-        return self.parse_over(x, interaction.fps, self.atom_bounds(interaction, x), self.interval_log_score)
-
+    # -- parsing ---------------------------------------------------------------------------------
     def parse_over(
         self, track: np.ndarray, fps: float, bounds: np.ndarray, score: Callable[[IntervalFeatures, int], np.ndarray]
     ) -> tuple[float, np.ndarray]:
@@ -376,38 +264,11 @@ class SocialAffordanceModel:
         rows = np.array([(bounds[p], bounds[q], s) for p, q, s in spans], dtype=np.int64).reshape(-1, 3)
         return total, rows
 
-    def score(self, interactions: Sequence[Interaction]) -> float:
-        """Mean per-frame log probability of the instances' best parses (Σ log p / Σ frames)."""
-        self._check()
-        inters = list(interactions)
-        if not inters:
-            raise ModelError("score: expected at least one interaction instance, found none")
-        total = sum(self.best_parse(i)[0] for i in inters)
-        return float(total / sum(i.n_frames for i in inters))
-
-    # -- persistence ------------------------------------------------------------------------------
-    def save(self, path: str | Path) -> Path:
-        """Write the fitted model to ``path`` (npz + JSON metadata, atomically); returns the path."""
-        from .model_io import save_model  # noqa: PLC0415
-
-        self._check()
-        return save_model(self, path)
-
-    @classmethod
-    def load(cls, path: str | Path) -> SocialAffordanceModel:
-        """Read a model written by :meth:`save`; a bad file raises :class:`~socialaff_sim.errors.ModelFileError`."""
-        from .model_io import load_model  # noqa: PLC0415
-
-        return load_model(path)
-
-    def with_config(self, **changes: object) -> SocialAffordanceModel:
-        """An unfitted model with some settings changed."""
-        return SocialAffordanceModel(replace(self.config, **changes), self.learning)
-
     def __repr__(self) -> str:
+        name = type(self).__name__
         if "grouping_" not in self.__dict__:
-            return "SocialAffordanceModel(unfitted)"
-        return f"SocialAffordanceModel({self.label_!r}, |S|={self.n_subevents_}, {len(self.parses_)} training instances)"
+            return f"{name}(unfitted)"
+        return f"{name}({self.label_!r}, |S|={self.n_subevents_}, {len(self.parses_)} training instances)"
 
 
 def _nan_to_neginf(x: np.ndarray) -> np.ndarray:

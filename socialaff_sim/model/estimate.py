@@ -34,7 +34,7 @@ def estimate_parameters(
     available: np.ndarray,
     config: AffordanceConfig,
 ) -> dict[str, object]:
-    """The learned attributes of :class:`~socialaff_sim.model.affordance.SocialAffordanceModel` that are
+    """The learned attributes of :class:`~socialaff_sim.learning.SocialAffordanceModel` that are
     fitted from the data, by name (``spatial_params_``, …, ``frame_regression_``).
 
     ``grouping``: (S, 11) int Z^s; ``spans``: per instance, (start, stop, label) frame intervals;

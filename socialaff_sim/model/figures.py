@@ -1,10 +1,16 @@
-"""Text and figure summaries of a learned model (sub-events, durations, joint groupings)."""
+"""Text and figure summaries of a learned model (sub-events, durations, joint groupings).
+
+matplotlib (the optional ``plot`` extra) is imported inside :func:`draw_groupings`, so that the
+rest of the package works without it.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
+
+from .._atomic import atomic_path
 
 __all__ = ["format_model", "draw_groupings"]
 
@@ -38,8 +44,6 @@ def draw_groupings(model, path: str | Path) -> Path:  # noqa: ANN001 - SocialAff
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # noqa: PLC0415
-
-    from .._atomic import atomic_path  # noqa: PLC0415
 
     S = model.n_subevents_
     fig, axes = plt.subplots(1, S, figsize=(3.2 * S, 3.6), squeeze=False)

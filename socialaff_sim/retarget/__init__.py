@@ -3,7 +3,8 @@
 from .ik import IKConfig, IKModel, IKResult, RobotIK
 from .robot import RobotSpec, available_robots, load_robot
 from .scaling import BodyMeasurements, KeyJointScaler, RobotFrame, ScalingConfig
-from .sources import GroundTruthSource, KeyJointSource, SourceFrame, model_source
+from .model_source import ModelSource, key_joint_source, model_source
+from .sources import GroundTruthSource, KeyJointSource, SourceFrame
 
 __all__ = [
     "BodyMeasurements",
@@ -13,12 +14,14 @@ __all__ = [
     "IKResult",
     "KeyJointScaler",
     "KeyJointSource",
+    "ModelSource",
     "RobotFrame",
     "RobotIK",
     "RobotSpec",
     "ScalingConfig",
     "SourceFrame",
     "available_robots",
+    "key_joint_source",
     "load_robot",
     "model_source",
 ]

@@ -9,66 +9,77 @@ __all__ = ["IKConfig"]
 
 @dataclass(frozen=True)
 class IKConfig:
-    """Weights, limits and stopping rule of the retargeting IK."""
+    """Weights, limits and stopping rule of the retargeting IK.
+
+    Fields by concept
+    -----------------
+    - Task costs: position_cost, unreachable_weight, base_position_cost, base_orientation_cost,
+      foot_orientation_cost, posture_cost
+    - Damping and stopping rule: damping, max_worsening, damping_growth, max_damping, iterations, tolerance,
+      min_progress, patience
+    - Collision avoidance: min_distance, contact_depth, detection_distance, self_detection_distance, collision_gain,
+      collision_slack, backtracks, max_push
+    - Speed limits and solver: max_base_speed, max_base_turn, solver
+    """
 
     position_cost: float = 1.0
-    """Cost of a wrist's or an ankle's position error (per metre)."""
+    """[1/m]: Cost of a wrist's or an ankle's position error (per metre)."""
     unreachable_weight: float = 0.3
-    """Factor on the position cost of a target the caller marks out of reach (``care``)."""
+    """[—]: Factor on the position cost of a target the caller marks out of reach (``care``)."""
     base_position_cost: float = 5.0
-    """Cost of the base's position error (per metre): the robot stands where it is placed, and a
+    """[1/m]: Cost of the base's position error (per metre): the robot stands where it is placed, and a
     wrist out of reach does not drag it along."""
     base_orientation_cost: float = 2.0
-    """Cost of the base's orientation error (per radian)."""
+    """[1/rad]: Cost of the base's orientation error (per radian)."""
     foot_orientation_cost: float = 0.05
-    """Cost of each foot's orientation error (per radian)."""
+    """[1/rad]: Cost of each foot's orientation error (per radian)."""
     posture_cost: float = 0.01
-    """Cost of departing from the home posture (per radian)."""
+    """[1/rad]: Cost of departing from the home posture (per radian)."""
     damping: float = 1e-4
-    """Levenberg-Marquardt damping of the QP."""
+    """[—]: Levenberg-Marquardt damping of the QP."""
     max_worsening: float | None = 0.01
-    """A QP step after a frame's first that raises the key frames' root-mean-square position error,
+    """[—]: A QP step after a frame's first that raises the key frames' root-mean-square position error,
     weighted by their costs (a target out of reach at ``unreachable_weight``), by more than this,
     metres, is undone, and the next one taken with ``damping_growth`` times the damping (two hands
     closing on a ball 2–3 cm apart can otherwise trade places step after step, the collision
     avoidance between them pushing one off as the other arrives); ``None``: no step is undone."""
     damping_growth: float = 10.0
-    """Factor on the damping after an undone step (and its inverse after a kept one, down to ``damping``)."""
+    """[—]: Factor on the damping after an undone step (and its inverse after a kept one, down to ``damping``)."""
     max_damping: float = 10.0
-    """Most damping the growth reaches."""
+    """[—]: Most damping the growth reaches."""
     iterations: int = 30
-    """Most QP steps per data frame (taken only while a target within reach is off by more than
+    """[—]: Most QP steps per data frame (taken only while a target within reach is off by more than
     ``tolerance``)."""
     tolerance: float = 0.01
-    """Stop once every key frame is this close to its target, metres."""
+    """[m]: Stop once every key frame is this close to its target, metres."""
     min_progress: float = 0.001
-    """Progress that counts: a step that brings the largest error among the targets worth it this much
+    """[m]: Progress that counts: a step that brings the largest error among the targets worth it this much
     below the smallest so far this frame, metres."""
     patience: int = 6
-    """Also stop after this many steps in a row without progress (a limit or the collision avoidance
+    """[—]: Also stop after this many steps in a row without progress (a limit or the collision avoidance
     holds the frame back)."""
     min_distance: float = 0.01
-    """Distance collision avoidance keeps between the robot and the person, metres."""
+    """[m]: Distance collision avoidance keeps between the robot and the person, metres."""
     contact_depth: float | None = 0.05
-    """How far a hand or forearm may press into the person where the task wants them to touch,
+    """[m]: How far a hand or forearm may press into the person where the task wants them to touch,
     metres (``None``: no limit there; physics alone resolves the contact)."""
     detection_distance: float = 0.1
-    """Distance below which a robot-person geom pair enters the QP, metres."""
+    """[m]: Distance below which a robot-person geom pair enters the QP, metres."""
     self_detection_distance: float = 0.05
-    """Distance below which a pair of robot geoms (a forearm or hand and the rest) enters the QP, metres."""
+    """[m]: Distance below which a pair of robot geoms (a forearm or hand and the rest) enters the QP, metres."""
     collision_gain: float = 0.85
-    """Fraction of the remaining gap a pair may close per step."""
+    """[—]: Fraction of the remaining gap a pair may close per step."""
     collision_slack: float = 0.003
-    """A QP step that leaves a collision pair more than this inside its limit, where it was not before
+    """[m]: A QP step that leaves a collision pair more than this inside its limit, where it was not before
     the step, is solved again with that pair in the QP, metres (the QP sees only pairs within the
     detection distance: a long step can pass a hand through the thigh)."""
     backtracks: int = 3
-    """Most re-solves of such a step, then most halvings before it is dropped (0: no check)."""
+    """[—]: Most re-solves of such a step, then most halvings before it is dropped (0: no check)."""
     max_push: float = 0.02
-    """Most a step moves the robot's trunk and legs back out of a person who has moved into them, metres."""
+    """[m]: Most a step moves the robot's trunk and legs back out of a person who has moved into them, metres."""
     max_base_speed: float = 2.0
-    """Speed limit of the floating base's translation, m/s (bounds each QP step to this times dt)."""
+    """[m/s]: Speed limit of the floating base's translation, m/s (bounds each QP step to this times dt)."""
     max_base_turn: float = 3.0
-    """Speed limit of the floating base's rotation, rad/s (bounds each QP step to this times dt)."""
+    """[rad/s]: Speed limit of the floating base's rotation, rad/s (bounds each QP step to this times dt)."""
     solver: str = "daqp"
-    """QP solver name understood by qpsolvers."""
+    """[—]: QP solver name understood by qpsolvers."""

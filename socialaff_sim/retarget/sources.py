@@ -9,12 +9,11 @@ A source reacting to the person is causal: ``targets(t)`` uses the observed
 human (agent 0) and object up to frame ``t`` only (the model's synthesis is, unless
 asked to read the whole recording offline). The ground-truth
 source reads agent 1's recorded track and is the reference every model is
-compared with.
+compared with. The model's synthesis as a source is in :mod:`~socialaff_sim.retarget.model_source`.
 """
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
@@ -22,7 +21,7 @@ import numpy as np
 from ..data.interaction import Interaction
 from ..errors import SimulationError
 
-__all__ = ["SourceFrame", "KeyJointSource", "GroundTruthSource", "model_source"]
+__all__ = ["SourceFrame", "KeyJointSource", "GroundTruthSource"]
 
 
 class SourceFrame(NamedTuple):
@@ -69,23 +68,3 @@ class GroundTruthSource:
         if not 0 <= t < len(self._keys):
             raise SimulationError(f"frame {t} is outside the instance (0 ≤ t < {len(self._keys)})")
         return SourceFrame(self._keys[t].copy(), self._sub[t])
-
-
-def model_source(model_path: str | Path | None, *, offline: bool = False) -> KeyJointSource:
-    """The affordance model's online synthesis as a :class:`KeyJointSource`
-    (:func:`socialaff_sim.inference.key_joint_source`).
-
-    ``offline``: the synthesis reads the replayed human's whole recorded track
-    (``SynthesisConfig.offline()``, as the evaluation does) instead of reacting causally.
-    A clear :class:`SimulationError` says so when no model file is given or it does not exist.
-    """
-    if model_path is None:
-        raise SimulationError("--source model needs --model MODEL.npz (a fitted affordance model); "
-                              "use --source gt to replay the recorded agent 1 instead")
-    path = Path(model_path)
-    if not path.exists():
-        raise SimulationError(f"{path}: no such model file (fit one with: socialaff-sim fit)")
-    # Imported here: the synthesizer (and the model behind it) is loaded only when a model drives the robot.
-    from ..inference.methods import key_joint_source
-
-    return key_joint_source(path, offline=offline)

@@ -10,7 +10,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import mujoco
 import numpy as np
@@ -18,10 +18,7 @@ from dm_control import mjcf
 
 from ..retarget.robot import RobotSpec
 
-if TYPE_CHECKING:
-    from .scene import Scene
-
-__all__ = ["robot_mjcf", "tune_servos", "limit_hand_force", "SELF_CONTACT_HOPS"]
+__all__ = ["robot_mjcf", "tune_servos", "limit_hand_force", "SELF_CONTACT_HOPS", "ServoScene"]
 
 
 def robot_mjcf(robot: RobotSpec, physics: bool) -> tuple[mjcf.RootElement, dict[str, float]]:
@@ -149,7 +146,21 @@ def tune_servos(model: mujoco.MjModel, robot_qadr: np.ndarray, home_qpos: np.nda
     m.jnt_stiffness[joint_ids] = 0.0
 
 
-def limit_hand_force(scene: Scene, force: float) -> None:
+class ServoScene(Protocol):
+    """What :func:`limit_hand_force` reads of a built scene (:class:`~socialaff_sim.sim.scene.Scene`
+    has it; declared here so this module does not import the scene)."""
+
+    model: mujoco.MjModel
+    robot_qadr: np.ndarray
+    home_qpos: np.ndarray
+    act_ids: np.ndarray
+    limb_body_ids: np.ndarray
+    frame_kinds: tuple[str, ...]
+    frame_ids: np.ndarray
+    hand_geom: np.ndarray
+
+
+def limit_hand_force(scene: ServoScene, force: float) -> None:
     """Cap each arm servo's torque at ``force`` (N) times its lever arm to the hand, at home.
 
     The arm of a side is the subtree of its limb root (the shoulder body). A joint's

@@ -11,7 +11,7 @@ their targets. The scene itself is built by :func:`~socialaff_sim.sim.scene.buil
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import mujoco
 import numpy as np
@@ -19,11 +19,8 @@ from dm_control import mjcf
 
 from .human import HAND_SPHERE_RADIUS, HumanBody
 
-if TYPE_CHECKING:
-    from .scene import Scene
-
 __all__ = ["HUMAN_RGBA", "HUMAN_CONTACT", "HUMAN_DENSITY", "HUMAN_WELD_SOLREF", "part_names", "add_human",
-           "set_human_sizes", "pose_compliant"]
+           "set_human_sizes", "pose_compliant", "HumanScene"]
 
 HUMAN_RGBA = (0.85, 0.2, 0.2, 1.0)
 HUMAN_CONTACT = {"solref": (0.03, 1.0), "solimp": (0.6, 0.9, 0.02, 0.5, 2), "solmix": 1000.0}
@@ -60,7 +57,20 @@ def add_human(root: mjcf.RootElement, body: HumanBody, physics: bool) -> None:
                           solref=HUMAN_WELD_SOLREF, solimp=(0.9, 0.95, 0.001, 0.5, 2))
 
 
-def set_human_sizes(scene: Scene, half_lengths: np.ndarray) -> None:
+class HumanScene(Protocol):
+    """What :func:`set_human_sizes` and :func:`pose_compliant` read of a built scene
+    (:class:`~socialaff_sim.sim.scene.Scene` has it; declared here so this module does not import the scene)."""
+
+    model: mujoco.MjModel
+    human_geom_ids: np.ndarray
+    human_free_qadr: np.ndarray
+    human_free_vadr: np.ndarray
+
+    @property
+    def n_bones(self) -> int: ...
+
+
+def set_human_sizes(scene: HumanScene, half_lengths: np.ndarray) -> None:
     """Give the human's capsules their half-lengths (B,) metres, keeping MuJoCo's bounds and masses consistent."""
     m = scene.model
     g = scene.human_geom_ids[: scene.n_bones]
@@ -85,7 +95,7 @@ def set_human_sizes(scene: Scene, half_lengths: np.ndarray) -> None:
         m.body_subtreemass[body] = mass
 
 
-def pose_compliant(scene: Scene, data: mujoco.MjData, pos: np.ndarray, quat: np.ndarray) -> None:
+def pose_compliant(scene: HumanScene, data: mujoco.MjData, pos: np.ndarray, quat: np.ndarray) -> None:
     """Put the compliant human parts exactly on their targets ``pos`` (B + 2, 3), ``quat`` (B + 2, 4), at rest."""
     free = scene.human_free_qadr >= 0
     qa, va = scene.human_free_qadr[free], scene.human_free_vadr[free]

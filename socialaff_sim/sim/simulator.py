@@ -41,22 +41,22 @@ class SimConfig:
     """Settings of the physics loop."""
 
     timestep: float = 0.004
-    """Δt, physics step in seconds (shortened so a data frame holds a whole number of steps)."""
+    """Δt [s]: physics step in seconds (shortened so a data frame holds a whole number of steps)."""
     servo_bandwidth: float | None = 25.0
-    """ω, natural frequency of the critically damped joint servos, rad/s (``None``: the model's own gains)."""
+    """ω [rad/s]: natural frequency of the critically damped joint servos, rad/s (``None``: the model's own gains)."""
     hand_force: float | None = 60.0
-    """F_max, newtons: the arm servos' torque limits are set so that a hand pushes with at most about
+    """F_max [N]: the arm servos' torque limits are set so that a hand pushes with at most about
     this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,
     never above the model's own limit); ``None`` keeps the model's limits. With gravity compensation
     the arms need little torque to move, so this mostly bounds how hard the robot can press on a person."""
     ik: IKConfig = field(default_factory=IKConfig)
-    """Retargeting IK settings."""
+    """[—]: Retargeting IK settings."""
     scaling: ScalingConfig = field(default_factory=ScalingConfig)
-    """Human-to-robot scaling settings."""
+    """[—]: Human-to-robot scaling settings."""
     grip: bool = True
-    """Whether a robot hand touching the object grips it (its grip weld switches on and stays on)."""
+    """[—]: Whether a robot hand touching the object grips it (its grip weld switches on and stays on)."""
     settle_iterations: int = 20
-    """IK solves spent at reset to reach the first frame's targets before physics starts."""
+    """[—]: IK solves spent at reset to reach the first frame's targets before physics starts."""
 
 
 @dataclass(frozen=True)

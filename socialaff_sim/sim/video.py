@@ -10,7 +10,7 @@ import numpy as np
 
 from .._atomic import atomic_path
 from ..errors import RenderingUnavailableError
-from .render import SceneRenderer
+from .render import SceneRenderer, pillow
 from .simulator import Simulator, StepResult
 
 __all__ = ["EpisodeRecorder", "contact_sheet", "caption_lines"]
@@ -107,8 +107,6 @@ class EpisodeRecorder:
                 self._writer = None
             self._stack.close()
             if self.sheet_path is not None and self.sheet_frames:
-                from .render import pillow
-
                 with atomic_path(self.sheet_path, suffix=".png") as tmp:
                     pillow().Image.fromarray(contact_sheet(self.sheet_frames)).save(tmp, format="PNG")
         finally:

@@ -39,44 +39,52 @@ class SyntheticConfig:
 
     Change fields with :func:`dataclasses.replace`; ``noise=False`` gives the
     clean kinematic data (the motion is the same for a given seed either way).
+
+    Fields by concept
+    -----------------
+    - Dataset size: interactions, instances_per_interaction, n_actors, pairs_per_interaction
+    - Actors and timing: height_range, proportion_jitter, fps_range, duration_range, tempo_range,
+      room_half_extent, left_hand_probability
+    - Sensor noise: noise, jitter_sd, jitter_correlation, occluded_jitter_sd, dropout, occluded_dropout,
+      object_jitter_sd
     """
 
     interactions: tuple[str, ...] = INTERACTIONS
-    """Interaction classes c to generate (any subset of :data:`INTERACTIONS`)."""
+    """c [—]: Interaction classes c to generate (any subset of :data:`INTERACTIONS`)."""
     instances_per_interaction: int = 24
-    """N, instances generated per interaction."""
+    """N [—]: instances generated per interaction."""
     n_actors: int = 8
-    """A, number of distinct actors (ids ``a01``, ``a02``, ...)."""
+    """A [—]: number of distinct actors (ids ``a01``, ``a02``, ...)."""
     pairs_per_interaction: int = 8
-    """P, distinct unordered actor pairs used per interaction (capped at A(A-1)/2 and N)."""
+    """P [—]: distinct unordered actor pairs used per interaction (capped at A(A-1)/2 and N)."""
     height_range: tuple[float, float] = (1.50, 1.95)
-    """(H_min, H_max), metres: range of the actors' statures H."""
+    """(H_min, H_max) [m]: range of the actors' statures H."""
     proportion_jitter: float = 0.04
-    """δ_p, relative spread (uniform ±δ_p) of an actor's arm and leg lengths around average proportions."""
+    """δ_p [—]: relative spread (uniform ±δ_p) of an actor's arm and leg lengths around average proportions."""
     fps_range: tuple[float, float] = (10.0, 15.0)
-    """(f_min, f_max), frames per second: each instance's frame rate is drawn uniformly in this range."""
+    """(f_min, f_max) [Hz]: each instance's frame rate is drawn uniformly in this range."""
     duration_range: tuple[float, float] = (2.0, 7.0)
-    """(D_min, D_max), seconds: instance lengths are kept inside this range."""
+    """(D_min, D_max) [s]: instance lengths are kept inside this range."""
     tempo_range: tuple[float, float] = (0.85, 1.2)
-    """(τ_min, τ_max): per-instance factor on all scripted phase durations (slow or brisk pairs)."""
+    """(τ_min, τ_max) [—]: per-instance factor on all scripted phase durations (slow or brisk pairs)."""
     room_half_extent: float = 1.5
-    """E, metres: the pair is shifted by a uniform offset in [-E, E]² and turned by a uniform yaw."""
+    """E [m]: the pair is shifted by a uniform offset in [-E, E]² and turned by a uniform yaw."""
     left_hand_probability: float = 0.3
-    """p_L, probability that a one-handed action (high five, pull-up grip, cup receiver, throw) uses the left hand."""
+    """p_L [—]: probability that a one-handed action (high five, pull-up grip, cup receiver, throw) uses the left hand."""
     noise: bool = True
-    """Whether to add Kinect-like corruption; ``False`` keeps the clean forward-kinematics data."""
+    """[—]: Whether to add Kinect-like corruption; ``False`` keeps the clean forward-kinematics data."""
     jitter_sd: float = 0.015
-    """σ_j, metres: per-axis standard deviation of the joint jitter."""
+    """σ_j [m]: per-axis standard deviation of the joint jitter."""
     jitter_correlation: float = 0.5
-    """ρ, lag-one autocorrelation of the jitter (an AR(1) process in time; 0 = white)."""
+    """ρ [—]: lag-one autocorrelation of the jitter (an AR(1) process in time; 0 = white)."""
     occluded_jitter_sd: float = 0.04
-    """σ_o, metres: per-axis jitter of hand joints occluded during contact (replaces σ_j there)."""
+    """σ_o [m]: per-axis jitter of hand joints occluded during contact (replaces σ_j there)."""
     dropout: float = 0.01
-    """p_d, probability that a joint is untracked in a frame (NaN coordinates, ``valid`` False)."""
+    """p_d [—]: probability that a joint is untracked in a frame (NaN coordinates, ``valid`` False)."""
     occluded_dropout: float = 0.08
-    """p_o, dropout probability of hand joints occluded during contact."""
+    """p_o [—]: dropout probability of hand joints occluded during contact."""
     object_jitter_sd: float = 0.005
-    """σ_b, metres: per-axis white jitter of the object track (never dropped)."""
+    """σ_b [m]: per-axis white jitter of the object track (never dropped)."""
 
     def __post_init__(self) -> None:
         def bad(field: str, expected: str) -> ConfigError:

@@ -1,4 +1,4 @@
-"""The protocol every reaction-synthesis method implements, and the registry of methods.
+"""The protocol every reaction-synthesis method implements: its result type and what it may see.
 
 A *method* learns, from the instances of one interaction class, how agent 1
 reacts to agent 0, and then predicts agent 1's whole skeleton track for a new
@@ -13,20 +13,13 @@ What ``predict`` may look at
     output of :func:`observed_part`, in which agent 1's frames from
     ``n_observed`` on are NaN and marked invalid and the sub-events are removed.
 
-Registering a method
-    ``register_method(name, factory)`` adds a factory (a picklable callable
-    with no arguments returning a fresh, unfitted method, e.g. a module-level
-    function or class) under ``name``. The baselines ``"hmm"`` and ``"promp"``
-    are registered here; the full model and its ablations (``"full"``,
-    ``"v1"``, ``"v2"``) are registered by the synthesis module when it is
-    imported (``socialaff_sim.inference`` imports it). :func:`get_method` first
-    imports the modules in :data:`METHOD_PROVIDERS`, then fails with an error
-    listing the available names.
+The contract sits here, below the methods (:mod:`socialaff_sim.inference.methods`,
+:mod:`socialaff_sim.baselines`) that implement it; the registry of methods by name and the
+evaluation that runs them are one layer up (:mod:`socialaff_sim.evaluation.registry`).
 """
 
 from __future__ import annotations
 
-import importlib
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -36,7 +29,7 @@ import numpy as np
 
 from ..data.interaction import MIN_FRAMES, Interaction
 from ..data.skeletons import N_KEY
-from ..errors import ConfigError, ModelError, choices
+from ..errors import ConfigError, ModelError
 
 if TYPE_CHECKING:
     if sys.version_info >= (3, 11):
@@ -46,16 +39,11 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_N_OBSERVED",
-    "METHODS",
-    "METHOD_PROVIDERS",
     "MethodFactory",
     "Prediction",
     "ReactionMethod",
-    "available_methods",
-    "get_method",
     "observed_part",
     "prediction_from_joints",
-    "register_method",
 ]
 
 DEFAULT_N_OBSERVED = 10
@@ -138,71 +126,6 @@ class ReactionMethod(Protocol):
 
 MethodFactory = Callable[[], ReactionMethod]
 """A picklable callable with no arguments returning a fresh, unfitted method."""
-
-
-def _hmm() -> ReactionMethod:
-    from ..baselines.hmm import MultiLevelHMM
-
-    return MultiLevelHMM()
-
-
-def _promp() -> ReactionMethod:
-    from ..baselines.promp import InteractionProMP
-
-    return InteractionProMP()
-
-
-METHODS: dict[str, MethodFactory] = {"hmm": _hmm, "promp": _promp}
-"""Method factories by name. Add to it only through :func:`register_method`."""
-
-METHOD_PROVIDERS: tuple[str, ...] = ("socialaff_sim.inference",)
-"""Modules imported by :func:`get_method` so that they can register their methods."""
-
-
-def register_method(name: str, factory: MethodFactory, *, replace: bool = False) -> None:
-    """Make ``factory`` available as method ``name`` (snake_case).
-
-    Registering the same factory twice is harmless; another factory under a taken
-    name needs ``replace=True``. The factory must be picklable (a module-level
-    function or class, or a ``functools.partial`` of one) because the evaluation
-    runs methods in worker processes.
-    """
-    if not isinstance(name, str) or not name.isidentifier() or name != name.lower():
-        raise ConfigError(f"register_method: expected a lower-case identifier as name, found {name!r}")
-    if not callable(factory):
-        raise ConfigError(f"register_method({name!r}): expected a callable factory, found {type(factory).__name__}")
-    old = METHODS.get(name)
-    if old is not None and old is not factory and not replace:
-        raise ConfigError(f"register_method: method {name!r} is already registered; pass replace=True to override it")
-    METHODS[name] = factory
-
-
-def _load_providers() -> None:
-    for module in METHOD_PROVIDERS:
-        try:
-            importlib.import_module(module)
-        except ModuleNotFoundError as exc:
-            if exc.name != module:
-                raise
-
-
-def available_methods() -> tuple[str, ...]:
-    """Names of every registered method (after importing :data:`METHOD_PROVIDERS`), sorted."""
-    _load_providers()
-    return tuple(sorted(METHODS))
-
-
-def get_method(name: str) -> MethodFactory:
-    """The factory registered under ``name``; the error lists the available methods."""
-    if name not in METHODS:
-        _load_providers()
-    try:
-        return METHODS[name]
-    except KeyError:
-        raise ConfigError(
-            f"unknown method {name!r}; available methods: {choices(sorted(METHODS))} "
-            "(add your own with socialaff_sim.evaluation.register_method(name, factory))"
-        ) from None
 
 
 def observed_part(interaction: Interaction, n_observed: int) -> Interaction:

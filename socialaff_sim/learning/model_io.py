@@ -40,7 +40,8 @@ import io
 import json
 import zipfile
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 
@@ -48,17 +49,16 @@ from .. import __version__
 from .._atomic import atomic_write_bytes
 from ..errors import ConfigError, ModelFileError
 from ..data.skeletons import N_KEY
-from .config import AffordanceConfig
-from .contact_keys import ContactKeys
-from .end_regression import n_context, offset_columns
-from .frame_regression import frame_offset_columns, n_frame_context
-from .ridge import RidgeRegression
-from .joints import JOINT_NAMES, N_JOINTS
+from ..model.affordance import AffordanceParameters
+from ..model.config import AffordanceConfig
+from ..model.contact_keys import ContactKeys
+from ..model.end_regression import n_context, offset_columns
+from ..model.frame_regression import frame_offset_columns, n_frame_context
+from ..model.ridge import RidgeRegression
+from ..model.joints import JOINT_NAMES, N_JOINTS
+from .config import LearningConfig
 
-if TYPE_CHECKING:
-    from .affordance import SocialAffordanceModel
-
-__all__ = ["MODEL_FORMAT", "MODEL_FORMAT_VERSION", "save_model", "load_model"]
+__all__ = ["MODEL_FORMAT", "MODEL_FORMAT_VERSION", "save_model", "read_model"]
 
 MODEL_FORMAT = "socialaff_sim.affordance_model"
 MODEL_FORMAT_VERSION = 8
@@ -72,8 +72,9 @@ _ARRAYS = (
 )
 
 
-def save_model(model: SocialAffordanceModel, path: str | Path) -> Path:
-    """Write a fitted model to ``path`` atomically; returns the path."""
+def save_model(model: AffordanceParameters, path: str | Path) -> Path:
+    """Write a fitted model (a :class:`~socialaff_sim.learning.SocialAffordanceModel`) to ``path``
+    atomically; returns the path."""
     path = Path(path)
     parses = model.parses_
     rows = np.concatenate(parses) if parses else np.zeros((0, 3), np.int64)
@@ -87,7 +88,7 @@ def save_model(model: SocialAffordanceModel, path: str | Path) -> Path:
         "joint_names": list(JOINT_NAMES),
         "instance_ids": list(model.instance_ids_),
         "config": model.config.to_dict(),
-        "learning": model.learning.to_dict(),
+        "learning": model.learning.to_dict(),  # type: ignore[attr-defined]  # the estimator's settings
         "log_posterior": float(model.log_posterior_),
         "acceptance_rate": float(model.acceptance_rate_),
         "moves": {k: list(v) for k, v in model.moves_.items()},
@@ -168,11 +169,10 @@ def _check_shape(path: Path, name: str, arr: np.ndarray, shape: tuple[int | None
     return arr
 
 
-def load_model(path: str | Path) -> SocialAffordanceModel:
-    """Read a model file written by :func:`save_model` (see the module doc for the checks)."""
-    from ..learning.config import LearningConfig  # noqa: PLC0415
-    from .affordance import SocialAffordanceModel  # noqa: PLC0415
-
+def read_model(path: str | Path) -> tuple[AffordanceConfig, LearningConfig, dict[str, Any]]:
+    """Read a model file written by :func:`save_model` (see the module doc for the checks): the model's
+    settings, the learning settings and the learned attributes by name
+    (:meth:`socialaff_sim.learning.SocialAffordanceModel.load` builds the model from them)."""
     path = Path(path)
     if not path.is_file():
         raise ModelFileError(f"{path}: no such model file")
@@ -256,7 +256,7 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     if offsets[0] != 0 or np.any(np.diff(offsets) < 0) or offsets[-1] != a["parse_rows"].shape[0]:
         raise ModelFileError(f"{path}: field 'parse_offsets': expected increasing offsets from 0 to {a['parse_rows'].shape[0]}")
 
-    model = SocialAffordanceModel(config, learning)
+    model = SimpleNamespace()  # the learned attributes, by name
     model.label_ = label
     model.n_subevents_ = S
     model.subevent_names_ = names
@@ -287,4 +287,4 @@ def load_model(path: str | Path) -> SocialAffordanceModel:
     model.acceptance_rate_ = float(meta.get("acceptance_rate", np.nan))
     model.moves_ = {str(k): (int(v[0]), int(v[1])) for k, v in meta.get("moves", {}).items()}
     model.fit_seconds_ = {str(k): float(v) for k, v in meta.get("fit_seconds", {}).items()}
-    return model
+    return config, learning, vars(model)

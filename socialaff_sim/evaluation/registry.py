@@ -1,0 +1,91 @@
+"""The registry of reaction-synthesis methods by name, as the evaluation and the CLI select them.
+
+Registering a method
+    ``register_method(name, factory)`` adds a factory (a picklable callable with no arguments
+    returning a fresh, unfitted :class:`~socialaff_sim.inference.protocol.ReactionMethod`, e.g. a
+    module-level function or class) under ``name``. The built-in methods are registered here, where
+    the evaluation can see every method from above: the baselines ``"hmm"`` and ``"promp"``
+    (:mod:`socialaff_sim.baselines`), and the full model and its ablations ``"full"``,
+    ``"full_online"``, ``"v1"`` and ``"v2"`` (:class:`~socialaff_sim.inference.methods.AffordanceMethod`).
+    :func:`get_method` fails with an error listing the available names.
+"""
+
+from __future__ import annotations
+
+from ..baselines.hmm import MultiLevelHMM
+from ..baselines.promp import InteractionProMP
+from ..errors import ConfigError, choices
+from ..inference.methods import REGISTERED_CHAINS, AffordanceMethod
+from ..inference.protocol import MethodFactory, ReactionMethod
+from ..inference.synthesis import SynthesisConfig
+
+__all__ = ["METHODS", "available_methods", "get_method", "register_method"]
+
+
+def _hmm() -> ReactionMethod:
+    return MultiLevelHMM()
+
+
+def _promp() -> ReactionMethod:
+    return InteractionProMP()
+
+
+def _full() -> AffordanceMethod:
+    return AffordanceMethod("full", chains=REGISTERED_CHAINS)
+
+
+def _v1() -> AffordanceMethod:
+    return AffordanceMethod("v1", chains=REGISTERED_CHAINS)
+
+
+def _v2() -> AffordanceMethod:
+    return AffordanceMethod("v2", chains=REGISTERED_CHAINS)
+
+
+def _full_online() -> AffordanceMethod:
+    return AffordanceMethod("full", synthesis=SynthesisConfig(), name="full_online")
+
+
+METHODS: dict[str, MethodFactory] = {
+    "hmm": _hmm,
+    "promp": _promp,
+    "full": _full,
+    "full_online": _full_online,
+    "v1": _v1,
+    "v2": _v2,
+}
+"""Method factories by name. Add to it only through :func:`register_method`."""
+
+
+def register_method(name: str, factory: MethodFactory, *, replace: bool = False) -> None:
+    """Make ``factory`` available as method ``name`` (snake_case).
+
+    Registering the same factory twice is harmless; another factory under a taken
+    name needs ``replace=True``. The factory must be picklable (a module-level
+    function or class, or a ``functools.partial`` of one) because the evaluation
+    runs methods in worker processes.
+    """
+    if not isinstance(name, str) or not name.isidentifier() or name != name.lower():
+        raise ConfigError(f"register_method: expected a lower-case identifier as name, found {name!r}")
+    if not callable(factory):
+        raise ConfigError(f"register_method({name!r}): expected a callable factory, found {type(factory).__name__}")
+    old = METHODS.get(name)
+    if old is not None and old is not factory and not replace:
+        raise ConfigError(f"register_method: method {name!r} is already registered; pass replace=True to override it")
+    METHODS[name] = factory
+
+
+def available_methods() -> tuple[str, ...]:
+    """Names of every registered method, sorted."""
+    return tuple(sorted(METHODS))
+
+
+def get_method(name: str) -> MethodFactory:
+    """The factory registered under ``name``; the error lists the available methods."""
+    try:
+        return METHODS[name]
+    except KeyError:
+        raise ConfigError(
+            f"unknown method {name!r}; available methods: {choices(sorted(METHODS))} "
+            "(add your own with socialaff_sim.evaluation.register_method)"
+        ) from None
