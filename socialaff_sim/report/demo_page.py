@@ -121,7 +121,8 @@ def write_demo_page(out: str | Path, results: Sequence[InteractionResult], confi
             f"recorded track; the first frames of the second person are observed) on a pair-disjoint split "
             f"({n_test} test instance(s) per interaction whose actor pair never appears in training). "
             "Average distance between synthesized and recorded key joints over the synthesized frames, metres; "
-            "lower is better, the best of each column in bold. `socialaff-sim evaluate` runs the k-fold comparison."
+            "lower is better, the best of each column in bold. The command socialaff-sim evaluate runs the "
+            "k-fold comparison."
         ),
     ))
     for r in results:
