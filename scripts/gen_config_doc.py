@@ -158,7 +158,7 @@ def _meaning(text: str) -> str:
     text = re.sub(r":[a-z]+:`~?([^`]+)`", lambda m: "`" + m.group(1).rsplit(".", 1)[-1] + "`", text)
     text = text.replace("``", "`")
     first = re.split(r"(?<=[.;])\s+(?=[A-Z`(\"])", text, maxsplit=1)[0]
-    return first[:1].upper() + first[1:]
+    return first[:1].upper() + first[1:] if first[:1].isascii() else first  # a symbol (λ) keeps its case
 
 
 def class_doc(cls: type) -> ClassDoc:

@@ -1,7 +1,8 @@
 """socialaff_sim: learn social affordance from two-person recordings and make a MuJoCo humanoid react.
 
-The pipeline, one sub-package a stage:
-``data`` → ``model`` → ``learning`` → ``inference`` → ``retarget`` → ``sim`` → ``environment``.
+The pipeline, one sub-package a stage, in one-way layers (each imports only from those before it;
+pyproject.toml's import-linter contract, docs/contributing.md): ``data`` → ``model`` → ``learning`` →
+``inference`` → ``baselines`` → ``retarget`` → ``sim`` → ``environment`` → ``evaluation`` → ``demo`` → ``cli``.
 """
 
 # First: MuJoCo reads MUJOCO_GL when it is first imported, and every sub-package imports it below this.

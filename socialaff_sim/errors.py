@@ -17,6 +17,7 @@ __all__ = [
     "NotFittedError",
     "ModelFileError",
     "ConfigError",
+    "OutputError",
     "SimulationError",
     "RenderingUnavailableError",
     "choices",
@@ -62,6 +63,11 @@ class UnsafePickleError(DataError):
 
 class ConfigError(SocialAffError, ValueError):
     """A configuration value or task file is invalid."""
+
+
+class OutputError(SocialAffError, OSError):
+    """An output path cannot be written: a file where a folder is expected, no permission,
+    or another run holding the folder's lock."""
 
 
 class ModelError(SocialAffError):

@@ -24,6 +24,18 @@ def shared_path(*parts: str) -> Path:
     return path
 
 
+SHARED_ROBOTS = Path(os.environ.get("SOCIALAFF_SHARED_ROBOTS", Path(__file__).resolve().parents[2] / "shared" / "robots"))
+
+
+def shared_robot(*parts: str) -> Path:
+    """Path under ../shared/robots (the Unitree MJCF models); skips the test with a reason when it is absent."""
+    path = SHARED_ROBOTS.joinpath(*parts)
+    if not path.exists():
+        pytest.skip(f"robot models not available at {path} (the Unitree MJCFs live in ../shared/robots beside the "
+                    "project; the project does not ship them)")
+    return path
+
+
 @pytest.fixture
 def seed(request: pytest.FixtureRequest) -> int:
     """An explicit seed, printed so a failure can be replayed."""

@@ -36,7 +36,7 @@ def test_quick_learning_page(tmp_path: Path) -> None:
     out, work = tmp_path / "bench.md", tmp_path / "work"
     proc = subprocess.run(
         [sys.executable, str(SCRIPT), "--quick", "--only", "learning", "--out", str(out), "--work", str(work)],
-        cwd=ROOT, capture_output=True, text=True, timeout=120, check=False,
+        cwd=ROOT, capture_output=True, text=True, check=False,
         env=dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl")),
     )
     assert proc.returncode == 0, proc.stderr
@@ -64,7 +64,7 @@ def test_quick_learning_page(tmp_path: Path) -> None:
 def test_failed_command_is_reported(tmp_path: Path) -> None:
     bm = _load_script()
     run = bm.Run("broken", ["{py}", "-c", "import sys; print('no such figure'); sys.exit(3)"], "missing.json")
-    bm.execute(run, tmp_path, "", timeout=60)
+    bm.execute(run, tmp_path, "", timeout=None)  # no wall-clock limit in tests (a loaded machine is slow)
     assert not run.ok and run.data is None
     assert "exit code 3" in run.error and "no such figure" in run.error
     sec = bm.Section("learning", "Learning", [run], bm._learning, load=["0.1", "0.2"])
@@ -106,7 +106,7 @@ def test_keep_others_reruns_only_the_chosen_section(tmp_path: Path) -> None:
     ]) + "\n")
     proc = subprocess.run(
         [sys.executable, str(SCRIPT), "--quick", "--only", "learning", "--keep-others", "--out", str(out)],
-        cwd=ROOT, capture_output=True, text=True, timeout=120, check=False,
+        cwd=ROOT, capture_output=True, text=True, check=False,
         env=dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl")),
     )
     assert proc.returncode == 0, proc.stderr

@@ -56,7 +56,7 @@ class _Toy:
     steps: int = 3
     """[—]: how many steps."""
     rate: float = 30.0
-    """f [Hz]: frame rate."""
+    """f [Hz]: λ-free frame rate."""
 
     @classmethod
     def paper(cls) -> _Toy:
@@ -70,7 +70,7 @@ def test_rows_carry_symbol_unit_default_paper_value_and_first_sentence() -> None
     assert (radius.symbol, radius.unit, radius.default, radius.paper) == ("r", "m", "0.5", "**0.25**")  # differs: bold
     assert radius.meaning == "Radius of the thing."
     assert (steps.symbol, steps.unit, steps.paper) == ("", "—", "3")  # same as the default: plain
-    assert (rate.symbol, rate.unit) == ("f", "Hz")
+    assert (rate.symbol, rate.unit, rate.meaning) == ("f", "Hz", "λ-free frame rate.")  # a symbol keeps its case
 
 
 def test_without_a_paper_preset_the_paper_column_is_a_dash() -> None:

@@ -73,7 +73,9 @@ def test_spaces_documented_shapes(data):
 
 
 def test_observation_matches_simulator(data):
-    env = make(data, history=2, interactions="hand_over")
+    # All-zero targets crouch the robot into a ball; with its real weight that self-collides at once
+    # (the failure would end the episode): observations are what is checked here.
+    env = make(data, history=2, interactions="hand_over", terminate_on_failure=False)
     obs, _ = env.reset(seed=3)
     for _ in range(4):
         sim = env.simulator
@@ -246,7 +248,7 @@ def test_module_prefixed_id_imports_the_package(tmp_path):
         "print(env.spec.id, info['interaction'])\n"
     )
     env = {**os.environ, "MUJOCO_GL": "egl"}
-    out = subprocess.run([sys.executable, "-W", "error", "-c", code], capture_output=True, text=True, env=env, timeout=120, cwd=tmp_path)
+    out = subprocess.run([sys.executable, "-W", "error", "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.split() == ["SocialAffordance-ShakeHands-v0", "shake_hands"]
 

@@ -28,7 +28,7 @@ def make(rng: np.random.Generator, T: int = 12, layout: str = "kinect_v2", **kw)
     args = dict(
         label="shake_hands",
         fps=15.0,
-        joints=rng.normal(size=(T, 2, lay.n_joints, 3)),
+        joints=0.3 * rng.normal(size=(T, 2, lay.n_joints, 3)),  # person-sized: loaders check 0.5-2.5 m
         joint_names=lay.joint_names,
         actors=("a01", "a02"),
         instance_id="inst_0",
@@ -127,7 +127,7 @@ def test_arrays_are_read_only_copies(rng: np.random.Generator) -> None:
 
 def test_npz_round_trip_is_identical(tmp_path: Path, rng: np.random.Generator) -> None:
     valid = rng.random((12, 2, 25)) > 0.1
-    joints = rng.normal(size=(12, 2, 25, 3))
+    joints = 0.3 * rng.normal(size=(12, 2, 25, 3))
     joints[~valid] = np.nan
     inter = make(
         rng,

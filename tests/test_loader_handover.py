@@ -155,7 +155,7 @@ def test_malformed_recordings_name_file_key_and_shapes(tmp_path: Path, rng, muta
     mutate(rec)
     path = _write(tmp_path, "motion_normal_0.pkl", rec)
     with pytest.raises(DataError, match=match) as info:
-        load_handover(tmp_path)
+        load_handover(tmp_path, policy="strict")
     assert str(path) in str(info.value)
 
 
@@ -164,7 +164,7 @@ def test_all_nan_object_track_is_an_error(tmp_path: Path, rng) -> None:
     rec["pose_object"][:] = np.nan
     _write(tmp_path, "motion_normal_0.pkl", rec)
     with pytest.raises(DataError, match="pose_object"):
-        load_handover(tmp_path)
+        load_handover(tmp_path, policy="strict")
 
 
 def test_truncated_real_file_is_a_data_error(tmp_path: Path) -> None:
@@ -174,14 +174,14 @@ def test_truncated_real_file_is_a_data_error(tmp_path: Path) -> None:
     with open(dst, "r+b") as fh:
         fh.truncate(os.path.getsize(dst) // 2)
     with pytest.raises(DataError, match="not a readable pickle") as info:
-        load_handover(tmp_path)
+        load_handover(tmp_path, policy="strict")
     assert str(dst) in str(info.value)
 
 
 def test_wrong_top_level_object_is_rejected(tmp_path: Path, rng) -> None:
     _write(tmp_path, "motion_normal_0.pkl", list(_recording(rng).values()))
     with pytest.raises(DataError, match="expected a pickled dict at top level, found list"):
-        load_handover(tmp_path)
+        load_handover(tmp_path, policy="strict")
 
 
 def test_malicious_recording_is_refused_without_running(tmp_path: Path, rng) -> None:
@@ -195,15 +195,15 @@ def test_malicious_recording_is_refused_without_running(tmp_path: Path, rng) -> 
     rec["pose_object"] = Evil()  # type: ignore[assignment]
     _write(tmp_path, "motion_normal_0.pkl", rec)
     with pytest.raises(UnsafePickleError, match="forbidden global"):
-        load_handover(tmp_path)
+        load_handover(tmp_path, policy="strict")
     assert not marker.exists()
 
 
 def test_layout_errors(tmp_path: Path, rng) -> None:
     with pytest.raises(DataError, match="found none"):
-        load_handover(tmp_path)
+        load_handover(tmp_path, policy="strict")
     _write(tmp_path, "motion_normal_x.pkl", _recording(rng))
     with pytest.raises(DataError, match="integer <i>"):
-        load_handover(tmp_path)
+        load_handover(tmp_path, policy="strict")
     with pytest.raises(DataError, match="expected a folder"):
-        load_handover(tmp_path / "absent")
+        load_handover(tmp_path / "absent", policy="strict")

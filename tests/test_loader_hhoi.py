@@ -142,7 +142,7 @@ def test_bad_annotation_lines(tmp_path: Path, content: str, match: str) -> None:
     root = build(tmp_path)
     (root / ANN).write_text(content)
     with pytest.raises(DataError, match=match) as info:
-        load_hhoi(root)
+        load_hhoi(root, policy="strict")
     assert str(root / ANN) in str(info.value)
 
 
@@ -150,7 +150,7 @@ def test_missing_annotation_file_names_both_candidates(tmp_path: Path) -> None:
     root = build(tmp_path)
     (root / ANN).unlink()
     with pytest.raises(DataError, match=r"'Annotation_trial_01.txt' or 'trial_01.txt' for trial 'trial_01'") as info:
-        load_hhoi(root)
+        load_hhoi(root, policy="strict")
     assert str(root / ANN.parent) in str(info.value)
 
 
@@ -168,7 +168,7 @@ def test_bad_skeleton_lines(tmp_path: Path, new: str, match: str) -> None:
     root = build(tmp_path)
     _edit_joint_line(root / SKEL, J["head"], new)
     with pytest.raises(DataError, match=match) as info:
-        load_hhoi(root)
+        load_hhoi(root, policy="strict")
     assert str(root / SKEL) in str(info.value)
 
 
@@ -177,7 +177,7 @@ def test_truncated_skeleton_file(tmp_path: Path) -> None:
     path = root / SKEL
     path.write_text("\n".join(path.read_text().splitlines()[:25]))  # header + 24 joints
     with pytest.raises(DataError, match="expected a header line then 25 joint lines, found 24") as info:
-        load_hhoi(root)
+        load_hhoi(root, policy="strict")
     assert str(path) in str(info.value)
 
 
@@ -185,21 +185,21 @@ def test_bad_skeleton_file_name(tmp_path: Path) -> None:
     root = build(tmp_path)
     (root / SKEL).rename(root / SKEL.parent / "body_seven_1.txt")
     with pytest.raises(DataError, match=r"<prefix>_<frame>_<skeletonid>.<ext>, found 'body_seven_1.txt'"):
-        load_hhoi(root)
+        load_hhoi(root, policy="strict")
 
 
 def test_unknown_interaction_folder_lists_known(tmp_path: Path) -> None:
     root = build(tmp_path)
     (root / "Hug").mkdir()
     with pytest.raises(DataError, match=r"unknown interaction folder 'Hug'; known: 'Hand_Over', .*'Wave_Hands'"):
-        load_hhoi(root)
+        load_hhoi(root, policy="strict")
 
 
 def test_missing_skeletons_folder(tmp_path: Path) -> None:
     root = build(tmp_path)
     (root / "Hand_Over" / "sc1" / "Skeletons_Hand_Over").rename(root / "Hand_Over" / "sc1" / "Skeletons")
     with pytest.raises(DataError, match=r"expected a folder 'Skeletons_Hand_Over' in scene 'sc1'"):
-        load_hhoi(root)
+        load_hhoi(root, policy="strict")
 
 
 def test_instance_with_a_single_skeleton(tmp_path: Path) -> None:
@@ -208,16 +208,16 @@ def test_instance_with_a_single_skeleton(tmp_path: Path) -> None:
         (root / SKEL.parent / f"body_{f}_3.txt").unlink()
     (root / ANN).write_text("4 30 39 a b\n")
     with pytest.raises(DataError, match=r"instance '4': expected two skeleton ids in frames 30-39, found \[1\]"):
-        load_hhoi(root)
+        load_hhoi(root, policy="strict")
 
 
 def test_millimetres_are_rejected(tmp_path: Path) -> None:
     with pytest.raises(DataError, match="expected Kinect v2 camera-space metres"):
-        load_hhoi(build(tmp_path, scale=1000.0))
+        load_hhoi(build(tmp_path, scale=1000.0), policy="strict")
 
 
 def test_empty_root(tmp_path: Path) -> None:
     with pytest.raises(DataError, match="found none"):
-        load_hhoi(tmp_path)
+        load_hhoi(tmp_path, policy="strict")
     with pytest.raises(DataError, match="expected the HHOI root"):
-        load_hhoi(tmp_path / "absent")
+        load_hhoi(tmp_path / "absent", policy="strict")

@@ -167,7 +167,7 @@ def test_wrong_column_count_names_line_and_count(tmp_path: Path) -> None:
     lines[2] = lines[2].rsplit(",", 1)[0]
     path.write_text("\n".join(lines))
     with pytest.raises(DataError, match=r"line 3: expected 91 comma-separated values .* found 90") as info:
-        load_sbu(tmp_path)
+        load_sbu(tmp_path, policy="strict")
     assert str(path) in str(info.value)
 
 
@@ -179,7 +179,7 @@ def test_non_number_names_line_and_column(tmp_path: Path) -> None:
     lines[1] = ",".join(fields)
     path.write_text("\n".join(lines))
     with pytest.raises(DataError, match=r"line 2, column 5: expected a number, found 'abc'"):
-        load_sbu(tmp_path)
+        load_sbu(tmp_path, policy="strict")
 
 
 def test_truncated_file_is_rejected(tmp_path: Path) -> None:
@@ -187,10 +187,10 @@ def test_truncated_file_is_rejected(tmp_path: Path) -> None:
     text = path.read_text()
     path.write_text(text[: len(text) // 3])  # cut mid-line: short last line, too few frames
     with pytest.raises(DataError, match=str(path)):
-        load_sbu(tmp_path)
+        load_sbu(tmp_path, policy="strict")
     path.write_text("\n".join(text.splitlines()[:2]))
     with pytest.raises(DataError, match="at least 3 frames, found 2"):
-        load_sbu(tmp_path)
+        load_sbu(tmp_path, policy="strict")
 
 
 def test_frame_indices_must_increase(tmp_path: Path) -> None:
@@ -199,14 +199,14 @@ def test_frame_indices_must_increase(tmp_path: Path) -> None:
     lines[1], lines[2] = lines[2], lines[1]
     path.write_text("\n".join(lines))
     with pytest.raises(DataError, match="strictly increasing integer frame indices"):
-        load_sbu(tmp_path)
+        load_sbu(tmp_path, policy="strict")
 
 
 def test_unknown_class_folder_lists_known_classes(tmp_path: Path) -> None:
     _good(tmp_path)
     (tmp_path / "s01s02" / "09" / "001").mkdir(parents=True)
     with pytest.raises(DataError, match=r"unknown class folder '09'; known classes: .*'05 \(shaking_hands\)'"):
-        load_sbu(tmp_path)
+        load_sbu(tmp_path, policy="strict")
 
 
 @pytest.mark.parametrize("setup, match", [
@@ -217,14 +217,14 @@ def test_layout_errors(tmp_path: Path, setup, match: str) -> None:
     _good(tmp_path)
     setup(tmp_path)
     with pytest.raises(DataError, match=match):
-        load_sbu(tmp_path)
+        load_sbu(tmp_path, policy="strict")
 
 
 def test_empty_or_missing_root(tmp_path: Path) -> None:
     with pytest.raises(DataError, match="found none"):
-        load_sbu(tmp_path)
+        load_sbu(tmp_path, policy="strict")
     with pytest.raises(DataError, match="expected the SBU root"):
-        load_sbu(tmp_path / "absent")
+        load_sbu(tmp_path / "absent", policy="strict")
 
 
 def test_untracked_joints_are_invalid(tmp_path: Path) -> None:

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import os
+import site
 import subprocess
 import sys
 import tomllib
@@ -38,9 +40,16 @@ def _files(folder: Path) -> list[str]:
     return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
 
 
-def test_wheel_in_fresh_venv_ships_assets_and_envs(tmp_path: Path) -> None:
-    import json
+def _dependency_dirs() -> list[str]:
+    """The running interpreter's site-packages folders (where mujoco & co. are installed), whatever kind of
+    environment it is: a venv, a conda env, Debian's system Python (dist-packages) or a user site."""
+    dirs = list(site.getsitepackages())
+    if site.ENABLE_USER_SITE:
+        dirs.append(site.getusersitepackages())
+    return [d for d in dict.fromkeys(dirs) if Path(d).is_dir()]
 
+
+def test_wheel_in_fresh_venv_ships_assets_and_envs(tmp_path: Path) -> None:
     wheel_dir = tmp_path / "wheel"
     subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheel_dir), str(ROOT)],
@@ -50,10 +59,16 @@ def test_wheel_in_fresh_venv_ships_assets_and_envs(tmp_path: Path) -> None:
     wheels = list(wheel_dir.glob("socialaff_sim-*.whl"))
     assert len(wheels) == 1, wheels
     venv = tmp_path / "venv"
-    # --system-site-packages reuses the already installed dependencies (mujoco, ...), not this package.
-    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True)
+    # A bare venv sees the dependencies (mujoco, ...) through a .pth listing the running interpreter's
+    # site-packages: --system-site-packages would point at the *base* interpreter, which inside a venv
+    # lacks them. Plain path entries: .pth files there (e.g. an editable install of this package) are not run.
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True)
     py = venv / "bin" / "python"
-    subprocess.run([str(py), "-m", "pip", "install", "--no-deps", "-q", str(wheels[0])], check=True, capture_output=True)
+    purelib = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+                             check=True, capture_output=True, text=True).stdout.strip()
+    (Path(purelib) / "_outer_dependencies.pth").write_text("\n".join(_dependency_dirs()) + "\n")
+    subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "--no-deps", "-q", str(wheels[0])],
+                   check=True, capture_output=True)
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     out = subprocess.run(
         [str(py), "-c", _PROBE], check=True, capture_output=True, text=True, cwd=tmp_path, env=env

@@ -72,7 +72,7 @@ def test_shipped_robots_and_mapping_contents() -> None:
 
 
 def test_unknown_robot_lists_choices() -> None:
-    with pytest.raises(ConfigError, match=r"unknown robot 'r2d2'; shipped robots: 'cmu' or 'ours'"):
+    with pytest.raises(ConfigError, match=r"unknown robot 'r2d2'; shipped robots: 'cmu', 'ours', 'unitree_g1' or 'unitree_h1'"):
         load_robot("r2d2")
 
 
@@ -93,7 +93,7 @@ def test_a_mapping_file_anywhere_works(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("old", "new", "pattern"),
     [
-        ('base = "site:base"', 'base = "joint:base"', r"key 'frames\.base': expected 'site:NAME' or 'body:NAME'"),
+        ('base = "site:base"', 'base = "joint:base"', r"key 'frames\.base': expected 'site:NAME', 'body:NAME' or \{ body"),
         ('left_wrist = "site:left_wrist"', "", r"key 'frames\.left_wrist': expected a value"),
         ("max_joint_velocity = 20.0", "max_joint_velocity = -1.0", r"limits\.max_joint_velocity'.*\[0\.001, 1000\.0\]"),
         ('keyframe = "home"', 'keyframe = "rest"', r"posture\.keyframe 'rest' is not in the model; keyframes: 'home'"),

@@ -8,6 +8,7 @@ import io
 import os
 import pickle
 import pickletools
+import resource
 import subprocess
 import zipfile
 from pathlib import Path
@@ -18,6 +19,11 @@ from conftest import shared_path
 from numpy.lib import format as npy_format
 
 from socialaff_sim.errors import DataError, UnsafePickleError
+
+try:
+    from numpy._core.multiarray import _reconstruct  # NumPy >= 2
+except ImportError:  # pragma: no cover - NumPy 1.x
+    from numpy.core.multiarray import _reconstruct
 from socialaff_sim.data.safe_pickle import (
     NUMPY_ARRAY_GLOBALS,
     ROS_TIME_GLOBALS,
@@ -228,3 +234,95 @@ def test_real_handover_pickle_loads_as_dict_of_float_arrays() -> None:
     T = rec["pose_giver"].shape[0]
     assert rec["pose_receiver"].shape == (T, 34, 3) and rec["quat_object"].shape == (T, 4)
     assert all(v.dtype == np.float64 for v in rec.values())
+
+
+# -- resource caps --------------------------------------------------------------------------------------
+def _reconstruct_stream(shape: tuple[int, ...], state: tuple | None = None) -> bytes:
+    """A pickle calling numpy's _reconstruct(ndarray, shape, 'b') (and BUILD with ``state``), by hand."""
+    class Crafted:
+        def __reduce__(self):
+            args = (_reconstruct, (np.ndarray, shape, b"b"))
+            return args if state is None else (*args, state)
+
+    return pickle.dumps(Crafted(), protocol=4)
+
+
+@pytest.mark.parametrize("make_stream", [
+    lambda: _reconstruct_stream((15 << 30,)),                                             # 15 GiB at construction
+    lambda: _reconstruct_stream((0,), (1, (15 << 30,), np.dtype(object), False, [])),     # 120 GiB object array
+    lambda: _reconstruct_stream((0,), (1, (1 << 31,), np.dtype("f8"), False, b"\0" * 8)),  # 16 GiB from 8 bytes
+    lambda: _reconstruct_stream((0,), (1, (1 << 20,), np.dtype("f8"), False, b"\0" * 8)),  # 8 MiB: over 64x + 1 MiB
+])
+def test_a_short_pickle_cannot_allocate_gigabytes(make_stream) -> None:
+    stream = make_stream()
+    assert len(stream) < 200
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    with pytest.raises(DataError, match="exceeds the limit"):
+        restricted_loads(stream, allowed=NUMPY_ARRAY_GLOBALS, expect=np.ndarray)
+    grown_mib = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) / 1024
+    assert grown_mib < 64, grown_mib
+
+
+def test_memo_index_beyond_the_stream_is_refused_before_running() -> None:
+    stream = b"\x80\x04}r\xff\xff\xff\xff."  # EMPTY_DICT, LONG_BINPUT 2**32 - 1: the C unpickler would size its memo
+    with pytest.raises(DataError, match="memo index 4294967295"):
+        restricted_loads(stream, allowed=NUMPY_ARRAY_GLOBALS, expect=dict)
+
+
+def test_arrays_within_the_caps_still_load_as_plain_ndarrays(rng: np.random.Generator) -> None:
+    data = {"a": rng.normal(size=(300, 34, 3)), "b": np.arange(5)}
+    out = restricted_loads(pickle.dumps(data, protocol=4), allowed=NUMPY_ARRAY_GLOBALS, expect=dict)
+    assert all(type(v) is np.ndarray for v in out.values())
+    np.testing.assert_array_equal(out["a"], data["a"])
+
+
+def test_array_subclasses_are_refused() -> None:
+    class Crafted:
+        def __reduce__(self):
+            return (_reconstruct, (np.ma.MaskedArray, (1,), b"b"))
+
+    stream = pickle.dumps(Crafted(), protocol=4)
+    with pytest.raises(UnsafePickleError):
+        restricted_loads(stream, allowed=NUMPY_ARRAY_GLOBALS, expect=np.ndarray)
+
+
+# -- a matrix of crafted streams: dangerous globals × every opcode that resolves a global ----------------
+DANGEROUS = [
+    "os.system", "posix.system", "nt.system", "os.popen", "os.execv", "os.remove", "subprocess.Popen",
+    "subprocess.call", "subprocess.check_output", "builtins.eval", "builtins.exec", "builtins.compile",
+    "builtins.open", "builtins.getattr", "builtins.setattr", "builtins.__import__", "builtins.globals",
+    "builtins.print", "__builtin__.eval", "importlib.import_module", "shutil.rmtree", "pickle.loads",
+    "_pickle.loads", "marshal.loads", "types.FunctionType", "types.CodeType", "ctypes.CDLL", "socket.socket",
+    "webbrowser.open", "numpy.load", "numpy.fromfile", "numpy.testing._private.utils.runstring",
+    "numpy.ctypeslib.load_library", "pty.spawn", "code.interact",
+]
+
+
+def _short_unicode(text: str) -> bytes:
+    raw = text.encode()
+    return b"\x8c" + bytes([len(raw)]) + raw
+
+
+def _stream(opcode: str, dotted: str) -> bytes:
+    """A hand-written stream that resolves ``dotted`` through ``opcode`` and calls it with no arguments."""
+    module, name = dotted.rsplit(".", 1)
+    m, n = module.encode(), name.encode()
+    if opcode == "GLOBAL":  # protocol 0: c<module>\n<name>\n, then () and REDUCE
+        return b"c" + m + b"\n" + n + b"\n)R."
+    if opcode == "STACK_GLOBAL":  # protocol 4
+        return b"\x80\x04" + _short_unicode(module) + _short_unicode(name) + b"\x93)R."
+    if opcode == "INST":  # protocol 0: MARK, INST <module>\n<name>\n calls it with the marked items
+        return b"(i" + m + b"\n" + n + b"\n."
+    if opcode == "OBJ":  # protocol 1: MARK, GLOBAL, OBJ calls it with the items after it
+        return b"(c" + m + b"\n" + n + b"\no."
+    raise AssertionError(opcode)
+
+
+@pytest.mark.parametrize("opcode", ["GLOBAL", "STACK_GLOBAL", "INST", "OBJ"])
+@pytest.mark.parametrize("dotted", DANGEROUS)
+def test_crafted_stream_matrix_is_refused_by_both_allow_lists(opcode: str, dotted: str) -> None:
+    stream = _stream(opcode, dotted)
+    assert any(op.name == opcode for op, _, _ in pickletools.genops(stream))  # the stream is what it claims
+    for allowed in (NUMPY_ARRAY_GLOBALS, ROS_TIME_GLOBALS):
+        with pytest.raises(UnsafePickleError, match=f"forbidden global {dotted.replace('.', '[.]')}"):
+            restricted_loads(stream, allowed=allowed, expect=object)

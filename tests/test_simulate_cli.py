@@ -59,7 +59,7 @@ def test_bad_arguments_are_reported(data_dir: Path, tmp_path: Path, capsys: pyte
     assert rc == 2 and "no instance 'nope'" in capsys.readouterr().err
     rc = main(["simulate", "--data", f"npz:{data_dir}", "--instance", "0", "--source", "gt", "--robot", "r2d2",
                "--out", str(tmp_path), "--no-video"])
-    assert rc == 2 and "shipped robots: 'cmu' or 'ours'" in capsys.readouterr().err
+    assert rc == 2 and "shipped robots: 'cmu', 'ours', 'unitree_g1' or 'unitree_h1'" in capsys.readouterr().err
     rc = main(["simulate", "--data", f"npz:{data_dir}", "--instance", "0", "--out", str(tmp_path), "--no-video"])
     assert rc == 2 and "--source model needs --model" in capsys.readouterr().err
 
@@ -74,3 +74,11 @@ def test_video_is_written(data_dir: Path, tmp_path: Path) -> None:
     if metrics["video"].startswith("not written"):
         pytest.skip(metrics["video"])
     assert (out / "video.mp4").stat().st_size > 1000 and (out / "contact_sheet.png").exists()
+
+
+def test_a_robot_without_its_model_is_reported_before_any_data_is_read(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # The data folder does not exist either: reading the data first would report that instead.
+    rc = main(["simulate", "--robot", "unitree_h1", "--source", "gt", "--data", f"npz:{tmp_path / 'nowhere'}",
+               "--instance", "x", "--out", str(tmp_path / "out"), "--no-video"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "needs its MJCF model" in err and "--mjcf PATH" in err and "nowhere" not in err

@@ -282,3 +282,61 @@ def test_real_handover_recording_replays() -> None:
     assert metrics["frames"] == inter.n_frames and metrics["object_released_at"] is not None
     assert metrics["ik_error_reachable_within_2cm"] >= 0.9
     print(metrics["subgoals"], [f for f in metrics["failures"] if f["triggered"]])
+
+
+def _hand_gap_by_hand(m: mujoco.MjModel, d: mujoco.MjData, hand_geoms: np.ndarray, centre: np.ndarray, radius: float) -> float:
+    """Independent reference: sphere (centre, radius) to the nearest box or capsule of the hand, analytically."""
+    best = np.inf
+    for g in hand_geoms:
+        R = d.geom_xmat[g].reshape(3, 3)
+        local = R.T @ (centre - d.geom_xpos[g])
+        size = m.geom_size[g]
+        if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
+            outside = np.maximum(np.abs(local) - size, 0.0)
+            dist = np.linalg.norm(outside) if outside.any() else -np.min(size - np.abs(local))
+        else:  # capsule along local z
+            z = np.clip(local[2], -size[1], size[1])
+            dist = np.linalg.norm(local - np.array([0.0, 0.0, z])) - size[0]
+        best = min(best, dist - radius)
+    return float(best)
+
+
+def test_contact_now_and_achieved_are_separate_and_a_lost_contact_shows(scene: Scene) -> None:
+    m = scene.model
+    d = mujoco.MjData(m)
+    d.qpos[scene.robot_qadr] = scene.home_qpos
+    pos = human_away(scene, d)
+    mujoco.mj_forward(m, d)
+    hand = np.flatnonzero(scene.hand_geom[1])
+    palm = hand[0]
+    sphere = scene.human_geom_ids[scene.n_bones + 1]
+    radius = float(m.geom_size[sphere, 0])
+    normal = d.geom_xmat[palm].reshape(3, 3)[:, 0]  # the palm box's thinnest axis
+    task = task_with([SubgoalSpec("clasp", "contact", "right_hand", "hands", 0.1, ())], [])
+    scorer = SubgoalScorer(scene, task)
+    dt, t = 0.004, 0.0
+    # Far (1.5 m), touching (pressed 1 cm in) for 35 steps, then lost: 10 cm clear of the palm's face.
+    phases = [(10, 1.5 + 0.025 + radius), (35, 0.025 + radius - 0.01), (15, 0.025 + radius + 0.10)]
+    seen = []
+    for n, offset in phases:
+        for _ in range(n):
+            pos[scene.n_bones + 1] = d.geom_xpos[palm] + offset * normal
+            d.mocap_pos[scene.human_mocap] = pos
+            pose_compliant(scene, d, pos, np.array(d.mocap_quat[scene.human_mocap]))
+            mujoco.mj_forward(m, d)
+            t += dt
+            scorer.update(d, dt, t, None)
+            scorer.measure_gaps(d)
+            res = scorer.subgoals[0]
+            seen.append((res.current, res.achieved, res.gap))
+        ref = _hand_gap_by_hand(m, d, hand, d.geom_xpos[sphere], radius)
+        if res.gap is not None:
+            np.testing.assert_allclose(res.gap, ref, atol=1e-6)
+    res = scorer.subgoals[0]
+    far, touch, lost = seen[:10], seen[10:45], seen[45:]
+    assert not any(c or a for c, a, _ in far) and far[-1][2] is None  # 1 m away: beyond the gap's range
+    assert all(c for c, _, _ in touch) and touch[-1][1] and not touch[23][1]  # met on the 25th touching step
+    assert all(a and not c for c, a, _ in lost)  # achieved stays, the contact now does not
+    assert lost[-1][2] > 0.03  # (the thumb is nearer than the palm's face: checked against the reference above)
+    assert res.state_text() == f"clasp: now apart ({100 * lost[-1][2]:.1f} cm) | achieved at {res.time:.2f} s"
+    assert res.time == pytest.approx(35 * dt)

@@ -5,8 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from .._atomic import output_folder
 from ..data import load_dataset, save_dataset
 from ..data.summary import format_summary
+from .validate import add_data_options, declare_outputs, non_negative_int
 
 from .help_format import HelpFormatter
 
@@ -19,20 +21,22 @@ def _synth(args: argparse.Namespace) -> int:
     dataset = generate_dataset(seed=args.seed)
     print(format_summary(dataset))
     if args.out:
-        paths = save_dataset(dataset, args.out)
+        with output_folder(args.out) as staging:
+            paths = save_dataset(dataset, staging)
         print(f"\nwrote {len(paths)} files to {args.out} (read back with: socialaff-sim data inspect npz:{args.out})")
     return 0
 
 
 def _inspect(args: argparse.Namespace) -> int:
-    print(format_summary(load_dataset(args.spec)))
+    print(format_summary(load_dataset(args.spec, policy=args.policy, units=args.units)))
     return 0
 
 
 def _convert(args: argparse.Namespace) -> int:
-    dataset = load_dataset(args.spec)
+    dataset = load_dataset(args.spec, policy=args.policy, units=args.units)
     out = Path(args.out)
-    paths = save_dataset(dataset, out)
+    with output_folder(out) as staging:  # all files or none; a second writer is refused
+        paths = save_dataset(dataset, staging)
     print(f"wrote {len(paths)} interaction files to {out}")
     return 0
 
@@ -56,14 +60,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                        description="Generate the embedded synthetic dataset (five interactions, 8 actors) and "
                        "print its summary; --out also writes it as npz files.",
                        epilog="example:\n  socialaff-sim data synth --seed 1 --out my_recordings", formatter_class=HelpFormatter)
-    p.add_argument("--seed", type=int, default=0, help="generator seed (default 0)")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="generator seed (default 0)")
     p.add_argument("--out", help="also write it as npz files to this folder")
+    declare_outputs(p, out="folder")
     p.set_defaults(func=_synth)
 
     p = sub.add_parser("inspect", help="per-class counts, lengths, fps and key-joint availability",
                        description="Print per-class counts, lengths, frame rates and key-joint availability of a dataset.",
                        epilog="example:\n  socialaff-sim data inspect npz:my_recordings", formatter_class=HelpFormatter)
     p.add_argument("spec", metavar="PATH_OR_SPEC", help=spec_help)
+    add_data_options(p)
     p.set_defaults(func=_inspect)
 
     p = sub.add_parser("convert", help="convert a dataset to the project's npz format",
@@ -71,4 +77,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                        epilog="example:\n  socialaff-sim data convert sbu:PATH --out my_npz", formatter_class=HelpFormatter)
     p.add_argument("spec", metavar="SPEC", help=spec_help)
     p.add_argument("--out", required=True, help="output folder (one .npz per interaction)")
+    add_data_options(p)
+    declare_outputs(p, out="folder")
     p.set_defaults(func=_convert)

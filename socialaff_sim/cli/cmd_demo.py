@@ -7,6 +7,8 @@ import sys
 import time
 from pathlib import Path
 
+from .._atomic import output_folder
+from .validate import declare_outputs, non_negative_int, positive_int
 from ..report import write_demo_page
 from .help_format import HelpFormatter
 
@@ -18,7 +20,8 @@ def _run(args: argparse.Namespace) -> int:
     from ..demo import DemoConfig, run_demo
 
     labels = [args.interaction] if args.interaction else list(INTERACTIONS)
-    config = DemoConfig(iterations=args.iterations, robot=args.robot, video=not args.no_video, seed=args.seed)
+    config = DemoConfig(iterations=args.iterations, robot=args.robot, mjcf=args.mjcf, video=not args.no_video,
+                        seed=args.seed)
     start = time.perf_counter()
     done = 0
     total = 3 * len(labels)
@@ -28,7 +31,8 @@ def _run(args: argparse.Namespace) -> int:
         done += 1
         print(f"[{done}/{total} {time.perf_counter() - start:6.1f} s] {message}", file=sys.stderr, flush=True)
 
-    results = run_demo(args.out, labels, config, progress=progress if not args.quiet else None)
+    with output_folder(args.out) as staging:  # the report and its files appear together; a second run is refused
+        results = run_demo(staging, labels, config, progress=progress if not args.quiet else None)
     out = Path(args.out)
     page = write_demo_page(out, results, config)
     print(f"\n{'interaction':<14}{'key-joint error m (full / hmm / promp)':>40}{'sub-goals (synth / gt)':>26}")
@@ -59,8 +63,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--interaction", help="one interaction (default: all five)")
     p.add_argument("--out", default="demo_out", help="output folder (default: demo_out)")
-    p.add_argument("--iterations", type=int, default=30, help="MCMC iterations of the learning (default 30)")
-    p.add_argument("--robot", default="ours", help="robot to simulate: ours or cmu (default ours)")
+    p.add_argument("--iterations", type=positive_int, default=30, help="MCMC iterations of the learning (default 30)")
+    p.add_argument("--robot", default="ours",
+                   help="robot to simulate: ours, cmu, unitree_h1, unitree_g1 (these two need --mjcf) or a mapping "
+                        ".toml (default ours)")
+    p.add_argument("--mjcf", help="the robot's MJCF file, for robots whose model the project does not ship "
+                                  "(unitree_h1: your h1.xml; unitree_g1: your g1_29dof.xml)")
     p.add_argument("--no-video", action="store_true", help="skip rendering")
-    p.add_argument("--seed", type=int, default=0, help="seed of the synthetic data and of every sampler")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the synthetic data and of every sampler")
+    declare_outputs(p, out="folder")
     p.set_defaults(func=_run)

@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
+from .._atomic import output_folder
 from ..data import load_dataset
 from ..evaluation import DEFAULT_N_OBSERVED, EvaluationConfig, evaluate, format_tables, write_results
 from ..evaluation.crossval import EXECUTORS
+from .validate import add_data_options, declare_outputs, int_range, non_negative_int, positive_int
 from ..report import write_evaluation_page
 
 from .help_format import HelpFormatter
@@ -24,7 +27,7 @@ def _names(values: list[str] | None) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """Load the data, run the evaluation, write DIR/results.{json,md,png} and print the tables."""
-    dataset = load_dataset(args.data)
+    dataset = load_dataset(args.data, policy=args.policy, units=args.units)
     config = EvaluationConfig(
         n_folds=args.folds,
         n_observed=args.n_observed,
@@ -41,7 +44,9 @@ def run(args: argparse.Namespace) -> int:
         config=config,
         progress=None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True)),
     )
-    paths = write_results(results, args.out)
+    with output_folder(args.out) as staging:  # results.json/.md/.png together; a second writer is refused
+        staged = write_results(results, staging)
+    paths = {k: Path(args.out) / p.relative_to(staging) for k, p in staged.items()}
     page = write_evaluation_page(args.out)
     print(format_tables(results))
     print("wrote " + ", ".join(str(p) for p in [*paths.values(), page]))
@@ -75,18 +80,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--methods", default=DEFAULT_METHODS, metavar="LIST",
         help=f"comma-separated methods (default: {DEFAULT_METHODS}); baselines: hmm, promp",
     )
-    p.add_argument("--folds", type=int, default=4, help="actor-disjoint folds per class (default 4)")
+    p.add_argument("--folds", type=int_range(2), default=4, help="actor-disjoint folds per class (default 4)")
     p.add_argument(
-        "--n-observed", type=int, default=DEFAULT_N_OBSERVED, metavar="T0",
+        "--n-observed", type=int_range(1), default=DEFAULT_N_OBSERVED, metavar="T0",
         help=f"frames of agent 1 observed before synthesis (default {DEFAULT_N_OBSERVED})",
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    p.add_argument("--seed", type=int, default=0, help="run seed for the folds and every method (default 0)")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="run seed for the folds and every method (default 0)")
     p.add_argument(
         "--executor", choices=EXECUTORS, default="process",
         help="process: local process pool (default); ray: a Ray cluster (pip install socialaff-sim[distributed]); "
         "serial: this process",
     )
     p.add_argument("--address", help="Ray cluster address (with --executor ray; default: start a local instance)")
-    p.add_argument("--workers", type=int, help="parallel workers (default: all CPUs)")
+    p.add_argument("--workers", type=positive_int, help="parallel workers (default: all CPUs)")
+    add_data_options(p)
+    declare_outputs(p, out="folder")
     p.set_defaults(func=run)

@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 
+from .validate import MAX_SUBEVENTS, add_data_options, declare_outputs, int_range, non_negative_int, positive_int
 from .help_format import HelpFormatter
 
 __all__ = ["register", "run"]
@@ -21,7 +22,7 @@ def run(args: argparse.Namespace) -> int:
     from ..learning.estimator import SocialAffordanceModel  # noqa: PLC0415
     from ..model.config import AffordanceConfig  # noqa: PLC0415
 
-    data = load_dataset(args.data).of_label(args.interaction)
+    data = load_dataset(args.data, policy=args.policy, units=args.units).of_label(args.interaction)
     learning = LearningConfig()
     if args.iterations is not None:
         learning = dataclasses.replace(learning, iterations=args.iterations)
@@ -62,8 +63,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="dataset spec: sbu:PATH, handover:PATH, nuisi:PATH, hhoi:PATH, npz:DIR or synthetic[:SEED]")
     p.add_argument("--interaction", required=True, metavar="NAME", help="interaction label to learn (e.g. shake_hands)")
     p.add_argument("--out", required=True, metavar="MODEL.npz", help="where to write the model")
-    p.add_argument("--iterations", type=int, default=None, help="outer MCMC iterations (default 100)")
-    p.add_argument("--subevents", type=int, default=None, metavar="S", help="|S|, sub-event types (default: per interaction)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--iterations", type=positive_int, default=None, help="outer MCMC iterations (default 100)")
+    p.add_argument("--subevents", type=int_range(1, MAX_SUBEVENTS), default=None, metavar="S",
+                   help=f"|S|, sub-event types, 1 to {MAX_SUBEVENTS} (default: per interaction)")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="random seed (default 0)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_data_options(p)
+    declare_outputs(p, out="file")
     p.set_defaults(func=run)

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 
+from .validate import declare_outputs
 from .help_format import HelpFormatter
 
 __all__ = ["register", "run"]
+
 
 def run(args: argparse.Namespace) -> int:
     """Load a model, print it, optionally draw it."""
@@ -32,4 +34,5 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("model", metavar="MODEL.npz", help="a model written by 'socialaff-sim fit'")
     p.add_argument("--figure", metavar="PATH", help="also draw the grouping of each sub-event (PNG)")
+    declare_outputs(p, figure="file")
     p.set_defaults(func=run)

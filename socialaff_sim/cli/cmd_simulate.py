@@ -13,6 +13,8 @@ import json
 import sys
 from pathlib import Path
 
+from .._atomic import output_folder
+from .validate import add_data_options, declare_outputs, int_range
 from .progress import FrameProgress, Reporter
 
 from .help_format import HelpFormatter
@@ -34,43 +36,45 @@ def run(args: argparse.Namespace) -> int:
     from .._atomic import atomic_write_text
     from ..data import load_dataset
     from ..errors import RenderingUnavailableError
+    from ..retarget.robot import load_robot
     from ..sim.episode import run_episode
     from ..sim.simulator import Simulator
     from ..sim.tasks import load_task, task_for_label
 
     say = Reporter(args.quiet)
+    robot = load_robot(args.robot, mjcf=args.mjcf)  # a wrong robot or --mjcf fails before any data is read
     source = _source(args)
-    dataset = load_dataset(args.data)
+    dataset = load_dataset(args.data, policy=args.policy, units=args.units)
     inter = dataset.by_id(args.instance)
     task = load_task(args.task) if args.task else task_for_label(inter.label)
-    sim = Simulator(args.robot, task)
+    sim = Simulator(robot, task)
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    with output_folder(out) as staging:  # metrics, video and sheet together or not at all
 
-    recorder = None
-    video_note = "disabled (--no-video)"
-    if not args.no_video:
-        from ..sim.video import EpisodeRecorder
+        recorder = None
+        video_note = "disabled (--no-video)"
+        if not args.no_video:
+            from ..sim.video import EpisodeRecorder
 
-        try:
-            recorder = EpisodeRecorder(sim, out / "video.mp4", out / "contact_sheet.png",
-                                       width=args.width, height=args.height)
-        except RenderingUnavailableError as exc:
-            video_note = f"not written: {exc}"
-            print(f"socialaff-sim simulate: warning: no video: {exc}", file=sys.stderr)
-    label = f"{inter.instance_id} on {sim.robot.name}"
-    if recorder is not None:
-        with recorder:
-            metrics = run_episode(sim, source, inter, on_frame=FrameProgress(say, label, recorder))  # type: ignore[arg-type]
-        video_note = str(out / "video.mp4")
-    else:
-        metrics = run_episode(sim, source, inter, on_frame=FrameProgress(say, label))  # type: ignore[arg-type]
+            try:
+                recorder = EpisodeRecorder(sim, staging / "video.mp4", staging / "contact_sheet.png",
+                                           width=args.width, height=args.height)
+            except RenderingUnavailableError as exc:
+                video_note = f"not written: {exc}"
+                print(f"socialaff-sim simulate: warning: no video: {exc}", file=sys.stderr)
+        label = f"{inter.instance_id} on {sim.robot.name}"
+        if recorder is not None:
+            with recorder:
+                metrics = run_episode(sim, source, inter, on_frame=FrameProgress(say, label, recorder))  # type: ignore[arg-type]
+            video_note = str(out / "video.mp4")
+        else:
+            metrics = run_episode(sim, source, inter, on_frame=FrameProgress(say, label))  # type: ignore[arg-type]
 
-    metrics["source"] = args.source
-    metrics["data"] = args.data
-    metrics["model"] = args.model
-    metrics["video"] = video_note
-    atomic_write_text(out / "metrics.json", json.dumps(metrics, indent=2) + "\n")
+        metrics["source"] = args.source
+        metrics["data"] = args.data
+        metrics["model"] = args.model
+        metrics["video"] = video_note
+        atomic_write_text(staging / "metrics.json", json.dumps(metrics, indent=2) + "\n")
 
     print(f"{inter.instance_id} ({inter.label}, {inter.n_frames} frames at {inter.fps:g} fps) "
           f"robot {sim.robot.name}, source {args.source}, task {task.interaction}")
@@ -111,7 +115,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--instance", required=True, help="instance id (or a unique prefix, or a position index)")
     p.add_argument("--robot", default="ours",
                    help="robot: 'cmu' (dm_control CMU humanoid), 'ours' (the project's 1.3 m robot) "
-                        "or the path of a mapping .toml (docs/robots.md); default ours")
+                        "'unitree_h1', 'unitree_g1' (need --mjcf) or the path of a mapping .toml (docs/robots.md); "
+                        "default ours")
+    p.add_argument("--mjcf", help="the robot's MJCF file, for robots whose model the project does not ship "
+                                  "(unitree_h1: your h1.xml; unitree_g1: your g1_29dof.xml)")
     p.add_argument("--source", choices=("model", "gt"), default="model",
                    help="key joints from the affordance model's synthesis, or the recorded agent 1 (gt)")
     p.add_argument("--synthesis", choices=("online", "offline"), default="online",
@@ -120,6 +127,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--task", help="task file name or path (default: the one whose interaction matches the instance)")
     p.add_argument("--out", required=True, help="output folder for metrics.json, video.mp4, contact_sheet.png")
     p.add_argument("--no-video", action="store_true", help="skip rendering")
-    p.add_argument("--width", type=int, default=640, help="video width in pixels (default 640)")
-    p.add_argument("--height", type=int, default=480, help="video height in pixels (default 480)")
+    p.add_argument("--width", type=int_range(16, 4096), default=640, help="video width in pixels, 16-4096 (default 640)")
+    p.add_argument("--height", type=int_range(16, 4096), default=480, help="video height in pixels, 16-4096 (default 480)")
+    add_data_options(p)
+    declare_outputs(p, out="folder")
     p.set_defaults(func=run)

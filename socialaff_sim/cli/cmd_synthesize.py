@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .._atomic import output_folder
+from .validate import add_data_options, declare_outputs, int_range, non_negative_int
 from .help_format import HelpFormatter
 
 __all__ = ["register"]
@@ -25,7 +27,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..model.joints import instance_frame
 
     model = SocialAffordanceModel.load(args.model)
-    everything = load_dataset(args.data)
+    everything = load_dataset(args.data, policy=args.policy, units=args.units)
     inter = everything.by_id(args.instance)
     if inter.label != model.label_:
         raise ModelError(
@@ -49,31 +51,33 @@ def _run(args: argparse.Namespace) -> int:
     seconds = time.perf_counter() - start
     assert skel is not None  # a body fitter was given
     out = Path(args.out)
-    joints = inter.joints.copy()
-    joints[:, 1] = skel
-    valid = np.array(inter.valid, copy=True)
-    valid[:, 1] = np.isfinite(skel).all(axis=-1)
-    synthesized = inter.replace(
-        joints=np.where(valid[..., None], joints, np.nan),
-        valid=valid,
-        subevents=subs,
-        subevent_names=model.subevent_names_,
-        source=f"synthesized by socialaff-sim from {args.model} (seed {args.seed}) for {inter.source or inter.instance_id}",
-        instance_id=f"{inter.instance_id}_synth",
-    )
-    track_path = save_interaction(synthesized, out / f"{inter.instance_id}_synth.npz")
-    frame = instance_frame(inter)
-    plot_path = plot_key_joint_tracks(
-        out / f"{inter.instance_id}_synthesis.png",
-        inter.fps,
-        frame.to_canonical(inter.key_joints()[:, 1]),
-        frame.to_canonical(keys),
-        subs,
-        model.subevent_names_,
-        human=frame.to_canonical(inter.key_joints()[:, 0]),
-        n_observed=args.observed,
-        title=f"{inter.instance_id}: agent 1 synthesized by the affordance model ({model.label_})",
-    )
+    with output_folder(out) as staging:  # both files or neither; a second writer is refused
+        joints = inter.joints.copy()
+        joints[:, 1] = skel
+        valid = np.array(inter.valid, copy=True)
+        valid[:, 1] = np.isfinite(skel).all(axis=-1)
+        synthesized = inter.replace(
+            joints=np.where(valid[..., None], joints, np.nan),
+            valid=valid,
+            subevents=subs,
+            subevent_names=model.subevent_names_,
+            source=f"synthesized by socialaff-sim from {args.model} (seed {args.seed}) for {inter.source or inter.instance_id}",
+            instance_id=f"{inter.instance_id}_synth",
+        )
+        track_path = save_interaction(synthesized, staging / f"{inter.instance_id}_synth.npz")
+        frame = instance_frame(inter)
+        plot_path = plot_key_joint_tracks(
+            staging / f"{inter.instance_id}_synthesis.png",
+            inter.fps,
+            frame.to_canonical(inter.key_joints()[:, 1]),
+            frame.to_canonical(keys),
+            subs,
+            model.subevent_names_,
+            human=frame.to_canonical(inter.key_joints()[:, 0]),
+            n_observed=args.observed,
+            title=f"{inter.instance_id}: agent 1 synthesized by the affordance model ({model.label_})",
+        )
+    track_path, plot_path = out / track_path.name, out / plot_path.name
     n = inter.n_frames - args.observed
     pred = Prediction(joints=skel, key_joints=keys, subevents=subs, n_observed=args.observed)
     print(f"{inter.instance_id}: {inter.n_frames} frames, {args.observed} observed, {n} synthesized in {seconds:.2f} s ({n / seconds:.0f} frames/s)")
@@ -102,12 +106,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--data", required=True, help="dataset spec, e.g. synthetic or sbu:PATH")
     p.add_argument("--instance", required=True, help="instance id (or a unique prefix, or a position)")
     p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--observed", type=int, default=10, help="T0: observed frames of agent 1 (default 10)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the synthesis (default 0)")
+    p.add_argument("--observed", type=int_range(1), default=10, help="T0: observed frames of agent 1 (default 10)")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the synthesis (default 0)")
     p.add_argument(
         "--mode", choices=("offline", "online"), default="offline",
         help="offline (default, as 'evaluate' runs the model): agent 0's whole track is read, its parse fixes the "
         "sub-events; online: the paper's causal Algorithm 2, as the simulator runs it",
     )
     p.add_argument("--lookahead", action="store_true", help="online mode: use agent 0's recorded position at the predicted end")
+    add_data_options(p)
+    declare_outputs(p, out="folder")
     p.set_defaults(func=_run)

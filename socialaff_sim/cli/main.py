@@ -10,11 +10,15 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import signal
 import sys
+import threading
 from collections.abc import Sequence
+from types import FrameType
 
 from .. import GL_CHOICE, __version__
 from ..errors import SocialAffError
+from .validate import check_outputs
 
 from .help_format import HelpFormatter
 
@@ -73,24 +77,51 @@ def _configure_logging(args: argparse.Namespace) -> None:
         logging.getLogger("socialaff_sim").info("rendering: %s", GL_CHOICE.reason)
 
 
+def _one_line(text: object) -> str:
+    return " ".join(str(text).split())
+
+
+def _terminate(signum: int, frame: FrameType | None) -> None:
+    # SIGTERM unwinds like Ctrl-C, so that temporary files and staging folders are removed.
+    raise KeyboardInterrupt
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the console script; returns the exit status."""
+    """Entry point of the console script; returns the exit status.
+
+    Bad input ends in one line on stderr naming the file, field or flag and what was expected,
+    with exit status 2 (argparse's usage errors too); Ctrl-C or SIGTERM end with 130 after the
+    outputs in progress are discarded.
+    """
     # Importing the package chose MuJoCo's GL backend already (socialaff_sim._headless): EGL without a display.
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # usage errors (2), --help and --version (0)
+        return exc.code if isinstance(exc.code, int) else 2
+    prog = f"socialaff-sim {args.command}"
     package_log = logging.getLogger("socialaff_sim")
     level = package_log.level
     _configure_logging(args)
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if in_main_thread else None
     try:
+        check_outputs(args)
         return int(args.func(args) or 0)
     except SocialAffError as exc:
-        print(f"socialaff-sim {args.command}: error: {exc}", file=sys.stderr)
+        print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a file the command reads or writes, outside the package's own checks
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"{prog}: error: {where}{_one_line(exc.strerror or exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
+        print(f"{prog}: interrupted; outputs in progress were discarded", file=sys.stderr)
         return 130
     finally:
         package_log.setLevel(level)  # main() called from Python leaves the caller's logging as it was
+        if in_main_thread:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

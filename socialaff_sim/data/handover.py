@@ -41,7 +41,9 @@ import numpy as np
 
 from ..errors import DataError
 from .dataset import Dataset
+from .checks import check_plausible
 from .interaction import MIN_FRAMES, Interaction
+from .policy import DEFAULT_POLICY, SkippedFiles
 from .safe_pickle import NUMPY_ARRAY_GLOBALS, restricted_load
 from .skeletons import get_layout
 
@@ -60,7 +62,7 @@ GIVER_UNRELIABLE_JOINTS: tuple[str, ...] = (
 """ZED BODY_34 joints of the giver marked invalid in every frame (see the module docstring)."""
 
 _LAYOUT = "zed_body34"
-_FILE_RE = re.compile(r"^motion_normal_(\d+)\.pkl$")
+_FILE_RE = re.compile(r"^motion_(normal|variation)_(\d+)\.pkl$")
 _SHAPES: dict[str, tuple[int, ...]] = {
     "pose_giver": (34, 3),
     "pose_receiver": (34, 3),
@@ -130,62 +132,54 @@ def _fill_object(obj: np.ndarray, path: Path) -> tuple[np.ndarray, int]:
     return filled, int(bad.sum())
 
 
-def _recording_files(root: Path) -> list[tuple[int, Path]]:
+def _recording_files(root: Path, variations: bool, skipped: SkippedFiles) -> list[Path]:
+    """The recordings under ``root`` (or ``root`` itself), normal ones first, each kind by index."""
     if root.is_file():
         match = _FILE_RE.match(root.name)
         if not match:
-            raise DataError("expected a file named motion_normal_<i>.pkl", path=root)
-        return [(int(match.group(1)), root)]
+            raise DataError("expected a file named motion_normal_<i>.pkl or motion_variation_<i>.pkl", path=root)
+        return [root]
     if not root.is_dir():
-        raise DataError("expected a folder of motion_normal_<i>.pkl files", path=root)
+        raise DataError("expected a folder of motion_normal_<i>.pkl (and motion_variation_<i>.pkl) files", path=root)
     files = []
-    for p in root.glob("motion_normal_*.pkl"):
+    for p in SkippedFiles.visible(root):
         match = _FILE_RE.match(p.name)
-        if not match:
-            raise DataError("expected a file name motion_normal_<i>.pkl with an integer <i>", path=p)
-        files.append((int(match.group(1)), p))
+        if not match or not p.is_file():
+            skipped.skip(p, "unknown file: expected motion_normal_<i>.pkl or motion_variation_<i>.pkl with an integer <i>")
+        elif match.group(1) == "normal" or variations:
+            files.append((match.group(1) != "normal", int(match.group(2)), p))
     if not files:
         raise DataError("expected motion_normal_<i>.pkl recordings, found none", path=root)
-    return sorted(files)
+    return [p for *_, p in sorted(files)]
 
 
-def load_handover(root: str | Path) -> Dataset:
-    """Load every ``motion_normal_<i>.pkl`` under ``root`` (or one such file) as a dataset named ``"handover"``.
+def load_handover(root: str | Path, *, variations: bool = True, policy: str = DEFAULT_POLICY) -> Dataset:
+    """Load every recording under ``root`` (or one such file) as a dataset named ``"handover"``.
 
-    Each recording becomes one ``"hand_over"`` interaction, in order of ``<i>``:
+    Each recording becomes one ``"hand_over"`` interaction, ``motion_normal_<i>.pkl`` in order of
+    ``<i>``, then ``motion_variation_<i>.pkl`` (the dataset's handovers with varied object
+    placement; the same file format, so the same treatment) unless ``variations=False``:
     joints (T, 2, 34, 3) float64, metres, z up (agent 0 giver, agent 1
-    receiver), object (T, 3) metres, 30 fps.
+    receiver), object (T, 3) metres, 30 fps. ``policy``: what to do with unknown or unreadable
+    files (:mod:`~socialaff_sim.data.policy`); a forbidden pickle global always stops the load.
     """
     root = Path(root)
+    skipped = SkippedFiles(policy, root.parent if root.is_file() else root)
     layout = get_layout(_LAYOUT)
-    unreliable = np.array([layout.index(n) for n in GIVER_UNRELIABLE_JOINTS])
-    feet = np.array([layout.index(n) for n in ("left_foot", "right_foot")])
     interactions = []
     n_interp = 0
     giver_feet, receiver_feet = [], []
-    for _, path in _recording_files(root):
-        rec = read_handover_file(path)
-        joints = np.stack([rec["pose_giver"], rec["pose_receiver"]], axis=1)
-        valid = ~_missing_rows(joints)
-        valid[:, 0, unreliable] = False
-        obj, filled = _fill_object(rec["pose_object"], path)
-        n_interp += filled
-        giver_feet.append(np.median(rec["pose_giver"][:, feet, 2]))
-        receiver_feet.append(np.median(rec["pose_receiver"][:, feet, 2]))
-        stem = path.stem
-        interactions.append(
-            Interaction(
-                label=HANDOVER_LABEL,
-                fps=HANDOVER_FPS,
-                joints=joints,
-                joint_names=layout.joint_names,
-                actors=(f"{stem}/giver", f"{stem}/receiver"),
-                object=obj,
-                valid=valid,
-                source=str(path),
-                instance_id=stem,
-            )
-        )
+    for path in _recording_files(root, variations, skipped):
+        with skipped.guard(path):
+            inter, filled, feet = _recording(path)
+            check_plausible(inter, path=path)
+            interactions.append(inter)
+            n_interp += filled
+            giver_feet.append(feet[0])
+            receiver_feet.append(feet[1])
+    if not interactions:
+        raise DataError("expected readable motion_*_<i>.pkl recordings, found none "
+                        f"({'; '.join(f'{p.name}: {r}' for p, r in skipped.files[:3])})", path=root)
     notes: dict[str, float | str] = {
         "recordings": float(len(interactions)),
         "giver_invalid_joints": ", ".join(GIVER_UNRELIABLE_JOINTS),
@@ -195,4 +189,31 @@ def load_handover(root: str | Path) -> Dataset:
         "actors": "one id pair per recording (none published): folds are recording-disjoint, not actor-disjoint",
         "ignored": "quat_object (object orientation) is validated but not used",
     }
+    skipped.report(notes)
     return Dataset("handover", tuple(interactions), notes)
+
+
+def _recording(path: Path) -> tuple[Interaction, int, tuple[float, float]]:
+    """One recording as an interaction; also the object frames filled and the median foot heights (m)."""
+    layout = get_layout(_LAYOUT)
+    unreliable = np.array([layout.index(n) for n in GIVER_UNRELIABLE_JOINTS])
+    feet = np.array([layout.index(n) for n in ("left_foot", "right_foot")])
+    rec = read_handover_file(path)
+    joints = np.stack([rec["pose_giver"], rec["pose_receiver"]], axis=1)
+    valid = ~_missing_rows(joints)
+    valid[:, 0, unreliable] = False
+    obj, filled = _fill_object(rec["pose_object"], path)
+    stem = path.stem
+    inter = Interaction(
+        label=HANDOVER_LABEL,
+        fps=HANDOVER_FPS,
+        joints=joints,
+        joint_names=layout.joint_names,
+        actors=(f"{stem}/giver", f"{stem}/receiver"),
+        object=obj,
+        valid=valid,
+        source=str(path),
+        instance_id=stem,
+    )
+    foot_heights = (float(np.median(rec["pose_giver"][:, feet, 2])), float(np.median(rec["pose_receiver"][:, feet, 2])))
+    return inter, filled, foot_heights

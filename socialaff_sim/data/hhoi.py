@@ -46,6 +46,7 @@ import numpy as np
 from ..errors import DataError, choices
 from .dataset import Dataset
 from .interaction import MIN_FRAMES, Interaction
+from .policy import DEFAULT_POLICY, SkippedFiles
 from .frames import floor_offset, level_rotation
 from .skeletons import get_layout
 
@@ -217,21 +218,25 @@ def _trial_instances(label: str, scene: str, trial_dir: Path, ann_path: Path, fp
 
 
 def load_hhoi(root: str | Path, *, fps: float = HHOI_FPS,
-              agent0_roles: Collection[str] = HHOI_AGENT0_ROLES) -> Dataset:
+              agent0_roles: Collection[str] = HHOI_AGENT0_ROLES, policy: str = DEFAULT_POLICY) -> Dataset:
     """Load every annotated instance under ``root`` (the folder holding Hand_Over, High_Five, ...) as ``"hhoi"``.
 
     Instances: joints (T, 2, 25, 3) float64, metres, z up, floor at z = 0,
     layout ``"kinect_v2"``, ``fps`` frames per second, NaN/invalid where a
-    skeleton file is missing.
+    skeleton file is missing. ``policy``: what to do with unknown interaction folders and trials
+    that fail to load (:mod:`~socialaff_sim.data.policy`).
     """
     root = Path(root)
+    skipped = SkippedFiles(policy, root)
     if not root.is_dir():
         raise DataError(f"expected the HHOI root folder holding {choices(HHOI_LABELS)}", path=root)
     roles0 = frozenset(r.lower() for r in agent0_roles)
-    folders = _subdirs(root)
-    unknown = [p.name for p in folders if p.name not in HHOI_LABELS]
-    if unknown:
-        raise DataError(f"unknown interaction folder {unknown[0]!r}; known: {choices(HHOI_LABELS)}", path=root)
+    folders = []
+    for p in _subdirs(root):
+        if p.name in HHOI_LABELS:
+            folders.append(p)
+        else:
+            skipped.skip(p, f"unknown interaction folder {p.name!r}; known: {choices(HHOI_LABELS)}")
     if not folders:
         raise DataError(f"expected interaction folders {choices(HHOI_LABELS)}, found none", path=root)
     interactions: list[Interaction] = []
@@ -252,9 +257,13 @@ def load_hhoi(root: str | Path, *, fps: float = HHOI_FPS,
             if not trials:
                 raise DataError("expected trial folders of skeleton files, found none", path=skel_dir)
             for trial_dir in trials:
-                interactions += _trial_instances(label, scene_dir.name, trial_dir,
-                                                 _annotation_file(ann_dir, trial_dir.name), fps, roles0, roles_seen)
+                with skipped.guard(trial_dir):
+                    interactions += _trial_instances(label, scene_dir.name, trial_dir,
+                                                     _annotation_file(ann_dir, trial_dir.name), fps, roles0, roles_seen)
         notes[f"roles_{label}"] = ", ".join(sorted(roles_seen))
     notes["instances"] = float(len(interactions))
     notes["actors"] = "one id pair per scene (none published): folds are scene-disjoint"
+    if not interactions:
+        raise DataError("expected annotated instances, found no readable one", path=root)
+    skipped.report(notes)
     return Dataset("hhoi", tuple(interactions), notes)

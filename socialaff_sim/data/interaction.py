@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import dataclasses
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, cast
 
 import numpy as np
 
 from ..errors import DataError
+from .names import stem_problem
 from .skeletons import N_KEY, SkeletonLayout, layout_for_joint_names
 
 __all__ = ["Interaction", "MIN_FRAMES", "LABEL_PATTERN"]
@@ -19,6 +21,15 @@ MIN_FRAMES = 3
 
 LABEL_PATTERN = re.compile(r"^[a-z][a-z0-9_]*$")
 """Interaction and sub-event labels are snake_case identifiers."""
+
+
+def _real_array(value: object, field: str, err: Callable[[str, str], DataError]) -> np.ndarray:
+    """A float64 copy of a real-valued array; strings, complex numbers and objects are an error
+    (NumPy would parse numeric strings and drop imaginary parts silently)."""
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "fiub":
+        raise err(field, f"expected real numbers, found dtype {arr.dtype}")
+    return np.array(arr, dtype=np.float64, copy=True)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -77,9 +88,13 @@ class Interaction:
             raise self._err("fps", f"expected a finite number > 0, found {fps}")
         set_(self, "fps", fps)
 
+        if self.instance_id:
+            problem = stem_problem(self.instance_id)
+            if problem is not None:
+                raise self._err("instance_id", f"{problem} (ids become file names)")
         names = tuple(str(n) for n in self.joint_names)
         set_(self, "joint_names", names)
-        joints = np.array(self.joints, dtype=np.float64, copy=True)
+        joints = _real_array(self.joints, "joints", self._err)
         if joints.ndim != 4 or joints.shape[1] != 2 or joints.shape[3] != 3:
             raise self._err("joints", f"expected shape (T, 2, J, 3), found {joints.shape}")
         T, _, J, _ = joints.shape
@@ -100,6 +115,8 @@ class Interaction:
             valid = np.array(self.valid, copy=True)
             if valid.shape != (T, 2, J):
                 raise self._err("valid", f"expected shape {(T, 2, J)}, found {valid.shape}")
+            if valid.dtype.kind not in "biu" or (valid.dtype.kind != "b" and not np.isin(valid, (0, 1)).all()):
+                raise self._err("valid", f"expected booleans (or 0/1), found dtype {valid.dtype}")
             valid = valid.astype(bool)
         bad = ~np.isfinite(joints).all(axis=-1) & valid
         if bad.any():
@@ -113,7 +130,7 @@ class Interaction:
         set_(self, "valid", _readonly(valid))
 
         if self.object is not None:
-            obj = np.array(self.object, dtype=np.float64, copy=True)
+            obj = _real_array(self.object, "object", self._err)
             if obj.shape != (T, 3):
                 raise self._err("object", f"expected shape {(T, 3)}, found {obj.shape}")
             if not np.isfinite(obj).all():
@@ -126,6 +143,11 @@ class Interaction:
         set_(self, "actors", actors)
 
         sub_names = tuple(str(n) for n in self.subevent_names)
+        bad = [n for n in sub_names if not LABEL_PATTERN.match(n)]
+        if bad:
+            raise self._err("subevent_names", f"expected snake_case names like 'approach', found {bad[0]!r}")
+        if len(set(sub_names)) != len(sub_names):
+            raise self._err("subevent_names", f"expected distinct names, found {list(sub_names)}")
         set_(self, "subevent_names", sub_names)
         if self.subevents is not None:
             sub = np.asarray(self.subevents)

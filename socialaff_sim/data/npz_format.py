@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import io
-import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from .._atomic import atomic_write_bytes
 from ..errors import DataError
+from .checks import check_plausible, to_metres
 from .dataset import Dataset
 from .interaction import Interaction
+from .names import check_file_stem
+from .npz_reader import read_npz
+from .policy import DEFAULT_POLICY, SkippedFiles
 
 __all__ = ["FORMAT_VERSION", "save_interaction", "load_interaction", "save_dataset", "load_npz_dataset"]
 
@@ -52,86 +55,118 @@ def save_interaction(inter: Interaction, path: str | Path) -> Path:
     return path
 
 
-def _scalar_str(data: np.lib.npyio.NpzFile, key: str, path: Path) -> str:
+def _scalar_str(data: dict[str, np.ndarray], key: str, path: Path) -> str:
     arr = data[key]
     if arr.shape != () or arr.dtype.kind != "U":
         raise DataError(f"expected a string scalar, found dtype {arr.dtype} shape {arr.shape}", path=path, field=key)
     return str(arr)
 
 
-def load_interaction(path: str | Path) -> Interaction:
-    """Read and validate one interaction file; errors name the file and the field."""
+def _numeric(data: dict[str, np.ndarray], key: str, path: Path, kinds: str = "fiu") -> np.ndarray:
+    arr = data[key]
+    if arr.dtype.kind not in kinds:
+        raise DataError(f"expected numbers, found dtype {arr.dtype}", path=path, field=key)
+    return arr
+
+
+def load_interaction(path: str | Path, *, units: str = "m") -> Interaction:
+    """Read and validate one interaction file; errors name the file and the field.
+
+    ``units``: the length unit of the file's coordinates (``"m"``, ``"cm"`` or ``"mm"``); they are
+    converted to metres and each agent must then be person-sized (:func:`~socialaff_sim.data.checks.check_plausible`).
+    """
     path = Path(path)
     if not path.is_file():
         raise DataError("no such file", path=path)
+    data = read_npz(path, keys=(*_REQUIRED, *_OPTIONAL))
+    missing = [k for k in _REQUIRED if k not in data]
+    if missing:
+        raise DataError(
+            f"missing required keys {missing}; a file holds {list(_REQUIRED)} and optionally {list(_OPTIONAL)}",
+            path=path,
+            field=missing[0],
+        )
+    version = data["format_version"]
+    if version.shape != () or version.dtype.kind not in "iu" or int(version) != FORMAT_VERSION:
+        raise DataError(f"expected format_version {FORMAT_VERSION}, found {version.tolist()!r}", path=path,
+                        field="format_version")
+    names = data["joint_names"]
+    if names.ndim != 1 or names.dtype.kind != "U":
+        raise DataError(f"expected a 1-D string array, found {names.dtype} {names.shape}", path=path, field="joint_names")
+    actors = data["actors"]
+    if actors.shape != (2,) or actors.dtype.kind != "U":
+        raise DataError(f"expected 2 strings, found {actors.dtype} {actors.shape}", path=path, field="actors")
+    fps = _numeric(data, "fps", path)
+    if fps.shape != ():
+        raise DataError(f"expected a number, found shape {fps.shape}", path=path, field="fps")
+    sub_names: tuple[str, ...] = ()
+    if "subevent_names" in data:
+        sn = data["subevent_names"]
+        if sn.ndim != 1 or (sn.size and sn.dtype.kind != "U"):
+            raise DataError(f"expected a 1-D string array, found {sn.dtype} {sn.shape}", path=path, field="subevent_names")
+        sub_names = tuple(str(x) for x in sn)
+    kwargs = dict(
+        label=_scalar_str(data, "label", path),
+        fps=float(fps),
+        joints=_numeric(data, "joints", path),
+        joint_names=tuple(str(n) for n in names),
+        actors=(str(actors[0]), str(actors[1])),
+        object=_numeric(data, "object", path) if "object" in data else None,
+        valid=_numeric(data, "valid", path, "biu") if "valid" in data else None,
+        subevents=_numeric(data, "subevents", path, "iu") if "subevents" in data else None,
+        subevent_names=sub_names,
+        source=_scalar_str(data, "source", path) if "source" in data else str(path),
+        instance_id=_scalar_str(data, "instance_id", path) if "instance_id" in data else path.stem,
+    )
     try:
-        # Read the bytes first: np.load leaks its file handle when the archive is corrupt.
-        with np.load(io.BytesIO(path.read_bytes()), allow_pickle=False) as data:
-            present = set(data.files)
-            missing = [k for k in _REQUIRED if k not in present]
-            if missing:
-                raise DataError(
-                    f"missing required keys {missing}; a file holds {list(_REQUIRED)} and optionally {list(_OPTIONAL)}",
-                    path=path,
-                    field=missing[0],
-                )
-            version = data["format_version"]
-            if version.shape != () or int(version) != FORMAT_VERSION:
-                raise DataError(
-                    f"expected format_version {FORMAT_VERSION}, found {version.tolist()}",
-                    path=path,
-                    field="format_version",
-                )
-            names = data["joint_names"]
-            if names.ndim != 1 or names.dtype.kind != "U":
-                raise DataError(f"expected a 1-D string array, found {names.dtype} {names.shape}", path=path, field="joint_names")
-            actors = data["actors"]
-            if actors.shape != (2,) or actors.dtype.kind != "U":
-                raise DataError(f"expected 2 strings, found {actors.dtype} {actors.shape}", path=path, field="actors")
-            fps = data["fps"]
-            if fps.shape != () or fps.dtype.kind not in "fiu":
-                raise DataError(f"expected a number, found {fps.dtype} {fps.shape}", path=path, field="fps")
-            sub_names = tuple(str(s) for s in data["subevent_names"]) if "subevent_names" in present else ()
-            kwargs = dict(
-                label=_scalar_str(data, "label", path),
-                fps=float(fps),
-                joints=data["joints"],
-                joint_names=tuple(str(n) for n in names),
-                actors=(str(actors[0]), str(actors[1])),
-                object=data["object"] if "object" in present else None,
-                valid=data["valid"] if "valid" in present else None,
-                subevents=data["subevents"] if "subevents" in present else None,
-                subevent_names=sub_names,
-                source=_scalar_str(data, "source", path) if "source" in present else str(path),
-                instance_id=_scalar_str(data, "instance_id", path) if "instance_id" in present else path.stem,
-            )
-    except (zipfile.BadZipFile, EOFError, OSError, ValueError) as exc:
-        if isinstance(exc, DataError):
-            raise
-        raise DataError(f"not a readable .npz file ({exc})", path=path) from None
-    try:
-        return Interaction(**kwargs)  # type: ignore[arg-type]
+        inter = to_metres(Interaction(**kwargs), units)  # type: ignore[arg-type]
     except DataError as exc:
         raise DataError(exc.detail, path=path, field=exc.field) from None
+    check_plausible(inter, path=path, units=units)
+    return inter
 
 
 def save_dataset(dataset: Dataset, folder: str | Path) -> list[Path]:
-    """Write every interaction as ``<folder>/<instance_id>.npz``; returns the paths."""
+    """Write every interaction as ``<folder>/<instance_id>.npz``; returns the paths.
+
+    Ids become file names, so each must be one plain path component
+    (:func:`~socialaff_sim.data.names.check_file_stem`); all are checked before anything is written.
+    """
     folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    out = []
+    stems = []
     for k, inter in enumerate(dataset):
-        stem = inter.instance_id or f"instance_{k:05d}"
-        out.append(save_interaction(inter, folder / f"{stem}.npz"))
-    return out
+        stems.append(check_file_stem(inter.instance_id, field="instance_id", path=inter.source or None)
+                     if inter.instance_id else f"instance_{k:05d}")
+    dup = sorted({s for s in stems if stems.count(s) > 1})
+    if dup:
+        raise DataError(f"two instances would be written to the same file {dup[0]}.npz", field="instance_id")
+    folder.mkdir(parents=True, exist_ok=True)
+    return [save_interaction(inter, folder / f"{stem}.npz") for stem, inter in zip(stems, dataset, strict=True)]
 
 
-def load_npz_dataset(folder: str | Path, *, name: str = "npz") -> Dataset:
-    """Read a folder of interaction files (sorted by name)."""
+def load_npz_dataset(folder: str | Path, *, name: str = "npz", policy: str = DEFAULT_POLICY,
+                     units: str = "m") -> Dataset:
+    """Read a folder of interaction files (sorted by name).
+
+    ``policy`` (:mod:`~socialaff_sim.data.policy`): ``"lenient"`` skips files that are not ``.npz``,
+    empty or invalid with one warning listing them; ``"strict"`` raises on the first. ``units``: see
+    :func:`load_interaction`.
+    """
     folder = Path(folder)
     if not folder.is_dir():
         raise DataError("expected a folder of .npz interaction files", path=folder)
-    files = sorted(folder.glob("*.npz"))
-    if not files:
-        raise DataError("expected at least one .npz interaction file, found none", path=folder)
-    return Dataset(name, tuple(load_interaction(f) for f in files))
+    skipped = SkippedFiles(policy, folder)
+    items = []
+    for f in SkippedFiles.visible(folder):
+        if f.suffix != ".npz" or not f.is_file():
+            skipped.skip(f, "unknown file: expected <instance_id>.npz")
+            continue
+        with skipped.guard(f):
+            items.append(load_interaction(f, units=units))
+    if not items:
+        raise DataError(f"expected at least one readable .npz interaction file, found none "
+                        f"({len(skipped.files)} skipped: {'; '.join(f'{p.name}: {r}' for p, r in skipped.files[:3])})"
+                        if skipped.files else "expected at least one .npz interaction file, found none", path=folder)
+    notes: dict[str, float | str] = {}
+    skipped.report(notes)
+    return Dataset(name, tuple(items), notes)

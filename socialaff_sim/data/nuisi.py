@@ -60,6 +60,9 @@ from numpy.lib import format as npy_format
 from ..errors import ConfigError, DataError, choices
 from .dataset import Dataset
 from .interaction import MIN_FRAMES, Interaction
+from .names import stem_problem
+from .npz_reader import _READ_ERRORS, read_npz
+from .policy import DEFAULT_POLICY, SkippedFiles
 from .safe_pickle import ROS_TIME_GLOBALS, RosTime, restricted_loads
 from .frames import level_rotation
 from .skeletons import get_layout
@@ -159,22 +162,21 @@ def read_nuisi_agent(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     file, the array and the expected vs found shape; stamps must increase.
     """
     path = Path(path)
+    frames = read_npz(path, keys=("arr_0",)).get("arr_0")
+    if frames is None:
+        raise DataError("expected an array 'arr_0' (joints), found none", path=path, field="arr_0")
     try:
         with zipfile.ZipFile(path) as zf:
             stamps = _read_stamps(path, zf)
-        with np.load(path, allow_pickle=False) as data:
-            if "arr_0" not in data.files:
-                raise DataError(f"expected an array 'arr_0' (joints), found {data.files}", path=path, field="arr_0")
-            frames = data["arr_0"]
-    except (zipfile.BadZipFile, EOFError, OSError) as exc:
-        raise DataError(f"not a readable .npz file ({exc})", path=path) from None
-    except ValueError as exc:
-        if isinstance(exc, DataError):
-            raise
-        raise DataError(f"not a readable array ({exc})", path=path, field="arr_0") from None
+    except DataError:
+        raise
+    except _READ_ERRORS as exc:
+        raise DataError(f"not a readable .npz file ({type(exc).__name__}: {exc})", path=path, field="arr_1") from None
     if frames.ndim != 3 or frames.shape[1:] != (_J, 7) or frames.dtype.kind != "f":
         raise DataError(f"expected float array (N, {_J}, 7), found {frames.dtype} {frames.shape}", path=path,
                         field="arr_0")
+    if len(frames) < MIN_FRAMES:
+        raise DataError(f"expected at least {MIN_FRAMES} frames, found {len(frames)}", path=path, field="arr_0")
     if len(stamps) != len(frames):
         raise DataError(f"expected one stamp per frame ({len(frames)}), found {len(stamps)}", path=path, field="arr_1")
     steps = np.diff(stamps)
@@ -264,27 +266,40 @@ def _fit_offset(pa: np.ndarray, pb: np.ndarray, fit_yaw: bool) -> tuple[np.ndarr
     return R, t, float(np.sqrt(np.mean(np.sum(res**2, axis=1))))
 
 
-def _pairs(root: Path) -> list[tuple[str, str, Path, Path]]:
+def _pairs(root: Path, skipped: SkippedFiles) -> list[tuple[str, str, Path, Path]]:
+    """(stem, label, agent-1 file, agent-2 file) per interaction; unknown names and orphans go to ``skipped``."""
     if not root.is_dir():
         raise DataError("expected a folder of <interaction>_agent1.bag.npz / _agent2.bag.npz pairs", path=root)
+    files = {p.name: p for p in SkippedFiles.visible(root)}
     pairs = []
-    for a1 in sorted(root.glob("*_agent1.bag.npz")):
-        stem = a1.name[: -len("_agent1.bag.npz")]
-        a2 = root / f"{stem}_agent2.bag.npz"
-        if not a2.is_file():
-            raise DataError(f"expected the partner file {a2.name} for {a1.name}, found none", path=root)
+    for name, a1 in files.items():
+        m = _PAIR_RE.match(name)
+        if m is None or not a1.is_file():
+            skipped.skip(a1, "unknown file: expected <interaction>_agent1.bag.npz or <interaction>_agent2.bag.npz")
+            continue
+        stem, agent = m.group(1), m.group(2)
+        partner = f"{stem}_agent{3 - int(agent)}.bag.npz"
+        if partner not in files:
+            skipped.skip(a1, f"expected the partner file {partner} beside it, found none")
+            continue
+        if agent == "2":
+            continue  # the pair is taken with its agent-1 file
         prefix = re.sub(r"\d+$", "", stem).lower()
-        if prefix not in NUISI_LABELS:
-            raise DataError(f"unknown interaction {prefix!r} in {a1.name}; known: {choices(NUISI_LABELS)}", path=a1)
-        pairs.append((stem, NUISI_LABELS[prefix], a1, a2))
-    orphans = sorted({p.name[: -len("_agent2.bag.npz")] for p in root.glob("*_agent2.bag.npz")}
-                     - {s for s, *_ in pairs})
-    if orphans:
-        raise DataError(f"expected {orphans[0]}_agent1.bag.npz beside {orphans[0]}_agent2.bag.npz, found none",
-                        path=root)
+        bad_id = stem_problem(f"{stem}_000")  # the instance ids are "<stem>_<k>"
+        problem = (f"unknown interaction {prefix!r}; known: {choices(NUISI_LABELS)}" if prefix not in NUISI_LABELS
+                   else None if bad_id is None else f"field 'instance_id': {bad_id}")
+        if problem is not None:
+            skipped.skip(a1, problem)
+            skipped.skip(files[partner], problem)
+            continue
+        pairs.append((stem, NUISI_LABELS[prefix], a1, files[partner]))
     if not pairs:
-        raise DataError("expected <interaction>_agent1.bag.npz / _agent2.bag.npz pairs, found none", path=root)
+        raise DataError("expected <interaction>_agent1.bag.npz / _agent2.bag.npz pairs of known interactions "
+                        f"({choices(NUISI_LABELS)}), found none", path=root)
     return pairs
+
+
+_PAIR_RE = re.compile(r"^(.+)_agent([12])\.bag\.npz$")
 
 
 class _Pair(NamedTuple):
@@ -358,18 +373,27 @@ def _place(pair: _Pair, cfg: NuisiConfig, offsets: list[np.ndarray],
     return a, b
 
 
-def load_nuisi(root: str | Path, config: NuisiConfig | None = None) -> Dataset:
+def load_nuisi(root: str | Path, config: NuisiConfig | None = None, *, policy: str = DEFAULT_POLICY) -> Dataset:
     """Load, align and segment every NuiSI pair under ``root`` as a dataset named ``"nuisi"``.
 
     Instances: joints (T, 2, 10, 3) float64, metres, z up, one world frame
     (NaN where invalid), at ``config.fps``; ids ``"<interaction>_<k>"``;
     ``source`` names both files and the span in seconds since the streams'
     overlap began. Diagnostics (residuals, instance counts, mirrored labels)
-    are in ``notes``.
+    are in ``notes``. ``policy`` (:mod:`~socialaff_sim.data.policy`): files of an unknown interaction
+    (e.g. ``rocket1_agent1.bag.npz``), without a partner, or that fail to load are skipped with one
+    warning (``"lenient"``, the default) or stop the load (``"strict"``).
     """
     cfg = config or NuisiConfig()
     notes: dict[str, float | str] = {}
-    pairs = [_align_pair(stem, label, p1, p2, cfg, notes) for stem, label, p1, p2 in _pairs(Path(root))]
+    skipped = SkippedFiles(policy, root)
+    pairs = []
+    for stem, label, p1, p2 in _pairs(Path(root), skipped):
+        with skipped.guard(p1):
+            pairs.append(_align_pair(stem, label, p1, p2, cfg, notes))
+    if not pairs:
+        raise DataError("expected at least one readable pair, found none "
+                        f"({'; '.join(f'{p.name}: {r}' for p, r in skipped.files[:3])})", path=root)
     offsets: list[np.ndarray] = []
     placed = {}  # contact interactions first, so that the others can use their offsets
     for pair in sorted(pairs, key=lambda p: p.label not in cfg.contact_labels):
@@ -388,6 +412,7 @@ def load_nuisi(root: str | Path, config: NuisiConfig | None = None) -> Dataset:
                 source=f"{p1} + {p2} @ {pair.clock[s]:.3f}-{pair.clock[e - 1]:.3f} s",
                 instance_id=f"{pair.stem}_{k:03d}",
             ))
+    skipped.report(notes)
     notes["instances"] = float(len(interactions))
     notes["actors"] = "one id pair per recording (none published): folds are recording-disjoint, not actor-disjoint"
     return Dataset("nuisi", tuple(interactions), notes)

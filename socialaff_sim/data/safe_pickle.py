@@ -23,12 +23,21 @@ Two allow-lists are provided:
 * :data:`ROS_TIME_GLOBALS`: the array machinery plus ``rospy.rostime.Time`` and
   ``genpy.rostime.Time``, both mapped to :class:`RosTime`, a plain holder of
   ``secs`` and ``nsecs``; ROS is never imported.
+
+Resource caps: a pickle states an array's shape before its data, so a short stream could make
+NumPy allocate gigabytes. Every array the stream creates is checked before it is allocated:
+at most :data:`MAX_ARRAY_BYTES` each, :data:`MAX_TOTAL_BYTES` in all, and at most
+:data:`MAX_BYTES_PER_STREAM_BYTE` times the stream's length plus 1 MiB (a real array's data, or
+for an object array one memo reference per element, is in the stream). Memo indices are checked
+against the stream's opcode count before anything runs (the C unpickler sizes its memo by the
+largest index). Exceeding a cap raises :class:`~socialaff_sim.errors.DataError`.
 """
 
 from __future__ import annotations
 
 import io
 import pickle
+import pickletools
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -44,7 +53,17 @@ __all__ = [
     "ROS_TIME_GLOBALS",
     "restricted_loads",
     "restricted_load",
+    "MAX_ARRAY_BYTES",
+    "MAX_TOTAL_BYTES",
+    "MAX_BYTES_PER_STREAM_BYTE",
 ]
+
+MAX_ARRAY_BYTES = 512 << 20
+"""Largest array one pickle may create, bytes (512 MiB)."""
+MAX_TOTAL_BYTES = 1 << 30
+"""Largest total of the arrays one pickle may create, bytes (1 GiB)."""
+MAX_BYTES_PER_STREAM_BYTE = 64
+"""Largest ratio of the arrays' bytes to the stream's length (plus 1 MiB of slack)."""
 
 
 def _numpy_multiarray() -> Any:
@@ -99,6 +118,61 @@ class RosTime:
         return f"RosTime(secs={self.secs}, nsecs={self.nsecs})"
 
 
+class _Budget:
+    """Bytes of arrays a single load may still allocate."""
+
+    def __init__(self, stream_bytes: int, source: str | Path) -> None:
+        self.left = min(MAX_TOTAL_BYTES, MAX_BYTES_PER_STREAM_BYTE * stream_bytes + (1 << 20))
+        self.source = source
+
+    def take(self, shape: object, dtype: object) -> None:
+        try:
+            dims = tuple(int(n) for n in shape)  # type: ignore[attr-defined]
+            itemsize = np.dtype(dtype).itemsize  # type: ignore[call-overload]
+        except (TypeError, ValueError, OverflowError):
+            raise DataError(f"malformed array shape {shape!r} or dtype {dtype!r}", path=self.source,
+                            field="pickle") from None
+        if any(n < 0 for n in dims):
+            raise DataError(f"malformed array shape {dims}", path=self.source, field="pickle")
+        nbytes = itemsize
+        for n in dims:
+            nbytes *= n
+        if nbytes > MAX_ARRAY_BYTES or nbytes > self.left:
+            raise DataError(
+                f"an array of shape {dims} and {nbytes} bytes exceeds the limit ({min(MAX_ARRAY_BYTES, self.left)} "
+                f"bytes left for this stream; caps: {MAX_ARRAY_BYTES} per array, {MAX_TOTAL_BYTES} in all, "
+                f"{MAX_BYTES_PER_STREAM_BYTE} per byte of the stream)", path=self.source, field="pickle")
+        self.left -= nbytes
+
+
+class _GuardedArray(np.ndarray):
+    """The array class a pickle's ``_reconstruct`` builds: checks the state's size before NumPy allocates."""
+
+    _budget: _Budget | None = None
+
+    def __setstate__(self, state: Any) -> None:
+        if not isinstance(state, tuple) or len(state) not in (4, 5):
+            raise DataError(f"malformed array state of type {type(state).__name__}", field="pickle")
+        shape, dtype = state[-4], state[-3]
+        if self._budget is not None:
+            self._budget.take(shape, dtype)
+        super().__setstate__(state)
+
+
+def _plain(obj: Any) -> Any:
+    """``obj`` with every guarded array replaced by a plain ndarray view (dicts and object arrays walked)."""
+    if isinstance(obj, dict):
+        return {k: _plain(v) for k, v in obj.items()}
+    if isinstance(obj, np.ndarray):
+        arr = obj.view(np.ndarray)
+        if arr.dtype.hasobject:
+            for idx, item in np.ndenumerate(arr):
+                if isinstance(item, (np.ndarray, dict)):
+                    arr[idx] = _plain(item)
+        return arr
+    return obj
+
+
 def _array_globals() -> dict[tuple[str, str], Any]:
     multiarray = _numpy_multiarray()
     table: dict[tuple[str, str], Any] = {
@@ -142,6 +216,24 @@ class RestrictedUnpickler(pickle.Unpickler):
         super().__init__(file, encoding=encoding, fix_imports=False)
         self._allowed = dict(allowed)
         self._source = source
+        self._budget = _Budget(MAX_TOTAL_BYTES, source)
+        multiarray = _numpy_multiarray()
+        budget = self._budget
+        guarded = type("_GuardedArray", (_GuardedArray,), {"_budget": budget})
+
+        def reconstruct(subtype: Any, shape: Any, dtype: Any) -> np.ndarray:
+            if subtype is not np.ndarray:
+                raise UnsafePickleError(f"forbidden array subtype {subtype!r}", path=source, field="pickle")
+            budget.take(shape, dtype)
+            return multiarray._reconstruct(guarded, shape, dtype)
+
+        for key, value in self._allowed.items():
+            if value is multiarray._reconstruct:
+                self._allowed[key] = reconstruct
+
+    def limit_to_stream(self, stream_bytes: int) -> None:
+        """Tighten the byte budget to :data:`MAX_BYTES_PER_STREAM_BYTE` times the stream's length."""
+        self._budget.left = _Budget(stream_bytes, self._source).left
 
     def find_class(self, module: str, name: str) -> Any:
         key = (module, name)
@@ -162,6 +254,23 @@ class RestrictedUnpickler(pickle.Unpickler):
         )
 
 
+def _check_memo(data: bytes, source: str | Path) -> None:
+    """Refuse memo indices beyond the stream's opcode count (they would size the memo) before running it."""
+    n_ops = 0
+    try:
+        for op, arg, _ in pickletools.genops(data):
+            n_ops += 1
+            if op.name in ("PUT", "BINPUT", "LONG_BINPUT", "GET", "BINGET", "LONG_BINGET"):
+                index = int(arg)
+                if index > n_ops:
+                    raise DataError(f"memo index {index} beyond the stream's {n_ops} opcodes so far",
+                                    path=source, field="pickle")
+    except DataError:
+        raise
+    except (ValueError, TypeError, EOFError, UnicodeDecodeError, OverflowError) as exc:
+        raise DataError(f"not a readable pickle ({type(exc).__name__}: {exc})", path=source, field="pickle") from None
+
+
 def restricted_loads(
     data: bytes,
     *,
@@ -176,7 +285,10 @@ def restricted_loads(
     instance of ``expect``.
     """
     try:
-        obj = RestrictedUnpickler(io.BytesIO(data), allowed=allowed, source=source).load()
+        _check_memo(data, source)
+        unpickler = RestrictedUnpickler(io.BytesIO(data), allowed=allowed, source=source)
+        unpickler.limit_to_stream(len(data))
+        obj = _plain(unpickler.load())
     except DataError as exc:
         if exc.path is None:  # e.g. a malformed ROS time state: name the file
             raise type(exc)(exc.detail, path=source, field=exc.field or "pickle") from None

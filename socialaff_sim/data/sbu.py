@@ -42,6 +42,7 @@ from ..errors import DataError, choices
 from .dataset import Dataset
 from .frames import floor_offset, level_rotation
 from .interaction import MIN_FRAMES, Interaction
+from .policy import DEFAULT_POLICY, SkippedFiles
 from .skeletons import get_layout
 
 __all__ = ["load_sbu", "read_skeleton_file", "SBU_CLASSES", "SBU_FPS"]
@@ -124,8 +125,8 @@ def _to_world(coords: np.ndarray) -> np.ndarray:
     return np.stack([-X, Z, Y], axis=-1) / 1000.0
 
 
-def _sequences(root: Path) -> list[tuple[str, str, str, Path]]:
-    """(set, class folder, sequence folder, file) in sorted order; errors on an unknown layout."""
+def _sequences(root: Path, skipped: SkippedFiles) -> list[tuple[str, str, str, Path]]:
+    """(set, class folder, sequence folder, file) in sorted order; unknown folders go to ``skipped``."""
     if not root.is_dir():
         raise DataError("expected the SBU root folder holding set folders like 's01s02'", path=root)
     found = []
@@ -134,41 +135,51 @@ def _sequences(root: Path) -> list[tuple[str, str, str, Path]]:
         raise DataError("expected set folders like 's01s02', found none", path=root)
     for set_dir in set_dirs:
         if not _SET_RE.match(set_dir.name):
-            raise DataError(f"expected set folders named like 's01s02', found {set_dir.name!r}", path=set_dir)
+            skipped.skip(set_dir, f"unknown folder: expected set folders named like 's01s02', found {set_dir.name!r}")
+            continue
         for cls_dir in sorted(p for p in set_dir.iterdir() if p.is_dir() and not p.name.startswith(".")):
             if cls_dir.name not in SBU_CLASSES:
                 known = [f"{k} ({v})" for k, v in SBU_CLASSES.items()]
-                raise DataError(f"unknown class folder {cls_dir.name!r}; known classes: {choices(known)}",
-                                path=cls_dir)
+                skipped.skip(cls_dir, f"unknown class folder {cls_dir.name!r}; known classes: {choices(known)}")
+                continue
             for seq_dir in sorted(p for p in cls_dir.iterdir() if p.is_dir() and not p.name.startswith(".")):
                 f = seq_dir / _FILE
                 if not f.is_file():
-                    raise DataError(f"expected a {_FILE} in every sequence folder, found none", path=seq_dir)
+                    skipped.skip(seq_dir, f"expected a {_FILE} in every sequence folder, found none")
+                    continue
                 found.append((set_dir.name, cls_dir.name, seq_dir.name, f))
     if not found:
         raise DataError(f"expected <set>/<class>/<seq>/{_FILE} files, found none", path=root)
     return found
 
 
-def load_sbu(root: str | Path) -> Dataset:
+def load_sbu(root: str | Path, *, policy: str = DEFAULT_POLICY) -> Dataset:
     """Load every sequence under ``root`` as a dataset named ``"sbu"``.
 
     Instances are in sorted (set, class, sequence) order with ids like
     ``"s01s02_05_001"``; joints (T, 2, 15, 3) float64, metres, z up, floor at
     z = 0, layout ``"sbu15"``, 15 fps. Joints whose normalised coordinates are
-    all exactly zero (untracked) are marked invalid.
+    all exactly zero (untracked) are marked invalid. ``policy``: what to do with unknown folders and
+    unreadable files (:mod:`~socialaff_sim.data.policy`).
     """
     root = Path(root)
+    skipped = SkippedFiles(policy, root)
     layout = get_layout("sbu15")
     feet = [layout.index("left_foot"), layout.index("right_foot")]
     neck = layout.index("neck")
     parsed: dict[str, list[tuple[str, str, Path, np.ndarray, np.ndarray]]] = {}
-    for set_name, cls, seq, path in _sequences(root):
-        _, coords = read_skeleton_file(path)
+    for set_name, cls, seq, path in _sequences(root, skipped):
+        with skipped.guard(path):
+            _, coords = read_skeleton_file(path)
+        if skipped.files and skipped.files[-1][0] == path:
+            continue
         valid = ~(coords == 0).all(axis=-1)
         world = np.where(valid[..., None], _to_world(coords), np.nan)
         parsed.setdefault(set_name, []).append((cls, seq, path, world, valid))
 
+    if not parsed:
+        raise DataError(f"expected <set>/<class>/<seq>/{_FILE} files, found no readable one "
+                        f"({'; '.join(f'{p.name}: {r}' for p, r in skipped.files[:3])})", path=root)
     interactions = []
     tilts = []
     for set_name, seqs in parsed.items():
@@ -197,4 +208,5 @@ def load_sbu(root: str | Path) -> Dataset:
         "camera_tilt_deg_max": float(np.max(tilts)),
         "frame": "x image right, y depth, z up (levelled per set); floor z=0 at the feet's 5th percentile",
     }
+    skipped.report(notes)
     return Dataset("sbu", tuple(interactions), notes)

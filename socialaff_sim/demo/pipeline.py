@@ -23,6 +23,7 @@ from ..learning.estimator import SocialAffordanceModel
 from ..model.figures import draw_groupings
 from ..model.joints import instance_frame
 from ..retarget.model_source import ModelSource
+from ..retarget.robot import load_robot
 from ..retarget.sources import GroundTruthSource
 from ..sim.episode import run_episode
 from ..sim.simulator import Simulator
@@ -45,7 +46,10 @@ class DemoConfig:
     baselines: tuple[str, ...] = ("hmm", "promp")
     """[—]: Methods the full model is compared with on the held-out instances."""
     robot: str = "ours"
-    """[—]: Robot simulated: ``"ours"`` (assets/robots/ours.xml) or ``"cmu"``."""
+    """[—]: Robot simulated: a shipped robot (``"ours"``, ``"cmu"``, ``"unitree_h1"``, ``"unitree_g1"``) or a
+    mapping file (docs/robots.md)."""
+    mjcf: str | None = None
+    """[—]: The robot's MJCF file, for robots whose model the project does not ship (the Unitree ones)."""
     video: bool = True
     """[—]: Render an MP4 and a contact sheet of the simulated reaction (needs EGL offscreen rendering)."""
     width: int = 640
@@ -143,8 +147,9 @@ def run_interaction(
     say(f"{label}: retargeting onto the {config.robot!r} robot with mink and simulating in MuJoCo")
     tic = time.perf_counter()
     task = task_for_label(label)
-    reference = run_episode(Simulator(config.robot, task), GroundTruthSource(), shown)
-    sim = Simulator(config.robot, task)
+    robot = load_robot(config.robot, mjcf=config.mjcf)
+    reference = run_episode(Simulator(robot, task), GroundTruthSource(), shown)
+    sim = Simulator(robot, task)
     source = ModelSource(model, seed=config.seed, config=synthesis)
     video = sheet = None
     note = "disabled"

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ..data.synthetic import INTERACTIONS, generate_dataset
 from ..errors import ConfigError, choices
+from ..retarget.robot import load_robot
 from .pipeline import DemoConfig, InteractionResult, Progress, run_interaction
 from .report import write_report
 
@@ -25,6 +26,7 @@ def run_demo(
     unknown = [x for x in labels if x not in INTERACTIONS]
     if unknown:
         raise ConfigError(f"demo: unknown interaction {unknown[0]!r}; choose from {choices(INTERACTIONS)}")
+    load_robot(config.robot, mjcf=config.mjcf).build_mjcf()  # a robot that cannot be built fails before the learning
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     dataset = generate_dataset(config.seed)

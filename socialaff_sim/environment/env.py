@@ -245,6 +245,7 @@ class SocialAffordanceEnv(gym.Env):
         scorer = sim.scorer
         frame = self._scored_frame
         subgoals = {r.name: bool(r.success) for r in scorer.subgoals}
+        subgoals_now = {r.name: bool(r.current) for r in scorer.subgoals}
         info: dict[str, Any] = {
             "interaction": inter.label,
             "instance": inter.instance_id,
@@ -252,6 +253,7 @@ class SocialAffordanceEnv(gym.Env):
             "subevent": frame.subevent_name,
             "subevent_index": int(frame.subevent),
             "subgoals": subgoals,
+            "subgoals_now": subgoals_now,
             "success": bool(all(subgoals.values()) and not scorer.failed),
             "failed": bool(scorer.failed),
             "failures": {f.kind: bool(f.triggered) for f in scorer.failures},

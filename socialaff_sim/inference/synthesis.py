@@ -37,16 +37,15 @@ import numpy as np
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ModelError
-from ..learning.atomic import cut_atoms
 from ..model.frame_regression import frame_context
-from ..model.handedness import KEY_SWAP, relabel
+from ..model.handedness import KEY_SWAP, relabel, wrist_paths
 from ..model.potentials import reference_weights
 from ..model.ridge import RidgeRegression
 from .candidates import AGENT1 as _AGENT1
 from .candidates import RegressionPrior, draw_vectors, sign_loglik
 from .observed import ObservedInteraction
 from .observed_parse import parse_observed
-from .online_parse import parse_prefix
+from .stream_parse import ParseWork, StreamParser
 from .synthesis_config import SynthesisConfig
 from .timing import remaining_fraction, sample_remaining_seconds
 
@@ -90,6 +89,7 @@ class OnlineSynthesizer:
         self.body = body
         self.config = config or SynthesisConfig()
         self._inter: Interaction | None = None
+        self._parser: StreamParser | None = None
 
     # -- episode -----------------------------------------------------------------------------------
     def reset(self, interaction: Interaction, *, rng: np.random.Generator) -> None:
@@ -110,8 +110,17 @@ class OnlineSynthesizer:
         )
         self._frame = obs.frame
         self._raw = obs.track  # as recorded
+        self._paths = wrist_paths(obs.track, 0)
         # Agent 0 and the object stay in the track over the whole instance (read beyond t - 1 with lookahead only).
         self._track = obs.track.copy()
+        self._parser = None
+        if cfg.parse == "online":
+            lc = self.model.learning
+            window = None if cfg.parse_window is None else max(int(round(cfg.parse_window * interaction.fps)), 2)
+            self._parser = StreamParser(
+                self.model, interaction.fps, window,
+                min_frames=lc.min_atomic_frames, max_seconds=lc.max_atomic_seconds, tau=lc.velocity_seconds,
+            )
         self._hands = np.zeros(2, bool)
         self._set_hands(cfg.n_observed)
         self._t = 0
@@ -130,17 +139,27 @@ class OnlineSynthesizer:
         with ``lookahead``, else its frames before ``t`` and ``hand_margin``); a flag that changes relabels
         the history too, so emitted frames keep their recorded labels and the track stays continuous."""
         cfg = self.config
-        hands = self.model.reaction_hands(self._raw, *((None, 0.0) if cfg.lookahead else (t, cfg.hand_margin)))
+        if cfg.lookahead:
+            hands = self.model.reaction_hands(self._raw, None, 0.0)
+        else:  # agent 0's wrist paths so far, from running sums: O(1) per re-planning on a stream of any length
+            hands = self.model.reaction_hands_at(self._paths, t, cfg.hand_margin)
         change = hands != self._hands
         if change.any():
             self._track = relabel(self._track, change)
             self._hands = hands
+            if self._parser is not None:
+                self._parser.reset()  # the history changed: its cached interval scores are stale
 
     def _observed_track(self) -> np.ndarray:
         """(T, 11, 3) canonical: agent 0 and the object over the whole instance, agent 1 NaN."""
         x = np.full_like(self._track, np.nan)
         x[:, _OTHERS] = self._track[:, _OTHERS]
         return x
+
+    @property
+    def work(self) -> ParseWork | None:
+        """What the latest online parse did (counts; None without one): bounded by the window, not by t."""
+        return None if self._parser is None else self._parser.work
 
     @property
     def t(self) -> int:
@@ -225,16 +244,8 @@ class OnlineSynthesizer:
             S = self.model.n_subevents_
             self._belief = np.eye(S)[row[2]]
             return int(row[2]), int(row[0])
-        inter = self._inter
-        assert inter is not None  # internal invariant: set by reset
-        model = self.model
-        prefix = self._track[:t]
-        lc = model.learning
-        bounds = cut_atoms(
-            prefix, inter.fps, self._available, model.centroids_,
-            min_frames=lc.min_atomic_frames, max_seconds=lc.max_atomic_seconds, tau=lc.velocity_seconds,
-        )
-        parse = parse_prefix(model, prefix, inter.fps, bounds)
+        assert self._parser is not None  # internal invariant: set by reset for parse == "online"
+        parse, _ = self._parser.parse(self._track, t, self._available)
         self._belief = parse.belief
         return parse.current, parse.start
 

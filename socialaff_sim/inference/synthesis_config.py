@@ -22,7 +22,7 @@ class SynthesisConfig:
     Fields by concept
     -----------------
     - Online schedule: n_observed, delta_t, replan_at_end
-    - Running sub-event and its end: parse, observed_parse_step, duration, lookahead
+    - Running sub-event and its end: parse, parse_window, observed_parse_step, duration, lookahead
     - Candidate end configurations: n_samples, spatial_fraction, coherent_fraction, refine_sweeps, end_prior,
       prior_samples
     - Motion toward the chosen end: interpolation, frame_weight, frame_decay
@@ -60,6 +60,13 @@ class SynthesisConfig:
     so far and a duration drawn from the log-normal prior; or ``"observed"``, one DP over agent 0's
     (and the object's) whole recorded track before synthesis starts
     (:func:`~socialaff_sim.inference.observed_parse.parse_observed`; offline only, needs ``lookahead``)."""
+    parse_window: float | None = 4.5
+    """W [s]: the ``"online"`` parse reads the last W to 1.5 W seconds only (its start moves in hops of W / 2; its
+    atoms, its DP, a uniform label prior at the window's start once frame 0 has left it), and keeps the scores
+    of intervals and the DP rows already computed, so a re-planning costs the same after an hour as after a
+    second (:class:`~socialaff_sim.inference.stream_parse.StreamParser`). Instances shorter than 1.5 W (6.75 s:
+    every recording of the shared sets, at most 6.7 s) are parsed exactly as with None: every frame since the
+    start, as in the paper, whose cost grows with the time elapsed. Smaller is faster (docs/benchmarks.md)."""
     observed_parse_step: int = 2
     """[frames]: Frames between the cut points of the ``"observed"`` parse."""
     end_prior: str = "none"
@@ -137,6 +144,8 @@ class SynthesisConfig:
             raise ConfigError(
                 f"observed_parse_step, prior_samples: expected >= 1 and >= 0, found {self.observed_parse_step}, {self.prior_samples}"
             )
+        if self.parse_window is not None and not self.parse_window > 0:
+            raise ConfigError(f"parse_window (W): expected seconds > 0 or None, found {self.parse_window}")
         if self.duration not in _DURATION_MODES:
             raise ConfigError(f"duration: expected {choices(_DURATION_MODES)}, found {self.duration!r}")
 

@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import io
 import json
-import zipfile
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -47,7 +46,8 @@ import numpy as np
 
 from .. import __version__
 from .._atomic import atomic_write_bytes
-from ..errors import ConfigError, ModelFileError
+from ..data.npz_reader import read_npz
+from ..errors import ConfigError, DataError, ModelFileError
 from ..data.skeletons import N_KEY
 from ..model.affordance import AffordanceParameters
 from ..model.config import AffordanceConfig
@@ -57,6 +57,7 @@ from ..model.frame_regression import frame_offset_columns, n_frame_context
 from ..model.ridge import RidgeRegression
 from ..model.joints import JOINT_NAMES, N_JOINTS
 from .config import LearningConfig
+from .model_checks import check_meta, check_values
 
 __all__ = ["MODEL_FORMAT", "MODEL_FORMAT_VERSION", "save_model", "read_model"]
 
@@ -177,13 +178,10 @@ def read_model(path: str | Path) -> tuple[AffordanceConfig, LearningConfig, dict
     if not path.is_file():
         raise ModelFileError(f"{path}: no such model file")
     try:
-        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
-            present = set(data.files)
-            raw = {k: data[k] for k in ("meta", *_ARRAYS) if k in present}
-    except ModelFileError:
-        raise
-    except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError) as exc:
-        raise ModelFileError(f"{path}: not a readable model file (truncated or not an .npz): {exc}") from None
+        raw = read_npz(path, keys=("meta", *_ARRAYS))
+    except DataError as exc:
+        raise ModelFileError(f"{path}: not a readable model file (truncated or not an .npz): {exc.detail}"
+                             + (f" in {exc.field!r}" if exc.field else "")) from None
     missing = [k for k in ("meta", *_ARRAYS) if k not in raw]
 
     def check_missing() -> None:
@@ -199,9 +197,12 @@ def read_model(path: str | Path) -> tuple[AffordanceConfig, LearningConfig, dict
     if meta_arr.shape != () or meta_arr.dtype.kind != "U":
         raise ModelFileError(f"{path}: field 'meta': expected a JSON string, found {meta_arr.dtype} {meta_arr.shape}")
     try:
-        meta: dict[str, Any] = json.loads(str(meta_arr))
-    except json.JSONDecodeError as exc:
+        meta_obj = json.loads(str(meta_arr))
+    except (json.JSONDecodeError, RecursionError) as exc:
         raise ModelFileError(f"{path}: field 'meta': not valid JSON ({exc})") from None
+    if not isinstance(meta_obj, dict):
+        raise ModelFileError(f"{path}: field 'meta': expected a JSON object, found a JSON {type(meta_obj).__name__}")
+    meta: dict[str, Any] = meta_obj
     if meta.get("format") != MODEL_FORMAT:
         raise ModelFileError(f"{path}: field 'format': expected {MODEL_FORMAT!r}, found {meta.get('format')!r}")
     if meta.get("format_version") != MODEL_FORMAT_VERSION:
@@ -210,13 +211,14 @@ def read_model(path: str | Path) -> tuple[AffordanceConfig, LearningConfig, dict
             f"(written by socialaff_sim {meta.get('package_version', '?')}); re-fit the model with this version"
         )
     check_missing()
+    check_meta(path, meta)
     try:
         config = AffordanceConfig.from_dict(meta["config"])
         learning = LearningConfig.from_dict(meta["learning"])
         label = str(meta["label"])
         names = tuple(str(n) for n in meta["subevent_names"])
         ids = [str(i) for i in meta["instance_ids"]]
-    except (KeyError, TypeError, ConfigError) as exc:
+    except (KeyError, TypeError, ValueError, AttributeError, ConfigError) as exc:
         raise ModelFileError(f"{path}: field 'meta': malformed metadata ({exc})") from None
     S = len(names)
     J = N_JOINTS
@@ -255,6 +257,8 @@ def read_model(path: str | Path) -> tuple[AffordanceConfig, LearningConfig, dict
     offsets = _check_shape(path, "parse_offsets", a["parse_offsets"], (len(ids) + 1,), "iu")
     if offsets[0] != 0 or np.any(np.diff(offsets) < 0) or offsets[-1] != a["parse_rows"].shape[0]:
         raise ModelFileError(f"{path}: field 'parse_offsets': expected increasing offsets from 0 to {a['parse_rows'].shape[0]}")
+
+    check_values(path, a, S, avail)
 
     model = SimpleNamespace()  # the learned attributes, by name
     model.label_ = label

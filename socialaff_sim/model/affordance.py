@@ -171,6 +171,16 @@ class AffordanceParameters:
         f0 = left_active(track, 0, stop, margin)
         return np.array([f0, partner_flag(self.hand_coupling_, f0)])
 
+    def reaction_hands_at(self, paths: np.ndarray, stop: int, margin: float = 0.0) -> np.ndarray:
+        """:meth:`reaction_hands` from agent 0's cumulative wrist paths ``paths`` (T, 2)
+        (:func:`~socialaff_sim.model.handedness.wrist_paths`) over frames ``[0, stop)``: O(1) per call."""
+        self._check()
+        if not self.config.active_hand:
+            return np.zeros(2, bool)
+        k = min(max(int(stop), 1), paths.shape[0]) - 1
+        f0 = bool(paths[k, 0] - paths[k, 1] > margin)
+        return np.array([f0, partner_flag(self.hand_coupling_, f0)])
+
     def interval_features(self, track: np.ndarray, starts: np.ndarray, stops: np.ndarray, fps: float) -> IntervalFeatures:
         """Features of candidate intervals ``[starts, stops)`` of a canonical track (vectorized; with
         the path residuals when ``config.path_noise``)."""

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..data.skeletons import N_KEY
 
-__all__ = ["KEY_SWAP", "left_active", "hand_flags", "relabel", "fit_hand_coupling", "partner_flag"]
+__all__ = ["KEY_SWAP", "left_active", "wrist_paths", "hand_flags", "relabel", "fit_hand_coupling", "partner_flag"]
 
 KEY_SWAP = np.array([0, 2, 1, 4, 3])
 """Permutation of one agent's key joints (base, left wrist, right wrist, left ankle, right ankle) that swaps sides."""
@@ -35,6 +35,16 @@ def left_active(track: np.ndarray, agent: int, stop: int | None = None, margin: 
     steps = np.linalg.norm(np.diff(x, axis=0), axis=-1)  # (T'-1, 2)
     path = np.nansum(steps, axis=0) if steps.size else np.zeros(2)
     return bool(path[0] - path[1] > margin)
+
+
+def wrist_paths(track: np.ndarray, agent: int) -> np.ndarray:
+    """(T, 2) float64 metres: row k holds the path lengths of agent ``agent``'s left and right wrists over
+    frames ``[0, k]`` of ``track`` (T, 11, 3), missing frames adding nothing, so that
+    ``left_active(track, agent, stop, margin)`` is ``paths[stop − 1, 0] − paths[stop − 1, 1] > margin``
+    (up to rounding) in O(1) per query: the causal flag of a long stream at every frame."""
+    x = track[:, agent * N_KEY + 1 : agent * N_KEY + 3]
+    steps = np.nan_to_num(np.linalg.norm(np.diff(x, axis=0), axis=-1), nan=0.0)
+    return np.concatenate([np.zeros((1, 2)), np.cumsum(steps, axis=0)])
 
 
 def hand_flags(track: np.ndarray) -> np.ndarray:

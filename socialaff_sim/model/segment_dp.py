@@ -24,10 +24,15 @@ def segmentation_tables(
     *,
     distinct: bool = True,
     unique: bool = False,
+    rows: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The DP tables: ``best`` (B + 1, M, S) — the best score of a parse of ``[0, b)`` whose last
     interval is labelled s with used-label set m (M = 2^S if ``unique`` else 1) — and the
-    back-pointers ``back`` (B + 1, M, S, 3) holding (previous cut, previous mask, previous label)."""
+    back-pointers ``back`` (B + 1, M, S, 3) holding (previous cut, previous mask, previous label).
+
+    ``rows``: the first k + 1 rows of both tables from an earlier call whose cut points and interval
+    scores agree up to cut k (row b reads only ``seg[:b, b]`` and the rows before it); only rows
+    k + 1 … B are computed, and only the columns ``seg[:, k + 1:]`` are read."""
     seg = np.where(np.isnan(seg), -np.inf, seg)
     B = seg.shape[0] - 1
     S = log_start.shape[0]
@@ -39,7 +44,12 @@ def segmentation_tables(
     back = np.full((B + 1, M, S, 3), -1, dtype=np.int64)  # (a, mask, s) of the previous interval
     masks = np.arange(M)
     bits = 1 << np.arange(S)
-    for b in range(1, B + 1):
+    first = 1
+    if rows is not None:
+        k = rows[0].shape[0] - 1
+        best[: k + 1], back[: k + 1] = rows[0], rows[1]
+        first = k + 1
+    for b in range(first, B + 1):
         # A first interval [0, b).
         first_mask = bits if unique else np.zeros(S, np.int64)
         best[b, first_mask, np.arange(S)] = log_start + seg[0, b]

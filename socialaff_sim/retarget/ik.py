@@ -33,7 +33,7 @@ ball, each pushing the other off its target, otherwise trade places step after s
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mink
 import mujoco
@@ -71,6 +71,9 @@ class IKModel:
     """(G,) mocap index of each human geom's body."""
     max_joint_velocity: float
     """rad/s for every hinge."""
+    torso_dofs: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    """Dof indices of the spine: the joints between the base and the torso (the body both shoulders hang
+    from). Their posture cost is ``IKConfig.torso_posture_cost``, which keeps the torso upright."""
 
 
 @dataclass(frozen=True)
@@ -106,7 +109,9 @@ class RobotIK:
         orientation = [c.base_orientation_cost, 0.0, 0.0, c.foot_orientation_cost, c.foot_orientation_cost]
         self._position_cost = np.array([c.base_position_cost] + [c.position_cost] * 4)
         self.key_task = KeyFramesTask(m, ik_model.frame_kinds, ik_model.frame_ids, self._position_cost, orientation)
-        self.posture_task = mink.PostureTask(m, cost=c.posture_cost)
+        posture_cost = np.full(m.nv, c.posture_cost)
+        posture_cost[np.asarray(ik_model.torso_dofs, dtype=np.int64)] = c.torso_posture_cost
+        self.posture_task = mink.PostureTask(m, cost=posture_cost)
         self.posture_task.set_target(ik_model.home_qpos)
         self.config_limit = mink.ConfigurationLimit(m)
         hinge = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))

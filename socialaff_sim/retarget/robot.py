@@ -20,6 +20,7 @@ from ..data.skeletons import KEY_JOINTS
 from ..errors import ConfigError, choices
 from ..resources import assets_dir
 from ._toml import Table, read_toml
+from .model_prep import FRAME_SITE_PREFIX, FrameRef, keyframe_angles, prepare_model
 
 __all__ = ["FrameRef", "RobotSpec", "load_robot", "available_robots", "BUILTIN_MODELS"]
 
@@ -38,19 +39,6 @@ def _cmu_humanoid() -> mjcf.RootElement:
 
 BUILTIN_MODELS = {"dm_control.cmu_humanoid": _cmu_humanoid}
 """Models loaded from installed packages rather than from an MJCF file."""
-
-
-@dataclass(frozen=True)
-class FrameRef:
-    """A frame of the robot model: a site or a body, by its name in the robot's MJCF."""
-
-    kind: str
-    """``"site"`` or ``"body"``."""
-    name: str
-    """Element name inside the robot model (without the scene's namespace prefix)."""
-
-    def __str__(self) -> str:
-        return f"{self.kind}:{self.name}"
 
 
 @dataclass(frozen=True)
@@ -81,14 +69,45 @@ class RobotSpec:
     """(w, x, y, z) orientation of the model's root that puts z up and x forward."""
     max_joint_velocity: float = 8.0
     """Velocity limit of every hinge in the IK, rad/s."""
+    ignore_bodies: tuple[str, ...] = ()
+    """Top-level bodies of the MJCF that are not part of the robot (H1's dummy ``not_use_body``): removed,
+    with the joints, actuators, sensors and equalities that refer to them."""
+    mjcf_source: str = ""
+    """Where a user gets the model when the mapping does not point at a file (shown in errors)."""
 
     def build_mjcf(self) -> mjcf.RootElement:
-        """A fresh dm_control MJCF model of the robot (safe to modify and attach)."""
+        """A fresh dm_control MJCF model of the robot (safe to modify and attach); see :meth:`build_model`."""
+        return self.build_model()[0]
+
+    def build_model(self) -> tuple[mjcf.RootElement, dict[str, float]]:
+        """A fresh dm_control MJCF model of the robot and its home joint angles by joint name (rad).
+
+        The model is made attachable: the root body's own free joint, if any, is removed (the
+        simulator adds one), as are sensors, ``ignore_bodies`` and what refers to them; the
+        frames given as body offsets get their sites.
+        """
         if self.builtin is not None:
             root = BUILTIN_MODELS[self.builtin]()
         else:
-            assert self.mjcf_path is not None  # guaranteed by load_robot
-            root = mjcf.from_path(str(self.mjcf_path))
+            if self.mjcf_path is None:
+                raise ConfigError(
+                    f"{self.mapping_file}: robot {self.name!r} needs its MJCF model, which the project does not "
+                    f"ship: give its path (--mjcf PATH, or load_robot({self.name!r}, mjcf=PATH))"
+                    + (f"; the model: {self.mjcf_source}" if self.mjcf_source else "")
+                )
+            try:
+                root = mjcf.from_path(str(self.mjcf_path))
+            except (ValueError, OSError) as exc:  # dm_control raises ValueError on bad XML or missing meshes
+                raise ConfigError(f"{self.mapping_file}: the robot model {self.mjcf_path} cannot be read: {exc}") from None
+        if self.posture_keyframe is not None:
+            keys = [k.name for k in root.find_all("key")]
+            if self.posture_keyframe not in keys:
+                raise ConfigError(
+                    f"{self.mapping_file}: posture.keyframe {self.posture_keyframe!r} is not in the model; "
+                    f"keyframes: {choices(keys)}"
+                )
+        home = keyframe_angles(root, self.posture_keyframe)
+        prepare_model(root, self.mapping_file, self.ignore_bodies, self.frames)
         for ref in (*self.frames, *self.limb_roots):
             if root.find(ref.kind, ref.name) is None:
                 present = [e.name for e in root.find_all(ref.kind) if e.name]
@@ -111,14 +130,11 @@ class RobotSpec:
                     f"{self.mapping_file}: posture.joints names {name!r}, not a joint of the model; "
                     f"joints: {choices(sorted(j for j in joints if j))}"
                 )
-        if self.posture_keyframe is not None:
-            keys = [k.name for k in root.find_all("key")]
-            if self.posture_keyframe not in keys:
-                raise ConfigError(
-                    f"{self.mapping_file}: posture.keyframe {self.posture_keyframe!r} is not in the model; "
-                    f"keyframes: {choices(keys)}"
-                )
-        return root
+        home = {k: v for k, v in home.items() if k in joints}
+        home.update(self.posture_joints)
+        for key in root.find_all("key"):
+            key.remove()
+        return root, home
 
 
 def available_robots() -> tuple[str, ...]:
@@ -127,15 +143,25 @@ def available_robots() -> tuple[str, ...]:
 
 
 def _frame(table: Table, key: str) -> FrameRef:
+    if isinstance(table.data.get(key), dict):
+        sub = table.get_table(key)
+        sub.check_keys(["body", "pos"])
+        body = sub.get_str("body")
+        pos = sub.get_float_list("pos", 3, [0.0, 0.0, 0.0])
+        return FrameRef("site", f"{FRAME_SITE_PREFIX}{key}", body, (pos[0], pos[1], pos[2]))
     text = table.get_str(key)
     kind, sep, name = text.partition(":")
     if not sep or kind not in FRAME_KINDS or not name:
-        raise table.error(key, "'site:NAME' or 'body:NAME'", text)
+        raise table.error(key, "'site:NAME', 'body:NAME' or { body = NAME, pos = [x, y, z] }", text)
     return FrameRef(kind, name)
 
 
-def load_robot(robot: str | Path) -> RobotSpec:
-    """Read a robot mapping: a shipped name (``"cmu"``, ``"ours"``) or a path to a TOML file."""
+def load_robot(robot: str | Path, mjcf: str | Path | None = None) -> RobotSpec:
+    """Read a robot mapping: a shipped name (``"cmu"``, ``"ours"``, ``"unitree_h1"``...) or a path to a TOML file.
+
+    ``mjcf``: the robot's MJCF file, overriding the mapping's ``mjcf`` key (the shipped mappings of
+    robots whose models the project does not ship, such as the Unitree ones, need it).
+    """
     path = Path(robot)
     if path.suffix != ".toml":
         shipped = assets_dir() / ROBOTS_SUBDIR / f"{robot}.toml"
@@ -146,19 +172,36 @@ def load_robot(robot: str | Path) -> RobotSpec:
             )
         path = shipped
     top = Table(read_toml(path), path)
-    top.check_keys(["name", "description", "mjcf", "builtin", "frames", "limbs", "hands", "posture", "limits"])
+    top.check_keys(["name", "description", "mjcf", "mjcf_source", "builtin", "ignore_bodies", "frames", "limbs",
+                    "hands", "posture", "limits"])
     name = top.get_str("name", path.stem)
+    source = top.get_str("mjcf_source", "")
     has_file, has_builtin = "mjcf" in top, "builtin" in top
-    if has_file == has_builtin:
-        raise ConfigError(f"{path}: give exactly one of 'mjcf' (a model file) or 'builtin' ({choices(BUILTIN_MODELS)})")
+    if has_file and has_builtin:
+        raise ConfigError(f"{path}: give at most one of 'mjcf' (a model file) or 'builtin' ({choices(BUILTIN_MODELS)})")
+    if has_builtin and mjcf is not None:
+        raise ConfigError(f"{path}: robot {name!r} is a builtin model ({top.get_str('builtin')}); it takes no --mjcf")
+    if not has_file and not has_builtin and not source:
+        raise ConfigError(f"{path}: give one of 'mjcf' (a model file), 'builtin' ({choices(BUILTIN_MODELS)}) "
+                          "or 'mjcf_source' (where users get the model they pass with --mjcf)")
     mjcf_path: Path | None = None
     builtin: str | None = None
-    if has_file:
+    if mjcf is not None:
+        mjcf_path = Path(mjcf).expanduser().resolve()
+        if not mjcf_path.is_file():
+            raise ConfigError(f"--mjcf: file {mjcf_path} does not exist (the MJCF model of robot {name!r})")
+    elif has_file:
         mjcf_path = (path.parent / top.get_str("mjcf")).resolve()
         if not mjcf_path.exists():
             raise ConfigError(f"{path}: key 'mjcf': file {mjcf_path} does not exist")
-    else:
+    elif has_builtin:
         builtin = top.get_str("builtin", valid=BUILTIN_MODELS)
+    else:
+        raise ConfigError(
+            f"{path}: robot {name!r} needs its MJCF model, which the project does not ship: give its path "
+            f"(--mjcf PATH, or load_robot({name!r}, mjcf=PATH)); the model: {source}"
+        )
+    ignore = tuple(top.get_str_list("ignore_bodies", []))
 
     frames_t = top.get_table("frames")
     frames_t.check_keys(KEY_JOINTS)
@@ -198,4 +241,6 @@ def load_robot(robot: str | Path) -> RobotSpec:
         posture_joints=joints,
         root_quat=(float(quat[0]), float(quat[1]), float(quat[2]), float(quat[3])),
         max_joint_velocity=vmax,
+        ignore_bodies=ignore,
+        mjcf_source=source,
     )

@@ -12,8 +12,9 @@ from ..data.interaction import Interaction
 from ..data.skeletons import KEY_JOINTS
 from ..retarget.sources import KeyJointSource
 from .simulator import Simulator, StepResult
+from .support import FrameSupport
 
-__all__ = ["run_episode", "summarize", "ERROR_OK"]
+__all__ = ["run_episode", "summarize", "support_summary", "support_caption", "ERROR_OK"]
 
 ERROR_OK = 0.02
 """Key-frame error (m) under which a reachable target counts as met."""
@@ -59,6 +60,51 @@ def _stats(x: np.ndarray) -> dict[str, float | None]:
     return {"mean": float(x.mean()), "p50": float(np.median(x)), "p95": float(np.percentile(x, 95)), "max": float(x.max())}
 
 
+def _support_stats(frames: list[FrameSupport]) -> dict[str, float | None]:
+    if not frames:
+        return {k: None for k in ("outside_support_mean", "outside_support_peak", "foot_slide_cm", "penetration_cm",
+                                  "torque_ratio_max", "saturated_fraction", "at_joint_limit_fraction",
+                                  "torso_tilt_deg_max")}
+    return {
+        "outside_support_mean": float(np.mean([f.outside_mean for f in frames])),
+        "outside_support_peak": float(max(f.outside_peak for f in frames)),
+        "foot_slide_cm": 100.0 * float(sum(f.slide for f in frames)),
+        "penetration_cm": 100.0 * float(max(f.penetration for f in frames)),
+        "torque_ratio_max": float(max(f.torque_ratio for f in frames)),
+        "saturated_fraction": float(np.mean([f.saturated for f in frames])),
+        "at_joint_limit_fraction": float(np.mean([f.at_limit for f in frames])),
+        "torso_tilt_deg_max": float(max(f.tilt_deg for f in frames)),
+    }
+
+
+def support_summary(sim: Simulator) -> dict[str, Any]:
+    """Outside support (fraction of the robot's weight), foot sliding, penetration and effort of the episode
+    just run: over all frames, and over the *contact phase* (the frames where a sub-goal's contact holds now)."""
+    frames = [r.support for r in sim.results if r.support is not None]
+    contact = [r.support for r in sim.results if r.support is not None and any(r.subgoals_now.values())]
+    meter = sim.support
+    return {
+        "mode": "gravity compensation (kinematic puppet)" if sim.config.gravity_compensation else "real weight",
+        "robot_mass_kg": meter.mass,
+        "gravity_compensation_fraction": meter.gravcomp_fraction,
+        "episode": _support_stats(frames),
+        "contact_phase": {"frames": len(contact), **_support_stats(contact)},
+    }
+
+
+def support_caption(sim: Simulator) -> str:
+    """One caption line: the mode; this frame's outside support (% of the weight), the episode's foot sliding
+    so far, this frame's largest servo force (% of its limit) and the torso's tilt from the vertical."""
+    mode = "puppet (gravity compensated)" if sim.config.gravity_compensation else "real weight"
+    frames = [r.support for r in sim.results if r.support is not None]
+    if not frames:
+        return f"{mode}"
+    last = frames[-1]
+    return (f"{mode}: outside support {100 * last.outside_mean:.0f} %, feet slid "
+            f"{100 * sum(f.slide for f in frames):.0f} cm, torque {100 * last.torque_ratio:.0f} %, "
+            f"torso {last.tilt_deg:.0f} deg")
+
+
 def summarize(sim: Simulator, wall_seconds: float) -> dict[str, Any]:
     """Metrics of the episode just run by ``sim`` (JSON-serialisable)."""
     res = sim.results
@@ -86,7 +132,11 @@ def summarize(sim: Simulator, wall_seconds: float) -> dict[str, Any]:
         "simulated_seconds": sim_time,
         "physics_steps_per_frame": sim.n_sub,
         "subgoals": [
-            {"name": s.name, "kind": s.kind, "success": s.success, "time": s.time, "contact_seconds": s.contact_time}
+            {"name": s.name, "kind": s.kind, "success": s.success, "achieved": s.success, "time": s.time,
+             "contact_seconds": s.contact_time, "current_at_end": s.current,
+             "in_contact_per_frame": [r.subgoals_now.get(s.name, False) for r in res],
+             "gap_m_per_frame": [None if r.subgoal_gaps.get(s.name) is None else round(float(r.subgoal_gaps[s.name]), 4)
+                                 for r in res]}
             for s in scorer.subgoals
         ],
         "success": all(s.success for s in scorer.subgoals) and not scorer.failed,
@@ -101,6 +151,7 @@ def summarize(sim: Simulator, wall_seconds: float) -> dict[str, Any]:
         "contact_force_on_human_n": {"max": scorer.max_force_on_human,
                                      "per_frame": [round(r.force_on_human, 3) for r in res]},
         "object_released_at": None if sim.carry is None else scorer.tracks.release_time,
+        "support": support_summary(sim),
         "wall_seconds": wall_seconds,
         "real_time_factor": sim_time / wall_seconds if wall_seconds > 0 else None,
     }

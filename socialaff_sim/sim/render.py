@@ -141,17 +141,19 @@ class SceneRenderer:
         self._ctx = None
 
     def _aim(self) -> None:
-        """Side camera: looking across the robot-human axis at both of them."""
+        """Side camera: looking across the robot-human axis at both of them, where they are now (the robot's
+        root as simulated, not where it was placed: it walks in)."""
         sim = self.sim
-        robot = sim.frame_R.origin
+        robot = np.array(sim.data.qpos[sim.scene.robot_qadr[:3]])
         human = sim.pose.joints[min(sim.frame, sim.n_frames - 1)]
         human_xy = np.nanmean(human, axis=0)[:2] if np.isfinite(human).any() else robot[:2] + sim.frame_R.rotation[:2, 0]
         mid = 0.5 * (robot[:2] + human_xy)
         sep = float(np.linalg.norm(human_xy - robot[:2]))
         cam = self._cam
         cam.type = mujoco.mjtCamera.mjCAMERA_FREE
-        cam.lookat[:] = (mid[0], mid[1], 0.95)
-        cam.distance = max(2.6, 1.3 * sep + 1.5)
+        # Far enough that both, 2 m tall, fit under the caption band (45° vertical field of view).
+        cam.lookat[:] = (mid[0], mid[1], 1.0)
+        cam.distance = max(3.4, 1.3 * sep + 1.5)
         cam.azimuth = float(np.degrees(sim.frame_R.yaw)) + 90.0
         cam.elevation = -12.0
 

@@ -1,7 +1,7 @@
 """Preparing a robot's MJCF for the scene, and tuning its servos once compiled.
 
 * :func:`robot_mjcf` loads the model, reads its home posture, turns on gravity
-  compensation, excludes contacts between bodies that overlap by design, and
+  compensation where asked (a kinematic puppet), excludes contacts between bodies that overlap by design, and
   (for the IK model) makes rigid the joints that cannot move a key frame;
 * :func:`tune_servos` gives every position servo critically damped gains;
 * :func:`limit_hand_force` caps the arm servos' torques so that a hand presses
@@ -18,37 +18,71 @@ from dm_control import mjcf
 
 from ..retarget.robot import RobotSpec
 
-__all__ = ["robot_mjcf", "tune_servos", "limit_hand_force", "SELF_CONTACT_HOPS", "ServoScene"]
+__all__ = ["robot_mjcf", "motors_to_servos", "tune_servos", "limit_hand_force", "SELF_CONTACT_HOPS", "ServoScene"]
 
 
-def robot_mjcf(robot: RobotSpec, physics: bool) -> tuple[mjcf.RootElement, dict[str, float]]:
-    """The robot's MJCF (namespace ``robot``) and its home joint angles by joint name (rad)."""
-    rob = robot.build_mjcf()
-    home: dict[str, float] = {}
-    if robot.posture_keyframe is not None:
-        key = rob.find("key", robot.posture_keyframe)
-        values = np.atleast_1d(np.asarray(key.qpos, dtype=np.float64))
-        i = 0
-        for j in rob.find_all("joint"):
-            width = {"free": 7, "ball": 4}.get(j.type or "hinge", 1)
-            if width == 1 and i < len(values):
-                home[j.name] = float(values[i])
-            i += width
-    home.update(robot.posture_joints)
-    for k in rob.find_all("key"):
-        k.remove()
+def robot_mjcf(robot: RobotSpec, physics: bool, gravity_compensation: bool = False) -> tuple[mjcf.RootElement, dict[str, float]]:
+    """The robot's MJCF (namespace ``robot``) and its home joint angles by joint name (rad).
+
+    ``gravity_compensation``: every body gets ``gravcomp = 1`` (a weightless puppet); otherwise each
+    body's own setting in the model is kept (0 in the shipped and Unitree models)."""
+    rob, home = robot.build_model()
     rob.model = "robot"
-    for body in rob.find_all("body"):
-        body.gravcomp = 1.0
+    if gravity_compensation:
+        for body in rob.find_all("body"):
+            body.gravcomp = 1.0
     for b1, b2 in _near_body_pairs(robot, rob):
         rob.contact.add("exclude", body1=b1, body2=b2)
     if not physics:
         _freeze_for_ik(robot, rob, home)
     if physics:
+        motors_to_servos(rob)
         for act in rob.find_all("actuator"):
             if act.tag == "general" and act.biastype == "affine":
                 act.dyntype = "none"  # servos act at once: the lag comes from their gains alone
     return rob, home
+
+
+def _pair(value: object) -> tuple[float, float] | None:
+    if value is None:
+        return None
+    v = np.asarray(value, dtype=np.float64).ravel()
+    return (float(v[0]), float(v[1])) if v.size == 2 and v[0] < v[1] else None
+
+
+def motors_to_servos(rob: mjcf.RootElement) -> int:
+    """Replace every torque actuator (``<motor>``) on a joint by a position servo with the same torque limit.
+
+    Real robot models (Unitree H1, G1) drive their joints with motors whose control is
+    a torque; the simulator drives joint angles, so each motor becomes a ``<position>``
+    actuator (its gains are set later by :func:`tune_servos`) whose force range is the
+    motor's torque limit: the tightest of its control range times its gear, its own
+    force range and the joint's ``actuatorfrcrange``. Returns the number replaced.
+    """
+    n = 0
+    for act in list(rob.find_all("actuator")):
+        if act.tag != "motor" or act.joint is None:
+            continue
+        joint = act.joint if not isinstance(act.joint, str) else rob.find("joint", act.joint)
+        gear = float(np.asarray(act.gear if act.gear is not None else [1.0], dtype=np.float64).ravel()[0])
+        limits = []
+        ctrl = _pair(act.ctrlrange)
+        if ctrl is not None:
+            limits.append(max(abs(ctrl[0]), abs(ctrl[1])) * abs(gear))
+        for rng in (_pair(act.forcerange), _pair(getattr(joint, "actuatorfrcrange", None))):
+            if rng is not None:
+                limits.append(max(abs(rng[0]), abs(rng[1])))
+        name = act.name
+        act.remove()
+        kwargs: dict[str, object] = {"joint": joint, "kp": 1.0}
+        if name:
+            kwargs["name"] = name
+        if limits:
+            kwargs["forcelimited"] = True
+            kwargs["forcerange"] = [-min(limits), min(limits)]
+        rob.actuator.add("position", **kwargs)
+        n += 1
+    return n
 
 
 def _freeze_for_ik(robot: RobotSpec, rob: mjcf.RootElement, home: dict[str, float]) -> None:
@@ -140,10 +174,19 @@ def tune_servos(model: mujoco.MjModel, robot_qadr: np.ndarray, home_qpos: np.nda
     m.actuator_biasprm[ids, 1] = -kp
     m.actuator_biasprm[ids, 2] = -kv
     m.actuator_gear[ids, 0] = 1.0
-    limited = m.jnt_limited[jnt].astype(bool)
-    m.actuator_ctrllimited[ids] = limited
-    m.actuator_ctrlrange[ids] = np.where(limited[:, None], m.jnt_range[jnt], 0.0)
+    # No control range: the reference is kept inside the joint's range by Scene.ctrl_for, and a
+    # feed-forward torque may push the control beyond it (sim.feedforward).
+    m.actuator_ctrllimited[ids] = 0
+    m.actuator_ctrlrange[ids] = 0.0
     m.jnt_stiffness[joint_ids] = 0.0
+
+
+def _subtree_mask(m: mujoco.MjModel, root: int) -> np.ndarray:
+    inside = np.zeros(m.nbody, dtype=bool)
+    inside[root] = True
+    for b in range(root + 1, m.nbody):  # MuJoCo numbers a body after its parent
+        inside[b] = inside[m.body_parentid[b]]
+    return inside
 
 
 class ServoScene(Protocol):
@@ -160,8 +203,13 @@ class ServoScene(Protocol):
     hand_geom: np.ndarray
 
 
-def limit_hand_force(scene: ServoScene, force: float) -> None:
+def limit_hand_force(scene: ServoScene, force: float, weight: bool = False) -> None:
     """Cap each arm servo's torque at ``force`` (N) times its lever arm to the hand, at home.
+
+    ``weight``: the robot has its real weight (no gravity compensation); each cap then also
+    covers the torque that holds the part of the arm beyond the joint straight out sideways
+    (Σ m·g·r over its bodies, r their centres of mass's distances from the joint at home),
+    so that the press on a person stays bounded while the arm can still hold itself up.
 
     The arm of a side is the subtree of its limb root (the shoulder body). A joint's
     lever arm is the distance from its anchor to the wrist frame plus the hand's
@@ -188,6 +236,10 @@ def limit_hand_force(scene: ServoScene, force: float) -> None:
             if not inside[m.jnt_bodyid[j]]:
                 continue
             limit = force * (float(np.linalg.norm(wrist - d.xanchor[j])) + reach)
+            if weight:
+                below = _subtree_mask(m, int(m.jnt_bodyid[j]))
+                lever = np.linalg.norm(d.xipos[below] - d.xanchor[j], axis=1)
+                limit += float(np.linalg.norm(m.opt.gravity) * (m.body_mass[below] * lever).sum())
             if m.actuator_forcelimited[a]:
                 lo, hi = m.actuator_forcerange[a]
                 limit = min(limit, -lo, hi)

@@ -3,8 +3,8 @@
 Contents of the world:
 
 * a floor plane;
-* the robot, attached under a free joint (``robot/root/``), with gravity
-  compensation on its bodies;
+* the robot, attached under a free joint (``robot/root/``), with its real
+  weight (or, ``gravity_compensation=True``, gravity compensation on its bodies);
 * in the physics scene, a mocap body ``robot_anchor`` welded to the robot's root:
   the base is *held by a weld to a moving mocap anchor* (like a harness on a
   gantry). The robot keeps the same free-joint coordinates as in the IK model, so
@@ -40,6 +40,10 @@ from .scene_human import HUMAN_RGBA, add_human, part_names, pose_compliant, set_
 __all__ = ["ObjectSpec", "Scene", "build_scene", "set_human_sizes", "pose_compliant", "HUMAN_RGBA", "ROBOT_RGBA", "OBJECT_RGBA"]
 
 ROBOT_RGBA = (0.25, 0.75, 0.3, 1.0)
+HARNESS_IMPEDANCE = 0.9
+"""d of the compliant harness's soft weld (MuJoCo solimp): the share of the constraint's correction applied.
+Standing still on its feet, the H1 took 2.5 % of its weight from it at τ = 0.02 s (1.7 % at 0.05 s), and
+hanging sagged by 3.5 cm (4.4 cm); the rigid weld (0.008 s, d = 0.99): 11.5 % standing."""
 OBJECT_RGBA = (0.95, 0.8, 0.2, 1.0)
 GRIP_SOLREF = (0.01, 1.0)
 """Time constant (s) and damping ratio of the grip welds between a robot hand and the object."""
@@ -137,18 +141,27 @@ class Scene:
         if qvel is not None:
             ref = ref - b[:, 2] * np.asarray(qvel)[..., self.act_vadr]
         ctrl = ref / m.actuator_gainprm[ids, 0]
-        lo, hi = m.actuator_ctrlrange[ids, 0], m.actuator_ctrlrange[ids, 1]
-        limited = m.actuator_ctrllimited[ids].astype(bool)
+        # The reference stays inside the joint's range (the control itself may go beyond it: a
+        # feed-forward torque is added as an offset of the reference, see sim.feedforward).
+        jnt = m.actuator_trnid[ids, 0]
+        lo, hi = m.jnt_range[jnt, 0], m.jnt_range[jnt, 1]
+        limited = m.jnt_limited[jnt].astype(bool) | m.actuator_ctrllimited[ids].astype(bool)
+        lo = np.where(m.jnt_limited[jnt].astype(bool), lo, m.actuator_ctrlrange[ids, 0])
+        hi = np.where(m.jnt_limited[jnt].astype(bool), hi, m.actuator_ctrlrange[ids, 1])
         return np.where(limited, np.clip(ctrl, lo, hi), ctrl)
 
 
 def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None = None,
-                *, physics: bool = True, timestep: float = 0.004, servo_bandwidth: float | None = 25.0) -> Scene:
+                *, physics: bool = True, timestep: float = 0.004, servo_bandwidth: float | None = 25.0,
+                gravity_compensation: bool = False, harness_time_constant: float | None = None) -> Scene:
     """Compile the scene for one robot, one skeleton layout and an optional object.
 
     ``physics=False`` gives the IK scene: robot and human only (no floor, object,
     anchor or grips), used by the retargeter's collision avoidance.
     ``servo_bandwidth`` (rad/s): see :func:`tune_servos`; ``None`` keeps the model's gains.
+    ``gravity_compensation``: every robot body gets ``gravcomp = 1`` (a weightless, kinematic puppet).
+    ``harness_time_constant`` (s): the root hangs from the anchor by a soft weld of this time constant and
+    impedance :data:`HARNESS_IMPEDANCE` (a compliant harness); ``None``: by a rigid weld.
     """
     root = mjcf.RootElement(model="socialaff_scene")
     root.compiler.angle = "radian"
@@ -169,16 +182,21 @@ def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None
                            contype=4, conaffinity=1)
         root.worldbody.add("light", pos=(0, 0, 4), dir=(0, 0, -1), diffuse=(0.5, 0.5, 0.5))
 
-    rob, home = robot_mjcf(robot, physics)
+    rob, home = robot_mjcf(robot, physics, gravity_compensation)
     frame = root.worldbody.attach(rob)
     frame.add("freejoint", name="root")
     body = human_body(layout)
     add_human(root, body, physics)
     if physics:
         anchor = root.worldbody.add("body", name="robot_anchor", mocap=True)
+        # Rigid by default (a gantry); a compliant harness is a soft weld: MuJoCo then moves the root
+        # toward the anchor with time constant τ and lets through only the share d of the correction,
+        # and the solver handles it implicitly (a stiff explicit spring would need a heavy carriage).
+        solref, solimp = (0.008, 1.0), (0.99, 0.999, 0.001, 0.5, 2)
+        if harness_time_constant is not None:
+            solref, solimp = (harness_time_constant, 1.0), (HARNESS_IMPEDANCE, HARNESS_IMPEDANCE, 0.001, 0.5, 2)
         root.equality.add("weld", name="robot_anchor", body1=anchor, body2="robot/",
-                          relpose=(0, 0, 0, 1, 0, 0, 0), solref=(0.008, 1.0),
-                           solimp=(0.99, 0.999, 0.001, 0.5, 2))
+                          relpose=(0, 0, 0, 1, 0, 0, 0), solref=solref, solimp=solimp)
     if physics and obj is not None:
         ob = root.worldbody.add("body", name="object", pos=(0, 0, -5))
         ob.add("freejoint", name="object")
@@ -330,8 +348,9 @@ def _is_descendant(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
 def _lowest_point(model: mujoco.MjModel, qadr: np.ndarray, robot_q: np.ndarray, robot_geom: np.ndarray) -> float:
     """Lowest z of the robot's collidable geoms with its free joint at z = 0.
 
-    Exact for spheres, capsules, boxes, ellipsoids and cylinders (support
-    function along −z); other shapes use their bounding box.
+    Exact for spheres, capsules, boxes, ellipsoids, cylinders (support
+    function along −z) and meshes (their lowest vertex); other shapes use their
+    bounding box.
     """
     data = mujoco.MjData(model)
     data.qpos[qadr] = robot_q
@@ -351,8 +370,12 @@ def _lowest_point(model: mujoco.MjModel, qadr: np.ndarray, robot_q: np.ndarray, 
         np.where(kind == int(T.mjGEOM_CYLINDER),
                  np.abs(rz[:, 2]) * size[:, 1] + size[:, 0] * np.sqrt(np.clip(1 - rz[:, 2] ** 2, 0, 1)),
                  np.nan)))))
+    for i in np.flatnonzero(kind == int(T.mjGEOM_MESH)):  # meshes: their lowest vertex, exactly
+        mid = int(model.geom_dataid[g[i]])
+        verts = model.mesh_vert[model.mesh_vertadr[mid]:model.mesh_vertadr[mid] + model.mesh_vertnum[mid]]
+        reach[i] = -float((verts @ rz[i]).min())
     box = np.isnan(reach)
-    if box.any():  # meshes and the rest: the geom's bounding box
+    if box.any():  # the rest: the geom's bounding box
         aabb = model.geom_aabb[g[box]]
         z[box] = z[box] + np.einsum("gj,gj->g", rz[box], aabb[:, :3])
         reach[box] = np.einsum("gj,gj->g", np.abs(rz[box]), aabb[:, 3:])

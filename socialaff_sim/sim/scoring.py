@@ -30,10 +30,12 @@ import numpy as np
 from .scene import Scene
 from .tasks import TaskSpec
 
-__all__ = ["SubgoalResult", "FailureResult", "SubgoalScorer", "GAP"]
+__all__ = ["SubgoalResult", "FailureResult", "SubgoalScorer", "GAP", "GAP_RANGE"]
 
 GAP = 0.1
 """Longest break (s) in a contact that still counts as continuous holding."""
+GAP_RANGE = 1.0
+"""Farthest distance (m) :meth:`SubgoalScorer.measure_gaps` resolves; beyond it a gap reads ``None``."""
 FORCE_TIME_CONSTANT = 0.05
 """τ (s) of the exponential moving average applied to the force on the human before the
 ``contact_force`` test, so that a single stiff physics step does not count as a push."""
@@ -50,6 +52,30 @@ class SubgoalResult:
     """Simulated time (s) at which the sub-goal was met (for ``object_in_hand``: start of the final hold)."""
     contact_time: float = 0.0
     """Seconds of qualifying contact so far."""
+    current: bool = False
+    """Whether the sub-goal's contact holds *now* (at the last physics step): the robot group touches the
+    human group (or the object, or holds it by its grip weld). Unlike :attr:`success`, never latched."""
+    gap: float | None = None
+    """Distance (m) between the robot group's and the other group's geoms at the last
+    :meth:`SubgoalScorer.measure_gaps` (negative: penetration; ``None`` before the first, or farther
+    than :data:`GAP_RANGE`)."""
+
+    @property
+    def achieved(self) -> bool:
+        """Whether the sub-goal was ever met in this episode (latched; same as :attr:`success`)."""
+        return self.success
+
+    def state_text(self) -> str:
+        """``"hands_clasped: now touching | achieved at 2.80 s"``: the contact now and whether it was ever met."""
+        if self.current:
+            now = "now touching"
+        elif self.gap is not None:
+            now = f"now apart ({100 * max(self.gap, 0.0):.1f} cm)"
+        else:
+            now = "now apart"
+        ever = f"achieved at {self.time:.2f} s" if self.success and self.time is not None else (
+            "achieved" if self.success else "not achieved")
+        return f"{self.name}: {now} | {ever}"
 
 
 @dataclass
@@ -166,6 +192,8 @@ class SubgoalScorer:
             keep = self._interesting[cls]
         if keep is None or not keep.any():
             self.robot_on_object = False
+            for res in self.subgoals:
+                res.current = False
             if gripped is not None and any(gripped):
                 none = np.zeros(0, dtype=np.int64)
                 self._score_subgoals(none, none, np.zeros(0, dtype=bool), dt, t, subevent, gripped)
@@ -205,6 +233,7 @@ class SubgoalScorer:
                 tr.floor_time = t
         for k, (sg, res) in enumerate(zip(self.task.subgoals, self.subgoals, strict=True)):
             active = (len(g1) > 0 and self._pair_active(k, g1, g2, touching)) or bool(gripped and gripped[k])
+            res.current = active
             if sg.kind == "contact":
                 if active and (not sg.subevents or subevent in sg.subevents):
                     res.contact_time += dt
@@ -222,6 +251,29 @@ class SubgoalScorer:
                     if last is None or t - last > GAP + 1e-9:
                         tr.hold_since[sg.name] = t
                     tr.last_hold[sg.name] = t
+
+    def measure_gaps(self, data: mujoco.MjData) -> list[float | None]:
+        """Set and return each sub-goal's :attr:`~SubgoalResult.gap`: the smallest signed distance (m) between
+        its robot group's and its other group's collidable geoms (``mj_geomDistance``, exact for convex
+        shapes and meshes' convex hulls), ``None`` beyond :data:`GAP_RANGE` or without geoms."""
+        out: list[float | None] = []
+        for (a, b), res in zip(self._pairs, self.subgoals, strict=True):
+            best = GAP_RANGE
+            ga, gb = np.flatnonzero(a), np.flatnonzero(b)
+            if len(gb) and len(ga):
+                # Nearest candidates first (by centre distance), so that distmax shrinks fast.
+                ca, cb = data.geom_xpos[ga], data.geom_xpos[gb]
+                centre = np.linalg.norm(ca[:, None, :] - cb[None, :, :], axis=2)
+                for i in np.argsort(centre, axis=None):
+                    ia, ib = divmod(int(i), len(gb))
+                    reach = self.scene.model.geom_rbound[ga[ia]] + self.scene.model.geom_rbound[gb[ib]]
+                    if centre.flat[i] - reach > best:
+                        continue
+                    d = mujoco.mj_geomDistance(self.scene.model, data, int(ga[ia]), int(gb[ib]), best, None)
+                    best = min(best, float(d))
+            res.gap = None if best >= GAP_RANGE else best
+            out.append(res.gap)
+        return out
 
     def _score_failures(self, data: mujoco.MjData, g1: np.ndarray, g2: np.ndarray, dist: np.ndarray,
                         touching: np.ndarray, t: float) -> None:

@@ -31,6 +31,9 @@ from .scene import Scene, pose_compliant, set_human_sizes
 from .scoring import SubgoalScorer
 from .stage import Stage, compile_scenes, contact_exemptions, key_frames, key_frames_at
 from .substeps import FrameStepper
+from .feedforward import StandingFeedforward
+from .footlock import FootLock, FootLockConfig
+from .support import FrameSupport, SupportMeter
 from .tasks import TaskSpec, load_task
 
 __all__ = ["SimConfig", "StepResult", "Simulator"]
@@ -38,12 +41,34 @@ __all__ = ["SimConfig", "StepResult", "Simulator"]
 
 @dataclass(frozen=True)
 class SimConfig:
-    """Settings of the physics loop."""
+    """Settings of the physics loop.
+
+    Fields by concept
+    -----------------
+    - Physics: timestep, servo_bandwidth, hand_force, grip, settle_iterations
+    - Weight and support: gravity_compensation, harness_time_constant, foot_lock
+    - Retargeting: ik, scaling
+    """
 
     timestep: float = 0.004
     """Δt [s]: physics step in seconds (shortened so a data frame holds a whole number of steps)."""
     servo_bandwidth: float | None = 25.0
     """ω [rad/s]: natural frequency of the critically damped joint servos, rad/s (``None``: the model's own gains)."""
+    gravity_compensation: bool = False
+    """[—]: Kinematic-puppet mode: every robot body gets MuJoCo's gravity compensation (``gravcomp = 1``), so
+    the robot is weightless and its servos never hold anything up; its root is held by a rigid weld. Off by
+    default: gravity acts on the robot, and the support it then gets from its harness is measured
+    (:mod:`~socialaff_sim.sim.support`); every figure says which mode ran (``metrics.json``'s ``support.mode``)."""
+    foot_lock: FootLockConfig | None = field(default_factory=FootLockConfig)
+    """[—]: When a standing foot's target is held where the foot came down (:mod:`~socialaff_sim.sim.footlock`);
+    ``None``: ankle targets are followed as given."""
+    harness_time_constant: float = 0.02
+    """τ_h [s]: with the robot's real weight, its root hangs from the IK's base pose by a compliant harness,
+    a soft weld of this time constant (:func:`~socialaff_sim.sim.scene.build_scene`). Standing still at home
+    on its feet, the robot takes 2.9 % (Stubby), 6.2 % (H1) or 1.7 % (G1) of its weight from it; a robot
+    whose feet do not reach sags by about 3.5 cm and hangs. At 0.05 s the base lagged the IK's by up to 8 cm
+    while walking and Stubby's handshake of shake_hands_000 missed. With gravity compensation the root is
+    held by the rigid weld (0.008 s; with weight it would carry 11.5 % of the standing H1's weight)."""
     hand_force: float | None = 60.0
     """F_max [N]: the arm servos' torque limits are set so that a hand pushes with at most about
     this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,
@@ -87,6 +112,12 @@ class StepResult:
     """Whether a failure condition has triggered (now or earlier)."""
     done: bool
     """Whether the last frame has been reached."""
+    subgoals_now: dict[str, bool] = field(default_factory=dict)
+    """Whether each sub-goal's contact holds now, at the frame's last physics step (not latched)."""
+    subgoal_gaps: dict[str, float | None] = field(default_factory=dict)
+    """Each sub-goal's gap (m) between its two groups' geoms at the end of the frame (``None``: beyond 1 m)."""
+    support: FrameSupport | None = None
+    """The frame's outside support, foot sliding, penetration and effort (:mod:`~socialaff_sim.sim.support`)."""
 
 
 def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -104,6 +135,7 @@ class Simulator:
         self.config = config or SimConfig()
         self._stages: dict[str, Stage] = {}
         self._stage: Stage | None = None
+        self._footlock: FootLock | None = None
         self.interaction: Interaction | None = None
 
     # -- set-up -----------------------------------------------------------------------
@@ -114,6 +146,8 @@ class Simulator:
             scene, ik_scene, ik_model, ik_map = compile_scenes(
                 self.robot, inter.layout, obj, timestep=self.config.timestep,
                 servo_bandwidth=self.config.servo_bandwidth, hand_force=self.config.hand_force,
+                gravity_compensation=self.config.gravity_compensation,
+                harness_time_constant=None if self.config.gravity_compensation else self.config.harness_time_constant,
             )
             if not hasattr(self, "measurements"):
                 self.measurements = measure_robot(ik_scene.model, ik_scene.home_qpos, ik_scene.frame_kinds,
@@ -124,10 +158,13 @@ class Simulator:
             if meas.trunk_radius == 0.0:
                 self.measurements = dataclasses.replace(meas, trunk_radius=reach.trunk_radius, height=reach.height,
                                                         hand=float(np.mean(reach.hand_centre)))
+            puppet = self.config.gravity_compensation
+            meter = SupportMeter(scene)
             data = mujoco.MjData(scene.model)
             scorer = SubgoalScorer(scene, self.task)
             self._stages[name] = Stage(
-                scene, data, ik_scene, RobotIK(ik_model, self.config.ik), scorer, ik_map, FrameStepper(scene, data, scorer),
+                scene, data, ik_scene, RobotIK(ik_model, self.config.ik), scorer, ik_map,
+                FrameStepper(scene, data, scorer, meter, None if puppet else StandingFeedforward(scene)),
                 reach,
             )
         return self._stages[name]
@@ -202,6 +239,10 @@ class Simulator:
             self._place_object(0.0, moving=False)
         mujoco.mj_forward(scene.model, data)
         stage.scorer.reset()
+        stage.scorer.measure_gaps(data)
+        stage.stepper.support.reset()
+        self._footlock = None if self.config.foot_lock is None else FootLock(
+            (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), self.config.foot_lock)
         if self.carry is not None and self.carry.release_frame == 0:
             self._release(0)
         self.last_targets = self.frame_R.to_robot(key_frames_at(stage.ik_scene, q0))
@@ -290,6 +331,8 @@ class Simulator:
         t0, t1 = self.frame, self.frame + 1
         tg = self._fill_targets(np.asarray(targets, dtype=np.float64))
         world = self.frame_R.to_world(tg)
+        if self._footlock is not None:
+            world[3:5] = self._footlock.apply(world[3:5])
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
@@ -315,6 +358,8 @@ class Simulator:
             self.n_sub, fps, self._to_physics(self._q), self._to_physics(res.qpos),
             (self.pose.pos[t0], self.pose.pos[t1]), (self.pose.quat[t0], self.pose.quat[t1]), self.time, subevent,
             grip=self.config.grip, carry=carry,
+            feet=None if self._footlock is None else (self._footlock.planted[0] is not None,
+                                                        self._footlock.planted[1] is not None),
         )
         scorer = stage.scorer
         self._q = res.qpos
@@ -322,10 +367,14 @@ class Simulator:
         self.last_targets = tg
         if self.done:
             scorer.finish(self.time)
+        scorer.measure_gaps(stage.data)
         result = StepResult(
             frame=t1, time=self.time, targets=tg, ik_error=res.errors, reachable=reachable,
             ik_iterations=res.iterations, ik_seconds=ik_seconds, subevent=subevent, force_on_human=force,
             subgoals={r.name: r.success for r in scorer.subgoals}, failed=scorer.failed, done=self.done,
+            subgoals_now={r.name: r.current for r in scorer.subgoals},
+            subgoal_gaps={r.name: r.gap for r in scorer.subgoals},
+            support=stage.stepper.support.frames[-1] if stage.stepper.support.frames else None,
         )
         self.results.append(result)
         return result
@@ -340,6 +389,12 @@ class Simulator:
     def data(self) -> mujoco.MjData:
         self._require()
         return self._stage.data  # type: ignore[union-attr]
+
+    @property
+    def support(self) -> SupportMeter:
+        """The outside-support and effort meter of the current scene."""
+        self._require()
+        return self._stage.stepper.support  # type: ignore[union-attr]
 
     @property
     def scorer(self) -> SubgoalScorer:

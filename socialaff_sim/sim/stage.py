@@ -47,15 +47,18 @@ class Stage:
 
 
 def compile_scenes(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None, *, timestep: float,
-                   servo_bandwidth: float | None, hand_force: float | None) -> tuple[Scene, Scene, IKModel, np.ndarray]:
+                   servo_bandwidth: float | None, hand_force: float | None,
+                   gravity_compensation: bool = False, harness_time_constant: float | None = None) -> tuple[Scene, Scene, IKModel, np.ndarray]:
     """The physics scene, the IK scene, the IK model on the latter and ``ik_map`` (see :class:`Stage`).
 
     ``timestep`` (s) and ``servo_bandwidth`` (rad/s) go to :func:`build_scene`;
-    ``hand_force`` (N, ``None``: the model's limits) to :func:`~socialaff_sim.sim.robot_mjcf.limit_hand_force`.
+    ``hand_force`` (N, ``None``: the model's limits) to :func:`~socialaff_sim.sim.robot_mjcf.limit_hand_force`;
+    ``gravity_compensation``, ``harness_time_constant``: see :class:`~socialaff_sim.sim.simulator.SimConfig`.
     """
-    scene = build_scene(robot, layout, obj, timestep=timestep, servo_bandwidth=servo_bandwidth)
+    scene = build_scene(robot, layout, obj, timestep=timestep, servo_bandwidth=servo_bandwidth,
+                        gravity_compensation=gravity_compensation, harness_time_constant=harness_time_constant)
     if hand_force is not None:
-        limit_hand_force(scene, hand_force)
+        limit_hand_force(scene, hand_force, weight=not gravity_compensation)
     ik_scene = build_scene(robot, layout, None, physics=False)
     collide = ik_scene.robot_geom & ((ik_scene.model.geom_contype != 0) | (ik_scene.model.geom_conaffinity != 0))
     ik_model = IKModel(
@@ -63,13 +66,41 @@ def compile_scenes(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | N
         home_qpos=ik_scene.home_qpos, hand_geoms=tuple(np.flatnonzero(h) for h in ik_scene.hand_geom),
         arm_geoms=tuple(np.flatnonzero(a) for a in ik_scene.arm_geom), robot_geoms=np.flatnonzero(collide),
         human_geoms=ik_scene.human_geom_ids, human_mocap=ik_scene.human_mocap,
-        max_joint_velocity=robot.max_joint_velocity,
+        max_joint_velocity=robot.max_joint_velocity, torso_dofs=torso_dofs(ik_scene),
     )
     if not np.array_equal(ik_scene.robot_qadr, np.arange(ik_scene.model.nq)):
         raise SimulationError("IK scene: the robot must own every coordinate")
     phys_index = {n: i for i, n in enumerate(scene.robot_joint_names)}
     ik_map = np.concatenate([np.arange(7), 6 + np.array([phys_index[n] for n in ik_scene.robot_joint_names[1:]], dtype=np.int64)])
     return scene, ik_scene, ik_model, ik_map
+
+
+def torso_dofs(scene: Scene) -> np.ndarray:
+    """Dof indices of the spine's tilting joints: the hinges from the torso (the lowest body both shoulders
+    hang from) down to, not including, the robot's root body, whose axis at home is closer to horizontal than
+    to vertical (pitch and roll; a yaw joint twists the torso without tilting it, and the H1's only torso
+    joint is one: holding it lost 3 of 4 handshakes)."""
+    m = scene.model
+    d = mujoco.MjData(m)
+    d.qpos[scene.robot_qadr] = scene.home_qpos
+    mujoco.mj_kinematics(m, d)
+
+    def chain(b: int) -> list[int]:
+        out = [b]
+        while int(m.body_parentid[out[-1]]) > 0:
+            out.append(int(m.body_parentid[out[-1]]))
+        return out
+
+    left, right = chain(int(scene.limb_body_ids[0])), set(chain(int(scene.limb_body_ids[1])))
+    torso = next((b for b in left[1:] if b in right), scene.root_body)
+    spine = []
+    for b in chain(torso):
+        if b == scene.root_body:
+            break
+        for j in range(int(m.body_jntadr[b]), int(m.body_jntadr[b]) + int(m.body_jntnum[b])):
+            if abs(float(d.xaxis[j, 2])) < np.sqrt(0.5):
+                spine.append(int(m.jnt_dofadr[j]))
+    return np.array(sorted(spine), dtype=np.int64)
 
 
 def key_frames(scene: Scene, data: mujoco.MjData) -> np.ndarray:

@@ -26,6 +26,8 @@ import numpy as np
 from .carry import grip_on_contact
 from .scene import Scene
 from .scoring import SubgoalScorer
+from .feedforward import StandingFeedforward
+from .support import SupportMeter
 
 __all__ = ["FrameStepper", "nlerp"]
 
@@ -40,8 +42,11 @@ def nlerp(q0: np.ndarray, q1: np.ndarray, a: float | np.ndarray) -> np.ndarray:
 class FrameStepper:
     """Runs the physics steps of one data frame on ``scene`` / ``data``; one per simulator stage."""
 
-    def __init__(self, scene: Scene, data: mujoco.MjData, scorer: SubgoalScorer) -> None:
-        self.scene, self.data, self.scorer = scene, data, scorer
+    def __init__(self, scene: Scene, data: mujoco.MjData, scorer: SubgoalScorer, support: SupportMeter,
+                 feedforward: StandingFeedforward | None = None) -> None:
+        self.scene, self.data, self.scorer, self.support = scene, data, scorer, support
+        self.feedforward = feedforward
+
         m = scene.model
         self.nmocap = m.nmocap
         self._all_ctrl = bool(len(scene.act_ids) == m.nu and np.array_equal(scene.act_ids, np.arange(m.nu)))
@@ -49,13 +54,16 @@ class FrameStepper:
 
     def run(self, n: int, fps: float, q_prev: np.ndarray, q_new: np.ndarray, human_pos: tuple[np.ndarray, np.ndarray],
             human_quat: tuple[np.ndarray, np.ndarray], time: float, subevent: str | None, *,
-            grip: bool = True, carry: Callable[[int, float], bool] | None = None) -> tuple[float, float]:
+            grip: bool = True, carry: Callable[[int, float], bool] | None = None,
+            feet: tuple[bool, bool] | None = None) -> tuple[float, float]:
         """Advance ``n`` physics steps; returns (simulated time at the end, mean force on the human N).
 
         ``q_prev``, ``q_new`` (nq_r,): robot coordinates (free joint then hinges) at the frame's
         start and end; ``human_pos`` / ``human_quat``: the mocap poses (G, 3) / (G, 4) at the start
         and the end. ``carry(k, t)``, when given, is called before step k (at simulated time t) to
         place (or release) the carried object; it returns whether to call it again on the next step.
+        ``feet`` (left, right): which feet carry the weight in the feed-forward torques (``None``: the
+        feet touching the floor now).
         """
         sc, d, scorer = self.scene, self.data, self.scorer
         m = sc.model
@@ -67,6 +75,8 @@ class FrameStepper:
         vel = np.zeros(m.nv)
         vel[sc.robot_vadr[6:]] = (q_new[7:] - q_prev[7:]) * fps
         ctrls = sc.ctrl_for(full, vel)  # (n, n_act)
+        if self.feedforward is not None:  # hold the frame's target pose against gravity, on the feet now down
+            ctrls += self.feedforward.ctrl_offset(full[-1], self.support.feet_down if feet is None else feet)
         mp = np.repeat(np.array(d.mocap_pos)[None], n, axis=0)
         mq = np.repeat(np.array(d.mocap_quat)[None], n, axis=0)
         p0, p1 = human_pos
@@ -91,7 +101,9 @@ class FrameStepper:
             mujoco.mj_step(m, d)
             time += dt
             scorer.update(d, dt, time, subevent)
+            self.support.update(d)
             force += scorer.last_force
             if grip and scorer.robot_on_object:
                 grip_on_contact(sc, d)
+        self.support.end_frame()
         return time, force / n

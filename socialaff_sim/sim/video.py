@@ -10,6 +10,7 @@ import numpy as np
 
 from .._atomic import atomic_path
 from ..errors import RenderingUnavailableError
+from .episode import support_caption
 from .render import SceneRenderer, pillow
 from .simulator import Simulator, StepResult
 
@@ -17,15 +18,16 @@ __all__ = ["EpisodeRecorder", "contact_sheet", "caption_lines"]
 
 
 def caption_lines(sim: Simulator, subevent: str | None) -> list[str]:
-    """Two caption lines: time and sub-event, then the sub-goals met so far."""
+    """Caption lines: time and sub-event; per sub-goal its contact now and whether it was ever achieved; the
+    physics mode with the frame's outside support, the feet's sliding so far and the servos' effort."""
     inter = sim.interaction
     assert inter is not None
     head = (f"{inter.label}  {sim.robot.name}  frame {sim.frame}/{sim.n_frames - 1}  "
             f"t = {sim.time:.2f} s  sub-event: {subevent or '-'}")
-    marks = [f"{s.name}: {'yes' if s.success else 'no'}" for s in sim.scorer.subgoals]
+    marks = [s.state_text() for s in sim.scorer.subgoals]
     fails = [f.kind for f in sim.scorer.failures if f.triggered]
     tail = "  ".join(marks) + ("   FAILED: " + ", ".join(fails) if fails else "")
-    return [head, tail]
+    return [head, tail, support_caption(sim)]
 
 
 def contact_sheet(frames: list[np.ndarray], cols: int = 4) -> np.ndarray:

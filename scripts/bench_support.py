@@ -1,0 +1,93 @@
+"""How physical the simulated robot is: outside support, foot sliding, penetration and effort per interaction.
+
+Replays synthetic instances through the simulator (ground-truth agent 1, or the
+affordance model's causal synthesis with ``--model``) and reports, per robot,
+physics mode and interaction, over the *contact phase* (the frames in which a
+sub-goal's contact holds now; ``metrics.json``'s ``support.contact_phase``):
+
+* outside support (harness force plus gravity compensation) as a fraction of the
+  robot's weight: mean over frames, and the peak;
+* foot sliding (cm, summed over the phase's frames, the larger foot), the
+  deepest robot–floor penetration (cm), the largest actuator force against its
+  limit, the fraction of physics steps with a saturated servo or a joint at its
+  limit;
+* sub-goal success (every sub-goal met, no failure).
+
+The targets of issue 25 for feet that stay planted: outside support ≤ 5 % of
+the weight, sliding ≤ 2 cm, torques within the limits. Example::
+
+    OMP_NUM_THREADS=1 python scripts/bench_support.py --robots ours unitree_h1 \\
+        --mjcf unitree_h1=../shared/robots/unitree_h1/h1.xml --per-label 4 --modes weight puppet
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+
+import numpy as np
+
+from socialaff_sim._atomic import atomic_write_text
+from socialaff_sim.data.synthetic import generate_dataset
+from socialaff_sim.retarget.robot import load_robot
+from socialaff_sim.retarget.model_source import model_source
+from socialaff_sim.retarget.sources import GroundTruthSource
+from socialaff_sim.sim.episode import run_episode
+from socialaff_sim.sim.simulator import SimConfig, Simulator
+
+MODES = {"weight": SimConfig(), "puppet": SimConfig(gravity_compensation=True)}
+KEYS = ("outside_support_mean", "outside_support_peak", "foot_slide_cm", "penetration_cm", "torque_ratio_max",
+        "saturated_fraction", "at_joint_limit_fraction", "torso_tilt_deg_max")
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--robots", nargs="+", default=["ours"])
+    p.add_argument("--mjcf", nargs="*", default=[], help="NAME=PATH: the MJCF of a robot the project does not ship")
+    p.add_argument("--modes", nargs="+", default=["weight"], choices=sorted(MODES))
+    p.add_argument("--per-label", type=int, default=2, help="instances per interaction (default 2)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--model", help="an affordance model (model.npz): simulate its causal synthesis instead of the recording")
+    p.add_argument("--json", help="write the per-instance figures here")
+    args = p.parse_args()
+    paths = dict(item.split("=", 1) for item in args.mjcf)
+    data = generate_dataset(seed=args.seed)
+    rows = []
+    for robot in args.robots:
+        spec = load_robot(robot, mjcf=paths.get(robot))
+        for mode in args.modes:
+            for label in data.labels:
+                for inter in list(data.of_label(label))[: args.per_label]:
+                    source = GroundTruthSource() if args.model is None else model_source(args.model, offline=False)
+                    m = run_episode(Simulator(spec, label, MODES[mode]), source, inter)
+                    cp = m["support"]["contact_phase"]
+                    rows.append({"robot": robot, "mode": mode, "label": label, "instance": inter.instance_id,
+                                 "success": m["success"], "contact_frames": cp["frames"],
+                                 **{k: cp[k] for k in KEYS}})
+    print(f"{'robot':<12}{'mode':<8}{'interaction':<16}{'ok':>6}{'support mean':>14}{'peak':>8}{'slide cm':>10}"
+          f"{'pen cm':>8}{'torque':>8}{'sat':>7}{'limit':>7}")
+    for robot in args.robots:
+        for mode in args.modes:
+            for label in data.labels:
+                sel = [r for r in rows if r["robot"] == robot and r["mode"] == mode and r["label"] == label]
+                have = [r for r in sel if r["contact_frames"]]
+
+                def mean(k: str, rs: list = have) -> float:
+                    return float(np.mean([r[k] for r in rs])) if rs else float("nan")
+
+                def top(k: str, rs: list = have) -> float:
+                    return float(np.max([r[k] for r in rs])) if rs else float("nan")
+
+                ok = f"{sum(r['success'] for r in sel)}/{len(sel)}"
+                print(f"{robot:<12}{mode:<8}{label:<16}{ok:>6}{100 * mean('outside_support_mean'):>13.0f}%"
+                      f"{100 * top('outside_support_peak'):>7.0f}%{mean('foot_slide_cm'):>10.1f}{top('penetration_cm'):>8.1f}"
+                      f"{top('torque_ratio_max'):>8.2f}{100 * mean('saturated_fraction'):>6.0f}%{100 * mean('at_joint_limit_fraction'):>6.0f}%")
+    if args.json:
+        atomic_write_text(args.json, json.dumps({"config": vars(args), "rows": rows,
+                                                 "sim_config": {k: repr(v) for k, v in dataclasses.asdict(SimConfig()).items()
+                                                                if not isinstance(v, dict)}}, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,63 @@
+"""Planting the robot's feet: an ankle target that barely moves near the floor is held still on it.
+
+A recorded person's ankles wander by a centimetre or two while they stand (the
+skeleton tracker's noise, small shifts of weight), and the human-to-robot
+scaling passes this on. A robot standing on its own feet cannot follow it: a
+foot that rises by a centimetre drops the robot's weight onto the other one or
+onto its harness, and one that moves sideways on the floor slides. :class:`FootLock`
+holds an ankle target at the place where its foot came down (on the floor, at
+the robot's home ankle height) while the target stays within ``radius`` of that
+place and below ``lift`` above home height; a target that leaves that ball (a
+step) is followed again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["FootLock", "FootLockConfig"]
+
+
+@dataclass(frozen=True)
+class FootLockConfig:
+    """When an ankle target counts as standing."""
+
+    lift: float = 0.04
+    """h_lift [m]: a target at most this far above the ankle's home height may be planted."""
+    radius: float = 0.05
+    """r [m]: a planted foot stays put while its target stays within this horizontal distance of where it was
+    planted; beyond, the foot steps (the target is followed again)."""
+
+
+class FootLock:
+    """Holds standing ankle targets still (see the module docstring); :meth:`reset` per episode."""
+
+    def __init__(self, home_height: tuple[float, float], config: FootLockConfig | None = None) -> None:
+        self.home_height = np.asarray(home_height, dtype=np.float64)
+        """(2,) left, right ankle height at the robot's home posture, m."""
+        self.config = config or FootLockConfig()
+        self.planted: list[np.ndarray | None] = [None, None]
+        """Where each foot is planted (world, (3,) m), or ``None`` while it steps."""
+
+    def reset(self) -> None:
+        """No foot planted."""
+        self.planted = [None, None]
+
+    def apply(self, ankles: np.ndarray) -> np.ndarray:
+        """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted."""
+        out = np.array(ankles, dtype=np.float64)
+        c = self.config
+        for s in (0, 1):
+            t = out[s]
+            low = t[2] - self.home_height[s] <= c.lift
+            p = self.planted[s]
+            if low and p is not None and np.linalg.norm(t[:2] - p[:2]) <= c.radius:
+                out[s] = p
+            elif low:
+                self.planted[s] = np.array([t[0], t[1], self.home_height[s]])
+                out[s] = self.planted[s]
+            else:
+                self.planted[s] = None
+        return out
