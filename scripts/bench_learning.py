@@ -17,7 +17,7 @@ configuration (one core: run it alone) and report
   model's objective prefers the ground-truth segmentation.
 
 The model's optional corrections (see :class:`~socialaff_sim.model.config.AffordanceConfig` and
-:class:`~socialaff_sim.learning.config.LearningConfig`; paper defaults otherwise) are switched with
+:class:`~socialaff_sim.learning.config.LearningConfig`; the defaults otherwise; ``*.paper()`` for the paper's) are switched with
 ``--likelihood held_out``, ``--vector-density cartesian``, ``--duration-density log_seconds`` and
 ``--init-starts N``; ``--active-hand off`` keeps each agent's left/right labels as recorded (the paper).
 
@@ -123,7 +123,7 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=0, help="dataset seed and fit seed (default 0)")
     ap.add_argument("--interactions", nargs="*", default=None, help="subset of the interactions")
     ap.add_argument("--diagnose", action="store_true", help="also score the ground-truth parses under the model")
-    ap.add_argument("--p-shift", type=float, default=None, help="override LearningConfig.p_shift (0: the paper's chain)")
+    ap.add_argument("--p-shift", type=float, default=None, help="override LearningConfig.p_shift (0: no shift move, as in the paper)")
     ap.add_argument("--likelihood", default=None, help="override AffordanceConfig.likelihood (profile, held_out)")
     ap.add_argument("--vector-density", default=None, help="override AffordanceConfig.vector_density (polar, cartesian)")
     ap.add_argument("--duration-density", default=None,

@@ -126,16 +126,20 @@ def test_proposal_probabilities_and_reverse_moves_long(name: str, p_shift: float
     _check_proposals(name, p_shift, rng, 3000)
 
 
-def _mh_visits(space: ParseSpace, cfg: LearningConfig, rng: np.random.Generator, n: int, seed: int) -> float:
+def _mh_visits(
+    space: ParseSpace, cfg: LearningConfig, rng: np.random.Generator, n: int, seed: int, temperature: float = 1.0,
+    scale: float = 1.2,
+) -> float:
+    """Total variation between the chain's visit frequencies and the exact distribution ∝ exp(log P / T)."""
     parses = list(enumerate_parses(space))
-    lw = dict(zip(parses, np.random.default_rng(seed).normal(0, 1.2, len(parses)), strict=True))
+    lw = dict(zip(parses, np.random.default_rng(seed).normal(0, scale, len(parses)), strict=True))
     target = FunctionTarget(lambda ps: lw[ps[0]], [parses[0]])
     p, lp = parses[0], lw[parses[0]]
     counts = dict.fromkeys(parses, 0)
     for _ in range(n):
-        p, lp, _, _ = mh_step(space, 0, p, lp, target, cfg, rng)
+        p, lp, _, _ = mh_step(space, 0, p, lp, target, cfg, rng, temperature=temperature)
         counts[p] += 1
-    w = np.array([lw[q] for q in parses])
+    w = np.array([lw[q] for q in parses]) / temperature
     exact = np.exp(w - np.logaddexp.reduce(w))
     freq = np.array([counts[q] for q in parses]) / n
     return float(0.5 * np.abs(freq - exact).sum())
@@ -154,10 +158,41 @@ def test_mh_chain_matches_exact_posterior(rng: np.random.Generator) -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(SPACES))
 @pytest.mark.parametrize("p_shift", [0.0, 0.5])
-def test_mh_chain_matches_exact_posterior_long(name: str, p_shift: float, rng: np.random.Generator) -> None:
+@pytest.mark.parametrize("temperature", [1.0, 4.0])
+def test_mh_chain_matches_exact_posterior_long(name: str, p_shift: float, temperature: float, rng: np.random.Generator) -> None:
     cfg = dataclasses.replace(LearningConfig(), p_shift=p_shift)
-    tv = _mh_visits(make_space(name), cfg, rng, 200000, seed=9)
+    tv = _mh_visits(make_space(name), cfg, rng, 200000, seed=9, temperature=temperature)
     assert tv <= 0.03, f"total variation {tv:.4f}"
+
+
+def test_tempered_chain_with_label_swaps_matches_exact_distribution(rng: np.random.Generator) -> None:
+    """The default's moves (shift, and relabels that swap labels under one interval per type) at temperature
+    T = 3 leave ∝ P^(1/T) invariant: visit frequencies against the enumerated distribution on 4 atoms with
+    |S| = 3 and the one-interval constraint. Log targets spread by σ = 3 so that T matters: the untempered
+    distribution is ≥ 0.25 away in total variation, and the chain run at T = 1 against the T = 3 target fails."""
+    space = make_space("small_unique")
+    cfg = dataclasses.replace(LearningConfig(), p_shift=0.3)
+    tv = _mh_visits(space, cfg, rng, 30000, seed=3, temperature=3.0, scale=3.0)
+    assert tv <= 0.05, f"total variation {tv:.4f}"
+    parses = list(enumerate_parses(space))
+    w = np.random.default_rng(3).normal(0, 3.0, len(parses))
+    p1, p3 = np.exp(w - np.logaddexp.reduce(w)), np.exp(w / 3 - np.logaddexp.reduce(w / 3))
+    assert 0.5 * np.abs(p1 - p3).sum() > 0.25
+
+
+def test_relabel_swaps_under_one_interval_per_type(rng: np.random.Generator) -> None:
+    """With every label used once, a relabel swaps two intervals' labels (before: no admissible choice)."""
+    from socialaff_sim.learning.mh import propose_move
+
+    space = make_space("small_unique")
+    full = Parse((0, 1, 2), (0, 1, 2))
+    seen = set()
+    for _ in range(300):
+        prop = propose_move(space, full, LearningConfig(), rng, "relabel")
+        assert prop is not None and space.is_valid(prop.parse)
+        assert sorted(prop.parse.labels) == [0, 1, 2] and prop.parse.starts == full.starts
+        seen.add(prop.parse.labels)
+    assert seen == {(1, 0, 2), (2, 1, 0), (0, 2, 1)}
 
 
 def test_mh_rejects_impossible_states(rng: np.random.Generator) -> None:

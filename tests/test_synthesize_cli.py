@@ -34,3 +34,23 @@ def test_synthesize_writes_track_and_plot(
     np.testing.assert_array_equal(track.joints[:, 0], inter.joints[:, 0])  # the human is the recording
     assert np.isfinite(track.joints[10:, 1]).all()
     assert (out / f"{inter.instance_id}_synthesis.png").stat().st_size > 1000
+
+
+def test_synthesize_with_the_paper_preset(
+    shake8, shake8_model: SocialAffordanceModel, tmp_path: Path, capsys: pytest.CaptureFixture[str]  # noqa: ANN001
+) -> None:
+    """``--preset paper`` runs Algorithm 2 as the paper states it (causal, online); it refuses --mode offline."""
+    model_path = shake8_model.save(tmp_path / "m.npz")
+    inter = shake8[7]
+    from socialaff_sim.data import save_dataset
+
+    save_dataset(shake8, tmp_path / "data")
+    base = ["synthesize", "--model", str(model_path), "--data", f"npz:{tmp_path / 'data'}", "--instance", inter.instance_id,
+            "--seed", "3", "--preset", "paper"]
+    assert main([*base, "--out", str(tmp_path / "p")]) == 0
+    assert "average distance to the recording" in capsys.readouterr().out
+    track = load_interaction(tmp_path / "p" / f"{inter.instance_id}_synth.npz")
+    assert np.isfinite(track.joints[10:, 1]).all()
+    assert main([*base, "--out", str(tmp_path / "q"), "--mode", "offline"]) == 2
+    assert "--preset paper" in capsys.readouterr().err
+    assert not (tmp_path / "q").exists()

@@ -18,15 +18,16 @@ __all__ = ["register", "run"]
 def run(args: argparse.Namespace) -> int:
     """Load the data, fit, save, print a summary."""
     from ..data import load_dataset  # noqa: PLC0415
-    from ..learning.config import LearningConfig  # noqa: PLC0415
+    from ..inference.presets import preset  # noqa: PLC0415
     from ..learning.estimator import SocialAffordanceModel  # noqa: PLC0415
-    from ..model.config import AffordanceConfig  # noqa: PLC0415
+    from ..learning.history import summary_line  # noqa: PLC0415
 
     data = load_dataset(args.data, policy=args.policy, units=args.units).of_label(args.interaction)
-    learning = LearningConfig()
+    chosen = preset(args.preset)
+    learning = chosen.learning
     if args.iterations is not None:
         learning = dataclasses.replace(learning, iterations=args.iterations)
-    config = AffordanceConfig()
+    config = chosen.affordance
     if args.subevents is not None:
         config = dataclasses.replace(config, n_subevents=args.subevents)
     model = SocialAffordanceModel(config, learning)
@@ -37,9 +38,10 @@ def run(args: argparse.Namespace) -> int:
     model.fit(list(data), rng=np.random.default_rng(args.seed), progress=not (args.no_progress or args.quiet))
     seconds = time.perf_counter() - t0
     path = model.save(args.out)
-    print(f"fitted {model.label_!r} on {len(data)} instances in {seconds:.1f} s "
+    print(f"fitted {model.label_!r} on {len(data)} instances in {seconds:.1f} s with the {args.preset} preset "
           f"({learning.iterations} iterations, acceptance {model.acceptance_rate_:.3f}, "
           f"log P* {model.log_posterior_:.1f})")
+    print(summary_line(model.history_))
     durations = model.mean_durations_
     for s, name in enumerate(model.subevent_names_):
         print(f"  {s}: {name:12s} mean duration {durations[s]:.2f} s")
@@ -67,6 +69,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--subevents", type=int_range(1, MAX_SUBEVENTS), default=None, metavar="S",
                    help=f"|S|, sub-event types, 1 to {MAX_SUBEVENTS} (default: per interaction)")
     p.add_argument("--seed", type=non_negative_int, default=0, help="random seed (default 0)")
+    p.add_argument("--preset", choices=("default", "paper"), default="default",
+                   help="model and learner settings: this project's (default) or the paper's, as this project "
+                   "reads it (paper); docs/design.md lists the differences")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_data_options(p)
     declare_outputs(p, out="file")

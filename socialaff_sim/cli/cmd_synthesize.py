@@ -22,7 +22,9 @@ def _run(args: argparse.Namespace) -> int:
     from ..evaluation.metrics import joint_error, key_joint_error
     from ..inference.protocol import Prediction, observed_part
     from ..inference import BodyFitter, SynthesisConfig, synthesize
+    from ..errors import ConfigError
     from ..inference.plot import plot_key_joint_tracks
+    from ..inference.presets import preset
     from ..learning.estimator import SocialAffordanceModel
     from ..model.joints import instance_frame
 
@@ -40,10 +42,15 @@ def _run(args: argparse.Namespace) -> int:
     if not others:
         raise ModelError(f"{args.data}: the full-body fit needs other {model.label_!r} instances besides {inter.instance_id!r}")
     body = BodyFitter().fit_interactions(others, agent=1, rng=np.random.default_rng(args.seed))
-    if args.mode == "offline":
+    mode = args.mode or ("online" if args.preset == "paper" else "offline")
+    if args.preset == "paper":
+        if mode == "offline" or args.lookahead:
+            raise ConfigError("--preset paper is the paper's causal Algorithm 2: it takes neither --mode offline nor --lookahead")
+        config = dataclasses.replace(preset("paper").synthesis, n_observed=args.observed)
+    elif mode == "offline":
         config = SynthesisConfig.offline(n_observed=args.observed)
     else:
-        config = dataclasses.replace(SynthesisConfig(), n_observed=args.observed, lookahead=args.lookahead)
+        config = dataclasses.replace(preset("default").synthesis, n_observed=args.observed, lookahead=args.lookahead)
     start = time.perf_counter()
     keys, skel, subs, _ = synthesize(
         model, observed_part(inter, args.observed), rng=np.random.default_rng(args.seed), body=body, config=config
@@ -109,9 +116,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--observed", type=int_range(1), default=10, help="T0: observed frames of agent 1 (default 10)")
     p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the synthesis (default 0)")
     p.add_argument(
-        "--mode", choices=("offline", "online"), default="offline",
-        help="offline (default, as 'evaluate' runs the model): agent 0's whole track is read, its parse fixes the "
-        "sub-events; online: the paper's causal Algorithm 2, as the simulator runs it",
+        "--mode", choices=("offline", "online"), default=None,
+        help="offline (the default with --preset default): agent 0's whole track is read, its parse fixes the "
+        "sub-events (an upper bound, not a reaction); online: causal Algorithm 2, as the simulator runs it "
+        "(the only mode of --preset paper)",
+    )
+    p.add_argument(
+        "--preset", choices=("default", "paper"), default="default",
+        help="synthesis settings: this project's (default) or Algorithm 2 exactly as the paper states it (paper); "
+        "the model's own settings were fixed when it was fitted (fit --preset)",
     )
     p.add_argument("--lookahead", action="store_true", help="online mode: use agent 0's recorded position at the predicted end")
     add_data_options(p)

@@ -8,7 +8,7 @@ stratified percentile bootstrap), so it belongs to exactly that average.
 
 The interval covers the sampling of the test instances only. The methods are fitted once per fold,
 so the variation from refitting (another run seed: other MCMC chains, other k-means starts) is not in
-it; docs/analysis.md shows cases where that variation is as large as the interval.
+it; docs/design.md shows cases where that variation is as large as the interval.
 """
 
 from __future__ import annotations

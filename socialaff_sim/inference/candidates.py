@@ -46,7 +46,7 @@ def sign_loglik(model: AffordanceParameters, s: int, z: np.ndarray, cand: np.nda
     aff = AGENT1[z[AGENT1] > 0]
     out = np.zeros(cand.shape[0])
     if aff.size:
-        W = reference_weights(z, other_side=model.config.other_side_reference)[aff]
+        W = reference_weights(z, other_side=model.config.other_side_reference, include_self=model.config.reference_self)[aff]
         off_z = cand[:, aff, 2] - np.einsum("kj,nj->nk", W, np.nan_to_num(cand[:, :, 2]))
         out += np.where(off_z > 0, np.log(up[0, aff]), np.log1p(-up[0, aff])).sum(axis=1)
     moving = AGENT1[z[AGENT1] >= 0]

@@ -4,7 +4,7 @@
 grouping, ``"v2"`` drops latent sub-events (the paper's two ablations). The protocol gives every
 method agent 0's whole recorded track, so these three synthesize with
 :meth:`~socialaff_sim.inference.synthesis.SynthesisConfig.offline`; ``"full_online"`` is the full
-model with the paper's causal Algorithm 2 (``SynthesisConfig()``), as the simulator runs it. All four implement
+model with the default causal Algorithm 2 (``SynthesisConfig()``), as the simulator runs it. All four implement
 :class:`~socialaff_sim.inference.protocol.ReactionMethod`; :mod:`socialaff_sim.evaluation.registry` registers
 them by name. The registered ``"full"``, ``"v1"`` and ``"v2"`` average :data:`REGISTERED_CHAINS` MCMC chains;
 ``"full_online"`` learns one model, as the simulator does.
@@ -40,7 +40,7 @@ REGISTERED_CHAINS = 3
 
 One chain's parse depends on its seed: on the SBU handshakes the fit's seed alone moves the full model's
 error from 0.127 to 0.136 m. Three chains cost three fits; they lowered the full model's error on all three
-datasets of the accuracy benchmark (docs/analysis.md, sessions 10 and 11).
+datasets of the accuracy benchmark (the history of docs/analysis.md, sessions 10 and 11; docs/design.md).
 """
 
 

@@ -76,19 +76,23 @@ def parse_prefix(
     track: np.ndarray,
     fps: float,
     bounds: np.ndarray,
+    open_interval: str = "survival",
 ) -> PrefixParse:
     """Best parse of the canonical ``track`` (t, 11, 3) over the cut points ``bounds`` (B + 1,), ending at t.
 
     ``bounds`` starts at 0 and ends at t = len(track); intervals run between consecutive or
-    non-consecutive cut points.
+    non-consecutive cut points. ``open_interval``: ``"survival"`` scores the last interval by its
+    duration's survival function, ``"closed"`` like the others
+    (:attr:`~socialaff_sim.inference.synthesis_config.SynthesisConfig.open_interval`).
     """
     bounds = np.asarray(bounds, dtype=np.int64)
     B = bounds.shape[0] - 1
     a, b = np.triu_indices(B + 1, k=1)
-    ca, cb = a[b < B], b[b < B]
+    if open_interval == "survival":
+        a, b = a[b < B], b[b < B]
     seg = np.full((B + 1, B + 1, model.n_subevents_), -np.inf)
-    seg[ca, cb] = closed_scores(model, track, fps, bounds[ca], bounds[cb])
-    return parse_segments(model, seg, bounds, fps)
+    seg[a, b] = closed_scores(model, track, fps, bounds[a], bounds[b])
+    return parse_segments(model, seg, bounds, fps, open_interval=open_interval)
 
 
 def parse_segments(
@@ -99,19 +103,22 @@ def parse_segments(
     *,
     log_start: np.ndarray | None = None,
     rows: tuple[np.ndarray, np.ndarray] | None = None,
+    open_interval: str = "survival",
 ) -> PrefixParse:
     """:func:`parse_prefix` from the closed intervals' scores ``seg`` (B + 1, B + 1, S) (entry [a, b] for
     cuts a < b < B; the open column b = B is filled here, in place). ``log_start``: (S,) log prior of
     the first interval's label (default: the model's start probabilities). ``rows``: DP rows reused
     from an earlier parse (:func:`~socialaff_sim.model.segment_dp.segmentation_tables`); the result's
-    ``tables`` can be passed on the same way."""
+    ``tables`` can be passed on the same way. ``open_interval="closed"``: the open column is the caller's
+    (the last interval scored like the closed ones, as in the paper's DP) and is left as given."""
     bounds = np.asarray(bounds, dtype=np.int64)
     B = bounds.shape[0] - 1
     S = model.n_subevents_
-    oa = np.arange(B)
-    elapsed = (bounds[B] - bounds[oa]) / fps
-    for s in range(S):
-        seg[oa, B, s] = log_duration_survival(model, s, elapsed)
+    if open_interval == "survival":
+        oa = np.arange(B)
+        elapsed = (bounds[B] - bounds[oa]) / fps
+        for s in range(S):
+            seg[oa, B, s] = log_duration_survival(model, s, elapsed)
     cfg = model.config
     best, back = segmentation_tables(
         seg,

@@ -61,17 +61,21 @@ class StreamParser:
     """Online parses of a growing canonical track, over a bounded window, with cached interval scores."""
 
     def __init__(
-        self, model: AffordanceParameters, fps: float, window: int | None, *, min_frames: int, max_seconds: float, tau: float
+        self, model: AffordanceParameters, fps: float, window: int | None, *, min_frames: int, max_seconds: float, tau: float,
+        open_interval: str = "survival",
     ) -> None:
         """``window``: frames parsed at most (None: every frame since the start, as the paper);
         ``min_frames``, ``max_seconds``, ``tau``: the atom settings the model learnt with
-        (:func:`~socialaff_sim.learning.atomic.cut_atoms`)."""
+        (:func:`~socialaff_sim.learning.atomic.cut_atoms`); ``open_interval``: how the running, last
+        interval is scored (:attr:`~socialaff_sim.inference.synthesis_config.SynthesisConfig.open_interval`;
+        ``"closed"`` scores it afresh at every parse, since its end moves)."""
         if window is not None and window < 2:
             raise ConfigError(f"parse_window: expected at least 2 frames or None, found {window}")
         self.model = model
         self._min_frames, self._max_seconds, self._tau = int(min_frames), float(max_seconds), float(tau)
         self.fps = float(fps)
         self.window = window
+        self.open_interval = open_interval
         self._hop = max(window // 2, 1) if window is not None else 1
         self._scores: dict[tuple[int, int], np.ndarray] = {}
         # The previous parse's window start, cuts and DP tables.
@@ -120,13 +124,19 @@ class StreamParser:
         seg = np.full((B + 1, B + 1, S), -np.inf)
         if keys:
             seg[a, b] = np.array([self._scores[key] for key in keys])
+        if self.open_interval == "closed":  # the running interval scored as if it ended at t (not cached: t moves)
+            oa = np.arange(B)
+            seg[oa, B] = closed_scores(model, track[:t], self.fps, bounds[oa] + w0, np.full(B, t))
         if w0 > self._w0:  # what began before the window has left it: evict, keep memory bounded
             for key in [key for key in self._scores if key[0] < w0]:
                 del self._scores[key]
         rows = None
         if keep > 0 and self._tables is not None:
             rows = (self._tables[0][: keep + 1], self._tables[1][: keep + 1])
-        parse = parse_segments(model, seg, bounds, self.fps, log_start=None if w0 == 0 else self._uniform, rows=rows)
+        parse = parse_segments(
+            model, seg, bounds, self.fps, log_start=None if w0 == 0 else self._uniform, rows=rows,
+            open_interval=self.open_interval,
+        )
         self._w0, self._bounds, self._tables = w0, bounds, parse.tables
         w = self.work
         M = parse.tables[1].shape[1] if parse.tables is not None else 1

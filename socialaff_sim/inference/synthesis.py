@@ -120,6 +120,7 @@ class OnlineSynthesizer:
             self._parser = StreamParser(
                 self.model, interaction.fps, window,
                 min_frames=lc.min_atomic_frames, max_seconds=lc.max_atomic_seconds, tau=lc.velocity_seconds,
+                open_interval=cfg.open_interval,
             )
         self._hands = np.zeros(2, bool)
         self._set_hands(cfg.n_observed)
@@ -326,8 +327,9 @@ class OnlineSynthesizer:
         aff = _AGENT1[z[_AGENT1] > 0]
         if aff.size:
             n_sp = int(round(cfg.spatial_fraction * N))
-            up = model.vertical_up_[s]  # (2, 11): P(dz > 0) of spatial offsets and of displacements
-            W = reference_weights(z, other_side=model.config.other_side_reference)[aff]
+            # (2, 11): P(dz > 0) of spatial offsets and of displacements; ½ without the sign term (the paper).
+            up = model.vertical_up_[s] if cfg.vertical_sign else np.full_like(model.vertical_up_[s], 0.5)
+            W = reference_weights(z, other_side=model.config.other_side_reference, include_self=model.config.reference_self)[aff]
             refs = W @ np.nan_to_num(config)  # (A, 3)
             sp = draw_vectors(model.spatial_params_[s, aff], up[0, aff], n_sp, self._rng) + refs[None]
             mo = draw_vectors(model.motion_params_[s, aff], up[1, aff], N - n_sp, self._rng) + before[aff][None]
@@ -364,7 +366,9 @@ class OnlineSynthesizer:
         """(N,) log spatial + log motion (+ vertical signs, + the regression prior) of N configurations (N, 11, 3)."""
         model = self.model
         disp = configs - before[None]
-        score = model.log_spatial(s, configs) + model.log_motion(s, disp) + sign_loglik(model, s, z, configs, disp)
+        score = model.log_spatial(s, configs) + model.log_motion(s, disp)
+        if self.config.vertical_sign:
+            score = score + sign_loglik(model, s, z, configs, disp)
         if prior is not None:
             score = score + prior.log_density(configs)
         return np.where(np.isnan(score), -np.inf, score)

@@ -1,4 +1,5 @@
-"""Settings of the online synthesizer (Algorithm 2), with the paper's defaults and two presets."""
+"""Settings of the online synthesizer (Algorithm 2): the defaults, the paper's (:meth:`SynthesisConfig.paper`),
+a reactive and an offline preset."""
 
 from __future__ import annotations
 
@@ -13,18 +14,20 @@ _INTERPOLATIONS = ("linear", "minjerk")
 _PARSES = ("online", "observed")
 _END_PRIORS = ("none", "regression")
 _CONTACTS = ("none", "timed", "triggered")
+_OPEN_INTERVALS = ("survival", "closed")
 
 
 @dataclass(frozen=True)
 class SynthesisConfig:
-    """Settings of Algorithm 2 with the paper's defaults; change them with ``dataclasses.replace``.
+    """Settings of Algorithm 2; change them with ``dataclasses.replace``. :meth:`paper` is Algorithm 2 as
+    the paper states it; the defaults differ from it in ``vertical_sign``, ``open_interval`` and ``parse_window`` only.
 
     Fields by concept
     -----------------
     - Online schedule: n_observed, delta_t, replan_at_end
-    - Running sub-event and its end: parse, parse_window, observed_parse_step, duration, lookahead
-    - Candidate end configurations: n_samples, spatial_fraction, coherent_fraction, refine_sweeps, end_prior,
-      prior_samples
+    - Running sub-event and its end: parse, parse_window, observed_parse_step, open_interval, duration, lookahead
+    - Candidate end configurations: n_samples, spatial_fraction, coherent_fraction, refine_sweeps, vertical_sign,
+      end_prior, prior_samples
     - Motion toward the chosen end: interpolation, frame_weight, frame_decay
     - Contacts: contact, contact_width, trigger_scale
     - Handedness: hand_margin
@@ -100,6 +103,15 @@ class SynthesisConfig:
     frame_decay: float = 5.0
     """[frames]: Frames over which the frame regression's offset from the last emitted pose fades (it starts where
     the synthesized track is, so the track stays continuous)."""
+    vertical_sign: bool = True
+    """[—]: Our addition: the potentials score |dz| only, so candidates draw the sign of dz with the learned
+    frequency of dz > 0 (``vertical_up_``) and are also scored by it. False (the paper): signs drawn
+    with probability ½, no sign term."""
+    open_interval: str = "survival"
+    """[—]: How the online parse scores the still-running last sub-event: ``"survival"`` (our change), by the
+    probability that its duration exceeds the time elapsed, its end not yet reached; ``"closed"``
+    (the paper's DP over the frames so far), like every other interval, as if it ended at the latest
+    frame (potentials at that frame and the duration density of the elapsed time)."""
     hand_margin: float = 0.2
     """[m]: causal synthesis with a model whose ``config.active_hand`` is on: agent 0 counts as
     left-active only once its left wrist's path so far exceeds its right's by this much (right-active
@@ -144,15 +156,30 @@ class SynthesisConfig:
             raise ConfigError(
                 f"observed_parse_step, prior_samples: expected >= 1 and >= 0, found {self.observed_parse_step}, {self.prior_samples}"
             )
+        if self.open_interval not in _OPEN_INTERVALS:
+            raise ConfigError(f"open_interval: expected {choices(_OPEN_INTERVALS)}, found {self.open_interval!r}")
         if self.parse_window is not None and not self.parse_window > 0:
             raise ConfigError(f"parse_window (W): expected seconds > 0 or None, found {self.parse_window}")
         if self.duration not in _DURATION_MODES:
             raise ConfigError(f"duration: expected {choices(_DURATION_MODES)}, found {self.duration!r}")
 
     @classmethod
+    def paper(cls, **changes: object) -> SynthesisConfig:
+        """Algorithm 2 as the paper states it: after T0 = 10 observed frames, every ΔT = 5 frames a DP over
+        all the frames so far (no window; the running sub-event scored as if it ended now), a duration drawn from the
+        conditional log-normal, N = 100 candidates from the potentials (signs of dz at random), the most
+        likely kept, linear interpolation; causal (no lookahead), no regression, no contact pull."""
+        base: dict[str, object] = dict(
+            n_observed=10, delta_t=5, n_samples=100, duration="sample", interpolation="linear", lookahead=False,
+            parse="online", end_prior="none", frame_weight=0.0, replan_at_end=False, contact="none",
+            coherent_fraction=0.0, refine_sweeps=0, vertical_sign=False, open_interval="closed", parse_window=None,
+        )
+        return cls(**{**base, **changes})  # type: ignore[arg-type]
+
+    @classmethod
     def reactive(cls, **changes: object) -> SynthesisConfig:
         """Causal settings for a robot reacting to a person (the simulator's and the environment's
-        default): the paper's Algorithm 2 plus an equal share of the frame regression, which reads
+        default): the default Algorithm 2 plus an equal share of the frame regression, which reads
         agent 0, and the phase, at the latest observed frame, a re-planning at each predicted sub-event end, and the
         pull toward contact keyframes triggered by agent 0's touching joint reaching its contact pose."""
         return cls(**{"frame_weight": 0.5, "replan_at_end": True, "contact": "triggered", **changes})  # type: ignore[arg-type]
@@ -163,7 +190,7 @@ class SynthesisConfig:
         method of the protocol): lookahead, the ``"observed"`` parse, the end-configuration regression,
         minimum-jerk interpolation, the frame regression, a re-planning at each sub-event end and the pull
         toward contact keyframes.
-        ``SynthesisConfig()`` is the paper's causal Algorithm 2."""
+        ``SynthesisConfig.paper()`` is the paper's causal Algorithm 2."""
         base = dict(
             lookahead=True, parse="observed", end_prior="regression", interpolation="minjerk", frame_weight=0.5,
             replan_at_end=True, contact="timed",

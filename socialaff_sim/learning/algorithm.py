@@ -5,9 +5,12 @@ The chain starts from the best (highest log P*) hard-EM refinement of the equal-
 ``LearningConfig.init_starts`` random-fraction splits (our addition; 0 by default), improved by
 type-level merge-and-split passes (:mod:`~socialaff_sim.learning.restructure`, our addition).
 One outer iteration is a sweep: one MH proposal for every training instance in turn (each
-instance's kernel leaves the target invariant, so the sweep does too). The state with the
-highest log P* visited is returned (a maximum a posteriori estimate); ``trace`` holds the log P*
-of the current state after every iteration (entry 0: the initial parse).
+instance's kernel leaves the (tempered) target invariant, so the sweep does too); with
+``LearningConfig.temperature`` T₀ > 1 iteration i runs at T_i = T₀^(1 − i/(I − 1)), cooling to 1.
+The state with the highest log P* visited is returned (a maximum a posteriori estimate); ``trace``
+holds the log P* of the current state after every iteration (entry 0: the initial parse) and
+``history`` the proposals and acceptances of every dynamics per iteration
+(:func:`~socialaff_sim.learning.history.new_history`), which are also logged.
 """
 
 from __future__ import annotations
@@ -22,15 +25,16 @@ import numpy as np
 from ..model.config import AffordanceConfig
 from .atomic import AtomicIntervals, atomic_intervals
 from .config import LearningConfig
+from .history import new_history, summary_line
 from .initial import hard_em_parses
 from .mh import mh_step
 from .parse import Parse, ParseSpace
 from .restructure import restructure
 from .scorer import AffordanceTarget
 
-__all__ = ["FitProgress", "LearningResult", "learn", "make_spaces"]
+__all__ = ["FitProgress", "LearningResult", "learn", "make_spaces", "temperatures"]
 
-_log = logging.getLogger(__name__)
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -53,12 +57,22 @@ class FitProgress:
     """Wall-clock seconds since :func:`learn` started."""
 
 
+def temperatures(cfg: LearningConfig, iterations: int) -> np.ndarray:
+    """(iterations,) float64: T_i = T₀^(1 − i/(I − 1)), from ``cfg.temperature`` down to 1 (all 1 when T₀ = 1)."""
+    if iterations == 0:
+        return np.zeros(0)
+    frac = np.arange(iterations) / max(iterations - 1, 1)
+    return np.power(float(cfg.temperature), 1.0 - frac)
+
+
 @dataclass(frozen=True)
 class LearningResult:
     """What Algorithm 1 found."""
 
     parses: tuple[Parse, ...]
     """Best parse of every training instance."""
+    start_parses: tuple[Parse, ...]
+    """The chain's first state (after the optional hard-EM and restructuring of the equal parts)."""
     spaces: tuple[ParseSpace, ...]
     """The instances' atomic intervals and proposal weights."""
     atoms: AtomicIntervals
@@ -72,7 +86,10 @@ class LearningResult:
     acceptance: np.ndarray
     """(iterations,) float64: fraction of accepted proposals in each iteration."""
     moves: dict[str, tuple[int, int]]
-    """Per dynamics: (proposed, accepted) counts."""
+    """Per dynamics: (proposed, accepted) counts (a proposal with no admissible choice counts as rejected)."""
+    history: dict[str, np.ndarray]
+    """Per iteration: log P*, temperature, proposals and acceptances of each dynamics (see
+    :func:`~socialaff_sim.learning.history.new_history`)."""
     type_updates: int
     """Inner-loop runs (sub-event types re-fitted)."""
     seconds: dict[str, float]
@@ -156,7 +173,7 @@ def learn(
     """
     clock = time.perf_counter()
     seconds: dict[str, float] = {}
-    _log.info("%s: %d instances; atomic intervals (K-means), then the initial parse", desc, len(tracks))
+    logger.info("%s: %d instances; atomic intervals (K-means), then the initial parse", desc, len(tracks))
     atoms = atomic_intervals(
         tracks, fps, available, n_clusters=lcfg.n_clusters, min_frames=lcfg.min_atomic_frames,
         max_seconds=lcfg.max_atomic_seconds, tau=lcfg.velocity_seconds, rng=rng, max_iter=lcfg.kmeans_iterations,
@@ -167,16 +184,20 @@ def learn(
     current = target.log_prob
     seconds["init"] = time.perf_counter() - clock - seconds["atoms"]
     best = (current, tuple(target.parses), target.groupings())
+    start_parses = tuple(target.parses)
     iterations = lcfg.iterations if acfg.use_subevents and n_labels > 1 else 0
     trace = [current]
     acceptance = []
     moves = {"split": [0, 0], "merge": [0, 0], "relabel": [0, 0], "shift": [0, 0]}
+    history = new_history(iterations, current)
+    temps = temperatures(lcfg, iterations)
+    history["temperature"][:] = temps
     bar = None
 
     def report(done: int) -> None:
         rate = float(np.mean(acceptance)) if acceptance else 0.0
         state = FitProgress(desc, done, iterations, float(current), float(best[0]), rate, time.perf_counter() - clock)
-        _log.info("%s: iteration %d/%d, log P* %.1f (best %.1f), acceptance %.2f, %.1f s",
+        logger.info("%s: iteration %d/%d, log P* %.1f (best %.1f), acceptance %.2f, %.1f s",
                   desc, done, iterations, state.log_posterior, state.best_log_posterior, rate, state.seconds)
         if callback is not None:
             callback(state)
@@ -187,19 +208,22 @@ def learn(
 
         bar = tqdm(total=iterations, desc=desc, unit="it", leave=False)
     try:
-        for _ in range(iterations):
+        for it in range(iterations):
             accepted = 0
             for i, space in enumerate(spaces):
-                step = mh_step(space, i, target.parses[i], current, target, lcfg, rng)
+                step = mh_step(space, i, target.parses[i], current, target, lcfg, rng, temperature=float(temps[it]))
                 current, ok = step.log_p, step.accepted
-                if step.move is not None:
-                    moves[step.move][0] += 1
-                    moves[step.move][1] += int(ok)
+                moves[step.move][0] += 1
+                moves[step.move][1] += int(ok)
+                history[f"proposed_{step.move}"][it] += 1
+                history[f"accepted_{step.move}"][it] += int(ok)
                 accepted += int(ok)
                 if current > best[0]:
                     best = (current, tuple(target.parses), target.groupings())
             acceptance.append(accepted / max(len(spaces), 1))
             trace.append(current)
+            history["log_posterior"][it + 1] = current
+            logger.debug("%s iteration %d: T %.3g, log P* %.2f, accepted %d of %d", desc, it, temps[it], current, accepted, len(spaces))
             report(len(acceptance))
             if bar is not None:
                 bar.update(1)
@@ -208,8 +232,11 @@ def learn(
         if bar is not None:
             bar.close()
     seconds["mcmc"] = time.perf_counter() - clock - seconds["atoms"] - seconds["init"]
+    if iterations:
+        logger.info("%s: %s", desc, summary_line(history))
     return LearningResult(
         parses=best[1],
+        start_parses=start_parses,
         spaces=tuple(spaces),
         atoms=atoms,
         grouping=best[2],
@@ -217,6 +244,7 @@ def learn(
         trace=np.asarray(trace),
         acceptance=np.asarray(acceptance),
         moves={k: (v[0], v[1]) for k, v in moves.items()},
+        history=history,
         type_updates=target.n_type_updates,
         seconds=seconds,
     )

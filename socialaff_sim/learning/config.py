@@ -12,13 +12,17 @@ __all__ = ["LearningConfig"]
 
 @dataclass(frozen=True)
 class LearningConfig(DictConfig):
-    """Algorithm 1 settings with the paper's defaults; change them with ``dataclasses.replace``.
+    """Algorithm 1 settings; change them with ``dataclasses.replace``.
+
+    The defaults are this project's learner; :meth:`paper` gives Algorithm 1 as the paper states it
+    (K-means atoms, then Metropolis-Hastings with merge 0.4 / split 0.4 / relabel 0.2 at temperature 1,
+    no hard-EM start, no type restructuring, no shift move).
 
     Fields by concept
     -----------------
     - Atomic time intervals: n_clusters, kmeans_iterations, min_atomic_frames, max_atomic_seconds, velocity_seconds
     - Initial parses: init_rounds, init_starts, init_type_passes, init_type_rounds, init_dirichlet
-    - Outer loop: Metropolis-Hastings over parses: iterations, p_merge, p_split, p_relabel, p_shift, lam
+    - Outer loop: Metropolis-Hastings over parses: iterations, p_merge, p_split, p_relabel, p_shift, temperature, lam
     - Inner loop: Gibbs sampling of the groupings: gibbs_max_sweeps, gibbs_patience, initial_gibbs_sweeps
     """
 
@@ -36,8 +40,8 @@ class LearningConfig(DictConfig):
     velocity_seconds: float = 0.5
     """τ [s]: weight of the joint velocities (m/s × τ) against the positions (m) in the K-means features."""
     init_rounds: int = 10
-    """[—]: Most rounds of hard-EM (fit, then DP re-segmentation) refining the equal-part initial parses
-    (0: start the chain from the equal parts)."""
+    """[—]: Most rounds of hard-EM (fit, then DP re-segmentation) refining the equal-part initial parses, our
+    addition (0, the paper: start the chain from the equal parts of the atoms)."""
     init_starts: int = 0
     """[—]: Extra starting points of the initial parses, our addition: besides the |S| equal parts, this many
     splits of every instance into |S| consecutive parts with fractions drawn from a symmetric
@@ -47,7 +51,7 @@ class LearningConfig(DictConfig):
     init_type_passes: int = 3
     """[—]: Most passes of type-level merge-and-split moves on the best initial parses, our addition
     (:mod:`~socialaff_sim.learning.restructure`): merge two adjacent types and split a third in every
-    instance at once, refine by hard-EM, keep it if log P* rises. 0: none (the start is hard-EM's)."""
+    instance at once, refine by hard-EM, keep it if log P* rises. 0 (the paper): none."""
     init_type_rounds: int = 3
     """[—]: Hard-EM rounds refining each candidate of those moves."""
     init_dirichlet: float = 2.0
@@ -61,11 +65,18 @@ class LearningConfig(DictConfig):
     p_shift: float = 0.5
     """[—]: Probability of the boundary-shift dynamics, our addition: a parse boundary moves to a neighbouring
     atomic boundary (a merge immediately followed by a split of the merged interval, labels kept).
-    Otherwise one of the paper's dynamics is drawn with p_merge / p_split / p_relabel. 0 gives the
-    paper's chain exactly; with one interval per sub-event type, its split and relabel have no
-    admissible choice and its merges are rejected, so the chain cannot move without shifts."""
+    Otherwise one of the paper's dynamics is drawn with p_merge / p_split / p_relabel. 0 (the paper):
+    no shift move."""
+    temperature: float = 1000.0
+    """T₀ [—]: the tempered chain's first temperature (≥ 1), our addition: iteration i of I accepts with
+    min(1, (P*'/P*)^(1/T_i) q_rev/q_fwd), T_i = T₀^(1 − i/(I − 1)) cooling geometrically to 1 at the
+    last iteration (simulated annealing; the returned state is the best visited). A one-atom change of
+    one instance's parse moves log P* by tens to thousands of nats on the synthetic data (a merge, in the median,
+    by about −750), so at T = 1 the default chain accepts almost nothing; 1000 is the smallest of 100, 300, 1000
+    at which every dynamics is accepted at all (docs/design.md). 1 (the paper): no tempering."""
     lam: float = 1.0
-    """λ [—]: λ of the proposals: a split picks atomic boundary b with probability ∝ exp(λ d_b), a merge picks a
+    """λ [—]: λ of the proposals (the same in both presets; the paper names λ without a value): a split picks
+    atomic boundary b with probability ∝ exp(λ d_b), a merge picks a
     parse boundary with probability ∝ exp(−λ d_b), d_b ∈ [0, 1] the normalized motion change at b."""
     gibbs_max_sweeps: int = 10
     """[—]: Most Gibbs sweeps of the inner loop over Z^s per sub-event type and proposal."""
@@ -99,3 +110,16 @@ class LearningConfig(DictConfig):
             raise bad("init_dirichlet", "a number > 0")
         if self.lam < 0:
             raise bad("lam", "a number >= 0")
+        if not float(self.temperature) >= 1.0:
+            raise bad("temperature", "a number >= 1")
+
+    @classmethod
+    def paper(cls, **changes: object) -> LearningConfig:
+        """Algorithm 1 as the paper states it: the equal parts of the K-means atoms as the start, then
+        Metropolis-Hastings with merge 0.4 / split 0.4 / relabel 0.2 at temperature 1 and the inner Gibbs
+        loop; no hard-EM start, no type restructuring, no shift move, no extra starts."""
+        base: dict[str, object] = dict(
+            init_rounds=0, init_starts=0, init_type_passes=0, p_shift=0.0, temperature=1.0,
+            p_merge=0.4, p_split=0.4, p_relabel=0.2,
+        )
+        return cls(**{**base, **changes})  # type: ignore[arg-type]

@@ -38,9 +38,9 @@ class SocialAffordanceModel(AffordanceParameters):
     Parameters
     ----------
     config:
-        Model settings (|S|, β, γ, floors, ablation switches); defaults are the paper's.
+        Model settings (|S|, β, γ, floors, ablation switches); ``AffordanceConfig.paper()`` for the paper's model.
     learning:
-        Algorithm 1 settings (:class:`~socialaff_sim.learning.config.LearningConfig`); defaults are the paper's.
+        Algorithm 1 settings (:class:`~socialaff_sim.learning.config.LearningConfig`); ``LearningConfig.paper()`` for the paper's Algorithm 1.
 
     The learned attributes (trailing underscore) are listed in
     :class:`~socialaff_sim.model.affordance.AffordanceParameters`; reading one before :meth:`fit`
@@ -105,6 +105,7 @@ class SocialAffordanceModel(AffordanceParameters):
         self.acceptance_rate_ = float(res.acceptance.mean()) if res.acceptance.size else 0.0
         self.log_posterior_ = res.log_posterior
         self.moves_ = dict(res.moves)
+        self.history_ = dict(res.history)
         self.fit_seconds_ = dict(res.seconds)
         self.subevent_names_ = name_subevents(inters, spans, n_sub)
         return self

@@ -82,7 +82,7 @@ def hard_em_parses(
             durs.append((float(ln.mu[0]), float(ln.sigma[0])))
             if acfg.path_noise and feats.path_sq is not None:
                 sigmas[s] = fit_path_noise(feats.path_sq, feats.path_n, acfg.path_sigma_min, available)[0]
-        p_start, p_trans = smoothed_probs(*count_transitions(spans, S), acfg.transition_alpha, acfg.distinct_neighbours)
+        p_start, p_trans = smoothed_probs(*count_transitions(spans, S), acfg.transition_alpha, acfg.distinct_neighbours, acfg.start_prior)
         with np.errstate(divide="ignore"):
             log_s, log_t = np.log(p_start), np.log(p_trans)
         new = []
@@ -98,7 +98,7 @@ def hard_em_parses(
                 zs = z[s]
                 score = (
                     log_spatial(
-                        pots[s], zs, feats.end, acfg.eps, other_side=acfg.other_side_reference,
+                        pots[s], zs, feats.end, acfg.eps, other_side=acfg.other_side_reference, include_self=acfg.reference_self,
                         cartesian=acfg.vector_density == "cartesian",
                     )
                     + log_motion(pots[s], zs, feats.disp, acfg.eps, cartesian=acfg.vector_density == "cartesian")

@@ -71,7 +71,7 @@ class TypeLikelihood:
         for r, k in enumerate(keys):
             others = k >> 4
             members = [m for m in range(N_JOINTS) if others >> m & 1]
-            W[r] = reference_row(k & 15, members, self.cfg.other_side_reference)
+            W[r] = reference_row(k & 15, members, self.cfg.other_side_reference, self.cfg.reference_self)
         ll = fit_offsets(self.end, js, W, self.cfg)[1]
         self.n_fits += len(keys)
         for k, v in zip(keys, ll.tolist(), strict=True):

@@ -9,8 +9,11 @@ reading of the paper's λ-dynamics, which it names but does not spell out):
   intervals uniformly among the pairs the constraints allow;
 * **merge** (``p_merge``): choose a parse boundary b with probability ∝ exp(−λ d_b), then a
   label for the merged interval uniformly among those allowed;
-* **relabel** (``p_relabel``): choose an interval uniformly, then a different allowed label
-  uniformly;
+* **relabel** (``p_relabel``): choose an interval uniformly, then a different label uniformly
+  among those that give a valid parse, where a label already used as often as the constraint
+  allows (``max_repeats``, e.g. the default's one interval per type) is *swapped* with the
+  interval holding it instead of being refused (with no such constraint, as in the paper, no
+  swap ever happens);
 * **shift** (our addition, drawn first with probability ``p_shift``; the three above share the
   rest in the paper's proportions): choose a parse boundary with probability ∝ exp(−λ d_b) and
   move it to a neighbouring atomic boundary inside its two intervals with probability
@@ -18,7 +21,9 @@ reading of the paper's λ-dynamics, which it names but does not spell out):
 
 d_b ∈ [0, 1] is the normalized motion change at b, so splits prefer boundaries where the
 motion changes and merges prefer those where it does not. A move with no admissible choice
-leaves the state unchanged (counted as rejected). The acceptance ratio uses the exact
+leaves the state unchanged (counted as proposed and rejected). :func:`mh_step` can temper the
+target: at temperature T it accepts with min(1, exp((log P*′ − log P*) / T) q_rev / q_fwd), so the
+chain's stationary distribution is ∝ P*^(1/T). The acceptance ratio uses the exact
 reverse-move probability: a split's reverse is the merge at the same boundary back to the
 old label, a merge's reverse the split back to the two old labels, a relabel's reverse the
 relabel back, a shift's reverse the shift back, each with its own count of choices and its own
@@ -36,7 +41,10 @@ import numpy as np
 from .config import LearningConfig
 from .parse import Parse, ParseSpace
 
-__all__ = ["ParseTarget", "FunctionTarget", "Proposal", "StepResult", "propose", "mh_step"]
+__all__ = ["MOVES", "ParseTarget", "FunctionTarget", "Proposal", "StepResult", "draw_move", "propose", "propose_move", "mh_step"]
+
+MOVES: tuple[str, ...] = ("merge", "split", "relabel", "shift")
+"""Names of the dynamics."""
 
 
 class ParseTarget(Protocol):
@@ -144,21 +152,51 @@ def _merge(space: ParseSpace, p: Parse, cfg: LearningConfig, rng: np.random.Gene
     return Proposal(new, "merge", float(log_f), float(log_r))
 
 
+def _relabelled(space: ParseSpace, labels: tuple[int, ...], k: int, s: int) -> tuple[int, ...]:
+    """The labels with interval ``k`` relabelled ``s``; when ``s`` is already used ``max_repeats`` times
+    elsewhere, the (first) other interval holding it takes interval ``k``'s old label (a swap)."""
+    new = list(labels)
+    old = new[k]
+    new[k] = s
+    if space.max_repeats is not None and sum(1 for i, x in enumerate(labels) if x == s and i != k) >= space.max_repeats:
+        new[next(i for i, x in enumerate(labels) if x == s and i != k)] = old
+    return tuple(new)
+
+
+def _relabel_options(space: ParseSpace, p: Parse, k: int) -> list[Parse]:
+    """The valid parses a relabel of interval ``k`` can reach (one per new label, in label order)."""
+    out = []
+    for s in range(space.n_labels):
+        if s == p.labels[k]:
+            continue
+        q = Parse(p.starts, _relabelled(space, p.labels, k, s))
+        if space.is_valid(q):
+            out.append(q)
+    return out
+
+
 def _relabel(space: ParseSpace, p: Parse, cfg: LearningConfig, rng: np.random.Generator) -> Proposal | None:
     K = p.n_intervals
     k = int(rng.integers(K))
-    ok = space.single_options(p.labels, k, k + 1)
-    ok[p.labels[k]] = False
-    n_ok = int(ok.sum())
-    if n_ok == 0:
+    options = _relabel_options(space, p, k)
+    if not options:
         return None
-    s = int(np.flatnonzero(ok)[int(rng.integers(n_ok))])
-    new = Parse(p.starts, p.labels[:k] + (s,) + p.labels[k + 1 :])
-    back = space.single_options(new.labels, k, k + 1)
-    back[s] = False
-    log_f = np.log(_q(cfg, cfg.p_relabel)) - np.log(K) - np.log(n_ok)
-    log_r = np.log(_q(cfg, cfg.p_relabel)) - np.log(K) - np.log(int(back.sum()))
+    new = options[int(rng.integers(len(options)))]
+    log_f = np.log(_q(cfg, cfg.p_relabel)) + _log_relabel_choice(space, p, new)
+    log_r = np.log(_q(cfg, cfg.p_relabel)) + _log_relabel_choice(space, new, p)
     return Proposal(new, "relabel", float(log_f), float(log_r))
+
+
+def _log_relabel_choice(space: ParseSpace, p: Parse, new: Parse) -> float:
+    """log of the probability that a relabel from ``p`` gives ``new``: a swap of two labels is reached by
+    relabelling either of its intervals, so the probabilities of every interval that reaches it add up."""
+    K = p.n_intervals
+    total = 0.0
+    for k in np.flatnonzero(np.asarray(p.labels) != np.asarray(new.labels)):
+        options = _relabel_options(space, p, int(k))
+        if new in options:
+            total += 1.0 / (K * len(options))
+    return float(np.log(total))
 
 
 def _shift_candidates(space: ParseSpace, starts: tuple[int, ...], k: int) -> np.ndarray:
@@ -191,16 +229,31 @@ def _shift(space: ParseSpace, p: Parse, cfg: LearningConfig, rng: np.random.Gene
     return Proposal(new, "shift", float(log_f), float(log_r))
 
 
-def propose(space: ParseSpace, parse: Parse, cfg: LearningConfig, rng: np.random.Generator) -> Proposal | None:
-    """Draw one move; ``None`` when the drawn dynamics has no admissible choice."""
+_MOVE_FUNCTIONS = {"merge": _merge, "split": _split, "relabel": _relabel, "shift": _shift}
+
+
+def draw_move(cfg: LearningConfig, rng: np.random.Generator) -> str:
+    """Which dynamics to try: "shift" with ``p_shift``, else merge / split / relabel in their proportions."""
     if cfg.p_shift > 0 and rng.random() < cfg.p_shift:
-        return _shift(space, parse, cfg, rng)
+        return "shift"
     u = rng.random()
     if u < cfg.p_merge:
-        return _merge(space, parse, cfg, rng)
+        return "merge"
     if u < cfg.p_merge + cfg.p_split:
-        return _split(space, parse, cfg, rng)
-    return _relabel(space, parse, cfg, rng)
+        return "split"
+    return "relabel"
+
+
+def propose_move(
+    space: ParseSpace, parse: Parse, cfg: LearningConfig, rng: np.random.Generator, move: str
+) -> Proposal | None:
+    """One proposal of the dynamics ``move``; ``None`` when it has no admissible choice."""
+    return _MOVE_FUNCTIONS[move](space, parse, cfg, rng)
+
+
+def propose(space: ParseSpace, parse: Parse, cfg: LearningConfig, rng: np.random.Generator) -> Proposal | None:
+    """Draw one move; ``None`` when the drawn dynamics has no admissible choice."""
+    return propose_move(space, parse, cfg, rng, draw_move(cfg, rng))
 
 
 class StepResult(NamedTuple):
@@ -209,8 +262,8 @@ class StepResult(NamedTuple):
     parse: Parse
     log_p: float
     accepted: bool
-    move: str | None
-    """The dynamics drawn ("split", "merge", "relabel"), ``None`` when it had no admissible choice."""
+    move: str
+    """The dynamics drawn (one of :data:`MOVES`), also when it had no admissible choice (then rejected)."""
 
 
 def mh_step(
@@ -221,13 +274,16 @@ def mh_step(
     target: ParseTarget,
     cfg: LearningConfig,
     rng: np.random.Generator,
+    temperature: float = 1.0,
 ) -> StepResult:
-    """One Metropolis-Hastings step on instance ``i`` from ``parse`` with log target ``current_log_p``."""
-    prop = propose(space, parse, cfg, rng)
+    """One Metropolis-Hastings step on instance ``i`` from ``parse`` with log target ``current_log_p``,
+    leaving the target raised to the power 1 / ``temperature`` invariant."""
+    move = draw_move(cfg, rng)
+    prop = propose_move(space, parse, cfg, rng, move)
     if prop is None:
-        return StepResult(parse, current_log_p, False, None)
+        return StepResult(parse, current_log_p, False, move)
     new_log_p = target.propose(i, prop.parse)
-    log_a = new_log_p - current_log_p + prop.log_q_reverse - prop.log_q_forward
+    log_a = (new_log_p - current_log_p) / temperature + prop.log_q_reverse - prop.log_q_forward
     if np.isfinite(new_log_p) and np.log(rng.random()) < log_a:
         target.accept()
         return StepResult(prop.parse, new_log_p, True, prop.move)

@@ -164,7 +164,7 @@ class AffordanceTarget:
         return TypeState(lik, res.z, res.log_joint, duration, path)
 
     def _total(self, types: list[TypeState], trans: np.ndarray, start: np.ndarray) -> float:
-        t = transition_loglik(start, trans, self.acfg.transition_alpha, self.distinct)
+        t = transition_loglik(start, trans, self.acfg.transition_alpha, self.distinct, self.acfg.start_prior)
         return float(sum(ts.value for ts in types) + t)
 
     @property

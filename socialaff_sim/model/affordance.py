@@ -33,7 +33,7 @@ class AffordanceParameters:
     Parameters
     ----------
     config:
-        Model settings (|S|, β, γ, floors, ablation switches); defaults are the paper's.
+        Model settings (|S|, β, γ, floors, ablation switches); ``AffordanceConfig.paper()`` for the paper's model.
 
     Attributes (set by :meth:`socialaff_sim.learning.SocialAffordanceModel.fit` or ``load``;
     S = |S|, 11 model joints)
@@ -90,7 +90,11 @@ class AffordanceParameters:
     log_posterior_ : float
         log P* of the returned (best visited) state.
     moves_ : dict[str, tuple[int, int]]
-        (proposed, accepted) per dynamics.
+        (proposed, accepted) per dynamics (proposals with no admissible choice count as rejected).
+    history_ : dict[str, ndarray]
+        Per outer iteration: ``"log_posterior"`` (I + 1,), ``"temperature"`` (I,), and per dynamics m
+        ``"proposed_<m>"`` / ``"accepted_<m>"`` (I,) int64 (:func:`~socialaff_sim.learning.history.new_history`).
+        Set by ``fit`` only; a loaded model has ``trace_``, ``acceptance_`` and ``moves_`` but no history.
     fit_seconds_ : dict[str, float]
         Wall-clock seconds of the stages of ``fit``.
     """
@@ -192,7 +196,7 @@ class AffordanceParameters:
         cfg = self.config
         pot = self.potentials(s)
         return _nan_to_neginf(log_spatial(
-            pot, self._z(s), np.asarray(end, float), cfg.eps, other_side=cfg.other_side_reference,
+            pot, self._z(s), np.asarray(end, float), cfg.eps, other_side=cfg.other_side_reference, include_self=cfg.reference_self,
             cartesian=cfg.vector_density == "cartesian",
         ))
 

@@ -26,12 +26,17 @@ DEFAULT_N_SUBEVENTS = 4
 
 @dataclass(frozen=True)
 class AffordanceConfig(DictConfig):
-    """Model settings with the paper's defaults; change them with ``dataclasses.replace``.
+    """Model settings; change them with ``dataclasses.replace``.
+
+    The defaults are this project's model; :meth:`paper` gives the model of the paper (Shu, Ryoo &
+    Zhu, IJCAI 2016, section 3). Every field on which the two differ says so, and docs/design.md lists
+    the differences with their measured effects.
 
     Fields by concept
     -----------------
-    - Sub-events and parses: n_subevents, transition_alpha, distinct_neighbours, unique_labels, min_subevent_seconds
-    - Joint selection and grouping: beta, gamma, other_side_reference
+    - Sub-events and parses: n_subevents, transition_alpha, start_prior, distinct_neighbours, unique_labels,
+      min_subevent_seconds
+    - Joint selection and grouping: beta, gamma, other_side_reference, reference_self
     - Potentials and durations: vector_density, duration_density
     - Maximum-likelihood fits: eps, shape_min, shape_max, kappa_max, sigma_min
     - Learning objective P*: likelihood
@@ -54,7 +59,18 @@ class AffordanceConfig(DictConfig):
     other_side_reference: bool = True
     """[—]: A grouped joint's spatial reference is the mass centre of its group mates on the *other* side of the
     interaction (the other agent's joints and the object; for the object, both agents' joints), so a group
-    expresses relations between the agents rather than one body's posture. False: all group mates."""
+    expresses relations between the agents rather than one body's posture (our change). False: all group
+    mates (the paper)."""
+    reference_self: bool = False
+    """[—]: Whether the mass centre a grouped joint is placed relative to includes the joint itself. The paper
+    defines the reference as the mass centre of the joint's group, the joint included (True); the
+    default leaves it out (False), so the offset is the joint's position relative to its mates, not
+    shrunk by (M − 1) / M with the group's size M. A joint alone in its group is placed relative to
+    the other agent's base in both (a one-joint group's own mass centre is the joint: a zero offset)."""
+    start_prior: bool = True
+    """p(s_1) [—]: Learn the start distribution p(s_1) from the first labels of the training parses (add-α); our
+    addition, used by the learning objective, the DP parses and the online parse. False (the paper,
+    whose parse probability has the transitions p(s_k | s_{k−1}) only): p(s_1) uniform."""
     use_grouping: bool = True
     """[—]: False gives ablation V1 ("no joint selection and grouping"): Z is not learned; every available
     key joint is affordable and lone (spatial potential relative to the other agent's base, Weibull/von
@@ -65,8 +81,9 @@ class AffordanceConfig(DictConfig):
     distinct_neighbours: bool = True
     """[—]: Consecutive intervals of a parse carry different labels (a sub-event is a maximal interval)."""
     unique_labels: bool = True
-    """[—]: Each sub-event type occupies at most one interval of an instance: the paper's interactions are
-    read as a sequence of distinct sub-events (approach, reach, shake, retract). False lets a type recur."""
+    """[—]: Each sub-event type occupies at most one interval of an instance (our constraint: an interaction
+    read as a sequence of distinct sub-events such as approach, reach, shake, retract). False (the
+    paper, which puts no such constraint on parses): a type may recur."""
     min_subevent_seconds: float = 0.0
     """[s]: Shortest allowed sub-event interval, seconds (0: no limit)."""
     eps: float = 1e-3
@@ -109,7 +126,7 @@ class AffordanceConfig(DictConfig):
     of a sub-event, so its objective cannot tell where the motion in between belongs: on the
     synthetic dataset it scores parses that lump a reach-and-return into one interval and cut
     still moments into tiny ones above the ground truth (frame accuracy 0.63 against 0.90 with this
-    term; docs/benchmarks.md). False: the paper's model exactly."""
+    term; docs/design.md). False: the paper (no such term)."""
     path_profile: str = "minjerk"
     """[—]: Time profile of that path (:data:`~socialaff_sim.model.path.PATH_PROFILES`): ``"minjerk"``, a
     minimum-jerk movement from rest to rest, or ``"linear"``, constant speed."""
@@ -122,7 +139,7 @@ class AffordanceConfig(DictConfig):
     """[—]: Our addition, on by default: per instance and agent, relabel the left and right key joints so the
     wrist that travels farther is "right" (:mod:`~socialaff_sim.model.handedness`). Actors who use
     either hand then share one joint grouping per sub-event (contact wrists grouped in 5 of 5 synthetic
-    interactions against 3 of 5 without; docs/analysis.md). False: the paper's model, labels as recorded."""
+    interactions against 3 of 5 without; docs/design.md). False: the paper, labels as recorded."""
     contact_radius: float = 0.2
     """[m]: our addition (used by synthesis only): an approach of agent 1's wrist to a group mate inside a
     sub-event is learned as a contact keyframe when its mean closest distance is below this and the mean
@@ -131,6 +148,18 @@ class AffordanceConfig(DictConfig):
     """T0 [frames]: our addition (used by synthesis only): the regressions read agent 1 at frame T0 − 1 of each
     training instance, the last frame observed before synthesis starts (the paper's evaluation observes
     T0 = 10; a synthesizer with another T0 reads its own last observed frame)."""
+
+    @classmethod
+    def paper(cls, **changes: object) -> AffordanceConfig:
+        """The paper's model exactly (section 3): the reference of a grouped joint is the mass centre of its
+        whole group, joint included; p(s_1) uniform; no unique-label constraint; no path-noise term; left and
+        right as recorded. Everything else (β, γ, the Weibull/von Mises potentials of (h, |dz|, θ), the
+        profile likelihood, the log-normal density of durations in seconds) is the same in both."""
+        base: dict[str, object] = dict(
+            other_side_reference=False, reference_self=True, start_prior=False, unique_labels=False,
+            path_noise=False, active_hand=False,
+        )
+        return cls(**{**base, **changes})  # type: ignore[arg-type]
 
     @property
     def feature_path_profile(self) -> str | None:

@@ -3,7 +3,7 @@
 The paper's potentials describe a sub-event by its two end configurations, and synthesis
 interpolates between them. A touch that happens in the middle of a sub-event and is released
 before its end (a high five's strike meets the other hand and rebounds) is therefore never
-reached: at the recorded contact frame the synthesized hand is 0.1–0.4 m short (docs/analysis.md).
+reached: at the recorded contact frame the synthesized hand is 0.1–0.4 m short (docs/design.md).
 
 This is our addition. For each sub-event type and each of agent 1's wrists that the learned
 grouping places with joints of agent 0 (or the object), the training intervals give the frame of

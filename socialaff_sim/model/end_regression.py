@@ -1,7 +1,7 @@
 """End-configuration regression: agent 1's key joints at a sub-event's end given its context.
 
 The paper's potentials score each of agent 1's joints against its own reference independently,
-so the most likely candidate scatters the wrists and ankles around the body (docs/analysis.md).
+so the most likely candidate scatters the wrists and ankles around the body (docs/design.md).
 This term models agent 1's five key joints *jointly*: per sub-event type, a ridge regression
 from the interval's context to agent 1's end configuration, with a Gaussian residual.
 

@@ -58,7 +58,7 @@ def estimate_parameters(
             ln = fit_lognorm(feats.seconds, sigma_min=cfg.sigma_min)
             durations[s] = (ln.mu[0], ln.sigma[0])
             mean_end[s] = feats.end.mean(axis=0)
-            vertical_up[s] = vertical_up_frequencies(feats.end, feats.disp, grouping[s], cfg.other_side_reference)
+            vertical_up[s] = vertical_up_frequencies(feats.end, feats.disp, grouping[s], cfg.other_side_reference, cfg.reference_self)
             if feats.path_sq is not None and feats.path_n is not None:
                 path_sigma[s] = fit_path_noise(feats.path_sq, feats.path_n, cfg.path_sigma_min, available)[0]
         sig = cfg.end_sigma_min
@@ -66,7 +66,7 @@ def estimate_parameters(
         end_regressions.append(fit_end_regression(*interval_samples(tracks, spans, s, ref), available, sigma_min=sig))
         frame_regressions.append(fit_frame_regression(*frame_samples(tracks, spans, s, ref), available, sigma_min=sig))
     start, trans = count_transitions(spans, S)
-    start_probs, transitions = smoothed_probs(start, trans, cfg.transition_alpha, cfg.distinct_neighbours)
+    start_probs, transitions = smoothed_probs(start, trans, cfg.transition_alpha, cfg.distinct_neighbours, cfg.start_prior)
     return {
         "spatial_params_": spatial,
         "motion_params_": motion,

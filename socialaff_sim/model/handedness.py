@@ -1,7 +1,7 @@
 """Active-hand relabelling: per instance and agent, the wrist that travels farther is called "right".
 
 An actor may do a one-handed action with either hand (a left-handed high five, a left-hand grip).
-One joint grouping per sub-event type cannot cover both (docs/analysis.md), so with
+One joint grouping per sub-event type cannot cover both (docs/design.md), so with
 :attr:`~socialaff_sim.model.config.AffordanceConfig.active_hand` the model swaps an agent's left
 and right key joints (wrists and ankles together; a relabelling, not a reflection: positions are
 unchanged) in every instance where its left wrist's path is the longer. This goes beyond the paper,

@@ -60,18 +60,23 @@ ENTITY_OF = np.array([0] * N_KEY + [1] * N_KEY + [2])
 """(11,) int: the entity of each joint (0: agent 0, 1: agent 1, 2: the object)."""
 
 
-def reference_row(j: int, others: list[int] | np.ndarray, other_side: bool) -> np.ndarray:
+def reference_row(
+    j: int, others: list[int] | np.ndarray, other_side: bool, include_self: bool = False
+) -> np.ndarray:
     """(11,) weights of the spatial reference point of affordable joint ``j`` with group mates ``others``.
 
     The reference is the mass centre (mean) of the group mates, restricted to those of other
-    entities than ``j``'s own when ``other_side``; with no (remaining) mates it is
-    :data:`LONE_REFERENCE` of ``j``.
+    entities than ``j``'s own when ``other_side``, and of ``j`` itself too when ``include_self``
+    (the mass centre of the whole group); with no (remaining) mates it is :data:`LONE_REFERENCE`
+    of ``j`` (a one-joint group's own mass centre is the joint, a zero offset).
     """
     others = np.asarray(others, dtype=np.int64)
     if other_side and others.size:
         others = others[ENTITY_OF[others] != ENTITY_OF[j]]
     if others.size == 0:
         return LONE_REFERENCE[j].copy()
+    if include_self:
+        others = np.append(others, j)
     w = np.zeros(N_JOINTS)
     w[others] = 1.0 / others.size
     return w

@@ -59,13 +59,13 @@ __all__ = [
 N_PARAMS = 6
 
 
-def reference_weights(z: np.ndarray, *, other_side: bool) -> np.ndarray:
+def reference_weights(z: np.ndarray, *, other_side: bool, include_self: bool = False) -> np.ndarray:
     """(11, 11) float64: row j holds the weights of joint j's spatial reference point (zero unless affordable)."""
     z = np.asarray(z)
     W = np.zeros((N_JOINTS, N_JOINTS))
     for j in np.flatnonzero(z > 0):
         others = np.flatnonzero(z == z[j])
-        W[j] = reference_row(int(j), others[others != j], other_side)
+        W[j] = reference_row(int(j), others[others != j], other_side, include_self)
     return W
 
 
@@ -168,7 +168,7 @@ def fit_type_potentials(end: np.ndarray, disp: np.ndarray, z: np.ndarray, cfg: A
     if end.shape[0] == 0:
         return TypePotentials(spatial, motion, 0.0)
     if aff.size:
-        W = reference_weights(z, other_side=cfg.other_side_reference)
+        W = reference_weights(z, other_side=cfg.other_side_reference, include_self=cfg.reference_self)
         p, l_sp = fit_offsets(end, aff, W[aff], cfg)
         spatial[aff] = p
         pm, l_mo = fit_affordable_motion(disp[:, aff], cfg)
@@ -194,7 +194,8 @@ def _score_rows(vecs: np.ndarray, params: np.ndarray, eps: float, expon: np.ndar
 
 
 def log_spatial(
-    pot: TypePotentials, z: np.ndarray, end: np.ndarray, eps: float, *, other_side: bool, cartesian: bool = False
+    pot: TypePotentials, z: np.ndarray, end: np.ndarray, eps: float, *, other_side: bool, cartesian: bool = False,
+    include_self: bool = False,
 ) -> np.ndarray:
     """Spatial log-potential of N configurations ``end`` (N, 11, 3) canonical metres → (N,).
 
@@ -204,7 +205,7 @@ def log_spatial(
     aff = np.flatnonzero(z > 0)
     if aff.size == 0:
         return np.zeros(end.shape[0])
-    W = reference_weights(z, other_side=other_side)[aff]
+    W = reference_weights(z, other_side=other_side, include_self=include_self)[aff]
     offsets = end[:, aff] - _references(W, end)
     out = _score_rows(offsets, pot.spatial[aff], eps, np.zeros(aff.size, bool))
     if cartesian:

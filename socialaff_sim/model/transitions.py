@@ -27,8 +27,11 @@ def count_transitions(spans: Sequence[Sequence[tuple[int, int, int]]], S: int) -
     return start, trans
 
 
-def smoothed_probs(start: np.ndarray, trans: np.ndarray, alpha: float, distinct: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Smoothed start (S,) and transition (S, S) probabilities from counts."""
+def smoothed_probs(
+    start: np.ndarray, trans: np.ndarray, alpha: float, distinct: bool, learn_start: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
+    """Smoothed start (S,) and transition (S, S) probabilities from counts; ``learn_start=False``:
+    p(s_1) uniform, 1 / |S| (:attr:`~socialaff_sim.model.config.AffordanceConfig.start_prior`)."""
     S = start.shape[0]
     allowed = ~np.eye(S, dtype=bool) if (distinct and S > 1) else np.ones((S, S), dtype=bool)
     num = np.where(allowed, trans + alpha, 0.0)
@@ -36,13 +39,16 @@ def smoothed_probs(start: np.ndarray, trans: np.ndarray, alpha: float, distinct:
     uniform = allowed / allowed.sum(axis=1, keepdims=True)
     p_trans = np.where(rows > 0, num / np.where(rows > 0, rows, 1.0), uniform)
     total = start.sum() + alpha * S
-    p_start = (start + alpha) / total if total > 0 else np.full(S, 1.0 / S)
+    p_start = (start + alpha) / total if (total > 0 and learn_start) else np.full(S, 1.0 / S)
     return p_start, p_trans
 
 
-def transition_loglik(start: np.ndarray, trans: np.ndarray, alpha: float, distinct: bool) -> float:
-    """Σ n log p of the counts under their own smoothed frequencies."""
-    p_start, p_trans = smoothed_probs(start, trans, alpha, distinct)
+def transition_loglik(
+    start: np.ndarray, trans: np.ndarray, alpha: float, distinct: bool, learn_start: bool = True
+) -> float:
+    """Σ n log p of the counts under their own smoothed frequencies (with ``learn_start=False`` the start
+    term is Σ n log(1 / |S|), a constant of the parses)."""
+    p_start, p_trans = smoothed_probs(start, trans, alpha, distinct, learn_start)
     ll = (start * np.log(np.where(start > 0, p_start, 1.0))).sum()
     ll += (trans * np.log(np.where(trans > 0, p_trans, 1.0))).sum()
     return float(ll)

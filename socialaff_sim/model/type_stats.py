@@ -11,9 +11,11 @@ from .potentials import reference_weights
 __all__ = ["name_subevents", "vertical_up_frequencies"]
 
 
-def vertical_up_frequencies(end: np.ndarray, disp: np.ndarray, z: np.ndarray, other_side: bool) -> np.ndarray:
+def vertical_up_frequencies(
+    end: np.ndarray, disp: np.ndarray, z: np.ndarray, other_side: bool, include_self: bool = False
+) -> np.ndarray:
     """(2, 11) add-one smoothed frequency of dz > 0 of spatial offsets and of displacements."""
-    W = reference_weights(z, other_side=other_side)
+    W = reference_weights(z, other_side=other_side, include_self=include_self)
     off_z = end[:, :, 2] - np.nan_to_num(end[:, :, 2]) @ W.T
     n = end.shape[0]
     return np.stack([((off_z > 0).sum(axis=0) + 1.0) / (n + 2.0), ((disp[:, :, 2] > 0).sum(axis=0) + 1.0) / (n + 2.0)])
