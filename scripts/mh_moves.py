@@ -18,10 +18,10 @@ import argparse
 import dataclasses
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from socialaff_sim.data import load_dataset
 from socialaff_sim.inference.presets import preset
+from socialaff_sim.evaluation.metrics import matched_accuracy, parse_confusion
 from socialaff_sim.learning.algorithm import learn
 from socialaff_sim.learning.history import acceptance_rates
 from socialaff_sim.learning.estimator import SocialAffordanceModel
@@ -29,19 +29,20 @@ from socialaff_sim.model.handedness import hand_flags, relabel
 from socialaff_sim.model.joints import available_joints, canonical_joints
 
 
-def accuracy(inters, spans_per_instance, S: int) -> float:  # noqa: ANN001
-    """Frame accuracy of labelled spans against the instances' sub-events after optimal matching."""
+def parse_accuracy(inters, parses, S: int) -> float:  # noqa: ANN001
+    """Frame accuracy of labelled spans ``(f0, f1, s)`` against the instances' ground-truth sub-events, after the
+    one-to-one label matching that maximizes it over all instances together (evaluation.metrics)."""
     G = len(inters[0].subevent_names)
-    C = np.zeros((S, G))
+    C = np.zeros((G, S), dtype=np.int64)
     total = 0
-    for inter, spans in zip(inters, spans_per_instance, strict=True):
-        for f0, f1, s in spans:
-            g = inter.subevents[f0:f1]
-            g = g[g >= 0]
-            C[s] += np.bincount(g, minlength=G)
+    for inter, rows in zip(inters, parses, strict=True):
+        labels = np.full(len(inter.subevents), -1, dtype=np.int64)
+        for f0, f1, s in rows:
+            labels[f0:f1] = s
+        c = parse_confusion(labels, inter.subevents, G)
+        C[:, : c.shape[1]] += c
         total += int((inter.subevents >= 0).sum())
-    r, c = linear_sum_assignment(-C)
-    return float(C[r, c].sum() / max(total, 1))
+    return matched_accuracy(C, total)
 
 
 def main() -> None:
@@ -82,7 +83,7 @@ def main() -> None:
                 init = [sp.frame_spans(sp.initial_parse(S)) for sp in res.spaces]
                 start = [sp.frame_spans(q) for sp, q in zip(res.spaces, res.start_parses, strict=True)]
                 learned = [[tuple(r) for r in rows] for rows in model.parses_]
-                accs = [f"{accuracy(inters, x, S):.3f}" for x in (init, start, learned)]
+                accs = [f"{parse_accuracy(inters, x, S):.3f}" for x in (init, start, learned)]
             lp = model.history_["log_posterior"]
             print(f"| {name} | {label} | {' | '.join(cells)} | {' | '.join(accs)} | {lp[0]:.0f} -> {lp[-1]:.0f} |", flush=True)
 

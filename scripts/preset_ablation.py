@@ -23,10 +23,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from socialaff_sim.data import load_dataset
 from socialaff_sim.evaluation.metrics import mean_joint_distance
@@ -35,6 +36,11 @@ from socialaff_sim.inference import synthesize
 from socialaff_sim.inference.presets import Preset, preset
 from socialaff_sim.learning.mh import MOVES
 from socialaff_sim.learning.estimator import SocialAffordanceModel
+
+_HERE = str(Path(__file__).resolve().parent)
+if _HERE not in sys.path:  # run as `python scripts/preset_ablation.py` it is sys.path[0]
+    sys.path.append(_HERE)
+from mh_moves import parse_accuracy  # noqa: E402  (one definition, shared with the MH-moves script)
 
 # (row name, which config, field): the paper's value is read from the paper preset.
 DIFFERENCES: tuple[tuple[str, str, str], ...] = (
@@ -54,17 +60,6 @@ DIFFERENCES: tuple[tuple[str, str, str], ...] = (
 )
 
 
-def parse_accuracy(inters, parses, S: int) -> float:  # noqa: ANN001
-    G = len(inters[0].subevent_names)
-    C = np.zeros((S, G))
-    total = 0
-    for inter, rows in zip(inters, parses, strict=True):
-        for f0, f1, s in rows:
-            g = inter.subevents[f0:f1]
-            C[s] += np.bincount(g[g >= 0], minlength=G)
-        total += int((inter.subevents >= 0).sum())
-    r, c = linear_sum_assignment(-C)
-    return float(C[r, c].sum() / max(total, 1))
 
 
 def rows_to_run(only: list[str] | None) -> list[tuple[str, Preset]]:

@@ -5,8 +5,14 @@ pyproject.toml's import-linter contract, docs/contributing.md): ``data`` → ``m
 ``inference`` → ``baselines`` → ``retarget`` → ``sim`` → ``environment`` → ``evaluation`` → ``demo`` → ``cli``.
 """
 
+# First: MuJoCo reads MUJOCO_GL when it is first imported, and every sub-package imports it below this.
+from ._headless import GL_CHOICE
 from .errors import SocialAffError
+from .gym_ids import register_envs
 
 __version__ = "0.1.0"
 
-__all__ = ["SocialAffError", "__version__"]
+# Gymnasium ids (socialaff_sim/ShakeHands-v0, …): entry-point strings only, the env loads on gym.make.
+register_envs()
+
+__all__ = ["GL_CHOICE", "SocialAffError", "__version__"]

@@ -9,6 +9,8 @@ from pathlib import Path
 
 from .._atomic import output_folder
 from .validate import declare_outputs, non_negative_int, positive_int
+from ..report import write_demo_page
+from .help_format import HelpFormatter
 
 __all__ = ["register"]
 
@@ -32,6 +34,7 @@ def _run(args: argparse.Namespace) -> int:
     with output_folder(args.out) as staging:  # the report and its files appear together; a second run is refused
         results = run_demo(staging, labels, config, progress=progress if not args.quiet else None)
     out = Path(args.out)
+    page = write_demo_page(out, results, config)
     print(f"\n{'interaction':<14}{'key-joint error m (full / hmm / promp)':>40}{'sub-goals (synth / gt)':>26}")
     for r in results:
         errs = " / ".join(f"{r.errors.get(m, float('nan')):.3f}" for m in ("full", *config.baselines))
@@ -40,13 +43,24 @@ def _run(args: argparse.Namespace) -> int:
     notes = {r.video_note for r in results if not r.video}
     for note in notes:
         print(f"video: {note}", file=sys.stderr)
-    print(f"\nwrote {out / 'report.md'} (with figures{' and videos' if not notes else ''}) in {time.perf_counter() - start:.0f} s")
+    print(f"\nwrote {page} and {out / 'report.md'} (with figures{' and videos' if not notes else ''}) "
+          f"in {time.perf_counter() - start:.0f} s")
+    print(f"next: open {page.resolve().as_uri()} in a browser; fit your own data with `socialaff-sim fit --help`")
     return 0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``demo``."""
-    p = subparsers.add_parser("demo", help="learn, synthesize, simulate and report on the embedded synthetic dataset")
+    p = subparsers.add_parser(
+        "demo",
+        help="learn, synthesize, simulate and report on the embedded synthetic dataset",
+        description="The whole loop on the embedded synthetic dataset (nothing is downloaded): learn each "
+        "interaction's model, synthesize the robot's reaction to held-out people, compare with the baselines, "
+        "simulate it in MuJoCo and write OUT/report.html with the videos (about 3-4 minutes for all five).",
+        epilog="example:\n  socialaff-sim demo --interaction shake_hands --out demo_out   # about 40 s\n"
+        "  then open demo_out/report.html in a browser",
+        formatter_class=HelpFormatter,
+    )
     p.add_argument("--interaction", help="one interaction (default: all five)")
     p.add_argument("--out", default="demo_out", help="output folder (default: demo_out)")
     p.add_argument("--iterations", type=positive_int, default=30, help="MCMC iterations of the learning (default 30)")
@@ -56,7 +70,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--mjcf", help="the robot's MJCF file, for robots whose model the project does not ship "
                                   "(unitree_h1: your h1.xml; unitree_g1: your g1_29dof.xml)")
     p.add_argument("--no-video", action="store_true", help="skip rendering")
-    p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the synthetic data and of every sampler")
     declare_outputs(p, out="folder")
     p.set_defaults(func=_run)

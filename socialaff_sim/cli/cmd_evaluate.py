@@ -12,6 +12,8 @@ from ..evaluation import DEFAULT_N_OBSERVED, EvaluationConfig, evaluate, format_
 from ..evaluation.crossval import EXECUTORS, PRESETS
 from ..evaluation.splits import SPLITS
 from ..evaluation.streaming import PROTOCOLS
+from ..report import write_evaluation_page
+from .help_format import HelpFormatter
 from .validate import add_data_options, declare_outputs, int_range, non_negative_int, positive_int
 
 __all__ = ["register", "run"]
@@ -51,10 +53,12 @@ def run(args: argparse.Namespace) -> int:
     with output_folder(args.out) as staging:  # results.json/.md/.png together; a second writer is refused
         staged = write_results(results, staging)
     paths = {k: Path(args.out) / p.relative_to(staging) for k, p in staged.items()}
+    page = write_evaluation_page(args.out)
     print(format_tables(results))
-    print("wrote " + ", ".join(str(p) for p in paths.values()))
+    print("wrote " + ", ".join(str(p) for p in [*paths.values(), page]))
     if "chart" not in paths:
         print("bar chart skipped: matplotlib is not installed (pip install socialaff-sim[plot])")
+    print(f"next: open {page.resolve().as_uri()} in a browser")
     return 0
 
 
@@ -63,13 +67,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "evaluate",
         help="k-fold cross-validation of the methods under one protocol and split (the paper's Experiment 1)",
+        epilog="example:\n  socialaff-sim evaluate --data synthetic --interactions shake_hands --methods full,hmm,promp,hold,constvel "
+        "--folds 4 --out eval/\n  then open eval/report.html (all five synthetic interactions with every method: about 20 minutes on 2 cores)",
+        formatter_class=HelpFormatter,
         description=(
             "Fit each method on the training folds of each interaction class and measure the average "
             "distance between its synthesized agent-1 skeleton and the ground truth over the synthesized "
             "frames. Every method runs under the same protocol (default causal: frame t from agent 0's "
             "frames <= t), enforced by the evaluator. Writes OUT/results.json, OUT/results.md (tables "
             "naming the protocol, split and preset, with paired differences against hold and the best "
-            "baseline) and OUT/results.png."
+            "baseline), OUT/results.png and OUT/report.html."
         ),
     )
     p.add_argument(
@@ -114,7 +121,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--address", help="Ray cluster address (with --executor ray; default: start a local instance)")
     p.add_argument("--workers", type=positive_int, help="parallel workers (default: all CPUs)")
-    p.add_argument("--quiet", action="store_true", help="no per-task progress on stderr")
     add_data_options(p)
     declare_outputs(p, out="folder")
     p.set_defaults(func=run)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .validate import declare_outputs
+from .help_format import HelpFormatter
 
 __all__ = ["register", "run"]
 
@@ -23,7 +24,14 @@ def run(args: argparse.Namespace) -> int:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``show`` sub-command."""
-    p = subparsers.add_parser("show", help="print a learned model's sub-events and joint groupings")
+    p = subparsers.add_parser(
+        "show",
+        help="print a learned model's sub-events and joint groupings",
+        description="Print what a fitted model learned: its sub-events with their durations and the joint "
+        "groups of each; optionally draw the groupings.",
+        epilog="example:\n  socialaff-sim show model.npz --figure groupings.png",
+        formatter_class=HelpFormatter,
+    )
     p.add_argument("model", metavar="MODEL.npz", help="a model written by 'socialaff-sim fit'")
     p.add_argument("--figure", metavar="PATH", help="also draw the grouping of each sub-event (PNG)")
     declare_outputs(p, figure="file")

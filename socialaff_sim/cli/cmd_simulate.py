@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 
 from .._atomic import output_folder
 from .validate import add_data_options, declare_outputs, int_range
+from .progress import FrameProgress, Reporter
+
+from .help_format import HelpFormatter
 
 __all__ = ["register", "run"]
 
@@ -31,9 +33,6 @@ def _source(args: argparse.Namespace) -> object:
 
 def run(args: argparse.Namespace) -> int:
     """Simulate one instance; returns 0 on completion (whatever the sub-goals' outcome)."""
-    # Offscreen rendering on a machine without a display: EGL, unless the user chose otherwise.
-    if not os.environ.get("DISPLAY"):
-        os.environ.setdefault("MUJOCO_GL", "egl")
     from .._atomic import atomic_write_text
     from ..data import load_dataset
     from ..errors import RenderingUnavailableError
@@ -42,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
     from ..sim.simulator import Simulator
     from ..sim.tasks import load_task, task_for_label
 
+    say = Reporter(args.quiet)
     robot = load_robot(args.robot, mjcf=args.mjcf)  # a wrong robot or --mjcf fails before any data is read
     source = _source(args)
     dataset = load_dataset(args.data, policy=args.policy, units=args.units)
@@ -62,12 +62,13 @@ def run(args: argparse.Namespace) -> int:
             except RenderingUnavailableError as exc:
                 video_note = f"not written: {exc}"
                 print(f"socialaff-sim simulate: warning: no video: {exc}", file=sys.stderr)
+        label = f"{inter.instance_id} on {sim.robot.name}"
         if recorder is not None:
             with recorder:
-                metrics = run_episode(sim, source, inter, on_frame=recorder)  # type: ignore[arg-type]
+                metrics = run_episode(sim, source, inter, on_frame=FrameProgress(say, label, recorder))  # type: ignore[arg-type]
             video_note = str(out / "video.mp4")
         else:
-            metrics = run_episode(sim, source, inter)  # type: ignore[arg-type]
+            metrics = run_episode(sim, source, inter, on_frame=FrameProgress(say, label))  # type: ignore[arg-type]
 
         metrics["source"] = args.source
         metrics["data"] = args.data
@@ -90,12 +91,23 @@ def run(args: argparse.Namespace) -> int:
     print(f"  loop: {metrics['wall_seconds']:.2f} s wall for {metrics['simulated_seconds']:.2f} s simulated "
           f"(real-time factor {metrics['real_time_factor']:.1f})")
     print(f"wrote {out / 'metrics.json'}; video: {video_note}")
+    if args.source == "model":
+        print("next: compare with the recorded reaction: the same command with --source gt")
     return 0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``simulate``."""
-    p = subparsers.add_parser("simulate", help="make a MuJoCo humanoid react to one recorded person; score it in physics")
+    p = subparsers.add_parser(
+        "simulate",
+        help="make a MuJoCo humanoid react to one recorded person; score it in physics",
+        description="Replay one recorded person (agent 0) in MuJoCo while a humanoid robot reacts as the model "
+        "synthesizes (or as the recorded agent 1 did, --source gt), retargeted with mink; score the task's "
+        "sub-goals and write OUT/metrics.json, OUT/video.mp4 and OUT/contact_sheet.png.",
+        epilog="example (a model fitted on synthetic:0, a recording from synthetic:1 it never saw):\n"
+        "  socialaff-sim simulate --model model.npz --data synthetic:1 --instance shake_hands_020 --out sim/",
+        formatter_class=HelpFormatter,
+    )
     p.add_argument("--model", help="affordance model file (model.npz); needed with --source model")
     p.add_argument("--data", default="synthetic",
                    help="dataset spec: sbu:PATH, handover:PATH, nuisi:PATH, hhoi:PATH, npz:DIR or synthetic[:SEED] "

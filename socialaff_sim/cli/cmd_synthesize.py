@@ -11,6 +11,7 @@ import numpy as np
 
 from .._atomic import output_folder
 from .validate import add_data_options, declare_outputs, int_range, non_negative_int
+from .help_format import HelpFormatter
 
 __all__ = ["register"]
 
@@ -28,8 +29,15 @@ def _run(args: argparse.Namespace) -> int:
     from ..model.joints import instance_frame
 
     model = SocialAffordanceModel.load(args.model)
-    dataset = load_dataset(args.data, policy=args.policy, units=args.units).of_label(model.label_)
-    inter = dataset.by_id(args.instance)
+    everything = load_dataset(args.data, policy=args.policy, units=args.units)
+    inter = everything.by_id(args.instance)
+    if inter.label != model.label_:
+        raise ModelError(
+            f"--instance {inter.instance_id!r} is a {inter.label!r} interaction but {args.model} models "
+            f"{model.label_!r}: choose a {model.label_!r} instance, or fit a {inter.label!r} model first "
+            f"(socialaff-sim fit --data {args.data} --interaction {inter.label} --out {inter.label}.npz)"
+        )
+    dataset = everything.of_label(model.label_)
     others = [i for i in dataset if i.instance_id != inter.instance_id]
     if not others:
         raise ModelError(f"{args.data}: the full-body fit needs other {model.label_!r} instances besides {inter.instance_id!r}")
@@ -91,7 +99,16 @@ def _run(args: argparse.Namespace) -> int:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``synthesize``."""
-    p = subparsers.add_parser("synthesize", help="synthesize agent 1's reaction to a recorded instance")
+    p = subparsers.add_parser(
+        "synthesize",
+        help="synthesize agent 1's reaction to a recorded instance",
+        description="Synthesize the second person's (agent 1's) motion in reaction to the first person of one "
+        "recorded instance with a fitted model (Algorithm 2), full body; writes the synthesized track (.npz), a "
+        "plot against the recording and prints the error.",
+        epilog="example (a model fitted on synthetic:0, a recording from synthetic:1 it never saw):\n"
+        "  socialaff-sim synthesize --model model.npz --data synthetic:1 --instance shake_hands_020 --out syn/",
+        formatter_class=HelpFormatter,
+    )
     p.add_argument("--model", required=True, help="fitted model file (socialaff-sim fit)")
     p.add_argument("--data", required=True, help="dataset spec, e.g. synthetic or sbu:PATH")
     p.add_argument("--instance", required=True, help="instance id (or a unique prefix, or a position)")

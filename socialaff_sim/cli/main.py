@@ -9,16 +9,18 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import os
+import logging
 import signal
 import sys
 import threading
 from collections.abc import Sequence
 from types import FrameType
 
-from .. import __version__
+from .. import GL_CHOICE, __version__
 from ..errors import SocialAffError
 from .validate import check_outputs
+
+from .help_format import HelpFormatter
 
 __all__ = ["main", "build_parser"]
 
@@ -30,6 +32,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="socialaff-sim",
         description="Learn social affordance from two-person recordings and make a MuJoCo humanoid react.",
+        epilog="start with:\n  socialaff-sim demo --out demo_out      # then open demo_out/report.html\n"
+        "each command's own --help gives an example",
+        formatter_class=HelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -42,7 +47,34 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # not part of this build
             raise
         module.register(sub)
+    for command in sub.choices.values():
+        _add_output_flags(command)
     return parser
+
+
+def _add_output_flags(parser: argparse.ArgumentParser) -> None:
+    """``--quiet`` and ``--verbose`` on every sub-command (a sub-command may define its own)."""
+    for flags, help_text in (
+        (("-q", "--quiet"), "no progress lines on stderr (results are still printed)"),
+        (("-v", "--verbose"), "also log the library's details on stderr (rendering backend, MCMC iterations, …)"),
+    ):
+        try:
+            parser.add_argument(*flags, action="store_true", help=help_text)
+        except argparse.ArgumentError:
+            continue  # already defined by the sub-command
+    for action in parser._actions:  # nested sub-commands (``data synth``) get them too
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                _add_output_flags(child)
+
+
+def _configure_logging(args: argparse.Namespace) -> None:
+    """The library logs; the CLI shows warnings, and with ``--verbose`` the package's INFO messages too."""
+    verbose = bool(getattr(args, "verbose", False)) and not getattr(args, "quiet", False)
+    logging.basicConfig(level=logging.WARNING, stream=sys.stderr, format="%(levelname)s %(name)s: %(message)s")
+    if verbose:  # our details only; other libraries keep to warnings
+        logging.getLogger("socialaff_sim").setLevel(logging.INFO)
+        logging.getLogger("socialaff_sim").info("rendering: %s", GL_CHOICE.reason)
 
 
 def _one_line(text: object) -> str:
@@ -61,15 +93,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     with exit status 2 (argparse's usage errors too); Ctrl-C or SIGTERM end with 130 after the
     outputs in progress are discarded.
     """
-    # Headless machines render offscreen through EGL; a user's own choice wins.
-    if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
-        os.environ["MUJOCO_GL"] = "egl"
+    # Importing the package chose MuJoCo's GL backend already (socialaff_sim._headless): EGL without a display.
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # usage errors (2), --help and --version (0)
         return exc.code if isinstance(exc.code, int) else 2
     prog = f"socialaff-sim {args.command}"
+    package_log = logging.getLogger("socialaff_sim")
+    level = package_log.level
+    _configure_logging(args)
     in_main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminate) if in_main_thread else None
     try:
@@ -86,6 +119,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{prog}: interrupted; outputs in progress were discarded", file=sys.stderr)
         return 130
     finally:
+        package_log.setLevel(level)  # main() called from Python leaves the caller's logging as it was
         if in_main_thread:
             signal.signal(signal.SIGTERM, previous)
 

@@ -1,7 +1,8 @@
 """The Gymnasium environment: a humanoid robot plays agent 1 of an interaction, facing a replayed person.
 
-Importing this package registers the ids of :data:`~socialaff_sim.environment.registration.ENV_IDS`
-(``SocialAffordance-v0`` and one per interaction, e.g. ``SocialAffordance-ShakeHands-v0``);
+Importing ``socialaff_sim`` registers the ids of :data:`~socialaff_sim.gym_ids.ENV_IDS`
+(``socialaff_sim/SocialAffordance-v0`` and one per interaction, e.g. ``socialaff_sim/ShakeHands-v0``,
+also under their earlier names ``SocialAffordance-ShakeHands-v0`` …);
 see docs/environment.md.
 """
 
@@ -32,5 +33,3 @@ __all__ = [
     "physics_config",
     "register_envs",
 ]
-
-register_envs()

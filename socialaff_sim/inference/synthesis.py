@@ -98,7 +98,11 @@ class OnlineSynthesizer:
         cfg = self.config
         obs = ObservedInteraction.of(interaction, cfg.n_observed)  # canonicalised once; agent 1 hidden after T0
         if interaction.label != self.model.label_:
-            raise ModelError(f"instance {interaction.instance_id!r} is a {interaction.label!r}; the model is of {self.model.label_!r}")
+            raise ModelError(
+                f"instance {interaction.instance_id!r} is a {interaction.label!r} interaction but the model learned "
+                f"{self.model.label_!r}: choose a {self.model.label_!r} instance, or fit a {interaction.label!r} "
+                f"model (socialaff-sim fit --interaction {interaction.label})"
+            )
         self._inter = interaction
         self._rng = rng
         # Agent 1's observed skeletons, gap-filled once per instance rather than once per observed frame.

@@ -27,7 +27,7 @@ instances' parses together. :meth:`LearningConfig.paper` is Algorithm 1 without 
 (docs/design.md measures each).
 """
 
-from .algorithm import LearningResult, learn
+from .algorithm import FitProgress, LearningResult, learn
 from .config import LearningConfig
 from .estimator import SocialAffordanceModel, load_model
 from .mh import FunctionTarget, ParseTarget, mh_step, propose
@@ -35,6 +35,7 @@ from .model_io import MODEL_FORMAT_VERSION, save_model
 from .parse import Parse, ParseSpace, enumerate_parses
 
 __all__ = [
+    "FitProgress",
     "FunctionTarget",
     "LearningConfig",
     "LearningResult",

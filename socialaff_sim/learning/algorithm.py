@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,9 +32,29 @@ from .parse import Parse, ParseSpace
 from .restructure import restructure
 from .scorer import AffordanceTarget
 
-__all__ = ["LearningResult", "learn", "make_spaces", "temperatures"]
+__all__ = ["FitProgress", "LearningResult", "learn", "make_spaces", "temperatures"]
 
 logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class FitProgress:
+    """Where Algorithm 1 stands, passed to a ``callback`` after the start and after every outer iteration."""
+
+    label: str
+    """Interaction being learnt (the progress description)."""
+    iteration: int
+    """Outer MCMC iterations done (0: the initial parse is ready)."""
+    iterations: int
+    """Outer MCMC iterations in all."""
+    log_posterior: float
+    """log P* of the chain's current state."""
+    best_log_posterior: float
+    """Highest log P* visited so far (the state :func:`learn` returns)."""
+    acceptance: float
+    """Fraction of accepted proposals over the iterations done (0 before the first)."""
+    seconds: float
+    """Wall-clock seconds since :func:`learn` started."""
 
 
 def temperatures(cfg: LearningConfig, iterations: int) -> np.ndarray:
@@ -144,10 +164,16 @@ def learn(
     rng: np.random.Generator,
     progress: bool = False,
     desc: str = "fit",
+    callback: Callable[[FitProgress], None] | None = None,
 ) -> LearningResult:
-    """Run Algorithm 1 on canonical tracks (each (T_i, 11, 3) metres) of one interaction."""
+    """Run Algorithm 1 on canonical tracks (each (T_i, 11, 3) metres) of one interaction.
+
+    Progress: a tqdm bar on stderr with ``progress``; ``callback(FitProgress)`` after the initial
+    parse and after every outer iteration; the same on this module's logger at INFO level.
+    """
     clock = time.perf_counter()
     seconds: dict[str, float] = {}
+    logger.info("%s: %d instances; atomic intervals (K-means), then the initial parse", desc, len(tracks))
     atoms = atomic_intervals(
         tracks, fps, available, n_clusters=lcfg.n_clusters, min_frames=lcfg.min_atomic_frames,
         max_seconds=lcfg.max_atomic_seconds, tau=lcfg.velocity_seconds, rng=rng, max_iter=lcfg.kmeans_iterations,
@@ -167,6 +193,16 @@ def learn(
     temps = temperatures(lcfg, iterations)
     history["temperature"][:] = temps
     bar = None
+
+    def report(done: int) -> None:
+        rate = float(np.mean(acceptance)) if acceptance else 0.0
+        state = FitProgress(desc, done, iterations, float(current), float(best[0]), rate, time.perf_counter() - clock)
+        logger.info("%s: iteration %d/%d, log P* %.1f (best %.1f), acceptance %.2f, %.1f s",
+                  desc, done, iterations, state.log_posterior, state.best_log_posterior, rate, state.seconds)
+        if callback is not None:
+            callback(state)
+
+    report(0)
     if progress:
         from tqdm.auto import tqdm  # noqa: PLC0415
 
@@ -188,6 +224,7 @@ def learn(
             trace.append(current)
             history["log_posterior"][it + 1] = current
             logger.debug("%s iteration %d: T %.3g, log P* %.2f, accepted %d of %d", desc, it, temps[it], current, accepted, len(spaces))
+            report(len(acceptance))
             if bar is not None:
                 bar.update(1)
                 bar.set_postfix(logP=f"{current:.1f}", acc=f"{np.mean(acceptance):.2f}")

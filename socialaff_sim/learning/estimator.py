@@ -10,7 +10,7 @@ instance with the learned K-means centroids, best parses, and the model file
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -24,7 +24,7 @@ from ..model.handedness import fit_hand_coupling, hand_flags, relabel
 from ..model.frame import CanonicalFrame
 from ..model.joints import JOINT_NAMES, available_joints, canonical_joints
 from ..model.type_stats import name_subevents
-from .algorithm import learn
+from .algorithm import FitProgress, learn
 from .atomic import cut_atoms
 from .config import LearningConfig
 from .model_io import read_model, save_model
@@ -55,9 +55,20 @@ class SocialAffordanceModel(AffordanceParameters):
 
     # -- fitting -----------------------------------------------------------------------------
     def fit(
-        self, interactions: Sequence[Interaction], *, rng: np.random.Generator, progress: bool = False
+        self,
+        interactions: Sequence[Interaction],
+        *,
+        rng: np.random.Generator,
+        progress: bool = False,
+        callback: Callable[[FitProgress], None] | None = None,
     ) -> SocialAffordanceModel:
-        """Learn the model from instances of one interaction with Algorithm 1; returns ``self``."""
+        """Learn the model from instances of one interaction with Algorithm 1; returns ``self``.
+
+        ``progress`` shows a bar on stderr; ``callback`` receives a
+        :class:`~socialaff_sim.learning.algorithm.FitProgress` after the initial parse and after
+        every outer iteration, which the ``socialaff_sim.learning.algorithm`` logger also reports
+        at INFO level (``logging.basicConfig(level=logging.INFO)`` shows it).
+        """
         inters = list(interactions)
         if not inters:
             raise ModelError("fit: expected at least one interaction instance, found none")
@@ -74,7 +85,8 @@ class SocialAffordanceModel(AffordanceParameters):
         self.hand_coupling_ = fit_hand_coupling(flags)
         available = available_joints(tracks)
         fps = [i.fps for i in inters]
-        res = learn(tracks, fps, available, n_sub, self.config, self.learning, rng=rng, progress=progress, desc=label)
+        res = learn(tracks, fps, available, n_sub, self.config, self.learning, rng=rng, progress=progress, desc=label,
+                    callback=callback)
 
         spans = [sp.frame_spans(p) for sp, p in zip(res.spaces, res.parses, strict=True)]
         self._set_learned(

@@ -40,6 +40,7 @@ import numpy as np
 
 from ..retarget.collision import collision_pairs
 from .human import HAND_SPHERE_RADIUS, HumanPose
+from .robot_mjcf import subtree_mask
 from .scene import Scene
 
 __all__ = ["ReachModel", "reach_model", "human_segments", "point_segment_distance", "reachable_targets"]
@@ -177,14 +178,6 @@ def _base_parts(scene: Scene, core: np.ndarray, data: mujoco.MjData, base: np.nd
     return a - base, b - base, r
 
 
-def _subtree(model: mujoco.MjModel, root: int) -> np.ndarray:
-    """(nbody,) bool: ``root`` and its descendants."""
-    inside = np.zeros(model.nbody, dtype=bool)
-    inside[root] = True
-    for b in range(root + 1, model.nbody):  # MuJoCo numbers a body after its parent
-        inside[b] = inside[model.body_parentid[b]]
-    return inside
-
 
 def reach_model(scene: Scene, arm: float, leg: float, shoulders: np.ndarray, hips: np.ndarray,
                 clearance: float) -> ReachModel:
@@ -203,7 +196,7 @@ def reach_model(scene: Scene, arm: float, leg: float, shoulders: np.ndarray, hip
     base = frame_pos(0)
     hand = np.array([_hand_extent(m, d, np.flatnonzero(scene.hand_geom[s]), frame_pos(1 + s)) for s in (0, 1)])
     collide = scene.robot_geom & ((m.geom_contype != 0) | (m.geom_conaffinity != 0))
-    arms = _subtree(m, int(scene.limb_body_ids[0])) | _subtree(m, int(scene.limb_body_ids[1]))
+    arms = subtree_mask(m, int(scene.limb_body_ids[0])) | subtree_mask(m, int(scene.limb_body_ids[1]))
     trunk = np.flatnonzero(collide & ~arms[m.geom_bodyid])
     angles = np.linspace(0.0, 2 * np.pi, 16, endpoint=False)
     radius = max(float((_support(m, d, trunk, np.array([np.cos(a), np.sin(a), 0.0]))

@@ -18,7 +18,7 @@ from dm_control import mjcf
 
 from ..retarget.robot import RobotSpec
 
-__all__ = ["robot_mjcf", "motors_to_servos", "tune_servos", "limit_hand_force", "SELF_CONTACT_HOPS", "ServoScene"]
+__all__ = ["robot_mjcf", "motors_to_servos", "tune_servos", "limit_hand_force", "subtree_mask", "SELF_CONTACT_HOPS", "ServoScene"]
 
 
 def robot_mjcf(robot: RobotSpec, physics: bool, gravity_compensation: bool = False) -> tuple[mjcf.RootElement, dict[str, float]]:
@@ -181,7 +181,8 @@ def tune_servos(model: mujoco.MjModel, robot_qadr: np.ndarray, home_qpos: np.nda
     m.jnt_stiffness[joint_ids] = 0.0
 
 
-def _subtree_mask(m: mujoco.MjModel, root: int) -> np.ndarray:
+def subtree_mask(m: mujoco.MjModel, root: int) -> np.ndarray:
+    """(nbody,) bool: body ``root`` and its descendants."""
     inside = np.zeros(m.nbody, dtype=bool)
     inside[root] = True
     for b in range(root + 1, m.nbody):  # MuJoCo numbers a body after its parent
@@ -237,7 +238,7 @@ def limit_hand_force(scene: ServoScene, force: float, weight: bool = False) -> N
                 continue
             limit = force * (float(np.linalg.norm(wrist - d.xanchor[j])) + reach)
             if weight:
-                below = _subtree_mask(m, int(m.jnt_bodyid[j]))
+                below = subtree_mask(m, int(m.jnt_bodyid[j]))
                 lever = np.linalg.norm(d.xipos[below] - d.xanchor[j], axis=1)
                 limit += float(np.linalg.norm(m.opt.gravity) * (m.body_mass[below] * lever).sum())
             if m.actuator_forcelimited[a]:

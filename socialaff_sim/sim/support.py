@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from .robot_mjcf import subtree_mask
 from .scene import Scene
 
 __all__ = ["SupportMeter", "FrameSupport", "SATURATED", "AT_LIMIT"]
@@ -66,13 +67,6 @@ def _ancestry(model: mujoco.MjModel, body: int) -> list[int]:
     return out
 
 
-def _subtree(model: mujoco.MjModel, root: int) -> np.ndarray:
-    inside = np.zeros(model.nbody, dtype=bool)
-    inside[root] = True
-    for b in range(root + 1, model.nbody):  # MuJoCo numbers a body after its parent
-        inside[b] = inside[model.body_parentid[b]]
-    return inside
-
 
 class SupportMeter:
     """Accumulates :class:`FrameSupport` figures; :meth:`reset` before an episode, :meth:`update` after every
@@ -81,7 +75,7 @@ class SupportMeter:
     def __init__(self, scene: Scene) -> None:
         self.scene = scene
         m = scene.model
-        robot_bodies = _subtree(m, scene.root_body)
+        robot_bodies = subtree_mask(m, scene.root_body)
         mass = m.body_mass[robot_bodies]
         self.mass = float(mass.sum())
         """Robot mass, kg."""
@@ -95,7 +89,7 @@ class SupportMeter:
         for k in (3, 4):
             fid = int(scene.frame_ids[k])
             body = int(m.site_bodyid[fid]) if scene.frame_kinds[k] == "site" else fid
-            inside = _subtree(m, body)
+            inside = subtree_mask(m, body)
             self._feet.append((body, inside[m.geom_bodyid] & scene.robot_geom))
         self._robot_geom = scene.robot_geom
         left = _ancestry(m, int(scene.limb_body_ids[0]))

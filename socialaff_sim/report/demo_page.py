@@ -1,0 +1,138 @@
+"""The demo's HTML page: videos of the robot reacting, the learned structure, errors and sub-goals."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from ..demo.pipeline import DemoConfig, InteractionResult
+from .html import Page, definitions, esc, figure, table, video
+
+__all__ = ["write_demo_page", "DEMO_PAGE"]
+
+DEMO_PAGE = "report.html"
+"""File name of the page inside the demo's output folder."""
+
+
+def _met(metrics: Mapping[str, Any]) -> str:
+    goals = metrics.get("subgoals", [])
+    return f"{sum(bool(g.get('success')) for g in goals)}/{len(goals)}"
+
+
+def _failures(metrics: Mapping[str, Any]) -> list[str]:
+    return [str(f.get("kind")) for f in metrics.get("failures", []) if f.get("triggered")]
+
+
+def _when(goal: Mapping[str, Any] | None) -> str:
+    if goal is None:
+        return "–"
+    if not goal.get("success"):
+        return "missed"
+    t = goal.get("time")
+    return "met" if t is None else f"met at {t:.2f} s"
+
+
+def _subgoal_table(r: InteractionResult) -> str:
+    ref = {g.get("name"): g for g in r.reference.get("subgoals", [])}
+    rows: list[list[Any]] = []
+    for g in r.simulation.get("subgoals", []):
+        other = ref.get(g.get("name"))
+        rows.append([
+            str(g.get("name")), str(g.get("kind", "")), _when(g), float(g.get("contact_seconds", float("nan"))),
+            _when(other), float(other.get("contact_seconds", float("nan"))) if other else None,
+        ])
+    text = table(
+        ["sub-goal", "kind", "synthesized reaction", "contact (s)", "ground-truth replay", "contact (s)"], rows,
+        caption=f"Sub-goals of {r.label} scored in MuJoCo on {r.instance}: the model's reaction against the "
+                "recorded second person replayed through the same retargeting and physics.",
+        digits=2,
+    )
+    failed = _failures(r.simulation)
+    failed_ref = _failures(r.reference)
+    text += (f"<p class=\"note\">Failure conditions triggered — synthesized: {esc(', '.join(failed) or 'none')}; "
+             f"ground-truth replay: {esc(', '.join(failed_ref) or 'none')}.</p>")
+    return text
+
+
+def _interaction_section(r: InteractionResult, config: DemoConfig) -> str:
+    parts = []
+    if r.video:
+        parts.append(video(
+            r.video, f"The {config.robot!r} robot (green) reacting to the replayed person (red) in {r.instance}, "
+                     "held out of training; caption: time, running sub-event, sub-goals met so far.",
+            poster=None, width=config.width,
+        ))
+    else:
+        parts.append(f"<p class=\"note\">Video: {esc(r.video_note)}.</p>")
+    parts.append(_subgoal_table(r))
+    parts.append(table(
+        ["sub-event", "mean duration (s)"], [[n, d] for n, d in r.subevents],
+        caption="Sub-events learned by Algorithm 1 and their mean durations.", digits=2,
+    ))
+    parts.append(figure(r.synthesis_png, f"Key-joint tracks of {r.instance} in the interaction's canonical frame: "
+                                         "recorded second person (ground truth) against the synthesized reaction, "
+                                         "metres against seconds, shaded by the parsed sub-events."))
+    parts.append(figure(r.groupings_png, "Joint groupings of each learned sub-event: joints of one colour share a "
+                                         "functional group; grey joints are Null (not constrained)."))
+    if r.contact_sheet:
+        parts.append(figure(r.contact_sheet, "Eight evenly spaced frames of the simulated reaction."))
+    if r.seconds:
+        parts.append("<p class=\"note\">Time: " + esc(", ".join(
+            f"{k.replace('_', ' ')} {v:.1f} s" for k, v in r.seconds.items())) + ".</p>")
+    return "\n".join(parts)
+
+
+def write_demo_page(out: str | Path, results: Sequence[InteractionResult], config: DemoConfig) -> Path:
+    """Write ``report.html`` into the demo's output folder ``out`` (beside its videos and figures); returns its path."""
+    methods = ["full", *config.baselines]
+    page = Page(
+        "socialaff_sim demo",
+        "A social affordance model (Shu, Ryoo & Zhu, IJCAI 2016) learned from the embedded synthetic two-person "
+        f"recordings, then a MuJoCo humanoid ({config.robot!r}) reacting to people it never saw, retargeted "
+        "with mink inverse kinematics and scored in physics.",
+    )
+    overview = [[
+        r.label, r.instance, r.errors.get("full"), _met(r.simulation), _met(r.reference),
+        _rtf(r.simulation.get("real_time_factor")),
+    ] for r in results]
+    page.section("overview", "Overview", table(
+        ["interaction", "instance shown", "key-joint error of the model (m)", "sub-goals met: synthesized",
+         "sub-goals met: ground truth", "real-time factor"],
+        overview,
+        caption="One held-out instance per interaction is simulated; the error is averaged over all held-out "
+                "instances (table below). Real-time factor: simulated seconds per wall-clock second.",
+        digits=3,
+    ) + definitions([
+        ("MCMC iterations (Algorithm 1)", config.iterations),
+        ("held-out instances per interaction", config.n_test),
+        ("robot", config.robot),
+        ("seed", config.seed),
+    ]))
+    rows = [[m, *(r.errors.get(m) for r in results)] for m in methods]
+    best = [set()] + [
+        {min(range(len(methods)), key=lambda i, c=c: _num(rows[i][c]))} for c in range(1, len(results) + 1)
+    ]
+    n_test = results[0].n_test if results else 0
+    page.section("errors", "Key-joint error on held-out people", table(
+        ["method", *(r.label for r in results)], rows, best=best,
+        caption=(
+            f"Protocol: offline upper bound (SynthesisConfig.offline(): every method reads the person's whole "
+            f"recorded track; the first frames of the second person are observed) on a pair-disjoint split "
+            f"({n_test} test instance(s) per interaction whose actor pair never appears in training). "
+            "Average distance between synthesized and recorded key joints over the synthesized frames, metres; "
+            "lower is better, the best of each column in bold. The command socialaff-sim evaluate runs the "
+            "k-fold comparison."
+        ),
+    ))
+    for r in results:
+        page.section(r.label, r.label.replace("_", " "), _interaction_section(r, config))
+    return page.write(Path(out) / DEMO_PAGE)
+
+
+def _rtf(value: object) -> str:
+    return f"{value:.1f}×" if isinstance(value, (int, float)) else "–"
+
+
+def _num(value: object) -> float:
+    return float(value) if isinstance(value, (int, float)) and value == value else float("inf")
