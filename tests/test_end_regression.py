@@ -177,7 +177,8 @@ def test_config_checks_and_methods() -> None:
     with pytest.raises(ConfigError, match="frame_weight"):
         SynthesisConfig(frame_weight=1.5)
     assert SynthesisConfig.reactive().frame_weight == 0.5 and not SynthesisConfig.reactive().lookahead
-    assert get_method("full")().synthesis == SynthesisConfig.offline()
+    full = get_method("full")()  # causal protocols synthesize reactively, the offline one with lookahead
+    assert full.synthesis == SynthesisConfig.reactive() and full.offline_synthesis == SynthesisConfig.offline()
     online = get_method("full_online")()
     assert online.name == "full_online" and online.synthesis == SynthesisConfig()
 
