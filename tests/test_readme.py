@@ -107,7 +107,10 @@ def test_results_section_is_short_and_names_its_protocol() -> None:
     section = README.split("<!-- results-table -->")[1].split("<!-- /results-table -->")[0]
     rows = [line for line in section.splitlines() if line.startswith("|")]
     assert 3 <= len(rows) <= 10
-    assert "offline" in section and "upper bound" in section and "pair-disjoint" in section
+    # The protocol is named (an offline table would have to say it is an upper bound), so is the split, and the
+    # trivial baseline `hold` stands beside the methods.
+    assert "causal protocol" in section or ("offline" in section and "upper bound" in section)
+    assert "pair-disjoint" in section and "hold" in rows[0]
 
 
 def test_citation() -> None:
