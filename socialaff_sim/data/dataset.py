@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Hashable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import DataError, choices
 from .interaction import Interaction
 
-__all__ = ["Dataset", "actor_disjoint_folds", "pair_disjoint_folds"]
+__all__ = ["Dataset", "actor_disjoint_folds", "deal_groups", "pair_disjoint_folds"]
 
 
 @dataclass(frozen=True)
@@ -74,6 +74,21 @@ class Dataset:
         return Dataset(self.name, tuple(i for i in self.interactions if i.instance_id in keep), self.notes)
 
 
+def deal_groups(groups: Mapping[Hashable, list[int]], n_folds: int, rng: np.random.Generator) -> list[list[int]]:
+    """Groups of instance indices dealt to ``n_folds`` folds: after a seeded shuffle, largest group first, each
+    to the fold holding the fewest indices so far (balances the fold sizes; a group is never split)."""
+    keys = list(groups)
+    order = rng.permutation(len(keys))
+    keys = sorted((keys[i] for i in order), key=lambda k: -len(groups[k]))
+    load = np.zeros(n_folds, dtype=np.int64)
+    members: list[list[int]] = [[] for _ in range(n_folds)]
+    for k in keys:
+        f = int(np.argmin(load))
+        members[f].extend(groups[k])
+        load[f] += len(groups[k])
+    return members
+
+
 def pair_disjoint_folds(
     interactions: Sequence[Interaction], n_folds: int, *, rng: np.random.Generator
 ) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -96,15 +111,7 @@ def pair_disjoint_folds(
             f"n_folds: {n_folds} pair-disjoint folds need at least {n_folds} actor pairs, "
             f"found {len(groups)}: {choices(groups)}"
         )
-    keys = list(groups)
-    order = rng.permutation(len(keys))
-    keys = sorted((keys[i] for i in order), key=lambda k: -len(groups[k]))
-    load = np.zeros(n_folds, dtype=np.int64)
-    members: list[list[int]] = [[] for _ in range(n_folds)]
-    for k in keys:
-        f = int(np.argmin(load))
-        members[f].extend(groups[k])
-        load[f] += len(groups[k])
+    members = deal_groups(groups, n_folds, rng)
     n = len(interactions)
     folds = []
     for f in range(n_folds):

@@ -31,6 +31,7 @@ from collections.abc import Hashable, Sequence
 
 import numpy as np
 
+from ..data.dataset import deal_groups
 from ..data.interaction import Interaction
 from ..errors import ConfigError, DataError, choices
 
@@ -52,20 +53,6 @@ def recording_of(interaction: Interaction) -> str:
     return interaction.source.split(" @ ")[0] if interaction.source else interaction.instance_id
 
 
-def _deal(groups: dict[Hashable, list[int]], n_folds: int, rng: np.random.Generator) -> list[list[int]]:
-    """Groups of instance indices dealt to ``n_folds`` folds, largest first after a seeded shuffle."""
-    keys = list(groups)
-    order = rng.permutation(len(keys))
-    keys = sorted((keys[i] for i in order), key=lambda k: -len(groups[k]))
-    load = np.zeros(n_folds, dtype=np.int64)
-    members: list[list[int]] = [[] for _ in range(n_folds)]
-    for k in keys:
-        f = int(np.argmin(load))
-        members[f].extend(groups[k])
-        load[f] += len(groups[k])
-    return members
-
-
 def _from_tests(tests: list[list[int]], n: int) -> list[Fold]:
     return [(np.setdiff1d(np.arange(n), t), np.array(sorted(t), dtype=np.int64)) for t in tests]
 
@@ -79,7 +66,7 @@ def _grouped(keys: Sequence[Hashable], n_folds: int, what: str, groups_name: str
             f"{n_folds} {what}-disjoint folds need at least {n_folds} {groups_name}, found {len(groups)}: "
             f"{choices(list(map(str, groups)))}"
         )
-    return _from_tests(_deal(groups, n_folds, rng), len(keys))
+    return _from_tests(deal_groups(groups, n_folds, rng), len(keys))
 
 
 def _actor_folds(insts: Sequence[Interaction], n_folds: int, rng: np.random.Generator) -> list[Fold]:
@@ -96,7 +83,7 @@ def _actor_folds(insts: Sequence[Interaction], n_folds: int, rng: np.random.Gene
     if len(actors) < n_folds:
         raise DataError(f"actor split: {n_folds} folds need at least {n_folds} actors, found {len(actors)}: {choices(actors)}")
     counts = {a: sum(a in inter.actors for inter in insts) for a in actors}
-    groups = _deal({a: [a] * counts[a] for a in actors}, n_folds, rng)  # dealt by how often they take part
+    groups = deal_groups({a: [a] * counts[a] for a in actors}, n_folds, rng)  # dealt by how often they take part
     folds = []
     for f, group in enumerate(groups):
         held = set(group)
