@@ -60,8 +60,6 @@ DIFFERENCES: tuple[tuple[str, str, str], ...] = (
 )
 
 
-
-
 def rows_to_run(only: list[str] | None) -> list[tuple[str, Preset]]:
     default, paper = preset("default"), preset("paper")
     out = [("default", default)]

@@ -74,13 +74,6 @@ def _observed_agent1(view: Interaction, n_observed: int) -> np.ndarray:
     return view.filled_joints()[:n_observed, 1]
 
 
-def _keys(layout_keys: Sequence[int | None], joints: np.ndarray) -> np.ndarray:
-    out = np.full(joints.shape[:-2] + (N_KEY, 3), np.nan)
-    for k, idx in enumerate(layout_keys):
-        if idx is not None:
-            out[..., k, :] = joints[..., idx, :]
-    return out
-
 
 class _Extrapolator:
     """Reactor of both baselines: agent 1's last observed pose plus a fixed displacement per frame."""
@@ -99,7 +92,7 @@ class _Extrapolator:
             self._layout = view.layout
         last, v, tau = self._state
         joints = last[None] + damped_displacement(v, np.arange(start, stop) - (self.n_observed - 1), tau)
-        keys = _keys(self._layout.key_indices, joints)
+        keys = self._layout.key_joints(joints)
         return Prediction(joints=joints, key_joints=keys, subevents=None, n_observed=0)
 
 

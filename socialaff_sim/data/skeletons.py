@@ -62,6 +62,16 @@ class SkeletonLayout:
         """(5,) bool: which key joints the layout has."""
         return np.array([i is not None for i in self.key_indices])
 
+    def key_joints(self, joints: np.ndarray) -> np.ndarray:
+        """(…, 5, 3) the key joints of a skeleton array ``joints`` (…, J, 3) in this layout; NaN where the layout
+        has no such joint."""
+        x = np.asarray(joints, dtype=np.float64)
+        out = np.full(x.shape[:-2] + (N_KEY, 3), np.nan)
+        for k, idx in enumerate(self.key_indices):
+            if idx is not None:
+                out[..., k, :] = x[..., idx, :]
+        return out
+
     @property
     def bones(self) -> np.ndarray:
         """(B, 2) int: (parent, child) joint index pairs."""

@@ -211,10 +211,7 @@ class BodyFitter:
         self.layout_ = layout
         self.bone_lengths_ = lengths
         self.poses_ = poses - poses[:, base : base + 1]
-        self.keys_ = np.full((len(poses), N_KEY, 3), np.nan)
-        for k, idx in enumerate(layout.key_indices):
-            if idx is not None:
-                self.keys_[:, k] = self.poses_[:, idx]
+        self.keys_ = layout.key_joints(self.poses_)
         self._chains = [c for c in self._limb_chains(layout) if usable[list(c[1:4])].all()]
         return self
 

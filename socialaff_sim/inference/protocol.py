@@ -202,10 +202,7 @@ def prediction_from_joints(
     out = np.array(joints, dtype=np.float64, copy=True)
     layout = observed.layout
     if key_joints is None:
-        keys = np.full((out.shape[0], N_KEY, 3), np.nan)
-        for k, idx in enumerate(layout.key_indices):
-            if idx is not None:
-                keys[:, k] = out[:, idx]
+        keys = layout.key_joints(out)
     else:
         keys = np.array(key_joints, dtype=np.float64, copy=True)
     prefix = observed.slice(0, max(n_observed, MIN_FRAMES))  # filling gaps needs only the prefix

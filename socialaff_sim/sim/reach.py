@@ -178,7 +178,6 @@ def _base_parts(scene: Scene, core: np.ndarray, data: mujoco.MjData, base: np.nd
     return a - base, b - base, r
 
 
-
 def reach_model(scene: Scene, arm: float, leg: float, shoulders: np.ndarray, hips: np.ndarray,
                 clearance: float) -> ReachModel:
     """The :class:`ReachModel` of ``scene``'s robot at its home posture (measurements from

@@ -67,7 +67,6 @@ def _ancestry(model: mujoco.MjModel, body: int) -> list[int]:
     return out
 
 
-
 class SupportMeter:
     """Accumulates :class:`FrameSupport` figures; :meth:`reset` before an episode, :meth:`update` after every
     physics step, :meth:`end_frame` after the last step of a data frame."""
