@@ -145,13 +145,28 @@ def make_env(s: Settings, instances: Sequence[Interaction], models: Mapping[str,
 class CurveRecorder(BaseCallback):
     """Records every finished training episode: (timesteps so far, interaction, return, success)."""
 
-    def __init__(self, log: Callable[[str], None] | None = None, every: int = 10_000) -> None:
+    def __init__(self, log: Callable[[str], None] | None = None, every: int = 10_000,
+                 budget_s: float | None = None) -> None:
         super().__init__()
         self.rows: list[dict[str, Any]] = []
         self._log, self._every, self._next = log, every, every
         self._t0 = time.perf_counter()
+        self._budget_s = budget_s
+        self.stopped = False
+        self.updated_timesteps = 0
+        """Environment steps of the rollouts the policy has been updated on (or will be, for the last one)."""
+
+    def _on_rollout_end(self) -> None:
+        # The rollout just collected is trained on; once the budget is spent, the next rollout's first step
+        # stops learn() before any update, so the policy is exactly that of --timesteps updated_timesteps.
+        self.updated_timesteps = int(self.num_timesteps)
+        if self._budget_s is not None and time.perf_counter() - self._t0 > self._budget_s:
+            self.stopped = True
+            self.training_env.training = False  # type: ignore[attr-defined]  # the stop step leaves the statistics alone
 
     def _on_step(self) -> bool:
+        if self.stopped:
+            return False
         for done, info in zip(self.locals["dones"], self.locals["infos"]):
             if done:
                 self.rows.append({"timesteps": int(self.num_timesteps), "interaction": info["interaction"],
@@ -165,8 +180,11 @@ class CurveRecorder(BaseCallback):
 
 
 def train(s: Settings, train_set: Sequence[Interaction], models: Mapping[str, SocialAffordanceModel],
-          log: Callable[[str], None] | None = None) -> tuple[PPO, VecNormalize, list[dict[str, Any]]]:
-    """Train PPO on the training instances; returns the agent, its observation normalizer and the curve rows."""
+          log: Callable[[str], None] | None = None, budget_s: float | None = None
+          ) -> tuple[PPO, VecNormalize, CurveRecorder]:
+    """Train PPO on the training instances for ``s.timesteps`` steps, or until ``budget_s`` seconds of wall time
+    have passed (checked after each rollout); returns the agent, its observation normalizer and the recorder
+    (curve rows, the steps trained on)."""
     torch.set_num_threads(1)
     venv = DummyVecEnv([lambda: make_env(s, train_set, models) for _ in range(s.n_envs)])
     venv.seed(s.seed)
@@ -176,10 +194,10 @@ def train(s: Settings, train_set: Sequence[Interaction], models: Mapping[str, So
         learning_rate=s.learning_rate, gamma=s.gamma, seed=s.seed, device="cpu", verbose=0,
         policy_kwargs={"log_std_init": s.log_std_init, "net_arch": {"pi": [s.hidden] * 2, "vf": [s.hidden] * 2}},
     )
-    recorder = CurveRecorder(log)
+    recorder = CurveRecorder(log, budget_s=budget_s)
     agent.learn(total_timesteps=s.timesteps, callback=recorder)
     norm.training = False
-    return agent, norm, recorder.rows
+    return agent, norm, recorder
 
 
 def trained_policy(agent: PPO, norm: VecNormalize) -> Policy:
@@ -294,8 +312,10 @@ def plot_curve(rows: Sequence[Mapping[str, Any]], reference: Mapping[str, Mappin
 
 
 # -- the whole run -------------------------------------------------------------------------------------------------
-def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[str], None] = lambda m: print(m, flush=True)) -> dict[str, Any]:
-    """Fit (or load), train, evaluate and write everything into ``out``; returns the results written."""
+def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[str], None] = lambda m: print(m, flush=True),
+        budget_s: float | None = None) -> dict[str, Any]:
+    """Fit (or load), train (at most ``budget_s`` s of wall time, if given), evaluate and write everything into
+    ``out``; returns the results written."""
     out.mkdir(parents=True, exist_ok=True)
     wall0, cpu0 = time.perf_counter(), time.process_time()
     train_set, held_out = build_data(s)
@@ -308,8 +328,9 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
             m.save(out / "models" / f"{lbl}.npz")
     log(f"models ready ({time.perf_counter() - wall0:.0f} s); training {s.timesteps} steps on {len(train_set)} instances")
     wall1 = time.perf_counter()
-    agent, norm, curve = train(s, train_set, models, log)
+    agent, norm, recorder = train(s, train_set, models, log, budget_s)
     train_wall = time.perf_counter() - wall1
+    curve = [r for r in recorder.rows if r["timesteps"] <= recorder.updated_timesteps]
     agent.save(out / "residual_ppo.zip")
     norm.save(str(out / "vecnormalize.pkl"))
     log(f"trained in {train_wall:.0f} s wall ({len(curve)} training episodes); evaluating")
@@ -335,7 +356,7 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
                     f"(training: seed {s.seed}, {s.train_instances} per interaction)",
         "train_wall_s": train_wall, "total_wall_s": time.perf_counter() - wall0,
         "total_cpu_s": time.process_time() - cpu0, "training_episodes": len(curve),
-        "timesteps_trained": int(agent.num_timesteps),
+        "timesteps_trained": recorder.updated_timesteps, "stopped_by_budget": recorder.stopped,
         "train_reference_zero_residual": reference,
         "summary": summary,
         "episodes": {"residual": rows_res, "zero_residual": rows_zero},
@@ -356,10 +377,13 @@ def main() -> None:
             continue
         ap.add_argument("--" + f.name.replace("_", "-"), type=type(f.default), default=f.default)
     ap.add_argument("--max-frames", type=int, default=None)
+    ap.add_argument("--budget-minutes", type=float, default=None,
+                    help="stop training after the first rollout that ends past this much wall time; the results "
+                         "record the steps trained, and --timesteps with that number reproduces the policy")
     args = ap.parse_args()
     kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(Settings) if f.name != "labels"}
     s = Settings(labels=tuple(args.interactions), **kw)
-    r = run(s, args.out, args.models)
+    r = run(s, args.out, args.models, budget_s=None if args.budget_minutes is None else 60.0 * args.budget_minutes)
     sm = r["summary"]
     for name, block in [("all", sm), *sm["per_interaction"].items()]:
         for pol in ("zero_residual", "residual"):
@@ -370,7 +394,9 @@ def main() -> None:
         dsu, dre = block["paired_success_difference"], block["paired_return_difference"]
         print(f"{name:12s} paired residual - zero: success {dsu['mean']:+.3f} [{dsu['ci95'][0]:+.3f}, {dsu['ci95'][1]:+.3f}]"
               f"  return {dre['mean']:+.2f} [{dre['ci95'][0]:+.2f}, {dre['ci95'][1]:+.2f}]")
-    print(f"target met: {sm['target_met']}; training wall {r['train_wall_s']:.0f} s, total {r['total_wall_s']:.0f} s")
+    print(f"target met: {sm['target_met']}; trained {r['timesteps_trained']} steps"
+          f"{' (stopped by the budget)' if r['stopped_by_budget'] else ''} in {r['train_wall_s']:.0f} s wall; "
+          f"total {r['total_wall_s']:.0f} s")
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ the closed-form Wilson interval. Skipped without the ``[rl]`` extra (stable-base
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 import json
 import math
@@ -161,3 +162,16 @@ def test_target_decision(script) -> None:  # noqa: ANN001
 def test_summary_rejects_unpaired_episodes(script) -> None:  # noqa: ANN001
     with pytest.raises(ConfigError, match="same"):
         script.summarize([_row("a", 0, True, 1.0)], [_row("a", 1, True, 1.0)], seed=0)
+
+
+def test_wall_clock_budget_stops_after_a_whole_rollout(script, tiny) -> None:  # noqa: ANN001
+    settings, out, results, _ = tiny
+    assert results["stopped_by_budget"] is False and results["timesteps_trained"] == settings.timesteps
+    train, _ = script.build_data(settings)
+    models = {lbl: SocialAffordanceModel.load(out / "models" / f"{lbl}.npz") for lbl in settings.labels}
+    long = dataclasses.replace(settings, timesteps=100_000)
+    agent, norm, recorder = script.train(long, train, models, budget_s=0.0)
+    rollout = settings.n_steps * settings.n_envs
+    assert recorder.stopped and recorder.updated_timesteps == rollout
+    assert agent.num_timesteps == rollout + settings.n_envs  # one step of the next rollout, then the stop
+    assert all(r["timesteps"] <= rollout for r in recorder.rows)
