@@ -225,6 +225,7 @@ def run_episodes(env: gym.Env, episodes: Sequence[tuple[str, int]], policy: Poli
         subgoals = dict(info["subgoals"])
         rows.append({"instance": instance, "seed": seed, "interaction": info["interaction"], "return": total,
                      "steps": steps, "success": bool(info["success"]), "failed": bool(info["failed"]),
+                     "failures": sorted(k for k, hit in info["failures"].items() if hit),
                      "subgoals": subgoals, "subgoals_met": float(np.mean(list(subgoals.values())))})
     return rows
 
@@ -288,7 +289,7 @@ def plot_curve(rows: Sequence[Mapping[str, Any]], reference: Mapping[str, Mappin
                window: int = 50) -> None:
     """Training episodes' success and return (moving average over ``window`` episodes of each interaction)
     against timesteps, with the zero-residual policy on the training instances as dashed reference lines."""
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4), constrained_layout=True)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), layout="constrained")
     colors = dict(zip(sorted(reference), ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")))
     for label, color in colors.items():
         mine = [r for r in rows if r["interaction"] == label]
@@ -303,7 +304,8 @@ def plot_curve(rows: Sequence[Mapping[str, Any]], reference: Mapping[str, Mappin
                        label=f"{label}: affordance model alone (training instances)")
     axes[0].set(xlabel="environment steps", ylabel=f"success rate (moving mean of {window} episodes)", ylim=(-0.02, 1.02))
     axes[1].set(xlabel="environment steps", ylabel=f"episode return (moving mean of {window} episodes)")
-    axes[0].legend(fontsize=7, loc="lower right")
+    handles, names = axes[0].get_legend_handles_labels()
+    fig.legend(handles, names, fontsize=8, loc="outside lower center", ncol=2)
     fig.suptitle("Residual PPO on the affordance model: learning curve")
     tmp = path.with_suffix(".tmp.png")
     fig.savefig(tmp, dpi=110)
