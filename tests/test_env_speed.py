@@ -229,3 +229,93 @@ def test_collision_limit_memory_round_trip(data):
     np.testing.assert_array_equal(limit.last_active, mem.last_active)
     mem.before[...] = 0.0  # the limit holds its own copy
     assert not (limit._before == 0.0).all()
+
+
+class _ReferenceMeter:
+    """The support figures computed the plain way, step by step (the meter before it batched its work):
+    the harness force as Jᵀλ of the weld's rows (``SupportMeter.harness_force``), each contact looked at on
+    its own step."""
+
+    def __init__(self, meter) -> None:
+        self.m = meter
+        self.frames: list[tuple] = []
+        self.prev: list = [None, None]
+        self._clear()
+
+    def _clear(self) -> None:
+        self.out, self.peak, self.pen, self.ratio, self.sat, self.lim, self.tilt, self.n = 0.0, 0.0, 0.0, 0.0, 0, 0, 0.0, 0
+        self.slide = [0.0, 0.0]
+
+    def update(self, d) -> None:
+        m, sc = self.m, self.m.scene
+        v = float(np.linalg.norm(m.harness_force(d))) / m.weight + m.gravcomp_fraction
+        self.out += v
+        self.peak = max(self.peak, v)
+        floor = sc.floor_geom
+        for i in range(d.ncon):
+            g1, g2 = (int(x) for x in d.contact.geom[i])
+            other = g2 if g1 == floor else g1 if g2 == floor else -1
+            if other >= 0 and sc.robot_geom[other]:
+                self.pen = max(self.pen, -float(d.contact.dist[i]))
+        for s, (body, geoms) in enumerate(m._feet):
+            touching = False
+            for i in range(d.ncon):
+                g1, g2 = (int(x) for x in d.contact.geom[i])
+                other = g2 if g1 == floor else g1 if g2 == floor else -1
+                touching |= other >= 0 and bool(geoms[other]) and d.contact.dist[i] <= 0
+            pos = np.array(d.xpos[body, :2])
+            if touching and self.prev[s] is not None:
+                self.slide[s] += float(np.hypot(*(pos - self.prev[s])))
+            self.prev[s] = pos if touching else None
+        ratio = np.abs(d.actuator_force[sc.act_ids]) / m._act_limit
+        self.ratio = max(self.ratio, float(ratio.max()))
+        self.sat += bool(ratio.max() >= 0.99)
+        q = d.qpos[m._lim_qadr]
+        self.lim += bool(((q - m._lim_range[:, 0] <= 1e-3) | (m._lim_range[:, 1] - q <= 1e-3)).any())
+        up = d.xmat[m._torso].reshape(3, 3) @ m._torso_up
+        self.tilt = max(self.tilt, float(np.degrees(np.arccos(np.clip(up[2], -1, 1)))))
+        self.n += 1
+
+    def end_frame(self) -> None:
+        n = max(self.n, 1)
+        self.frames.append((self.out / n, self.peak, max(self.slide), self.pen, self.ratio, self.sat / n,
+                            self.lim / n, self.tilt))
+        self._clear()
+
+
+def test_support_meter_matches_the_step_by_step_figures(data):
+    """The batched support meter gives the figures of a plain per-step computation (to rounding), and the
+    same feet-down state, over a hand-over replay with the object, steps and contacts."""
+    env = make(data, action_mode="residual", interactions="hand_over", max_frames=30)
+    env.reset(seed=2)
+    stepper = env.simulator._stage.stepper
+    meter = stepper.support
+    ref = _ReferenceMeter(meter)
+    feet = []
+
+    class Both:
+        def update(self, d) -> None:
+            meter.update(d)
+            ref.update(d)
+
+        def end_frame(self):
+            ref.end_frame()
+            out = meter.end_frame()
+            feet.append((meter.feet_down, tuple(p is not None for p in ref.prev)))
+            return out
+
+        def __getattr__(self, name):
+            return getattr(meter, name)
+
+    stepper.support = Both()
+    try:
+        while not env.step(np.zeros((5, 3), np.float32))[2] and env.simulator.frame < 29:
+            pass
+    finally:
+        stepper.support = meter
+    got = [(f.outside_mean, f.outside_peak, f.slide, f.penetration, f.torque_ratio, f.saturated, f.at_limit,
+            f.tilt_deg) for f in meter.frames]
+    assert len(got) == len(ref.frames) >= 20
+    np.testing.assert_allclose(np.array(got), np.array(ref.frames), rtol=1e-9, atol=1e-12)
+    assert all(a == b for a, b in feet)
+    assert any(f[2] > 0 for f in ref.frames) or any(all(x) for x, _ in feet)  # feet on the floor were seen
