@@ -71,7 +71,7 @@ class Runner:
     step_wall: float = 0.0
     step_cpu: float = 0.0
     reset_wall: list[float] = field(default_factory=list)
-    reset_cpu: float = 0.0
+    reset_cpu: list[float] = field(default_factory=list)
     finished: int = 0
     successes: int = 0
     rounds: list[float] = field(default_factory=list)  # steps/s (wall, resets included) per round
@@ -88,7 +88,7 @@ class Runner:
         c, w = time.process_time(), time.perf_counter()
         self.env.reset(seed=int(self._rng.integers(1 << 31)))
         self.reset_wall.append(time.perf_counter() - w)
-        self.reset_cpu += time.process_time() - c
+        self.reset_cpu.append(time.process_time() - c)
         self.resets += 1
         self._live = True
 
@@ -119,7 +119,8 @@ class Runner:
             "steps_per_s_wall": self.steps / self.step_wall,
             "steps_per_s_wall_with_resets": self.steps / (self.step_wall + rw.sum() / 1e3),
             "steps_per_s_cpu": self.steps / self.step_cpu,
-            "steps_per_s_cpu_with_resets": self.steps / (self.step_cpu + self.reset_cpu),
+            "steps_per_s_cpu_with_resets": self.steps / (self.step_cpu + sum(self.reset_cpu)),
+            "ms_per_reset_cpu_median": float(np.median(self.reset_cpu)) * 1e3 if self.reset_cpu else None,
             "ms_per_reset_median": float(np.median(rw)) if len(rw) else None,
             "ms_per_reset_p95": float(np.percentile(rw, 95)) if len(rw) else None,
             "ms_per_reset_mean": float(rw.mean()) if len(rw) else None,

@@ -18,18 +18,25 @@ The cache is bounded (least recently used entries are dropped), keyed by the ins
 
 from __future__ import annotations
 
+import copy
 from collections import OrderedDict
 from dataclasses import dataclass, field
 
+import mujoco
 import numpy as np
 
 from ..data.interaction import Interaction
+from ..errors import SimulationError
 from ..retarget.collision import PairMemory
-from ..retarget.scaling import KeyJointScaler, RobotFrame
-from .carry import CarryPlan
-from .human import HumanPose
+from ..retarget.measure import BodyMeasurements
+from ..retarget.scaling import KeyJointScaler, RobotFrame, ScalingConfig
+from .carry import CarryPlan, plan_carry
+from .human import HumanPose, pose_human, world_offset
+from .reach import human_segments
+from .scene import Scene
+from .tasks import ObjectTask
 
-__all__ = ["Placement", "Settled", "ResetCache"]
+__all__ = ["Placement", "Settled", "ResetCache", "build_placement"]
 
 MAX_PLACEMENTS = 256
 """Most instances a simulator remembers (least recently reset ones are dropped first)."""
@@ -107,3 +114,43 @@ class ResetCache:
 
     def __len__(self) -> int:
         return len(self._entries)
+
+
+def build_placement(inter: Interaction, placement_frames: int | None, scene: Scene, ik_home: np.ndarray,
+                    measurements: BodyMeasurements, scaling: ScalingConfig, timestep: float,
+                    task_object: ObjectTask | None) -> Placement:
+    """What a reset derives from ``inter`` alone, computed afresh.
+
+    ``placement_frames``: place and scale the robot from agent 1's first that many frames only (``None``: the
+    whole recording); ``scene``: the physics scene of the instance's layout; ``ik_home`` (nq_ik,): the robot's
+    home posture in the robot frame; ``measurements``: the robot's; ``timestep``: the wanted physics step, s
+    (shortened so that a data frame holds a whole number of steps); ``task_object``: the task's object, if any.
+    """
+    placed = inter if placement_frames is None else agent1_prefix(inter, placement_frames)
+    offset = world_offset(placed)
+    pose = pose_human(scene.body, inter, offset)
+    scaler = KeyJointScaler(measurements, scaling)
+    frame = scaler.reset(placed, offset)
+    carry = None
+    if task_object is not None and inter.object is not None:
+        carry = plan_carry(inter, offset, task_object, scene.body.hand_joints)
+    n_sub = max(1, int(round(1.0 / (inter.fps * timestep))))
+    home = np.asarray(ik_home, dtype=np.float64).copy()
+    home[:3] = frame.to_world(home[:3])
+    turn = np.array([np.cos(frame.yaw / 2), 0.0, 0.0, np.sin(frame.yaw / 2)])
+    quat = np.empty(4)
+    mujoco.mju_mulQuat(quat, turn, home[3:7])
+    home[3:7] = quat
+    return Placement(
+        interaction=inter, placement_frames=placement_frames, offset=offset, pose=pose,
+        segments=human_segments(pose, scene.body.radii), scaler=copy.copy(scaler), frame=frame, carry=carry,
+        obj_track=None if inter.object is None else inter.object + offset, n_sub=n_sub,
+        timestep=1.0 / (inter.fps * n_sub), home=home,
+    )
+
+
+def agent1_prefix(inter: Interaction, n: int) -> Interaction:
+    """The instance with agent 1 after frame ``n`` marked invalid (its filled joints hold frame n − 1)."""
+    if not 1 <= n <= inter.n_frames:
+        raise SimulationError(f"placement_frames: expected 1..{inter.n_frames} for this instance, found {n}")
+    return inter.hide_agent_after(1, n)

@@ -24,12 +24,12 @@ from ..data.interaction import Interaction
 from ..errors import SimulationError
 from ..retarget.ik import IKConfig, RobotIK
 from ..retarget.robot import RobotSpec, load_robot
-from ..retarget.scaling import KeyJointScaler, RobotFrame, ScalingConfig, measure_robot, object_anchors
-from .carry import CarryPlan, hold_object, park_object, plan_carry, release_object
-from .human import HumanPose, pose_human, world_offset
-from .reach import human_segments, reach_model, reachable_targets
+from ..retarget.scaling import RobotFrame, ScalingConfig, measure_robot, object_anchors
+from .carry import CarryPlan, hold_object, park_object, release_object
+from .human import HumanPose
+from .reach import reach_model, reachable_targets
 from .scene import Scene, pose_compliant, set_human_sizes
-from .reset_cache import Placement, ResetCache, Settled
+from .reset_cache import ResetCache, Settled, build_placement
 from .scoring import SubgoalScorer
 from .stage import Stage, compile_scenes, contact_exemptions, key_frames, key_frames_at
 from .substeps import FrameStepper
@@ -122,12 +122,6 @@ class StepResult:
     """The frame's outside support, foot sliding, penetration and effort (:mod:`~socialaff_sim.sim.support`)."""
 
 
-def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.empty(4)
-    mujoco.mju_mulQuat(out, a, b)
-    return out
-
-
 class Simulator:
     """A robot facing a replayed human, stepped one data frame at a time."""
 
@@ -188,7 +182,8 @@ class Simulator:
         self.interaction = inter = interaction
         place = self._reset_cache.get(inter, placement_frames)
         if place is None:
-            place = self._place(stage, inter, placement_frames)
+            place = build_placement(inter, placement_frames, stage.scene, stage.ik_scene.home_qpos, self.measurements,
+                                    self.config.scaling, self.config.timestep, self.task.object)
             self._reset_cache.put(place)
         self._placement = place
         scene = stage.scene
@@ -216,25 +211,6 @@ class Simulator:
         self._settled = False
         if initial_targets is not None:
             self.settle(initial_targets)
-
-    def _place(self, stage: Stage, inter: Interaction, placement_frames: int | None) -> Placement:
-        """What a reset derives from ``inter`` alone (:mod:`~socialaff_sim.sim.reset_cache`), computed afresh."""
-        placed = inter if placement_frames is None else _agent1_prefix(inter, placement_frames)
-        scene = stage.scene
-        offset = world_offset(placed)
-        pose = pose_human(scene.body, inter, offset)
-        scaler = KeyJointScaler(self.measurements, self.config.scaling)
-        frame = scaler.reset(placed, offset)
-        carry = None
-        if self.task.object is not None and inter.object is not None:
-            carry = plan_carry(inter, offset, self.task.object, scene.body.hand_joints)
-        n_sub = max(1, int(round(1.0 / (inter.fps * self.config.timestep))))
-        return Placement(
-            interaction=inter, placement_frames=placement_frames, offset=offset, pose=pose,
-            segments=human_segments(pose, scene.body.radii), scaler=copy.copy(scaler), frame=frame, carry=carry,
-            obj_track=None if inter.object is None else inter.object + offset, n_sub=n_sub,
-            timestep=1.0 / (inter.fps * n_sub), home=self._home_in_world(stage, frame),
-        )
 
     def settle(self, targets: np.ndarray) -> None:
         """Before the first step: put the robot straight into the IK posture for robot-frame ``targets`` (5, 3)."""
@@ -294,14 +270,6 @@ class Simulator:
         out = np.broadcast_to(stage.scene.home_qpos, (*q_ik.shape[:-1], len(stage.scene.home_qpos))).copy()
         out[..., stage.ik_map] = q_ik
         return out
-
-    @staticmethod
-    def _home_in_world(stage: Stage, frame: RobotFrame) -> np.ndarray:
-        q = stage.ik_scene.home_qpos.copy()
-        q[:3] = frame.to_world(q[:3])
-        yaw_q = np.array([np.cos(frame.yaw / 2), 0.0, 0.0, np.sin(frame.yaw / 2)])
-        q[3:7] = _quat_mul(yaw_q, q[3:7])
-        return q
 
     def _fill_targets(self, targets: np.ndarray) -> np.ndarray:
         if targets.shape != (5, 3):
@@ -468,11 +436,3 @@ class Simulator:
     def ik_qpos(self) -> np.ndarray:
         """(nq_ik,) the latest IK solution (free joint then the IK's hinges), world frame."""
         return self._q.copy()
-
-
-def _agent1_prefix(inter: Interaction, n: int) -> Interaction:
-    """The instance with agent 1 after frame ``n`` marked invalid (its filled joints hold frame n − 1)."""
-    if not 1 <= n <= inter.n_frames:
-        raise SimulationError(f"placement_frames: expected 1..{inter.n_frames} for this instance, found {n}")
-    return inter.hide_agent_after(1, n)
-
