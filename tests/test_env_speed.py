@@ -319,3 +319,20 @@ def test_support_meter_matches_the_step_by_step_figures(data):
     np.testing.assert_allclose(np.array(got), np.array(ref.frames), rtol=1e-9, atol=1e-12)
     assert all(a == b for a, b in feet)
     assert any(f[2] > 0 for f in ref.frames) or any(all(x) for x, _ in feet)  # feet on the floor were seen
+
+
+def test_warm_up_caches_every_instance_and_asks_for_a_reset(data, monkeypatch):
+    from socialaff_sim.errors import SimulationError
+
+    env = make(data, action_mode="residual")
+    env.warm_up()
+    with pytest.raises(SimulationError, match="reset"):
+        env.step(np.zeros((5, 3), np.float32))
+    solves = []
+    original = RobotIK.solve
+    monkeypatch.setattr(RobotIK, "solve", lambda self, *a, **k: solves.append(1) or original(self, *a, **k))
+    for inter in env.pool.instances:
+        env.reset(seed=0, options={"instance": inter.instance_id})
+    assert solves == []
+    fresh = make(data, action_mode="residual")
+    np.testing.assert_array_equal(env.reset(seed=5)[0]["joint_pos"], fresh.reset(seed=5)[0]["joint_pos"])
