@@ -2,8 +2,12 @@
 
 Tasks: a frame task per key frame (positions; plus orientation for the base, kept
 upright and facing the partner, and the feet, kept flat), stacked into one mink
-task (:class:`~.key_task.KeyFramesTask`), and a :class:`mink.PostureTask` toward
-the home posture that settles the redundancy.
+task (:class:`~.key_task.KeyFramesTask`), a :class:`mink.PostureTask` toward
+the home posture that settles the redundancy, and, while both feet are planted, a
+standing-balance term: the planted feet pinned (their position and orientation
+costs raised to ``planted_foot_cost`` / ``planted_foot_orientation_cost``) and a
+:class:`mink.ComTask` holding the centre of mass horizontally over the centre of
+the support polygon (``com_cost``).
 Limits: :class:`mink.ConfigurationLimit` (joint ranges) and
 :class:`mink.VelocityLimit` (every hinge), merged into one box on Δq per data frame
 (:class:`~.joint_limits.JointBoxLimit`), and collision avoidance
@@ -130,6 +134,10 @@ class RobotIK:
         self.collision_limit: GeomPairLimit
         self.set_contact_exemptions([])
         self._home_quat = self._frame_quats(ik_model.home_qpos)
+        self.com_task = mink.ComTask(cost=[c.com_cost, c.com_cost, 0.0])
+        self._com_offset = self._home_com_offset()
+        self._oriented = list(self.key_task.oriented)
+        self._tasks: list[mink.Task] = [self.key_task, self.posture_task]
         self._fixed_yaw: float | None = None
         self._damping = c.damping
 
@@ -142,6 +150,31 @@ class RobotIK:
         for k, (kind, fid) in enumerate(zip(self.spec.frame_kinds, self.spec.frame_ids, strict=True)):
             mujoco.mju_mat2Quat(out[k], d.site_xmat[fid] if kind == "site" else d.xmat[fid])
         return out
+
+    def _home_com_offset(self) -> np.ndarray:
+        """(2,) horizontal offset (m, robot frame) of the centre of mass from the ankles' middle at home.
+
+        mink's :class:`~mink.ComTask` reads the centre of mass of body 1's subtree, which must be the
+        robot's root (the robot is the model's first body; the person is made of mocap bodies)."""
+        m = self.spec.model
+        if m.body_parentid[1] != 0 or m.body_jntnum[1] < 1 or int(m.jnt_type[m.body_jntadr[1]]) != int(mujoco.mjtJoint.mjJNT_FREE):
+            raise SimulationError("IK model: body 1 must be the robot's root on a free joint (the balance task reads its subtree's centre of mass)")
+        self.configuration.update(self.spec.home_qpos)
+        d = self.configuration.data
+        ankles = self.key_task.positions(d)[3:5]
+        return np.array(d.subtree_com[1, :2] - ankles[:, :2].mean(axis=0))
+
+    def com(self) -> np.ndarray:
+        """(3,) the robot's centre of mass at the current configuration, world frame, metres."""
+        return np.array(self.configuration.data.subtree_com[1])
+
+    def support_centre(self, ankles: np.ndarray, yaw: float) -> np.ndarray:
+        """(2,) the centre of the support polygon (world, m) of feet whose ankles are at ``ankles`` (2, 3)
+        (world, m) with the robot turned by ``yaw`` (rad): the ankles' middle plus the home offset of the
+        centre of mass, turned."""
+        c, s = np.cos(yaw), np.sin(yaw)
+        off = np.array([c * self._com_offset[0] - s * self._com_offset[1], s * self._com_offset[0] + c * self._com_offset[1]])
+        return np.asarray(ankles, dtype=np.float64)[:, :2].mean(axis=0) + off
 
     def _set_collision_bits(self) -> None:
         """Let MuJoCo's collision detection in the IK model find only the pairs the IK watches.
@@ -248,7 +281,7 @@ class RobotIK:
     def _step(self, dt: float) -> np.ndarray:
         """One QP step; a push-out the QP cannot meet together with the joint limits is dropped."""
         c, cfg = self.config, self.configuration
-        tasks = [self.key_task, self.posture_task]
+        tasks = self._tasks
         lim = self.collision_limit
         try:
             return mink.solve_ik(configuration=cfg, tasks=tasks, dt=dt, solver=c.solver, damping=self._damping,
@@ -291,7 +324,8 @@ class RobotIK:
             cfg.integrate_inplace(v, dt)
         lim.unwatch()
 
-    def solve(self, targets: np.ndarray, yaw: float, dt: float, care: np.ndarray | None = None) -> IKResult:
+    def solve(self, targets: np.ndarray, yaw: float, dt: float, care: np.ndarray | None = None,
+              planted: tuple[bool, bool] = (False, False)) -> IKResult:
         """Move toward world-frame ``targets`` (5, 3) over one frame of ``dt`` seconds.
 
         ``yaw`` (rad) turns the base's and the feet's home orientations to face the partner.
@@ -300,6 +334,8 @@ class RobotIK:
         more steps are taken only while one within reach is farther than ``tolerance``
         (a target the person's body or a limb's length puts out of reach cannot be met, and
         chasing it would only spend time).
+        ``planted`` (left, right): the feet standing on the floor at their targets; each is pinned,
+        and with both the balance term holds the centre of mass over the support polygon.
         """
         targets = np.asarray(targets, dtype=np.float64)
         if targets.shape != (5, 3) or not np.isfinite(targets).all():
@@ -311,7 +347,20 @@ class RobotIK:
         # A target out of reach still draws its limb, but more weakly: through the joints the limbs share
         # (the waist) it would otherwise pull the reachable targets off theirs.
         weight = self._position_cost * np.where(watch, 1.0, c.unreachable_weight)
+        feet = np.asarray(planted, dtype=bool)
+        weight[3:5] = np.where(feet, c.planted_foot_cost / c.position_cost, 1.0) * weight[3:5]
         self.key_task.cost[:15] = np.repeat(weight, 3)
+        for row, k in enumerate(self._oriented):
+            if k in (3, 4):
+                cost = c.planted_foot_orientation_cost if feet[k - 3] else c.foot_orientation_cost
+                self.key_task.cost[15 + 3 * row:18 + 3 * row] = cost
+        self._tasks = [self.key_task, self.posture_task]
+        if feet.all() and c.com_cost > 0:
+            # Standing, the base may give way horizontally: the hips, not a leaning torso, carry the centre of
+            # mass back over the feet when the arms reach out.
+            self.key_task.cost[:2] = c.planted_base_cost * (weight[0] / c.base_position_cost)
+            self.com_task.set_target(np.append(self.support_centre(targets[3:5], yaw), 0.0))
+            self._tasks.append(self.com_task)
         self._box.begin_frame(cfg.q)
         errors = np.linalg.norm(self.frame_positions() - targets, axis=1)
         it = 0

@@ -153,7 +153,8 @@ class Scene:
 
 def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None = None,
                 *, physics: bool = True, timestep: float = 0.004, servo_bandwidth: float | None = 25.0,
-                gravity_compensation: bool = False, harness_time_constant: float | None = None) -> Scene:
+                gravity_compensation: bool = False, harness_time_constant: float | None = None,
+                stance_bandwidth: float | None = None) -> Scene:
     """Compile the scene for one robot, one skeleton layout and an optional object.
 
     ``physics=False`` gives the IK scene: robot and human only (no floor, object,
@@ -162,6 +163,7 @@ def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None
     ``gravity_compensation``: every robot body gets ``gravcomp = 1`` (a weightless, kinematic puppet).
     ``harness_time_constant`` (s): the root hangs from the anchor by a soft weld of this time constant and
     impedance :data:`HARNESS_IMPEDANCE` (a compliant harness); ``None``: by a rigid weld.
+    ``stance_bandwidth`` (rad/s): leg servos stiff enough to stand on (see :func:`tune_servos`); ``None``: not.
     """
     root = mjcf.RootElement(model="socialaff_scene")
     root.compiler.angle = "radian"
@@ -212,7 +214,8 @@ def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None
     scene = _index(model, robot, body, rob, home, physics and obj is not None, physics)
     if physics and servo_bandwidth is not None:
         tune_servos(scene.model, scene.robot_qadr, scene.home_qpos, scene.act_ids, scene.robot_joint_ids[1:],
-                    servo_bandwidth)
+                    servo_bandwidth, stance_roots=() if stance_bandwidth is None else scene.limb_body_ids[2:4],
+                    stance_bandwidth=stance_bandwidth or 0.0)
     return scene
 
 

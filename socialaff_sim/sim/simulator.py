@@ -69,6 +69,10 @@ class SimConfig:
     whose feet do not reach sags by about 3.5 cm and hangs. At 0.05 s the base lagged the IK's by up to 8 cm
     while walking and Stubby's handshake of shake_hands_000 missed. With gravity compensation the root is
     held by the rigid weld (0.008 s; with weight it would carry 11.5 % of the standing H1's weight)."""
+    stance_bandwidth: float | None = None
+    """ω_s [rad/s]: the leg servos' natural frequency on the inertia of the body they hold up when standing
+    (:func:`~socialaff_sim.sim.robot_mjcf.tune_servos`); ``None``: the legs keep ``servo_bandwidth`` on their
+    own inertia (too soft to stand on without the harness). Not used with gravity compensation."""
     hand_force: float | None = 60.0
     """F_max [N]: the arm servos' torque limits are set so that a hand pushes with at most about
     this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,
@@ -148,6 +152,7 @@ class Simulator:
                 servo_bandwidth=self.config.servo_bandwidth, hand_force=self.config.hand_force,
                 gravity_compensation=self.config.gravity_compensation,
                 harness_time_constant=None if self.config.gravity_compensation else self.config.harness_time_constant,
+                stance_bandwidth=None if self.config.gravity_compensation else self.config.stance_bandwidth,
             )
             if not hasattr(self, "measurements"):
                 self.measurements = measure_robot(ik_scene.model, ik_scene.home_qpos, ik_scene.frame_kinds,
@@ -338,7 +343,9 @@ class Simulator:
         ik = stage.ik
         tic = time.thread_time()
         ik.set_human(self.pose.pos[t1], self.pose.quat[t1])
-        res = ik.solve(world, self._yaw, dt=1.0 / fps, care=reachable)
+        planted = (False, False) if self._footlock is None else (self._footlock.planted[0] is not None,
+                                                                 self._footlock.planted[1] is not None)
+        res = ik.solve(world, self._yaw, dt=1.0 / fps, care=reachable, planted=planted)
         ik_seconds = time.thread_time() - tic
 
         carry = None
@@ -358,8 +365,7 @@ class Simulator:
             self.n_sub, fps, self._to_physics(self._q), self._to_physics(res.qpos),
             (self.pose.pos[t0], self.pose.pos[t1]), (self.pose.quat[t0], self.pose.quat[t1]), self.time, subevent,
             grip=self.config.grip, carry=carry,
-            feet=None if self._footlock is None else (self._footlock.planted[0] is not None,
-                                                        self._footlock.planted[1] is not None),
+            feet=None if self._footlock is None else planted,
         )
         scorer = stage.scorer
         self._q = res.qpos
