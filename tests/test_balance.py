@@ -71,21 +71,59 @@ def _reach(scene: Scene, config: IKConfig, planted: tuple[bool, bool]) -> tuple[
     return _com(scene, q), key_frames_at(scene, q)[3:5], ik
 
 
-def test_balance_holds_the_centre_of_mass_over_the_feet_while_both_are_planted(ik_scene: Scene) -> None:
-    cfg = IKConfig()
+def _bound(ik: RobotIK, ankles: np.ndarray) -> float:
+    """The support rectangle's front edge, m ahead of the ankles' middle (the robot faces +x)."""
+    assert ik.support_limit is not None
+    return float(ik.support_limit.box[0, 1])
+
+
+def test_support_limit_keeps_the_centre_of_mass_over_the_feet_while_both_are_planted(ik_scene: Scene) -> None:
+    home_ankles = key_frames_at(ik_scene, ik_scene.home_qpos)[3:5]
+    mid = home_ankles[:, :2].mean(axis=0)
+    com, ankles, ik = _reach(ik_scene, IKConfig(), (True, True))
+    front = _bound(ik, ankles)
+    # The reach carries the centre of mass forward up to the rectangle's front edge, not beyond; feet in place.
+    assert com[0] - mid[0] <= front + 0.002
+    assert com[0] - mid[0] >= front - 0.02
+    assert np.abs(ankles - home_ankles).max() <= 0.005
+    # Without the limit (or with a foot not planted, when it is inactive) the same reach leaves the rectangle.
+    off, _, _ = _reach(ik_scene, IKConfig(support_margin=None), (True, True))
+    assert off[0] - mid[0] >= front + 0.01
+    free, _, _ = _reach(ik_scene, IKConfig(), (True, False))
+    assert free[0] - mid[0] >= front + 0.01
+
+
+def test_support_box_is_the_feet_extent(ik_scene: Scene) -> None:
+    ik = _ik(ik_scene, IKConfig(support_margin=0.0))
+    m = ik_scene.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = ik_scene.home_qpos
+    mujoco.mj_forward(m, d)
+    mid = key_frames_at(ik_scene, ik_scene.home_qpos)[3:5, :2].mean(axis=0)
+    # Independent: Stubby's feet are boxes; their corners from geom_size and the geoms' poses.
+    feet = [g for g in range(m.ngeom) if "foot" in (m.geom(g).name or "") and m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX]
+    assert len(feet) == 2
+    corners = []
+    for g in feet:
+        for sx in (-1, 1):
+            for sy in (-1, 1):
+                for sz in (-1, 1):
+                    corners.append(d.geom_xpos[g] + d.geom_xmat[g].reshape(3, 3) @ (m.geom_size[g] * [sx, sy, sz]))
+    xy = np.array(corners)[:, :2] - mid
+    expected = np.array([[xy[:, 0].min(), xy[:, 0].max()], [xy[:, 1].min(), xy[:, 1].max()]])
+    np.testing.assert_allclose(ik.support_limit.box, expected, atol=1e-9)
+
+
+def test_com_task_holds_the_centre_of_mass_at_the_support_centre(ik_scene: Scene) -> None:
+    cfg = IKConfig(com_cost=10.0)
     com, ankles, ik = _reach(ik_scene, cfg, (True, True))
     home_com = _com(ik_scene, ik_scene.home_qpos)
     home_ankles = key_frames_at(ik_scene, ik_scene.home_qpos)[3:5]
-    centre = home_ankles[:, :2].mean(axis=0) + (home_com[:2] - home_ankles[:, :2].mean(axis=0))
-    # Balanced: the centre of mass stays over the support polygon's centre, the feet where they stood.
+    centre = home_com[:2]  # at home the centre of mass is over the support centre by construction
     assert np.linalg.norm(com[:2] - centre) <= 0.01
+    off, _, _ = _reach(ik_scene, dataclasses.replace(cfg, com_cost=0.0, support_margin=None), (True, True))
+    assert np.linalg.norm(off[:2] - centre) >= 0.05
     assert np.abs(ankles - home_ankles).max() <= 0.005
-    # Without the balance term (no ComTask; or the feet not planted, so it is inactive) the reach carries the
-    # centre of mass forward, off that centre, by several centimetres.
-    off, _, _ = _reach(ik_scene, dataclasses.replace(cfg, com_cost=0.0), (True, True))
-    assert np.linalg.norm(off[:2] - centre) >= 0.03
-    free, _, _ = _reach(ik_scene, cfg, (False, False))
-    assert np.linalg.norm(free[:2] - centre) >= 0.03
 
 
 def test_planted_feet_are_pinned_against_a_base_that_pulls_them(ik_scene: Scene) -> None:

@@ -48,6 +48,7 @@ from .collision import GeomPairLimit, collision_pairs
 from .ik_config import IKConfig
 from .joint_limits import JointBoxLimit
 from .key_task import KeyFramesTask
+from .support_limit import SupportPolygonLimit, support_box
 
 __all__ = ["IKConfig", "IKModel", "IKResult", "RobotIK", "JointBoxLimit", "GeomPairLimit", "KeyFramesTask"]
 
@@ -138,6 +139,14 @@ class RobotIK:
         self._com_offset = self._home_com_offset()
         self._oriented = list(self.key_task.oriented)
         self._tasks: list[mink.Task] = [self.key_task, self.posture_task]
+        self.support_limit: SupportPolygonLimit | None = None
+        if c.support_margin is not None:
+            self.configuration.update(ik_model.home_qpos)
+            d = self.configuration.data
+            feet = tuple(int(m.site_bodyid[f]) if k == "site" else int(f)
+                         for k, f in zip(ik_model.frame_kinds[3:5], ik_model.frame_ids[3:5], strict=True))
+            box = support_box(m, d, (feet[0], feet[1]), robot, self.key_task.positions(d)[3:5])
+            self.support_limit = SupportPolygonLimit(m, box, c.support_margin)
         self._fixed_yaw: float | None = None
         self._damping = c.damping
 
@@ -248,7 +257,10 @@ class RobotIK:
 
     def limits(self) -> list[mink.Limit]:
         """The limits passed to the QP."""
-        return [self._box, self.collision_limit]
+        out: list[mink.Limit] = [self._box, self.collision_limit]
+        if self.support_limit is not None and self.support_limit.active:
+            out.append(self.support_limit)
+        return out
 
     def reset(self, qpos: np.ndarray) -> None:
         """Start from configuration ``qpos`` (nq,), at rest."""
@@ -355,6 +367,11 @@ class RobotIK:
                 cost = c.planted_foot_orientation_cost if feet[k - 3] else c.foot_orientation_cost
                 self.key_task.cost[15 + 3 * row:18 + 3 * row] = cost
         self._tasks = [self.key_task, self.posture_task]
+        if self.support_limit is not None:
+            if feet.all():
+                self.support_limit.set_support(targets[3:5], yaw)
+            else:
+                self.support_limit.clear()
         if feet.all() and c.com_cost > 0:
             # Standing, the base may give way horizontally: the hips, not a leaning torso, carry the centre of
             # mass back over the feet when the arms reach out.
