@@ -62,8 +62,8 @@ class IKConfig:
     in 79–82 % of the frames instead of 98–100 % (73 % of all key-frame targets within 2 cm instead of 94 %);
     at 1 and 3, the same."""
     planted_base_cost: float = 0.5
-    """[1/m]: Cost of the base's horizontal position error (per metre) while the balance term is active: the
-    hips may move to carry the centre of mass over the feet (with ``com_cost`` = 10 and this at
+    """[1/m]: Cost of the base's horizontal position error (per metre) while the centre-of-mass task is active
+    (``com_cost`` > 0 and both feet planted): the hips may move to carry the centre of mass over the feet (with ``com_cost`` = 10 and this at
     ``base_position_cost``, 5, 6 of 10 Stubby episodes met every sub-goal instead of 10)."""
     planted_foot_cost: float = 50.0
     """[1/m]: Cost of a planted foot's position error (per metre), replacing ``position_cost``: a planted foot

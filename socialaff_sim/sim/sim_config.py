@@ -24,7 +24,7 @@ class SimConfig:
     Fields by concept
     -----------------
     - Physics: timestep, servo_bandwidth, hand_force, grip, settle_iterations
-    - Weight and support: gravity_compensation, harness_time_constant, foot_lock
+    - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth
     - Retargeting: ik, scaling
     """
 
