@@ -3,11 +3,12 @@
 Tasks: a frame task per key frame (positions; plus orientation for the base, kept
 upright and facing the partner, and the feet, kept flat), stacked into one mink
 task (:class:`~.key_task.KeyFramesTask`), a :class:`mink.PostureTask` toward
-the home posture that settles the redundancy, and, while both feet are planted, a
-standing-balance term: the planted feet pinned (their position and orientation
-costs raised to ``planted_foot_cost`` / ``planted_foot_orientation_cost``) and a
-:class:`mink.ComTask` holding the centre of mass horizontally over the centre of
-the support polygon (``com_cost``).
+the home posture that settles the redundancy, and standing balance: a planted
+foot is pinned (its position and orientation costs raised to ``planted_foot_cost``
+/ ``planted_foot_orientation_cost``), and while both are planted the centre of mass
+may not leave their support rectangle (:class:`~.support_limit.SupportPolygonLimit`,
+``support_margin``); a :class:`mink.ComTask` toward the rectangle's centre
+(``com_cost``) is optional.
 Limits: :class:`mink.ConfigurationLimit` (joint ranges) and
 :class:`mink.VelocityLimit` (every hinge), merged into one box on Δq per data frame
 (:class:`~.joint_limits.JointBoxLimit`), and collision avoidance
@@ -347,7 +348,8 @@ class RobotIK:
         (a target the person's body or a limb's length puts out of reach cannot be met, and
         chasing it would only spend time).
         ``planted`` (left, right): the feet standing on the floor at their targets; each is pinned,
-        and with both the balance term holds the centre of mass over the support polygon.
+        and with both the centre of mass is kept over their support rectangle (and, with ``com_cost``,
+        drawn to its centre).
         """
         targets = np.asarray(targets, dtype=np.float64)
         if targets.shape != (5, 3) or not np.isfinite(targets).all():
