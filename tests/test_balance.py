@@ -73,8 +73,8 @@ def _reach(scene: Scene, config: IKConfig, planted: tuple[bool, bool]) -> tuple[
 
 def _bound(ik: RobotIK, ankles: np.ndarray) -> float:
     """The support rectangle's front edge, m ahead of the ankles' middle (the robot faces +x)."""
-    assert ik.support_limit is not None
-    return float(ik.support_limit.box[0, 1])
+    assert ik.balance.limit is not None
+    return float(ik.balance.limit.box[0, 1])
 
 
 def test_support_limit_keeps_the_centre_of_mass_over_the_feet_while_both_are_planted(ik_scene: Scene) -> None:
@@ -111,7 +111,7 @@ def test_support_box_is_the_feet_extent(ik_scene: Scene) -> None:
                     corners.append(d.geom_xpos[g] + d.geom_xmat[g].reshape(3, 3) @ (m.geom_size[g] * [sx, sy, sz]))
     xy = np.array(corners)[:, :2] - mid
     expected = np.array([[xy[:, 0].min(), xy[:, 0].max()], [xy[:, 1].min(), xy[:, 1].max()]])
-    np.testing.assert_allclose(ik.support_limit.box, expected, atol=1e-9)
+    np.testing.assert_allclose(ik.balance.limit.box, expected, atol=1e-9)
 
 
 def test_com_task_holds_the_centre_of_mass_at_the_support_centre(ik_scene: Scene) -> None:
@@ -147,7 +147,7 @@ def test_support_centre_turns_with_the_robot(ik_scene: Scene, rng: np.random.Gen
     home_ankles = key_frames_at(ik_scene, ik_scene.home_qpos)[3:5]
     off = _com(ik_scene, ik_scene.home_qpos)[:2] - home_ankles[:, :2].mean(axis=0)
     R = np.array([[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]])
-    np.testing.assert_allclose(ik.support_centre(ankles, yaw), ankles[:, :2].mean(axis=0) + R @ off, atol=1e-12)
+    np.testing.assert_allclose(ik.balance.support_centre(ankles, yaw), ankles[:, :2].mean(axis=0) + R @ off, atol=1e-12)
 
 
 LEG_XML = """

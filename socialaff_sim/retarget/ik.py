@@ -49,7 +49,7 @@ from .collision import GeomPairLimit, collision_pairs
 from .ik_config import IKConfig
 from .joint_limits import JointBoxLimit
 from .key_task import KeyFramesTask
-from .support_limit import SupportPolygonLimit, support_box
+from .balance import StandingBalance
 
 __all__ = ["IKConfig", "IKModel", "IKResult", "RobotIK", "JointBoxLimit", "GeomPairLimit", "KeyFramesTask"]
 
@@ -136,18 +136,12 @@ class RobotIK:
         self.collision_limit: GeomPairLimit
         self.set_contact_exemptions([])
         self._home_quat = self._frame_quats(ik_model.home_qpos)
-        self.com_task = mink.ComTask(cost=[c.com_cost, c.com_cost, 0.0])
-        self._com_offset = self._home_com_offset()
+        self.configuration.update(ik_model.home_qpos)
+        d = self.configuration.data
+        self.balance = StandingBalance(m, d, self.key_task.positions(d)[3:5], ik_model.frame_kinds,
+                                       ik_model.frame_ids, robot, c)
         self._oriented = list(self.key_task.oriented)
         self._tasks: list[mink.Task] = [self.key_task, self.posture_task]
-        self.support_limit: SupportPolygonLimit | None = None
-        if c.support_margin is not None:
-            self.configuration.update(ik_model.home_qpos)
-            d = self.configuration.data
-            feet = tuple(int(m.site_bodyid[f]) if k == "site" else int(f)
-                         for k, f in zip(ik_model.frame_kinds[3:5], ik_model.frame_ids[3:5], strict=True))
-            box = support_box(m, d, (feet[0], feet[1]), robot, self.key_task.positions(d)[3:5])
-            self.support_limit = SupportPolygonLimit(m, box, c.support_margin)
         self._fixed_yaw: float | None = None
         self._damping = c.damping
 
@@ -161,30 +155,9 @@ class RobotIK:
             mujoco.mju_mat2Quat(out[k], d.site_xmat[fid] if kind == "site" else d.xmat[fid])
         return out
 
-    def _home_com_offset(self) -> np.ndarray:
-        """(2,) horizontal offset (m, robot frame) of the centre of mass from the ankles' middle at home.
-
-        mink's :class:`~mink.ComTask` reads the centre of mass of body 1's subtree, which must be the
-        robot's root (the robot is the model's first body; the person is made of mocap bodies)."""
-        m = self.spec.model
-        if m.body_parentid[1] != 0 or m.body_jntnum[1] < 1 or int(m.jnt_type[m.body_jntadr[1]]) != int(mujoco.mjtJoint.mjJNT_FREE):
-            raise SimulationError("IK model: body 1 must be the robot's root on a free joint (the balance task reads its subtree's centre of mass)")
-        self.configuration.update(self.spec.home_qpos)
-        d = self.configuration.data
-        ankles = self.key_task.positions(d)[3:5]
-        return np.array(d.subtree_com[1, :2] - ankles[:, :2].mean(axis=0))
-
     def com(self) -> np.ndarray:
         """(3,) the robot's centre of mass at the current configuration, world frame, metres."""
         return np.array(self.configuration.data.subtree_com[1])
-
-    def support_centre(self, ankles: np.ndarray, yaw: float) -> np.ndarray:
-        """(2,) the centre of the support polygon (world, m) of feet whose ankles are at ``ankles`` (2, 3)
-        (world, m) with the robot turned by ``yaw`` (rad): the ankles' middle plus the home offset of the
-        centre of mass, turned."""
-        c, s = np.cos(yaw), np.sin(yaw)
-        off = np.array([c * self._com_offset[0] - s * self._com_offset[1], s * self._com_offset[0] + c * self._com_offset[1]])
-        return np.asarray(ankles, dtype=np.float64)[:, :2].mean(axis=0) + off
 
     def _set_collision_bits(self) -> None:
         """Let MuJoCo's collision detection in the IK model find only the pairs the IK watches.
@@ -258,10 +231,7 @@ class RobotIK:
 
     def limits(self) -> list[mink.Limit]:
         """The limits passed to the QP."""
-        out: list[mink.Limit] = [self._box, self.collision_limit]
-        if self.support_limit is not None and self.support_limit.active:
-            out.append(self.support_limit)
-        return out
+        return [self._box, self.collision_limit, *self.balance.limits()]
 
     def reset(self, qpos: np.ndarray) -> None:
         """Start from configuration ``qpos`` (nq,), at rest."""
@@ -368,18 +338,12 @@ class RobotIK:
             if k in (3, 4):
                 cost = c.planted_foot_orientation_cost if feet[k - 3] else c.foot_orientation_cost
                 self.key_task.cost[15 + 3 * row:18 + 3 * row] = cost
-        self._tasks = [self.key_task, self.posture_task]
-        if self.support_limit is not None:
-            if feet.all():
-                self.support_limit.set_support(targets[3:5], yaw)
-            else:
-                self.support_limit.clear()
-        if feet.all() and c.com_cost > 0:
+        balance = self.balance.update(targets[3:5], yaw, bool(feet.all()))
+        self._tasks = [self.key_task, self.posture_task, *balance]
+        if balance:
             # Standing, the base may give way horizontally: the hips, not a leaning torso, carry the centre of
             # mass back over the feet when the arms reach out.
             self.key_task.cost[:2] = c.planted_base_cost * (weight[0] / c.base_position_cost)
-            self.com_task.set_target(np.append(self.support_centre(targets[3:5], yaw), 0.0))
-            self._tasks.append(self.com_task)
         self._box.begin_frame(cfg.q)
         errors = np.linalg.norm(self.frame_positions() - targets, axis=1)
         it = 0
