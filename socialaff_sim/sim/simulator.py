@@ -11,9 +11,9 @@ frame, and the task's sub-goals and failures are scored on the contacts.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import mujoco
@@ -21,109 +21,25 @@ import numpy as np
 
 from ..data.interaction import Interaction
 from ..errors import SimulationError
-from ..retarget.ik import IKConfig, RobotIK
+from ..retarget.ik import RobotIK
 from ..retarget.robot import RobotSpec, load_robot
-from ..retarget.scaling import KeyJointScaler, RobotFrame, ScalingConfig, measure_robot, object_anchors
-from .carry import CarryPlan, hold_object, park_object, plan_carry, release_object
-from .human import HumanPose, pose_human, world_offset
-from .reach import human_segments, reach_model, reachable_targets
+from ..retarget.scaling import RobotFrame, measure_robot, object_anchors
+from .chair import chair_pose, place_chair
+from .carry import CarryPlan, hold_object, park_object, release_object
+from .human import HumanPose
+from .reach import reach_model, reachable_targets
 from .scene import Scene, pose_compliant, set_human_sizes
+from .reset_cache import ResetCache, Settled, build_placement
 from .scoring import SubgoalScorer
 from .stage import Stage, compile_scenes, contact_exemptions, key_frames, key_frames_at
 from .substeps import FrameStepper
 from .feedforward import StandingFeedforward
-from .footlock import FootLock, FootLockConfig
-from .support import FrameSupport, SupportMeter
+from .footlock import FootLock
+from .sim_config import SimConfig, StepResult
+from .support import SupportMeter
 from .tasks import TaskSpec, load_task
 
 __all__ = ["SimConfig", "StepResult", "Simulator"]
-
-
-@dataclass(frozen=True)
-class SimConfig:
-    """Settings of the physics loop.
-
-    Fields by concept
-    -----------------
-    - Physics: timestep, servo_bandwidth, hand_force, grip, settle_iterations
-    - Weight and support: gravity_compensation, harness_time_constant, foot_lock
-    - Retargeting: ik, scaling
-    """
-
-    timestep: float = 0.004
-    """Δt [s]: physics step in seconds (shortened so a data frame holds a whole number of steps)."""
-    servo_bandwidth: float | None = 25.0
-    """ω [rad/s]: natural frequency of the critically damped joint servos, rad/s (``None``: the model's own gains)."""
-    gravity_compensation: bool = False
-    """[—]: Kinematic-puppet mode: every robot body gets MuJoCo's gravity compensation (``gravcomp = 1``), so
-    the robot is weightless and its servos never hold anything up; its root is held by a rigid weld. Off by
-    default: gravity acts on the robot, and the support it then gets from its harness is measured
-    (:mod:`~socialaff_sim.sim.support`); every figure says which mode ran (``metrics.json``'s ``support.mode``)."""
-    foot_lock: FootLockConfig | None = field(default_factory=FootLockConfig)
-    """[—]: When a standing foot's target is held where the foot came down (:mod:`~socialaff_sim.sim.footlock`);
-    ``None``: ankle targets are followed as given."""
-    harness_time_constant: float = 0.02
-    """τ_h [s]: with the robot's real weight, its root hangs from the IK's base pose by a compliant harness,
-    a soft weld of this time constant (:func:`~socialaff_sim.sim.scene.build_scene`). Standing still at home
-    on its feet, the robot takes 2.9 % (Stubby), 6.2 % (H1) or 1.7 % (G1) of its weight from it; a robot
-    whose feet do not reach sags by about 3.5 cm and hangs. At 0.05 s the base lagged the IK's by up to 8 cm
-    while walking and Stubby's handshake of shake_hands_000 missed. With gravity compensation the root is
-    held by the rigid weld (0.008 s; with weight it would carry 11.5 % of the standing H1's weight)."""
-    hand_force: float | None = 60.0
-    """F_max [N]: the arm servos' torque limits are set so that a hand pushes with at most about
-    this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,
-    never above the model's own limit); ``None`` keeps the model's limits. With gravity compensation
-    the arms need little torque to move, so this mostly bounds how hard the robot can press on a person."""
-    ik: IKConfig = field(default_factory=IKConfig)
-    """[—]: Retargeting IK settings."""
-    scaling: ScalingConfig = field(default_factory=ScalingConfig)
-    """[—]: Human-to-robot scaling settings."""
-    grip: bool = True
-    """[—]: Whether a robot hand touching the object grips it (its grip weld switches on and stays on)."""
-    settle_iterations: int = 20
-    """[—]: IK solves spent at reset to reach the first frame's targets before physics starts."""
-
-
-@dataclass(frozen=True)
-class StepResult:
-    """What one :meth:`Simulator.step` did."""
-
-    frame: int
-    """The data frame reached."""
-    time: float
-    """Simulated time, s."""
-    targets: np.ndarray
-    """(5, 3) robot-frame targets used (NaN entries replaced by the home offsets), metres."""
-    ik_error: np.ndarray
-    """(5,) IK residual of each key frame, metres."""
-    reachable: np.ndarray
-    """(5,) bool: whether each target is reachable by the criterion of :mod:`socialaff_sim.sim.reach`
-    (within the limb's length, the hand or trunk clear of the person by its own size); IK error is
-    judged on these."""
-    ik_iterations: int
-    ik_seconds: float
-    """CPU time of the IK in the calling thread, s."""
-    subevent: str | None
-    force_on_human: float
-    """Total normal force of the robot on the human, averaged over the step's physics steps, N."""
-    subgoals: dict[str, bool]
-    """Success so far of each sub-goal (``object_in_hand`` is only judged at the end)."""
-    failed: bool
-    """Whether a failure condition has triggered (now or earlier)."""
-    done: bool
-    """Whether the last frame has been reached."""
-    subgoals_now: dict[str, bool] = field(default_factory=dict)
-    """Whether each sub-goal's contact holds now, at the frame's last physics step (not latched)."""
-    subgoal_gaps: dict[str, float | None] = field(default_factory=dict)
-    """Each sub-goal's gap (m) between its two groups' geoms at the end of the frame (``None``: beyond 1 m)."""
-    support: FrameSupport | None = None
-    """The frame's outside support, foot sliding, penetration and effort (:mod:`~socialaff_sim.sim.support`)."""
-
-
-def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.empty(4)
-    mujoco.mju_mulQuat(out, a, b)
-    return out
 
 
 class Simulator:
@@ -137,6 +53,8 @@ class Simulator:
         self._stage: Stage | None = None
         self._footlock: FootLock | None = None
         self.interaction: Interaction | None = None
+        self._reset_cache = ResetCache()
+        self._settled = False
 
     # -- set-up -----------------------------------------------------------------------
     def _get_stage(self, inter: Interaction) -> Stage:
@@ -148,6 +66,8 @@ class Simulator:
                 servo_bandwidth=self.config.servo_bandwidth, hand_force=self.config.hand_force,
                 gravity_compensation=self.config.gravity_compensation,
                 harness_time_constant=None if self.config.gravity_compensation else self.config.harness_time_constant,
+                stance_bandwidth=None if self.config.gravity_compensation else self.config.stance_bandwidth,
+                chair=self.task.chair,
             )
             if not hasattr(self, "measurements"):
                 self.measurements = measure_robot(ik_scene.model, ik_scene.home_qpos, ik_scene.frame_kinds,
@@ -178,34 +98,39 @@ class Simulator:
         source, such as the model's synthesis after T0 observed frames, may not see agent 1's recorded
         future); None: from the whole recording (ground-truth replay)."""
         stage = self._stage = self._get_stage(interaction)
+        if not stage.exemptions_set:  # the task's contact sub-goals, the same for every instance: set once
+            stage.ik.set_contact_exemptions(contact_exemptions(self.task.subgoals, stage.ik_scene))
+            stage.exemptions_set = True
         self.interaction = inter = interaction
-        placed = inter if placement_frames is None else _agent1_prefix(inter, placement_frames)
+        place = self._reset_cache.get(inter, placement_frames)
+        if place is None:
+            place = build_placement(inter, placement_frames, stage.scene, stage.ik_scene.home_qpos, self.measurements,
+                                    self.config.scaling, self.config.timestep, self.task.object)
+            self._reset_cache.put(place)
+        self._placement = place
         scene = stage.scene
-        self.offset = world_offset(placed)
-        self.pose: HumanPose = pose_human(scene.body, inter, self.offset)
+        self.offset = place.offset
+        self.pose: HumanPose = place.pose
         set_human_sizes(scene, self.pose.half_lengths)
         set_human_sizes(stage.ik_scene, self.pose.half_lengths)
-        self._segments = human_segments(self.pose, scene.body.radii)
-        self.scaler = KeyJointScaler(self.measurements, self.config.scaling)
-        self.frame_R: RobotFrame = self.scaler.reset(placed, self.offset)
+        self._segments = place.segments
+        self.scaler = copy.copy(place.scaler)  # its online placement moves during the episode
+        self.frame_R: RobotFrame = place.frame
         self._yaw = self.frame_R.yaw
-        self.carry: CarryPlan | None = None
-        if self.task.object is not None and inter.object is not None:
-            self.carry = plan_carry(inter, self.offset, self.task.object, scene.body.hand_joints)
-        self._obj_track = None if inter.object is None else inter.object + self.offset
-
-        fps = inter.fps
-        self.n_sub = max(1, int(round(1.0 / (fps * self.config.timestep))))
-        scene.model.opt.timestep = 1.0 / (fps * self.n_sub)
+        self.carry: CarryPlan | None = place.carry
+        self._obj_track = place.obj_track
+        self.n_sub = place.n_sub
+        scene.model.opt.timestep = place.timestep
         ik = stage.ik
-        ik.set_contact_exemptions(contact_exemptions(self.task.subgoals, stage.ik_scene))
+        ik.collision_limit.restore(None)  # as newly built: the exemptions are the task's, set with the stage
         ik.set_human(self.pose.pos[0], self.pose.quat[0])
-        q0 = self._home_in_world(stage)
+        q0 = place.home
         ik.reset(q0)
         self.frame = 0
         self.time = 0.0
         self.results: list[StepResult] = []
         self._start(q0)
+        self._settled = False
         if initial_targets is not None:
             self.settle(initial_targets)
 
@@ -216,9 +141,21 @@ class Simulator:
             raise SimulationError(f"settle is only possible at frame 0, the simulator is at frame {self.frame}")
         ik = self._stage.ik  # type: ignore[union-attr]
         world = self.frame_R.to_world(self._fill_targets(np.asarray(targets, dtype=np.float64)))
-        q = self._q
-        for _ in range(self.config.settle_iterations):
-            q = ik.solve(world, self._yaw, dt=1.0).qpos
+        # Straight after a reset the IK starts from the instance's home pose and a clear collision memory, so
+        # its outcome depends on the targets alone and is replayed from the cache when they recur.
+        fresh = not self._settled
+        hit = self._placement.settled_for(world) if fresh else None
+        if hit is not None:
+            q = hit.qpos.copy()
+            ik.reset(q)
+            ik.collision_limit.restore(hit.limit)
+        else:
+            q = self._q
+            for _ in range(self.config.settle_iterations):
+                q = ik.solve(world, self._yaw, dt=1.0).qpos
+            if fresh:
+                self._placement.remember(world, Settled(q.copy(), ik.collision_limit.memory()))
+        self._settled = True
         self._start(q)
 
     def _start(self, q0: np.ndarray) -> None:
@@ -229,6 +166,9 @@ class Simulator:
         data.mocap_pos[scene.human_mocap] = self.pose.pos[0]
         data.mocap_quat[scene.human_mocap] = self.pose.quat[0]
         pose_compliant(scene, data, self.pose.pos[0], self.pose.quat[0])
+        if self.task.chair:  # the person faces the robot, which faces them
+            place_chair(scene.model, data, *chair_pose(scene.body, self.pose.joints[0], scene.body.radii,
+                                                       self._yaw + np.pi))
         self._q = q0.copy()
         data.qpos[scene.robot_qadr] = self._to_physics(q0)
         data.mocap_pos[scene.anchor_mocap] = q0[:3]
@@ -245,7 +185,7 @@ class Simulator:
             (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), self.config.foot_lock)
         if self.carry is not None and self.carry.release_frame == 0:
             self._release(0)
-        self.last_targets = self.frame_R.to_robot(key_frames_at(stage.ik_scene, q0))
+        self.last_targets = self.frame_R.to_robot(key_frames_at(stage.ik_scene, q0, stage.kinematics))
 
     def _to_physics(self, q_ik: np.ndarray) -> np.ndarray:
         """Robot coordinates of the physics scene (..., nq_r) from IK ones (..., nq_ik); frozen joints at home."""
@@ -255,13 +195,6 @@ class Simulator:
         out = np.broadcast_to(stage.scene.home_qpos, (*q_ik.shape[:-1], len(stage.scene.home_qpos))).copy()
         out[..., stage.ik_map] = q_ik
         return out
-
-    def _home_in_world(self, stage: Stage) -> np.ndarray:
-        q = stage.ik_scene.home_qpos.copy()
-        q[:3] = self.frame_R.to_world(q[:3])
-        yaw_q = np.array([np.cos(self._yaw / 2), 0.0, 0.0, np.sin(self._yaw / 2)])
-        q[3:7] = _quat_mul(yaw_q, q[3:7])
-        return q
 
     def _fill_targets(self, targets: np.ndarray) -> np.ndarray:
         if targets.shape != (5, 3):
@@ -338,7 +271,9 @@ class Simulator:
         ik = stage.ik
         tic = time.thread_time()
         ik.set_human(self.pose.pos[t1], self.pose.quat[t1])
-        res = ik.solve(world, self._yaw, dt=1.0 / fps, care=reachable)
+        planted = (False, False) if self._footlock is None else (self._footlock.planted[0] is not None,
+                                                                 self._footlock.planted[1] is not None)
+        res = ik.solve(world, self._yaw, dt=1.0 / fps, care=reachable, planted=planted)
         ik_seconds = time.thread_time() - tic
 
         carry = None
@@ -358,8 +293,7 @@ class Simulator:
             self.n_sub, fps, self._to_physics(self._q), self._to_physics(res.qpos),
             (self.pose.pos[t0], self.pose.pos[t1]), (self.pose.quat[t0], self.pose.quat[t1]), self.time, subevent,
             grip=self.config.grip, carry=carry,
-            feet=None if self._footlock is None else (self._footlock.planted[0] is not None,
-                                                        self._footlock.planted[1] is not None),
+            feet=None if self._footlock is None else planted,
         )
         scorer = stage.scorer
         self._q = res.qpos
@@ -428,11 +362,3 @@ class Simulator:
     def ik_qpos(self) -> np.ndarray:
         """(nq_ik,) the latest IK solution (free joint then the IK's hinges), world frame."""
         return self._q.copy()
-
-
-def _agent1_prefix(inter: Interaction, n: int) -> Interaction:
-    """The instance with agent 1 after frame ``n`` marked invalid (its filled joints hold frame n − 1)."""
-    if not 1 <= n <= inter.n_frames:
-        raise SimulationError(f"placement_frames: expected 1..{inter.n_frames} for this instance, found {n}")
-    return inter.hide_agent_after(1, n)
-
