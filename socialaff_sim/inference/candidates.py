@@ -18,7 +18,7 @@ from ..model.end_regression import end_context
 from ..model.potentials import reference_weights
 from ..model.ridge import RidgeRegression
 
-__all__ = ["AGENT1", "draw_vectors", "sign_loglik", "RegressionPrior"]
+__all__ = ["AGENT1", "draw_vectors", "expected_error_choice", "sign_loglik", "RegressionPrior"]
 
 AGENT1 = np.arange(N_KEY, 2 * N_KEY)
 """Indices of agent 1's key joints among the 11 model joints."""
@@ -35,6 +35,23 @@ def draw_vectors(params: np.ndarray, up: np.ndarray, n: int, rng: np.random.Gene
     sign = np.where(rng.random((n, K)) < up, 1.0, -1.0)
     th = rng.vonmises(mu, np.maximum(kap, 1e-9), size=(n, K))
     return np.stack([h * np.cos(th), h * np.sin(th), sign * v], axis=-1)
+
+
+def expected_error_choice(cand: np.ndarray, score: np.ndarray) -> int:
+    """Index of the candidate of least expected squared error when the truth is one of the candidates
+    ``cand`` (N, J, 3) with probabilities ∝ exp(``score``) (N,): Σ_j p_j ‖c_i − c_j‖² = ‖c_i − c̄‖² + const,
+    so the candidate nearest the weighted mean c̄ (joints NaN in every candidate ignored). Scores of −inf
+    weigh nothing; if every score is −inf, candidate 0."""
+    score = np.asarray(score, dtype=float)
+    finite = np.isfinite(score)
+    if not finite.any():
+        return 0
+    w = np.where(finite, np.exp(score - score[finite].max()), 0.0)
+    w /= w.sum()
+    x = np.nan_to_num(np.asarray(cand, dtype=float))
+    mean = np.tensordot(w, x, axes=(0, 0))
+    d2 = ((x - mean[None]) ** 2).sum(axis=(1, 2))
+    return int(np.argmin(np.where(finite, d2, np.inf)))
 
 
 def sign_loglik(model: AffordanceParameters, s: int, z: np.ndarray, cand: np.ndarray, disp: np.ndarray) -> np.ndarray:

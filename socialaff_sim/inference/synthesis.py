@@ -43,7 +43,9 @@ from ..model.joints import canonical_joints
 from ..model.potentials import reference_weights
 from ..model.ridge import RidgeRegression
 from .candidates import AGENT1 as _AGENT1
-from .candidates import RegressionPrior, draw_vectors, sign_loglik
+from .candidates import RegressionPrior, draw_vectors, expected_error_choice, sign_loglik
+from .forward_belief import ForwardBelief
+from .hedging import branch_plans, shrink_factor
 from .observed import ObservedInteraction
 from .observed_parse import parse_observed
 from .stream_parse import ParseWork, StreamParser
@@ -123,6 +125,13 @@ class OnlineSynthesizer:
                 min_frames=lc.min_atomic_frames, max_seconds=lc.max_atomic_seconds, tau=lc.velocity_seconds,
                 open_interval=cfg.open_interval,
             )
+        self._filter: ForwardBelief | None = None
+        if cfg.parse == "online" and cfg.belief == "forward":
+            stride = max(int(round(cfg.belief_step * interaction.fps)), 1)
+            horizon = max(int(round(cfg.belief_horizon * interaction.fps)), stride)
+            self._filter = ForwardBelief(self.model, interaction.fps, stride=stride, horizon=horizon)
+            self._parser = None  # the forward belief replaces the DP parse
+        self._stale = False
         self._hands = np.zeros(2, bool)
         self._set_hands(cfg.n_observed)
         self._t = 0
@@ -152,8 +161,8 @@ class OnlineSynthesizer:
         self._paths = wrist_paths(raw, 0)
         new = relabel(track, self._hands)[:, _OTHERS]
         seen = min(self._t, old, T)  # frames the parser may have scored: a change there makes its cache stale
-        if self._parser is not None and not np.array_equal(self._track[:seen, _OTHERS], new[:seen], equal_nan=True):
-            self._parser.reset()
+        if not np.array_equal(self._track[:seen, _OTHERS], new[:seen], equal_nan=True):
+            self._history_changed()
         self._track = np.concatenate([self._track, pad])
         self._track[:T, _OTHERS] = new
         self._inter = view
@@ -171,8 +180,25 @@ class OnlineSynthesizer:
         if change.any():
             self._track = relabel(self._track, change)
             self._hands = hands
-            if self._parser is not None:
-                self._parser.reset()  # the history changed: its cached interval scores are stale
+            self._history_changed()
+
+    def _history_changed(self) -> None:
+        """Frames already parsed changed: the parse's cached scores and the forward belief are stale."""
+        if self._parser is not None:
+            self._parser.reset()
+        self._stale = True
+
+    def _advance_belief(self, t: int) -> None:
+        """The forward belief over frames [0, t) (replayed over its last 2 horizons after a history change:
+        bounded work), and the step's belief from it."""
+        fb = self._filter
+        assert fb is not None  # internal invariant: belief == "forward"
+        if self._stale:
+            origin = 0 if t <= 2 * fb.horizon else ((t - fb.horizon) // fb.stride) * fb.stride
+            fb.reset(origin)
+            self._stale = False
+        fb.advance(self._track, t)
+        self._belief = fb.belief(t)
 
     def _observed_track(self) -> np.ndarray:
         """(T, 11, 3) canonical: agent 0 and the object over the whole instance, agent 1 NaN."""
@@ -204,6 +230,8 @@ class OnlineSynthesizer:
         t = self._t
         cfg = self.config
         observed = t < cfg.n_observed
+        if self._filter is not None and t >= 1:
+            self._advance_belief(t)
         if not observed and t >= self._planned_until:
             self._replan(t)
         if not observed and cfg.contact != "none":
@@ -234,12 +262,28 @@ class OnlineSynthesizer:
     def _replan(self, t: int) -> None:
         if not self.config.lookahead:  # with lookahead the flags were fixed at reset
             self._set_hands(t)
-        s, start = self._current(t)
-        self._sub = s
-        last = self._end_frame(s, start, t)
-        self._span = (start, last)
-        target = self._best_configuration(s, t, start, last)
-        self._emit(t, s, start, last, target)
+        if self._filter is not None:
+            plans = branch_plans(*self._filter.posterior(t), self.config.branches)
+        else:
+            s, start = self._current(t)
+            plans = [(1.0, s, start)]
+        paths, stop = [], None
+        for k, (w, s, start) in enumerate(plans):
+            last = self._end_frame(s, start, t)
+            if k == 0:
+                self._sub, self._span = s, (start, last)
+            target = self._best_configuration(s, t, start, last)
+            path, stop_k = self._path(t, s, start, last, target, stop)
+            stop = stop_k if stop is None else stop
+            paths.append(w * path)
+        path = np.sum(paths, axis=0)
+        if self.config.shrink > 0:
+            hold = self._track[self.config.n_observed - 1, _AGENT1]
+            alpha = shrink_factor(self._belief, self.config.shrink)
+            path = np.where(np.isfinite(hold)[None], hold[None] + alpha * (path - hold[None]), path)
+        assert stop is not None  # at least one plan
+        self._track[t:stop, _AGENT1] = path
+        self._planned_until = stop
 
     def _pull_contacts(self, t: int) -> None:
         """Blend agent 1's wrists at frame t toward their contact keyframes (touched joint + learned offset)
@@ -291,13 +335,17 @@ class OnlineSynthesizer:
         k = int(np.searchsorted(self._rows[:, 1], t, side="right"))
         return self._rows[min(k, len(self._rows) - 1)]
 
-    def _emit(self, t: int, s: int, start: int, last: int, target: np.ndarray) -> None:
-        """Write agent 1's key joints for frames [t, t + ΔT) (up to ``last`` with ``replan_at_end``) on the way from frame t − 1 to ``target`` at ``last``
-        (blended with the frame regression of sub-event ``s`` begun at ``start`` when ``frame_weight`` > 0)."""
+    def _path(
+        self, t: int, s: int, start: int, last: int, target: np.ndarray, stop: int | None = None
+    ) -> tuple[np.ndarray, int]:
+        """Agent 1's key joints (F, 5, 3) for frames [t, stop) on the way from frame t − 1 to ``target`` at ``last``
+        (blended with the frame regression of sub-event ``s`` begun at ``start`` when ``frame_weight`` > 0), and
+        stop: t + ΔT (up to ``last`` with ``replan_at_end``) unless given."""
         cfg = self.config
-        stop = min(t + cfg.delta_t, self._track.shape[0])
-        if cfg.replan_at_end:
-            stop = min(stop, last + 1)  # last >= t: at least one frame
+        if stop is None:
+            stop = min(t + cfg.delta_t, self._track.shape[0])
+            if cfg.replan_at_end:
+                stop = min(stop, last + 1)  # last >= t: at least one frame
         prev = self._track[t - 1, _AGENT1]
         frames = np.arange(t, stop)
         if cfg.interpolation == "minjerk":
@@ -308,8 +356,7 @@ class OnlineSynthesizer:
         reg = self.model.frame_regression_[s] if cfg.frame_weight > 0 else None
         if reg is not None:
             path = (1.0 - cfg.frame_weight) * path + cfg.frame_weight * self._frame_prediction(reg, t, stop, start, last, prev)
-        self._track[t:stop, _AGENT1] = path
-        self._planned_until = stop
+        return path, stop
 
     def _frame_prediction(
         self, reg: RidgeRegression, t: int, stop: int, start: int, last: int, prev: np.ndarray
@@ -407,7 +454,7 @@ class OnlineSynthesizer:
         the N^A combinations of the A sampled joints' draws, on the same objective.
         """
         score = self._score(s, z, cand, before, prior)
-        k = int(np.argmax(score))
+        k = int(np.argmax(score)) if self.config.selection == "likelihood" else expected_error_choice(cand[:, _AGENT1], score)
         best, best_score = cand[k].copy(), score[k]
         sampled = _AGENT1[z[_AGENT1] > 0]
         base = N_KEY
