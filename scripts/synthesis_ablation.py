@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import os
 import pickle
 import time
@@ -30,8 +31,9 @@ import numpy as np  # noqa: E402
 
 from socialaff_sim.baselines.simple import HoldPose  # noqa: E402
 from socialaff_sim.data.specs import load_dataset  # noqa: E402
+from socialaff_sim.evaluation.compare import paired_difference  # noqa: E402
 from socialaff_sim.evaluation.crossval import fold_rng, task_seed  # noqa: E402
-from socialaff_sim.evaluation.metrics import key_joint_error  # noqa: E402
+from socialaff_sim.evaluation.metrics import joint_error, key_joint_error  # noqa: E402
 from socialaff_sim.evaluation.splits import make_folds  # noqa: E402
 from socialaff_sim.evaluation.streaming import run_protocol  # noqa: E402
 from socialaff_sim.inference.methods import AffordanceMethod  # noqa: E402
@@ -58,6 +60,9 @@ def settings() -> dict[str, SynthesisConfig]:
         "end_regression": dict(end_prior="regression"),
         "fine_step": dict(belief_step=0.07),
         "no_frame_regression": dict(frame_weight=0.0),
+        "relative_frames": dict(frame_decay=float("inf")),
+        "shrink_half": dict(shrink=0.5),
+        "no_replan_at_end": dict(replan_at_end=False),
     }.items():
         out[name] = dataclasses.replace(default, **change)
     return out
@@ -88,19 +93,33 @@ def fold_models(spec: str, split: str, cache: Path, max_test: int | None, seed: 
 
 
 def errors(method: object, tests: list, state: dict) -> np.ndarray:
+    """(n, 2) key-joint and full-skeleton errors (m) of ``method`` on ``tests`` under the causal protocol."""
     rng = np.random.default_rng()
     rng.bit_generator.state = state
-    return np.array([key_joint_error(run_protocol(method, inst, protocol="causal", n_observed=N_OBSERVED, rng=rng), inst)
-                     for inst in tests])
+    out = []
+    for inst in tests:
+        pred = run_protocol(method, inst, protocol="causal", n_observed=N_OBSERVED, rng=rng)
+        out.append((key_joint_error(pred, inst), joint_error(pred, inst)))
+    return np.array(out)
 
 
-def paired(diff: list[np.ndarray], seed: int = 0, n: int = 2000) -> tuple[float, float, float]:
-    """Mean over classes of the per-class mean difference, with a stratified bootstrap 95 % interval."""
-    rng = np.random.default_rng(seed)
-    mean = float(np.mean([d.mean() for d in diff]))
-    boots = np.mean([[rng.choice(d, d.size).mean() for _ in range(n)] for d in diff], axis=0)
-    lo, hi = np.percentile(boots, [2.5, 97.5])
-    return mean, float(lo), float(hi)
+def paired(diff: list[np.ndarray], seed: int = 0) -> tuple[float, float, float]:
+    """Mean over classes of the per-class mean difference, with the evaluation's stratified bootstrap 95 % interval."""
+    return paired_difference(diff, confidence=0.95, n_resamples=10_000, rng=np.random.default_rng(seed))
+
+
+def recorded(path: Path | None, models: list) -> dict[str, dict[str, np.ndarray]]:
+    """Per method of an earlier ``evaluate`` run's results.json (same folds and seed): per class the key-joint
+    errors of this script's test instances, in their order."""
+    if path is None:
+        return {}
+    per = json.loads(path.read_text())["per_instance"]
+    out: dict[str, dict[str, np.ndarray]] = {}
+    for label, _, tests, _ in models:
+        for m, rows in per[label].items():
+            by_id = {r["instance_id"]: r["key_joint_error_m"] for r in rows if r["fold"] == 0}
+            out.setdefault(m, {})[label] = np.array([by_id[i.instance_id] for i in tests])
+    return out
 
 
 def main() -> None:
@@ -111,6 +130,8 @@ def main() -> None:
     ap.add_argument("--max-test", type=int, default=None)
     ap.add_argument("--settings", default="before,default")
     ap.add_argument("--fit-only", action="store_true")
+    ap.add_argument("--reference", type=Path, default=None, help="results.json of an evaluate run with the same folds and seed")
+    ap.add_argument("--json", type=Path, default=None, help="write per-instance errors of every setting here")
     args = ap.parse_args()
     args.cache.mkdir(parents=True, exist_ok=True)
     models = fold_models(args.data, args.split, args.cache, args.max_test)
@@ -119,7 +140,16 @@ def main() -> None:
     table = settings()
     hold = HoldPose()
     base = {label: errors(hold.fit(tests, rng=np.random.default_rng(0)), tests, st) for label, _, tests, st in models}
-    print(f"{args.data}: hold {np.mean([b.mean() for b in base.values()]):.4f} m")
+    refs = recorded(args.reference, models)
+    if "hold" in refs:  # the same folds and instances as the recorded run: its hold must be ours
+        gap = max(float(np.max(np.abs(refs["hold"][k] - base[k][:, 0]))) for k in base)
+        print(f"recorded hold vs this hold: max |difference| {gap:.2e} m")
+    refs["hold"] = {k: v[:, 0] for k, v in base.items()}
+    print(f"{args.data}: hold {np.mean([b[:, 0].mean() for b in base.values()]):.4f} m (skeleton {np.mean([b[:, 1].mean() for b in base.values()]):.4f})")
+    for m, per in refs.items():
+        print(f"  recorded {m:9s} {np.mean([v.mean() for v in per.values()]):.4f}")
+    dump: dict[str, object] = {"hold": {k: v.tolist() for k, v in base.items()},
+                               "recorded": {m: {k: v.tolist() for k, v in per.items()} for m, per in refs.items()}}
     for name in args.settings.split(","):
         cfg = table[name]
         t0 = time.process_time()
@@ -127,10 +157,19 @@ def main() -> None:
         for label, method, tests, st in models:
             method.synthesis = cfg
             errs[label] = errors(method, tests, st)
-        m, lo, hi = paired([errs[k] - base[k] for k in errs])
-        per = " ".join(f"{k}={v.mean():.3f}" for k, v in errs.items())
-        print(f"{args.data}: {name:18s} {np.mean([e.mean() for e in errs.values()]):.4f} m  − hold {m:+.4f} "
-              f"[{lo:+.4f}, {hi:+.4f}]  ({time.process_time() - t0:.0f} s CPU)  {per}", flush=True)
+        key = {k: v[:, 0] for k, v in errs.items()}
+        pairs = []
+        for m in ("hold", "constvel", "hmm", "promp", "full"):
+            if m in refs:
+                d, lo, hi = paired([key[k] - refs[m][k] for k in key])
+                pairs.append(f"−{m if m != 'full' else 'before'} {d:+.4f} [{lo:+.4f}, {hi:+.4f}]")
+        per = " ".join(f"{k}={v.mean():.3f}" for k, v in key.items())
+        print(f"{args.data}: {name:18s} {np.mean([e.mean() for e in key.values()]):.4f} m (skeleton "
+              f"{np.mean([e[:, 1].mean() for e in errs.values()]):.4f}) {'; '.join(pairs)} "
+              f"({time.process_time() - t0:.0f} s CPU) {per}", flush=True)
+        dump[name] = {k: v.tolist() for k, v in errs.items()}
+        if args.json is not None:
+            args.json.write_text(json.dumps(dump))
 
 
 if __name__ == "__main__":

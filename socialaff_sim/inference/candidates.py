@@ -37,12 +37,12 @@ def draw_vectors(params: np.ndarray, up: np.ndarray, n: int, rng: np.random.Gene
     return np.stack([h * np.cos(th), h * np.sin(th), sign * v], axis=-1)
 
 
-def expected_error_choice(cand: np.ndarray, score: np.ndarray) -> int:
+def expected_error_choice(cand: np.ndarray, score: np.ndarray, temperature: float = 1.0) -> int:
     """Index of the candidate of least expected squared error when the truth is one of the candidates
-    ``cand`` (N, J, 3) with probabilities ∝ exp(``score``) (N,): Σ_j p_j ‖c_i − c_j‖² = ‖c_i − c̄‖² + const,
-    so the candidate nearest the weighted mean c̄ (joints NaN in every candidate ignored). Scores of −inf
-    weigh nothing; if every score is −inf, candidate 0."""
-    score = np.asarray(score, dtype=float)
+    ``cand`` (N, J, 3) with probabilities ∝ exp(``score`` / ``temperature``) (N,):
+    Σ_j p_j ‖c_i − c_j‖² = ‖c_i − c̄‖² + const, so the candidate nearest the weighted mean c̄ (joints NaN in
+    every candidate ignored). Scores of −inf weigh nothing; if every score is −inf, candidate 0."""
+    score = np.asarray(score, dtype=float) / float(temperature)
     finite = np.isfinite(score)
     if not finite.any():
         return 0

@@ -212,6 +212,11 @@ class OnlineSynthesizer:
         return None if self._parser is None else self._parser.work
 
     @property
+    def belief_rows(self) -> int | None:
+        """Start rows the forward belief holds now (bounded by its horizon, not by t); None without one."""
+        return None if self._filter is None else self._filter.memory
+
+    @property
     def t(self) -> int:
         """The next frame :meth:`step` will emit."""
         return self._t
@@ -454,7 +459,10 @@ class OnlineSynthesizer:
         the N^A combinations of the A sampled joints' draws, on the same objective.
         """
         score = self._score(s, z, cand, before, prior)
-        k = int(np.argmax(score)) if self.config.selection == "likelihood" else expected_error_choice(cand[:, _AGENT1], score)
+        if self.config.selection == "likelihood":
+            k = int(np.argmax(score))
+        else:  # the potentials score each joint as independent evidence: the product is overconfident, so temper it
+            k = expected_error_choice(cand[:, _AGENT1], score, temperature=N_KEY)
         best, best_score = cand[k].copy(), score[k]
         sampled = _AGENT1[z[_AGENT1] > 0]
         base = N_KEY

@@ -96,7 +96,9 @@ class SynthesisConfig:
     selection: str = "expected"
     """[—]: Which of the candidate end configurations is kept: ``"likelihood"`` (the paper), the most likely; or
     ``"expected"``, the one of least expected squared error when the truth is distributed over the candidates
-    with weights ∝ exp(score), i.e. the candidate nearest the score-weighted mean of agent 1's key joints."""
+    with weights ∝ exp(score / 5), i.e. the candidate nearest that weighted mean of agent 1's key joints. The
+    potentials score every joint as independent evidence, which makes the raw weights overconfident (one
+    candidate takes nearly all the weight); dividing by agent 1's five key joints was fixed a priori, not tuned."""
     shrink: float = 1.0
     """[—]: Shrinkage toward ``hold`` (agent 1's last observed pose) when the belief is uncertain: the emitted frames
     are hold + α (plan − hold) with α = 1 − shrink · H(belief) / log |S| (H the entropy; α = 1 for a certain
