@@ -108,3 +108,18 @@ def test_forward_belief_errors(shake8_model: SocialAffordanceModel) -> None:
     fb = ForwardBelief(shake8_model, 10.0, stride=2, horizon=10)
     with pytest.raises(ModelError, match="advance"):
         fb.posterior(5)
+
+
+def test_type_tables_equal_the_models_potentials(shake8_model: SocialAffordanceModel, rng: np.random.Generator) -> None:
+    from socialaff_sim.inference.type_tables import TypeTables
+
+    m = shake8_model
+    tab = TypeTables(m)
+    ends = rng.normal(scale=0.5, size=(30, 11, 3))
+    ends[3, 7] = np.nan  # a missing joint: −inf where a type reads it, untouched elsewhere
+    disp = rng.normal(scale=0.2, size=(30, 11, 3))
+    for s in range(m.n_subevents_):
+        np.testing.assert_allclose(tab.spatial(ends, s), m.log_spatial(s, ends), rtol=1e-10)
+        np.testing.assert_allclose(tab.spatial(ends)[:, s], m.log_spatial(s, ends), rtol=1e-10)
+        np.testing.assert_allclose(tab.motion(disp, s), m.log_motion(s, disp), rtol=1e-10)
+        np.testing.assert_allclose(tab.duration(np.array([0.3, 1.2]))[:, s], m.log_duration(s, np.array([0.3, 1.2])), rtol=1e-12)

@@ -54,16 +54,21 @@ def expected_error_choice(cand: np.ndarray, score: np.ndarray, temperature: floa
     return int(np.argmin(np.where(finite, d2, np.inf)))
 
 
-def sign_loglik(model: AffordanceParameters, s: int, z: np.ndarray, cand: np.ndarray, disp: np.ndarray) -> np.ndarray:
+def sign_loglik(
+    model: AffordanceParameters, s: int, z: np.ndarray, cand: np.ndarray, disp: np.ndarray, weights: np.ndarray | None = None
+) -> np.ndarray:
     """(N,) log-probability of the vertical signs of agent 1's offsets and displacements.
 
-    The potentials score |dz| only; the learned frequencies of dz > 0 resolve up from down.
+    The potentials score |dz| only; the learned frequencies of dz > 0 resolve up from down. ``weights``:
+    the (11, 11) reference weights of ``z`` if the caller has them (else computed).
     """
     up = np.clip(model.vertical_up_[s], 1e-3, 1 - 1e-3)
     aff = AGENT1[z[AGENT1] > 0]
     out = np.zeros(cand.shape[0])
     if aff.size:
-        W = reference_weights(z, other_side=model.config.other_side_reference, include_self=model.config.reference_self)[aff]
+        if weights is None:
+            weights = reference_weights(z, other_side=model.config.other_side_reference, include_self=model.config.reference_self)
+        W = weights[aff]
         off_z = cand[:, aff, 2] - np.einsum("kj,nj->nk", W, np.nan_to_num(cand[:, :, 2]))
         out += np.where(off_z > 0, np.log(up[0, aff]), np.log1p(-up[0, aff])).sum(axis=1)
     moving = AGENT1[z[AGENT1] >= 0]

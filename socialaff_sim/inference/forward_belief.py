@@ -30,10 +30,7 @@ import numpy as np
 
 from ..errors import ConfigError, ModelError
 from ..model.affordance import AffordanceParameters
-from ..model.densities import expon_logpdf, lognorm_logpdf, vonmises_logpdf, weibull_logpdf
-from ..model.features import polar
-from ..model.path import path_loglik
-from ..model.potentials import reference_weights
+from .type_tables import TypeTables
 from .online_parse import log_duration_survival
 
 __all__ = ["ForwardBelief"]
@@ -75,7 +72,7 @@ class ForwardBelief:
         # log P(D_s > d / fps) for d = 0 … horizon frames.
         d = np.arange(self.horizon + 1) / self.fps
         self._surv = np.stack([log_duration_survival(model, s, d) for s in range(S)], axis=1)  # (H + 1, S)
-        self._tables = _TypeTables.of(model) if cfg.vector_density == "polar" else None
+        self._tables = TypeTables(model) if cfg.vector_density == "polar" else None
         self.reset()
 
     def reset(self, origin: int = 0) -> None:
@@ -156,7 +153,7 @@ class ForwardBelief:
                 spatial = model.log_spatial(s, feats.end[:1])[0]
                 out[:, s] = spatial + model.log_motion(s, feats.disp) + model.log_duration(s, feats.seconds)
         else:
-            out = tab.spatial(feats.end[0])[None] + tab.motion(feats.disp) + tab.duration(feats.seconds)
+            out = tab.spatial(feats.end[:1]) + tab.motion(feats.disp) + tab.duration(feats.seconds)
         for s in range(self.S):
             out[:, s] += model.log_path(s, feats)
         out[short] = -np.inf
@@ -185,85 +182,6 @@ class ForwardBelief:
     def belief(self, t: int) -> np.ndarray:
         """(S,) P(current sub-event = s | frames < t)."""
         return self.posterior(t)[1].sum(axis=0)
-
-
-class _TypeTables:
-    """Every type's spatial and motion factors stacked row by row (one row per type and joint), so that a
-    cut scores all types in one vectorised pass; the same densities as
-    :func:`~socialaff_sim.model.potentials.log_spatial` / :func:`~socialaff_sim.model.potentials.log_motion`
-    (polar vector densities)."""
-
-    def __init__(self, model: AffordanceParameters) -> None:
-        S = model.n_subevents_
-        cfg = model.config
-        self.S, self.eps = S, cfg.eps
-        sp_rows, sp_w, sp_joint, mo_rows, mo_expon, sp_type, mo_type = [], [], [], [], [], [], []
-        for s in range(S):
-            z = model._z(s)
-            aff = np.flatnonzero(z > 0)
-            W = reference_weights(z, other_side=cfg.other_side_reference, include_self=cfg.reference_self)
-            for j in aff:
-                sp_joint.append(int(j))
-                sp_rows.append(model.spatial_params_[s, j])
-                sp_w.append(W[j])
-                sp_type.append(s)
-            for j in np.flatnonzero(z >= 0):
-                mo_rows.append((j, model.motion_params_[s, j]))
-                mo_expon.append(z[j] == 0)
-                mo_type.append(s)
-        self.sp_joint = np.array(sp_joint, np.int64)
-        self.sp_params = np.array(sp_rows).reshape(-1, 6)
-        self.sp_w = np.array(sp_w).reshape(-1, model.spatial_params_.shape[1])
-        self.sp_type = np.array(sp_type, np.int64)
-        self.mo_joint = np.array([j for j, _ in mo_rows], np.int64)
-        self.mo_params = np.array([p for _, p in mo_rows]).reshape(-1, 6)
-        self.mo_expon = np.array(mo_expon, bool)
-        self.mo_type = np.array(mo_type, np.int64)
-        self.dur = np.asarray(model.duration_params_, float)
-        self.log_seconds = cfg.duration_density == "log_seconds"
-
-    @classmethod
-    def of(cls, model: AffordanceParameters) -> _TypeTables:
-        return cls(model)
-
-    def _per_type(self, rows: np.ndarray, types: np.ndarray) -> np.ndarray:
-        """(K, S): the row log-densities (K, R) summed by type (0 for a type without rows), NaN → −inf."""
-        out = np.zeros(rows.shape[:-1] + (self.S,))
-        for s in range(self.S):
-            sel = types == s
-            if sel.any():
-                out[..., s] = rows[..., sel].sum(axis=-1)
-        return np.where(np.isnan(out), -np.inf, out)
-
-    @staticmethod
-    def _density(vecs: np.ndarray, params: np.ndarray, eps: float, expon: np.ndarray) -> np.ndarray:
-        h, v, th = polar(vecs, eps)
-        kh, lh, kv, lv, mu, kap = params.T
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dist = np.where(expon, expon_logpdf(h, lh) + expon_logpdf(v, lv), weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv))
-            return dist + vonmises_logpdf(th, mu, kap)
-
-    def spatial(self, end: np.ndarray) -> np.ndarray:
-        """(S,) spatial log-potential of one configuration ``end`` (11, 3) under every type."""
-        w = self.sp_w[:, :, None]
-        refs = np.where(w != 0, w * end[None], 0.0).sum(axis=1)  # a joint of zero weight is not read (NaN or not)
-        offsets = end[self.sp_joint] - refs
-        rows = self._density(offsets, self.sp_params, self.eps, np.zeros(offsets.shape[0], bool))
-        return self._per_type(rows, self.sp_type)
-
-    def motion(self, disp: np.ndarray) -> np.ndarray:
-        """(K, S) motion log-potential of K displacement sets (K, 11, 3) under every type."""
-        rows = self._density(disp[:, self.mo_joint], self.mo_params, self.eps, self.mo_expon)
-        return self._per_type(rows, self.mo_type)
-
-    def duration(self, seconds: np.ndarray) -> np.ndarray:
-        """(K, S) duration log-density of K interval lengths under every type."""
-        x = np.asarray(seconds, float)[:, None]
-        out = lognorm_logpdf(x, self.dur[None, :, 0], self.dur[None, :, 1])
-        if self.log_seconds:
-            with np.errstate(divide="ignore"):
-                out = out + np.log(x)
-        return np.where(np.isnan(out), -np.inf, out)
 
 
 def _logsumexp_finite(x: np.ndarray, axis: int) -> np.ndarray:

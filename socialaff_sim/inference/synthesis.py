@@ -46,6 +46,7 @@ from .candidates import AGENT1 as _AGENT1
 from .candidates import RegressionPrior, draw_vectors, expected_error_choice, sign_loglik
 from .forward_belief import ForwardBelief
 from .hedging import branch_plans, shrink_factor
+from .type_tables import TypeTables
 from .observed import ObservedInteraction
 from .observed_parse import parse_observed
 from .stream_parse import ParseWork, StreamParser
@@ -93,6 +94,8 @@ class OnlineSynthesizer:
         self.config = config or SynthesisConfig()
         self._inter: Interaction | None = None
         self._parser: StreamParser | None = None
+        # The potentials of every type stacked once: the candidates' scores without per-call set-up.
+        self._tables = TypeTables(model) if model.config.vector_density == "polar" else None
 
     # -- episode -----------------------------------------------------------------------------------
     def reset(self, interaction: Interaction, *, rng: np.random.Generator) -> None:
@@ -139,6 +142,7 @@ class OnlineSynthesizer:
         self._span = (0, 0)  # (first, last frame) of the running sub-event at the latest re-planning
         self._sub = -1  # the running sub-event of the latest re-planning
         self._available = self.model.available_.copy()
+        self._refw: dict[int, np.ndarray] = {}
         S = self.model.n_subevents_
         self._belief = np.full(S, 1.0 / S)
         self._rows: np.ndarray | None = None
@@ -404,7 +408,7 @@ class OnlineSynthesizer:
             n_sp = int(round(cfg.spatial_fraction * N))
             # (2, 11): P(dz > 0) of spatial offsets and of displacements; ½ without the sign term (the paper).
             up = model.vertical_up_[s] if cfg.vertical_sign else np.full_like(model.vertical_up_[s], 0.5)
-            W = reference_weights(z, other_side=model.config.other_side_reference, include_self=model.config.reference_self)[aff]
+            W = self._weights(s, z)[aff]
             refs = W @ np.nan_to_num(config)  # (A, 3)
             sp = draw_vectors(model.spatial_params_[s, aff], up[0, aff], n_sp, self._rng) + refs[None]
             mo = draw_vectors(model.motion_params_[s, aff], up[1, aff], N - n_sp, self._rng) + before[aff][None]
@@ -435,15 +439,26 @@ class OnlineSynthesizer:
         return out
 
 
+    def _weights(self, s: int, z: np.ndarray) -> np.ndarray:
+        """(11, 11) reference weights of type ``s``'s grouping ``z`` (absent joints masked), once per episode."""
+        W = self._refw.get(s)
+        if W is None:
+            cfg = self.model.config
+            W = self._refw[s] = reference_weights(z, other_side=cfg.other_side_reference, include_self=cfg.reference_self)
+        return W
+
     def _score(
         self, s: int, z: np.ndarray, configs: np.ndarray, before: np.ndarray, prior: RegressionPrior | None
     ) -> np.ndarray:
         """(N,) log spatial + log motion (+ vertical signs, + the regression prior) of N configurations (N, 11, 3)."""
         model = self.model
         disp = configs - before[None]
-        score = model.log_spatial(s, configs) + model.log_motion(s, disp)
+        if self._tables is not None:
+            score = self._tables.spatial(configs, s) + self._tables.motion(disp, s)
+        else:
+            score = model.log_spatial(s, configs) + model.log_motion(s, disp)
         if self.config.vertical_sign:
-            score = score + sign_loglik(model, s, z, configs, disp)
+            score = score + sign_loglik(model, s, z, configs, disp, self._weights(s, z))
         if prior is not None:
             score = score + prior.log_density(configs)
         return np.where(np.isnan(score), -np.inf, score)
