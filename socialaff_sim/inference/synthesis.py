@@ -2,23 +2,30 @@
 
 After ``T0`` observed frames of both agents, every ``ΔT`` frames the synthesizer
 
-1. parses the track so far by dynamic programming, the last sub-event still running
-   (:func:`~socialaff_sim.inference.online_parse.parse_prefix`), which gives the current
-   sub-event s, its start and a belief over sub-events;
-2. samples the remaining duration of s from its log-normal prior (conditioned on the time
-   already elapsed), which fixes the predicted end frame;
+1. finds the running sub-event: with ``belief="forward"`` (the default) from the filtering posterior over
+   (sub-event, elapsed duration) of the frames so far (:class:`~socialaff_sim.inference.forward_belief.ForwardBelief`,
+   updated every frame, O(1) work and memory per frame), planning for its most probable sub-events (at most
+   ``branches``, :func:`~socialaff_sim.inference.hedging.branch_plans`) from their most probable starts; with
+   ``belief="argmax"`` (the paper) from the best parse of a DP over the track so far, the last sub-event still
+   running (:class:`~socialaff_sim.inference.stream_parse.StreamParser`);
+2. takes the remaining duration of each planned sub-event from its log-normal prior conditioned on the time
+   already elapsed (drawn, as the paper, or its median), which fixes the predicted end frame;
 3. draws ``N`` candidate configurations of agent 1's key joints at that end — half around the
    spatial reference of each affordable joint (its group's mass centre, or the other agent's base),
    half by a displacement from the sub-event's start drawn from the motion potential; Null joints
    keep their offset from agent 1's base (they are static relative to the body); optionally a share
    of them body-coherent (``coherent_fraction``) — and keeps the most likely under the spatial and
-   motion potentials;
+   motion potentials (``selection="likelihood"``, the paper) or the one of least expected error under
+   the candidates' tempered scores (``"expected"``, the default);
    With ``end_prior="regression"`` the model's end-configuration regression adds draws and a joint
    Gaussian term over agent 1's five key joints (:class:`~socialaff_sim.inference.candidates.RegressionPrior`);
 4. interpolates agent 1's key joints from its last synthesized position to that configuration,
    linearly (the paper) or along the rest of a minimum-jerk profile (``interpolation``), and emits
-   the next ``ΔT`` frames; a full-body skeleton is fitted to them
-   (:class:`~socialaff_sim.inference.body_fit.BodyFitter`).
+   the next ``ΔT`` frames: the belief-weighted mean of the planned sub-events' paths, shrunk toward
+   ``hold`` (agent 1's last observed pose) by the belief's entropy (``shrink``); a full-body skeleton is
+   fitted to them (:class:`~socialaff_sim.inference.body_fit.BodyFitter`).
+
+The belief of every step (:attr:`SynthesisStep.belief`) is what the simulator and the environment read.
 
 It runs one frame at a time (:meth:`OnlineSynthesizer.step`), reading agent 0 and the object
 causally: at frame t only frames before t are used, unless ``lookahead`` is set, in which case the
@@ -40,10 +47,9 @@ from ..errors import ModelError
 from ..model.frame_regression import frame_context
 from ..model.handedness import KEY_SWAP, relabel, wrist_paths
 from ..model.joints import canonical_joints
-from ..model.potentials import reference_weights
 from ..model.ridge import RidgeRegression
+from .candidate_planner import CandidatePlanner
 from .candidates import AGENT1 as _AGENT1
-from .candidates import RegressionPrior, draw_vectors, expected_error_choice, sign_loglik
 from .forward_belief import ForwardBelief
 from .hedging import branch_plans, shrink_factor
 from .type_tables import TypeTables
@@ -73,7 +79,9 @@ class SynthesisStep:
     skeleton: np.ndarray | None
     """(J, 3) float64, metres, world frame: agent 1's full skeleton, or ``None`` without a body fitter."""
     belief: np.ndarray
-    """(S,) float64: belief over the current sub-event (uniform before T0)."""
+    """(S,) float64: belief over the current sub-event: the forward filter's posterior given the frames before
+    this one (``belief="forward"``, from frame 1 on), else the DP's max-product weights at the latest re-planning
+    (uniform before T0)."""
     subevent: int
     """Index of the current sub-event (−1 while agent 1 is still observed)."""
     subevent_name: str | None
@@ -82,7 +90,7 @@ class SynthesisStep:
     """True for the first T0 frames, which are copied from the observation."""
 
 
-class OnlineSynthesizer:
+class OnlineSynthesizer(CandidatePlanner):
     """Agent 1's key joints (and skeleton), frame by frame, from a fitted affordance model."""
 
     def __init__(
@@ -389,110 +397,3 @@ class OnlineSynthesizer:
         fade = np.exp(-(frames[1:] - (t - 1)) / cfg.frame_decay)[:, None, None]
         out = pred[1:] + fade * (np.nan_to_num(prev) - pred[0])[None]
         return np.where(np.isfinite(prev)[None], out, np.nan)
-
-    def _best_configuration(self, s: int, t: int, start: int, last: int) -> np.ndarray:
-        """(5, 3) canonical: agent 1's key joints at frame ``last``, the best of N candidates."""
-        model, cfg = self.model, self.config
-        T = self._track.shape[0]
-        config = self._track[t - 1].copy()
-        if cfg.lookahead:
-            config[_OTHERS] = self._track[min(last, T - 1), _OTHERS]
-        before = self._track[max(start - 1, 0)]
-        z = model.grouping_[s].copy()
-        z[~self._available] = -1
-        prev = config[_AGENT1].copy()
-        N = cfg.n_samples
-        cand = np.repeat(config[None], N, axis=0)
-        aff = _AGENT1[z[_AGENT1] > 0]
-        if aff.size:
-            n_sp = int(round(cfg.spatial_fraction * N))
-            # (2, 11): P(dz > 0) of spatial offsets and of displacements; ½ without the sign term (the paper).
-            up = model.vertical_up_[s] if cfg.vertical_sign else np.full_like(model.vertical_up_[s], 0.5)
-            W = self._weights(s, z)[aff]
-            refs = W @ np.nan_to_num(config)  # (A, 3)
-            sp = draw_vectors(model.spatial_params_[s, aff], up[0, aff], n_sp, self._rng) + refs[None]
-            mo = draw_vectors(model.motion_params_[s, aff], up[1, aff], N - n_sp, self._rng) + before[aff][None]
-            cand[:, aff] = np.concatenate([sp, mo])
-            base = N_KEY
-            n_co = int(round(cfg.coherent_fraction * N))
-            if n_co and base in aff:
-                rows = self._rng.permutation(N)[:n_co]
-                others = aff[aff != base]
-                follow = self._rng.random((n_co, others.size)) < 0.5
-                rigid = prev[others - N_KEY][None] + (cand[rows, base] - prev[0])[:, None]
-                cand[rows[:, None], others[None]] = np.where(follow[..., None], rigid, cand[rows[:, None], others[None]])
-        # Joints not sampled (Null) stay static relative to agent 1's base, which may have moved.
-        base = N_KEY
-        shift = cand[:, base] - prev[0] if base in aff else np.zeros((N, 3))
-        static = _AGENT1[self._available[_AGENT1] & ~np.isin(_AGENT1, aff)]
-        cand[:, static] = prev[static - N_KEY][None] + shift[:, None]
-        prior = None
-        reg = model.end_regression_[s] if cfg.end_prior == "regression" else None
-        if reg is not None:
-            prior = RegressionPrior.at(reg, config, before, self._track[cfg.n_observed - 1], self._available)
-            extra = np.repeat(config[None], cfg.prior_samples, axis=0)
-            extra[:, _AGENT1] = prior.draw(cfg.prior_samples, self._rng)
-            cand = np.concatenate([cand, extra])
-        best = self._select(s, z, cand, before, static, prior)
-        out = best[_AGENT1].copy()
-        out[~self._available[_AGENT1]] = np.nan
-        return out
-
-
-    def _weights(self, s: int, z: np.ndarray) -> np.ndarray:
-        """(11, 11) reference weights of type ``s``'s grouping ``z`` (absent joints masked), once per episode."""
-        W = self._refw.get(s)
-        if W is None:
-            cfg = self.model.config
-            W = self._refw[s] = reference_weights(z, other_side=cfg.other_side_reference, include_self=cfg.reference_self)
-        return W
-
-    def _score(
-        self, s: int, z: np.ndarray, configs: np.ndarray, before: np.ndarray, prior: RegressionPrior | None
-    ) -> np.ndarray:
-        """(N,) log spatial + log motion (+ vertical signs, + the regression prior) of N configurations (N, 11, 3)."""
-        model = self.model
-        disp = configs - before[None]
-        if self._tables is not None:
-            score = self._tables.spatial(configs, s) + self._tables.motion(disp, s)
-        else:
-            score = model.log_spatial(s, configs) + model.log_motion(s, disp)
-        if self.config.vertical_sign:
-            score = score + sign_loglik(model, s, z, configs, disp, self._weights(s, z))
-        if prior is not None:
-            score = score + prior.log_density(configs)
-        return np.where(np.isnan(score), -np.inf, score)
-
-    def _select(
-        self, s: int, z: np.ndarray, cand: np.ndarray, before: np.ndarray, static: np.ndarray,
-        prior: RegressionPrior | None,
-    ) -> np.ndarray:
-        """The most likely configuration (11, 3) over the candidates and their per-joint recombinations.
-
-        Start from the best of the N whole candidates, then, joint by joint (``refine_sweeps`` times),
-        try each candidate's position of that joint with the others held: a coordinate ascent over
-        the N^A combinations of the A sampled joints' draws, on the same objective.
-        """
-        score = self._score(s, z, cand, before, prior)
-        if self.config.selection == "likelihood":
-            k = int(np.argmax(score))
-        else:  # the potentials score each joint as independent evidence: the product is overconfident, so temper it
-            k = expected_error_choice(cand[:, _AGENT1], score, temperature=N_KEY)
-        best, best_score = cand[k].copy(), score[k]
-        sampled = _AGENT1[z[_AGENT1] > 0]
-        base = N_KEY
-        for _ in range(self.config.refine_sweeps):
-            improved = False
-            for j in sampled:
-                trial = np.repeat(best[None], cand.shape[0], axis=0)
-                trial[:, j] = cand[:, j]
-                if j == base:  # the body moves with its base: static joints follow
-                    trial[:, static] = best[static][None] + (cand[:, base] - best[base])[:, None]
-                sc = self._score(s, z, trial, before, prior)
-                i = int(np.argmax(sc))
-                if sc[i] > best_score + 1e-12:
-                    best, best_score, improved = trial[i].copy(), sc[i], True
-            if not improved:
-                break
-        return best
-
