@@ -49,15 +49,15 @@ def settings() -> dict[str, SynthesisConfig]:
     default = SynthesisConfig.reactive()
     out = {"default": default}
     out["before"] = dataclasses.replace(default, belief="argmax", shrink=0.0, selection="likelihood", duration="sample",
-                                        branches=1)
+                                        branches=1, end_prior="none")
     for name, change in {
         "argmax": dict(belief="argmax"),
         "one_branch": dict(branches=1),
         "three_branches": dict(branches=3),
-        "no_shrink": dict(shrink=0.0),
+        "shrink": dict(shrink=1.0),
         "likelihood": dict(selection="likelihood"),
         "sampled_duration": dict(duration="sample"),
-        "end_regression": dict(end_prior="regression"),
+        "no_end_regression": dict(end_prior="none"),
         "fine_step": dict(belief_step=0.07),
         "no_frame_regression": dict(frame_weight=0.0),
         "relative_frames": dict(frame_decay=float("inf")),
@@ -68,11 +68,12 @@ def settings() -> dict[str, SynthesisConfig]:
     return out
 
 
-def fold_models(spec: str, split: str, cache: Path, max_test: int | None, seed: int = 0) -> list[tuple[str, object, list, dict]]:
+def fold_models(spec: str, split: str, cache: Path, max_test: int | None, seed: int = 0,
+                labels: list[str] | None = None) -> list[tuple[str, object, list, dict]]:
     """Per class: (label, fitted method, test instances, generator state after the fit), cached on disk."""
     data = load_dataset(spec)
     out = []
-    for label in data.labels:
+    for label in labels or data.labels:
         path = cache / f"{spec.split(':')[0]}_{label}.pkl"
         insts = data.of_label(label).interactions
         train, test = make_folds(insts, 4, split, rng=fold_rng(seed, label))[0]
@@ -130,11 +131,13 @@ def main() -> None:
     ap.add_argument("--max-test", type=int, default=None)
     ap.add_argument("--settings", default="before,default")
     ap.add_argument("--fit-only", action="store_true")
+    ap.add_argument("--labels", default=None, help="comma-separated classes (default: all)")
     ap.add_argument("--reference", type=Path, default=None, help="results.json of an evaluate run with the same folds and seed")
     ap.add_argument("--json", type=Path, default=None, help="write per-instance errors of every setting here")
     args = ap.parse_args()
     args.cache.mkdir(parents=True, exist_ok=True)
-    models = fold_models(args.data, args.split, args.cache, args.max_test)
+    models = fold_models(args.data, args.split, args.cache, args.max_test,
+                         labels=args.labels.split(",") if args.labels else None)
     if args.fit_only:
         return
     table = settings()
