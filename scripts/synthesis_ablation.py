@@ -123,6 +123,37 @@ def recorded(path: Path | None, models: list) -> dict[str, dict[str, np.ndarray]
     return out
 
 
+def render(path: Path, setting: str = "default") -> str:
+    """Markdown: per interaction the key-joint error of ``before``, ``setting`` and the recorded baselines, the
+    full-skeleton average, and ``setting``'s paired differences (95 %) against each, from a ``--json`` file."""
+    d = json.loads(path.read_text())
+    rec = d["recorded"]
+    labels = list(d[setting])
+    rows = {"before": {k: np.array(v)[:, 0] for k, v in d["before"].items()} if "before" in d else None,
+            setting: {k: np.array(v)[:, 0] for k, v in d[setting].items()}}
+    for m in ("hmm", "promp", "hold", "constvel"):
+        if m in rec:
+            rows[m] = {k: np.array(v) for k, v in rec[m].items()}
+    lines = ["| method | " + " | ".join(labels) + " | **average** |", "|---|" + "---:|" * (len(labels) + 1)]
+    for m, per in rows.items():
+        if per is None:
+            continue
+        name = "full (default)" if m == setting else ("full (before)" if m == "before" else m)
+        lines.append(f"| {name} | " + " | ".join(f"{per[k].mean():.3f}" for k in labels)
+                     + f" | **{np.mean([per[k].mean() for k in labels]):.3f}** |")
+    skel = np.mean([np.array(v)[:, 1].mean() for v in d[setting].values()])
+    hold_skel = np.mean([np.array(v)[:, 1].mean() for v in d["hold"].values()])
+    lines += ["", f"Full skeleton, average: full (default) {skel:.3f} m, hold {hold_skel:.3f} m.", "",
+              "| full (default) − | difference | 95 % interval | verdict |", "|---|---:|---:|---|"]
+    for m, per in rows.items():
+        if m == setting or per is None:
+            continue
+        mean, lo, hi = paired([rows[setting][k] - per[k] for k in labels])
+        verdict = "lower" if hi < 0 else ("higher" if lo > 0 else "indistinguishable")
+        lines.append(f"| {m} | {mean:+.4f} | [{lo:+.4f}, {hi:+.4f}] | {verdict} |")
+    return "\n".join(lines)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", required=True)
@@ -134,7 +165,11 @@ def main() -> None:
     ap.add_argument("--labels", default=None, help="comma-separated classes (default: all)")
     ap.add_argument("--reference", type=Path, default=None, help="results.json of an evaluate run with the same folds and seed")
     ap.add_argument("--json", type=Path, default=None, help="write per-instance errors of every setting here")
+    ap.add_argument("--render", type=Path, default=None, help="print the Markdown tables of a --json file and exit")
     args = ap.parse_args()
+    if args.render is not None:
+        print(render(args.render))
+        return
     args.cache.mkdir(parents=True, exist_ok=True)
     models = fold_models(args.data, args.split, args.cache, args.max_test,
                          labels=args.labels.split(",") if args.labels else None)

@@ -83,9 +83,9 @@ class SynthesisConfig:
     (:class:`~socialaff_sim.inference.forward_belief.ForwardBelief`; O(1) work and memory per frame in the time
     elapsed), updated every frame and exposed as the step's belief; or ``"argmax"`` (the paper), the best parse
     of the DP over atom cut points (:class:`~socialaff_sim.inference.stream_parse.StreamParser`), at re-plannings."""
-    belief_step: float = 0.15
+    belief_step: float = 0.2
     """[s]: Distance between the cut points of the ``"forward"`` belief, rounded to whole frames (at least one):
-    2 frames at 12–15 Hz, 4 at 30 Hz. Its work per second of stream is then the same at every frame rate."""
+    2 frames at 12.3 Hz, 3 at 15 Hz, 6 at 30 Hz. Its work per second of stream is then the same at every frame rate."""
     belief_horizon: float = 4.0
     """[s]: Longest sub-event the ``"forward"`` belief tracks exactly; older starts share one bucket, treated as
     begun this long ago (bounds its work and memory per frame)."""
