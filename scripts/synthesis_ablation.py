@@ -52,7 +52,7 @@ def settings() -> dict[str, SynthesisConfig]:
                                         branches=1, end_prior="none")
     for name, change in {
         "argmax": dict(belief="argmax"),
-        "one_branch": dict(branches=1),
+        "two_branches": dict(branches=2),
         "three_branches": dict(branches=3),
         "shrink": dict(shrink=1.0),
         "likelihood": dict(selection="likelihood"),
