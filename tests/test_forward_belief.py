@@ -123,3 +123,23 @@ def test_type_tables_equal_the_models_potentials(shake8_model: SocialAffordanceM
         np.testing.assert_allclose(tab.spatial(ends)[:, s], m.log_spatial(s, ends), rtol=1e-10)
         np.testing.assert_allclose(tab.motion(disp, s), m.log_motion(s, disp), rtol=1e-10)
         np.testing.assert_allclose(tab.duration(np.array([0.3, 1.2]))[:, s], m.log_duration(s, np.array([0.3, 1.2])), rtol=1e-12)
+
+
+def test_long_bucket_forgets_used_labels_so_a_stream_can_start_again(shake8: Dataset, shake8_model: SocialAffordanceModel) -> None:
+    """With unique labels, the long bucket keeps only its own label in the used set: on a stream of repeated
+    instances the belief comes back to the first sub-events instead of staying in the last one."""
+    assert shake8_model.config.unique_labels
+    one = [_track(i) for i in list(shake8)[6:8]]
+    track = np.concatenate(one * 3)
+    fps = list(shake8)[0].fps
+    fb = ForwardBelief(shake8_model, fps, stride=2, horizon=20)
+    tops = []
+    for t in range(1, track.shape[0]):
+        fb.advance(track, t)
+        tops.append(int(np.argmax(fb.belief(t))))
+        finite = np.argwhere(np.isfinite(fb._long))
+        assert all(m == 1 << s for m, s in finite)  # one used label per long entry: its own
+    first = tops[: track.shape[0] // 6]
+    last = tops[-track.shape[0] // 3 :]
+    assert first[5] in last  # the opening sub-event comes back in the last repetition
+    assert len(set(last)) >= 2

@@ -19,9 +19,11 @@ cut a, mask m of labels used"):
 
 Per cut, the work is over the starts of the last ``horizon`` frames only, and the memory is those starts'
 F rows: bounded independently of the time elapsed. Starts older than ``horizon`` frames are merged into
-one "long" bucket per (m, s), treated as begun exactly ``horizon`` frames ago (an approximation that is
-exact while every sub-event is shorter than ``horizon`` frames; it keeps the mass of a sub-event that
-lasts, instead of dropping it). Values are kept up to a common constant (renormalised at every cut).
+one "long" bucket per label s, treated as begun exactly ``horizon`` frames ago, its set of used labels
+forgotten but for s (an approximation that is exact while every sub-event is shorter than ``horizon``
+frames; it keeps the mass of a sub-event that lasts instead of dropping it, and with unique labels it lets
+a stream of repeated interactions start the sequence of sub-events again, as the windowed DP does at its
+window's start). Values are kept up to a common constant (renormalised at every cut).
 """
 
 from __future__ import annotations
@@ -130,6 +132,10 @@ class ForwardBelief:
         if old.any():
             self._long = np.logaddexp(self._long, _logsumexp_finite(self._F[old], axis=0))
             self._starts, self._F = self._starts[~old], self._F[~old]
+            if self.M > 1:  # the long bucket forgets the labels used before it: a stream can start the interaction again
+                merged = _logsumexp_finite(self._long, axis=0)  # (S,)
+                self._long = np.full((self.M, self.S), -np.inf)
+                self._long[self._bits, np.arange(self.S)] = merged
         top = max(float(np.max(self._F)), float(np.max(self._long)))
         if np.isfinite(top):  # renormalise: only ratios matter
             self._F -= top
