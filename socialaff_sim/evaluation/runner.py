@@ -133,7 +133,7 @@ def _mean(values: list[float]) -> float:
     return float(np.mean(finite)) if finite else float("nan")
 
 
-BASELINES: tuple[str, ...] = ("hold", "constvel", "hmm", "promp")
+BASELINES: tuple[str, ...] = ("hold", "constvel", "hmm", "promp", "ridge", "gru")
 """The baselines among which the best (lowest average key-joint error) is the second paired reference."""
 
 
