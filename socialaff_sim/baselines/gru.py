@@ -7,8 +7,9 @@ Model
     A one-layer GRU reads, frame by frame from t = T0 on, the causal feature rows of
     :mod:`~socialaff_sim.baselines.reaction_features` (agent 0's motion since agent 1's last observed frame,
     the gap between the agents, agent 1's own observed velocity, agent 0's velocity; scaled to unit RMS);
-    a linear read-out gives agent 1's whole-skeleton displacement from its last observed pose (anchor frame).
-    The read-out starts at zero, so the untrained network is ``hold``. Its hidden state carries what it has
+    a linear read-out of its state plus a linear skip from the current features give agent 1's whole-skeleton
+    displacement from its last observed pose (anchor frame). Both start at zero, so the untrained network is
+    ``hold``. Its hidden state carries what it has
     seen of agent 0's track (and, through its own state, its earlier output); it never sees agent 0's later
     frames: under the causal protocol frame t is computed from frames ≤ t, and frames beyond the view
     (a forecast) are rolled on a copy of the state with agent 0 held at its last visible frame.
@@ -59,11 +60,11 @@ class GRUConfig:
     """How the input features are computed (the same as ``ridge``'s)."""
     hidden_sizes: tuple[int, ...] = (16, 48)
     """H [units]: hidden sizes the validation split chooses among."""
-    max_epochs: int = 300
+    max_epochs: int = 400
     """[—]: Full-batch Adam steps at most."""
-    patience: int = 30
+    patience: int = 40
     """[—]: Stop after this many steps without a better validation error."""
-    learning_rate: float = 5e-3
+    learning_rate: float = 1e-2
     """[—]: Adam step size."""
     weight_decay: float = 1e-4
     """[—]: Adam weight decay (shrinks the read-out toward ``hold``)."""
@@ -91,18 +92,21 @@ def _require_torch() -> None:
 if torch is not None:
 
     class _Net(nn.Module):
-        """GRU (N_FEATURES → H) and a zero-initialised linear read-out (H → J·3)."""
+        """GRU (N_FEATURES → H), a linear read-out (H → J·3) and a linear skip from the features (N_FEATURES →
+        J·3), both zero-initialised: the untrained network is ``hold``, and a linear map of the current
+        features (what ``ridge`` fits) is one of the functions it can represent."""
 
         def __init__(self, hidden: int, n_out: int) -> None:
             super().__init__()
             self.gru = nn.GRU(N_FEATURES, hidden, batch_first=True)
             self.out = nn.Linear(hidden, n_out)
-            nn.init.zeros_(self.out.weight)
-            nn.init.zeros_(self.out.bias)
+            self.skip = nn.Linear(N_FEATURES, n_out, bias=False)
+            for p in (self.out.weight, self.out.bias, self.skip.weight):
+                nn.init.zeros_(p)
 
         def forward(self, x: torch.Tensor, h: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
             y, h = self.gru(x, h)
-            return self.out(y), h
+            return self.out(y) + self.skip(x), h
 
 
 def _sequences(interactions: Sequence[Interaction], n_observed: int, config: FeatureConfig) -> list[tuple[np.ndarray, np.ndarray]]:

@@ -32,7 +32,7 @@ from ..errors import ConfigError, ModelError, NotFittedError
 from ..inference.protocol import DEFAULT_N_OBSERVED, Prediction, prediction_from_joints
 from .reaction_features import FEATURE_GROUPS, FeatureConfig, FeatureStream, group_columns, training_rows
 
-__all__ = ["HOLD", "RidgeConfig", "RidgeReaction", "key_columns", "ridge_solve", "training_set"]
+__all__ = ["HOLD", "RidgeConfig", "RidgeReaction", "key_columns", "ridge_solve", "select", "training_set"]
 
 HOLD: tuple[str, ...] = ()
 """The candidate without features: ``hold`` (λ = ∞)."""
@@ -103,6 +103,12 @@ def training_set(
     return np.concatenate(xs), np.concatenate(ys), np.concatenate(ws), np.concatenate(ids)
 
 
+def select(cv_errors: dict[tuple[tuple[str, ...], float], float]) -> tuple[tuple[str, ...], float]:
+    """The (groups, λ) with the lowest inner-CV error; ``hold`` ``((), inf)`` wins ties, so a regression is
+    chosen only where it beat ``hold`` on held-out training instances; among tied regressions, the larger λ."""
+    return min(cv_errors, key=lambda key: (cv_errors[key], key != (HOLD, math.inf), -key[1], len(key[0])))
+
+
 def _key_error(pred: np.ndarray, truth: np.ndarray, ids: np.ndarray) -> float:
     """Mean over instances of the mean key-joint distance (pred/truth (N, 3·k) key columns)."""
     d = np.linalg.norm((pred - truth).reshape(len(pred), -1, 3), axis=-1).mean(axis=1)
@@ -159,8 +165,7 @@ class RidgeReaction:
                         W = ridge_solve(gram[np.ix_(cols, cols)], cross[cols], lam)
                         errors.setdefault((groups, lam), []).append(_key_error(Xs[ho][:, cols] @ W, truth, ids[ho]))
             cv = {key: float(np.mean(v)) for key, v in errors.items()}
-            # hold is first and wins ties: a regression must beat it on held-out training instances
-            best = min(cv, key=lambda key: (cv[key], key != (HOLD, math.inf)))
+            best = select(cv)
         else:
             best = (tuple(cfg.fallback[0]), float(cfg.fallback[1]))
         self.cv_errors_ = cv
