@@ -87,10 +87,10 @@ def format_tables(results: Mapping[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def horizon_lines(results: Mapping[str, Any]) -> list[str]:
+def horizon_lines(results: Mapping[str, Any], heading: str = "##") -> list[str]:
     """Markdown: key-joint error at each forecast horizon (averaged over the interactions, with the paired
-    difference to ``hold`` where it was run) and the per-call latency of each method; nothing for runs
-    without them (results.json files written before they existed)."""
+    difference to ``hold`` where it was run) and the per-call latency of each method, under headings of
+    level ``heading``; nothing for runs without them (results.json files written before they existed)."""
     horizons = results.get("horizons_s") or []
     average = results["average"]
     methods = list(average)
@@ -98,7 +98,7 @@ def horizon_lines(results: Mapping[str, Any]) -> list[str]:
     keys = [f"key_joint_error_{h:g}s_m" for h in horizons]
     if keys and any(not _missing(average[m].get(k)) for m in methods for k in keys):
         every = results.get("settings", {}).get("horizon_every_s")
-        lines += ["", "## Key-joint error at forecast horizons (m)", ""]
+        lines += ["", f"{heading} Key-joint error at forecast horizons (m)", ""]
         lines.append(
             "At each forecast time t (every " + (f"{every:g} s" if every else "few frames") + " from T0 on) the method, "
             "having seen agent 0 up to frame t, forecasts agent 1's frames t … t + h; the error of the frame h seconds "
@@ -118,7 +118,7 @@ def horizon_lines(results: Mapping[str, Any]) -> list[str]:
             lines.append(f"| {m} | " + " | ".join(cells) + " |")
     latency = results.get("latency_ms") or {}
     if latency:
-        lines += ["", "## Latency per call (ms)", ""]
+        lines += ["", f"{heading} Latency per call (ms)", ""]
         lines.append(
             f"Wall time of each call of the method's reactor on the test instances (protocol `{results.get('protocol', '?')}`: "
             + ("one call per synthesized frame" if results.get("protocol") == "causal" else "one call per block")
