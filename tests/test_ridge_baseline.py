@@ -23,7 +23,7 @@ from socialaff_sim.baselines.reaction_features import (
 from socialaff_sim.baselines.ridge import HOLD, RidgeConfig, RidgeReaction, ridge_solve, select
 from socialaff_sim.data import Interaction
 from socialaff_sim.data.skeletons import KEY_JOINTS
-from socialaff_sim.errors import ConfigError, NotFittedError
+from socialaff_sim.errors import ConfigError, ModelError, NotFittedError
 from socialaff_sim.evaluation import available_methods, get_method, key_joint_error
 from socialaff_sim.evaluation.streaming import run_protocol
 
@@ -131,6 +131,8 @@ def test_stream_rows_equal_the_training_rows(rng: np.random.Generator) -> None:
     inst = make_instance(rng, "follow", T=30)
     X, _, frames = training_rows(inst, T0, FeatureConfig())
     stream = FeatureStream(T0, FeatureConfig())
+    with pytest.raises(ModelError, match="no view seen yet"):
+        stream.anchor  # noqa: B018
     view_src = inst.hide_agent_after(1, T0)
     rows = np.concatenate([stream.rows(view_src.slice(0, t + 1), t, t + 1) for t in frames])
     np.testing.assert_allclose(rows, X, atol=1e-12)

@@ -194,13 +194,8 @@ class GRUReaction:
         kc = key_columns(usable[0])
         self.validation_hold_error_ = _key_error(torch.zeros_like(val[1]), val[1], val[2], kc, self.y_scale_)
         seed = int(rng.integers(2**31))
-        best: tuple[object, float, int, int] | None = None
-        for hidden in cfg.hidden_sizes:
-            net, err, epochs = self._train(hidden, train, val, kc, seed)
-            if best is None or err < best[1]:
-                best = (net, err, epochs, hidden)
-        assert best is not None
-        net, err, self.epochs_, hidden = best
+        trained = [(*self._train(hidden, train, val, kc, seed), hidden) for hidden in cfg.hidden_sizes]
+        net, err, self.epochs_, hidden = min(trained, key=lambda r: r[1])  # the first of equals: the smaller
         self.validation_error_ = err
         # hold wins ties: the network is used only where it beat hold on the validation instances
         self.net_, self.hidden_size_ = (net, hidden) if err < self.validation_hold_error_ else (None, 0)
@@ -262,6 +257,5 @@ class GRUReactor:
             rows = self.stream.rows(view, max(start, visible), stop)
             y, _ = self.method._run(rows, self._h)
             parts.extend(y)
-        assert self.stream.anchor is not None
         joints = self.stream.anchor.to_world(np.stack(parts))
         return Prediction(joints=joints, key_joints=view.layout.key_joints(joints), subevents=None, n_observed=0)

@@ -34,7 +34,7 @@ import numpy as np
 from .simple import velocity_estimate
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
-from ..errors import ConfigError
+from ..errors import ConfigError, ModelError
 from ..model.frame import CanonicalFrame, canonical_frame
 
 __all__ = ["FEATURE_GROUPS", "Anchor", "FeatureConfig", "FeatureStream", "forward_fill", "group_columns", "training_rows"]
@@ -194,10 +194,17 @@ class FeatureStream:
     def __init__(self, n_observed: int, config: FeatureConfig) -> None:
         self.n_observed = n_observed
         self.config = config
-        self.anchor: Anchor | None = None
+        self._anchor: Anchor | None = None
         self._window: list[np.ndarray] = []  # agent 0's last ≤ K causally filled key-joint frames (5, 3)
         self._last = np.full((N_KEY, 3), np.nan)  # last tracked position of each key joint
         self._seen = 0  # frames of the views consumed so far
+
+    @property
+    def anchor(self) -> Anchor:
+        """The instance's anchor (read from the first view); an error before :meth:`rows` was called."""
+        if self._anchor is None:
+            raise ModelError("feature stream: no view seen yet (call rows(view, start, stop) first)")
+        return self._anchor
 
     def _consume(self, view: Interaction) -> None:
         new = slice(self._seen, view.n_frames)
@@ -214,8 +221,8 @@ class FeatureStream:
 
     def rows(self, view: Interaction, start: int, stop: int) -> np.ndarray:
         """(stop − start, N_FEATURES) rows of output frames [start, stop) given ``view``."""
-        if self.anchor is None:
-            self.anchor = Anchor.from_view(view, self.n_observed, self.config)
+        if self._anchor is None:
+            self._anchor = Anchor.from_view(view, self.n_observed, self.config)
         if view.n_frames > self._seen:
             self._consume(view)
         last = view.n_frames - 1

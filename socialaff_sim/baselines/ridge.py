@@ -218,6 +218,5 @@ class RidgeReactor:
     def react(self, view: Interaction, start: int, stop: int) -> Prediction:
         """Agent 1's frames [start, stop) from ``view``."""
         rows = self.stream.rows(view, start, stop)
-        assert self.stream.anchor is not None
         joints = self.stream.anchor.to_world(self.method.displacement(rows))
         return Prediction(joints=joints, key_joints=view.layout.key_joints(joints), subevents=None, n_observed=0)
