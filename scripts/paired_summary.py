@@ -42,17 +42,19 @@ def _pairs(results: dict, method: str, metric: str, seed: int) -> list[str]:
 
 def summarise(paths: list[Path], method: str, seed: int) -> list[str]:
     runs = [json.loads(p.read_text()) for p in paths]
-    methods = list(runs[0]["average"])
+    methods = list(dict.fromkeys(m for r in runs for m in r["average"]))  # every method of any run, in order
     lines = ["| dataset (test instances) | " + " | ".join(methods) + " |", "|---|" + "---:|" * len(methods)]
     for r in runs:
-        n = sum(v[methods[0]]["n_test"] for v in r["per_interaction"].values())
-        lines.append(f"| {r['dataset']} ({n}) | " + " | ".join(_f(r["average"][m]["key_joint_error_m"]) for m in methods) + " |")
+        first = next(iter(r["average"]))
+        n = sum(v[first]["n_test"] for v in r["per_interaction"].values())
+        lines.append(f"| {r['dataset']} ({n}) | " + " | ".join(_f(r["average"].get(m, {}).get("key_joint_error_m"))
+                                                               for m in methods) + " |")
     for h in runs[0].get("horizons_s", []):
         key = f"key_joint_error_{h:g}s_m"
         lines += ["", f"Forecast {h:g} s ahead (key-joint error, m):", "",
                   "| dataset | " + " | ".join(methods) + " |", "|---|" + "---:|" * len(methods)]
         for r in runs:
-            lines.append(f"| {r['dataset']} | " + " | ".join(_f(r["average"][m].get(key)) for m in methods) + " |")
+            lines.append(f"| {r['dataset']} | " + " | ".join(_f(r["average"].get(m, {}).get(key)) for m in methods) + " |")
     lines += ["", "Per-call latency p50 / p99 (ms; causal: one call per frame):", "",
               "| dataset | " + " | ".join(methods) + " |", "|---|" + "---|" * len(methods)]
     for r in runs:
