@@ -21,10 +21,10 @@ from socialaff_sim.baselines.reaction_features import (
     training_rows,
 )
 from socialaff_sim.baselines.ridge import HOLD, RidgeConfig, RidgeReaction, ridge_solve, select
-from socialaff_sim.data import Interaction
+from socialaff_sim.data import Dataset, Interaction
 from socialaff_sim.data.skeletons import KEY_JOINTS
 from socialaff_sim.errors import ConfigError, ModelError, NotFittedError
-from socialaff_sim.evaluation import available_methods, get_method, key_joint_error
+from socialaff_sim.evaluation import EvaluationConfig, available_methods, evaluate, get_method, key_joint_error
 from socialaff_sim.evaluation.streaming import run_protocol
 
 T0 = 10
@@ -215,3 +215,8 @@ def test_without_torch_the_registry_works_and_gru_names_the_extra(monkeypatch: p
     assert "gru" in available_methods() and "ridge" in available_methods()
     with pytest.raises(ConfigError, match=r"socialaff-sim\[neural\]"):
         get_method("gru")()
+    data = Dataset("toy", tuple(make_set(np.random.default_rng(0), "follow", 8)))
+    done: list[str] = []
+    with pytest.raises(ConfigError, match=r"needs PyTorch"):
+        evaluate(data, ["hold", "gru"], config=EvaluationConfig(executor="serial", n_folds=2), progress=done.append)
+    assert done == []  # refused before any task ran (hold's would have reported)

@@ -24,7 +24,7 @@ import numpy as np
 from ..data.dataset import Dataset
 from ..errors import ConfigError, choices
 from .compare import paired_differences
-from .crossval import EvaluationConfig, Task, TaskResult, make_tasks, run_task
+from .crossval import EvaluationConfig, Task, TaskResult, make_method, make_tasks, run_task
 from .metrics import METRICS, horizon_metric, matched_accuracy
 from .registry import get_method
 from .splits import OPTIMISTIC_SPLITS
@@ -197,6 +197,8 @@ def evaluate(
     if len(set(methods)) != len(methods):
         raise ConfigError(f"methods: each method at most once, found {list(methods)}")
     factories = [(m, get_method(m)) for m in methods]
+    for _, factory in factories:  # fail before any task runs (e.g. gru without torch names the extra)
+        make_method(factory, config.preset)
     hkeys = [horizon_metric(h) for h in config.horizons_s]
     metrics = list(METRICS) + hkeys
     labels = list(interactions) if interactions else list(dataset.labels)
