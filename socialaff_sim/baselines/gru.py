@@ -57,7 +57,7 @@ class GRUConfig:
     """Settings of ``gru`` (fixed before any evaluation; the validation split chooses among the options)."""
 
     features: FeatureConfig = field(default_factory=FeatureConfig)
-    """How the input features are computed (the same as ``ridge``'s)."""
+    """[—]: How the input features are computed (the same as ``ridge``'s)."""
     hidden_sizes: tuple[int, ...] = (16, 48)
     """H [units]: hidden sizes the validation split chooses among."""
     max_epochs: int = 400

@@ -47,7 +47,7 @@ class RidgeConfig:
     """Settings of ``ridge`` (fixed before any evaluation; the inner CV chooses among the candidates)."""
 
     features: FeatureConfig = field(default_factory=FeatureConfig)
-    """How the features are computed."""
+    """[—]: How the features are computed."""
     candidates: tuple[tuple[str, ...], ...] = field(default_factory=_all_subsets)
     """[—]: Feature-group sets the inner CV chooses among (``hold`` is always one more candidate)."""
     penalties: tuple[float, ...] = (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0)
