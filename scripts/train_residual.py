@@ -1,0 +1,405 @@
+"""Train a residual policy on top of the affordance model with Stable-Baselines3, and test it on held-out instances.
+
+The environment's ``residual`` action mode adds the policy's offsets (±0.3 m per
+coordinate) to the key-frame targets the affordance model proposes (its causal
+online synthesis of agent 1). This script:
+
+1. generates the synthetic training data (``--seed``; ``--train-instances`` per
+   interaction) and fits one affordance model per interaction on it (or loads
+   them with ``--models DIR``);
+2. trains one PPO policy (Stable-Baselines3, observations flattened and
+   normalized with ``VecNormalize``, actions rescaled to [−1, 1]) on episodes
+   of those training instances, both interactions in one environment (the
+   observation carries the interaction's one-hot);
+3. evaluates, on HELD-OUT instances — a second synthetic dataset generated with
+   seed ``--seed + 1`` (other actors' bodies, other instances; none of them seen
+   by the model fit or by the policy) — the trained residual (deterministic
+   actions) against the affordance model alone (zero residual), one episode per
+   held-out instance, the same reset seed for both policies, so every pair of
+   episodes shares the instance and the synthesizer's sampling: the comparison
+   is paired;
+4. writes ``results.json`` (per-episode rows, rates with Wilson 95 % intervals,
+   mean returns and the paired differences with stratified bootstrap 95 %
+   intervals), the learning curve ``learning_curve.png`` (+ ``curve.json``),
+   the policy ``residual_ppo.zip`` and its observation statistics
+   ``vecnormalize.pkl``.
+
+"Success" is the environment's ``info["success"]``: every sub-goal of the task
+met and no failure condition triggered. The target (issue 26): the trained
+residual's success minus the affordance model's, paired over the held-out
+episodes, has a 95 % interval above zero. Needs the ``[rl]`` extra. Example::
+
+    OMP_NUM_THREADS=1 nice python scripts/train_residual.py --timesteps 300000 --out rl_out
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # no rendering, but dm_control picks a GL backend on import
+
+import argparse  # noqa: E402
+import dataclasses  # noqa: E402
+import json  # noqa: E402
+import time  # noqa: E402
+import zlib  # noqa: E402
+from collections.abc import Callable, Mapping, Sequence  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
+
+import gymnasium as gym  # noqa: E402
+import matplotlib  # noqa: E402
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+from scipy import stats  # noqa: E402
+from stable_baselines3 import PPO  # noqa: E402
+from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
+from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize  # noqa: E402
+
+from socialaff_sim._atomic import atomic_write_text  # noqa: E402
+from socialaff_sim.data.interaction import Interaction  # noqa: E402
+from socialaff_sim.data.synthetic import generate_dataset  # noqa: E402
+from socialaff_sim.data.synthetic.config import SyntheticConfig  # noqa: E402
+from socialaff_sim.environment import SocialAffordanceEnv  # noqa: E402
+from socialaff_sim.errors import ConfigError  # noqa: E402
+from socialaff_sim.evaluation.compare import paired_difference  # noqa: E402
+from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
+from socialaff_sim.learning.config import LearningConfig  # noqa: E402
+
+LABELS = ("shake_hands", "hand_over")
+Policy = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclasses.dataclass(frozen=True)
+class Settings:
+    """One run of the example; every field is a command-line flag."""
+
+    labels: tuple[str, ...] = LABELS
+    """Interactions trained and evaluated (one policy for all of them)."""
+    seed: int = 0
+    """Seed of the training data, the model fits, the policy and the evaluation's reset seeds (held-out data: seed + 1)."""
+    train_instances: int = 48
+    """Synthetic training instances per interaction (the model fit and the RL episodes use these)."""
+    eval_instances: int = 50
+    """Held-out instances per interaction; one evaluation episode each, per policy."""
+    fit_iterations: int = LearningConfig().iterations
+    """Algorithm 1 iterations of each model fit."""
+    timesteps: int = 300_000
+    """PPO environment steps (over all sub-environments)."""
+    n_envs: int = 8
+    """Sub-environments stepped in one process (``DummyVecEnv``)."""
+    n_steps: int = 128
+    """PPO rollout length per sub-environment between updates."""
+    batch_size: int = 256
+    """PPO minibatch size."""
+    n_epochs: int = 10
+    """PPO epochs per update."""
+    learning_rate: float = 3e-4
+    """Adam step size."""
+    gamma: float = 0.99
+    """Discount factor."""
+    log_std_init: float = -2.0
+    """Initial log standard deviation of the Gaussian policy in the rescaled action space [−1, 1]: e^−2 ≈ 0.14,
+    i.e. about 4 cm of exploration noise on the ±0.3 m residual, so early episodes stay close to the proposal."""
+    hidden: int = 256
+    """Width of the two hidden layers of the policy and value networks."""
+    physics: str = "fast"
+    """The environment's physics preset."""
+    max_frames: int | None = None
+    """Cut every instance to its first frames (short episodes; tests only)."""
+
+
+# -- data and environments -----------------------------------------------------------------------------------------
+def build_data(s: Settings) -> tuple[list[Interaction], list[Interaction]]:
+    """(training instances, held-out instances): two synthetic datasets, seeds ``s.seed`` and ``s.seed + 1``."""
+    train = generate_dataset(s.seed, SyntheticConfig(interactions=s.labels, instances_per_interaction=s.train_instances))
+    held = generate_dataset(s.seed + 1, SyntheticConfig(interactions=s.labels, instances_per_interaction=s.eval_instances))
+    return list(train.interactions), list(held.interactions)
+
+
+def fit_models(s: Settings, train: Sequence[Interaction]) -> dict[str, SocialAffordanceModel]:
+    """One affordance model per interaction, fitted on the training instances (seeded per label)."""
+    models = {}
+    for label in s.labels:
+        rng = np.random.default_rng([s.seed, zlib.crc32(label.encode())])
+        learning = LearningConfig(iterations=s.fit_iterations)
+        models[label] = SocialAffordanceModel(learning=learning).fit([i for i in train if i.label == label], rng=rng)
+    return models
+
+
+def make_env(s: Settings, instances: Sequence[Interaction], models: Mapping[str, SocialAffordanceModel]) -> gym.Env:
+    """The residual-mode environment as SB3 wants it: flat float32 observation, a flat action in [−1, 1]."""
+    env: gym.Env = SocialAffordanceEnv(interactions=list(s.labels), data=list(instances), action_mode="residual",
+                                       model=dict(models), physics=s.physics, max_frames=s.max_frames)
+    env = gym.wrappers.FlattenObservation(env)
+    env = gym.wrappers.RescaleAction(env, np.float32(-1.0), np.float32(1.0))
+    shape = env.action_space.shape
+    flat = gym.spaces.Box(-1.0, 1.0, shape=(int(np.prod(shape)),), dtype=np.float32)
+    return gym.wrappers.TransformAction(env, lambda a: np.asarray(a, np.float32).reshape(shape), flat)
+
+
+# -- training ------------------------------------------------------------------------------------------------------
+class CurveRecorder(BaseCallback):
+    """Records every finished training episode: (timesteps so far, interaction, return, success)."""
+
+    def __init__(self, log: Callable[[str], None] | None = None, every: int = 10_000,
+                 budget_s: float | None = None) -> None:
+        super().__init__()
+        self.rows: list[dict[str, Any]] = []
+        self._log, self._every, self._next = log, every, every
+        self._t0 = time.perf_counter()
+        self._budget_s = budget_s
+        self.stopped = False
+        self.updated_timesteps = 0
+        """Environment steps of the rollouts the policy has been updated on (or will be, for the last one)."""
+
+    def _on_rollout_end(self) -> None:
+        # The rollout just collected is trained on; once the budget is spent, the next rollout's first step
+        # stops learn() before any update, so the policy is exactly that of --timesteps updated_timesteps.
+        self.updated_timesteps = int(self.num_timesteps)
+        if self._budget_s is not None and time.perf_counter() - self._t0 > self._budget_s:
+            self.stopped = True
+            self.training_env.training = False  # type: ignore[attr-defined]  # the stop step leaves the statistics alone
+
+    def _on_step(self) -> bool:
+        if self.stopped:
+            return False
+        for done, info in zip(self.locals["dones"], self.locals["infos"]):
+            if done:
+                self.rows.append({"timesteps": int(self.num_timesteps), "interaction": info["interaction"],
+                                  "return": float(info["episode"]["r"]), "success": bool(info["success"])})
+        if self._log is not None and self.num_timesteps >= self._next:
+            self._next += self._every
+            last = self.rows[-100:]
+            self._log(f"  {self.num_timesteps} steps, {time.perf_counter() - self._t0:.0f} s; last {len(last)} episodes: "
+                      f"success {np.mean([r['success'] for r in last]):.2f}, return {np.mean([r['return'] for r in last]):.1f}")
+        return True
+
+
+def train(s: Settings, train_set: Sequence[Interaction], models: Mapping[str, SocialAffordanceModel],
+          log: Callable[[str], None] | None = None, budget_s: float | None = None
+          ) -> tuple[PPO, VecNormalize, CurveRecorder]:
+    """Train PPO on the training instances for ``s.timesteps`` steps, or until ``budget_s`` seconds of wall time
+    have passed (checked after each rollout); returns the agent, its observation normalizer and the recorder
+    (curve rows, the steps trained on)."""
+    torch.set_num_threads(1)
+    venv = DummyVecEnv([lambda: make_env(s, train_set, models) for _ in range(s.n_envs)])
+    venv.seed(s.seed)
+    norm = VecNormalize(VecMonitor(venv), norm_obs=True, norm_reward=True, gamma=s.gamma)
+    agent = PPO(
+        "MlpPolicy", norm, n_steps=s.n_steps, batch_size=s.batch_size, n_epochs=s.n_epochs,
+        learning_rate=s.learning_rate, gamma=s.gamma, seed=s.seed, device="cpu", verbose=0,
+        policy_kwargs={"log_std_init": s.log_std_init, "net_arch": {"pi": [s.hidden] * 2, "vf": [s.hidden] * 2}},
+    )
+    recorder = CurveRecorder(log, budget_s=budget_s)
+    agent.learn(total_timesteps=s.timesteps, callback=recorder)
+    norm.training = False
+    return agent, norm, recorder
+
+
+def trained_policy(agent: PPO, norm: VecNormalize) -> Policy:
+    """The deterministic policy on a raw flat observation (normalized with the training statistics)."""
+    return lambda obs: agent.predict(norm.normalize_obs(obs), deterministic=True)[0]
+
+
+def zero_policy(obs: np.ndarray) -> np.ndarray:
+    """The affordance model alone: no residual."""
+    return np.zeros(15, np.float32)
+
+
+# -- evaluation ----------------------------------------------------------------------------------------------------
+def run_episodes(env: gym.Env, episodes: Sequence[tuple[str, int]], policy: Policy) -> list[dict[str, Any]]:
+    """One episode per (instance id, reset seed); per-episode return, success, sub-goals and failure."""
+    rows = []
+    for instance, seed in episodes:
+        obs, _ = env.reset(seed=seed, options={"instance": instance})
+        total, steps = 0.0, 0
+        while True:
+            obs, reward, terminated, truncated, info = env.step(policy(obs))
+            total, steps = total + float(reward), steps + 1
+            if terminated or truncated:
+                break
+        subgoals = dict(info["subgoals"])
+        rows.append({"instance": instance, "seed": seed, "interaction": info["interaction"], "return": total,
+                     "steps": steps, "success": bool(info["success"]), "failed": bool(info["failed"]),
+                     "failures": sorted(k for k, hit in info["failures"].items() if hit),
+                     "subgoals": subgoals, "subgoals_met": float(np.mean(list(subgoals.values())))})
+    return rows
+
+
+def wilson(k: int, n: int) -> tuple[float, float]:
+    """Wilson score 95 % interval of a binomial proportion k / n."""
+    ci = stats.binomtest(k, n).proportion_ci(0.95, method="wilson")
+    return float(ci.low), float(ci.high)
+
+
+def _by_label(rows: Sequence[Mapping[str, Any]], key: str) -> dict[str, np.ndarray]:
+    out: dict[str, list[float]] = {}
+    for r in rows:
+        out.setdefault(r["interaction"], []).append(float(r[key]))
+    return {k: np.array(v) for k, v in sorted(out.items())}
+
+
+def _policy_summary(rows: Sequence[Mapping[str, Any]], rng: np.random.Generator) -> dict[str, Any]:
+    k, n = sum(r["success"] for r in rows), len(rows)
+    ret, ret_lo, ret_hi = paired_difference(list(_by_label(rows, "return").values()), rng=rng)
+    return {"episodes": n, "successes": int(k), "success_rate": k / n, "success_ci95": wilson(int(k), n),
+            "subgoals_met": float(np.mean([r["subgoals_met"] for r in rows])),
+            "failure_rate": float(np.mean([r["failed"] for r in rows])),
+            "mean_return": ret, "mean_return_ci95": (ret_lo, ret_hi)}
+
+
+def summarize(residual: Sequence[Mapping[str, Any]], zero: Sequence[Mapping[str, Any]], seed: int) -> dict[str, Any]:
+    """Rates and the paired residual − zero differences, overall (classes weighted equally) and per interaction.
+
+    Episodes are paired by (instance, seed); the difference intervals are stratified percentile bootstraps over
+    the pairs (:func:`socialaff_sim.evaluation.compare.paired_difference`). ``target_met``: the overall success
+    difference's interval lies above zero."""
+    key = {(r["instance"], r["seed"]): r for r in zero}
+    if sorted(key) != sorted((r["instance"], r["seed"]) for r in residual):
+        raise ConfigError("summarize: the two policies must be evaluated on the same (instance, seed) episodes")
+    pairs = [(r, key[(r["instance"], r["seed"])]) for r in residual]
+    rng = np.random.default_rng(seed)
+
+    def block(sel: Sequence[tuple[Mapping[str, Any], Mapping[str, Any]]]) -> dict[str, Any]:
+        res, ref = [p[0] for p in sel], [p[1] for p in sel]
+        out: dict[str, Any] = {"residual": _policy_summary(res, rng), "zero_residual": _policy_summary(ref, rng)}
+        for metric in ("success", "subgoals_met", "return"):
+            diffs: dict[str, list[float]] = {}
+            for a, b in sel:
+                diffs.setdefault(a["interaction"], []).append(float(a[metric]) - float(b[metric]))
+            mean, lo, hi = paired_difference([np.array(v) for _, v in sorted(diffs.items())], rng=rng)
+            out[f"paired_{metric}_difference"] = {"mean": mean, "ci95": (lo, hi)}
+        out["residual_only_successes"] = sum(a["success"] and not b["success"] for a, b in sel)
+        out["zero_only_successes"] = sum(b["success"] and not a["success"] for a, b in sel)
+        return out
+
+    summary = block(pairs)
+    summary["per_interaction"] = {lbl: block([p for p in pairs if p[0]["interaction"] == lbl])
+                                  for lbl in sorted({p[0]["interaction"] for p in pairs})}
+    summary["target_met"] = bool(summary["paired_success_difference"]["ci95"][0] > 0.0)
+    return summary
+
+
+# -- learning curve ------------------------------------------------------------------------------------------------
+def plot_curve(rows: Sequence[Mapping[str, Any]], reference: Mapping[str, Mapping[str, float]], path: Path,
+               window: int = 50) -> None:
+    """Training episodes' success and return (moving average over ``window`` episodes of each interaction)
+    against timesteps, with the zero-residual policy on the training instances as dashed reference lines."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), layout="constrained")
+    colors = dict(zip(sorted(reference), ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")))
+    for label, color in colors.items():
+        mine = [r for r in rows if r["interaction"] == label]
+        x = np.array([r["timesteps"] for r in mine], float)
+        for ax, key in zip(axes, ("success", "return")):
+            y = np.array([float(r[key]) for r in mine])
+            if y.size:
+                w = min(window, y.size)
+                ax.plot(x[w - 1:], np.convolve(y, np.ones(w) / w, mode="valid"), color=color,
+                        label=f"{label}: residual PPO (training episodes, stochastic)")
+            ax.axhline(reference[label][key], color=color, ls="--", lw=1,
+                       label=f"{label}: affordance model alone (training instances)")
+    axes[0].set(xlabel="environment steps", ylabel=f"success rate (moving mean of {window} episodes)", ylim=(-0.02, 1.02))
+    axes[1].set(xlabel="environment steps", ylabel=f"episode return (moving mean of {window} episodes)")
+    handles, names = axes[0].get_legend_handles_labels()
+    fig.legend(handles, names, fontsize=8, loc="outside lower center", ncol=2)
+    fig.suptitle("Residual PPO on the affordance model: learning curve")
+    tmp = path.with_suffix(".tmp.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    tmp.replace(path)
+
+
+# -- the whole run -------------------------------------------------------------------------------------------------
+def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[str], None] = lambda m: print(m, flush=True),
+        budget_s: float | None = None) -> dict[str, Any]:
+    """Fit (or load), train (at most ``budget_s`` s of wall time, if given), evaluate and write everything into
+    ``out``; returns the results written."""
+    out.mkdir(parents=True, exist_ok=True)
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    train_set, held_out = build_data(s)
+    if models_dir is not None:
+        models = {lbl: SocialAffordanceModel.load(models_dir / f"{lbl}.npz") for lbl in s.labels}
+    else:
+        models = fit_models(s, train_set)
+        (out / "models").mkdir(exist_ok=True)
+        for lbl, m in models.items():
+            m.save(out / "models" / f"{lbl}.npz")
+    log(f"models ready ({time.perf_counter() - wall0:.0f} s); training {s.timesteps} steps on {len(train_set)} instances")
+    wall1 = time.perf_counter()
+    agent, norm, recorder = train(s, train_set, models, log, budget_s)
+    train_wall = time.perf_counter() - wall1
+    curve = [r for r in recorder.rows if r["timesteps"] <= recorder.updated_timesteps]
+    agent.save(out / "residual_ppo.zip")
+    norm.save(str(out / "vecnormalize.pkl"))
+    log(f"trained in {train_wall:.0f} s wall ({len(curve)} training episodes); evaluating")
+
+    # Reference for the curve: the zero residual once on every training instance.
+    train_env = make_env(s, train_set, models)
+    train_eps = [(i.instance_id, s.seed + k) for k, i in enumerate(train_set)]
+    ref_rows = run_episodes(train_env, train_eps, zero_policy)
+    reference = {lbl: {"success": float(np.mean([r["success"] for r in ref_rows if r["interaction"] == lbl])),
+                       "return": float(np.mean([r["return"] for r in ref_rows if r["interaction"] == lbl]))}
+                 for lbl in s.labels}
+    plot_curve(curve, reference, out / "learning_curve.png")
+
+    # Held-out evaluation: the same (instance, reset seed) pairs for both policies.
+    held_env = make_env(s, held_out, models)
+    episodes = [(i.instance_id, 10_000 + s.seed * 1_000 + k) for k, i in enumerate(held_out)]
+    rows_res = run_episodes(held_env, episodes, trained_policy(agent, norm))
+    rows_zero = run_episodes(held_env, episodes, zero_policy)
+    summary = summarize(rows_res, rows_zero, s.seed)
+    results = {
+        "settings": dataclasses.asdict(s),
+        "held_out": f"synthetic dataset seed {s.seed + 1}, {s.eval_instances} instances per interaction "
+                    f"(training: seed {s.seed}, {s.train_instances} per interaction)",
+        "train_wall_s": train_wall, "total_wall_s": time.perf_counter() - wall0,
+        "total_cpu_s": time.process_time() - cpu0, "training_episodes": len(curve),
+        "timesteps_trained": recorder.updated_timesteps, "stopped_by_budget": recorder.stopped,
+        "train_reference_zero_residual": reference,
+        "summary": summary,
+        "episodes": {"residual": rows_res, "zero_residual": rows_zero},
+    }
+    atomic_write_text(out / "curve.json", json.dumps(curve))
+    atomic_write_text(out / "results.json", json.dumps(results, indent=2))
+    return results
+
+
+def main() -> None:
+    d = Settings()
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", type=Path, required=True, help="output folder")
+    ap.add_argument("--models", type=Path, default=None, help="load <interaction>.npz from here instead of fitting")
+    ap.add_argument("--interactions", nargs="+", default=list(d.labels))
+    for f in dataclasses.fields(Settings):
+        if f.name in ("labels", "max_frames"):
+            continue
+        ap.add_argument("--" + f.name.replace("_", "-"), type=type(f.default), default=f.default)
+    ap.add_argument("--max-frames", type=int, default=None)
+    ap.add_argument("--budget-minutes", type=float, default=None,
+                    help="stop training after the first rollout that ends past this much wall time; the results "
+                         "record the steps trained, and --timesteps with that number reproduces the policy")
+    args = ap.parse_args()
+    kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(Settings) if f.name != "labels"}
+    s = Settings(labels=tuple(args.interactions), **kw)
+    r = run(s, args.out, args.models, budget_s=None if args.budget_minutes is None else 60.0 * args.budget_minutes)
+    sm = r["summary"]
+    for name, block in [("all", sm), *sm["per_interaction"].items()]:
+        for pol in ("zero_residual", "residual"):
+            p = block[pol]
+            print(f"{name:12s} {pol:14s} success {p['success_rate']:.3f} [{p['success_ci95'][0]:.3f}, "
+                  f"{p['success_ci95'][1]:.3f}]  return {p['mean_return']:7.2f} [{p['mean_return_ci95'][0]:.2f}, "
+                  f"{p['mean_return_ci95'][1]:.2f}]  n={p['episodes']}")
+        dsu, dre = block["paired_success_difference"], block["paired_return_difference"]
+        print(f"{name:12s} paired residual - zero: success {dsu['mean']:+.3f} [{dsu['ci95'][0]:+.3f}, {dsu['ci95'][1]:+.3f}]"
+              f"  return {dre['mean']:+.2f} [{dre['ci95'][0]:+.2f}, {dre['ci95'][1]:+.2f}]")
+    print(f"target met: {sm['target_met']}; trained {r['timesteps_trained']} steps"
+          f"{' (stopped by the budget)' if r['stopped_by_budget'] else ''} in {r['train_wall_s']:.0f} s wall; "
+          f"total {r['total_wall_s']:.0f} s")
+
+
+if __name__ == "__main__":
+    main()

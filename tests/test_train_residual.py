@@ -1,0 +1,177 @@
+"""scripts/train_residual.py: a few hundred PPO steps through the script's own code path.
+
+The tiny run (2 training and 2 held-out instances per interaction, a one-iteration model fit, 256 PPO
+steps) proves the example works end to end; its figures are not judged. What is checked: the files it
+writes (policy, normalizer, models, learning curve, results), that the evaluation rows are what the
+environment gives — the zero-residual rows are replayed with a plain ``SocialAffordanceEnv`` and the
+trained policy is reloaded from disk and replayed — and the summary statistics against hand counts and
+the closed-form Wilson interval. Skipped without the ``[rl]`` extra (stable-baselines3, torch).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")  # the [rl] extra
+
+from stable_baselines3 import PPO  # noqa: E402
+from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize  # noqa: E402
+
+from socialaff_sim.environment import SocialAffordanceEnv  # noqa: E402
+from socialaff_sim.errors import ConfigError  # noqa: E402
+from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPT = ROOT / "scripts" / "train_residual.py"
+
+
+@pytest.fixture(scope="module")
+def script():  # noqa: ANN201
+    spec = importlib.util.spec_from_file_location("train_residual_script", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        sys.modules.pop(spec.name, None)
+    return module
+
+
+@pytest.fixture(scope="module")
+def tiny(script, tmp_path_factory):  # noqa: ANN001, ANN201
+    settings = script.Settings(train_instances=2, eval_instances=2, fit_iterations=1, timesteps=256, n_envs=2,
+                               n_steps=64, batch_size=64, n_epochs=2, hidden=32, seed=3)
+    out = tmp_path_factory.mktemp("rl")
+    logged: list[str] = []
+    results = script.run(settings, out, log=logged.append)
+    return settings, out, results, logged
+
+
+def test_writes_policy_curve_and_results(tiny) -> None:  # noqa: ANN001
+    settings, out, results, logged = tiny
+    for name in ("residual_ppo.zip", "vecnormalize.pkl", "models/shake_hands.npz", "models/hand_over.npz"):
+        assert (out / name).stat().st_size > 0, name
+    png = (out / "learning_curve.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
+    assert json.loads((out / "results.json").read_text()) == json.loads(json.dumps(results))
+    assert results["timesteps_trained"] >= settings.timesteps
+    curve = json.loads((out / "curve.json").read_text())
+    assert len(curve) == results["training_episodes"] > 0
+    steps = [r["timesteps"] for r in curve]
+    assert steps == sorted(steps) and steps[-1] <= results["timesteps_trained"]
+    assert {r["interaction"] for r in curve} <= {"shake_hands", "hand_over"}
+    # 2 held-out instances per interaction, one episode each per policy, on the same (instance, seed) pairs.
+    rows = results["episodes"]
+    assert len(rows["residual"]) == len(rows["zero_residual"]) == 4
+    assert [(r["instance"], r["seed"]) for r in rows["residual"]] == [(r["instance"], r["seed"]) for r in rows["zero_residual"]]
+    summary = results["summary"]
+    assert set(summary["per_interaction"]) == {"shake_hands", "hand_over"}
+    for pol in ("residual", "zero_residual"):
+        s = summary[pol]
+        assert s["episodes"] == 4 and s["successes"] == sum(r["success"] for r in rows[pol])
+        np.testing.assert_allclose(s["mean_return"], np.mean([r["return"] for r in rows[pol]]), rtol=1e-12, atol=1e-12)
+    assert any("models ready" in m for m in logged)
+
+
+def test_held_out_instances_are_not_training_instances(script, tiny) -> None:  # noqa: ANN001
+    settings = tiny[0]
+    train, held = script.build_data(settings)
+    assert len(train) == 4 and len(held) == 4
+    train_tracks = [i.joints for i in train]
+    for h in held:  # another dataset seed: no held-out track equals a training track
+        assert not any(t.shape == h.joints.shape and np.allclose(t, h.joints, equal_nan=True) for t in train_tracks)
+
+
+def test_zero_residual_rows_match_a_plain_environment(script, tiny) -> None:  # noqa: ANN001
+    settings, out, results, _ = tiny
+    _, held = script.build_data(settings)
+    models = {lbl: SocialAffordanceModel.load(out / "models" / f"{lbl}.npz") for lbl in settings.labels}
+    env = SocialAffordanceEnv(interactions=list(settings.labels), data=held, action_mode="residual", model=models,
+                              physics=settings.physics)
+    for row in results["episodes"]["zero_residual"]:
+        env.reset(seed=row["seed"], options={"instance": row["instance"]})
+        total, done, info = 0.0, False, {}
+        while not done:
+            _, reward, term, trunc, info = env.step(np.zeros((5, 3), np.float32))
+            total, done = total + reward, term or trunc
+        assert total == pytest.approx(row["return"], abs=1e-9)
+        assert info["success"] == row["success"] and info["subgoals"] == row["subgoals"]
+
+
+def test_saved_policy_replays_its_evaluation(script, tiny) -> None:  # noqa: ANN001
+    settings, out, results, _ = tiny
+    train, held = script.build_data(settings)
+    models = {lbl: SocialAffordanceModel.load(out / "models" / f"{lbl}.npz") for lbl in settings.labels}
+    agent = PPO.load(out / "residual_ppo.zip", device="cpu")
+    norm = VecNormalize.load(str(out / "vecnormalize.pkl"), DummyVecEnv([lambda: script.make_env(settings, train, models)]))
+    norm.training = False
+    env = script.make_env(settings, held, models)
+    rows = script.run_episodes(env, [(r["instance"], r["seed"]) for r in results["episodes"]["residual"]],
+                               script.trained_policy(agent, norm))
+    assert [r["return"] for r in rows] == pytest.approx([r["return"] for r in results["episodes"]["residual"]], abs=1e-9)
+    assert [r["success"] for r in rows] == [r["success"] for r in results["episodes"]["residual"]]
+
+
+def _row(label: str, k: int, success: bool, ret: float) -> dict:
+    return {"instance": f"{label}_{k}", "seed": k, "interaction": label, "return": ret, "success": success,
+            "failed": False, "subgoals": {"g": success}, "subgoals_met": float(success)}
+
+
+def _wilson(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    return centre - half, centre + half
+
+
+def test_summary_by_hand(script) -> None:  # noqa: ANN001
+    # a: residual succeeds on 0, 1, 2; zero on 0, 3 -> +1, +1 -1 ... b: both succeed on 0 only.
+    res = [_row("a", 0, True, 5.0), _row("a", 1, True, 4.0), _row("a", 2, True, 3.0), _row("a", 3, False, 0.0),
+           _row("b", 0, True, 2.0), _row("b", 1, False, 1.0)]
+    zero = [_row("a", 0, True, 4.0), _row("a", 1, False, 1.0), _row("a", 2, False, 1.0), _row("a", 3, True, 2.0),
+            _row("b", 0, True, 2.0), _row("b", 1, False, 3.0)]
+    s = script.summarize(res, zero[::-1], seed=0)  # pairing is by (instance, seed), not by order
+    assert s["residual_only_successes"] == 2 and s["zero_only_successes"] == 1
+    assert s["residual"]["successes"] == 4 and s["zero_residual"]["successes"] == 3
+    np.testing.assert_allclose(s["residual"]["success_ci95"], _wilson(4, 6), atol=1e-9)
+    # overall differences weigh the two interactions equally: mean of (a: (0+1+1-1)/4, b: 0)
+    np.testing.assert_allclose(s["paired_success_difference"]["mean"], (0.25 + 0.0) / 2, atol=1e-12)
+    np.testing.assert_allclose(s["paired_return_difference"]["mean"], ((1 + 3 + 2 - 2) / 4 + (0 - 2) / 2) / 2, atol=1e-12)
+    a = s["per_interaction"]["a"]
+    assert a["residual"]["success_rate"] == 0.75 and a["zero_residual"]["success_rate"] == 0.5
+    assert s["target_met"] is False  # one zero-only success: the interval reaches below 0
+
+
+def test_target_decision(script) -> None:  # noqa: ANN001
+    n = 20
+    better = [_row("a", k, True, 1.0) for k in range(n)]
+    worse = [_row("a", k, k < 2, 0.0) for k in range(n)]
+    assert script.summarize(better, worse, seed=0)["target_met"] is True
+    assert script.summarize(worse, better, seed=0)["target_met"] is False
+    assert script.summarize(better, better, seed=0)["target_met"] is False
+
+
+def test_summary_rejects_unpaired_episodes(script) -> None:  # noqa: ANN001
+    with pytest.raises(ConfigError, match="same"):
+        script.summarize([_row("a", 0, True, 1.0)], [_row("a", 1, True, 1.0)], seed=0)
+
+
+def test_wall_clock_budget_stops_after_a_whole_rollout(script, tiny) -> None:  # noqa: ANN001
+    settings, out, results, _ = tiny
+    assert results["stopped_by_budget"] is False and results["timesteps_trained"] == settings.timesteps
+    train, _ = script.build_data(settings)
+    models = {lbl: SocialAffordanceModel.load(out / "models" / f"{lbl}.npz") for lbl in settings.labels}
+    long = dataclasses.replace(settings, timesteps=100_000)
+    agent, norm, recorder = script.train(long, train, models, budget_s=0.0)
+    rollout = settings.n_steps * settings.n_envs
+    assert recorder.stopped and recorder.updated_timesteps == rollout
+    assert agent.num_timesteps == rollout + settings.n_envs  # one step of the next rollout, then the stop
+    assert all(r["timesteps"] <= rollout for r in recorder.rows)
