@@ -51,6 +51,7 @@ import numpy as np  # noqa: E402
 import socialaff_sim  # noqa: E402,F401  (registers the ids)
 from socialaff_sim.environment import ENV_IDS  # noqa: E402
 from socialaff_sim.environment.episode_end import FAILURE_REASONS  # noqa: E402
+from socialaff_sim.errors import SocialAffError  # noqa: E402
 from socialaff_sim.retarget.robot import RobotSpec, load_robot  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -151,8 +152,13 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     runs, notes = [], []
     per_mode = max(1, args.steps // len(args.modes))
+    try:
+        robots = {name: robot_spec(name, args.robots_dir) for name in args.robots}
+    except SocialAffError as exc:
+        print(f"env_stress.py: --robots: {exc}", file=sys.stderr)
+        return 2
     for name in args.robots:
-        robot = robot_spec(name, args.robots_dir)
+        robot = robots[name]
         if robot is None:
             notes.append(f"{name}: skipped, no MJCF under {args.robots_dir}")
             print(notes[-1], flush=True)
@@ -163,20 +169,31 @@ def main(argv: list[str] | None = None) -> int:
                              terminate_on_failure=not args.run_through_failures, envelope=not args.no_envelope)
                 runs.append(res)
                 print(json.dumps(res), flush=True)
-    total = {
+                if args.json:  # after every run, so that an interrupted sweep keeps what it measured
+                    _write(args.json, argv, notes, runs)
+    total = _write(args.json, argv, notes, runs) if args.json else _total(runs)
+    print(json.dumps(total), flush=True)
+    return 0 if not total["failed_runs"] else 1
+
+
+def _total(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    return {
         "runs": len(runs), "steps": sum(r["steps"] for r in runs), "episodes": sum(r["episodes"] for r in runs),
         "failed_runs": [f"{r['id']} {r['robot']} {r['mode']}" for r in runs if not r["passed"]],
         "physics_warnings": sum(sum(r["physics_warnings"].values()) for r in runs),
         "mujoco_log_warnings": sum(sum(r["mujoco_log_warnings"].values()) for r in runs),
         "non_finite_steps": sum(r["non_finite_steps"] for r in runs), "errors": sum(sum(r["errors"].values()) for r in runs),
     }
-    print(json.dumps(total), flush=True)
-    if args.json:
-        meta = {"command": " ".join(["python", "scripts/env_stress.py", *(argv if argv is not None else sys.argv[1:])]),
-                "machine": f"{platform.machine()}, {os.cpu_count()} cores, {platform.python_version()}",
-                "date": time.strftime("%Y-%m-%d", time.gmtime())}
-        args.json.write_text(json.dumps({"meta": meta, "notes": notes, "total": total, "runs": runs}, indent=1))
-    return 0 if not total["failed_runs"] else 1
+
+
+def _write(path: Path, argv: list[str] | None, notes: list[str], runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """Write the runs so far, with the command, the machine and the load, to ``path``; returns the totals."""
+    total = _total(runs)
+    meta = {"command": " ".join(["python", "scripts/env_stress.py", *(argv if argv is not None else sys.argv[1:])]),
+            "machine": f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}",
+            "load_average": os.getloadavg(), "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())}
+    path.write_text(json.dumps({"meta": meta, "notes": notes, "total": total, "runs": runs}, indent=1))
+    return total
 
 
 if __name__ == "__main__":

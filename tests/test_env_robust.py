@@ -9,11 +9,15 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import sys
+import warnings
 from pathlib import Path
+
+import gymnasium as gym
 
 import mujoco
 import numpy as np
 import pytest
+from gymnasium.utils.env_checker import check_env
 from scipy.spatial.transform import Rotation
 
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
@@ -302,3 +306,17 @@ def test_without_the_envelope_extreme_targets_make_the_physics_diverge():
         reasons[envelope] = (info["termination_reason"], env.warnings.totals["bad_qacc"])
     assert reasons[False] == ("physics_unstable", 1)
     assert reasons[True][1] == 0 and reasons[True][0] != "physics_unstable"
+
+
+@pytest.mark.parametrize("env_id", list(ENV_IDS))
+def test_env_checker_clean_for_every_id(env_id):
+    """Gymnasium's checker, warnings as errors, on every registered id (``residual`` actions; tests/test_env.py
+    checks ``targets`` too) with the sub-event and sub-goal observation keys."""
+    env = gym.make(env_id, max_frames=12, action_mode="residual")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            check_env(env.unwrapped)
+        assert {"subevent_belief", "subgoal_achieved", "subgoal_current"} <= set(env.observation_space.spaces)
+    finally:
+        env.close()

@@ -34,6 +34,7 @@ projection is idempotent and leaves a target already inside the envelope untouch
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -107,40 +108,47 @@ class FeasibleTargets:
         """[m]: (lowest, highest) ankle target height."""
         self.side = lim.stance * np.abs(body.hips[:, 1])
         """(2,) [m]: least sideways distance of the left / right ankle from the base, on its own side."""
+        self._hips = [[float(v) for v in h] for h in body.hips]
+        self._shoulders = [[float(v) for v in h] for h in body.shoulders]
+        self._sign = [1.0 if h[1] >= 0 else -1.0 for h in self._hips]
 
     def project(self, targets: np.ndarray, previous_base: np.ndarray, fps: float) -> np.ndarray:
         """(5, 3) the targets ``targets`` (5, 3) inside the envelope, the base moved from ``previous_base`` (3,)
         (the last base target) at most one frame of 1/``fps`` s at the limits' speeds."""
+        # Plain floats: five rows of three, where NumPy's per-call overhead would dominate.
         body, lim = self.body, self.limits
-        out = np.array(targets, dtype=np.float64, copy=True)
-        base = out[0]
-        base[2] = np.clip(base[2], *self.base_z)
-        step = base[:2] - previous_base[:2]
+        rows = [[float(v) for v in row] for row in np.asarray(targets, dtype=np.float64)]
+        px, py, pz = (float(v) for v in previous_base)
+        bx, by, bz = rows[0]
+        bz = min(max(bz, self.base_z[0]), self.base_z[1])
+        dx, dy = bx - px, by - py
         reach = lim.base_speed / fps
-        dist = float(np.hypot(*step))
+        dist = math.hypot(dx, dy)
         if dist > reach:
-            base[:2] = previous_base[:2] + step * (reach / dist)
+            bx, by = px + dx * (reach / dist), py + dy * (reach / dist)
         climb = lim.base_climb / fps
-        base[2] = np.clip(base[2], max(self.base_z[0], previous_base[2] - climb), min(self.base_z[1], previous_base[2] + climb))
+        bz = min(max(bz, max(self.base_z[0], pz - climb)), min(self.base_z[1], pz + climb))
+        rows[0] = [bx, by, bz]
         # Ankles: height band, own side of the base, then into the leg's disc at that height.
-        for s, row in ((0, 3), (1, 4)):
-            a = out[row]
-            a[2] = np.clip(a[2], *self.ankle_z)
-            sign = 1.0 if body.hips[s, 1] >= 0 else -1.0
-            a[1] = base[1] + sign * max(sign * (a[1] - base[1]), self.side[s])
-            hip = base + body.hips[s]
-            drop = hip[2] - a[2]
-            radius = float(np.sqrt(max(((1.0 + lim.leg_slack) * body.leg) ** 2 - drop**2, 0.0)))
-            gap = a[:2] - hip[:2]
-            r = float(np.hypot(*gap))
+        leg = (1.0 + lim.leg_slack) * body.leg
+        for s, k in ((0, 3), (1, 4)):
+            ax, ay, az = rows[k]
+            az = min(max(az, self.ankle_z[0]), self.ankle_z[1])
+            sign = self._sign[s]
+            ay = by + sign * max(sign * (ay - by), float(self.side[s]))
+            hx, hy, hz = bx + self._hips[s][0], by + self._hips[s][1], bz + self._hips[s][2]
+            radius = math.sqrt(max(leg * leg - (hz - az) ** 2, 0.0))
+            gx, gy = ax - hx, ay - hy
+            r = math.hypot(gx, gy)
             if r > radius:
-                a[:2] = hip[:2] + gap * (radius / r)
+                ax, ay = hx + gx * (radius / r), hy + gy * (radius / r)
+            rows[k] = [ax, ay, az]
         # Wrists: within the (slack) arm's length of the shoulder.
         arm = (1.0 + lim.arm_slack) * body.arm
-        for s, row in ((0, 1), (1, 2)):
-            shoulder = base + body.shoulders[s]
-            gap = out[row] - shoulder
-            r = float(np.linalg.norm(gap))
+        for s, k in ((0, 1), (1, 2)):
+            sx, sy, sz = bx + self._shoulders[s][0], by + self._shoulders[s][1], bz + self._shoulders[s][2]
+            gx, gy, gz = rows[k][0] - sx, rows[k][1] - sy, rows[k][2] - sz
+            r = math.sqrt(gx * gx + gy * gy + gz * gz)
             if r > arm:
-                out[row] = shoulder + gap * (arm / r)
-        return out
+                rows[k] = [sx + gx * (arm / r), sy + gy * (arm / r), sz + gz * (arm / r)]
+        return np.array(rows)

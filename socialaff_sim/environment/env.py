@@ -41,7 +41,7 @@ from .action_limits import ActionLimits, BodyEnvelope, FeasibleTargets
 from .adapters import AdapterFrame, AffordanceAdapter, GroundTruthAdapter, RobotPose
 from .bodymap import RobotToAgent
 from .config import EnvConfig, physics_config
-from .episode_end import UNSTABLE_WARNINGS, WarningMonitor, tilt_angle
+from .episode_end import UNSTABLE_WARNINGS, WarningMonitor, body_up, tilt_cosine
 from .instances import DataSpec, EpisodePool, load_pool
 from .model_adapter import ModelAdapter, ModelSpec, load_models
 from .observation import ObservationLayout
@@ -225,6 +225,9 @@ class SocialAffordanceEnv(gym.Env):
         self._adjustment = np.zeros(N_KEY)
         self._step_warnings = dict.fromkeys(self.warnings.totals, 0)
         self.warnings.reset(sim.data)
+        # Fall thresholds of this robot and scene: base height (m) and the cosine of the tilt.
+        self._fall = (self.config.fall_height * float(sim.home_key_frames[0, 2]),
+                      float(np.cos(np.deg2rad(self.config.fall_tilt))), body_up(sim.scene.home_qpos[3:7]))
         self.metadata["render_fps"] = float(inter.fps)
 
     def _advance(self, action: np.ndarray) -> tuple[float, dict[str, float], StepResult]:
@@ -268,10 +271,8 @@ class SocialAffordanceEnv(gym.Env):
         if any(self._step_warnings[k] for k in UNSTABLE_WARNINGS) or not (
                 np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
             return "physics_unstable"
-        home = sim.home_key_frames
-        quat = data.qpos[scene.robot_qadr[3:7]]
-        if (self._robot_keys[0, 2] < cfg.fall_height * home[0, 2]
-                or tilt_angle(quat, scene.home_qpos[3:7]) > np.deg2rad(cfg.fall_tilt)):
+        low, cos_tilt, up = self._fall
+        if self._robot_keys[0, 2] < low or tilt_cosine(data.qpos[scene.robot_qadr[3:7]], up) < cos_tilt:
             return "fell"
         scorer: SubgoalScorer = sim.scorer
         if cfg.terminate_on_failure and scorer.failed:

@@ -34,7 +34,8 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-__all__ = ["TERMINATION_REASONS", "FAILURE_REASONS", "WARNING_NAMES", "UNSTABLE_WARNINGS", "WarningMonitor", "tilt_angle"]
+__all__ = ["TERMINATION_REASONS", "FAILURE_REASONS", "WARNING_NAMES", "UNSTABLE_WARNINGS", "WarningMonitor", "body_up",
+           "tilt_cosine", "tilt_angle"]
 
 FAILURE_REASONS = ("self_collision", "contact_force", "object_dropped")
 """The task files' failure kinds (docs/task_format.md), each a termination reason of its own."""
@@ -61,11 +62,15 @@ class WarningMonitor:
     def __init__(self) -> None:
         self._index = np.array([int(w) for w in WARNING_NAMES.values()])
         self._last = np.zeros(len(WARNING_NAMES), dtype=np.int64)
+        self._quiet = dict.fromkeys(WARNING_NAMES, 0)
         self.totals = dict.fromkeys(WARNING_NAMES, 0)
         """Warnings counted since the monitor was made, by name (over every episode)."""
 
     def _counts(self, data: mujoco.MjData) -> np.ndarray:
-        return np.array([data.warning[i].number for i in self._index], dtype=np.int64)
+        number = getattr(data.warning, "number", None)  # MuJoCo's bindings: a view of every counter
+        if number is None:
+            return np.array([data.warning[i].number for i in self._index], dtype=np.int64)
+        return np.asarray(number, dtype=np.int64)[self._index]
 
     def reset(self, data: mujoco.MjData) -> None:
         """Start from ``data``'s counters now (call after the data was reset, e.g. at an episode's start)."""
@@ -74,6 +79,8 @@ class WarningMonitor:
     def step(self, data: mujoco.MjData) -> dict[str, int]:
         """{name: warnings since the last call}; a counter that went down (MuJoCo reset the data) counts from 0."""
         now = self._counts(data)
+        if np.array_equal(now, self._last):  # the usual case: nothing new
+            return dict(self._quiet)
         new = np.where(now >= self._last, now - self._last, now)
         self._last = now
         out = {name: int(n) for name, n in zip(WARNING_NAMES, new, strict=True)}
@@ -82,15 +89,26 @@ class WarningMonitor:
         return out
 
 
+def body_up(home_quat: np.ndarray) -> np.ndarray:
+    """(3,) the world vertical in the body's own axes at its home orientation ``home_quat`` (w, x, y, z)."""
+    h = np.empty(9)
+    mujoco.mju_quat2Mat(h, np.asarray(home_quat, dtype=np.float64))
+    return h.reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
+
+
+def tilt_cosine(quat: np.ndarray, up: np.ndarray) -> float:
+    """cos of the angle between the vertical and the body's axis ``up`` (:func:`body_up`) carried by the body's
+    orientation ``quat`` (4,) (w, x, y, z): the z row of the rotation matrix of a unit quaternion, times ``up``."""
+    w, x, y, z = (float(v) for v in quat)
+    n = w * w + x * x + y * y + z * z
+    row = (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z)
+    return (row[0] * float(up[0]) + row[1] * float(up[1]) + row[2] * float(up[2])) / max(n, 1e-12)
+
+
 def tilt_angle(quat: np.ndarray, home_quat: np.ndarray) -> float:
     """Angle (rad) between the vertical and the body's home vertical carried by its rotation now.
 
     ``quat`` / ``home_quat`` (4,) (w, x, y, z): the body's orientation now and at home; a turn
     about the vertical axis alone gives 0.
     """
-    r = np.empty(9)
-    mujoco.mju_quat2Mat(r, np.asarray(quat, dtype=np.float64))
-    h = np.empty(9)
-    mujoco.mju_quat2Mat(h, np.asarray(home_quat, dtype=np.float64))
-    up = r.reshape(3, 3) @ (h.reshape(3, 3).T @ np.array([0.0, 0.0, 1.0]))
-    return float(np.arccos(np.clip(up[2] / max(np.linalg.norm(up), 1e-12), -1.0, 1.0)))
+    return float(np.arccos(min(1.0, max(-1.0, tilt_cosine(quat, body_up(home_quat))))))
