@@ -76,6 +76,7 @@ class _MujocoLog(logging.Handler):
 def robot_spec(name: str, robots_dir: Path) -> str | RobotSpec | None:
     """The robot to pass to the env, ``None`` when a Unitree model is not available."""
     if name not in UNITREE:
+        load_robot(name)  # a bad name or mapping file fails here, before any run
         return name
     folder, xml = UNITREE[name]
     path = robots_dir / folder / xml
