@@ -22,7 +22,7 @@ from scipy.spatial.transform import Rotation
 
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.environment import ENV_IDS, SocialAffordanceEnv
-from socialaff_sim.environment.action_limits import ActionLimits, BodyEnvelope, FeasibleTargets
+from socialaff_sim.environment.action_limits import EnvelopeConfig, BodyEnvelope, FeasibleTargets
 from socialaff_sim.environment.episode_end import FAILURE_REASONS, TERMINATION_REASONS, WarningMonitor, tilt_angle
 from socialaff_sim.errors import ConfigError
 
@@ -50,7 +50,7 @@ BODY = BodyEnvelope(arm=0.6, leg=0.8, shoulders=np.array([[0.0, 0.2, 0.45], [0.0
                     hips=np.array([[0.0, 0.1, -0.05], [0.0, -0.1, -0.05]]), base_height=0.85, ankle_height=0.08)
 
 
-def inside(body: BodyEnvelope, lim: ActionLimits, t: np.ndarray, prev: np.ndarray, fps: float) -> bool:
+def inside(body: BodyEnvelope, lim: EnvelopeConfig, t: np.ndarray, prev: np.ndarray, fps: float) -> bool:
     """The envelope's conditions, written out one by one (tolerance 1e-9 m)."""
     e = 1e-9
     base = t[0]
@@ -67,7 +67,7 @@ def inside(body: BodyEnvelope, lim: ActionLimits, t: np.ndarray, prev: np.ndarra
 
 
 def test_projection_lands_inside_is_idempotent_and_keeps_what_is_inside(rng):
-    lim = ActionLimits()
+    lim = EnvelopeConfig()
     proj = FeasibleTargets(BODY, lim)
     prev = np.array([0.0, 0.0, 0.85])
     outside = 0
@@ -100,7 +100,7 @@ def test_projection_decisions_each_move_only_their_row():
     reach[1] = [3.0, 0.2, 1.3]  # 3 m in front of the left shoulder (0, 0.2, 1.3)
     np.testing.assert_allclose(proj.project(reach, prev, 10.0)[1], [1.2, 0.2, 1.3], atol=1e-12)
     with pytest.raises(ConfigError, match="stance"):
-        ActionLimits(stance=1.5)
+        EnvelopeConfig(stance=1.5)
 
 
 # -- termination reasons --------------------------------------------------------------------------

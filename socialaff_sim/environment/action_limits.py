@@ -41,11 +41,11 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["ActionLimits", "BodyEnvelope", "FeasibleTargets"]
+__all__ = ["EnvelopeConfig", "BodyEnvelope", "FeasibleTargets"]
 
 
 @dataclass(frozen=True)
-class ActionLimits:
+class EnvelopeConfig:
     """How far the projection lets key-frame targets go (the environment's, not the paper's)."""
 
     base_speed: float = 3.0
@@ -70,10 +70,10 @@ class ActionLimits:
     def __post_init__(self) -> None:
         for name in ("base_speed", "base_climb", "base_drop", "step_height"):
             if not float(getattr(self, name)) > 0:
-                raise ConfigError(f"ActionLimits.{name}: expected a number > 0, found {getattr(self, name)!r}")
+                raise ConfigError(f"EnvelopeConfig.{name}: expected a number > 0, found {getattr(self, name)!r}")
         for name in ("base_lift", "leg_slack", "arm_slack", "stance", "ankle_floor"):
             if not 0.0 <= float(getattr(self, name)) <= 1.0:
-                raise ConfigError(f"ActionLimits.{name}: expected a fraction in [0, 1], found {getattr(self, name)!r}")
+                raise ConfigError(f"EnvelopeConfig.{name}: expected a fraction in [0, 1], found {getattr(self, name)!r}")
 
 
 @dataclass(frozen=True)
@@ -97,9 +97,9 @@ class BodyEnvelope:
 class FeasibleTargets:
     """Projects (5, 3) robot-frame key-frame targets onto what the robot's body can follow."""
 
-    def __init__(self, body: BodyEnvelope, limits: ActionLimits | None = None) -> None:
+    def __init__(self, body: BodyEnvelope, limits: EnvelopeConfig | None = None) -> None:
         self.body = body
-        self.limits = lim = limits or ActionLimits()
+        self.limits = lim = limits or EnvelopeConfig()
         hip_depth = float(-np.mean(body.hips[:, 2]))
         self.base_z = (body.base_height - lim.base_drop * body.leg,
                        body.ankle_height + hip_depth + (1.0 + lim.base_lift) * body.leg)

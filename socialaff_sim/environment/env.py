@@ -37,7 +37,7 @@ from ..errors import ConfigError, SimulationError, choices
 from ..sim.scoring import SubgoalScorer
 from ..retarget.robot import RobotSpec, load_robot
 from ..sim.simulator import Simulator, StepResult
-from .action_limits import ActionLimits, BodyEnvelope, FeasibleTargets
+from .action_limits import BodyEnvelope, EnvelopeConfig, FeasibleTargets
 from .adapters import AdapterFrame, AffordanceAdapter, GroundTruthAdapter, RobotPose
 from .bodymap import RobotToAgent
 from .config import EnvConfig, physics_config
@@ -75,8 +75,8 @@ class SocialAffordanceEnv(gym.Env):
         A custom :class:`~socialaff_sim.environment.adapters.AffordanceAdapter` (instead of ``model``).
     history, max_frames, physics, terminate_on_failure, fall_height, fall_tilt, render_width, render_height:
         Fields of :class:`~socialaff_sim.environment.config.EnvConfig`.
-    action_limits:
-        The envelope targets are projected into (:class:`~socialaff_sim.environment.action_limits.ActionLimits`).
+    envelope:
+        The envelope targets are projected into (:class:`~socialaff_sim.environment.action_limits.EnvelopeConfig`).
     reward:
         Term weights (:class:`~socialaff_sim.environment.reward.RewardConfig`).
     proxy_sigma:
@@ -102,7 +102,7 @@ class SocialAffordanceEnv(gym.Env):
         terminate_on_failure: bool = True,
         fall_height: float = 0.5,
         fall_tilt: float = 60.0,
-        action_limits: ActionLimits | None = None,
+        envelope: EnvelopeConfig | None = None,
         proxy_sigma: float = 0.1,
         render_mode: str | None = None,
         render_width: int = 640,
@@ -114,7 +114,7 @@ class SocialAffordanceEnv(gym.Env):
             terminate_on_failure=terminate_on_failure, fall_height=fall_height, fall_tilt=fall_tilt,
             render_width=render_width, render_height=render_height,
         )
-        self.action_limits = action_limits or ActionLimits()
+        self.envelope = envelope or EnvelopeConfig()
         self.warnings = WarningMonitor()
         """MuJoCo's warnings on the physics, per step (``info["physics_warnings"]``) and in total (``warnings.totals``)."""
         if render_mode not in (None, *type(self).metadata["render_modes"]):
@@ -143,7 +143,7 @@ class SocialAffordanceEnv(gym.Env):
         self.feasible = FeasibleTargets(BodyEnvelope(
             arm=float(m.arm), leg=float(m.leg), shoulders=np.asarray(m.shoulders, float), hips=np.asarray(m.hips, float),
             base_height=float(probe.home_key_frames[0, 2]), ankle_height=float(np.mean(probe.home_key_frames[3:5, 2])),
-        ), self.action_limits)
+        ), self.envelope)
         """The projection of targets onto what the robot's body can follow."""
         names = {lbl: self.adapter.subevent_names(lbl, self.pool.instances) for lbl in self.pool.labels}
         self.rewards = RewardTracker([self.pool.tasks[lbl] for lbl in self.pool.labels], reward)
