@@ -34,7 +34,6 @@ from gymnasium import spaces
 
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, SimulationError, choices
-from ..sim.scoring import SubgoalScorer
 from ..retarget.robot import RobotSpec, load_robot
 from ..sim.simulator import Simulator, StepResult
 from .action_limits import BodyEnvelope, EnvelopeConfig, FeasibleTargets
@@ -274,7 +273,7 @@ class SocialAffordanceEnv(gym.Env):
         low, cos_tilt, up = self._fall
         if self._robot_keys[0, 2] < low or tilt_cosine(data.qpos[scene.robot_qadr[3:7]], up) < cos_tilt:
             return "fell"
-        scorer: SubgoalScorer = sim.scorer
+        scorer = sim.scorer
         if cfg.terminate_on_failure and scorer.failed:
             return next(f.kind for f in scorer.failures if f.triggered)
         if sim.done:
