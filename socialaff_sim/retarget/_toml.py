@@ -105,6 +105,15 @@ class Table:
             raise self.error(name, "one of the valid choices", value, options)
         return value
 
+    def get_bool(self, name: str, default: Any = MISSING) -> Any:
+        """A boolean (``true`` / ``false``)."""
+        value = self._get(name, default)
+        if value is default and name not in self.data:
+            return value
+        if not isinstance(value, bool):
+            raise self.error(name, "true or false", value)
+        return value
+
     def get_float(self, name: str, default: Any = MISSING, *, lo: float = -math.inf, hi: float = math.inf) -> Any:
         """A finite number in ``[lo, hi]``."""
         value = self._get(name, default)

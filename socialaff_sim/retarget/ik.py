@@ -2,8 +2,13 @@
 
 Tasks: a frame task per key frame (positions; plus orientation for the base, kept
 upright and facing the partner, and the feet, kept flat), stacked into one mink
-task (:class:`~.key_task.KeyFramesTask`), and a :class:`mink.PostureTask` toward
-the home posture that settles the redundancy.
+task (:class:`~.key_task.KeyFramesTask`), a :class:`mink.PostureTask` toward
+the home posture that settles the redundancy, and standing balance: a planted
+foot is pinned (its position and orientation costs raised to ``planted_foot_cost``
+/ ``planted_foot_orientation_cost``), and while both are planted the centre of mass
+may not leave their support rectangle (:class:`~.support_limit.SupportPolygonLimit`,
+``support_margin``); a :class:`mink.ComTask` toward the rectangle's centre
+(``com_cost``) is optional.
 Limits: :class:`mink.ConfigurationLimit` (joint ranges) and
 :class:`mink.VelocityLimit` (every hinge), merged into one box on Δq per data frame
 (:class:`~.joint_limits.JointBoxLimit`), and collision avoidance
@@ -44,6 +49,7 @@ from .collision import GeomPairLimit, collision_pairs
 from .ik_config import IKConfig
 from .joint_limits import JointBoxLimit
 from .key_task import KeyFramesTask
+from .balance import StandingBalance
 
 __all__ = ["IKConfig", "IKModel", "IKResult", "RobotIK", "JointBoxLimit", "GeomPairLimit", "KeyFramesTask"]
 
@@ -130,6 +136,12 @@ class RobotIK:
         self.collision_limit: GeomPairLimit
         self.set_contact_exemptions([])
         self._home_quat = self._frame_quats(ik_model.home_qpos)
+        self.configuration.update(ik_model.home_qpos)
+        d = self.configuration.data
+        self.balance = StandingBalance(m, d, self.key_task.positions(d)[3:5], ik_model.frame_kinds,
+                                       ik_model.frame_ids, robot, c)
+        self._oriented = list(self.key_task.oriented)
+        self._tasks: list[mink.Task] = [self.key_task, self.posture_task]
         self._fixed_yaw: float | None = None
         self._damping = c.damping
 
@@ -142,6 +154,10 @@ class RobotIK:
         for k, (kind, fid) in enumerate(zip(self.spec.frame_kinds, self.spec.frame_ids, strict=True)):
             mujoco.mju_mat2Quat(out[k], d.site_xmat[fid] if kind == "site" else d.xmat[fid])
         return out
+
+    def com(self) -> np.ndarray:
+        """(3,) the robot's centre of mass at the current configuration, world frame, metres."""
+        return np.array(self.configuration.data.subtree_com[1])
 
     def _set_collision_bits(self) -> None:
         """Let MuJoCo's collision detection in the IK model find only the pairs the IK watches.
@@ -215,7 +231,7 @@ class RobotIK:
 
     def limits(self) -> list[mink.Limit]:
         """The limits passed to the QP."""
-        return [self._box, self.collision_limit]
+        return [self._box, self.collision_limit, *self.balance.limits()]
 
     def reset(self, qpos: np.ndarray) -> None:
         """Start from configuration ``qpos`` (nq,), at rest."""
@@ -248,7 +264,7 @@ class RobotIK:
     def _step(self, dt: float) -> np.ndarray:
         """One QP step; a push-out the QP cannot meet together with the joint limits is dropped."""
         c, cfg = self.config, self.configuration
-        tasks = [self.key_task, self.posture_task]
+        tasks = self._tasks
         lim = self.collision_limit
         try:
             return mink.solve_ik(configuration=cfg, tasks=tasks, dt=dt, solver=c.solver, damping=self._damping,
@@ -291,7 +307,8 @@ class RobotIK:
             cfg.integrate_inplace(v, dt)
         lim.unwatch()
 
-    def solve(self, targets: np.ndarray, yaw: float, dt: float, care: np.ndarray | None = None) -> IKResult:
+    def solve(self, targets: np.ndarray, yaw: float, dt: float, care: np.ndarray | None = None,
+              planted: tuple[bool, bool] = (False, False)) -> IKResult:
         """Move toward world-frame ``targets`` (5, 3) over one frame of ``dt`` seconds.
 
         ``yaw`` (rad) turns the base's and the feet's home orientations to face the partner.
@@ -300,6 +317,9 @@ class RobotIK:
         more steps are taken only while one within reach is farther than ``tolerance``
         (a target the person's body or a limb's length puts out of reach cannot be met, and
         chasing it would only spend time).
+        ``planted`` (left, right): the feet standing on the floor at their targets; each is pinned,
+        and with both the centre of mass is kept over their support rectangle (and, with ``com_cost``,
+        drawn to its centre).
         """
         targets = np.asarray(targets, dtype=np.float64)
         if targets.shape != (5, 3) or not np.isfinite(targets).all():
@@ -311,7 +331,19 @@ class RobotIK:
         # A target out of reach still draws its limb, but more weakly: through the joints the limbs share
         # (the waist) it would otherwise pull the reachable targets off theirs.
         weight = self._position_cost * np.where(watch, 1.0, c.unreachable_weight)
+        feet = np.asarray(planted, dtype=bool)
+        weight[3:5] = np.where(feet, c.planted_foot_cost / c.position_cost, 1.0) * weight[3:5]
         self.key_task.cost[:15] = np.repeat(weight, 3)
+        for row, k in enumerate(self._oriented):
+            if k in (3, 4):
+                cost = c.planted_foot_orientation_cost if feet[k - 3] else c.foot_orientation_cost
+                self.key_task.cost[15 + 3 * row:18 + 3 * row] = cost
+        balance = self.balance.update(targets[3:5], yaw, bool(feet.all()))
+        self._tasks = [self.key_task, self.posture_task, *balance]
+        if balance:
+            # Standing, the base may give way horizontally: the hips, not a leaning torso, carry the centre of
+            # mass back over the feet when the arms reach out.
+            self.key_task.cost[:2] = c.planted_base_cost * (weight[0] / c.base_position_cost)
         self._box.begin_frame(cfg.q)
         errors = np.linalg.norm(self.frame_positions() - targets, axis=1)
         it = 0

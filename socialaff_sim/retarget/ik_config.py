@@ -15,6 +15,8 @@ class IKConfig:
     -----------------
     - Task costs: position_cost, unreachable_weight, base_position_cost, base_orientation_cost,
       foot_orientation_cost, posture_cost, torso_posture_cost
+    - Standing balance: support_margin, com_cost, planted_base_cost, planted_foot_cost,
+      planted_foot_orientation_cost
     - Damping and stopping rule: damping, max_worsening, damping_growth, max_damping, iterations, tolerance,
       min_progress, patience
     - Collision avoidance: min_distance, contact_depth, detection_distance, self_detection_distance, collision_gain,
@@ -35,13 +37,39 @@ class IKConfig:
     """[1/rad]: Cost of each foot's orientation error (per radian)."""
     posture_cost: float = 0.01
     """[1/rad]: Cost of departing from the home posture (per radian)."""
-    torso_posture_cost: float = 0.1
+    torso_posture_cost: float = 0.5
     """[1/rad]: Cost of departing from the home posture (per radian) of the spine's joints
     (``IKModel.torso_dofs``): above ``posture_cost`` it keeps the torso upright rather than leaning it toward
     a target. At 0.01 (the posture cost) Stubby's torso leaned 20–26° in the contact phases of
     shake_hands_000 and pull_up_000; at 0.1, 7° (high_five_000: 2°), every sub-goal still met. At 0.3 (6–9°)
     two wrist targets of a catch (throw_catch instance 3) ended 3.2 cm off: the torso's lean is part of the
-    reach."""
+    reach. With a centre-of-mass task (``com_cost`` = 10) the torso leans back to carry the centre of mass
+    over the feet: at 0.1 the largest tilt per contact phase had a median of 18° (Stubby, 2 instances of
+    each interaction); at 0.5, 4° with every sub-goal met (0.3: 6°; 1.0: 4°, one handshake lost)."""
+    support_margin: float | None = 0.03
+    """[m]: While both feet are planted, the centre of mass may not leave the support rectangle (the feet's
+    horizontal extent at home, placed at the planted ankles) shrunk by this much on every side
+    (:class:`~.support_limit.SupportPolygonLimit`, a limit of the QP); ``None``: no such limit."""
+    com_cost: float = 0.0
+    """[1/m]: Cost of the horizontal distance (per metre) between the centre of mass and the centre of the
+    support polygon while both feet are planted (:class:`mink.ComTask`, no cost on its height); 0: no such
+    task (the default; ``support_margin`` keeps the centre of mass over the feet). The centre: the middle of
+    the planted ankle targets plus the offset of the centre of mass from the ankles' middle at home (where
+    the robot stands balanced), turned with the robot. A 0.75 m reach of both arms keeps Stubby's centre of
+    mass within 1 cm of it at 10 (13 cm forward without), at the price of 11 cm of reach. At 10 the harness
+    carried 28 % of Stubby's weight in the contact phases instead of 34 % (2 synthetic instances per
+    interaction), but on a real handover (handover_h2h motion_normal_1) the wrists met their reachable targets
+    in 79–82 % of the frames instead of 98–100 % (73 % of all key-frame targets within 2 cm instead of 94 %);
+    at 1 and 3, the same."""
+    planted_base_cost: float = 0.5
+    """[1/m]: Cost of the base's horizontal position error (per metre) while the centre-of-mass task is active
+    (``com_cost`` > 0 and both feet planted): the hips may move to carry the centre of mass over the feet (with ``com_cost`` = 10 and this at
+    ``base_position_cost``, 5, 6 of 10 Stubby episodes met every sub-goal instead of 10)."""
+    planted_foot_cost: float = 50.0
+    """[1/m]: Cost of a planted foot's position error (per metre), replacing ``position_cost``: a planted foot
+    is pinned where it came down (the caller says which feet are planted)."""
+    planted_foot_orientation_cost: float = 5.0
+    """[1/rad]: Cost of a planted foot's orientation error (per radian): flat on the floor."""
     damping: float = 1e-4
     """[—]: Levenberg-Marquardt damping of the QP."""
     max_worsening: float | None = 0.01

@@ -33,6 +33,7 @@ from dm_control import mjcf
 from ..data.skeletons import SkeletonLayout
 from ..errors import SimulationError
 from ..retarget.robot import RobotSpec
+from .chair import add_chair
 from .human import HumanBody, human_body
 from .robot_mjcf import robot_mjcf, tune_servos
 from .scene_human import HUMAN_RGBA, add_human, part_names, pose_compliant, set_human_sizes
@@ -153,7 +154,8 @@ class Scene:
 
 def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None = None,
                 *, physics: bool = True, timestep: float = 0.004, servo_bandwidth: float | None = 25.0,
-                gravity_compensation: bool = False, harness_time_constant: float | None = None) -> Scene:
+                gravity_compensation: bool = False, harness_time_constant: float | None = None,
+                stance_bandwidth: float | None = None, chair: bool = False) -> Scene:
     """Compile the scene for one robot, one skeleton layout and an optional object.
 
     ``physics=False`` gives the IK scene: robot and human only (no floor, object,
@@ -162,6 +164,8 @@ def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None
     ``gravity_compensation``: every robot body gets ``gravcomp = 1`` (a weightless, kinematic puppet).
     ``harness_time_constant`` (s): the root hangs from the anchor by a soft weld of this time constant and
     impedance :data:`HARNESS_IMPEDANCE` (a compliant harness); ``None``: by a rigid weld.
+    ``stance_bandwidth`` (rad/s): leg servos stiff enough to stand on (see :func:`tune_servos`); ``None``: not.
+    ``chair``: the physics scene gets a chair (:func:`~socialaff_sim.sim.chair.add_chair`).
     """
     root = mjcf.RootElement(model="socialaff_scene")
     root.compiler.angle = "radian"
@@ -197,6 +201,8 @@ def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None
             solref, solimp = (harness_time_constant, 1.0), (HARNESS_IMPEDANCE, HARNESS_IMPEDANCE, 0.001, 0.5, 2)
         root.equality.add("weld", name="robot_anchor", body1=anchor, body2="robot/",
                           relpose=(0, 0, 0, 1, 0, 0, 0), solref=solref, solimp=solimp)
+    if physics and chair:
+        add_chair(root)
     if physics and obj is not None:
         ob = root.worldbody.add("body", name="object", pos=(0, 0, -5))
         ob.add("freejoint", name="object")
@@ -212,7 +218,8 @@ def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None
     scene = _index(model, robot, body, rob, home, physics and obj is not None, physics)
     if physics and servo_bandwidth is not None:
         tune_servos(scene.model, scene.robot_qadr, scene.home_qpos, scene.act_ids, scene.robot_joint_ids[1:],
-                    servo_bandwidth)
+                    servo_bandwidth, stance_roots=() if stance_bandwidth is None else scene.limb_body_ids[2:4],
+                    stance_bandwidth=stance_bandwidth or 0.0)
     return scene
 
 

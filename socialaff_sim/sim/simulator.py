@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import mujoco
@@ -21,9 +20,10 @@ import numpy as np
 
 from ..data.interaction import Interaction
 from ..errors import SimulationError
-from ..retarget.ik import IKConfig, RobotIK
+from ..retarget.ik import RobotIK
 from ..retarget.robot import RobotSpec, load_robot
-from ..retarget.scaling import KeyJointScaler, RobotFrame, ScalingConfig, measure_robot, object_anchors
+from ..retarget.scaling import KeyJointScaler, RobotFrame, measure_robot, object_anchors
+from .chair import chair_pose, place_chair
 from .carry import CarryPlan, hold_object, park_object, plan_carry, release_object
 from .human import HumanPose, pose_human, world_offset
 from .reach import human_segments, reach_model, reachable_targets
@@ -32,92 +32,12 @@ from .scoring import SubgoalScorer
 from .stage import Stage, compile_scenes, contact_exemptions, key_frames, key_frames_at
 from .substeps import FrameStepper
 from .feedforward import StandingFeedforward
-from .footlock import FootLock, FootLockConfig
-from .support import FrameSupport, SupportMeter
+from .footlock import FootLock
+from .sim_config import SimConfig, StepResult
+from .support import SupportMeter
 from .tasks import TaskSpec, load_task
 
 __all__ = ["SimConfig", "StepResult", "Simulator"]
-
-
-@dataclass(frozen=True)
-class SimConfig:
-    """Settings of the physics loop.
-
-    Fields by concept
-    -----------------
-    - Physics: timestep, servo_bandwidth, hand_force, grip, settle_iterations
-    - Weight and support: gravity_compensation, harness_time_constant, foot_lock
-    - Retargeting: ik, scaling
-    """
-
-    timestep: float = 0.004
-    """Δt [s]: physics step in seconds (shortened so a data frame holds a whole number of steps)."""
-    servo_bandwidth: float | None = 25.0
-    """ω [rad/s]: natural frequency of the critically damped joint servos, rad/s (``None``: the model's own gains)."""
-    gravity_compensation: bool = False
-    """[—]: Kinematic-puppet mode: every robot body gets MuJoCo's gravity compensation (``gravcomp = 1``), so
-    the robot is weightless and its servos never hold anything up; its root is held by a rigid weld. Off by
-    default: gravity acts on the robot, and the support it then gets from its harness is measured
-    (:mod:`~socialaff_sim.sim.support`); every figure says which mode ran (``metrics.json``'s ``support.mode``)."""
-    foot_lock: FootLockConfig | None = field(default_factory=FootLockConfig)
-    """[—]: When a standing foot's target is held where the foot came down (:mod:`~socialaff_sim.sim.footlock`);
-    ``None``: ankle targets are followed as given."""
-    harness_time_constant: float = 0.02
-    """τ_h [s]: with the robot's real weight, its root hangs from the IK's base pose by a compliant harness,
-    a soft weld of this time constant (:func:`~socialaff_sim.sim.scene.build_scene`). Standing still at home
-    on its feet, the robot takes 2.9 % (Stubby), 6.2 % (H1) or 1.7 % (G1) of its weight from it; a robot
-    whose feet do not reach sags by about 3.5 cm and hangs. At 0.05 s the base lagged the IK's by up to 8 cm
-    while walking and Stubby's handshake of shake_hands_000 missed. With gravity compensation the root is
-    held by the rigid weld (0.008 s; with weight it would carry 11.5 % of the standing H1's weight)."""
-    hand_force: float | None = 60.0
-    """F_max [N]: the arm servos' torque limits are set so that a hand pushes with at most about
-    this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,
-    never above the model's own limit); ``None`` keeps the model's limits. With gravity compensation
-    the arms need little torque to move, so this mostly bounds how hard the robot can press on a person."""
-    ik: IKConfig = field(default_factory=IKConfig)
-    """[—]: Retargeting IK settings."""
-    scaling: ScalingConfig = field(default_factory=ScalingConfig)
-    """[—]: Human-to-robot scaling settings."""
-    grip: bool = True
-    """[—]: Whether a robot hand touching the object grips it (its grip weld switches on and stays on)."""
-    settle_iterations: int = 20
-    """[—]: IK solves spent at reset to reach the first frame's targets before physics starts."""
-
-
-@dataclass(frozen=True)
-class StepResult:
-    """What one :meth:`Simulator.step` did."""
-
-    frame: int
-    """The data frame reached."""
-    time: float
-    """Simulated time, s."""
-    targets: np.ndarray
-    """(5, 3) robot-frame targets used (NaN entries replaced by the home offsets), metres."""
-    ik_error: np.ndarray
-    """(5,) IK residual of each key frame, metres."""
-    reachable: np.ndarray
-    """(5,) bool: whether each target is reachable by the criterion of :mod:`socialaff_sim.sim.reach`
-    (within the limb's length, the hand or trunk clear of the person by its own size); IK error is
-    judged on these."""
-    ik_iterations: int
-    ik_seconds: float
-    """CPU time of the IK in the calling thread, s."""
-    subevent: str | None
-    force_on_human: float
-    """Total normal force of the robot on the human, averaged over the step's physics steps, N."""
-    subgoals: dict[str, bool]
-    """Success so far of each sub-goal (``object_in_hand`` is only judged at the end)."""
-    failed: bool
-    """Whether a failure condition has triggered (now or earlier)."""
-    done: bool
-    """Whether the last frame has been reached."""
-    subgoals_now: dict[str, bool] = field(default_factory=dict)
-    """Whether each sub-goal's contact holds now, at the frame's last physics step (not latched)."""
-    subgoal_gaps: dict[str, float | None] = field(default_factory=dict)
-    """Each sub-goal's gap (m) between its two groups' geoms at the end of the frame (``None``: beyond 1 m)."""
-    support: FrameSupport | None = None
-    """The frame's outside support, foot sliding, penetration and effort (:mod:`~socialaff_sim.sim.support`)."""
 
 
 def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -148,6 +68,8 @@ class Simulator:
                 servo_bandwidth=self.config.servo_bandwidth, hand_force=self.config.hand_force,
                 gravity_compensation=self.config.gravity_compensation,
                 harness_time_constant=None if self.config.gravity_compensation else self.config.harness_time_constant,
+                stance_bandwidth=None if self.config.gravity_compensation else self.config.stance_bandwidth,
+                chair=self.task.chair,
             )
             if not hasattr(self, "measurements"):
                 self.measurements = measure_robot(ik_scene.model, ik_scene.home_qpos, ik_scene.frame_kinds,
@@ -229,6 +151,9 @@ class Simulator:
         data.mocap_pos[scene.human_mocap] = self.pose.pos[0]
         data.mocap_quat[scene.human_mocap] = self.pose.quat[0]
         pose_compliant(scene, data, self.pose.pos[0], self.pose.quat[0])
+        if self.task.chair:  # the person faces the robot, which faces them
+            place_chair(scene.model, data, *chair_pose(scene.body, self.pose.joints[0], scene.body.radii,
+                                                       self._yaw + np.pi))
         self._q = q0.copy()
         data.qpos[scene.robot_qadr] = self._to_physics(q0)
         data.mocap_pos[scene.anchor_mocap] = q0[:3]
@@ -338,7 +263,9 @@ class Simulator:
         ik = stage.ik
         tic = time.thread_time()
         ik.set_human(self.pose.pos[t1], self.pose.quat[t1])
-        res = ik.solve(world, self._yaw, dt=1.0 / fps, care=reachable)
+        planted = (False, False) if self._footlock is None else (self._footlock.planted[0] is not None,
+                                                                 self._footlock.planted[1] is not None)
+        res = ik.solve(world, self._yaw, dt=1.0 / fps, care=reachable, planted=planted)
         ik_seconds = time.thread_time() - tic
 
         carry = None
@@ -358,8 +285,7 @@ class Simulator:
             self.n_sub, fps, self._to_physics(self._q), self._to_physics(res.qpos),
             (self.pose.pos[t0], self.pose.pos[t1]), (self.pose.quat[t0], self.pose.quat[t1]), self.time, subevent,
             grip=self.config.grip, carry=carry,
-            feet=None if self._footlock is None else (self._footlock.planted[0] is not None,
-                                                        self._footlock.planted[1] is not None),
+            feet=None if self._footlock is None else planted,
         )
         scorer = stage.scorer
         self._q = res.qpos

@@ -94,6 +94,8 @@ class TaskSpec:
     object: ObjectTask | None
     subgoals: tuple[SubgoalSpec, ...]
     failures: tuple[FailureSpec, ...]
+    chair: bool = False
+    """Whether the scene has a chair under the person at the first frame (:mod:`~socialaff_sim.sim.chair`)."""
 
     @property
     def labels(self) -> tuple[str, ...]:
@@ -158,7 +160,7 @@ def load_task(task: str | Path) -> TaskSpec:
     """Read a task file: a shipped name (``"shake_hands"``) or a path to a ``.toml`` file."""
     path = Path(task) if str(task).endswith(".toml") else task_file_path(str(task))
     top = Table(read_toml(path), path)
-    top.check_keys(["interaction", "aliases", "description", "object", "subgoal", "failure"])
+    top.check_keys(["interaction", "aliases", "description", "object", "chair", "subgoal", "failure"])
     interaction = top.get_str("interaction")
     if not LABEL_PATTERN.match(interaction):
         raise top.error("interaction", "a snake_case label like 'shake_hands'", interaction)
@@ -172,7 +174,8 @@ def load_task(task: str | Path) -> TaskSpec:
     if dup:
         raise ConfigError(f"{path}: sub-goal names must be unique; repeated: {choices(dup)}")
     failures = tuple(_failure(t, obj is not None) for t in top.get_tables("failure"))
-    return TaskSpec(path, interaction, aliases, top.get_str("description", ""), obj, subgoals, failures)
+    chair = top.get_bool("chair", False)
+    return TaskSpec(path, interaction, aliases, top.get_str("description", ""), obj, subgoals, failures, chair)
 
 
 def task_for_label(label: str) -> TaskSpec:

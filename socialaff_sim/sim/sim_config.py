@@ -1,0 +1,102 @@
+"""Settings of the physics loop (:class:`SimConfig`) and what one step of it did (:class:`StepResult`).
+
+Both are used by :class:`~socialaff_sim.sim.simulator.Simulator` (and re-exported there).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..retarget.ik import IKConfig
+from ..retarget.scaling import ScalingConfig
+from .footlock import FootLockConfig
+from .support import FrameSupport
+
+__all__ = ["SimConfig", "StepResult"]
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """Settings of the physics loop.
+
+    Fields by concept
+    -----------------
+    - Physics: timestep, servo_bandwidth, hand_force, grip, settle_iterations
+    - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth
+    - Retargeting: ik, scaling
+    """
+
+    timestep: float = 0.004
+    """Δt [s]: physics step in seconds (shortened so a data frame holds a whole number of steps)."""
+    servo_bandwidth: float | None = 25.0
+    """ω [rad/s]: natural frequency of the critically damped joint servos, rad/s (``None``: the model's own gains)."""
+    gravity_compensation: bool = False
+    """[—]: Kinematic-puppet mode: every robot body gets MuJoCo's gravity compensation (``gravcomp = 1``), so
+    the robot is weightless and its servos never hold anything up; its root is held by a rigid weld. Off by
+    default: gravity acts on the robot, and the support it then gets from its harness is measured
+    (:mod:`~socialaff_sim.sim.support`); every figure says which mode ran (``metrics.json``'s ``support.mode``)."""
+    foot_lock: FootLockConfig | None = field(default_factory=FootLockConfig)
+    """[—]: When a standing foot's target is held where the foot came down (:mod:`~socialaff_sim.sim.footlock`);
+    ``None``: ankle targets are followed as given."""
+    harness_time_constant: float = 0.02
+    """τ_h [s]: with the robot's real weight, its root hangs from the IK's base pose by a compliant harness,
+    a soft weld of this time constant (:func:`~socialaff_sim.sim.scene.build_scene`). Standing still at home
+    on its feet, the robot takes 2.9 % (Stubby), 6.2 % (H1) or 1.7 % (G1) of its weight from it; a robot
+    whose feet do not reach sags by about 3.5 cm and hangs. At 0.05 s the base lagged the IK's by up to 8 cm
+    while walking and Stubby's handshake of shake_hands_000 missed. With gravity compensation the root is
+    held by the rigid weld (0.008 s; with weight it would carry 11.5 % of the standing H1's weight)."""
+    stance_bandwidth: float | None = None
+    """ω_s [rad/s]: the leg servos' natural frequency on the inertia of the body they hold up when standing
+    (:func:`~socialaff_sim.sim.robot_mjcf.tune_servos`); ``None``: the legs keep ``servo_bandwidth`` on their
+    own inertia (too soft to stand on without the harness). Not used with gravity compensation."""
+    hand_force: float | None = 60.0
+    """F_max [N]: the arm servos' torque limits are set so that a hand pushes with at most about
+    this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,
+    never above the model's own limit); ``None`` keeps the model's limits. With gravity compensation
+    the arms need little torque to move, so this mostly bounds how hard the robot can press on a person."""
+    ik: IKConfig = field(default_factory=IKConfig)
+    """[—]: Retargeting IK settings."""
+    scaling: ScalingConfig = field(default_factory=ScalingConfig)
+    """[—]: Human-to-robot scaling settings."""
+    grip: bool = True
+    """[—]: Whether a robot hand touching the object grips it (its grip weld switches on and stays on)."""
+    settle_iterations: int = 20
+    """[—]: IK solves spent at reset to reach the first frame's targets before physics starts."""
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """What one :meth:`Simulator.step` did."""
+
+    frame: int
+    """The data frame reached."""
+    time: float
+    """Simulated time, s."""
+    targets: np.ndarray
+    """(5, 3) robot-frame targets used (NaN entries replaced by the home offsets), metres."""
+    ik_error: np.ndarray
+    """(5,) IK residual of each key frame, metres."""
+    reachable: np.ndarray
+    """(5,) bool: whether each target is reachable by the criterion of :mod:`socialaff_sim.sim.reach`
+    (within the limb's length, the hand or trunk clear of the person by its own size); IK error is
+    judged on these."""
+    ik_iterations: int
+    ik_seconds: float
+    """CPU time of the IK in the calling thread, s."""
+    subevent: str | None
+    force_on_human: float
+    """Total normal force of the robot on the human, averaged over the step's physics steps, N."""
+    subgoals: dict[str, bool]
+    """Success so far of each sub-goal (``object_in_hand`` is only judged at the end)."""
+    failed: bool
+    """Whether a failure condition has triggered (now or earlier)."""
+    done: bool
+    """Whether the last frame has been reached."""
+    subgoals_now: dict[str, bool] = field(default_factory=dict)
+    """Whether each sub-goal's contact holds now, at the frame's last physics step (not latched)."""
+    subgoal_gaps: dict[str, float | None] = field(default_factory=dict)
+    """Each sub-goal's gap (m) between its two groups' geoms at the end of the frame (``None``: beyond 1 m)."""
+    support: FrameSupport | None = None
+    """The frame's outside support, foot sliding, penetration and effort (:mod:`~socialaff_sim.sim.support`)."""
