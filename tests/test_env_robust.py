@@ -294,11 +294,13 @@ def test_random_episodes_run_through_failures():
     assert set(res["ends"]) <= {"task_complete", "instance_end", "fell"}
 
 
-def test_without_the_envelope_extreme_targets_make_the_physics_diverge():
-    """Box-corner targets (each coordinate at its bound, drawn at random) for the CMU humanoid handing over:
-    the projection off, MuJoCo's solver diverges within the first episode; on, the same actions are sound."""
+def test_without_the_envelope_extreme_targets_topple_the_robot():
+    """Box-corner targets (each coordinate at one of its bounds, drawn at random) for the CMU humanoid handing over:
+    with the projection off the robot falls within the episode (before the standing-balance IK was merged, the
+    same actions made MuJoCo's solver diverge at frame 19: docs/benchmarks.md); with it on, the same actions
+    play the whole track without a fall or a MuJoCo warning."""
     data = generate_dataset(seed=0, config=SyntheticConfig(interactions=("hand_over",), instances_per_interaction=2))
-    reasons = {}
+    outcome = {}
     for envelope in (False, True):
         env = SocialAffordanceEnv(data=data, robot="cmu", action_mode="targets", terminate_on_failure=False)
         if not envelope:
@@ -306,14 +308,16 @@ def test_without_the_envelope_extreme_targets_make_the_physics_diverge():
         lo, hi = env.action_space.low, env.action_space.high
         rng = np.random.default_rng(0)
         env.reset(seed=0)
+        moved = 0.0
         while True:
             _, reward, term, trunc, info = env.step(np.where(rng.random((5, 3)) < 0.5, lo, hi))
             assert np.isfinite(reward)
+            moved = max(moved, float(info["action_adjustment"].max()))
             if term or trunc:
                 break
-        reasons[envelope] = (info["termination_reason"], env.warnings.totals["bad_qacc"])
-    assert reasons[False] == ("physics_unstable", 1)
-    assert reasons[True][1] == 0 and reasons[True][0] != "physics_unstable"
+        outcome[envelope] = (info["termination_reason"], sum(env.warnings.totals.values()), moved > 0.5)
+    assert outcome[False] == ("fell", 0, False)
+    assert outcome[True] == ("instance_end", 0, True)
 
 
 @pytest.mark.parametrize("env_id", list(ENV_IDS))
