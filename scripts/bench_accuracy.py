@@ -8,7 +8,7 @@ best baseline with their 95 % intervals. The section is rewritten after every da
 that is stopped keeps what finished. Usage::
 
     python scripts/bench_accuracy.py --out DIR [--datasets synthetic sbu handover nuisi]
-        [--protocol causal] [--preset default] [--methods full,v1,v2,hmm,promp,hold,constvel]
+        [--protocol causal] [--preset default] [--methods full,v1,v2,hmm,promp,ridge,gru,hold,constvel]
         [--folds 4] [--workers 2] [--seed 0] [--max-folds sbu=1 ...] [--max-test handover=8 ...]
         [--data-root ../shared/data]
         [--doc docs/benchmarks.md]
@@ -30,6 +30,8 @@ import sys
 import time
 from pathlib import Path
 
+from socialaff_sim.evaluation.report import horizon_lines
+
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"
 DATASETS = {  # name: (spec with {root} for the shared data folder, split)
@@ -38,7 +40,7 @@ DATASETS = {  # name: (spec with {root} for the shared data folder, split)
     "handover": ("handover:{root}/handover_h2h", "pair"),
     "nuisi": ("nuisi:{root}/nuisi_v1", "block"),
 }
-METHODS = "full,v1,v2,hmm,promp,hold,constvel"
+METHODS = "full,v1,v2,hmm,promp,ridge,gru,hold,constvel"
 START, END = "<!-- bench_accuracy:start -->", "<!-- bench_accuracy:end -->"
 
 
@@ -85,7 +87,7 @@ def render(name: str, command: str, run: dict[str, object], results: dict | None
         lines += ["| method | difference | interval | verdict |", "|---|---:|---:|---|"]
         for m, d in entry["differences"]["key_joint_error_m"].items():
             lines.append(f"| {m} | {d['mean_m']:+.4f} | [{d['low_m']:+.4f}, {d['high_m']:+.4f}] | {d['verdict']} |")
-    return lines + [""]
+    return lines + horizon_lines(results, heading="####") + [""]
 
 
 def write_section(path: Path, body: list[str], doc: Path | None) -> None:

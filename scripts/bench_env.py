@@ -1,22 +1,29 @@
-"""Benchmark the Gymnasium environment: env steps per second in one process, without rendering.
+"""Benchmark the Gymnasium environment against Gymnasium's Humanoid-v5, side by side in one process.
 
-Runs whole episodes of ``SocialAffordanceEnv`` on the synthetic dataset with a
-fixed policy and reports steps per second of CPU time (``time.process_time``,
-what "one core" means on a shared machine) and of wall time, with and without
-the resets, and the sub-goal success and failure rates of the finished episodes
-(with ``proposal``: how well the physics preset replays the recorded agent 1). Policies:
+Three environments are built in one process and stepped in interleaved rounds (the order rotates every
+round), so that whatever load the machine carries falls on all of them alike; the ratios are what count:
 
-* ``proposal``: ``residual`` actions of zero (the robot tracks the adapter's proposal,
-  the ground-truth recording by default): the typical per-step cost;
-* ``random-residual``: uniform residuals;
-* ``random-targets``: uniform ``targets`` actions (episodes end early on failures, so
-  resets weigh more).
+* ``ours_zero``: the default environment (``socialaff_sim/SocialAffordance-v0``) in ``residual`` mode with
+  zero residuals (the robot follows the adapter's proposal): the typical per-step cost;
+* ``ours_random``: the default environment as registered (``targets`` mode) with uniformly random
+  actions, resets included (episodes end early on failures, so resets weigh);
+* ``humanoid``: Gymnasium's ``Humanoid-v5`` with uniformly random actions, resets included.
 
-``--profile`` adds a cProfile breakdown of where the time goes. Run with
-OMP_NUM_THREADS=1, e.g.::
+Each gets ``--steps`` steps per round. Reported per environment: steps/s (wall and CPU time, with and
+without the resets), ms per reset (median and 95th percentile, warm: every instance was reset once
+before timing; the cold first resets, with the scene compilation, are reported apart), and per round the
+ratio of ours to Humanoid-v5 (median over rounds, and the ratio of the totals). Then one more pass per
+policy of ours with every stage timed (exclusive time: a stage's own, its callees' in their own stages):
+synthesis (the adapter's proposal and belief), retargeting (key-joint scaling), IK (mink), physics
+(``mujoco.mj_step`` and the sub-step loop around it), scoring (contacts, support, sub-goals, reward),
+observation (observation and info), reset, and the rest. ``--vector 1,2,4,8`` adds
+``gymnasium.make_vec`` (async) throughput per worker count, ours and Humanoid-v5.
 
-    OMP_NUM_THREADS=1 python scripts/bench_env.py --steps 3000
-    OMP_NUM_THREADS=1 python scripts/bench_env.py --physics accurate --steps 2000
+Run on one core::
+
+    OMP_NUM_THREADS=1 python scripts/bench_env.py --rounds 5 --steps 600 --vector 1,2,4,8 --json env.json
+
+``--profile`` prints a cProfile of the ``ours_zero`` pass (cProfile inflates the Python parts).
 """
 
 from __future__ import annotations
@@ -27,90 +34,314 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before MuJoCo is imported (dm_contr
 
 import argparse  # noqa: E402
 import cProfile  # noqa: E402
+import functools  # noqa: E402
 import io  # noqa: E402
 import json  # noqa: E402
+import platform  # noqa: E402
 import pstats  # noqa: E402
 import time  # noqa: E402
+from collections.abc import Callable  # noqa: E402
+from dataclasses import dataclass, field  # noqa: E402
+from typing import Any  # noqa: E402
 
+import gymnasium as gym  # noqa: E402
+import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset  # noqa: E402
-from socialaff_sim.environment import SocialAffordanceEnv  # noqa: E402
+import socialaff_sim  # noqa: E402,F401  (registers the ids)
+from socialaff_sim._atomic import atomic_write_text  # noqa: E402
+from socialaff_sim.environment import adapters, env as env_module, model_adapter, reward  # noqa: E402
+from socialaff_sim.retarget import ik as ik_module  # noqa: E402
+from socialaff_sim.sim import scoring, simulator, substeps, support  # noqa: E402
+
+ENV_ID = "socialaff_sim/SocialAffordance-v0"
+REFERENCE_ID = "Humanoid-v5"
 
 
-def run(env: SocialAffordanceEnv, policy: str, n_steps: int, rng: np.random.Generator) -> dict[str, float]:
-    """Step ``env`` for ``n_steps`` (whole episodes, the last one cut) and time it."""
-    cpu_step = cpu_reset = wall_step = wall_reset = 0.0
-    steps = episodes = 0
-    finished: list[dict[str, bool]] = []
-    env.action_space.seed(int(rng.integers(1 << 31)))
-    zero = np.zeros(env.action_space.shape, np.float32)
-    while steps < n_steps:
+@dataclass
+class Runner:
+    """One environment, its policy and its running totals; episodes carry over between rounds."""
+
+    name: str
+    env: gym.Env
+    policy: str  # "zero" | "random"
+    seed: int
+    steps: int = 0
+    resets: int = 0
+    step_wall: float = 0.0
+    step_cpu: float = 0.0
+    reset_wall: list[float] = field(default_factory=list)
+    reset_cpu: list[float] = field(default_factory=list)
+    finished: int = 0
+    successes: int = 0
+    rounds: list[float] = field(default_factory=list)  # steps/s (wall, resets included) per round
+    _rng: np.random.Generator = field(init=False)
+    _zero: np.ndarray = field(init=False)
+    _live: bool = False
+
+    def __post_init__(self) -> None:
+        self._rng = np.random.default_rng(self.seed)
+        self.env.action_space.seed(self.seed)
+        self._zero = np.zeros(self.env.action_space.shape, self.env.action_space.dtype)
+
+    def _reset(self) -> None:
         c, w = time.process_time(), time.perf_counter()
-        env.reset(seed=int(rng.integers(1 << 31)))
-        cpu_reset += time.process_time() - c
-        wall_reset += time.perf_counter() - w
-        episodes += 1
-        done = False
-        while not done and steps < n_steps:
-            a = zero if policy == "proposal" else env.action_space.sample()
+        self.env.reset(seed=int(self._rng.integers(1 << 31)))
+        self.reset_wall.append(time.perf_counter() - w)
+        self.reset_cpu.append(time.process_time() - c)
+        self.resets += 1
+        self._live = True
+
+    def run(self, n: int) -> None:
+        """``n`` steps, resetting whenever an episode ends (the resets are timed apart)."""
+        wall0 = self.step_wall + sum(self.reset_wall)
+        sample = self.env.action_space.sample
+        for _ in range(n):
+            if not self._live:
+                self._reset()
+            a = self._zero if self.policy == "zero" else sample()
             c, w = time.process_time(), time.perf_counter()
-            _, _, term, trunc, info = env.step(a)
-            cpu_step += time.process_time() - c
-            wall_step += time.perf_counter() - w
-            steps += 1
-            done = term or trunc
-        if done:
-            finished.append({"success": info["success"], "failed": info["failed"]})
-    return {
-        "steps": steps,
-        "episodes": episodes,
-        "cpu_steps_per_s": steps / cpu_step,
-        "cpu_steps_per_s_with_resets": steps / (cpu_step + cpu_reset),
-        "wall_steps_per_s": steps / wall_step,
-        "wall_steps_per_s_with_resets": steps / (wall_step + wall_reset),
-        "cpu_ms_per_reset": 1e3 * cpu_reset / episodes,
-        "episodes_finished": len(finished),
-        "success_rate": float(np.mean([f["success"] for f in finished])) if finished else float("nan"),
-        "failure_rate": float(np.mean([f["failed"] for f in finished])) if finished else float("nan"),
-    }
+            _, _, term, trunc, info = self.env.step(a)
+            self.step_wall += time.perf_counter() - w
+            self.step_cpu += time.process_time() - c
+            self.steps += 1
+            if term or trunc:
+                self._live = False
+                self.finished += 1
+                self.successes += bool(info.get("success", False))
+        self.rounds.append(n / (self.step_wall + sum(self.reset_wall) - wall0))
+
+    def summary(self) -> dict[str, Any]:
+        rw = np.array(self.reset_wall) * 1e3
+        return {
+            "policy": self.policy, "steps": self.steps, "resets": self.resets, "episodes_finished": self.finished,
+            "success_rate": self.successes / self.finished if self.finished else None,
+            "steps_per_s_wall": self.steps / self.step_wall,
+            "steps_per_s_wall_with_resets": self.steps / (self.step_wall + rw.sum() / 1e3),
+            "steps_per_s_cpu": self.steps / self.step_cpu,
+            "steps_per_s_cpu_with_resets": self.steps / (self.step_cpu + sum(self.reset_cpu)),
+            "ms_per_reset_cpu_median": float(np.median(self.reset_cpu)) * 1e3 if self.reset_cpu else None,
+            "ms_per_reset_median": float(np.median(rw)) if len(rw) else None,
+            "ms_per_reset_p95": float(np.percentile(rw, 95)) if len(rw) else None,
+            "ms_per_reset_mean": float(rw.mean()) if len(rw) else None,
+            "steps_per_s_per_round": self.rounds,
+        }
 
 
+def make_ours(policy: str, robot: str, physics: str) -> gym.Env:
+    mode = "residual" if policy == "zero" else "targets"
+    return gym.make(ENV_ID, action_mode=mode, robot=robot, physics=physics)
+
+
+def warm_up(env: gym.Env) -> list[float]:
+    """Reset every instance of the env once (compiling each task's scene, caching each instance's reset);
+    the wall time of each of these cold resets, ms."""
+    out = []
+    for inter in env.unwrapped.pool.instances:
+        w = time.perf_counter()
+        env.reset(seed=0, options={"instance": inter.instance_id})
+        out.append(1e3 * (time.perf_counter() - w))
+    return out
+
+
+# --------------------------------------------------------------------------- stage timing
+class StageTimer:
+    """Exclusive wall time per stage: wrapped callables charge their own time to their stage and
+    subtract it from the stage of the wrapped caller they run in."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = {}
+        self.calls: dict[str, int] = {}
+        self._stack: list[float] = []
+        self._undo: list[tuple[Any, str, Any]] = []
+
+    def wrap(self, owner: Any, name: str, stage: str) -> None:
+        original = getattr(owner, name, None)
+        if original is None:  # an attribute another version of the code renamed: not timed
+            return
+        timer = self
+
+        @functools.wraps(original)
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            t = time.perf_counter()
+            timer._stack.append(0.0)
+            try:
+                return original(*args, **kwargs)
+            finally:
+                dt = time.perf_counter() - t
+                inner = timer._stack.pop()
+                timer.seconds[stage] = timer.seconds.get(stage, 0.0) + dt - inner
+                timer.calls[stage] = timer.calls.get(stage, 0) + 1
+                if timer._stack:
+                    timer._stack[-1] += dt
+
+        self._undo.append((owner, name, original))
+        setattr(owner, name, timed)
+
+    def restore(self) -> None:
+        for owner, name, original in reversed(self._undo):
+            setattr(owner, name, original)
+        self._undo.clear()
+
+
+STAGES = ("synthesis", "retargeting", "IK", "physics: mj_step", "physics: sub-step loop", "scoring",
+          "observation", "reset", "other")
+
+
+def instrument(timer: StageTimer) -> None:
+    E = env_module.SocialAffordanceEnv
+    timer.wrap(E, "step", "other")
+    timer.wrap(E, "reset", "reset")
+    for cls in (adapters.GroundTruthAdapter, model_adapter.ModelAdapter):
+        timer.wrap(cls, "observe", "synthesis")
+        timer.wrap(cls, "log_likelihood", "scoring")
+    timer.wrap(simulator.Simulator, "retarget", "retargeting")
+    timer.wrap(simulator.Simulator, "step", "other")
+    timer.wrap(ik_module.RobotIK, "solve", "IK")
+    timer.wrap(substeps.FrameStepper, "run", "physics: sub-step loop")
+    timer.wrap(mujoco, "mj_step", "physics: mj_step")
+    timer.wrap(scoring.SubgoalScorer, "update", "scoring")
+    timer.wrap(scoring.SubgoalScorer, "measure_gaps", "scoring")
+    timer.wrap(support.SupportMeter, "update", "scoring")
+    timer.wrap(support.SupportMeter, "end_frame", "scoring")
+    timer.wrap(reward.RewardTracker, "step", "scoring")
+    timer.wrap(E, "_observation", "observation")
+    timer.wrap(E, "_info", "observation")
+
+
+def stage_pass(runner: Runner, n: int) -> dict[str, Any]:
+    timer = StageTimer()
+    instrument(timer)
+    try:
+        w = time.perf_counter()
+        runner.run(n)
+        wall = time.perf_counter() - w
+    finally:
+        timer.restore()
+    runner.rounds.pop()  # this pass is not a timing round
+    ms = {s: 1e3 * timer.seconds.get(s, 0.0) / n for s in STAGES}
+    return {"steps": n, "ms_per_step": ms, "ms_per_step_total": 1e3 * wall / n,
+            "share": {s: 1e-3 * v * n / wall for s, v in ms.items()}}
+
+
+# --------------------------------------------------------------------------- vector envs
+def vector_rate(make: Callable[[], gym.vector.VectorEnv], n_envs: int, total_steps: int, policy: str, seed: int,
+                ours: bool) -> dict[str, float]:
+    """Env steps per second (wall) of an async vector env over ``total_steps`` env steps after a warm-up."""
+    venv = make()
+    try:
+        if ours:  # every worker compiles every scene and caches every instance before timing
+            venv.call("warm_up")
+        venv.reset(seed=seed)
+        venv.action_space.seed(seed)
+        zero = np.zeros(venv.action_space.shape, venv.action_space.dtype)
+        for _ in range(5):
+            venv.step(zero if policy == "zero" else venv.action_space.sample())
+        n = max(1, total_steps // n_envs)
+        w, c = time.perf_counter(), time.process_time()
+        for _ in range(n):
+            venv.step(zero if policy == "zero" else venv.action_space.sample())
+        wall = time.perf_counter() - w
+        return {"workers": n_envs, "env_steps": n * n_envs, "steps_per_s_wall": n * n_envs / wall,
+                "parent_cpu_s": time.process_time() - c}
+    finally:
+        venv.close()
+
+
+def vector_table(workers: list[int], steps: int, robot: str, physics: str, seed: int) -> list[dict[str, Any]]:
+    rows = []
+    for n in workers:
+        row: dict[str, Any] = {"workers": n}
+        for key, policy, ours in (("humanoid", "random", False), ("ours_zero", "zero", True),
+                                  ("ours_random", "random", True)):
+            if ours:
+                mode = "residual" if policy == "zero" else "targets"
+
+                def make(n: int = n, mode: str = mode) -> gym.vector.VectorEnv:
+                    return gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="async", action_mode=mode,
+                                        robot=robot, physics=physics)
+            else:
+                def make(n: int = n) -> gym.vector.VectorEnv:
+                    return gym.make_vec(REFERENCE_ID, num_envs=n, vectorization_mode="async")
+            row[key] = vector_rate(make, n, steps, policy, seed, ours)["steps_per_s_wall"]
+        row["ratio_zero"] = row["ours_zero"] / row["humanoid"]
+        row["ratio_random"] = row["ours_random"] / row["humanoid"]
+        rows.append(row)
+    return rows
+
+
+# --------------------------------------------------------------------------- main
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--robot", default="ours", help="ours | cmu | mapping .toml")
+    ap.add_argument("--robot", default="ours", help="ours | cmu | mapping .toml (our env)")
     ap.add_argument("--physics", default="fast", choices=["fast", "accurate"])
-    ap.add_argument("--policy", default="proposal", choices=["proposal", "random-residual", "random-targets"])
-    ap.add_argument("--interactions", nargs="*", default=None, help="labels (default: all five)")
-    ap.add_argument("--steps", type=int, default=3000, help="env steps to time")
+    ap.add_argument("--steps", type=int, default=600, help="steps per environment per round")
+    ap.add_argument("--rounds", type=int, default=5, help="interleaved rounds")
+    ap.add_argument("--stage-steps", type=int, default=600, help="steps of each timed-stage pass (0: none)")
+    ap.add_argument("--vector", default="", help="worker counts for make_vec (async), e.g. 1,2,4,8 (empty: none)")
+    ap.add_argument("--vector-steps", type=int, default=1600, help="env steps per vector measurement")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--profile", action="store_true", help="print the 25 most expensive functions")
+    ap.add_argument("--profile", action="store_true", help="print a cProfile of one ours_zero pass")
     ap.add_argument("--json", default=None, help="also write the result here")
     args = ap.parse_args()
 
-    data = generate_dataset(seed=args.seed, config=SyntheticConfig(instances_per_interaction=8))
-    mode = "targets" if args.policy == "random-targets" else "residual"
-    env = SocialAffordanceEnv(interactions=args.interactions, data=data, robot=args.robot, action_mode=mode,
-                              physics=args.physics)
-    rng = np.random.default_rng(args.seed)
-    run(env, args.policy, 100, rng)  # warm-up: every scene compiled once
-    prof = cProfile.Profile() if args.profile else None
-    if prof is not None:
+    load0 = os.getloadavg()
+    t0 = time.perf_counter()
+    runners = [
+        Runner("ours_zero", make_ours("zero", args.robot, args.physics), "zero", args.seed),
+        Runner("ours_random", make_ours("random", args.robot, args.physics), "random", args.seed + 1),
+        Runner("humanoid", gym.make(REFERENCE_ID), "random", args.seed + 2),
+    ]
+    cold = {r.name: warm_up(r.env) for r in runners[:2]}
+    for r in runners:  # a few steps each, outside the timing
+        r.run(20)
+        r.rounds.clear()
+    for k in range(args.rounds):
+        order = runners[k % 3:] + runners[: k % 3]
+        for r in order:
+            r.run(args.steps)
+    ref = runners[2]
+    res: dict[str, Any] = {"env_id": ENV_ID, "reference_id": REFERENCE_ID, "robot": args.robot,
+                           "physics": args.physics, "rounds": args.rounds, "steps_per_round": args.steps,
+                           "omp_num_threads": os.environ.get("OMP_NUM_THREADS"), "cpus": os.cpu_count(),
+                           "machine": platform.processor() or platform.machine(),
+                           "instances": len(runners[0].env.unwrapped.pool.instances)}
+    for r in runners:
+        res[r.name] = r.summary()
+    for r in runners[:2]:
+        per_round = [a / b for a, b in zip(r.rounds, ref.rounds, strict=True)]
+        res[r.name]["ratio_per_round"] = per_round
+        res[r.name]["ratio_median"] = float(np.median(per_round))
+        res[r.name]["ratio_of_totals"] = (res[r.name]["steps_per_s_wall_with_resets"]
+                                          / res["humanoid"]["steps_per_s_wall_with_resets"])
+        res[r.name]["ratio_of_totals_without_resets"] = (res[r.name]["steps_per_s_wall"]
+                                                         / res["humanoid"]["steps_per_s_wall_with_resets"])
+        res[r.name]["cold_reset_ms"] = {"first_per_task_max": max(cold[r.name]),
+                                        "median": float(np.median(cold[r.name]))}
+    if args.stage_steps:
+        res["stages"] = {r.name: stage_pass(r, args.stage_steps) for r in runners[:2]}
+    if args.profile:
+        prof = cProfile.Profile()
         prof.enable()
-    res = run(env, args.policy, args.steps, rng)
-    if prof is not None:
+        runners[0].run(args.steps)
         prof.disable()
-    res.update(robot=args.robot, physics=args.physics, policy=args.policy,
-               interactions=list(env.pool.labels))
-    print(json.dumps(res, indent=2))
-    if prof is not None:
         out = io.StringIO()
-        pstats.Stats(prof, stream=out).sort_stats("tottime").print_stats(25)
-        print(out.getvalue())
+        pstats.Stats(prof, stream=out).sort_stats("tottime").print_stats(30)
+        res["profile_top"] = out.getvalue()
+    for r in runners:
+        r.env.close()
+    if args.vector:
+        res["vector"] = vector_table([int(x) for x in args.vector.split(",")], args.vector_steps, args.robot,
+                                     args.physics, args.seed)
+    res["wall_seconds"] = time.perf_counter() - t0
+    res["load_average_before"], res["load_average_after"] = load0, os.getloadavg()
+    profile = res.pop("profile_top", None)
+    text = json.dumps(res, indent=2)
+    print(text)
+    if profile:
+        print(profile)
     if args.json:
-        from socialaff_sim._atomic import atomic_write_text
-
-        atomic_write_text(args.json, json.dumps(res, indent=2))
+        atomic_write_text(args.json, text)
 
 
 if __name__ == "__main__":

@@ -199,12 +199,12 @@ def sections(quick: bool, workers: int) -> dict[str, Section]:
     sim = Run("bench_sim", [py, "scripts/bench_sim.py", "--robots", "ours", "cmu", "--json", "{tmp}/sim.json"]
               + (["--labels", "shake_hands", "--per-label", "2"] if quick else []), "sim.json")
     simsynth = ["--interactions", "shake_hands", "--quick", "--iterations", "3", "--max-test", "2"] if quick else []
-    steps = "200" if quick else "3000"
-    env_runs = [Run("env_default", [py, "scripts/bench_env.py", "--steps", steps, "--json", "{tmp}/env.json"], "env.json")]
+    bench_env = ["--rounds", "1", "--steps", "100", "--stage-steps", "0"] if quick else ["--rounds", "5", "--steps", "400"]
+    env_runs = [Run("env_default", [py, "scripts/bench_env.py", *bench_env, "--json", "{tmp}/env.json"], "env.json")]
     if not quick:
-        env_runs += [Run("env_accurate", [py, "scripts/bench_env.py", "--steps", steps, "--physics", "accurate",
+        env_runs += [Run("env_accurate", [py, "scripts/bench_env.py", *bench_env, "--physics", "accurate",
                                           "--json", "{tmp}/env_accurate.json"], "env_accurate.json"),
-                     Run("env_cmu", [py, "scripts/bench_env.py", "--steps", steps, "--robot", "cmu",
+                     Run("env_cmu", [py, "scripts/bench_env.py", *bench_env, "--robot", "cmu",
                                      "--json", "{tmp}/env_cmu.json"], "env_cmu.json")]
     if quick:
         demo = [Run("demo_one", [cli, "demo", "--interaction", "shake_hands", "--iterations", "3", "--out",

@@ -156,7 +156,8 @@ def test_parse_accuracy_after_optimal_matching_equals_brute_force(rng: np.random
 
 
 # -- cross-validation runner ----------------------------------------------------------------------
-SCHEMA_METRICS = {"key_joint_error_m", "joint_error_m", "n_test"}
+SCHEMA_METRICS = {"key_joint_error_m", "joint_error_m", "n_test", "key_joint_error_0.2s_m", "key_joint_error_0.5s_m",
+                  "key_joint_error_1s_m"}
 
 
 def _leaves(tree: object, prefix: str = "") -> list[tuple[str, float]]:
@@ -189,6 +190,10 @@ def test_evaluation_schema_exclusion_and_executor_independence(hold_registered: 
     for label, row in serial["per_interaction"].items():
         for m, cell in row.items():
             assert set(cell) == SCHEMA_METRICS and cell["n_test"] == 8, (label, m)
+    assert serial["horizons_s"] == [0.2, 0.5, 1.0] and set(serial["latency_ms"]) == {"hold", "promp"}
+    lat = serial["latency_ms"]["promp"]
+    assert 0 < lat["p50"] <= lat["p99"] <= lat["max"] and lat["n_calls"] == sum(
+        i.n_frames - 10 for lab in ("shake_hands", "hand_over") for i in data.of_label(lab).interactions if i.n_frames > 11)
     ids = {d["instance_id"] for d in serial["per_instance"]["hand_over"]["hold"]}
     assert "hand_over_099" not in ids and len(ids) == 8
     for m in ("hold", "promp"):

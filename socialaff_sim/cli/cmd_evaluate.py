@@ -18,7 +18,7 @@ from .validate import add_data_options, declare_outputs, int_range, non_negative
 
 __all__ = ["register", "run"]
 
-DEFAULT_METHODS = "full,v1,v2,hmm,promp,hold,constvel"
+DEFAULT_METHODS = "full,v1,v2,hmm,promp,ridge,hold,constvel"
 
 
 def _names(values: list[str] | None) -> list[str]:
@@ -86,7 +86,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--interactions", nargs="+", metavar="NAME", help="classes to evaluate (default: all in the data)")
     p.add_argument(
         "--methods", default=DEFAULT_METHODS, metavar="LIST",
-        help=f"comma-separated methods (default: {DEFAULT_METHODS}); baselines: hmm, promp, hold, constvel",
+        help=f"comma-separated methods (default: {DEFAULT_METHODS}); baselines: hmm, promp, ridge, hold, constvel, and gru with the [neural] extra (torch)",
     )
     p.add_argument(
         "--protocol", choices=PROTOCOLS, default=PROTOCOLS[0],

@@ -165,6 +165,14 @@ class SocialAffordanceEnv(gym.Env):
         self._index: int | None = None
         self._actions: list[np.ndarray] = []
 
+    def warm_up(self) -> None:
+        """Reset onto every instance once: compile each task's scene and cache each instance's reset, so that
+        later resets replay cached arrays (what a first reset of each costs otherwise). Ends the episode in
+        progress, if any (call :meth:`reset` next); leaves the env's random state alone."""
+        for index in range(len(self.pool.instances)):
+            self._start(index, 0)
+        self._index = None
+
     # -- episode state -------------------------------------------------------------------
     def _simulator(self, label: str) -> Simulator:
         if label not in self._sims:

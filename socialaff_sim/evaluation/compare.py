@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError, choices
-from .metrics import METRICS
+from .metrics import METRICS, is_horizon_metric
 
 __all__ = ["PairedDifference", "paired_difference", "paired_differences"]
 
@@ -102,7 +102,7 @@ def paired_differences(
     methods = list(results["average"])  # type: ignore[call-overload]
     if reference not in methods:
         raise ConfigError(f"reference: {reference!r} is not among the evaluated methods {choices(methods)}")
-    if metric not in METRICS:
+    if metric not in METRICS and not is_horizon_metric(metric):
         raise ConfigError(f"metric: expected one of {choices(METRICS)}, found {metric!r}")
     refs = {label: _scores(per_instance, label, reference, metric) for label in per_instance}  # type: ignore[arg-type, union-attr]
     out: dict[str, PairedDifference] = {}

@@ -21,11 +21,11 @@ import numpy as np
 from ..data.dataset import Dataset
 from ..data.interaction import Interaction
 from ..errors import ConfigError, ModelError, SocialAffError, choices
-from .metrics import joint_error, key_joint_error, parse_confusion
+from .metrics import HORIZONS_S, horizon_key_joint_error, joint_error, key_joint_error, parse_confusion
 from ..inference.presets import PRESETS as _PRESETS
 from ..inference.protocol import DEFAULT_N_OBSERVED, MethodFactory, Prediction, ReactionMethod
 from .splits import SPLITS, make_folds
-from .streaming import PAPER_DELTA_T, PROTOCOLS, run_protocol
+from .streaming import PAPER_DELTA_T, PROTOCOLS, run_protocol_measured
 
 __all__ = ["EvaluationConfig", "Task", "TaskResult", "InstanceScore", "make_method", "make_tasks", "run_task", "task_seed"]
 
@@ -63,6 +63,10 @@ class EvaluationConfig:
     """[—]: Parallel workers (process pool size, or Ray CPUs of a local instance); ``None``: all CPUs."""
     address: str | None = None
     """[—]: Ray cluster address (``executor="ray"``); ``None`` starts a local Ray instance."""
+    horizons_s: tuple[float, ...] = HORIZONS_S
+    """h [s]: Forecast horizons of the horizon errors (``()``: none); see :mod:`.streaming`."""
+    horizon_every_s: float = 0.5
+    """S [s]: Spacing of the forecast times (rounded to whole frames, at least one frame)."""
 
     def __post_init__(self) -> None:
         if self.protocol not in PROTOCOLS:
@@ -83,6 +87,10 @@ class EvaluationConfig:
             raise ConfigError(f"n_observed: expected at least 1, found {self.n_observed}")
         if self.workers is not None and self.workers < 1:
             raise ConfigError(f"workers: expected at least 1, found {self.workers}")
+        if any(not (h > 0 and h < 1e3) for h in self.horizons_s) or len(set(self.horizons_s)) != len(self.horizons_s):
+            raise ConfigError(f"horizons_s: expected distinct horizons in seconds > 0, found {self.horizons_s}")
+        if not self.horizon_every_s > 0:
+            raise ConfigError(f"horizon_every_s: expected seconds > 0, found {self.horizon_every_s}")
 
 
 def _stable(name: str) -> int:
@@ -113,6 +121,8 @@ class Task:
     seed: int
     protocol: str = "causal"
     preset: str = "default"
+    horizons_s: tuple[float, ...] = ()
+    horizon_every_s: float = 0.5
 
 
 @dataclass(frozen=True)
@@ -122,6 +132,8 @@ class InstanceScore:
     instance_id: str
     key_joint_error_m: float
     joint_error_m: float
+    horizon_errors_m: tuple[float, ...] = ()
+    """Key-joint error at each of the task's ``horizons_s`` (metres; NaN where not measurable)."""
 
 
 @dataclass(frozen=True)
@@ -133,11 +145,13 @@ class TaskResult:
     method: str
     scores: tuple[InstanceScore, ...]
     seconds: float
-    """Wall time of fit + all predictions, seconds."""
+    """Wall time of fit + the reactor's calls on every test instance (not the horizon forecasts), seconds."""
     confusion: np.ndarray | None = field(default=None)
     """(n_truth, P) pooled sub-event confusion counts, or ``None`` without ground truth or parse."""
     n_labelled: int = 0
     """Test frames with a ground-truth sub-event label."""
+    call_seconds: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """(C,) wall time of every reactor call on the test instances, seconds (the latency figures)."""
 
 
 def make_tasks(
@@ -167,7 +181,7 @@ def make_tasks(
             for name, factory in methods:
                 tasks.append(
                     Task(label, f, name, factory, tuple(insts[i] for i in train), test_set, config.n_observed, config.seed,
-                         config.protocol, config.preset)
+                         config.protocol, config.preset, tuple(config.horizons_s), config.horizon_every_s)
                 )
     return tasks, excluded, n_test
 
@@ -188,14 +202,24 @@ def run_task(task: Task) -> TaskResult:
     method = make_method(task.factory, task.preset)
     try:
         method.fit(task.train, rng=rng)
-        predictions: list[Prediction] = [
-            run_protocol(method, inst, protocol=task.protocol, n_observed=task.n_observed, rng=rng, delta_t=PAPER_DELTA_T)
-            for inst in task.test
-        ]
-        seconds = time.perf_counter() - start
+        fit_seconds = time.perf_counter() - start
+        runs = []
+        for inst in task.test:
+            steps = [max(1, round(h * inst.fps)) for h in task.horizons_s]
+            runs.append(run_protocol_measured(
+                method, inst, protocol=task.protocol, n_observed=task.n_observed, rng=rng, delta_t=PAPER_DELTA_T,
+                horizon_frames=max(steps, default=0), horizon_every=max(1, round(task.horizon_every_s * inst.fps)),
+            ))
+        predictions: list[Prediction] = [r.prediction for r in runs]
+        call_seconds = np.concatenate([r.call_seconds for r in runs]) if runs else np.zeros(0)
+        seconds = fit_seconds + float(call_seconds.sum())
         scores = tuple(
-            InstanceScore(inst.instance_id, key_joint_error(p, inst), joint_error(p, inst))
-            for p, inst in zip(predictions, task.test, strict=True)
+            InstanceScore(
+                inst.instance_id, key_joint_error(r.prediction, inst), joint_error(r.prediction, inst),
+                tuple(horizon_key_joint_error(r.forecast_times, r.forecasts, inst, max(1, round(h * inst.fps)))
+                      for h in task.horizons_s),
+            )
+            for r, inst in zip(runs, task.test, strict=True)
         )
     except SocialAffError as exc:
         raise ModelError(f"method {task.method!r} on {task.label!r}, fold {task.fold}: {exc}") from exc
@@ -212,4 +236,4 @@ def run_task(task: Task) -> TaskResult:
         for m in mats:
             confusion[: m.shape[0], : m.shape[1]] += m
         n_labelled = int(sum((g >= 0).sum() for _, g, _ in parts))
-    return TaskResult(task.label, task.fold, task.method, scores, seconds, confusion, n_labelled)
+    return TaskResult(task.label, task.fold, task.method, scores, seconds, confusion, n_labelled, call_seconds)

@@ -9,10 +9,60 @@ from ..data.interaction import Interaction
 from ..errors import ModelError
 from ..inference.protocol import Prediction
 
-__all__ = ["METRICS", "mean_joint_distance", "key_joint_error", "joint_error", "parse_confusion", "matched_accuracy"]
+__all__ = [
+    "HORIZONS_S",
+    "METRICS",
+    "horizon_key_joint_error",
+    "horizon_metric",
+    "is_horizon_metric",
+    "joint_error",
+    "key_joint_error",
+    "matched_accuracy",
+    "mean_joint_distance",
+    "parse_confusion",
+]
 
 METRICS: tuple[str, ...] = ("key_joint_error_m", "joint_error_m")
 """The two errors every evaluated instance, class and method carries (results.json keys, metres)."""
+
+
+HORIZONS_S: tuple[float, ...] = (0.2, 0.5, 1.0)
+"""Forecast horizons h, seconds, of the horizon errors (docs/evaluation.md, "Horizons and latency")."""
+
+
+def horizon_metric(horizon_s: float) -> str:
+    """The results.json key of the key-joint error at horizon ``horizon_s`` seconds, e.g. ``key_joint_error_0.5s_m``."""
+    return f"key_joint_error_{horizon_s:g}s_m"
+
+
+def is_horizon_metric(name: str) -> bool:
+    """Whether ``name`` is a key made by :func:`horizon_metric`."""
+    if not (name.startswith("key_joint_error_") and name.endswith("s_m")):
+        return False
+    try:
+        return horizon_metric(float(name[len("key_joint_error_"):-3])) == name
+    except ValueError:
+        return False
+
+
+def horizon_key_joint_error(forecast_times: np.ndarray, forecasts: np.ndarray, truth: Interaction, steps: int) -> float:
+    """Key-joint error, metres, of the forecasts ``steps`` frames ahead: for each forecast time t (A,) with
+    t + steps inside the instance, the mean distance over agent 1's tracked key joints at t + steps between
+    the forecast (``forecasts[a, steps]``, (A, L, 5, 3)) and the ground truth; then the mean over those t.
+    NaN when no forecast reaches a tracked frame."""
+    times = np.asarray(forecast_times, dtype=np.int64)
+    if times.size == 0 or steps >= np.asarray(forecasts).shape[1]:
+        return float("nan")
+    target = times + steps
+    inside = target < truth.n_frames
+    if not inside.any():
+        return float("nan")
+    gt = truth.key_joints()[target[inside], 1]
+    mask = truth.key_valid()[target[inside], 1] & truth.key_available()[None]
+    pred = np.asarray(forecasts, dtype=np.float64)[inside, steps]
+    per_time = [mean_joint_distance(pred[i:i + 1], gt[i:i + 1], mask[i:i + 1]) for i in range(len(pred))]
+    finite = [v for v in per_time if not np.isnan(v)]
+    return float(np.mean(finite)) if finite else float("nan")
 
 
 def mean_joint_distance(pred: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> float:

@@ -5,16 +5,19 @@ Registering a method
     unfitted :class:`~socialaff_sim.inference.protocol.ReactionMethod`, e.g. a module-level function
     or class) under ``name``; a factory with a ``preset`` keyword receives the run's preset name
     (``"default"`` or ``"paper"``). The built-in methods are registered here, where the evaluation
-    can see every method from above: the baselines ``"hmm"``, ``"promp"``, ``"hold"`` and
-    ``"constvel"`` (:mod:`socialaff_sim.baselines`), and the full model and its ablations ``"full"``,
+    can see every method from above: the baselines ``"hmm"``, ``"promp"``, ``"hold"``,
+    ``"constvel"``, ``"ridge"`` and ``"gru"`` (:mod:`socialaff_sim.baselines`; ``"gru"`` needs the
+    ``[neural]`` extra and fails with a :class:`~socialaff_sim.errors.ConfigError` naming it without torch), and the full model and its ablations ``"full"``,
     ``"full_online"``, ``"v1"`` and ``"v2"`` (:class:`~socialaff_sim.inference.methods.AffordanceMethod`).
     :func:`get_method` fails with an error listing the available names.
 """
 
 from __future__ import annotations
 
+from ..baselines.gru import GRUReaction
 from ..baselines.hmm import MultiLevelHMM
 from ..baselines.promp import InteractionProMP
+from ..baselines.ridge import RidgeReaction
 from ..baselines.simple import ConstantVelocity, HoldPose
 from ..errors import ConfigError, choices
 from ..inference.methods import REGISTERED_CHAINS, AffordanceMethod
@@ -40,6 +43,15 @@ def _constvel() -> ReactionMethod:
     return ConstantVelocity()
 
 
+def _ridge() -> ReactionMethod:
+    return RidgeReaction()
+
+
+def _gru() -> ReactionMethod:
+    # raises ConfigError naming the [neural] extra when torch is absent
+    return GRUReaction()
+
+
 def _full(preset: str = "default") -> AffordanceMethod:
     return AffordanceMethod.from_preset("full", preset, chains=REGISTERED_CHAINS)
 
@@ -62,6 +74,8 @@ METHODS: dict[str, MethodFactory] = {
     "promp": _promp,
     "hold": _hold,
     "constvel": _constvel,
+    "ridge": _ridge,
+    "gru": _gru,
     "full": _full,
     "full_online": _full_online,
     "v1": _v1,

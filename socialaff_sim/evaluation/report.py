@@ -12,7 +12,7 @@ from typing import Any
 from .._atomic import atomic_path, atomic_write_text
 from .metrics import METRICS
 
-__all__ = ["format_tables", "write_results", "plot_results"]
+__all__ = ["format_tables", "horizon_lines", "write_results", "plot_results"]
 
 _METRICS = tuple(zip(METRICS, ("Average key-joint error (m)", "Average joint error, full skeleton (m)"), strict=True))
 
@@ -79,11 +79,64 @@ def format_tables(results: Mapping[str, Any]) -> str:
                 continue  # the method does not parse sub-events
             cells = [_cell(parse.get(lab, {}).get(m), False) for lab in labels]
             lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    lines += horizon_lines(results)
     lines += _paired_lines(results.get("paired"))
     lines += ["", "Fit + predict time summed over tasks (s): " + ", ".join(
         f"{m} {results['seconds'][m]:.1f}" for m in methods
     ) + "."]
     return "\n".join(lines) + "\n"
+
+
+def horizon_lines(results: Mapping[str, Any], heading: str = "##") -> list[str]:
+    """Markdown: key-joint error at each forecast horizon (averaged over the interactions, with the paired
+    difference to ``hold`` where it was run) and the per-call latency of each method, under headings of
+    level ``heading``; nothing for runs without them (results.json files written before they existed)."""
+    horizons = results.get("horizons_s") or []
+    average = results["average"]
+    methods = list(average)
+    lines: list[str] = []
+    keys = [f"key_joint_error_{h:g}s_m" for h in horizons]
+    if keys and any(not _missing(average[m].get(k)) for m in methods for k in keys):
+        every = results.get("settings", {}).get("horizon_every_s")
+        lines += ["", f"{heading} Key-joint error at forecast horizons (m)", ""]
+        lines.append(
+            "At each forecast time t (every " + (f"{every:g} s" if every else "few frames") + " from T0 on) the method, "
+            "having seen agent 0 up to frame t, forecasts agent 1's frames t … t + h; the error of the frame h seconds "
+            "ahead, averaged over the forecast times, the instances and the interactions (docs/evaluation.md). "
+            "In brackets: the paired difference to `hold` with its 95 % interval."
+        )
+        lines += ["", "| Method | " + " | ".join(f"h = {h:g} s" for h in horizons) + " |", "|---|" + "---:|" * len(horizons)]
+        hold = (results.get("paired") or {}).get("hold", {}).get("differences", {})
+        for m in methods:
+            cells = []
+            for k in keys:
+                text = _cell(average[m].get(k), False)
+                d = hold.get(k, {}).get(m)
+                if d:
+                    text += f" ({d['mean_m']:+.3f} [{d['low_m']:+.3f}, {d['high_m']:+.3f}])"
+                cells.append(text)
+            lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    latency = results.get("latency_ms") or {}
+    if latency:
+        lines += ["", f"{heading} Latency per call (ms)", ""]
+        lines.append(
+            f"Wall time of each call of the method's reactor on the test instances (protocol `{results.get('protocol', '?')}`: "
+            + ("one call per synthesized frame" if results.get("protocol") == "causal" else "one call per block")
+            + "); pooled over all calls; tasks may have shared the machine."
+        )
+        lines += ["", "| Method | p50 | p99 | max | calls |", "|---|---:|---:|---:|---:|"]
+        for m in methods:
+            lat = latency.get(m) or {}
+            lines.append(f"| {m} | {_ms(lat.get('p50'))} | {_ms(lat.get('p99'))} | {_ms(lat.get('max'))} | {lat.get('n_calls', 0)} |")
+    return lines
+
+
+def _missing(value: Any) -> bool:
+    return value is None or (isinstance(value, float) and math.isnan(value))
+
+
+def _ms(value: Any) -> str:
+    return "–" if _missing(value) else f"{value:.2f}"
 
 
 def _paired_lines(paired: Mapping[str, Any] | None) -> list[str]:

@@ -24,8 +24,8 @@ import numpy as np
 from ..data.dataset import Dataset
 from ..errors import ConfigError, choices
 from .compare import paired_differences
-from .crossval import EvaluationConfig, Task, TaskResult, make_tasks, run_task
-from .metrics import METRICS, matched_accuracy
+from .crossval import EvaluationConfig, Task, TaskResult, make_method, make_tasks, run_task
+from .metrics import METRICS, horizon_metric, matched_accuracy
 from .registry import get_method
 from .splits import OPTIMISTIC_SPLITS
 
@@ -133,7 +133,7 @@ def _mean(values: list[float]) -> float:
     return float(np.mean(finite)) if finite else float("nan")
 
 
-BASELINES: tuple[str, ...] = ("hold", "constvel", "hmm", "promp")
+BASELINES: tuple[str, ...] = ("hold", "constvel", "hmm", "promp", "ridge", "gru")
 """The baselines among which the best (lowest average key-joint error) is the second paired reference."""
 
 
@@ -156,12 +156,16 @@ def evaluate(
          "upper_bound": bool,                          # true for the offline protocol
          "optimistic": bool,                           # true for the block split
          "title": str,                                 # one line naming all of the above, for every table
-         "per_interaction": {class: {method: {"key_joint_error_m", "joint_error_m", "n_test"}}},
-         "average": {method: {"key_joint_error_m", "joint_error_m"}},
+         "per_interaction": {class: {method: {"key_joint_error_m", "joint_error_m", "n_test",
+                                              "key_joint_error_<h>s_m" for each horizon h}}},
+         "average": {method: {"key_joint_error_m", "joint_error_m", "key_joint_error_<h>s_m" …}},
+         "horizons_s": [h, …],                          # forecast horizons (empty under offline: null errors)
+         "latency_ms": {method: {"p50", "p99", "max", "n_calls"}},  # wall time per reactor call
          "seconds": {method: float},
          "parse_accuracy": {class: {method: float}},   # where ground truth and a parse exist
          "excluded": {class: int},                      # test instances with T <= T0 + 1
-         "per_instance": {class: {method: [{"instance_id", "fold", "key_joint_error_m", "joint_error_m"}]}},
+         "per_instance": {class: {method: [{"instance_id", "fold", "key_joint_error_m", "joint_error_m",
+                                            "key_joint_error_<h>s_m" …}]}},
          "paired": {comparison: {"reference": method, "confidence": 0.95, "n_resamples": int,
                                  "differences": {metric: {method: {"mean_m", "low_m", "high_m",
                                                                    "n_instances", "verdict"}}}}},
@@ -176,7 +180,12 @@ def evaluate(
 
     A class's error is the mean over its test instances of each instance's mean
     distance over the synthesized frames; ``average`` is the mean over classes;
-    ``seconds`` sums each method's fit + predict wall time over its tasks. Parse
+    ``seconds`` sums each method's fit + predict wall time over its tasks. The horizon
+    errors ``key_joint_error_<h>s_m`` (e.g. ``key_joint_error_0.5s_m``) are the errors of the
+    forecasts h seconds ahead of each forecast time (:mod:`.streaming`, docs/evaluation.md), averaged
+    the same way; ``paired`` carries them too. ``latency_ms`` pools the wall time of every call of a
+    method's reactor on every test instance (one call per frame under ``causal``; measured while other
+    tasks may share the machine, so compare methods of one run, not runs). Parse
     accuracy matches the method's labels to the ground truth one-to-one per fold
     (pooled over the fold's test instances, all frames with a ground-truth label)
     and weighs the folds by their labelled frames. Test instances with
@@ -188,6 +197,10 @@ def evaluate(
     if len(set(methods)) != len(methods):
         raise ConfigError(f"methods: each method at most once, found {list(methods)}")
     factories = [(m, get_method(m)) for m in methods]
+    for _, factory in factories:  # fail before any task runs (e.g. gru without torch names the extra)
+        make_method(factory, config.preset)
+    hkeys = [horizon_metric(h) for h in config.horizons_s]
+    metrics = list(METRICS) + hkeys
     labels = list(interactions) if interactions else list(dataset.labels)
     unknown = [lab for lab in labels if lab not in dataset.labels]
     if unknown:
@@ -199,6 +212,7 @@ def evaluate(
     per_instance: dict[str, dict[str, list[dict[str, object]]]] = {}
     parse: dict[str, dict[str, float]] = {}
     seconds = {m: 0.0 for m in methods}
+    calls: dict[str, list[np.ndarray]] = {m: [] for m in methods}
     for label in labels:
         per_interaction[label], per_instance[label] = {}, {}
         for m in methods:
@@ -209,10 +223,14 @@ def evaluate(
                 "joint_error_m": _mean([s.joint_error_m for _, s in scores]),
                 "n_test": len(scores),
             }
+            for i, key in enumerate(hkeys):
+                per_interaction[label][m][key] = _mean([s.horizon_errors_m[i] for _, s in scores])
             per_instance[label][m] = [
-                {"instance_id": s.instance_id, "fold": f, "key_joint_error_m": s.key_joint_error_m, "joint_error_m": s.joint_error_m}
+                {"instance_id": s.instance_id, "fold": f, "key_joint_error_m": s.key_joint_error_m, "joint_error_m": s.joint_error_m,
+                 **{key: s.horizon_errors_m[i] for i, key in enumerate(hkeys)}}
                 for f, s in scores
             ]
+            calls[m].append(np.concatenate([r.call_seconds for r in mine]) if mine else np.zeros(0))
             seconds[m] += sum(r.seconds for r in mine)
             parsed = [r for r in mine if r.confusion is not None]
             if parsed:
@@ -223,7 +241,7 @@ def evaluate(
     average = {
         m: {
             key: _mean([float(per_interaction[lab][m][key]) for lab in labels])
-            for key in METRICS
+            for key in metrics
         }
         for m in methods
     }
@@ -237,6 +255,8 @@ def evaluate(
         "title": run_title(dataset.name, config),
         "per_interaction": per_interaction,
         "average": average,
+        "horizons_s": list(config.horizons_s),
+        "latency_ms": {m: _latency(np.concatenate(calls[m])) for m in methods},
         "seconds": seconds,
         "parse_accuracy": parse,
         "excluded": excluded,
@@ -253,15 +273,17 @@ def evaluate(
             "methods": list(methods),
             "interactions": labels,
             "n_test_available": n_test,
+            "horizons_s": list(config.horizons_s),
+            "horizon_every_s": config.horizon_every_s,
         },
     }
     paired: dict[str, object] = {}
     if len(methods) > 1:
         if "hold" in methods:
-            paired["hold"] = _paired(out, "hold", config.seed, 0)
+            paired["hold"] = _paired(out, "hold", config.seed, 0, metrics)
         best = best_baseline(average)
         if best is not None:
-            paired["best_baseline"] = _paired(out, best, config.seed, 1)
+            paired["best_baseline"] = _paired(out, best, config.seed, 1, metrics)
     out["paired"] = paired
     return out
 
@@ -284,10 +306,19 @@ def best_baseline(average: dict[str, dict[str, float]]) -> str | None:
     return min(scored)[1] if scored else None
 
 
-def _paired(results: dict[str, object], reference: str, seed: int, comparison: int) -> dict[str, object]:
+def _latency(call_seconds: np.ndarray) -> dict[str, float | int]:
+    """p50, p99 and max of the per-call wall times, milliseconds, and the number of calls."""
+    if call_seconds.size == 0:
+        return {"p50": float("nan"), "p99": float("nan"), "max": float("nan"), "n_calls": 0}
+    p50, p99 = np.percentile(call_seconds * 1e3, [50, 99])
+    return {"p50": float(p50), "p99": float(p99), "max": float(call_seconds.max() * 1e3), "n_calls": int(call_seconds.size)}
+
+
+def _paired(results: dict[str, object], reference: str, seed: int, comparison: int,
+            metrics: Sequence[str] = METRICS) -> dict[str, object]:
     """One entry of ``paired`` in ``results.json``: each method minus ``reference``, per metric."""
     differences: dict[str, dict[str, dict[str, object]]] = {}
-    for k, metric in enumerate(METRICS):
+    for k, metric in enumerate(metrics):
         # spawn key 2: apart from the folds' (0, …) and the tasks' (1, …) streams of the same seed
         rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(2, comparison, k)))
         pairs = paired_differences(results, reference, metric=metric, confidence=PAIRED_CONFIDENCE,

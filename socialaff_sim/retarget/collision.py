@@ -33,11 +33,13 @@ their nearest points, ``mj_geomDistance``, and the Jacobians of those points).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import mink
 import mujoco
 import numpy as np
 
-__all__ = ["GeomPairLimit", "collision_pairs"]
+__all__ = ["GeomPairLimit", "PairMemory", "collision_pairs"]
 
 
 def collision_pairs(model: mujoco.MjModel, group_a: np.ndarray, group_b: np.ndarray, *,
@@ -69,6 +71,18 @@ def collision_pairs(model: mujoco.MjModel, group_a: np.ndarray, group_b: np.ndar
     pairs = np.stack([ga[keep], gb[keep]], axis=1)
     _, first = np.unique(np.sort(pairs, axis=1), axis=0, return_index=True)
     return pairs[np.sort(first)]
+
+
+@dataclass(frozen=True)
+class PairMemory:
+    """What a :class:`GeomPairLimit` remembers from one call to the next (:meth:`GeomPairLimit.memory`)."""
+
+    before: np.ndarray
+    """(G, G) each pair's smallest distance since it last produced a row, metres (inf: not seen)."""
+    last_active: np.ndarray
+    """(k, 2) the geom pairs that produced a row at the last call."""
+    last_distance: np.ndarray
+    """(k,) their distances, metres."""
 
 
 class GeomPairLimit(mink.Limit):
@@ -132,6 +146,21 @@ class GeomPairLimit(mink.Limit):
         """Pairs that get a row whatever their distance (:meth:`watch`)."""
         self._jac = np.zeros((2, 3, model.nv))
         self._fromto = np.zeros(6)
+
+    def memory(self) -> PairMemory:
+        """A copy of what the limit remembers between calls (valid between solves: no pair watched)."""
+        return PairMemory(self._before.copy(), self.last_active.copy(), self.last_distance.copy())
+
+    def restore(self, memory: PairMemory | None) -> None:
+        """Put back a :meth:`memory` (``None``: that of a newly built limit, nothing seen), in place."""
+        if memory is None:
+            self._before.fill(np.inf)
+            self.last_active, self.last_distance = np.zeros((0, 2), dtype=np.int64), np.zeros(0)
+        else:
+            self._before[...] = memory.before
+            self.last_active, self.last_distance = memory.last_active.copy(), memory.last_distance.copy()
+        self.unwatch()
+        self.allow_push = True
 
     def watch(self, pairs: np.ndarray) -> bool:
         """Give ``pairs`` (k, 2) a row at the next calls, however far apart; whether any is new."""

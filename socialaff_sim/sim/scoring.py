@@ -150,6 +150,9 @@ class SubgoalScorer:
         for a, b in ((1, 1), (1, 2), (1, 3), (3, 4)):
             table[a, b] = table[b, a] = True
         self._interesting = table.ravel()
+        # The same per geom pair (ngeom, ngeom): one lookup per contact on the steps where none matters.
+        self._keep_pair = table[self._code[:, None], self._code[None, :]]
+        self._grip_all = np.concatenate(self._grips) if self._any_grip else np.zeros(0, dtype=np.int64)
         self.reset()
 
     def reset(self) -> None:
@@ -182,15 +185,15 @@ class SubgoalScorer:
         self.time = t
         self._dt = dt
         n = data.ncon
-        gripped = [bool(data.eq_active[g].any()) if len(g) else False for g in self._grips] if self._any_grip else None
-        keep = None
+        gripped = None
+        if self._any_grip:
+            eq = data.eq_active
+            gripped = [bool(eq[g].any()) for g in self._grips] if eq[self._grip_all].any() else [False] * len(self._grips)
         if n:
-            con = data.contact
-            geom = con.geom[:n]
+            geom = data.contact.geom[:n]
             g1, g2 = geom[:, 0], geom[:, 1]
-            cls = self._code[g1] * 5 + self._code[g2]
-            keep = self._interesting[cls]
-        if keep is None or not keep.any():
+            keep = self._keep_pair[g1, g2]
+        if not n or not keep.any():
             self.robot_on_object = False
             for res in self.subgoals:
                 res.current = False
@@ -199,6 +202,8 @@ class SubgoalScorer:
                 self._score_subgoals(none, none, np.zeros(0, dtype=bool), dt, t, subevent, gripped)
             self._quiet_step(t)
             return
+        con = data.contact
+        cls = self._code[g1] * 5 + self._code[g2]
         self.robot_on_object = bool(((cls == 8) | (cls == 16)).any())  # robot–object, either order
         dist = con.dist[:n]
         touching = (dist <= 0.0) & keep

@@ -11,6 +11,7 @@ frame, and the task's sub-goals and failures are scored on the contacts.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import time
 from pathlib import Path
@@ -22,12 +23,13 @@ from ..data.interaction import Interaction
 from ..errors import SimulationError
 from ..retarget.ik import RobotIK
 from ..retarget.robot import RobotSpec, load_robot
-from ..retarget.scaling import KeyJointScaler, RobotFrame, measure_robot, object_anchors
+from ..retarget.scaling import RobotFrame, measure_robot, object_anchors
 from .chair import chair_pose, place_chair
-from .carry import CarryPlan, hold_object, park_object, plan_carry, release_object
-from .human import HumanPose, pose_human, world_offset
-from .reach import human_segments, reach_model, reachable_targets
+from .carry import CarryPlan, hold_object, park_object, release_object
+from .human import HumanPose
+from .reach import reach_model, reachable_targets
 from .scene import Scene, pose_compliant, set_human_sizes
+from .reset_cache import ResetCache, Settled, build_placement
 from .scoring import SubgoalScorer
 from .stage import Stage, compile_scenes, contact_exemptions, key_frames, key_frames_at
 from .substeps import FrameStepper
@@ -38,12 +40,6 @@ from .support import SupportMeter
 from .tasks import TaskSpec, load_task
 
 __all__ = ["SimConfig", "StepResult", "Simulator"]
-
-
-def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.empty(4)
-    mujoco.mju_mulQuat(out, a, b)
-    return out
 
 
 class Simulator:
@@ -57,6 +53,8 @@ class Simulator:
         self._stage: Stage | None = None
         self._footlock: FootLock | None = None
         self.interaction: Interaction | None = None
+        self._reset_cache = ResetCache()
+        self._settled = False
 
     # -- set-up -----------------------------------------------------------------------
     def _get_stage(self, inter: Interaction) -> Stage:
@@ -100,34 +98,39 @@ class Simulator:
         source, such as the model's synthesis after T0 observed frames, may not see agent 1's recorded
         future); None: from the whole recording (ground-truth replay)."""
         stage = self._stage = self._get_stage(interaction)
+        if not stage.exemptions_set:  # the task's contact sub-goals, the same for every instance: set once
+            stage.ik.set_contact_exemptions(contact_exemptions(self.task.subgoals, stage.ik_scene))
+            stage.exemptions_set = True
         self.interaction = inter = interaction
-        placed = inter if placement_frames is None else _agent1_prefix(inter, placement_frames)
+        place = self._reset_cache.get(inter, placement_frames)
+        if place is None:
+            place = build_placement(inter, placement_frames, stage.scene, stage.ik_scene.home_qpos, self.measurements,
+                                    self.config.scaling, self.config.timestep, self.task.object)
+            self._reset_cache.put(place)
+        self._placement = place
         scene = stage.scene
-        self.offset = world_offset(placed)
-        self.pose: HumanPose = pose_human(scene.body, inter, self.offset)
+        self.offset = place.offset
+        self.pose: HumanPose = place.pose
         set_human_sizes(scene, self.pose.half_lengths)
         set_human_sizes(stage.ik_scene, self.pose.half_lengths)
-        self._segments = human_segments(self.pose, scene.body.radii)
-        self.scaler = KeyJointScaler(self.measurements, self.config.scaling)
-        self.frame_R: RobotFrame = self.scaler.reset(placed, self.offset)
+        self._segments = place.segments
+        self.scaler = copy.copy(place.scaler)  # its online placement moves during the episode
+        self.frame_R: RobotFrame = place.frame
         self._yaw = self.frame_R.yaw
-        self.carry: CarryPlan | None = None
-        if self.task.object is not None and inter.object is not None:
-            self.carry = plan_carry(inter, self.offset, self.task.object, scene.body.hand_joints)
-        self._obj_track = None if inter.object is None else inter.object + self.offset
-
-        fps = inter.fps
-        self.n_sub = max(1, int(round(1.0 / (fps * self.config.timestep))))
-        scene.model.opt.timestep = 1.0 / (fps * self.n_sub)
+        self.carry: CarryPlan | None = place.carry
+        self._obj_track = place.obj_track
+        self.n_sub = place.n_sub
+        scene.model.opt.timestep = place.timestep
         ik = stage.ik
-        ik.set_contact_exemptions(contact_exemptions(self.task.subgoals, stage.ik_scene))
+        ik.collision_limit.restore(None)  # as newly built: the exemptions are the task's, set with the stage
         ik.set_human(self.pose.pos[0], self.pose.quat[0])
-        q0 = self._home_in_world(stage)
+        q0 = place.home
         ik.reset(q0)
         self.frame = 0
         self.time = 0.0
         self.results: list[StepResult] = []
         self._start(q0)
+        self._settled = False
         if initial_targets is not None:
             self.settle(initial_targets)
 
@@ -138,9 +141,21 @@ class Simulator:
             raise SimulationError(f"settle is only possible at frame 0, the simulator is at frame {self.frame}")
         ik = self._stage.ik  # type: ignore[union-attr]
         world = self.frame_R.to_world(self._fill_targets(np.asarray(targets, dtype=np.float64)))
-        q = self._q
-        for _ in range(self.config.settle_iterations):
-            q = ik.solve(world, self._yaw, dt=1.0).qpos
+        # Straight after a reset the IK starts from the instance's home pose and a clear collision memory, so
+        # its outcome depends on the targets alone and is replayed from the cache when they recur.
+        fresh = not self._settled
+        hit = self._placement.settled_for(world) if fresh else None
+        if hit is not None:
+            q = hit.qpos.copy()
+            ik.reset(q)
+            ik.collision_limit.restore(hit.limit)
+        else:
+            q = self._q
+            for _ in range(self.config.settle_iterations):
+                q = ik.solve(world, self._yaw, dt=1.0).qpos
+            if fresh:
+                self._placement.remember(world, Settled(q.copy(), ik.collision_limit.memory()))
+        self._settled = True
         self._start(q)
 
     def _start(self, q0: np.ndarray) -> None:
@@ -170,7 +185,7 @@ class Simulator:
             (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), self.config.foot_lock)
         if self.carry is not None and self.carry.release_frame == 0:
             self._release(0)
-        self.last_targets = self.frame_R.to_robot(key_frames_at(stage.ik_scene, q0))
+        self.last_targets = self.frame_R.to_robot(key_frames_at(stage.ik_scene, q0, stage.kinematics))
 
     def _to_physics(self, q_ik: np.ndarray) -> np.ndarray:
         """Robot coordinates of the physics scene (..., nq_r) from IK ones (..., nq_ik); frozen joints at home."""
@@ -180,13 +195,6 @@ class Simulator:
         out = np.broadcast_to(stage.scene.home_qpos, (*q_ik.shape[:-1], len(stage.scene.home_qpos))).copy()
         out[..., stage.ik_map] = q_ik
         return out
-
-    def _home_in_world(self, stage: Stage) -> np.ndarray:
-        q = stage.ik_scene.home_qpos.copy()
-        q[:3] = self.frame_R.to_world(q[:3])
-        yaw_q = np.array([np.cos(self._yaw / 2), 0.0, 0.0, np.sin(self._yaw / 2)])
-        q[3:7] = _quat_mul(yaw_q, q[3:7])
-        return q
 
     def _fill_targets(self, targets: np.ndarray) -> np.ndarray:
         if targets.shape != (5, 3):
@@ -360,11 +368,3 @@ class Simulator:
     def ik_qpos(self) -> np.ndarray:
         """(nq_ik,) the latest IK solution (free joint then the IK's hinges), world frame."""
         return self._q.copy()
-
-
-def _agent1_prefix(inter: Interaction, n: int) -> Interaction:
-    """The instance with agent 1 after frame ``n`` marked invalid (its filled joints hold frame n − 1)."""
-    if not 1 <= n <= inter.n_frames:
-        raise SimulationError(f"placement_frames: expected 1..{inter.n_frames} for this instance, found {n}")
-    return inter.hide_agent_after(1, n)
-

@@ -10,7 +10,7 @@ model. The simulator builds one the first time it resets an instance of a layout
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
@@ -44,6 +44,13 @@ class Stage:
     """(nq_ik,) position of each IK coordinate in the physics robot's coordinates."""
     stepper: FrameStepper
     reach: ReachModel
+    exemptions_set: bool = False
+    """Whether the IK's contact exemptions (the task's, the same for every instance) have been set."""
+    kinematics: mujoco.MjData = field(init=False)
+    """Scratch data of the IK scene for :func:`key_frames_at` (making one per call costs a millisecond)."""
+
+    def __post_init__(self) -> None:
+        self.kinematics = mujoco.MjData(self.ik_scene.model)
 
 
 def compile_scenes(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None, *, timestep: float,
@@ -112,9 +119,11 @@ def key_frames(scene: Scene, data: mujoco.MjData) -> np.ndarray:
                      for k, i in zip(scene.frame_kinds, scene.frame_ids, strict=True)])
 
 
-def key_frames_at(scene: Scene, qpos: np.ndarray) -> np.ndarray:
-    """(5, 3) world positions of the robot's key frames at scene coordinates ``qpos`` (nq,), metres."""
-    d = mujoco.MjData(scene.model)
+def key_frames_at(scene: Scene, qpos: np.ndarray, data: mujoco.MjData | None = None) -> np.ndarray:
+    """(5, 3) world positions of the robot's key frames at scene coordinates ``qpos`` (nq,), metres.
+
+    ``data``: scratch data of ``scene.model`` to use (its state is overwritten); ``None``: a new one."""
+    d = mujoco.MjData(scene.model) if data is None else data
     d.qpos[:] = qpos
     mujoco.mj_kinematics(scene.model, d)
     return key_frames(scene, d)

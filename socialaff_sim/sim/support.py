@@ -20,6 +20,7 @@ data frame:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -83,6 +84,10 @@ class SupportMeter:
         self.gravcomp_fraction = float((m.body_gravcomp[robot_bodies] * mass).sum() / self.mass) if self.mass else 0.0
         """Share of the robot's weight carried by gravity compensation (0: real weight)."""
         self._weld = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, "robot_anchor")
+        self._eq_type = int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)
+        # Constraint rows of each equality before the harness weld when active (weld 6, connect 3, others 1).
+        rows = {int(mujoco.mjtEq.mjEQ_WELD): 6, int(mujoco.mjtEq.mjEQ_CONNECT): 3}
+        self._eq_rows_before = np.array([rows.get(int(t), 1) for t in m.eq_type[: max(self._weld, 0)]], dtype=np.int64)
         self._root_lin = scene.robot_vadr[:3]
         self._feet = []
         for k in (3, 4):
@@ -91,6 +96,12 @@ class SupportMeter:
             inside = subtree_mask(m, body)
             self._feet.append((body, inside[m.geom_bodyid] & scene.robot_geom))
         self._robot_geom = scene.robot_geom
+        self._foot_bodies = np.array([b for b, _ in self._feet], dtype=np.int64)
+        # Geom classes for the contact pass (see _flush): robot 1, left foot +2, right foot +4, floor 8.
+        code = np.where(scene.robot_geom, 1, 0) + 2 * self._feet[0][1] + 4 * self._feet[1][1]
+        if scene.floor_geom >= 0:
+            code[scene.floor_geom] = 8
+        self._code = code.astype(np.int64)
         left = _ancestry(m, int(scene.limb_body_ids[0]))
         right = set(_ancestry(m, int(scene.limb_body_ids[1])))
         self._torso = next((b for b in left[1:] if b in right), scene.root_body)
@@ -115,9 +126,14 @@ class SupportMeter:
         """Forget everything (a new episode)."""
         self.frames = []
         self._foot_prev: list[np.ndarray | None] = [None, None]
-        self.feet_down = (True, True)
-        """Whether each foot (left, right) touched the floor at the last physics step."""
+        self._feet_down = (True, True)
         self._clear_frame()
+
+    @property
+    def feet_down(self) -> tuple[bool, bool]:
+        """Whether each foot (left, right) touched the floor at the last physics step."""
+        self._flush()
+        return self._feet_down
 
     def _clear_frame(self) -> None:
         self._n = 0
@@ -125,6 +141,17 @@ class SupportMeter:
         self._slide = [0.0, 0.0]
         self._sat = self._lim = 0
         self._tilt = 0.0
+        self._clear_pending()
+
+    def _clear_pending(self) -> None:
+        # Raw readings of the physics steps not yet accounted for (see update and _flush).
+        self._p_outside: list[float] = []
+        self._p_codes: list[np.ndarray | None] = []
+        self._p_dist: list[np.ndarray | None] = []
+        self._p_feet: list[np.ndarray] = []
+        self._p_force: list[np.ndarray] = []
+        self._p_q: list[np.ndarray] = []
+        self._p_up: list[np.ndarray] = []
 
     def harness_force(self, data: mujoco.MjData) -> np.ndarray:
         """(3,) force (N, world frame) the harness weld exerts on the robot's root at the current state."""
@@ -141,46 +168,98 @@ class SupportMeter:
         mujoco.mj_mulJacTVec(m, data, self._res, self._vec)
         return np.array(self._res[self._root_lin])
 
+    def _harness_norm(self, data: mujoco.MjData) -> float:
+        """‖:meth:`harness_force`‖ (N), read straight off the weld's constraint rows.
+
+        The weld's first three rows are its translational ones, and their Jacobian on the root's free-joint
+        translation is ±I (that joint moves the root in world coordinates), so ``Jᵀλ`` there is ±λ of those
+        rows. MuJoCo lays the equality rows out first, in equality order, active ones only; when the rows
+        are not where that puts them, the general path is taken."""
+        nefc = data.nefc
+        if self._weld < 0 or nefc == 0:
+            return 0.0
+        off = int(self._eq_rows_before @ data.eq_active[: self._weld]) if self._weld else 0
+        if off + 3 <= nefc and data.efc_id[off] == self._weld and data.efc_type[off] == self._eq_type:
+            x, y, z = data.efc_force[off: off + 3].tolist()
+            return math.sqrt(x * x + y * y + z * z)
+        return float(np.linalg.norm(self.harness_force(data)))
+
     def update(self, data: mujoco.MjData) -> None:
-        """Account for the physics step just taken."""
-        outside = float(np.linalg.norm(self.harness_force(data))) / self.weight + self.gravcomp_fraction
-        self._out_sum += outside
-        self._out_peak = max(self._out_peak, outside)
+        """Account for the physics step just taken.
+
+        Only copies what the figures need (the harness force, the contacts' geom classes and distances,
+        the feet's positions, the actuator forces, the limited joints' angles, the torso's attitude); the
+        figures are worked out for all pending steps at once, vectorised, when read (:meth:`end_frame`,
+        :attr:`feet_down`): this runs after every physics step, and per-step NumPy calls cost about as much
+        as the step itself."""
+        self._p_outside.append(self._harness_norm(data) / self.weight + self.gravcomp_fraction)
         n = data.ncon
-        floor = self.scene.floor_geom
-        if n and floor >= 0:
-            g1, g2 = data.contact.geom[:n, 0], data.contact.geom[:n, 1]
-            dist = data.contact.dist[:n]
-            other = np.where(g1 == floor, g2, np.where(g2 == floor, g1, -1))
-            on_floor = other >= 0
-            robot = on_floor & self._robot_geom[np.maximum(other, 0)]
-            if robot.any():
-                self._pen = max(self._pen, float(-dist[robot].min()))
-            for s, (body, geoms) in enumerate(self._feet):
-                touching = bool((robot & geoms[np.maximum(other, 0)] & (dist <= 0)).any())
-                pos = np.array(data.xpos[body, :2])
-                prev = self._foot_prev[s]
-                if touching and prev is not None:
-                    self._slide[s] += float(np.linalg.norm(pos - prev))
-                self._foot_prev[s] = pos if touching else None
-            self.feet_down = (self._foot_prev[0] is not None, self._foot_prev[1] is not None)
+        if n:
+            con = data.contact
+            self._p_codes.append(self._code[con.geom[:n]])
+            self._p_dist.append(con.dist[:n].copy())
         else:
-            self._foot_prev = [None, None]
-            self.feet_down = (False, False)
+            self._p_codes.append(None)
+            self._p_dist.append(None)
+        self._p_feet.append(data.xpos[self._foot_bodies, :2])
         if len(self._act_limit):
-            ratio = np.abs(data.actuator_force[self.scene.act_ids]) / self._act_limit
-            top = float(ratio.max())
-            self._ratio = max(self._ratio, top)
-            self._sat += top >= SATURATED
+            self._p_force.append(data.actuator_force[self.scene.act_ids])
         if len(self._lim_qadr):
-            q = data.qpos[self._lim_qadr]
-            self._lim += bool(((q - self._lim_range[:, 0] <= AT_LIMIT) | (self._lim_range[:, 1] - q <= AT_LIMIT)).any())
-        up = data.xmat[self._torso].reshape(3, 3) @ self._torso_up
-        self._tilt = max(self._tilt, float(np.degrees(np.arccos(np.clip(up[2], -1.0, 1.0)))))
+            self._p_q.append(data.qpos[self._lim_qadr])
+        self._p_up.append(data.xmat[self._torso, 6:9].copy())
         self._n += 1
+
+    def _flush(self) -> None:
+        """Fold the pending steps' readings into the frame's figures, in step order."""
+        k = len(self._p_outside)
+        if not k:
+            return
+        for v in self._p_outside:
+            self._out_sum += v
+            self._out_peak = max(self._out_peak, v)
+        # Contacts of all pending steps at once: a code per geom (1 robot, +2 / +4 left / right foot, 8 floor),
+        # so that a robot–floor contact has both bits 1 and 8 of the pair's OR, and a foot's its own bit too.
+        lengths = [0 if d is None else len(d) for d in self._p_dist]
+        touching = np.zeros((2, k), dtype=bool)
+        if sum(lengths):
+            codes = np.concatenate([c for c in self._p_codes if c is not None])
+            dist = np.concatenate([d for d in self._p_dist if d is not None])
+            step = np.repeat(np.arange(k), lengths)
+            pair = codes[:, 0] | codes[:, 1]
+            robot_floor = (pair & 9) == 9
+            if robot_floor.any():
+                self._pen = max(self._pen, float(-dist[robot_floor].min()))
+            down = robot_floor & (dist <= 0)
+            for s, bit in enumerate((2, 4)):
+                touching[s, step[down & ((pair & bit) != 0)]] = True
+        pos = np.array(self._p_feet)  # (k, 2 feet, 2)
+        for s in range(2):
+            prev = self._foot_prev[s]
+            if touching[s].any() or prev is not None:
+                # A step slides a foot by its move since the previous step when it touches the floor at both.
+                seq = np.concatenate([pos[:1, s] if prev is None else prev[None], pos[:, s]])
+                d = seq[1:] - seq[:-1]
+                moved = np.sqrt(np.sum(d * d, axis=1))
+                both = touching[s] & np.concatenate([[prev is not None], touching[s, :-1]])
+                for v in moved[both].tolist():
+                    self._slide[s] += v
+            self._foot_prev[s] = pos[-1, s].copy() if touching[s, -1] else None
+        self._feet_down = (self._foot_prev[0] is not None, self._foot_prev[1] is not None)
+        if self._p_force:
+            top = (np.abs(np.array(self._p_force)) / self._act_limit).max(axis=1)
+            self._ratio = max(self._ratio, float(top.max()))
+            self._sat += int(np.count_nonzero(top >= SATURATED))
+        if self._p_q:
+            q = np.array(self._p_q)
+            lo, hi = self._lim_range[:, 0], self._lim_range[:, 1]
+            self._lim += int(np.count_nonzero(((q - lo <= AT_LIMIT) | (hi - q <= AT_LIMIT)).any(axis=1)))
+        up_z = np.array(self._p_up) @ self._torso_up  # the z row of the torso's rotation, times its up axis
+        self._tilt = max(self._tilt, float(np.degrees(np.arccos(np.clip(up_z, -1.0, 1.0))).max()))
+        self._clear_pending()
 
     def end_frame(self) -> FrameSupport:
         """Close the data frame: its figures (also appended to :attr:`frames`)."""
+        self._flush()
         n = max(self._n, 1)
         fs = FrameSupport(outside_mean=self._out_sum / n, outside_peak=self._out_peak, slide=max(self._slide),
                           penetration=self._pen, torque_ratio=self._ratio, saturated=self._sat / n, at_limit=self._lim / n,

@@ -1,0 +1,222 @@
+"""``ridge``: a causal linear regression of agent 1's displacement on agent 0's motion, shrunk toward ``hold``.
+
+For every output frame t ≥ T0 the prediction is agent 1's pose at its last observed frame a = T0 − 1 plus a
+displacement of its whole skeleton that is linear in the causal features of
+:mod:`~socialaff_sim.baselines.reaction_features` (agent 0's motion since a, the gap between the agents,
+agent 1's own observed velocity, agent 0's current velocity; all in the frame of the two agents at a).
+Zero displacement is ``hold``, and there is no intercept, so the ridge penalty λ‖W‖² pulls the prediction
+toward ``hold``; λ = ∞ *is* ``hold``.
+
+Which feature groups and which λ: chosen by an inner cross-validation on the training instances only
+(``inner_folds`` folds, pair-disjoint where the training set holds at least two actor pairs, else
+instance-disjoint), scored with the evaluation's metric (mean key-joint distance per instance, averaged over
+instances). ``hold`` is one of the candidates and wins ties: the regression is used only where it beat
+``hold`` on held-out training instances. Rows are weighted 1 / (frames of their instance), as the metric
+weighs instances, and the features are scaled to unit weighted RMS (no centring: zero features mean
+``hold``). One configuration (:class:`RidgeConfig`) for every dataset; nothing is tuned on a test fold.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..data.dataset import deal_groups
+from ..data.interaction import Interaction
+from ..data.skeletons import N_KEY
+from ..errors import ConfigError, ModelError, NotFittedError
+from ..inference.protocol import DEFAULT_N_OBSERVED, Prediction, prediction_from_joints
+from .reaction_features import FEATURE_GROUPS, FeatureConfig, FeatureStream, group_columns, training_rows
+
+__all__ = ["HOLD", "RidgeConfig", "RidgeReaction", "key_columns", "ridge_solve", "select", "training_set"]
+
+HOLD: tuple[str, ...] = ()
+"""The candidate without features: ``hold`` (λ = ∞)."""
+
+
+def _all_subsets() -> tuple[tuple[str, ...], ...]:
+    return tuple(c for r in range(1, len(FEATURE_GROUPS) + 1) for c in itertools.combinations(FEATURE_GROUPS, r))
+
+
+@dataclass(frozen=True)
+class RidgeConfig:
+    """Settings of ``ridge`` (fixed before any evaluation; the inner CV chooses among the candidates)."""
+
+    features: FeatureConfig = field(default_factory=FeatureConfig)
+    """[—]: How the features are computed."""
+    candidates: tuple[tuple[str, ...], ...] = field(default_factory=_all_subsets)
+    """[—]: Feature-group sets the inner CV chooses among (``hold`` is always one more candidate)."""
+    penalties: tuple[float, ...] = (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0)
+    """λ [—]: Ridge penalties the inner CV chooses among (features scaled to unit RMS, rows weighted to one
+    per instance, so λ = 1 weighs like one instance's worth of data)."""
+    inner_folds: int = 3
+    """[—]: Folds of the inner cross-validation on the training instances."""
+    n_observed: int = DEFAULT_N_OBSERVED
+    """T0 [frames]: observed frames of agent 1 when the training rows are built (the evaluation's T0)."""
+    fallback: tuple[tuple[str, ...], float] = (FEATURE_GROUPS, 10.0)
+    """[—]: (groups, λ) used when the training set has a single instance (no inner CV is possible)."""
+
+    def __post_init__(self) -> None:
+        if not self.penalties or not all(p > 0 and math.isfinite(p) for p in self.penalties):
+            raise ConfigError(f"penalties: expected finite values > 0, found {self.penalties}")
+        unknown = {g for c in self.candidates for g in c} - set(FEATURE_GROUPS)
+        if unknown or not self.candidates:
+            raise ConfigError(f"candidates: expected non-empty sets of {FEATURE_GROUPS}, found unknown {sorted(unknown)}")
+        if self.inner_folds < 2:
+            raise ConfigError(f"inner_folds: expected at least 2, found {self.inner_folds}")
+        if self.n_observed < 1:
+            raise ConfigError(f"n_observed: expected at least 1, found {self.n_observed}")
+
+
+def ridge_solve(gram: np.ndarray, cross: np.ndarray, penalty: float) -> np.ndarray:
+    """W (F, D) minimising ‖X W − Y‖²_w + λ‖W‖², from gram = XᵀWX (F, F) and cross = XᵀWY (F, D)."""
+    F = gram.shape[0]
+    return np.linalg.solve(gram + penalty * np.eye(F), cross)
+
+
+def key_columns(interaction: Interaction) -> np.ndarray:
+    """Target columns (int64, 3 per key joint the layout has) of agent 1's key joints in a (·, J·3) displacement."""
+    idx = [i for i in interaction.layout.key_indices if i is not None]
+    return (3 * np.asarray(idx, dtype=np.int64)[:, None] + np.arange(3)).reshape(-1)
+
+
+def training_set(
+    interactions: Sequence[Interaction], n_observed: int, config: FeatureConfig
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Stacked rows of the usable training instances: X (N, F), Y (N, J·3), row weights (N,) summing to one per
+    instance, and each row's instance index (N,) into ``interactions``."""
+    xs, ys, ws, ids = [], [], [], []
+    for i, inst in enumerate(interactions):
+        if inst.n_frames <= n_observed:
+            continue
+        X, Y, _ = training_rows(inst, n_observed, config)
+        xs.append(X)
+        ys.append(Y)
+        ws.append(np.full(len(X), 1.0 / len(X)))
+        ids.append(np.full(len(X), i))
+    if not xs:
+        raise ModelError(f"ridge: expected a training instance longer than T0 = {n_observed} frames, found none")
+    return np.concatenate(xs), np.concatenate(ys), np.concatenate(ws), np.concatenate(ids)
+
+
+def select(cv_errors: dict[tuple[tuple[str, ...], float], float]) -> tuple[tuple[str, ...], float]:
+    """The (groups, λ) with the lowest inner-CV error; ``hold`` ``((), inf)`` wins ties, so a regression is
+    chosen only where it beat ``hold`` on held-out training instances; among tied regressions, the larger λ."""
+    return min(cv_errors, key=lambda key: (cv_errors[key], key != (HOLD, math.inf), -key[1], len(key[0])))
+
+
+def _key_error(pred: np.ndarray, truth: np.ndarray, ids: np.ndarray) -> float:
+    """Mean over instances of the mean key-joint distance (pred/truth (N, 3·k) key columns)."""
+    d = np.linalg.norm((pred - truth).reshape(len(pred), -1, 3), axis=-1).mean(axis=1)
+    return float(np.mean([d[ids == i].mean() for i in np.unique(ids)]))
+
+
+def _inner_folds(interactions: Sequence[Interaction], usable: np.ndarray, k: int, rng: np.random.Generator) -> list[list[int]]:
+    pairs: dict[tuple[str, ...], list[int]] = {}
+    for i in usable:
+        pairs.setdefault(tuple(sorted(interactions[i].actors)), []).append(int(i))
+    groups = pairs if len(pairs) >= 2 else {(str(i),): [int(i)] for i in usable}
+    return [f for f in deal_groups(groups, min(k, len(groups)), rng) if f]
+
+
+class RidgeReaction:
+    """``ridge``: causal ridge regression of agent 1's displacement, shrunk toward ``hold`` (module docstring).
+
+    Learned attributes: ``groups_`` (selected feature groups; ``()`` is ``hold``), ``penalty_`` (λ, ``inf``
+    for ``hold``), ``cv_errors_`` ({(groups, λ): mean held-out key-joint error, m}, ``hold`` under
+    ``((), inf)``), ``columns_`` (feature columns used), ``scale_`` (their RMS), ``weights_`` (F, J·3).
+    """
+
+    name = "ridge"
+
+    def __init__(self, config: RidgeConfig | None = None) -> None:
+        self.config = config or RidgeConfig()
+
+    def fit(self, interactions: Sequence[Interaction], *, rng: np.random.Generator) -> RidgeReaction:
+        """Choose groups and λ by inner CV on ``interactions`` (one class), then refit on all of them."""
+        if not interactions:
+            raise ModelError("ridge: expected at least one training interaction, found none")
+        cfg = self.config
+        X, Y, w, ids = training_set(interactions, cfg.n_observed, cfg.features)
+        rms = np.sqrt((w[:, None] * X**2).sum(0) / w.sum())
+        self.scale_ = np.where(rms > 1e-12, rms, 1.0)
+        Xs = X / self.scale_
+        kc = key_columns(interactions[0])
+        usable = np.unique(ids)
+        folds = _inner_folds(interactions, usable, cfg.inner_folds, rng)
+        cv: dict[tuple[tuple[str, ...], float], float] = {}
+        if len(folds) >= 2:
+            errors: dict[tuple[tuple[str, ...], float], list[float]] = {}
+            for held in folds:
+                ho = np.isin(ids, held)
+                tr = ~ho
+                wt = w[tr] / w[tr].sum()
+                gram = (Xs[tr] * wt[:, None]).T @ Xs[tr]
+                cross = (Xs[tr] * wt[:, None]).T @ Y[tr][:, kc]
+                truth = Y[ho][:, kc]
+                errors.setdefault((HOLD, math.inf), []).append(_key_error(np.zeros_like(truth), truth, ids[ho]))
+                for groups in cfg.candidates:
+                    cols = group_columns(groups)
+                    for lam in cfg.penalties:
+                        W = ridge_solve(gram[np.ix_(cols, cols)], cross[cols], lam)
+                        errors.setdefault((groups, lam), []).append(_key_error(Xs[ho][:, cols] @ W, truth, ids[ho]))
+            cv = {key: float(np.mean(v)) for key, v in errors.items()}
+            best = select(cv)
+        else:
+            best = (tuple(cfg.fallback[0]), float(cfg.fallback[1]))
+        self.cv_errors_ = cv
+        self.groups_, self.penalty_ = best
+        self.columns_ = group_columns(self.groups_)
+        if self.groups_:
+            wn = w / w.sum()
+            gram = (Xs[:, self.columns_] * wn[:, None]).T @ Xs[:, self.columns_]
+            cross = (Xs[:, self.columns_] * wn[:, None]).T @ Y
+            self.weights_ = ridge_solve(gram, cross, self.penalty_)
+        else:
+            self.weights_ = np.zeros((0, Y.shape[1]))
+        return self
+
+    def _check(self) -> None:
+        if not hasattr(self, "weights_"):
+            raise NotFittedError("method 'ridge': call fit(interactions, rng=...) before start or predict")
+
+    def displacement(self, rows: np.ndarray) -> np.ndarray:
+        """(F, J·3) anchor-frame displacements, metres, for feature rows (F, N_FEATURES)."""
+        self._check()
+        if not self.groups_:
+            return np.zeros((len(rows), self.weights_.shape[1]))
+        return (rows[:, self.columns_] / self.scale_[self.columns_]) @ self.weights_
+
+    def start(self, *, n_observed: int, offline: bool, rng: np.random.Generator) -> RidgeReactor:
+        """A reactor for one instance (the same under every protocol: it uses only what each view holds)."""
+        self._check()
+        return RidgeReactor(self, n_observed)
+
+    def predict(self, interaction: Interaction, *, n_observed: int, rng: np.random.Generator) -> Prediction:
+        """Agent 1's whole track from one view of the whole instance (agent 1 after ``n_observed`` unused)."""
+        view = interaction.hide_agent_after(1, n_observed).replace(subevents=None)
+        block = self.start(n_observed=n_observed, offline=True, rng=rng).react(view, n_observed, interaction.n_frames)
+        J = interaction.joints.shape[2]
+        joints = np.full((interaction.n_frames, J, 3), np.nan)
+        joints[n_observed:] = block.joints
+        keys = np.full((interaction.n_frames, N_KEY, 3), np.nan)
+        keys[n_observed:] = block.key_joints
+        return prediction_from_joints(view, joints, n_observed=n_observed, key_joints=keys)
+
+
+class RidgeReactor:
+    """``ridge`` on one instance: feature rows of the requested frames, mapped to agent 1's skeleton."""
+
+    def __init__(self, method: RidgeReaction, n_observed: int) -> None:
+        self.method = method
+        self.stream = FeatureStream(n_observed, method.config.features)
+
+    def react(self, view: Interaction, start: int, stop: int) -> Prediction:
+        """Agent 1's frames [start, stop) from ``view``."""
+        rows = self.stream.rows(view, start, stop)
+        joints = self.stream.anchor.to_world(self.method.displacement(rows))
+        return Prediction(joints=joints, key_joints=view.layout.key_joints(joints), subevents=None, n_observed=0)
