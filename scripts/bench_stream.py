@@ -103,11 +103,13 @@ def run_stream(model: SocialAffordanceModel, inter: Interaction, cfg: SynthesisC
     load = os.getloadavg()
     ref = reference_seconds(np.random.default_rng(0))
     start = time.perf_counter()
+    rows = 0
     for t in range(T):
         c0, t0 = time.thread_time(), time.perf_counter()
         syn.step()
         ms[t] = (time.perf_counter() - t0) * 1e3
         cpu[t] = (time.thread_time() - c0) * 1e3
+        rows = max(rows, syn.belief_rows or 0)
         if t + 1 in edges:
             rss.append(_rss_mib())
     wall = time.perf_counter() - start
@@ -121,7 +123,8 @@ def run_stream(model: SocialAffordanceModel, inter: Interaction, cfg: SynthesisC
             "frames_per_s": T / wall, **_stats(synth), "cpu_s": float(cpu.sum() / 1e3),
             "frames_per_cpu_s": T / max(float(cpu.sum() / 1e3), 1e-9), "cpu": _stats(cpu_synth), "parts": per,
             "load_avg_1_5_15": [round(x, 2) for x in load], "reference_s": ref,
-            "parse_totals": dict(syn.work.totals) if getattr(syn, "work", None) is not None else {}}
+            "parse_totals": dict(syn.work.totals) if getattr(syn, "work", None) is not None else {},
+            "belief_rows_max": rows}
 
 
 def main() -> None:

@@ -12,6 +12,7 @@ from scipy import stats
 from socialaff_sim.data.dataset import Dataset
 from socialaff_sim.inference.protocol import observed_part
 from socialaff_sim.inference import BodyFitter, OnlineSynthesizer, SynthesisConfig
+from socialaff_sim.inference.candidates import expected_error_choice
 from socialaff_sim.inference.synthesis import _AGENT1
 from socialaff_sim.learning.estimator import SocialAffordanceModel
 
@@ -44,18 +45,32 @@ def _run(model: SocialAffordanceModel, inter, config: SynthesisConfig, seed: int
     return syn
 
 
-@pytest.mark.parametrize("config", [SynthesisConfig(), SynthesisConfig.paper()], ids=["default", "paper"])
+@pytest.mark.parametrize("config", [SynthesisConfig(selection="likelihood"), SynthesisConfig.paper()], ids=["likelihood", "paper"])
 def test_candidate_selection_keeps_the_most_likely_of_the_n(shake8_model: SocialAffordanceModel, shake8: Dataset, config: SynthesisConfig) -> None:
     """Algorithm 2 keeps the arg-max of the N candidates' scores (an arg-min, or any other pick, fails)."""
     syn = _run(shake8_model, shake8[6], config)
     assert len(syn.selections) >= 5
     spread = 0
     for cand, score, best in syn.selections:
-        assert cand.shape[0] == config.n_samples
+        extra = (0, config.prior_samples) if config.end_prior == "regression" else (0,)  # no regression for a rare type
+        assert cand.shape[0] in {config.n_samples + e for e in extra}
         k = int(np.argmax(score))
         np.testing.assert_array_equal(best[_AGENT1], cand[k, _AGENT1])
         spread += int(np.ptp(score[np.isfinite(score)]) > 1.0)  # the choice matters: scores differ
     assert spread >= len(syn.selections) // 2
+
+
+def test_default_selection_keeps_the_candidate_of_least_expected_error(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
+    """``selection="expected"`` (the default): the candidate nearest the score-weighted mean, which is not always
+    the most likely one on this instance (so swapping in the arg-max fails)."""
+    syn = _run(shake8_model, shake8[6], SynthesisConfig())
+    assert len(syn.selections) >= 5
+    differ = 0
+    for cand, score, best in syn.selections:
+        k = expected_error_choice(cand[:, _AGENT1], score, temperature=5.0)
+        np.testing.assert_array_equal(best[_AGENT1], cand[k, _AGENT1])
+        differ += int(k != int(np.argmax(score)))
+    assert differ >= 1
 
 
 def test_the_kept_candidate_is_reached_at_the_planned_end(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
@@ -104,8 +119,9 @@ def test_replanning_every_delta_t_for_the_paper(shake8_model: SocialAffordanceMo
     syn = _run(shake8_model, inter, SynthesisConfig.paper())
     assert [p[0] for p in syn.plans] == list(range(10, inter.n_frames, 5))
     syn = _run(shake8_model, inter, SynthesisConfig(replan_at_end=True))
-    plans = [p[0] for p in syn.plans]
-    for (t, _, _, last), nxt in zip(syn.plans, plans[1:] + [inter.n_frames]):
+    first = [p for k, p in enumerate(syn.plans) if k == 0 or p[0] != syn.plans[k - 1][0]]  # the top branch sets the stop
+    plans = [p[0] for p in first]
+    for (t, _, _, last), nxt in zip(first, plans[1:] + [inter.n_frames]):
         assert nxt == min(t + 5, last + 1, inter.n_frames) or nxt == inter.n_frames
 
 
@@ -117,7 +133,7 @@ def test_sub_event_switch_follows_the_prefix_parse(shake8_model: SocialAffordanc
 
     inter = shake8[6]
     m = shake8_model
-    syn = _run(m, inter, SynthesisConfig(), plans=12)
+    syn = _run(m, inter, SynthesisConfig(belief="argmax"), plans=12)
     labels = {p[1] for p in syn.plans}
     assert len(labels) >= 2  # the sub-event does switch on this instance
     lc = m.learning
@@ -127,6 +143,31 @@ def test_sub_event_switch_follows_the_prefix_parse(shake8_model: SocialAffordanc
                            max_seconds=lc.max_atomic_seconds, tau=lc.velocity_seconds)
         parse = parse_prefix(m, prefix, inter.fps, bounds)
         assert (s, start) == (parse.current, parse.start)
+
+
+def test_sub_event_of_the_default_follows_the_forward_belief(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
+    """``belief="forward"`` (the default): the first sub-event planned at each re-planning is the most probable
+    label of the filtering posterior, from that label's most probable start (an arg-min fails)."""
+    inter = shake8[6]
+    cfg = SynthesisConfig(branches=1)
+    starts_seen = []
+
+    class Rec(_Recorder):
+        def _replan(self, t: int) -> None:
+            starts, post = self._filter.posterior(t)
+            starts_seen.append((t, starts, post))
+            super()._replan(t)
+
+    syn = Rec(shake8_model, None, cfg)
+    syn.reset(observed_part(inter, cfg.n_observed), rng=np.random.default_rng(0))
+    while not syn.done:
+        syn.step()
+    assert len({p[1] for p in syn.plans}) >= 2
+    for (t, s, start, _), (t2, starts, post) in zip(syn.plans, starts_seen, strict=True):
+        assert t == t2
+        b = post.sum(axis=0)
+        assert s == int(np.argmax(b))
+        assert start == int(starts[np.argmax(post[:, s])])
 
 
 def test_full_body_fit_picks_the_nearest_cluster(shake8: Dataset) -> None:

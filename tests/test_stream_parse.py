@@ -59,7 +59,7 @@ def stream(shake8: Dataset) -> Interaction:
 def test_work_per_parse_is_bounded_by_the_window(shake8_model: SocialAffordanceModel, stream: Interaction) -> None:
     S = shake8_model.n_subevents_
     W, H = 30, 15  # frames: parse_window 1 s at 30 Hz, and its hop
-    cfg = SynthesisConfig.reactive(parse_window=W / stream.fps)
+    cfg = SynthesisConfig.reactive(belief="argmax", parse_window=W / stream.fps)
     _, _, _, work = _run(shake8_model, stream, cfg, 0)
     t, frames, cuts, rows, cells, scored, cached = work.T
     F = W + H - 1  # the longest window
@@ -76,7 +76,7 @@ def test_work_per_parse_is_bounded_by_the_window(shake8_model: SocialAffordanceM
 
 def test_window_covering_the_stream_equals_the_unbounded_parse(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
     inter = _stream(list(shake8)[6:], 140)
-    for base in (SynthesisConfig.reactive(), SynthesisConfig()):
+    for base in (SynthesisConfig.reactive(belief="argmax"), SynthesisConfig(belief="argmax")):
         a = _run(shake8_model, inter, dataclasses.replace(base, parse_window=None), 3)
         b = _run(shake8_model, inter, dataclasses.replace(base, parse_window=inter.n_frames / inter.fps), 3)
         for x, y in zip(a[:3], b[:3]):
@@ -117,7 +117,7 @@ def test_windowed_parse_rows_are_absolute_and_cover_the_window(shake8_model: Soc
 
 
 def test_same_seed_same_stream_synthesis(shake8_model: SocialAffordanceModel, stream: Interaction) -> None:
-    cfg = SynthesisConfig.reactive(parse_window=1.0)
+    cfg = SynthesisConfig.reactive(belief="argmax", parse_window=1.0)
     a = _run(shake8_model, stream, cfg, 7)
     b = _run(shake8_model, stream, cfg, 7)
     c = _run(shake8_model, stream, cfg, 8)
@@ -129,7 +129,7 @@ def test_same_seed_same_stream_synthesis(shake8_model: SocialAffordanceModel, st
 @pytest.mark.parametrize("window", [0.0, -1.0])
 def test_parse_window_must_be_positive(window: float) -> None:
     with pytest.raises(ConfigError, match="parse_window"):
-        SynthesisConfig(parse_window=window)
+        SynthesisConfig(belief="argmax", parse_window=window)
 
 
 def test_running_wrist_paths_give_the_causal_hand_flag(rng: np.random.Generator) -> None:
@@ -167,7 +167,9 @@ def test_bench_stream_script_records_latency_per_part(shake8_model: SocialAfford
     spec.loader.exec_module(bench)
     inter = bench.concatenate(list(shake8)[6:], 150, "s")
     assert inter.n_frames == 150 and np.array_equal(inter.joints[: shake8[6].n_frames], shake8[6].joints, equal_nan=True)
-    out = bench.run_stream(shake8_model, inter, SynthesisConfig.reactive(parse_window=1.0), seed=0, parts=3)
+    out = bench.run_stream(shake8_model, inter, SynthesisConfig.reactive(belief="argmax", parse_window=1.0), seed=0, parts=3)
     assert [p["span"] for p in out["parts"]] == [[0, 50], [50, 100], [100, 150]]
     assert sum(p["frames"] for p in out["parts"]) == 150 - SynthesisConfig().n_observed == out["frames"]
-    assert out["parse_totals"]["parses"] > 0 and out["n_frames"] == 150
+    assert out["parse_totals"]["parses"] > 0 and out["n_frames"] == 150 and out["belief_rows_max"] == 0
+    fwd = bench.run_stream(shake8_model, inter, SynthesisConfig.reactive(belief_horizon=2.0), seed=0, parts=3)
+    assert fwd["parse_totals"] == {} and 0 < fwd["belief_rows_max"] <= -(-round(2.0 * inter.fps) // 2)

@@ -18,7 +18,7 @@ from ..model.end_regression import end_context
 from ..model.potentials import reference_weights
 from ..model.ridge import RidgeRegression
 
-__all__ = ["AGENT1", "draw_vectors", "sign_loglik", "RegressionPrior"]
+__all__ = ["AGENT1", "draw_vectors", "expected_error_choice", "sign_loglik", "RegressionPrior"]
 
 AGENT1 = np.arange(N_KEY, 2 * N_KEY)
 """Indices of agent 1's key joints among the 11 model joints."""
@@ -37,16 +37,38 @@ def draw_vectors(params: np.ndarray, up: np.ndarray, n: int, rng: np.random.Gene
     return np.stack([h * np.cos(th), h * np.sin(th), sign * v], axis=-1)
 
 
-def sign_loglik(model: AffordanceParameters, s: int, z: np.ndarray, cand: np.ndarray, disp: np.ndarray) -> np.ndarray:
+def expected_error_choice(cand: np.ndarray, score: np.ndarray, temperature: float = 1.0) -> int:
+    """Index of the candidate of least expected squared error when the truth is one of the candidates
+    ``cand`` (N, J, 3) with probabilities ∝ exp(``score`` / ``temperature``) (N,):
+    Σ_j p_j ‖c_i − c_j‖² = ‖c_i − c̄‖² + const, so the candidate nearest the weighted mean c̄ (joints NaN in
+    every candidate ignored). Scores of −inf weigh nothing; if every score is −inf, candidate 0."""
+    score = np.asarray(score, dtype=float) / float(temperature)
+    finite = np.isfinite(score)
+    if not finite.any():
+        return 0
+    w = np.where(finite, np.exp(score - score[finite].max()), 0.0)
+    w /= w.sum()
+    x = np.nan_to_num(np.asarray(cand, dtype=float))
+    mean = np.tensordot(w, x, axes=(0, 0))
+    d2 = ((x - mean[None]) ** 2).sum(axis=(1, 2))
+    return int(np.argmin(np.where(finite, d2, np.inf)))
+
+
+def sign_loglik(
+    model: AffordanceParameters, s: int, z: np.ndarray, cand: np.ndarray, disp: np.ndarray, weights: np.ndarray | None = None
+) -> np.ndarray:
     """(N,) log-probability of the vertical signs of agent 1's offsets and displacements.
 
-    The potentials score |dz| only; the learned frequencies of dz > 0 resolve up from down.
+    The potentials score |dz| only; the learned frequencies of dz > 0 resolve up from down. ``weights``:
+    the (11, 11) reference weights of ``z`` if the caller has them (else computed).
     """
     up = np.clip(model.vertical_up_[s], 1e-3, 1 - 1e-3)
     aff = AGENT1[z[AGENT1] > 0]
     out = np.zeros(cand.shape[0])
     if aff.size:
-        W = reference_weights(z, other_side=model.config.other_side_reference, include_self=model.config.reference_self)[aff]
+        if weights is None:
+            weights = reference_weights(z, other_side=model.config.other_side_reference, include_self=model.config.reference_self)
+        W = weights[aff]
         off_z = cand[:, aff, 2] - np.einsum("kj,nj->nk", W, np.nan_to_num(cand[:, :, 2]))
         out += np.where(off_z > 0, np.log(up[0, aff]), np.log1p(-up[0, aff])).sum(axis=1)
     moving = AGENT1[z[AGENT1] >= 0]

@@ -2,23 +2,30 @@
 
 After ``T0`` observed frames of both agents, every ``ΔT`` frames the synthesizer
 
-1. parses the track so far by dynamic programming, the last sub-event still running
-   (:func:`~socialaff_sim.inference.online_parse.parse_prefix`), which gives the current
-   sub-event s, its start and a belief over sub-events;
-2. samples the remaining duration of s from its log-normal prior (conditioned on the time
-   already elapsed), which fixes the predicted end frame;
+1. finds the running sub-event: with ``belief="forward"`` (the default) from the filtering posterior over
+   (sub-event, elapsed duration) of the frames so far (:class:`~socialaff_sim.inference.forward_belief.ForwardBelief`,
+   updated every frame, O(1) work and memory per frame), planning for its most probable sub-events (at most
+   ``branches``, :func:`~socialaff_sim.inference.hedging.branch_plans`) from their most probable starts; with
+   ``belief="argmax"`` (the paper) from the best parse of a DP over the track so far, the last sub-event still
+   running (:class:`~socialaff_sim.inference.stream_parse.StreamParser`);
+2. takes the remaining duration of each planned sub-event from its log-normal prior conditioned on the time
+   already elapsed (drawn, as the paper, or its median), which fixes the predicted end frame;
 3. draws ``N`` candidate configurations of agent 1's key joints at that end — half around the
    spatial reference of each affordable joint (its group's mass centre, or the other agent's base),
    half by a displacement from the sub-event's start drawn from the motion potential; Null joints
    keep their offset from agent 1's base (they are static relative to the body); optionally a share
    of them body-coherent (``coherent_fraction``) — and keeps the most likely under the spatial and
-   motion potentials;
+   motion potentials (``selection="likelihood"``, the paper) or the one of least expected error under
+   the candidates' tempered scores (``"expected"``, the default);
    With ``end_prior="regression"`` the model's end-configuration regression adds draws and a joint
    Gaussian term over agent 1's five key joints (:class:`~socialaff_sim.inference.candidates.RegressionPrior`);
 4. interpolates agent 1's key joints from its last synthesized position to that configuration,
    linearly (the paper) or along the rest of a minimum-jerk profile (``interpolation``), and emits
-   the next ``ΔT`` frames; a full-body skeleton is fitted to them
-   (:class:`~socialaff_sim.inference.body_fit.BodyFitter`).
+   the next ``ΔT`` frames: the belief-weighted mean of the planned sub-events' paths, shrunk toward
+   ``hold`` (agent 1's last observed pose) by the belief's entropy (``shrink``); a full-body skeleton is
+   fitted to them (:class:`~socialaff_sim.inference.body_fit.BodyFitter`).
+
+The belief of every step (:attr:`SynthesisStep.belief`) is what the simulator and the environment read.
 
 It runs one frame at a time (:meth:`OnlineSynthesizer.step`), reading agent 0 and the object
 causally: at frame t only frames before t are used, unless ``lookahead`` is set, in which case the
@@ -40,10 +47,12 @@ from ..errors import ModelError
 from ..model.frame_regression import frame_context
 from ..model.handedness import KEY_SWAP, relabel, wrist_paths
 from ..model.joints import canonical_joints
-from ..model.potentials import reference_weights
 from ..model.ridge import RidgeRegression
+from .candidate_planner import CandidatePlanner
 from .candidates import AGENT1 as _AGENT1
-from .candidates import RegressionPrior, draw_vectors, sign_loglik
+from .forward_belief import ForwardBelief
+from .hedging import branch_plans, shrink_factor
+from .type_tables import TypeTables
 from .observed import ObservedInteraction
 from .observed_parse import parse_observed
 from .stream_parse import ParseWork, StreamParser
@@ -70,7 +79,9 @@ class SynthesisStep:
     skeleton: np.ndarray | None
     """(J, 3) float64, metres, world frame: agent 1's full skeleton, or ``None`` without a body fitter."""
     belief: np.ndarray
-    """(S,) float64: belief over the current sub-event (uniform before T0)."""
+    """(S,) float64: belief over the current sub-event: the forward filter's posterior given the frames before
+    this one (``belief="forward"``, from frame 1 on), else the DP's max-product weights at the latest re-planning
+    (uniform before T0)."""
     subevent: int
     """Index of the current sub-event (−1 while agent 1 is still observed)."""
     subevent_name: str | None
@@ -79,7 +90,7 @@ class SynthesisStep:
     """True for the first T0 frames, which are copied from the observation."""
 
 
-class OnlineSynthesizer:
+class OnlineSynthesizer(CandidatePlanner):
     """Agent 1's key joints (and skeleton), frame by frame, from a fitted affordance model."""
 
     def __init__(
@@ -91,6 +102,8 @@ class OnlineSynthesizer:
         self.config = config or SynthesisConfig()
         self._inter: Interaction | None = None
         self._parser: StreamParser | None = None
+        # The potentials of every type stacked once: the candidates' scores without per-call set-up.
+        self._tables = TypeTables(model) if model.config.vector_density == "polar" else None
 
     # -- episode -----------------------------------------------------------------------------------
     def reset(self, interaction: Interaction, *, rng: np.random.Generator) -> None:
@@ -123,6 +136,13 @@ class OnlineSynthesizer:
                 min_frames=lc.min_atomic_frames, max_seconds=lc.max_atomic_seconds, tau=lc.velocity_seconds,
                 open_interval=cfg.open_interval,
             )
+        self._filter: ForwardBelief | None = None
+        if cfg.parse == "online" and cfg.belief == "forward":
+            stride = max(int(round(cfg.belief_step * interaction.fps)), 1)
+            horizon = max(int(round(cfg.belief_horizon * interaction.fps)), stride)
+            self._filter = ForwardBelief(self.model, interaction.fps, stride=stride, horizon=horizon)
+            self._parser = None  # the forward belief replaces the DP parse
+        self._stale = False
         self._hands = np.zeros(2, bool)
         self._set_hands(cfg.n_observed)
         self._t = 0
@@ -130,6 +150,7 @@ class OnlineSynthesizer:
         self._span = (0, 0)  # (first, last frame) of the running sub-event at the latest re-planning
         self._sub = -1  # the running sub-event of the latest re-planning
         self._available = self.model.available_.copy()
+        self._refw: dict[int, np.ndarray] = {}
         S = self.model.n_subevents_
         self._belief = np.full(S, 1.0 / S)
         self._rows: np.ndarray | None = None
@@ -152,8 +173,8 @@ class OnlineSynthesizer:
         self._paths = wrist_paths(raw, 0)
         new = relabel(track, self._hands)[:, _OTHERS]
         seen = min(self._t, old, T)  # frames the parser may have scored: a change there makes its cache stale
-        if self._parser is not None and not np.array_equal(self._track[:seen, _OTHERS], new[:seen], equal_nan=True):
-            self._parser.reset()
+        if not np.array_equal(self._track[:seen, _OTHERS], new[:seen], equal_nan=True):
+            self._history_changed()
         self._track = np.concatenate([self._track, pad])
         self._track[:T, _OTHERS] = new
         self._inter = view
@@ -171,8 +192,25 @@ class OnlineSynthesizer:
         if change.any():
             self._track = relabel(self._track, change)
             self._hands = hands
-            if self._parser is not None:
-                self._parser.reset()  # the history changed: its cached interval scores are stale
+            self._history_changed()
+
+    def _history_changed(self) -> None:
+        """Frames already parsed changed: the parse's cached scores and the forward belief are stale."""
+        if self._parser is not None:
+            self._parser.reset()
+        self._stale = True
+
+    def _advance_belief(self, t: int) -> None:
+        """The forward belief over frames [0, t) (replayed over its last 2 horizons after a history change:
+        bounded work), and the step's belief from it."""
+        fb = self._filter
+        assert fb is not None  # internal invariant: belief == "forward"
+        if self._stale:
+            origin = 0 if t <= 2 * fb.horizon else ((t - fb.horizon) // fb.stride) * fb.stride
+            fb.reset(origin)
+            self._stale = False
+        fb.advance(self._track, t)
+        self._belief = fb.belief(t)
 
     def _observed_track(self) -> np.ndarray:
         """(T, 11, 3) canonical: agent 0 and the object over the whole instance, agent 1 NaN."""
@@ -184,6 +222,11 @@ class OnlineSynthesizer:
     def work(self) -> ParseWork | None:
         """What the latest online parse did (counts; None without one): bounded by the window, not by t."""
         return None if self._parser is None else self._parser.work
+
+    @property
+    def belief_rows(self) -> int | None:
+        """Start rows the forward belief holds now (bounded by its horizon, not by t); None without one."""
+        return None if self._filter is None else self._filter.memory
 
     @property
     def t(self) -> int:
@@ -204,6 +247,8 @@ class OnlineSynthesizer:
         t = self._t
         cfg = self.config
         observed = t < cfg.n_observed
+        if self._filter is not None and t >= 1:
+            self._advance_belief(t)
         if not observed and t >= self._planned_until:
             self._replan(t)
         if not observed and cfg.contact != "none":
@@ -234,12 +279,28 @@ class OnlineSynthesizer:
     def _replan(self, t: int) -> None:
         if not self.config.lookahead:  # with lookahead the flags were fixed at reset
             self._set_hands(t)
-        s, start = self._current(t)
-        self._sub = s
-        last = self._end_frame(s, start, t)
-        self._span = (start, last)
-        target = self._best_configuration(s, t, start, last)
-        self._emit(t, s, start, last, target)
+        if self._filter is not None:
+            plans = branch_plans(*self._filter.posterior(t), self.config.branches)
+        else:
+            s, start = self._current(t)
+            plans = [(1.0, s, start)]
+        paths, stop = [], None
+        for k, (w, s, start) in enumerate(plans):
+            last = self._end_frame(s, start, t)
+            if k == 0:
+                self._sub, self._span = s, (start, last)
+            target = self._best_configuration(s, t, start, last)
+            path, stop_k = self._path(t, s, start, last, target, stop)
+            stop = stop_k if stop is None else stop
+            paths.append(w * path)
+        path = np.sum(paths, axis=0)
+        if self.config.shrink > 0:
+            hold = self._track[self.config.n_observed - 1, _AGENT1]
+            alpha = shrink_factor(self._belief, self.config.shrink)
+            path = np.where(np.isfinite(hold)[None], hold[None] + alpha * (path - hold[None]), path)
+        assert stop is not None  # at least one plan
+        self._track[t:stop, _AGENT1] = path
+        self._planned_until = stop
 
     def _pull_contacts(self, t: int) -> None:
         """Blend agent 1's wrists at frame t toward their contact keyframes (touched joint + learned offset)
@@ -291,13 +352,17 @@ class OnlineSynthesizer:
         k = int(np.searchsorted(self._rows[:, 1], t, side="right"))
         return self._rows[min(k, len(self._rows) - 1)]
 
-    def _emit(self, t: int, s: int, start: int, last: int, target: np.ndarray) -> None:
-        """Write agent 1's key joints for frames [t, t + ΔT) (up to ``last`` with ``replan_at_end``) on the way from frame t − 1 to ``target`` at ``last``
-        (blended with the frame regression of sub-event ``s`` begun at ``start`` when ``frame_weight`` > 0)."""
+    def _path(
+        self, t: int, s: int, start: int, last: int, target: np.ndarray, stop: int | None = None
+    ) -> tuple[np.ndarray, int]:
+        """Agent 1's key joints (F, 5, 3) for frames [t, stop) on the way from frame t − 1 to ``target`` at ``last``
+        (blended with the frame regression of sub-event ``s`` begun at ``start`` when ``frame_weight`` > 0), and
+        stop: t + ΔT (up to ``last`` with ``replan_at_end``) unless given."""
         cfg = self.config
-        stop = min(t + cfg.delta_t, self._track.shape[0])
-        if cfg.replan_at_end:
-            stop = min(stop, last + 1)  # last >= t: at least one frame
+        if stop is None:
+            stop = min(t + cfg.delta_t, self._track.shape[0])
+            if cfg.replan_at_end:
+                stop = min(stop, last + 1)  # last >= t: at least one frame
         prev = self._track[t - 1, _AGENT1]
         frames = np.arange(t, stop)
         if cfg.interpolation == "minjerk":
@@ -308,8 +373,7 @@ class OnlineSynthesizer:
         reg = self.model.frame_regression_[s] if cfg.frame_weight > 0 else None
         if reg is not None:
             path = (1.0 - cfg.frame_weight) * path + cfg.frame_weight * self._frame_prediction(reg, t, stop, start, last, prev)
-        self._track[t:stop, _AGENT1] = path
-        self._planned_until = stop
+        return path, stop
 
     def _frame_prediction(
         self, reg: RidgeRegression, t: int, stop: int, start: int, last: int, prev: np.ndarray
@@ -333,96 +397,3 @@ class OnlineSynthesizer:
         fade = np.exp(-(frames[1:] - (t - 1)) / cfg.frame_decay)[:, None, None]
         out = pred[1:] + fade * (np.nan_to_num(prev) - pred[0])[None]
         return np.where(np.isfinite(prev)[None], out, np.nan)
-
-    def _best_configuration(self, s: int, t: int, start: int, last: int) -> np.ndarray:
-        """(5, 3) canonical: agent 1's key joints at frame ``last``, the best of N candidates."""
-        model, cfg = self.model, self.config
-        T = self._track.shape[0]
-        config = self._track[t - 1].copy()
-        if cfg.lookahead:
-            config[_OTHERS] = self._track[min(last, T - 1), _OTHERS]
-        before = self._track[max(start - 1, 0)]
-        z = model.grouping_[s].copy()
-        z[~self._available] = -1
-        prev = config[_AGENT1].copy()
-        N = cfg.n_samples
-        cand = np.repeat(config[None], N, axis=0)
-        aff = _AGENT1[z[_AGENT1] > 0]
-        if aff.size:
-            n_sp = int(round(cfg.spatial_fraction * N))
-            # (2, 11): P(dz > 0) of spatial offsets and of displacements; ½ without the sign term (the paper).
-            up = model.vertical_up_[s] if cfg.vertical_sign else np.full_like(model.vertical_up_[s], 0.5)
-            W = reference_weights(z, other_side=model.config.other_side_reference, include_self=model.config.reference_self)[aff]
-            refs = W @ np.nan_to_num(config)  # (A, 3)
-            sp = draw_vectors(model.spatial_params_[s, aff], up[0, aff], n_sp, self._rng) + refs[None]
-            mo = draw_vectors(model.motion_params_[s, aff], up[1, aff], N - n_sp, self._rng) + before[aff][None]
-            cand[:, aff] = np.concatenate([sp, mo])
-            base = N_KEY
-            n_co = int(round(cfg.coherent_fraction * N))
-            if n_co and base in aff:
-                rows = self._rng.permutation(N)[:n_co]
-                others = aff[aff != base]
-                follow = self._rng.random((n_co, others.size)) < 0.5
-                rigid = prev[others - N_KEY][None] + (cand[rows, base] - prev[0])[:, None]
-                cand[rows[:, None], others[None]] = np.where(follow[..., None], rigid, cand[rows[:, None], others[None]])
-        # Joints not sampled (Null) stay static relative to agent 1's base, which may have moved.
-        base = N_KEY
-        shift = cand[:, base] - prev[0] if base in aff else np.zeros((N, 3))
-        static = _AGENT1[self._available[_AGENT1] & ~np.isin(_AGENT1, aff)]
-        cand[:, static] = prev[static - N_KEY][None] + shift[:, None]
-        prior = None
-        reg = model.end_regression_[s] if cfg.end_prior == "regression" else None
-        if reg is not None:
-            prior = RegressionPrior.at(reg, config, before, self._track[cfg.n_observed - 1], self._available)
-            extra = np.repeat(config[None], cfg.prior_samples, axis=0)
-            extra[:, _AGENT1] = prior.draw(cfg.prior_samples, self._rng)
-            cand = np.concatenate([cand, extra])
-        best = self._select(s, z, cand, before, static, prior)
-        out = best[_AGENT1].copy()
-        out[~self._available[_AGENT1]] = np.nan
-        return out
-
-
-    def _score(
-        self, s: int, z: np.ndarray, configs: np.ndarray, before: np.ndarray, prior: RegressionPrior | None
-    ) -> np.ndarray:
-        """(N,) log spatial + log motion (+ vertical signs, + the regression prior) of N configurations (N, 11, 3)."""
-        model = self.model
-        disp = configs - before[None]
-        score = model.log_spatial(s, configs) + model.log_motion(s, disp)
-        if self.config.vertical_sign:
-            score = score + sign_loglik(model, s, z, configs, disp)
-        if prior is not None:
-            score = score + prior.log_density(configs)
-        return np.where(np.isnan(score), -np.inf, score)
-
-    def _select(
-        self, s: int, z: np.ndarray, cand: np.ndarray, before: np.ndarray, static: np.ndarray,
-        prior: RegressionPrior | None,
-    ) -> np.ndarray:
-        """The most likely configuration (11, 3) over the candidates and their per-joint recombinations.
-
-        Start from the best of the N whole candidates, then, joint by joint (``refine_sweeps`` times),
-        try each candidate's position of that joint with the others held: a coordinate ascent over
-        the N^A combinations of the A sampled joints' draws, on the same objective.
-        """
-        score = self._score(s, z, cand, before, prior)
-        k = int(np.argmax(score))
-        best, best_score = cand[k].copy(), score[k]
-        sampled = _AGENT1[z[_AGENT1] > 0]
-        base = N_KEY
-        for _ in range(self.config.refine_sweeps):
-            improved = False
-            for j in sampled:
-                trial = np.repeat(best[None], cand.shape[0], axis=0)
-                trial[:, j] = cand[:, j]
-                if j == base:  # the body moves with its base: static joints follow
-                    trial[:, static] = best[static][None] + (cand[:, base] - best[base])[:, None]
-                sc = self._score(s, z, trial, before, prior)
-                i = int(np.argmax(sc))
-                if sc[i] > best_score + 1e-12:
-                    best, best_score, improved = trial[i].copy(), sc[i], True
-            if not improved:
-                break
-        return best
-

@@ -15,19 +15,24 @@ _PARSES = ("online", "observed")
 _END_PRIORS = ("none", "regression")
 _CONTACTS = ("none", "timed", "triggered")
 _OPEN_INTERVALS = ("survival", "closed")
+_BELIEFS = ("forward", "argmax")
+_SELECTIONS = ("expected", "likelihood")
 
 
 @dataclass(frozen=True)
 class SynthesisConfig:
     """Settings of Algorithm 2; change them with ``dataclasses.replace``. :meth:`paper` is Algorithm 2 as
-    the paper states it; the defaults differ from it in ``vertical_sign``, ``open_interval`` and ``parse_window`` only.
+    the paper states it; the defaults differ from it in ``vertical_sign``, ``open_interval``, ``parse_window``,
+``duration``, ``end_prior`` and the hedging fields ``belief``, ``branches`` and ``selection`` (docs/design.md).
 
     Fields by concept
     -----------------
     - Online schedule: n_observed, delta_t, replan_at_end
-    - Running sub-event and its end: parse, parse_window, observed_parse_step, open_interval, duration, lookahead
+    - Running sub-event and its end: parse, belief, belief_step, belief_horizon, parse_window, observed_parse_step,
+      open_interval, duration, lookahead
     - Candidate end configurations: n_samples, spatial_fraction, coherent_fraction, refine_sweeps, vertical_sign,
-      end_prior, prior_samples
+      end_prior, prior_samples, selection
+    - Hedging against wrong futures: branches, shrink
     - Motion toward the chosen end: interpolation, frame_weight, frame_decay
     - Contacts: contact, contact_width, trigger_scale
     - Handedness: hand_margin
@@ -41,8 +46,10 @@ class SynthesisConfig:
     """N [—]: candidate key-joint configurations drawn per re-planning."""
     spatial_fraction: float = 0.5
     """[—]: Share of the N candidates drawn around the spatial references (the rest from the motion potential)."""
-    duration: str = "sample"
-    """[—]: How the remaining duration is chosen: ``"sample"`` (the paper) or ``"median"`` of the conditional log-normal."""
+    duration: str = "median"
+    """[—]: How the remaining duration is chosen: ``"sample"`` (the paper) or ``"median"`` of the conditional log-normal
+    (the default: a drawn end is one more random commitment to a future; the median is the point estimate of least
+    expected absolute error in time)."""
     coherent_fraction: float = 0.0
     """[—]: Share of the N candidates whose non-base joints each, with probability ½, keep their offset from agent 1's
     base (they move with the drawn base) instead of their own draw: body-coherent candidates, so the potentials of
@@ -70,12 +77,42 @@ class SynthesisConfig:
     second (:class:`~socialaff_sim.inference.stream_parse.StreamParser`). Instances shorter than 1.5 W (6.75 s:
     every recording of the shared sets, at most 6.7 s) are parsed exactly as with None: every frame since the
     start, as in the paper, whose cost grows with the time elapsed. Smaller is faster (docs/benchmarks.md)."""
+    belief: str = "forward"
+    """[—]: How the ``"online"`` synthesis finds the running sub-event: ``"forward"`` (our change), the filtering
+    posterior over (sub-event, elapsed duration) summed over every parse on a grid of cut points
+    (:class:`~socialaff_sim.inference.forward_belief.ForwardBelief`; O(1) work and memory per frame in the time
+    elapsed), updated every frame and exposed as the step's belief; or ``"argmax"`` (the paper), the best parse
+    of the DP over atom cut points (:class:`~socialaff_sim.inference.stream_parse.StreamParser`), at re-plannings."""
+    belief_step: float = 0.2
+    """[s]: Distance between the cut points of the ``"forward"`` belief, rounded to whole frames (at least one):
+    2 frames at 12.3 Hz, 3 at 15 Hz, 6 at 30 Hz. Its work per second of stream is then the same at every frame rate."""
+    belief_horizon: float = 4.0
+    """[s]: Longest sub-event the ``"forward"`` belief tracks exactly; older starts share one bucket, treated as
+    begun this long ago (bounds its work and memory per frame)."""
+    branches: int = 1
+    """[—]: With the ``"forward"`` belief: the most probable sub-events (at most this many, each with belief ≥ 0.1)
+    planned at every re-planning; the frames emitted are their plans' belief-weighted mean. 1 (the default): the most
+    probable sub-event only, from its most probable start (2 was 0.0005 m worse on the synthetic set's fold 1 and
+    raised NuiSI's full-skeleton error on the waves from 0.076 to 0.136 m: the mean of two plans is a pose neither
+    plans; docs/design.md)."""
+    selection: str = "expected"
+    """[—]: Which of the candidate end configurations is kept: ``"likelihood"`` (the paper), the most likely; or
+    ``"expected"``, the one of least expected squared error when the truth is distributed over the candidates
+    with weights ∝ exp(score / 5), i.e. the candidate nearest that weighted mean of agent 1's key joints. The
+    potentials score every joint as independent evidence, which makes the raw weights overconfident (one
+    candidate takes nearly all the weight); dividing by agent 1's five key joints was fixed a priori, not tuned."""
+    shrink: float = 0.0
+    """[—]: Shrinkage toward ``hold`` (agent 1's last observed pose) when the belief is uncertain: the emitted frames
+    are hold + α (plan − hold) with α = 1 − shrink · H(belief) / log |S| (H the entropy; α = 1 for a certain
+    belief). 0: no shrinkage (the paper, and the default: shrink = 1, fixed a priori, raised the causal error on the
+    synthetic set's fold 1 from 0.143 to 0.277 m, where agent 1 walks and holding still costs 0.57 m; docs/design.md)."""
     observed_parse_step: int = 2
     """[frames]: Frames between the cut points of the ``"observed"`` parse."""
-    end_prior: str = "none"
-    """[—]: ``"regression"``: also score candidates by the model's end-configuration regression, a Gaussian
-    over agent 1's five key joints jointly (:mod:`~socialaff_sim.model.end_regression`), and draw
-    ``prior_samples`` more candidates from it; ``"none"``: the paper's potentials alone."""
+    end_prior: str = "regression"
+    """[—]: ``"regression"`` (the default): also score candidates by the model's end-configuration regression, a
+    Gaussian over agent 1's five key joints jointly (:mod:`~socialaff_sim.model.end_regression`), conditioned on
+    agent 0's (and the object's) latest observed pose causally, and draw ``prior_samples`` more candidates from it;
+    ``"none"``: the paper's potentials alone."""
     prior_samples: int = 50
     """[—]: Candidates drawn from the end-configuration regression, on top of the N, when ``end_prior`` is on."""
     frame_weight: float = 0.0
@@ -160,6 +197,18 @@ class SynthesisConfig:
             raise ConfigError(f"open_interval: expected {choices(_OPEN_INTERVALS)}, found {self.open_interval!r}")
         if self.parse_window is not None and not self.parse_window > 0:
             raise ConfigError(f"parse_window (W): expected seconds > 0 or None, found {self.parse_window}")
+        if self.belief not in _BELIEFS:
+            raise ConfigError(f"belief: expected {choices(_BELIEFS)}, found {self.belief!r}")
+        if self.selection not in _SELECTIONS:
+            raise ConfigError(f"selection: expected {choices(_SELECTIONS)}, found {self.selection!r}")
+        if self.branches < 1:
+            raise ConfigError(f"branches: expected at least 1, found {self.branches}")
+        if not self.belief_step > 0:
+            raise ConfigError(f"belief_step: expected seconds > 0, found {self.belief_step}")
+        if not self.belief_horizon > 0:
+            raise ConfigError(f"belief_horizon: expected seconds > 0, found {self.belief_horizon}")
+        if not 0.0 <= self.shrink <= 1.0:
+            raise ConfigError(f"shrink: expected a value in [0, 1], found {self.shrink}")
         if self.duration not in _DURATION_MODES:
             raise ConfigError(f"duration: expected {choices(_DURATION_MODES)}, found {self.duration!r}")
 
@@ -173,6 +222,7 @@ class SynthesisConfig:
             n_observed=10, delta_t=5, n_samples=100, duration="sample", interpolation="linear", lookahead=False,
             parse="online", end_prior="none", frame_weight=0.0, replan_at_end=False, contact="none",
             coherent_fraction=0.0, refine_sweeps=0, vertical_sign=False, open_interval="closed", parse_window=None,
+            belief="argmax", selection="likelihood", shrink=0.0, branches=1,
         )
         return cls(**{**base, **changes})  # type: ignore[arg-type]
 
@@ -193,6 +243,6 @@ class SynthesisConfig:
         ``SynthesisConfig.paper()`` is the paper's causal Algorithm 2."""
         base = dict(
             lookahead=True, parse="observed", end_prior="regression", interpolation="minjerk", frame_weight=0.5,
-            replan_at_end=True, contact="timed",
+            replan_at_end=True, contact="timed", duration="sample", selection="likelihood", shrink=0.0,
         )
         return cls(**{**base, **changes})  # type: ignore[arg-type]

@@ -1,0 +1,147 @@
+"""The end-configuration step of Algorithm 2: candidate configurations of agent 1's key joints at the predicted
+end of a sub-event, their scores and the one kept.
+
+:class:`CandidatePlanner` is mixed into :class:`~socialaff_sim.inference.synthesis.OnlineSynthesizer` and reads its
+episode state (``model``, ``config``, the canonical working track ``_track``, the generator ``_rng``, the
+joints ``_available``); subclasses (the tests) override :meth:`CandidatePlanner._select` and
+:meth:`CandidatePlanner._score` to watch each re-planning's candidates.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..data.skeletons import N_KEY
+from ..model.potentials import reference_weights
+from .candidates import AGENT1 as _AGENT1
+from .candidates import RegressionPrior, draw_vectors, expected_error_choice, sign_loglik
+from .synthesis_config import SynthesisConfig
+from .type_tables import TypeTables
+
+if TYPE_CHECKING:
+    from ..model.affordance import AffordanceParameters
+
+__all__ = ["CandidatePlanner"]
+
+_OTHERS = np.r_[np.arange(N_KEY), 2 * N_KEY]
+
+
+class CandidatePlanner:
+    """Draw, score and choose agent 1's end configuration (a mixin of the online synthesizer)."""
+
+    model: AffordanceParameters
+    config: SynthesisConfig
+    _track: np.ndarray
+    _rng: np.random.Generator
+    _available: np.ndarray
+    _refw: dict[int, np.ndarray]
+    _tables: TypeTables | None
+
+    def _best_configuration(self, s: int, t: int, start: int, last: int) -> np.ndarray:
+        """(5, 3) canonical: agent 1's key joints at frame ``last``, the best of N candidates."""
+        model, cfg = self.model, self.config
+        T = self._track.shape[0]
+        config = self._track[t - 1].copy()
+        if cfg.lookahead:
+            config[_OTHERS] = self._track[min(last, T - 1), _OTHERS]
+        before = self._track[max(start - 1, 0)]
+        z = model.grouping_[s].copy()
+        z[~self._available] = -1
+        prev = config[_AGENT1].copy()
+        N = cfg.n_samples
+        cand = np.repeat(config[None], N, axis=0)
+        aff = _AGENT1[z[_AGENT1] > 0]
+        if aff.size:
+            n_sp = int(round(cfg.spatial_fraction * N))
+            # (2, 11): P(dz > 0) of spatial offsets and of displacements; ½ without the sign term (the paper).
+            up = model.vertical_up_[s] if cfg.vertical_sign else np.full_like(model.vertical_up_[s], 0.5)
+            W = self._weights(s, z)[aff]
+            refs = W @ np.nan_to_num(config)  # (A, 3)
+            sp = draw_vectors(model.spatial_params_[s, aff], up[0, aff], n_sp, self._rng) + refs[None]
+            mo = draw_vectors(model.motion_params_[s, aff], up[1, aff], N - n_sp, self._rng) + before[aff][None]
+            cand[:, aff] = np.concatenate([sp, mo])
+            base = N_KEY
+            n_co = int(round(cfg.coherent_fraction * N))
+            if n_co and base in aff:
+                rows = self._rng.permutation(N)[:n_co]
+                others = aff[aff != base]
+                follow = self._rng.random((n_co, others.size)) < 0.5
+                rigid = prev[others - N_KEY][None] + (cand[rows, base] - prev[0])[:, None]
+                cand[rows[:, None], others[None]] = np.where(follow[..., None], rigid, cand[rows[:, None], others[None]])
+        # Joints not sampled (Null) stay static relative to agent 1's base, which may have moved.
+        base = N_KEY
+        shift = cand[:, base] - prev[0] if base in aff else np.zeros((N, 3))
+        static = _AGENT1[self._available[_AGENT1] & ~np.isin(_AGENT1, aff)]
+        cand[:, static] = prev[static - N_KEY][None] + shift[:, None]
+        prior = None
+        reg = model.end_regression_[s] if cfg.end_prior == "regression" else None
+        if reg is not None:
+            prior = RegressionPrior.at(reg, config, before, self._track[cfg.n_observed - 1], self._available)
+            extra = np.repeat(config[None], cfg.prior_samples, axis=0)
+            extra[:, _AGENT1] = prior.draw(cfg.prior_samples, self._rng)
+            cand = np.concatenate([cand, extra])
+        best = self._select(s, z, cand, before, static, prior)
+        out = best[_AGENT1].copy()
+        out[~self._available[_AGENT1]] = np.nan
+        return out
+
+
+    def _weights(self, s: int, z: np.ndarray) -> np.ndarray:
+        """(11, 11) reference weights of type ``s``'s grouping ``z`` (absent joints masked), once per episode."""
+        W = self._refw.get(s)
+        if W is None:
+            cfg = self.model.config
+            W = self._refw[s] = reference_weights(z, other_side=cfg.other_side_reference, include_self=cfg.reference_self)
+        return W
+
+    def _score(
+        self, s: int, z: np.ndarray, configs: np.ndarray, before: np.ndarray, prior: RegressionPrior | None
+    ) -> np.ndarray:
+        """(N,) log spatial + log motion (+ vertical signs, + the regression prior) of N configurations (N, 11, 3)."""
+        model = self.model
+        disp = configs - before[None]
+        if self._tables is not None:
+            score = self._tables.spatial(configs, s) + self._tables.motion(disp, s)
+        else:
+            score = model.log_spatial(s, configs) + model.log_motion(s, disp)
+        if self.config.vertical_sign:
+            score = score + sign_loglik(model, s, z, configs, disp, self._weights(s, z))
+        if prior is not None:
+            score = score + prior.log_density(configs)
+        return np.where(np.isnan(score), -np.inf, score)
+
+    def _select(
+        self, s: int, z: np.ndarray, cand: np.ndarray, before: np.ndarray, static: np.ndarray,
+        prior: RegressionPrior | None,
+    ) -> np.ndarray:
+        """The most likely configuration (11, 3) over the candidates and their per-joint recombinations.
+
+        Start from the best of the N whole candidates, then, joint by joint (``refine_sweeps`` times),
+        try each candidate's position of that joint with the others held: a coordinate ascent over
+        the N^A combinations of the A sampled joints' draws, on the same objective.
+        """
+        score = self._score(s, z, cand, before, prior)
+        if self.config.selection == "likelihood":
+            k = int(np.argmax(score))
+        else:  # the potentials score each joint as independent evidence: the product is overconfident, so temper it
+            k = expected_error_choice(cand[:, _AGENT1], score, temperature=N_KEY)
+        best, best_score = cand[k].copy(), score[k]
+        sampled = _AGENT1[z[_AGENT1] > 0]
+        base = N_KEY
+        for _ in range(self.config.refine_sweeps):
+            improved = False
+            for j in sampled:
+                trial = np.repeat(best[None], cand.shape[0], axis=0)
+                trial[:, j] = cand[:, j]
+                if j == base:  # the body moves with its base: static joints follow
+                    trial[:, static] = best[static][None] + (cand[:, base] - best[base])[:, None]
+                sc = self._score(s, z, trial, before, prior)
+                i = int(np.argmax(sc))
+                if sc[i] > best_score + 1e-12:
+                    best, best_score, improved = trial[i].copy(), sc[i], True
+            if not improved:
+                break
+        return best
+

@@ -1,0 +1,199 @@
+"""A forward (filtering) belief over the running sub-event and its elapsed duration.
+
+The online parse (:mod:`.online_parse`, :mod:`.stream_parse`) keeps the single best parse of the frames
+so far (a max-product DP): it commits to one sub-event and one start. :class:`ForwardBelief` keeps instead
+the *sum* over every parse on a grid of cut points (every ``stride`` frames) of the same parse score the
+DP maximises — start probability, transitions, closed intervals scored by the potentials and their
+duration density (:func:`~.online_parse.closed_scores`), the running interval by the survival function of
+its duration (:func:`~.online_parse.log_duration_survival`), consecutive labels distinct and, with
+``config.unique_labels``, every label used at most once — and reads from it the posterior over the
+current sub-event s and its start, i.e. its elapsed duration d.
+
+The recursion (semi-Markov forward algorithm; F is the log weight of "an interval of label s starts at
+cut a, mask m of labels used"):
+
+    C(b, m, s)  = logsumexp_a [ F(a, m, s) + seg(a, b, s) ]                    (an interval closes at b)
+    F(b, m', s) = logsumexp_{m, s'} [ C(b, m, s') + log p(s | s') ],  m' = m ∪ {s} ∌ s before
+    F(0, {s}, s) = log p(s₁ = s)
+    P(s, a | frames < t) ∝ Σ_m F(a, m, s) + log P(D_s > (t − a) / fps)
+
+Per cut, the work is over the starts of the last ``horizon`` frames only, and the memory is those starts'
+F rows: bounded independently of the time elapsed. Starts older than ``horizon`` frames are merged into
+one "long" bucket per label s, treated as begun exactly ``horizon`` frames ago, its set of used labels
+forgotten but for s (an approximation that is exact while every sub-event is shorter than ``horizon``
+frames; it keeps the mass of a sub-event that lasts instead of dropping it, and with unique labels it lets
+a stream of repeated interactions start the sequence of sub-events again, as the windowed DP does at its
+window's start). Values are kept up to a common constant (renormalised at every cut).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ConfigError, ModelError
+from ..model.affordance import AffordanceParameters
+from .type_tables import TypeTables
+from .online_parse import log_duration_survival
+
+__all__ = ["ForwardBelief"]
+
+
+class ForwardBelief:
+    """Filtering posterior over (current sub-event, elapsed frames) of a growing canonical track."""
+
+    def __init__(self, model: AffordanceParameters, fps: float, *, stride: int, horizon: int) -> None:
+        """``stride`` [frames]: distance between cut points; ``horizon`` [frames]: longest interval kept
+        exactly (rounded up to a multiple of ``stride``)."""
+        if stride < 1:
+            raise ConfigError(f"belief_stride: expected at least 1 frame, found {stride}")
+        if horizon < stride:
+            raise ConfigError(f"belief_horizon: expected at least belief_stride = {stride} frames, found {horizon}")
+        self.model = model
+        self.fps = float(fps)
+        self.stride = int(stride)
+        self.n_starts = -(-int(horizon) // self.stride)
+        self.horizon = self.n_starts * self.stride
+        S = model.n_subevents_
+        self.S = S
+        cfg = model.config
+        self.M = 1 << S if cfg.unique_labels else 1
+        trans = np.array(model.log_transitions_, dtype=float)
+        if cfg.distinct_neighbours and S > 1:
+            np.fill_diagonal(trans, -np.inf)
+        self._trans = trans
+        bits = 1 << np.arange(S)
+        masks = np.arange(self.M)
+        # For every target label s: the source masks that do not hold s, and the masks they become.
+        if self.M > 1:
+            self._src = [masks[(masks & bits[s]) == 0] for s in range(S)]
+            self._dst = [m | bits[s] for s, m in enumerate(self._src)]
+        else:
+            self._src = [masks] * S
+            self._dst = [masks] * S
+        self._bits = bits
+        # log P(D_s > d / fps) for d = 0 … horizon frames.
+        d = np.arange(self.horizon + 1) / self.fps
+        self._surv = np.stack([log_duration_survival(model, s, d) for s in range(S)], axis=1)  # (H + 1, S)
+        self._tables = TypeTables(model) if cfg.vector_density == "polar" else None
+        self.reset()
+
+    def reset(self, origin: int = 0) -> None:
+        """Start afresh at frame ``origin`` (0: the model's start probabilities; later: a uniform label
+        prior, what came before being unknown)."""
+        if origin < 0:
+            raise ModelError(f"ForwardBelief.reset: expected origin >= 0, found {origin}")
+        self.origin = int(origin)
+        self._starts = np.zeros(0, np.int64)  # cut frames of the F rows kept, oldest first
+        self._F = np.zeros((0, self.M, self.S))
+        self._G = np.zeros((0, self.S))  # log Σ_m exp F: what the posterior reads
+        self._long = np.full((self.M, self.S), -np.inf)
+        self._G_long = np.full(self.S, -np.inf)
+        self._next = self.origin  # the next cut to process
+        self.cuts = 0
+        """Cuts processed since the last reset."""
+
+    @property
+    def memory(self) -> int:
+        """F rows held (at most ``horizon / stride``): what bounds the per-cut work."""
+        return int(self._starts.shape[0])
+
+    def advance(self, track: np.ndarray, t: int) -> None:
+        """Process every cut before frame ``t`` of the canonical ``track`` (≥ t frames, 11, 3). Frames
+        before ``t`` must not change between calls (else :meth:`reset`)."""
+        while self._next <= t - 1:
+            self._cut(track, self._next)
+            self._next += self.stride
+
+    def _cut(self, track: np.ndarray, b: int) -> None:
+        S, M = self.S, self.M
+        if b == self.origin:
+            F = np.full((M, S), -np.inf)
+            prior = self.model.log_start_probs_ if b == 0 else np.full(S, -np.log(S))
+            if M > 1:
+                F[self._bits, np.arange(S)] = prior
+            else:
+                F[0] = prior
+        else:
+            C = np.full((M, S), -np.inf)
+            has_long = bool(np.isfinite(self._long).any())
+            starts = np.append(self._starts, b - self.horizon) if has_long else self._starts
+            if starts.size:
+                seg = self._closing(track, starts, b)  # (K, S)
+                C = _logsumexp_finite(self._F + seg[: self._starts.size, None, :], axis=0)
+                if has_long:
+                    C = np.logaddexp(C, self._long + seg[-1][None])
+            V = _logsumexp_finite(C[:, :, None] + self._trans[None], axis=1)  # (M, S): into label s from mask m
+            F = np.full((M, S), -np.inf)
+            for s in range(S):
+                F[self._dst[s], s] = V[self._src[s], s]
+        self._starts = np.append(self._starts, b)
+        self._F = np.concatenate([self._F, F[None]])
+        old = self._starts <= b - self.horizon  # an interval from there to the next cut would exceed the horizon
+        if old.any():
+            self._long = np.logaddexp(self._long, _logsumexp_finite(self._F[old], axis=0))
+            self._starts, self._F = self._starts[~old], self._F[~old]
+            if self.M > 1:  # the long bucket forgets the labels used before it: a stream can start the interaction again
+                merged = _logsumexp_finite(self._long, axis=0)  # (S,)
+                self._long = np.full((self.M, self.S), -np.inf)
+                self._long[self._bits, np.arange(self.S)] = merged
+        top = max(float(np.max(self._F)), float(np.max(self._long)))
+        if np.isfinite(top):  # renormalise: only ratios matter
+            self._F -= top
+            self._long -= top
+        self._G = _logsumexp_finite(self._F, axis=1)
+        self._G_long = _logsumexp_finite(self._long, axis=0)
+        self.cuts += 1
+
+    def _closing(self, track: np.ndarray, starts: np.ndarray, b: int) -> np.ndarray:
+        """(K, S) log scores of the closed intervals [starts, b) (those of
+        :func:`~socialaff_sim.inference.online_parse.closed_scores`): they share their last frame, so the
+        spatial potentials are evaluated once per type."""
+        model = self.model
+        stops = np.full(starts.size, b)
+        feats = model.interval_features(track, starts, stops, self.fps)
+        short = (stops - starts) < model.config.min_subevent_seconds * self.fps
+        tab = self._tables
+        if tab is None:  # the Cartesian densities: the model's own scoring, type by type
+            out = np.empty((starts.size, self.S))
+            for s in range(self.S):
+                spatial = model.log_spatial(s, feats.end[:1])[0]
+                out[:, s] = spatial + model.log_motion(s, feats.disp) + model.log_duration(s, feats.seconds)
+        else:
+            out = tab.spatial(feats.end[:1]) + tab.motion(feats.disp) + tab.duration(feats.seconds)
+        for s in range(self.S):
+            out[:, s] += model.log_path(s, feats)
+        out[short] = -np.inf
+        return out
+
+    def posterior(self, t: int) -> tuple[np.ndarray, np.ndarray]:
+        """At frame ``t`` (after :meth:`advance` to t): the starts (K,) int64 of the running interval and
+        P(start, s | frames < t) (K, S) float64, summing to 1 (the long bucket reported at its
+        representative start t − horizon, when it holds mass). Uniform over s at the origin when
+        nothing is possible."""
+        if self._next <= t - 1:
+            raise ModelError(f"ForwardBelief.posterior({t}): advance(track, {t}) first")
+        starts = self._starts  # every start kept is a cut before t
+        d = np.minimum(t - starts, self.horizon)
+        logp = self._G + self._surv[d]  # (K, S)
+        if np.isfinite(self._long).any():
+            starts = np.append(starts, t - self.horizon)
+            logp = np.concatenate([logp, (self._G_long + self._surv[self.horizon])[None]])
+        top = np.max(logp) if logp.size else -np.inf
+        if not np.isfinite(top):
+            S = self.S
+            return np.array([self.origin], np.int64), np.full((1, S), 1.0 / S)
+        p = np.exp(logp - top)
+        return starts, p / p.sum()
+
+    def belief(self, t: int) -> np.ndarray:
+        """(S,) P(current sub-event = s | frames < t)."""
+        return self.posterior(t)[1].sum(axis=0)
+
+
+def _logsumexp_finite(x: np.ndarray, axis: int) -> np.ndarray:
+    """logsumexp that returns −inf (without a warning) where every term is −inf."""
+    top = np.max(x, axis=axis, keepdims=True)
+    safe = np.where(np.isfinite(top), top, 0.0)
+    with np.errstate(divide="ignore"):
+        out = np.log(np.sum(np.exp(x - safe), axis=axis)) + np.squeeze(safe, axis=axis)
+    return out

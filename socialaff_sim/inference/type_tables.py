@@ -1,0 +1,115 @@
+"""Every sub-event type's potentials stacked row by row, for scoring many configurations under one or all
+types in one vectorised pass.
+
+:meth:`~socialaff_sim.model.affordance.AffordanceParameters.log_spatial` and ``log_motion`` score one type
+at a time and rebuild the type's reference weights at every call; the forward belief scores every type at
+every cut, and the synthesizer N candidates at every re-planning. :class:`TypeTables` precomputes, once
+per model, one row per (type, joint) with its parameters and reference weights, and evaluates the same
+densities (:mod:`~socialaff_sim.model.densities`, polar vector densities) for all rows at once; summed
+per type they equal the model's scores (tests/test_forward_belief.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..model.affordance import AffordanceParameters
+from ..model.densities import expon_logpdf, lognorm_logpdf, vonmises_logpdf, weibull_logpdf
+from ..model.features import polar
+from ..model.potentials import reference_weights
+
+__all__ = ["TypeTables"]
+
+
+class TypeTables:
+    """One row per (type, affordable joint) for the spatial potentials and per (type, used joint) for the
+    motion potentials (``AffordanceConfig.vector_density == "polar"`` only)."""
+
+    def __init__(self, model: AffordanceParameters) -> None:
+        S = model.n_subevents_
+        cfg = model.config
+        self.S, self.eps = S, cfg.eps
+        sp_rows, sp_w, sp_joint, sp_type, mo_joint, mo_rows, mo_expon, mo_type = [], [], [], [], [], [], [], []
+        for s in range(S):
+            z = model._z(s)
+            W = reference_weights(z, other_side=cfg.other_side_reference, include_self=cfg.reference_self)
+            for j in np.flatnonzero(z > 0):
+                sp_joint.append(int(j))
+                sp_rows.append(model.spatial_params_[s, j])
+                sp_w.append(W[j])
+                sp_type.append(s)
+            for j in np.flatnonzero(z >= 0):
+                mo_joint.append(int(j))
+                mo_rows.append(model.motion_params_[s, j])
+                mo_expon.append(bool(z[j] == 0))
+                mo_type.append(s)
+        J = model.spatial_params_.shape[1]
+        self.sp_joint = np.array(sp_joint, np.int64)
+        self.sp_params = np.array(sp_rows, float).reshape(-1, 6)
+        self.sp_w = np.array(sp_w, float).reshape(-1, J)
+        self.sp_type = np.array(sp_type, np.int64)
+        self.mo_joint = np.array(mo_joint, np.int64)
+        self.mo_params = np.array(mo_rows, float).reshape(-1, 6)
+        self.mo_expon = np.array(mo_expon, bool)
+        self.mo_type = np.array(mo_type, np.int64)
+        # Per type: its rows and the columns its reference weights read (the model reads exactly those).
+        self._sp = []
+        self._read = np.zeros(self.sp_w.shape, bool)  # (R, 11): the columns the row's type reads
+        for s in range(S):
+            rows = np.flatnonzero(self.sp_type == s)
+            cols = np.flatnonzero(self.sp_w[rows].any(axis=0))
+            self._sp.append((rows, cols, self.sp_w[np.ix_(rows, cols)]))
+            self._read[np.ix_(rows, cols)] = True
+        self.dur = np.asarray(model.duration_params_, float)
+        self.log_seconds = cfg.duration_density == "log_seconds"
+
+    def _per_type(self, rows: np.ndarray, types: np.ndarray, only: int | None) -> np.ndarray:
+        """Row log-densities (N, R) summed by type → (N, S), or (N,) for type ``only``; NaN → −inf."""
+        if only is not None:
+            out = rows.sum(axis=-1)
+        else:
+            out = np.zeros(rows.shape[:-1] + (self.S,))
+            for s in range(self.S):
+                sel = types == s
+                if sel.any():
+                    out[..., s] = rows[..., sel].sum(axis=-1)
+        return np.where(np.isnan(out), -np.inf, out)
+
+    def _density(self, vecs: np.ndarray, params: np.ndarray, expon: np.ndarray) -> np.ndarray:
+        h, v, th = polar(vecs, self.eps)
+        kh, lh, kv, lv, mu, kap = params.T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dist = np.where(expon, expon_logpdf(h, lh) + expon_logpdf(v, lv), weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv))
+            return dist + vonmises_logpdf(th, mu, kap)
+
+    def spatial(self, end: np.ndarray, s: int | None = None) -> np.ndarray:
+        """Spatial log-potential of N configurations ``end`` (N, 11, 3): (N, S), or (N,) under type ``s``."""
+        end = np.asarray(end, float)
+        if s is None:  # every row at once; a NaN in a column its type reads makes the row NaN, as in the model
+            refs = np.where(self._read[None, :, :, None], self.sp_w[None, :, :, None] * end[:, None], 0.0).sum(axis=2)
+            offsets = end[:, self.sp_joint] - refs
+            rows = self._density(offsets, self.sp_params, np.zeros(self.sp_joint.size, bool))
+            return self._per_type(rows, self.sp_type, None)
+        rows, cols, w = self._sp[s]
+        if rows.size == 0:
+            return np.zeros(end.shape[0])
+        refs = np.einsum("kj,njd->nkd", w, end[:, cols])
+        offsets = end[:, self.sp_joint[rows]] - refs
+        dens = self._density(offsets, self.sp_params[rows], np.zeros(rows.size, bool))
+        out = dens.sum(axis=-1)
+        return np.where(np.isnan(out), -np.inf, out)
+
+    def motion(self, disp: np.ndarray, s: int | None = None) -> np.ndarray:
+        """Motion log-potential of N displacement sets (N, 11, 3): (N, S), or (N,) under type ``s``."""
+        sel = slice(None) if s is None else self.mo_type == s
+        rows = self._density(np.asarray(disp, float)[:, self.mo_joint[sel]], self.mo_params[sel], self.mo_expon[sel])
+        return self._per_type(rows, self.mo_type[sel], s)
+
+    def duration(self, seconds: np.ndarray) -> np.ndarray:
+        """(N, S) duration log-density of N interval lengths (seconds) under every type."""
+        x = np.asarray(seconds, float)[:, None]
+        out = lognorm_logpdf(x, self.dur[None, :, 0], self.dur[None, :, 1])
+        if self.log_seconds:
+            with np.errstate(divide="ignore"):
+                out = out + np.log(x)
+        return np.where(np.isnan(out), -np.inf, out)
