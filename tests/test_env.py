@@ -99,15 +99,25 @@ def test_residual_and_target_actions_reach_the_simulator(data):
     env.step(offset)
     np.testing.assert_allclose(env.simulator.last_targets, obs["proposal"] + offset, atol=1e-5)
     big = np.full((5, 3), 9.0, np.float32)
+    big[0] = 0.0  # (a base pushed away would come back at the envelope's speed, not in one frame)
     proposal = env.step(big)[0]["proposal"]
     env.step(np.zeros((5, 3), np.float32))
     np.testing.assert_allclose(env.simulator.last_targets, proposal, atol=1e-5)
 
     tgt = make(data, action_mode="targets", terminate_on_failure=False)
     tgt.reset(seed=1)
-    a = np.array([[0.1, 0.0, 0.7], [0.4, 0.3, 0.9], [9.0, -9.0, 9.0], [0.0, 0.1, 0.1], [0.0, -0.1, 0.1]], np.float32)
-    tgt.step(a)
-    np.testing.assert_allclose(tgt.simulator.last_targets, np.clip(a, tgt.action_space.low, tgt.action_space.high), atol=1e-6)
+    base = tgt.simulator.last_targets[0]
+    a = np.array([base, [0.4, 0.3, 0.9], [9.0, -9.0, 9.0], [0.0, 0.1, 0.1], [0.0, -0.1, 0.1]], np.float32)
+    _, _, _, _, info = tgt.step(a)
+    # Clipped to the box, then the right wrist pulled to twice the arm's length from its shoulder.
+    boxed = np.clip(a, tgt.action_space.low, tgt.action_space.high).astype(np.float64)
+    expected = boxed.copy()
+    shoulder = expected[0] + tgt.feasible.body.shoulders[1]
+    gap = expected[2] - shoulder
+    expected[2] = shoulder + gap * 2.0 * tgt.feasible.body.arm / np.linalg.norm(gap)
+    np.testing.assert_allclose(tgt.simulator.last_targets, expected, atol=1e-6)
+    np.testing.assert_allclose(info["action_adjustment"], np.linalg.norm(expected - boxed, axis=1), atol=1e-6)
+    assert info["action_adjustment"][2] > 1.0 and not info["action_adjustment"][[0, 1, 3, 4]].any()
     with pytest.raises(SimulationError, match="shape"):
         tgt.step(np.zeros((4, 3)))
     with pytest.raises(SimulationError, match="finite"):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -90,21 +91,27 @@ def test_progress_terms_add_up_to_the_weight(data):
 
 
 def test_failure_terminates_unless_told_otherwise(data, seed):
+    # A person who bears 1 N at most: the replayed handshake's grip is a failure (random targets no longer
+    # reliably make the robot collide with itself since targets are projected onto what its body can follow).
     for terminate in (True, False):
-        env = SocialAffordanceEnv(data=data, action_mode="targets", max_frames=20, terminate_on_failure=terminate)
-        env.action_space.seed(seed)
+        env = SocialAffordanceEnv(data=data, interactions="shake_hands", action_mode="residual", terminate_on_failure=terminate)
+        task = env.pool.tasks["shake_hands"]
+        env.pool.tasks["shake_hands"] = dataclasses.replace(task, failures=tuple(
+            dataclasses.replace(f, threshold=1.0) if f.kind == "contact_force" else f for f in task.failures))
+        env._sims.clear()
         env.reset(seed=seed)
         failed_at, steps = None, 0
         while True:
-            _, _, term, _, info = env.step(env.action_space.sample())
+            _, reward, term, _, info = env.step(np.zeros((5, 3), np.float32))
             steps += 1
             if info["failed"] and failed_at is None:
                 failed_at = steps
+                assert info["reward_failure_contact_force"] == -RewardConfig().failure_penalty
             if term:
                 break
-        assert failed_at is not None, "random targets are expected to make the robot collide with itself"
+        assert failed_at is not None, "the replayed handshake is expected to push on the hand with more than 1 N"
         assert (steps == failed_at) == terminate
-        assert steps == failed_at or info["frame"] == 19
+        assert steps == failed_at or info["frame"] == env.simulator.n_frames - 1
 
 
 def test_affordance_term_closed_form():

@@ -6,9 +6,11 @@ also under their earlier names ``SocialAffordance-ShakeHands-v0`` …);
 see docs/environment.md.
 """
 
+from .action_limits import EnvelopeConfig, FeasibleTargets
 from .adapters import AdapterFrame, AffordanceAdapter, AffordanceScore, GroundTruthAdapter, RobotPose
 from .config import ACTION_MODES, PHYSICS_PRESETS, EnvConfig, physics_config
 from .env import SocialAffordanceEnv
+from .episode_end import TERMINATION_REASONS
 from .model_adapter import ModelAdapter, ModelScorer, load_models
 from .registration import ENV_IDS, MAX_EPISODE_STEPS, register_envs
 from .reward import RewardConfig, RewardTracker
@@ -22,6 +24,8 @@ __all__ = [
     "AffordanceAdapter",
     "AffordanceScore",
     "EnvConfig",
+    "EnvelopeConfig",
+    "FeasibleTargets",
     "GroundTruthAdapter",
     "ModelAdapter",
     "ModelScorer",
@@ -29,6 +33,7 @@ __all__ = [
     "RewardTracker",
     "RobotPose",
     "SocialAffordanceEnv",
+    "TERMINATION_REASONS",
     "load_models",
     "physics_config",
     "register_envs",

@@ -49,7 +49,7 @@ class EnvConfig:
     -----------------
     - Actions: action_mode, target_low, target_high, residual_bound
     - Observations: history, position_bound, velocity_bound
-    - Episodes: terminate_on_failure, max_frames, physics
+    - Episodes: terminate_on_failure, fall_height, fall_tilt, max_frames, physics
     - Rendering: render_width, render_height
     """
 
@@ -70,6 +70,11 @@ class EnvConfig:
     terminate_on_failure: bool = True
     """[—]: Whether a failure condition of the task file (self-collision, force on the person, a drop)
     ends the episode (``terminated``); otherwise it is only penalised once."""
+    fall_height: float = 0.5
+    """[—]: The robot has fallen (termination reason ``fell``) when its base is lower than this fraction
+    of its height at home (the action envelope keeps base targets above 1 − 0.35·leg/height of it)."""
+    fall_tilt: float = 60.0
+    """[deg]: The robot has also fallen when its trunk tilts more than this from its upright posture at home."""
     max_frames: int | None = None
     """[frames]: Cut every instance to its first this many frames (short episodes, e.g. in tests); ``None``: whole instances."""
     physics: str = "fast"
@@ -94,6 +99,10 @@ class EnvConfig:
         for name in ("residual_bound", "position_bound", "velocity_bound"):
             if not float(getattr(self, name)) > 0:
                 raise bad(name, "a number > 0")
+        if not 0.0 < float(self.fall_height) < 1.0:
+            raise bad("fall_height", "a fraction of the base's height at home in (0, 1)")
+        if not 0.0 < float(self.fall_tilt) <= 180.0:
+            raise bad("fall_tilt", "an angle in (0, 180] degrees")
         if len(self.target_low) != 3 or len(self.target_high) != 3:
             raise bad("target_low", "three numbers (x, y, z), and three for target_high")
         if any(lo >= hi for lo, hi in zip(self.target_low, self.target_high, strict=True)):

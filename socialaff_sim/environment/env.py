@@ -14,10 +14,16 @@ right wrist, left ankle, right ankle; metres, robot frame), clipped to the space
 * ``targets``: the key-frame targets themselves, in ``EnvConfig.target_low … target_high``;
 * ``residual``: offsets in [−ρ, ρ] added to the adapter's proposal for the frame
   (the ``proposal`` entry of the observation), so a policy learns corrections.
+
+The resulting targets are then projected onto what the robot's body can follow
+(:mod:`~socialaff_sim.environment.action_limits`; ``info["action_adjustment"]`` says how far
+each row was moved). Why an episode ended is ``info["termination_reason"]``
+(:mod:`~socialaff_sim.environment.episode_end`), MuJoCo's warnings of the step ``info["physics_warnings"]``.
 """
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -30,9 +36,11 @@ from ..data.skeletons import N_KEY
 from ..errors import ConfigError, SimulationError, choices
 from ..retarget.robot import RobotSpec, load_robot
 from ..sim.simulator import Simulator, StepResult
+from .action_limits import BodyEnvelope, EnvelopeConfig, FeasibleTargets
 from .adapters import AdapterFrame, AffordanceAdapter, GroundTruthAdapter, RobotPose
 from .bodymap import RobotToAgent
 from .config import EnvConfig, physics_config
+from .episode_end import UNSTABLE_WARNINGS, WarningMonitor, body_up, tilt_cosine
 from .instances import DataSpec, EpisodePool, load_pool
 from .model_adapter import ModelAdapter, ModelSpec, load_models
 from .observation import ObservationLayout
@@ -40,6 +48,8 @@ from .rendering import FrameRenderer, HumanViewer, display_available
 from .reward import RewardConfig, RewardTracker
 
 __all__ = ["SocialAffordanceEnv"]
+
+_log = logging.getLogger(__name__)
 
 RESET_OPTIONS = ("interaction", "instance")
 
@@ -62,8 +72,10 @@ class SocialAffordanceEnv(gym.Env):
         sub-event belief, its spatial potentials the affordance reward. ``None``: the ground-truth adapter.
     adapter:
         A custom :class:`~socialaff_sim.environment.adapters.AffordanceAdapter` (instead of ``model``).
-    history, max_frames, physics, terminate_on_failure, render_width, render_height:
+    history, max_frames, physics, terminate_on_failure, fall_height, fall_tilt, render_width, render_height:
         Fields of :class:`~socialaff_sim.environment.config.EnvConfig`.
+    envelope:
+        The envelope targets are projected into (:class:`~socialaff_sim.environment.action_limits.EnvelopeConfig`).
     reward:
         Term weights (:class:`~socialaff_sim.environment.reward.RewardConfig`).
     proxy_sigma:
@@ -87,6 +99,9 @@ class SocialAffordanceEnv(gym.Env):
         physics: str = "fast",
         reward: RewardConfig | None = None,
         terminate_on_failure: bool = True,
+        fall_height: float = 0.5,
+        fall_tilt: float = 60.0,
+        envelope: EnvelopeConfig | None = None,
         proxy_sigma: float = 0.1,
         render_mode: str | None = None,
         render_width: int = 640,
@@ -95,8 +110,12 @@ class SocialAffordanceEnv(gym.Env):
         self._init_kwargs = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
         self.config = EnvConfig(
             action_mode=action_mode, history=history, max_frames=max_frames, physics=physics,
-            terminate_on_failure=terminate_on_failure, render_width=render_width, render_height=render_height,
+            terminate_on_failure=terminate_on_failure, fall_height=fall_height, fall_tilt=fall_tilt,
+            render_width=render_width, render_height=render_height,
         )
+        self.envelope = envelope or EnvelopeConfig()
+        self.warnings = WarningMonitor()
+        """MuJoCo's warnings on the physics, per step (``info["physics_warnings"]``) and in total (``warnings.totals``)."""
         if render_mode not in (None, *type(self).metadata["render_modes"]):
             raise ConfigError(f"render_mode: expected None, {choices(type(self).metadata['render_modes'])}, found {render_mode!r}")
         self.render_mode = render_mode
@@ -119,6 +138,12 @@ class SocialAffordanceEnv(gym.Env):
         probe = self._simulator(first.label)
         probe.reset(first)
         n_joints = len(probe.joint_state()[0])
+        m = probe.measurements
+        self.feasible = FeasibleTargets(BodyEnvelope(
+            arm=float(m.arm), leg=float(m.leg), shoulders=np.asarray(m.shoulders, float), hips=np.asarray(m.hips, float),
+            base_height=float(probe.home_key_frames[0, 2]), ankle_height=float(np.mean(probe.home_key_frames[3:5, 2])),
+        ), self.envelope)
+        """The projection of targets onto what the robot's body can follow."""
         names = {lbl: self.adapter.subevent_names(lbl, self.pool.instances) for lbl in self.pool.labels}
         self.rewards = RewardTracker([self.pool.tasks[lbl] for lbl in self.pool.labels], reward)
         self.layout = ObservationLayout(
@@ -203,6 +228,13 @@ class SocialAffordanceEnv(gym.Env):
         self._last: StepResult | None = None
         self._last_terms: dict[str, float] = {}
         self._done = False
+        self._reason: str | None = None
+        self._adjustment = np.zeros(N_KEY)
+        self._step_warnings = dict.fromkeys(self.warnings.totals, 0)
+        self.warnings.reset(sim.data)
+        # Fall thresholds of this robot and scene: base height (m) and the cosine of the tilt.
+        self._fall = (self.config.fall_height * float(sim.home_key_frames[0, 2]),
+                      float(np.cos(np.deg2rad(self.config.fall_tilt))), body_up(sim.scene.home_qpos[3:7]))
         self.metadata["render_fps"] = float(inter.fps)
 
     def _advance(self, action: np.ndarray) -> tuple[float, dict[str, float], StepResult]:
@@ -216,8 +248,11 @@ class SocialAffordanceEnv(gym.Env):
             raise SimulationError("action: expected finite numbers, found NaN or inf")
         a = np.clip(a, self.action_space.low, self.action_space.high)
         self._actions.append(a.copy())
-        targets = a if cfg.action_mode == "targets" else self._proposal + a
+        wanted = a if cfg.action_mode == "targets" else self._proposal + a
+        targets = self.feasible.project(wanted, sim.last_targets[0], sim.interaction.fps)  # type: ignore[union-attr]
+        self._adjustment = np.linalg.norm(targets - wanted, axis=1)
         res = sim.step(targets, subevent=self._frame.subevent_name)
+        self._step_warnings = self.warnings.step(sim.data)
         t = sim.frame
         obj_r = sim.object_position()
         obj_data = None if obj_r is None else sim.frame_R.to_world(obj_r) - sim.offset
@@ -232,8 +267,27 @@ class SocialAffordanceEnv(gym.Env):
             self._frame = self.adapter.observe(t + 1)
             self._retarget(self._frame, t + 1)
         self._last, self._last_terms = res, terms
-        self._done = sim.done or (cfg.terminate_on_failure and sim.scorer.failed)
+        self._reason = self._termination_reason()
+        self._done = self._reason is not None
         return RewardTracker.total(terms), terms, res
+
+    def _termination_reason(self) -> str | None:
+        """Why the episode ends after this step (docs in :mod:`~socialaff_sim.environment.episode_end`), or ``None``."""
+        sim, cfg = self._sim, self.config
+        data, scene = sim.data, sim.scene
+        if any(self._step_warnings[k] for k in UNSTABLE_WARNINGS) or not (
+                np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
+            return "physics_unstable"
+        low, cos_tilt, up = self._fall
+        if self._robot_keys[0, 2] < low or tilt_cosine(data.qpos[scene.robot_qadr[3:7]], up) < cos_tilt:
+            return "fell"
+        scorer = sim.scorer
+        if cfg.terminate_on_failure and scorer.failed:
+            return next(f.kind for f in scorer.failures if f.triggered)
+        if sim.done:
+            met = all(r.success for r in scorer.subgoals) and not scorer.failed
+            return "task_complete" if met else "instance_end"
+        return None
 
     # -- observation and info ----------------------------------------------------------------
     def _observation(self) -> dict[str, np.ndarray]:
@@ -244,7 +298,10 @@ class SocialAffordanceEnv(gym.Env):
             object_present=sim.carry is not None, robot_keys=self._robot_keys, joint_pos=q, joint_vel=qd,
             proposal=self._proposal, belief=self._frame.belief,
             interaction=self.pool.instances[self._index].label,  # type: ignore[index]
-            subgoal_progress=self.rewards.progress(sim.scorer), frame=sim.frame, n_frames=sim.n_frames,
+            subgoal_progress=self.rewards.progress(sim.scorer),
+            subgoal_achieved={r.name: bool(r.success) for r in sim.scorer.subgoals},
+            subgoal_current={r.name: bool(r.current) for r in sim.scorer.subgoals},
+            frame=sim.frame, n_frames=sim.n_frames,
         )
 
     def _info(self, terms: dict[str, float] | None) -> dict[str, Any]:
@@ -266,6 +323,9 @@ class SocialAffordanceEnv(gym.Env):
             "failed": bool(scorer.failed),
             "failures": {f.kind: bool(f.triggered) for f in scorer.failures},
             "adapter": self.adapter.kind,
+            "termination_reason": self._reason,
+            "physics_warnings": dict(self._step_warnings),
+            "action_adjustment": self._adjustment.copy(),
         }
         if terms is not None and self._last is not None:
             info["ik_error"] = np.array(self._last.ik_error, dtype=np.float64)
@@ -292,11 +352,16 @@ class SocialAffordanceEnv(gym.Env):
         """Advance one frame of the recording; see the module docstring for the action."""
         self._require()
         if self._done:
-            raise SimulationError("SocialAffordanceEnv: the episode has ended (terminated); call reset()")
+            raise SimulationError(f"SocialAffordanceEnv: the episode has ended ({self._reason}); call reset()")
         reward, terms, _ = self._advance(action)
         if self.render_mode == "human":
             self.render()
-        return self._observation(), reward, bool(self._done), False, self._info(terms)
+        truncated = self._reason == "physics_unstable"
+        if truncated:
+            _log.warning("%s: MuJoCo reported an unstable simulation at frame %d (%s); the episode is truncated",
+                         self.pool.instances[self._index].instance_id, self._sim.frame,  # type: ignore[index]
+                         ", ".join(f"{k} {v}" for k, v in self._step_warnings.items() if v))
+        return self._observation(), reward, self._done and not truncated, truncated, self._info(terms)
 
     def render(self) -> np.ndarray | None:
         """``rgb_array``: (H, W, 3) uint8 frame with a caption; ``human``: refresh the window; else ``None``."""

@@ -22,6 +22,8 @@ key                  shape           content
 ``interaction``      (C,)            one-hot of the episode's interaction among the env's C
 ``subgoal_progress`` (G,)            per sub-goal of the env's tasks: qualifying contact time over
                                      its ``min_duration`` (1 once met), 0 for other tasks' sub-goals
+``subgoal_achieved`` (G,)            1 for each sub-goal met so far in the episode (latched)
+``subgoal_current``  (G,)            1 for each sub-goal whose contact holds now (not latched)
 ``progress``         (1,)            t / (T − 1), the fraction of the person's track played
 ==================== =============== =======================================================
 """
@@ -39,7 +41,7 @@ __all__ = ["ObservationLayout", "OBSERVATION_KEYS"]
 
 OBSERVATION_KEYS = (
     "human_keys", "human_mask", "object", "object_present", "robot_keys", "joint_pos", "joint_vel",
-    "proposal", "subevent_belief", "interaction", "subgoal_progress", "progress",
+    "proposal", "subevent_belief", "interaction", "subgoal_progress", "subgoal_achieved", "subgoal_current", "progress",
 )
 
 
@@ -80,6 +82,8 @@ class ObservationLayout:
             "subevent_belief": _box(0.0, 1.0, (self.n_subevents,)),
             "interaction": _box(0.0, 1.0, (len(self.interactions),)),
             "subgoal_progress": _box(0.0, 1.0, (len(self.subgoals),)),
+            "subgoal_achieved": _box(0.0, 1.0, (len(self.subgoals),)),
+            "subgoal_current": _box(0.0, 1.0, (len(self.subgoals),)),
             "progress": _box(0.0, 1.0, (1,)),
         })
 
@@ -97,13 +101,16 @@ class ObservationLayout:
         belief: np.ndarray,
         interaction: str,
         subgoal_progress: dict[str, float],
+        subgoal_achieved: dict[str, bool],
+        subgoal_current: dict[str, bool],
         frame: int,
         n_frames: int,
     ) -> dict[str, np.ndarray]:
         """One observation at frame ``frame``; every array is freshly allocated.
 
         ``human_track`` (T, 5, 3) robot frame (finite); ``object_history`` (H, 3) robot frame,
-        oldest first; ``belief`` (S',) with S' ≤ S.
+        oldest first; ``belief`` (S',) with S' ≤ S; the sub-goal mappings are keyed by sub-goal name
+        (names of other tasks are absent and read 0).
         """
         P, V = self.position_bound, self.velocity_bound
         T = human_track.shape[0]
@@ -117,6 +124,9 @@ class ObservationLayout:
         onehot = np.zeros(len(self.interactions), dtype=np.float32)
         onehot[self.interactions.index(interaction)] = 1.0
         prog = np.array([np.clip(subgoal_progress.get(n, 0.0), 0.0, 1.0) for n in self.subgoals], dtype=np.float32)
+
+        def flags(state: dict[str, bool]) -> np.ndarray:
+            return np.array([1.0 if state.get(n, False) else 0.0 for n in self.subgoals], dtype=np.float32)
         return {
             "human_keys": pos(human_track[rows]),
             "human_mask": np.asarray(human_mask, dtype=np.float32).copy(),
@@ -129,5 +139,7 @@ class ObservationLayout:
             "subevent_belief": b,
             "interaction": onehot,
             "subgoal_progress": prog,
+            "subgoal_achieved": flags(subgoal_achieved),
+            "subgoal_current": flags(subgoal_current),
             "progress": np.array([min(1.0, frame / max(1, n_frames - 1))], dtype=np.float32),
         }

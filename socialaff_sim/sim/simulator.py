@@ -359,6 +359,12 @@ class Simulator:
         return d.qpos[sc.robot_qadr[7:]].copy(), d.qvel[sc.robot_vadr[6:]].copy()
 
     @property
+    def home_key_frames(self) -> np.ndarray:
+        """(5, 3) the robot's key frames at its home posture, robot frame, metres (after the first reset)."""
+        self._require()
+        return self._home_keys.copy()
+
+    @property
     def ik_qpos(self) -> np.ndarray:
         """(nq_ik,) the latest IK solution (free joint then the IK's hinges), world frame."""
         return self._q.copy()

@@ -1,0 +1,114 @@
+"""Why an episode ended, and MuJoCo's own warnings about the physics, per step.
+
+``info["termination_reason"]`` is one of :data:`TERMINATION_REASONS` on the step that ends an
+episode and ``None`` on every other step (and after ``reset``):
+
+==================== ============ ============================================================
+reason               flag         when
+==================== ============ ============================================================
+``task_complete``    terminated   the person's track reached its last frame with every sub-goal
+                                  met and no failure
+``instance_end``     terminated   the track reached its last frame with a sub-goal unmet
+``self_collision``,  terminated   the task file's failure of that kind triggered (only with
+``contact_force``,                ``terminate_on_failure``; the first in the task file's order
+``object_dropped``                when several trigger on one step)
+``fell``             terminated   the robot fell: its base below ``EnvConfig.fall_height`` of its
+                                  height at home, or its trunk tilted past ``fall_tilt``
+``physics_unstable`` truncated    MuJoCo reported a diverging or invalid state (``bad_qacc``,
+                                  ``bad_qpos`` or ``bad_qvel`` below; MuJoCo then resets the state,
+                                  so the episode cannot go on) or a non-finite robot state
+==================== ============ ============================================================
+
+On several at once the order of precedence is ``physics_unstable``, ``fell``, a failure, then
+the end of the track. A :class:`gymnasium.wrappers.TimeLimit` truncation (the registered
+``max_episode_steps``) is the wrapper's: the environment cannot see it, so the reason stays
+``None`` there and ``truncated`` alone says it.
+
+MuJoCo counts its warnings in ``MjData.warning`` (cleared by every reset of the data);
+:class:`WarningMonitor` reads the counters after each step and reports the increase per
+warning under :data:`WARNING_NAMES`.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+__all__ = ["TERMINATION_REASONS", "FAILURE_REASONS", "WARNING_NAMES", "UNSTABLE_WARNINGS", "WarningMonitor", "body_up",
+           "tilt_cosine", "tilt_angle"]
+
+FAILURE_REASONS = ("self_collision", "contact_force", "object_dropped")
+"""The task files' failure kinds (docs/task_format.md), each a termination reason of its own."""
+TERMINATION_REASONS = ("task_complete", "instance_end", *FAILURE_REASONS, "fell", "physics_unstable")
+"""Every value ``info["termination_reason"]`` takes besides ``None``."""
+
+WARNING_NAMES: dict[str, mujoco.mjtWarning] = {
+    "inertia": mujoco.mjtWarning.mjWARN_INERTIA,
+    "contact_full": mujoco.mjtWarning.mjWARN_CONTACTFULL,
+    "constraint_full": mujoco.mjtWarning.mjWARN_CNSTRFULL,
+    "bad_qpos": mujoco.mjtWarning.mjWARN_BADQPOS,
+    "bad_qvel": mujoco.mjtWarning.mjWARN_BADQVEL,
+    "bad_qacc": mujoco.mjtWarning.mjWARN_BADQACC,
+    "bad_ctrl": mujoco.mjtWarning.mjWARN_BADCTRL,
+}
+"""Our name of each MuJoCo warning (``info["physics_warnings"]`` keys) and its ``mjtWarning``."""
+UNSTABLE_WARNINGS = ("bad_qpos", "bad_qvel", "bad_qacc")
+"""Warnings after which MuJoCo has reset the state: the episode ends as ``physics_unstable``."""
+
+
+class WarningMonitor:
+    """Per-step increases of MuJoCo's warning counters on one ``MjData`` at a time."""
+
+    def __init__(self) -> None:
+        self._index = np.array([int(w) for w in WARNING_NAMES.values()])
+        self._last = np.zeros(len(WARNING_NAMES), dtype=np.int64)
+        self._quiet = dict.fromkeys(WARNING_NAMES, 0)
+        self.totals = dict.fromkeys(WARNING_NAMES, 0)
+        """Warnings counted since the monitor was made, by name (over every episode)."""
+
+    def _counts(self, data: mujoco.MjData) -> np.ndarray:
+        number = getattr(data.warning, "number", None)  # MuJoCo's bindings: a view of every counter
+        if number is None:
+            return np.array([data.warning[i].number for i in self._index], dtype=np.int64)
+        return np.asarray(number, dtype=np.int64)[self._index]
+
+    def reset(self, data: mujoco.MjData) -> None:
+        """Start from ``data``'s counters now (call after the data was reset, e.g. at an episode's start)."""
+        self._last = self._counts(data)
+
+    def step(self, data: mujoco.MjData) -> dict[str, int]:
+        """{name: warnings since the last call}; a counter that went down (MuJoCo reset the data) counts from 0."""
+        now = self._counts(data)
+        if np.array_equal(now, self._last):  # the usual case: nothing new
+            return dict(self._quiet)
+        new = np.where(now >= self._last, now - self._last, now)
+        self._last = now
+        out = {name: int(n) for name, n in zip(WARNING_NAMES, new, strict=True)}
+        for name, n in out.items():
+            self.totals[name] += n
+        return out
+
+
+def body_up(home_quat: np.ndarray) -> np.ndarray:
+    """(3,) the world vertical in the body's own axes at its home orientation ``home_quat`` (w, x, y, z)."""
+    h = np.empty(9)
+    mujoco.mju_quat2Mat(h, np.asarray(home_quat, dtype=np.float64))
+    return h.reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
+
+
+def tilt_cosine(quat: np.ndarray, up: np.ndarray) -> float:
+    """cos of the angle between the vertical and the body's axis ``up`` (:func:`body_up`) carried by the body's
+    orientation ``quat`` (4,) (w, x, y, z): the z row of the rotation matrix of a unit quaternion, times ``up``."""
+    w, x, y, z = (float(v) for v in quat)
+    n = w * w + x * x + y * y + z * z
+    row = (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z)
+    return (row[0] * float(up[0]) + row[1] * float(up[1]) + row[2] * float(up[2])) / max(n, 1e-12)
+
+
+def tilt_angle(quat: np.ndarray, home_quat: np.ndarray) -> float:
+    """Angle (rad) between the vertical and the body's home vertical carried by its rotation now.
+
+    ``quat`` / ``home_quat`` (4,) (w, x, y, z): the body's orientation now and at home; a turn
+    about the vertical axis alone gives 0.
+    """
+    return float(np.arccos(min(1.0, max(-1.0, tilt_cosine(quat, body_up(home_quat))))))
