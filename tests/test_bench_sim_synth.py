@@ -10,13 +10,12 @@ and the aggregation is checked against counts worked out by hand.
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "scripts" / "bench_sim_synth.py"
@@ -24,14 +23,7 @@ SCRIPT = ROOT / "scripts" / "bench_sim_synth.py"
 
 @pytest.fixture(scope="module")
 def bench():  # noqa: ANN201
-    spec = importlib.util.spec_from_file_location("bench_sim_synth_script", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
-    finally:
-        sys.modules.pop(spec.name, None)
-    return module
+    return load_script("bench_sim_synth")
 
 
 def _row(label: str, gt: tuple[bool, list[str]], synth: tuple[bool, list[str]]) -> dict:

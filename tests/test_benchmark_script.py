@@ -7,7 +7,6 @@ the page carries what the script measured, with the machine facts and the comman
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 import re
@@ -16,20 +15,10 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "scripts" / "benchmark.py"
-
-
-def _load_script(path: Path = SCRIPT, name: str = "benchmark_script"):  # noqa: ANN202
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look the module up while the class is built
-    try:
-        spec.loader.exec_module(module)
-    finally:
-        sys.modules.pop(spec.name, None)
-    return module
 
 
 def test_quick_learning_page(tmp_path: Path) -> None:
@@ -62,7 +51,7 @@ def test_quick_learning_page(tmp_path: Path) -> None:
 
 
 def test_failed_command_is_reported(tmp_path: Path) -> None:
-    bm = _load_script()
+    bm = load_script("benchmark")
     run = bm.Run("broken", ["{py}", "-c", "import sys; print('no such figure'); sys.exit(3)"], "missing.json")
     bm.execute(run, tmp_path, "", timeout=None)  # no wall-clock limit in tests (a loaded machine is slow)
     assert not run.ok and run.data is None
@@ -80,7 +69,7 @@ def test_library_does_not_import_scripts() -> None:
 
 
 def test_kept_sections_carry_their_own_run() -> None:
-    bm = _load_script()
+    bm = load_script("benchmark")
     page = "\n".join([
         "# Benchmarks", "", "| machine | |", "|---|---|", "| socialaff-sim | 0.1.0, commit abc1234 |",
         "| date (UTC) | 2026-01-01 10:00 |", "",
@@ -128,9 +117,9 @@ def test_accuracy_verdicts_and_paired_line_from_a_results_file(monkeypatch: pyte
 
     monkeypatch.setitem(METHODS, "full", HoldLastPose)
     results = evaluate(toy_dataset(seed=3, per_pair=2), ["full", "promp", "hold"], config=EvaluationConfig(executor="serial", seed=0))
-    run = _load_script().Run("evaluate", [])
+    run = load_script("benchmark").Run("evaluate", [])
     run.ok, run.data, run.shown = True, json.loads(json.dumps(results)), "socialaff-sim evaluate ..."
-    sections = _load_script(ROOT / "scripts" / "_bench_sections.py", "_bench_sections_t")
+    sections = load_script("_bench_sections")
     lines = sections._experiment(run, False, synthetic=True)
     text = "\n".join(lines)
     cell = results["paired"]["hold"]["differences"]["key_joint_error_m"]["promp"]

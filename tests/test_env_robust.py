@@ -7,8 +7,6 @@ against its geometry computed here, and against physics with the projection swit
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
-import sys
 import warnings
 from pathlib import Path
 
@@ -17,6 +15,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 import pytest
+from conftest import load_script
 from gymnasium.utils.env_checker import check_env
 from scipy.spatial.transform import Rotation
 
@@ -268,12 +267,7 @@ def test_servo_references_and_forces_are_clamped(data, rng):
 
 # -- random actions, with and without the envelope ------------------------------------------------
 def _stress_script():  # noqa: ANN202
-    path = Path(__file__).resolve().parents[1] / "scripts" / "env_stress.py"
-    spec = importlib.util.spec_from_file_location("env_stress_script", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_script("env_stress")
 
 
 @pytest.mark.parametrize("env_id", list(ENV_IDS))

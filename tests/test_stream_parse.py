@@ -4,11 +4,10 @@ the window covers the stream, cached scores equal to fresh ones, deterministic p
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_script
 
 from socialaff_sim.data.dataset import Dataset
 from socialaff_sim.data.interaction import Interaction
@@ -162,9 +161,7 @@ def test_incremental_windowed_parse_equals_a_fresh_one(shake8_model: SocialAffor
 
 
 def test_bench_stream_script_records_latency_per_part(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
-    spec = importlib.util.spec_from_file_location("bench_stream_t", Path(__file__).resolve().parents[1] / "scripts" / "bench_stream.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = load_script("bench_stream")
     inter = bench.concatenate(list(shake8)[6:], 150, "s")
     assert inter.n_frames == 150 and np.array_equal(inter.joints[: shake8[6].n_frames], shake8[6].joints, equal_nan=True)
     out = bench.run_stream(shake8_model, inter, SynthesisConfig.reactive(belief="argmax", parse_window=1.0), seed=0, parts=3)

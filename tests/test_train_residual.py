@@ -11,14 +11,13 @@ the closed-form Wilson interval. Skipped without the ``[rl]`` extra (stable-base
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_script
 
 pytest.importorskip("stable_baselines3")  # the [rl] extra
 
@@ -35,14 +34,7 @@ SCRIPT = ROOT / "scripts" / "train_residual.py"
 
 @pytest.fixture(scope="module")
 def script():  # noqa: ANN201
-    spec = importlib.util.spec_from_file_location("train_residual_script", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
-    finally:
-        sys.modules.pop(spec.name, None)
-    return module
+    return load_script("train_residual")
 
 
 @pytest.fixture(scope="module")

@@ -34,9 +34,8 @@ import numpy as np
 
 from ..data.dataset import deal_groups
 from ..data.interaction import Interaction
-from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError, NotFittedError
-from ..inference.protocol import DEFAULT_N_OBSERVED, Prediction, prediction_from_joints
+from ..inference.protocol import DEFAULT_N_OBSERVED, Prediction, prediction_from_reactor
 from .reaction_features import N_FEATURES, FeatureConfig, FeatureStream, training_rows
 from .ridge import key_columns
 
@@ -214,13 +213,8 @@ class GRUReaction:
     def predict(self, interaction: Interaction, *, n_observed: int, rng: np.random.Generator) -> Prediction:
         """Agent 1's whole track from one view of the whole instance (agent 1 after ``n_observed`` unused)."""
         view = interaction.hide_agent_after(1, n_observed).replace(subevents=None)
-        block = self.start(n_observed=n_observed, offline=True, rng=rng).react(view, n_observed, interaction.n_frames)
-        J = interaction.joints.shape[2]
-        joints = np.full((interaction.n_frames, J, 3), np.nan)
-        joints[n_observed:] = block.joints
-        keys = np.full((interaction.n_frames, N_KEY, 3), np.nan)
-        keys[n_observed:] = block.key_joints
-        return prediction_from_joints(view, joints, n_observed=n_observed, key_joints=keys)
+        return prediction_from_reactor(self.start(n_observed=n_observed, offline=True, rng=rng), view,
+                                       n_observed=n_observed)
 
     def _run(self, rows: np.ndarray, h: object) -> tuple[np.ndarray, object]:
         """Displacements (F, J·3), metres, for feature rows (F, N_FEATURES), and the state after them."""

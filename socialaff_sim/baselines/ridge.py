@@ -27,9 +27,8 @@ import numpy as np
 
 from ..data.dataset import deal_groups
 from ..data.interaction import Interaction
-from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError, NotFittedError
-from ..inference.protocol import DEFAULT_N_OBSERVED, Prediction, prediction_from_joints
+from ..inference.protocol import DEFAULT_N_OBSERVED, Prediction, prediction_from_reactor
 from .reaction_features import FEATURE_GROUPS, FeatureConfig, FeatureStream, group_columns, training_rows
 
 __all__ = ["HOLD", "RidgeConfig", "RidgeReaction", "key_columns", "ridge_solve", "select", "training_set"]
@@ -199,13 +198,8 @@ class RidgeReaction:
     def predict(self, interaction: Interaction, *, n_observed: int, rng: np.random.Generator) -> Prediction:
         """Agent 1's whole track from one view of the whole instance (agent 1 after ``n_observed`` unused)."""
         view = interaction.hide_agent_after(1, n_observed).replace(subevents=None)
-        block = self.start(n_observed=n_observed, offline=True, rng=rng).react(view, n_observed, interaction.n_frames)
-        J = interaction.joints.shape[2]
-        joints = np.full((interaction.n_frames, J, 3), np.nan)
-        joints[n_observed:] = block.joints
-        keys = np.full((interaction.n_frames, N_KEY, 3), np.nan)
-        keys[n_observed:] = block.key_joints
-        return prediction_from_joints(view, joints, n_observed=n_observed, key_joints=keys)
+        return prediction_from_reactor(self.start(n_observed=n_observed, offline=True, rng=rng), view,
+                                       n_observed=n_observed)
 
 
 class RidgeReactor:

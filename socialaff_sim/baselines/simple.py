@@ -26,9 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..data.interaction import Interaction
-from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError, NotFittedError
-from ..inference.protocol import Prediction, prediction_from_joints
+from ..inference.protocol import Prediction, prediction_from_reactor
 
 __all__ = ["ConstantVelocity", "ConstVelConfig", "HoldPose", "damped_displacement", "velocity_estimate"]
 
@@ -117,13 +116,8 @@ class _Simple:
 
     def predict(self, interaction: Interaction, *, n_observed: int, rng: np.random.Generator) -> Prediction:
         """Agent 1's whole track (it reads only agent 1's first ``n_observed`` frames)."""
-        block = self.start(n_observed=n_observed, offline=True, rng=rng).react(interaction, n_observed, interaction.n_frames)
-        J = interaction.joints.shape[2]
-        joints = np.full((interaction.n_frames, J, 3), np.nan)
-        joints[n_observed:] = block.joints
-        keys = np.full((interaction.n_frames, N_KEY, 3), np.nan)
-        keys[n_observed:] = block.key_joints
-        return prediction_from_joints(interaction, joints, n_observed=n_observed, key_joints=keys)
+        return prediction_from_reactor(self.start(n_observed=n_observed, offline=True, rng=rng), interaction,
+                                       n_observed=n_observed)
 
 
 class HoldPose(_Simple):

@@ -58,6 +58,7 @@ __all__ = [
     "StreamingMethod",
     "observed_part",
     "prediction_from_joints",
+    "prediction_from_reactor",
     "protocol_view",
 ]
 
@@ -213,3 +214,19 @@ def prediction_from_joints(
     ok = np.isfinite(seen_keys)
     keys[:n_observed][ok] = seen_keys[ok]
     return Prediction(joints=out, key_joints=keys, subevents=subevents, n_observed=n_observed)
+
+
+def prediction_from_reactor(reactor: Reactor, view: Interaction, *, n_observed: int) -> Prediction:
+    """Agent 1's whole track from one ``react`` call over frames ``n_observed`` … end of ``view``.
+
+    ``view`` is what the reactor may read (agent 1 hidden after ``n_observed``
+    where the caller wants that); the block it returns fills frames
+    ``n_observed`` onwards and the observed prefix is copied in as in
+    :func:`prediction_from_joints`.
+    """
+    block = reactor.react(view, n_observed, view.n_frames)
+    joints = np.full((view.n_frames, view.joints.shape[2], 3), np.nan)
+    joints[n_observed:] = block.joints
+    keys = np.full((view.n_frames, N_KEY, 3), np.nan)
+    keys[n_observed:] = block.key_joints
+    return prediction_from_joints(view, joints, n_observed=n_observed, key_joints=keys)
