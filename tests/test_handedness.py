@@ -113,12 +113,15 @@ def test_offline_synthesis_mirrors_its_labels_when_both_actors_swap_sides(
     assert not np.allclose(a[:, 1], a[:, 2])  # the wrists differ, so the check can fail
 
 
-def test_causal_flag_switches_once_and_keeps_the_emitted_frames(shake8: Dataset, shake8_model: SocialAffordanceModel) -> None:
+@pytest.mark.parametrize("belief", ["forward", "argmax"])
+def test_causal_flag_switches_once_and_keeps_the_emitted_frames(
+    shake8: Dataset, shake8_model: SocialAffordanceModel, belief: str
+) -> None:
     """Reactive synthesis on an instance whose agent 0 uses the left hand: the flag starts right, turns left
     once the margin is passed (read from frames before t only), agent 1's with it under a 'same side'
     coupling, and agent 1's synthesized wrists go on from where they were."""
     inter = swap_sides(shake8[7], [0])
-    config = SynthesisConfig.reactive()
+    config = SynthesisConfig.reactive(belief=belief)
     model = copy.copy(shake8_model)
     model.hand_coupling_ = np.array([[0.9, 0.1], [0.1, 0.9]])
     syn = OnlineSynthesizer(model, None, config)
@@ -148,4 +151,7 @@ def test_causal_flag_switches_once_and_keeps_the_emitted_frames(shake8: Dataset,
     jump = np.linalg.norm(wrists[k] - wrists[k - 1], axis=-1)
     apart = np.linalg.norm(wrists[k - 1, 0] - wrists[k - 1, 1])
     print(f"wrist steps at the switch {jump} m, wrists {apart:.2f} m apart")
-    assert jump.max() < 0.12 < apart
+    # A trade would move each wrist by about their separation (0.75 m here). The forward belief re-plans
+    # towards the new side over a few frames (steps of 0.12-0.16 m, against 0.09 m at most without the
+    # switch), so the bound is a quarter of the separation, not a speed.
+    assert jump.max() < apart / 4
