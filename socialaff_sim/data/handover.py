@@ -165,7 +165,6 @@ def load_handover(root: str | Path, *, variations: bool = True, policy: str = DE
     """
     root = Path(root)
     skipped = SkippedFiles(policy, root.parent if root.is_file() else root)
-    layout = get_layout(_LAYOUT)
     interactions = []
     n_interp = 0
     giver_feet, receiver_feet = [], []
