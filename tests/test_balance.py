@@ -13,7 +13,8 @@ from socialaff_sim.data.skeletons import get_layout
 from socialaff_sim.retarget.ik import IKConfig, IKModel, RobotIK
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.feedforward import StandingFeedforward
-from socialaff_sim.sim.robot_mjcf import stance_inertia, subtree_mask
+from socialaff_sim.retarget.kinematic_tree import subtree_mask
+from socialaff_sim.sim.robot_mjcf import stance_inertia
 from socialaff_sim.sim.scene import Scene, build_scene, pose_compliant
 from socialaff_sim.sim.stage import key_frames_at
 from socialaff_sim.sim.support import SupportMeter

@@ -18,16 +18,9 @@ import mujoco
 import numpy as np
 
 from ..errors import SimulationError
+from .kinematic_tree import subtree_mask
 
 __all__ = ["SupportPolygonLimit", "support_box"]
-
-
-def _subtree(model: mujoco.MjModel, root: int) -> np.ndarray:
-    inside = np.zeros(model.nbody, dtype=bool)
-    inside[root] = True
-    for b in range(root + 1, model.nbody):  # MuJoCo numbers a body after its parent
-        inside[b] = inside[model.body_parentid[b]]
-    return inside
 
 
 def support_box(model: mujoco.MjModel, data: mujoco.MjData, feet: tuple[int, int], geoms: np.ndarray,
@@ -37,7 +30,7 @@ def support_box(model: mujoco.MjModel, data: mujoco.MjData, feet: tuple[int, int
 
     ``feet``: the bodies of the two ankle frames (their subtrees are the feet); ``geoms``: the robot's
     collidable geoms. Each geom contributes the corners of its bounding box (MuJoCo's ``geom_aabb``)."""
-    inside = _subtree(model, feet[0]) | _subtree(model, feet[1])
+    inside = subtree_mask(model, feet[0]) | subtree_mask(model, feet[1])
     foot = np.asarray(geoms, dtype=np.int64)
     foot = foot[inside[model.geom_bodyid[foot]]]
     if not len(foot):

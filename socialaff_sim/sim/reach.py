@@ -40,7 +40,7 @@ import numpy as np
 
 from ..retarget.collision import collision_pairs
 from .human import HAND_SPHERE_RADIUS, HumanPose
-from .robot_mjcf import subtree_mask
+from ..retarget.kinematic_tree import subtree_mask
 from .scene import Scene
 
 __all__ = ["ReachModel", "reach_model", "human_segments", "point_segment_distance", "reachable_targets"]

@@ -18,9 +18,10 @@ import mujoco
 import numpy as np
 from dm_control import mjcf
 
+from ..retarget.kinematic_tree import subtree_mask
 from ..retarget.robot import RobotSpec
 
-__all__ = ["robot_mjcf", "motors_to_servos", "tune_servos", "limit_hand_force", "subtree_mask", "SELF_CONTACT_HOPS", "ServoScene"]
+__all__ = ["robot_mjcf", "motors_to_servos", "tune_servos", "limit_hand_force", "SELF_CONTACT_HOPS", "ServoScene"]
 
 
 def robot_mjcf(robot: RobotSpec, physics: bool, gravity_compensation: bool = False) -> tuple[mjcf.RootElement, dict[str, float]]:
@@ -221,15 +222,6 @@ def stance_inertia(m: mujoco.MjModel, d: mujoco.MjData, joints: np.ndarray, stan
         lever = np.linalg.norm(np.cross(r, a), axis=1)
         out[i] = 0.5 * float((rot + m.body_mass[above] * lever**2).sum())
     return out
-
-
-def subtree_mask(m: mujoco.MjModel, root: int) -> np.ndarray:
-    """(nbody,) bool: body ``root`` and its descendants."""
-    inside = np.zeros(m.nbody, dtype=bool)
-    inside[root] = True
-    for b in range(root + 1, m.nbody):  # MuJoCo numbers a body after its parent
-        inside[b] = inside[m.body_parentid[b]]
-    return inside
 
 
 class ServoScene(Protocol):

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from .robot_mjcf import subtree_mask
+from ..retarget.kinematic_tree import subtree_mask
 from .scene import Scene
 
 __all__ = ["SupportMeter", "FrameSupport", "SATURATED", "AT_LIMIT"]
