@@ -48,12 +48,18 @@ def human_away(scene: Scene, d: mujoco.MjData) -> np.ndarray:
     return pos
 
 
-def test_contact_time_accumulates_to_min_duration(scene: Scene) -> None:
-    m = scene.model
-    d = mujoco.MjData(m)
+def robot_home_human_away(scene: Scene) -> tuple[mujoco.MjData, np.ndarray]:
+    """Fresh data with the robot at home and the person's bones parked far away (forward kinematics done)."""
+    d = mujoco.MjData(scene.model)
     d.qpos[scene.robot_qadr] = scene.home_qpos
     pos = human_away(scene, d)
-    mujoco.mj_forward(m, d)
+    mujoco.mj_forward(scene.model, d)
+    return d, pos
+
+
+def test_contact_time_accumulates_to_min_duration(scene: Scene) -> None:
+    m = scene.model
+    d, pos = robot_home_human_away(scene)
     palm = np.flatnonzero(scene.hand_geom[1])[0]
     task = task_with([SubgoalSpec("touch", "contact", "right_hand", "hands", 0.1, ())], [])
     scorer = SubgoalScorer(scene, task)
@@ -78,11 +84,8 @@ def test_contact_time_accumulates_to_min_duration(scene: Scene) -> None:
 
 def test_subevent_window_and_other_hand(scene: Scene) -> None:
     m = scene.model
-    d = mujoco.MjData(m)
-    d.qpos[scene.robot_qadr] = scene.home_qpos
-    pos = human_away(scene, d)
+    d, pos = robot_home_human_away(scene)
     palm = np.flatnonzero(scene.hand_geom[1])[0]
-    mujoco.mj_forward(m, d)
     pos[scene.n_bones + 1] = d.geom_xpos[palm] + (0.06, 0.0, 0.0)
     d.mocap_pos[scene.human_mocap] = pos
     pose_compliant(scene, d, pos, np.array(d.mocap_quat[scene.human_mocap]))
@@ -125,10 +128,7 @@ def test_self_collision_threshold(scene: Scene) -> None:
 
 def test_force_on_human_is_smoothed_contact_force(scene: Scene) -> None:
     m = scene.model
-    d = mujoco.MjData(m)
-    d.qpos[scene.robot_qadr] = scene.home_qpos
-    pos = human_away(scene, d)
-    mujoco.mj_forward(m, d)
+    d, pos = robot_home_human_away(scene)
     palm = np.flatnonzero(scene.hand_geom[0])[0]
     task = task_with([SubgoalSpec("x", "contact", "hands", "hands", 1.0, ())], [FailureSpec("contact_force", 1e9)])
     scorer = SubgoalScorer(scene, task)
@@ -303,10 +303,7 @@ def _hand_gap_by_hand(m: mujoco.MjModel, d: mujoco.MjData, hand_geoms: np.ndarra
 
 def test_contact_now_and_achieved_are_separate_and_a_lost_contact_shows(scene: Scene) -> None:
     m = scene.model
-    d = mujoco.MjData(m)
-    d.qpos[scene.robot_qadr] = scene.home_qpos
-    pos = human_away(scene, d)
-    mujoco.mj_forward(m, d)
+    d, pos = robot_home_human_away(scene)
     hand = np.flatnonzero(scene.hand_geom[1])
     palm = hand[0]
     sphere = scene.human_geom_ids[scene.n_bones + 1]
