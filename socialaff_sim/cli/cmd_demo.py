@@ -21,7 +21,7 @@ def _run(args: argparse.Namespace) -> int:
 
     labels = [args.interaction] if args.interaction else list(INTERACTIONS)
     config = DemoConfig(iterations=args.iterations, robot=args.robot, mjcf=args.mjcf, video=not args.no_video,
-                        seed=args.seed)
+                        seed=args.seed, contact_completion=not args.no_contact_completion)
     start = time.perf_counter()
     done = 0
     total = 3 * len(labels)
@@ -70,6 +70,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--mjcf", help="the robot's MJCF file, for robots whose model the project does not ship "
                                   "(unitree_h1: your h1.xml; unitree_g1: your g1_29dof.xml)")
     p.add_argument("--no-video", action="store_true", help="skip rendering")
+    p.add_argument("--no-contact-completion", action="store_true",
+                   help="send the scaled targets to the IK as they are (no blending of a wrist onto the contact "
+                        "the synthesized reaction is making; docs/design.md)")
     p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the synthetic data and of every sampler")
     declare_outputs(p, out="folder")
     p.set_defaults(func=_run)

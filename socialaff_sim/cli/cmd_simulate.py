@@ -38,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import RenderingUnavailableError
     from ..retarget.robot import load_robot
     from ..sim.episode import run_episode
-    from ..sim.simulator import Simulator
+    from ..sim.simulator import SimConfig, Simulator
     from ..sim.tasks import load_task, task_for_label
 
     say = Reporter(args.quiet)
@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     dataset = load_dataset(args.data, policy=args.policy, units=args.units)
     inter = dataset.by_id(args.instance)
     task = load_task(args.task) if args.task else task_for_label(inter.label)
-    sim = Simulator(robot, task)
+    sim = Simulator(robot, task, SimConfig(contact_completion=None) if args.no_contact_completion else None)
     out = Path(args.out)
     with output_folder(out) as staging:  # metrics, video and sheet together or not at all
 
@@ -127,6 +127,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--task", help="task file name or path (default: the one whose interaction matches the instance)")
     p.add_argument("--out", required=True, help="output folder for metrics.json, video.mp4, contact_sheet.png")
     p.add_argument("--no-video", action="store_true", help="skip rendering")
+    p.add_argument("--no-contact-completion", action="store_true",
+                   help="send the scaled targets to the IK as they are (no blending of a wrist onto the contact "
+                        "the reaction is making; docs/design.md)")
     p.add_argument("--width", type=int_range(16, 4096), default=640, help="video width in pixels, 16-4096 (default 640)")
     p.add_argument("--height", type=int_range(16, 4096), default=480, help="video height in pixels, 16-4096 (default 480)")
     add_data_options(p)

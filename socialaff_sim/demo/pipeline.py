@@ -3,6 +3,7 @@ held-out human, compare with the baselines, retarget and simulate it in MuJoCo, 
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -26,11 +27,11 @@ from ..retarget.model_source import ModelSource
 from ..retarget.robot import load_robot
 from ..retarget.sources import GroundTruthSource
 from ..sim.episode import run_episode
-from ..sim.simulator import Simulator
+from ..sim.simulator import SimConfig, Simulator
 from ..sim.tasks import task_for_label
 from ..sim.video import EpisodeRecorder
 
-__all__ = ["DemoConfig", "InteractionResult", "Progress", "run_interaction"]
+__all__ = ["DemoConfig", "InteractionResult", "Progress", "held_out", "run_interaction"]
 
 Progress = Callable[[str], None]
 
@@ -58,6 +59,10 @@ class DemoConfig:
     """[px]: Video height, pixels."""
     seed: int = 0
     """[—]: Seed of the data and every sampler."""
+    contact_completion: bool = True
+    """[—]: Whether the simulator completes the contacts the synthesized reaction is making
+    (``SimConfig.contact_completion``, :mod:`~socialaff_sim.retarget.contact_completion`); off: the scaled
+    key-joint targets go to the IK as they are."""
 
 
 @dataclass
@@ -83,8 +88,9 @@ class InteractionResult:
     seconds: dict[str, float] = field(default_factory=dict)
 
 
-def _held_out(items: list, n_test: int) -> tuple[list, list]:
-    """Split so that the test instances' actor pairs never appear in training."""
+def held_out(items: list, n_test: int) -> tuple[list, list]:
+    """Split ``items`` into (train, test): up to ``n_test`` test instances of the last actor pairs (sorted),
+    whose pairs never appear in training."""
     pairs = sorted({tuple(sorted(i.actors)) for i in items})
     test_pairs: set[tuple[str, ...]] = set()
     test: list = []
@@ -104,7 +110,7 @@ def run_interaction(
     say = progress or (lambda _msg: None)
     seconds: dict[str, float] = {}
     items = list(dataset.of_label(label))
-    train, test = _held_out(items, config.n_test)
+    train, test = held_out(items, config.n_test)
     rng = np.random.default_rng(config.seed)
     # The human is a replayed recording and the baselines read all of it: synthesize as the evaluation does.
     synthesis = SynthesisConfig.offline()
@@ -148,9 +154,11 @@ def run_interaction(
     tic = time.perf_counter()
     task = task_for_label(label)
     robot = load_robot(config.robot, mjcf=config.mjcf)
-    reference = run_episode(Simulator(robot, task), GroundTruthSource(), shown)
-    sim = Simulator(robot, task)
-    source = ModelSource(model, seed=config.seed, config=synthesis)
+    physics = SimConfig() if config.contact_completion else dataclasses.replace(SimConfig(), contact_completion=None)
+    reference = run_episode(Simulator(robot, task, physics), GroundTruthSource(), shown)
+    sim = Simulator(robot, task, physics)
+    # The robot reacts causally: at frame t the synthesis reads the person's frames up to t only.
+    source = ModelSource(model, seed=config.seed, config=SynthesisConfig.reactive())
     video = sheet = None
     note = "disabled"
     if config.video:

@@ -193,7 +193,7 @@ class SocialAffordanceEnv(gym.Env):
         """Set the proposal for frame ``t``: the adapter's, retargeted (``_reference``, NaN rows where it has
         none) and with those rows holding the robot's key frames (``_proposal``, the observation's)."""
         sim = self._sim
-        self._reference = sim.retarget(frame.proposal, frame=t)
+        self._reference = sim.retarget(frame.proposal, frame=t, subevent=frame.subevent_name)
         out = self._reference.copy()
         bad = ~np.isfinite(out).all(axis=1)
         if bad.any():
@@ -210,7 +210,7 @@ class SocialAffordanceEnv(gym.Env):
         first = self.adapter.observe(0)
         # The model's synthesis sees agent 1's first T0 frames only, and so does the robot's placement.
         sim.reset(inter, placement_frames=getattr(self.adapter, "placement_frames", None))
-        sim.settle(sim.retarget(first.proposal, frame=0))
+        sim.settle(sim.retarget(first.proposal, frame=0, subevent=first.subevent_name))
         idx = inter.layout.key_indices
         self._human_mask = np.array([i is not None for i in idx], dtype=np.float32)
         track = np.zeros((inter.n_frames, N_KEY, 3))

@@ -60,7 +60,9 @@ def _interaction_section(r: InteractionResult, config: DemoConfig) -> str:
     if r.video:
         parts.append(video(
             r.video, f"The {config.robot!r} robot (green) reacting to the replayed person (red) in {r.instance}, "
-                     "held out of training; caption: time, running sub-event, sub-goals met so far.",
+                     "held out of training, synthesized causally (at each frame the model reads the person's frames "
+                     "up to that one only); caption: time, running sub-event, each sub-goal's contact now and "
+                     "whether it was achieved.",
             poster=None, width=config.width,
         ))
     else:

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..retarget.contact_completion import ContactCompletionConfig
 from ..retarget.ik import IKConfig
 from ..retarget.scaling import ScalingConfig
 from .footlock import FootLockConfig
@@ -25,7 +26,7 @@ class SimConfig:
     -----------------
     - Physics: timestep, servo_bandwidth, hand_force, grip, settle_iterations
     - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth
-    - Retargeting: ik, scaling
+    - Retargeting: ik, scaling, contact_completion
     """
 
     timestep: float = 0.004
@@ -60,6 +61,11 @@ class SimConfig:
     """[—]: Retargeting IK settings."""
     scaling: ScalingConfig = field(default_factory=ScalingConfig)
     """[—]: Human-to-robot scaling settings."""
+    contact_completion: ContactCompletionConfig | None = field(default_factory=ContactCompletionConfig)
+    """[—]: Between the scaled targets and the IK, a wrist the model brings near a contact the task wants is
+    blended onto it (:mod:`~socialaff_sim.retarget.contact_completion`; applied by
+    :meth:`~socialaff_sim.sim.simulator.Simulator.retarget`); ``None``: the scaled targets go to the IK as
+    they are."""
     grip: bool = True
     """[—]: Whether a robot hand touching the object grips it (its grip weld switches on and stays on)."""
     settle_iterations: int = 20
@@ -98,5 +104,8 @@ class StepResult:
     """Whether each sub-goal's contact holds now, at the frame's last physics step (not latched)."""
     subgoal_gaps: dict[str, float | None] = field(default_factory=dict)
     """Each sub-goal's gap (m) between its two groups' geoms at the end of the frame (``None``: beyond 1 m)."""
+    completion: np.ndarray | None = None
+    """(2,) the contact completion's blend weight β of each wrist's target at this frame (0: the model's target,
+    1: the contact); ``None`` when the targets did not come from :meth:`Simulator.retarget` with completion on."""
     support: FrameSupport | None = None
     """The frame's outside support, foot sliding, penetration and effort (:mod:`~socialaff_sim.sim.support`)."""

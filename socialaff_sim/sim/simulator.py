@@ -21,10 +21,12 @@ import numpy as np
 
 from ..data.interaction import Interaction
 from ..errors import SimulationError
+from ..retarget.contact_completion import ContactCompletion
 from ..retarget.ik import RobotIK
 from ..retarget.robot import RobotSpec, load_robot
 from ..retarget.scaling import RobotFrame, measure_robot, object_anchors
 from .chair import chair_pose, place_chair
+from .contact_targets import ContactAnchors, object_in_flight
 from .carry import CarryPlan, hold_object, park_object, release_object
 from .human import HumanPose
 from .reach import reach_model, reachable_targets
@@ -55,6 +57,10 @@ class Simulator:
         self.interaction: Interaction | None = None
         self._reset_cache = ResetCache()
         self._settled = False
+        self._anchors: dict[str, ContactAnchors] = {}
+        cc = self.config.contact_completion
+        self._completion = None if cc is None else ContactCompletion(cc)
+        self._completed_frame = -1
 
     # -- set-up -----------------------------------------------------------------------
     def _get_stage(self, inter: Interaction) -> Stage:
@@ -109,6 +115,11 @@ class Simulator:
             self._reset_cache.put(place)
         self._placement = place
         scene = stage.scene
+        if self._completion is not None:
+            self._completion.reset()
+            self._completed_frame = -1
+            if inter.layout.name not in self._anchors:
+                self._anchors[inter.layout.name] = ContactAnchors(scene, self.task)
         self.offset = place.offset
         self.pose: HumanPose = place.pose
         set_human_sizes(scene, self.pose.half_lengths)
@@ -232,12 +243,29 @@ class Simulator:
     def done(self) -> bool:
         return self.interaction is not None and self.frame >= self.n_frames - 1
 
-    def retarget(self, keys: np.ndarray, frame: int | None = None) -> np.ndarray:
-        """(5, 3) robot-frame targets from agent 1's key joints ``keys`` (5, 3) in the data frame at ``frame``."""
+    def retarget(self, keys: np.ndarray, frame: int | None = None, subevent: str | None = None) -> np.ndarray:
+        """(5, 3) robot-frame targets from agent 1's key joints ``keys`` (5, 3) in the data frame at ``frame``
+        (default: the next), scaled onto the robot and, with ``SimConfig.contact_completion``, the wrists completed
+        onto a contact the task wants during ``subevent`` (the source's current sub-event)."""
         self._require()
         t = self.frame + 1 if frame is None else frame
         t = min(max(t, 0), self.n_frames - 1)
-        return self.scaler(np.asarray(keys, dtype=np.float64) + self.offset, self.pose.joints[t], self.object_anchors(t))
+        out = self.scaler(np.asarray(keys, dtype=np.float64) + self.offset, self.pose.joints[t], self.object_anchors(t))
+        if self._completion is None:
+            return out
+        world = self.frame_R.to_world(out)
+        fps = self.interaction.fps  # type: ignore[union-attr]
+        B = self.scene.n_bones
+        obj = None
+        if self.carry is not None:
+            moving = self._released or t >= self.carry.release_frame
+            obj = object_in_flight(self.data, self.scene, (t - self.frame) / fps) if moving else self.carry.track[t]
+        anchors = self._anchors[self.interaction.layout.name]  # type: ignore[union-attr]
+        x = anchors.gather(self.data, world[1:3], self._stage.ik.frame_positions()[1:3],  # type: ignore[union-attr]
+                          self.pose.pos[t, B:B + 2], obj, self.measurements.arm, subevent)
+        world[1:3] = self._completion(x, t, 1.0 / fps)
+        self._completed_frame = t
+        return self.frame_R.to_robot(world)
 
     def object_anchors(self, frame: int) -> np.ndarray | None:
         """(K, 3) world frame: the recorded object at ``frame`` and its path over the next
@@ -309,6 +337,8 @@ class Simulator:
             subgoals_now={r.name: r.current for r in scorer.subgoals},
             subgoal_gaps={r.name: r.gap for r in scorer.subgoals},
             support=stage.stepper.support.frames[-1] if stage.stepper.support.frames else None,
+            completion=(self._completion.weight.copy() if self._completion is not None and self._completed_frame == t1
+                        else None),
         )
         self.results.append(result)
         return result

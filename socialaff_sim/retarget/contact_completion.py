@@ -1,0 +1,187 @@
+"""Contact completion: the last few centimetres of a contact the synthesized reaction is already making.
+
+The affordance model proposes where agent 1's wrists go; scaled onto a robot of another build and met by
+IK and servos, a hand the model sends to the person's hand can stop a decimetre short of it (the model's
+end configuration is a prediction, the person's hand is where it is). Between the scaled key-joint targets
+and the IK, this stage blends a wrist target toward the contact itself when three things hold at frame t:
+
+* the task wants that contact (a ``contact`` sub-goal with the person's hands or wrists, or an object
+  sub-goal; :mod:`~socialaff_sim.sim.contact_targets` lists the *anchors*, spheres at frame t);
+* the model already brings the hand near it: the *intended gap* g_m, the distance between the anchor's
+  surface and the robot's hand moved by as much as the model's wrist target differs from the robot's
+  current wrist, is below ``capture`` (the model's intent, not the anchor, decides whether to touch);
+* the contact point lies within the robot's reach (``reach`` times the arm's length from its shoulder, the
+  gate falling to zero ``reach_band`` beyond).
+
+The completed wrist target moves the robot's hand, as it is now, until its nearest point lies ``press``
+inside the anchor's surface (the surfaces meet; the IK's contact limit stops a hand at
+``IKConfig.contact_depth``). With weight β the target is (1 − β)·w_model + β·w_contact, where
+β = smoothstep((capture − g_m) / (capture − engage)) · smoothstep((ρ·arm + b − |w_contact − shoulder|) / b),
+changing by at most Δt / ``ramp`` per frame (it ramps in and out smoothly). Every input is of frame t or
+earlier (the person's and the object's poses at t, the robot's own state), so a causal source stays causal.
+Of the person's hands one pair at most is completed (the one of smallest intended gap); both hands may
+close on an object.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ConfigError
+from .scaling import smoothstep
+
+__all__ = ["ContactCompletionConfig", "CompletionInput", "ContactCompletion"]
+
+
+@dataclass(frozen=True)
+class ContactCompletionConfig:
+    """Settings of the contact completion stage (:class:`ContactCompletion`).
+
+    Fields by concept
+    -----------------
+    - When: capture, engage, reach, reach_band
+    - Where: press
+    - How fast: ramp
+    """
+
+    capture: float = 0.3
+    """g_c [m]: an intended gap (model's hand to the anchor's surface) at or above this leaves the target alone."""
+    engage: float = 0.15
+    """g_e [m]: at or below this intended gap the target is the contact itself (β = 1 before the reach gate)."""
+    press: float = 0.015
+    """δ_p [m]: the completed target puts the hand's nearest point this far inside the anchor's surface, so that
+    the geoms touch despite the servos' tracking error (the IK stops it at ``IKConfig.contact_depth``)."""
+    reach: float = 1.0
+    """ρ [—]: the contact counts as within reach while the completed wrist target lies within ρ times the arm's
+    length (shoulder to wrist) from its shoulder."""
+    reach_band: float = 0.1
+    """b [m]: the reach gate falls smoothly from 1 at ρ·arm to 0 at ρ·arm + b (a hand reaches about this far
+    past its wrist, so a wrist target a little beyond the arm's length still brings the hand to the contact)."""
+    ramp: float = 0.1
+    """τ_r [s]: β changes by at most Δt / τ_r per frame (0: at once)."""
+
+    def __post_init__(self) -> None:
+        if not self.capture > self.engage >= 0.0:
+            raise ConfigError(f"ContactCompletionConfig: expected capture > engage ≥ 0 m, found capture "
+                              f"{self.capture}, engage {self.engage}")
+        if not self.press >= 0.0:
+            raise ConfigError(f"ContactCompletionConfig.press: expected a depth ≥ 0 m, found {self.press}")
+        if not self.reach > 0.0 or not self.reach_band > 0.0:
+            raise ConfigError(f"ContactCompletionConfig: expected reach > 0 and reach_band > 0, found "
+                              f"{self.reach}, {self.reach_band}")
+        if not self.ramp >= 0.0:
+            raise ConfigError(f"ContactCompletionConfig.ramp: expected seconds ≥ 0, found {self.ramp}")
+
+
+@dataclass(frozen=True)
+class CompletionInput:
+    """What the stage reads at one frame, world frame, metres. Hands: 0 left, 1 right; A anchors."""
+
+    wrist_target: np.ndarray
+    """(2, 3) the wrists' targets from the model (scaled onto the robot)."""
+    wrist_now: np.ndarray
+    """(2, 3) the robot's wrists now as last commanded (its latest IK solution; the hands' ``nearest`` points
+    are read in physics, and move as the commanded wrists move)."""
+    nearest: np.ndarray
+    """(2, A, 3) the point of each robot hand's geoms nearest each anchor, now."""
+    centre: np.ndarray
+    """(A, 3) the anchors' centres at frame t."""
+    radius: np.ndarray
+    """(A,) the anchors' radii."""
+    shared: np.ndarray
+    """(A,) bool: whether both hands may close on the anchor (an object) or only one (a person's hand)."""
+    allowed: np.ndarray
+    """(2, A) bool: which robot hand may touch which anchor (the task's robot and human groups)."""
+    shoulder: np.ndarray
+    """(2, 3) the robot's shoulders now."""
+    arm: float
+    """The robot's arm length, shoulder to wrist frame."""
+
+
+class ContactCompletion:
+    """The stage for one episode: :meth:`reset` at its start, then :meth:`__call__` once per frame in order."""
+
+    def __init__(self, config: ContactCompletionConfig | None = None) -> None:
+        self.config = config or ContactCompletionConfig()
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the blend weights (a new episode starts with none)."""
+        self._frame: int | None = None
+        self._before = (np.zeros(2), np.full(2, -1, dtype=np.int64))  # β and anchors of the frame before
+        self.weight = np.zeros(2)
+        """(2,) β of the last frame completed, per hand."""
+        self.anchor = np.full(2, -1, dtype=np.int64)
+        """(2,) anchor index each hand was blended toward at the last frame (-1: none)."""
+
+    def contact_targets(self, x: CompletionInput) -> np.ndarray:
+        """(2, A, 3) the wrist target that brings each hand's nearest point ``press`` inside each anchor."""
+        toward = x.centre[None] - x.nearest  # (2, A, 3)
+        dist = np.linalg.norm(toward, axis=-1, keepdims=True)
+        unit = np.divide(toward, dist, out=np.zeros_like(toward), where=dist > 1e-9)
+        move = (dist - (x.radius[None, :, None] - self.config.press)) * unit
+        return x.wrist_now[:, None, :] + move
+
+    def intended_gaps(self, x: CompletionInput) -> np.ndarray:
+        """(2, A) the gap between each anchor's surface and each hand moved as the model moves its wrist."""
+        moved = x.nearest + (x.wrist_target - x.wrist_now)[:, None, :]
+        return np.linalg.norm(x.centre[None] - moved, axis=-1) - x.radius[None]
+
+    def _assign(self, gaps: np.ndarray, x: CompletionInput) -> np.ndarray:
+        """(2,) the anchor each hand goes for (-1: none): its nearest allowed one within ``capture``. Of the
+        person's hands (anchors not shared) one pair at most is completed, the one of smallest intended gap (a
+        handshake or a high five is one contact: the robot's other hand does not reach for the person's other
+        hand); both hands may close on a shared anchor (an object)."""
+        g = np.where(x.allowed & (gaps < self.config.capture), gaps, np.inf)
+        person = np.where(~x.shared[None, :], g, np.inf)
+        if np.isfinite(person).any():
+            side, a = np.unravel_index(int(np.argmin(person)), person.shape)
+            g[1 - side] = np.where(x.shared, g[1 - side], np.inf)
+            g[side] = np.where(x.shared | (np.arange(len(x.shared)) == a), g[side], np.inf)
+        return np.where(np.isfinite(g).any(axis=1), np.argmin(g, axis=1), -1).astype(np.int64)
+
+    def __call__(self, x: CompletionInput, frame: int, dt: float) -> np.ndarray:
+        """(2, 3) the completed wrist targets of ``frame`` (data frames of ``dt`` seconds).
+
+        Frames come in order (anchors indexed the same way throughout the episode); asking for the same
+        frame again recomputes it from the same previous weights."""
+        c = self.config
+        if self._frame is not None and frame == self._frame:
+            base_beta, base_anchor = self._before
+            frames = 1
+        elif self._frame is not None and frame > self._frame:
+            base_beta, base_anchor = self.weight, self.anchor
+            frames = frame - self._frame
+        else:
+            base_beta, base_anchor = np.zeros(2), np.full(2, -1, dtype=np.int64)
+            frames = 1
+        self._before = (base_beta.copy(), base_anchor.copy())
+        self._frame = frame
+        want = np.zeros(2)
+        choice = np.full(2, -1, dtype=np.int64)
+        targets = np.zeros((2, 0, 3))
+        if len(x.centre):
+            targets = self.contact_targets(x)
+            gaps = self.intended_gaps(x)
+            choice = self._assign(gaps, x)
+            for s in (0, 1):
+                a = choice[s]
+                if a < 0:
+                    continue
+                capture = float(smoothstep((c.capture - gaps[s, a]) / (c.capture - c.engage)))
+                beyond = float(np.linalg.norm(targets[s, a] - x.shoulder[s])) - c.reach * x.arm
+                want[s] = capture * float(smoothstep((c.reach_band - beyond) / c.reach_band))
+        step = np.inf if c.ramp == 0 else frames * dt / c.ramp
+        beta = np.clip(want, base_beta - step, base_beta + step)
+        # A hand ramping out after losing its anchor keeps blending toward where that anchor is now.
+        anchor = np.where(choice >= 0, choice, base_anchor)
+        anchor = np.where((beta > 0) & (anchor < targets.shape[1]), anchor, -1)
+        beta = np.where(anchor >= 0, beta, 0.0)
+        out = x.wrist_target.copy()
+        for s in (0, 1):
+            if anchor[s] >= 0:
+                out[s] = (1.0 - beta[s]) * out[s] + beta[s] * targets[s, anchor[s]]
+        self.weight, self.anchor = beta, anchor.astype(np.int64)
+        return out

@@ -1,0 +1,125 @@
+"""What the contact completion stage (:mod:`~socialaff_sim.retarget.contact_completion`) reads from the scene.
+
+The *anchors* are the spheres a task wants a robot hand on: the person's two hand spheres (for a
+``contact`` sub-goal with the person's hands or wrists: the hand sphere is where a hand is met or a
+wrist gripped) and the object (for ``catch`` and ``object_in_hand`` sub-goals, until a robot hand grips
+it: then the contact is made and the model's motion carries it on). Each sub-goal allows the robot hands
+of its group (``hands``/``arms``: both) on the anchors of its group; a sub-goal listing sub-events allows
+them only during those. Positions are of frame t (the person's recorded pose at t, the object carried
+along its recorded track, or in flight predicted from its state now), and the robot's hands as they are
+now: nothing from the future.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from ..retarget.contact_completion import CompletionInput
+from .human import HAND_SPHERE_RADIUS
+from .scene import Scene
+from .stage import key_frames
+from .tasks import TaskSpec
+
+__all__ = ["ContactAnchors", "GRAVITY"]
+
+GRAVITY = 9.81
+"""g, m/s² (MuJoCo's default): an object in flight is predicted one frame ahead under it."""
+_PERSON_SIDES = {"hands": (0, 1), "wrists": (0, 1), "left_hand": (0,), "left_wrist": (0,), "right_hand": (1,),
+                 "right_wrist": (1,)}
+_ROBOT_SIDES = {"hands": (0, 1), "arms": (0, 1), "left_hand": (0,), "right_hand": (1,)}
+_SEARCH = 100.0
+"""Metres: farthest distance the nearest points are searched to (``mj_geomDistance`` fills in no points
+beyond it; people start some metres apart)."""
+
+
+def object_radius(shape: str, size: tuple[float, ...]) -> float:
+    """The radius of the sphere a hand aims at on an object: a ball's, a cylinder's, a box's smallest half-size."""
+    return float(size[0]) if shape in ("sphere", "cylinder") else float(min(size))
+
+
+class ContactAnchors:
+    """The anchors of one task in one physics scene: person's left hand, right hand, then the object (if any)."""
+
+    def __init__(self, scene: Scene, task: TaskSpec) -> None:
+        self.scene = scene
+        B = scene.n_bones
+        geoms = [int(scene.human_geom_ids[B]), int(scene.human_geom_ids[B + 1])]
+        radius = [HAND_SPHERE_RADIUS, HAND_SPHERE_RADIUS]
+        if scene.object_geom >= 0 and task.object is not None:
+            geoms.append(int(scene.object_geom))
+            radius.append(object_radius(task.object.spec.shape, task.object.spec.size))
+        self.geoms = np.array(geoms, dtype=np.int64)
+        self.radius = np.array(radius)
+        self.shared = np.arange(len(geoms)) >= 2
+        self._rules: list[tuple[tuple[str, ...], np.ndarray]] = []
+        for sg in task.subgoals:
+            allowed = np.zeros((2, len(geoms)), dtype=bool)
+            robot = _ROBOT_SIDES.get(sg.robot, ())
+            if sg.kind == "contact":
+                for side in _PERSON_SIDES.get(sg.human or "", ()):
+                    allowed[list(robot), side] = True
+            elif len(geoms) > 2:
+                allowed[list(robot), 2] = True
+            self._rules.append((sg.subevents, allowed))
+        self._hand_geoms = [np.flatnonzero(scene.hand_geom[s]) for s in (0, 1)]
+        self._fromto = np.zeros(6)
+
+    def allowed(self, subevent: str | None, gripped: bool) -> np.ndarray:
+        """(2, A) bool: the hand–anchor pairs the task wants now (the object's only while no hand grips it)."""
+        out = np.zeros((2, len(self.geoms)), dtype=bool)
+        for subevents, allowed in self._rules:
+            if not subevents or subevent in subevents:
+                out |= allowed
+        if gripped:
+            out[:, 2:] = False
+        return out
+
+    def nearest(self, data: mujoco.MjData) -> np.ndarray:
+        """(2, A, 3) the point of each robot hand's collidable geoms nearest each anchor now (``mj_geomDistance``)."""
+        m = self.scene.model
+        out = np.zeros((2, len(self.geoms), 3))
+        for s in (0, 1):
+            for a, anchor in enumerate(self.geoms):
+                best = np.inf
+                for g in self._hand_geoms[s]:
+                    d = mujoco.mj_geomDistance(m, data, int(g), int(anchor), _SEARCH, self._fromto)
+                    if d < best:
+                        best = d
+                        out[s, a] = self._fromto[:3]
+                if not np.isfinite(best):  # no hand geoms: the wrist frame itself
+                    out[s, a] = key_frames(self.scene, data)[1 + s]
+        return out
+
+    def gather(self, data: mujoco.MjData, wrist_target: np.ndarray, wrist_commanded: np.ndarray,
+               person_hands: np.ndarray, object_centre: np.ndarray | None, arm: float,
+               subevent: str | None) -> CompletionInput:
+        """The stage's input: ``wrist_target`` (2, 3) from the model, ``wrist_commanded`` (2, 3) the wrists of
+        the latest IK solution, the person's hand centres at frame t ``person_hands`` (2, 3), the object's
+        centre at t (``None``: no object or it is parked), world frame.
+
+        The hands' nearest points are the physical ones: moved by as much as the commanded wrist moves, the
+        physical hand keeps its offset from the IK's (a servo's tracking error, an arm sagging under its
+        weight), so the contact is aimed for the hand the person sees."""
+        sc = self.scene
+        centre = np.zeros((len(self.geoms), 3))
+        centre[:2] = person_hands
+        gripped = bool(len(sc.grip_eq) and (sc.grip_eq >= 0).all() and data.eq_active[sc.grip_eq].any())
+        allowed = self.allowed(subevent, gripped)
+        if len(self.geoms) > 2:
+            if object_centre is None:
+                allowed[:, 2] = False
+            else:
+                centre[2] = object_centre
+        return CompletionInput(
+            wrist_target=np.asarray(wrist_target, dtype=np.float64), wrist_now=np.asarray(wrist_commanded, dtype=np.float64),
+            nearest=self.nearest(data), centre=centre, radius=self.radius, shared=self.shared, allowed=allowed,
+            shoulder=np.array(data.xpos[sc.limb_body_ids[:2]]), arm=float(arm),
+        )
+
+
+def object_in_flight(data: mujoco.MjData, scene: Scene, dt: float) -> np.ndarray:
+    """(3,) where the free object will be after ``dt`` s of free flight from its state now, world frame."""
+    p = np.array(data.qpos[scene.object_qadr:scene.object_qadr + 3])
+    v = np.array(data.qvel[scene.object_vadr:scene.object_vadr + 3])
+    return p + v * dt - 0.5 * GRAVITY * dt * dt * np.array([0.0, 0.0, 1.0])
