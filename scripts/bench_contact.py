@@ -164,6 +164,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--completion", choices=("on", "off", "both", "default"), default="both",
                     help="contact completion on, off, both, or the simulator's default (default both)")
+    ap.add_argument("--set", nargs="*", default=[], metavar="FIELD=VALUE",
+                    help="with completion on: change ContactCompletionConfig fields (floats), e.g. --set capture=0.25")
     ap.add_argument("--models", default=None, help="cache the fitted models in this folder")
     ap.add_argument("--json", default=None, help="write the records here")
     args = ap.parse_args(argv)
@@ -182,7 +184,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             for setting in settings:
                 config = SimConfig()
                 if setting != "default":
-                    base = SimConfig().contact_completion
+                    base = dataclasses.replace(SimConfig().contact_completion,  # type: ignore[arg-type]
+                                               **{k: float(v) for k, v in (kv.split("=", 1) for kv in args.set)})
                     config = dataclasses.replace(config, contact_completion=None if setting == "off" else base)
                 sim = Simulator(robot, task_for_label(label), config)
                 for inter in test:

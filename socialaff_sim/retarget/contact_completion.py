@@ -59,7 +59,7 @@ class ContactCompletionConfig:
     reach_band: float = 0.1
     """b [m]: the reach gate falls smoothly from 1 at ρ·arm to 0 at ρ·arm + b (a hand reaches about this far
     past its wrist, so a wrist target a little beyond the arm's length still brings the hand to the contact)."""
-    ramp: float = 0.1
+    ramp: float = 0.2
     """τ_r [s]: β changes by at most Δt / τ_r per frame (0: at once)."""
 
     def __post_init__(self) -> None:
