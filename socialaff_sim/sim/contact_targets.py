@@ -21,7 +21,7 @@ from .scene import Scene
 from .stage import key_frames
 from .tasks import TaskSpec
 
-__all__ = ["ContactAnchors", "GRAVITY"]
+__all__ = ["ContactAnchors", "GRAVITY", "object_in_flight", "object_radius"]
 
 GRAVITY = 9.81
 """g, m/s² (MuJoCo's default): an object in flight is predicted one frame ahead under it."""

@@ -152,6 +152,11 @@ def summarize(sim: Simulator, wall_seconds: float) -> dict[str, Any]:
                                      "per_frame": [round(r.force_on_human, 3) for r in res]},
         "object_released_at": None if sim.carry is None else scorer.tracks.release_time,
         "support": support_summary(sim),
+        "contact_completion": {
+            "on": sim.config.contact_completion is not None,
+            "weight_per_frame": [None if r.completion is None else [round(float(w), 3) for w in r.completion]
+                                 for r in res],
+        },
         "wall_seconds": wall_seconds,
         "real_time_factor": sim_time / wall_seconds if wall_seconds > 0 else None,
     }
