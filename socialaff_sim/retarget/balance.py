@@ -42,11 +42,17 @@ class StandingBalance:
         self.com_task = mink.ComTask(cost=[config.com_cost, config.com_cost, 0.0])
         feet = [int(model.site_bodyid[f]) if k == "site" else int(f)
                 for k, f in zip(frame_kinds[3:5], frame_ids[3:5], strict=True)]
-        self.box = support_box(model, data, (feet[0], feet[1]), robot_geoms, ankles)
+        self.box: np.ndarray | None = None
         """(2, 2) the feet's horizontal extent around the ankles' middle at home, robot frame, m
-        (:func:`~.support_limit.support_box`)."""
+        (:func:`~.support_limit.support_box`); ``None`` for feet without collidable geoms when no support
+        limit asks for it."""
+        try:
+            self.box = support_box(model, data, (feet[0], feet[1]), robot_geoms, ankles)
+        except SimulationError:
+            if config.support_margin is not None:
+                raise
         self.limit: SupportPolygonLimit | None = None
-        if config.support_margin is not None:
+        if config.support_margin is not None and self.box is not None:
             self.limit = SupportPolygonLimit(model, self.box, config.support_margin)
 
     def support_centre(self, ankles: np.ndarray, yaw: float) -> np.ndarray:
@@ -61,7 +67,9 @@ class StandingBalance:
         """(2,) the middle of the feet's support rectangle (world, m) with the ankles at ``ankles`` (2, 3)
         (world, m) and the robot turned by ``yaw`` (rad): the ankles' middle plus the rectangle's centre, turned.
         Unlike :meth:`support_centre` (where the robot's home posture puts the centre of mass) it is as far
-        from the toes as from the heels."""
+        from the toes as from the heels (feet without geoms: :meth:`support_centre`)."""
+        if self.box is None:
+            return self.support_centre(ankles, yaw)
         c, s = np.cos(yaw), np.sin(yaw)
         o = self.box.mean(axis=1)
         return np.asarray(ankles, dtype=np.float64)[:, :2].mean(axis=0) + np.array([c * o[0] - s * o[1], s * o[0] + c * o[1]])

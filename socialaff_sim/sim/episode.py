@@ -83,12 +83,17 @@ def support_summary(sim: Simulator) -> dict[str, Any]:
     frames = [r.support for r in sim.results if r.support is not None]
     contact = [r.support for r in sim.results if r.support is not None and any(r.subgoals_now.values())]
     meter = sim.support
+    stance = sim.config.stance
+    mode = "gravity compensation (kinematic puppet)" if sim.config.gravity_compensation else "real weight"
+    if stance is not None and not sim.config.gravity_compensation:
+        mode += ", stance control" + (" (harness let go when steady)" if stance.release else " (steadied base)")
     return {
-        "mode": "gravity compensation (kinematic puppet)" if sim.config.gravity_compensation else "real weight",
+        "mode": mode,
         "robot_mass_kg": meter.mass,
         "gravity_compensation_fraction": meter.gravcomp_fraction,
         "episode": _support_stats(frames),
-        "contact_phase": {"frames": len(contact), **_support_stats(contact)},
+        "contact_phase": {"frames": len(contact), "released_frames": sum(f.outside_peak == 0.0 for f in contact),
+                          **_support_stats(contact)},
     }
 
 

@@ -61,8 +61,8 @@ class StanceConfig:
     release_tilt: float = 3.0
     """[deg]: the harness lets go only when the torso tilted at most this much in the last frame."""
     release_com: float = 0.02
-    """[m]: ... and the measured centre of mass is at most this far (horizontally) from the middle of the feet's
-    support rectangle. At 4 cm and 5° Stubby was released while still swaying and caught more often."""
+    """[m]: the harness lets go only when the measured centre of mass is also at most this far (horizontally)
+    from the middle of the feet's support rectangle (at 4 cm and 5° Stubby was let go while still swaying)."""
     catch_tilt: float = 10.0
     """[deg]: a released robot whose torso tilts more than this in a frame is caught by the harness again."""
     com_cost: float = 10.0
