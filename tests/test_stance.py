@@ -14,7 +14,7 @@ from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.retarget.ik import IKConfig
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
-from socialaff_sim.sim.episode import run_episode
+from socialaff_sim.sim.episode import run_episode, support_caption, support_summary
 from socialaff_sim.sim.scene import Scene, build_scene
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.stance import StanceConfig, StanceControl
@@ -164,3 +164,16 @@ def test_box_centre_falls_back_to_the_home_centre_of_mass_without_a_box(ours) ->
     balance.box = None
     np.testing.assert_allclose(balance.box_centre(ankles, 0.3), balance.support_centre(ankles, 0.3), atol=1e-12)
     assert np.linalg.norm(with_box - balance.support_centre(ankles, 0.3)) > 0.01
+
+
+def test_every_figure_names_the_stance_control(ours) -> None:
+    inter = generate_dataset(seed=0).of_label("high_five")[0]
+    modes = {}
+    for name, stance in (("off", None), ("steady", StanceConfig(release=False)), ("release", StanceConfig())):
+        sim = Simulator(ours, "high_five", SimConfig(stance=stance))
+        sim.reset(inter)
+        sim.step(sim.home_key_frames)
+        modes[name] = (support_summary(sim)["mode"], support_caption(sim))
+    assert modes["off"][0] == "real weight" and modes["off"][1].startswith("real weight:")
+    assert "steadied base" in modes["steady"][0] and "steadied base" in modes["steady"][1]
+    assert "harness let go" in modes["release"][0] and "harness let go" in modes["release"][1]
