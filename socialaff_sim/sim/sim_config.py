@@ -56,8 +56,8 @@ class SimConfig:
     """[—]: While both feet are planted: a steadied base target and, once the robot is steady, no harness
     (:mod:`~socialaff_sim.sim.stance`); ``None`` (the default): the harness follows the retargeted base
     throughout. Off by default: on the synthetic set it lowered Stubby's outside support in the contact phases
-    from 33 % to about 22 %, short of the 5 % target, with more foot sliding, and did not help the H1
-    (docs/benchmarks.md, "Standing without the harness"). Not used with gravity compensation."""
+    from 33 % to 24 % (25 % with the base filter alone), short of the 5 % target, and did not lower the H1's
+    (54 %; docs/benchmarks.md, "Standing without the harness"). Not used with gravity compensation."""
     hand_force: float | None = 60.0
     """F_max [N]: the arm servos' torque limits are set so that a hand pushes with at most about
     this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,

@@ -53,7 +53,7 @@ class StanceConfig:
     base_smoothing: float = 0.8
     """α [—]: while both feet are planted, the base target is b̂ₜ = α b̂ₜ₋₁ + (1 − α) bₜ (0: the target as
     retargeted). Stubby with the harness, 4 synthetic instances per interaction: outside support in the contact
-    phases 25 % instead of 33 %, foot sliding median 4.0 cm instead of 9.3 (docs/benchmarks.md)."""
+    phases 25 % instead of 33 %, foot sliding median 3.9 cm instead of 9.3 (docs/benchmarks.md)."""
     release: bool = True
     """[—]: Whether the harness lets go of a steady standing robot (``False``: only the base is steadied)."""
     release_after: int = 2
