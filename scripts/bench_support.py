@@ -13,11 +13,16 @@ sub-goal's contact holds now; ``metrics.json``'s ``support.contact_phase``):
   limit;
 * sub-goal success (every sub-goal met, no failure).
 
+Modes: ``weight`` (the default: real weight, compliant harness), ``puppet``
+(gravity compensation, rigid weld), ``steady`` (``SimConfig(stance=StanceConfig(release=False))``: the
+base target steadied while both feet are planted) and ``stance`` (``SimConfig(stance=StanceConfig())``:
+also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stance`).
+
 The targets of issue 25 for feet that stay planted: outside support ≤ 5 % of
 the weight, sliding ≤ 2 cm, torques within the limits. Example::
 
     OMP_NUM_THREADS=1 python scripts/bench_support.py --robots ours unitree_h1 \\
-        --mjcf unitree_h1=../shared/robots/unitree_h1/h1.xml --per-label 4 --modes weight puppet
+        --mjcf unitree_h1=../shared/robots/unitree_h1/h1.xml --per-label 4 --modes weight puppet steady stance
 """
 
 from __future__ import annotations
@@ -35,9 +40,11 @@ from socialaff_sim.retarget.model_source import model_source
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.simulator import SimConfig, Simulator
+from socialaff_sim.sim.stance import StanceConfig
 
-MODES = {"weight": SimConfig(), "puppet": SimConfig(gravity_compensation=True)}
-KEYS = ("outside_support_mean", "outside_support_peak", "foot_slide_cm", "penetration_cm", "torque_ratio_max",
+MODES = {"weight": SimConfig(), "puppet": SimConfig(gravity_compensation=True),
+         "steady": SimConfig(stance=StanceConfig(release=False)), "stance": SimConfig(stance=StanceConfig())}
+KEYS = ("released_frames", "outside_support_mean", "outside_support_peak", "foot_slide_cm", "penetration_cm", "torque_ratio_max",
         "saturated_fraction", "at_joint_limit_fraction", "torso_tilt_deg_max")
 
 
@@ -66,7 +73,7 @@ def main() -> None:
                                  "success": m["success"], "contact_frames": cp["frames"],
                                  **{k: cp[k] for k in KEYS}})
     print(f"{'robot':<12}{'mode':<8}{'interaction':<16}{'ok':>6}{'support mean':>14}{'peak':>8}{'slide cm':>10}"
-          f"{'pen cm':>8}{'torque':>8}{'sat':>7}{'limit':>7}")
+          f"{'pen cm':>8}{'torque':>8}{'sat':>7}{'limit':>7}{'released':>10}")
     for robot in args.robots:
         for mode in args.modes:
             for label in data.labels:
@@ -80,9 +87,11 @@ def main() -> None:
                     return float(np.max([r[k] for r in rs])) if rs else float("nan")
 
                 ok = f"{sum(r['success'] for r in sel)}/{len(sel)}"
+                released = float(np.mean([r["released_frames"] / r["contact_frames"] for r in have])) if have else float("nan")
                 print(f"{robot:<12}{mode:<8}{label:<16}{ok:>6}{100 * mean('outside_support_mean'):>13.0f}%"
                       f"{100 * top('outside_support_peak'):>7.0f}%{mean('foot_slide_cm'):>10.1f}{top('penetration_cm'):>8.1f}"
-                      f"{top('torque_ratio_max'):>8.2f}{100 * mean('saturated_fraction'):>6.0f}%{100 * mean('at_joint_limit_fraction'):>6.0f}%")
+                      f"{top('torque_ratio_max'):>8.2f}{100 * mean('saturated_fraction'):>6.0f}%{100 * mean('at_joint_limit_fraction'):>6.0f}%"
+                      f"{100 * released:>9.0f}%")
     if args.json:
         atomic_write_text(args.json, json.dumps({"config": vars(args), "rows": rows,
                                                  "sim_config": {k: repr(v) for k, v in dataclasses.asdict(SimConfig()).items()

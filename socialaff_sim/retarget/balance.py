@@ -40,12 +40,20 @@ class StandingBalance:
         self.com_offset = np.array(data.subtree_com[1, :2] - mid)
         """(2,) the centre of mass's horizontal offset from the ankles' middle at home, robot frame, m."""
         self.com_task = mink.ComTask(cost=[config.com_cost, config.com_cost, 0.0])
+        feet = [int(model.site_bodyid[f]) if k == "site" else int(f)
+                for k, f in zip(frame_kinds[3:5], frame_ids[3:5], strict=True)]
+        self.box: np.ndarray | None = None
+        """(2, 2) the feet's horizontal extent around the ankles' middle at home, robot frame, m
+        (:func:`~.support_limit.support_box`); ``None`` for feet without collidable geoms when no support
+        limit asks for it."""
+        try:
+            self.box = support_box(model, data, (feet[0], feet[1]), robot_geoms, ankles)
+        except SimulationError:
+            if config.support_margin is not None:
+                raise
         self.limit: SupportPolygonLimit | None = None
-        if config.support_margin is not None:
-            feet = [int(model.site_bodyid[f]) if k == "site" else int(f)
-                    for k, f in zip(frame_kinds[3:5], frame_ids[3:5], strict=True)]
-            box = support_box(model, data, (feet[0], feet[1]), robot_geoms, ankles)
-            self.limit = SupportPolygonLimit(model, box, config.support_margin)
+        if config.support_margin is not None and self.box is not None:
+            self.limit = SupportPolygonLimit(model, self.box, config.support_margin)
 
     def support_centre(self, ankles: np.ndarray, yaw: float) -> np.ndarray:
         """(2,) the centre of the support polygon (world, m) of feet whose ankles are at ``ankles`` (2, 3)
@@ -55,16 +63,33 @@ class StandingBalance:
         o = self.com_offset
         return np.asarray(ankles, dtype=np.float64)[:, :2].mean(axis=0) + np.array([c * o[0] - s * o[1], s * o[0] + c * o[1]])
 
-    def update(self, ankles: np.ndarray, yaw: float, standing: bool) -> list[mink.Task]:
+    def box_centre(self, ankles: np.ndarray, yaw: float) -> np.ndarray:
+        """(2,) the middle of the feet's support rectangle (world, m) with the ankles at ``ankles`` (2, 3)
+        (world, m) and the robot turned by ``yaw`` (rad): the ankles' middle plus the rectangle's centre, turned.
+        Unlike :meth:`support_centre` (where the robot's home posture puts the centre of mass) it is as far
+        from the toes as from the heels (feet without geoms: :meth:`support_centre`)."""
+        if self.box is None:
+            return self.support_centre(ankles, yaw)
+        c, s = np.cos(yaw), np.sin(yaw)
+        o = self.box.mean(axis=1)
+        return np.asarray(ankles, dtype=np.float64)[:, :2].mean(axis=0) + np.array([c * o[0] - s * o[1], s * o[0] + c * o[1]])
+
+    def update(self, ankles: np.ndarray, yaw: float, standing: bool,
+               com_target: np.ndarray | None = None, com_cost: float | None = None) -> list[mink.Task]:
         """Place (``standing``: both feet planted, ankle targets ``ankles`` (2, 3), world) or lift the balance
-        terms for the next frame; returns the tasks to add (the ComTask when standing and ``com_cost`` > 0)."""
+        terms for the next frame; returns the tasks to add (the ComTask when standing and ``com_cost`` > 0,
+        drawn to ``com_target`` (2,) world m, or to the support centre when ``None``; ``com_cost`` replaces
+        ``IKConfig.com_cost`` when given)."""
         if self.limit is not None:
             if standing:
                 self.limit.set_support(ankles, yaw)
             else:
                 self.limit.clear()
-        if standing and self.config.com_cost > 0:
-            self.com_task.set_target(np.append(self.support_centre(ankles, yaw), 0.0))
+        cost = self.config.com_cost if com_cost is None else com_cost
+        if standing and cost > 0:
+            self.com_task.set_cost(np.array([cost, cost, 0.0]))
+            centre = self.support_centre(ankles, yaw) if com_target is None else np.asarray(com_target)[:2]
+            self.com_task.set_target(np.append(centre, 0.0))
             return [self.com_task]
         return []
 

@@ -308,7 +308,8 @@ class RobotIK:
         lim.unwatch()
 
     def solve(self, targets: np.ndarray, yaw: float, dt: float, care: np.ndarray | None = None,
-              planted: tuple[bool, bool] = (False, False)) -> IKResult:
+              planted: tuple[bool, bool] = (False, False), com_target: np.ndarray | None = None,
+              com_cost: float | None = None) -> IKResult:
         """Move toward world-frame ``targets`` (5, 3) over one frame of ``dt`` seconds.
 
         ``yaw`` (rad) turns the base's and the feet's home orientations to face the partner.
@@ -319,7 +320,8 @@ class RobotIK:
         chasing it would only spend time).
         ``planted`` (left, right): the feet standing on the floor at their targets; each is pinned,
         and with both the centre of mass is kept over their support rectangle (and, with ``com_cost``,
-        drawn to its centre).
+        drawn to its centre, or to ``com_target`` (2,) world m when given; ``com_cost``, when given, replaces
+        ``IKConfig.com_cost`` for this frame).
         """
         targets = np.asarray(targets, dtype=np.float64)
         if targets.shape != (5, 3) or not np.isfinite(targets).all():
@@ -338,7 +340,7 @@ class RobotIK:
             if k in (3, 4):
                 cost = c.planted_foot_orientation_cost if feet[k - 3] else c.foot_orientation_cost
                 self.key_task.cost[15 + 3 * row:18 + 3 * row] = cost
-        balance = self.balance.update(targets[3:5], yaw, bool(feet.all()))
+        balance = self.balance.update(targets[3:5], yaw, bool(feet.all()), com_target, com_cost)
         self._tasks = [self.key_task, self.posture_task, *balance]
         if balance:
             # Standing, the base may give way horizontally: the hips, not a leaning torso, carry the centre of

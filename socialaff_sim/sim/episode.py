@@ -77,6 +77,16 @@ def _support_stats(frames: list[FrameSupport]) -> dict[str, float | None]:
     }
 
 
+def _mode(sim: Simulator, puppet: str) -> str:
+    """The physics mode's name (``puppet``: the gravity-compensated one's), with the standing control if on."""
+    if sim.config.gravity_compensation:
+        return puppet
+    stance = sim.config.stance
+    if stance is None:
+        return "real weight"
+    return "real weight, stance control" + (" (harness let go when steady)" if stance.release else " (steadied base)")
+
+
 def support_summary(sim: Simulator) -> dict[str, Any]:
     """Outside support (fraction of the robot's weight), foot sliding, penetration and effort of the episode
     just run: over all frames, and over the *contact phase* (the frames where a sub-goal's contact holds now)."""
@@ -84,18 +94,19 @@ def support_summary(sim: Simulator) -> dict[str, Any]:
     contact = [r.support for r in sim.results if r.support is not None and any(r.subgoals_now.values())]
     meter = sim.support
     return {
-        "mode": "gravity compensation (kinematic puppet)" if sim.config.gravity_compensation else "real weight",
+        "mode": _mode(sim, "gravity compensation (kinematic puppet)"),
         "robot_mass_kg": meter.mass,
         "gravity_compensation_fraction": meter.gravcomp_fraction,
         "episode": _support_stats(frames),
-        "contact_phase": {"frames": len(contact), **_support_stats(contact)},
+        "contact_phase": {"frames": len(contact), "released_frames": sum(f.outside_peak == 0.0 for f in contact),
+                          **_support_stats(contact)},
     }
 
 
 def support_caption(sim: Simulator) -> str:
     """One caption line: the mode; this frame's outside support (% of the weight), the episode's foot sliding
     so far, this frame's largest servo force (% of its limit) and the torso's tilt from the vertical."""
-    mode = "puppet (gravity compensated)" if sim.config.gravity_compensation else "real weight"
+    mode = _mode(sim, "puppet (gravity compensated)")
     frames = [r.support for r in sim.results if r.support is not None]
     if not frames:
         return f"{mode}"

@@ -13,6 +13,7 @@ from ..retarget.contact_completion import ContactCompletionConfig
 from ..retarget.ik import IKConfig
 from ..retarget.scaling import ScalingConfig
 from .footlock import FootLockConfig
+from .stance import StanceConfig
 from .support import FrameSupport
 
 __all__ = ["SimConfig", "StepResult"]
@@ -25,7 +26,7 @@ class SimConfig:
     Fields by concept
     -----------------
     - Physics: timestep, servo_bandwidth, hand_force, grip, settle_iterations
-    - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth
+    - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth, stance
     - Retargeting: ik, scaling, contact_completion
     """
 
@@ -52,6 +53,12 @@ class SimConfig:
     """ω_s [rad/s]: the leg servos' natural frequency on the inertia of the body they hold up when standing
     (:func:`~socialaff_sim.sim.robot_mjcf.tune_servos`); ``None``: the legs keep ``servo_bandwidth`` on their
     own inertia (too soft to stand on without the harness). Not used with gravity compensation."""
+    stance: StanceConfig | None = None
+    """[—]: While both feet are planted: a steadied base target and, once the robot is steady, no harness
+    (:mod:`~socialaff_sim.sim.stance`); ``None`` (the default): the harness follows the retargeted base
+    throughout. Off by default: on the synthetic set it lowered Stubby's outside support in the contact phases
+    from 33 % to 24 % (25 % with the base filter alone), short of the 5 % target, and did not lower the H1's
+    (54 %; docs/benchmarks.md, "Standing without the harness"). Not used with gravity compensation."""
     hand_force: float | None = 60.0
     """F_max [N]: the arm servos' torque limits are set so that a hand pushes with at most about
     this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,

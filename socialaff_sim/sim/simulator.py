@@ -37,6 +37,7 @@ from .stage import Stage, compile_scenes, contact_exemptions, key_frames, key_fr
 from .substeps import FrameStepper
 from .feedforward import StandingFeedforward
 from .footlock import FootLock
+from .stance import StanceControl
 from .sim_config import SimConfig, StepResult
 from .support import SupportMeter
 from .tasks import TaskSpec, load_task
@@ -72,7 +73,7 @@ class Simulator:
                 servo_bandwidth=self.config.servo_bandwidth, hand_force=self.config.hand_force,
                 gravity_compensation=self.config.gravity_compensation,
                 harness_time_constant=None if self.config.gravity_compensation else self.config.harness_time_constant,
-                stance_bandwidth=None if self.config.gravity_compensation else self.config.stance_bandwidth,
+                stance_bandwidth=None if self.config.gravity_compensation else self._leg_bandwidth(),
                 chair=self.task.chair,
             )
             if not hasattr(self, "measurements"):
@@ -91,9 +92,17 @@ class Simulator:
             self._stages[name] = Stage(
                 scene, data, ik_scene, RobotIK(ik_model, self.config.ik), scorer, ik_map,
                 FrameStepper(scene, data, scorer, meter, None if puppet else StandingFeedforward(scene)),
-                reach,
+                reach, stance=None if puppet or self.config.stance is None else StanceControl(scene, self.config.stance),
             )
         return self._stages[name]
+
+    def _leg_bandwidth(self) -> float | None:
+        """The legs' standing bandwidth (rad/s): ``SimConfig.stance_bandwidth``, or the stance controller's
+        when the harness may let go and that is ``None``."""
+        c = self.config
+        if c.stance_bandwidth is None and c.stance is not None and c.stance.release:
+            return c.stance.leg_bandwidth
+        return c.stance_bandwidth
 
     def reset(
         self, interaction: Interaction, initial_targets: np.ndarray | None = None, *, placement_frames: int | None = None
@@ -192,6 +201,9 @@ class Simulator:
         stage.scorer.reset()
         stage.scorer.measure_gaps(data)
         stage.stepper.support.reset()
+        if stage.stance is not None:
+            stage.stance.reset()
+            stage.stance.apply(data)
         self._footlock = None if self.config.foot_lock is None else FootLock(
             (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), self.config.foot_lock)
         if self.carry is not None and self.carry.release_frame == 0:
@@ -301,7 +313,11 @@ class Simulator:
         ik.set_human(self.pose.pos[t1], self.pose.quat[t1])
         planted = (False, False) if self._footlock is None else (self._footlock.planted[0] is not None,
                                                                  self._footlock.planted[1] is not None)
-        res = ik.solve(world, self._yaw, dt=1.0 / fps, care=reachable, planted=planted)
+        com_target = None
+        if stage.stance is not None:
+            com_target = self._stance(stage, planted, world)
+        res = ik.solve(world, self._yaw, dt=1.0 / fps, care=reachable, planted=planted, com_target=com_target,
+                       com_cost=None if com_target is None else stage.stance.config.com_cost)  # type: ignore[union-attr]
         ik_seconds = time.thread_time() - tic
 
         carry = None
@@ -342,6 +358,20 @@ class Simulator:
         )
         self.results.append(result)
         return result
+
+    def _stance(self, stage: Stage, planted: tuple[bool, bool], world: np.ndarray) -> np.ndarray | None:
+        """The standing robot's frame (:mod:`~.stance`): steady the base target ``world[0]`` (in place), let
+        go of or catch the robot, and return the IK's centre-of-mass target ((2,) world, m) while released."""
+        stance, data, support = stage.stance, stage.data, stage.stepper.support
+        assert stance is not None
+        standing = planted[0] and planted[1]
+        world[0] = stance.steady_base(world[0], standing)
+        centre = stage.ik.balance.box_centre(key_frames(stage.scene, data)[3:5], self._yaw)
+        com = stance.measured_com(data)
+        tilt = support.frames[-1].tilt_deg if support.frames else 0.0
+        released = stance.decide(standing, tilt, float(np.linalg.norm(com[:2] - centre)))
+        stance.apply(data)
+        return stance.com_target(com, centre) if released else None
 
     # -- observations -----------------------------------------------------------------
     @property

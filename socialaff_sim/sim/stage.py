@@ -24,6 +24,7 @@ from .robot_mjcf import limit_hand_force
 from .scene import ObjectSpec, Scene, build_scene
 from .scoring import SubgoalScorer
 from .substeps import FrameStepper
+from .stance import StanceControl
 from .tasks import SubgoalSpec
 
 __all__ = ["Stage", "compile_scenes", "key_frames", "key_frames_at", "contact_exemptions"]
@@ -44,6 +45,8 @@ class Stage:
     """(nq_ik,) position of each IK coordinate in the physics robot's coordinates."""
     stepper: FrameStepper
     reach: ReachModel
+    stance: StanceControl | None = None
+    """What the robot does while it stands (real weight only; ``SimConfig.stance``)."""
     exemptions_set: bool = False
     """Whether the IK's contact exemptions (the task's, the same for every instance) have been set."""
     kinematics: mujoco.MjData = field(init=False)

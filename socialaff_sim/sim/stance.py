@@ -1,0 +1,132 @@
+"""Standing on its own feet: while both feet are planted the harness may let go of the robot.
+
+With its real weight the robot's root hangs from a compliant harness
+(:func:`~socialaff_sim.sim.scene.build_scene`) that follows the IK's base path.
+:class:`StanceControl` decides, once per data frame, what the robot does while it
+stands (both feet planted by the foot lock, :mod:`~socialaff_sim.sim.footlock`):
+
+1. **A steady base.** The retargeted base target carries the recording's jitter
+   (on the synthetic set its second difference is 2–3 cm per frame, about 3 m/s²
+   at 10 fps, which the legs pass on to the whole body: a centre-of-mass
+   acceleration that moves the zero-moment point by ~20 cm, farther than a foot is
+   long). While standing, the base target is low-pass filtered:
+   b̂ₜ = α b̂ₜ₋₁ + (1 − α) bₜ (``base_smoothing`` α); a step resets the filter.
+2. **Letting go.** The harness weld is switched off (its force is then zero by
+   construction) once the robot has stood ``release_after`` frames and is steady:
+   the torso within ``release_tilt`` of upright and the measured centre of mass
+   within ``release_com`` of the middle of the feet's support rectangle. Released,
+   it stays off while the robot stands and the torso tilts at most ``catch_tilt``;
+   beyond (a fall under way) or at a step, the harness catches the robot again.
+3. **Balance while released.** The IK draws the centre of mass (a
+   :class:`mink.ComTask` at ``com_cost``) to the middle of the support rectangle
+   moved against the measured error: c* = s − k_p (c − s), with c the physics
+   centre of mass and s the rectangle's middle (``com_gain`` k_p): a robot pulled
+   forward by a handshake plans its hips back.
+
+The legs need servos stiff enough to stand on (``SimConfig.stance_bandwidth``; when
+that is ``None`` the controller's ``leg_bandwidth`` is used).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from .scene import Scene
+
+__all__ = ["StanceConfig", "StanceControl"]
+
+
+@dataclass(frozen=True)
+class StanceConfig:
+    """How a standing robot is treated (see :mod:`~socialaff_sim.sim.stance`).
+
+    Fields by concept
+    -----------------
+    - Steady base: base_smoothing
+    - Letting go: release, release_after, release_tilt, release_com, catch_tilt, leg_bandwidth
+    - Balance while released: com_cost, com_gain
+    """
+
+    base_smoothing: float = 0.8
+    """α [—]: while both feet are planted, the base target is b̂ₜ = α b̂ₜ₋₁ + (1 − α) bₜ (0: the target as
+    retargeted). Stubby with the harness, 4 synthetic instances per interaction: outside support in the contact
+    phases 25 % instead of 33 %, foot sliding median 3.9 cm instead of 9.3 (docs/benchmarks.md)."""
+    release: bool = True
+    """[—]: Whether the harness lets go of a steady standing robot (``False``: only the base is steadied)."""
+    release_after: int = 2
+    """[frames]: data frames in a row with both feet planted before the harness may let go."""
+    release_tilt: float = 3.0
+    """[deg]: the harness lets go only when the torso tilted at most this much in the last frame."""
+    release_com: float = 0.02
+    """[m]: the harness lets go only when the measured centre of mass is also at most this far (horizontally)
+    from the middle of the feet's support rectangle (at 4 cm and 5° Stubby was let go while still swaying)."""
+    catch_tilt: float = 10.0
+    """[deg]: a released robot whose torso tilts more than this in a frame is caught by the harness again."""
+    com_cost: float = 10.0
+    """[1/m]: cost of the IK's centre-of-mass task while the robot stands released (replaces
+    ``IKConfig.com_cost`` in those frames)."""
+    com_gain: float = 1.0
+    """k_p [—]: the centre-of-mass target is the rectangle's middle moved by −k_p times the measured centre
+    of mass's horizontal offset from it (0: the middle itself; at 2, 33 % instead of 22 % outside support)."""
+    leg_bandwidth: float = 10.0
+    """ω_s [rad/s]: the leg servos' standing bandwidth when ``SimConfig.stance_bandwidth`` is ``None``."""
+
+
+class StanceControl:
+    """The per-frame standing decisions of one physics scene; :meth:`reset` per episode."""
+
+    def __init__(self, scene: Scene, config: StanceConfig | None = None) -> None:
+        self.scene = scene
+        self.config = config or StanceConfig()
+        m = scene.model
+        self.weld = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, "robot_anchor")
+        """Id of the harness weld (-1: none)."""
+        self._jac = np.zeros((3, m.nv))
+        self.reset()
+
+    def reset(self) -> None:
+        """A new episode: harnessed, not standing, no base filtered yet."""
+        self._run = 0
+        self._base: np.ndarray | None = None
+        self.released = False
+        """Whether the harness is off for the frame being run."""
+
+    def steady_base(self, base: np.ndarray, standing: bool) -> np.ndarray:
+        """(3,) the base target (world, m) to use for the retargeted one ``base`` (3,): filtered while
+        ``standing`` (both feet planted), as given otherwise (and the filter starts afresh)."""
+        base = np.asarray(base, dtype=np.float64)
+        a = self.config.base_smoothing
+        out = base if not standing or self._base is None else a * self._base + (1.0 - a) * base
+        self._base = out.copy() if standing else None
+        return out
+
+    def decide(self, standing: bool, tilt_deg: float, com_offset: float) -> bool:
+        """Whether the harness is off for the next frame.
+
+        ``standing``: both feet planted; ``tilt_deg``: the torso's largest tilt in the last frame (degrees);
+        ``com_offset``: the measured centre of mass's horizontal distance from the middle of the support
+        rectangle (m)."""
+        c = self.config
+        self._run = self._run + 1 if standing else 0
+        steady = tilt_deg <= c.release_tilt and com_offset <= c.release_com
+        self.released = (c.release and self._run >= c.release_after and tilt_deg <= c.catch_tilt
+                         and (self.released or steady))
+        return self.released
+
+    def apply(self, data: mujoco.MjData) -> None:
+        """Switch the harness weld in ``data`` off or on as decided."""
+        if self.weld >= 0:
+            data.eq_active[self.weld] = 0 if self.released else 1
+
+    def measured_com(self, data: mujoco.MjData) -> np.ndarray:
+        """(3,) the robot's centre of mass in ``data`` (world, m; as of its last kinematics pass)."""
+        return np.array(data.subtree_com[self.scene.root_body])
+
+    def com_target(self, com: np.ndarray, centre: np.ndarray) -> np.ndarray:
+        """(2,) the IK's horizontal centre-of-mass target (world, m): the support rectangle's middle
+        ``centre`` (2,) moved against the measured centre of mass ``com`` (2+,)'s offset from it."""
+        centre = np.asarray(centre, dtype=np.float64)
+        return centre - self.config.com_gain * (np.asarray(com, dtype=np.float64)[:2] - centre)
