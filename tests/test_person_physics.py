@@ -3,11 +3,18 @@ kinematic person (``SimConfig.compliant_person``)."""
 
 from __future__ import annotations
 
+import dataclasses
+from pathlib import Path
+
+import gymnasium as gym
 import mujoco
 import numpy as np
 import pytest
+from conftest import shared_robot
 
 from socialaff_sim.data.skeletons import get_layout
+from socialaff_sim.environment import physics_config
+from socialaff_sim.errors import ConfigError
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
@@ -102,3 +109,35 @@ def test_a_kinematic_person_is_not_pushed(hand_over) -> None:
             assert off > 1e-6  # the welds let the hands lag behind the moving recording
         else:
             assert off < 1e-9
+
+
+def test_env_sim_config_overrides_the_preset() -> None:
+    kinematic = dataclasses.replace(physics_config("fast"), compliant_person=False)
+    env = gym.make("socialaff_sim/ShakeHands-v0", max_frames=4, sim_config=kinematic)
+    preset = gym.make("socialaff_sim/ShakeHands-v0", max_frames=4)
+    env.reset(seed=0)
+    preset.reset(seed=0)
+    assert not (env.unwrapped.simulator.scene.human_free_qadr >= 0).any()
+    assert (preset.unwrapped.simulator.scene.human_free_qadr >= 0).any()
+    assert env.unwrapped.simulator.config.timestep == preset.unwrapped.simulator.config.timestep
+    with pytest.raises(ConfigError, match="sim_config"):
+        gym.make("socialaff_sim/ShakeHands-v0", max_frames=4, sim_config={"compliant_person": False})
+
+
+def test_h1_gripping_the_cup_the_person_still_holds_stays_stable() -> None:
+    """Regression: 33 random ``targets`` actions (recorded from scripts/env_stress.py, seed 0) on
+    hand_over_013 with the H1 made MuJoCo diverge at frame 33 ("Nan, Inf or huge value in QACC" at the
+    person's right hand tip), when the person's hand parts still collided with the cup they carry and the
+    robot's grip held the same cup. Without those contacts the episode runs on."""
+    robot = load_robot("unitree_h1", mjcf=shared_robot("unitree_h1", "h1.xml"))
+    actions = np.load(Path(__file__).parent / "data" / "h1_hand_over_013_targets.npy")
+    env = gym.make("socialaff_sim/SocialAffordance-v0", robot=robot, action_mode="targets")
+    env.reset(seed=1321529464)
+    assert env.unwrapped.simulator.interaction.instance_id == "hand_over_013"
+    for a in actions:
+        _, _, term, trunc, info = env.step(a)
+        assert not any(info["physics_warnings"].values()), info["physics_warnings"]
+        assert info["termination_reason"] != "physics_unstable"
+        if term or trunc:
+            break
+    assert env.unwrapped.simulator.frame == len(actions)  # the episode reached the frame that diverged
