@@ -24,6 +24,9 @@ Run on one core::
     OMP_NUM_THREADS=1 python scripts/bench_env.py --rounds 5 --steps 600 --vector 1,2,4,8 --json env.json
 
 ``--profile`` prints a cProfile of the ``ours_zero`` pass (cProfile inflates the Python parts).
+``--compliant-person 0``, ``--timestep S`` and ``--ik-iterations N`` replace those fields of the preset's
+``SimConfig`` for ``ours_zero`` and ``ours_random`` (the speed options of docs/environment.md; their cost in
+fidelity is measured by scripts/bench_env_fidelity.py).
 """
 
 from __future__ import annotations

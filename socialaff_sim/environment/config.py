@@ -32,6 +32,9 @@ def physics_config(preset: str) -> SimConfig:
       (two let a fast high-five swing, at the robots' 20 rad/s, miss the touch in 2 of 8 replays).
       The servos (ω = 25 rad/s) stay well resolved (ω·Δt = 0.2); contacts are softer, and replaying the
       recorded agent 1 meets every sub-goal a little less often (docs/environment.md, "Speed").
+
+    Finer trade-offs (a kinematic person, a longer Δt, fewer IK steps) are ``SimConfig`` fields passed as
+    ``sim_config=`` to the environment; their measured cost is in docs/environment.md, "Speed options".
     """
     base = SimConfig()
     if preset == "accurate":
