@@ -10,7 +10,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 import pytest
-from conftest import shared_robot
+from conftest import load_script, shared_robot
 
 from socialaff_sim.data.skeletons import get_layout
 from socialaff_sim.environment import physics_config
@@ -141,3 +141,16 @@ def test_h1_gripping_the_cup_the_person_still_holds_stays_stable() -> None:
         if term or trunc:
             break
     assert env.unwrapped.simulator.frame == len(actions)  # the episode reached the frame that diverged
+
+
+def test_speed_option_settings_replace_only_what_they_name() -> None:
+    fidelity, bench = load_script("bench_env_fidelity"), load_script("bench_env")
+    preset = physics_config("fast")
+    cfg = fidelity.parse_setting("compliant_person=False; timestep=0.012; ik.iterations=2", "fast")
+    assert (cfg.compliant_person, cfg.timestep, cfg.ik.iterations) == (False, 0.012, 2)
+    assert dataclasses.replace(cfg, compliant_person=True, timestep=preset.timestep,
+                               ik=dataclasses.replace(cfg.ik, iterations=preset.ik.iterations)) == preset
+    assert fidelity.parse_setting("", "fast") == preset
+    assert bench.sim_options("fast", None, None, None) is None
+    assert bench.sim_options("fast", 0, 0.012, 2) == cfg
+    assert bench.sim_options("fast", 1, None, None) == preset  # compliant is the preset's own value
