@@ -24,6 +24,9 @@ Run on one core::
     OMP_NUM_THREADS=1 python scripts/bench_env.py --rounds 5 --steps 600 --vector 1,2,4,8 --json env.json
 
 ``--profile`` prints a cProfile of the ``ours_zero`` pass (cProfile inflates the Python parts).
+``--compliant-person 0``, ``--timestep S`` and ``--ik-iterations N`` replace those fields of the preset's
+``SimConfig`` for ``ours_zero`` and ``ours_random`` (the speed options of docs/environment.md; their cost in
+fidelity is measured by scripts/bench_env_fidelity.py).
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before MuJoCo is imported (dm_contr
 
 import argparse  # noqa: E402
 import cProfile  # noqa: E402
+import dataclasses  # noqa: E402
 import functools  # noqa: E402
 import io  # noqa: E402
 import json  # noqa: E402
@@ -50,9 +54,10 @@ import numpy as np  # noqa: E402
 
 import socialaff_sim  # noqa: E402,F401  (registers the ids)
 from socialaff_sim._atomic import atomic_write_text  # noqa: E402
-from socialaff_sim.environment import adapters, env as env_module, model_adapter, reward  # noqa: E402
+from socialaff_sim.environment import adapters, env as env_module, model_adapter, physics_config, reward  # noqa: E402
 from socialaff_sim.retarget import ik as ik_module  # noqa: E402
 from socialaff_sim.sim import scoring, simulator, substeps, support  # noqa: E402
+from socialaff_sim.sim.simulator import SimConfig  # noqa: E402
 
 ENV_ID = "socialaff_sim/SocialAffordance-v0"
 REFERENCE_ID = "Humanoid-v5"
@@ -128,9 +133,24 @@ class Runner:
         }
 
 
-def make_ours(policy: str, robot: str, physics: str) -> gym.Env:
+def sim_options(physics: str, compliant_person: int | None, timestep: float | None,
+                ik_iterations: int | None) -> SimConfig | None:
+    """The preset's simulator settings with the given fields replaced (``None``: the preset as it is)."""
+    if compliant_person is None and timestep is None and ik_iterations is None:
+        return None
+    cfg = physics_config(physics)
+    if compliant_person is not None:
+        cfg = dataclasses.replace(cfg, compliant_person=bool(compliant_person))
+    if timestep is not None:
+        cfg = dataclasses.replace(cfg, timestep=timestep)
+    if ik_iterations is not None:
+        cfg = dataclasses.replace(cfg, ik=dataclasses.replace(cfg.ik, iterations=ik_iterations))
+    return cfg
+
+
+def make_ours(policy: str, robot: str, physics: str, sim_config: SimConfig | None = None) -> gym.Env:
     mode = "residual" if policy == "zero" else "targets"
-    return gym.make(ENV_ID, action_mode=mode, robot=robot, physics=physics)
+    return gym.make(ENV_ID, action_mode=mode, robot=robot, physics=physics, sim_config=sim_config)
 
 
 def warm_up(env: gym.Env) -> list[float]:
@@ -280,6 +300,10 @@ def main() -> None:
     ap.add_argument("--stage-steps", type=int, default=600, help="steps of each timed-stage pass (0: none)")
     ap.add_argument("--vector", default="", help="worker counts for make_vec (async), e.g. 1,2,4,8 (empty: none)")
     ap.add_argument("--vector-steps", type=int, default=1600, help="env steps per vector measurement")
+    ap.add_argument("--compliant-person", type=int, choices=[0, 1], default=None,
+                    help="override SimConfig.compliant_person of the preset (ours_zero/ours_random, not --vector)")
+    ap.add_argument("--timestep", type=float, default=None, help="override SimConfig.timestep of the preset, s")
+    ap.add_argument("--ik-iterations", type=int, default=None, help="override IKConfig.iterations of the preset")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--profile", action="store_true", help="print a cProfile of one ours_zero pass")
     ap.add_argument("--json", default=None, help="also write the result here")
@@ -287,9 +311,10 @@ def main() -> None:
 
     load0 = os.getloadavg()
     t0 = time.perf_counter()
+    options = sim_options(args.physics, args.compliant_person, args.timestep, args.ik_iterations)
     runners = [
-        Runner("ours_zero", make_ours("zero", args.robot, args.physics), "zero", args.seed),
-        Runner("ours_random", make_ours("random", args.robot, args.physics), "random", args.seed + 1),
+        Runner("ours_zero", make_ours("zero", args.robot, args.physics, options), "zero", args.seed),
+        Runner("ours_random", make_ours("random", args.robot, args.physics, options), "random", args.seed + 1),
         Runner("humanoid", gym.make(REFERENCE_ID), "random", args.seed + 2),
     ]
     cold = {r.name: warm_up(r.env) for r in runners[:2]}
@@ -302,7 +327,9 @@ def main() -> None:
             r.run(args.steps)
     ref = runners[2]
     res: dict[str, Any] = {"env_id": ENV_ID, "reference_id": REFERENCE_ID, "robot": args.robot,
-                           "physics": args.physics, "rounds": args.rounds, "steps_per_round": args.steps,
+                           "physics": args.physics, "sim_options": {"compliant_person": args.compliant_person,
+                           "timestep": args.timestep, "ik_iterations": args.ik_iterations},
+                           "rounds": args.rounds, "steps_per_round": args.steps,
                            "omp_num_threads": os.environ.get("OMP_NUM_THREADS"), "cpus": os.cpu_count(),
                            "machine": platform.processor() or platform.machine(),
                            "instances": len(runners[0].env.unwrapped.pool.instances)}

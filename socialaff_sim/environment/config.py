@@ -28,10 +28,13 @@ def physics_config(preset: str) -> SimConfig:
     * ``accurate``: the simulator's defaults (:class:`~socialaff_sim.sim.simulator.SimConfig`,
       physics step Δt = 4 ms, i.e. about 20 physics steps per data frame at 12 fps);
     * ``fast``: twice the default Δt (8 ms: half as many physics steps per data frame) and at most
-      three IK iterations per frame: what makes the environment reach its speed target on one core
+      three IK iterations per frame: about half the cost per env step of ``accurate`` on one core
       (two let a fast high-five swing, at the robots' 20 rad/s, miss the touch in 2 of 8 replays).
       The servos (ω = 25 rad/s) stay well resolved (ω·Δt = 0.2); contacts are softer, and replaying the
       recorded agent 1 meets every sub-goal a little less often (docs/environment.md, "Speed").
+
+    Finer trade-offs (a kinematic person, a longer Δt, fewer IK steps) are ``SimConfig`` fields passed as
+    ``sim_config=`` to the environment; their measured cost is in docs/environment.md, "Speed options".
     """
     base = SimConfig()
     if preset == "accurate":

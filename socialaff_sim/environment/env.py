@@ -35,7 +35,7 @@ from gymnasium import spaces
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, SimulationError, choices
 from ..retarget.robot import RobotSpec, load_robot
-from ..sim.simulator import Simulator, StepResult
+from ..sim.simulator import SimConfig, Simulator, StepResult
 from .action_limits import BodyEnvelope, EnvelopeConfig, FeasibleTargets
 from .adapters import AdapterFrame, AffordanceAdapter, GroundTruthAdapter, RobotPose
 from .bodymap import RobotToAgent
@@ -74,6 +74,10 @@ class SocialAffordanceEnv(gym.Env):
         A custom :class:`~socialaff_sim.environment.adapters.AffordanceAdapter` (instead of ``model``).
     history, max_frames, physics, terminate_on_failure, fall_height, fall_tilt, render_width, render_height:
         Fields of :class:`~socialaff_sim.environment.config.EnvConfig`.
+    sim_config:
+        Simulator settings (:class:`~socialaff_sim.sim.simulator.SimConfig`) used instead of the ``physics``
+        preset's, e.g. ``dataclasses.replace(physics_config("fast"), compliant_person=False)`` (the
+        trade-offs are measured in docs/environment.md, "Speed"); ``None``: the preset's.
     envelope:
         The envelope targets are projected into (:class:`~socialaff_sim.environment.action_limits.EnvelopeConfig`).
     reward:
@@ -97,6 +101,7 @@ class SocialAffordanceEnv(gym.Env):
         history: int = 4,
         max_frames: int | None = None,
         physics: str = "fast",
+        sim_config: SimConfig | None = None,
         reward: RewardConfig | None = None,
         terminate_on_failure: bool = True,
         fall_height: float = 0.5,
@@ -131,7 +136,9 @@ class SocialAffordanceEnv(gym.Env):
                               f"log_likelihood), found {type(adapter).__name__}")
         self.adapter: AffordanceAdapter = adapter
         self.robot = robot if isinstance(robot, RobotSpec) else load_robot(robot)
-        self._sim_config = physics_config(self.config.physics)
+        if sim_config is not None and not isinstance(sim_config, SimConfig):
+            raise ConfigError(f"sim_config: expected None or a SimConfig, found {type(sim_config).__name__}")
+        self._sim_config = physics_config(self.config.physics) if sim_config is None else sim_config
         self._sims: dict[str, Simulator] = {}
         self._to_agent = RobotToAgent()
         first = self.pool.instances[0]

@@ -14,6 +14,13 @@ throw leaves with the thrower's speed and direction even from a noisy track and
 without the half-frame bias of a finite difference. An object that starts away
 from agent 0's hands is free from the start.
 
+While the person carries it, the object does not collide with the person: the person's hold is the
+recording, not a contact, and the capsule hand overlaps the object it holds (the track is recorded at
+some point of the object, not at its surface). Such contacts would push the person's compliant hand
+parts off an object that is moved kinematically every step, and once a robot hand has gripped the same
+object, the hand parts jammed between the two diverged (H1, hand_over_013, random actions). From the
+release on, the person and the object collide again (:func:`person_contact`).
+
 Grasping: a robot hand (or its forearm, trapping the object) that touches the
 object grips it, like a suction gripper: the scene's weld between that hand and
 the object is switched on with their relative pose at that moment
@@ -28,12 +35,12 @@ import mujoco
 import numpy as np
 
 from ..data.interaction import Interaction
-from .scene import Scene
+from .scene import OBJECT_AFFINITY, PERSON_CONTYPE, Scene
 from .tasks import ObjectTask
 
 __all__ = [
     "CarryPlan", "plan_carry", "fit_flight", "hold_object", "release_object", "park_object", "grip_on_contact",
-    "GRAVITY", "FIT_FRAMES",
+    "person_contact", "GRAVITY", "FIT_FRAMES",
 ]
 
 GRAVITY = 9.81
@@ -143,20 +150,35 @@ def _set_free(scene: Scene, data: mujoco.MjData, pos: np.ndarray, vel: np.ndarra
     data.qvel[va + 3:va + 6] = 0.0
 
 
+def person_contact(scene: Scene, on: bool) -> None:
+    """Let the object collide with the person (``on``) or not (while the person carries it); the robot and
+    the floor always collide with it. Sets the object geom's and body's ``conaffinity`` in ``scene.model``."""
+    m = scene.model
+    g = scene.object_geom
+    aff = OBJECT_AFFINITY if on else OBJECT_AFFINITY & ~PERSON_CONTYPE
+    if m.geom_conaffinity[g] != aff:
+        m.geom_conaffinity[g] = aff
+        m.body_conaffinity[scene.object_body] = aff
+
+
 def hold_object(scene: Scene, data: mujoco.MjData, plan: CarryPlan, s: float, moving: bool = True) -> None:
-    """Put the object on its recorded track at fractional frame ``s`` (with the track's velocity if ``moving``)."""
+    """Put the object on its recorded track at fractional frame ``s`` (with the track's velocity if ``moving``);
+    the person carries it, so it does not collide with the person (:func:`person_contact`)."""
+    person_contact(scene, False)
     vel = plan.velocity[min(int(s), len(plan.velocity) - 1)] if moving else np.zeros(3)
     _set_free(scene, data, plan.position(s), vel)
 
 
 def release_object(scene: Scene, data: mujoco.MjData, plan: CarryPlan, s: float) -> None:
-    """Let the object go at fractional frame ``s`` in the fitted flight state."""
+    """Let the object go at fractional frame ``s`` in the fitted flight state; from now on it collides with the person."""
+    person_contact(scene, True)
     pos, vel = plan.release_state(s)
     _set_free(scene, data, pos, vel)
 
 
 def park_object(scene: Scene, data: mujoco.MjData, radius: float) -> None:
     """Put an object the instance does not use out of the way, at rest on the floor."""
+    person_contact(scene, True)
     _set_free(scene, data, np.array([5.0, 5.0, radius + 0.01]), np.zeros(3))
 
 

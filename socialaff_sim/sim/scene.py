@@ -19,7 +19,8 @@ Contents of the world:
 
 Collision bits: robot (contype 1, conaffinity 3) touches itself, the human, the
 floor and the object; human (2, 0) touches only the robot and the object; floor
-(4, 1) touches the robot and the object; object (1, 3) touches everything.
+(4, 1) touches the robot and the object; object (1, 3) touches everything (but the person while the person
+carries it: :func:`~socialaff_sim.sim.carry.person_contact` clears its bit 2 then).
 """
 
 from __future__ import annotations
@@ -36,9 +37,10 @@ from ..retarget.robot import RobotSpec
 from .chair import add_chair
 from .human import HumanBody, human_body
 from .robot_mjcf import robot_mjcf, tune_servos
-from .scene_human import HUMAN_RGBA, add_human, part_names, pose_compliant, set_human_sizes
+from .scene_human import HUMAN_RGBA, PERSON_CONTYPE, add_human, part_names, pose_compliant, set_human_sizes
 
-__all__ = ["ObjectSpec", "Scene", "build_scene", "set_human_sizes", "pose_compliant", "HUMAN_RGBA", "ROBOT_RGBA", "OBJECT_RGBA"]
+__all__ = ["ObjectSpec", "Scene", "build_scene", "set_human_sizes", "pose_compliant", "HUMAN_RGBA", "ROBOT_RGBA", "OBJECT_RGBA",
+           "OBJECT_AFFINITY", "PERSON_CONTYPE"]
 
 ROBOT_RGBA = (0.25, 0.75, 0.3, 1.0)
 HARNESS_IMPEDANCE = 0.9
@@ -46,6 +48,9 @@ HARNESS_IMPEDANCE = 0.9
 Standing still on its feet, the H1 took 2.5 % of its weight from it at τ = 0.02 s (1.7 % at 0.05 s), and
 hanging sagged by 3.5 cm (4.4 cm); the rigid weld (0.008 s, d = 0.99): 11.5 % standing."""
 OBJECT_RGBA = (0.95, 0.8, 0.2, 1.0)
+OBJECT_AFFINITY = 3
+"""``conaffinity`` of the object: bit 1 (the robot, and the floor through its own affinity) and bit 2
+(:data:`~socialaff_sim.sim.scene_human.PERSON_CONTYPE`, the person)."""
 GRIP_SOLREF = (0.01, 1.0)
 """Time constant (s) and damping ratio of the grip welds between a robot hand and the object."""
 
@@ -155,7 +160,7 @@ class Scene:
 def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None = None,
                 *, physics: bool = True, timestep: float = 0.004, servo_bandwidth: float | None = 25.0,
                 gravity_compensation: bool = False, harness_time_constant: float | None = None,
-                stance_bandwidth: float | None = None, chair: bool = False) -> Scene:
+                stance_bandwidth: float | None = None, chair: bool = False, compliant_person: bool = True) -> Scene:
     """Compile the scene for one robot, one skeleton layout and an optional object.
 
     ``physics=False`` gives the IK scene: robot and human only (no floor, object,
@@ -166,6 +171,8 @@ def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None
     impedance :data:`HARNESS_IMPEDANCE` (a compliant harness); ``None``: by a rigid weld.
     ``stance_bandwidth`` (rad/s): leg servos stiff enough to stand on (see :func:`tune_servos`); ``None``: not.
     ``chair``: the physics scene gets a chair (:func:`~socialaff_sim.sim.chair.add_chair`).
+    ``compliant_person``: the person's forearms and hands are free bodies on soft welds in the physics scene;
+    ``False``: every part of the person is a mocap body (a pure replay; see ``SimConfig.compliant_person``).
     """
     root = mjcf.RootElement(model="socialaff_scene")
     root.compiler.angle = "radian"
@@ -190,7 +197,7 @@ def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None
     frame = root.worldbody.attach(rob)
     frame.add("freejoint", name="root")
     body = human_body(layout)
-    add_human(root, body, physics)
+    add_human(root, body, physics and compliant_person)
     if physics:
         anchor = root.worldbody.add("body", name="robot_anchor", mocap=True)
         # Rigid by default (a gantry); a compliant harness is a soft weld: MuJoCo then moves the root
@@ -207,7 +214,7 @@ def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None
         ob = root.worldbody.add("body", name="object", pos=(0, 0, -5))
         ob.add("freejoint", name="object")
         ob.add("geom", name="object", type=obj.shape, size=list(obj.size), mass=obj.mass,
-               contype=1, conaffinity=3, rgba=OBJECT_RGBA, condim=4, friction=(1.0, 0.02, 0.002))
+               contype=1, conaffinity=OBJECT_AFFINITY, rgba=OBJECT_RGBA, condim=4, friction=(1.0, 0.02, 0.002))
         for side, names in zip(("left", "right"), robot.hands, strict=True):
             root.equality.add("weld", name=f"grip_{side}", body1=f"robot/{names[0]}", body2=ob,
                               active=False, solref=GRIP_SOLREF)

@@ -19,12 +19,14 @@ from dm_control import mjcf
 
 from .human import HAND_SPHERE_RADIUS, HumanBody
 
-__all__ = ["HUMAN_RGBA", "HUMAN_CONTACT", "HUMAN_DENSITY", "HUMAN_WELD_SOLREF", "part_names", "add_human",
+__all__ = ["HUMAN_RGBA", "HUMAN_CONTACT", "PERSON_CONTYPE", "HUMAN_DENSITY", "HUMAN_WELD_SOLREF", "part_names", "add_human",
            "set_human_sizes", "pose_compliant", "HumanScene"]
 
 HUMAN_RGBA = (0.85, 0.2, 0.2, 1.0)
 HUMAN_CONTACT = {"solref": (0.03, 1.0), "solimp": (0.6, 0.9, 0.02, 0.5, 2), "solmix": 1000.0}
 """Contact softness of the human's capsules (flesh, not steel); solmix makes them set the pair's values."""
+PERSON_CONTYPE = 2
+"""Collision bit (``contype``) of every geom of the person (their ``conaffinity`` is 0)."""
 HUMAN_DENSITY = 1000.0
 """kg/m³ of the compliant arm parts of the human (about that of flesh)."""
 HUMAN_WELD_SOLREF = (0.02, 1.0)
@@ -45,7 +47,7 @@ def add_human(root: mjcf.RootElement, body: HumanBody, physics: bool) -> None:
             shape = {"type": "capsule", "size": [float(body.radii[i]), 0.05]}
         else:
             shape = {"type": "sphere", "size": [HAND_SPHERE_RADIUS]}
-        geom = {"name": name, "contype": 2, "conaffinity": 0, "rgba": HUMAN_RGBA, "group": 1, **HUMAN_CONTACT, **shape}
+        geom = {"name": name, "contype": PERSON_CONTYPE, "conaffinity": 0, "rgba": HUMAN_RGBA, "group": 1, **HUMAN_CONTACT, **shape}
         if i not in compliant:
             root.worldbody.add("body", name=name, mocap=True).add("geom", **geom)
             continue

@@ -25,7 +25,7 @@ class SimConfig:
 
     Fields by concept
     -----------------
-    - Physics: timestep, servo_bandwidth, hand_force, grip, settle_iterations
+    - Physics: timestep, servo_bandwidth, hand_force, grip, compliant_person, settle_iterations
     - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth, stance
     - Retargeting: ik, scaling, contact_completion
     """
@@ -75,6 +75,13 @@ class SimConfig:
     they are."""
     grip: bool = True
     """[—]: Whether a robot hand touching the object grips it (its grip weld switches on and stays on)."""
+    compliant_person: bool = True
+    """[—]: Whether the replayed person's forearms and hands are simulated: free bodies held to the recording
+    by soft welds (:mod:`~socialaff_sim.sim.scene_human`), so that they yield a few centimetres when the robot
+    grips or pushes them. ``False``: every part of the person is a mocap body, a pure replay that nothing
+    pushes (the robot's contacts with it, its contact forces and the sub-goals are still scored); the physics
+    then has the robot's and the object's degrees of freedom only (Stubby: 111 → 39), which makes a physics
+    step about twice as fast. See docs/environment.md, "Speed", for the measured effect."""
     settle_iterations: int = 20
     """[—]: IK solves spent at reset to reach the first frame's targets before physics starts."""
 

@@ -74,7 +74,7 @@ class Simulator:
                 gravity_compensation=self.config.gravity_compensation,
                 harness_time_constant=None if self.config.gravity_compensation else self.config.harness_time_constant,
                 stance_bandwidth=None if self.config.gravity_compensation else self._leg_bandwidth(),
-                chair=self.task.chair,
+                chair=self.task.chair, compliant_person=self.config.compliant_person,
             )
             if not hasattr(self, "measurements"):
                 self.measurements = measure_robot(ik_scene.model, ik_scene.home_qpos, ik_scene.frame_kinds,
