@@ -17,6 +17,7 @@ from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.episode import run_episode, support_caption, support_summary
 from socialaff_sim.sim.scene import Scene, build_scene
 from socialaff_sim.sim.simulator import SimConfig, Simulator
+from socialaff_sim.sim.stage_build import leg_bandwidth
 from socialaff_sim.sim.stance import StanceConfig, StanceControl
 
 LAYOUT = get_layout("kinect_v2")
@@ -147,11 +148,9 @@ def test_stubby_catches_the_ball_on_its_own_feet(ours) -> None:
 
 def test_stance_defaults_are_off_and_leg_gains_follow_the_controller(ours) -> None:
     assert SimConfig().stance is None
-    sim = Simulator(ours, "shake_hands", SimConfig(stance=StanceConfig(leg_bandwidth=7.0)))
-    assert sim._leg_bandwidth() == 7.0
-    assert Simulator(ours, "shake_hands", SimConfig(stance=StanceConfig(release=False)))._leg_bandwidth() is None
-    assert Simulator(ours, "shake_hands", dataclasses.replace(
-        SimConfig(stance=StanceConfig()), stance_bandwidth=12.0))._leg_bandwidth() == 12.0
+    assert leg_bandwidth(SimConfig(stance=StanceConfig(leg_bandwidth=7.0))) == 7.0
+    assert leg_bandwidth(SimConfig(stance=StanceConfig(release=False))) is None
+    assert leg_bandwidth(dataclasses.replace(SimConfig(stance=StanceConfig()), stance_bandwidth=12.0)) == 12.0
     assert IKConfig().com_cost == 0.0  # the IK's own centre-of-mass task stays off outside released frames
 
 

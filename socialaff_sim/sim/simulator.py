@@ -12,7 +12,6 @@ frame, and the task's sub-goals and failures are scored on the contacts.
 from __future__ import annotations
 
 import copy
-import dataclasses
 import time
 from pathlib import Path
 
@@ -22,22 +21,19 @@ import numpy as np
 from ..data.interaction import Interaction
 from ..errors import SimulationError
 from ..retarget.contact_completion import ContactCompletion
-from ..retarget.ik import RobotIK
 from ..retarget.robot import RobotSpec, load_robot
-from ..retarget.scaling import RobotFrame, measure_robot, object_anchors
+from ..retarget.scaling import RobotFrame, object_anchors
 from .chair import chair_pose, place_chair
 from .contact_targets import ContactAnchors, object_in_flight
 from .carry import CarryPlan, hold_object, park_object, release_object
 from .human import HumanPose
-from .reach import reach_model, reachable_targets
+from .reach import reachable_targets
 from .scene import Scene, pose_compliant, set_human_sizes
 from .reset_cache import ResetCache, Settled, build_placement
 from .scoring import SubgoalScorer
-from .stage import Stage, compile_scenes, contact_exemptions, key_frames, key_frames_at
-from .substeps import FrameStepper
-from .feedforward import StandingFeedforward
+from .stage import Stage, contact_exemptions, key_frames, key_frames_at
+from .stage_build import build_stage
 from .footlock import FootLock
-from .stance import StanceControl
 from .sim_config import SimConfig, StepResult
 from .support import SupportMeter
 from .tasks import TaskSpec, load_task
@@ -67,42 +63,13 @@ class Simulator:
     def _get_stage(self, inter: Interaction) -> Stage:
         name = inter.layout.name
         if name not in self._stages:
-            obj = self.task.object.spec if self.task.object is not None else None
-            scene, ik_scene, ik_model, ik_map = compile_scenes(
-                self.robot, inter.layout, obj, timestep=self.config.timestep,
-                servo_bandwidth=self.config.servo_bandwidth, hand_force=self.config.hand_force,
-                gravity_compensation=self.config.gravity_compensation,
-                harness_time_constant=None if self.config.gravity_compensation else self.config.harness_time_constant,
-                stance_bandwidth=None if self.config.gravity_compensation else self._leg_bandwidth(),
-                chair=self.task.chair, compliant_person=self.config.compliant_person,
-            )
-            if not hasattr(self, "measurements"):
-                self.measurements = measure_robot(ik_scene.model, ik_scene.home_qpos, ik_scene.frame_kinds,
-                                                  ik_scene.frame_ids, ik_scene.limb_body_ids)
-                self._home_keys = key_frames_at(ik_scene, ik_scene.home_qpos)
-            meas = self.measurements
-            reach = reach_model(scene, meas.arm, meas.leg, meas.shoulders, meas.hips, self.config.ik.min_distance)
-            if meas.trunk_radius == 0.0:
-                self.measurements = dataclasses.replace(meas, trunk_radius=reach.trunk_radius, height=reach.height,
-                                                        hand=float(np.mean(reach.hand_centre)))
-            puppet = self.config.gravity_compensation
-            meter = SupportMeter(scene)
-            data = mujoco.MjData(scene.model)
-            scorer = SubgoalScorer(scene, self.task)
-            self._stages[name] = Stage(
-                scene, data, ik_scene, RobotIK(ik_model, self.config.ik), scorer, ik_map,
-                FrameStepper(scene, data, scorer, meter, None if puppet else StandingFeedforward(scene)),
-                reach, stance=None if puppet or self.config.stance is None else StanceControl(scene, self.config.stance),
-            )
+            first = not hasattr(self, "measurements")
+            stage, self.measurements, home_keys = build_stage(
+                self.robot, self.task, self.config, inter.layout, None if first else self.measurements)
+            if first:
+                self._home_keys = home_keys
+            self._stages[name] = stage
         return self._stages[name]
-
-    def _leg_bandwidth(self) -> float | None:
-        """The legs' standing bandwidth (rad/s): ``SimConfig.stance_bandwidth``, or the stance controller's
-        when the harness may let go and that is ``None``."""
-        c = self.config
-        if c.stance_bandwidth is None and c.stance is not None and c.stance.release:
-            return c.stance.leg_bandwidth
-        return c.stance_bandwidth
 
     def reset(
         self, interaction: Interaction, initial_targets: np.ndarray | None = None, *, placement_frames: int | None = None
@@ -320,23 +287,22 @@ class Simulator:
                        com_cost=None if com_target is None else stage.stance.config.com_cost)  # type: ignore[union-attr]
         ik_seconds = time.thread_time() - tic
 
-        carry = None
-        if self.carry is not None and not self._released:
-            plan, n = self.carry, self.n_sub
+        plan, n = self.carry, self.n_sub
 
-            def carry(k: int, now: float) -> bool:
-                s0 = t0 + k / n
-                if s0 + 1.0 / n > plan.release_frame - 1 + 1e-9:
-                    self.time = now
-                    self._release(s0)
-                    return False
-                self._place_object(s0, moving=True)
-                return True
+        def carry(k: int, now: float) -> bool:
+            """Move the carried object along its plan at sub-step ``k``; release it (False) at its frame."""
+            s0 = t0 + k / n
+            if s0 + 1.0 / n > plan.release_frame - 1 + 1e-9:  # type: ignore[union-attr]
+                self.time = now
+                self._release(s0)
+                return False
+            self._place_object(s0, moving=True)
+            return True
 
         self.time, force = stage.stepper.run(
             self.n_sub, fps, self._to_physics(self._q), self._to_physics(res.qpos),
             (self.pose.pos[t0], self.pose.pos[t1]), (self.pose.quat[t0], self.pose.quat[t1]), self.time, subevent,
-            grip=self.config.grip, carry=carry,
+            grip=self.config.grip, carry=carry if plan is not None and not self._released else None,
             feet=None if self._footlock is None else planted,
         )
         scorer = stage.scorer
