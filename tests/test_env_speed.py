@@ -7,7 +7,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import socialaff_sim.sim.simulator as simulator_module
+import socialaff_sim.sim.stage_build as stage_build_module
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.environment import SocialAffordanceEnv
 from socialaff_sim.retarget.ik import RobotIK
@@ -85,13 +85,13 @@ def test_reused_env_replays_an_instance_as_a_fresh_env_plays_it(data):
 
 def test_scene_compiled_once_per_robot_and_task(data, monkeypatch):
     calls = []
-    original = simulator_module.compile_scenes
+    original = stage_build_module.compile_scenes
 
     def counting(*args, **kwargs):
         calls.append(args[0].name)
         return original(*args, **kwargs)
 
-    monkeypatch.setattr(simulator_module, "compile_scenes", counting)
+    monkeypatch.setattr(stage_build_module, "compile_scenes", counting)
     env = make(data, action_mode="residual")
     for s in range(12):
         env.reset(seed=s)
