@@ -1,0 +1,96 @@
+"""Development split for the switching regression (issue 24): never reads an evaluation test fold's results.
+
+For every interaction class of a dataset the evaluation's own folds are made (seed 0, 4 folds, the
+dataset's split); the instances of folds 2–4 (the training data of the evaluation's fold 1) form the
+development pool: rotation r trains on two of those folds and validates on the third (fold 2 + r).
+The affordance model (preset ``default``) is fitted once per class and rotation; the synthesizer's
+causal traces (belief, phase, plan) of the training and validation instances are computed once; then
+each variant of the switching regression (which groups the inner CV may choose among) is fitted on the
+training traces and scored on the validation instances (mean key-joint distance per instance, frames
+≥ T0, averaged per class, then over classes). Also reported: ``hold`` and the plan itself (Algorithm 2's
+key joints, the full model before this change). Usage::
+
+    python scripts/dev_switching.py --data nuisi:../shared/data/nuisi_v1 --split block [--rotation 0] [--labels a,b]
+
+Prints one line per class and the averages; the library never imports this script.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+
+import numpy as np
+
+from socialaff_sim.data import load_dataset
+from socialaff_sim.evaluation.crossval import fold_rng
+from socialaff_sim.evaluation.splits import make_folds
+from socialaff_sim.inference.methods import AffordanceMethod, trace
+from socialaff_sim.inference.reaction_regression import key_columns
+from socialaff_sim.inference.switching import SwitchingConfig, SwitchingRegression, instance_rows
+
+T0 = 10
+VARIANTS = {
+    "ridge": ((),),
+    "sub+phase": ((), ("subevent",), ("subevent", "phase")),
+    "sub+phase+gated": ((), ("subevent",), ("subevent", "phase"), ("subevent", "phase", "gated")),
+    "plan": ((), ("plan",)),
+    "from_plan": ((), ("from_plan",)),
+    "all": SwitchingConfig().extras,
+}
+
+
+def _err(pred: np.ndarray, truth: np.ndarray) -> float:
+    return float(np.linalg.norm((pred - truth).reshape(len(pred), -1, 3), axis=-1).mean())
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--data", required=True)
+    ap.add_argument("--split", default="pair")
+    ap.add_argument("--rotation", type=int, default=0, choices=(0, 1, 2))
+    ap.add_argument("--labels", default="")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    ds = load_dataset(args.data)
+    labels = [x for x in args.labels.split(",") if x] or list(ds.labels)
+    table: dict[str, dict[str, float]] = {}
+    for label in labels:
+        insts = ds.of_label(label).interactions
+        folds = make_folds(insts, 4, args.split, rng=fold_rng(0, label))
+        dev = [list(folds[f][1]) for f in (1, 2, 3)]
+        val_idx = dev[args.rotation]
+        tr_idx = [i for k, f in enumerate(dev) if k != args.rotation for i in f]
+        train = [insts[i] for i in tr_idx if insts[i].n_frames > T0 + 1]
+        val = [insts[i] for i in val_idx if insts[i].n_frames > T0 + 1]
+        rng = np.random.default_rng(args.seed)
+        t0 = time.perf_counter()
+        method = AffordanceMethod.from_preset("full", "default", reaction=None).fit(train, rng=rng)
+        syn = dataclasses.replace(method.synthesis, n_observed=T0)
+        tr_traces = [trace(method.model_, method.body_, i, syn, rng) for i in train]
+        va_traces = [trace(method.model_, method.body_, i, syn, rng) for i in val]
+        fit_s = time.perf_counter() - t0
+        kc = key_columns(train[0])
+        va_rows = [instance_rows(i, tr, T0, SwitchingConfig().features) for i, tr in zip(val, va_traces, strict=True)]
+        row = {"hold": float(np.mean([_err(np.zeros_like(Y[:, kc]), Y[:, kc]) for _, Y, _ in va_rows]))}
+        width = va_rows[0][0].shape[1]
+        plan_cols = (width - 15 + np.arange(15)).reshape(5, 3)[train[0].layout.key_available].reshape(-1)
+        row["plan"] = float(np.mean([_err(X[:, plan_cols], Y[:, kc]) for X, Y, _ in va_rows]))
+        chosen = {}
+        for name, extras in VARIANTS.items():
+            reg = SwitchingRegression(SwitchingConfig(extras=extras)).fit(
+                train, tr_traces, n_subevents=method.model_.n_subevents_, rng=np.random.default_rng(args.seed))
+            row["sw:" + name] = float(np.mean([_err(reg.displacement(X, O)[:, kc], Y[:, kc]) for X, Y, O in va_rows]))
+            chosen[name] = (reg.groups_, reg.penalty_)
+        table[label] = row
+        print(f"{label:>14} n={len(train)}/{len(val)} S={method.model_.n_subevents_} fit+traces {fit_s:.0f}s  "
+              + "  ".join(f"{k} {v:.4f}" for k, v in row.items()), flush=True)
+        print(f"{'':>14} chosen: " + "; ".join(f"{k}: {'+'.join(g) or 'hold'} λ={lam:g}" for k, (g, lam) in chosen.items()),
+              flush=True)
+    keys = next(iter(table.values())).keys()
+    print(f"{'AVERAGE':>14} " + "  ".join(f"{k} {np.mean([r[k] for r in table.values()]):.4f}" for k in keys))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,185 @@
+"""The full model's switching regression: the belief-gated mixture against brute force, the inner CV against an
+explicit loop, each selection decision (``hold``, the ``from_plan`` prior, the gated experts), and the full
+method end to end (default preset uses it, the paper preset does not)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from socialaff_sim.data import Interaction
+from socialaff_sim.data.skeletons import KEY_JOINTS
+from socialaff_sim.errors import ConfigError, ModelError, NotFittedError
+from socialaff_sim.evaluation.streaming import run_protocol
+from socialaff_sim.inference.methods import AffordanceMethod
+from socialaff_sim.inference.reaction_features import FEATURE_GROUPS, N_FEATURES, RAMP_COLUMN, group_columns
+from socialaff_sim.inference.reaction_regression import HOLD, cv_errors, key_error, ridge_solve, select
+from socialaff_sim.inference.switching import (
+    SwitchingConfig,
+    SwitchingRegression,
+    Trace,
+    instance_rows,
+    switching_columns,
+    switching_rows,
+)
+from socialaff_sim.learning.config import LearningConfig
+
+T0 = 10
+
+
+def test_gated_columns_are_the_mixture_of_experts(rng: np.random.Generator) -> None:
+    """rows[:, gated columns] @ W equals Σ_s b_s (x @ W_s), computed by brute force per row and expert."""
+    N, S = 7, 3
+    x = rng.normal(size=(N, N_FEATURES))
+    b = rng.dirichlet(np.ones(S), size=N)
+    rows = switching_rows(x, b, rng.uniform(size=N), rng.normal(size=(N, 15)))
+    groups = ("agent0", "own_velocity")
+    motion = group_columns(groups)
+    experts = rng.normal(size=(S, len(motion), 2))
+    gated = switching_columns(groups + ("gated",), S)[len(motion):]
+    got = rows[:, gated] @ experts.reshape(S * len(motion), 2)
+    ref = np.array([[sum(b[n, s] * x[n, motion] @ experts[s][:, d] for s in range(S)) for d in range(2)] for n in range(N)])
+    np.testing.assert_allclose(got, ref, atol=1e-12)
+
+
+def test_subevent_and_phase_columns(rng: np.random.Generator) -> None:
+    N, S = 5, 4
+    x = rng.normal(size=(N, N_FEATURES))
+    b = rng.dirichlet(np.ones(S), size=N)
+    phi = rng.uniform(size=N)
+    phi[0] = np.nan  # observed frames: counts as 0
+    plan = rng.normal(size=(N, 15))
+    rows = switching_rows(x, b, phi, plan)
+    r = x[:, RAMP_COLUMN]
+    np.testing.assert_allclose(rows[:, switching_columns(("subevent",), S)], b * r[:, None])
+    np.testing.assert_allclose(rows[:, switching_columns(("phase",), S)], b * (np.nan_to_num(phi) * r)[:, None])
+    np.testing.assert_allclose(rows[:, switching_columns(("plan",), S)], plan)
+    np.testing.assert_allclose(rows[:, switching_columns(FEATURE_GROUPS, S)], x)
+    assert switching_columns(("from_plan",), S).size == 0  # the prior has no columns
+    assert rows.shape[1] == N_FEATURES + 2 * S + S * N_FEATURES + 15
+
+
+def test_cv_errors_match_an_explicit_loop(rng: np.random.Generator) -> None:
+    """The eigen-decomposed inner CV, with and without the offset prior, against per-λ solves."""
+    N, F, K = 60, 6, 3
+    X = rng.normal(size=(N, F))
+    Y = X[:, :2] @ rng.normal(size=(2, K)) + 0.1 * rng.normal(size=(N, K))
+    off = 0.5 * Y + 0.05 * rng.normal(size=(N, K))
+    w = rng.uniform(0.5, 1.5, size=N)
+    ids = np.repeat(np.arange(12), 5)
+    folds = [[0, 1, 2, 3], [4, 5, 6, 7], [8, 9, 10, 11]]
+    cands = {("a",): np.array([0, 1]), ("b",): np.array([0, 1, 2, 3, 4, 5]), ("a", "from_plan"): np.array([0, 1]),
+             ("from_plan",): np.zeros(0, np.int64)}
+    pens = (0.01, 1.0)
+    got = cv_errors(X, Y, w, ids, folds, cands, pens, offset=off, from_offset=[("a", "from_plan"), ("from_plan",)])
+    for name, cols in cands.items():
+        base = off if "from_plan" in name else np.zeros_like(Y)
+        for lam in (pens if len(cols) else (math.inf,)):
+            errs = []
+            for held in folds:
+                ho = np.isin(ids, held)
+                tr = ~ho
+                wt = w[tr] / w[tr].sum()
+                if len(cols):
+                    Xt = X[tr][:, cols]
+                    W = ridge_solve((Xt * wt[:, None]).T @ Xt, (Xt * wt[:, None]).T @ (Y[tr] - base[tr]), lam)
+                    pred = base[ho] + X[ho][:, cols] @ W
+                else:
+                    pred = base[ho]
+                errs.append(key_error(pred, Y[ho], ids[ho]))
+            assert got[(name, lam)] == pytest.approx(np.mean(errs), rel=1e-9)
+    assert got[(HOLD, math.inf)] == pytest.approx(np.mean([key_error(0 * Y[np.isin(ids, f)], Y[np.isin(ids, f)],
+                                                                       ids[np.isin(ids, f)]) for f in folds]))
+
+
+# -- selection decisions on toy data ---------------------------------------------------------------
+def _instance(rng: np.random.Generator, k: int, T: int = 30) -> Interaction:
+    """Agent 0 wanders; agent 1 is set later by the tests (through the traces only the rows matter)."""
+    body = np.array([[0, 0, 0.9], [0, 0.3, 1.0], [0, -0.3, 1.0], [0, 0.1, 0.05], [0, -0.1, 0.05]], float)
+    a0 = body[None] + rng.normal(0, 0.03, size=(T, 5, 3)).cumsum(0)
+    a1 = np.repeat((body + [1.5, 0, 0])[None], T, 0)
+    return Interaction(label="toy", fps=10.0, joints=np.stack([a0, a1], 1), joint_names=KEY_JOINTS,
+                       actors=(f"p{k % 4}", f"q{k % 4}"), instance_id=f"toy{k}")
+
+
+def _toy(rng: np.random.Generator, rule: str, n: int = 12) -> tuple[list[Interaction], list[Trace]]:
+    """Instances whose agent 1 follows ``rule`` after T0: ``plan`` (agent 1 = the trace's plan, which is
+    unrelated to agent 0), ``switch`` (agent 1 moves by +agent 0's displacement in sub-event 0 and by −it in
+    sub-event 1, the belief one-hot and known), ``still``."""
+    insts, traces = [], []
+    for k in range(n):
+        inst = _instance(rng, k)
+        T = inst.n_frames
+        joints = inst.joints.copy()
+        a0 = joints[:, 0]
+        s = np.zeros(T, int)
+        s[T // 2:] = k % 2  # odd instances switch to sub-event 1 half-way
+        plan_keys = joints[:, 1] + rng.normal(0, 0.2, size=(T, 5, 3)).cumsum(0) * (np.arange(T) >= T0)[:, None, None]
+        if rule == "plan":
+            joints[T0:, 1] = plan_keys[T0:]
+        elif rule == "switch":
+            sign = np.where(s == 0, 1.0, -1.0)[:, None, None]
+            joints[T0:, 1] = joints[T0 - 1, 1] + sign[T0:] * (a0[T0:] - a0[T0 - 1])
+        inst = inst.replace(joints=joints)
+        traces.append(Trace(belief=np.eye(2)[s], phase=np.linspace(0, 1, T), plan=plan_keys, skeleton=plan_keys))
+        insts.append(inst)
+    return insts, traces
+
+
+def test_plan_prior_is_selected_when_the_plan_is_right(rng: np.random.Generator) -> None:
+    insts, traces = _toy(rng, "plan")
+    reg = SwitchingRegression().fit(insts, traces, n_subevents=2, rng=rng)
+    assert reg.from_plan_ and "from_plan" in reg.groups_
+    X, Y, O = instance_rows(insts[0], traces[0], T0, reg.config.features)
+    np.testing.assert_allclose(reg.displacement(X, O), Y, atol=0.02)  # without the prior added back: off by the plan
+
+
+def test_hold_is_selected_when_nothing_predicts(rng: np.random.Generator) -> None:
+    insts, traces = _toy(rng, "still")
+    reg = SwitchingRegression().fit(insts, traces, n_subevents=2, rng=rng)
+    assert reg.groups_ == HOLD and reg.penalty_ == math.inf
+    X, _, O = instance_rows(insts[0], traces[0], T0, reg.config.features)
+    assert np.all(reg.displacement(X, O) == 0)
+    assert select({(HOLD, math.inf): 0.1, (("agent0",), 1.0): 0.1}) == (HOLD, math.inf)  # hold wins ties
+
+
+def test_gated_experts_are_selected_for_a_switching_reaction(rng: np.random.Generator) -> None:
+    insts, traces = _toy(rng, "switch", 16)
+    reg = SwitchingRegression(SwitchingConfig(motion=(("agent0",),))).fit(insts, traces, n_subevents=2, rng=rng)
+    assert "gated" in reg.groups_ and not reg.from_plan_
+    ungated = min(v for (g, _), v in reg.cv_errors_.items() if "gated" not in g)
+    assert reg.cv_errors_[(reg.groups_, reg.penalty_)] < 0.5 * ungated
+
+
+def test_config_and_fit_errors(rng: np.random.Generator) -> None:
+    with pytest.raises(ConfigError, match="extras"):
+        SwitchingConfig(extras=(("nope",),))
+    with pytest.raises(ConfigError, match="motion"):
+        SwitchingConfig(motion=((),))
+    with pytest.raises(ConfigError, match="penalties"):
+        SwitchingConfig(penalties=(0.0,))
+    with pytest.raises(NotFittedError):
+        SwitchingRegression().displacement(np.zeros((1, 3)), np.zeros((1, 3)))
+    insts, traces = _toy(rng, "still", 3)
+    with pytest.raises(ModelError, match="traces"):
+        SwitchingRegression().fit(insts, traces[:2], n_subevents=2, rng=rng)
+    assert all(len(c) for c in SwitchingConfig().candidates())
+    assert ("from_plan",) in SwitchingConfig().candidates()  # the plan alone (Algorithm 2 itself) is a candidate
+
+
+# -- the method end to end -------------------------------------------------------------------------
+def test_default_full_method_uses_the_switching_regression(shake8) -> None:  # noqa: ANN001
+    data = list(shake8)
+    learning = LearningConfig(iterations=2)
+    assert AffordanceMethod.from_preset("full", "default").reaction == SwitchingConfig()
+    assert AffordanceMethod.from_preset("full", "paper").reaction is None  # the paper preset: Algorithm 2's output
+    m = AffordanceMethod("full", learning=learning, reaction=SwitchingConfig()).fit(data[:6], rng=np.random.default_rng(0))
+    assert isinstance(m.reaction_, SwitchingRegression)
+    pred = run_protocol(m, data[6], protocol="causal", n_observed=T0, rng=np.random.default_rng(1))
+    assert np.isfinite(pred.key_joints[T0:]).all() and pred.joints.shape == data[6].joints[:, 1].shape
+    # The reactor's output is the regression's displacement from agent 1's last observed pose.
+    if m.reaction_.groups_ == HOLD:
+        np.testing.assert_allclose(pred.joints[T0:], np.repeat(data[6].filled_joints()[T0 - 1, 1][None],
+                                                               data[6].n_frames - T0, 0), atol=1e-9)
