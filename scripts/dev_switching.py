@@ -19,7 +19,9 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import pickle
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -31,13 +33,13 @@ from socialaff_sim.inference.reaction_regression import key_columns
 from socialaff_sim.inference.switching import SwitchingConfig, SwitchingRegression, instance_rows
 
 T0 = 10
-VARIANTS = {
-    "ridge": ((),),
-    "sub+phase": ((), ("subevent",), ("subevent", "phase")),
-    "sub+phase+gated": ((), ("subevent",), ("subevent", "phase"), ("subevent", "phase", "gated")),
-    "plan": ((), ("plan",)),
-    "from_plan": ((), ("from_plan",)),
-    "all": SwitchingConfig().extras,
+_F = dict(SwitchingConfig().families)
+VARIANTS = {  # name: (families, blend steps)
+    "ridge": ((("motion", _F["motion"]),), 1),
+    "motion+subevent": ((("motion", _F["motion"]), ("subevent", _F["subevent"])), 10),
+    "motion+plan": ((("motion", _F["motion"]), ("plan", _F["plan"])), 10),
+    "all_best1": (SwitchingConfig().families, 1),
+    "all": (SwitchingConfig().families, 10),
 }
 
 
@@ -52,6 +54,7 @@ def main() -> None:
     ap.add_argument("--rotation", type=int, default=0, choices=(0, 1, 2))
     ap.add_argument("--labels", default="")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--cache", default="", help="folder for the fitted traces (re-runs of the variants skip the fits)")
     args = ap.parse_args()
     ds = load_dataset(args.data)
     labels = [x for x in args.labels.split(",") if x] or list(ds.labels)
@@ -66,10 +69,18 @@ def main() -> None:
         val = [insts[i] for i in val_idx if insts[i].n_frames > T0 + 1]
         rng = np.random.default_rng(args.seed)
         t0 = time.perf_counter()
-        method = AffordanceMethod.from_preset("full", "default", reaction=None).fit(train, rng=rng)
-        syn = dataclasses.replace(method.synthesis, n_observed=T0)
-        tr_traces = [trace(method.model_, method.body_, i, syn, rng) for i in train]
-        va_traces = [trace(method.model_, method.body_, i, syn, rng) for i in val]
+        cache = Path(args.cache) / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}.pkl" if args.cache else None
+        if cache is not None and cache.exists():
+            S, tr_traces, va_traces = pickle.loads(cache.read_bytes())
+        else:
+            method = AffordanceMethod.from_preset("full", "default", reaction=None).fit(train, rng=rng)
+            syn = dataclasses.replace(method.synthesis, n_observed=T0)
+            tr_traces = [trace(method.model_, method.body_, i, syn, rng) for i in train]
+            va_traces = [trace(method.model_, method.body_, i, syn, rng) for i in val]
+            S = method.model_.n_subevents_
+            if cache is not None:
+                cache.parent.mkdir(parents=True, exist_ok=True)
+                cache.write_bytes(pickle.dumps((S, tr_traces, va_traces)))
         fit_s = time.perf_counter() - t0
         kc = key_columns(train[0])
         va_rows = [instance_rows(i, tr, T0, SwitchingConfig().features) for i, tr in zip(val, va_traces, strict=True)]
@@ -78,15 +89,15 @@ def main() -> None:
         plan_cols = (width - 15 + np.arange(15)).reshape(5, 3)[train[0].layout.key_available].reshape(-1)
         row["plan"] = float(np.mean([_err(X[:, plan_cols], Y[:, kc]) for X, Y, _ in va_rows]))
         chosen = {}
-        for name, extras in VARIANTS.items():
-            reg = SwitchingRegression(SwitchingConfig(extras=extras)).fit(
-                train, tr_traces, n_subevents=method.model_.n_subevents_, rng=np.random.default_rng(args.seed))
+        for name, (families, steps) in VARIANTS.items():
+            reg = SwitchingRegression(SwitchingConfig(families=families, blend_steps=steps)).fit(
+                train, tr_traces, n_subevents=S, rng=np.random.default_rng(args.seed))
             row["sw:" + name] = float(np.mean([_err(reg.displacement(X, O)[:, kc], Y[:, kc]) for X, Y, O in va_rows]))
-            chosen[name] = (reg.groups_, reg.penalty_)
+            chosen[name] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg.members_) or "hold"
         table[label] = row
-        print(f"{label:>14} n={len(train)}/{len(val)} S={method.model_.n_subevents_} fit+traces {fit_s:.0f}s  "
+        print(f"{label:>14} n={len(train)}/{len(val)} S={S} fit+traces {fit_s:.0f}s  "
               + "  ".join(f"{k} {v:.4f}" for k, v in row.items()), flush=True)
-        print(f"{'':>14} chosen: " + "; ".join(f"{k}: {'+'.join(g) or 'hold'} λ={lam:g}" for k, (g, lam) in chosen.items()),
+        print(f"{'':>14} chosen: " + "; ".join(f"{k}: {v}" for k, v in chosen.items()),
               flush=True)
     keys = next(iter(table.values())).keys()
     print(f"{'AVERAGE':>14} " + "  ".join(f"{k} {np.mean([r[k] for r in table.values()]):.4f}" for k in keys))

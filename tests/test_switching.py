@@ -15,7 +15,16 @@ from socialaff_sim.errors import ConfigError, ModelError, NotFittedError
 from socialaff_sim.evaluation.streaming import run_protocol
 from socialaff_sim.inference.methods import AffordanceMethod
 from socialaff_sim.inference.reaction_features import FEATURE_GROUPS, N_FEATURES, RAMP_COLUMN, group_columns
-from socialaff_sim.inference.reaction_regression import HOLD, cv_errors, key_error, ridge_solve, select
+from socialaff_sim.inference.reaction_regression import (
+    HOLD,
+    blend_weights,
+    cv_errors,
+    fold_predictions,
+    key_error,
+    ridge_solve,
+    select,
+    simplex_grid,
+)
 from socialaff_sim.inference.switching import (
     SwitchingConfig,
     SwitchingRegression,
@@ -94,6 +103,35 @@ def test_cv_errors_match_an_explicit_loop(rng: np.random.Generator) -> None:
                                                                        ids[np.isin(ids, f)]) for f in folds]))
 
 
+def test_fold_predictions_and_blend_against_brute_force(rng: np.random.Generator) -> None:
+    N, K = 40, 3
+    X = rng.normal(size=(N, 4))
+    Y = X[:, :1] @ rng.normal(size=(1, K)) + 0.2 * rng.normal(size=(N, K))
+    w = np.ones(N)
+    ids = np.repeat(np.arange(8), 5)
+    folds = [[0, 1, 2], [3, 4, 5], [6, 7]]
+    base = 0.3 * Y
+    got = fold_predictions(X, Y, w, ids, folds, np.array([0, 2]), 0.5, base)
+    for held in folds:
+        ho = np.isin(ids, held)
+        Xt = X[~ho][:, [0, 2]]
+        W = np.linalg.lstsq(np.vstack([Xt / np.sqrt((~ho).sum()), np.sqrt(0.5) * np.eye(2)]),
+                            np.vstack([(Y[~ho] - base[~ho]) / np.sqrt((~ho).sum()), np.zeros((2, K))]), rcond=None)[0]
+        np.testing.assert_allclose(got[ho], base[ho] + X[ho][:, [0, 2]] @ W, atol=1e-10)
+    np.testing.assert_array_equal(fold_predictions(X, Y, w, ids, folds, np.zeros(0, np.int64), math.inf, base), base)
+    # The blend: an explicit search over every weight vector of the grid, with the evaluation's metric.
+    preds = np.stack([got, 0.8 * Y + 0.1 * rng.normal(size=(N, K)), rng.normal(size=(N, K))])
+    grid = simplex_grid(3, 5)
+    assert len(grid) == 56 and np.all(grid[0] == 0) and np.all(grid.sum(1) <= 1 + 1e-12)
+    alpha, err = blend_weights(preds, Y, ids, 5)
+    errs = [key_error(np.tensordot(a, preds, 1), Y, ids) for a in grid]
+    assert err == pytest.approx(min(errs)) and np.allclose(alpha, grid[int(np.argmin(errs))])
+    assert alpha[2] == 0 and alpha[1] > 0.5  # the noise predictor gets no weight, the good one most
+    # Nothing beats hold: all weight stays on hold (ties go to the smaller total weight).
+    alpha, _ = blend_weights(np.zeros((2, N, K)), Y, ids, 5)
+    assert np.all(alpha == 0)
+
+
 # -- selection decisions on toy data ---------------------------------------------------------------
 def _instance(rng: np.random.Generator, k: int, T: int = 30) -> Interaction:
     """Agent 0 wanders; agent 1 is set later by the tests (through the traces only the rows matter)."""
@@ -131,7 +169,8 @@ def _toy(rng: np.random.Generator, rule: str, n: int = 12) -> tuple[list[Interac
 def test_plan_prior_is_selected_when_the_plan_is_right(rng: np.random.Generator) -> None:
     insts, traces = _toy(rng, "plan")
     reg = SwitchingRegression().fit(insts, traces, n_subevents=2, rng=rng)
-    assert reg.from_plan_ and "from_plan" in reg.groups_
+    assert sum(m.weight for m in reg.members_ if m.from_plan) == pytest.approx(1.0)
+    assert reg.blend_error_ < 0.02
     X, Y, O = instance_rows(insts[0], traces[0], T0, reg.config.features)
     np.testing.assert_allclose(reg.displacement(X, O), Y, atol=0.02)  # without the prior added back: off by the plan
 
@@ -139,7 +178,7 @@ def test_plan_prior_is_selected_when_the_plan_is_right(rng: np.random.Generator)
 def test_hold_is_selected_when_nothing_predicts(rng: np.random.Generator) -> None:
     insts, traces = _toy(rng, "still")
     reg = SwitchingRegression().fit(insts, traces, n_subevents=2, rng=rng)
-    assert reg.groups_ == HOLD and reg.penalty_ == math.inf
+    assert reg.members_ == [] and reg.groups_ == HOLD
     X, _, O = instance_rows(insts[0], traces[0], T0, reg.config.features)
     assert np.all(reg.displacement(X, O) == 0)
     assert select({(HOLD, math.inf): 0.1, (("agent0",), 1.0): 0.1}) == (HOLD, math.inf)  # hold wins ties
@@ -147,15 +186,21 @@ def test_hold_is_selected_when_nothing_predicts(rng: np.random.Generator) -> Non
 
 def test_gated_experts_are_selected_for_a_switching_reaction(rng: np.random.Generator) -> None:
     insts, traces = _toy(rng, "switch", 16)
-    reg = SwitchingRegression(SwitchingConfig(motion=(("agent0",),))).fit(insts, traces, n_subevents=2, rng=rng)
-    assert "gated" in reg.groups_ and not reg.from_plan_
+    families = tuple(f for f in SwitchingConfig().families if f[0] != "plan")
+    reg = SwitchingRegression(SwitchingConfig(motion=(("agent0",),), families=families)).fit(
+        insts, traces, n_subevents=2, rng=rng)
+    (member,) = [m for m in reg.members_ if m.weight >= 0.5]
+    assert "gated" in member.groups and not member.from_plan
     ungated = min(v for (g, _), v in reg.cv_errors_.items() if "gated" not in g)
-    assert reg.cv_errors_[(reg.groups_, reg.penalty_)] < 0.5 * ungated
+    assert reg.cv_errors_[(member.groups, member.penalty)] < 0.5 * ungated
+    assert reg.blend_error_ < 0.5 * ungated
 
 
 def test_config_and_fit_errors(rng: np.random.Generator) -> None:
-    with pytest.raises(ConfigError, match="extras"):
-        SwitchingConfig(extras=(("nope",),))
+    with pytest.raises(ConfigError, match="families"):
+        SwitchingConfig(families=(("x", (("nope",),)),))
+    with pytest.raises(ConfigError, match="blend_steps"):
+        SwitchingConfig(blend_steps=0)
     with pytest.raises(ConfigError, match="motion"):
         SwitchingConfig(motion=((),))
     with pytest.raises(ConfigError, match="penalties"):
@@ -165,8 +210,9 @@ def test_config_and_fit_errors(rng: np.random.Generator) -> None:
     insts, traces = _toy(rng, "still", 3)
     with pytest.raises(ModelError, match="traces"):
         SwitchingRegression().fit(insts, traces[:2], n_subevents=2, rng=rng)
-    assert all(len(c) for c in SwitchingConfig().candidates())
-    assert ("from_plan",) in SwitchingConfig().candidates()  # the plan alone (Algorithm 2 itself) is a candidate
+    assert all(len(c) for f, _ in SwitchingConfig().families for c in SwitchingConfig().candidates(f))
+    assert ("from_plan",) in SwitchingConfig().candidates("plan")  # the plan alone (Algorithm 2 itself) is a candidate
+    assert set(SwitchingConfig().candidates("motion")) == set(SwitchingConfig().motion)  # ridge's candidates
 
 
 # -- the method end to end -------------------------------------------------------------------------

@@ -12,6 +12,7 @@ instance, averaged over instances), and ``hold`` wins ties.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Collection, Mapping, Sequence
 
@@ -20,7 +21,10 @@ import numpy as np
 from ..data.dataset import deal_groups
 from ..data.interaction import Interaction
 
-__all__ = ["HOLD", "cv_errors", "inner_folds", "key_columns", "key_error", "ridge_solve", "scale_of", "select"]
+__all__ = [
+    "HOLD", "blend_weights", "cv_errors", "fold_predictions", "inner_folds", "key_columns", "key_error", "ridge_solve",
+    "scale_of", "select", "simplex_grid",
+]
 
 HOLD: tuple[str, ...] = ()
 """The candidate without features: ``hold`` (λ = ∞)."""
@@ -111,3 +115,53 @@ def cv_errors(
                 pred = base[ho] + xv @ (vc / (evals + lam)[:, None])
                 errors.setdefault((name, float(lam)), []).append(key_error(pred, truth, ids[ho]))
     return {key: float(np.mean(v)) for key, v in errors.items()}
+
+
+def fold_predictions(
+    Xs: np.ndarray,
+    Yk: np.ndarray,
+    w: np.ndarray,
+    ids: np.ndarray,
+    folds: Sequence[Sequence[int]],
+    cols: np.ndarray,
+    penalty: float,
+    base: np.ndarray,
+) -> np.ndarray:
+    """(N, 3·k) held-out predictions of one candidate: for each fold, ``base`` plus the ridge fit (columns
+    ``cols``, λ = ``penalty``; none when ``cols`` is empty or λ infinite) of Yk − base on the other folds."""
+    out = np.array(base, dtype=np.float64, copy=True)
+    if len(cols) == 0 or not math.isfinite(penalty):
+        return out
+    for held in folds:
+        ho = np.isin(ids, held)
+        tr = ~ho
+        wt = w[tr] / w[tr].sum()
+        Xt = Xs[tr][:, cols]
+        W = ridge_solve((Xt * wt[:, None]).T @ Xt, (Xt * wt[:, None]).T @ (Yk[tr] - base[tr]), penalty)
+        out[ho] = base[ho] + Xs[ho][:, cols] @ W
+    return out
+
+
+def simplex_grid(m: int, steps: int) -> np.ndarray:
+    """(C, m) every weight vector with entries in {0, 1/steps, …, 1} and sum ≤ 1, the all-zero one first."""
+    combos = [c for c in itertools.product(range(steps + 1), repeat=m) if sum(c) <= steps]
+    combos.sort(key=lambda c: (sum(c), c))
+    return np.asarray(combos, dtype=np.float64) / steps
+
+
+def blend_weights(preds: np.ndarray, truth: np.ndarray, ids: np.ndarray, steps: int = 10) -> tuple[np.ndarray, float]:
+    """The weights α (M,) ≥ 0, Σα ≤ 1 on the grid of :func:`simplex_grid` minimising the key error of
+    Σ_m α_m preds[m] (the rest of the weight on ``hold``, zero displacement) against ``truth`` (N, 3·k), with
+    ``preds`` (M, N, 3·k) held-out predictions; and that error. Ties go to the smaller total weight (more
+    ``hold``), then to the earlier grid entry."""
+    grid = simplex_grid(preds.shape[0], steps)
+    _, inv = np.unique(ids, return_inverse=True)
+    count = np.bincount(inv)
+    errors = np.empty(len(grid))
+    for lo in range(0, len(grid), 64):
+        blend = np.einsum("cm,mnk->cnk", grid[lo:lo + 64], preds)
+        d = np.linalg.norm((blend - truth[None]).reshape(blend.shape[0], blend.shape[1], -1, 3), axis=-1).mean(axis=2)
+        per = np.stack([np.bincount(inv, weights=row) / count for row in d])
+        errors[lo:lo + 64] = per.mean(axis=1)
+    best = int(np.argmin(errors))  # first minimum: the grid is ordered by total weight
+    return grid[best], float(errors[best])

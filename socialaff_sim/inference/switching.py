@@ -25,10 +25,15 @@ skeleton, in the anchor frame of :mod:`.reaction_features`, that is linear in
     by the model's body fitter) plus the linear term, which the ridge penalty then shrinks toward the plan
     instead of toward ``hold``; alone, it is Algorithm 2's synthesis itself.
 
-Which motion groups, which of these model-driven groups and the ridge penalty λ are chosen by an inner
-cross-validation on the training instances (:mod:`.reaction_regression`; ``hold`` is a candidate and wins
-ties), so a part of the affordance model is used only where it lowered the held-out error on the training
-data; the same configuration (:class:`SwitchingConfig`) serves every dataset. The beliefs, phases and
+The candidates come in *families* (:attr:`SwitchingConfig.families`): ``motion`` (the motion groups alone:
+the ``ridge`` baseline's candidates), ``subevent`` (motion groups with the belief-gated groups) and ``plan``
+(the plan as prior or features, with or without the gated groups). An inner cross-validation on the training
+instances (:mod:`.reaction_regression`) picks each family's best (groups, λ), then the weights α_f ≥ 0,
+Σα_f ≤ 1 (a grid of step 0.1; the rest on ``hold``) of the blend Σ_f α_f prediction_f that minimise the
+held-out error of the families' held-out predictions; ties go to more ``hold``. A part of the affordance
+model is thus used only as far as it lowered the held-out error on the training data, and averaging the
+families' predictions (instead of keeping one winner) damps the selection noise of small training sets.
+The same configuration (:class:`SwitchingConfig`) serves every dataset. The beliefs, phases and
 plans of the training rows come from the synthesizer run causally over each training instance with the
 model fitted on all of them (the inner CV therefore sees in-sample beliefs and plans: slightly optimistic
 about the model-driven groups; refitting the model per inner fold would triple the fit's cost).
@@ -48,10 +53,12 @@ from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError, NotFittedError
 from .protocol import DEFAULT_N_OBSERVED
 from .reaction_features import FEATURE_GROUPS, N_FEATURES, RAMP_COLUMN, Anchor, FeatureConfig, group_columns, training_rows
-from .reaction_regression import HOLD, cv_errors, inner_folds, key_columns, ridge_solve, scale_of, select
+from .reaction_regression import (
+    HOLD, blend_weights, cv_errors, fold_predictions, inner_folds, key_columns, ridge_solve, scale_of, select,
+)
 
 __all__ = [
-    "HOLD", "MODEL_GROUPS", "SwitchingConfig", "SwitchingRegression", "Trace", "instance_rows", "plan_displacement",
+    "HOLD", "MODEL_GROUPS", "Member", "SwitchingConfig", "SwitchingRegression", "Trace", "instance_rows", "plan_displacement",
     "plan_offset", "switching_columns", "switching_rows",
 ]
 
@@ -64,9 +71,10 @@ def _motion_subsets() -> tuple[tuple[str, ...], ...]:
     return tuple(c for r in range(1, len(FEATURE_GROUPS) + 1) for c in itertools.combinations(FEATURE_GROUPS, r))
 
 
-_EXTRAS: tuple[tuple[str, ...], ...] = (
-    (), ("subevent",), ("subevent", "phase"), ("subevent", "phase", "gated"), ("plan",),
-    ("from_plan",), ("from_plan", "subevent", "phase"), ("from_plan", "subevent", "phase", "gated"),
+_FAMILIES: tuple[tuple[str, tuple[tuple[str, ...], ...]], ...] = (
+    ("motion", ((),)),
+    ("subevent", (("subevent",), ("subevent", "phase"), ("subevent", "phase", "gated"))),
+    ("plan", (("from_plan",), ("plan",), ("from_plan", "subevent", "phase"), ("from_plan", "subevent", "phase", "gated"))),
 )
 
 
@@ -79,10 +87,12 @@ class SwitchingConfig:
     """[—]: How the motion features are computed (as ``ridge``'s)."""
     motion: tuple[tuple[str, ...], ...] = field(default_factory=_motion_subsets)
     """[—]: Sets of motion groups (:data:`~.reaction_features.FEATURE_GROUPS`) the inner CV chooses among."""
-    extras: tuple[tuple[str, ...], ...] = _EXTRAS
-    """[—]: Sets of model-driven groups (:data:`MODEL_GROUPS`) joined to each motion set (and, when not empty,
-    also used without motion features); ``()`` is the motion features alone (the ``ridge`` baseline's
-    candidates)."""
+    families: tuple[tuple[str, tuple[tuple[str, ...], ...]], ...] = _FAMILIES
+    """[—]: (name, sets of model-driven groups) per family: each set (of :data:`MODEL_GROUPS`) is joined to each
+    motion set (and, when not empty, also used without motion features); ``()`` is the motion features alone
+    (the ``ridge`` baseline's candidates). Each family's best candidate enters the blend."""
+    blend_steps: int = 10
+    """[—]: The blend's weights are multiples of 1 / blend_steps (1: keep the single best family or ``hold``)."""
     penalties: tuple[float, ...] = (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0)
     """λ [—]: Ridge penalties the inner CV chooses among (unit-RMS features, rows weighing one per instance)."""
     inner_folds: int = 3
@@ -98,18 +108,21 @@ class SwitchingConfig:
         bad = {g for c in self.motion for g in c} - set(FEATURE_GROUPS)
         if bad or not self.motion or not all(self.motion):
             raise ConfigError(f"motion: expected non-empty sets of {FEATURE_GROUPS}, found unknown {sorted(bad)}")
-        bad = {g for c in self.extras for g in c} - set(MODEL_GROUPS)
-        if bad or not self.extras:
-            raise ConfigError(f"extras: expected sets of {MODEL_GROUPS}, found unknown {sorted(bad)}")
+        bad = {g for _, extras in self.families for c in extras for g in c} - set(MODEL_GROUPS)
+        if bad or not self.families or not all(extras for _, extras in self.families):
+            raise ConfigError(f"families: expected non-empty lists of sets of {MODEL_GROUPS}, found unknown {sorted(bad)}")
+        if self.blend_steps < 1:
+            raise ConfigError(f"blend_steps: expected at least 1, found {self.blend_steps}")
         if self.inner_folds < 2:
             raise ConfigError(f"inner_folds: expected at least 2, found {self.inner_folds}")
         if self.n_observed < 1:
             raise ConfigError(f"n_observed: expected at least 1, found {self.n_observed}")
 
-    def candidates(self) -> tuple[tuple[str, ...], ...]:
-        """Every candidate's groups: each motion set joined with each set of model-driven groups, and each
-        non-empty set of model-driven groups alone."""
-        return tuple(m + e for e in self.extras for m in ((),) * bool(e) + self.motion)
+    def candidates(self, family: str) -> tuple[tuple[str, ...], ...]:
+        """The candidates' groups of ``family``: each motion set joined with each of its sets of model-driven
+        groups, and each non-empty such set alone."""
+        extras = dict(self.families)[family]
+        return tuple(m + e for e in extras for m in ((),) * bool(e) + self.motion)
 
 
 @dataclass(frozen=True, eq=False)
@@ -183,11 +196,34 @@ def instance_rows(
     return rows, Y, plan_offset(anchor, trace.skeleton[frames])
 
 
+@dataclass(frozen=True, eq=False)
+class Member:
+    """One family's fitted candidate in the blend."""
+
+    family: str
+    """The family's name."""
+    groups: tuple[str, ...]
+    """Its groups (``from_plan`` in them: the plan is its prior)."""
+    penalty: float
+    """λ (``inf``: no regression term)."""
+    weight: float
+    """α, its share of the blend."""
+    columns: np.ndarray
+    """(F_m,) int64 columns of :func:`switching_rows` it reads."""
+    coefficients: np.ndarray
+    """(F_m, J·3) its ridge weights on those (scaled) columns."""
+
+    @property
+    def from_plan(self) -> bool:
+        """Whether the plan is its prior."""
+        return "from_plan" in self.groups
+
+
 class SwitchingRegression:
-    """The switching regression (module docstring). Learned attributes: ``n_subevents_`` (S), ``groups_``
-    (selected groups; ``()`` is ``hold``), ``penalty_`` (λ, ``inf`` for ``hold``), ``cv_errors_``
-    ({(groups, λ): mean held-out key-joint error, m}), ``columns_``, ``scale_`` (the columns' RMS),
-    ``weights_`` (len(columns_), J·3)."""
+    """The switching regression (module docstring). Learned attributes: ``n_subevents_`` (S), ``members_``
+    (the families' fitted candidates with weight α > 0; empty: ``hold``), ``cv_errors_`` ({(groups, λ): mean
+    held-out key-joint error, m}), ``blend_error_`` (the blend's held-out error, m), ``scale_`` (the columns'
+    RMS)."""
 
     def __init__(self, config: SwitchingConfig | None = None) -> None:
         self.config = config or SwitchingConfig()
@@ -195,8 +231,8 @@ class SwitchingRegression:
     def fit(
         self, interactions: Sequence[Interaction], traces: Sequence[Trace], *, n_subevents: int, rng: np.random.Generator
     ) -> SwitchingRegression:
-        """Choose the groups and λ by inner CV on ``interactions`` (one class; ``traces`` their synthesizer
-        traces), then refit on all of them."""
+        """Choose each family's groups and λ, and the blend's weights, by inner CV on ``interactions`` (one class;
+        ``traces`` their synthesizer traces), then refit the members on all of them."""
         cfg = self.config
         if len(traces) != len(interactions):
             raise ModelError(f"switching regression: {len(interactions)} interactions but {len(traces)} traces")
@@ -214,43 +250,64 @@ class SwitchingRegression:
             raise ModelError(f"switching regression: expected a training instance longer than T0 = {cfg.n_observed} frames")
         X, Y, w, row_ids = np.concatenate(xs), np.concatenate(ys), np.concatenate(ws), np.concatenate(ids)
         offset = np.concatenate(os_)
-        self.n_subevents_ = int(n_subevents)
+        S = self.n_subevents_ = int(n_subevents)
         self.scale_ = scale_of(X, w)
         Xs = X / self.scale_
         folds = inner_folds(interactions, np.unique(row_ids), cfg.inner_folds, rng)
         self.cv_errors_: dict[tuple[tuple[str, ...], float], float] = {}
+        chosen: list[tuple[str, tuple[str, ...], float, float]] = []  # (family, groups, λ, α)
         if len(folds) >= 2:
-            candidates = {g: switching_columns(g, self.n_subevents_) for g in cfg.candidates()}
             kc = key_columns(interactions[0])
-            self.cv_errors_ = cv_errors(Xs, Y[:, kc], w, row_ids, folds, candidates, cfg.penalties, offset=offset[:, kc],
-                                        from_offset=[g for g in candidates if "from_plan" in g])
-            self.groups_, self.penalty_ = select(self.cv_errors_)
+            Yk, Ok = Y[:, kc], offset[:, kc]
+            winners, preds = [], []
+            for family, _ in cfg.families:
+                candidates = {g: switching_columns(g, S) for g in cfg.candidates(family)}
+                cv = cv_errors(Xs, Yk, w, row_ids, folds, candidates, cfg.penalties, offset=Ok,
+                               from_offset=[g for g in candidates if "from_plan" in g])
+                self.cv_errors_.update(cv)
+                groups, lam = select({k: v for k, v in cv.items() if k[0] != HOLD})
+                winners.append((family, groups, lam))
+                base = Ok if "from_plan" in groups else np.zeros_like(Yk)
+                preds.append(fold_predictions(Xs, Yk, w, row_ids, folds, candidates[groups], lam, base))
+            alpha, self.blend_error_ = blend_weights(np.stack(preds), Yk, row_ids, cfg.blend_steps)
+            chosen = [(f, g, lam, float(a)) for (f, g, lam), a in zip(winners, alpha, strict=True) if a > 0]
         else:
-            self.groups_, self.penalty_ = tuple(cfg.fallback[0]), float(cfg.fallback[1])
-        self.from_plan_ = "from_plan" in self.groups_
-        self.columns_ = switching_columns(self.groups_, self.n_subevents_)
-        target = Y - offset if self.from_plan_ else Y
-        if len(self.columns_) and math.isfinite(self.penalty_):
-            wn = w / w.sum()
-            Xc = Xs[:, self.columns_]
-            self.weights_ = ridge_solve((Xc * wn[:, None]).T @ Xc, (Xc * wn[:, None]).T @ target, self.penalty_)
-        else:
-            self.columns_ = np.zeros(0, np.int64)
-            self.weights_ = np.zeros((0, Y.shape[1]))
+            self.blend_error_ = math.nan
+            chosen = [("fallback", tuple(cfg.fallback[0]), float(cfg.fallback[1]), 1.0)]
+        wn = w / w.sum()
+        self.members_: list[Member] = []
+        for family, groups, lam, alpha in chosen:
+            cols = switching_columns(groups, S)
+            target = Y - offset if "from_plan" in groups else Y
+            if len(cols) and math.isfinite(lam):
+                Xc = Xs[:, cols]
+                coef = ridge_solve((Xc * wn[:, None]).T @ Xc, (Xc * wn[:, None]).T @ target, lam)
+            else:
+                cols, coef = np.zeros(0, np.int64), np.zeros((0, Y.shape[1]))
+            self.members_.append(Member(family, groups, lam, alpha, cols, coef))
+        self.n_outputs_ = Y.shape[1]
         return self
 
     def displacement(self, rows: np.ndarray, offset: np.ndarray) -> np.ndarray:
-        """(N, J·3) anchor-frame displacements, metres, for rows (N, ·) of :func:`switching_rows` and the
-        ``from_plan`` prior ``offset`` (N, J·3) (:func:`plan_offset`; read only if the prior was selected)."""
-        if not hasattr(self, "weights_"):
+        """(N, J·3) anchor-frame displacements, metres: Σ_m α_m (prior_m + rows_m W_m) for rows (N, ·) of
+        :func:`switching_rows` and the ``from_plan`` prior ``offset`` (N, J·3) (:func:`plan_offset`; read only by
+        members whose prior it is)."""
+        if not hasattr(self, "members_"):
             raise NotFittedError("switching regression: call fit(...) before displacement")
-        base = np.asarray(offset, dtype=np.float64) if self.from_plan_ else np.zeros((len(rows), self.weights_.shape[1]))
-        if not len(self.columns_):
-            return base
-        return base + (rows[:, self.columns_] / self.scale_[self.columns_]) @ self.weights_
+        out = np.zeros((len(rows), self.n_outputs_))
+        for m in self.members_:
+            part = np.array(offset, dtype=np.float64) if m.from_plan else np.zeros_like(out)
+            if len(m.columns):
+                part += (rows[:, m.columns] / self.scale_[m.columns]) @ m.coefficients
+            out += m.weight * part
+        return out
+
+    @property
+    def groups_(self) -> tuple[str, ...]:
+        """The groups the blend reads (union over its members; ``()``: ``hold``)."""
+        return tuple(dict.fromkeys(g for m in getattr(self, "members_", ()) for g in m.groups))
 
     @property
     def uses_model(self) -> bool:
-        """Whether the selected candidate reads the affordance model (a group of :data:`MODEL_GROUPS`)."""
-        return any(g in MODEL_GROUPS for g in getattr(self, "groups_", ()))
-
+        """Whether the blend reads the affordance model (a group of :data:`MODEL_GROUPS`)."""
+        return any(g in MODEL_GROUPS for g in self.groups_)
