@@ -38,6 +38,8 @@ VARIANTS = {  # name: (families, blend steps)
     "ridge": ((("motion", _F["motion"]),), 1),
     "motion+subevent": ((("motion", _F["motion"]), ("subevent", _F["subevent"])), 10),
     "motion+plan": ((("motion", _F["motion"]), ("plan", _F["plan"])), 10),
+    "motion+plan_nogated": ((("motion", _F["motion"]), ("plan", (("from_plan",), ("plan",), ("from_plan", "subevent", "phase")))), 10),
+    "motion+plan_simple": ((("motion", _F["motion"]), ("plan", (("from_plan",), ("plan",)))), 10),
     "all_best1": (SwitchingConfig().families, 1),
     "all": (SwitchingConfig().families, 10),
 }

@@ -32,6 +32,7 @@ from socialaff_sim.inference.switching import (
     instance_rows,
     switching_columns,
     switching_rows,
+    switching_scale,
 )
 from socialaff_sim.learning.config import LearningConfig
 
@@ -229,3 +230,18 @@ def test_default_full_method_uses_the_switching_regression(shake8) -> None:  # n
     if m.reaction_.groups_ == HOLD:
         np.testing.assert_allclose(pred.joints[T0:], np.repeat(data[6].filled_joints()[T0 - 1, 1][None],
                                                                data[6].n_frames - T0, 0), atol=1e-9)
+
+
+def test_belief_weighted_columns_take_the_scale_of_what_they_weight(rng: np.random.Generator) -> None:
+    """A sub-event the training rows never believed in must not get an inflated column: with each column scaled by
+    its own RMS, a test row believing in it would be multiplied by ~1e9."""
+    N, S = 50, 2
+    x = rng.normal(size=(N, N_FEATURES))
+    b = np.column_stack([np.ones(N) - 1e-10, np.full(N, 1e-10)])
+    rows = switching_rows(x, b, rng.uniform(size=N), rng.normal(size=(N, 15)))
+    scale = switching_scale(rows, np.ones(N), S)
+    motion = scale[:N_FEATURES]
+    gated = switching_columns(FEATURE_GROUPS + ("gated",), S)[N_FEATURES:]
+    np.testing.assert_allclose(scale[gated], np.tile(motion, S))
+    np.testing.assert_allclose(scale[switching_columns(("subevent", "phase"), S)], scale[RAMP_COLUMN])
+    assert scale[gated[N_FEATURES:]].min() > 1e-3  # the rarely believed sub-event's columns keep a motion scale

@@ -33,6 +33,7 @@ from ..inference.reaction_features import FEATURE_GROUPS, FeatureConfig, Feature
 
 __all__ = ["HOLD", "RidgeConfig", "RidgeReaction", "key_columns", "ridge_solve", "select", "training_set"]
 
+
 def _all_subsets() -> tuple[tuple[str, ...], ...]:
     return tuple(c for r in range(1, len(FEATURE_GROUPS) + 1) for c in itertools.combinations(FEATURE_GROUPS, r))
 

@@ -59,7 +59,7 @@ from .reaction_regression import (
 
 __all__ = [
     "HOLD", "MODEL_GROUPS", "Member", "SwitchingConfig", "SwitchingRegression", "Trace", "instance_rows", "plan_displacement",
-    "plan_offset", "switching_columns", "switching_rows",
+    "plan_offset", "switching_columns", "switching_rows", "switching_scale",
 ]
 
 MODEL_GROUPS: tuple[str, ...] = ("subevent", "phase", "gated", "plan", "from_plan")
@@ -169,6 +169,19 @@ def switching_rows(motion: np.ndarray, belief: np.ndarray, phase: np.ndarray, pl
     return np.concatenate([x, b * ramp[:, None], b * (phi * ramp)[:, None], gated, np.nan_to_num(plan)], axis=1)
 
 
+def switching_scale(rows: np.ndarray, w: np.ndarray, n_subevents: int) -> np.ndarray:
+    """(F,) column scales of rows (N, F) of :func:`switching_rows` under row weights w (N,): each motion and plan
+    column its weighted RMS (:func:`~.reaction_regression.scale_of`); the belief-weighted columns the RMS of the
+    column they weight (``subevent`` and ``phase``: the ramp's; ``gated``: the motion column's). So the belief
+    stays a weight in [0, 1]: a sub-event the training rows rarely believed in gets no inflated column (its
+    own RMS would be near zero, and a test row that believes in it would blow up)."""
+    S, F = n_subevents, N_FEATURES
+    scale = scale_of(rows, w)
+    scale[F:F + 2 * S] = scale[RAMP_COLUMN]
+    scale[F + 2 * S:F + 2 * S + S * F] = np.tile(scale[:F], S)
+    return scale
+
+
 def plan_displacement(anchor: Anchor, plan: np.ndarray, interaction: Interaction) -> np.ndarray:
     """(N, 15) metres, anchor frame: the planned key joints (N, 5, 3) world minus agent 1's at the anchor
     (0 where either is unknown)."""
@@ -251,7 +264,7 @@ class SwitchingRegression:
         X, Y, w, row_ids = np.concatenate(xs), np.concatenate(ys), np.concatenate(ws), np.concatenate(ids)
         offset = np.concatenate(os_)
         S = self.n_subevents_ = int(n_subevents)
-        self.scale_ = scale_of(X, w)
+        self.scale_ = switching_scale(X, w, S)
         Xs = X / self.scale_
         folds = inner_folds(interactions, np.unique(row_ids), cfg.inner_folds, rng)
         self.cv_errors_: dict[tuple[tuple[str, ...], float], float] = {}
