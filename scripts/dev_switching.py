@@ -4,7 +4,8 @@ For every interaction class of a dataset the evaluation's own folds are made (se
 dataset's split); the instances of folds 2–4 (the training data of the evaluation's fold 1) form the
 development pool: rotation r trains on two of those folds and validates on the third (fold 2 + r).
 The affordance model (preset ``default``) is fitted once per class and rotation; the synthesizer's
-causal traces (belief, phase, plan) of the training and validation instances are computed once; then
+causal traces (belief, phase, plan) of the training and validation instances are computed once (the training
+plans cross-fitted as in ``AffordanceMethod.fit``, ``--cross-fit 1``: in sample); then
 each variant of the switching regression (which groups the inner CV may choose among) is fitted on the
 training traces and scored on the validation instances (mean key-joint distance per instance, frames
 ≥ T0, averaged per class, then over classes). Also reported: ``hold`` and the plan itself (Algorithm 2's
@@ -30,18 +31,16 @@ from socialaff_sim.evaluation.crossval import fold_rng
 from socialaff_sim.evaluation.splits import make_folds
 from socialaff_sim.inference.methods import AffordanceMethod, trace
 from socialaff_sim.inference.reaction_regression import key_columns
-from socialaff_sim.inference.switching import SwitchingConfig, SwitchingRegression, instance_rows
+from socialaff_sim.inference.switching import FAMILIES, GATED_FAMILIES, SwitchingConfig, SwitchingRegression, instance_rows
 
 T0 = 10
-_F = dict(SwitchingConfig().families)
+_G = dict(GATED_FAMILIES)
 VARIANTS = {  # name: (families, blend steps)
-    "ridge": ((("motion", _F["motion"]),), 1),
-    "motion+subevent": ((("motion", _F["motion"]), ("subevent", _F["subevent"])), 10),
-    "motion+plan": ((("motion", _F["motion"]), ("plan", _F["plan"])), 10),
-    "motion+plan_nogated": ((("motion", _F["motion"]), ("plan", (("from_plan",), ("plan",), ("from_plan", "subevent", "phase")))), 10),
-    "motion+plan_simple": ((("motion", _F["motion"]), ("plan", (("from_plan",), ("plan",)))), 10),
-    "all_best1": (SwitchingConfig().families, 1),
-    "all": (SwitchingConfig().families, 10),
+    "ridge": ((("motion", _G["motion"]),), 1),
+    "motion+subevent": ((("motion", _G["motion"]), ("subevent", _G["subevent"])), 10),
+    "default": (FAMILIES, 10),
+    "default_best1": (FAMILIES, 1),
+    "gated_all": (GATED_FAMILIES, 10),
 }
 
 
@@ -56,6 +55,7 @@ def main() -> None:
     ap.add_argument("--rotation", type=int, default=0, choices=(0, 1, 2))
     ap.add_argument("--labels", default="")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--cross-fit", type=int, default=2, help="parts of the training traces' cross-fitting (1: in sample)")
     ap.add_argument("--cache", default="", help="folder for the fitted traces (re-runs of the variants skip the fits)")
     args = ap.parse_args()
     ds = load_dataset(args.data)
@@ -71,13 +71,13 @@ def main() -> None:
         val = [insts[i] for i in val_idx if insts[i].n_frames > T0 + 1]
         rng = np.random.default_rng(args.seed)
         t0 = time.perf_counter()
-        cache = Path(args.cache) / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}.pkl" if args.cache else None
+        cache = Path(args.cache) / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}.pkl" if args.cache else None
         if cache is not None and cache.exists():
             S, tr_traces, va_traces = pickle.loads(cache.read_bytes())
         else:
             method = AffordanceMethod.from_preset("full", "default", reaction=None).fit(train, rng=rng)
             syn = dataclasses.replace(method.synthesis, n_observed=T0)
-            tr_traces = [trace(method.model_, method.body_, i, syn, rng) for i in train]
+            tr_traces = method._training_traces(train, SwitchingConfig(families=GATED_FAMILIES, cross_fit=args.cross_fit), rng)
             va_traces = [trace(method.model_, method.body_, i, syn, rng) for i in val]
             S = method.model_.n_subevents_
             if cache is not None:

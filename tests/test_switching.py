@@ -25,7 +25,9 @@ from socialaff_sim.inference.reaction_regression import (
     select,
     simplex_grid,
 )
+import socialaff_sim.inference.methods as methods_module
 from socialaff_sim.inference.switching import (
+    GATED_FAMILIES,
     SwitchingConfig,
     SwitchingRegression,
     Trace,
@@ -187,7 +189,7 @@ def test_hold_is_selected_when_nothing_predicts(rng: np.random.Generator) -> Non
 
 def test_gated_experts_are_selected_for_a_switching_reaction(rng: np.random.Generator) -> None:
     insts, traces = _toy(rng, "switch", 16)
-    families = tuple(f for f in SwitchingConfig().families if f[0] != "plan")
+    families = tuple(f for f in GATED_FAMILIES if f[0] != "plan")
     reg = SwitchingRegression(SwitchingConfig(motion=(("agent0",),), families=families)).fit(
         insts, traces, n_subevents=2, rng=rng)
     (member,) = [m for m in reg.members_ if m.weight >= 0.5]
@@ -245,3 +247,37 @@ def test_belief_weighted_columns_take_the_scale_of_what_they_weight(rng: np.rand
     np.testing.assert_allclose(scale[gated], np.tile(motion, S))
     np.testing.assert_allclose(scale[switching_columns(("subevent", "phase"), S)], scale[RAMP_COLUMN])
     assert scale[gated[N_FEATURES:]].min() > 1e-3  # the rarely believed sub-event's columns keep a motion scale
+
+
+def test_training_plans_are_cross_fitted(monkeypatch: pytest.MonkeyPatch, rng: np.random.Generator) -> None:
+    """Every training instance's plan comes from a model fitted without it (cross_fit = 2); its belief, when a
+    family reads one, from the model fitted on all (whose sub-event labels the test rows carry)."""
+    fitted: list[set[str]] = []
+
+    class FakeModel:
+        def __init__(self, *args: object) -> None:
+            pass
+
+        def fit(self, insts: list[Interaction], *, rng: np.random.Generator) -> FakeModel:
+            self.ids = {i.instance_id for i in insts}
+            fitted.append(self.ids)
+            return self
+
+    def fake_trace(model: FakeModel, body: object, inst: Interaction, config: object, rng: object) -> Trace:
+        T = inst.n_frames
+        own = float(inst.instance_id in model.ids)  # 1: the model saw this instance
+        return Trace(belief=np.full((T, 2), own), phase=np.zeros(T), plan=np.full((T, 5, 3), own),
+                     skeleton=np.full((T, 5, 3), own))
+
+    monkeypatch.setattr(methods_module, "SocialAffordanceModel", FakeModel)
+    monkeypatch.setattr(methods_module, "trace", fake_trace)
+    insts = [_instance(rng, k) for k in range(8)]
+    m = AffordanceMethod("full")
+    m.model_ = FakeModel().fit(insts, rng=rng)
+    m.body_ = None
+    for cfg, seen_plan in [(SwitchingConfig(), 0.0), (SwitchingConfig(cross_fit=1), 1.0)]:
+        traces = m._training_traces(insts, cfg, rng)
+        assert all(np.all(t.plan == seen_plan) for t in traces)
+    traces = m._training_traces(insts, SwitchingConfig(families=GATED_FAMILIES), rng)
+    assert all(np.all(t.plan == 0.0) and np.all(t.belief == 1.0) for t in traces)
+    assert len(fitted) >= 3 and all(len(ids) < len(insts) for ids in fitted[1:])

@@ -34,6 +34,7 @@ from .presets import PRESETS
 from .presets import preset as named_preset
 from .protocol import Prediction
 from .reaction_features import FeatureStream
+from .reaction_regression import inner_folds
 from .switching import SwitchingConfig, SwitchingRegression, Trace, plan_displacement, plan_offset, switching_rows
 from .synthesis import OnlineSynthesizer, SynthesisConfig
 
@@ -179,11 +180,30 @@ class AffordanceMethod:
         self.model_ = self.models_[0]
         self.body_ = BodyFitter(self.body).fit_interactions(inters, agent=1, rng=rng)
         if self.reaction is not None:
-            cfg = dataclasses.replace(self.synthesis, n_observed=self.reaction.n_observed)
-            traces = [trace(self.model_, self.body_, inst, cfg, rng) for inst in inters]
+            traces = self._training_traces(inters, self.reaction, rng)
             self.reaction_ = SwitchingRegression(self.reaction).fit(
                 inters, traces, n_subevents=self.model_.n_subevents_, rng=rng)
         return self
+
+    def _training_traces(self, inters: list[Interaction], reaction: SwitchingConfig, rng: np.random.Generator) -> list[Trace]:
+        """The switching regression's training traces: plans from models fitted on the other parts of a
+        ``reaction.cross_fit``-part split (out of sample), beliefs and phases from ``model_`` (module :mod:`.switching`)."""
+        cfg = dataclasses.replace(self.synthesis, n_observed=reaction.n_observed)
+        parts = inner_folds(inters, np.arange(len(inters)), reaction.cross_fit, rng) if reaction.cross_fit > 1 else []
+        crossed = len(parts) >= 2 and all(len(inters) - len(p) >= 2 for p in parts)
+        if not crossed or reaction.needs_belief:
+            own = [trace(self.model_, self.body_, inst, cfg, rng) for inst in inters]
+            if not crossed:
+                return own
+        out: dict[int, Trace] = {}
+        for part in parts:
+            rest = [inst for i, inst in enumerate(inters) if i not in set(part)]
+            model = SocialAffordanceModel(self.model_config, self.learning).fit(rest, rng=rng)
+            for i in part:
+                out[i] = trace(model, self.body_, inters[i], cfg, rng)
+        if reaction.needs_belief:  # the plans out of sample, the beliefs in the labels of model_
+            return [dataclasses.replace(own[i], plan=out[i].plan, skeleton=out[i].skeleton) for i in range(len(inters))]
+        return [out[i] for i in range(len(inters))]
 
     def _check(self) -> None:
         if not hasattr(self, "model_"):
