@@ -86,8 +86,10 @@ GATED_FAMILIES: tuple[Family, ...] = (
 
 @dataclass(frozen=True)
 class SwitchingConfig:
-    """Settings of the switching regression (fixed before any evaluation; the inner CV chooses among the
-    candidates, each a set of motion groups joined with a set of model-driven groups)."""
+    """Settings of the switching regression, fixed before any evaluation (the inner CV chooses among its candidates).
+
+    Each candidate is a set of motion groups joined with a set of model-driven groups; the candidates come in
+    families, whose best members are blended."""
 
     features: FeatureConfig = field(default_factory=FeatureConfig)
     """[—]: How the motion features are computed (as ``ridge``'s)."""
