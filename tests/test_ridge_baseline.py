@@ -10,7 +10,7 @@ import pytest
 
 import socialaff_sim.baselines.gru as gru_module
 
-from socialaff_sim.baselines.reaction_features import (
+from socialaff_sim.inference.reaction_features import (
     FEATURE_GROUPS,
     N_FEATURES,
     Anchor,

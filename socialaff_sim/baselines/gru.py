@@ -5,7 +5,7 @@ still import, and selecting ``gru`` raises :class:`~socialaff_sim.errors.ConfigE
 
 Model
     A one-layer GRU reads, frame by frame from t = T0 on, the causal feature rows of
-    :mod:`~socialaff_sim.baselines.reaction_features` (agent 0's motion since agent 1's last observed frame,
+    :mod:`~socialaff_sim.inference.reaction_features` (agent 0's motion since agent 1's last observed frame,
     the gap between the agents, agent 1's own observed velocity, agent 0's velocity; scaled to unit RMS);
     a linear read-out of its state plus a linear skip from the current features give agent 1's whole-skeleton
     displacement from its last observed pose (anchor frame). Both start at zero, so the untrained network is
@@ -36,7 +36,7 @@ from ..data.dataset import deal_groups
 from ..data.interaction import Interaction
 from ..errors import ConfigError, ModelError, NotFittedError
 from ..inference.protocol import DEFAULT_N_OBSERVED, Prediction, prediction_from_reactor
-from .reaction_features import N_FEATURES, FeatureConfig, FeatureStream, training_rows
+from ..inference.reaction_features import N_FEATURES, FeatureConfig, FeatureStream, training_rows
 from .ridge import key_columns
 
 try:  # the optional extra socialaff-sim[neural]

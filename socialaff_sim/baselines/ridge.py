@@ -2,7 +2,7 @@
 
 For every output frame t ≥ T0 the prediction is agent 1's pose at its last observed frame a = T0 − 1 plus a
 displacement of its whole skeleton that is linear in the causal features of
-:mod:`~socialaff_sim.baselines.reaction_features` (agent 0's motion since a, the gap between the agents,
+:mod:`~socialaff_sim.inference.reaction_features` (agent 0's motion since a, the gap between the agents,
 agent 1's own observed velocity, agent 0's current velocity; all in the frame of the two agents at a).
 Zero displacement is ``hold``, and there is no intercept, so the ridge penalty λ‖W‖² pulls the prediction
 toward ``hold``; λ = ∞ *is* ``hold``.
@@ -25,16 +25,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..data.dataset import deal_groups
 from ..data.interaction import Interaction
 from ..errors import ConfigError, ModelError, NotFittedError
 from ..inference.protocol import DEFAULT_N_OBSERVED, Prediction, prediction_from_reactor
-from .reaction_features import FEATURE_GROUPS, FeatureConfig, FeatureStream, group_columns, training_rows
+from ..inference.reaction_regression import HOLD, cv_errors, inner_folds, key_columns, ridge_solve, scale_of, select
+from ..inference.reaction_features import FEATURE_GROUPS, FeatureConfig, FeatureStream, group_columns, training_rows
 
 __all__ = ["HOLD", "RidgeConfig", "RidgeReaction", "key_columns", "ridge_solve", "select", "training_set"]
-
-HOLD: tuple[str, ...] = ()
-"""The candidate without features: ``hold`` (λ = ∞)."""
 
 
 def _all_subsets() -> tuple[tuple[str, ...], ...]:
@@ -71,18 +68,6 @@ class RidgeConfig:
             raise ConfigError(f"n_observed: expected at least 1, found {self.n_observed}")
 
 
-def ridge_solve(gram: np.ndarray, cross: np.ndarray, penalty: float) -> np.ndarray:
-    """W (F, D) minimising ‖X W − Y‖²_w + λ‖W‖², from gram = XᵀWX (F, F) and cross = XᵀWY (F, D)."""
-    F = gram.shape[0]
-    return np.linalg.solve(gram + penalty * np.eye(F), cross)
-
-
-def key_columns(interaction: Interaction) -> np.ndarray:
-    """Target columns (int64, 3 per key joint the layout has) of agent 1's key joints in a (·, J·3) displacement."""
-    idx = [i for i in interaction.layout.key_indices if i is not None]
-    return (3 * np.asarray(idx, dtype=np.int64)[:, None] + np.arange(3)).reshape(-1)
-
-
 def training_set(
     interactions: Sequence[Interaction], n_observed: int, config: FeatureConfig
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -100,26 +85,6 @@ def training_set(
     if not xs:
         raise ModelError(f"ridge: expected a training instance longer than T0 = {n_observed} frames, found none")
     return np.concatenate(xs), np.concatenate(ys), np.concatenate(ws), np.concatenate(ids)
-
-
-def select(cv_errors: dict[tuple[tuple[str, ...], float], float]) -> tuple[tuple[str, ...], float]:
-    """The (groups, λ) with the lowest inner-CV error; ``hold`` ``((), inf)`` wins ties, so a regression is
-    chosen only where it beat ``hold`` on held-out training instances; among tied regressions, the larger λ."""
-    return min(cv_errors, key=lambda key: (cv_errors[key], key != (HOLD, math.inf), -key[1], len(key[0])))
-
-
-def _key_error(pred: np.ndarray, truth: np.ndarray, ids: np.ndarray) -> float:
-    """Mean over instances of the mean key-joint distance (pred/truth (N, 3·k) key columns)."""
-    d = np.linalg.norm((pred - truth).reshape(len(pred), -1, 3), axis=-1).mean(axis=1)
-    return float(np.mean([d[ids == i].mean() for i in np.unique(ids)]))
-
-
-def _inner_folds(interactions: Sequence[Interaction], usable: np.ndarray, k: int, rng: np.random.Generator) -> list[list[int]]:
-    pairs: dict[tuple[str, ...], list[int]] = {}
-    for i in usable:
-        pairs.setdefault(tuple(sorted(interactions[i].actors)), []).append(int(i))
-    groups = pairs if len(pairs) >= 2 else {(str(i),): [int(i)] for i in usable}
-    return [f for f in deal_groups(groups, min(k, len(groups)), rng) if f]
 
 
 class RidgeReaction:
@@ -141,29 +106,13 @@ class RidgeReaction:
             raise ModelError("ridge: expected at least one training interaction, found none")
         cfg = self.config
         X, Y, w, ids = training_set(interactions, cfg.n_observed, cfg.features)
-        rms = np.sqrt((w[:, None] * X**2).sum(0) / w.sum())
-        self.scale_ = np.where(rms > 1e-12, rms, 1.0)
+        self.scale_ = scale_of(X, w)
         Xs = X / self.scale_
         kc = key_columns(interactions[0])
-        usable = np.unique(ids)
-        folds = _inner_folds(interactions, usable, cfg.inner_folds, rng)
+        folds = inner_folds(interactions, np.unique(ids), cfg.inner_folds, rng)
         cv: dict[tuple[tuple[str, ...], float], float] = {}
         if len(folds) >= 2:
-            errors: dict[tuple[tuple[str, ...], float], list[float]] = {}
-            for held in folds:
-                ho = np.isin(ids, held)
-                tr = ~ho
-                wt = w[tr] / w[tr].sum()
-                gram = (Xs[tr] * wt[:, None]).T @ Xs[tr]
-                cross = (Xs[tr] * wt[:, None]).T @ Y[tr][:, kc]
-                truth = Y[ho][:, kc]
-                errors.setdefault((HOLD, math.inf), []).append(_key_error(np.zeros_like(truth), truth, ids[ho]))
-                for groups in cfg.candidates:
-                    cols = group_columns(groups)
-                    for lam in cfg.penalties:
-                        W = ridge_solve(gram[np.ix_(cols, cols)], cross[cols], lam)
-                        errors.setdefault((groups, lam), []).append(_key_error(Xs[ho][:, cols] @ W, truth, ids[ho]))
-            cv = {key: float(np.mean(v)) for key, v in errors.items()}
+            cv = cv_errors(Xs, Y[:, kc], w, ids, folds, {g: group_columns(g) for g in cfg.candidates}, cfg.penalties)
             best = select(cv)
         else:
             best = (tuple(cfg.fallback[0]), float(cfg.fallback[1]))

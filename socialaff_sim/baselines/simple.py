@@ -28,6 +28,7 @@ import numpy as np
 from ..data.interaction import Interaction
 from ..errors import ConfigError, ModelError, NotFittedError
 from ..inference.protocol import Prediction, prediction_from_reactor
+from ..inference.reaction_features import velocity_estimate
 
 __all__ = ["ConstantVelocity", "ConstVelConfig", "HoldPose", "damped_displacement", "velocity_estimate"]
 
@@ -46,16 +47,6 @@ class ConstVelConfig:
             raise ConfigError(f"window: expected at least 2 frames, found {self.window}")
         if not self.time_constant_s > 0:
             raise ConfigError(f"time_constant_s: expected seconds > 0, found {self.time_constant_s}")
-
-
-def velocity_estimate(positions: np.ndarray) -> np.ndarray:
-    """Least-squares slope (…, 3) per frame of ``positions`` (K, …, 3) at consecutive frames (metres/frame)."""
-    x = np.asarray(positions, dtype=np.float64)
-    k = x.shape[0]
-    if k < 2:
-        raise ModelError(f"velocity: expected at least 2 frames, found {k}")
-    t = np.arange(k, dtype=np.float64) - (k - 1) / 2.0
-    return np.tensordot(t, x, axes=(0, 0)) / float(t @ t)
 
 
 def damped_displacement(velocity: np.ndarray, steps: np.ndarray, tau_frames: float) -> np.ndarray:

@@ -8,7 +8,8 @@ Registering a method
     can see every method from above: the baselines ``"hmm"``, ``"promp"``, ``"hold"``,
     ``"constvel"``, ``"ridge"`` and ``"gru"`` (:mod:`socialaff_sim.baselines`; ``"gru"`` needs the
     ``[neural]`` extra and fails with a :class:`~socialaff_sim.errors.ConfigError` naming it without torch), and the full model and its ablations ``"full"``,
-    ``"full_online"``, ``"v1"`` and ``"v2"`` (:class:`~socialaff_sim.inference.methods.AffordanceMethod`).
+    ``"full_online"``, ``"full_plan"`` (the default preset's synthesis without the switching regression,
+    :mod:`socialaff_sim.inference.switching`), ``"v1"`` and ``"v2"`` (:class:`~socialaff_sim.inference.methods.AffordanceMethod`).
     :func:`get_method` fails with an error listing the available names.
 """
 
@@ -64,6 +65,11 @@ def _v2(preset: str = "default") -> AffordanceMethod:
     return AffordanceMethod.from_preset("v2", preset, chains=REGISTERED_CHAINS)
 
 
+def _full_plan(preset: str = "default") -> AffordanceMethod:
+    # the ablation: Algorithm 2's synthesis without the switching regression on top (as "full" under the paper preset)
+    return AffordanceMethod.from_preset("full", preset, chains=REGISTERED_CHAINS, reaction=None, name="full_plan")
+
+
 def _full_online() -> AffordanceMethod:
     cfg = SynthesisConfig()  # the paper's Algorithm 2 settings under every protocol
     return AffordanceMethod("full", synthesis=cfg, offline_synthesis=cfg, name="full_online")
@@ -78,6 +84,7 @@ METHODS: dict[str, MethodFactory] = {
     "gru": _gru,
     "full": _full,
     "full_online": _full_online,
+    "full_plan": _full_plan,
     "v1": _v1,
     "v2": _v2,
 }

@@ -33,10 +33,15 @@ from .body_fit import BodyFitConfig, BodyFitter
 from .presets import PRESETS
 from .presets import preset as named_preset
 from .protocol import Prediction
+from .reaction_features import FeatureStream
+from .reaction_regression import inner_folds
+from .switching import SwitchingConfig, SwitchingRegression, Trace, plan_displacement, plan_offset, switching_rows
 from .synthesis import OnlineSynthesizer, SynthesisConfig
 
 
-__all__ = ["AffordanceMethod", "PRESETS", "REGISTERED_CHAINS", "VARIANTS", "fit_skeleton", "preset_configs", "synthesize"]
+__all__ = [
+    "AffordanceMethod", "PRESETS", "REGISTERED_CHAINS", "VARIANTS", "fit_skeleton", "preset_configs", "synthesize", "trace",
+]
 
 VARIANTS: dict[str, dict[str, bool]] = {
     "full": {},
@@ -86,6 +91,21 @@ def synthesize(
     return keys, fit_skeleton(body, model, interaction, keys, syn.config.n_observed), subs, beliefs
 
 
+def trace(
+    model: SocialAffordanceModel, body: BodyFitter, interaction: Interaction, config: SynthesisConfig, rng: np.random.Generator
+) -> Trace:
+    """The synthesizer's belief, phase and plan (key joints, and the skeleton ``body`` fits to them) at every frame
+    of ``interaction``, run causally with ``config`` (what the switching regression learns from; :mod:`.switching`)."""
+    syn = OnlineSynthesizer(model, None, config)
+    syn.reset(interaction, rng=rng)
+    steps = [syn.step() for _ in range(interaction.n_frames)]
+    plan = np.stack([st.key_joints for st in steps])
+    skeleton = np.full((interaction.n_frames, interaction.joints.shape[2], 3), np.nan)
+    skeleton[config.n_observed:] = body.fit_poses(plan[config.n_observed:], instance_frame(interaction))
+    return Trace(belief=np.stack([st.belief for st in steps]), phase=np.array([st.phase for st in steps]), plan=plan,
+                 skeleton=skeleton)
+
+
 def fit_skeleton(
     body: BodyFitter, model: SocialAffordanceModel, interaction: Interaction, keys: np.ndarray, n_observed: int
 ) -> np.ndarray:
@@ -124,6 +144,7 @@ class AffordanceMethod:
         body: BodyFitConfig | None = None,
         name: str | None = None,
         chains: int = 1,
+        reaction: SwitchingConfig | None = None,
     ) -> None:
         if variant not in VARIANTS:
             raise ConfigError(f"variant: expected {choices(VARIANTS)}, found {variant!r}")
@@ -137,6 +158,7 @@ class AffordanceMethod:
         self.synthesis = synthesis or SynthesisConfig.reactive()
         self.offline_synthesis = offline_synthesis or SynthesisConfig.offline()
         self.body = body or BodyFitConfig()
+        self.reaction = reaction
 
     @classmethod
     def from_preset(cls, variant: str = "full", preset: str = "default", **kwargs: object) -> AffordanceMethod:
@@ -144,8 +166,9 @@ class AffordanceMethod:
         offline synthesis, so under the paper preset the offline protocol runs the paper's too."""
         model, learning, synthesis = preset_configs(preset)
         offline = SynthesisConfig.offline() if preset == "default" else synthesis
+        reaction = SwitchingConfig() if preset == "default" else None
         return cls(variant, model_config=model, learning=learning, synthesis=synthesis, offline_synthesis=offline,
-                   **kwargs)  # type: ignore[arg-type]
+                   **{"reaction": reaction, **kwargs})  # type: ignore[arg-type]
 
     def fit(self, interactions: Sequence[Interaction], *, rng: np.random.Generator) -> AffordanceMethod:
         """Learn the model (Algorithm 1) and the body clusters of agent 1."""
@@ -156,7 +179,31 @@ class AffordanceMethod:
         ]
         self.model_ = self.models_[0]
         self.body_ = BodyFitter(self.body).fit_interactions(inters, agent=1, rng=rng)
+        if self.reaction is not None:
+            traces = self._training_traces(inters, self.reaction, rng)
+            self.reaction_ = SwitchingRegression(self.reaction).fit(
+                inters, traces, n_subevents=self.model_.n_subevents_, rng=rng)
         return self
+
+    def _training_traces(self, inters: list[Interaction], reaction: SwitchingConfig, rng: np.random.Generator) -> list[Trace]:
+        """The switching regression's training traces: plans from models fitted on the other parts of a
+        ``reaction.cross_fit``-part split (out of sample), beliefs and phases from ``model_`` (module :mod:`.switching`)."""
+        cfg = dataclasses.replace(self.synthesis, n_observed=reaction.n_observed)
+        parts = inner_folds(inters, np.arange(len(inters)), reaction.cross_fit, rng) if reaction.cross_fit > 1 else []
+        crossed = len(parts) >= 2 and all(len(inters) - len(p) >= 2 for p in parts)
+        if not crossed or reaction.needs_belief:
+            own = [trace(self.model_, self.body_, inst, cfg, rng) for inst in inters]
+            if not crossed:
+                return own
+        out: dict[int, Trace] = {}
+        for part in parts:
+            rest = [inst for i, inst in enumerate(inters) if i not in set(part)]
+            model = SocialAffordanceModel(self.model_config, self.learning).fit(rest, rng=rng)
+            for i in part:
+                out[i] = trace(model, self.body_, inters[i], cfg, rng)
+        if reaction.needs_belief:  # the plans out of sample, the beliefs in the labels of model_
+            return [dataclasses.replace(own[i], plan=out[i].plan, skeleton=out[i].skeleton) for i in range(len(inters))]
+        return [out[i] for i in range(len(inters))]
 
     def _check(self) -> None:
         if not hasattr(self, "model_"):
@@ -188,6 +235,10 @@ class _AffordanceReactor:
         self.config = config
         self.rngs = _chain_generators(rng, len(method.models_))
         self.synths: list[OnlineSynthesizer] = []
+        # The switching regression, under the causal protocols (its rows are those of a causal synthesis).
+        reaction = getattr(method, "reaction_", None)
+        self.reaction = None if offline else reaction
+        self.stream = None if self.reaction is None else FeatureStream(config.n_observed, self.reaction.config.features)
 
     def react(self, view: Interaction, start: int, stop: int) -> Prediction:
         """Agent 1's frames [start, stop): step every chain's synthesizer up to ``stop``.
@@ -215,4 +266,12 @@ class _AffordanceReactor:
         keys = np.mean([[st.key_joints for st in steps] for steps in blocks], axis=0)
         subs = np.array([st.subevent for st in blocks[0]], dtype=np.int64)
         joints = self.method.body_.fit_poses(keys, self._frame)
-        return Prediction(joints=joints, key_joints=keys, subevents=subs, n_observed=0)
+        if self.reaction is None or self.stream is None:
+            return Prediction(joints=joints, key_joints=keys, subevents=subs, n_observed=0)
+        # The switching regression: the first chain's belief and phase, the chains' mean plan.
+        motion = self.stream.rows(view, start, stop)
+        anchor = self.stream.anchor
+        rows = switching_rows(motion, np.stack([st.belief for st in blocks[0]]), np.array([st.phase for st in blocks[0]]),
+                              plan_displacement(anchor, keys, view))
+        joints = anchor.to_world(self.reaction.displacement(rows, plan_offset(anchor, joints)))
+        return Prediction(joints=joints, key_joints=view.layout.key_joints(joints), subevents=subs, n_observed=0)

@@ -88,6 +88,9 @@ class SynthesisStep:
     """Its name, or ``None``."""
     observed: bool
     """True for the first T0 frames, which are copied from the observation."""
+    phase: float = float("nan")
+    """Elapsed fraction [0, 1] of the running sub-event at this frame, from its start and predicted end at the
+    latest re-planning (NaN while agent 1 is still observed)."""
 
 
 class OnlineSynthesizer(CandidatePlanner):
@@ -264,6 +267,8 @@ class OnlineSynthesizer(CandidatePlanner):
             else:
                 skeleton = self.body.fit_pose(keys_c, self._frame) if np.isfinite(keys_c[0]).all() else None
         sub = -1 if observed else self._sub
+        first, last = self._span
+        phase = float("nan") if observed else min(max((t - first) / max(last - first + 1, 1), 0.0), 1.0)
         self._t += 1
         return SynthesisStep(
             t=t,
@@ -273,6 +278,7 @@ class OnlineSynthesizer(CandidatePlanner):
             subevent=sub,
             subevent_name=None if sub < 0 else self.model.subevent_names_[sub],
             observed=observed,
+            phase=phase,
         )
 
     # -- planning ----------------------------------------------------------------------------------

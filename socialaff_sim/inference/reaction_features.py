@@ -1,4 +1,4 @@
-"""Causal per-frame features of the learned reaction baselines (``ridge``, ``gru``).
+"""Causal per-frame features of the learned reactions (the full model's switching regression, ``ridge``, ``gru``).
 
 Everything is expressed relative to the *anchor*: frame a = T0 − 1, agent 1's last observed frame.
 The anchor frame's axes are those of :func:`~socialaff_sim.model.frame.canonical_frame` built from
@@ -31,13 +31,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .simple import velocity_estimate
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError
 from ..model.frame import CanonicalFrame, canonical_frame
 
-__all__ = ["FEATURE_GROUPS", "Anchor", "FeatureConfig", "FeatureStream", "forward_fill", "group_columns", "training_rows"]
+__all__ = [
+    "FEATURE_GROUPS", "N_FEATURES", "RAMP_COLUMN", "Anchor", "FeatureConfig", "FeatureStream", "forward_fill", "group_columns", "training_rows",
+    "velocity_estimate",
+]
 
 FEATURE_GROUPS: tuple[str, ...] = ("agent0", "gap", "own_velocity", "agent0_velocity")
 """The feature groups, in column order."""
@@ -71,6 +73,18 @@ def group_columns(groups: Sequence[str]) -> np.ndarray:
 
 
 N_FEATURES = sum(_WIDTH.values())
+RAMP_COLUMN = _WIDTH["agent0"] + 3
+"""Column of r(s), the ramp of the ``gap`` group (its last column)."""
+
+
+def velocity_estimate(positions: np.ndarray) -> np.ndarray:
+    """Least-squares slope (…, 3) per frame of ``positions`` (K, …, 3) at consecutive frames (metres/frame)."""
+    x = np.asarray(positions, dtype=np.float64)
+    k = x.shape[0]
+    if k < 2:
+        raise ModelError(f"velocity: expected at least 2 frames, found {k}")
+    t = np.arange(k, dtype=np.float64) - (k - 1) / 2.0
+    return np.tensordot(t, x, axes=(0, 0)) / float(t @ t)
 
 
 def forward_fill(values: np.ndarray, valid: np.ndarray) -> np.ndarray:

@@ -1,0 +1,346 @@
+"""The full model's reaction: a switching regression gated by the affordance model's sub-event belief.
+
+The synthesizer (:class:`~socialaff_sim.inference.synthesis.OnlineSynthesizer`) runs as before and
+gives, for every output frame t, its causal belief b_t (S,) over the running sub-event (the forward
+filter's, from agent 0's and the object's frames before t), the elapsed fraction φ_t of the running
+sub-event (from its start and predicted end), and its plan: agent 1's key joints synthesized by
+Algorithm 2. Agent 1's pose at t is then agent 1's last observed pose plus a displacement of its whole
+skeleton, in the anchor frame of :mod:`.reaction_features`, that is linear in
+
+``agent0``, ``gap``, ``own_velocity``, ``agent0_velocity`` (49)
+    the causal motion features of :mod:`.reaction_features` (those of the ``ridge`` baseline);
+``subevent`` (S)
+    b_t,s · r(s): a learned displacement per sub-event type, mixed by the belief, ramped from zero
+    (r(s) = 1 − e^{−s/τ}, s seconds since agent 1's last observed frame);
+``phase`` (S)
+    b_t,s · φ_t · r(s): how that displacement grows as the sub-event runs (the phase of a ProMP, here the
+    affordance model's);
+``gated`` (S × the motion columns chosen)
+    b_t,s · x_t: one linear map of the motion features per sub-event type, mixed by the belief — a mixture
+    of linear experts gated by the model's causal sub-event belief, Σ_s b_t,s W_s x_t;
+``plan`` (15)
+    the plan's displacement of agent 1's key joints from their last observed position (anchor frame);
+``from_plan`` (no columns)
+    the prior: with it the displacement is the plan's (its whole skeleton, fitted to the planned key joints
+    by the model's body fitter) plus the linear term, which the ridge penalty then shrinks toward the plan
+    instead of toward ``hold``; alone, it is Algorithm 2's synthesis itself.
+
+The candidates come in *families* (:attr:`SwitchingConfig.families`): ``motion`` (the motion groups alone:
+the ``ridge`` baseline's candidates), ``subevent`` (motion groups with the belief-gated groups) and ``plan``
+(the plan as prior or features, with or without the gated groups). An inner cross-validation on the training
+instances (:mod:`.reaction_regression`) picks each family's best (groups, λ), then the weights α_f ≥ 0,
+Σα_f ≤ 1 (a grid of step 0.1; the rest on ``hold``) of the blend Σ_f α_f prediction_f that minimise the
+held-out error of the families' held-out predictions; ties go to more ``hold``. A part of the affordance
+model is thus used only as far as it lowered the held-out error on the training data, and averaging the
+families' predictions (instead of keeping one winner) damps the selection noise of small training sets.
+The same configuration (:class:`SwitchingConfig`) serves every dataset. The beliefs, phases and
+plans of the training rows come from the synthesizer run causally over each training instance with the
+model fitted on all of them (the inner CV therefore sees in-sample beliefs and plans: slightly optimistic
+about the model-driven groups; refitting the model per inner fold would triple the fit's cost).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..data.interaction import Interaction
+from ..data.skeletons import N_KEY
+from ..errors import ConfigError, ModelError, NotFittedError
+from .protocol import DEFAULT_N_OBSERVED
+from .reaction_features import FEATURE_GROUPS, N_FEATURES, RAMP_COLUMN, Anchor, FeatureConfig, group_columns, training_rows
+from .reaction_regression import (
+    HOLD, blend_weights, cv_errors, fold_predictions, inner_folds, key_columns, ridge_solve, scale_of, select,
+)
+
+__all__ = [
+    "FAMILIES", "GATED_FAMILIES", "HOLD", "MODEL_GROUPS", "Member", "SwitchingConfig", "SwitchingRegression", "Trace", "instance_rows", "plan_displacement",
+    "plan_offset", "switching_columns", "switching_rows", "switching_scale",
+]
+
+MODEL_GROUPS: tuple[str, ...] = ("subevent", "phase", "gated", "plan", "from_plan")
+"""The groups driven by the affordance model (the first four are columns, in order after the motion features;
+``from_plan`` is the prior)."""
+
+
+def _motion_subsets() -> tuple[tuple[str, ...], ...]:
+    return tuple(c for r in range(1, len(FEATURE_GROUPS) + 1) for c in itertools.combinations(FEATURE_GROUPS, r))
+
+
+Family = tuple[str, tuple[tuple[str, ...], ...]]
+
+FAMILIES: tuple[Family, ...] = (("motion", ((),)), ("plan", (("from_plan",), ("plan",))))
+"""The default families: the motion features alone (``ridge``'s candidates), and the plan as prior or features."""
+
+GATED_FAMILIES: tuple[Family, ...] = (
+    ("motion", ((),)),
+    ("subevent", (("subevent",), ("subevent", "phase"), ("subevent", "phase", "gated"))),
+    ("plan", (("from_plan",), ("plan",), ("from_plan", "subevent", "phase"), ("from_plan", "subevent", "phase", "gated"))),
+)
+"""With the belief-gated groups as well (tried on the development split and left out of the default: docs/design.md)."""
+
+
+@dataclass(frozen=True)
+class SwitchingConfig:
+    """Settings of the switching regression, fixed before any evaluation (the inner CV chooses among its candidates).
+
+    Each candidate is a set of motion groups joined with a set of model-driven groups; the candidates come in
+    families, whose best members are blended."""
+
+    features: FeatureConfig = field(default_factory=FeatureConfig)
+    """[—]: How the motion features are computed (as ``ridge``'s)."""
+    motion: tuple[tuple[str, ...], ...] = field(default_factory=_motion_subsets)
+    """[—]: Sets of motion groups (:data:`~.reaction_features.FEATURE_GROUPS`) the inner CV chooses among."""
+    families: tuple[Family, ...] = FAMILIES
+    """[—]: (name, sets of model-driven groups) per family: each set (of :data:`MODEL_GROUPS`) is joined to each
+    motion set (and, when not empty, also used without motion features); ``()`` is the motion features alone
+    (the ``ridge`` baseline's candidates). Each family's best candidate enters the blend."""
+    blend_steps: int = 10
+    """[—]: The blend's weights are multiples of 1 / blend_steps (1: keep the single best family or ``hold``)."""
+    cross_fit: int = 2
+    """[—]: The plans of the training rows come from models fitted on the other parts of a split of the training
+    instances into this many parts (pair-disjoint where possible): out of sample, as at test. 1: from the model
+    fitted on all of them, in sample, which the inner CV then over-trusts (NuiSI's development split, docs/design.md).
+    The beliefs and phases always come from the model fitted on all of them (its sub-event labels are the test's)."""
+    penalties: tuple[float, ...] = (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0)
+    """λ [—]: Ridge penalties the inner CV chooses among (unit-RMS features, rows weighing one per instance)."""
+    inner_folds: int = 3
+    """[—]: Folds of the inner cross-validation on the training instances."""
+    n_observed: int = DEFAULT_N_OBSERVED
+    """T0 [frames]: agent 1's observed frames when the training rows are built (the evaluation's T0)."""
+    fallback: tuple[tuple[str, ...], float] = (FEATURE_GROUPS + ("subevent",), 10.0)
+    """[—]: (groups, λ) used when the training set has a single instance (no inner CV is possible)."""
+
+    def __post_init__(self) -> None:
+        if not self.penalties or not all(p > 0 and math.isfinite(p) for p in self.penalties):
+            raise ConfigError(f"penalties: expected finite values > 0, found {self.penalties}")
+        bad = {g for c in self.motion for g in c} - set(FEATURE_GROUPS)
+        if bad or not self.motion or not all(self.motion):
+            raise ConfigError(f"motion: expected non-empty sets of {FEATURE_GROUPS}, found unknown {sorted(bad)}")
+        bad = {g for _, extras in self.families for c in extras for g in c} - set(MODEL_GROUPS)
+        if bad or not self.families or not all(extras for _, extras in self.families):
+            raise ConfigError(f"families: expected non-empty lists of sets of {MODEL_GROUPS}, found unknown {sorted(bad)}")
+        if self.cross_fit < 1:
+            raise ConfigError(f"cross_fit: expected at least 1, found {self.cross_fit}")
+        if self.blend_steps < 1:
+            raise ConfigError(f"blend_steps: expected at least 1, found {self.blend_steps}")
+        if self.inner_folds < 2:
+            raise ConfigError(f"inner_folds: expected at least 2, found {self.inner_folds}")
+        if self.n_observed < 1:
+            raise ConfigError(f"n_observed: expected at least 1, found {self.n_observed}")
+
+    @property
+    def needs_belief(self) -> bool:
+        """Whether a candidate reads the belief or the phase (``subevent``, ``phase``, ``gated``)."""
+        return any(g in ("subevent", "phase", "gated") for _, extras in self.families for c in extras for g in c)
+
+    def candidates(self, family: str) -> tuple[tuple[str, ...], ...]:
+        """The candidates' groups of ``family``: each motion set joined with each of its sets of model-driven
+        groups, and each non-empty such set alone."""
+        extras = dict(self.families)[family]
+        return tuple(m + e for e in extras for m in ((),) * bool(e) + self.motion)
+
+
+@dataclass(frozen=True, eq=False)
+class Trace:
+    """What the synthesizer gave for every frame of one instance (frames < T0 unused)."""
+
+    belief: np.ndarray
+    """(T, S) float64: the step's belief over the running sub-event (sums to one)."""
+    phase: np.ndarray
+    """(T,) float64 in [0, 1]: elapsed fraction of the running sub-event (NaN while observed)."""
+    plan: np.ndarray
+    """(T, 5, 3) float64, metres, world: agent 1's key joints as Algorithm 2 synthesized them."""
+    skeleton: np.ndarray
+    """(T, J, 3) float64, metres, world: agent 1's skeleton fitted to ``plan`` (frames ≥ T0; NaN before)."""
+
+
+def switching_columns(groups: Sequence[str], n_subevents: int) -> np.ndarray:
+    """Column indices (int64) of ``groups`` in the rows of :func:`switching_rows` with S = ``n_subevents``;
+    ``gated`` takes the gated copies of the motion groups in ``groups`` only."""
+    S, F = n_subevents, N_FEATURES
+    motion = group_columns([g for g in groups if g in FEATURE_GROUPS])
+    out = [motion]
+    if "subevent" in groups:
+        out.append(F + np.arange(S))
+    if "phase" in groups:
+        out.append(F + S + np.arange(S))
+    if "gated" in groups:
+        out.append((F + 2 * S + F * np.arange(S)[:, None] + motion[None]).reshape(-1))
+    if "plan" in groups:
+        out.append(F + 2 * S + S * F + np.arange(3 * N_KEY))
+    return np.concatenate(out).astype(np.int64)
+
+
+def switching_rows(motion: np.ndarray, belief: np.ndarray, phase: np.ndarray, plan: np.ndarray) -> np.ndarray:
+    """(N, F + 2S + S·F + 15) rows: the motion features (N, F), b·r (N, S), b·φ·r (N, S), the gated motion
+    features b_s·x (N, S·F; column F + 2S + s·F + j is b_s·x_j) and the plan's displacement (N, 15), from the
+    motion features (N, F), the belief (N, S), the phase (N,) (NaN counts as 0) and the plan's displacement
+    (N, 15), metres, anchor frame."""
+    x = np.asarray(motion, dtype=np.float64)
+    b = np.asarray(belief, dtype=np.float64)
+    ramp = x[:, RAMP_COLUMN]
+    phi = np.nan_to_num(np.asarray(phase, dtype=np.float64))
+    gated = (b[:, :, None] * x[:, None, :]).reshape(len(x), -1)
+    return np.concatenate([x, b * ramp[:, None], b * (phi * ramp)[:, None], gated, np.nan_to_num(plan)], axis=1)
+
+
+def switching_scale(rows: np.ndarray, w: np.ndarray, n_subevents: int) -> np.ndarray:
+    """(F,) column scales of rows (N, F) of :func:`switching_rows` under row weights w (N,): each motion and plan
+    column its weighted RMS (:func:`~.reaction_regression.scale_of`); the belief-weighted columns the RMS of the
+    column they weight (``subevent`` and ``phase``: the ramp's; ``gated``: the motion column's). So the belief
+    stays a weight in [0, 1]: a sub-event the training rows rarely believed in gets no inflated column (its
+    own RMS would be near zero, and a test row that believes in it would blow up)."""
+    S, F = n_subevents, N_FEATURES
+    scale = scale_of(rows, w)
+    scale[F:F + 2 * S] = scale[RAMP_COLUMN]
+    scale[F + 2 * S:F + 2 * S + S * F] = np.tile(scale[:F], S)
+    return scale
+
+
+def plan_displacement(anchor: Anchor, plan: np.ndarray, interaction: Interaction) -> np.ndarray:
+    """(N, 15) metres, anchor frame: the planned key joints (N, 5, 3) world minus agent 1's at the anchor
+    (0 where either is unknown)."""
+    keys = interaction.layout.key_joints(anchor.pose[None])[0]
+    d = (np.asarray(plan, dtype=np.float64) - keys[None]) @ anchor.frame.rotation
+    return np.nan_to_num(d).reshape(len(d), -1)
+
+
+def plan_offset(anchor: Anchor, skeleton: np.ndarray) -> np.ndarray:
+    """(N, J·3) metres, anchor frame: the plan's skeletons (N, J, 3) world minus agent 1's at the anchor (0 where
+    either is unknown): the ``from_plan`` prior."""
+    d = (np.asarray(skeleton, dtype=np.float64) - anchor.pose[None]) @ anchor.frame.rotation
+    return np.nan_to_num(d).reshape(len(d), -1)
+
+
+def instance_rows(
+    interaction: Interaction, trace: Trace, n_observed: int, config: FeatureConfig
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rows (N, ·) of :func:`switching_rows`, targets (N, J·3) (anchor-frame displacements, metres) and the
+    ``from_plan`` prior (N, J·3) of frames T0 … T − 1 of a training instance."""
+    X, Y, frames = training_rows(interaction, n_observed, config)
+    anchor = Anchor.from_view(interaction.hide_agent_after(1, n_observed), n_observed, config)
+    plan = plan_displacement(anchor, trace.plan[frames], interaction)
+    rows = switching_rows(X, trace.belief[frames], trace.phase[frames], plan)
+    return rows, Y, plan_offset(anchor, trace.skeleton[frames])
+
+
+@dataclass(frozen=True, eq=False)
+class Member:
+    """One family's fitted candidate in the blend."""
+
+    family: str
+    """The family's name."""
+    groups: tuple[str, ...]
+    """Its groups (``from_plan`` in them: the plan is its prior)."""
+    penalty: float
+    """λ (``inf``: no regression term)."""
+    weight: float
+    """α, its share of the blend."""
+    columns: np.ndarray
+    """(F_m,) int64 columns of :func:`switching_rows` it reads."""
+    coefficients: np.ndarray
+    """(F_m, J·3) its ridge weights on those (scaled) columns."""
+
+    @property
+    def from_plan(self) -> bool:
+        """Whether the plan is its prior."""
+        return "from_plan" in self.groups
+
+
+class SwitchingRegression:
+    """The switching regression (module docstring). Learned attributes: ``n_subevents_`` (S), ``members_``
+    (the families' fitted candidates with weight α > 0; empty: ``hold``), ``cv_errors_`` ({(groups, λ): mean
+    held-out key-joint error, m}), ``blend_error_`` (the blend's held-out error, m), ``scale_`` (the columns'
+    RMS)."""
+
+    def __init__(self, config: SwitchingConfig | None = None) -> None:
+        self.config = config or SwitchingConfig()
+
+    def fit(
+        self, interactions: Sequence[Interaction], traces: Sequence[Trace], *, n_subevents: int, rng: np.random.Generator
+    ) -> SwitchingRegression:
+        """Choose each family's groups and λ, and the blend's weights, by inner CV on ``interactions`` (one class;
+        ``traces`` their synthesizer traces), then refit the members on all of them."""
+        cfg = self.config
+        if len(traces) != len(interactions):
+            raise ModelError(f"switching regression: {len(interactions)} interactions but {len(traces)} traces")
+        xs, ys, os_, ws, ids = [], [], [], [], []
+        for i, (inst, trace) in enumerate(zip(interactions, traces, strict=True)):
+            if inst.n_frames <= cfg.n_observed:
+                continue
+            X, Y, O = instance_rows(inst, trace, cfg.n_observed, cfg.features)
+            xs.append(X)
+            ys.append(Y)
+            os_.append(O)
+            ws.append(np.full(len(X), 1.0 / len(X)))
+            ids.append(np.full(len(X), i))
+        if not xs:
+            raise ModelError(f"switching regression: expected a training instance longer than T0 = {cfg.n_observed} frames")
+        X, Y, w, row_ids = np.concatenate(xs), np.concatenate(ys), np.concatenate(ws), np.concatenate(ids)
+        offset = np.concatenate(os_)
+        S = self.n_subevents_ = int(n_subevents)
+        self.scale_ = switching_scale(X, w, S)
+        Xs = X / self.scale_
+        folds = inner_folds(interactions, np.unique(row_ids), cfg.inner_folds, rng)
+        self.cv_errors_: dict[tuple[tuple[str, ...], float], float] = {}
+        chosen: list[tuple[str, tuple[str, ...], float, float]] = []  # (family, groups, λ, α)
+        if len(folds) >= 2:
+            kc = key_columns(interactions[0])
+            Yk, Ok = Y[:, kc], offset[:, kc]
+            winners, preds = [], []
+            for family, _ in cfg.families:
+                candidates = {g: switching_columns(g, S) for g in cfg.candidates(family)}
+                cv = cv_errors(Xs, Yk, w, row_ids, folds, candidates, cfg.penalties, offset=Ok,
+                               from_offset=[g for g in candidates if "from_plan" in g])
+                self.cv_errors_.update(cv)
+                groups, lam = select({k: v for k, v in cv.items() if k[0] != HOLD})
+                winners.append((family, groups, lam))
+                base = Ok if "from_plan" in groups else np.zeros_like(Yk)
+                preds.append(fold_predictions(Xs, Yk, w, row_ids, folds, candidates[groups], lam, base))
+            alpha, self.blend_error_ = blend_weights(np.stack(preds), Yk, row_ids, cfg.blend_steps)
+            chosen = [(f, g, lam, float(a)) for (f, g, lam), a in zip(winners, alpha, strict=True) if a > 0]
+        else:
+            self.blend_error_ = math.nan
+            chosen = [("fallback", tuple(cfg.fallback[0]), float(cfg.fallback[1]), 1.0)]
+        wn = w / w.sum()
+        self.members_: list[Member] = []
+        for family, groups, lam, alpha in chosen:
+            cols = switching_columns(groups, S)
+            target = Y - offset if "from_plan" in groups else Y
+            if len(cols) and math.isfinite(lam):
+                Xc = Xs[:, cols]
+                coef = ridge_solve((Xc * wn[:, None]).T @ Xc, (Xc * wn[:, None]).T @ target, lam)
+            else:
+                cols, coef = np.zeros(0, np.int64), np.zeros((0, Y.shape[1]))
+            self.members_.append(Member(family, groups, lam, alpha, cols, coef))
+        self.n_outputs_ = Y.shape[1]
+        return self
+
+    def displacement(self, rows: np.ndarray, offset: np.ndarray) -> np.ndarray:
+        """(N, J·3) anchor-frame displacements, metres: Σ_m α_m (prior_m + rows_m W_m) for rows (N, ·) of
+        :func:`switching_rows` and the ``from_plan`` prior ``offset`` (N, J·3) (:func:`plan_offset`; read only by
+        members whose prior it is)."""
+        if not hasattr(self, "members_"):
+            raise NotFittedError("switching regression: call fit(...) before displacement")
+        out = np.zeros((len(rows), self.n_outputs_))
+        for m in self.members_:
+            part = np.array(offset, dtype=np.float64) if m.from_plan else np.zeros_like(out)
+            if len(m.columns):
+                part += (rows[:, m.columns] / self.scale_[m.columns]) @ m.coefficients
+            out += m.weight * part
+        return out
+
+    @property
+    def groups_(self) -> tuple[str, ...]:
+        """The groups the blend reads (union over its members; ``()``: ``hold``)."""
+        return tuple(dict.fromkeys(g for m in getattr(self, "members_", ()) for g in m.groups))
+
+    @property
+    def uses_model(self) -> bool:
+        """Whether the blend reads the affordance model (a group of :data:`MODEL_GROUPS`)."""
+        return any(g in MODEL_GROUPS for g in self.groups_)
