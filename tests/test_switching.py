@@ -13,7 +13,9 @@ from socialaff_sim.data import Interaction
 from socialaff_sim.data.skeletons import KEY_JOINTS
 from socialaff_sim.errors import ConfigError, ModelError, NotFittedError
 from socialaff_sim.evaluation.streaming import run_protocol
-from socialaff_sim.inference.methods import AffordanceMethod
+from socialaff_sim.inference.body_fit import BodyFitter
+from socialaff_sim.inference.methods import AffordanceMethod, trace
+from socialaff_sim.inference.synthesis_config import SynthesisConfig
 from socialaff_sim.inference.reaction_features import FEATURE_GROUPS, N_FEATURES, RAMP_COLUMN, group_columns
 from socialaff_sim.inference.reaction_regression import (
     HOLD,
@@ -232,6 +234,22 @@ def test_default_full_method_uses_the_switching_regression(shake8) -> None:  # n
     if m.reaction_.groups_ == HOLD:
         np.testing.assert_allclose(pred.joints[T0:], np.repeat(data[6].filled_joints()[T0 - 1, 1][None],
                                                                data[6].n_frames - T0, 0), atol=1e-9)
+
+
+def test_training_instances_no_longer_than_t0_are_skipped(shake8, shake8_model) -> None:  # noqa: ANN001
+    """SBU holds recordings of exactly T0 frames: their trace is empty (no synthesis is run on them; before, the
+    synthesizer raised) and the switching regression fits on the others."""
+    data = list(shake8)
+    short = data[0].slice(0, T0)
+    body = BodyFitter().fit_interactions(data[:6], agent=1, rng=np.random.default_rng(0))
+    cfg = SynthesisConfig(n_observed=T0)
+    empty = trace(shake8_model, body, short, cfg, np.random.default_rng(0))
+    assert empty.plan.shape == (T0, 5, 3) and np.isnan(empty.plan).all() and np.isnan(empty.belief).all()
+    insts = [short, data[1], data[2], data[3]]
+    traces = [empty] + [trace(shake8_model, body, d, cfg, np.random.default_rng(0)) for d in insts[1:]]
+    reg = SwitchingRegression(SwitchingConfig(inner_folds=2)).fit(
+        insts, traces, n_subevents=shake8_model.n_subevents_, rng=np.random.default_rng(0))
+    assert np.isfinite(reg.scale_).all()
 
 
 def test_belief_weighted_columns_take_the_scale_of_what_they_weight(rng: np.random.Generator) -> None:

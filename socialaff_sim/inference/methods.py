@@ -95,7 +95,12 @@ def trace(
     model: SocialAffordanceModel, body: BodyFitter, interaction: Interaction, config: SynthesisConfig, rng: np.random.Generator
 ) -> Trace:
     """The synthesizer's belief, phase and plan (key joints, and the skeleton ``body`` fits to them) at every frame
-    of ``interaction``, run causally with ``config`` (what the switching regression learns from; :mod:`.switching`)."""
+    of ``interaction``, run causally with ``config`` (what the switching regression learns from; :mod:`.switching`).
+    An instance no longer than T0 frames has nothing to synthesize: its trace is all NaN (the regression skips it)."""
+    T = interaction.n_frames
+    if T <= config.n_observed:
+        return Trace(belief=np.full((T, model.n_subevents_), np.nan), phase=np.full(T, np.nan),
+                     plan=np.full((T, 5, 3), np.nan), skeleton=np.full((T, interaction.joints.shape[2], 3), np.nan))
     syn = OnlineSynthesizer(model, None, config)
     syn.reset(interaction, rng=rng)
     steps = [syn.step() for _ in range(interaction.n_frames)]
