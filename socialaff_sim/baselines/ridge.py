@@ -28,7 +28,9 @@ import numpy as np
 from ..data.interaction import Interaction
 from ..errors import ConfigError, ModelError, NotFittedError
 from ..inference.protocol import DEFAULT_N_OBSERVED, Prediction, prediction_from_reactor
-from ..inference.reaction_regression import HOLD, cv_errors, inner_folds, key_columns, ridge_solve, scale_of, select
+from ..inference.reaction_regression import (
+    HOLD, cv_errors, inner_folds, key_columns, ridge_solve, scale_of, select, stack_instances,
+)
 from ..inference.reaction_features import FEATURE_GROUPS, FeatureConfig, FeatureStream, group_columns, training_rows
 
 __all__ = ["HOLD", "RidgeConfig", "RidgeReaction", "key_columns", "ridge_solve", "select", "training_set"]
@@ -73,18 +75,9 @@ def training_set(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Stacked rows of the usable training instances: X (N, F), Y (N, J·3), row weights (N,) summing to one per
     instance, and each row's instance index (N,) into ``interactions``."""
-    xs, ys, ws, ids = [], [], [], []
-    for i, inst in enumerate(interactions):
-        if inst.n_frames <= n_observed:
-            continue
-        X, Y, _ = training_rows(inst, n_observed, config)
-        xs.append(X)
-        ys.append(Y)
-        ws.append(np.full(len(X), 1.0 / len(X)))
-        ids.append(np.full(len(X), i))
-    if not xs:
-        raise ModelError(f"ridge: expected a training instance longer than T0 = {n_observed} frames, found none")
-    return np.concatenate(xs), np.concatenate(ys), np.concatenate(ws), np.concatenate(ids)
+    (X, Y), w, ids = stack_instances(
+        interactions, n_observed, lambda i, inst: training_rows(inst, n_observed, config)[:2], "ridge")
+    return X, Y, w, ids
 
 
 class RidgeReaction:

@@ -14,22 +14,45 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 
 import numpy as np
 
 from ..data.dataset import deal_groups
 from ..data.interaction import Interaction
+from ..errors import ModelError
 
 __all__ = [
     "HOLD", "blend_weights", "cv_errors", "fold_predictions", "inner_folds", "key_columns", "key_error", "ridge_solve",
-    "scale_of", "select", "simplex_grid",
+    "scale_of", "select", "simplex_grid", "stack_instances",
 ]
 
 HOLD: tuple[str, ...] = ()
 """The candidate without features: ``hold`` (λ = ∞)."""
 
 Candidate = tuple[tuple[str, ...], float]
+
+
+def stack_instances(
+    interactions: Sequence[Interaction], n_observed: int, rows: Callable[[int, Interaction], tuple[np.ndarray, ...]],
+    who: str,
+) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """The training rows of every instance longer than T0 = ``n_observed`` frames, stacked: ``rows(i, inst)``
+    gives arrays of N_i rows each; returns their concatenations (in the order ``rows`` gives them), row weights
+    (N,) summing to one per instance, and each row's instance index (N,) into ``interactions``.
+    Raises :class:`~socialaff_sim.errors.ModelError` naming ``who`` when no instance is long enough."""
+    parts: list[tuple[np.ndarray, ...]] = []
+    ws, ids = [], []
+    for i, inst in enumerate(interactions):
+        if inst.n_frames <= n_observed:
+            continue
+        arrays = rows(i, inst)
+        parts.append(arrays)
+        ws.append(np.full(len(arrays[0]), 1.0 / len(arrays[0])))
+        ids.append(np.full(len(arrays[0]), i))
+    if not parts:
+        raise ModelError(f"{who}: expected a training instance longer than T0 = {n_observed} frames, found none")
+    return [np.concatenate(col) for col in zip(*parts, strict=True)], np.concatenate(ws), np.concatenate(ids)
 
 
 def ridge_solve(gram: np.ndarray, cross: np.ndarray, penalty: float) -> np.ndarray:

@@ -55,6 +55,7 @@ from .protocol import DEFAULT_N_OBSERVED
 from .reaction_features import FEATURE_GROUPS, N_FEATURES, RAMP_COLUMN, Anchor, FeatureConfig, group_columns, training_rows
 from .reaction_regression import (
     HOLD, blend_weights, cv_errors, fold_predictions, inner_folds, key_columns, ridge_solve, scale_of, select,
+    stack_instances,
 )
 
 __all__ = [
@@ -269,20 +270,9 @@ class SwitchingRegression:
         cfg = self.config
         if len(traces) != len(interactions):
             raise ModelError(f"switching regression: {len(interactions)} interactions but {len(traces)} traces")
-        xs, ys, os_, ws, ids = [], [], [], [], []
-        for i, (inst, trace) in enumerate(zip(interactions, traces, strict=True)):
-            if inst.n_frames <= cfg.n_observed:
-                continue
-            X, Y, O = instance_rows(inst, trace, cfg.n_observed, cfg.features)
-            xs.append(X)
-            ys.append(Y)
-            os_.append(O)
-            ws.append(np.full(len(X), 1.0 / len(X)))
-            ids.append(np.full(len(X), i))
-        if not xs:
-            raise ModelError(f"switching regression: expected a training instance longer than T0 = {cfg.n_observed} frames")
-        X, Y, w, row_ids = np.concatenate(xs), np.concatenate(ys), np.concatenate(ws), np.concatenate(ids)
-        offset = np.concatenate(os_)
+        (X, Y, offset), w, row_ids = stack_instances(
+            interactions, cfg.n_observed,
+            lambda i, inst: instance_rows(inst, traces[i], cfg.n_observed, cfg.features), "switching regression")
         S = self.n_subevents_ = int(n_subevents)
         self.scale_ = switching_scale(X, w, S)
         Xs = X / self.scale_
