@@ -27,6 +27,7 @@ from .atomic import AtomicIntervals, atomic_intervals
 from .config import LearningConfig
 from .history import new_history, summary_line
 from .initial import hard_em_parses
+from .interval_table import IntervalTable
 from .mh import mh_step
 from .parse import Parse, ParseSpace
 from .restructure import restructure
@@ -116,9 +117,10 @@ def _initial_target(
 ) -> AffordanceTarget:
     """The chain's start: the best (highest log P*) of the hard-EM refinements of the equal parts and
     of ``lcfg.init_starts`` Dirichlet-fraction splits (see :class:`LearningConfig`)."""
+    table = IntervalTable(tracks, fps, acfg.feature_path_profile)  # every interval's features once per run
     if not acfg.use_subevents:
         parses = [Parse((0,), (0,)) for _ in spaces]
-        return AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng)
+        return AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng, table)
     fractions = [np.full(n_labels, 1.0 / n_labels)]
     if n_labels > 1:
         fractions += [rng.dirichlet(np.full(n_labels, lcfg.init_dirichlet)) for _ in range(lcfg.init_starts)]
@@ -127,9 +129,9 @@ def _initial_target(
         parses = [sp.initial_parse(n_labels) if k == 0 else sp.fraction_parse(fr) for sp in spaces]
         if lcfg.init_rounds and n_labels > 1:
             parses = hard_em_parses(
-                tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng=rng, rounds=lcfg.init_rounds
+                tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng=rng, rounds=lcfg.init_rounds, table=table
             )
-        candidates.append(AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng))
+        candidates.append(AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng, table))
     start = max(candidates, key=lambda t: t.log_prob)  # the first (equal parts) wins ties
     if lcfg.init_type_passes == 0 or n_labels < 3:
         return start
@@ -140,11 +142,11 @@ def _initial_target(
         if rounds == 0:
             return ps
         return hard_em_parses(
-            tracks, fps, spaces, ps, available, n_labels, acfg, lcfg, rng=rng, rounds=rounds, groupings=warm
+            tracks, fps, spaces, ps, available, n_labels, acfg, lcfg, rng=rng, rounds=rounds, groupings=warm, table=table
         )
 
     def target(ps: list[Parse]) -> AffordanceTarget:
-        return AffordanceTarget(tracks, fps, spaces, ps, available, n_labels, acfg, lcfg, rng)
+        return AffordanceTarget(tracks, fps, spaces, ps, available, n_labels, acfg, lcfg, rng, table)
 
     parses, value = restructure(
         spaces, start.parses, n_labels, refine=refine, score=lambda ps: target(ps).log_prob,

@@ -23,13 +23,13 @@ import numpy as np
 
 from ..model.config import AffordanceConfig
 from ..model.densities import fit_lognorm, lognorm_logpdf
-from ..model.features import interval_features, type_samples
 from ..model.path import fit_path_noise, path_loglik
 from ..model.potentials import fit_type_potentials, log_motion, log_spatial
 from ..model.segment_dp import best_segmentation
 from ..model.transitions import count_transitions, smoothed_probs
 from .config import LearningConfig
 from .gibbs import gibbs_optimize
+from .interval_table import IntervalTable
 from .likelihood import TypeLikelihood
 from .parse import Parse, ParseSpace
 from .scorer import lone_grouping
@@ -50,11 +50,16 @@ def hard_em_parses(
     rng: np.random.Generator,
     rounds: int,
     groupings: np.ndarray | None = None,
+    table: IntervalTable | None = None,
 ) -> list[Parse]:
     """Refine ``parses`` by alternating parameter fits and DP re-segmentation (see module doc).
 
-    ``groupings`` (S, 11) int64 warm-starts the Gibbs inner loop of each type (default: all Null)."""
+    ``groupings`` (S, 11) int64 warm-starts the Gibbs inner loop of each type (default: all Null); ``table``
+    holds the interval features of ``tracks`` (shared by the caller across calls; default: a new one)."""
     parses = list(parses)
+    if table is None:
+        table = IntervalTable(tracks, fps, acfg.feature_path_profile)
+    n_joints = tracks[0].shape[1] if len(tracks) else 11
     if groupings is None:
         z = [np.where(available, 0, -1).astype(np.int64) for _ in range(S)]
     else:
@@ -64,7 +69,7 @@ def hard_em_parses(
         pots, durs = [], []
         sigmas = np.full((S, available.shape[0]), np.nan)
         for s in range(S):
-            feats = type_samples(list(tracks), list(fps), spans, s, acfg.feature_path_profile)
+            feats = table.type_samples(spans, s, n_joints)
             if len(feats) == 0:
                 pots.append(None)
                 durs.append(None)
@@ -86,11 +91,11 @@ def hard_em_parses(
         with np.errstate(divide="ignore"):
             log_s, log_t = np.log(p_start), np.log(p_trans)
         new = []
-        for x, f, space in zip(tracks, fps, spaces, strict=True):
+        for i, (f, space) in enumerate(zip(fps, spaces, strict=True)):
             b = space.bounds
             B = b.shape[0] - 1
             ia, ib = np.triu_indices(B + 1, k=1)
-            feats = interval_features(x, b[ia], b[ib], f, acfg.feature_path_profile)
+            feats = table.all_pairs(i, b)
             seg = np.full((B + 1, B + 1, S), -np.inf)
             for s in range(S):
                 if pots[s] is None:

@@ -26,10 +26,11 @@ from ..model.config import AffordanceConfig
 from ..model.densities import fit_lognorm, heldout_lognorm
 from ..model.grouping import canonical_ids
 from ..model.transitions import transition_loglik
-from ..model.features import IntervalFeatures, interval_features
+from ..model.features import IntervalFeatures
 from ..model.path import fit_path_noise
 from .config import LearningConfig
 from .gibbs import gibbs_optimize
+from .interval_table import IntervalTable
 from .likelihood import TypeLikelihood
 from .parse import Parse, ParseSpace
 
@@ -100,7 +101,9 @@ class AffordanceTarget:
         acfg: AffordanceConfig,
         lcfg: LearningConfig,
         rng: np.random.Generator,
+        table: IntervalTable | None = None,
     ) -> None:
+        """``table``: the interval features of ``tracks``, shared with other targets of one run (default: a new one)."""
         self.tracks = list(tracks)
         self.fps = [float(f) for f in fps]
         self.spaces = list(spaces)
@@ -110,7 +113,7 @@ class AffordanceTarget:
         self.acfg, self.lcfg, self.rng = acfg, lcfg, rng
         self.distinct = spaces[0].distinct_neighbours if spaces else True
         self.spans = [sp.frame_spans(p) for sp, p in zip(self.spaces, self.parses, strict=True)]
-        self._features: dict[tuple[int, int, int], IntervalFeatures] = {}
+        self.table = table if table is not None else IntervalTable(tracks, fps, acfg.feature_path_profile)
         self.trans = np.zeros((self.S, self.S))
         self.start = np.zeros(self.S)
         for sp in self.spans:
@@ -132,20 +135,11 @@ class AffordanceTarget:
             trans[a, b] += sign
 
     def _samples(self, s: int, override: dict[int, list[tuple[int, int, int]]]) -> IntervalFeatures:
-        """Features of the intervals labelled ``s`` (as :func:`type_samples`), memoized per interval:
-        a proposal changes one instance, so the other instances' rows are look-ups."""
+        """Features of the intervals labelled ``s`` (as :func:`type_samples`), memoized per interval in the
+        run's :class:`~.interval_table.IntervalTable`: a proposal changes one instance, so the other
+        instances' rows are look-ups."""
         keys = [(i, f0, f1) for i, sp in enumerate(self.spans) for f0, f1, lab in override.get(i, sp) if lab == s]
-        missing: dict[int, list[tuple[int, int]]] = {}
-        for i, f0, f1 in keys:
-            if (i, f0, f1) not in self._features:
-                missing.setdefault(i, []).append((f0, f1))
-        profile = self.acfg.feature_path_profile
-        for i, rows in missing.items():
-            f0s, f1s = np.array(rows, dtype=np.int64).T
-            feats = interval_features(self.tracks[i], f0s, f1s, self.fps[i], profile)
-            for m, (f0, f1) in enumerate(rows):
-                self._features[(i, f0, f1)] = feats.take(np.array([m]))
-        return IntervalFeatures.concat([self._features[k] for k in keys], self.available.shape[0])
+        return self.table.rows(keys, self.available.shape[0])
 
     def _type_state(self, s: int, override: dict, z0: np.ndarray, max_sweeps: int) -> TypeState:
         feats = self._samples(s, override)
