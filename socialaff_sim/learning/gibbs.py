@@ -12,6 +12,7 @@ not improved for ``patience`` sweeps, or after ``max_sweeps``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from math import lgamma, log
 
 import numpy as np
@@ -34,7 +35,9 @@ class GibbsResult:
     """Sweeps run."""
 
 
-def _members(mask: int) -> list[int]:
+@lru_cache(maxsize=None)
+def _members(mask: int) -> tuple[int, ...]:
+    """The joints of a group (bitmask), in increasing order."""
     out = []
     j = 0
     while mask:
@@ -42,16 +45,19 @@ def _members(mask: int) -> list[int]:
             out.append(j)
         mask >>= 1
         j += 1
-    return out
+    return tuple(out)
 
 
 def _group_terms(lik: TypeLikelihood, mask: int) -> float:
-    """Σ of the spatial terms of every member of a group (bitmask)."""
-    return sum(lik.spatial_term(m, mask & ~(1 << m)) for m in _members(mask))
+    """Σ of the spatial terms of every member of a group (bitmask), in member order."""
+    memo = lik.memo
+    return sum(memo[k] if k in memo else lik.term(k) for k in _group_keys(mask))
 
 
-def _group_keys(mask: int) -> list[int]:
-    return [TypeLikelihood.key(m, mask & ~(1 << m)) for m in _members(mask)]
+@lru_cache(maxsize=None)
+def _group_keys(mask: int) -> tuple[int, ...]:
+    """Memo keys of the spatial terms of every member of a group (bitmask), in member order."""
+    return tuple(TypeLikelihood.key(m, mask & ~(1 << m)) for m in _members(mask))
 
 
 def _site_keys(z: list[int], masks: dict[int, int], j: int) -> list[int]:
@@ -60,10 +66,12 @@ def _site_keys(z: list[int], masks: dict[int, int], j: int) -> list[int]:
     g = z[j]
     need = [TypeLikelihood.key(j, 0)]
     if g > 0:
-        need += _group_keys(masks[g]) + _group_keys(masks[g] & ~bj)
+        need += _group_keys(masks[g])
+        need += _group_keys(masks[g] & ~bj)
     for h, m in masks.items():
         if h != g:
-            need += _group_keys(m) + _group_keys(m | bj)
+            need += _group_keys(m)
+            need += _group_keys(m | bj)
     return need
 
 

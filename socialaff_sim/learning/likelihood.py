@@ -10,6 +10,8 @@ repeated Gibbs sweeps and proposals that revisit a grouping cost a dictionary lo
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from ..model.config import AffordanceConfig
@@ -48,9 +50,17 @@ class TypeLikelihood:
         if missing:
             self._compute(missing)
 
+    @property
+    def memo(self) -> dict[int, float]:
+        """The spatial terms fitted so far by memo key (read it, do not write it): the Gibbs loop's look-ups."""
+        return self._memo
+
     def spatial_term(self, j: int, others: int) -> float:
         """Maximized spatial log-likelihood of joint ``j`` relative to ``others`` (fitted on demand)."""
-        k = (others << 4) | j
+        return self.term((others << 4) | j)
+
+    def term(self, k: int) -> float:
+        """The spatial term of memo key ``k`` (:meth:`key`), fitted on demand."""
         v = self._memo.get(k)
         if v is None:
             self._compute([k])
@@ -68,10 +78,9 @@ class TypeLikelihood:
             return
         js = np.array([k & 15 for k in keys])
         W = np.empty((len(keys), N_JOINTS))
+        side, own = self.cfg.other_side_reference, self.cfg.reference_self
         for r, k in enumerate(keys):
-            others = k >> 4
-            members = [m for m in range(N_JOINTS) if others >> m & 1]
-            W[r] = reference_row(k & 15, members, self.cfg.other_side_reference, self.cfg.reference_self)
+            W[r] = _key_reference(k, side, own)
         ll = fit_offsets(self.end, js, W, self.cfg)[1]
         self.n_fits += len(keys)
         for k, v in zip(keys, ll.tolist(), strict=True):
@@ -107,3 +116,13 @@ class TypeLikelihood:
             total += sum(self._memo[k] for k in ks)
             out[r] = total
         return out
+
+
+@lru_cache(maxsize=None)
+def _key_reference(key: int, other_side: bool, include_self: bool) -> np.ndarray:
+    """(11,) read-only reference weights of memo key ``key`` (:meth:`TypeLikelihood.key`): a pure function of
+    the key and the two settings, so computed once per process."""
+    others = key >> 4
+    row = reference_row(key & 15, [m for m in range(N_JOINTS) if others >> m & 1], other_side, include_self)
+    row.setflags(write=False)
+    return row

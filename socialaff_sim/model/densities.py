@@ -161,21 +161,26 @@ def fit_weibull(
     k = np.minimum(np.maximum(k, shape_min), shape_max)
     active = sd > 1e-12
     Lc = L - Lbar[:, None]  # centring keeps the weighted moments well conditioned
+    # A finished row keeps its k, so only the others need stepping. Stepping a subset of the rows is
+    # bitwise the same for C-ordered rows (each row's sums are its own); the other layouts step them all.
+    subset = bool(x.flags.c_contiguous)
     for _ in range(max_steps):
+        rows = np.flatnonzero(active) if subset else np.arange(B)
         if not active.any():
             break
-        e = np.exp(k[:, None] * u)
-        eL = e * Lc
+        kr, ur, Lr = (k, u, Lc) if rows.size == B else (k[rows], u[rows], Lc[rows])
+        e = np.exp(kr[:, None] * ur)
+        eL = e * Lr
         s0 = e.sum(axis=1)
         m1 = eL.sum(axis=1) / s0
-        m2 = (eL * Lc).sum(axis=1) / s0
-        g = m1 - 1.0 / k
-        dg = (m2 - m1 * m1) + 1.0 / (k * k)
-        step = np.where(active, np.minimum(np.maximum(g / (k * dg), -2.0), 2.0), 0.0)  # Newton in log k
-        k_new = np.minimum(np.maximum(k * np.exp(-step), shape_min), shape_max)
+        m2 = (eL * Lr).sum(axis=1) / s0
+        g = m1 - 1.0 / kr
+        dg = (m2 - m1 * m1) + 1.0 / (kr * kr)
+        step = np.where(active[rows], np.minimum(np.maximum(g / (kr * dg), -2.0), 2.0), 0.0)  # Newton in log k
+        k_new = np.minimum(np.maximum(kr * np.exp(-step), shape_min), shape_max)
         # A row is done when its step is below tol or it is stuck at a clamp.
-        active &= (np.abs(step) > tol) & (k_new != k)
-        k = k_new
+        active[rows] &= (np.abs(step) > tol) & (k_new != kr)
+        k[rows] = k_new
     e = np.exp(k[:, None] * u)
     log_mean_xk = np.log(e.mean(axis=1)) + k * L.max(axis=1)
     log_lam = log_mean_xk / k
