@@ -17,6 +17,7 @@ from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.learning.estimator import SocialAffordanceModel
 from socialaff_sim.learning.interval_table import IntervalTable
 from socialaff_sim.learning.likelihood import TypeLikelihood
+from socialaff_sim.model.config import AffordanceConfig
 from socialaff_sim.model.densities import fit_weibull, row_mean, row_std
 from socialaff_sim.model.features import IntervalFeatures, interval_features, type_samples
 
@@ -173,3 +174,31 @@ def test_fit_is_bitwise_the_same_without_the_interval_table(monkeypatch: pytest.
     assert np.array_equal(cached.spatial_params_, fresh.spatial_params_, equal_nan=True)
     assert np.array_equal(cached.grouping_, fresh.grouping_)
     assert cached.history_["log_posterior"].tolist() == fresh.history_["log_posterior"].tolist()
+
+
+def test_gibbs_draw_is_generator_choice_with_the_same_stream() -> None:
+    """The Gibbs sweep's draw gives rng.choice's index and leaves the generator where rng.choice does."""
+    g = np.random.default_rng(0)
+    r1, r2 = np.random.default_rng(123), np.random.default_rng(123)
+    for _ in range(20000):
+        n = int(g.integers(1, 9))
+        logp = g.normal(size=n) * g.uniform(0.0, 50.0)
+        if n > 1 and g.random() < 0.2:
+            logp[g.integers(n)] = -np.inf
+        p = np.exp(logp - logp.max())
+        p = p / p.sum()
+        assert gibbs._draw(r2, p) == int(r1.choice(n, p=p))
+    assert r1.random() == r2.random()
+    with pytest.raises(ValueError):
+        gibbs._draw(r2, np.array([np.nan, 1.0]))  # numpy's own refusal
+
+
+def test_group_sums_are_the_member_order_sums() -> None:
+    rng = np.random.default_rng(2)
+    end = rng.normal(size=(12, 11, 3))
+    disp = rng.normal(scale=0.1, size=(12, 11, 3))
+    lik = TypeLikelihood(end, disp, np.ones(11, bool), AffordanceConfig())
+    for mask in (0b1, 0b1011, 0b11100000110, 0b11111111111):
+        direct = sum(lik.spatial_term(m, mask & ~(1 << m)) for m in range(11) if mask >> m & 1)
+        assert gibbs._group_terms(lik, mask) == direct
+        assert gibbs._group_terms(lik, mask) == direct  # from the kept sum

@@ -49,9 +49,25 @@ def _members(mask: int) -> tuple[int, ...]:
 
 
 def _group_terms(lik: TypeLikelihood, mask: int) -> float:
-    """Σ of the spatial terms of every member of a group (bitmask), in member order."""
-    memo = lik.memo
-    return sum(memo[k] if k in memo else lik.term(k) for k in _group_keys(mask))
+    """Σ of the spatial terms of every member of a group (bitmask), in member order; a likelihood's terms
+    never change once fitted, so each group's sum is kept in it (the same sum, summed once)."""
+    sums = lik.group_sums
+    v = sums.get(mask)
+    if v is None:
+        memo = lik.memo
+        v = sums[mask] = sum(memo[k] if k in memo else lik.term(k) for k in _group_keys(mask))
+    return v
+
+
+def _draw(rng: np.random.Generator, p: np.ndarray) -> int:
+    """``rng.choice(len(p), p=p)`` for normalised probabilities ``p``: numpy's own steps (the cumulative sum
+    normalised by its last value, one uniform draw, the first cut above it) without its argument checks; the
+    same index and the same single draw from the stream. Non-finite ``p`` goes to numpy, which refuses it."""
+    if not np.isfinite(p).all():
+        return int(rng.choice(len(p), p=p))
+    cdf = p.cumsum()
+    cdf /= cdf[-1]
+    return int(cdf.searchsorted(rng.random(), side="right"))
 
 
 @lru_cache(maxsize=None)
@@ -162,7 +178,7 @@ class GibbsChain:
             options, logw, ll = _site_values(lik, z, masks, self.total, j, self.beta, self.gamma)
             logp = logw + ll
             p = np.exp(logp - logp.max())
-            c = int(rng.choice(len(options), p=p / p.sum()))
+            c = _draw(rng, p / p.sum())
             o = options[c]
             self.total = float(ll[c])
             if o != z[j]:

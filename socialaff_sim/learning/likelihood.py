@@ -33,6 +33,8 @@ class TypeLikelihood:
         self.null_ll = np.zeros(N_JOINTS)
         self.aff_motion_ll = np.zeros(N_JOINTS)
         self._memo: dict[int, float] = {}
+        self.group_sums: dict[int, float] = {}
+        """Σ of a group's (bitmask's) spatial terms, kept by the Gibbs loop (:mod:`.gibbs`)."""
         self.n_fits = 0
         av = np.flatnonzero(self.available)
         if self.n and av.size:

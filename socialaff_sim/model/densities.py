@@ -177,10 +177,15 @@ def fit_weibull(
     # bitwise the same for C-ordered rows (each row's sums are its own); the other layouts step them all.
     subset = bool(x.flags.c_contiguous)
     for _ in range(max_steps):
-        rows = np.flatnonzero(active) if subset else np.arange(B)
-        if not active.any():
+        n_active = int(np.count_nonzero(active))
+        if not n_active:
             break
-        kr, ur, Lr = (k, u, Lc) if rows.size == B else (k[rows], u[rows], Lc[rows])
+        if subset and 2 * n_active <= B:  # gathering pays when at most half the rows are left
+            rows = np.flatnonzero(active)
+            kr, ur, Lr = k[rows], u[rows], Lc[rows]
+        else:
+            rows = slice(None)
+            kr, ur, Lr = k, u, Lc
         e = np.exp(kr[:, None] * ur)
         eL = e * Lr
         s0 = np.add.reduce(e, axis=1)
