@@ -6,8 +6,12 @@ forecasts included) and saves agent 1's predicted skeletons, key joints, sub-eve
 with the CPU seconds of every (case, method). ``compare`` checks two such files with ``np.array_equal``
 (NaN equal to NaN) and prints the largest difference where they differ. Usage::
 
-    PYTHONPATH=/path/to/reference python scripts/check_bitwise.py run --out ref.npz [--set quick|full]
-    PYTHONPATH=/path/to/candidate python scripts/check_bitwise.py run --out new.npz [--set quick|full]
+    PYTHONPATH=/path/to/reference python scripts/check_bitwise.py run --out ref.npz [--set quick|extra|full|bench]
+    PYTHONPATH=/path/to/candidate python scripts/check_bitwise.py run --out new.npz [--set quick|extra|full|bench]
+
+``quick``: the synthetic handshakes, the SBU handshakes and the handovers under the default preset and the
+causal protocol; ``extra``: the paper preset and the paper and offline protocols; ``bench``: ``full`` on 30
+training and 3 test handovers of fold 1 (the CPU figure of docs/benchmarks.md).
     python scripts/check_bitwise.py compare ref.npz new.npz
 
 The library never imports this script.
@@ -67,7 +71,8 @@ def _cases(which: str) -> list[Case]:
         Case("ho_default_paper", ho, "hand_over", "pair", 5, 1, "default", "paper", ("full", "v1", "v2")),
         Case("ho_paper_causal", ho, "hand_over", "pair", 5, 1, "paper", "causal", ("full",)),
     ]
-    return {"quick": quick, "extra": extra, "full": quick + extra}[which]
+    bench = [Case("ho_bench", ho, "hand_over", "pair", 30, 3, "default", "causal", ("full",))]
+    return {"quick": quick, "extra": extra, "full": quick + extra, "bench": bench}[which]
 
 
 def _cpu() -> float:
@@ -110,7 +115,7 @@ def main() -> int:
     sub = ap.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("run")
     r.add_argument("--out", required=True)
-    r.add_argument("--set", default="quick", choices=("quick", "extra", "full"))
+    r.add_argument("--set", default="quick", choices=("quick", "extra", "full", "bench"))
     r.add_argument("--only", default="", help="comma-separated case names (default: all of the set)")
     c = sub.add_parser("compare")
     c.add_argument("reference")

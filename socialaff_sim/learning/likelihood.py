@@ -79,11 +79,9 @@ class TypeLikelihood:
                 self._memo[k] = 0.0
             return
         js = np.array([k & 15 for k in keys])
-        W = np.empty((len(keys), N_JOINTS))
         side, own = self.cfg.other_side_reference, self.cfg.reference_self
-        for r, k in enumerate(keys):
-            W[r] = _key_reference(k, side, own)
-        ll = fit_offsets(self.end, js, W, self.cfg)[1]
+        W = np.array([_key_reference(k, side, own) for k in keys])
+        ll = fit_offsets(self.end, js, W, self.cfg, with_params=False)[1]
         self.n_fits += len(keys)
         for k, v in zip(keys, ll.tolist(), strict=True):
             self._memo[k] = v

@@ -164,10 +164,10 @@ def fit_weibull(
         return WeibullFit(nan, nan.copy(), np.zeros(B))
     L = np.log(x)
     Lbar = row_mean(L)
-    u = L - L.max(axis=1, keepdims=True)  # shift: x^k / max^k = exp(k u) <= 1
+    Lmax = np.maximum.reduce(L, axis=1)
+    u = L - Lmax[:, None]  # shift: x^k / max^k = exp(k u) <= 1
     sd = row_std(L)
-    with np.errstate(divide="ignore"):
-        k = np.where(sd > 0, np.pi / (np.sqrt(6.0) * sd), shape_max)
+    k = np.where(sd > 0, np.pi / (np.sqrt(6.0) * np.where(sd > 0, sd, 1.0)), shape_max)
     if k0 is not None:
         k = np.where(sd > 0, np.asarray(k0, float), shape_max)
     k = np.minimum(np.maximum(k, shape_min), shape_max)
@@ -199,10 +199,10 @@ def fit_weibull(
         active[rows] &= (np.abs(step) > tol) & (k_new != kr)
         k[rows] = k_new
     e = np.exp(k[:, None] * u)
-    log_mean_xk = np.log(row_mean(e)) + k * L.max(axis=1)
+    log_mean_xk = np.log(row_mean(e)) + k * Lmax
     log_lam = log_mean_xk / k
     lam = np.exp(log_lam)
-    ll = N * np.log(k) - N * k * log_lam + (k - 1.0) * L.sum(axis=1) - N
+    ll = N * np.log(k) - N * k * log_lam + (k - 1.0) * np.add.reduce(L, axis=1) - N
     return WeibullFit(k, lam, ll)
 
 
@@ -247,7 +247,7 @@ def fit_vonmises(
         dA = np.where(kappa > 1e-8, dA, 0.5)
         step = (A - Rs) / dA
         kappa = np.maximum(kappa - step, 0.5 * kappa)  # never jump below zero
-        if np.all(np.abs(step) <= tol * np.maximum(kappa, 1.0)):
+        if np.logical_and.reduce(np.abs(step) <= tol * np.maximum(kappa, 1.0)):  # np.all without its wrapper
             break
     kappa = np.where(capped, kappa_max, np.minimum(kappa, kappa_max))
     ll = N * (kappa * R - kappa - LOG_2PI - np.log(i0e(kappa)))

@@ -78,14 +78,18 @@ def _references(weights: np.ndarray, end: np.ndarray) -> np.ndarray:
     return np.einsum("kj,njd->nkd", weights[:, cols], end[:, cols])
 
 
-def _fit_rows(vecs: np.ndarray, cfg: AffordanceConfig) -> tuple[np.ndarray, np.ndarray]:
-    """Weibull/Weibull/von Mises fits of K rows of N vectors ``(K, N, 3)`` → params (K, 6), log-lik (K,)."""
+def _fit_rows(vecs: np.ndarray, cfg: AffordanceConfig, with_params: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Weibull/Weibull/von Mises fits of K rows of N vectors ``(K, N, 3)`` → params (K, 6) (empty (K, 0)
+    without ``with_params``), log-lik (K,)."""
     K = vecs.shape[0]
     h, v, th = polar(vecs, cfg.eps)
     hv = np.concatenate([h, v])
     w = fit_weibull(hv, eps=cfg.eps, shape_min=cfg.shape_min, shape_max=cfg.shape_max)
     vm = fit_vonmises(th, kappa_max=cfg.kappa_max)
-    params = np.stack([w.shape[:K], w.scale[:K], w.shape[K:], w.scale[K:], vm.mu, vm.kappa], axis=1)
+    if with_params:
+        params = np.stack([w.shape[:K], w.scale[:K], w.shape[K:], w.scale[K:], vm.mu, vm.kappa], axis=1)
+    else:
+        params = np.zeros((K, 0))
     if cfg.likelihood == "held_out":
         lw = heldout_weibull(hv, eps=cfg.eps, shape_min=cfg.shape_min, shape_max=cfg.shape_max, full=w)
         return params, lw[:K] + lw[K:] + heldout_vonmises(th, kappa_max=cfg.kappa_max, full=vm)
@@ -102,15 +106,18 @@ def cartesian_correction(vecs: np.ndarray, eps: float) -> np.ndarray:
     return -np.log(h) - np.log(2.0)
 
 
-def fit_offsets(end: np.ndarray, joints: np.ndarray, weights: np.ndarray, cfg: AffordanceConfig) -> tuple[np.ndarray, np.ndarray]:
+def fit_offsets(
+    end: np.ndarray, joints: np.ndarray, weights: np.ndarray, cfg: AffordanceConfig, with_params: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
     """Fit the spatial potential of K (joint, reference) pairs at once.
 
     ``end`` (N, 11, 3) metres; ``joints`` (K,) int; ``weights`` (K, 11) reference weights.
-    Returns params (K, 6) and the log-likelihood of each pair summed over the N samples (K,)
+    Returns params (K, 6) (empty (K, 0) without ``with_params``: the learner's scoring reads the
+    log-likelihoods only) and the log-likelihood of each pair summed over the N samples (K,)
     (with :func:`cartesian_correction` when ``cfg.vector_density == "cartesian"``).
     """
     offsets = (end[:, joints] - _references(weights, end)).transpose(1, 0, 2)
-    params, ll = _fit_rows(offsets, cfg)
+    params, ll = _fit_rows(offsets, cfg, with_params)
     if cfg.vector_density == "cartesian":
         ll = ll + cartesian_correction(offsets, cfg.eps).sum(axis=1)
     return params, ll
