@@ -34,6 +34,9 @@ from .scaling import smoothstep
 
 __all__ = ["ContactCompletionConfig", "CompletionInput", "ContactCompletion"]
 
+_OUT_OF_REACH = 1e3
+"""Metres added to the intended gap of a pair out of reach when ranking pairs captured by intent."""
+
 
 @dataclass(frozen=True)
 class ContactCompletionConfig:
@@ -41,7 +44,7 @@ class ContactCompletionConfig:
 
     Fields by concept
     -----------------
-    - When: capture, engage, reach, reach_band
+    - When: capture, engage, reach, reach_band, intent, approach, offer
     - Where: press
     - How fast: ramp
     """
@@ -61,6 +64,17 @@ class ContactCompletionConfig:
     past its wrist, so a wrist target a little beyond the arm's length still brings the hand to the contact)."""
     ramp: float = 0.2
     """τ_r [s]: β changes by at most Δt / τ_r per frame (0: at once)."""
+    intent: bool = False
+    """[—]: Whether the model's intent to touch also captures: in a frame whose sub-event is one the model makes a
+    hand contact in (:func:`~socialaff_sim.model.contact_keys.contact_types`), every contact the task allows then
+    is captured whatever the intended gap (the reach gate still applies); otherwise only the intended gap does."""
+    approach: bool = True
+    """[—]: Whether, in such a frame or one before it, a person's hand held out beyond the robot's reach moves the
+    robot in (:meth:`~socialaff_sim.retarget.scaling.KeyJointScaler.approach`; online placement only)."""
+    offer: float = 0.4
+    """d_o [m]: a person's hand counts as held out (to be met) once it is this far from their base (a hand hanging
+    at the side is 0.25–0.33 m from it on the synthetic set, one held out for a shake 0.38–0.57 m, raised for a
+    high five 0.75–0.98 m)."""
 
     def __post_init__(self) -> None:
         if not self.capture > self.engage >= 0.0:
@@ -98,6 +112,8 @@ class CompletionInput:
     """(2, 3) the robot's shoulders now."""
     arm: float
     """The robot's arm length, shoulder to wrist frame."""
+    intent: bool = False
+    """Whether the source's model means to touch now (its current sub-event makes a hand contact)."""
 
 
 class ContactCompletion:
@@ -129,18 +145,36 @@ class ContactCompletion:
         moved = x.nearest + (x.wrist_target - x.wrist_now)[:, None, :]
         return np.linalg.norm(x.centre[None] - moved, axis=-1) - x.radius[None]
 
-    def _assign(self, gaps: np.ndarray, x: CompletionInput) -> np.ndarray:
+    def _assign(self, gaps: np.ndarray, x: CompletionInput, beyond: np.ndarray) -> np.ndarray:
         """(2,) the anchor each hand goes for (-1: none): its nearest allowed one within ``capture``. Of the
         person's hands (anchors not shared) one pair at most is completed, the one of smallest intended gap (a
         handshake or a high five is one contact: the robot's other hand does not reach for the person's other
-        hand); both hands may close on a shared anchor (an object)."""
-        g = np.where(x.allowed & (gaps < self.config.capture), gaps, np.inf)
+        hand); both hands may close on a shared anchor (an object). Captured by intent, every allowed pair
+        counts, and a pair whose anchor lies within reach of the hand's shoulder comes before any out of it (a short
+        robot meets a tall person's raised hand with whichever hand reaches it); the pair being completed stays
+        first while ``beyond`` (2, A), its target's metres past the reach, stays below ``reach_band``."""
+        if self._intent(x):
+            far = np.linalg.norm(x.centre[None] - x.shoulder[:, None, :], axis=-1) > self.config.reach * x.arm
+            rank = np.where(far, gaps + _OUT_OF_REACH, gaps)
+            # The pair being completed stays first while it can still be reached (no switching hands mid-reach).
+            beta, anchor = self._before
+            for side in (0, 1):
+                a = int(anchor[side])
+                if beta[side] > 0 and 0 <= a < len(x.shared) and not x.shared[a] and beyond[side, a] < self.config.reach_band:
+                    rank[side, a] = -1.0
+            g = np.where(x.allowed, rank, np.inf)
+        else:
+            g = np.where(x.allowed & (gaps < self.config.capture), gaps, np.inf)
         person = np.where(~x.shared[None, :], g, np.inf)
         if np.isfinite(person).any():
             side, a = np.unravel_index(int(np.argmin(person)), person.shape)
             g[1 - side] = np.where(x.shared, g[1 - side], np.inf)
             g[side] = np.where(x.shared | (np.arange(len(x.shared)) == a), g[side], np.inf)
         return np.where(np.isfinite(g).any(axis=1), np.argmin(g, axis=1), -1).astype(np.int64)
+
+    def _intent(self, x: CompletionInput) -> bool:
+        """Whether this frame's capture is the model's intent (rather than the intended gap)."""
+        return self.config.intent and x.intent
 
     def __call__(self, x: CompletionInput, frame: int, dt: float) -> np.ndarray:
         """(2, 3) the completed wrist targets of ``frame`` (data frames of ``dt`` seconds).
@@ -165,14 +199,19 @@ class ContactCompletion:
         if len(x.centre):
             targets = self.contact_targets(x)
             gaps = self.intended_gaps(x)
-            choice = self._assign(gaps, x)
+            beyond = np.linalg.norm(targets - x.shoulder[:, None, :], axis=-1) - c.reach * x.arm  # (2, A)
+            choice = self._assign(gaps, x, beyond)
             for s in (0, 1):
                 a = choice[s]
                 if a < 0:
                     continue
-                capture = float(smoothstep((c.capture - gaps[s, a]) / (c.capture - c.engage)))
-                beyond = float(np.linalg.norm(targets[s, a] - x.shoulder[s])) - c.reach * x.arm
-                want[s] = capture * float(smoothstep((c.reach_band - beyond) / c.reach_band))
+                gate = float(smoothstep((c.reach_band - beyond[s, a]) / c.reach_band))
+                if self._intent(x) and not x.shared[a]:  # the model means to touch a hand: reach as far as it goes
+                    want[s] = 1.0
+                elif self._intent(x):  # an object: both hands close on it where they can reach it
+                    want[s] = gate
+                else:
+                    want[s] = float(smoothstep((c.capture - gaps[s, a]) / (c.capture - c.engage))) * gate
         step = np.inf if c.ramp == 0 else frames * dt / c.ramp
         beta = np.clip(want, base_beta - step, base_beta + step)
         # A hand ramping out after losing its anchor keeps blending toward where that anchor is now.

@@ -16,6 +16,7 @@ from ..data.interaction import Interaction
 from ..errors import SimulationError
 from ..inference.synthesis import OnlineSynthesizer, SynthesisConfig
 from ..learning.estimator import SocialAffordanceModel
+from ..model.contact_keys import contact_types
 from .sources import KeyJointSource, SourceFrame
 
 __all__ = ["ModelSource", "key_joint_source", "model_source"]
@@ -34,6 +35,11 @@ class ModelSource:
         self.config = config or SynthesisConfig.reactive()
         self._syn: OnlineSynthesizer | None = None
         self._cache: list = []
+        self.contact_types = contact_types(model.mean_end_, model.contact_keys_)
+        """(S,) bool: the model's sub-event types that make a hand contact (:func:`contact_types`)."""
+        successor = np.argmax(model.transitions_, axis=1)
+        self.contact_next_types = self.contact_types | self.contact_types[successor]
+        """(S,) bool: the types that make a hand contact or whose most likely successor does."""
 
     def reset(self, interaction: Interaction) -> None:
         """Start on an instance."""
@@ -50,7 +56,10 @@ class ModelSource:
                 raise SimulationError(f"frame {t} is outside the instance (0 ≤ t < {len(self._cache)})")
             self._cache.append(self._syn.step())
         step = self._cache[t]
-        return SourceFrame(step.key_joints.copy(), step.subevent_name)
+        known = 0 <= step.subevent < len(self.contact_types)
+        contact = known and bool(self.contact_types[step.subevent])
+        contact_next = known and bool(self.contact_next_types[step.subevent])
+        return SourceFrame(step.key_joints.copy(), step.subevent_name, contact, contact_next)
 
     @property
     def placement_frames(self) -> int:

@@ -31,6 +31,12 @@ class SourceFrame(NamedTuple):
     """(5, 3) float64, metres, data frame: agent 1's base, left/right wrist, left/right ankle (NaN where unknown)."""
     subevent: str | None
     """The current sub-event's name, or ``None``."""
+    contact: bool = False
+    """Whether the source's model makes a hand contact in the current sub-event (its intent to touch, read by
+    the simulator's contact completion; ``False`` for a source without a model, such as the recording)."""
+    contact_next: bool = False
+    """Whether the model makes a hand contact in the current sub-event or in its most likely successor (the robot
+    may move in toward the contact; ``False`` for a source without a model)."""
 
 
 @runtime_checkable
