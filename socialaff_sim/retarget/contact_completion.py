@@ -162,6 +162,8 @@ class ContactCompletion:
                 a = int(anchor[side])
                 if beta[side] > 0 and 0 <= a < len(x.shared) and not x.shared[a] and beyond[side, a] < self.config.reach_band:
                     rank[side, a] = -1.0
+            # Objects are captured by the intended gap alone, as without intent.
+            rank = np.where(x.shared[None, :], np.where(gaps < self.config.capture, gaps, np.inf), rank)
             g = np.where(x.allowed, rank, np.inf)
         else:
             g = np.where(x.allowed & (gaps < self.config.capture), gaps, np.inf)
@@ -208,8 +210,6 @@ class ContactCompletion:
                 gate = float(smoothstep((c.reach_band - beyond[s, a]) / c.reach_band))
                 if self._intent(x) and not x.shared[a]:  # the model means to touch a hand: reach as far as it goes
                     want[s] = 1.0
-                elif self._intent(x):  # an object: both hands close on it where they can reach it
-                    want[s] = gate
                 else:
                     want[s] = float(smoothstep((c.capture - gaps[s, a]) / (c.capture - c.engage))) * gate
         step = np.inf if c.ramp == 0 else frames * dt / c.ramp

@@ -220,8 +220,9 @@ class KeyJointScaler:
             self._k_floor = max(self._clearance_k(inter, offset, c.k_min), self.trunk_k or c.k_min)
         self._k_step = c.placement_speed / max(inter.fps, 1e-9)  # metres of base motion per frame
         self._approach_step = c.approach_speed / max(inter.fps, 1e-9)
-        self._step_now = self._k_step  # this frame's; raised by approach() for one frame
-        self._approach_goal = np.inf  # this frame's k goal set by approach()
+        self.stand_cap = np.inf
+        """Metres: the most the robot's base stands from the partner's horizontally, lowered by :meth:`approach`
+        (the model's own placement applies within it)."""
         self._k_goal = self.k
         origin = a0 + (a1 - a0) * self.k
         self.frame = RobotFrame(origin, heading_matrix(a0 - a1))
@@ -355,11 +356,9 @@ class KeyJointScaler:
                                     self._shoulders(base1, side), self.frame.rotation)
             if k is not None:
                 self._k_goal = min(self._k_goal, max(k, self._k_floor, -np.inf if front is None else front))
-        goal = min(self._k_goal, self._approach_goal)
-        if goal < self.k:
+        if self._k_goal < self.k:
             spread = float(np.linalg.norm(keys[0, :2] - p0[:2])) if np.isfinite(keys[0]).all() else 0.0
-            self.k = max(goal, self.k - self._step_now / max(spread, 1e-3))
-        self._step_now, self._approach_goal = self._k_step, np.inf
+            self.k = max(self._k_goal, self.k - self._k_step / max(spread, 1e-3))
 
     def _clear_now(self, partner: np.ndarray, base1: np.ndarray, p0: np.ndarray) -> float:
         """The smallest k (steps of 0.01 up to the current k) at which the robot's trunk clears agent 0's trunk,
@@ -384,9 +383,11 @@ class KeyJointScaler:
         ``keys`` (5, 3) agent 1's key joints from the source and ``partner`` (J, 3) agent 0's joints, all
         world frame and of the current frame. With online placement, k is lowered to the largest value that
         brings every point within ``max_extension`` of the robot's arm from its shoulder (never below what keeps
-        its trunk clear of the person and of the points), and the next call of the scaler moves the base in by
-        up to ``approach_speed`` toward it (the goal holds for that frame only: the robot stops moving in when
-        the calls stop). Returns whether it set a goal (False: no online placement, or no k reaches)."""
+        its trunk clear of the person and of the points): the cap on the base's distance from the partner
+        (``stand_cap``) comes down by up to ``approach_speed`` toward that k's distance. The robot stops moving
+        in when the calls stop, and where the model itself brings agent 1 closer the cap no longer acts (the
+        two approaches do not add up). Returns whether it lowered the cap (False: no online placement, or no k
+        reaches)."""
         keys = np.asarray(keys, dtype=np.float64)
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         side = np.asarray(side, dtype=np.int64).reshape(-1)
@@ -405,9 +406,13 @@ class KeyJointScaler:
             return False
         k = max(finite)
         front = self._k_clear_of_trunk(points, base1, p0s)
-        self._approach_goal = max(k, self._k_floor, -np.inf if front is None else front,
-                                  self._clear_now(np.asarray(partner, dtype=np.float64), keys[0], p0))
-        self._step_now = max(self._k_step, self._approach_step)
+        goal = max(k, self._k_floor, -np.inf if front is None else front,
+                   self._clear_now(np.asarray(partner, dtype=np.float64), keys[0], p0))
+        spread = float(np.linalg.norm(keys[0, :2] - p0[:2]))
+        now = min(self.stand_cap, self.k * spread)
+        if goal * spread >= now:
+            return False
+        self.stand_cap = max(goal * spread, now - self._approach_step)
         return True
 
     def scaled(self, keys: np.ndarray, partner_base: np.ndarray) -> np.ndarray:
@@ -420,7 +425,11 @@ class KeyJointScaler:
         local = self._agent_frame.to_robot(keys)
         base = local[0]
         p0 = np.asarray(partner_base, dtype=np.float64)
-        placed = self.frame.to_robot(p0 + self.k * (keys[0] - p0))
+        k = self.k
+        spread = float(np.linalg.norm(keys[0, :2] - p0[:2]))
+        if np.isfinite(self.stand_cap) and spread > 1e-6:
+            k = min(k, self.stand_cap / spread)
+        placed = self.frame.to_robot(p0 + k * (keys[0] - p0))
         out = np.empty((5, 3))
         out[0] = (placed[0], placed[1], r.base_height + self.s_leg * (base[2] - h.base_height))
         out[1:3] = out[0] + r.shoulders + self.s_arm * (local[1:3] - base - h.shoulders)
