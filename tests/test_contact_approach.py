@@ -133,14 +133,44 @@ def test_negative_approach_speed_is_refused() -> None:
         ScalingConfig(approach_speed=-1.0)
 
 
-def test_intent_captures_a_person_hand_the_model_is_not_yet_reaching_for_only_when_switched_on() -> None:
-    c = ContactCompletionConfig(intent=True)
+def test_intent_captures_a_person_hand_the_model_is_not_yet_reaching_for_only_when_meant() -> None:
+    c = ContactCompletionConfig()
+    assert c.intent and c.approach
     far = dataclasses.replace(scene(c.capture + 0.2), intent=True)
     out = settle(ContactCompletion(c), far)
-    stage = ContactCompletion(c)
-    expected = stage.contact_targets(far)[1, 0]
+    expected = ContactCompletion(c).contact_targets(far)[1, 0]
     np.testing.assert_allclose(out[1], expected, atol=1e-12)
-    # The source not meaning to touch, or the switch off (the default): the model's target.
+    # The source not meaning to touch, or the switch off: the model's target.
     np.testing.assert_array_equal(settle(ContactCompletion(c), dataclasses.replace(far, intent=False)), far.wrist_target)
-    np.testing.assert_array_equal(settle(ContactCompletion(ContactCompletionConfig()), far), far.wrist_target)
-    assert ContactCompletionConfig().intent is False and ContactCompletionConfig().approach is True
+    off = ContactCompletion(dataclasses.replace(c, intent=False))
+    np.testing.assert_array_equal(settle(off, far), far.wrist_target)
+
+
+@pytest.mark.parametrize("shared", [False, True])
+def test_intent_keeps_the_reach_gate(shared: bool) -> None:
+    c = ContactCompletionConfig()
+    # The shoulder 1.5 m behind: the contact lies far beyond the arm's reach, whatever the intent.
+    x = dataclasses.replace(scene(c.capture + 0.2, shoulder_x=-1.5, shared=shared), intent=True)
+    np.testing.assert_array_equal(settle(ContactCompletion(c), x), x.wrist_target)
+
+
+def test_intent_prefers_the_hand_that_reaches_the_persons_hand() -> None:
+    c = ContactCompletionConfig()
+    x = dataclasses.replace(scene(c.capture + 0.2), intent=True)
+    # The left hand: farther by intended gap (0.9 m) but its shoulder within reach of the anchor; the right
+    # hand's shoulder 1.2 m from it (beyond the 1 m arm).
+    wrist_now = x.wrist_now.copy()
+    nearest = x.nearest.copy()
+    nearest[0, 0] = (0.5, 0.3, 1.2)
+    wrist_now[0] = (0.4, 0.3, 1.2)
+    target = x.wrist_target.copy()
+    target[0] = wrist_now[0] - (0.4, 0.0, 0.0)
+    shoulder = np.array([[0.3, 0.3, 1.2], [-0.2, 0.0, 1.2]])
+    y = dataclasses.replace(x, wrist_now=wrist_now, nearest=nearest, wrist_target=target, shoulder=shoulder)
+    stage = ContactCompletion(c)
+    settle(stage, y)
+    assert stage.anchor.tolist() == [0, -1] and stage.weight[0] == 1.0
+    # Without intent neither hand is within the capture distance: nothing.
+    plain = ContactCompletion(c)
+    settle(plain, dataclasses.replace(y, intent=False))
+    assert plain.anchor.tolist() == [-1, -1]

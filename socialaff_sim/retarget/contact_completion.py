@@ -7,9 +7,11 @@ and the IK, this stage blends a wrist target toward the contact itself when thre
 
 * the task wants that contact (a ``contact`` sub-goal with the person's hands or wrists, or an object
   sub-goal; :mod:`~socialaff_sim.sim.contact_targets` lists the *anchors*, spheres at frame t);
-* the model already brings the hand near it: the *intended gap* g_m, the distance between the anchor's
-  surface and the robot's hand moved by as much as the model's wrist target differs from the robot's
-  current wrist, is below ``capture`` (the model's intent, not the anchor, decides whether to touch);
+* the model means to touch it: the *intended gap* g_m, the distance between the anchor's surface and the
+  robot's hand moved by as much as the model's wrist target differs from the robot's current wrist, is below
+  ``capture``, or (``intent``) the model's current sub-event is one it makes a hand contact in (learned:
+  :func:`~socialaff_sim.model.contact_keys.contact_types`; the model's intent, not the anchor, decides whether
+  to touch: a causal strike lags the person's, its wrist still far when the sub-event already says strike);
 * the contact point lies within the robot's reach (``reach`` times the arm's length from its shoulder, the
   gate falling to zero ``reach_band`` beyond).
 
@@ -64,10 +66,11 @@ class ContactCompletionConfig:
     past its wrist, so a wrist target a little beyond the arm's length still brings the hand to the contact)."""
     ramp: float = 0.2
     """τ_r [s]: β changes by at most Δt / τ_r per frame (0: at once)."""
-    intent: bool = False
+    intent: bool = True
     """[—]: Whether the model's intent to touch also captures: in a frame whose sub-event is one the model makes a
     hand contact in (:func:`~socialaff_sim.model.contact_keys.contact_types`), every contact the task allows then
-    is captured whatever the intended gap (the reach gate still applies); otherwise only the intended gap does."""
+    is captured whatever the intended gap (the reach gate still applies; of the person's hands only the one held
+    out, :func:`~socialaff_sim.sim.contact_targets.offered_hand`); otherwise only the intended gap does."""
     approach: bool = True
     """[—]: Whether, in such a frame or one before it, a person's hand held out beyond the robot's reach moves the
     robot in (:meth:`~socialaff_sim.retarget.scaling.KeyJointScaler.approach`; online placement only)."""
@@ -150,9 +153,10 @@ class ContactCompletion:
         person's hands (anchors not shared) one pair at most is completed, the one of smallest intended gap (a
         handshake or a high five is one contact: the robot's other hand does not reach for the person's other
         hand); both hands may close on a shared anchor (an object). Captured by intent, every allowed pair
-        counts, and a pair whose anchor lies within reach of the hand's shoulder comes before any out of it (a short
-        robot meets a tall person's raised hand with whichever hand reaches it); the pair being completed stays
-        first while ``beyond`` (2, A), its target's metres past the reach, stays below ``reach_band``."""
+        counts whatever its intended gap, and of the person's hands a pair whose anchor lies within reach of the
+        hand's shoulder comes before any out of it (a short robot meets a tall person's raised hand with whichever
+        hand reaches it); the pair being completed stays first while ``beyond`` (2, A), its target's metres past
+        the reach, stays below ``reach_band``."""
         if self._intent(x):
             far = np.linalg.norm(x.centre[None] - x.shoulder[:, None, :], axis=-1) > self.config.reach * x.arm
             rank = np.where(far, gaps + _OUT_OF_REACH, gaps)
@@ -162,8 +166,8 @@ class ContactCompletion:
                 a = int(anchor[side])
                 if beta[side] > 0 and 0 <= a < len(x.shared) and not x.shared[a] and beyond[side, a] < self.config.reach_band:
                     rank[side, a] = -1.0
-            # Objects are captured by the intended gap alone, as without intent.
-            rank = np.where(x.shared[None, :], np.where(gaps < self.config.capture, gaps, np.inf), rank)
+            # An object: both hands may close on it, each by its intended gap.
+            rank = np.where(x.shared[None, :], gaps, rank)
             g = np.where(x.allowed, rank, np.inf)
         else:
             g = np.where(x.allowed & (gaps < self.config.capture), gaps, np.inf)
@@ -208,8 +212,8 @@ class ContactCompletion:
                 if a < 0:
                     continue
                 gate = float(smoothstep((c.reach_band - beyond[s, a]) / c.reach_band))
-                if self._intent(x) and not x.shared[a]:  # the model means to touch a hand: reach as far as it goes
-                    want[s] = 1.0
+                if self._intent(x):  # the model means to touch: whatever the intended gap, where it can be reached
+                    want[s] = gate
                 else:
                     want[s] = float(smoothstep((c.capture - gaps[s, a]) / (c.capture - c.engage))) * gate
         step = np.inf if c.ramp == 0 else frames * dt / c.ramp
