@@ -117,6 +117,9 @@ class CompletionInput:
     """The robot's arm length, shoulder to wrist frame."""
     intent: bool = False
     """Whether the source's model means to touch now (its current sub-event makes a hand contact)."""
+    free: bool = False
+    """Whether the object moves freely now (thrown or let go; not carried by the person): only then is it
+    captured by intent (a cup held out is met where the model meets it)."""
 
 
 class ContactCompletion:
@@ -166,8 +169,9 @@ class ContactCompletion:
                 a = int(anchor[side])
                 if beta[side] > 0 and 0 <= a < len(x.shared) and not x.shared[a] and beyond[side, a] < self.config.reach_band:
                     rank[side, a] = -1.0
-            # An object: both hands may close on it, each by its intended gap.
-            rank = np.where(x.shared[None, :], gaps, rank)
+            # An object: both hands may close on it, each by its intended gap; captured by intent only while free.
+            rank = np.where(x.shared[None, :], gaps if x.free else np.where(gaps < self.config.capture, gaps, np.inf),
+                            rank)
             g = np.where(x.allowed, rank, np.inf)
         else:
             g = np.where(x.allowed & (gaps < self.config.capture), gaps, np.inf)
@@ -212,7 +216,7 @@ class ContactCompletion:
                 if a < 0:
                     continue
                 gate = float(smoothstep((c.reach_band - beyond[s, a]) / c.reach_band))
-                if self._intent(x):  # the model means to touch: whatever the intended gap, where it can be reached
+                if self._intent(x) and (x.free or not x.shared[a]):  # whatever the intended gap, where reachable
                     want[s] = gate
                 else:
                     want[s] = float(smoothstep((c.capture - gaps[s, a]) / (c.capture - c.engage))) * gate

@@ -93,12 +93,13 @@ class ContactAnchors:
 
     def gather(self, data: mujoco.MjData, wrist_target: np.ndarray, wrist_commanded: np.ndarray,
                person_hands: np.ndarray, object_centre: np.ndarray | None, arm: float,
-               subevent: str | None, intent: bool = False, offered: int | None = None) -> CompletionInput:
+               subevent: str | None, intent: bool = False, offered: int | None = None,
+               free: bool = False) -> CompletionInput:
         """The stage's input: ``wrist_target`` (2, 3) from the model, ``wrist_commanded`` (2, 3) the wrists of
         the latest IK solution, the person's hand centres at frame t ``person_hands`` (2, 3), the object's
         centre at t (``None``: no object or it is parked), world frame; ``intent``: the source's model means to
-        touch now; ``offered``: with ``intent``, the person's hand (0 left, 1 right) the robot may meet, the other
-        left out (:func:`offered_hand`).
+        touch now; ``offered``: with ``intent``, the person's hand held out (0 left, 1 right; :func:`offered_hand`),
+        the only one of theirs the robot may meet (None: either); ``free``: the object moves freely (thrown or let go).
 
         The hands' nearest points are the physical ones: moved by as much as the commanded wrist moves, the
         physical hand keeps its offset from the IK's (a servo's tracking error, an arm sagging under its
@@ -108,6 +109,7 @@ class ContactAnchors:
             wrist_target=np.asarray(wrist_target, dtype=np.float64), wrist_now=np.asarray(wrist_commanded, dtype=np.float64),
             nearest=self.nearest(data), centre=centre, radius=self.radius, shared=self.shared, allowed=allowed,
             shoulder=np.array(data.xpos[self.scene.limb_body_ids[:2]]), arm=float(arm), intent=bool(intent),
+            free=bool(free),
         )
 
     def wanted(self, data: mujoco.MjData, person_hands: np.ndarray, object_centre: np.ndarray | None,

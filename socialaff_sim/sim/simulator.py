@@ -239,20 +239,24 @@ class Simulator:
         cc = self._completion.config
         fps = self.interaction.fps  # type: ignore[union-attr]
         B = self.scene.n_bones
-        obj = None
+        obj, moving = None, False
         if self.carry is not None:
             moving = self._released or t >= self.carry.release_frame
             obj = object_in_flight(self.data, self.scene, (t - self.frame) / fps) if moving else self.carry.track[t]
         anchors = self._anchors[self.interaction.layout.name]  # type: ignore[union-attr]
         hands = self.pose.pos[t, B:B + 2]
-        # Of the person's hands, the model's intent is taken to be for the one held out.
-        offered = offered_hand(self.interaction.key_joints()[t, 0])  # type: ignore[union-attr]
-        if (contact or contact_next) and cc.approach and not self._completion.weight.any():
+        # Of the person's hands, the model's intent is taken to be for the one held out (None: neither is yet).
+        person = self.interaction.key_joints()[t, 0]  # type: ignore[union-attr]
+        offered: int | None = offered_hand(person)
+        if not np.linalg.norm(person[1 + offered] - person[0]) >= cc.offer:
+            offered = None
+        if (contact or contact_next) and cc.approach and offered is not None and not self._completion.weight.any():
             self._approach(anchors, world_keys, hands, obj, subevent, t, offered)
         out = self.scaler(world_keys, self.pose.joints[t], self.object_anchors(t))
         world = self.frame_R.to_world(out)
         x = anchors.gather(self.data, world[1:3], self._stage.ik.frame_positions()[1:3],  # type: ignore[union-attr]
-                          hands, obj, self.measurements.arm, subevent, intent=contact, offered=offered)
+                          hands, obj, self.measurements.arm, subevent, intent=contact, offered=offered,
+                          free=moving)
         world[1:3] = self._completion(x, t, 1.0 / fps)
         self._completed_frame = t
         return self.frame_R.to_robot(world)
@@ -261,14 +265,11 @@ class Simulator:
                   subevent: str | None, t: int, offered: int) -> None:
         """Move the robot in toward the contact the model means to make (world-frame ``keys`` of agent 1, the
         person's ``hands`` (2, 3) and the object ``obj`` at frame ``t``): of the pairs the task wants, the
-        model's wrist and the anchor nearest each other, the person's ``offered`` hand the only one of theirs
-        (:meth:`KeyJointScaler.approach`)."""
+        model's wrist and the anchor nearest each other, the person's ``offered`` hand (held out, at least
+        ``ContactCompletionConfig.offer`` from their base) the only one of theirs (:meth:`KeyJointScaler.approach`)."""
         centre, allowed = anchors.wanted(self.data, hands, obj, subevent, offered)
         allowed[:, 2:] = False  # a person's hand, not an object: a ball in flight is met where the model meets it
-        person = self.interaction.key_joints()[t, 0]  # type: ignore[union-attr]
         cc = self._completion.config  # type: ignore[union-attr]
-        if not np.linalg.norm(person[1 + offered] - person[0]) >= cc.offer:
-            return  # the hand hangs at the person's side: nothing is held out to be met yet
         d = np.linalg.norm(keys[1:3, None, :] - centre[None], axis=-1)
         d = np.where(allowed & np.isfinite(d), d, np.inf)
         if not np.isfinite(d).any():
