@@ -136,7 +136,7 @@ def test_negative_approach_speed_is_refused() -> None:
 def test_intent_captures_a_person_hand_the_model_is_not_yet_reaching_for_only_when_meant() -> None:
     c = ContactCompletionConfig()
     assert c.intent and c.approach
-    far = dataclasses.replace(scene(c.capture + 0.2), intent=True)
+    far = dataclasses.replace(scene(c.capture + 0.2), intent=True, inside=True)
     out = settle(ContactCompletion(c), far)
     expected = ContactCompletion(c).contact_targets(far)[1, 0]
     np.testing.assert_allclose(out[1], expected, atol=1e-12)
@@ -144,19 +144,31 @@ def test_intent_captures_a_person_hand_the_model_is_not_yet_reaching_for_only_wh
     np.testing.assert_array_equal(settle(ContactCompletion(c), dataclasses.replace(far, intent=False)), far.wrist_target)
     off = ContactCompletion(dataclasses.replace(c, intent=False))
     np.testing.assert_array_equal(settle(off, far), far.wrist_target)
+    # A contact at the sub-event's end (a handshake's): the model's own end configuration reaches it; not captured.
+    np.testing.assert_array_equal(settle(ContactCompletion(c), dataclasses.replace(far, inside=False)), far.wrist_target)
+
+
+def test_intent_captures_an_object_only_while_it_flies() -> None:
+    c = ContactCompletionConfig()
+    ball = dataclasses.replace(scene(c.capture + 0.2, shared=True), intent=True, free=True)
+    out = settle(ContactCompletion(c), ball)
+    np.testing.assert_allclose(out[1], ContactCompletion(c).contact_targets(ball)[1, 0], atol=1e-12)
+    held = dataclasses.replace(ball, free=False)  # a cup the person still carries: met as the model meets it
+    np.testing.assert_array_equal(settle(ContactCompletion(c), held), held.wrist_target)
 
 
 @pytest.mark.parametrize("shared", [False, True])
 def test_intent_keeps_the_reach_gate(shared: bool) -> None:
     c = ContactCompletionConfig()
     # The shoulder 1.5 m behind: the contact lies far beyond the arm's reach, whatever the intent.
-    x = dataclasses.replace(scene(c.capture + 0.2, shoulder_x=-1.5, shared=shared), intent=True)
+    x = dataclasses.replace(scene(c.capture + 0.2, shoulder_x=-1.5, shared=shared), intent=True, inside=not shared,
+                            free=shared)
     np.testing.assert_array_equal(settle(ContactCompletion(c), x), x.wrist_target)
 
 
 def test_intent_prefers_the_hand_that_reaches_the_persons_hand() -> None:
     c = ContactCompletionConfig()
-    x = dataclasses.replace(scene(c.capture + 0.2), intent=True)
+    x = dataclasses.replace(scene(c.capture + 0.2), intent=True, inside=True)
     # The left hand: farther by intended gap (0.9 m) but its shoulder within reach of the anchor; the right
     # hand's shoulder 1.2 m from it (beyond the 1 m arm).
     wrist_now = x.wrist_now.copy()

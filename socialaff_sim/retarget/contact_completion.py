@@ -120,6 +120,10 @@ class CompletionInput:
     free: bool = False
     """Whether the object moves freely now (thrown or let go; not carried by the person): only then is it
     captured by intent (a cup held out is met where the model meets it)."""
+    inside: bool = False
+    """Whether the model's contact is a keyframe inside its sub-event (released before the end: a high five's
+    strike): only then is a person's hand captured by intent (a contact at a sub-event's end, a handshake, is
+    one the model's own end configuration reaches)."""
 
 
 class ContactCompletion:
@@ -155,26 +159,28 @@ class ContactCompletion:
         """(2,) the anchor each hand goes for (-1: none): its nearest allowed one within ``capture``. Of the
         person's hands (anchors not shared) one pair at most is completed, the one of smallest intended gap (a
         handshake or a high five is one contact: the robot's other hand does not reach for the person's other
-        hand); both hands may close on a shared anchor (an object). Captured by intent, every allowed pair
-        counts whatever its intended gap, and of the person's hands a pair whose anchor lies within reach of the
-        hand's shoulder comes before any out of it (a short robot meets a tall person's raised hand with whichever
-        hand reaches it); the pair being completed stays first while ``beyond`` (2, A), its target's metres past
-        the reach, stays below ``reach_band``."""
+        hand); both hands may close on a shared anchor (an object). Captured by intent (a free object; a person's
+        hand when the contact is ``inside`` its sub-event), every allowed pair counts whatever its intended gap,
+        and of the person's hands a pair whose anchor lies within reach of the hand's shoulder comes before any
+        out of it (a short robot meets a tall person's raised hand with whichever hand reaches it); the pair
+        being completed stays first while ``beyond`` (2, A), its target's metres past the reach, stays below
+        ``reach_band``."""
+        c = self.config
+        rank = np.where(gaps < c.capture, gaps, np.inf)  # captured by the intended gap
         if self._intent(x):
-            far = np.linalg.norm(x.centre[None] - x.shoulder[:, None, :], axis=-1) > self.config.reach * x.arm
-            rank = np.where(far, gaps + _OUT_OF_REACH, gaps)
-            # The pair being completed stays first while it can still be reached (no switching hands mid-reach).
-            beta, anchor = self._before
-            for side in (0, 1):
-                a = int(anchor[side])
-                if beta[side] > 0 and 0 <= a < len(x.shared) and not x.shared[a] and beyond[side, a] < self.config.reach_band:
-                    rank[side, a] = -1.0
+            person = rank
+            if x.inside:
+                far = np.linalg.norm(x.centre[None] - x.shoulder[:, None, :], axis=-1) > c.reach * x.arm
+                person = np.where(far, gaps + _OUT_OF_REACH, gaps)
+                # The pair being completed stays first while it can still be reached (no switching hands mid-reach).
+                beta, anchor = self._before
+                for side in (0, 1):
+                    a = int(anchor[side])
+                    if beta[side] > 0 and 0 <= a < len(x.shared) and not x.shared[a] and beyond[side, a] < c.reach_band:
+                        person[side, a] = -1.0
             # An object: both hands may close on it, each by its intended gap; captured by intent only while free.
-            rank = np.where(x.shared[None, :], gaps if x.free else np.where(gaps < self.config.capture, gaps, np.inf),
-                            rank)
-            g = np.where(x.allowed, rank, np.inf)
-        else:
-            g = np.where(x.allowed & (gaps < self.config.capture), gaps, np.inf)
+            rank = np.where(x.shared[None, :], gaps if x.free else rank, person)
+        g = np.where(x.allowed, rank, np.inf)
         person = np.where(~x.shared[None, :], g, np.inf)
         if np.isfinite(person).any():
             side, a = np.unravel_index(int(np.argmin(person)), person.shape)
@@ -216,7 +222,7 @@ class ContactCompletion:
                 if a < 0:
                     continue
                 gate = float(smoothstep((c.reach_band - beyond[s, a]) / c.reach_band))
-                if self._intent(x) and (x.free or not x.shared[a]):  # whatever the intended gap, where reachable
+                if self._intent(x) and (x.free if x.shared[a] else x.inside):  # whatever the gap, where reachable
                     want[s] = gate
                 else:
                     want[s] = float(smoothstep((c.capture - gaps[s, a]) / (c.capture - c.engage))) * gate

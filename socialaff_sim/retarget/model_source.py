@@ -40,6 +40,8 @@ class ModelSource:
         successor = np.argmax(model.transitions_, axis=1)
         self.contact_next_types = self.contact_types | self.contact_types[successor]
         """(S,) bool: the types that make a hand contact or whose most likely successor does."""
+        self.contact_inside_types = np.isfinite(model.contact_keys_.phase).any(axis=1)
+        """(S,) bool: the types whose contact is a keyframe inside the interval (released before its end)."""
 
     def reset(self, interaction: Interaction) -> None:
         """Start on an instance."""
@@ -59,7 +61,8 @@ class ModelSource:
         known = 0 <= step.subevent < len(self.contact_types)
         contact = known and bool(self.contact_types[step.subevent])
         contact_next = known and bool(self.contact_next_types[step.subevent])
-        return SourceFrame(step.key_joints.copy(), step.subevent_name, contact, contact_next)
+        inside = known and bool(self.contact_inside_types[step.subevent])
+        return SourceFrame(step.key_joints.copy(), step.subevent_name, contact, contact_next, inside)
 
     @property
     def placement_frames(self) -> int:

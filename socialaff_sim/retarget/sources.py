@@ -37,6 +37,9 @@ class SourceFrame(NamedTuple):
     contact_next: bool = False
     """Whether the model makes a hand contact in the current sub-event or in its most likely successor (the robot
     may move in toward the contact; ``False`` for a source without a model)."""
+    contact_inside: bool = False
+    """Whether the current sub-event's contact falls inside it and is released before its end (a contact
+    keyframe: a high five's strike), a touch the model's interpolated end configurations do not reach."""
 
 
 @runtime_checkable

@@ -223,13 +223,15 @@ class Simulator:
         return self.interaction is not None and self.frame >= self.n_frames - 1
 
     def retarget(self, keys: np.ndarray, frame: int | None = None, subevent: str | None = None,
-                 contact: bool = False, contact_next: bool = False) -> np.ndarray:
+                 contact: bool = False, contact_next: bool = False, contact_inside: bool = False) -> np.ndarray:
         """(5, 3) robot-frame targets from agent 1's key joints ``keys`` (5, 3) in the data frame at ``frame``
         (default: the next), scaled onto the robot and, with ``SimConfig.contact_completion``, the wrists completed
         onto a contact the task wants during ``subevent`` (the source's current sub-event). ``contact``: the
         source's model makes a hand contact in that sub-event (its intent to touch: the completion captures
-        the contact; ``ContactCompletionConfig.intent``); ``contact_next``: in that sub-event or the one most
-        likely next (a contact beyond reach moves the robot in; ``ContactCompletionConfig.approach``)."""
+        a free object; ``ContactCompletionConfig.intent``); ``contact_inside``: that contact is a keyframe inside
+        the sub-event (the completion captures the person's hand too); ``contact_next``: in that sub-event or
+        the one most likely next (a held-out hand beyond reach moves the robot in;
+        ``ContactCompletionConfig.approach``)."""
         self._require()
         t = self.frame + 1 if frame is None else frame
         t = min(max(t, 0), self.n_frames - 1)
@@ -256,7 +258,7 @@ class Simulator:
         world = self.frame_R.to_world(out)
         x = anchors.gather(self.data, world[1:3], self._stage.ik.frame_positions()[1:3],  # type: ignore[union-attr]
                           hands, obj, self.measurements.arm, subevent, intent=contact, offered=offered,
-                          free=moving)
+                          free=moving, inside=contact_inside)
         world[1:3] = self._completion(x, t, 1.0 / fps)
         self._completed_frame = t
         return self.frame_R.to_robot(world)
