@@ -47,7 +47,7 @@ def test_contact_types_are_the_touching_end_configurations_and_the_keyframes() -
     assert contact_types(ends, ContactKeys.empty(2)).tolist() == [True, False]
 
 
-def test_model_source_flags_the_contact_types_and_their_likeliest_predecessors() -> None:
+def test_model_source_flags_the_contact_types_and_the_keyframe_ones_likeliest_predecessors() -> None:
     S = 4
     keys = ContactKeys.empty(S)
     # Type 2 touches; 1 → 2 is the likeliest transition from 1, 0 → 3 from 0.
@@ -55,7 +55,14 @@ def test_model_source_flags_the_contact_types_and_their_likeliest_predecessors()
     model = SimpleNamespace(mean_end_=_ends([1.0, 1.0, 0.05, 1.0]), contact_keys_=keys, transitions_=trans)
     source = ModelSource(model)  # type: ignore[arg-type]
     assert source.contact_types.tolist() == [False, False, True, False]
-    assert source.contact_next_types.tolist() == [False, True, True, False]
+    assert not source.contact_inside_types.any() and not source.contact_inside_next_types.any()
+    # Type 2's touch a keyframe inside the interval instead: it and type 1 (2's likeliest predecessor) lead.
+    keys.phase[2, 2] = 0.5
+    model.mean_end_ = _ends([1.0, 1.0, 1.0, 1.0])
+    source = ModelSource(model)  # type: ignore[arg-type]
+    assert source.contact_types.tolist() == [False, False, True, False]
+    assert source.contact_inside_types.tolist() == [False, False, True, False]
+    assert source.contact_inside_next_types.tolist() == [False, True, True, False]
 
 
 def test_the_offered_hand_is_the_one_farther_from_the_base() -> None:

@@ -37,11 +37,11 @@ class ModelSource:
         self._cache: list = []
         self.contact_types = contact_types(model.mean_end_, model.contact_keys_)
         """(S,) bool: the model's sub-event types that make a hand contact (:func:`contact_types`)."""
-        successor = np.argmax(model.transitions_, axis=1)
-        self.contact_next_types = self.contact_types | self.contact_types[successor]
-        """(S,) bool: the types that make a hand contact or whose most likely successor does."""
         self.contact_inside_types = np.isfinite(model.contact_keys_.phase).any(axis=1)
         """(S,) bool: the types whose contact is a keyframe inside the interval (released before its end)."""
+        successor = np.argmax(model.transitions_, axis=1)
+        self.contact_inside_next_types = self.contact_inside_types | self.contact_inside_types[successor]
+        """(S,) bool: the types with such a contact or whose most likely successor has one."""
 
     def reset(self, interaction: Interaction) -> None:
         """Start on an instance."""
@@ -60,9 +60,9 @@ class ModelSource:
         step = self._cache[t]
         known = 0 <= step.subevent < len(self.contact_types)
         contact = known and bool(self.contact_types[step.subevent])
-        contact_next = known and bool(self.contact_next_types[step.subevent])
         inside = known and bool(self.contact_inside_types[step.subevent])
-        return SourceFrame(step.key_joints.copy(), step.subevent_name, contact, contact_next, inside)
+        inside_next = known and bool(self.contact_inside_next_types[step.subevent])
+        return SourceFrame(step.key_joints.copy(), step.subevent_name, contact, inside, inside_next)
 
     @property
     def placement_frames(self) -> int:

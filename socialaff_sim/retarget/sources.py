@@ -34,12 +34,12 @@ class SourceFrame(NamedTuple):
     contact: bool = False
     """Whether the source's model makes a hand contact in the current sub-event (its intent to touch, read by
     the simulator's contact completion; ``False`` for a source without a model, such as the recording)."""
-    contact_next: bool = False
-    """Whether the model makes a hand contact in the current sub-event or in its most likely successor (the robot
-    may move in toward the contact; ``False`` for a source without a model)."""
     contact_inside: bool = False
     """Whether the current sub-event's contact falls inside it and is released before its end (a contact
     keyframe: a high five's strike), a touch the model's interpolated end configurations do not reach."""
+    contact_inside_next: bool = False
+    """Whether the current sub-event or its most likely successor has such a contact (the robot may move in
+    toward it: a high five's raise and strike; ``False`` for a source without a model)."""
 
 
 @runtime_checkable

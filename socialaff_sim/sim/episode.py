@@ -40,7 +40,7 @@ def run_episode(
     # A causal source (the model's synthesis) declares how much of agent 1's recording it sees.
     sim.reset(interaction, placement_frames=getattr(source, "placement_frames", None))
     sim.settle(sim.retarget(first.keys, frame=0, subevent=first.subevent, contact=first.contact,
-                           contact_next=first.contact_next, contact_inside=first.contact_inside))
+                           contact_inside=first.contact_inside, contact_inside_next=first.contact_inside_next))
     wall += time.perf_counter() - tic
     if on_frame is not None:
         on_frame(sim, None, first.subevent)
@@ -48,7 +48,8 @@ def run_episode(
         tic = time.perf_counter()
         frame = source.targets(sim.frame + 1)
         targets = sim.retarget(frame.keys, frame=sim.frame + 1, subevent=frame.subevent, contact=frame.contact,
-                               contact_next=frame.contact_next, contact_inside=frame.contact_inside)
+                               contact_inside=frame.contact_inside,
+                               contact_inside_next=frame.contact_inside_next)
         result = sim.step(targets, subevent=frame.subevent)
         wall += time.perf_counter() - tic
         if on_frame is not None:

@@ -223,14 +223,14 @@ class Simulator:
         return self.interaction is not None and self.frame >= self.n_frames - 1
 
     def retarget(self, keys: np.ndarray, frame: int | None = None, subevent: str | None = None,
-                 contact: bool = False, contact_next: bool = False, contact_inside: bool = False) -> np.ndarray:
+                 contact: bool = False, contact_inside: bool = False, contact_inside_next: bool = False) -> np.ndarray:
         """(5, 3) robot-frame targets from agent 1's key joints ``keys`` (5, 3) in the data frame at ``frame``
         (default: the next), scaled onto the robot and, with ``SimConfig.contact_completion``, the wrists completed
         onto a contact the task wants during ``subevent`` (the source's current sub-event). ``contact``: the
         source's model makes a hand contact in that sub-event (its intent to touch: the completion captures
         a free object; ``ContactCompletionConfig.intent``); ``contact_inside``: that contact is a keyframe inside
-        the sub-event (the completion captures the person's hand too); ``contact_next``: in that sub-event or
-        the one most likely next (a held-out hand beyond reach moves the robot in;
+        the sub-event (the completion captures the person's hand too); ``contact_inside_next``: such a contact
+        in that sub-event or the one most likely next (a held-out hand beyond reach moves the robot in;
         ``ContactCompletionConfig.approach``)."""
         self._require()
         t = self.frame + 1 if frame is None else frame
@@ -252,7 +252,7 @@ class Simulator:
         offered: int | None = offered_hand(person)
         if not np.linalg.norm(person[1 + offered] - person[0]) >= cc.offer:
             offered = None
-        if (contact or contact_next) and cc.approach and offered is not None and not self._completion.weight.any():
+        if contact_inside_next and cc.approach and offered is not None and not self._completion.weight.any():
             self._approach(anchors, world_keys, hands, obj, subevent, t, offered)
         out = self.scaler(world_keys, self.pose.joints[t], self.object_anchors(t))
         world = self.frame_R.to_world(out)
