@@ -46,7 +46,7 @@ class ContactCompletionConfig:
 
     Fields by concept
     -----------------
-    - When: capture, engage, reach, reach_band, intent, approach, offer
+    - When: capture, engage, reach, reach_band, intent, approach
     - Where: press
     - How fast: ramp
     """
@@ -74,10 +74,6 @@ class ContactCompletionConfig:
     approach: bool = True
     """[—]: Whether, in such a frame or one before it, a person's hand held out beyond the robot's reach moves the
     robot in (:meth:`~socialaff_sim.retarget.scaling.KeyJointScaler.approach`; online placement only)."""
-    offer: float = 0.4
-    """d_o [m]: a person's hand counts as held out (to be met) once it is this far from their base (a hand hanging
-    at the side is 0.25–0.33 m from it on the synthetic set, one held out for a shake 0.38–0.57 m, raised for a
-    high five 0.75–0.98 m)."""
 
     def __post_init__(self) -> None:
         if not self.capture > self.engage >= 0.0:

@@ -98,8 +98,8 @@ class ContactAnchors:
         """The stage's input: ``wrist_target`` (2, 3) from the model, ``wrist_commanded`` (2, 3) the wrists of
         the latest IK solution, the person's hand centres at frame t ``person_hands`` (2, 3), the object's
         centre at t (``None``: no object or it is parked), world frame; ``intent``: the source's model means to
-        touch now; ``offered``: with ``intent``, the person's hand held out (0 left, 1 right; :func:`offered_hand`),
-        the only one of theirs the robot may meet (None: either); ``free``: the object moves freely (thrown or let go);
+        touch now; ``offered``: with ``intent`` and ``inside``, the person's hand held out (0 left, 1 right;
+        :func:`offered_hand`), the only one of theirs the robot may meet (None: either); ``free``: the object moves freely (thrown or let go);
         ``inside``: the model's contact is a keyframe inside the sub-event.
 
         The hands' nearest points are the physical ones: moved by as much as the commanded wrist moves, the

@@ -247,12 +247,9 @@ class Simulator:
             obj = object_in_flight(self.data, self.scene, (t - self.frame) / fps) if moving else self.carry.track[t]
         anchors = self._anchors[self.interaction.layout.name]  # type: ignore[union-attr]
         hands = self.pose.pos[t, B:B + 2]
-        # Of the person's hands, the model's intent is taken to be for the one held out (None: neither is yet).
-        person = self.interaction.key_joints()[t, 0]  # type: ignore[union-attr]
-        offered: int | None = offered_hand(person)
-        if not np.linalg.norm(person[1 + offered] - person[0]) >= cc.offer:
-            offered = None
-        if contact_inside_next and cc.approach and offered is not None and not self._completion.weight.any():
+        # Of the person's hands, the model's intent is taken to be for the one held out farther.
+        offered = offered_hand(self.interaction.key_joints()[t, 0])  # type: ignore[union-attr]
+        if contact_inside_next and cc.approach and not self._completion.weight.any():
             self._approach(anchors, world_keys, hands, obj, subevent, t, offered)
         out = self.scaler(world_keys, self.pose.joints[t], self.object_anchors(t))
         world = self.frame_R.to_world(out)
@@ -267,8 +264,8 @@ class Simulator:
                   subevent: str | None, t: int, offered: int) -> None:
         """Move the robot in toward the contact the model means to make (world-frame ``keys`` of agent 1, the
         person's ``hands`` (2, 3) and the object ``obj`` at frame ``t``): of the pairs the task wants, the
-        model's wrist and the anchor nearest each other, the person's ``offered`` hand (held out, at least
-        ``ContactCompletionConfig.offer`` from their base) the only one of theirs (:meth:`KeyJointScaler.approach`)."""
+        model's wrist and the anchor nearest each other, the person's ``offered`` hand (the one held out farther
+        from their body) the only one of theirs (:meth:`KeyJointScaler.approach`)."""
         centre, allowed = anchors.wanted(self.data, hands, obj, subevent, offered)
         allowed[:, 2:] = False  # a person's hand, not an object: a ball in flight is met where the model meets it
         cc = self._completion.config  # type: ignore[union-attr]
