@@ -109,6 +109,40 @@ def test_keep_others_reruns_only_the_chosen_section(tmp_path: Path) -> None:
     assert "| sections | learning; kept from earlier runs: synthesis |" in page
 
 
+@pytest.mark.parametrize("keep_others", [False, True])
+def test_other_scripts_sections_are_never_dropped(tmp_path: Path, keep_others: bool) -> None:
+    out = tmp_path / "bench.md"
+    out.write_text("\n".join([
+        "# Benchmarks", "", "| socialaff-sim | 0.1.0, commit abc1234 |", "| date (UTC) | 2026-01-01 10:00 |", "",
+        "## Reading guide", "", "GUIDE TEXT", "",
+        "## Learning (Algorithm 1), issue 3", "", "OLD LEARNING", "",
+        "## Synthesis (Algorithm 2), issue 4", "", "OLD SYNTHESIS", "",
+        "## Contact completion (issue 25)", "", "APPENDED BY BENCH_CONTACT", "",
+        "## Accuracy sweep (issue 23)", "", "APPENDED BY BENCH_ACCURACY", "",
+    ]) + "\n")
+    argv = [sys.executable, str(SCRIPT), "--quick", "--only", "learning", "--out", str(out)]
+    proc = subprocess.run(argv + (["--keep-others"] if keep_others else []), cwd=ROOT, capture_output=True,
+                          text=True, check=False, env=dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl")))
+    assert proc.returncode == 0, proc.stderr
+    page = out.read_text()
+    assert "OLD LEARNING" not in page  # the re-run section is replaced
+    assert ("OLD SYNTHESIS" in page) is keep_others  # the script's own sections follow --keep-others
+    guide, learning = page.index("## Reading guide"), page.index("## Learning")
+    contact, sweep = page.index("APPENDED BY BENCH_CONTACT"), page.index("APPENDED BY BENCH_ACCURACY")
+    assert page.index("| machine |") < guide < learning < contact < sweep  # each where it was
+    assert "GUIDE TEXT" in page[guide:learning]
+    assert page.count("## Contact completion (issue 25)") == 1
+
+
+def test_foreign_sections_split_at_the_first_own_section() -> None:
+    bm = load_script("benchmark")
+    page = "# B\n\n## A\n\na\n\n## Mine\n\nm\n\n## Z\n\nz\n"
+    lead, rest = bm.foreign_sections(page, {"Mine"})
+    assert lead == ["## A", "", "a", ""] and rest == ["## Z", "", "z", ""]
+    lead, rest = bm.foreign_sections(page, {"A"})  # inverted: the own section first, the others after it
+    assert lead == [] and rest == ["## Mine", "", "m", "", "## Z", "", "z", ""]
+
+
 def test_accuracy_verdicts_and_paired_line_from_a_results_file(monkeypatch: pytest.MonkeyPatch) -> None:
     # A real evaluation (toy data, serial) with a method registered as "full", rendered as the page would.
     from test_evaluation import HoldLastPose, toy_dataset
