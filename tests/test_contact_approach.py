@@ -193,3 +193,20 @@ def test_intent_prefers_the_hand_that_reaches_the_persons_hand() -> None:
     plain = ContactCompletion(c)
     settle(plain, dataclasses.replace(y, intent=False))
     assert plain.anchor.tolist() == [-1, -1]
+
+
+@pytest.mark.parametrize("keep", [False, True])
+def test_keep_holds_the_person_hand_being_completed(keep: bool) -> None:
+    c = ContactCompletionConfig(keep=keep)
+    stage = ContactCompletion(c)
+    first = scene(0.05, anchors=2)  # the model's right hand for the anchor at y = 0 (the other at y = 0.3)
+    settle(stage, first, frames=3)
+    assert stage.anchor[1] == 0
+    # The model's wrist drifts toward the other hand: both within the capture distance, the other one nearer.
+    target = first.wrist_target.copy()
+    target[1, 1] += 0.2
+    drift = dataclasses.replace(first, wrist_target=target)
+    gaps = stage.intended_gaps(drift)[1]
+    assert gaps[1] < gaps[0] < c.capture
+    stage(drift, 3, 0.1)
+    assert stage.anchor[1] == (0 if keep else 1)
