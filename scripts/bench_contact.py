@@ -150,6 +150,17 @@ def episode(sim: Simulator, model: SocialAffordanceModel, inter: Interaction, se
             "robot_hand_z": float(rh[t, pair[0], 2]), "robot_shoulder_z": rec.robot_shoulder[t],
             "person_hand_z": float(hh[t, pair[1], 2]), "person_shoulder_z": float(_shoulder_z(inter, sim)[t]),
         }
+        # Where the hands touched (any frame the sub-goal's contact held): the touching pair above both
+        # agents' shoulders, or not (a brush of hanging hands also meets the sub-goal).
+        sub = metrics["subgoals"][0]
+        touch = np.flatnonzero(np.array(sub["in_contact_per_frame"], dtype=bool)) + 1  # per-frame lists start at 1
+        above = []
+        person_sh = _shoulder_z(inter, sim)
+        for f in touch:
+            p = np.unravel_index(np.argmin(np.linalg.norm(rh[f][:, None] - hh[f][None], axis=-1)), (2, 2))
+            above.append(bool(rh[f, p[0], 2] > rec.robot_shoulder[f] and hh[f, p[1], 2] > person_sh[f]))
+        row["strike"]["touch_frames"] = [int(f) for f in touch]
+        row["strike"]["touch_frames_above_shoulders"] = int(sum(above))
     return row
 
 
@@ -206,7 +217,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                         s = row["strike"]
                         extra += (f" strike: robot hand z {s['robot_hand_z']:.2f} (its shoulder {s['robot_shoulder_z']:.2f}),"
                                   f" person hand z {s['person_hand_z']:.2f} (shoulder {s['person_shoulder_z']:.2f}),"
-                                  f" centres {100 * s['centre_distance_m']:.0f} cm")
+                                  f" centres {100 * s['centre_distance_m']:.0f} cm; touching above both shoulders in"
+                                  f" {s['touch_frames_above_shoulders']} of {len(s['touch_frames'])} contact frames")
                     print(f"{robot_name:10s} {setting:7s} {row['instance']}: {goals} fail={row['failures']}{extra}",
                           flush=True)
     summary: dict[str, Any] = {}

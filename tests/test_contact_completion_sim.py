@@ -122,3 +122,37 @@ def test_a_synthesized_high_five_on_ours_meets_palms_above_the_shoulders(high_fi
     assert metrics["success"] and heights
     hand, robot_shoulder, person_shoulder = np.array(heights).T
     assert (hand > robot_shoulder).all() and (hand > person_shoulder).all()
+
+
+def _far_robot_at_the_strike(inside_next: bool) -> Simulator:
+    """A causally placed Stubby whose source keeps agent 1 where it stood at frame 0 (far from the person),
+    stepped to the recorded strike's first frame with the given ``contact_inside_next`` flag."""
+    inter = list(generate_dataset(0, SyntheticConfig(interactions=("high_five",), instances_per_interaction=8)))[6]
+    strike = int(np.flatnonzero(np.asarray(inter.subevents) == inter.subevent_names.index("strike"))[0])
+    keys = inter.key_joints()[0, 1]
+    sim = Simulator("ours", "high_five")
+    sim.reset(inter, placement_frames=10)
+    sim.settle(sim.retarget(keys, frame=0))
+    while sim.frame < strike:
+        sim.step(sim.retarget(keys, contact=inside_next, contact_inside=inside_next, contact_inside_next=inside_next))
+    return sim
+
+
+def test_the_robot_moves_in_toward_a_raised_hand_only_when_the_model_means_a_touch_inside_its_sub_event() -> None:
+    still = _far_robot_at_the_strike(False)
+    assert not np.isfinite(still.scaler.stand_cap)  # no intent: where the model puts it
+    moving = _far_robot_at_the_strike(True)
+    assert np.isfinite(moving.scaler.stand_cap)
+    d = [float(np.linalg.norm(s.robot_key_frames()[0, :2] - s.frame_R.to_robot(s.pose.joints[s.frame][:1])[0, :2]))
+         for s in (still, moving)]
+    assert d[1] < d[0] - 0.1  # physically nearer the person
+    # Switched off, the flag changes nothing.
+    off = dataclasses.replace(SimConfig().contact_completion, approach=False)  # type: ignore[arg-type]
+    inter = still.interaction
+    sim = Simulator("ours", "high_five", dataclasses.replace(SimConfig(), contact_completion=off))
+    sim.reset(inter, placement_frames=10)  # type: ignore[arg-type]
+    keys = inter.key_joints()[0, 1]  # type: ignore[union-attr]
+    sim.settle(sim.retarget(keys, frame=0))
+    while sim.frame < still.frame:
+        sim.step(sim.retarget(keys, contact=True, contact_inside=True, contact_inside_next=True))
+    assert not np.isfinite(sim.scaler.stand_cap)

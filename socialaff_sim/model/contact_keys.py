@@ -29,12 +29,16 @@ import numpy as np
 from ..data.skeletons import N_KEY
 from .joints import OBJECT
 
-__all__ = ["ContactKeys", "Keyframe", "fit_contact_keys", "WRISTS1"]
+__all__ = ["ContactKeys", "Keyframe", "contact_types", "fit_contact_keys", "WRISTS1", "CONTACT_END_RADIUS"]
 
 WRISTS1 = np.array([N_KEY + 1, N_KEY + 2])
 """Model indices of agent 1's wrists, the joints that can carry a contact keyframe (hands are what touch)."""
 
 _MATES = np.r_[np.arange(N_KEY), OBJECT]
+_HANDS0 = np.array([1, 2, OBJECT])
+"""Model indices of what agent 1's hands meet: agent 0's wrists and the object."""
+CONTACT_END_RADIUS = 0.2
+"""Metres: an end configuration whose wrist lies this close to agent 0's wrist or the object is a contact."""
 
 
 class Keyframe(NamedTuple):
@@ -150,3 +154,17 @@ def fit_contact_keys(
             rms = np.sqrt(np.nanmean(np.sum((at - keys.pose[s, i]) ** 2, axis=1)))
             keys.spread[s, i] = max(float(rms), 0.5 * radius)  # one instance (or identical ones) has no spread
     return keys
+
+
+def contact_types(mean_end: np.ndarray, keys: ContactKeys, radius: float = CONTACT_END_RADIUS) -> np.ndarray:
+    """(S,) bool: the sub-event types in which the model's agent 1 makes a hand contact.
+
+    A type makes contact when its mean end configuration ``mean_end`` ((S, 11, 3), metres, the model's
+    ``mean_end_``) puts one of agent 1's wrists within ``radius`` of agent 0's wrists or the object (a handshake's
+    ``shake``, a catch's ``hold``), or when it carries a contact keyframe (a touch inside the interval released
+    before its end: a high five's ``strike``). The simulator reads it as the model's intent to touch
+    (:mod:`~socialaff_sim.retarget.contact_completion`)."""
+    mean_end = np.asarray(mean_end, dtype=np.float64)
+    d = np.linalg.norm(mean_end[:, WRISTS1, None, :] - mean_end[:, None, _HANDS0, :], axis=-1)  # (S, 2, 3)
+    d = np.where(np.isfinite(d), d, np.inf)
+    return (d.min(axis=(1, 2)) < radius) | np.isfinite(keys.phase).any(axis=1)

@@ -93,7 +93,7 @@ class ScalingConfig:
     -----------------
     - Wrist targets near contact: contact_near, contact_far, contact_push, object_lookahead, push_to_object
     - Placement of the robot: scale_placement, contact_placement, contact_radius, sample_band, max_extension,
-      online_placement, placement_speed, k_min, k_max
+      online_placement, placement_speed, approach_speed, k_min, k_max
     - Clearances: body_clearance, wrist_clearance
     """
 
@@ -133,6 +133,10 @@ class ScalingConfig:
     or the object lowers k to what keeps that wrist within reach (never raises it)."""
     placement_speed: float = 0.6
     """v_p [m/s]: the most the online placement moves the robot's base toward the partner."""
+    approach_speed: float = 1.0
+    """v_a [m/s]: the most the online placement moves the base toward the partner in a frame where the source's
+    model means to touch and the contact is beyond the robot's reach (:meth:`KeyJointScaler.approach`; a
+    person's brisk walk)."""
     k_min: float = 0.5
     """[—]: Smallest placement factor k."""
     k_max: float = 2.0
@@ -149,6 +153,8 @@ class ScalingConfig:
     def __post_init__(self) -> None:
         if not self.placement_speed >= 0:
             raise ConfigError(f"ScalingConfig.placement_speed: expected a speed ≥ 0 m/s, found {self.placement_speed}")
+        if not self.approach_speed >= 0:
+            raise ConfigError(f"ScalingConfig.approach_speed: expected a speed ≥ 0 m/s, found {self.approach_speed}")
         if not self.wrist_clearance >= 0:
             raise ConfigError(f"ScalingConfig.wrist_clearance: expected a distance ≥ 0 m, found {self.wrist_clearance}")
 
@@ -180,6 +186,9 @@ class KeyJointScaler:
         self._agent_frame = RobotFrame(a1, heading_matrix(a0 - a1))
         idx = inter.layout.key_indices[0]
         self._partner_base = 0 if idx is None else idx
+        self._body = np.array([j for j, n in enumerate(inter.joint_names)
+                               if not any(p in n for p in ("elbow", "wrist", "hand", "thumb", "tip"))], dtype=np.int64)
+        """Agent 0's trunk, head and leg joints (the ones the robot's trunk keeps clear of)."""
         self.s_arm = self.robot.arm / self.human.arm
         self.s_leg = self.robot.leg / self.human.leg
         # The push is meant for the middle of the hand: a robot hand reaching farther past its wrist
@@ -210,6 +219,10 @@ class KeyJointScaler:
         if self._online and self.robot.trunk_radius > 0:
             self._k_floor = max(self._clearance_k(inter, offset, c.k_min), self.trunk_k or c.k_min)
         self._k_step = c.placement_speed / max(inter.fps, 1e-9)  # metres of base motion per frame
+        self._approach_step = c.approach_speed / max(inter.fps, 1e-9)
+        self.stand_cap = np.inf
+        """Metres: the most the robot's base stands from the partner's horizontally, lowered by :meth:`approach`
+        (the model's own placement applies within it)."""
         self._k_goal = self.k
         origin = a0 + (a1 - a0) * self.k
         self.frame = RobotFrame(origin, heading_matrix(a0 - a1))
@@ -302,12 +315,16 @@ class KeyJointScaler:
         return float(((wd[need] + np.sqrt(disc[need])) / dd[need]).max())
 
     def _k_within_reach(self, wrist: np.ndarray, base1: np.ndarray, p0: np.ndarray, side: np.ndarray,
-                        shoulder_h: np.ndarray, rotation: np.ndarray) -> float | None:
+                        shoulder_h: np.ndarray, rotation: np.ndarray, extension: np.ndarray | None = None
+                        ) -> float | None:
         """The largest k keeping N contact samples within the robot's reach: agent 1's ``wrist``, ``base1``,
         agent 0's base ``p0`` and agent 1's shoulder ``shoulder_h`` (N, 3) world frame, the wrist's
-        ``side`` (N,) 0/1; ``None`` when no sample can be brought within reach."""
+        ``side`` (N,) 0/1; ``None`` when no sample can be brought within reach. ``extension`` (N,): the
+        fraction of the robot's arm each sample may use (default: agent 1's own there, at most
+        ``max_extension``)."""
         c, h, r = self.config, self.human, self.robot
-        extension = np.minimum(np.linalg.norm(wrist - shoulder_h, axis=1) / h.arm, c.max_extension)
+        if extension is None:
+            extension = np.minimum(np.linalg.norm(wrist - shoulder_h, axis=1) / h.arm, c.max_extension)
         reach = extension * r.arm
         # Robot shoulder for placement k: p₀ + k·(b₁ − p₀) horizontally, at the scaled base height, plus its offset.
         D = np.zeros_like(base1)
@@ -343,6 +360,61 @@ class KeyJointScaler:
             spread = float(np.linalg.norm(keys[0, :2] - p0[:2])) if np.isfinite(keys[0]).all() else 0.0
             self.k = max(self._k_goal, self.k - self._k_step / max(spread, 1e-3))
 
+    def _clear_now(self, partner: np.ndarray, base1: np.ndarray, p0: np.ndarray) -> float:
+        """The smallest k (steps of 0.01 up to the current k) at which the robot's trunk clears agent 0's trunk,
+        head and legs ``partner`` (J, 3) of this frame by ``body_clearance``, agent 1's base ``base1`` and agent
+        0's ``p0`` (3,), world frame (the current k when none does; ``k_min`` without a trunk)."""
+        c, r = self.config, self.robot
+        joints = partner[self._body]
+        joints = joints[np.isfinite(joints).all(axis=1)]
+        if r.trunk_radius <= 0 or not len(joints):
+            return c.k_min
+        ks = np.arange(c.k_min, max(c.k_min, self.k) + 1e-9, 0.01)
+        base = p0[None, :2] + ks[:, None] * (base1[:2] - p0[:2])[None]  # (K, 2)
+        gap = np.linalg.norm(base[:, None, :] - joints[None, :, :2], axis=-1).min(axis=1)
+        clear = gap >= r.trunk_radius + c.body_clearance
+        return float(ks[np.argmax(clear)]) if clear.any() else self.k
+
+    def approach(self, points: np.ndarray, side: np.ndarray, keys: np.ndarray, partner: np.ndarray) -> bool:
+        """Move in toward contacts the source means to make but the robot cannot reach from where it stands.
+
+        ``points`` (N, 3): where the robot's ``side`` (N,) hands are to touch (the person's hand, the object; the
+        robot's other hand may touch instead, whichever needs the robot to move in less),
+        ``keys`` (5, 3) agent 1's key joints from the source and ``partner`` (J, 3) agent 0's joints, all
+        world frame and of the current frame. With online placement, k is lowered to the largest value that
+        brings every point within ``max_extension`` of the robot's arm from its shoulder (never below what keeps
+        its trunk clear of the person and of the points): the cap on the base's distance from the partner
+        (``stand_cap``) comes down by up to ``approach_speed`` toward that k's distance. The robot stops moving
+        in when the calls stop, and where the model itself brings agent 1 closer the cap no longer acts (the
+        two approaches do not add up). Returns whether it lowered the cap (False: no online placement, or no k
+        reaches)."""
+        keys = np.asarray(keys, dtype=np.float64)
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        side = np.asarray(side, dtype=np.int64).reshape(-1)
+        p0 = np.asarray(partner, dtype=np.float64)[self._partner_base]
+        if not (self._online and len(points) and np.isfinite(keys[0]).all() and np.isfinite(points).all()
+                and np.isfinite(p0).all()):
+            return False
+        n = len(points)
+        base1 = np.repeat(keys[None, 0], n, axis=0)
+        p0s = np.repeat(p0[None], n, axis=0)
+        # Either of the robot's hands may make the contact: the robot moves in only as far as the nearer needs.
+        ks = [self._k_within_reach(points, base1, p0s, s, self._shoulders(base1, s), self.frame.rotation,
+                                   extension=np.full(n, self.config.max_extension)) for s in (side, 1 - side)]
+        finite = [v for v in ks if v is not None]
+        if not finite:
+            return False
+        k = max(finite)
+        front = self._k_clear_of_trunk(points, base1, p0s)
+        goal = max(k, self._k_floor, -np.inf if front is None else front,
+                   self._clear_now(np.asarray(partner, dtype=np.float64), keys[0], p0))
+        spread = float(np.linalg.norm(keys[0, :2] - p0[:2]))
+        now = min(self.stand_cap, self.k * spread)
+        if goal * spread >= now:
+            return False
+        self.stand_cap = max(goal * spread, now - self._approach_step)
+        return True
+
     def scaled(self, keys: np.ndarray, partner_base: np.ndarray) -> np.ndarray:
         """(5, 3) robot-frame targets from agent 1's key joints ``keys`` (5, 3), world frame, by scaling alone.
 
@@ -353,7 +425,11 @@ class KeyJointScaler:
         local = self._agent_frame.to_robot(keys)
         base = local[0]
         p0 = np.asarray(partner_base, dtype=np.float64)
-        placed = self.frame.to_robot(p0 + self.k * (keys[0] - p0))
+        k = self.k
+        spread = float(np.linalg.norm(keys[0, :2] - p0[:2]))
+        if np.isfinite(self.stand_cap) and spread > 1e-6:
+            k = min(k, self.stand_cap / spread)
+        placed = self.frame.to_robot(p0 + k * (keys[0] - p0))
         out = np.empty((5, 3))
         out[0] = (placed[0], placed[1], r.base_height + self.s_leg * (base[2] - h.base_height))
         out[1:3] = out[0] + r.shoulders + self.s_arm * (local[1:3] - base - h.shoulders)

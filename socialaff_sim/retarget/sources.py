@@ -31,6 +31,15 @@ class SourceFrame(NamedTuple):
     """(5, 3) float64, metres, data frame: agent 1's base, left/right wrist, left/right ankle (NaN where unknown)."""
     subevent: str | None
     """The current sub-event's name, or ``None``."""
+    contact: bool = False
+    """Whether the source's model makes a hand contact in the current sub-event (its intent to touch, read by
+    the simulator's contact completion; ``False`` for a source without a model, such as the recording)."""
+    contact_inside: bool = False
+    """Whether the current sub-event's contact falls inside it and is released before its end (a contact
+    keyframe: a high five's strike), a touch the model's interpolated end configurations do not reach."""
+    contact_inside_next: bool = False
+    """Whether the current sub-event or its most likely successor has such a contact (the robot may move in
+    toward it: a high five's raise and strike; ``False`` for a source without a model)."""
 
 
 @runtime_checkable

@@ -21,7 +21,7 @@ from .scene import Scene
 from .stage import key_frames
 from .tasks import TaskSpec
 
-__all__ = ["ContactAnchors", "GRAVITY", "object_in_flight", "object_radius"]
+__all__ = ["ContactAnchors", "GRAVITY", "object_in_flight", "object_radius", "offered_hand"]
 
 GRAVITY = 9.81
 """g, m/s² (MuJoCo's default): an object in flight is predicted one frame ahead under it."""
@@ -93,14 +93,30 @@ class ContactAnchors:
 
     def gather(self, data: mujoco.MjData, wrist_target: np.ndarray, wrist_commanded: np.ndarray,
                person_hands: np.ndarray, object_centre: np.ndarray | None, arm: float,
-               subevent: str | None) -> CompletionInput:
+               subevent: str | None, intent: bool = False, offered: int | None = None,
+               free: bool = False, inside: bool = False) -> CompletionInput:
         """The stage's input: ``wrist_target`` (2, 3) from the model, ``wrist_commanded`` (2, 3) the wrists of
         the latest IK solution, the person's hand centres at frame t ``person_hands`` (2, 3), the object's
-        centre at t (``None``: no object or it is parked), world frame.
+        centre at t (``None``: no object or it is parked), world frame; ``intent``: the source's model means to
+        touch now; ``offered``: with ``intent`` and ``inside``, the person's hand held out (0 left, 1 right;
+        :func:`offered_hand`), the only one of theirs the robot may meet (None: either); ``free``: the object moves freely (thrown or let go);
+        ``inside``: the model's contact is a keyframe inside the sub-event.
 
         The hands' nearest points are the physical ones: moved by as much as the commanded wrist moves, the
         physical hand keeps its offset from the IK's (a servo's tracking error, an arm sagging under its
         weight), so the contact is aimed for the hand the person sees."""
+        centre, allowed = self.wanted(data, person_hands, object_centre, subevent, offered if intent and inside else None)
+        return CompletionInput(
+            wrist_target=np.asarray(wrist_target, dtype=np.float64), wrist_now=np.asarray(wrist_commanded, dtype=np.float64),
+            nearest=self.nearest(data), centre=centre, radius=self.radius, shared=self.shared, allowed=allowed,
+            shoulder=np.array(data.xpos[self.scene.limb_body_ids[:2]]), arm=float(arm), intent=bool(intent),
+            free=bool(free), inside=bool(inside),
+        )
+
+    def wanted(self, data: mujoco.MjData, person_hands: np.ndarray, object_centre: np.ndarray | None,
+               subevent: str | None, offered: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The anchors' centres (A, 3), world frame, and the hand–anchor pairs the task wants now (2, A) bool
+        (arguments as in :meth:`gather`; ``offered`` not None: of the person's hands only that one)."""
         sc = self.scene
         centre = np.zeros((len(self.geoms), 3))
         centre[:2] = person_hands
@@ -111,11 +127,20 @@ class ContactAnchors:
                 allowed[:, 2] = False
             else:
                 centre[2] = object_centre
-        return CompletionInput(
-            wrist_target=np.asarray(wrist_target, dtype=np.float64), wrist_now=np.asarray(wrist_commanded, dtype=np.float64),
-            nearest=self.nearest(data), centre=centre, radius=self.radius, shared=self.shared, allowed=allowed,
-            shoulder=np.array(data.xpos[sc.limb_body_ids[:2]]), arm=float(arm),
-        )
+        if offered is not None:
+            allowed[:, 1 - offered] = False
+        return centre, allowed
+
+
+def offered_hand(person_keys: np.ndarray) -> int:
+    """The hand the person holds out (0 left, 1 right): of their wrists, the one farther from their base (a hand
+    raised for a high five or held out to be shaken, against one hanging at the side). ``person_keys`` (5, 3):
+    the person's key joints (base, left wrist, right wrist, …) at the current frame; 1 when unknown."""
+    keys = np.asarray(person_keys, dtype=np.float64)
+    d = np.linalg.norm(keys[1:3] - keys[0], axis=1)
+    if not np.isfinite(d).all():
+        return 0 if np.isfinite(d[0]) and not np.isfinite(d[1]) else 1
+    return int(np.argmax(d))
 
 
 def object_in_flight(data: mujoco.MjData, scene: Scene, dt: float) -> np.ndarray:

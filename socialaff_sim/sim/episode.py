@@ -39,14 +39,18 @@ def run_episode(
     first = source.targets(0)
     # A causal source (the model's synthesis) declares how much of agent 1's recording it sees.
     sim.reset(interaction, placement_frames=getattr(source, "placement_frames", None))
-    sim.settle(sim.retarget(first.keys, frame=0, subevent=first.subevent))
+    sim.settle(sim.retarget(first.keys, frame=0, subevent=first.subevent, contact=first.contact,
+                           contact_inside=first.contact_inside, contact_inside_next=first.contact_inside_next))
     wall += time.perf_counter() - tic
     if on_frame is not None:
         on_frame(sim, None, first.subevent)
     while not sim.done:
         tic = time.perf_counter()
         frame = source.targets(sim.frame + 1)
-        result = sim.step(sim.retarget(frame.keys, frame=sim.frame + 1, subevent=frame.subevent), subevent=frame.subevent)
+        targets = sim.retarget(frame.keys, frame=sim.frame + 1, subevent=frame.subevent, contact=frame.contact,
+                               contact_inside=frame.contact_inside,
+                               contact_inside_next=frame.contact_inside_next)
+        result = sim.step(targets, subevent=frame.subevent)
         wall += time.perf_counter() - tic
         if on_frame is not None:
             on_frame(sim, result, frame.subevent)

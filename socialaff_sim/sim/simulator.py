@@ -24,7 +24,7 @@ from ..retarget.contact_completion import ContactCompletion
 from ..retarget.robot import RobotSpec, load_robot
 from ..retarget.scaling import RobotFrame, object_anchors
 from .chair import chair_pose, place_chair
-from .contact_targets import ContactAnchors, object_in_flight
+from .contact_targets import ContactAnchors, object_in_flight, offered_hand
 from .carry import CarryPlan, hold_object, park_object, release_object
 from .human import HumanPose
 from .reach import reachable_targets
@@ -222,29 +222,62 @@ class Simulator:
     def done(self) -> bool:
         return self.interaction is not None and self.frame >= self.n_frames - 1
 
-    def retarget(self, keys: np.ndarray, frame: int | None = None, subevent: str | None = None) -> np.ndarray:
+    def retarget(self, keys: np.ndarray, frame: int | None = None, subevent: str | None = None,
+                 contact: bool = False, contact_inside: bool = False, contact_inside_next: bool = False) -> np.ndarray:
         """(5, 3) robot-frame targets from agent 1's key joints ``keys`` (5, 3) in the data frame at ``frame``
         (default: the next), scaled onto the robot and, with ``SimConfig.contact_completion``, the wrists completed
-        onto a contact the task wants during ``subevent`` (the source's current sub-event)."""
+        onto a contact the task wants during ``subevent`` (the source's current sub-event). ``contact``: the
+        source's model makes a hand contact in that sub-event (its intent to touch: the completion captures
+        a free object; ``ContactCompletionConfig.intent``); ``contact_inside``: that contact is a keyframe inside
+        the sub-event (the completion captures the person's hand too); ``contact_inside_next``: such a contact
+        in that sub-event or the one most likely next (a held-out hand beyond reach moves the robot in;
+        ``ContactCompletionConfig.approach``)."""
         self._require()
         t = self.frame + 1 if frame is None else frame
         t = min(max(t, 0), self.n_frames - 1)
-        out = self.scaler(np.asarray(keys, dtype=np.float64) + self.offset, self.pose.joints[t], self.object_anchors(t))
+        world_keys = np.asarray(keys, dtype=np.float64) + self.offset
         if self._completion is None:
-            return out
-        world = self.frame_R.to_world(out)
+            return self.scaler(world_keys, self.pose.joints[t], self.object_anchors(t))
+        cc = self._completion.config
         fps = self.interaction.fps  # type: ignore[union-attr]
         B = self.scene.n_bones
-        obj = None
+        obj, moving = None, False
         if self.carry is not None:
             moving = self._released or t >= self.carry.release_frame
             obj = object_in_flight(self.data, self.scene, (t - self.frame) / fps) if moving else self.carry.track[t]
         anchors = self._anchors[self.interaction.layout.name]  # type: ignore[union-attr]
+        hands = self.pose.pos[t, B:B + 2]
+        # Of the person's hands, the model's intent is taken to be for the one held out farther.
+        offered = offered_hand(self.interaction.key_joints()[t, 0])  # type: ignore[union-attr]
+        if contact_inside_next and cc.approach and not self._completion.weight.any():
+            self._approach(anchors, world_keys, hands, obj, subevent, t, offered)
+        out = self.scaler(world_keys, self.pose.joints[t], self.object_anchors(t))
+        world = self.frame_R.to_world(out)
         x = anchors.gather(self.data, world[1:3], self._stage.ik.frame_positions()[1:3],  # type: ignore[union-attr]
-                          self.pose.pos[t, B:B + 2], obj, self.measurements.arm, subevent)
+                          hands, obj, self.measurements.arm, subevent, intent=contact, offered=offered,
+                          free=moving, inside=contact_inside)
         world[1:3] = self._completion(x, t, 1.0 / fps)
         self._completed_frame = t
         return self.frame_R.to_robot(world)
+
+    def _approach(self, anchors: ContactAnchors, keys: np.ndarray, hands: np.ndarray, obj: np.ndarray | None,
+                  subevent: str | None, t: int, offered: int) -> None:
+        """Move the robot in toward the contact the model means to make (world-frame ``keys`` of agent 1, the
+        person's ``hands`` (2, 3) and the object ``obj`` at frame ``t``): of the pairs the task wants, the
+        model's wrist and the anchor nearest each other, the person's ``offered`` hand (the one held out farther
+        from their body) the only one of theirs (:meth:`KeyJointScaler.approach`)."""
+        centre, allowed = anchors.wanted(self.data, hands, obj, subevent, offered)
+        allowed[:, 2:] = False  # a person's hand, not an object: a ball in flight is met where the model meets it
+        cc = self._completion.config  # type: ignore[union-attr]
+        d = np.linalg.norm(keys[1:3, None, :] - centre[None], axis=-1)
+        d = np.where(allowed & np.isfinite(d), d, np.inf)
+        if not np.isfinite(d).any():
+            return
+        side, a = np.unravel_index(int(np.argmin(d)), d.shape)
+        shoulders = self.data.xpos[self.scene.limb_body_ids[:2]]
+        if np.linalg.norm(centre[a] - shoulders, axis=1).min() <= cc.reach * self.measurements.arm + cc.reach_band:
+            return  # within reach of a hand already: where the model puts the robot stands
+        self.scaler.approach(centre[a], np.array([side]), keys, self.pose.joints[t])
 
     def object_anchors(self, frame: int) -> np.ndarray | None:
         """(K, 3) world frame: the recorded object at ``frame`` and its path over the next
