@@ -159,8 +159,8 @@ def test_accuracy_verdicts_and_paired_line_from_a_results_file(monkeypatch: pyte
     cell = results["paired"]["hold"]["differences"]["key_joint_error_m"]["promp"]
     assert cell["verdict"] == "lower"  # ProMP follows the human's arm, holding the pose does not
     assert "lowest is promp" in text and "**missed**" in text
-    assert (f"Paired key-joint differences to hold (m, 95 % bootstrap interval over the test instances; the variation "
-            f"from refitting is not in it): ") in text
+    assert ("Paired key-joint differences to hold (m, 95 % bootstrap interval over the test instances; the variation "
+            "from refitting is not in it): ") in text
     assert f"promp {cell['mean_m']:+.4f} [{cell['low_m']:+.4f}, {cell['high_m']:+.4f}] lower" in text
     best = results["paired"]["best_baseline"]
     assert best["reference"] == "promp" and "Paired key-joint differences to promp (m, 95 %" in text
