@@ -29,9 +29,13 @@ import numpy as np
 from socialaff_sim.data import load_dataset
 from socialaff_sim.evaluation.crossval import fold_rng
 from socialaff_sim.evaluation.splits import make_folds
-from socialaff_sim.inference.methods import AffordanceMethod, trace
-from socialaff_sim.inference.reaction_regression import key_columns
-from socialaff_sim.inference.switching import FAMILIES, GATED_FAMILIES, SwitchingConfig, SwitchingRegression, instance_rows
+from socialaff_sim.inference.body_fit import BodyFitConfig, BodyFitter
+from socialaff_sim.inference.interaction_primitive import InteractionPrimitive
+from socialaff_sim.inference.methods import AffordanceMethod, primitive_trace, trace
+from socialaff_sim.inference.reaction_regression import inner_folds, key_columns
+from socialaff_sim.inference.switching import (
+    FAMILIES, GATED_FAMILIES, PRIMITIVE_FAMILIES, SwitchingConfig, SwitchingRegression, instance_rows,
+)
 
 T0 = 10
 _G = dict(GATED_FAMILIES)
@@ -41,6 +45,9 @@ VARIANTS = {  # name: (families, blend steps)
     "default": (FAMILIES, 10),
     "default_best1": (FAMILIES, 1),
     "gated_all": (GATED_FAMILIES, 10),
+    "primitive": (PRIMITIVE_FAMILIES, 10),
+    "motion+primitive": ((FAMILIES[0], PRIMITIVE_FAMILIES[-1]), 10),
+    "primitive_best1": (PRIMITIVE_FAMILIES, 1),
 }
 
 
@@ -84,20 +91,36 @@ def main() -> None:
                 cache.parent.mkdir(parents=True, exist_ok=True)
                 cache.write_bytes(pickle.dumps((S, tr_traces, va_traces)))
         fit_s = time.perf_counter() - t0
+        # The interaction primitive's traces (not cached: cheap), cross-fitted as AffordanceMethod.fit does
+        # (its own split of the training instances; the cached plans' split is not stored).
+        t1 = time.perf_counter()
+        prim_rng = np.random.default_rng(args.seed)
+        body = BodyFitter(BodyFitConfig()).fit_interactions(train, agent=1, rng=prim_rng)
+        parts = inner_folds(train, np.arange(len(train)), args.cross_fit, prim_rng) if args.cross_fit > 1 else [list(range(len(train)))]
+        tr_traces = list(tr_traces)
+        for part in parts:
+            rest = [inst for i, inst in enumerate(train) if i not in set(part)] if args.cross_fit > 1 else train
+            prim = InteractionPrimitive().fit(rest)
+            for i in part:
+                tr_traces[i] = primitive_trace(prim, body, tr_traces[i], train[i], T0)
+        prim_all = InteractionPrimitive().fit(train)
+        va_traces = [primitive_trace(prim_all, body, tr, i, T0) for i, tr in zip(val, va_traces, strict=True)]
+        prim_s = time.perf_counter() - t1
         kc = key_columns(train[0])
         va_rows = [instance_rows(i, tr, T0, SwitchingConfig().features) for i, tr in zip(val, va_traces, strict=True)]
-        row = {"hold": float(np.mean([_err(np.zeros_like(Y[:, kc]), Y[:, kc]) for _, Y, _ in va_rows]))}
+        row = {"hold": float(np.mean([_err(np.zeros_like(Y[:, kc]), Y[:, kc]) for _, Y, _, _ in va_rows]))}
         width = va_rows[0][0].shape[1]
-        plan_cols = (width - 15 + np.arange(15)).reshape(5, 3)[train[0].layout.key_available].reshape(-1)
-        row["plan"] = float(np.mean([_err(X[:, plan_cols], Y[:, kc]) for X, Y, _ in va_rows]))
+        plan_cols = (width - 30 + np.arange(15)).reshape(5, 3)[train[0].layout.key_available].reshape(-1)
+        row["plan"] = float(np.mean([_err(X[:, plan_cols], Y[:, kc]) for X, Y, _, _ in va_rows]))
+        row["promp"] = float(np.mean([_err(X[:, plan_cols + 15], Y[:, kc]) for X, Y, _, _ in va_rows]))
         chosen = {}
         for name, (families, steps) in VARIANTS.items():
             reg = SwitchingRegression(SwitchingConfig(families=families, blend_steps=steps)).fit(
                 train, tr_traces, n_subevents=S, rng=np.random.default_rng(args.seed))
-            row["sw:" + name] = float(np.mean([_err(reg.displacement(X, O)[:, kc], Y[:, kc]) for X, Y, O in va_rows]))
+            row["sw:" + name] = float(np.mean([_err(reg.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows]))
             chosen[name] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg.members_) or "hold"
         table[label] = row
-        print(f"{label:>14} n={len(train)}/{len(val)} S={S} fit+traces {fit_s:.0f}s  "
+        print(f"{label:>14} n={len(train)}/{len(val)} S={S} fit+traces {fit_s:.0f}s primitive {prim_s:.1f}s  "
               + "  ".join(f"{k} {v:.4f}" for k, v in row.items()), flush=True)
         print(f"{'':>14} chosen: " + "; ".join(f"{k}: {v}" for k, v in chosen.items()),
               flush=True)
