@@ -63,6 +63,12 @@ def main() -> None:
     ap.add_argument("--labels", default="")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--cross-fit", type=int, default=2, help="parts of the training traces' cross-fitting (1: in sample)")
+    ap.add_argument("--variants", default=",".join(VARIANTS), help="comma-separated subset of " + ",".join(VARIANTS))
+    ap.add_argument("--no-gated", action="store_true",
+                    help="traces without the beliefs in the labels of the model fitted on all (cheaper: no in-sample "
+                         "synthesis; the belief-gated variants are then not valid and are skipped)")
+    ap.add_argument("--contiguous", action="store_true",
+                    help="inner folds and cross-fitting parts as consecutive runs with one actor pair (SwitchingConfig.contiguous)")
     ap.add_argument("--cache", default="", help="folder for the fitted traces (re-runs of the variants skip the fits)")
     args = ap.parse_args()
     ds = load_dataset(args.data)
@@ -78,13 +84,13 @@ def main() -> None:
         val = [insts[i] for i in val_idx if insts[i].n_frames > T0 + 1]
         rng = np.random.default_rng(args.seed)
         t0 = time.perf_counter()
-        cache = Path(args.cache) / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}.pkl" if args.cache else None
+        cache = Path(args.cache) / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}.pkl" if args.cache else None
         if cache is not None and cache.exists():
             S, tr_traces, va_traces = pickle.loads(cache.read_bytes())
         else:
             method = AffordanceMethod.from_preset("full", "default", reaction=None).fit(train, rng=rng)
             syn = dataclasses.replace(method.synthesis, n_observed=T0)
-            tr_traces = method._training_traces(train, SwitchingConfig(families=GATED_FAMILIES, cross_fit=args.cross_fit), rng)
+            tr_traces = method._training_traces(train, SwitchingConfig(families=FAMILIES if args.no_gated else GATED_FAMILIES, cross_fit=args.cross_fit, contiguous=args.contiguous), rng)
             va_traces = [trace(method.model_, method.body_, i, syn, rng) for i in val]
             S = method.model_.n_subevents_
             if cache is not None:
@@ -96,7 +102,7 @@ def main() -> None:
         t1 = time.perf_counter()
         prim_rng = np.random.default_rng(args.seed)
         body = BodyFitter(BodyFitConfig()).fit_interactions(train, agent=1, rng=prim_rng)
-        parts = inner_folds(train, np.arange(len(train)), args.cross_fit, prim_rng) if args.cross_fit > 1 else [list(range(len(train)))]
+        parts = inner_folds(train, np.arange(len(train)), args.cross_fit, prim_rng, contiguous=args.contiguous) if args.cross_fit > 1 else [list(range(len(train)))]
         tr_traces = list(tr_traces)
         for part in parts:
             rest = [inst for i, inst in enumerate(train) if i not in set(part)] if args.cross_fit > 1 else train
@@ -114,8 +120,10 @@ def main() -> None:
         row["plan"] = float(np.mean([_err(X[:, plan_cols], Y[:, kc]) for X, Y, _, _ in va_rows]))
         row["promp"] = float(np.mean([_err(X[:, plan_cols + 15], Y[:, kc]) for X, Y, _, _ in va_rows]))
         chosen = {}
-        for name, (families, steps) in VARIANTS.items():
-            reg = SwitchingRegression(SwitchingConfig(families=families, blend_steps=steps)).fit(
+        names = [v for v in args.variants.split(",") if v and not (args.no_gated and v in ("motion+subevent", "gated_all"))]
+        for name in names:
+            families, steps = VARIANTS[name]
+            reg = SwitchingRegression(SwitchingConfig(families=families, blend_steps=steps, contiguous=args.contiguous)).fit(
                 train, tr_traces, n_subevents=S, rng=np.random.default_rng(args.seed))
             row["sw:" + name] = float(np.mean([_err(reg.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows]))
             chosen[name] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg.members_) or "hold"

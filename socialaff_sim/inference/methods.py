@@ -211,7 +211,8 @@ class AffordanceMethod:
         family reads them) from models fitted on the other parts of a ``reaction.cross_fit``-part split (out of
         sample), beliefs and phases from ``model_`` (module :mod:`.switching`)."""
         cfg = dataclasses.replace(self.synthesis, n_observed=reaction.n_observed)
-        parts = inner_folds(inters, np.arange(len(inters)), reaction.cross_fit, rng) if reaction.cross_fit > 1 else []
+        parts = (inner_folds(inters, np.arange(len(inters)), reaction.cross_fit, rng, contiguous=reaction.contiguous)
+                 if reaction.cross_fit > 1 else [])
         crossed = len(parts) >= 2 and all(len(inters) - len(p) >= 2 for p in parts)
         if not crossed or reaction.needs_belief:
             own = [trace(self.model_, self.body_, inst, cfg, rng) for inst in inters]

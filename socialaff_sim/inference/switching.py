@@ -115,14 +115,19 @@ class SwitchingConfig:
     blend_steps: int = 10
     """[—]: The blend's weights are multiples of 1 / blend_steps (1: keep the single best family or ``hold``)."""
     cross_fit: int = 2
-    """[—]: The plans of the training rows come from models fitted on the other parts of a split of the training
-    instances into this many parts (pair-disjoint where possible): out of sample, as at test. 1: from the model
+    """[—]: The plans (and the interaction primitive's predictions) of the training rows come from models fitted on
+    the other parts of a split of the training instances into this many parts (pair-disjoint where possible): out
+    of sample, as at test. 1: from the model
     fitted on all of them, in sample, which the inner CV then over-trusts (NuiSI's development split, docs/design.md).
     The beliefs and phases always come from the model fitted on all of them (its sub-event labels are the test's)."""
     penalties: tuple[float, ...] = (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0)
     """λ [—]: Ridge penalties the inner CV chooses among (unit-RMS features, rows weighing one per instance)."""
     inner_folds: int = 3
     """[—]: Folds of the inner cross-validation on the training instances."""
+    contiguous: bool = False
+    """[—]: With a single actor pair, the inner folds and the cross-fitting's parts are consecutive runs of the
+    training instances in their order (time order for one recording: held-out blocks of the session) instead of
+    random instances (:func:`~.reaction_regression.inner_folds`); with two pairs or more they are pair-disjoint."""
     n_observed: int = DEFAULT_N_OBSERVED
     """T0 [frames]: agent 1's observed frames when the training rows are built (the evaluation's T0)."""
     fallback: tuple[tuple[str, ...], float] = (FEATURE_GROUPS + ("subevent",), 10.0)
@@ -289,6 +294,11 @@ class Member:
         """Its prior (one of :data:`PRIORS`), or ``None`` (``hold``)."""
         return _prior_of(self.groups)
 
+    @property
+    def from_plan(self) -> bool:
+        """Whether the plan is its prior."""
+        return self.prior == "from_plan"
+
 
 def _prior_of(groups: Sequence[str]) -> str | None:
     return next((g for g in groups if g in PRIORS), None)
@@ -317,7 +327,7 @@ class SwitchingRegression:
         S = self.n_subevents_ = int(n_subevents)
         self.scale_ = switching_scale(X, w, S)
         Xs = X / self.scale_
-        folds = inner_folds(interactions, np.unique(row_ids), cfg.inner_folds, rng)
+        folds = inner_folds(interactions, np.unique(row_ids), cfg.inner_folds, rng, contiguous=cfg.contiguous)
         priors = {"from_plan": plan_prior, "from_primitive": prim_prior}
         self.cv_errors_: dict[tuple[tuple[str, ...], float], float] = {}
         chosen: list[tuple[str, tuple[str, ...], float, float]] = []  # (family, groups, λ, α)
