@@ -9,9 +9,14 @@ plans cross-fitted as in ``AffordanceMethod.fit``, ``--cross-fit 1``: in sample)
 each variant of the switching regression (which groups the inner CV may choose among) is fitted on the
 training traces and scored on the validation instances (mean key-joint distance per instance, frames
 ≥ T0, averaged per class, then over classes). Also reported: ``hold`` and the plan itself (Algorithm 2's
-key joints, the full model before this change). Usage::
+key joints, the full model before this change) and ``promp``: the interaction primitive's causal prediction
+alone (the ``promp`` baseline on the development split), whose traces (cross-fitted like the plans, on their own
+split) feed the ``primitive`` variants. ``--contiguous``: one pair's inner folds and cross-fitting parts as
+consecutive runs (``SwitchingConfig.contiguous``); ``--no-gated``: cheaper traces, no belief-gated variants.
+Usage::
 
     python scripts/dev_switching.py --data nuisi:../shared/data/nuisi_v1 --split block [--rotation 0] [--labels a,b]
+        [--cache DIR] [--variants default,primitive] [--contiguous] [--no-gated]
 
 Prints one line per class and the averages; the library never imports this script.
 """
