@@ -14,9 +14,10 @@ from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.balance_config import BalanceConfig
-from socialaff_sim.sim.balance_control import BalanceController
+from socialaff_sim.sim.balance_control import BalanceController, lean_offset
 from socialaff_sim.sim.contact_dynamics import cone_edges, solve_contact_dynamics
 from socialaff_sim.sim.episode import run_episode
+from socialaff_sim.sim.external_force import ExternalForces
 from socialaff_sim.sim.feedforward import StandingFeedforward
 from socialaff_sim.sim.scene import Scene, build_scene, pose_compliant
 from socialaff_sim.sim.simulator import SimConfig, Simulator
@@ -260,3 +261,27 @@ def test_sim_config_rejects_two_controllers_of_the_harness_and_a_controller_with
         SimConfig(balance=BalanceConfig(), foot_lock=None)
     assert SimConfig(balance=BalanceConfig(), stance=StanceConfig(release=False)).balance is not None
     assert SimConfig().balance is None  # off by default
+
+
+def test_external_contact_forces_are_the_constraint_forces_they_come_from(scene: Scene) -> None:
+    # Standing released on its feet, the floor's contacts are the only constraint on the robot: counted as
+    # external forces, their generalised force must be MuJoCo's own qfrc_constraint on the robot's coordinates.
+    ctl, d, _ = _stand(scene, BalanceConfig(), 0.4)
+    assert ctl.released
+    gen, pts, forces = ExternalForces(scene, exclude_floor=False).measure(scene.model, d)
+    np.testing.assert_allclose(gen, d.qfrc_constraint[scene.robot_vadr], atol=1e-6 * ctl.mass * 9.81)
+    np.testing.assert_allclose(forces.sum(axis=0)[2], ctl.mass * 9.81, rtol=0.02)  # the feet carry the weight
+    gen, pts, _ = ExternalForces(scene).measure(scene.model, d)  # and nothing else touches the robot
+    assert len(pts) == 0 and not gen.any()
+
+
+def test_lean_offset_leans_against_a_pull() -> None:
+    # A 100 N pull forward at 1 m above the foot's point: the centre of mass goes back by F·h / W.
+    point = np.array([0.3, 0.2, 0.0])
+    r = point + [0.4, 0.0, 1.0]
+    f = np.array([100.0, 0.0, 0.0])
+    np.testing.assert_allclose(lean_offset(np.cross(r, f), f, point, 500.0), [-0.2, 0.0], atol=1e-12)
+    f = np.array([0.0, -50.0, 0.0])  # sideways to the right: lean left
+    np.testing.assert_allclose(lean_offset(np.cross(r, f), f, point, 500.0), [0.0, 0.1], atol=1e-12)
+    f = np.array([0.0, 0.0, -100.0])  # a load hanging 0.4 m ahead: lean back by 0.4 · 100 / 500
+    np.testing.assert_allclose(lean_offset(np.cross(r, f), f, point, 500.0), [-0.08, 0.0], atol=1e-12)

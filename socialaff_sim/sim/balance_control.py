@@ -6,10 +6,12 @@ planned once per data frame. :class:`BalanceController` replaces the servos' act
 while both feet are planted (by the foot lock) and on the floor, by torques computed from the measured state:
 
 1. wanted accelerations: every joint toward the IK's target (PD of bandwidth ω_q, the frame's joint velocity
-   as reference), the torso's attitude toward the IK's (ω_o), the planted feet to rest (−k_f v), and the centre
-   of mass's horizontal position toward a reference c* over the feet (ω_c, ζ): the IK's centre of mass relative
-   to its feet carried over to the physical feet (or the middle of the feet), kept inside the box of the feet's
-   contact points shrunk by a margin;
+   as reference), the torso's attitude toward the IK's (ω_o), the planted feet held where they stood when both
+   came down (k_x, k_f: a creeping foot is drawn back), and the centre of mass's horizontal position toward a
+   reference c* over the feet (ω_c, ζ): the IK's centre of mass relative to its feet carried over to the
+   physical feet (or the middle of the feet), optionally moved to lean against the measured external forces
+   (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
+   with the floor, where they stand now) shrunk by a margin;
 2. floating-base inverse dynamics with the floor's contact forces (:mod:`~.contact_dynamics`): at the feet's
    contact points as MuJoCo found them, forces inside friction cones that balance the root's six unactuated
    rows, q̈ as close to the wanted one as the weights allow; τ = M q̈ + h − Jᵀf on the hinges;
@@ -18,9 +20,11 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
 
 The harness weld lets go (``eq_active = 0``; its force is then zero by construction) once the feet have been
 planted ``release_delay`` and the robot is steady: torso within ``release_tilt`` and the capture point
-ξ = c + ċ/ω₀ inside the contact box by ``release_margin``. It catches the robot again at once when the torso
-tilts past ``catch_tilt``, the capture point leaves the box by more than ``catch_margin``, or a foot steps.
-Everything is decided per physics step; the per-frame part is the IK's plan (:meth:`begin_frame`).
+ξ = c + ċ/ω₀ inside the support box by ``release_margin``. It catches the robot again at once when the torso
+tilts past ``catch_tilt``, the capture point leaves the box by more than ``catch_margin``, or a foot steps;
+the caught robot is held where it is and led back onto the IK's base over ``catch_blend``, and the release
+waits its delay again. Everything is decided per physics step; the per-frame part is the IK's plan
+(:meth:`begin_frame`).
 
 The step is split (:func:`mujoco.mj_step1`, the controller, :func:`mujoco.mj_step2`) so that the controller
 reads the mass matrix, bias forces and contacts of the state it acts on; a weld switched after ``mj_step1``
@@ -40,7 +44,7 @@ from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .external_force import ExternalForces
 from .scene import Scene
 
-__all__ = ["BalanceController", "BalanceConfig"]
+__all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
 
 
 def _torso_body(m: mujoco.MjModel, scene: Scene) -> int:
@@ -282,8 +286,7 @@ class BalanceController:
             goal = box.middle()
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
             p = np.array([goal[0], goal[1], float(pts[:, 2].mean())])
-            mom = self._ext_moment - np.cross(p, self._ext_force)
-            goal = goal + np.array([-mom[1], mom[0]]) / (self.mass * self._g)
+            goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
         goal = box.clip(goal, c.support_margin)
         wc, zc = c.com_bandwidth, c.com_damping
         tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], c.w_com))
@@ -300,7 +303,6 @@ class BalanceController:
         tasks.append((np.eye(n)[6:], want, c.w_joint))
         res = solve_contact_dynamics(M, h, self.unactuated, jac, cone_edges(frames, c.friction), tasks, self.mass,
                                      c.w_dynamics, c.w_force)
-        f = res.forces
         return res.tau[self._act_rows]
 
     # -- measurements ---------------------------------------------------------------------------------------
@@ -332,6 +334,15 @@ class BalanceController:
         """The torso's angle from upright, degrees."""
         up = d.xmat[self._torso].reshape(3, 3)[2] @ self._torso_up
         return float(np.degrees(np.arccos(np.clip(up, -1.0, 1.0))))
+
+
+def lean_offset(moment: np.ndarray, force: np.ndarray, point: np.ndarray, weight: float) -> np.ndarray:
+    """(2,) horizontal shift (m) of the centre of mass that keeps the centre of pressure at ``point`` (3,) on the
+    floor under external forces of resultant ``force`` (3,) N and moment ``moment`` (3,) N·m about the world
+    origin, for a robot of ``weight`` N: with M their moment about the point, M_y + W (c_x − p_x) = 0 and
+    M_x − W (c_y − p_y) = 0 (a forward pull above the floor leans the robot back)."""
+    mom = np.asarray(moment, dtype=np.float64) - np.cross(point, force)
+    return np.array([-mom[1], mom[0]]) / weight
 
 
 class _Box:

@@ -21,12 +21,14 @@ __all__ = ["ExternalForces"]
 class ExternalForces:
     """Contact forces on the robot from anything but the floor (see the module docstring)."""
 
-    def __init__(self, scene: Scene) -> None:
+    def __init__(self, scene: Scene, exclude_floor: bool = True) -> None:
+        """``exclude_floor``: leave out the floor's contacts (``False`` counts them too, as a check: with no other
+        constraint acting, the sum is then MuJoCo's own ``qfrc_constraint``)."""
         m = scene.model
         self.scene = scene
         self.vadr = np.asarray(scene.robot_vadr)
         self._robot = np.asarray(scene.robot_geom, dtype=bool)
-        self._floor = int(scene.floor_geom)
+        self._floor = int(scene.floor_geom) if exclude_floor else -2
         self._jp = np.zeros((3, m.nv))
         self._f6 = np.zeros(6)
 
