@@ -16,13 +16,17 @@ sub-goal's contact holds now; ``metrics.json``'s ``support.contact_phase``):
 Modes: ``weight`` (the default: real weight, compliant harness), ``puppet``
 (gravity compensation, rigid weld), ``steady`` (``SimConfig(stance=StanceConfig(release=False))``: the
 base target steadied while both feet are planted) and ``stance`` (``SimConfig(stance=StanceConfig())``:
-also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stance`).
+also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stance`), ``balance``
+(``SimConfig(balance=BalanceConfig())``: the physics-rate balance controller,
+:mod:`socialaff_sim.sim.balance_control`) and ``balance_steady`` (the same with the steadied base);
+``--balance FIELD=VALUE ...`` changes the controller's settings for the last two, ``--labels`` picks
+interactions. After the per-interaction table, one line per robot and mode summarises the contact phases.
 
 The targets of issue 25 for feet that stay planted: outside support ≤ 5 % of
 the weight, sliding ≤ 2 cm, torques within the limits. Example::
 
     OMP_NUM_THREADS=1 python scripts/bench_support.py --robots ours unitree_h1 \\
-        --mjcf unitree_h1=../shared/robots/unitree_h1/h1.xml --per-label 4 --modes weight puppet steady stance
+        --mjcf unitree_h1=../shared/robots/unitree_h1/h1.xml --per-label 4 --modes weight steady stance balance balance_steady
 """
 
 from __future__ import annotations
