@@ -26,6 +26,7 @@ import numpy as np
 from .carry import grip_on_contact
 from .scene import Scene
 from .scoring import SubgoalScorer
+from .balance_control import BalanceController
 from .feedforward import StandingFeedforward
 from .support import SupportMeter
 
@@ -43,9 +44,11 @@ class FrameStepper:
     """Runs the physics steps of one data frame on ``scene`` / ``data``; one per simulator stage."""
 
     def __init__(self, scene: Scene, data: mujoco.MjData, scorer: SubgoalScorer, support: SupportMeter,
-                 feedforward: StandingFeedforward | None = None) -> None:
+                 feedforward: StandingFeedforward | None = None, balance: BalanceController | None = None) -> None:
         self.scene, self.data, self.scorer, self.support = scene, data, scorer, support
         self.feedforward = feedforward
+        self.balance = balance
+        """The physics-rate balance controller (``SimConfig.balance``), which then runs each physics step."""
 
         m = scene.model
         self.nmocap = m.nmocap
@@ -89,6 +92,10 @@ class FrameStepper:
         force = 0.0
         grip = grip and self._grip
         mocap_pos, mocap_quat, ctrl = d.mocap_pos, d.mocap_quat, d.ctrl
+        bal = self.balance
+        if bal is not None:
+            bal.begin_frame(q_new, feet)
+            hinge_vel = vel[sc.robot_vadr[6:]]
         for k in range(n):
             mocap_pos[:] = mp[k]
             mocap_quat[:] = mq[k]
@@ -98,7 +105,10 @@ class FrameStepper:
                 ctrl[sc.act_ids] = ctrls[k]
             if carry is not None and not carry(k, time):
                 carry = None
-            mujoco.mj_step(m, d)
+            if bal is None:
+                mujoco.mj_step(m, d)
+            else:
+                bal.step(m, d, qs[k], hinge_vel)
             time += dt
             scorer.update(d, dt, time, subevent)
             self.support.update(d)
