@@ -47,8 +47,9 @@ _G = dict(GATED_FAMILIES)
 VARIANTS = {  # name: (families, blend steps)
     "ridge": ((("motion", _G["motion"]),), 1),
     "motion+subevent": ((("motion", _G["motion"]), ("subevent", _G["subevent"])), 10),
-    "default": (FAMILIES, 10),
-    "default_best1": (FAMILIES, 1),
+    "default": (PRIMITIVE_FAMILIES, 10),  # today's default (since the primitive's family)
+    "noprimitive": (FAMILIES, 10),  # the default before it: the tables of design.md §8 call it "today's default"
+    "noprimitive_best1": (FAMILIES, 1),
     "gated_all": (GATED_FAMILIES, 10),
     "primitive": (PRIMITIVE_FAMILIES, 10),
     "motion+primitive": ((FAMILIES[0], PRIMITIVE_FAMILIES[-1]), 10),

@@ -163,7 +163,7 @@ def test_training_primitives_are_fitted_without_their_instance(monkeypatch: pyte
                      (SwitchingConfig(families=PRIMITIVE_FAMILIES, cross_fit=1), 1.0)]:
         traces = m._training_traces(insts, cfg, rng)
         assert all(t.primitive is not None and np.all(t.primitive == own) and np.all(t.plan == own) for t in traces)
-    traces = m._training_traces(insts, SwitchingConfig(), rng)  # the default families: no primitive computed
+    traces = m._training_traces(insts, SwitchingConfig(families=FAMILIES), rng)  # without the family: none computed
     assert all(t.primitive is None for t in traces)
 
 
@@ -196,7 +196,9 @@ def test_method_with_the_primitive_family_end_to_end_is_deterministic(shake8) ->
 
 
 def test_registered_option() -> None:
-    m = get_method("full_primitive")()  # type: ignore[call-arg]
-    assert isinstance(m, AffordanceMethod) and m.name == "full_primitive"
-    assert m.reaction is not None and m.reaction.families == PRIMITIVE_FAMILIES and m.reaction.needs_primitive
-    assert not SwitchingConfig().needs_primitive  # today's default does not compute it
+    m = get_method("full_noprimitive")()  # type: ignore[call-arg]
+    assert isinstance(m, AffordanceMethod) and m.name == "full_noprimitive"
+    assert m.reaction is not None and m.reaction.families == FAMILIES and not m.reaction.needs_primitive
+    full = get_method("full")()  # type: ignore[call-arg]
+    assert full.reaction is not None and full.reaction.families == PRIMITIVE_FAMILIES and full.reaction.needs_primitive
+    assert SwitchingConfig().families == PRIMITIVE_FAMILIES

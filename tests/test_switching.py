@@ -29,6 +29,7 @@ from socialaff_sim.inference.reaction_regression import (
 )
 import socialaff_sim.inference.methods as methods_module
 from socialaff_sim.inference.switching import (
+    FAMILIES,
     GATED_FAMILIES,
     SwitchingConfig,
     SwitchingRegression,
@@ -293,7 +294,7 @@ def test_training_plans_are_cross_fitted(monkeypatch: pytest.MonkeyPatch, rng: n
     m = AffordanceMethod("full")
     m.model_ = FakeModel().fit(insts, rng=rng)
     m.body_ = None
-    for cfg, seen_plan in [(SwitchingConfig(), 0.0), (SwitchingConfig(cross_fit=1), 1.0)]:
+    for cfg, seen_plan in [(SwitchingConfig(families=FAMILIES), 0.0), (SwitchingConfig(families=FAMILIES, cross_fit=1), 1.0)]:
         traces = m._training_traces(insts, cfg, rng)
         assert all(np.all(t.plan == seen_plan) for t in traces)
     traces = m._training_traces(insts, SwitchingConfig(families=GATED_FAMILIES), rng)

@@ -9,8 +9,8 @@ Registering a method
     ``"constvel"``, ``"ridge"`` and ``"gru"`` (:mod:`socialaff_sim.baselines`; ``"gru"`` needs the
     ``[neural]`` extra and fails with a :class:`~socialaff_sim.errors.ConfigError` naming it without torch), and the full model and its ablations ``"full"``,
     ``"full_online"``, ``"full_plan"`` (the default preset's synthesis without the switching regression,
-    :mod:`socialaff_sim.inference.switching`), ``"full_primitive"`` (the default preset's ``full`` whose switching
-    regression also has the interaction primitive's family, ``PRIMITIVE_FAMILIES``; not the default, docs/design.md §8),
+    :mod:`socialaff_sim.inference.switching`), ``"full_noprimitive"`` (the default preset's ``full`` whose switching
+    regression lacks the interaction primitive's family: ``FAMILIES``, the default before it, docs/design.md §8),
     ``"v1"`` and ``"v2"`` (:class:`~socialaff_sim.inference.methods.AffordanceMethod`).
     :func:`get_method` fails with an error listing the available names.
 """
@@ -25,7 +25,7 @@ from ..baselines.simple import ConstantVelocity, HoldPose
 from ..errors import ConfigError, choices
 from ..inference.methods import REGISTERED_CHAINS, AffordanceMethod
 from ..inference.protocol import MethodFactory, ReactionMethod
-from ..inference.switching import PRIMITIVE_FAMILIES, SwitchingConfig
+from ..inference.switching import FAMILIES, SwitchingConfig
 from ..inference.synthesis import SynthesisConfig
 
 __all__ = ["METHODS", "available_methods", "get_method", "register_method"]
@@ -73,10 +73,10 @@ def _full_plan(preset: str = "default") -> AffordanceMethod:
     return AffordanceMethod.from_preset("full", preset, chains=REGISTERED_CHAINS, reaction=None, name="full_plan")
 
 
-def _full_primitive(preset: str = "default") -> AffordanceMethod:
-    # the option: the switching regression with the interaction primitive's family (the paper preset has no regression)
-    reaction = SwitchingConfig(families=PRIMITIVE_FAMILIES) if preset == "default" else None
-    return AffordanceMethod.from_preset("full", preset, chains=REGISTERED_CHAINS, reaction=reaction, name="full_primitive")
+def _full_noprimitive(preset: str = "default") -> AffordanceMethod:
+    # the ablation: the switching regression without the interaction primitive's family (the paper preset has no regression)
+    reaction = SwitchingConfig(families=FAMILIES) if preset == "default" else None
+    return AffordanceMethod.from_preset("full", preset, chains=REGISTERED_CHAINS, reaction=reaction, name="full_noprimitive")
 
 
 def _full_online() -> AffordanceMethod:
@@ -94,7 +94,7 @@ METHODS: dict[str, MethodFactory] = {
     "full": _full,
     "full_online": _full_online,
     "full_plan": _full_plan,
-    "full_primitive": _full_primitive,
+    "full_noprimitive": _full_noprimitive,
     "v1": _v1,
     "v2": _v2,
 }

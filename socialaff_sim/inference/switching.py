@@ -84,7 +84,8 @@ def _motion_subsets() -> tuple[tuple[str, ...], ...]:
 Family = tuple[str, tuple[tuple[str, ...], ...]]
 
 FAMILIES: tuple[Family, ...] = (("motion", ((),)), ("plan", (("from_plan",), ("plan",))))
-"""The default families: the motion features alone (``ridge``'s candidates), and the plan as prior or features."""
+"""The motion features alone (``ridge``'s candidates), and the plan as prior or features: the default before the
+primitive's family (registered as the method ``full_noprimitive``)."""
 
 GATED_FAMILIES: tuple[Family, ...] = (
     ("motion", ((),)),
@@ -94,7 +95,8 @@ GATED_FAMILIES: tuple[Family, ...] = (
 """With the belief-gated groups as well (tried on the development split and left out of the default: docs/design.md)."""
 
 PRIMITIVE_FAMILIES: tuple[Family, ...] = FAMILIES + (("primitive", (("from_primitive",), ("primitive",))),)
-"""The default families and the interaction primitive's prediction as prior or features (docs/design.md §8)."""
+"""The default families: :data:`FAMILIES` and the interaction primitive's prediction as prior or features
+(docs/design.md §8)."""
 
 
 @dataclass(frozen=True)
@@ -108,7 +110,7 @@ class SwitchingConfig:
     """[—]: How the motion features are computed (as ``ridge``'s)."""
     motion: tuple[tuple[str, ...], ...] = field(default_factory=_motion_subsets)
     """[—]: Sets of motion groups (:data:`~.reaction_features.FEATURE_GROUPS`) the inner CV chooses among."""
-    families: tuple[Family, ...] = FAMILIES
+    families: tuple[Family, ...] = PRIMITIVE_FAMILIES
     """[—]: (name, sets of model-driven groups) per family: each set (of :data:`MODEL_GROUPS`) is joined to each
     motion set (and, when not empty, also used without motion features); ``()`` is the motion features alone
     (the ``ridge`` baseline's candidates). Each family's best candidate enters the blend."""
