@@ -194,6 +194,11 @@ class InteractionPrimitive:
         self._precision = cho_solve(cho_factor(self.cov_, lower=True), np.eye(w.shape[1]))
         return self
 
+    @property
+    def precision_(self) -> np.ndarray:
+        """(D·N, D·N) the prior precision ``cov_``⁻¹ of the stacked weights."""
+        return cast(np.ndarray, self._precision)
+
     def _offset_covariance(self, n_dof: int) -> np.ndarray:
         """(D·N, D·N) prior covariance of constant per-DoF offsets and of rigid per-agent shifts."""
         n = self.config.n_basis

@@ -31,6 +31,7 @@ from ..model.config import AffordanceConfig
 from ..model.joints import instance_frame
 from .body_fit import BodyFitConfig, BodyFitter
 from .interaction_primitive import InteractionPrimitive
+from .primitive_stream import PrimitiveStream
 from .presets import PRESETS
 from .presets import preset as named_preset
 from .protocol import Prediction
@@ -268,6 +269,9 @@ class _AffordanceReactor:
         reaction = getattr(method, "reaction_", None)
         self.reaction = None if offline else reaction
         self.stream = None if self.reaction is None else FeatureStream(config.n_observed, self.reaction.config.features)
+        # The interaction primitive's causal prediction, from running sums (bounded work per frame).
+        self.primitive = (PrimitiveStream(method.primitive_, config.n_observed)
+                          if self.reaction is not None and self.reaction.uses_primitive else None)
 
     def react(self, view: Interaction, start: int, stop: int) -> Prediction:
         """Agent 1's frames [start, stop): step every chain's synthesizer up to ``stop``.
@@ -301,8 +305,8 @@ class _AffordanceReactor:
         motion = self.stream.rows(view, start, stop)
         anchor = self.stream.anchor
         prim, prim_offset = None, None
-        if self.reaction.uses_primitive:  # the interaction primitive conditioned on the same view
-            prim_keys = self.method.primitive_.react_keys(view, start, stop, n_observed=self.config.n_observed)
+        if self.primitive is not None:  # the interaction primitive conditioned on the same view
+            prim_keys = self.primitive.react_keys(view, start, stop)
             prim = plan_displacement(anchor, prim_keys, view)
             if any(m.prior == "from_primitive" for m in self.reaction.members_):
                 prim_offset = plan_offset(anchor, self.method.body_.fit_poses(prim_keys, self._frame))

@@ -1,0 +1,241 @@
+"""The interaction primitive's causal prediction on a stream, with work and memory bounded per frame.
+
+:meth:`InteractionPrimitive.react_keys <.interaction_primitive.InteractionPrimitive.react_keys>` recomputes
+everything from all the frames seen at each call (O(t) work at frame t). :class:`PrimitiveStream` gives the
+same outputs (to rounding) from running sums updated with the new frames only:
+
+- per candidate duration T̂ (:attr:`~.interaction_primitive.InteractionPrimitive.durations_`) and degree of
+  freedom d, the information HᵀR⁻¹H (an N×N block) and HᵀR⁻¹y of the frames seen, each frame at phase
+  min(s / (T̂ − 1), 1);
+- per candidate, the duration match's squared error (agent 0's and the object's track relative to its first
+  frame against the candidate's mean trajectory), summed over the frames s < T̂;
+- the conditioning in two blocks, agent 0 and the object (a) and agent 1 (r): agent 1 is seen only in its
+  first T0 frames, so its block Λ_rr = P_rr + B_r of the information matrix is fixed once the stream starts.
+  Per candidate, a Cholesky factor of Λ_rr, K = Λ_rr⁻¹ P_ra and the Schur complement S = P_aa − P_ar K are
+  computed once; a frame then factors only S + B_a (the a-block, 216×216 with an object, instead of the whole
+  396×396), and the posterior mean is read for the frames asked for only.
+
+Gaps: a key joint's missing frames are interpolated between its tracked ones (held after the last), as
+:meth:`~socialaff_sim.data.interaction.Interaction.filled_joints` does on the whole view; when a gap closes,
+the held values of its frames are replaced by the interpolated ones in the running sums (each frame once,
+so the work is bounded on average). A key joint of agent 0 first tracked after frame 0 changes the filled
+first frame (and possibly the canonical frame): the stream then rebuilds its sums from the view, once.
+
+Beyond the longest training duration T_max (the bounded rule, docs/design.md §8): the batch estimate would
+take the frames seen so far as the duration (phase t / (t − 1), every past frame's phase changing at each
+frame); the stream keeps T̂ = T_max, and every later frame is an observation at phase 1 (what
+:meth:`~.interaction_primitive.InteractionPrimitive.predict_key_joints` does with ``duration=T_max``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.linalg import cho_factor, cho_solve
+
+from ..data.interaction import Interaction
+from ..data.skeletons import N_KEY
+from ..errors import ModelError
+from ..model.frame import CanonicalFrame
+from .body_fit import instance_frame
+from .interaction_primitive import InteractionPrimitive, rbf_basis
+
+__all__ = ["PrimitiveStream"]
+
+
+class PrimitiveStream:
+    """The causal prediction of a fitted :class:`~.interaction_primitive.InteractionPrimitive` on one
+    instance whose view grows (module docstring).
+
+    ``n_observed``: T0, agent 1's frames that are seen. Calls come in order, each with a view that holds at
+    least the previous one's frames and ``stop`` ≥ the view's length (as the causal and paper protocols make them).
+    """
+
+    def __init__(self, primitive: InteractionPrimitive, n_observed: int) -> None:
+        if not hasattr(primitive, "mean_"):
+            raise ModelError("PrimitiveStream: the interaction primitive is not fitted")
+        self.primitive = primitive
+        self.n_observed = int(n_observed)
+        cfg = primitive.config
+        self._n = cfg.n_basis
+        self._d0 = primitive.n_dof_agent0_
+        self._cands = primitive.durations_.astype(np.int64)
+        self.t_max = int(self._cands.max())
+        """T_max, frames: the longest candidate duration (the longest training instance)."""
+        n_dof = len(primitive.mean_) // self._n
+        self._n_dof = n_dof
+        self._inv_var = np.where(np.arange(n_dof) < self._d0, 1.0 / cfg.human_noise**2, 1.0 / cfg.obs_noise**2)
+        self._mean = primitive.mean_.reshape(n_dof, self._n)
+        self._a = self._d0 * self._n  # size of the agent-0 (and object) block
+        self._frames_seen = 0
+        self._frame: CanonicalFrame | None = None
+        self._solvers: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self.duration: int | None = None
+        """T̂ of the last call, frames."""
+
+    # ----------------------------------------------------------------------------------------- state
+    @property
+    def state_size(self) -> int:
+        """Floats the stream holds (running sums and cached factors): it does not grow with the frames seen."""
+        sums = self._hth.size + self._hty.size + self._err.size + self._last_value.size if self._frames_seen else 0
+        return int(sums + sum(sum(a.size for a in s) for s in self._solvers.values()))
+
+    def _phi(self, frames: np.ndarray) -> np.ndarray:
+        """(G, C, N) basis of every candidate at frames (G,), phase min(s / (T̂ − 1), 1)."""
+        span = np.maximum(self._cands - 1, 1)
+        phase = np.minimum(frames[:, None] / span[None], 1.0)
+        return rbf_basis(phase.ravel(), self._n, self.primitive.config.basis_width).reshape(len(frames), len(span), self._n)
+
+    def _add(self, frames: np.ndarray, y: np.ndarray, sign: float = 1.0, information: bool = True) -> None:
+        """Add (``sign`` −1: remove) frames (G,) with canonical DoF values y (G, D) (NaN: not seen) to the sums;
+        ``information`` False leaves HᵀR⁻¹H alone (the values change, not which are seen)."""
+        seen = np.isfinite(y)
+        seen[frames >= self.n_observed, self._d0 :] = False  # agent 1 after the prefix is never used
+        yz = np.where(seen, y, 0.0) * self._inv_var
+        phi = self._phi(frames)  # (G, C, N)
+        self._hty += sign * np.einsum("gcn,gd->cdn", phi, yz)
+        if information:
+            w = seen * self._inv_var  # (G, D)
+            self._hth += sign * np.einsum("gcn,gcm,gd->cdnm", phi, phi, w)
+        # The duration match: frames s < T̂ of each candidate, agent 0's (and the object's) DoFs.
+        obs = y[:, : self._d0] - self._first[None]
+        ok = np.isfinite(obs)
+        mu = np.einsum("gcn,dn->gcd", phi, self._mean[: self._d0]) - self._mu0[None]
+        sq = np.where(ok[:, None], obs[:, None] - mu, 0.0) ** 2  # (G, C, d0)
+        eligible = frames[:, None] < self._cands[None]
+        self._err += sign * np.where(eligible, sq.sum(axis=2), 0.0).sum(axis=0)
+
+    def _dofs(self, joints: np.ndarray, obj: np.ndarray | None) -> np.ndarray:
+        """(G, D) canonical DoFs from world key joints (G, 2, k, 3) and the object (G, 3) or ``None``."""
+        assert self._frame is not None
+        keys = self._frame.to_canonical(joints)
+        parts = [keys[:, 0].reshape(len(keys), -1)]
+        if self.primitive.has_object_:
+            parts.append(self._frame.to_canonical(obj) if obj is not None else np.full((len(keys), 3), np.nan))
+        parts.append((keys[:, 1] - self._anchor).reshape(len(keys), -1))
+        return np.concatenate(parts, axis=1)
+
+    def _rebuild(self, view: Interaction) -> None:
+        """The sums from scratch over the whole view (the first call, and a key joint first tracked late)."""
+        prim = self.primitive
+        keys = prim.keys_
+        self._frame = instance_frame(view)
+        filled = view.key_joints()[:, :, keys]  # (T, 2, k, 3) world
+        self._anchor = (self._frame.to_canonical(filled[0, 1, 0]) if prim.config.relative_to_start else np.zeros(3))
+        y = self._dofs(filled, view.object)
+        n_c, n_dof, n = len(self._cands), self._n_dof, self._n
+        self._hth = np.zeros((n_c, n_dof, n, n))
+        self._hty = np.zeros((n_c, n_dof, n))
+        self._err = np.zeros(n_c)
+        self._first = y[0, : self._d0].copy()
+        self._mu0 = rbf_basis(np.zeros(1), n, prim.config.basis_width)[0] @ self._mean[: self._d0].T  # (d0,)
+        self._solvers = {}
+        self._add(np.arange(view.n_frames), y)
+        # Agent 0's key joints: the last tracked frame and its (canonical) value, for holding and gaps.
+        valid = view.key_valid()[:, 0][:, keys]  # (T, k)
+        self._tracked = valid.any(axis=0)
+        self._last_frame = np.where(self._tracked, view.n_frames - 1 - np.argmax(valid[::-1], axis=0), -1)
+        self._last_value = self._frame.to_canonical(filled[np.maximum(self._last_frame, 0), 0, np.arange(len(keys))])
+        self._frames_seen = view.n_frames
+
+    def _ingest(self, view: Interaction) -> None:
+        """Add the view's new frames, holding untracked key joints and closing the gaps that end."""
+        T, keys = view.n_frames, self.primitive.keys_
+        if T < self._frames_seen:
+            raise ModelError(f"PrimitiveStream: views must grow; had {self._frames_seen} frames, got {T}")
+        idx = [view.layout.key_indices[k] for k in keys]
+        for s in range(self._frames_seen, T):
+            valid = view.valid[s, 0, idx] if view.valid is not None else np.ones(len(idx), bool)
+            if (valid & ~self._tracked).any():  # first tracked after frame 0: the filled past changes
+                self._rebuild(view.slice(0, s + 1))
+                continue
+            assert self._frame is not None
+            raw = self._frame.to_canonical(view.joints[s, 0, idx])  # (k, 3)
+            value = np.where(valid[:, None], raw, self._last_value)
+            row = np.full((1, self._n_dof), np.nan)  # agent 1 is not seen after the prefix
+            row[0, : 3 * len(keys)] = value.ravel()
+            if self.primitive.has_object_ and view.object is not None:
+                row[0, 3 * len(keys) : self._d0] = self._frame.to_canonical(view.object[s])
+            self._add(np.array([s]), row)
+            for j in np.flatnonzero(valid & (s - self._last_frame > 1)):
+                self._close_gap(j, s, raw[j])
+            self._last_frame = np.where(valid, s, self._last_frame)
+            self._last_value = np.where(valid[:, None], raw, self._last_value)
+        self._frames_seen = T
+
+    def _close_gap(self, joint: int, s: int, value: np.ndarray) -> None:
+        """Replace the held values of key joint ``joint``'s frames between its last tracked frame and ``s`` by
+        the interpolation to ``value`` (canonical, metres)."""
+        lo = int(self._last_frame[joint])
+        frames = np.arange(lo + 1, s)
+        frac = (frames - lo) / (s - lo)
+        old = np.broadcast_to(self._last_value[joint], (len(frames), 3))
+        new = self._last_value[joint][None] + frac[:, None] * (value - self._last_value[joint])[None]
+        cols = slice(3 * joint, 3 * joint + 3)
+        y_old = np.full((len(frames), self._n_dof), np.nan)
+        y_new = np.full((len(frames), self._n_dof), np.nan)
+        y_old[:, cols], y_new[:, cols] = old, new
+        self._add(frames, y_old, -1.0, information=False)
+        self._add(frames, y_new, 1.0, information=False)
+
+    # ------------------------------------------------------------------------------------ prediction
+    def _choose(self, at_least: int) -> int:
+        """Index (into the candidates) of T̂: the best match among the candidates ≥ ``at_least``; past T_max, T_max."""
+        eligible = np.flatnonzero(self._cands >= at_least)
+        if eligible.size == 0:
+            return int(np.argmax(self._cands))  # the bounded rule (module docstring)
+        if eligible.size == 1:
+            return int(eligible[0])
+        return int(eligible[np.argmin(self._err[eligible])])
+
+    def _solver(self, c: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Candidate ``c``'s fixed part of the conditioning: S = P_aa − P_ar K (a, a), K = Λ_rr⁻¹ P_ra (r, a)
+        and u = Λ_rr⁻¹ (HᵀR⁻¹y − HᵀR⁻¹H μ)_r (r,) (module docstring)."""
+        if c not in self._solvers:
+            a, d0 = self._a, self._d0
+            prec = self.primitive.precision_
+            blocks = self._hth[c, d0:]
+            lam_rr = prec[a:, a:].copy()
+            for i, blk in enumerate(blocks):
+                lam_rr[i * self._n : (i + 1) * self._n, i * self._n : (i + 1) * self._n] += blk
+            factor = cho_factor(0.5 * (lam_rr + lam_rr.T), lower=True)
+            k = cho_solve(factor, prec[a:, :a])
+            s = prec[:a, :a] - prec[:a, a:] @ k
+            rhs_r = (self._hty[c, d0:] - np.einsum("dnm,dm->dn", blocks, self._mean[d0:])).ravel()
+            self._solvers[c] = (0.5 * (s + s.T), k, cho_solve(factor, rhs_r))
+        return self._solvers[c]
+
+    def keys(self, view: Interaction, start: int, stop: int) -> np.ndarray:
+        """(stop − start, 5, 3) agent 1's key joints of frames [start, stop), metres, the view's canonical frame
+        (as :meth:`~.interaction_primitive.InteractionPrimitive.conditioned_keys` with ``offline=False``)."""
+        prim = self.primitive
+        if view.layout.name != prim.layout_.name:
+            raise ModelError(f"ProMP: trained on layout {prim.layout_.name!r}, asked for {view.layout.name!r}")
+        if stop < view.n_frames or start >= stop:
+            raise ModelError(f"PrimitiveStream: expected start < stop with stop ≥ the view's {view.n_frames} frames, "
+                             f"found [{start}, {stop})")
+        if self._frames_seen == 0:
+            self._rebuild(view)
+        else:
+            self._ingest(view)
+        c = self._choose(stop)
+        self.duration = int(self._cands[c])
+        s_aa, k_ra, u = self._solver(c)
+        d0, n = self._d0, self._n
+        blocks = self._hth[c, :d0]
+        lam = s_aa.copy()
+        for i, blk in enumerate(blocks):
+            lam[i * n : (i + 1) * n, i * n : (i + 1) * n] += blk
+        rhs_a = (self._hty[c, :d0] - np.einsum("dnm,dm->dn", blocks, self._mean[:d0])).ravel()
+        x_a = cho_solve(cho_factor(lam, lower=True), rhs_a - self.primitive.precision_[: self._a, self._a :] @ u)
+        w_r = self._mean[d0:] + (u - k_ra @ x_a).reshape(-1, n)  # (D − d0, N) agent 1's posterior mean weights
+        frames = np.arange(start, stop)
+        phi = rbf_basis(np.minimum(frames / max(self.duration - 1, 1), 1.0), n, prim.config.basis_width)
+        out = np.full((len(frames), N_KEY, 3), np.nan)
+        out[:, prim.keys_] = (phi @ w_r.T).reshape(len(frames), len(prim.keys_), 3) + self._anchor
+        return out
+
+    def react_keys(self, view: Interaction, start: int, stop: int) -> np.ndarray:
+        """:meth:`keys` in the world frame (metres)."""
+        keys = self.keys(view, start, stop)
+        assert self._frame is not None
+        return self._frame.to_world(keys)
