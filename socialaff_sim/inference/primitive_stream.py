@@ -29,6 +29,8 @@ frame); the stream keeps T̂ = T_max, and every later frame is an observation at
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
@@ -37,9 +39,16 @@ from ..data.skeletons import N_KEY
 from ..errors import ModelError
 from ..model.frame import CanonicalFrame
 from .body_fit import instance_frame
-from .interaction_primitive import InteractionPrimitive, rbf_basis
+from .interaction_primitive import InteractionPrimitive
 
-__all__ = ["PrimitiveStream"]
+__all__ = ["PrimitiveStream", "SHARED_SOLVERS"]
+
+SHARED_SOLVERS = 64
+"""[—]: At most this many candidates' fixed conditioning parts (S, K and Λ_rr's factor, about 0.7 MB each on the
+handovers) are kept per fitted primitive, shared by its streams (oldest dropped first)."""
+
+_SHARED: weakref.WeakKeyDictionary[InteractionPrimitive, dict[tuple[int, bytes], tuple[np.ndarray, np.ndarray, np.ndarray]]]
+_SHARED = weakref.WeakKeyDictionary()
 
 
 class PrimitiveStream:
@@ -66,6 +75,9 @@ class PrimitiveStream:
         self._inv_var = np.where(np.arange(n_dof) < self._d0, 1.0 / cfg.human_noise**2, 1.0 / cfg.obs_noise**2)
         self._mean = primitive.mean_.reshape(n_dof, self._n)
         self._a = self._d0 * self._n  # size of the agent-0 (and object) block
+        self._centres = np.linspace(0.0, 1.0, self._n)  # as rbf_basis places them
+        self._sigma = cfg.basis_width / max(self._n - 1, 1)
+        self._joint_names: tuple[str, ...] = ()
         self._frames_seen = 0
         self._frame: CanonicalFrame | None = None
         self._solvers: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -79,30 +91,51 @@ class PrimitiveStream:
         sums = self._hth.size + self._hty.size + self._err.size + self._last_value.size if self._frames_seen else 0
         return int(sums + sum(sum(a.size for a in s) for s in self._solvers.values()))
 
-    def _phi(self, frames: np.ndarray) -> np.ndarray:
-        """(G, C, N) basis of every candidate at frames (G,), phase min(s / (T̂ − 1), 1)."""
-        span = np.maximum(self._cands - 1, 1)
-        phase = np.minimum(frames[:, None] / span[None], 1.0)
-        return rbf_basis(phase.ravel(), self._n, self.primitive.config.basis_width).reshape(len(frames), len(span), self._n)
+    def _rbf(self, phase: np.ndarray) -> np.ndarray:
+        """(G, N) :func:`~.interaction_primitive.rbf_basis` at phases (G,), with its centres computed once."""
+        phi = np.exp(-0.5 * ((phase[:, None] - self._centres[None]) / self._sigma) ** 2)
+        return phi / phi.sum(axis=1, keepdims=True)
+
+    def _add_blocks(self, lam: np.ndarray, blocks: np.ndarray) -> np.ndarray:
+        """``lam`` (M·N, M·N) plus the block-diagonal of ``blocks`` (M, N, N), in place."""
+        m, n = len(blocks), self._n
+        view = lam.reshape(m, n, m, n)
+        diag = np.arange(m)
+        view[diag, :, diag, :] += blocks
+        return lam
 
     def _add(self, frames: np.ndarray, y: np.ndarray, sign: float = 1.0, information: bool = True) -> None:
         """Add (``sign`` −1: remove) frames (G,) with canonical DoF values y (G, D) (NaN: not seen) to the sums;
-        ``information`` False leaves HᵀR⁻¹H alone (the values change, not which are seen)."""
+        ``information`` False leaves HᵀR⁻¹H alone (the values change, not which are seen).
+
+        Only the candidates still to be chosen are updated: T̂ ≥ the frames seen (the calls' ``stop`` grows), and
+        T_max (the bounded rule); the others' sums are left as they were (never read again)."""
         seen = np.isfinite(y)
         seen[frames >= self.n_observed, self._d0 :] = False  # agent 1 after the prefix is never used
-        yz = np.where(seen, y, 0.0) * self._inv_var
-        phi = self._phi(frames)  # (G, C, N)
-        self._hty += sign * np.einsum("gcn,gd->cdn", phi, yz)
-        if information:
-            w = seen * self._inv_var  # (G, D)
-            self._hth += sign * np.einsum("gcn,gcm,gd->cdnm", phi, phi, w)
+        act = np.flatnonzero((self._cands > frames[0]) | (self._cands == self.t_max))
+        cols = np.flatnonzero(seen.any(axis=0))
+        yz = np.where(seen[:, cols], y[:, cols], 0.0) * self._inv_var[cols]  # (G, K)
+        span = np.maximum(self._cands[act] - 1, 1)
+        phi = self._rbf(np.minimum(frames[:, None] / span[None], 1.0).ravel()).reshape(len(frames), len(act), self._n)
+        sub = np.ix_(act, cols)
+        if len(frames) == 1:  # the per-frame path
+            p0 = phi[0]
+            self._hty[sub] += sign * (p0[:, None, :] * yz[0][None, :, None])
+            if information:
+                w = seen[0, cols] * self._inv_var[cols]
+                self._hth[sub] += sign * ((p0[:, :, None] * p0[:, None, :])[:, None] * w[None, :, None, None])
+        else:
+            self._hty[sub] += sign * np.einsum("gcn,gd->cdn", phi, yz)
+            if information:
+                w = seen[:, cols] * self._inv_var[cols]
+                self._hth[sub] += sign * np.einsum("gcn,gcm,gd->cdnm", phi, phi, w)
         # The duration match: frames s < T̂ of each candidate, agent 0's (and the object's) DoFs.
         obs = y[:, : self._d0] - self._first[None]
         ok = np.isfinite(obs)
-        mu = np.einsum("gcn,dn->gcd", phi, self._mean[: self._d0]) - self._mu0[None]
-        sq = np.where(ok[:, None], obs[:, None] - mu, 0.0) ** 2  # (G, C, d0)
-        eligible = frames[:, None] < self._cands[None]
-        self._err += sign * np.where(eligible, sq.sum(axis=2), 0.0).sum(axis=0)
+        mu = phi @ self._mean[: self._d0].T - self._mu0  # (G, A, d0)
+        sq = np.where(ok[:, None], obs[:, None] - mu, 0.0) ** 2
+        eligible = frames[:, None] < self._cands[act][None]
+        self._err[act] += sign * np.where(eligible, sq.sum(axis=2), 0.0).sum(axis=0)
 
     def _dofs(self, joints: np.ndarray, obj: np.ndarray | None) -> np.ndarray:
         """(G, D) canonical DoFs from world key joints (G, 2, k, 3) and the object (G, 3) or ``None``."""
@@ -119,6 +152,8 @@ class PrimitiveStream:
         prim = self.primitive
         keys = prim.keys_
         self._frame = instance_frame(view)
+        self._joint_names = view.joint_names
+        self._idx = [view.layout.key_indices[k] for k in keys]
         filled = view.key_joints()[:, :, keys]  # (T, 2, k, 3) world
         self._anchor = (self._frame.to_canonical(filled[0, 1, 0]) if prim.config.relative_to_start else np.zeros(3))
         y = self._dofs(filled, view.object)
@@ -127,7 +162,7 @@ class PrimitiveStream:
         self._hty = np.zeros((n_c, n_dof, n))
         self._err = np.zeros(n_c)
         self._first = y[0, : self._d0].copy()
-        self._mu0 = rbf_basis(np.zeros(1), n, prim.config.basis_width)[0] @ self._mean[: self._d0].T  # (d0,)
+        self._mu0 = self._rbf(np.zeros(1))[0] @ self._mean[: self._d0].T  # (d0,)
         self._solvers = {}
         self._add(np.arange(view.n_frames), y)
         # Agent 0's key joints: the last tracked frame and its (canonical) value, for holding and gaps.
@@ -142,7 +177,7 @@ class PrimitiveStream:
         T, keys = view.n_frames, self.primitive.keys_
         if T < self._frames_seen:
             raise ModelError(f"PrimitiveStream: views must grow; had {self._frames_seen} frames, got {T}")
-        idx = [view.layout.key_indices[k] for k in keys]
+        idx = self._idx
         for s in range(self._frames_seen, T):
             valid = view.valid[s, 0, idx] if view.valid is not None else np.ones(len(idx), bool)
             if (valid & ~self._tracked).any():  # first tracked after frame 0: the filled past changes
@@ -192,23 +227,30 @@ class PrimitiveStream:
         and u = Λ_rr⁻¹ (HᵀR⁻¹y − HᵀR⁻¹H μ)_r (r,) (module docstring)."""
         if c not in self._solvers:
             a, d0 = self._a, self._d0
-            prec = self.primitive.precision_
             blocks = self._hth[c, d0:]
-            lam_rr = prec[a:, a:].copy()
-            for i, blk in enumerate(blocks):
-                lam_rr[i * self._n : (i + 1) * self._n, i * self._n : (i + 1) * self._n] += blk
-            factor = cho_factor(0.5 * (lam_rr + lam_rr.T), lower=True)
-            k = cho_solve(factor, prec[a:, :a])
-            s = prec[:a, :a] - prec[:a, a:] @ k
+            # S and K depend on the instance only through B_r, the same on every instance whose agent 1 is
+            # tracked alike in its first T0 frames: shared between the streams of one primitive.
+            shared = _SHARED.setdefault(self.primitive, {})
+            key = (int(self._cands[c]), blocks.tobytes())
+            if key not in shared:
+                prec = self.primitive.precision_
+                lam_rr = self._add_blocks(prec[a:, a:].copy(), blocks)
+                factor = cho_factor(0.5 * (lam_rr + lam_rr.T), lower=True, check_finite=False)
+                k = cho_solve(factor, prec[a:, :a], check_finite=False)
+                s = prec[:a, :a] - prec[:a, a:] @ k
+                if len(shared) >= SHARED_SOLVERS:
+                    shared.pop(next(iter(shared)))  # the oldest
+                shared[key] = (factor[0], k, 0.5 * (s + s.T))
+            chol, k, s_aa = shared[key]
             rhs_r = (self._hty[c, d0:] - np.einsum("dnm,dm->dn", blocks, self._mean[d0:])).ravel()
-            self._solvers[c] = (0.5 * (s + s.T), k, cho_solve(factor, rhs_r))
+            self._solvers[c] = (s_aa, k, cho_solve((chol, True), rhs_r, check_finite=False))
         return self._solvers[c]
 
     def keys(self, view: Interaction, start: int, stop: int) -> np.ndarray:
         """(stop − start, 5, 3) agent 1's key joints of frames [start, stop), metres, the view's canonical frame
         (as :meth:`~.interaction_primitive.InteractionPrimitive.conditioned_keys` with ``offline=False``)."""
         prim = self.primitive
-        if view.layout.name != prim.layout_.name:
+        if view.joint_names != self._joint_names and view.layout.name != prim.layout_.name:
             raise ModelError(f"ProMP: trained on layout {prim.layout_.name!r}, asked for {view.layout.name!r}")
         if stop < view.n_frames or start >= stop:
             raise ModelError(f"PrimitiveStream: expected start < stop with stop ≥ the view's {view.n_frames} frames, "
@@ -222,14 +264,13 @@ class PrimitiveStream:
         s_aa, k_ra, u = self._solver(c)
         d0, n = self._d0, self._n
         blocks = self._hth[c, :d0]
-        lam = s_aa.copy()
-        for i, blk in enumerate(blocks):
-            lam[i * n : (i + 1) * n, i * n : (i + 1) * n] += blk
+        lam = self._add_blocks(s_aa.copy(), blocks)
         rhs_a = (self._hty[c, :d0] - np.einsum("dnm,dm->dn", blocks, self._mean[:d0])).ravel()
-        x_a = cho_solve(cho_factor(lam, lower=True), rhs_a - self.primitive.precision_[: self._a, self._a :] @ u)
+        rhs = rhs_a - self.primitive.precision_[: self._a, self._a :] @ u
+        x_a = cho_solve(cho_factor(lam, lower=True, check_finite=False), rhs, check_finite=False)
         w_r = self._mean[d0:] + (u - k_ra @ x_a).reshape(-1, n)  # (D − d0, N) agent 1's posterior mean weights
         frames = np.arange(start, stop)
-        phi = rbf_basis(np.minimum(frames / max(self.duration - 1, 1), 1.0), n, prim.config.basis_width)
+        phi = self._rbf(np.minimum(frames / max(self.duration - 1, 1), 1.0))
         out = np.full((len(frames), N_KEY, 3), np.nan)
         out[:, prim.keys_] = (phi @ w_r.T).reshape(len(frames), len(prim.keys_), 3) + self._anchor
         return out
