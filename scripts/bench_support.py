@@ -51,7 +51,9 @@ from socialaff_sim.sim.stance import StanceConfig
 MODES = {"weight": SimConfig(), "puppet": SimConfig(gravity_compensation=True),
          "steady": SimConfig(stance=StanceConfig(release=False)), "stance": SimConfig(stance=StanceConfig()),
          "balance": SimConfig(balance=BalanceConfig()),
-         "balance_steady": SimConfig(balance=BalanceConfig(), stance=StanceConfig(release=False))}
+         "balance_steady": SimConfig(balance=BalanceConfig(), stance=StanceConfig(release=False)),
+         "qp": SimConfig(balance=BalanceConfig(solver="qp")),
+         "qp_steady": SimConfig(balance=BalanceConfig(solver="qp"), stance=StanceConfig(release=False))}
 KEYS = ("released_frames", "outside_support_mean", "outside_support_peak", "foot_slide_cm", "penetration_cm", "torque_ratio_max",
         "saturated_fraction", "at_joint_limit_fraction", "torso_tilt_deg_max")
 
@@ -71,8 +73,8 @@ def main() -> None:
     args = p.parse_args()
     if args.balance:
         over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.balance)}
-        for mode in ("balance", "balance_steady"):
-            MODES[mode] = dataclasses.replace(MODES[mode], balance=BalanceConfig(**over))
+        for mode in ("balance", "balance_steady", "qp", "qp_steady"):
+            MODES[mode] = dataclasses.replace(MODES[mode], balance=dataclasses.replace(MODES[mode].balance, **over))
     paths = dict(item.split("=", 1) for item in args.mjcf)
     data = generate_dataset(seed=args.seed)
     rows = []
