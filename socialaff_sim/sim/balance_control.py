@@ -168,8 +168,9 @@ class BalanceController:
         """Physics steps run, driven by the controller, with the harness off; times a released robot was caught."""
         self.catch_reasons = {"tilt": 0, "capture": 0, "step": 0}
         """Catches by cause: the torso's tilt, the capture point off the soles, a foot no longer planted."""
-        self.limit_steps = self.qp_failures = 0
-        """``qp``: driven steps with a torque on its limit's bound; steps whose QP DAQP did not solve."""
+        self.limit_steps = self.relaxed_steps = self.qp_failures = 0
+        """``qp``: driven steps with a torque on its limit's bound; solved again without the foot loads and
+        centre-of-pressure bounds; whose QP DAQP did not solve (the least-squares torques were used)."""
 
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
@@ -322,9 +323,14 @@ class BalanceController:
         limits = np.full((n, 2), [-np.inf, np.inf])
         limits[self._act_rows] = c.torque_fraction * actuator_limits(m, self.scene.act_ids, d.qpos[self._act_q],
                                                                       d.qvel[self._act_v])
+        # The loads and centre-of-pressure bounds only for feet on an area (three contacts or more): on fewer, β ≥ 0
+        # already keeps the centre of pressure on them, and the bounds' box may miss their segment.
+        area = np.array([np.count_nonzero(which == s) >= 3 for s in range(len(self._feet))])
+        foot = np.where(area[which], which, -1)
         res = solve_contact_qp(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_force, limits,
-                               self._cop(d, pts, edges, which, box), which, c.min_foot_load * self.mass * self._g)
+                               self._cop(d, pts, edges, foot, box), foot, c.min_foot_load * self.mass * self._g)
         self.limit_steps += int(res.at_limit.any())
+        self.relaxed_steps += int(res.relaxed)
         if not res.found:  # (not seen since the rows are scaled) the least-squares torques instead of none
             self.qp_failures += 1
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
@@ -338,7 +344,7 @@ class BalanceController:
         bounds = np.zeros((len(self._feet), 2, 2))
         for s, body in enumerate(self._feet):
             mine = pts[which == s, :2]
-            if not len(mine):
+            if not len(mine):  # (−1 in ``which``: a point left unbounded)
                 continue
             sole = self._sole[s]
             xy = mine if sole is None else (d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T)[:, :2]

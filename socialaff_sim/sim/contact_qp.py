@@ -55,30 +55,28 @@ class ContactQPResult:
     """(n,) bool: actuated rows whose torque lies on a bound of its limit (the limit constraint is active)."""
     found: bool
     """Whether DAQP reported an optimal solution (``False``: free fall is returned, see :func:`solve_contact_qp`)."""
+    relaxed: bool
+    """Whether the foot loads and centre-of-pressure bounds were dropped because they could not hold together."""
 
 
 def actuator_limits(m: mujoco.MjModel, act_ids: np.ndarray, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
-    """(A, 2) lower and upper force (N or N·m) each actuator ``act_ids`` (A,) can exert at the state ``qpos`` and
-    ``qvel`` (A,) of its joint: the intersection of its ``forcerange`` (where force-limited), its joint's
-    ``actuatorfrcrange`` (where limited) and, where the control is limited, ``gain·ctrlrange + b₀ + b₁q + b₂q̇``
-    (an affine actuator's force at the ends of its control range; a position servo's reach at this state).
-    ±inf where nothing limits it."""
+    """(A, 2) lowest and highest force (N or N·m) each actuator ``act_ids`` (A,) can deliver to its joint at the
+    state ``qpos`` and ``qvel`` (A,) of the joint, clipped as MuJoCo clips: where the control is limited, the
+    force ``gain·ctrl + b₀ + b₁q + b₂q̇`` at the ends of ``ctrlrange`` (a position servo's reach at this state),
+    then clipped to its ``forcerange`` (where force-limited), then to its joint's ``actuatorfrcrange`` (where
+    limited; one actuator per joint, gear 1, as the scenes' robots have). ±inf where nothing limits it."""
     ids = np.asarray(act_ids, dtype=np.int64)
     out = np.tile([-np.inf, np.inf], (len(ids), 1))
-    fl = m.actuator_forcelimited[ids].astype(bool)
-    out[fl] = m.actuator_forcerange[ids][fl]
-    jnt = m.actuator_trnid[ids, 0]
-    jl = m.jnt_actfrclimited[jnt].astype(bool)
-    out[jl, 0] = np.maximum(out[jl, 0], m.jnt_actfrcrange[jnt][jl, 0])
-    out[jl, 1] = np.minimum(out[jl, 1], m.jnt_actfrcrange[jnt][jl, 1])
     cl = m.actuator_ctrllimited[ids].astype(bool)
     if cl.any():
         g = m.actuator_gainprm[ids, 0]
         b = m.actuator_biasprm[ids, :3]
         ends = g[:, None] * m.actuator_ctrlrange[ids] + (b[:, 0] + b[:, 1] * qpos + b[:, 2] * qvel)[:, None]
-        lo, hi = ends.min(axis=1), ends.max(axis=1)
-        out[cl, 0] = np.maximum(out[cl, 0], lo[cl])
-        out[cl, 1] = np.minimum(out[cl, 1], hi[cl])
+        out[cl] = np.sort(ends, axis=1)[cl]
+    for limited, rng in ((m.actuator_forcelimited[ids].astype(bool), m.actuator_forcerange[ids]),
+                         (m.jnt_actfrclimited[m.actuator_trnid[ids, 0]].astype(bool),
+                          m.jnt_actfrcrange[m.actuator_trnid[ids, 0]])):
+        out[limited] = np.clip(out[limited], rng[limited, :1], rng[limited, 1:])
     return out
 
 
@@ -117,8 +115,10 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     points' translational Jacobians and cone edges; ``tasks``: (A (r, n), b (r,), w) rows ``A q̈ = b`` with their
     weights; ``mass`` (kg); ``w_force``: weight of ‖β / m‖²; ``tau_limits`` (n, 2): [lo, hi] per row (N, N·m;
     ±inf: none; the unactuated rows' are ignored); ``cop`` (R, 4P): rows with ``cop β ≥ 0`` (:func:`cop_rows`);
-    ``foot`` (P,) each point's foot and ``min_load`` (N): every foot with points pushes on the floor with at least
-    this vertical force (a foot left without load lifts off the floor and loses its contacts); ``w_reg``: ε, the regularisation of q̈. Should DAQP fail (it should not: free fall is feasible), the
+    ``foot`` (P,) each point's foot (−1: none) and ``min_load`` (N): every foot with points pushes on the floor
+    with at least this vertical force (a foot left without load lifts off the floor and loses its contacts);
+    should the loads and the centre-of-pressure rows not hold together, the problem is solved again without
+    them (``relaxed``); ``w_reg``: ε, the regularisation of q̈. Should DAQP fail (it should not: free fall is feasible), the
     result is free fall (β = 0, τ = 0, ``found=False``) and a warning is logged.
     """
     n = M.shape[0]
@@ -143,8 +143,9 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     upper.append(np.where(np.isfinite(lim[act, 1]), lim[act, 1] / mass - hm[act], _INF))
     lower.append(np.where(np.isfinite(lim[act, 0]), lim[act, 0] / mass - hm[act], -_INF))
     sense.append(np.zeros(int(act.sum())))
+    base = len(rows)
     if foot is not None and min_load > 0.0 and P:
-        for s in np.unique(foot):
+        for s in np.unique(foot[foot >= 0]):
             r = np.where((foot == s)[:, None], edges[:, 2, :], 0.0).ravel()
             rows.append(np.concatenate([r, np.zeros(n)])[None])
             upper.append(np.array([_INF]))
@@ -155,19 +156,12 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
         upper.append(np.full(len(cop), _INF))
         lower.append(np.zeros(len(cop)))
         sense.append(np.zeros(len(cop)))
-    A_all, up, lo, sn = np.vstack(rows), np.concatenate(upper), np.concatenate(lower), np.concatenate(sense)
-    # Rows scaled to unit norm, empty ones (a foot's centre-of-pressure row whose points all lie on the bound)
-    # dropped: DAQP declared feasible problems infeasible with them.
-    norm = np.linalg.norm(A_all, axis=1)
-    keep = norm > 1e-9
-    k = 1.0 / norm[keep]
-    A_all = np.ascontiguousarray(A_all[keep] * k[:, None])
-    up = np.where(up[keep] < _INF, up[keep] * k, _INF)
-    lo = np.where(lo[keep] > -_INF, lo[keep] * k, -_INF)
-    bu = np.concatenate([np.full(K, _INF), up])  # the first K entries: simple bounds 0 ≤ β'
-    bl = np.concatenate([np.zeros(K), lo])
-    sn = np.concatenate([np.zeros(K), sn[keep]]).astype(np.intc)
-    x, _, flag, _ = daqp.solve(np.ascontiguousarray(H), f, A_all, bu, bl, sn)
+    H = np.ascontiguousarray(H)
+    x, flag = _daqp(H, f, K, rows, upper, lower, sense)
+    relaxed = flag <= 0 and len(rows) > base
+    if relaxed:  # the minimum loads and centre-of-pressure bounds cannot hold together (a foot on few contacts)
+        log.debug("balance QP: exit flag %d; solved again without the foot loads and centre-of-pressure bounds", flag)
+        x, flag = _daqp(H, f, K, rows[:base], upper[:base], lower[:base], sense[:base])
     found = flag > 0
     if not found:
         log.warning("balance QP: DAQP exit flag %d; free fall returned", flag)
@@ -181,4 +175,23 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     tol = 1e-6 * max(1.0, mass)
     at_limit = act & ((tau >= lim[:, 1] - tol) | (tau <= lim[:, 0] + tol))
     forces = np.einsum("pik,pk->pi", edges, beta.reshape(P, 4)) if P else np.zeros((0, 3))
-    return ContactQPResult(qacc=qacc, forces=forces, beta=beta, tau=tau, at_limit=at_limit, found=found)
+    return ContactQPResult(qacc=qacc, forces=forces, beta=beta, tau=tau, at_limit=at_limit, found=found,
+                           relaxed=relaxed)
+
+
+def _daqp(H: np.ndarray, f: np.ndarray, K: int, rows: list[np.ndarray], upper: list[np.ndarray],
+          lower: list[np.ndarray], sense: list[np.ndarray]) -> tuple[np.ndarray, int]:
+    """DAQP on ``½xᵀHx + fᵀx`` with ``0 ≤ x[:K]`` and ``lower ≤ rows x ≤ upper`` (sense 5: equality); the rows
+    are scaled to unit norm and empty ones dropped (with them DAQP declared feasible problems infeasible)."""
+    A_all, up, lo, sn = np.vstack(rows), np.concatenate(upper), np.concatenate(lower), np.concatenate(sense)
+    norm = np.linalg.norm(A_all, axis=1)
+    keep = norm > 1e-9
+    k = 1.0 / norm[keep]
+    A_all = np.ascontiguousarray(A_all[keep] * k[:, None])
+    up = np.where(up[keep] < _INF, up[keep] * k, _INF)
+    lo = np.where(lo[keep] > -_INF, lo[keep] * k, -_INF)
+    bu = np.concatenate([np.full(K, _INF), up])  # the first K entries: simple bounds 0 ≤ β'
+    bl = np.concatenate([np.zeros(K), lo])
+    sn = np.concatenate([np.zeros(K), sn[keep]]).astype(np.intc)
+    x, _, flag, _ = daqp.solve(H, f, A_all, bu, bl, sn)
+    return np.asarray(x), int(flag)
