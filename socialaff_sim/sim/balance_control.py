@@ -12,15 +12,20 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    physical feet (or the middle of the feet), optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
    with the floor, where they stand now) shrunk by a margin;
-2. floating-base inverse dynamics with the floor's contact forces (:mod:`~.contact_dynamics`): at the feet's
-   contact points as MuJoCo found them, forces inside friction cones that balance the root's six unactuated
-   rows, q̈ as close to the wanted one as the weights allow; τ = M q̈ + h − Jᵀf on the hinges;
+2. floating-base inverse dynamics with the floor's contact forces: at the feet's contact points as MuJoCo found
+   them, forces inside friction cones that balance the root's six unactuated rows, q̈ as close to the wanted one
+   as the weights allow (the arms' and head's joints by ``upper_weight`` less); τ = M q̈ + h − Jᵀf on the hinges.
+   ``solver="lsq"``: weighted least squares (:mod:`~.contact_dynamics`); ``solver="qp"``: a quadratic program
+   (:mod:`~.contact_qp`) in which the root's rows, each actuator's torque limit at this state (times
+   ``torque_fraction``), each foot's centre of pressure ``cop_margin`` inside its sole and a minimum load per
+   foot hold as constraints;
 3. the servos are made to exert τ exactly: ctrl = (τ − b₀ − b₁ q − b₂ q̇) / g for force = g·ctrl + b₀ + b₁q +
    b₂q̇ (MuJoCo clips it at the actuator's force limit, which the support meter reports as saturation).
 
 The harness weld lets go (``eq_active = 0``; its force is then zero by construction) once the feet have been
 planted ``release_delay`` and the robot is steady: torso within ``release_tilt`` and the capture point
-ξ = c + ċ/ω₀ inside the support box by ``release_margin``. It catches the robot again at once when the torso
+ξ = c + ċ/ω₀ inside the support box by ``release_margin`` (the support box: the soles of the feet in contact, and
+of a planted foot within ``sole_gap`` of the floor). It catches the robot again at once when the torso
 tilts past ``catch_tilt``, the capture point leaves the box by more than ``catch_margin``, or a foot steps;
 the caught robot is held where it is and led back onto the IK's base over ``catch_blend``, and the release
 waits its delay again. Everything is decided per physics step; the per-frame part is the IK's plan
