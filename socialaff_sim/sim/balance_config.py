@@ -136,7 +136,8 @@ class BalanceConfig:
         if self.solver not in SOLVERS:
             raise ConfigError(f"BalanceConfig.solver: expected one of {', '.join(SOLVERS)}, found {self.solver!r}")
         if not 0.0 <= self.min_foot_load < 0.5:
-            raise ConfigError(f"BalanceConfig.min_foot_load: expected a fraction in [0, 0.5), found {self.min_foot_load}")
+            raise ConfigError(f"BalanceConfig.min_foot_load: expected a fraction in [0, 0.5), found "
+                              f"{self.min_foot_load}")
         if not 0.0 < self.torque_fraction <= 1.0:
             raise ConfigError(f"BalanceConfig.torque_fraction: expected a fraction in (0, 1], found "
                               f"{self.torque_fraction}")

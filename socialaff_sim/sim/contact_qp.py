@@ -118,8 +118,8 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     ``foot`` (P,) each point's foot (−1: none) and ``min_load`` (N): every foot with points pushes on the floor
     with at least this vertical force (a foot left without load lifts off the floor and loses its contacts);
     should the loads and the centre-of-pressure rows not hold together, the problem is solved again without
-    them (``relaxed``); ``w_reg``: ε, the regularisation of q̈. Should DAQP fail (it should not: free fall is feasible), the
-    result is free fall (β = 0, τ = 0, ``found=False``) and a warning is logged.
+    them (``relaxed``); ``w_reg``: ε, the regularisation of q̈. Should DAQP fail (it should not: free fall is
+    feasible), the result is free fall (β = 0, τ = 0, ``found=False``) and a warning is logged.
     """
     n = M.shape[0]
     P = point_jac.shape[0]
@@ -181,8 +181,8 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
 
 def _daqp(H: np.ndarray, f: np.ndarray, K: int, rows: list[np.ndarray], upper: list[np.ndarray],
           lower: list[np.ndarray], sense: list[np.ndarray]) -> tuple[np.ndarray, int]:
-    """DAQP on ``½xᵀHx + fᵀx`` with ``0 ≤ x[:K]`` and ``lower ≤ rows x ≤ upper`` (sense 5: equality); the rows
-    are scaled to unit norm and empty ones dropped (with them DAQP declared feasible problems infeasible)."""
+    """DAQP on ``½xᵀHx + fᵀx`` with ``0 ≤ x[:K]`` and ``lower ≤ rows x ≤ upper`` (sense 5: equality); the
+    rows are scaled to unit norm and empty ones dropped (with them DAQP declared feasible problems infeasible)."""
     A_all, up, lo, sn = np.vstack(rows), np.concatenate(upper), np.concatenate(lower), np.concatenate(sense)
     norm = np.linalg.norm(A_all, axis=1)
     keep = norm > 1e-9
