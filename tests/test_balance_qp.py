@@ -54,13 +54,13 @@ def _cop(forces: np.ndarray, pts: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return (forces[mask, 2, None] * pts[mask, :2]).sum(axis=0) / forces[mask, 2].sum()
 
 
-def _lean_forward() -> tuple[mujoco.MjModel, mujoco.MjData, list]:
-    """The biped standing straight, asked for a strong forward and sideways acceleration of its trunk and still
-    hinges: the floor must push the centre of pressure toward the toes and one side."""
+def _lean_forward(sideways: float = 0.0) -> tuple[mujoco.MjModel, mujoco.MjData, list]:
+    """The biped standing straight, asked for a strong forward (and ``sideways``) acceleration of its trunk and
+    still hinges: the floor must push behind its centre of mass, toward the heels."""
     m = mujoco.MjModel.from_xml_string(BIPED)
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
-    tasks = [(np.eye(m.nv)[:3], np.array([4.0, 2.0, 0.0]), 100.0), (np.eye(m.nv)[3:6], np.zeros(3), 10.0),
+    tasks = [(np.eye(m.nv)[:3], np.array([3.0, sideways, 0.0]), 100.0), (np.eye(m.nv)[3:6], np.zeros(3), 10.0),
              (np.eye(m.nv)[6:], np.zeros(m.nv - 6), 1.0)]
     return m, d, tasks
 
@@ -148,23 +148,23 @@ def test_centre_of_pressure_bound_binds_where_the_unconstrained_solution_leaves_
     m, d, tasks = _lean_forward()
     pr = _problem(m, d, tasks)
     free = _qp(pr)
-    foot0 = pr["foot"] == 0
-    cop_free = _cop(free.forces, pr["pts"], foot0)
-    span = np.array([pr["pts"][foot0, :2].min(axis=0), pr["pts"][foot0, :2].max(axis=0)])  # (2 lo/hi, 2 axes)
-    # Keep each foot's centre of pressure 2 cm behind where the free solution put the left one.
-    hi_x = cop_free[0] - 0.02
-    assert hi_x > span[0, 0]
-    bounds = np.array([[[-1.0, hi_x], [-1.0, 1.0]]] * 2)
-    res = _qp(pr, bounds=bounds)
-    for s in (0, 1):
-        mine = pr["foot"] == s
-        if res.forces[mine, 2].sum() > 1e-6:
-            assert _cop(res.forces, pr["pts"], mine)[0] <= hi_x + 1e-6
-    assert _cop(free.forces, pr["pts"], foot0)[0] > hi_x + 0.015
+    weight = pr["mass"] * 9.81
+    feet = [pr["foot"] == s for s in (0, 1)]
+    assert all(free.forces[f, 2].sum() >= 0.3 * weight for f in feet)  # both feet carry the robot
+    cop_free = np.array([_cop(free.forces, pr["pts"], f)[0] for f in feet])
+    # Pushing the trunk forward, the floor pushes behind the centre of mass: at the heels. Keep each foot's centre
+    # of pressure 2 cm ahead of where the free solution put the more forward one.
+    lo_x = float(cop_free.max()) + 0.02
+    assert lo_x < float(pr["pts"][:, 0].max())
+    res = _qp(pr, bounds=np.array([[[lo_x, 1.0], [-1.0, 1.0]]] * 2))
+    assert all(res.forces[f, 2].sum() >= 0.3 * weight for f in feet)
+    for f in feet:
+        assert _cop(res.forces, pr["pts"], f)[0] >= lo_x - 1e-6
+    assert np.abs(res.tau[:6]).max() <= 1e-6 * weight
 
 
 def test_minimum_foot_load_binds() -> None:
-    m, d, tasks = _lean_forward()
+    m, d, tasks = _lean_forward(sideways=2.0)  # the free solution leaves one foot nearly unloaded
     pr = _problem(m, d, tasks)
     free = _qp(pr)
     loads = [free.forces[pr["foot"] == s, 2].sum() for s in (0, 1)]
