@@ -37,9 +37,10 @@ from ..errors import ConfigError, SimulationError, choices
 from ..retarget.robot import RobotSpec, load_robot
 from ..sim.simulator import SimConfig, Simulator, StepResult
 from .action_limits import BodyEnvelope, EnvelopeConfig, FeasibleTargets
-from .adapters import AdapterFrame, AffordanceAdapter, GroundTruthAdapter, RobotPose
+from .adapters import AdapterFrame, AffordanceAdapter, AffordanceScore, GroundTruthAdapter, RobotPose
 from .bodymap import RobotToAgent
 from .config import EnvConfig, physics_config
+from .control import ControlClock
 from .episode_end import UNSTABLE_WARNINGS, WarningMonitor, body_up, tilt_cosine
 from .instances import DataSpec, EpisodePool, load_pool
 from .model_adapter import ModelAdapter, ModelSpec, load_models
@@ -52,6 +53,7 @@ __all__ = ["SocialAffordanceEnv"]
 _log = logging.getLogger(__name__)
 
 RESET_OPTIONS = ("interaction", "instance")
+_UNSCORED = AffordanceScore(0.0, 0.0, 0)  # the affordance term of a control step that does not end a frame
 
 
 class SocialAffordanceEnv(gym.Env):
@@ -72,8 +74,9 @@ class SocialAffordanceEnv(gym.Env):
         sub-event belief, its spatial potentials the affordance reward. ``None``: the ground-truth adapter.
     adapter:
         A custom :class:`~socialaff_sim.environment.adapters.AffordanceAdapter` (instead of ``model``).
-    history, max_frames, physics, terminate_on_failure, fall_height, fall_tilt, render_width, render_height:
-        Fields of :class:`~socialaff_sim.environment.config.EnvConfig`.
+    history, max_frames, physics, control_dt, resolve_iterations, terminate_on_failure, fall_height, fall_tilt, render_width, render_height:
+        Fields of :class:`~socialaff_sim.environment.config.EnvConfig` (``control_dt``: the simulated seconds
+        of one env step, :mod:`~socialaff_sim.environment.control`; ``None``: one data frame).
     sim_config:
         Simulator settings (:class:`~socialaff_sim.sim.simulator.SimConfig`) used instead of the ``physics``
         preset's, e.g. ``dataclasses.replace(physics_config("fast"), compliant_person=False)`` (the
@@ -101,6 +104,8 @@ class SocialAffordanceEnv(gym.Env):
         history: int = 4,
         max_frames: int | None = None,
         physics: str = "fast",
+        control_dt: float | None = None,
+        resolve_iterations: int = 1,
         sim_config: SimConfig | None = None,
         reward: RewardConfig | None = None,
         terminate_on_failure: bool = True,
@@ -114,7 +119,8 @@ class SocialAffordanceEnv(gym.Env):
     ) -> None:
         self._init_kwargs = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
         self.config = EnvConfig(
-            action_mode=action_mode, history=history, max_frames=max_frames, physics=physics,
+            action_mode=action_mode, history=history, max_frames=max_frames, physics=physics, control_dt=control_dt,
+            resolve_iterations=resolve_iterations,
             terminate_on_failure=terminate_on_failure, fall_height=fall_height, fall_tilt=fall_tilt,
             render_width=render_width, render_height=render_height,
         )
@@ -171,6 +177,8 @@ class SocialAffordanceEnv(gym.Env):
         self.metadata = {"render_modes": modes, "render_fps": float(first.fps)}
         self._index: int | None = None
         self._actions: list[np.ndarray] = []
+        self.clock = ControlClock(self.config.control_dt)
+        """How a data frame's physics steps are split into env steps."""
 
     def warm_up(self) -> None:
         """Reset onto every instance once: compile each task's scene and cache each instance's reset, so that
@@ -218,6 +226,7 @@ class SocialAffordanceEnv(gym.Env):
         # The model's synthesis sees agent 1's first T0 frames only, and so does the robot's placement.
         sim.reset(inter, placement_frames=getattr(self.adapter, "placement_frames", None))
         sim.settle(sim.retarget(first.proposal, frame=0, subevent=first.subevent_name))
+        self.clock.reset(inter.fps, sim.n_sub)
         idx = inter.layout.key_indices
         self._human_mask = np.array([i is not None for i in idx], dtype=np.float32)
         track = np.zeros((inter.n_frames, N_KEY, 3))
@@ -242,7 +251,7 @@ class SocialAffordanceEnv(gym.Env):
         # Fall thresholds of this robot and scene: base height (m) and the cosine of the tilt.
         self._fall = (self.config.fall_height * float(sim.home_key_frames[0, 2]),
                       float(np.cos(np.deg2rad(self.config.fall_tilt))), body_up(sim.scene.home_qpos[3:7]))
-        self.metadata["render_fps"] = float(inter.fps)
+        self.metadata["render_fps"] = float(inter.fps) * self.clock.per_frame
 
     def _advance(self, action: np.ndarray) -> tuple[float, dict[str, float], StepResult]:
         sim, cfg = self._sim, self.config
@@ -258,8 +267,18 @@ class SocialAffordanceEnv(gym.Env):
         wanted = a if cfg.action_mode == "targets" else self._proposal + a
         targets = self.feasible.project(wanted, sim.last_targets[0], sim.interaction.fps)  # type: ignore[union-attr]
         self._adjustment = np.linalg.norm(targets - wanted, axis=1)
-        res = sim.step(targets, subevent=self._frame.subevent_name)
+        k = sim.substep
+        if self.clock.needs_solve(k, targets):
+            sim.solve(targets, subevent=self._frame.subevent_name, iterations=cfg.resolve_iterations if k else None)
+        res = sim.advance(self.clock.end_of(k) - k)
         self._step_warnings = self.warnings.step(sim.data)
+        if res is None:  # a control step within the frame: the physics' terms; the affordance is scored per frame
+            self._robot_keys = sim.robot_key_frames()
+            terms = self.rewards.step(_UNSCORED, sim.scorer)
+            self._last_terms = terms
+            self._reason = self._termination_reason()
+            self._done = self._reason is not None
+            return RewardTracker.total(terms), terms, self._last  # type: ignore[return-value]
         t = sim.frame
         obj_r = sim.object_position()
         obj_data = None if obj_r is None else sim.frame_R.to_world(obj_r) - sim.offset
@@ -308,7 +327,7 @@ class SocialAffordanceEnv(gym.Env):
             subgoal_progress=self.rewards.progress(sim.scorer),
             subgoal_achieved={r.name: bool(r.success) for r in sim.scorer.subgoals},
             subgoal_current={r.name: bool(r.current) for r in sim.scorer.subgoals},
-            frame=sim.frame, n_frames=sim.n_frames,
+            frame=sim.frame, n_frames=sim.n_frames, phase=sim.substep / sim.n_sub,
         )
 
     def _info(self, terms: dict[str, float] | None) -> dict[str, Any]:
@@ -322,6 +341,7 @@ class SocialAffordanceEnv(gym.Env):
             "interaction": inter.label,
             "instance": inter.instance_id,
             "frame": int(sim.frame),
+            "time": float(sim.time),
             "subevent": frame.subevent_name,
             "subevent_index": int(frame.subevent),
             "subgoals": subgoals,
@@ -334,9 +354,10 @@ class SocialAffordanceEnv(gym.Env):
             "physics_warnings": dict(self._step_warnings),
             "action_adjustment": self._adjustment.copy(),
         }
-        if terms is not None and self._last is not None:
-            info["ik_error"] = np.array(self._last.ik_error, dtype=np.float64)
-            info["force_on_human"] = float(self._last.force_on_human)
+        if terms is not None:  # the IK error and the force: of the last whole frame (NaN within the first)
+            last = self._last
+            info["ik_error"] = np.full(N_KEY, np.nan) if last is None else np.array(last.ik_error, dtype=np.float64)
+            info["force_on_human"] = float("nan") if last is None else float(last.force_on_human)
             info.update({f"reward_{k}": float(v) for k, v in terms.items()})
         return info
 

@@ -24,7 +24,9 @@ key                  shape           content
                                      its ``min_duration`` (1 once met), 0 for other tasks' sub-goals
 ``subgoal_achieved`` (G,)            1 for each sub-goal met so far in the episode (latched)
 ``subgoal_current``  (G,)            1 for each sub-goal whose contact holds now (not latched)
-``progress``         (1,)            t / (T − 1), the fraction of the person's track played
+``progress``         (1,)            (t + φ) / (T − 1), the fraction of the person's track played
+                                     (φ: the share of frame t → t+1 already simulated, with a
+                                     control period; 0 at frame boundaries)
 ==================== =============== =======================================================
 """
 
@@ -105,8 +107,10 @@ class ObservationLayout:
         subgoal_current: dict[str, bool],
         frame: int,
         n_frames: int,
+        phase: float = 0.0,
     ) -> dict[str, np.ndarray]:
-        """One observation at frame ``frame``; every array is freshly allocated.
+        """One observation at frame ``frame`` (and ``phase`` ∈ [0, 1) of the way to the next: the share of the
+        frame's physics steps already run, 0 between frames); every array is freshly allocated.
 
         ``human_track`` (T, 5, 3) robot frame (finite); ``object_history`` (H, 3) robot frame,
         oldest first; ``belief`` (S',) with S' ≤ S; the sub-goal mappings are keyed by sub-goal name
@@ -116,14 +120,14 @@ class ObservationLayout:
         T = human_track.shape[0]
         rows = np.clip(np.arange(frame + 2 - self.history, frame + 2), 0, T - 1)
 
-        def pos(a: np.ndarray) -> np.ndarray:
-            return np.clip(a, -P, P).astype(np.float32)
+        def pos(a: np.ndarray) -> np.ndarray:  # np.clip's value, without its dispatch (called a dozen times a step)
+            return np.minimum(np.maximum(a, -P), P).astype(np.float32)
 
         b = np.zeros(self.n_subevents, dtype=np.float32)
-        b[: len(belief)] = np.clip(belief, 0.0, 1.0)
+        b[: len(belief)] = np.minimum(np.maximum(belief, 0.0), 1.0)
         onehot = np.zeros(len(self.interactions), dtype=np.float32)
         onehot[self.interactions.index(interaction)] = 1.0
-        prog = np.array([np.clip(subgoal_progress.get(n, 0.0), 0.0, 1.0) for n in self.subgoals], dtype=np.float32)
+        prog = np.array([min(max(subgoal_progress.get(n, 0.0), 0.0), 1.0) for n in self.subgoals], dtype=np.float32)
 
         def flags(state: dict[str, bool]) -> np.ndarray:
             return np.array([1.0 if state.get(n, False) else 0.0 for n in self.subgoals], dtype=np.float32)
@@ -133,13 +137,13 @@ class ObservationLayout:
             "object": pos(object_history),
             "object_present": np.array([1.0 if object_present else 0.0], dtype=np.float32),
             "robot_keys": pos(robot_keys),
-            "joint_pos": np.clip(joint_pos, -np.pi, np.pi).astype(np.float32),
-            "joint_vel": np.clip(joint_vel, -V, V).astype(np.float32),
+            "joint_pos": np.minimum(np.maximum(joint_pos, -np.pi), np.pi).astype(np.float32),
+            "joint_vel": np.minimum(np.maximum(joint_vel, -V), V).astype(np.float32),
             "proposal": pos(proposal),
             "subevent_belief": b,
             "interaction": onehot,
             "subgoal_progress": prog,
             "subgoal_achieved": flags(subgoal_achieved),
             "subgoal_current": flags(subgoal_current),
-            "progress": np.array([min(1.0, frame / max(1, n_frames - 1))], dtype=np.float32),
+            "progress": np.array([min(1.0, (frame + phase) / max(1, n_frames - 1))], dtype=np.float32),
         }
