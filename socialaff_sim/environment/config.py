@@ -13,12 +13,15 @@ from dataclasses import dataclass, replace
 from ..errors import ConfigError, choices
 from ..sim.simulator import SimConfig
 
-__all__ = ["ACTION_MODES", "PHYSICS_PRESETS", "EnvConfig", "physics_config"]
+__all__ = ["ACTION_MODES", "CONTROL_DT", "PHYSICS_PRESETS", "EnvConfig", "physics_config"]
 
 ACTION_MODES = ("targets", "residual")
 """``targets``: the five key-frame targets themselves; ``residual``: offsets added to the adapter's proposal."""
 
 PHYSICS_PRESETS = ("fast", "accurate")
+CONTROL_DT = 0.015
+"""The default control period, s: Gymnasium's ``Humanoid-v5`` steps 0.015 s (5 physics steps of 3 ms), so an
+env step of ours simulates as much time as one of it (docs/environment.md, "Control period")."""
 """Physics settings by name; see :func:`physics_config`."""
 
 
@@ -82,7 +85,7 @@ class EnvConfig:
     """[frames]: Cut every instance to its first this many frames (short episodes, e.g. in tests); ``None``: whole instances."""
     physics: str = "fast"
     """[—]: Physics preset, one of :data:`PHYSICS_PRESETS` (see :func:`physics_config`)."""
-    control_dt: float | None = None
+    control_dt: float | None = CONTROL_DT
     """Δt_c [s]: the control period, the simulated time one env step covers: each data frame of 1/fps s is
     split into m = round(1/(fps·Δt_c)) control steps (at least 1, at most the frame's physics steps), each
     running ⌊n/m⌋ or ⌈n/m⌉ of its n physics steps. ``None``: one env step per data frame (m = 1)."""

@@ -39,7 +39,7 @@ from ..sim.simulator import SimConfig, Simulator, StepResult
 from .action_limits import BodyEnvelope, EnvelopeConfig, FeasibleTargets
 from .adapters import AdapterFrame, AffordanceAdapter, AffordanceScore, GroundTruthAdapter, RobotPose
 from .bodymap import RobotToAgent
-from .config import EnvConfig, physics_config
+from .config import CONTROL_DT, EnvConfig, physics_config
 from .control import ControlClock
 from .episode_end import UNSTABLE_WARNINGS, WarningMonitor, body_up, tilt_cosine
 from .instances import DataSpec, EpisodePool, load_pool
@@ -104,7 +104,7 @@ class SocialAffordanceEnv(gym.Env):
         history: int = 4,
         max_frames: int | None = None,
         physics: str = "fast",
-        control_dt: float | None = None,
+        control_dt: float | None = CONTROL_DT,
         resolve_iterations: int = 1,
         sim_config: SimConfig | None = None,
         reward: RewardConfig | None = None,
@@ -354,10 +354,9 @@ class SocialAffordanceEnv(gym.Env):
             "physics_warnings": dict(self._step_warnings),
             "action_adjustment": self._adjustment.copy(),
         }
-        if terms is not None:  # the IK error and the force: of the last whole frame (NaN within the first)
-            last = self._last
-            info["ik_error"] = np.full(N_KEY, np.nan) if last is None else np.array(last.ik_error, dtype=np.float64)
-            info["force_on_human"] = float("nan") if last is None else float(last.force_on_human)
+        if terms is not None:  # the IK's error after its latest solve, the force over this step's physics steps
+            info["ik_error"] = np.array(sim.ik_errors, dtype=np.float64)
+            info["force_on_human"] = float(sim.control_force)
             info.update({f"reward_{k}": float(v) for k, v in terms.items()})
         return info
 

@@ -341,6 +341,8 @@ class Simulator:
                        com_cost=None if com_target is None else stage.stance.config.com_cost)  # type: ignore[union-attr]
         ik_seconds = time.thread_time() - tic
         feet = None if self._footlock is None else planted
+        self.ik_errors = res.errors
+        """(5,) m: distance of each key frame from its target after the latest IK solve."""
         if self._in_frame:
             stage.stepper.replan(self._to_physics(res.qpos), feet=feet)
             self._solved = (tg, res, reachable, self._solved[3] + ik_seconds, subevent)
@@ -376,7 +378,10 @@ class Simulator:
         assert stage is not None
         stepper = stage.stepper
         tg, res, reachable, ik_seconds, subevent = self._solved
+        f0, k0 = stepper.force, stepper.k
         self.time = stepper.advance(stepper.k + max(0, int(steps)), self.time, subevent)
+        self.control_force = (stepper.force - f0) / max(1, stepper.k - k0)
+        """N: mean force on the person over the physics steps of the latest :meth:`advance`."""
         if stepper.k < self.n_sub:
             return None
         force = stepper.end_frame()
