@@ -1,7 +1,7 @@
 """A SHA-256 of what the environment gives a policy, to show that a change of code changes no result.
 
-Plays ``--steps`` steps per action mode (``targets`` with seeded random actions, ``residual`` with seeded
-random residuals, resetting with seeded draws after every end) in the default environment and hashes, step
+Plays ``--steps`` steps per policy (``targets``: seeded random targets; ``residual``: seeded random residuals;
+``zero``: zero residuals, the action held through every frame; resetting with seeded draws after every end) in the default environment and hashes, step
 by step, every observation entry (in :data:`~socialaff_sim.environment.observation.OBSERVATION_KEYS` order,
 float32 bytes), the reward and every ``info["reward_<term>"]`` (float64 bytes), the termination flags and the
 termination reason. Run it on two code trees and compare the digests::
@@ -33,8 +33,9 @@ ENV_ID = "socialaff_sim/SocialAffordance-v0"
 
 
 def stream_digest(mode: str, steps: int, seed: int, kwargs: dict[str, object]) -> tuple[str, int]:
-    """(SHA-256 hex digest, episodes started) of ``steps`` steps of ``mode`` with seeded random actions."""
-    env = gym.make(ENV_ID, action_mode=mode, **kwargs)
+    """(SHA-256 hex digest, episodes started) of ``steps`` steps of policy ``mode`` (see the module docstring)."""
+    env = gym.make(ENV_ID, action_mode="residual" if mode == "zero" else mode, **kwargs)
+    zero = np.zeros(env.action_space.shape, env.action_space.dtype)
     env.action_space.seed(seed)
     rng = np.random.default_rng(seed)
     h = hashlib.sha256()
@@ -45,7 +46,7 @@ def stream_digest(mode: str, steps: int, seed: int, kwargs: dict[str, object]) -
             episodes, live = episodes + 1, True
             for k in OBSERVATION_KEYS:
                 h.update(np.ascontiguousarray(obs[k], np.float32).tobytes())
-        obs, reward, term, trunc, info = env.step(env.action_space.sample())
+        obs, reward, term, trunc, info = env.step(zero if mode == "zero" else env.action_space.sample())
         for k in OBSERVATION_KEYS:
             h.update(np.ascontiguousarray(obs[k], np.float32).tobytes())
         terms = sorted(k for k in info if k.startswith("reward_"))
@@ -60,7 +61,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--steps", type=int, default=250, help="steps per action mode")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--modes", nargs="+", default=["targets", "residual"])
+    ap.add_argument("--modes", nargs="+", default=["targets", "residual", "zero"], choices=["targets", "residual", "zero"])
     ap.add_argument("--env-kwargs", default="{}", help="constructor arguments, JSON")
     args = ap.parse_args()
     kwargs = json.loads(args.env_kwargs)

@@ -227,6 +227,8 @@ class SocialAffordanceEnv(gym.Env):
         sim.reset(inter, placement_frames=getattr(self.adapter, "placement_frames", None))
         sim.settle(sim.retarget(first.proposal, frame=0, subevent=first.subevent_name))
         self.clock.reset(inter.fps, sim.n_sub)
+        self._frame_obs: tuple[int, dict[str, np.ndarray]] | None = None
+        self._projected: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         idx = inter.layout.key_indices
         self._human_mask = np.array([i is not None for i in idx], dtype=np.float32)
         track = np.zeros((inter.n_frames, N_KEY, 3))
@@ -264,11 +266,15 @@ class SocialAffordanceEnv(gym.Env):
             raise SimulationError("action: expected finite numbers, found NaN or inf")
         a = np.minimum(np.maximum(a, self.action_space.low), self.action_space.high)  # np.clip's value, less overhead
         self._actions.append(a.copy())
-        wanted = a if cfg.action_mode == "targets" else self._proposal + a
-        targets = self.feasible.project(wanted, sim.last_targets[0], sim.interaction.fps)  # type: ignore[union-attr]
-        d = targets - wanted
-        self._adjustment = np.sqrt(np.add.reduce(d * d, axis=1))  # np.linalg.norm(d, axis=1), without its checks
         k = sim.substep
+        if k and self._projected is not None and np.array_equal(a, self._projected[0]):
+            targets = self._projected[1]  # the action held within the frame: the same targets as its last step
+        else:
+            wanted = a if cfg.action_mode == "targets" else self._proposal + a
+            targets = self.feasible.project(wanted, sim.last_targets[0], sim.interaction.fps)  # type: ignore[union-attr]
+            d = targets - wanted
+            self._adjustment = np.sqrt(np.add.reduce(d * d, axis=1))  # np.linalg.norm(d, axis=1), without its checks
+            self._projected = (a, targets, self._adjustment)
         if self.clock.needs_solve(k, targets):
             sim.solve(targets, subevent=self._frame.subevent_name, iterations=cfg.resolve_iterations if k else None)
         res = sim.advance(self.clock.end_of(k) - k)
@@ -320,16 +326,18 @@ class SocialAffordanceEnv(gym.Env):
     def _observation(self) -> dict[str, np.ndarray]:
         sim = self._sim
         q, qd = sim.joint_state()
-        return self.layout.build(
-            human_track=self._human_track, human_mask=self._human_mask, object_history=self._obj_hist,
-            object_present=sim.carry is not None, robot_keys=self._robot_keys, joint_pos=q, joint_vel=qd,
-            proposal=self._proposal, belief=self._frame.belief,
-            interaction=self.pool.instances[self._index].label,  # type: ignore[index]
+        if self._frame_obs is None or self._frame_obs[0] != sim.frame:  # the frame's entries, shared by its steps
+            self._frame_obs = (sim.frame, self.layout.frame_entries(
+                human_track=self._human_track, human_mask=self._human_mask, object_history=self._obj_hist,
+                object_present=sim.carry is not None, proposal=self._proposal, belief=self._frame.belief,
+                interaction=self.pool.instances[self._index].label, frame=sim.frame))  # type: ignore[index]
+        return self.layout.assemble(self._frame_obs[1], self.layout.step_entries(
+            robot_keys=self._robot_keys, joint_pos=q, joint_vel=qd,
             subgoal_progress=self.rewards.progress(sim.scorer),
             subgoal_achieved={r.name: bool(r.success) for r in sim.scorer.subgoals},
             subgoal_current={r.name: bool(r.current) for r in sim.scorer.subgoals},
             frame=sim.frame, n_frames=sim.n_frames, phase=sim.substep / sim.n_sub,
-        )
+        ))
 
     def _info(self, terms: dict[str, float] | None) -> dict[str, Any]:
         sim = self._sim
