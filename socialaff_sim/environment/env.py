@@ -1,10 +1,12 @@
-"""The Gymnasium environment: a robot reacting to a replayed person, one data frame per step.
+"""The Gymnasium environment: a robot reacting to a replayed person, one control period per step.
 
 An episode replays one human instance (agent 0 of an interaction, chosen by the
 reset seed from the environment's instances) in MuJoCo physics, with the robot
 facing them; the robot is driven by the action through mink IK and its position
 servos (:class:`~socialaff_sim.sim.simulator.Simulator`), and each step advances
-one frame of the recording. Observations are documented in
+the physics by one control period (``control_dt``, 0.015 s by default; a data frame
+of the recording is split into control steps, :mod:`~socialaff_sim.environment.control`),
+or by one whole frame with ``control_dt=None``. Observations are documented in
 :mod:`socialaff_sim.environment.observation`, rewards in
 :mod:`socialaff_sim.environment.reward`, actions below and in docs/environment.md.
 
@@ -14,6 +16,9 @@ right wrist, left ankle, right ankle; metres, robot frame), clipped to the space
 * ``targets``: the key-frame targets themselves, in ``EnvConfig.target_low … target_high``;
 * ``residual``: offsets in [−ρ, ρ] added to the adapter's proposal for the frame
   (the ``proposal`` entry of the observation), so a policy learns corrections.
+
+Either way they are the targets for the end of the current data frame: held through the frame's control
+steps they give the frame's physics exactly; changed within it, the IK is solved again.
 
 The resulting targets are then projected onto what the robot's body can follow
 (:mod:`~socialaff_sim.environment.action_limits`; ``info["action_adjustment"]`` says how far
@@ -385,7 +390,7 @@ class SocialAffordanceEnv(gym.Env):
         return self._observation(), self._info(None)
 
     def step(self, action: np.ndarray) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
-        """Advance one frame of the recording; see the module docstring for the action."""
+        """Advance one control period (or one frame with ``control_dt=None``); see the module docstring."""
         self._require()
         if self._done:
             raise SimulationError(f"SocialAffordanceEnv: the episode has ended ({self._reason}); call reset()")

@@ -11,7 +11,11 @@ frame's start and end (quaternions normalised, shortest way round):
   the step that reaches the release frame.
 
 After each step the scorer reads the contacts, and a robot hand touching the
-object grips it. The per-step work is arranged as whole-array copies (all mocap
+object grips it. A frame can be run in pieces (:meth:`FrameStepper.plan`, then
+:meth:`~FrameStepper.advance` to a physics step, any number of times; the
+environment's control period), and the robot's part re-planned from the step
+reached toward a new IK solution (:meth:`~FrameStepper.replan`); run whole
+(:meth:`~FrameStepper.run`) it is the same computation, bit for bit. The per-step work is arranged as whole-array copies (all mocap
 rows, all controls) prepared once per frame, which keeps the Python overhead per
 physics step small next to ``mujoco.mj_step`` itself.
 """
