@@ -3,6 +3,8 @@ frame while the action holds and again when it changes, the physics of a held ac
 
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -230,3 +232,21 @@ def test_same_seed_same_control_steps_in_two_fresh_envs(data):
         for k in oa:
             np.testing.assert_array_equal(oa[k], ob[k], err_msg=k)
     assert any(not np.array_equal(x[0]["joint_pos"], y[0]["joint_pos"]) for x, y in zip(a, c, strict=False))
+
+
+def test_pickled_mid_frame_the_env_goes_on_as_the_original(data):
+    env = make(data, DT)
+    env.reset(seed=2)
+    rng = np.random.default_rng(3)
+    for _ in range(env.clock.per_frame + 2):  # into the second frame, within it
+        env.step(rng.uniform(-0.05, 0.05, (5, 3)).astype(np.float32))
+    assert env.simulator.substep > 0
+    copy = pickle.loads(pickle.dumps(env))
+    assert copy.simulator.substep == env.simulator.substep and copy.simulator.frame == env.simulator.frame
+    for _ in range(5):
+        a = rng.uniform(-0.05, 0.05, (5, 3)).astype(np.float32)
+        o1, r1, *_ = env.step(a)
+        o2, r2, *_ = copy.step(a)
+        assert r1 == r2
+        for k in o1:
+            np.testing.assert_array_equal(o1[k], o2[k], err_msg=k)
