@@ -313,8 +313,9 @@ class SocialAffordanceEnv(gym.Env):
         """Why the episode ends after this step (docs in :mod:`~socialaff_sim.environment.episode_end`), or ``None``."""
         sim, cfg = self._sim, self.config
         data, scene = sim.data, sim.scene
+        finite = np.logical_and.reduce  # ndarray.all's reduction without its wrappers (every control step)
         if any(self._step_warnings[k] for k in UNSTABLE_WARNINGS) or not (
-                np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
+                finite(np.isfinite(data.qpos)) and finite(np.isfinite(data.qvel))):
             return "physics_unstable"
         low, cos_tilt, up = self._fall
         if self._robot_keys[0, 2] < low or tilt_cosine(data.qpos[scene.robot_qadr[3:7]], up) < cos_tilt:
