@@ -23,6 +23,11 @@ Run on one core::
 
     OMP_NUM_THREADS=1 python scripts/bench_env.py --rounds 5 --steps 600 --vector 1,2,4,8 --json env.json
 
+Besides steps per second, the simulated seconds per CPU second (ours: ``info["time"]``; Humanoid-v5: its
+``dt`` of 0.015 s per step) and their ratio, so that a ratio of steps cannot be won by simulating less per step.
+``--control-dt`` sets our env's control period (``default``: the env's own, 0.015 s; ``none``: one step per
+data frame; or seconds).
+
 ``--profile`` prints a cProfile of the ``ours_zero`` pass (cProfile inflates the Python parts).
 ``--compliant-person 0``, ``--timestep S`` and ``--ik-iterations N`` replace those fields of the preset's
 ``SimConfig`` for ``ours_zero`` and ``ours_random`` (the speed options of docs/environment.md; their cost in
