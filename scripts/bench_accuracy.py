@@ -10,7 +10,7 @@ that is stopped keeps what finished. Usage::
     python scripts/bench_accuracy.py --out DIR [--datasets synthetic sbu handover nuisi]
         [--protocol causal] [--preset default] [--methods full,v1,v2,hmm,promp,ridge,gru,hold,constvel]
         [--folds 4] [--workers 2] [--seed 0] [--max-folds sbu=1 ...] [--max-test handover=8 ...]
-        [--data-root ../shared/data]
+        [--data-root ../shared/data] [--reuse sbu=OLD/sbu_causal_default/results.json ...]
         [--doc docs/benchmarks.md]
 
 ``--doc`` replaces the section between this script's markers in that file (appends it at the end the
@@ -67,6 +67,10 @@ def render(name: str, command: str, run: dict[str, object], results: dict | None
     if results is None:
         return lines + ["", f"**The run failed** (exit {run['rc']}): {run.get('error', '')}", ""]
     lines += ["", f"**{results['title']}**", ""]
+    if results.get("reused"):
+        lines += [f"Not run again: {', '.join(results['reused']['methods'])}, taken from `{results['reused']['from']}` "
+                  "(an earlier run with the same data, folds, seed and protocol); the paired comparisons are recomputed "
+                  "over all methods.", ""]
     labels = list(results["per_interaction"])
     methods = list(results["average"])
     lines.append("Key-joint error (m) per interaction and averaged over the interactions; full-skeleton average; fit + predict s summed over tasks.")
@@ -118,11 +122,15 @@ def main(argv: list[str] | None = None) -> int:
                     help="run only the first N folds of a dataset (time-limited runs; the table says so)")
     ap.add_argument("--max-test", nargs="*", default=[], metavar="DATASET=N",
                     help="limit the test instances per fold of a dataset (time-limited runs; the table says so)")
+    ap.add_argument("--reuse", nargs="*", default=[], metavar="DATASET=FILE",
+                    help="an earlier results.json of that dataset (same folds, seed, protocol): its methods not in "
+                    "--methods are taken from it (`socialaff-sim evaluate --reuse`; the tables say so)")
     ap.add_argument("--data-root", type=Path, default=DATA, help=f"the shared recordings (default {DATA})")
     ap.add_argument("--doc", type=Path, help="Markdown file whose accuracy-sweep section is replaced")
     args = ap.parse_args(argv)
     limits = {k: int(v) for k, v in (item.split("=", 1) for item in args.max_test)}
     fold_limits = {k: int(v) for k, v in (item.split("=", 1) for item in args.max_folds)}
+    reuse = dict(item.split("=", 1) for item in args.reuse)
     args.out.mkdir(parents=True, exist_ok=True)
     when = dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     body = [f"## Accuracy, causal-first evaluation (issue 23): `{args.protocol}` protocol, preset `{args.preset}`", "",
@@ -142,6 +150,8 @@ def main(argv: list[str] | None = None) -> int:
             cmd += ["--max-test", str(limits[name])]
         if name in fold_limits:
             cmd += ["--max-folds", str(fold_limits[name])]
+        if name in reuse:
+            cmd += ["--reuse", reuse[name]]
         shown = "OMP_NUM_THREADS=1 " + " ".join(shlex.quote(c) for c in cmd[3:]).replace(sys.executable, "python")
         shown = shown.replace("python -m socialaff_sim.cli.main", "socialaff-sim")
         run: dict[str, object] = {"load_before": _load()}

@@ -16,18 +16,23 @@ sub-goal's contact holds now; ``metrics.json``'s ``support.contact_phase``):
 Modes: ``weight`` (the default: real weight, compliant harness), ``puppet``
 (gravity compensation, rigid weld), ``steady`` (``SimConfig(stance=StanceConfig(release=False))``: the
 base target steadied while both feet are planted) and ``stance`` (``SimConfig(stance=StanceConfig())``:
-also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stance`).
+also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stance`), ``balance``
+(``SimConfig(balance=BalanceConfig())``: the physics-rate balance controller,
+:mod:`socialaff_sim.sim.balance_control`) and ``balance_steady`` (the same with the steadied base);
+``--balance FIELD=VALUE ...`` changes the controller's settings for the last two, ``--labels`` picks
+interactions. After the per-interaction table, one line per robot and mode summarises the contact phases.
 
 The targets of issue 25 for feet that stay planted: outside support ≤ 5 % of
 the weight, sliding ≤ 2 cm, torques within the limits. Example::
 
     OMP_NUM_THREADS=1 python scripts/bench_support.py --robots ours unitree_h1 \\
-        --mjcf unitree_h1=../shared/robots/unitree_h1/h1.xml --per-label 4 --modes weight puppet steady stance
+        --mjcf unitree_h1=../shared/robots/unitree_h1/h1.xml --per-label 4 --modes weight steady stance balance balance_steady
 """
 
 from __future__ import annotations
 
 import argparse
+import ast
 import dataclasses
 import json
 
@@ -40,10 +45,13 @@ from socialaff_sim.retarget.model_source import model_source
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.simulator import SimConfig, Simulator
+from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.stance import StanceConfig
 
 MODES = {"weight": SimConfig(), "puppet": SimConfig(gravity_compensation=True),
-         "steady": SimConfig(stance=StanceConfig(release=False)), "stance": SimConfig(stance=StanceConfig())}
+         "steady": SimConfig(stance=StanceConfig(release=False)), "stance": SimConfig(stance=StanceConfig()),
+         "balance": SimConfig(balance=BalanceConfig()),
+         "balance_steady": SimConfig(balance=BalanceConfig(), stance=StanceConfig(release=False))}
 KEYS = ("released_frames", "outside_support_mean", "outside_support_peak", "foot_slide_cm", "penetration_cm", "torque_ratio_max",
         "saturated_fraction", "at_joint_limit_fraction", "torso_tilt_deg_max")
 
@@ -57,7 +65,14 @@ def main() -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--model", help="an affordance model (model.npz): simulate its causal synthesis instead of the recording")
     p.add_argument("--json", help="write the per-instance figures here")
+    p.add_argument("--balance", nargs="*", default=[], metavar="FIELD=VALUE",
+                   help="BalanceConfig fields for the balance modes (Python literals), e.g. com_bandwidth=3.0")
+    p.add_argument("--labels", nargs="*", help="only these interactions")
     args = p.parse_args()
+    if args.balance:
+        over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.balance)}
+        for mode in ("balance", "balance_steady"):
+            MODES[mode] = dataclasses.replace(MODES[mode], balance=BalanceConfig(**over))
     paths = dict(item.split("=", 1) for item in args.mjcf)
     data = generate_dataset(seed=args.seed)
     rows = []
@@ -65,6 +80,8 @@ def main() -> None:
         spec = load_robot(robot, mjcf=paths.get(robot))
         for mode in args.modes:
             for label in data.labels:
+                if args.labels and label not in args.labels:
+                    continue
                 for inter in list(data.of_label(label))[: args.per_label]:
                     source = GroundTruthSource() if args.model is None else model_source(args.model, offline=False)
                     m = run_episode(Simulator(spec, label, MODES[mode]), source, inter)
@@ -77,6 +94,8 @@ def main() -> None:
     for robot in args.robots:
         for mode in args.modes:
             for label in data.labels:
+                if args.labels and label not in args.labels:
+                    continue
                 sel = [r for r in rows if r["robot"] == robot and r["mode"] == mode and r["label"] == label]
                 have = [r for r in sel if r["contact_frames"]]
 
@@ -92,6 +111,24 @@ def main() -> None:
                       f"{100 * top('outside_support_peak'):>7.0f}%{mean('foot_slide_cm'):>10.1f}{top('penetration_cm'):>8.1f}"
                       f"{top('torque_ratio_max'):>8.2f}{100 * mean('saturated_fraction'):>6.0f}%{100 * mean('at_joint_limit_fraction'):>6.0f}%"
                       f"{100 * released:>9.0f}%")
+    print(f"{'robot':<12}{'mode':<16}{'ok':>7}{'support mean':>14}{'range':>12}{'<=5%':>7}{'peak':>7}{'slide med':>10}"
+          f"{'<=2cm':>7}{'sat':>6}{'limit':>7}{'tilt med/max':>14}{'released':>9}")
+    for robot in args.robots:
+        for mode in args.modes:
+            sel = [r for r in rows if r["robot"] == robot and r["mode"] == mode]
+            have = [r for r in sel if r["contact_frames"]]
+            if not have:
+                continue
+            sup = np.array([r["outside_support_mean"] for r in have])
+            slide = np.array([r["foot_slide_cm"] for r in have])
+            tilt = np.array([r["torso_tilt_deg_max"] for r in have])
+            rel = np.mean([r["released_frames"] / r["contact_frames"] for r in have])
+            print(f"{robot:<12}{mode:<16}{sum(r['success'] for r in sel):>3}/{len(sel):<3}{100 * sup.mean():>13.1f}%"
+                  f"{100 * sup.min():>6.0f}-{100 * sup.max():<4.0f}%{int((sup <= 0.05).sum()):>3}/{len(have):<3}"
+                  f"{100 * max(r['outside_support_peak'] for r in have):>6.0f}%{np.median(slide):>9.1f}"
+                  f"{int((slide <= 2.0).sum()):>4}/{len(have):<3}{100 * np.mean([r['saturated_fraction'] for r in have]):>5.0f}%"
+                  f"{100 * np.mean([r['at_joint_limit_fraction'] for r in have]):>6.0f}%"
+                  f"{np.median(tilt):>8.1f}/{tilt.max():<5.1f}{100 * rel:>8.0f}%")
     if args.json:
         atomic_write_text(args.json, json.dumps({"config": vars(args), "rows": rows,
                                                  "sim_config": {k: repr(v) for k, v in dataclasses.asdict(SimConfig()).items()

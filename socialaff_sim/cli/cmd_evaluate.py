@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
 from .._atomic import output_folder
 from ..data import load_dataset
+from ..errors import ConfigError
 from ..evaluation import DEFAULT_N_OBSERVED, EvaluationConfig, evaluate, format_tables, write_results
 from ..evaluation.crossval import EXECUTORS, PRESETS
+from ..evaluation.merge import check_reusable, reuse_results
 from ..evaluation.splits import SPLITS
 from ..evaluation.streaming import PROTOCOLS
 from ..report import write_evaluation_page
@@ -24,6 +27,20 @@ DEFAULT_METHODS = "full,v1,v2,hmm,promp,ridge,hold,constvel"
 def _names(values: list[str] | None) -> list[str]:
     """Accept both ``a b`` and ``a,b``."""
     return [n.strip() for v in values or [] for n in v.split(",") if n.strip()]
+
+
+def _read_earlier(path: str) -> dict:
+    """The ``results.json`` named by ``--reuse``, checked before any fit runs."""
+    try:
+        earlier = json.loads(Path(path).read_text())
+    except OSError as exc:
+        raise ConfigError(f"--reuse {path}: cannot read it ({exc.strerror or exc})") from exc
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"--reuse {path}: expected a results.json written by `socialaff-sim evaluate`, not valid JSON ({exc.msg}, line {exc.lineno})") from exc
+    missing = [k for k in ("dataset", "settings", "average", "per_interaction", "per_instance", "latency_ms", "seconds") if not isinstance(earlier, dict) or k not in earlier]
+    if missing:
+        raise ConfigError(f"--reuse {path}: expected a results.json written by `socialaff-sim evaluate`, missing field {missing[0]!r}")
+    return earlier
 
 
 def run(args: argparse.Namespace) -> int:
@@ -43,6 +60,9 @@ def run(args: argparse.Namespace) -> int:
         max_test=args.max_test,
     )
     methods = _names([args.methods])
+    earlier = _read_earlier(args.reuse) if args.reuse else None
+    if earlier is not None:
+        check_reusable(earlier, dataset.name, config, _names(args.interactions) or list(dataset.labels), args.reuse)
     results = evaluate(
         dataset,
         methods,
@@ -50,6 +70,8 @@ def run(args: argparse.Namespace) -> int:
         config=config,
         progress=None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True)),
     )
+    if earlier is not None:
+        results = reuse_results(results, earlier, args.reuse)
     with output_folder(args.out) as staging:  # results.json/.md/.png together; a second writer is refused
         staged = write_results(results, staging)
     paths = {k: Path(args.out) / p.relative_to(staging) for k, p in staged.items()}
@@ -111,6 +133,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--n-observed", type=int_range(1), default=DEFAULT_N_OBSERVED, metavar="T0",
         help=f"frames of agent 1 observed before synthesis (default {DEFAULT_N_OBSERVED})",
+    )
+    p.add_argument(
+        "--reuse", metavar="FILE",
+        help="an earlier results.json of the same data, folds, seed and protocol: its methods that --methods does "
+        "not name are taken from it instead of being fitted again (the tables say so; paired comparisons are recomputed)",
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--seed", type=non_negative_int, default=0, help="run seed for the folds and every method (default 0)")

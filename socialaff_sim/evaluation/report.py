@@ -53,6 +53,10 @@ def format_tables(results: Mapping[str, Any]) -> str:
         lines.append("Offline protocol: every method saw agent 0's whole track — an upper bound, not a reaction.")
     if results.get("optimistic"):
         lines.append("Block split: the same people and session are in training and test — optimistic.")
+    reused = results.get("reused")
+    if reused:
+        lines.append(f"Not run again: {', '.join(reused['methods'])}, taken from `{reused['from']}` (same data, folds, "
+                     "seed and protocol; the paired comparisons are recomputed over all methods).")
     for key, title in _METRICS:
         lines += ["", f"## {title}", ""]
         lines.append("| Method | " + " | ".join(labels) + " | Average |")

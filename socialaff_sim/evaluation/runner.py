@@ -29,7 +29,7 @@ from .metrics import METRICS, horizon_metric, matched_accuracy
 from .registry import get_method
 from .splits import OPTIMISTIC_SPLITS
 
-__all__ = ["BASELINES", "best_baseline", "evaluate", "run_tasks", "run_title"]
+__all__ = ["BASELINES", "best_baseline", "evaluate", "paired_comparisons", "run_tasks", "run_title"]
 
 Progress = Callable[[str], None]
 
@@ -277,15 +277,22 @@ def evaluate(
             "horizon_every_s": config.horizon_every_s,
         },
     }
+    out["paired"] = paired_comparisons(out, config.seed, metrics)
+    return out
+
+
+def paired_comparisons(results: dict[str, object], seed: int, metrics: Sequence[str] = METRICS) -> dict[str, object]:
+    """The ``paired`` entry of ``results.json`` for ``results`` (with its ``average`` and ``per_instance``):
+    every method against ``hold`` (when evaluated) and against the best baseline, bootstrap seeded by ``seed``."""
+    average: dict[str, dict[str, float]] = results["average"]  # type: ignore[assignment]
     paired: dict[str, object] = {}
-    if len(methods) > 1:
-        if "hold" in methods:
-            paired["hold"] = _paired(out, "hold", config.seed, 0, metrics)
+    if len(average) > 1:
+        if "hold" in average:
+            paired["hold"] = _paired(results, "hold", seed, 0, metrics)
         best = best_baseline(average)
         if best is not None:
-            paired["best_baseline"] = _paired(out, best, config.seed, 1, metrics)
-    out["paired"] = paired
-    return out
+            paired["best_baseline"] = _paired(results, best, seed, 1, metrics)
+    return paired
 
 
 def run_title(dataset: str, config: EvaluationConfig) -> str:

@@ -86,9 +86,12 @@ def _mode(sim: Simulator, puppet: str) -> str:
     if sim.config.gravity_compensation:
         return puppet
     stance = sim.config.stance
-    if stance is None:
-        return "real weight"
-    return "real weight, stance control" + (" (harness let go when steady)" if stance.release else " (steadied base)")
+    name = "real weight"
+    if stance is not None:
+        name += ", stance control" + (" (harness let go when steady)" if stance.release else " (steadied base)")
+    if sim.config.balance is not None:
+        name += ", physics-rate balance control" + (" (harness let go when steady)" if sim.config.balance.release else "")
+    return name
 
 
 def support_summary(sim: Simulator) -> dict[str, Any]:

@@ -9,9 +9,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import ConfigError
 from ..retarget.contact_completion import ContactCompletionConfig
 from ..retarget.ik import IKConfig
 from ..retarget.scaling import ScalingConfig
+from .balance_config import BalanceConfig
 from .footlock import FootLockConfig
 from .stance import StanceConfig
 from .support import FrameSupport
@@ -26,7 +28,8 @@ class SimConfig:
     Fields by concept
     -----------------
     - Physics: timestep, servo_bandwidth, hand_force, grip, compliant_person, settle_iterations
-    - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth, stance
+    - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth, stance,
+      balance
     - Retargeting: ik, scaling, contact_completion
     """
 
@@ -59,6 +62,12 @@ class SimConfig:
     throughout. Off by default: on the synthetic set it lowered Stubby's outside support in the contact phases
     from 33 % to 24 % (25 % with the base filter alone), short of the 5 % target, and did not lower the H1's
     (54 %; docs/benchmarks.md, "Standing without the harness"). Not used with gravity compensation."""
+    balance: BalanceConfig | None = None
+    """[—]: A physics-rate balance controller while both feet are planted: whole-body inverse dynamics with the
+    floor's contact forces at every physics step, and the harness let go of a steady robot
+    (:mod:`~socialaff_sim.sim.balance_control`); ``None`` (the default): the position servos track the IK with the
+    standing feed-forward, on the harness. Needs ``foot_lock``; not with ``stance.release`` (both would switch the
+    harness). Not used with gravity compensation."""
     hand_force: float | None = 60.0
     """F_max [N]: the arm servos' torque limits are set so that a hand pushes with at most about
     this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,
@@ -84,6 +93,13 @@ class SimConfig:
     step about twice as fast. See docs/environment.md, "Speed", for the measured effect."""
     settle_iterations: int = 20
     """[—]: IK solves spent at reset to reach the first frame's targets before physics starts."""
+
+    def __post_init__(self) -> None:
+        if self.balance is not None and self.stance is not None and self.stance.release:
+            raise ConfigError("SimConfig: balance and stance.release both switch the harness; use "
+                              "stance=StanceConfig(release=False) (a steadied base) or stance=None with balance")
+        if self.balance is not None and self.foot_lock is None:
+            raise ConfigError("SimConfig.balance: needs foot_lock (the controller acts while both feet are planted)")
 
 
 @dataclass(frozen=True)

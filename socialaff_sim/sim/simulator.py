@@ -170,6 +170,8 @@ class Simulator:
         stage.scorer.reset()
         stage.scorer.measure_gaps(data)
         stage.stepper.support.reset()
+        if stage.stepper.balance is not None:
+            stage.stepper.balance.reset()
         if stage.stance is not None:
             stage.stance.reset()
             stage.stance.apply(data)

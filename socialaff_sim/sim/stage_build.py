@@ -16,6 +16,7 @@ from ..data.skeletons import SkeletonLayout
 from ..retarget.ik import RobotIK
 from ..retarget.robot import RobotSpec
 from ..retarget.scaling import BodyMeasurements, measure_robot
+from .balance_control import BalanceController
 from .feedforward import StandingFeedforward
 from .reach import reach_model
 from .scoring import SubgoalScorer
@@ -72,7 +73,8 @@ def build_stage(
     scorer = SubgoalScorer(scene, task)
     stage = Stage(
         scene, data, ik_scene, RobotIK(ik_model, config.ik), scorer, ik_map,
-        FrameStepper(scene, data, scorer, meter, None if puppet else StandingFeedforward(scene)),
+        FrameStepper(scene, data, scorer, meter, None if puppet else StandingFeedforward(scene),
+                     None if puppet or config.balance is None else BalanceController(scene, config.balance)),
         reach, stance=None if puppet or config.stance is None else StanceControl(scene, config.stance),
     )
     return stage, meas, home_keys

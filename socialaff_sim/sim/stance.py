@@ -118,8 +118,8 @@ class StanceControl:
 
     def apply(self, data: mujoco.MjData) -> None:
         """Switch the harness weld in ``data`` off or on as decided."""
-        if self.weld >= 0:
-            data.eq_active[self.weld] = 0 if self.released else 1
+        if self.weld >= 0 and self.config.release:  # without release the weld is left alone (it stays on, or a
+            data.eq_active[self.weld] = 0 if self.released else 1  # physics-rate controller switches it)
 
     def measured_com(self, data: mujoco.MjData) -> np.ndarray:
         """(3,) the robot's centre of mass in ``data`` (world, m; as of its last kinematics pass)."""

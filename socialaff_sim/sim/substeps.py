@@ -30,6 +30,7 @@ import numpy as np
 from .carry import grip_on_contact
 from .scene import Scene
 from .scoring import SubgoalScorer
+from .balance_control import BalanceController
 from .feedforward import StandingFeedforward
 from .support import SupportMeter
 
@@ -47,9 +48,11 @@ class FrameStepper:
     """Runs the physics steps of one data frame on ``scene`` / ``data``; one per simulator stage."""
 
     def __init__(self, scene: Scene, data: mujoco.MjData, scorer: SubgoalScorer, support: SupportMeter,
-                 feedforward: StandingFeedforward | None = None) -> None:
+                 feedforward: StandingFeedforward | None = None, balance: BalanceController | None = None) -> None:
         self.scene, self.data, self.scorer, self.support = scene, data, scorer, support
         self.feedforward = feedforward
+        self.balance = balance
+        """The physics-rate balance controller (``SimConfig.balance``), which then runs each physics step."""
 
         m = scene.model
         self.nmocap = m.nmocap
@@ -116,6 +119,9 @@ class FrameStepper:
         if self.feedforward is not None:  # hold the frame's target pose against gravity, on the feet now down
             ctrls += self.feedforward.ctrl_offset(full[-1], self.support.feet_down if feet is None else feet)
         self._qs[k:], self._ctrls[k:] = qs, ctrls
+        self._hinge_vel = vel[sc.robot_vadr[6:]]
+        if self.balance is not None:  # the balance controller's plan: the frame's (new) target
+            self.balance.begin_frame(q_new, feet)
         if sc.anchor_mocap >= 0:
             self._mp[k:, sc.anchor_mocap] = qs[:, :3]
             self._mq[k:, sc.anchor_mocap] = qs[:, 3:7]
@@ -128,6 +134,7 @@ class FrameStepper:
         dt = m.opt.timestep
         force = self.force
         mocap_pos, mocap_quat, ctrl = d.mocap_pos, d.mocap_quat, d.ctrl
+        bal, hinge_vel, qs = self.balance, self._hinge_vel, self._qs
         for k in range(self.k, min(k_end, self.n)):
             mocap_pos[:] = mp[k]
             mocap_quat[:] = mq[k]
@@ -137,7 +144,10 @@ class FrameStepper:
                 ctrl[sc.act_ids] = ctrls[k]
             if carry is not None and not carry(k, time):
                 carry = None
-            mujoco.mj_step(m, d)
+            if bal is None:
+                mujoco.mj_step(m, d)
+            else:
+                bal.step(m, d, qs[k], hinge_vel)
             time += dt
             scorer.update(d, dt, time, subevent)
             self.support.update(d)

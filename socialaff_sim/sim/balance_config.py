@@ -1,0 +1,113 @@
+"""Settings of the physics-rate balance controller (:mod:`~socialaff_sim.sim.balance_control`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..errors import ConfigError
+
+__all__ = ["BalanceConfig", "COM_REFERENCES"]
+
+COM_REFERENCES = ("plan", "middle")
+"""Where the centre of mass is held: ``plan``, the IK's centre of mass relative to its feet, carried over to the
+physical feet; ``middle``, the middle of the feet's contact points. Either is kept inside the support box."""
+
+
+@dataclass(frozen=True)
+class BalanceConfig:
+    """A physics-rate balance controller for a robot standing on both feet (see
+    :mod:`~socialaff_sim.sim.balance_control`).
+
+    Fields by concept
+    -----------------
+    - Tracking: joint_bandwidth, torso_bandwidth, foot_damping, foot_stiffness
+    - Balance: com_bandwidth, com_damping, com_reference, support_margin, external_forces, external_filter
+    - Contact forces: friction, w_dynamics, w_feet, w_com, w_torso, w_joint, w_force
+    - Harness: release, release_delay, release_tilt, release_margin, catch_tilt, catch_margin, catch_blend,
+      drive_harnessed
+    """
+
+    joint_bandwidth: float = 20.0
+    """ω_q [rad/s]: the joints' wanted acceleration is q̈* = ω_q² (q_ref − q) + 2 ω_q (q̇_ref − q̇), the IK's
+    joint targets and the frame's joint velocity as reference (critically damped)."""
+    torso_bandwidth: float = 10.0
+    """ω_o [rad/s]: the torso's wanted angular acceleration is ω_o² e − 2 ω_o ω, e the rotation vector (world)
+    from its measured attitude to the IK's."""
+    foot_damping: float = 20.0
+    """k_f [1/s]: a planted foot's wanted acceleration (linear and angular) is −k_f times its velocity, plus
+    the ``foot_stiffness`` term."""
+    foot_stiffness: float = 100.0
+    """k_x [1/s²]: ... plus k_x times its displacement (position, and rotation vector) from where it stood when
+    the robot came to stand on both feet (a foot that creeps is drawn back; 0: velocity only)."""
+    com_bandwidth: float = 6.0
+    """ω_c [rad/s]: the centre of mass's wanted horizontal acceleration is ω_c² (c* − c) − 2 ζ ω_c ċ."""
+    com_damping: float = 1.0
+    """ζ [—]: damping ratio of the centre-of-mass feedback."""
+    com_reference: str = "plan"
+    """[—]: c*: ``plan`` (the IK's centre of mass relative to its feet, moved onto the physical feet) or
+    ``middle`` (the middle of the feet's contact points); either is kept ``support_margin`` inside the box."""
+    support_margin: float = 0.03
+    """[m]: the centre-of-mass reference is kept this far inside the box of the feet's contact points
+    (axes along the robot's heading)."""
+    external_forces: bool = False
+    """[—]: Whether the contact forces of the person, the object and the chair on the robot (measured at the
+    previous step, :mod:`~socialaff_sim.sim.external_force`) enter the inverse dynamics as known loads and move
+    the centre-of-mass reference so that their moment is carried by the feet (c* − p = (−M_y, M_x) / (m g), M
+    their moment about the reference's point p on the floor: a robot pulled forward leans back)."""
+    external_filter: float = 0.05
+    """[s]: time constant of the low-pass filter on the measured external forces."""
+    friction: float = 0.7
+    """μ [—]: friction coefficient of the contact forces' linearised cones (the floor's is 1)."""
+    w_dynamics: float = 1000.0
+    """[—]: weight of the equation of motion's unactuated rows (root) in the least squares (nearly hard)."""
+    w_feet: float = 30.0
+    """[—]: weight of the planted feet's acceleration rows."""
+    w_com: float = 100.0
+    """[—]: weight of the centre of mass's horizontal acceleration rows."""
+    w_torso: float = 0.3
+    """[—]: weight of the torso's angular acceleration rows."""
+    w_joint: float = 1.0
+    """[—]: weight of each joint's acceleration row."""
+    w_force: float = 1e-3
+    """[—]: weight of the contact forces' regularisation (forces divided by the robot's mass)."""
+    release: bool = True
+    """[—]: Whether the harness lets go of a robot standing under the controller (``False``: it stays on, and
+    the controller drives the joints only if ``drive_harnessed``)."""
+    release_delay: float = 0.1
+    """[s]: both feet planted and on the floor for this long before the harness may let go."""
+    release_tilt: float = 5.0
+    """[deg]: the harness lets go only while the torso tilts at most this much from upright."""
+    release_margin: float = 0.01
+    """[m]: ... and while the capture point c + ċ/ω₀ (ω₀ = √(g / c_z)) lies this far inside the box of the
+    feet's contact points."""
+    catch_tilt: float = 12.0
+    """[deg]: a released robot whose torso tilts more than this is caught by the harness again at once."""
+    catch_margin: float = 0.03
+    """[m]: ... as is one whose capture point leaves the contact box by more than this (a fall under way)."""
+    catch_blend: float = 0.3
+    """[s]: a caught robot is held where it is caught (the harness's anchor at its measured root), and the anchor
+    then moves over this time onto the IK's base (0: at once onto the IK's base, which yanks the robot by as
+    much as it strayed from the plan while released)."""
+    drive_harnessed: bool = False
+    """[—]: Whether the controller's torques drive the joints also while the harness holds a standing robot
+    (``False``: the position servos and the standing feed-forward do, as without the controller)."""
+
+    def __post_init__(self) -> None:
+        for name in ("joint_bandwidth", "torso_bandwidth", "com_bandwidth"):
+            if not getattr(self, name) > 0.0:
+                raise ConfigError(f"BalanceConfig.{name}: expected a frequency > 0 rad/s, found {getattr(self, name)}")
+        for name in ("foot_damping", "foot_stiffness", "com_damping", "support_margin", "release_delay", "release_margin",
+                     "catch_margin", "catch_blend", "external_filter", "w_feet", "w_com", "w_torso", "w_joint"):
+            if not getattr(self, name) >= 0.0:
+                raise ConfigError(f"BalanceConfig.{name}: expected a value ≥ 0, found {getattr(self, name)}")
+        if not (self.w_dynamics > 0.0 and self.w_force > 0.0):
+            raise ConfigError(f"BalanceConfig: expected w_dynamics > 0 and w_force > 0, found {self.w_dynamics}, "
+                              f"{self.w_force}")
+        if not self.friction > 0.0:
+            raise ConfigError(f"BalanceConfig.friction: expected μ > 0, found {self.friction}")
+        if self.com_reference not in COM_REFERENCES:
+            raise ConfigError(f"BalanceConfig.com_reference: expected one of {', '.join(COM_REFERENCES)}, found "
+                              f"{self.com_reference!r}")
+        if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
+            raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
+                              f"{self.release_tilt}, {self.catch_tilt}")

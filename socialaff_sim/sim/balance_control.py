@@ -1,0 +1,370 @@
+"""Standing on its own feet at the physics rate: a whole-body balance controller and the harness it lets go of.
+
+With its real weight the robot hangs from a compliant harness that follows the IK's base
+(:func:`~socialaff_sim.sim.scene.build_scene`), and its position servos track the IK's joint targets,
+planned once per data frame. :class:`BalanceController` replaces the servos' action, at every physics step
+while both feet are planted (by the foot lock) and on the floor, by torques computed from the measured state:
+
+1. wanted accelerations: every joint toward the IK's target (PD of bandwidth ω_q, the frame's joint velocity
+   as reference), the torso's attitude toward the IK's (ω_o), the planted feet held where they stood when both
+   came down (k_x, k_f: a creeping foot is drawn back), and the centre of mass's horizontal position toward a
+   reference c* over the feet (ω_c, ζ): the IK's centre of mass relative to its feet carried over to the
+   physical feet (or the middle of the feet), optionally moved to lean against the measured external forces
+   (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
+   with the floor, where they stand now) shrunk by a margin;
+2. floating-base inverse dynamics with the floor's contact forces (:mod:`~.contact_dynamics`): at the feet's
+   contact points as MuJoCo found them, forces inside friction cones that balance the root's six unactuated
+   rows, q̈ as close to the wanted one as the weights allow; τ = M q̈ + h − Jᵀf on the hinges;
+3. the servos are made to exert τ exactly: ctrl = (τ − b₀ − b₁ q − b₂ q̇) / g for force = g·ctrl + b₀ + b₁q +
+   b₂q̇ (MuJoCo clips it at the actuator's force limit, which the support meter reports as saturation).
+
+The harness weld lets go (``eq_active = 0``; its force is then zero by construction) once the feet have been
+planted ``release_delay`` and the robot is steady: torso within ``release_tilt`` and the capture point
+ξ = c + ċ/ω₀ inside the support box by ``release_margin``. It catches the robot again at once when the torso
+tilts past ``catch_tilt``, the capture point leaves the box by more than ``catch_margin``, or a foot steps;
+the caught robot is held where it is and led back onto the IK's base over ``catch_blend``, and the release
+waits its delay again. Everything is decided per physics step; the per-frame part is the IK's plan
+(:meth:`begin_frame`).
+
+The step is split (:func:`mujoco.mj_step1`, the controller, :func:`mujoco.mj_step2`) so that the controller
+reads the mass matrix, bias forces and contacts of the state it acts on; a weld switched after ``mj_step1``
+takes effect at the next step (4 ms).
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from ..retarget.kinematic_tree import subtree_mask
+from .balance_config import BalanceConfig
+from .contact_dynamics import cone_edges, solve_contact_dynamics
+from .external_force import ExternalForces
+from .scene import Scene
+
+__all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
+
+
+def _torso_body(m: mujoco.MjModel, scene: Scene) -> int:
+    """The body both shoulders hang from (as :class:`~socialaff_sim.sim.support.SupportMeter` measures tilt)."""
+    def up(b: int) -> list[int]:
+        out = [b]
+        while int(m.body_parentid[out[-1]]) > 0:
+            out.append(int(m.body_parentid[out[-1]]))
+        return out
+    left, right = up(int(scene.limb_body_ids[0])), set(up(int(scene.limb_body_ids[1])))
+    return next((b for b in left[1:] if b in right), scene.root_body)
+
+
+class BalanceController:
+    """The physics-rate balance control of one physics scene (see the module docstring); :meth:`reset` per
+    episode, :meth:`begin_frame` per data frame, :meth:`step` in place of ``mujoco.mj_step``."""
+
+    def __init__(self, scene: Scene, config: BalanceConfig | None = None) -> None:
+        self.scene = scene
+        self.config = config or BalanceConfig()
+        m = scene.model
+        self.vadr = np.asarray(scene.robot_vadr)
+        self.qadr = np.asarray(scene.robot_qadr)
+        n = len(self.vadr)
+        where = {int(v): i for i, v in enumerate(self.vadr)}
+        self._act_rows = np.array([where[int(v)] for v in scene.act_vadr], dtype=np.int64)
+        self.unactuated = np.ones(n, dtype=bool)
+        self.unactuated[self._act_rows] = False
+        robot = subtree_mask(m, scene.root_body)
+        self.mass = float(m.body_mass[robot].sum())
+        self._g = float(np.linalg.norm(m.opt.gravity))
+        self._feet: list[int] = []
+        foot_geom = np.full(m.ngeom, -1, dtype=np.int64)
+        for s, k in enumerate((3, 4)):
+            fid = int(scene.frame_ids[k])
+            body = int(m.site_bodyid[fid]) if scene.frame_kinds[k] == "site" else fid
+            self._feet.append(body)
+            foot_geom[subtree_mask(m, body)[m.geom_bodyid] & scene.robot_geom] = s
+        self._foot_geom = foot_geom
+        self._floor = int(scene.floor_geom)
+        self._torso = _torso_body(m, scene)
+        self._weld = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, "robot_anchor")
+        ids = scene.act_ids
+        self._gain = m.actuator_gainprm[ids, 0].copy()
+        self._bias = m.actuator_biasprm[ids, :3].copy()
+        self._act_q, self._act_v = np.asarray(scene.act_qadr), np.asarray(scene.act_vadr)
+        d0 = mujoco.MjData(m)
+        d0.qpos[self.qadr] = scene.home_qpos
+        mujoco.mj_kinematics(m, d0)
+        # Each foot's own axis that points forward at home (the robot faces +x there), and the torso's up axis.
+        self._foot_fwd = np.array([d0.xmat[b].reshape(3, 3).T @ np.array([1.0, 0.0, 0.0]) for b in self._feet])
+        self._torso_up = d0.xmat[self._torso].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
+        self._sole = self._soles(m, scene)
+        self._external = ExternalForces(scene)
+        self._plan = mujoco.MjData(m)
+        self._M = np.zeros((m.nv, m.nv))
+        self._jp = np.zeros((3, m.nv))
+        self._jr = np.zeros((3, m.nv))
+        self._quat = np.zeros(4)
+        self._rot = np.zeros(3)
+        self.reset()
+
+    def _soles(self, m: mujoco.MjModel, scene: Scene) -> list[np.ndarray | None]:
+        """Each foot's sole: the corners (8, 3) of the box, in the foot body's frame, of its contact points with
+        the floor at home pressed 2 mm into it (``None``: no contact found; the live contacts are used)."""
+        d = mujoco.MjData(m)
+        d.qpos[self.qadr] = scene.home_qpos
+        d.qpos[self.qadr[2]] -= 0.002
+        mujoco.mj_forward(m, d)
+        pts, _, which = self._foot_contacts(d)
+        out: list[np.ndarray | None] = []
+        for s, body in enumerate(self._feet):
+            mine = pts[which == s]
+            if len(mine) < 3:
+                out.append(None)
+                continue
+            local = (mine - d.xpos[body]) @ d.xmat[body].reshape(3, 3)
+            lo, hi = local.min(axis=0), local.max(axis=0)
+            out.append(np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]))
+        return out
+
+    def _footprint(self, d: mujoco.MjData, pts: np.ndarray, which: np.ndarray) -> np.ndarray:
+        """(K, 2) world points whose box is the feet's support: the soles of the feet on the floor now (the live
+        contact points of a foot whose sole is unknown)."""
+        out = []
+        for s, body in enumerate(self._feet):
+            if not (which == s).any():
+                continue
+            sole = self._sole[s]
+            if sole is None:
+                out.append(pts[which == s, :2])
+            else:
+                out.append((d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T)[:, :2])
+        return np.vstack(out)
+
+    # -- episode and frame ----------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """A new episode: harnessed, nothing planted, counters at zero."""
+        self.released = False
+        """Whether the harness is off (as of the last step)."""
+        self.active = False
+        """Whether the controller's torques drove the last step."""
+        self._engaged = 0.0
+        self._planted = (False, False)
+        self._anchor: list[tuple[np.ndarray, np.ndarray]] | None = None
+        self._caught: tuple[np.ndarray, np.ndarray, float] | None = None
+        self._ext_gen = np.zeros(len(self.vadr))
+        self._ext_force = np.zeros(3)
+        self._ext_moment = np.zeros(3)
+        self._com_offset = np.zeros(2)
+        self._torso_goal = np.eye(3)
+        self.steps = self.active_steps = self.released_steps = self.catches = 0
+        """Physics steps run, driven by the controller, with the harness off; times a released robot was caught."""
+
+    def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
+        """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
+        right): the foot lock's planted feet (``None``: no foot lock, the controller stays off)."""
+        self._planted = (False, False) if planted is None else (bool(planted[0]), bool(planted[1]))
+        m, p = self.scene.model, self._plan
+        p.qpos[self.qadr] = q_target
+        mujoco.mj_kinematics(m, p)
+        mujoco.mj_comPos(m, p)
+        feet = p.xpos[self._feet, :2].mean(axis=0)
+        self._com_offset = p.subtree_com[self.scene.root_body, :2] - feet
+        self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
+
+    # -- the physics step -----------------------------------------------------------------------------------
+    def step(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray) -> None:
+        """One physics step of ``d``: ``mj_step1``, the harness decision and (while standing) the torques toward
+        the robot coordinates ``q_ref`` (nq_r,) with hinge velocities ``qd_ref`` (nv_r − 6,), ``mj_step2``."""
+        self._hold_caught(m, d)
+        mujoco.mj_step1(m, d)
+        self.steps += 1
+        c = self.config
+        pts, frames, which = self._foot_contacts(d)
+        standing = self._planted[0] and self._planted[1] and len(pts) > 0
+        self._engaged = self._engaged + m.opt.timestep if standing else 0.0
+        if not (self._planted[0] and self._planted[1]):
+            self._anchor = None  # a step: the feet are held where they next stand
+        tilt = self._tilt(d)
+        box = None
+        if standing:
+            fwd = self._heading(d)
+            box = _Box(self._footprint(d, pts, which), fwd)
+            com = d.subtree_com[self.scene.root_body]
+            self._jp[:] = 0.0
+            mujoco.mj_jacSubtreeCom(m, d, self._jp, self.scene.root_body)
+            jcom = self._jp[:, self.vadr].copy()
+            comvel = jcom @ d.qvel[self.vadr]
+            height = max(float(com[2] - pts[:, 2].mean()), 1e-3)
+            capture = com[:2] + comvel[:2] / math.sqrt(self._g / height)
+        was = self.released
+        if not standing:
+            self.released = False
+        elif self.released:
+            self.released = tilt <= c.catch_tilt and box.inside(capture, -c.catch_margin)  # type: ignore[union-attr]
+        else:
+            self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and tilt <= c.release_tilt
+                             and box.inside(capture, c.release_margin))  # type: ignore[union-attr]
+        if was and not self.released:
+            self.catches += 1
+            self._engaged = 0.0  # caught: the release waits its delay again
+            root = self.scene.root_body
+            self._caught = (d.xpos[root].copy(), d.xquat[root].copy(), 0.0)
+        if self._weld >= 0 and c.release:
+            d.eq_active[self._weld] = 0 if self.released else 1
+        self.released_steps += int(self.released)
+        self.active = standing and (self.released or c.drive_harnessed)
+        if self.active:
+            self.active_steps += 1
+            tau = self._torques(m, d, q_ref, qd_ref, pts, frames, which, box, com, jcom, comvel)  # type: ignore[arg-type]
+            q, v = d.qpos[self._act_q], d.qvel[self._act_v]
+            b = self._bias
+            d.ctrl[self.scene.act_ids] = (tau - b[:, 0] - b[:, 1] * q - b[:, 2] * v) / self._gain
+        mujoco.mj_step2(m, d)
+        if standing and c.external_forces:
+            self._measure_external(m, d)
+        else:
+            self._ext_gen[:], self._ext_force[:], self._ext_moment[:] = 0.0, 0.0, 0.0
+
+    def _measure_external(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
+        """Fold the external contact forces of the step just taken into their low-pass filtered estimate."""
+        gen, pts, forces = self._external.measure(m, d)
+        a = math.exp(-m.opt.timestep / self.config.external_filter) if self.config.external_filter > 0 else 0.0
+        self._ext_gen = a * self._ext_gen + (1.0 - a) * gen
+        self._ext_force = a * self._ext_force + (1.0 - a) * forces.sum(axis=0)
+        self._ext_moment = a * self._ext_moment + (1.0 - a) * np.cross(pts, forces).sum(axis=0)
+
+    def _hold_caught(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
+        """After a catch: the harness's anchor (which the stepper has set to the IK's base for this step) moved
+        from the root's pose at the catch onto it over ``catch_blend``."""
+        if self._caught is None or self.released or self.scene.anchor_mocap < 0:
+            self._caught = None
+            return
+        pos, quat, t = self._caught
+        a = min(t / self.config.catch_blend, 1.0) if self.config.catch_blend > 0 else 1.0
+        if a >= 1.0:
+            self._caught = None
+            return
+        k = self.scene.anchor_mocap
+        d.mocap_pos[k] = (1.0 - a) * pos + a * d.mocap_pos[k]
+        q = d.mocap_quat[k]
+        q = (1.0 - a) * quat + a * (q if float(q @ quat) >= 0 else -q)
+        d.mocap_quat[k] = q / np.linalg.norm(q)
+        self._caught = (pos, quat, t + m.opt.timestep)
+
+    def _torques(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray, pts: np.ndarray,
+                 frames: np.ndarray, which: np.ndarray, box: _Box, com: np.ndarray, jcom: np.ndarray,
+                 comvel: np.ndarray) -> np.ndarray:
+        """(n_act,) actuator torques (N·m) of the whole-body balance at the state after ``mj_step1``."""
+        c = self.config
+        va = self.vadr
+        mujoco.mj_fullM(m, d, self._M)
+        M = self._M[np.ix_(va, va)]
+        # The external forces as known loads on the root's rows only: the feet's forces then carry them, while the
+        # joints stay as compliant as their PD (feeding them to the arms' rows stiffened the arms against the
+        # person, who pushed back harder a step later).
+        h = d.qfrc_bias[va] - d.qfrc_passive[va] - np.where(self.unactuated, self._ext_gen, 0.0)
+        qv = d.qvel[va]
+        n = len(va)
+        jac = np.empty((len(pts), 3, n))
+        for i, (p, s) in enumerate(zip(pts, which, strict=True)):
+            mujoco.mj_jac(m, d, self._jp, None, p, self._feet[int(s)])
+            jac[i] = self._jp[:, va]
+        tasks: list[tuple[np.ndarray, np.ndarray, float]] = []
+        if self._anchor is None:  # where the feet stand
+            self._anchor = [(d.xpos[b].copy(), d.xmat[b].reshape(3, 3).copy()) for b in self._feet]
+        for body, (pos, rot) in zip(self._feet, self._anchor, strict=True):  # planted feet held where they stand
+            mujoco.mj_jacBody(m, d, self._jp, self._jr, body)
+            J = np.vstack([self._jp[:, va], self._jr[:, va]])
+            mujoco.mju_mat2Quat(self._quat, (rot @ d.xmat[body].reshape(3, 3).T).ravel())
+            mujoco.mju_quat2Vel(self._rot, self._quat, 1.0)
+            off = np.concatenate([pos - d.xpos[body], self._rot])
+            tasks.append((J, c.foot_stiffness * off - c.foot_damping * (J @ qv), c.w_feet))
+        if c.com_reference == "plan":
+            mid = d.xpos[self._feet, :2].mean(axis=0)
+            goal = mid + self._com_offset
+        else:
+            goal = box.middle()
+        if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
+            p = np.array([goal[0], goal[1], float(pts[:, 2].mean())])
+            goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
+        goal = box.clip(goal, c.support_margin)
+        wc, zc = c.com_bandwidth, c.com_damping
+        tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], c.w_com))
+        mujoco.mj_jacBody(m, d, self._jp, self._jr, self._torso)
+        Jt = self._jr[:, va].copy()
+        err = self._torso_goal @ d.xmat[self._torso].reshape(3, 3).T  # world rotation from now to the goal
+        mujoco.mju_mat2Quat(self._quat, err.ravel())
+        mujoco.mju_quat2Vel(self._rot, self._quat, 1.0)
+        wo = c.torso_bandwidth
+        tasks.append((Jt, wo * wo * self._rot - 2.0 * wo * (Jt @ qv), c.w_torso))
+        hinge_q = d.qpos[self.qadr[7:]]
+        wq = c.joint_bandwidth
+        want = wq * wq * (q_ref[7:] - hinge_q) + 2.0 * wq * (qd_ref - qv[6:])
+        tasks.append((np.eye(n)[6:], want, c.w_joint))
+        res = solve_contact_dynamics(M, h, self.unactuated, jac, cone_edges(frames, c.friction), tasks, self.mass,
+                                     c.w_dynamics, c.w_force)
+        return res.tau[self._act_rows]
+
+    # -- measurements ---------------------------------------------------------------------------------------
+    def _foot_contacts(self, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The feet's contacts with the floor: points (P, 3), frames (P, 3, 3) (normal first, pointing from the
+        floor into the foot) and the foot (P,) of each (0 left, 1 right)."""
+        nc = d.ncon
+        if not nc:
+            return np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(0, dtype=np.int64)
+        con = d.contact
+        g = con.geom[:nc]
+        floor0, floor1 = g[:, 0] == self._floor, g[:, 1] == self._floor
+        other = np.where(floor0, g[:, 1], g[:, 0])
+        side = self._foot_geom[other]
+        keep = (floor0 | floor1) & (side >= 0)
+        frames = con.frame[:nc][keep].reshape(-1, 3, 3).copy()
+        # MuJoCo's normal points from geom 0 to geom 1: from the floor into the foot when the floor is geom 0.
+        flip = ~floor0[keep]
+        frames[flip] *= -1.0
+        return con.pos[:nc][keep].copy(), frames, side[keep]
+
+    def _heading(self, d: mujoco.MjData) -> np.ndarray:
+        """(2,) unit: the feet's forward direction on the floor."""
+        f = sum(d.xmat[b].reshape(3, 3) @ a for b, a in zip(self._feet, self._foot_fwd, strict=True))[:2]
+        nrm = float(np.linalg.norm(f))
+        return f / nrm if nrm > 1e-9 else np.array([1.0, 0.0])
+
+    def _tilt(self, d: mujoco.MjData) -> float:
+        """The torso's angle from upright, degrees."""
+        up = d.xmat[self._torso].reshape(3, 3)[2] @ self._torso_up
+        return float(np.degrees(np.arccos(np.clip(up, -1.0, 1.0))))
+
+
+def lean_offset(moment: np.ndarray, force: np.ndarray, point: np.ndarray, weight: float) -> np.ndarray:
+    """(2,) horizontal shift (m) of the centre of mass that keeps the centre of pressure at ``point`` (3,) on the
+    floor under external forces of resultant ``force`` (3,) N and moment ``moment`` (3,) N·m about the world
+    origin, for a robot of ``weight`` N: with M their moment about the point, M_y + W (c_x − p_x) = 0 and
+    M_x − W (c_y − p_y) = 0 (a forward pull above the floor leans the robot back)."""
+    mom = np.asarray(moment, dtype=np.float64) - np.cross(point, force)
+    return np.array([-mom[1], mom[0]]) / weight
+
+
+class _Box:
+    """The box of the feet's contact points on the floor, axes along the heading (forward, left)."""
+
+    def __init__(self, xy: np.ndarray, forward: np.ndarray) -> None:
+        self.R = np.array([forward, [-forward[1], forward[0]]])  # rows: forward, left
+        local = xy @ self.R.T
+        self.lo, self.hi = local.min(axis=0), local.max(axis=0)
+
+    def middle(self) -> np.ndarray:
+        """(2,) the box's middle, world."""
+        return (0.5 * (self.lo + self.hi)) @ self.R
+
+    def clip(self, p: np.ndarray, margin: float) -> np.ndarray:
+        """(2,) ``p`` (2,) world moved into the box shrunk by ``margin`` (its middle where that is empty)."""
+        lo, hi = self.lo + margin, self.hi - margin
+        mid = 0.5 * (self.lo + self.hi)
+        lo, hi = np.minimum(lo, mid), np.maximum(hi, mid)
+        return np.clip(self.R @ p, lo, hi) @ self.R
+
+    def inside(self, p: np.ndarray, margin: float) -> bool:
+        """Whether ``p`` (2,) world lies inside the box shrunk by ``margin`` (grown where negative)."""
+        x = self.R @ p
+        return bool(np.all(x >= self.lo + margin) and np.all(x <= self.hi - margin))

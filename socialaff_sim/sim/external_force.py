@@ -1,0 +1,62 @@
+"""The forces the world other than the floor exerts on the robot, as its contacts report them.
+
+A robot shaking hands, catching a ball or pulling a person up from a chair is pushed and pulled at its hands
+(100–170 N in a pull-up). :class:`ExternalForces` reads, after a physics step, every contact between a robot
+geom and anything but the floor (the person, the object, the chair), and returns their generalised force on
+the robot's coordinates (``Σ J_pᵀ f_p``, J_p the contact point's translational Jacobian) and their resultant
+force and moment about a point. The balance controller takes them as known loads for the next step (a
+wrist force sensor's reading, one step old), low-pass filtered.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from .scene import Scene
+
+__all__ = ["ExternalForces"]
+
+
+class ExternalForces:
+    """Contact forces on the robot from anything but the floor (see the module docstring)."""
+
+    def __init__(self, scene: Scene, exclude_floor: bool = True) -> None:
+        """``exclude_floor``: leave out the floor's contacts (``False`` counts them too, as a check: with no other
+        constraint acting, the sum is then MuJoCo's own ``qfrc_constraint``)."""
+        m = scene.model
+        self.scene = scene
+        self.vadr = np.asarray(scene.robot_vadr)
+        self._robot = np.asarray(scene.robot_geom, dtype=bool)
+        self._floor = int(scene.floor_geom) if exclude_floor else -2
+        self._jp = np.zeros((3, m.nv))
+        self._f6 = np.zeros(6)
+
+    def measure(self, m: mujoco.MjModel, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """At ``d``'s state after a step (contacts and constraint forces of that step): the generalised force
+        (nv_r,) on the robot's coordinates (N, N·m), the contact points (K, 3) and their forces on the robot
+        (K, 3), world frame."""
+        gen = np.zeros(len(self.vadr))
+        nc = d.ncon
+        if not nc:
+            return gen, np.zeros((0, 3)), np.zeros((0, 3))
+        g = d.contact.geom[:nc]
+        r0, r1 = self._robot[g[:, 0]], self._robot[g[:, 1]]
+        floor = (g[:, 0] == self._floor) | (g[:, 1] == self._floor)
+        rows = np.flatnonzero((r0 ^ r1) & ~floor & (d.contact.efc_address[:nc] >= 0))
+        pts, forces = [], []
+        for i in rows.tolist():
+            mujoco.mj_contactForce(m, d, i, self._f6)
+            frame = d.contact.frame[i].reshape(3, 3)
+            f = frame.T @ self._f6[:3]  # on geom 1, world frame
+            robot_geom = int(g[i, 1])
+            if r0[i]:
+                f, robot_geom = -f, int(g[i, 0])
+            p = d.contact.pos[i]
+            mujoco.mj_jac(m, d, self._jp, None, p, int(m.geom_bodyid[robot_geom]))
+            gen += self._jp[:, self.vadr].T @ f
+            pts.append(p.copy())
+            forces.append(f)
+        if not pts:
+            return gen, np.zeros((0, 3)), np.zeros((0, 3))
+        return gen, np.array(pts), np.array(forces)
