@@ -3,6 +3,7 @@ frame while the action holds and again when it changes, the physics of a held ac
 
 from __future__ import annotations
 
+import dataclasses
 import pickle
 
 import numpy as np
@@ -10,9 +11,11 @@ import pytest
 
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.environment import SocialAffordanceEnv
+from socialaff_sim.environment.config import physics_config
 from socialaff_sim.environment.control import ControlClock, control_steps_per_frame
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.ik import RobotIK
+from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.simulator import Simulator
 
 FRAMES = 10
@@ -250,3 +253,16 @@ def test_pickled_mid_frame_the_env_goes_on_as_the_original(data):
         assert r1 == r2
         for k in o1:
             np.testing.assert_array_equal(o1[k], o2[k], err_msg=k)
+
+
+def test_a_held_action_with_the_balance_controller_gives_its_frame_physics(data):
+    """The physics-rate balance controller (``SimConfig.balance``) plans per frame target: with a held action the
+    control steps reproduce the one-step-per-frame physics with it too."""
+    cfg = dataclasses.replace(physics_config("fast"), balance=BalanceConfig())
+    framewise = _play(make(data, None, sim_config=cfg, max_frames=6), 0)
+    control = _play(make(data, DT, sim_config=cfg, max_frames=6), 0)
+    at_frame = [control[0]] + [c for prev, c in zip(control, control[1:], strict=False) if c[0] != prev[0]]
+    assert len(at_frame) == len(framewise)
+    for f, c in zip(framewise, at_frame, strict=True):
+        for key in ("robot_keys", "joint_pos", "joint_vel"):
+            np.testing.assert_array_equal(f[1][key], c[1][key], err_msg=key)
