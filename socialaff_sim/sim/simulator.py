@@ -7,6 +7,8 @@ built for one robot and one task; :meth:`Simulator.reset` loads an instance
 through mink IK, the robot's position servos and its base anchor track the
 solution over the frame's physics steps while the human moves to the next
 frame, and the task's sub-goals and failures are scored on the contacts.
+:meth:`Simulator.step` is :meth:`~Simulator.solve` then :meth:`~Simulator.advance` over the whole frame; the
+environment's control period advances a frame in pieces and may solve again within it.
 """
 
 from __future__ import annotations
