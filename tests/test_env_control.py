@@ -266,3 +266,19 @@ def test_a_held_action_with_the_balance_controller_gives_its_frame_physics(data)
     for f, c in zip(framewise, at_frame, strict=True):
         for key in ("robot_keys", "joint_pos", "joint_vel"):
             np.testing.assert_array_equal(f[1][key], c[1][key], err_msg=key)
+
+
+def test_actions_outside_the_space_are_clipped_on_every_control_step(data):
+    """A residual of 9 m is the bound's 0.3 m, mid-frame too: the same physics as the bound itself."""
+    runs = []
+    for value in (9.0, 0.3):
+        env = make(data, DT)
+        env.reset(seed=1)
+        obs = None
+        for _ in range(env.clock.per_frame + 2):
+            a = np.zeros((5, 3), np.float32)
+            a[1:3, 2] = value  # the wrists up
+            obs, *_ = env.step(a)
+        runs.append(obs)
+    for k in runs[0]:
+        np.testing.assert_array_equal(runs[0][k], runs[1][k], err_msg=k)
