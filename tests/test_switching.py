@@ -29,6 +29,7 @@ from socialaff_sim.inference.reaction_regression import (
 )
 import socialaff_sim.inference.methods as methods_module
 from socialaff_sim.inference.switching import (
+    FAMILIES,
     GATED_FAMILIES,
     SwitchingConfig,
     SwitchingRegression,
@@ -72,7 +73,7 @@ def test_subevent_and_phase_columns(rng: np.random.Generator) -> None:
     np.testing.assert_allclose(rows[:, switching_columns(("plan",), S)], plan)
     np.testing.assert_allclose(rows[:, switching_columns(FEATURE_GROUPS, S)], x)
     assert switching_columns(("from_plan",), S).size == 0  # the prior has no columns
-    assert rows.shape[1] == N_FEATURES + 2 * S + S * N_FEATURES + 15
+    assert rows.shape[1] == N_FEATURES + 2 * S + S * N_FEATURES + 30  # and the primitive's 15 (zeros here)
 
 
 def test_cv_errors_match_an_explicit_loop(rng: np.random.Generator) -> None:
@@ -176,7 +177,7 @@ def test_plan_prior_is_selected_when_the_plan_is_right(rng: np.random.Generator)
     reg = SwitchingRegression().fit(insts, traces, n_subevents=2, rng=rng)
     assert sum(m.weight for m in reg.members_ if m.from_plan) == pytest.approx(1.0)
     assert reg.blend_error_ < 0.02
-    X, Y, O = instance_rows(insts[0], traces[0], T0, reg.config.features)
+    X, Y, O, _ = instance_rows(insts[0], traces[0], T0, reg.config.features)
     np.testing.assert_allclose(reg.displacement(X, O), Y, atol=0.02)  # without the prior added back: off by the plan
 
 
@@ -184,7 +185,7 @@ def test_hold_is_selected_when_nothing_predicts(rng: np.random.Generator) -> Non
     insts, traces = _toy(rng, "still")
     reg = SwitchingRegression().fit(insts, traces, n_subevents=2, rng=rng)
     assert reg.members_ == [] and reg.groups_ == HOLD
-    X, _, O = instance_rows(insts[0], traces[0], T0, reg.config.features)
+    X, _, O, _ = instance_rows(insts[0], traces[0], T0, reg.config.features)
     assert np.all(reg.displacement(X, O) == 0)
     assert select({(HOLD, math.inf): 0.1, (("agent0",), 1.0): 0.1}) == (HOLD, math.inf)  # hold wins ties
 
@@ -293,7 +294,7 @@ def test_training_plans_are_cross_fitted(monkeypatch: pytest.MonkeyPatch, rng: n
     m = AffordanceMethod("full")
     m.model_ = FakeModel().fit(insts, rng=rng)
     m.body_ = None
-    for cfg, seen_plan in [(SwitchingConfig(), 0.0), (SwitchingConfig(cross_fit=1), 1.0)]:
+    for cfg, seen_plan in [(SwitchingConfig(families=FAMILIES), 0.0), (SwitchingConfig(families=FAMILIES, cross_fit=1), 1.0)]:
         traces = m._training_traces(insts, cfg, rng)
         assert all(np.all(t.plan == seen_plan) for t in traces)
     traces = m._training_traces(insts, SwitchingConfig(families=GATED_FAMILIES), rng)

@@ -9,7 +9,9 @@ Registering a method
     ``"constvel"``, ``"ridge"`` and ``"gru"`` (:mod:`socialaff_sim.baselines`; ``"gru"`` needs the
     ``[neural]`` extra and fails with a :class:`~socialaff_sim.errors.ConfigError` naming it without torch), and the full model and its ablations ``"full"``,
     ``"full_online"``, ``"full_plan"`` (the default preset's synthesis without the switching regression,
-    :mod:`socialaff_sim.inference.switching`), ``"v1"`` and ``"v2"`` (:class:`~socialaff_sim.inference.methods.AffordanceMethod`).
+    :mod:`socialaff_sim.inference.switching`), ``"full_noprimitive"`` (the default preset's ``full`` whose switching
+    regression lacks the interaction primitive's family: ``FAMILIES``, the default before it, docs/design.md §8),
+    ``"v1"`` and ``"v2"`` (:class:`~socialaff_sim.inference.methods.AffordanceMethod`).
     :func:`get_method` fails with an error listing the available names.
 """
 
@@ -23,6 +25,7 @@ from ..baselines.simple import ConstantVelocity, HoldPose
 from ..errors import ConfigError, choices
 from ..inference.methods import REGISTERED_CHAINS, AffordanceMethod
 from ..inference.protocol import MethodFactory, ReactionMethod
+from ..inference.switching import FAMILIES, SwitchingConfig
 from ..inference.synthesis import SynthesisConfig
 
 __all__ = ["METHODS", "available_methods", "get_method", "register_method"]
@@ -70,6 +73,12 @@ def _full_plan(preset: str = "default") -> AffordanceMethod:
     return AffordanceMethod.from_preset("full", preset, chains=REGISTERED_CHAINS, reaction=None, name="full_plan")
 
 
+def _full_noprimitive(preset: str = "default") -> AffordanceMethod:
+    # the ablation: the switching regression without the interaction primitive's family (the paper preset has no regression)
+    reaction = SwitchingConfig(families=FAMILIES) if preset == "default" else None
+    return AffordanceMethod.from_preset("full", preset, chains=REGISTERED_CHAINS, reaction=reaction, name="full_noprimitive")
+
+
 def _full_online() -> AffordanceMethod:
     cfg = SynthesisConfig()  # the paper's Algorithm 2 settings under every protocol
     return AffordanceMethod("full", synthesis=cfg, offline_synthesis=cfg, name="full_online")
@@ -85,6 +94,7 @@ METHODS: dict[str, MethodFactory] = {
     "full": _full,
     "full_online": _full_online,
     "full_plan": _full_plan,
+    "full_noprimitive": _full_noprimitive,
     "v1": _v1,
     "v2": _v2,
 }

@@ -30,6 +30,7 @@ from ..learning.estimator import SocialAffordanceModel
 from ..model.config import AffordanceConfig
 from ..model.joints import instance_frame
 from .body_fit import BodyFitConfig, BodyFitter
+from .interaction_primitive import InteractionPrimitive
 from .presets import PRESETS
 from .presets import preset as named_preset
 from .protocol import Prediction
@@ -40,7 +41,8 @@ from .synthesis import OnlineSynthesizer, SynthesisConfig
 
 
 __all__ = [
-    "AffordanceMethod", "PRESETS", "REGISTERED_CHAINS", "VARIANTS", "fit_skeleton", "preset_configs", "synthesize", "trace",
+    "AffordanceMethod", "PRESETS", "REGISTERED_CHAINS", "VARIANTS", "fit_skeleton", "preset_configs", "primitive_trace",
+    "synthesize", "trace",
 ]
 
 VARIANTS: dict[str, dict[str, bool]] = {
@@ -109,6 +111,18 @@ def trace(
     skeleton[config.n_observed:] = body.fit_poses(plan[config.n_observed:], instance_frame(interaction))
     return Trace(belief=np.stack([st.belief for st in steps]), phase=np.array([st.phase for st in steps]), plan=plan,
                  skeleton=skeleton)
+
+
+def primitive_trace(primitive: InteractionPrimitive, body: BodyFitter, trace_: Trace, interaction: Interaction, n_observed: int) -> Trace:
+    """``trace_`` with the interaction primitive's causal key joints of every frame ≥ T0 = ``n_observed``
+    (:meth:`~.interaction_primitive.InteractionPrimitive.causal_key_joints`) and the skeletons ``body`` fits to them."""
+    T = interaction.n_frames
+    keys = np.full((T, 5, 3), np.nan)
+    skeleton = np.full((T, interaction.joints.shape[2], 3), np.nan)
+    if T > n_observed:
+        keys = primitive.causal_key_joints(interaction, n_observed)
+        skeleton[n_observed:] = body.fit_poses(keys[n_observed:], instance_frame(interaction))
+    return dataclasses.replace(trace_, primitive=keys, primitive_skeleton=skeleton)
 
 
 def fit_skeleton(
@@ -185,29 +199,39 @@ class AffordanceMethod:
         self.model_ = self.models_[0]
         self.body_ = BodyFitter(self.body).fit_interactions(inters, agent=1, rng=rng)
         if self.reaction is not None:
+            if self.reaction.needs_primitive:
+                self.primitive_ = InteractionPrimitive(self.reaction.primitive).fit(inters)
             traces = self._training_traces(inters, self.reaction, rng)
             self.reaction_ = SwitchingRegression(self.reaction).fit(
                 inters, traces, n_subevents=self.model_.n_subevents_, rng=rng)
         return self
 
     def _training_traces(self, inters: list[Interaction], reaction: SwitchingConfig, rng: np.random.Generator) -> list[Trace]:
-        """The switching regression's training traces: plans from models fitted on the other parts of a
-        ``reaction.cross_fit``-part split (out of sample), beliefs and phases from ``model_`` (module :mod:`.switching`)."""
+        """The switching regression's training traces: plans (and the interaction primitive's predictions, when a
+        family reads them) from models fitted on the other parts of a ``reaction.cross_fit``-part split (out of
+        sample), beliefs and phases from ``model_`` (module :mod:`.switching`)."""
         cfg = dataclasses.replace(self.synthesis, n_observed=reaction.n_observed)
-        parts = inner_folds(inters, np.arange(len(inters)), reaction.cross_fit, rng) if reaction.cross_fit > 1 else []
+        parts = (inner_folds(inters, np.arange(len(inters)), reaction.cross_fit, rng, contiguous=reaction.contiguous)
+                 if reaction.cross_fit > 1 else [])
         crossed = len(parts) >= 2 and all(len(inters) - len(p) >= 2 for p in parts)
         if not crossed or reaction.needs_belief:
             own = [trace(self.model_, self.body_, inst, cfg, rng) for inst in inters]
             if not crossed:
+                if reaction.needs_primitive:  # in sample, as the plans
+                    own = [primitive_trace(self.primitive_, self.body_, tr, inst, cfg.n_observed) for tr, inst in zip(own, inters, strict=True)]
                 return own
         out: dict[int, Trace] = {}
         for part in parts:
             rest = [inst for i, inst in enumerate(inters) if i not in set(part)]
             model = SocialAffordanceModel(self.model_config, self.learning).fit(rest, rng=rng)
+            primitive = InteractionPrimitive(reaction.primitive).fit(rest) if reaction.needs_primitive else None
             for i in part:
                 out[i] = trace(model, self.body_, inters[i], cfg, rng)
+                if primitive is not None:  # out of sample: fitted without instance i, as the plan
+                    out[i] = primitive_trace(primitive, self.body_, out[i], inters[i], cfg.n_observed)
         if reaction.needs_belief:  # the plans out of sample, the beliefs in the labels of model_
-            return [dataclasses.replace(own[i], plan=out[i].plan, skeleton=out[i].skeleton) for i in range(len(inters))]
+            return [dataclasses.replace(own[i], plan=out[i].plan, skeleton=out[i].skeleton, primitive=out[i].primitive,
+                                        primitive_skeleton=out[i].primitive_skeleton) for i in range(len(inters))]
         return [out[i] for i in range(len(inters))]
 
     def _check(self) -> None:
@@ -276,7 +300,13 @@ class _AffordanceReactor:
         # The switching regression: the first chain's belief and phase, the chains' mean plan.
         motion = self.stream.rows(view, start, stop)
         anchor = self.stream.anchor
+        prim, prim_offset = None, None
+        if self.reaction.uses_primitive:  # the interaction primitive conditioned on the same view
+            prim_keys = self.method.primitive_.react_keys(view, start, stop, n_observed=self.config.n_observed)
+            prim = plan_displacement(anchor, prim_keys, view)
+            if any(m.prior == "from_primitive" for m in self.reaction.members_):
+                prim_offset = plan_offset(anchor, self.method.body_.fit_poses(prim_keys, self._frame))
         rows = switching_rows(motion, np.stack([st.belief for st in blocks[0]]), np.array([st.phase for st in blocks[0]]),
-                              plan_displacement(anchor, keys, view))
-        joints = anchor.to_world(self.reaction.displacement(rows, plan_offset(anchor, joints)))
+                              plan_displacement(anchor, keys, view), prim)
+        joints = anchor.to_world(self.reaction.displacement(rows, plan_offset(anchor, joints), prim_offset))
         return Prediction(joints=joints, key_joints=view.layout.key_joints(joints), subevents=subs, n_observed=0)

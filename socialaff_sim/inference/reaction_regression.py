@@ -86,12 +86,18 @@ def scale_of(X: np.ndarray, w: np.ndarray) -> np.ndarray:
     return np.where(rms > 1e-12, rms, 1.0)
 
 
-def inner_folds(interactions: Sequence[Interaction], usable: np.ndarray, k: int, rng: np.random.Generator) -> list[list[int]]:
+def inner_folds(
+    interactions: Sequence[Interaction], usable: np.ndarray, k: int, rng: np.random.Generator, *, contiguous: bool = False
+) -> list[list[int]]:
     """At most ``k`` non-empty folds of the instance indices ``usable``: actor-pair-disjoint with two pairs or
-    more, else instance-disjoint."""
+    more, else instance-disjoint — dealt at random, or, with ``contiguous``, as consecutive runs of ``usable`` in
+    the order given (for one pair's recording given in time order: held-out blocks of the session, as a block
+    split holds them out; neighbouring repetitions of one session resemble each other more than later ones)."""
     pairs: dict[tuple[str, ...], list[int]] = {}
     for i in usable:
         pairs.setdefault(tuple(sorted(interactions[i].actors)), []).append(int(i))
+    if contiguous and len(pairs) < 2:
+        return [[int(i) for i in run] for run in np.array_split(np.asarray(usable), min(k, len(usable))) if len(run)]
     groups = pairs if len(pairs) >= 2 else {(str(i),): [int(i)] for i in usable}
     return [f for f in deal_groups(groups, min(k, len(groups)), rng) if f]
 

@@ -23,11 +23,16 @@ skeleton, in the anchor frame of :mod:`.reaction_features`, that is linear in
 ``from_plan`` (no columns)
     the prior: with it the displacement is the plan's (its whole skeleton, fitted to the planned key joints
     by the model's body fitter) plus the linear term, which the ridge penalty then shrinks toward the plan
-    instead of toward ``hold``; alone, it is Algorithm 2's synthesis itself.
+    instead of toward ``hold``; alone, it is Algorithm 2's synthesis itself;
+``primitive`` (15), ``from_primitive`` (no columns)
+    the same two for a phase-based prediction: an interaction primitive
+    (:class:`~.interaction_primitive.InteractionPrimitive`, the ``promp`` baseline's model) of the class,
+    conditioned on agent 0's frames ≤ t, its phase from the duration estimated on them.
 
 The candidates come in *families* (:attr:`SwitchingConfig.families`): ``motion`` (the motion groups alone:
 the ``ridge`` baseline's candidates), ``subevent`` (motion groups with the belief-gated groups) and ``plan``
-(the plan as prior or features, with or without the gated groups). An inner cross-validation on the training
+(the plan as prior or features, with or without the gated groups) and ``primitive`` (the interaction
+primitive's prediction as prior or features). An inner cross-validation on the training
 instances (:mod:`.reaction_regression`) picks each family's best (groups, λ), then the weights α_f ≥ 0,
 Σα_f ≤ 1 (a grid of step 0.1; the rest on ``hold``) of the blend Σ_f α_f prediction_f that minimise the
 held-out error of the families' held-out predictions; ties go to more ``hold``. A part of the affordance
@@ -51,6 +56,7 @@ import numpy as np
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError, NotFittedError
+from .interaction_primitive import ProMPConfig
 from .protocol import DEFAULT_N_OBSERVED
 from .reaction_features import FEATURE_GROUPS, N_FEATURES, RAMP_COLUMN, Anchor, FeatureConfig, group_columns, training_rows
 from .reaction_regression import (
@@ -59,13 +65,16 @@ from .reaction_regression import (
 )
 
 __all__ = [
-    "FAMILIES", "GATED_FAMILIES", "HOLD", "MODEL_GROUPS", "Member", "SwitchingConfig", "SwitchingRegression", "Trace", "instance_rows", "plan_displacement",
+    "FAMILIES", "GATED_FAMILIES", "HOLD", "MODEL_GROUPS", "PRIMITIVE_FAMILIES", "PRIORS", "Member", "SwitchingConfig", "SwitchingRegression", "Trace", "instance_rows", "plan_displacement",
     "plan_offset", "switching_columns", "switching_rows", "switching_scale",
 ]
 
-MODEL_GROUPS: tuple[str, ...] = ("subevent", "phase", "gated", "plan", "from_plan")
-"""The groups driven by the affordance model (the first four are columns, in order after the motion features;
-``from_plan`` is the prior)."""
+MODEL_GROUPS: tuple[str, ...] = ("subevent", "phase", "gated", "plan", "from_plan", "primitive", "from_primitive")
+"""The groups driven by a model of the class (columns in this order after the motion features, but for the
+priors ``from_plan`` and ``from_primitive``); all but the last two are the affordance model's."""
+
+PRIORS: tuple[str, ...] = ("from_plan", "from_primitive")
+"""The groups that are a prior (the prediction the ridge term is added to); a candidate holds at most one."""
 
 
 def _motion_subsets() -> tuple[tuple[str, ...], ...]:
@@ -75,7 +84,8 @@ def _motion_subsets() -> tuple[tuple[str, ...], ...]:
 Family = tuple[str, tuple[tuple[str, ...], ...]]
 
 FAMILIES: tuple[Family, ...] = (("motion", ((),)), ("plan", (("from_plan",), ("plan",))))
-"""The default families: the motion features alone (``ridge``'s candidates), and the plan as prior or features."""
+"""The motion features alone (``ridge``'s candidates), and the plan as prior or features: the default before the
+primitive's family (registered as the method ``full_noprimitive``)."""
 
 GATED_FAMILIES: tuple[Family, ...] = (
     ("motion", ((),)),
@@ -83,6 +93,10 @@ GATED_FAMILIES: tuple[Family, ...] = (
     ("plan", (("from_plan",), ("plan",), ("from_plan", "subevent", "phase"), ("from_plan", "subevent", "phase", "gated"))),
 )
 """With the belief-gated groups as well (tried on the development split and left out of the default: docs/design.md)."""
+
+PRIMITIVE_FAMILIES: tuple[Family, ...] = FAMILIES + (("primitive", (("from_primitive",), ("primitive",))),)
+"""The default families: :data:`FAMILIES` and the interaction primitive's prediction as prior or features
+(docs/design.md §8)."""
 
 
 @dataclass(frozen=True)
@@ -96,25 +110,33 @@ class SwitchingConfig:
     """[—]: How the motion features are computed (as ``ridge``'s)."""
     motion: tuple[tuple[str, ...], ...] = field(default_factory=_motion_subsets)
     """[—]: Sets of motion groups (:data:`~.reaction_features.FEATURE_GROUPS`) the inner CV chooses among."""
-    families: tuple[Family, ...] = FAMILIES
+    families: tuple[Family, ...] = PRIMITIVE_FAMILIES
     """[—]: (name, sets of model-driven groups) per family: each set (of :data:`MODEL_GROUPS`) is joined to each
     motion set (and, when not empty, also used without motion features); ``()`` is the motion features alone
     (the ``ridge`` baseline's candidates). Each family's best candidate enters the blend."""
     blend_steps: int = 10
     """[—]: The blend's weights are multiples of 1 / blend_steps (1: keep the single best family or ``hold``)."""
     cross_fit: int = 2
-    """[—]: The plans of the training rows come from models fitted on the other parts of a split of the training
-    instances into this many parts (pair-disjoint where possible): out of sample, as at test. 1: from the model
+    """[—]: The plans (and the interaction primitive's predictions) of the training rows come from models fitted on
+    the other parts of a split of the training instances into this many parts (pair-disjoint where possible): out
+    of sample, as at test. 1: from the model
     fitted on all of them, in sample, which the inner CV then over-trusts (NuiSI's development split, docs/design.md).
     The beliefs and phases always come from the model fitted on all of them (its sub-event labels are the test's)."""
     penalties: tuple[float, ...] = (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0)
     """λ [—]: Ridge penalties the inner CV chooses among (unit-RMS features, rows weighing one per instance)."""
     inner_folds: int = 3
     """[—]: Folds of the inner cross-validation on the training instances."""
+    contiguous: bool = False
+    """[—]: With a single actor pair, the inner folds and the cross-fitting's parts are consecutive runs of the
+    training instances in their order (time order for one recording: held-out blocks of the session) instead of
+    random instances (:func:`~.reaction_regression.inner_folds`); with two pairs or more they are pair-disjoint."""
     n_observed: int = DEFAULT_N_OBSERVED
     """T0 [frames]: agent 1's observed frames when the training rows are built (the evaluation's T0)."""
     fallback: tuple[tuple[str, ...], float] = (FEATURE_GROUPS + ("subevent",), 10.0)
     """[—]: (groups, λ) used when the training set has a single instance (no inner CV is possible)."""
+    primitive: ProMPConfig = field(default_factory=ProMPConfig)
+    """[—]: The interaction primitive of the ``primitive`` and ``from_primitive`` groups (its ``body_fit`` unused:
+    the primitive's key joints are fitted by the affordance method's body fitter)."""
 
     def __post_init__(self) -> None:
         if not self.penalties or not all(p > 0 and math.isfinite(p) for p in self.penalties):
@@ -125,6 +147,8 @@ class SwitchingConfig:
         bad = {g for _, extras in self.families for c in extras for g in c} - set(MODEL_GROUPS)
         if bad or not self.families or not all(extras for _, extras in self.families):
             raise ConfigError(f"families: expected non-empty lists of sets of {MODEL_GROUPS}, found unknown {sorted(bad)}")
+        if any(len(set(c) & set(PRIORS)) > 1 for _, extras in self.families for c in extras):
+            raise ConfigError(f"families: a set holds at most one of the priors {PRIORS}")
         if self.cross_fit < 1:
             raise ConfigError(f"cross_fit: expected at least 1, found {self.cross_fit}")
         if self.blend_steps < 1:
@@ -138,6 +162,11 @@ class SwitchingConfig:
     def needs_belief(self) -> bool:
         """Whether a candidate reads the belief or the phase (``subevent``, ``phase``, ``gated``)."""
         return any(g in ("subevent", "phase", "gated") for _, extras in self.families for c in extras for g in c)
+
+    @property
+    def needs_primitive(self) -> bool:
+        """Whether a candidate reads the interaction primitive (``primitive``, ``from_primitive``)."""
+        return any(g in ("primitive", "from_primitive") for _, extras in self.families for c in extras for g in c)
 
     def candidates(self, family: str) -> tuple[tuple[str, ...], ...]:
         """The candidates' groups of ``family``: each motion set joined with each of its sets of model-driven
@@ -158,6 +187,11 @@ class Trace:
     """(T, 5, 3) float64, metres, world: agent 1's key joints as Algorithm 2 synthesized them."""
     skeleton: np.ndarray
     """(T, J, 3) float64, metres, world: agent 1's skeleton fitted to ``plan`` (frames ≥ T0; NaN before)."""
+    primitive: np.ndarray | None = None
+    """(T, 5, 3) float64, metres, world: agent 1's key joints as the interaction primitive predicts them causally
+    (frames ≥ T0; NaN before); ``None``: not computed (the ``primitive`` groups then read zeros: ``hold``)."""
+    primitive_skeleton: np.ndarray | None = None
+    """(T, J, 3) float64, metres, world: agent 1's skeleton fitted to ``primitive`` (or ``None``)."""
 
 
 def switching_columns(groups: Sequence[str], n_subevents: int) -> np.ndarray:
@@ -174,20 +208,26 @@ def switching_columns(groups: Sequence[str], n_subevents: int) -> np.ndarray:
         out.append((F + 2 * S + F * np.arange(S)[:, None] + motion[None]).reshape(-1))
     if "plan" in groups:
         out.append(F + 2 * S + S * F + np.arange(3 * N_KEY))
+    if "primitive" in groups:
+        out.append(F + 2 * S + S * F + 3 * N_KEY + np.arange(3 * N_KEY))
     return np.concatenate(out).astype(np.int64)
 
 
-def switching_rows(motion: np.ndarray, belief: np.ndarray, phase: np.ndarray, plan: np.ndarray) -> np.ndarray:
-    """(N, F + 2S + S·F + 15) rows: the motion features (N, F), b·r (N, S), b·φ·r (N, S), the gated motion
-    features b_s·x (N, S·F; column F + 2S + s·F + j is b_s·x_j) and the plan's displacement (N, 15), from the
-    motion features (N, F), the belief (N, S), the phase (N,) (NaN counts as 0) and the plan's displacement
-    (N, 15), metres, anchor frame."""
+def switching_rows(
+    motion: np.ndarray, belief: np.ndarray, phase: np.ndarray, plan: np.ndarray, primitive: np.ndarray | None = None
+) -> np.ndarray:
+    """(N, F + 2S + S·F + 30) rows: the motion features (N, F), b·r (N, S), b·φ·r (N, S), the gated motion
+    features b_s·x (N, S·F; column F + 2S + s·F + j is b_s·x_j), the plan's displacement (N, 15) and the
+    interaction primitive's (N, 15), from the motion features (N, F), the belief (N, S), the phase (N,) (NaN
+    counts as 0) and the plan's and the primitive's displacements (N, 15), metres, anchor frame (``primitive``
+    ``None``: zeros)."""
     x = np.asarray(motion, dtype=np.float64)
     b = np.asarray(belief, dtype=np.float64)
     ramp = x[:, RAMP_COLUMN]
     phi = np.nan_to_num(np.asarray(phase, dtype=np.float64))
     gated = (b[:, :, None] * x[:, None, :]).reshape(len(x), -1)
-    return np.concatenate([x, b * ramp[:, None], b * (phi * ramp)[:, None], gated, np.nan_to_num(plan)], axis=1)
+    prim = np.zeros((len(x), 3 * N_KEY)) if primitive is None else np.nan_to_num(primitive)
+    return np.concatenate([x, b * ramp[:, None], b * (phi * ramp)[:, None], gated, np.nan_to_num(plan), prim], axis=1)
 
 
 def switching_scale(rows: np.ndarray, w: np.ndarray, n_subevents: int) -> np.ndarray:
@@ -220,14 +260,18 @@ def plan_offset(anchor: Anchor, skeleton: np.ndarray) -> np.ndarray:
 
 def instance_rows(
     interaction: Interaction, trace: Trace, n_observed: int, config: FeatureConfig
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Rows (N, ·) of :func:`switching_rows`, targets (N, J·3) (anchor-frame displacements, metres) and the
-    ``from_plan`` prior (N, J·3) of frames T0 … T − 1 of a training instance."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rows (N, ·) of :func:`switching_rows`, targets (N, J·3) (anchor-frame displacements, metres), the
+    ``from_plan`` prior (N, J·3) and the ``from_primitive`` prior (N, J·3; zeros without the primitive) of
+    frames T0 … T − 1 of a training instance."""
     X, Y, frames = training_rows(interaction, n_observed, config)
     anchor = Anchor.from_view(interaction.hide_agent_after(1, n_observed), n_observed, config)
     plan = plan_displacement(anchor, trace.plan[frames], interaction)
-    rows = switching_rows(X, trace.belief[frames], trace.phase[frames], plan)
-    return rows, Y, plan_offset(anchor, trace.skeleton[frames])
+    prim = None if trace.primitive is None else plan_displacement(anchor, trace.primitive[frames], interaction)
+    rows = switching_rows(X, trace.belief[frames], trace.phase[frames], plan, prim)
+    skel = trace.primitive_skeleton
+    prim_offset = np.zeros_like(Y) if skel is None else plan_offset(anchor, skel[frames])
+    return rows, Y, plan_offset(anchor, trace.skeleton[frames]), prim_offset
 
 
 @dataclass(frozen=True, eq=False)
@@ -237,7 +281,7 @@ class Member:
     family: str
     """The family's name."""
     groups: tuple[str, ...]
-    """Its groups (``from_plan`` in them: the plan is its prior)."""
+    """Its groups (``from_plan`` or ``from_primitive`` in them: that prediction is its prior)."""
     penalty: float
     """λ (``inf``: no regression term)."""
     weight: float
@@ -248,9 +292,18 @@ class Member:
     """(F_m, J·3) its ridge weights on those (scaled) columns."""
 
     @property
+    def prior(self) -> str | None:
+        """Its prior (one of :data:`PRIORS`), or ``None`` (``hold``)."""
+        return _prior_of(self.groups)
+
+    @property
     def from_plan(self) -> bool:
         """Whether the plan is its prior."""
-        return "from_plan" in self.groups
+        return self.prior == "from_plan"
+
+
+def _prior_of(groups: Sequence[str]) -> str | None:
+    return next((g for g in groups if g in PRIORS), None)
 
 
 class SwitchingRegression:
@@ -270,27 +323,33 @@ class SwitchingRegression:
         cfg = self.config
         if len(traces) != len(interactions):
             raise ModelError(f"switching regression: {len(interactions)} interactions but {len(traces)} traces")
-        (X, Y, offset), w, row_ids = stack_instances(
+        (X, Y, plan_prior, prim_prior), w, row_ids = stack_instances(
             interactions, cfg.n_observed,
             lambda i, inst: instance_rows(inst, traces[i], cfg.n_observed, cfg.features), "switching regression")
         S = self.n_subevents_ = int(n_subevents)
         self.scale_ = switching_scale(X, w, S)
         Xs = X / self.scale_
-        folds = inner_folds(interactions, np.unique(row_ids), cfg.inner_folds, rng)
+        folds = inner_folds(interactions, np.unique(row_ids), cfg.inner_folds, rng, contiguous=cfg.contiguous)
+        priors = {"from_plan": plan_prior, "from_primitive": prim_prior}
         self.cv_errors_: dict[tuple[tuple[str, ...], float], float] = {}
         chosen: list[tuple[str, tuple[str, ...], float, float]] = []  # (family, groups, λ, α)
         if len(folds) >= 2:
             kc = key_columns(interactions[0])
-            Yk, Ok = Y[:, kc], offset[:, kc]
+            Yk = Y[:, kc]
             winners, preds = [], []
             for family, _ in cfg.families:
                 candidates = {g: switching_columns(g, S) for g in cfg.candidates(family)}
-                cv = cv_errors(Xs, Yk, w, row_ids, folds, candidates, cfg.penalties, offset=Ok,
-                               from_offset=[g for g in candidates if "from_plan" in g])
+                cv: dict[tuple[tuple[str, ...], float], float] = {}
+                for prior in (None,) + PRIORS:  # one call per prior: cv_errors shifts by one offset
+                    some = {g: c for g, c in candidates.items() if _prior_of(g) == prior}
+                    if some:
+                        cv.update(cv_errors(Xs, Yk, w, row_ids, folds, some, cfg.penalties,
+                                            offset=priors[prior][:, kc] if prior else None, from_offset=some if prior else ()))
                 self.cv_errors_.update(cv)
                 groups, lam = select({k: v for k, v in cv.items() if k[0] != HOLD})
                 winners.append((family, groups, lam))
-                base = Ok if "from_plan" in groups else np.zeros_like(Yk)
+                prior = _prior_of(groups)
+                base = priors[prior][:, kc] if prior else np.zeros_like(Yk)
                 preds.append(fold_predictions(Xs, Yk, w, row_ids, folds, candidates[groups], lam, base))
             alpha, self.blend_error_ = blend_weights(np.stack(preds), Yk, row_ids, cfg.blend_steps)
             chosen = [(f, g, lam, float(a)) for (f, g, lam), a in zip(winners, alpha, strict=True) if a > 0]
@@ -301,7 +360,8 @@ class SwitchingRegression:
         self.members_: list[Member] = []
         for family, groups, lam, alpha in chosen:
             cols = switching_columns(groups, S)
-            target = Y - offset if "from_plan" in groups else Y
+            prior = _prior_of(groups)
+            target = Y - priors[prior] if prior else Y
             if len(cols) and math.isfinite(lam):
                 Xc = Xs[:, cols]
                 coef = ridge_solve((Xc * wn[:, None]).T @ Xc, (Xc * wn[:, None]).T @ target, lam)
@@ -311,15 +371,19 @@ class SwitchingRegression:
         self.n_outputs_ = Y.shape[1]
         return self
 
-    def displacement(self, rows: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    def displacement(self, rows: np.ndarray, offset: np.ndarray, primitive_offset: np.ndarray | None = None) -> np.ndarray:
         """(N, J·3) anchor-frame displacements, metres: Σ_m α_m (prior_m + rows_m W_m) for rows (N, ·) of
-        :func:`switching_rows` and the ``from_plan`` prior ``offset`` (N, J·3) (:func:`plan_offset`; read only by
-        members whose prior it is)."""
+        :func:`switching_rows`, the ``from_plan`` prior ``offset`` (N, J·3) (:func:`plan_offset`) and the
+        ``from_primitive`` prior ``primitive_offset`` (N, J·3), each read only by members whose prior it is."""
         if not hasattr(self, "members_"):
             raise NotFittedError("switching regression: call fit(...) before displacement")
+        priors = {"from_plan": offset, "from_primitive": primitive_offset}
         out = np.zeros((len(rows), self.n_outputs_))
         for m in self.members_:
-            part = np.array(offset, dtype=np.float64) if m.from_plan else np.zeros_like(out)
+            given = priors[m.prior] if m.prior else None
+            if m.prior and given is None:
+                raise ModelError(f"switching regression: a member's prior is {m.prior!r}: pass its offset")
+            part = np.array(given, dtype=np.float64) if given is not None else np.zeros_like(out)
             if len(m.columns):
                 part += (rows[:, m.columns] / self.scale_[m.columns]) @ m.coefficients
             out += m.weight * part
@@ -331,6 +395,12 @@ class SwitchingRegression:
         return tuple(dict.fromkeys(g for m in getattr(self, "members_", ()) for g in m.groups))
 
     @property
+    def uses_primitive(self) -> bool:
+        """Whether the blend reads the interaction primitive (``primitive`` or ``from_primitive``)."""
+        return any(g in ("primitive", "from_primitive") for g in self.groups_)
+
+    @property
     def uses_model(self) -> bool:
-        """Whether the blend reads the affordance model (a group of :data:`MODEL_GROUPS`)."""
+        """Whether the blend reads a model of the class (a group of :data:`MODEL_GROUPS`: the affordance model's,
+        or the interaction primitive's)."""
         return any(g in MODEL_GROUPS for g in self.groups_)
