@@ -23,6 +23,11 @@ Run on one core::
 
     OMP_NUM_THREADS=1 python scripts/bench_env.py --rounds 5 --steps 600 --vector 1,2,4,8 --json env.json
 
+Besides steps per second, the simulated seconds per CPU second (ours: ``info["time"]``; Humanoid-v5: its
+``dt`` of 0.015 s per step) and their ratio, so that a ratio of steps cannot be won by simulating less per step.
+``--control-dt`` sets our env's control period (``default``: the env's own, 0.015 s; ``none``: one step per
+data frame; or seconds).
+
 ``--profile`` prints a cProfile of the ``ours_zero`` pass (cProfile inflates the Python parts).
 ``--compliant-person 0``, ``--timestep S`` and ``--ik-iterations N`` replace those fields of the preset's
 ``SimConfig`` for ``ours_zero`` and ``ours_random`` (the speed options of docs/environment.md; their cost in
@@ -79,10 +84,12 @@ class Runner:
     reset_cpu: list[float] = field(default_factory=list)
     finished: int = 0
     successes: int = 0
+    sim_seconds: float = 0.0  # simulated time the timed steps covered
     rounds: list[float] = field(default_factory=list)  # steps/s (wall, resets included) per round
     _rng: np.random.Generator = field(init=False)
     _zero: np.ndarray = field(init=False)
     _live: bool = False
+    _clock: float = 0.0  # ours: info["time"] after the last step (simulated seconds since the reset)
 
     def __post_init__(self) -> None:
         self._rng = np.random.default_rng(self.seed)
@@ -96,6 +103,7 @@ class Runner:
         self.reset_cpu.append(time.process_time() - c)
         self.resets += 1
         self._live = True
+        self._clock = 0.0
 
     def run(self, n: int) -> None:
         """``n`` steps, resetting whenever an episode ends (the resets are timed apart)."""
@@ -110,6 +118,11 @@ class Runner:
             self.step_wall += time.perf_counter() - w
             self.step_cpu += time.process_time() - c
             self.steps += 1
+            if "time" in info:  # ours: the simulated time since the reset (a step covers a control period)
+                self.sim_seconds += info["time"] - self._clock
+                self._clock = info["time"]
+            else:  # Humanoid-v5: a fixed dt (5 physics steps of 3 ms)
+                self.sim_seconds += float(self.env.unwrapped.dt)
             if term or trunc:
                 self._live = False
                 self.finished += 1
@@ -125,6 +138,9 @@ class Runner:
             "steps_per_s_wall_with_resets": self.steps / (self.step_wall + rw.sum() / 1e3),
             "steps_per_s_cpu": self.steps / self.step_cpu,
             "steps_per_s_cpu_with_resets": self.steps / (self.step_cpu + sum(self.reset_cpu)),
+            "sim_seconds": self.sim_seconds,
+            "sim_seconds_per_step": self.sim_seconds / self.steps if self.steps else None,
+            "sim_s_per_cpu_s_with_resets": self.sim_seconds / (self.step_cpu + sum(self.reset_cpu)),
             "ms_per_reset_cpu_median": float(np.median(self.reset_cpu)) * 1e3 if self.reset_cpu else None,
             "ms_per_reset_median": float(np.median(rw)) if len(rw) else None,
             "ms_per_reset_p95": float(np.percentile(rw, 95)) if len(rw) else None,
@@ -148,9 +164,17 @@ def sim_options(physics: str, compliant_person: int | None, timestep: float | No
     return cfg
 
 
-def make_ours(policy: str, robot: str, physics: str, sim_config: SimConfig | None = None) -> gym.Env:
+def control_kwargs(control_dt: str) -> dict[str, Any]:
+    """``--control-dt``: ``default`` (the env's own), ``none`` (one env step per data frame) or seconds."""
+    if control_dt == "default":
+        return {}
+    return {"control_dt": None if control_dt == "none" else float(control_dt)}
+
+
+def make_ours(policy: str, robot: str, physics: str, sim_config: SimConfig | None = None,
+              control: dict[str, Any] | None = None) -> gym.Env:
     mode = "residual" if policy == "zero" else "targets"
-    return gym.make(ENV_ID, action_mode=mode, robot=robot, physics=physics, sim_config=sim_config)
+    return gym.make(ENV_ID, action_mode=mode, robot=robot, physics=physics, sim_config=sim_config, **(control or {}))
 
 
 def warm_up(env: gym.Env) -> list[float]:
@@ -217,8 +241,12 @@ def instrument(timer: StageTimer) -> None:
         timer.wrap(cls, "log_likelihood", "scoring")
     timer.wrap(simulator.Simulator, "retarget", "retargeting")
     timer.wrap(simulator.Simulator, "step", "other")
+    timer.wrap(simulator.Simulator, "solve", "other")
+    timer.wrap(simulator.Simulator, "advance", "other")
     timer.wrap(ik_module.RobotIK, "solve", "IK")
     timer.wrap(substeps.FrameStepper, "run", "physics: sub-step loop")
+    for name in ("plan", "replan", "advance"):
+        timer.wrap(substeps.FrameStepper, name, "physics: sub-step loop")
     timer.wrap(mujoco, "mj_step", "physics: mj_step")
     timer.wrap(scoring.SubgoalScorer, "update", "scoring")
     timer.wrap(scoring.SubgoalScorer, "measure_gaps", "scoring")
@@ -268,7 +296,8 @@ def vector_rate(make: Callable[[], gym.vector.VectorEnv], n_envs: int, total_ste
         venv.close()
 
 
-def vector_table(workers: list[int], steps: int, robot: str, physics: str, seed: int) -> list[dict[str, Any]]:
+def vector_table(workers: list[int], steps: int, robot: str, physics: str, seed: int,
+                 control: dict[str, Any]) -> list[dict[str, Any]]:
     rows = []
     for n in workers:
         row: dict[str, Any] = {"workers": n}
@@ -279,7 +308,7 @@ def vector_table(workers: list[int], steps: int, robot: str, physics: str, seed:
 
                 def make(n: int = n, mode: str = mode) -> gym.vector.VectorEnv:
                     return gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="async", action_mode=mode,
-                                        robot=robot, physics=physics)
+                                        robot=robot, physics=physics, **control)
             else:
                 def make(n: int = n) -> gym.vector.VectorEnv:
                     return gym.make_vec(REFERENCE_ID, num_envs=n, vectorization_mode="async")
@@ -304,6 +333,8 @@ def main() -> None:
                     help="override SimConfig.compliant_person of the preset (ours_zero/ours_random, not --vector)")
     ap.add_argument("--timestep", type=float, default=None, help="override SimConfig.timestep of the preset, s")
     ap.add_argument("--ik-iterations", type=int, default=None, help="override IKConfig.iterations of the preset")
+    ap.add_argument("--control-dt", default="default",
+                    help="our env's control period: default (the env's), none (one step per data frame) or seconds")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--profile", action="store_true", help="print a cProfile of one ours_zero pass")
     ap.add_argument("--json", default=None, help="also write the result here")
@@ -312,9 +343,11 @@ def main() -> None:
     load0 = os.getloadavg()
     t0 = time.perf_counter()
     options = sim_options(args.physics, args.compliant_person, args.timestep, args.ik_iterations)
+    control = control_kwargs(args.control_dt)
     runners = [
-        Runner("ours_zero", make_ours("zero", args.robot, args.physics, options), "zero", args.seed),
-        Runner("ours_random", make_ours("random", args.robot, args.physics, options), "random", args.seed + 1),
+        Runner("ours_zero", make_ours("zero", args.robot, args.physics, options, control), "zero", args.seed),
+        Runner("ours_random", make_ours("random", args.robot, args.physics, options, control), "random",
+               args.seed + 1),
         Runner("humanoid", gym.make(REFERENCE_ID), "random", args.seed + 2),
     ]
     cold = {r.name: warm_up(r.env) for r in runners[:2]}
@@ -329,6 +362,7 @@ def main() -> None:
     res: dict[str, Any] = {"env_id": ENV_ID, "reference_id": REFERENCE_ID, "robot": args.robot,
                            "physics": args.physics, "sim_options": {"compliant_person": args.compliant_person,
                            "timestep": args.timestep, "ik_iterations": args.ik_iterations},
+                           "control_dt": runners[0].env.unwrapped.config.control_dt,
                            "rounds": args.rounds, "steps_per_round": args.steps,
                            "omp_num_threads": os.environ.get("OMP_NUM_THREADS"), "cpus": os.cpu_count(),
                            "machine": platform.processor() or platform.machine(),
@@ -343,6 +377,10 @@ def main() -> None:
                                           / res["humanoid"]["steps_per_s_wall_with_resets"])
         res[r.name]["ratio_of_totals_without_resets"] = (res[r.name]["steps_per_s_wall"]
                                                          / res["humanoid"]["steps_per_s_wall_with_resets"])
+        res[r.name]["ratio_cpu"] = (res[r.name]["steps_per_s_cpu_with_resets"]
+                                    / res["humanoid"]["steps_per_s_cpu_with_resets"])
+        res[r.name]["ratio_sim_seconds_cpu"] = (res[r.name]["sim_s_per_cpu_s_with_resets"]
+                                                / res["humanoid"]["sim_s_per_cpu_s_with_resets"])
         res[r.name]["cold_reset_ms"] = {"first_per_task_max": max(cold[r.name]),
                                         "median": float(np.median(cold[r.name]))}
     if args.stage_steps:
@@ -359,7 +397,7 @@ def main() -> None:
         r.env.close()
     if args.vector:
         res["vector"] = vector_table([int(x) for x in args.vector.split(",")], args.vector_steps, args.robot,
-                                     args.physics, args.seed)
+                                     args.physics, args.seed, control)
     res["wall_seconds"] = time.perf_counter() - t0
     res["load_average_before"], res["load_average_after"] = load0, os.getloadavg()
     profile = res.pop("profile_top", None)

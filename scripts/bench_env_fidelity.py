@@ -56,7 +56,8 @@ def parse_setting(text: str, physics: str) -> SimConfig:
 
 
 def replay(cfg: SimConfig, physics: str, per_label: int, robot: str) -> dict[str, Any]:
-    env = gym.make(ENV_ID, action_mode="residual", robot=robot, physics=physics, sim_config=cfg)
+    # One env step per data frame (the per-frame figures below; a held action gives the same physics either way).
+    env = gym.make(ENV_ID, action_mode="residual", robot=robot, physics=physics, sim_config=cfg, control_dt=None)
     u = env.unwrapped
     zero = np.zeros(env.action_space.shape, env.action_space.dtype)
     success: dict[str, list[bool]] = {}

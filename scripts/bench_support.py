@@ -18,8 +18,10 @@ Modes: ``weight`` (the default: real weight, compliant harness), ``puppet``
 base target steadied while both feet are planted) and ``stance`` (``SimConfig(stance=StanceConfig())``:
 also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stance`), ``balance``
 (``SimConfig(balance=BalanceConfig())``: the physics-rate balance controller,
-:mod:`socialaff_sim.sim.balance_control`) and ``balance_steady`` (the same with the steadied base);
-``--balance FIELD=VALUE ...`` changes the controller's settings for the last two, ``--labels`` picks
+:mod:`socialaff_sim.sim.balance_control`) and ``balance_steady`` (the same with the steadied base); ``qp`` and
+``qp_steady``: the same with the quadratic program (:data:`QP`: ``solver="qp"``, ``sole_gap=0.01``,
+``w_torso=3.0``);
+``--balance FIELD=VALUE ...`` changes the controller's settings for the last four, ``--labels`` picks
 interactions. After the per-interaction table, one line per robot and mode summarises the contact phases.
 
 The targets of issue 25 for feet that stay planted: outside support ≤ 5 % of
@@ -48,10 +50,14 @@ from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.stance import StanceConfig
 
+QP = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0)
+"""The balance QP as measured for issue 25 (docs/benchmarks.md, "The balance solve as a quadratic program")."""
 MODES = {"weight": SimConfig(), "puppet": SimConfig(gravity_compensation=True),
          "steady": SimConfig(stance=StanceConfig(release=False)), "stance": SimConfig(stance=StanceConfig()),
          "balance": SimConfig(balance=BalanceConfig()),
-         "balance_steady": SimConfig(balance=BalanceConfig(), stance=StanceConfig(release=False))}
+         "balance_steady": SimConfig(balance=BalanceConfig(), stance=StanceConfig(release=False)),
+         "qp": SimConfig(balance=QP),
+         "qp_steady": SimConfig(balance=QP, stance=StanceConfig(release=False))}
 KEYS = ("released_frames", "outside_support_mean", "outside_support_peak", "foot_slide_cm", "penetration_cm", "torque_ratio_max",
         "saturated_fraction", "at_joint_limit_fraction", "torso_tilt_deg_max")
 
@@ -71,8 +77,8 @@ def main() -> None:
     args = p.parse_args()
     if args.balance:
         over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.balance)}
-        for mode in ("balance", "balance_steady"):
-            MODES[mode] = dataclasses.replace(MODES[mode], balance=BalanceConfig(**over))
+        for mode in ("balance", "balance_steady", "qp", "qp_steady"):
+            MODES[mode] = dataclasses.replace(MODES[mode], balance=dataclasses.replace(MODES[mode].balance, **over))
     paths = dict(item.split("=", 1) for item in args.mjcf)
     data = generate_dataset(seed=args.seed)
     rows = []

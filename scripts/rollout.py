@@ -110,7 +110,8 @@ def main() -> None:
             print(f"{label}: fitted on {len(train_idx)} instances in {time.process_time() - tic:.0f} s CPU", flush=True)
             if args.save_models is not None:
                 model.save(args.save_models / f"{label}.npz")
-        common = {"interactions": label, "data": inters, "robot": args.robot, "physics": args.physics}
+        # One env step per data frame (control_dt=None), as docs/environment.md's "Policies" table was measured.
+        common = {"interactions": label, "data": inters, "robot": args.robot, "physics": args.physics, "control_dt": None}
         rows: dict[str, object] = {}
         scored = {"model": {label: model}} if model is not None else {}
         rows["random"] = play(SocialAffordanceEnv(action_mode="targets", **scored, **common), test, "random", args.seed)

@@ -133,7 +133,8 @@ def fit_models(s: Settings, train: Sequence[Interaction]) -> dict[str, SocialAff
 def make_env(s: Settings, instances: Sequence[Interaction], models: Mapping[str, SocialAffordanceModel]) -> gym.Env:
     """The residual-mode environment as SB3 wants it: flat float32 observation, a flat action in [−1, 1]."""
     env: gym.Env = SocialAffordanceEnv(interactions=list(s.labels), data=list(instances), action_mode="residual",
-                                       model=dict(models), physics=s.physics, max_frames=s.max_frames)
+                                       model=dict(models), physics=s.physics, max_frames=s.max_frames,
+                                       control_dt=None)  # one step per data frame, as the recorded result was trained
     env = gym.wrappers.FlattenObservation(env)
     env = gym.wrappers.RescaleAction(env, np.float32(-1.0), np.float32(1.0))
     shape = env.action_space.shape

@@ -14,11 +14,16 @@ from __future__ import annotations
 
 import gymnasium as gym
 
-__all__ = ["ENTRY_POINT", "MAX_EPISODE_STEPS", "NAMESPACE", "ENV_IDS", "LEGACY_IDS", "register_envs"]
+__all__ = ["ENTRY_POINT", "MAX_EPISODE_SECONDS", "MAX_EPISODE_STEPS", "NAMESPACE", "ENV_IDS", "LEGACY_IDS",
+           "register_envs"]
 
 ENTRY_POINT = "socialaff_sim.environment.env:SocialAffordanceEnv"
-MAX_EPISODE_STEPS = 300
-"""TimeLimit of every id: 300 steps (data frames), 20-30 s of a 10-15 fps recording."""
+MAX_EPISODE_SECONDS = 30.0
+"""The time limit of every id in simulated seconds (longer than every synthetic instance, 2-7 s)."""
+MAX_EPISODE_STEPS = 2000
+"""TimeLimit of every id, steps: :data:`MAX_EPISODE_SECONDS` at the default control period of 0.015 s
+(``EnvConfig.control_dt``; a test keeps the two consistent). With ``control_dt=None`` (one step per data
+frame) pass ``max_episode_steps`` to ``gymnasium.make`` (e.g. 300 frames: 20-30 s of a 10-15 fps recording)."""
 NAMESPACE = "socialaff_sim"
 
 ENV_IDS: dict[str, str | None] = {

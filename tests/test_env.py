@@ -28,7 +28,10 @@ def data():
 
 
 def make(data, **kw) -> SocialAffordanceEnv:
+    """An env of one step per data frame (these tests check per-frame semantics; the control period's are in
+    tests/test_env_control.py) unless ``control_dt`` is given."""
     kw.setdefault("max_frames", FRAMES)
+    kw.setdefault("control_dt", None)
     return SocialAffordanceEnv(data=data, **kw)
 
 

@@ -213,7 +213,8 @@ def test_model_adapter_drives_the_synthesizer(model, data):
     from socialaff_sim.inference.synthesis import OnlineSynthesizer, SynthesisConfig
 
     inter = data.of_label("hand_over")[2]
-    env = SocialAffordanceEnv(data=[inter], model={"hand_over": model}, action_mode="residual", max_frames=16)
+    env = SocialAffordanceEnv(data=[inter], model={"hand_over": model}, action_mode="residual", max_frames=16,
+                              control_dt=None)  # one step per frame: the synthesizer's steps
     assert isinstance(env.adapter, ModelAdapter)
     assert env.observation_space["subevent_belief"].shape == (model.n_subevents_,)
     obs, info = env.reset(seed=4)

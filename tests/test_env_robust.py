@@ -107,10 +107,15 @@ def test_task_complete_and_instance_end(data):
     env = SocialAffordanceEnv(data=data, interactions="shake_hands", action_mode="residual")
     n, term, trunc, info = play(env, ZERO)  # the recorded agent 1, replayed: the handshake happens
     assert (term, trunc, info["termination_reason"]) == (True, False, "task_complete") and info["success"]
-    assert n == env.simulator.n_frames - 1
+    m = env.clock.per_frame  # control steps per frame (the default control period)
+    assert m > 1 and n == (env.simulator.n_frames - 1) * m and info["frame"] == env.simulator.n_frames - 1
     short = SocialAffordanceEnv(data=data, interactions="shake_hands", action_mode="residual", max_frames=5)
     n, term, trunc, info = play(short, ZERO)  # cut before the hands meet
-    assert (n, term, trunc, info["termination_reason"]) == (4, True, False, "instance_end") and not info["success"]
+    assert (n, term, trunc, info["termination_reason"]) == (4 * m, True, False, "instance_end") and not info["success"]
+    framewise = SocialAffordanceEnv(data=data, interactions="shake_hands", action_mode="residual", max_frames=5,
+                                    control_dt=None)
+    n, term, trunc, info = play(framewise, ZERO)  # one step per frame
+    assert (n, term, trunc, info["termination_reason"]) == (4, True, False, "instance_end")
 
 
 def test_failure_reasons(data):
@@ -272,11 +277,11 @@ def _stress_script():  # noqa: ANN202
 
 @pytest.mark.parametrize("env_id", list(ENV_IDS))
 def test_random_actions_leave_the_physics_sound(env_id):
-    """The short version of scripts/env_stress.py: 150 random steps per action mode, robot ``ours``."""
+    """The short version of scripts/env_stress.py: 300 random steps (control periods) per action mode, robot ``ours``."""
     stress = _stress_script().stress
     for k, mode in enumerate(("targets", "residual")):
-        res = stress(env_id, "ours", mode, 150, seed=k)
-        assert res["steps"] == 150 and res["episodes"] >= 1
+        res = stress(env_id, "ours", mode, 300, seed=k)
+        assert res["steps"] == 300 and res["episodes"] >= 1
         assert res["physics_warnings"] == {} and res["mujoco_log_warnings"] == {}, res
         assert res["non_finite_steps"] == 0 and res["outside_space_steps"] == 0 and res["errors"] == {}, res
         assert res["passed"], res

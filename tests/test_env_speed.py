@@ -149,7 +149,7 @@ def test_make_vec_two_workers_sync_steps_and_resets(data):
         obs, _ = venv.reset(seed=[0, 1])
         assert obs["joint_pos"].shape[0] == 2
         ends = 0
-        for _ in range(12):  # two episodes each: automatic resets
+        for _ in range(80):  # two episodes each (5 frames of at most 7 control steps): automatic resets
             obs, rew, term, trunc, info = venv.step(np.zeros((2, 5, 3), np.float32))
             assert np.isfinite(rew).all() and rew.shape == (2,)
             ends += int(np.sum(term | trunc))

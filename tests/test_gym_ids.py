@@ -10,7 +10,8 @@ from pathlib import Path
 import gymnasium as gym
 
 import socialaff_sim  # noqa: F401  (registers the ids)
-from socialaff_sim.gym_ids import ENV_IDS, LEGACY_IDS, MAX_EPISODE_STEPS, NAMESPACE, register_envs
+from socialaff_sim.environment.config import CONTROL_DT, EnvConfig
+from socialaff_sim.gym_ids import ENV_IDS, LEGACY_IDS, MAX_EPISODE_SECONDS, MAX_EPISODE_STEPS, NAMESPACE, register_envs
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -59,3 +60,11 @@ def test_make_without_importing_the_package(tmp_path: Path) -> None:
     out = _fresh(code, tmp_path)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.split() == ["socialaff_sim/HighFive-v0", "high_five"]
+
+
+def test_time_limit_in_seconds_matches_the_default_control_period() -> None:
+    """The registered TimeLimit counts control steps: MAX_EPISODE_STEPS of the default period make the time
+    limit in seconds (the ids would otherwise cut episodes at another length when the period changes)."""
+    assert EnvConfig().control_dt == CONTROL_DT
+    assert abs(MAX_EPISODE_STEPS * CONTROL_DT - MAX_EPISODE_SECONDS) < 1e-9
+    assert MAX_EPISODE_SECONDS >= 7.0  # longer than every synthetic instance (duration_range up to 7 s)

@@ -131,7 +131,8 @@ def test_h1_gripping_the_cup_the_person_still_holds_stays_stable() -> None:
     robot's grip held the same cup. Without those contacts the episode runs on."""
     robot = load_robot("unitree_h1", mjcf=shared_robot("unitree_h1", "h1.xml"))
     actions = np.load(Path(__file__).parent / "data" / "h1_hand_over_013_targets.npy")
-    env = gym.make("socialaff_sim/SocialAffordance-v0", robot=robot, action_mode="targets")
+    env = gym.make("socialaff_sim/SocialAffordance-v0", robot=robot, action_mode="targets",
+                   control_dt=None)  # the stress run's actions were one per data frame
     env.reset(seed=1321529464)
     assert env.unwrapped.simulator.interaction.instance_id == "hand_over_013"
     for a in actions:

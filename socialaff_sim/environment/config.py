@@ -13,12 +13,15 @@ from dataclasses import dataclass, replace
 from ..errors import ConfigError, choices
 from ..sim.simulator import SimConfig
 
-__all__ = ["ACTION_MODES", "PHYSICS_PRESETS", "EnvConfig", "physics_config"]
+__all__ = ["ACTION_MODES", "CONTROL_DT", "PHYSICS_PRESETS", "EnvConfig", "physics_config"]
 
 ACTION_MODES = ("targets", "residual")
 """``targets``: the five key-frame targets themselves; ``residual``: offsets added to the adapter's proposal."""
 
 PHYSICS_PRESETS = ("fast", "accurate")
+CONTROL_DT = 0.015
+"""The default control period, s: Gymnasium's ``Humanoid-v5`` steps 0.015 s (5 physics steps of 3 ms), so an
+env step of ours simulates as much time as one of it (docs/environment.md, "Control period")."""
 """Physics settings by name; see :func:`physics_config`."""
 
 
@@ -52,7 +55,7 @@ class EnvConfig:
     -----------------
     - Actions: action_mode, target_low, target_high, residual_bound
     - Observations: history, position_bound, velocity_bound
-    - Episodes: terminate_on_failure, fall_height, fall_tilt, max_frames, physics
+    - Episodes: terminate_on_failure, fall_height, fall_tilt, max_frames, physics, control_dt, resolve_iterations
     - Rendering: render_width, render_height
     """
 
@@ -82,6 +85,13 @@ class EnvConfig:
     """[frames]: Cut every instance to its first this many frames (short episodes, e.g. in tests); ``None``: whole instances."""
     physics: str = "fast"
     """[—]: Physics preset, one of :data:`PHYSICS_PRESETS` (see :func:`physics_config`)."""
+    control_dt: float | None = CONTROL_DT
+    """Δt_c [s]: the control period, the simulated time one env step covers: each data frame of 1/fps s is
+    split into m = round(1/(fps·Δt_c)) control steps (at least 1, at most the frame's physics steps), each
+    running ⌊n/m⌋ or ⌈n/m⌉ of its n physics steps. ``None``: one env step per data frame (m = 1)."""
+    resolve_iterations: int = 1
+    """[steps]: IK steps (at most) when a control step within a frame changes the frame's targets (the frame's
+    first control step takes the preset's, ``IKConfig.iterations``): a differential IK at the control rate."""
     render_width: int = 640
     """[px]: Width of ``rgb_array`` frames, pixels."""
     render_height: int = 480
@@ -112,6 +122,11 @@ class EnvConfig:
             raise bad("target_low", f"values below target_high = {self.target_high}")
         if max(abs(v) for v in (*self.target_low, *self.target_high)) > self.position_bound:
             raise bad("target_low", f"targets within the observation bound ±{self.position_bound} m")
+        if self.control_dt is not None and not (isinstance(self.control_dt, (int, float))
+                                                and 0.0 < float(self.control_dt) <= 1.0):
+            raise bad("control_dt", "None or a control period in (0, 1] seconds")
+        if not isinstance(self.resolve_iterations, int) or self.resolve_iterations < 1:
+            raise bad("resolve_iterations", "an integer >= 1")
         for name in ("render_width", "render_height"):
             if not isinstance(getattr(self, name), int) or not 16 <= getattr(self, name) <= 4096:
                 raise bad(name, "an integer in [16, 4096] pixels")

@@ -1,10 +1,12 @@
-"""The Gymnasium environment: a robot reacting to a replayed person, one data frame per step.
+"""The Gymnasium environment: a robot reacting to a replayed person, one control period per step.
 
 An episode replays one human instance (agent 0 of an interaction, chosen by the
 reset seed from the environment's instances) in MuJoCo physics, with the robot
 facing them; the robot is driven by the action through mink IK and its position
 servos (:class:`~socialaff_sim.sim.simulator.Simulator`), and each step advances
-one frame of the recording. Observations are documented in
+the physics by one control period (``control_dt``, 0.015 s by default; a data frame
+of the recording is split into control steps, :mod:`~socialaff_sim.environment.control`),
+or by one whole frame with ``control_dt=None``. Observations are documented in
 :mod:`socialaff_sim.environment.observation`, rewards in
 :mod:`socialaff_sim.environment.reward`, actions below and in docs/environment.md.
 
@@ -14,6 +16,9 @@ right wrist, left ankle, right ankle; metres, robot frame), clipped to the space
 * ``targets``: the key-frame targets themselves, in ``EnvConfig.target_low … target_high``;
 * ``residual``: offsets in [−ρ, ρ] added to the adapter's proposal for the frame
   (the ``proposal`` entry of the observation), so a policy learns corrections.
+
+Either way they are the targets for the end of the current data frame: held through the frame's control
+steps they give the frame's physics exactly; changed within it, the IK is solved again.
 
 The resulting targets are then projected onto what the robot's body can follow
 (:mod:`~socialaff_sim.environment.action_limits`; ``info["action_adjustment"]`` says how far
@@ -37,9 +42,10 @@ from ..errors import ConfigError, SimulationError, choices
 from ..retarget.robot import RobotSpec, load_robot
 from ..sim.simulator import SimConfig, Simulator, StepResult
 from .action_limits import BodyEnvelope, EnvelopeConfig, FeasibleTargets
-from .adapters import AdapterFrame, AffordanceAdapter, GroundTruthAdapter, RobotPose
+from .adapters import AdapterFrame, AffordanceAdapter, AffordanceScore, GroundTruthAdapter, RobotPose
 from .bodymap import RobotToAgent
-from .config import EnvConfig, physics_config
+from .config import CONTROL_DT, EnvConfig, physics_config
+from .control import ControlClock
 from .episode_end import UNSTABLE_WARNINGS, WarningMonitor, body_up, tilt_cosine
 from .instances import DataSpec, EpisodePool, load_pool
 from .model_adapter import ModelAdapter, ModelSpec, load_models
@@ -52,6 +58,7 @@ __all__ = ["SocialAffordanceEnv"]
 _log = logging.getLogger(__name__)
 
 RESET_OPTIONS = ("interaction", "instance")
+_UNSCORED = AffordanceScore(0.0, 0.0, 0)  # the affordance term of a control step that does not end a frame
 
 
 class SocialAffordanceEnv(gym.Env):
@@ -72,8 +79,9 @@ class SocialAffordanceEnv(gym.Env):
         sub-event belief, its spatial potentials the affordance reward. ``None``: the ground-truth adapter.
     adapter:
         A custom :class:`~socialaff_sim.environment.adapters.AffordanceAdapter` (instead of ``model``).
-    history, max_frames, physics, terminate_on_failure, fall_height, fall_tilt, render_width, render_height:
-        Fields of :class:`~socialaff_sim.environment.config.EnvConfig`.
+    history, max_frames, physics, control_dt, resolve_iterations, terminate_on_failure, fall_height, fall_tilt, render_width, render_height:
+        Fields of :class:`~socialaff_sim.environment.config.EnvConfig` (``control_dt``: the simulated seconds
+        of one env step, :mod:`~socialaff_sim.environment.control`; ``None``: one data frame).
     sim_config:
         Simulator settings (:class:`~socialaff_sim.sim.simulator.SimConfig`) used instead of the ``physics``
         preset's, e.g. ``dataclasses.replace(physics_config("fast"), compliant_person=False)`` (the
@@ -101,6 +109,8 @@ class SocialAffordanceEnv(gym.Env):
         history: int = 4,
         max_frames: int | None = None,
         physics: str = "fast",
+        control_dt: float | None = CONTROL_DT,
+        resolve_iterations: int = 1,
         sim_config: SimConfig | None = None,
         reward: RewardConfig | None = None,
         terminate_on_failure: bool = True,
@@ -114,7 +124,8 @@ class SocialAffordanceEnv(gym.Env):
     ) -> None:
         self._init_kwargs = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
         self.config = EnvConfig(
-            action_mode=action_mode, history=history, max_frames=max_frames, physics=physics,
+            action_mode=action_mode, history=history, max_frames=max_frames, physics=physics, control_dt=control_dt,
+            resolve_iterations=resolve_iterations,
             terminate_on_failure=terminate_on_failure, fall_height=fall_height, fall_tilt=fall_tilt,
             render_width=render_width, render_height=render_height,
         )
@@ -171,6 +182,8 @@ class SocialAffordanceEnv(gym.Env):
         self.metadata = {"render_modes": modes, "render_fps": float(first.fps)}
         self._index: int | None = None
         self._actions: list[np.ndarray] = []
+        self.clock = ControlClock(self.config.control_dt)
+        """How a data frame's physics steps are split into env steps."""
 
     def warm_up(self) -> None:
         """Reset onto every instance once: compile each task's scene and cache each instance's reset, so that
@@ -218,6 +231,9 @@ class SocialAffordanceEnv(gym.Env):
         # The model's synthesis sees agent 1's first T0 frames only, and so does the robot's placement.
         sim.reset(inter, placement_frames=getattr(self.adapter, "placement_frames", None))
         sim.settle(sim.retarget(first.proposal, frame=0, subevent=first.subevent_name))
+        self.clock.reset(inter.fps, sim.n_sub)
+        self._frame_obs: tuple[int, dict[str, np.ndarray]] | None = None
+        self._projected: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         idx = inter.layout.key_indices
         self._human_mask = np.array([i is not None for i in idx], dtype=np.float32)
         track = np.zeros((inter.n_frames, N_KEY, 3))
@@ -242,7 +258,7 @@ class SocialAffordanceEnv(gym.Env):
         # Fall thresholds of this robot and scene: base height (m) and the cosine of the tilt.
         self._fall = (self.config.fall_height * float(sim.home_key_frames[0, 2]),
                       float(np.cos(np.deg2rad(self.config.fall_tilt))), body_up(sim.scene.home_qpos[3:7]))
-        self.metadata["render_fps"] = float(inter.fps)
+        self.metadata["render_fps"] = float(inter.fps) * self.clock.per_frame
 
     def _advance(self, action: np.ndarray) -> tuple[float, dict[str, float], StepResult]:
         sim, cfg = self._sim, self.config
@@ -253,13 +269,28 @@ class SocialAffordanceEnv(gym.Env):
             raise SimulationError(f"action: expected shape (5, 3) (rows base, wrists, ankles; metres), found {a.shape}")
         if not np.isfinite(a).all():
             raise SimulationError("action: expected finite numbers, found NaN or inf")
-        a = np.clip(a, self.action_space.low, self.action_space.high)
+        a = np.minimum(np.maximum(a, self.action_space.low), self.action_space.high)  # np.clip's value, less overhead
         self._actions.append(a.copy())
-        wanted = a if cfg.action_mode == "targets" else self._proposal + a
-        targets = self.feasible.project(wanted, sim.last_targets[0], sim.interaction.fps)  # type: ignore[union-attr]
-        self._adjustment = np.linalg.norm(targets - wanted, axis=1)
-        res = sim.step(targets, subevent=self._frame.subevent_name)
+        k = sim.substep
+        if k and self._projected is not None and np.array_equal(a, self._projected[0]):
+            targets = self._projected[1]  # the action held within the frame: the same targets as its last step
+        else:
+            wanted = a if cfg.action_mode == "targets" else self._proposal + a
+            targets = self.feasible.project(wanted, sim.last_targets[0], sim.interaction.fps)  # type: ignore[union-attr]
+            d = targets - wanted
+            self._adjustment = np.sqrt(np.add.reduce(d * d, axis=1))  # np.linalg.norm(d, axis=1), without its checks
+            self._projected = (a, targets, self._adjustment)
+        if self.clock.needs_solve(k, targets):
+            sim.solve(targets, subevent=self._frame.subevent_name, iterations=cfg.resolve_iterations if k else None)
+        res = sim.advance(self.clock.end_of(k) - k)
         self._step_warnings = self.warnings.step(sim.data)
+        if res is None:  # a control step within the frame: the physics' terms; the affordance is scored per frame
+            self._robot_keys = sim.robot_key_frames()
+            terms = self.rewards.step(_UNSCORED, sim.scorer)
+            self._last_terms = terms
+            self._reason = self._termination_reason()
+            self._done = self._reason is not None
+            return RewardTracker.total(terms), terms, self._last  # type: ignore[return-value]
         t = sim.frame
         obj_r = sim.object_position()
         obj_data = None if obj_r is None else sim.frame_R.to_world(obj_r) - sim.offset
@@ -282,8 +313,9 @@ class SocialAffordanceEnv(gym.Env):
         """Why the episode ends after this step (docs in :mod:`~socialaff_sim.environment.episode_end`), or ``None``."""
         sim, cfg = self._sim, self.config
         data, scene = sim.data, sim.scene
+        finite = np.logical_and.reduce  # ndarray.all's reduction without its wrappers (every control step)
         if any(self._step_warnings[k] for k in UNSTABLE_WARNINGS) or not (
-                np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
+                finite(np.isfinite(data.qpos)) and finite(np.isfinite(data.qvel))):
             return "physics_unstable"
         low, cos_tilt, up = self._fall
         if self._robot_keys[0, 2] < low or tilt_cosine(data.qpos[scene.robot_qadr[3:7]], up) < cos_tilt:
@@ -300,16 +332,18 @@ class SocialAffordanceEnv(gym.Env):
     def _observation(self) -> dict[str, np.ndarray]:
         sim = self._sim
         q, qd = sim.joint_state()
-        return self.layout.build(
-            human_track=self._human_track, human_mask=self._human_mask, object_history=self._obj_hist,
-            object_present=sim.carry is not None, robot_keys=self._robot_keys, joint_pos=q, joint_vel=qd,
-            proposal=self._proposal, belief=self._frame.belief,
-            interaction=self.pool.instances[self._index].label,  # type: ignore[index]
+        if self._frame_obs is None or self._frame_obs[0] != sim.frame:  # the frame's entries, shared by its steps
+            self._frame_obs = (sim.frame, self.layout.frame_entries(
+                human_track=self._human_track, human_mask=self._human_mask, object_history=self._obj_hist,
+                object_present=sim.carry is not None, proposal=self._proposal, belief=self._frame.belief,
+                interaction=self.pool.instances[self._index].label, frame=sim.frame))  # type: ignore[index]
+        return self.layout.assemble(self._frame_obs[1], self.layout.step_entries(
+            robot_keys=self._robot_keys, joint_pos=q, joint_vel=qd,
             subgoal_progress=self.rewards.progress(sim.scorer),
             subgoal_achieved={r.name: bool(r.success) for r in sim.scorer.subgoals},
             subgoal_current={r.name: bool(r.current) for r in sim.scorer.subgoals},
-            frame=sim.frame, n_frames=sim.n_frames,
-        )
+            frame=sim.frame, n_frames=sim.n_frames, phase=sim.substep / sim.n_sub,
+        ))
 
     def _info(self, terms: dict[str, float] | None) -> dict[str, Any]:
         sim = self._sim
@@ -322,6 +356,7 @@ class SocialAffordanceEnv(gym.Env):
             "interaction": inter.label,
             "instance": inter.instance_id,
             "frame": int(sim.frame),
+            "time": float(sim.time),
             "subevent": frame.subevent_name,
             "subevent_index": int(frame.subevent),
             "subgoals": subgoals,
@@ -334,9 +369,9 @@ class SocialAffordanceEnv(gym.Env):
             "physics_warnings": dict(self._step_warnings),
             "action_adjustment": self._adjustment.copy(),
         }
-        if terms is not None and self._last is not None:
-            info["ik_error"] = np.array(self._last.ik_error, dtype=np.float64)
-            info["force_on_human"] = float(self._last.force_on_human)
+        if terms is not None:  # the IK's error after its latest solve, the force over this step's physics steps
+            info["ik_error"] = np.array(sim.ik_errors, dtype=np.float64)
+            info["force_on_human"] = float(sim.control_force)
             info.update({f"reward_{k}": float(v) for k, v in terms.items()})
         return info
 
@@ -356,7 +391,7 @@ class SocialAffordanceEnv(gym.Env):
         return self._observation(), self._info(None)
 
     def step(self, action: np.ndarray) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
-        """Advance one frame of the recording; see the module docstring for the action."""
+        """Advance one control period (or one frame with ``control_dt=None``); see the module docstring."""
         self._require()
         if self._done:
             raise SimulationError(f"SocialAffordanceEnv: the episode has ended ({self._reason}); call reset()")

@@ -24,7 +24,9 @@ key                  shape           content
                                      its ``min_duration`` (1 once met), 0 for other tasks' sub-goals
 ``subgoal_achieved`` (G,)            1 for each sub-goal met so far in the episode (latched)
 ``subgoal_current``  (G,)            1 for each sub-goal whose contact holds now (not latched)
-``progress``         (1,)            t / (T − 1), the fraction of the person's track played
+``progress``         (1,)            (t + φ) / (T − 1), the fraction of the person's track played
+                                     (φ: the share of frame t → t+1 already simulated, with a
+                                     control period; 0 at frame boundaries)
 ==================== =============== =======================================================
 """
 
@@ -37,12 +39,14 @@ from gymnasium import spaces
 
 from ..data.skeletons import N_KEY
 
-__all__ = ["ObservationLayout", "OBSERVATION_KEYS"]
+__all__ = ["ObservationLayout", "OBSERVATION_KEYS", "FRAME_KEYS"]
 
 OBSERVATION_KEYS = (
     "human_keys", "human_mask", "object", "object_present", "robot_keys", "joint_pos", "joint_vel",
     "proposal", "subevent_belief", "interaction", "subgoal_progress", "subgoal_achieved", "subgoal_current", "progress",
 )
+FRAME_KEYS = ("human_keys", "human_mask", "object", "object_present", "proposal", "subevent_belief", "interaction")
+"""The keys whose entries change only from one data frame to the next (shared by a frame's control steps)."""
 
 
 def _box(lo: float, hi: float, shape: tuple[int, ...]) -> spaces.Box:
@@ -105,41 +109,72 @@ class ObservationLayout:
         subgoal_current: dict[str, bool],
         frame: int,
         n_frames: int,
+        phase: float = 0.0,
     ) -> dict[str, np.ndarray]:
-        """One observation at frame ``frame``; every array is freshly allocated.
+        """One observation at frame ``frame`` (and ``phase`` ∈ [0, 1) of the way to the next: the share of the
+        frame's physics steps already run, 0 between frames); every array is freshly allocated.
 
         ``human_track`` (T, 5, 3) robot frame (finite); ``object_history`` (H, 3) robot frame,
         oldest first; ``belief`` (S',) with S' ≤ S; the sub-goal mappings are keyed by sub-goal name
-        (names of other tasks are absent and read 0).
+        (names of other tasks are absent and read 0). The same as :meth:`assemble` of :meth:`frame_entries`
+        and :meth:`step_entries`.
         """
-        P, V = self.position_bound, self.velocity_bound
+        return self.assemble(
+            self.frame_entries(human_track=human_track, human_mask=human_mask, object_history=object_history,
+                               object_present=object_present, proposal=proposal, belief=belief,
+                               interaction=interaction, frame=frame),
+            self.step_entries(robot_keys=robot_keys, joint_pos=joint_pos, joint_vel=joint_vel,
+                              subgoal_progress=subgoal_progress, subgoal_achieved=subgoal_achieved,
+                              subgoal_current=subgoal_current, frame=frame, n_frames=n_frames, phase=phase))
+
+    def frame_entries(self, *, human_track: np.ndarray, human_mask: np.ndarray, object_history: np.ndarray,
+                      object_present: bool, proposal: np.ndarray, belief: np.ndarray, interaction: str,
+                      frame: int) -> dict[str, np.ndarray]:
+        """The entries of :data:`FRAME_KEYS`: what changes only from one data frame to the next (arguments as in
+        :meth:`build`), so that the control steps of a frame can share them (through :meth:`assemble`)."""
+        P = self.position_bound
         T = human_track.shape[0]
         rows = np.clip(np.arange(frame + 2 - self.history, frame + 2), 0, T - 1)
-
-        def pos(a: np.ndarray) -> np.ndarray:
-            return np.clip(a, -P, P).astype(np.float32)
-
         b = np.zeros(self.n_subevents, dtype=np.float32)
-        b[: len(belief)] = np.clip(belief, 0.0, 1.0)
+        b[: len(belief)] = np.minimum(np.maximum(belief, 0.0), 1.0)
         onehot = np.zeros(len(self.interactions), dtype=np.float32)
         onehot[self.interactions.index(interaction)] = 1.0
-        prog = np.array([np.clip(subgoal_progress.get(n, 0.0), 0.0, 1.0) for n in self.subgoals], dtype=np.float32)
+        return {
+            "human_keys": _clip32(human_track[rows], P),
+            "human_mask": np.asarray(human_mask, dtype=np.float32).copy(),
+            "object": _clip32(object_history, P),
+            "object_present": np.array([1.0 if object_present else 0.0], dtype=np.float32),
+            "proposal": _clip32(proposal, P),
+            "subevent_belief": b,
+            "interaction": onehot,
+        }
+
+    def step_entries(self, *, robot_keys: np.ndarray, joint_pos: np.ndarray, joint_vel: np.ndarray,
+                     subgoal_progress: dict[str, float], subgoal_achieved: dict[str, bool],
+                     subgoal_current: dict[str, bool], frame: int, n_frames: int,
+                     phase: float = 0.0) -> dict[str, np.ndarray]:
+        """The entries that change every step (arguments as in :meth:`build`)."""
+        prog = np.array([min(max(subgoal_progress.get(n, 0.0), 0.0), 1.0) for n in self.subgoals], dtype=np.float32)
 
         def flags(state: dict[str, bool]) -> np.ndarray:
             return np.array([1.0 if state.get(n, False) else 0.0 for n in self.subgoals], dtype=np.float32)
         return {
-            "human_keys": pos(human_track[rows]),
-            "human_mask": np.asarray(human_mask, dtype=np.float32).copy(),
-            "object": pos(object_history),
-            "object_present": np.array([1.0 if object_present else 0.0], dtype=np.float32),
-            "robot_keys": pos(robot_keys),
-            "joint_pos": np.clip(joint_pos, -np.pi, np.pi).astype(np.float32),
-            "joint_vel": np.clip(joint_vel, -V, V).astype(np.float32),
-            "proposal": pos(proposal),
-            "subevent_belief": b,
-            "interaction": onehot,
+            "robot_keys": _clip32(robot_keys, self.position_bound),
+            "joint_pos": _clip32(joint_pos, np.pi),
+            "joint_vel": _clip32(joint_vel, self.velocity_bound),
             "subgoal_progress": prog,
             "subgoal_achieved": flags(subgoal_achieved),
             "subgoal_current": flags(subgoal_current),
-            "progress": np.array([min(1.0, frame / max(1, n_frames - 1))], dtype=np.float32),
+            "progress": np.array([min(1.0, (frame + phase) / max(1, n_frames - 1))], dtype=np.float32),
         }
+
+    @staticmethod
+    def assemble(frame_part: dict[str, np.ndarray], step_part: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """One observation (keys in :data:`OBSERVATION_KEYS` order) from a frame's entries (copied: the caller may
+        keep them for the frame's next control steps) and a step's."""
+        return {k: frame_part[k].copy() if k in frame_part else step_part[k] for k in OBSERVATION_KEYS}
+
+
+def _clip32(a: np.ndarray, bound: float) -> np.ndarray:
+    """``a`` clipped to [−bound, bound], as float32: ``np.clip``'s value without its dispatch overhead."""
+    return np.minimum(np.maximum(a, -bound), bound).astype(np.float32)

@@ -94,6 +94,10 @@ class RewardTracker:
     def reset(self, task: TaskSpec) -> None:
         """Start an episode of ``task``."""
         self.task = task
+        # Per sub-goal: its progress term's name (None when it has none) and its success term's, computed once.
+        names = set(self.term_names)
+        self._names = [(f"progress_{sg.name}" if f"progress_{sg.name}" in names and sg.kind != "catch" else None,
+                        f"success_{sg.name}") for sg in task.subgoals]
         self._progress = {sg.name: 0.0 for sg in task.subgoals}
         self._success = {sg.name: False for sg in task.subgoals}
         self._failed = {f.kind: False for f in task.failures}
@@ -118,13 +122,13 @@ class RewardTracker:
         c = self.config
         terms = dict.fromkeys(self.term_names, 0.0)
         terms["affordance"] = affordance_term(score, c)
-        for sg, res in zip(self.task.subgoals, scorer.subgoals, strict=True):
-            if f"progress_{sg.name}" in terms and sg.kind != "catch":
+        for sg, res, (progress, success) in zip(self.task.subgoals, scorer.subgoals, self._names, strict=True):
+            if progress is not None:
                 now = min(res.contact_time, sg.min_duration) / sg.min_duration
-                terms[f"progress_{sg.name}"] += c.progress_weight * (now - self._progress[sg.name])
+                terms[progress] += c.progress_weight * (now - self._progress[sg.name])
                 self._progress[sg.name] = now
             if res.success and not self._success[sg.name]:
-                terms[f"success_{sg.name}"] += c.success_bonus
+                terms[success] += c.success_bonus
                 self._success[sg.name] = True
         for f in scorer.failures:
             if f.triggered and not self._failed[f.kind]:

@@ -309,7 +309,7 @@ class RobotIK:
 
     def solve(self, targets: np.ndarray, yaw: float, dt: float, care: np.ndarray | None = None,
               planted: tuple[bool, bool] = (False, False), com_target: np.ndarray | None = None,
-              com_cost: float | None = None) -> IKResult:
+              com_cost: float | None = None, iterations: int | None = None) -> IKResult:
         """Move toward world-frame ``targets`` (5, 3) over one frame of ``dt`` seconds.
 
         ``yaw`` (rad) turns the base's and the feet's home orientations to face the partner.
@@ -321,7 +321,8 @@ class RobotIK:
         ``planted`` (left, right): the feet standing on the floor at their targets; each is pinned,
         and with both the centre of mass is kept over their support rectangle (and, with ``com_cost``,
         drawn to its centre, or to ``com_target`` (2,) world m when given; ``com_cost``, when given, replaces
-        ``IKConfig.com_cost`` for this frame).
+        ``IKConfig.com_cost`` for this frame). ``iterations``, when given, caps the QP steps below
+        ``IKConfig.iterations`` (e.g. one step for a correction within a frame already solved).
         """
         targets = np.asarray(targets, dtype=np.float64)
         if targets.shape != (5, 3) or not np.isfinite(targets).all():
@@ -358,7 +359,8 @@ class RobotIK:
         stalled = 0
         self._damping = c.damping
         undone = 0
-        while it < c.iterations and (it == 0 or errors[watch].max(initial=0.0) > c.tolerance):
+        cap = c.iterations if iterations is None else max(1, min(int(iterations), c.iterations))
+        while it < cap and (it == 0 or errors[watch].max(initial=0.0) > c.tolerance):
             start, start_errors = cfg.q.copy(), errors
             self._take_step(dt)
             errors = np.linalg.norm(self.frame_positions() - targets, axis=1)

@@ -6,11 +6,17 @@ from dataclasses import dataclass
 
 from ..errors import ConfigError
 
-__all__ = ["BalanceConfig", "COM_REFERENCES"]
+__all__ = ["BalanceConfig", "COM_REFERENCES", "SOLVERS"]
 
 COM_REFERENCES = ("plan", "middle")
 """Where the centre of mass is held: ``plan``, the IK's centre of mass relative to its feet, carried over to the
 physical feet; ``middle``, the middle of the feet's contact points. Either is kept inside the support box."""
+
+SOLVERS = ("lsq", "qp")
+"""How the inverse dynamics is solved: ``lsq``, weighted least squares with non-negative contact forces
+(:mod:`~socialaff_sim.sim.contact_dynamics`; the torques are clipped by MuJoCo afterwards); ``qp``, a quadratic
+program with the equation of motion, the actuators' torque limits and the feet's centres of pressure as hard
+constraints (:mod:`~socialaff_sim.sim.contact_qp`)."""
 
 
 @dataclass(frozen=True)
@@ -22,8 +28,9 @@ class BalanceConfig:
     -----------------
     - Tracking: joint_bandwidth, torso_bandwidth, foot_damping, foot_stiffness
     - Balance: com_bandwidth, com_damping, com_reference, support_margin, external_forces, external_filter
-    - Contact forces: friction, w_dynamics, w_feet, w_com, w_torso, w_joint, w_force
-    - Harness: release, release_delay, release_tilt, release_margin, catch_tilt, catch_margin, catch_blend,
+    - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
+      cop_margin, min_foot_load, torque_fraction
+    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, catch_tilt, catch_margin, catch_blend,
       drive_harnessed
     """
 
@@ -56,6 +63,10 @@ class BalanceConfig:
     their moment about the reference's point p on the floor: a robot pulled forward leans back)."""
     external_filter: float = 0.05
     """[s]: time constant of the low-pass filter on the measured external forces."""
+    solver: str = "lsq"
+    """[—]: ``lsq`` (weighted least squares, the torques clipped at their limits by MuJoCo afterwards) or ``qp``
+    (a quadratic program: the root's rows, the torque limits and each foot's centre of pressure hold as
+    constraints; ``w_dynamics`` is then unused)."""
     friction: float = 0.7
     """μ [—]: friction coefficient of the contact forces' linearised cones (the floor's is 1)."""
     w_dynamics: float = 1000.0
@@ -68,8 +79,24 @@ class BalanceConfig:
     """[—]: weight of the torso's angular acceleration rows."""
     w_joint: float = 1.0
     """[—]: weight of each joint's acceleration row."""
+    upper_weight: float = 1.0
+    """[—]: factor on ``w_joint`` for the joints above the torso (arms, head): below 1 their tracking gives way
+    to the balance first."""
     w_force: float = 1e-3
     """[—]: weight of the contact forces' regularisation (forces divided by the robot's mass)."""
+    cop_margin: float = 0.01
+    """[m]: ``qp``: each foot's centre of pressure is kept this far inside its sole (along the heading's axes;
+    within the foot's contact points in any case)."""
+    min_foot_load: float = 0.05
+    """[—]: ``qp``: each planted foot in contact pushes on the floor with at least this fraction of the robot's
+    weight (an unloaded foot lifts off by a hair and its contacts flicker)."""
+    sole_gap: float = 0.0
+    """[m]: a planted foot without contacts whose sole is at most this high above the floor still counts for the
+    support box of the harness's decisions (0: only feet in contact; a contact lost for a step then shrinks the
+    box to one foot)."""
+    torque_fraction: float = 0.98
+    """[—]: ``qp``: the torques asked are kept within this fraction of each actuator's limit (``forcerange``,
+    the joint's ``actuatorfrcrange``, the control range's reach; a margin under MuJoCo's clip)."""
     release: bool = True
     """[—]: Whether the harness lets go of a robot standing under the controller (``False``: it stays on, and
     the controller drives the joints only if ``drive_harnessed``)."""
@@ -97,7 +124,8 @@ class BalanceConfig:
             if not getattr(self, name) > 0.0:
                 raise ConfigError(f"BalanceConfig.{name}: expected a frequency > 0 rad/s, found {getattr(self, name)}")
         for name in ("foot_damping", "foot_stiffness", "com_damping", "support_margin", "release_delay", "release_margin",
-                     "catch_margin", "catch_blend", "external_filter", "w_feet", "w_com", "w_torso", "w_joint"):
+                     "catch_margin", "catch_blend", "external_filter", "w_feet", "w_com", "w_torso", "w_joint",
+                     "upper_weight", "cop_margin", "sole_gap"):
             if not getattr(self, name) >= 0.0:
                 raise ConfigError(f"BalanceConfig.{name}: expected a value ≥ 0, found {getattr(self, name)}")
         if not (self.w_dynamics > 0.0 and self.w_force > 0.0):
@@ -105,6 +133,14 @@ class BalanceConfig:
                               f"{self.w_force}")
         if not self.friction > 0.0:
             raise ConfigError(f"BalanceConfig.friction: expected μ > 0, found {self.friction}")
+        if self.solver not in SOLVERS:
+            raise ConfigError(f"BalanceConfig.solver: expected one of {', '.join(SOLVERS)}, found {self.solver!r}")
+        if not 0.0 <= self.min_foot_load < 0.5:
+            raise ConfigError(f"BalanceConfig.min_foot_load: expected a fraction in [0, 0.5), found "
+                              f"{self.min_foot_load}")
+        if not 0.0 < self.torque_fraction <= 1.0:
+            raise ConfigError(f"BalanceConfig.torque_fraction: expected a fraction in (0, 1], found "
+                              f"{self.torque_fraction}")
         if self.com_reference not in COM_REFERENCES:
             raise ConfigError(f"BalanceConfig.com_reference: expected one of {', '.join(COM_REFERENCES)}, found "
                               f"{self.com_reference!r}")

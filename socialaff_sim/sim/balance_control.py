@@ -12,15 +12,20 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    physical feet (or the middle of the feet), optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
    with the floor, where they stand now) shrunk by a margin;
-2. floating-base inverse dynamics with the floor's contact forces (:mod:`~.contact_dynamics`): at the feet's
-   contact points as MuJoCo found them, forces inside friction cones that balance the root's six unactuated
-   rows, q̈ as close to the wanted one as the weights allow; τ = M q̈ + h − Jᵀf on the hinges;
+2. floating-base inverse dynamics with the floor's contact forces: at the feet's contact points as MuJoCo found
+   them, forces inside friction cones that balance the root's six unactuated rows, q̈ as close to the wanted one
+   as the weights allow (the arms' and head's joints by ``upper_weight`` less); τ = M q̈ + h − Jᵀf on the hinges.
+   ``solver="lsq"``: weighted least squares (:mod:`~.contact_dynamics`); ``solver="qp"``: a quadratic program
+   (:mod:`~.contact_qp`) in which the root's rows, each actuator's torque limit at this state (times
+   ``torque_fraction``), each foot's centre of pressure ``cop_margin`` inside its sole and a minimum load per
+   foot hold as constraints;
 3. the servos are made to exert τ exactly: ctrl = (τ − b₀ − b₁ q − b₂ q̇) / g for force = g·ctrl + b₀ + b₁q +
    b₂q̇ (MuJoCo clips it at the actuator's force limit, which the support meter reports as saturation).
 
 The harness weld lets go (``eq_active = 0``; its force is then zero by construction) once the feet have been
 planted ``release_delay`` and the robot is steady: torso within ``release_tilt`` and the capture point
-ξ = c + ċ/ω₀ inside the support box by ``release_margin``. It catches the robot again at once when the torso
+ξ = c + ċ/ω₀ inside the support box by ``release_margin`` (the support box: the soles of the feet in contact, and
+of a planted foot within ``sole_gap`` of the floor). It catches the robot again at once when the torso
 tilts past ``catch_tilt``, the capture point leaves the box by more than ``catch_margin``, or a foot steps;
 the caught robot is held where it is and led back onto the IK's base over ``catch_blend``, and the release
 waits its delay again. Everything is decided per physics step; the per-frame part is the IK's plan
@@ -41,8 +46,10 @@ import numpy as np
 from ..retarget.kinematic_tree import subtree_mask
 from .balance_config import BalanceConfig
 from .contact_dynamics import cone_edges, solve_contact_dynamics
+from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
 from .external_force import ExternalForces
 from .scene import Scene
+from .support_box import SupportBox, cop_interval
 
 __all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
 
@@ -86,6 +93,9 @@ class BalanceController:
         self._foot_geom = foot_geom
         self._floor = int(scene.floor_geom)
         self._torso = _torso_body(m, scene)
+        upper = subtree_mask(m, self._torso)
+        upper[self._torso] = False
+        self._upper = upper[m.dof_bodyid[self.vadr[6:]]]  # (n − 6,) the hinges above the torso (arms, head)
         self._weld = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, "robot_anchor")
         ids = scene.act_ids
         self._gain = m.actuator_gainprm[ids, 0].copy()
@@ -128,12 +138,15 @@ class BalanceController:
 
     def _footprint(self, d: mujoco.MjData, pts: np.ndarray, which: np.ndarray) -> np.ndarray:
         """(K, 2) world points whose box is the feet's support: the soles of the feet on the floor now (the live
-        contact points of a foot whose sole is unknown)."""
+        contact points of a foot whose sole is unknown), and of a foot whose sole is within ``sole_gap`` of it
+        (the soles' boxes were found pressed 2 mm into the floor)."""
         out = []
+        floor = float(pts[:, 2].min())
         for s, body in enumerate(self._feet):
-            if not (which == s).any():
-                continue
             sole = self._sole[s]
+            if not (which == s).any() and (sole is None or float((d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T)[
+                    :, 2].min()) > floor + self.config.sole_gap + 0.002 or self.config.sole_gap <= 0.0):
+                continue
             if sole is None:
                 out.append(pts[which == s, :2])
             else:
@@ -158,6 +171,11 @@ class BalanceController:
         self._torso_goal = np.eye(3)
         self.steps = self.active_steps = self.released_steps = self.catches = 0
         """Physics steps run, driven by the controller, with the harness off; times a released robot was caught."""
+        self.catch_reasons = {"tilt": 0, "capture": 0, "step": 0}
+        """Catches by cause: the torso's tilt, the capture point off the soles, a foot no longer planted."""
+        self.limit_steps = self.relaxed_steps = self.qp_failures = 0
+        """``qp``: driven steps with a torque on its limit's bound; solved again without the foot loads and
+        centre-of-pressure bounds; whose QP DAQP did not solve (the least-squares torques were used)."""
 
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
@@ -188,7 +206,7 @@ class BalanceController:
         box = None
         if standing:
             fwd = self._heading(d)
-            box = _Box(self._footprint(d, pts, which), fwd)
+            box = SupportBox(self._footprint(d, pts, which), fwd)
             com = d.subtree_com[self.scene.root_body]
             self._jp[:] = 0.0
             mujoco.mj_jacSubtreeCom(m, d, self._jp, self.scene.root_body)
@@ -206,6 +224,7 @@ class BalanceController:
                              and box.inside(capture, c.release_margin))  # type: ignore[union-attr]
         if was and not self.released:
             self.catches += 1
+            self.catch_reasons["step" if not standing else "tilt" if tilt > c.catch_tilt else "capture"] += 1
             self._engaged = 0.0  # caught: the release waits its delay again
             root = self.scene.root_body
             self._caught = (d.xpos[root].copy(), d.xquat[root].copy(), 0.0)
@@ -252,7 +271,7 @@ class BalanceController:
         self._caught = (pos, quat, t + m.opt.timestep)
 
     def _torques(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray, pts: np.ndarray,
-                 frames: np.ndarray, which: np.ndarray, box: _Box, com: np.ndarray, jcom: np.ndarray,
+                 frames: np.ndarray, which: np.ndarray, box: SupportBox, com: np.ndarray, jcom: np.ndarray,
                  comvel: np.ndarray) -> np.ndarray:
         """(n_act,) actuator torques (N·m) of the whole-body balance at the state after ``mj_step1``."""
         c = self.config
@@ -300,10 +319,42 @@ class BalanceController:
         hinge_q = d.qpos[self.qadr[7:]]
         wq = c.joint_bandwidth
         want = wq * wq * (q_ref[7:] - hinge_q) + 2.0 * wq * (qd_ref - qv[6:])
-        tasks.append((np.eye(n)[6:], want, c.w_joint))
-        res = solve_contact_dynamics(M, h, self.unactuated, jac, cone_edges(frames, c.friction), tasks, self.mass,
-                                     c.w_dynamics, c.w_force)
+        scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside one task
+        tasks.append((np.eye(n)[6:] * scale[:, None], want * scale, c.w_joint))
+        edges = cone_edges(frames, c.friction)
+        if c.solver == "lsq":
+            return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
+                                          c.w_force).tau[self._act_rows]
+        limits = np.full((n, 2), [-np.inf, np.inf])
+        limits[self._act_rows] = c.torque_fraction * actuator_limits(m, self.scene.act_ids, d.qpos[self._act_q],
+                                                                      d.qvel[self._act_v])
+        # The loads and centre-of-pressure bounds only for feet on an area (three contacts or more): on fewer, β ≥ 0
+        # already keeps the centre of pressure on them, and the bounds' box may miss their segment.
+        area = np.array([np.count_nonzero(which == s) >= 3 for s in range(len(self._feet))])
+        foot = np.where(area[which], which, -1)
+        res = solve_contact_qp(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_force, limits,
+                               self._cop(d, pts, edges, foot, box), foot, c.min_foot_load * self.mass * self._g)
+        self.limit_steps += int(res.at_limit.any())
+        self.relaxed_steps += int(res.relaxed)
+        if not res.found:  # (not seen since the rows are scaled) the least-squares torques instead of none
+            self.qp_failures += 1
+            return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
+                                          c.w_force).tau[self._act_rows]
         return res.tau[self._act_rows]
+
+    def _cop(self, d: mujoco.MjData, pts: np.ndarray, edges: np.ndarray, which: np.ndarray,
+             box: SupportBox) -> np.ndarray:
+        """(R, 4P) the centre-of-pressure rows (:func:`~.contact_qp.cop_rows`): each foot's kept ``cop_margin``
+        inside its sole, along the support box's axes."""
+        bounds = np.zeros((len(self._feet), 2, 2))
+        for s, body in enumerate(self._feet):
+            mine = pts[which == s, :2]
+            if not len(mine):  # (−1 in ``which``: a point left unbounded)
+                continue
+            sole = self._sole[s]
+            xy = mine if sole is None else (d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T)[:, :2]
+            bounds[s] = cop_interval(box.R, xy, mine, self.config.cop_margin)
+        return cop_rows(pts, edges, which, box.R, bounds)
 
     # -- measurements ---------------------------------------------------------------------------------------
     def _foot_contacts(self, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -343,28 +394,3 @@ def lean_offset(moment: np.ndarray, force: np.ndarray, point: np.ndarray, weight
     M_x − W (c_y − p_y) = 0 (a forward pull above the floor leans the robot back)."""
     mom = np.asarray(moment, dtype=np.float64) - np.cross(point, force)
     return np.array([-mom[1], mom[0]]) / weight
-
-
-class _Box:
-    """The box of the feet's contact points on the floor, axes along the heading (forward, left)."""
-
-    def __init__(self, xy: np.ndarray, forward: np.ndarray) -> None:
-        self.R = np.array([forward, [-forward[1], forward[0]]])  # rows: forward, left
-        local = xy @ self.R.T
-        self.lo, self.hi = local.min(axis=0), local.max(axis=0)
-
-    def middle(self) -> np.ndarray:
-        """(2,) the box's middle, world."""
-        return (0.5 * (self.lo + self.hi)) @ self.R
-
-    def clip(self, p: np.ndarray, margin: float) -> np.ndarray:
-        """(2,) ``p`` (2,) world moved into the box shrunk by ``margin`` (its middle where that is empty)."""
-        lo, hi = self.lo + margin, self.hi - margin
-        mid = 0.5 * (self.lo + self.hi)
-        lo, hi = np.minimum(lo, mid), np.maximum(hi, mid)
-        return np.clip(self.R @ p, lo, hi) @ self.R
-
-    def inside(self, p: np.ndarray, margin: float) -> bool:
-        """Whether ``p`` (2,) world lies inside the box shrunk by ``margin`` (grown where negative)."""
-        x = self.R @ p
-        return bool(np.all(x >= self.lo + margin) and np.all(x <= self.hi - margin))

@@ -7,6 +7,8 @@ built for one robot and one task; :meth:`Simulator.reset` loads an instance
 through mink IK, the robot's position servos and its base anchor track the
 solution over the frame's physics steps while the human moves to the next
 frame, and the task's sub-goals and failures are scored on the contacts.
+:meth:`Simulator.step` is :meth:`~Simulator.solve` then :meth:`~Simulator.advance` over the whole frame; the
+environment's control period advances a frame in pieces and may solve again within it.
 """
 
 from __future__ import annotations
@@ -58,6 +60,7 @@ class Simulator:
         cc = self.config.contact_completion
         self._completion = None if cc is None else ContactCompletion(cc)
         self._completed_frame = -1
+        self._in_frame = False
 
     # -- set-up -----------------------------------------------------------------------
     def _get_stage(self, inter: Interaction) -> Stage:
@@ -115,6 +118,7 @@ class Simulator:
         ik.reset(q0)
         self.frame = 0
         self.time = 0.0
+        self._in_frame = False
         self.results: list[StepResult] = []
         self._start(q0)
         self._settled = False
@@ -297,6 +301,23 @@ class Simulator:
 
     def step(self, targets: np.ndarray, subevent: str | None = None) -> StepResult:
         """Advance one data frame toward robot-frame ``targets`` (5, 3), metres (NaN rows: keep home offsets)."""
+        self.solve(targets, subevent)
+        result = self.advance(self.n_sub)
+        assert result is not None
+        return result
+
+    @property
+    def substep(self) -> int:
+        """Physics steps of the current frame already run (0 … ``n_sub`` − 1; 0 between frames)."""
+        return 0 if self._stage is None else self._stage.stepper.k if self._in_frame else 0
+
+    def solve(self, targets: np.ndarray, subevent: str | None = None, iterations: int | None = None) -> None:
+        """Solve the IK toward robot-frame ``targets`` (5, 3), metres, for the end of the current frame.
+
+        Between frames it starts the next one (:meth:`advance` then runs its physics steps); within a frame
+        (after some of its physics steps) the servo references go from where they are to the new solution
+        over the frame's remaining steps, the IK's frame period being the time that remains. ``iterations``: at
+        most that many IK steps (``None``: ``IKConfig.iterations``)."""
         self._require()
         if self.done:
             raise SimulationError(f"the instance has ended (frame {self.frame} of {self.n_frames}); call reset")
@@ -304,6 +325,7 @@ class Simulator:
         assert stage is not None
         fps = self.interaction.fps  # type: ignore[union-attr]
         t0, t1 = self.frame, self.frame + 1
+        k, n = self.substep, self.n_sub
         tg = self._fill_targets(np.asarray(targets, dtype=np.float64))
         world = self.frame_R.to_world(tg)
         if self._footlock is not None:
@@ -318,11 +340,19 @@ class Simulator:
         com_target = None
         if stage.stance is not None:
             com_target = self._stance(stage, planted, world)
-        res = ik.solve(world, self._yaw, dt=1.0 / fps, care=reachable, planted=planted, com_target=com_target,
+        res = ik.solve(world, self._yaw, dt=1.0 / fps if k == 0 else (n - k) / (n * fps), care=reachable, planted=planted,
+                       com_target=com_target, iterations=iterations,
                        com_cost=None if com_target is None else stage.stance.config.com_cost)  # type: ignore[union-attr]
         ik_seconds = time.thread_time() - tic
+        feet = None if self._footlock is None else planted
+        self.ik_errors = res.errors
+        """(5,) m: distance of each key frame from its target after the latest IK solve."""
+        if self._in_frame:
+            stage.stepper.replan(self._to_physics(res.qpos), feet=feet)
+            self._solved = (tg, res, reachable, self._solved[3] + ik_seconds, subevent)
+            return
 
-        plan, n = self.carry, self.n_sub
+        plan = self.carry
 
         def carry(k: int, now: float) -> bool:
             """Move the carried object along its plan at sub-step ``k``; release it (False) at its frame."""
@@ -334,13 +364,34 @@ class Simulator:
             self._place_object(s0, moving=True)
             return True
 
-        self.time, force = stage.stepper.run(
-            self.n_sub, fps, self._to_physics(self._q), self._to_physics(res.qpos),
-            (self.pose.pos[t0], self.pose.pos[t1]), (self.pose.quat[t0], self.pose.quat[t1]), self.time, subevent,
-            grip=self.config.grip, carry=carry if plan is not None and not self._released else None,
-            feet=None if self._footlock is None else planted,
+        stage.stepper.plan(
+            n, fps, self._to_physics(self._q), self._to_physics(res.qpos),
+            (self.pose.pos[t0], self.pose.pos[t1]), (self.pose.quat[t0], self.pose.quat[t1]),
+            grip=self.config.grip, carry=carry if plan is not None and not self._released else None, feet=feet,
         )
+        self._in_frame = True
+        self._solved = (tg, res, reachable, ik_seconds, subevent)
+
+    def advance(self, steps: int) -> StepResult | None:
+        """Run up to ``steps`` more physics steps of the frame :meth:`solve` started; at the frame's end, close
+        it and return what the frame did (else ``None``)."""
+        self._require()
+        if not self._in_frame:
+            raise SimulationError("Simulator.advance: no frame started; call solve(targets) first")
+        stage = self._stage
+        assert stage is not None
+        stepper = stage.stepper
+        tg, res, reachable, ik_seconds, subevent = self._solved
+        f0, k0 = stepper.force, stepper.k
+        self.time = stepper.advance(stepper.k + max(0, int(steps)), self.time, subevent)
+        self.control_force = (stepper.force - f0) / max(1, stepper.k - k0)
+        """N: mean force on the person over the physics steps of the latest :meth:`advance`."""
+        if stepper.k < self.n_sub:
+            return None
+        force = stepper.end_frame()
+        self._in_frame = False
         scorer = stage.scorer
+        t1 = self.frame + 1
         self._q = res.qpos
         self.frame = t1
         self.last_targets = tg

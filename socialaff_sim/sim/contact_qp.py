@@ -1,0 +1,197 @@
+"""Floating-base inverse dynamics as a quadratic program: the same problem as :mod:`~.contact_dynamics`, with the
+equation of motion, the torque limits and the feet's centres of pressure as hard constraints.
+
+The decision variables are the robot's accelerations q̈ (n,) and the edge weights β (4P,) of the feet's
+linearised friction cones (:func:`~.contact_dynamics.cone_edges`; forces f_p = E_p β_p), scaled by the robot's
+mass (β' = β / m, in m/s²) so that every row of the problem is an acceleration. :func:`solve_contact_qp`
+minimises
+
+    Σ_k w_k ‖A_k q̈ − b_k‖² + w_f ‖β'‖² + ε ‖q̈‖²
+
+(the tasks as in the least-squares solve, a small regularisation of the forces and of q̈) subject to
+
+* the unactuated rows of ``M q̈ + h = Sᵀτ + Gβ`` (the root's six; equalities);
+* β ≥ 0: every contact force pushes and stays inside its friction pyramid;
+* τ_lo ≤ (M q̈ + h − Gβ)_a ≤ τ_hi on the actuated rows: the actuators' real limits (:func:`actuator_limits`);
+* optionally, each foot's vertical force at least a minimum load;
+* each foot's centre of pressure inside an interval per horizontal axis (:func:`cop_rows`), the sole shrunk by a
+  margin: ``Σ_i f_z,i (r_i − lo) ≥ 0`` and ``Σ_i f_z,i (hi − r_i) ≥ 0`` over the foot's points.
+
+Any β ≥ 0 with q̈ = M⁻¹(Gβ − h) (τ = 0) satisfies the equation of motion and the torque limits (where they
+include 0), and β = 0 the centre-of-pressure rows, so the problem is feasible (with a minimum load: any β that
+carries it on each foot with its centre of pressure in bounds). It is solved by DAQP
+(:func:`daqp.solve`, the dual active-set solver mink uses), dense, with the bounds on β as simple bounds.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import daqp
+import mujoco
+import numpy as np
+
+__all__ = ["ContactQPResult", "actuator_limits", "cop_rows", "solve_contact_qp"]
+
+log = logging.getLogger(__name__)
+
+_INF = 1e30
+
+
+@dataclass(frozen=True)
+class ContactQPResult:
+    """The solution of one :func:`solve_contact_qp` call."""
+
+    qacc: np.ndarray
+    """(n,) the chosen generalised acceleration (root: m/s², rad/s²; hinges rad/s²)."""
+    forces: np.ndarray
+    """(P, 3) the contact force at each point, world frame, N."""
+    beta: np.ndarray
+    """(4P,) the cone edges' weights, N (f_p = E_p β_p)."""
+    tau: np.ndarray
+    """(n,) generalised force the actuators must supply, ``M q̈ + h − Gβ`` (≈ 0 on the unactuated rows)."""
+    at_limit: np.ndarray
+    """(n,) bool: actuated rows whose torque lies on a bound of its limit (the limit constraint is active)."""
+    found: bool
+    """Whether DAQP reported an optimal solution (``False``: free fall is returned, see :func:`solve_contact_qp`)."""
+    relaxed: bool
+    """Whether the foot loads and centre-of-pressure bounds were dropped because they could not hold together."""
+
+
+def actuator_limits(m: mujoco.MjModel, act_ids: np.ndarray, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
+    """(A, 2) lowest and highest force (N or N·m) each actuator ``act_ids`` (A,) can deliver to its joint at the
+    state ``qpos`` and ``qvel`` (A,) of the joint, clipped as MuJoCo clips: where the control is limited, the
+    force ``gain·ctrl + b₀ + b₁q + b₂q̇`` at the ends of ``ctrlrange`` (a position servo's reach at this state),
+    then clipped to its ``forcerange`` (where force-limited), then to its joint's ``actuatorfrcrange`` (where
+    limited; one actuator per joint, gear 1, as the scenes' robots have). ±inf where nothing limits it."""
+    ids = np.asarray(act_ids, dtype=np.int64)
+    out = np.tile([-np.inf, np.inf], (len(ids), 1))
+    cl = m.actuator_ctrllimited[ids].astype(bool)
+    if cl.any():
+        g = m.actuator_gainprm[ids, 0]
+        b = m.actuator_biasprm[ids, :3]
+        ends = g[:, None] * m.actuator_ctrlrange[ids] + (b[:, 0] + b[:, 1] * qpos + b[:, 2] * qvel)[:, None]
+        out[cl] = np.sort(ends, axis=1)[cl]
+    for limited, rng in ((m.actuator_forcelimited[ids].astype(bool), m.actuator_forcerange[ids]),
+                         (m.jnt_actfrclimited[m.actuator_trnid[ids, 0]].astype(bool),
+                          m.jnt_actfrcrange[m.actuator_trnid[ids, 0]])):
+        out[limited] = np.clip(out[limited], rng[limited, :1], rng[limited, 1:])
+    return out
+
+
+def cop_rows(points: np.ndarray, edges: np.ndarray, foot: np.ndarray, axes: np.ndarray,
+             bounds: np.ndarray) -> np.ndarray:
+    """(R, 4P) rows C with ``C β ≥ 0`` iff every foot's centre of pressure lies inside its bounds (or it carries
+    nothing): ``points`` (P, 3) the contact points (on the floor, z up), ``edges`` (P, 3, 4) their cones' edges,
+    ``foot`` (P,) each point's foot index, ``axes`` (2, 2) the horizontal unit axes the bounds are along (world),
+    ``bounds`` (F, 2, 2) per foot and axis the interval [lo, hi] (m, along the axis) for the centre of pressure.
+    Two rows per foot and axis: ``Σ_i f_z,i (a·r_i − lo) ≥ 0`` and ``Σ_i f_z,i (hi − a·r_i) ≥ 0``."""
+    P = len(points)
+    fz = edges[:, 2, :]  # (P, 4): the vertical force of each edge per unit weight
+    coord = points[:, :2] @ np.asarray(axes).T  # (P, 2)
+    rows = []
+    for s in range(len(bounds)):
+        mine = foot == s
+        if not mine.any():
+            continue
+        for a in range(2):
+            lo, hi = bounds[s, a]
+            for arm in (coord[:, a] - lo, hi - coord[:, a]):
+                r = np.zeros((P, 4))
+                r[mine] = fz[mine] * arm[mine, None]
+                rows.append(r.ravel())
+    return np.array(rows) if rows else np.zeros((0, 4 * P))
+
+
+def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point_jac: np.ndarray,
+                     edges: np.ndarray, tasks: list[tuple[np.ndarray, np.ndarray, float]], mass: float,
+                     w_force: float, tau_limits: np.ndarray, cop: np.ndarray | None = None,
+                     foot: np.ndarray | None = None, min_load: float = 0.0, w_reg: float = 1e-6) -> ContactQPResult:
+    """Accelerations, contact forces and torques of a standing robot under hard constraints (module docstring).
+
+    ``M`` (n, n), ``h`` (n,): mass matrix and bias forces (N, N·m); ``unactuated`` (n,) bool: coordinates
+    without an actuator (their rows are equalities); ``point_jac`` (P, 3, n), ``edges`` (P, 3, 4): the contact
+    points' translational Jacobians and cone edges; ``tasks``: (A (r, n), b (r,), w) rows ``A q̈ = b`` with their
+    weights; ``mass`` (kg); ``w_force``: weight of ‖β / m‖²; ``tau_limits`` (n, 2): [lo, hi] per row (N, N·m;
+    ±inf: none; the unactuated rows' are ignored); ``cop`` (R, 4P): rows with ``cop β ≥ 0`` (:func:`cop_rows`);
+    ``foot`` (P,) each point's foot (−1: none) and ``min_load`` (N): every foot with points pushes on the floor
+    with at least this vertical force (a foot left without load lifts off the floor and loses its contacts);
+    should the loads and the centre-of-pressure rows not hold together, the problem is solved again without
+    them (``relaxed``); ``w_reg``: ε, the regularisation of q̈. Should DAQP fail (it should not: free fall is
+    feasible), the result is free fall (β = 0, τ = 0, ``found=False``) and a warning is logged.
+    """
+    n = M.shape[0]
+    P = point_jac.shape[0]
+    K = 4 * P
+    G = np.einsum("pin,pik->npk", point_jac, edges).reshape(n, K)  # (n, 4P): generalised force per edge
+    # Variables x = [β' (K), q̈ (n)], β' = β / m: every row is then in m/s².
+    H = np.zeros((K + n, K + n))
+    f = np.zeros(K + n)
+    H[:K, :K] = w_force * np.eye(K)
+    Hq = H[K:, K:]
+    Hq += w_reg * np.eye(n)
+    for A, b, w in tasks:
+        Hq += w * (A.T @ A)
+        f[K:] -= w * (A.T @ b)
+    act = ~np.asarray(unactuated, dtype=bool)
+    Mm, Gm, hm = M / mass, G, h / mass  # rows of the equation of motion divided by m: M/m q̈ − G β' + h/m = τ/m
+    dyn = np.hstack([-Gm, Mm])  # (n, K + n)
+    lim = np.asarray(tau_limits, dtype=np.float64)
+    rows, upper, lower, sense = [dyn[~act]], [-hm[~act]], [-hm[~act]], [np.full(int((~act).sum()), 5)]
+    rows.append(dyn[act])
+    upper.append(np.where(np.isfinite(lim[act, 1]), lim[act, 1] / mass - hm[act], _INF))
+    lower.append(np.where(np.isfinite(lim[act, 0]), lim[act, 0] / mass - hm[act], -_INF))
+    sense.append(np.zeros(int(act.sum())))
+    base = len(rows)
+    if foot is not None and min_load > 0.0 and P:
+        for s in np.unique(foot[foot >= 0]):
+            r = np.where((foot == s)[:, None], edges[:, 2, :], 0.0).ravel()
+            rows.append(np.concatenate([r, np.zeros(n)])[None])
+            upper.append(np.array([_INF]))
+            lower.append(np.array([min_load / mass]))
+            sense.append(np.zeros(1))
+    if cop is not None and len(cop):
+        rows.append(np.hstack([cop, np.zeros((len(cop), n))]))
+        upper.append(np.full(len(cop), _INF))
+        lower.append(np.zeros(len(cop)))
+        sense.append(np.zeros(len(cop)))
+    H = np.ascontiguousarray(H)
+    x, flag = _daqp(H, f, K, rows, upper, lower, sense)
+    relaxed = flag <= 0 and len(rows) > base
+    if relaxed:  # the minimum loads and centre-of-pressure bounds cannot hold together (a foot on few contacts)
+        log.debug("balance QP: exit flag %d; solved again without the foot loads and centre-of-pressure bounds", flag)
+        x, flag = _daqp(H, f, K, rows[:base], upper[:base], lower[:base], sense[:base])
+    found = flag > 0
+    if not found:
+        log.warning("balance QP: DAQP exit flag %d; free fall returned", flag)
+        beta = np.zeros(K)
+        qacc = np.linalg.solve(M, -h)
+        tau = np.zeros(n)
+    else:
+        beta = mass * np.maximum(np.asarray(x[:K]), 0.0)
+        qacc = np.asarray(x[K:], dtype=np.float64)
+        tau = M @ qacc + h - G @ beta
+    tol = 1e-6 * max(1.0, mass)
+    at_limit = act & ((tau >= lim[:, 1] - tol) | (tau <= lim[:, 0] + tol))
+    forces = np.einsum("pik,pk->pi", edges, beta.reshape(P, 4)) if P else np.zeros((0, 3))
+    return ContactQPResult(qacc=qacc, forces=forces, beta=beta, tau=tau, at_limit=at_limit, found=found,
+                           relaxed=relaxed)
+
+
+def _daqp(H: np.ndarray, f: np.ndarray, K: int, rows: list[np.ndarray], upper: list[np.ndarray],
+          lower: list[np.ndarray], sense: list[np.ndarray]) -> tuple[np.ndarray, int]:
+    """DAQP on ``½xᵀHx + fᵀx`` with ``0 ≤ x[:K]`` and ``lower ≤ rows x ≤ upper`` (sense 5: equality); the
+    rows are scaled to unit norm and empty ones dropped (with them DAQP declared feasible problems infeasible)."""
+    A_all, up, lo, sn = np.vstack(rows), np.concatenate(upper), np.concatenate(lower), np.concatenate(sense)
+    norm = np.linalg.norm(A_all, axis=1)
+    keep = norm > 1e-9
+    k = 1.0 / norm[keep]
+    A_all = np.ascontiguousarray(A_all[keep] * k[:, None])
+    up = np.where(up[keep] < _INF, up[keep] * k, _INF)
+    lo = np.where(lo[keep] > -_INF, lo[keep] * k, -_INF)
+    bu = np.concatenate([np.full(K, _INF), up])  # the first K entries: simple bounds 0 ≤ β'
+    bl = np.concatenate([np.zeros(K), lo])
+    sn = np.concatenate([np.zeros(K), sn[keep]]).astype(np.intc)
+    x, _, flag, _ = daqp.solve(H, f, A_all, bu, bl, sn)
+    return np.asarray(x), int(flag)

@@ -1,0 +1,51 @@
+"""The support box of a standing robot: the box of its feet's soles on the floor, axes along its heading."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["SupportBox"]
+
+
+class SupportBox:
+    """The box of the feet's contact points on the floor, axes along the heading (forward, left)."""
+
+    def __init__(self, xy: np.ndarray, forward: np.ndarray) -> None:
+        self.R = np.array([forward, [-forward[1], forward[0]]])  # rows: forward, left
+        local = xy @ self.R.T
+        self.lo, self.hi = local.min(axis=0), local.max(axis=0)
+
+    def middle(self) -> np.ndarray:
+        """(2,) the box's middle, world."""
+        return (0.5 * (self.lo + self.hi)) @ self.R
+
+    def clip(self, p: np.ndarray, margin: float) -> np.ndarray:
+        """(2,) ``p`` (2,) world moved into the box shrunk by ``margin`` (its middle where that is empty)."""
+        lo, hi = self.lo + margin, self.hi - margin
+        mid = 0.5 * (self.lo + self.hi)
+        lo, hi = np.minimum(lo, mid), np.maximum(hi, mid)
+        return np.clip(self.R @ p, lo, hi) @ self.R
+
+    def inside(self, p: np.ndarray, margin: float) -> bool:
+        """Whether ``p`` (2,) world lies inside the box shrunk by ``margin`` (grown where negative)."""
+        x = self.R @ p
+        return bool(np.all(x >= self.lo + margin) and np.all(x <= self.hi - margin))
+
+
+def cop_interval(axes: np.ndarray, sole_xy: np.ndarray, point_xy: np.ndarray, margin: float) -> np.ndarray:
+    """(2, 2) per axis of ``axes`` (2, 2) (rows: unit horizontal axes, world) the interval [lo, hi] (m, along the
+    axis) a foot's centre of pressure is kept in: the extent of its sole ``sole_xy`` (S, 2) shrunk by ``margin``
+    (m; its middle where narrower than twice the margin), within the extent of its contact points ``point_xy``
+    (K, 2) (the centre of pressure cannot leave them; where the two do not overlap, the contact points' end
+    nearest to the shrunk sole)."""
+    sole = sole_xy @ axes.T
+    pts = point_xy @ axes.T
+    s_lo, s_hi = sole.min(axis=0) + margin, sole.max(axis=0) - margin
+    mid = 0.5 * (sole.min(axis=0) + sole.max(axis=0))
+    s_lo, s_hi = np.minimum(s_lo, mid), np.maximum(s_hi, mid)
+    p_lo, p_hi = pts.min(axis=0), pts.max(axis=0)
+    lo, hi = np.maximum(s_lo, p_lo), np.minimum(s_hi, p_hi)
+    empty = lo > hi
+    near = np.clip(0.5 * (s_lo + s_hi), p_lo, p_hi)
+    lo, hi = np.where(empty, near, lo), np.where(empty, near, hi)
+    return np.stack([lo, hi], axis=1)
