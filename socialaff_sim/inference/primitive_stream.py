@@ -43,9 +43,10 @@ from .interaction_primitive import InteractionPrimitive
 
 __all__ = ["PrimitiveStream", "SHARED_SOLVERS"]
 
-SHARED_SOLVERS = 64
-"""[—]: At most this many candidates' fixed conditioning parts (S, K and Λ_rr's factor, about 0.7 MB each on the
-handovers) are kept per fitted primitive, shared by its streams (oldest dropped first)."""
+SHARED_SOLVERS = 32
+"""[—]: At most this many candidates' fixed conditioning parts (S, K and Λ_rr's factor, about 0.9 MB each on the
+handovers; one per candidate duration and agent-1 tracking pattern) are kept per fitted primitive, shared by its
+streams (oldest dropped first)."""
 
 _SHARED: weakref.WeakKeyDictionary[InteractionPrimitive, dict[tuple[int, bytes], tuple[np.ndarray, np.ndarray, np.ndarray]]]
 _SHARED = weakref.WeakKeyDictionary()
