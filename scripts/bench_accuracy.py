@@ -71,6 +71,10 @@ def render(name: str, command: str, run: dict[str, object], results: dict | None
         lines += [f"Not run again: {', '.join(results['reused']['methods'])}, taken from `{results['reused']['from']}` "
                   "(an earlier run with the same data, folds, seed and protocol); the paired comparisons are recomputed "
                   "over all methods.", ""]
+        inner = results["reused"].get("earlier")
+        while inner:  # that file had itself reused rows
+            lines[-1:-1] = [f"That file took {', '.join(inner['methods'])} from `{inner['from']}`."]
+            inner = inner.get("earlier")
     labels = list(results["per_interaction"])
     methods = list(results["average"])
     lines.append("Key-joint error (m) per interaction and averaged over the interactions; full-skeleton average; fit + predict s summed over tasks.")

@@ -114,3 +114,15 @@ def test_cli_reuse_and_its_errors(tmp_path: Path, capsys: pytest.CaptureFixture[
     assert "--reuse" in capsys.readouterr().err and not (tmp_path / "d").exists()
     assert main([*base, "--methods", "hold", "--reuse", str(tmp_path / "none.json"), "--out", str(tmp_path / "e")]) == 2
     assert "cannot read it" in capsys.readouterr().err
+
+
+def test_reusing_a_merged_file_keeps_where_its_rows_came_from(runs: tuple[dict, dict, dict]) -> None:
+    whole, part, _ = runs
+    merged = reuse_results(part, whole, "first.json")  # hold new; ridge, constvel from first.json
+    ridge_only = {**merged, "average": {"ridge": merged["average"]["ridge"]}}
+    again = reuse_results(ridge_only, merged, "second.json")
+    assert again["reused"]["methods"] == ["hold", "constvel"]
+    assert again["reused"]["earlier"] == {"from": "first.json", "methods": ["ridge", "constvel"]}
+    assert "That file took ridge, constvel from `first.json`." in format_tables(again)
+    assert "earlier" not in merged["reused"]
+

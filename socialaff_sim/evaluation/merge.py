@@ -113,6 +113,8 @@ def reuse_results(results: Mapping[str, Any], earlier: Mapping[str, Any], source
             out[key][label] = {m: out[key][label][m] for m in order}
     out["settings"]["methods"] = order
     out["reused"] = {"from": source, "methods": reused}
+    if earlier.get("reused"):  # the earlier file reused rows itself: keep where they came from
+        out["reused"]["earlier"] = copy.deepcopy(earlier["reused"])
     metrics = list(METRICS) + [horizon_metric(h) for h in mine["horizons_s"]]
     out["paired"] = paired_comparisons(out, int(mine["seed"]), metrics)
     return out

@@ -57,6 +57,10 @@ def format_tables(results: Mapping[str, Any]) -> str:
     if reused:
         lines.append(f"Not run again: {', '.join(reused['methods'])}, taken from `{reused['from']}` (same data, folds, "
                      "seed and protocol; the paired comparisons are recomputed over all methods).")
+        inner = reused.get("earlier")
+        while inner:  # that file had itself reused rows
+            lines.append(f"That file took {', '.join(inner['methods'])} from `{inner['from']}`.")
+            inner = inner.get("earlier")
     for key, title in _METRICS:
         lines += ["", f"## {title}", ""]
         lines.append("| Method | " + " | ".join(labels) + " | Average |")
