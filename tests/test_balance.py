@@ -13,7 +13,7 @@ from socialaff_sim.data.skeletons import get_layout
 from socialaff_sim.retarget.ik import IKConfig, IKModel, RobotIK
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.feedforward import StandingFeedforward
-from socialaff_sim.retarget.kinematic_tree import subtree_mask
+from socialaff_sim.retarget.kinematic_tree import ancestry, shared_ancestor, subtree_mask
 from socialaff_sim.sim.robot_mjcf import stance_inertia
 from socialaff_sim.sim.scene import Scene, build_scene, pose_compliant
 from socialaff_sim.sim.stage import key_frames_at
@@ -225,3 +225,19 @@ def test_torso_tilt_is_the_angle_the_robot_is_turned_by(ours) -> None:
     meter = SupportMeter(scene)
     meter.update(d)
     assert meter.end_frame().tilt_deg == pytest.approx(angle, abs=1e-6)
+
+
+def test_tree_ancestry_and_the_torso_against_brute_force(ik_scene: Scene) -> None:
+    """kinematic_tree.ancestry / shared_ancestor (the torso of SupportMeter, BalanceController, torso_dofs)
+    against the subtree masks: a is below x iff x's subtree holds a."""
+    m = ik_scene.model
+    for body in range(1, m.nbody):
+        brute = [x for x in range(1, m.nbody) if subtree_mask(m, x)[body]]
+        assert sorted(ancestry(m, body)) == brute
+        assert ancestry(m, body)[0] == body
+    a, b = int(ik_scene.limb_body_ids[0]), int(ik_scene.limb_body_ids[1])
+    common = [x for x in range(1, m.nbody) if x != a and subtree_mask(m, x)[a] and subtree_mask(m, x)[b]]
+    torso = shared_ancestor(m, a, b, default=-1)
+    assert torso == max(common)  # the deepest: MuJoCo numbers a body after its parent
+    assert shared_ancestor(m, a, a, default=-1) == int(m.body_parentid[a])
+    assert shared_ancestor(m, a, 0, default=-7) == -7  # the world is no proper ancestor: the default

@@ -43,7 +43,7 @@ import math
 import mujoco
 import numpy as np
 
-from ..retarget.kinematic_tree import subtree_mask
+from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
 from .balance_config import BalanceConfig
 from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
@@ -53,16 +53,6 @@ from .support_box import SupportBox, cop_interval
 
 __all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
 
-
-def _torso_body(m: mujoco.MjModel, scene: Scene) -> int:
-    """The body both shoulders hang from (as :class:`~socialaff_sim.sim.support.SupportMeter` measures tilt)."""
-    def up(b: int) -> list[int]:
-        out = [b]
-        while int(m.body_parentid[out[-1]]) > 0:
-            out.append(int(m.body_parentid[out[-1]]))
-        return out
-    left, right = up(int(scene.limb_body_ids[0])), set(up(int(scene.limb_body_ids[1])))
-    return next((b for b in left[1:] if b in right), scene.root_body)
 
 
 class BalanceController:
@@ -92,7 +82,8 @@ class BalanceController:
             foot_geom[subtree_mask(m, body)[m.geom_bodyid] & scene.robot_geom] = s
         self._foot_geom = foot_geom
         self._floor = int(scene.floor_geom)
-        self._torso = _torso_body(m, scene)
+        # the body both shoulders hang from (as SupportMeter measures tilt)
+        self._torso = shared_ancestor(m, int(scene.limb_body_ids[0]), int(scene.limb_body_ids[1]), scene.root_body)
         upper = subtree_mask(m, self._torso)
         upper[self._torso] = False
         self._upper = upper[m.dof_bodyid[self.vadr[6:]]]  # (n − 6,) the hinges above the torso (arms, head)

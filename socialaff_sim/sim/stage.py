@@ -18,6 +18,7 @@ import numpy as np
 from ..data.skeletons import SkeletonLayout
 from ..errors import SimulationError
 from ..retarget.ik import IKModel, RobotIK
+from ..retarget.kinematic_tree import ancestry, shared_ancestor
 from ..retarget.robot import RobotSpec
 from .reach import ReachModel
 from .robot_mjcf import limit_hand_force
@@ -100,16 +101,9 @@ def torso_dofs(scene: Scene) -> np.ndarray:
     d.qpos[scene.robot_qadr] = scene.home_qpos
     mujoco.mj_kinematics(m, d)
 
-    def chain(b: int) -> list[int]:
-        out = [b]
-        while int(m.body_parentid[out[-1]]) > 0:
-            out.append(int(m.body_parentid[out[-1]]))
-        return out
-
-    left, right = chain(int(scene.limb_body_ids[0])), set(chain(int(scene.limb_body_ids[1])))
-    torso = next((b for b in left[1:] if b in right), scene.root_body)
+    torso = shared_ancestor(m, int(scene.limb_body_ids[0]), int(scene.limb_body_ids[1]), scene.root_body)
     spine = []
-    for b in chain(torso):
+    for b in ancestry(m, torso):
         if b == scene.root_body:
             break
         for j in range(int(m.body_jntadr[b]), int(m.body_jntadr[b]) + int(m.body_jntnum[b])):

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from ..retarget.kinematic_tree import subtree_mask
+from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
 from .scene import Scene
 
 __all__ = ["SupportMeter", "FrameSupport", "SATURATED", "AT_LIMIT"]
@@ -58,14 +58,6 @@ class FrameSupport:
     tilt_deg: float = 0.0
     """Largest angle in the frame between the torso's up axis and the vertical, degrees (the torso: the
     body both shoulders hang from)."""
-
-
-def _ancestry(model: mujoco.MjModel, body: int) -> list[int]:
-    """``body`` and its ancestors up to (not including) the world."""
-    out = [body]
-    while int(model.body_parentid[out[-1]]) > 0:
-        out.append(int(model.body_parentid[out[-1]]))
-    return out
 
 
 class SupportMeter:
@@ -102,9 +94,7 @@ class SupportMeter:
         if scene.floor_geom >= 0:
             code[scene.floor_geom] = 8
         self._code = code.astype(np.int64)
-        left = _ancestry(m, int(scene.limb_body_ids[0]))
-        right = set(_ancestry(m, int(scene.limb_body_ids[1])))
-        self._torso = next((b for b in left[1:] if b in right), scene.root_body)
+        self._torso = shared_ancestor(m, int(scene.limb_body_ids[0]), int(scene.limb_body_ids[1]), scene.root_body)
         d0 = mujoco.MjData(m)
         d0.qpos[scene.robot_qadr] = scene.home_qpos
         mujoco.mj_kinematics(m, d0)
