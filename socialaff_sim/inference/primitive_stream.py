@@ -39,7 +39,7 @@ from ..data.skeletons import N_KEY
 from ..errors import ModelError
 from ..model.frame import CanonicalFrame
 from .body_fit import instance_frame
-from .interaction_primitive import InteractionPrimitive
+from .interaction_primitive import InteractionPrimitive, rbf_basis
 
 __all__ = ["PrimitiveStream", "SHARED_SOLVERS"]
 
@@ -76,8 +76,7 @@ class PrimitiveStream:
         self._inv_var = np.where(np.arange(n_dof) < self._d0, 1.0 / cfg.human_noise**2, 1.0 / cfg.obs_noise**2)
         self._mean = primitive.mean_.reshape(n_dof, self._n)
         self._a = self._d0 * self._n  # size of the agent-0 (and object) block
-        self._centres = np.linspace(0.0, 1.0, self._n)  # as rbf_basis places them
-        self._sigma = cfg.basis_width / max(self._n - 1, 1)
+        self._width = cfg.basis_width
         self._joint_names: tuple[str, ...] = ()
         self._frames_seen = 0
         self._frame: CanonicalFrame | None = None
@@ -93,9 +92,8 @@ class PrimitiveStream:
         return int(sums + sum(sum(a.size for a in s) for s in self._solvers.values()))
 
     def _rbf(self, phase: np.ndarray) -> np.ndarray:
-        """(G, N) :func:`~.interaction_primitive.rbf_basis` at phases (G,), with its centres computed once."""
-        phi = np.exp(-0.5 * ((phase[:, None] - self._centres[None]) / self._sigma) ** 2)
-        return phi / phi.sum(axis=1, keepdims=True)
+        """(G, N) :func:`~.interaction_primitive.rbf_basis` at phases (G,)."""
+        return rbf_basis(phase, self._n, self._width)
 
     def _add_blocks(self, lam: np.ndarray, blocks: np.ndarray) -> np.ndarray:
         """``lam`` (M·N, M·N) plus the block-diagonal of ``blocks`` (M, N, N), in place."""
