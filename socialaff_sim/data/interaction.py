@@ -14,7 +14,7 @@ from ..errors import DataError
 from .names import stem_problem
 from .skeletons import N_KEY, SkeletonLayout, layout_for_joint_names
 
-__all__ = ["Interaction", "MIN_FRAMES", "LABEL_PATTERN"]
+__all__ = ["Interaction", "MIN_FRAMES", "LABEL_PATTERN", "fill_key_joints"]
 
 MIN_FRAMES = 3
 """Fewest frames an instance may have: the model needs at least two displacements."""
@@ -30,6 +30,30 @@ def _real_array(value: object, field: str, err: Callable[[str, str], DataError])
     if arr.dtype.kind not in "fiub":
         raise err(field, f"expected real numbers, found dtype {arr.dtype}")
     return np.array(arr, dtype=np.float64, copy=True)
+
+
+def fill_key_joints(joints: np.ndarray, valid: np.ndarray, key_indices: tuple[int | None, ...]) -> np.ndarray:
+    """(T, 2, 5, 3) float64, metres: the key joints ``key_indices`` (5 joint indices or ``None``) of ``joints``
+    (T, 2, J, 3) metres, each agent's invalid frames (``valid`` (T, 2, J) False) linearly interpolated in time
+    between its valid ones (held before the first and after the last), NaN where never valid or absent: what
+    :meth:`Interaction.filled_joints` gives for those columns."""
+    T = joints.shape[0]
+    out = np.full((T, 2, N_KEY, 3), np.nan)
+    t = np.arange(T)
+    for k, idx in enumerate(key_indices):
+        if idx is None:
+            continue
+        out[:, :, k] = joints[:, :, idx]
+        for a in range(2):
+            ok = valid[:, a, idx]
+            if ok.all():
+                continue
+            if not ok.any():
+                out[:, a, k] = np.nan
+                continue
+            for d in range(3):
+                out[:, a, k, d] = np.interp(t, t[ok], joints[ok, a, idx, d])
+    return out
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -210,13 +234,11 @@ class Interaction:
         return joints
 
     def key_joints(self) -> np.ndarray:
-        """(T, 2, 5, 3) float64, metres: the five key joints per agent (filled); NaN where the layout lacks one."""
-        full = self.filled_joints()
-        out = np.full((self.n_frames, 2, N_KEY, 3), np.nan)
-        for k, idx in enumerate(self.layout.key_indices):
-            if idx is not None:
-                out[:, :, k] = full[:, :, idx]
-        return out
+        """(T, 2, 5, 3) float64, metres: the five key joints per agent (filled); NaN where the layout lacks one.
+
+        The key columns of :meth:`filled_joints`, filled alone (each joint is interpolated from its own frames
+        only, so this is bitwise those columns, without filling the other joints)."""
+        return fill_key_joints(self.joints, self._valid_mask, self.layout.key_indices)
 
     def key_available(self) -> np.ndarray:
         """(5,) bool: which of :data:`KEY_JOINTS` this instance's layout provides."""

@@ -37,8 +37,9 @@ from scipy.linalg import cho_factor, cho_solve
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ModelError, NotFittedError
+from ..model.frame import CanonicalFrame, canonical_frame
 from .body_fit import BodyFitConfig, instance_frame
-from .protocol import protocol_view
+from .protocol import PrefixViews
 
 __all__ = ["InteractionPrimitive", "ProMPConfig", "condition_gaussian", "condition_on_statistics", "rbf_basis"]
 
@@ -131,6 +132,23 @@ def condition_gaussian(
     return new_mean, cast(np.ndarray, new_cov)
 
 
+class PrefixBasis:
+    """The basis rows ``rbf_basis(min(s / span, 1))`` at frames s = 0 … t − 1, for frame counts t ≤ ``n_frames``:
+    computed once per span for all ``n_frames`` frames and read as a prefix (each row is computed from its own phase
+    alone, so the prefix is bitwise the rows computed for t frames; ``tests/test_fit_speed.py`` checks it)."""
+
+    def __init__(self, n_basis: int, width: float, n_frames: int) -> None:
+        self.n_basis, self.width, self.n_frames = int(n_basis), float(width), int(n_frames)
+        self._rows: dict[int, np.ndarray] = {}
+
+    def rows(self, span: int, t: int) -> np.ndarray:
+        """(t, N) the basis at phases min(s / ``span``, 1), s < t ≤ ``n_frames`` (frames)."""
+        full = self._rows.get(span)
+        if full is None:
+            full = self._rows[span] = rbf_basis(np.minimum(np.arange(self.n_frames) / span, 1.0), self.n_basis, self.width)
+        return full[:t]
+
+
 class InteractionPrimitive:
     """The joint weight distribution of one class's interactions and its conditioning (module docstring).
 
@@ -146,15 +164,21 @@ class InteractionPrimitive:
     def _trajectories(self, inter: Interaction) -> tuple[np.ndarray, np.ndarray]:
         """(T, D) the instance's DoFs in its canonical frame, metres (NaN where never tracked), and
         the (3,) offset subtracted from agent 1's DoFs."""
-        frame = instance_frame(inter)
-        keys = frame.to_canonical(inter.key_joints()[:, :, self.keys_])  # (T, 2, k, 3)
-        parts = [keys[:, 0].reshape(inter.n_frames, -1)]
+        y, anchor, _ = self._dofs_of(inter.key_joints(), inter.object)
+        return y, anchor
+
+    def _dofs_of(self, key_joints: np.ndarray, obj: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, CanonicalFrame]:
+        """:meth:`_trajectories` from an instance's filled key joints (T, 2, 5, 3) world metres and object track
+        (T, 3) or ``None``; also returns the instance's canonical frame (:func:`instance_frame`'s)."""
+        T = key_joints.shape[0]
+        frame = canonical_frame(key_joints[0, 0, 0], key_joints[0, 1, 0])
+        keys = frame.to_canonical(key_joints[:, :, self.keys_])  # (T, 2, k, 3)
+        parts = [keys[:, 0].reshape(T, -1)]
         if self.has_object_:
-            obj = frame.to_canonical(inter.object) if inter.object is not None else np.full((inter.n_frames, 3), np.nan)
-            parts.append(obj)
+            parts.append(frame.to_canonical(obj) if obj is not None else np.full((T, 3), np.nan))
         anchor = keys[0, 1, 0] if self.config.relative_to_start else np.zeros(3)  # agent 1's first base
-        parts.append((keys[:, 1] - anchor).reshape(inter.n_frames, -1))
-        return np.concatenate(parts, axis=1), anchor
+        parts.append((keys[:, 1] - anchor).reshape(T, -1))
+        return np.concatenate(parts, axis=1), anchor, frame
 
     def weights(self, trajectory: np.ndarray) -> np.ndarray:
         """(D, N) ridge least-squares basis weights of a (T, D) trajectory on phase [0, 1]; NaN columns stay NaN."""
@@ -224,14 +248,19 @@ class InteractionPrimitive:
             return int(at_least)
         if cands.size == 1:
             return int(cands[0])
-        y, _ = self._trajectories(interaction)
-        d0, n, t = self.n_dof_agent0_, self.config.n_basis, interaction.n_frames
+        return self._duration_of(self._trajectories(interaction)[0], cands)
+
+    def _duration_of(self, y: np.ndarray, cands: np.ndarray, basis: PrefixBasis | None = None) -> int:
+        """:meth:`estimate_duration` from the instance's DoFs y (T, D) and the candidates (≥ 2 of them, each ≥ T
+        when ``basis`` is given: it then supplies the basis rows, which need no clipping)."""
+        d0, n, t = self.n_dof_agent0_, self.config.n_basis, y.shape[0]
         obs = y[:, :d0] - y[:1, :d0]
         ok = np.isfinite(obs)
         mean0 = self.mean_.reshape(-1, n)[:d0]  # (d0, N)
         errors = []
         for T_hat in cands:
-            phi = rbf_basis(np.arange(t) / max(T_hat - 1, 1), n, self.config.basis_width)
+            span = max(T_hat - 1, 1)
+            phi = rbf_basis(np.arange(t) / span, n, self.config.basis_width) if basis is None else basis.rows(span, t)
             mu = phi @ mean0.T
             errors.append(float(np.mean(np.where(ok, obs - (mu - mu[:1]), 0.0) ** 2)))
         return int(cands[int(np.argmin(errors))])
@@ -245,23 +274,35 @@ class InteractionPrimitive:
         have phase 1. ``visible``: agent 0's and the object's frames from this one on are not
         conditioned on (default: all)."""
         self._check_fitted()
-        cfg = self.config
-        n, T = cfg.n_basis, interaction.n_frames
         y, anchor = self._trajectories(interaction)
+        return self._posterior_keys(y, anchor, n_observed=n_observed, duration=duration, visible=visible)
+
+    def _posterior_keys(
+        self, y: np.ndarray, anchor: np.ndarray, *, n_observed: int, duration: int | None, visible: int | None,
+        basis: PrefixBasis | None = None,
+    ) -> np.ndarray:
+        """:meth:`predict_key_joints` from the instance's DoFs y (T, D) and agent 1's offset ``anchor`` (3,)
+        (:meth:`_trajectories`); ``basis``: where the basis rows are read (default: computed)."""
+        cfg = self.config
+        n, T = cfg.n_basis, y.shape[0]
         d0 = self.n_dof_agent0_
         seen = np.isfinite(y)
         seen[n_observed:, d0:] = False  # agent 1 after the prefix is never used
         if visible is not None:
             seen[visible:, :d0] = False  # frames held past the view are no observation
         span = max((duration or T) - 1, 1)
-        phi = rbf_basis(np.minimum(np.arange(T) / span, 1.0), n, cfg.basis_width)
+        phi = rbf_basis(np.minimum(np.arange(T) / span, 1.0), n, cfg.basis_width) if basis is None else basis.rows(span, T)
         n_dof = y.shape[1]
         hth = np.zeros((n_dof, n, n_dof, n))
         hty = np.zeros((n_dof, n))
+        grams: dict[tuple[bytes, float], np.ndarray] = {}  # DoFs seen in the same frames share HᵀR⁻¹H's block
         for d in range(n_dof):
             rows = phi[seen[:, d]]
             inv_var = 1.0 / (cfg.human_noise if d < d0 else cfg.obs_noise) ** 2
-            hth[d, :, d, :] = rows.T @ rows * inv_var
+            key = (seen[:, d].tobytes(), inv_var)
+            if key not in grams:
+                grams[key] = rows.T @ rows * inv_var
+            hth[d, :, d, :] = grams[key]
             hty[d] = rows.T @ y[seen[:, d], d] * inv_var
         mean, _ = condition_on_statistics(
             self.mean_, self.cov_, hth.reshape(n_dof * n, -1), hty.ravel(), precision=self._precision, return_cov=False
@@ -291,7 +332,20 @@ class InteractionPrimitive:
     def causal_key_joints(self, interaction: Interaction, n_observed: int) -> np.ndarray:
         """(T, 5, 3) metres, world: agent 1's key joints at every frame t ≥ T0 = ``n_observed`` as the causal
         protocol asks for them (:meth:`react_keys` with the view of frames [0, t]); NaN before T0."""
+        self._check_fitted()
+        if interaction.layout.name != self.layout_.name:
+            raise ModelError(f"ProMP: trained on layout {self.layout_.name!r}, asked for {interaction.layout.name!r}")
         out = np.full((interaction.n_frames, N_KEY, 3), np.nan)
+        if interaction.n_frames <= n_observed:
+            return out
+        views = PrefixViews(interaction, n_observed)
+        basis = PrefixBasis(self.config.n_basis, self.config.basis_width, interaction.n_frames)
         for t in range(n_observed, interaction.n_frames):
-            out[t] = self.react_keys(protocol_view(interaction, t + 1, n_observed), t, t + 1, n_observed=n_observed)[0]
+            # react_keys on protocol_view(interaction, t + 1, n_observed): the view's key joints filled without
+            # building it (PrefixViews), its DoFs once for the duration estimate and the conditioning.
+            y, anchor, frame = self._dofs_of(views.key_joints(t + 1), views.object(t + 1))
+            cands = self.durations_[self.durations_ >= t + 1]
+            duration = t + 1 if cands.size == 0 else int(cands[0]) if cands.size == 1 else self._duration_of(y, cands, basis)
+            keys = self._posterior_keys(y, anchor, n_observed=n_observed, duration=duration, visible=t + 1, basis=basis)[t:t + 1]
+            out[t] = frame.to_world(keys)[0]
         return out

@@ -39,7 +39,7 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
-from ..data.interaction import MIN_FRAMES, Interaction
+from ..data.interaction import MIN_FRAMES, Interaction, fill_key_joints
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError
 
@@ -52,6 +52,7 @@ if TYPE_CHECKING:
 __all__ = [
     "DEFAULT_N_OBSERVED",
     "MethodFactory",
+    "PrefixViews",
     "Prediction",
     "ReactionMethod",
     "Reactor",
@@ -183,6 +184,46 @@ def protocol_view(interaction: Interaction, visible: int, n_observed: int) -> In
     if not n_observed < visible <= interaction.n_frames:
         raise ConfigError(f"visible: expected {n_observed + 1}..{interaction.n_frames} frames, found {visible}")
     return observed_part(interaction.slice(0, visible), n_observed)
+
+
+class PrefixViews:
+    """The filled key joints and the object track of every :func:`protocol_view` of one instance (the causal
+    protocol's views, frames [0, v) for v = T0 + 1 … T) without building the views.
+
+    Bitwise what ``protocol_view(interaction, v, n_observed).key_joints()`` and ``.object`` give: agent 1's
+    tracked frames in a view all lie before T0 < v, so its filled key joints in every view are the first v
+    frames of those of the whole instance with agent 1 hidden from T0 on (:func:`numpy.interp` computes each
+    frame from the same tracked frames alone); agent 0's equal its recorded frames where every key joint of
+    it is tracked throughout, else they are filled on the view's own frames as the view would."""
+
+    def __init__(self, interaction: Interaction, n_observed: int) -> None:
+        hidden = observed_part(interaction, n_observed)
+        self.n_observed = int(n_observed)
+        self._joints = hidden.joints
+        self._valid = np.asarray(hidden.valid, dtype=bool)
+        self._key_indices = hidden.layout.key_indices
+        self._object = hidden.object
+        whole = fill_key_joints(self._joints, self._valid, self._key_indices)  # (T, 2, 5, 3)
+        self._agent1 = whole[:, 1]
+        cols = [i for i in self._key_indices if i is not None]
+        self._agent0_tracked = bool(self._valid[:, 0, cols].all())
+        self._agent0 = whole[:, 0]  # = the recorded key joints (NaN where the layout lacks one) when tracked
+
+    def key_joints(self, visible: int) -> np.ndarray:
+        """(v, 2, 5, 3) float64, metres, world: the filled key joints of the view of the first ``visible`` = v
+        frames (T0 < v ≤ T)."""
+        if not self.n_observed < visible <= self._joints.shape[0]:
+            raise ConfigError(f"visible: expected {self.n_observed + 1}..{self._joints.shape[0]} frames, found {visible}")
+        if not self._agent0_tracked:
+            return fill_key_joints(self._joints[:visible], self._valid[:visible], self._key_indices)
+        out = np.empty((visible, 2, N_KEY, 3))
+        out[:, 0] = self._agent0[:visible]
+        out[:, 1] = self._agent1[:visible]
+        return out
+
+    def object(self, visible: int) -> np.ndarray | None:
+        """(v, 3) float64, metres, world: the object's track in that view, or ``None``."""
+        return None if self._object is None else self._object[:visible]
 
 
 def prediction_from_joints(

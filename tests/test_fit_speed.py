@@ -1,0 +1,113 @@
+"""The fit's speed-ups give bitwise what they replace (issue 24: fit <= 60 s per interaction).
+
+Each shortcut is checked with ``np.array_equal`` against the plain computation it replaces, kept here as the
+reference: the key joints filled alone against :meth:`Interaction.filled_joints`; the causal views' key joints and
+object (:class:`PrefixViews`) against :func:`protocol_view`; the cached basis rows against :func:`rbf_basis`; and the
+interaction primitive's causal predictions of the training rows against the loop that built every view and ran
+:meth:`InteractionPrimitive.react_keys` on it, on instances with untracked frames of either agent (frame 0 included)
+and with an object.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from socialaff_sim.data import Interaction
+from socialaff_sim.data.interaction import fill_key_joints
+from socialaff_sim.data.skeletons import KEY_JOINTS
+from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, PrefixBasis, rbf_basis
+from socialaff_sim.inference.protocol import PrefixViews, protocol_view
+
+T0 = 10
+
+
+def _instance(rng: np.random.Generator, k: int, *, gaps: bool, obj: bool) -> Interaction:
+    """A reaching instance (agent 1 mirrors agent 0 with its own amplitude); with ``gaps``, untracked runs of
+    frames in both agents (agent 0's base at frame 0 among them on every other instance, and one key joint
+    of agent 0 untracked to the end)."""
+    T = int(rng.integers(26, 40))
+    s = np.linspace(0, 1, T)
+    body0 = np.array([[0, 0, 0.9], [0, 0.3, 1.0], [0, -0.3, 1.0], [0, 0.1, 0.05], [0, -0.1, 0.05]], float)
+    body1 = body0 * [-1, -1, 1] + [1.4, 0.2, 0]
+    a0 = np.repeat(body0[None], T, 0) + rng.normal(0, 0.01, size=(T, 5, 3))
+    a1 = np.repeat(body1[None], T, 0) + rng.normal(0, 0.01, size=(T, 5, 3))
+    bump = np.sin(np.pi * s) * rng.uniform(0.2, 0.5)
+    a0[:, 1, 0] += bump
+    a1[:, 2, 0] -= bump
+    joints = np.stack([a0, a1], 1)
+    valid = np.ones((T, 2, 5), bool)
+    if gaps:
+        for a in range(2):
+            for _ in range(3):
+                j, f0 = int(rng.integers(0, 5)), int(rng.integers(1, T - 4))
+                valid[f0:f0 + int(rng.integers(1, 6)), a, j] = False
+        if k % 2 == 0:
+            valid[:3, 0, 0] = False  # the canonical frame's base comes from a later frame
+        valid[T - 5:, 0, 3] = False  # a gap still open at the end
+        valid[2:5, 1, 1] = False  # agent 1 untracked inside its observed prefix
+        joints = np.where(valid[..., None], joints, np.nan)
+    track = np.c_[np.linspace(0.2, 1.2, T), np.zeros(T), np.full(T, 1.0)] if obj else None
+    return Interaction("reach", 10.0, joints, KEY_JOINTS, (f"p{k % 3}", f"q{k % 3}"), object=track, valid=valid,
+                       instance_id=f"r{k:02d}")
+
+
+def test_filled_key_joints_are_the_key_columns_of_filled_joints(rng: np.random.Generator) -> None:
+    for k in range(6):
+        inst = _instance(rng, k, gaps=True, obj=False)
+        full = inst.filled_joints()
+        ref = np.stack([full[:, :, i] for i in inst.layout.key_indices], axis=2)
+        assert np.array_equal(inst.key_joints(), ref, equal_nan=True)
+        assert np.array_equal(fill_key_joints(inst.joints, inst.valid, inst.layout.key_indices), ref, equal_nan=True)
+    never = _instance(rng, 1, gaps=True, obj=False)
+    valid = never.valid.copy()
+    valid[:, 0, 4] = False  # a key joint never tracked stays NaN
+    never = never.replace(joints=np.where(valid[..., None], never.joints, np.nan), valid=valid)
+    assert np.isnan(never.key_joints()[:, 0, 4]).all()
+    assert np.array_equal(never.key_joints()[:, 0, 4], never.filled_joints()[:, 0, 4], equal_nan=True)
+
+
+@pytest.mark.parametrize("gaps", [False, True])
+def test_prefix_views_are_the_protocol_views(rng: np.random.Generator, gaps: bool) -> None:
+    for k in range(4):
+        inst = _instance(rng, k, gaps=gaps, obj=k % 2 == 1)
+        views = PrefixViews(inst, T0)
+        for v in range(T0 + 1, inst.n_frames + 1):
+            view = protocol_view(inst, v, T0)
+            assert np.array_equal(views.key_joints(v), view.key_joints(), equal_nan=True), (k, v)
+            ref_obj = view.object
+            got_obj = views.object(v)
+            assert (got_obj is None) == (ref_obj is None)
+            if ref_obj is not None:
+                assert np.array_equal(got_obj, ref_obj)
+
+
+def test_prefix_basis_rows_are_the_basis_computed_for_that_many_frames() -> None:
+    basis = PrefixBasis(12, 1.0, 300)
+    for span in (1, 7, 29, 60, 299):
+        for t in (1, 2, 9, 31, 150, 300):
+            assert np.array_equal(basis.rows(span, t), rbf_basis(np.minimum(np.arange(t) / span, 1.0), 12, 1.0))
+
+
+def _causal_reference(prim: InteractionPrimitive, inst: Interaction, n_observed: int) -> np.ndarray:
+    """The loop :meth:`InteractionPrimitive.causal_key_joints` replaced: every causal view built and conditioned on."""
+    out = np.full((inst.n_frames, 5, 3), np.nan)
+    for t in range(n_observed, inst.n_frames):
+        out[t] = prim.react_keys(protocol_view(inst, t + 1, n_observed), t, t + 1, n_observed=n_observed)[0]
+    return out
+
+
+@pytest.mark.parametrize(("gaps", "obj"), [(False, False), (True, False), (True, True)])
+def test_causal_key_joints_equal_the_per_view_loop(rng: np.random.Generator, gaps: bool, obj: bool) -> None:
+    insts = [_instance(rng, k, gaps=gaps, obj=obj) for k in range(9)]
+    prim = InteractionPrimitive().fit(insts[1:])
+    for inst in insts[:1] + [_instance(rng, 20, gaps=gaps, obj=obj)]:
+        got = prim.causal_key_joints(inst, T0)
+        assert np.array_equal(got, _causal_reference(prim, inst, T0), equal_nan=True)
+        assert np.isnan(got[:T0]).all() and np.isfinite(got[T0:]).all()
+    # Longer than every training instance: the duration estimate runs out of candidates.
+    long = _instance(np.random.default_rng(5), 99, gaps=gaps, obj=obj)
+    long = long.replace(joints=np.concatenate([long.joints, long.joints]), valid=np.concatenate([long.valid, long.valid]),
+                        object=None if long.object is None else np.concatenate([long.object, long.object]))
+    assert long.n_frames > prim.durations_.max()
+    assert np.array_equal(prim.causal_key_joints(long, T0), _causal_reference(prim, long, T0), equal_nan=True)
