@@ -16,8 +16,12 @@ import pytest
 from socialaff_sim.data import Interaction
 from socialaff_sim.data.interaction import fill_key_joints
 from socialaff_sim.data.skeletons import KEY_JOINTS
-from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, PrefixBasis, rbf_basis
+from socialaff_sim.inference.body_fit import BodyFitter
+from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, PrefixBasis, ProMPConfig, rbf_basis
+from socialaff_sim.inference.methods import primitive_trace
+from socialaff_sim.inference.primitive_stream import stream_key_joints
 from socialaff_sim.inference.protocol import PrefixViews, protocol_view
+from socialaff_sim.inference.switching import Trace
 
 T0 = 10
 
@@ -111,3 +115,21 @@ def test_causal_key_joints_equal_the_per_view_loop(rng: np.random.Generator, gap
                         object=None if long.object is None else np.concatenate([long.object, long.object]))
     assert long.n_frames > prim.durations_.max()
     assert np.array_equal(prim.causal_key_joints(long, T0), _causal_reference(prim, long, T0), equal_nan=True)
+
+
+def test_training_stream_option_reads_the_stream_and_is_off_by_default(rng: np.random.Generator) -> None:
+    """``ProMPConfig.training_stream`` switches the training rows' primitive predictions to the reactor's
+    PrimitiveStream: equal to rounding on instances within the training durations, and off by default."""
+    assert ProMPConfig().training_stream is False
+    insts = [_instance(rng, k, gaps=True, obj=True) for k in range(9)]
+    body = BodyFitter().fit_interactions(insts[1:], agent=1, rng=np.random.default_rng(0))
+    empty = Trace(belief=np.zeros((1, 1)), phase=np.zeros(1), plan=np.zeros((1, 5, 3)), skeleton=np.zeros((1, 1, 3)))
+    probe = insts[0]
+    while probe.n_frames > max(i.n_frames for i in insts[1:]):
+        probe = _instance(rng, 0, gaps=True, obj=True)
+    batch = primitive_trace(InteractionPrimitive().fit(insts[1:]), body, empty, probe, T0)
+    streamed = primitive_trace(InteractionPrimitive(ProMPConfig(training_stream=True)).fit(insts[1:]), body, empty, probe, T0)
+    assert np.array_equal(batch.primitive, _causal_reference(InteractionPrimitive().fit(insts[1:]), probe, T0), equal_nan=True)
+    assert np.array_equal(streamed.primitive, stream_key_joints(InteractionPrimitive().fit(insts[1:]), probe, T0), equal_nan=True)
+    np.testing.assert_allclose(streamed.primitive[T0:], batch.primitive[T0:], atol=1e-9)
+    assert not np.array_equal(streamed.primitive, batch.primitive)  # not bitwise: why it is an option

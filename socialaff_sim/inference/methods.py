@@ -31,7 +31,7 @@ from ..model.config import AffordanceConfig
 from ..model.joints import instance_frame
 from .body_fit import BodyFitConfig, BodyFitter
 from .interaction_primitive import InteractionPrimitive
-from .primitive_stream import PrimitiveStream
+from .primitive_stream import PrimitiveStream, stream_key_joints
 from .presets import PRESETS
 from .presets import preset as named_preset
 from .protocol import Prediction
@@ -116,12 +116,14 @@ def trace(
 
 def primitive_trace(primitive: InteractionPrimitive, body: BodyFitter, trace_: Trace, interaction: Interaction, n_observed: int) -> Trace:
     """``trace_`` with the interaction primitive's causal key joints of every frame ≥ T0 = ``n_observed``
-    (:meth:`~.interaction_primitive.InteractionPrimitive.causal_key_joints`) and the skeletons ``body`` fits to them."""
+    (:meth:`~.interaction_primitive.InteractionPrimitive.causal_key_joints`, or with ``ProMPConfig.training_stream``
+    :func:`~.primitive_stream.stream_key_joints`) and the skeletons ``body`` fits to them."""
     T = interaction.n_frames
     keys = np.full((T, 5, 3), np.nan)
     skeleton = np.full((T, interaction.joints.shape[2], 3), np.nan)
     if T > n_observed:
-        keys = primitive.causal_key_joints(interaction, n_observed)
+        keys = (stream_key_joints(primitive, interaction, n_observed) if primitive.config.training_stream
+                else primitive.causal_key_joints(interaction, n_observed))
         skeleton[n_observed:] = body.fit_poses(keys[n_observed:], instance_frame(interaction))
     return dataclasses.replace(trace_, primitive=keys, primitive_skeleton=skeleton)
 

@@ -40,8 +40,9 @@ from ..errors import ModelError
 from ..model.frame import CanonicalFrame
 from .body_fit import instance_frame
 from .interaction_primitive import InteractionPrimitive, rbf_basis
+from .protocol import protocol_view
 
-__all__ = ["PrimitiveStream", "SHARED_SOLVERS"]
+__all__ = ["PrimitiveStream", "SHARED_SOLVERS", "stream_key_joints"]
 
 SHARED_SOLVERS = 32
 """[—]: At most this many candidates' fixed conditioning parts (S, K and Λ_rr's factor, about 0.9 MB each on the
@@ -279,3 +280,15 @@ class PrimitiveStream:
         keys = self.keys(view, start, stop)
         assert self._frame is not None
         return self._frame.to_world(keys)
+
+
+def stream_key_joints(primitive: InteractionPrimitive, interaction: Interaction, n_observed: int) -> np.ndarray:
+    """(T, 5, 3) metres, world: agent 1's key joints at every frame t ≥ T0 = ``n_observed`` from one
+    :class:`PrimitiveStream` fed the causal protocol's views (frames [0, t] for frame t), as the full method's
+    reactor predicts them; NaN before T0 (:meth:`~.interaction_primitive.InteractionPrimitive.causal_key_joints`
+    to rounding, but for the duration past the longest training instance)."""
+    out = np.full((interaction.n_frames, N_KEY, 3), np.nan)
+    stream = PrimitiveStream(primitive, n_observed)
+    for t in range(n_observed, interaction.n_frames):
+        out[t] = stream.react_keys(protocol_view(interaction, t + 1, n_observed), t, t + 1)[0]
+    return out
