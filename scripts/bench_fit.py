@@ -15,12 +15,14 @@ figure much) is reported, split into the parts of :meth:`~socialaff_sim.inferenc
 * ``other``: the rest (the body fitter, canonical tracks, ...).
 
 The parts are timed by wrapping those functions for the run (the library is not changed). ``--stream`` sets
-``ProMPConfig.training_stream`` (an option that changes the fit's numerics; off by default). A fingerprint of
+``ProMPConfig.training_stream`` (an option that changes the fit's numerics; off by default); ``--iterations N``
+runs every Algorithm 1 fit with N outer Metropolis–Hastings iterations (a model change); ``--primitive`` times
+the interaction primitive's causal predictions alone (:func:`primitive_only`; with ``--stream`` also the stream's). A fingerprint of
 the fitted method (the model's learned arrays, the switching regression's members and scales) is printed so that
 two code trees can be compared for bitwise-equal fits. Usage::
 
     OMP_NUM_THREADS=1 nice -n 10 python scripts/bench_fit.py [--datasets synthetic sbu handover nuisi]
-        [--classes NAME ...] [--fold 0] [--method full] [--seed 0] [--stream] [--data-root ../shared/data]
+        [--classes NAME ...] [--fold 0] [--method full] [--seed 0] [--stream] [--iterations N] [--primitive] [--data-root ../shared/data]
         [--json PATH]
 
 Without ``--classes`` every class of each dataset is fitted (long on the handovers: one class of 112 training
@@ -46,8 +48,15 @@ from socialaff_sim.data import load_dataset
 from socialaff_sim.evaluation.crossval import EvaluationConfig, make_method, make_tasks, task_seed
 from socialaff_sim.evaluation.registry import get_method
 from socialaff_sim.inference import methods as methods_module
+from socialaff_sim.data.interaction import Interaction
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive
+try:
+    from socialaff_sim.inference.primitive_stream import stream_key_joints
+except ImportError:  # a tree before wip/fit (the "before" runs of docs/benchmarks.md): no --stream there
+    stream_key_joints = None
+from socialaff_sim.inference.protocol import DEFAULT_N_OBSERVED
 from socialaff_sim.inference.switching import SwitchingRegression
+from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.learning.estimator import SocialAffordanceModel
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -125,6 +134,25 @@ def fingerprint(method: object) -> str:
     return h.hexdigest()[:16]
 
 
+def primitive_only(train: list[Interaction], stream: bool) -> dict[str, float]:
+    """The interaction primitive's part alone: fitted on every other training instance (``train[0::2]``), its causal
+    predictions of the others (``train[1::2]``, every frame ≥ T0) by the batch path and, with ``stream``, by
+    :func:`~socialaff_sim.inference.primitive_stream.stream_key_joints`: CPU seconds and the largest difference (m)."""
+    prim = InteractionPrimitive().fit(train[0::2])
+    out = {"frames": 0.0, "batch_s": 0.0, "stream_s": 0.0, "max_diff_m": 0.0}
+    for inst in train[1::2]:
+        tic = time.process_time()
+        batch = prim.causal_key_joints(inst, DEFAULT_N_OBSERVED)
+        out["batch_s"] += time.process_time() - tic
+        out["frames"] += max(inst.n_frames - DEFAULT_N_OBSERVED, 0)
+        if stream and stream_key_joints is not None:
+            tic = time.process_time()
+            streamed = stream_key_joints(prim, inst, DEFAULT_N_OBSERVED)
+            out["stream_s"] += time.process_time() - tic
+            out["max_diff_m"] = max(out["max_diff_m"], float(np.nanmax(np.abs(streamed - batch))))
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--datasets", nargs="+", default=["synthetic", "sbu", "handover", "nuisi"], choices=list(DATASETS))
@@ -133,6 +161,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--method", default="full")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--stream", action="store_true", help="ProMPConfig.training_stream (changes the fit's numerics)")
+    ap.add_argument("--iterations", type=int, default=None,
+                    help="LearningConfig.iterations of every Algorithm 1 run (a model change; default: the preset's)")
+    ap.add_argument("--primitive", action="store_true",
+                    help="time only the interaction primitive's causal predictions (see primitive_only)")
     ap.add_argument("--data-root", type=Path, default=DATA)
     ap.add_argument("--json", type=Path, default=None, help="also write the rows here (atomically)")
     args = ap.parse_args(argv)
@@ -148,11 +180,17 @@ def main(argv: list[str] | None = None) -> int:
         for label in (lab for lab in labels if lab in data.labels):
             tasks, _, _ = make_tasks(data, [(args.method, factory)], [label], config)
             task = next(t for t in tasks if t.fold == args.fold)
+            if args.primitive:
+                rows.append({"dataset": name, "class": label, **primitive_only(list(task.train), args.stream)})
+                print(f"{name:10s} {label:18s} primitive only: {rows[-1]}", flush=True)
+                continue
             method = make_method(task.factory, task.preset)
             if args.stream:
                 reaction = method.reaction
                 method.reaction = dataclasses.replace(
                     reaction, primitive=dataclasses.replace(reaction.primitive, training_stream=True))
+            if args.iterations is not None:
+                method.learning = dataclasses.replace(method.learning or LearningConfig(), iterations=args.iterations)
             rng = np.random.default_rng(task_seed(task.seed, task.label, task.fold, task.method))
             parts: dict[str, float] = {}
             load = os.getloadavg()[0]
@@ -171,6 +209,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{other:6.1f}  {row['fingerprint']}", flush=True)
     if args.json:
         settings = {"method": args.method, "seed": args.seed, "fold": args.fold, "stream": args.stream,
+                    "iterations": args.iterations,
                     "clock": "CPU (time.process_time)", "omp_num_threads": os.environ.get("OMP_NUM_THREADS")}
         atomic_write_text(args.json, json.dumps({"settings": settings, "rows": rows}, indent=2))
     return 0
