@@ -170,6 +170,7 @@ def main() -> None:
     ds = load_dataset(args.data)
     labels = [x for x in args.labels.split(",") if x] or list(ds.labels)
     table: dict[str, dict[str, float]] = {}
+    counts: dict[str, int] = {}
     for label in labels:
         insts = ds.of_label(label).interactions
         folds = make_folds(insts, 4, args.split, rng=fold_rng(0, label))
@@ -256,12 +257,15 @@ def main() -> None:
                 raise SystemExit(f"blend_sources does not reproduce SwitchingRegression: {row['sw:check']} vs {row['sw:default']}")
             print(f"{'':>14} V2 fits+traces {v2_s:.0f}s (S={S2})", flush=True)
         table[label] = row
+        counts[label] = len(val)
         print(f"{label:>14} n={len(train)}/{len(val)} S={S} fit+traces {fit_s:.0f}s primitive {prim_s:.1f}s  "
               + "  ".join(f"{k} {v:.4f}" for k, v in row.items()), flush=True)
         print(f"{'':>14} chosen: " + "; ".join(f"{k}: {v}" for k, v in chosen.items()),
               flush=True)
     keys = next(iter(table.values())).keys()
     print(f"{'AVERAGE':>14} " + "  ".join(f"{k} {np.mean([r[k] for r in table.values()]):.4f}" for k in keys))
+    n = np.array([counts[c] for c in table])  # the mean over every validation instance
+    print(f"{'POOLED':>14} n={n.sum()} " + "  ".join(f"{k} {np.dot(n, [r[k] for r in table.values()]) / n.sum():.4f}" for k in keys))
 
 
 if __name__ == "__main__":
