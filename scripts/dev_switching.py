@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import pickle
 import time
 from pathlib import Path
@@ -40,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from socialaff_sim.data import load_dataset
+from socialaff_sim.evaluation.compare import paired_difference
 from socialaff_sim.evaluation.crossval import fold_rng
 from socialaff_sim.evaluation.splits import make_folds
 from socialaff_sim.inference.body_fit import BodyFitConfig, BodyFitter
@@ -146,6 +148,12 @@ def _with_primitive(traces: list[Trace], donor: list[Trace]) -> list[Trace]:
             for t, d in zip(traces, donor, strict=True)]
 
 
+def _keep(per: dict[str, list[float]], name: str, errors: list[float]) -> float:
+    """Record one variant's per-instance errors (m) of a class; return their mean."""
+    per[name] = [float(e) for e in errors]
+    return float(np.mean(errors))
+
+
 def _err(pred: np.ndarray, truth: np.ndarray) -> float:
     return float(np.linalg.norm((pred - truth).reshape(len(pred), -1, 3), axis=-1).mean())
 
@@ -165,12 +173,14 @@ def main() -> None:
     ap.add_argument("--contiguous", action="store_true",
                     help="inner folds and cross-fitting parts as consecutive runs with one actor pair (SwitchingConfig.contiguous)")
     ap.add_argument("--v2", action="store_true", help="also V2's plan as one more family, and V2's own regression")
+    ap.add_argument("--errors", default="", help="JSON file for every variant's per-instance errors, per class")
     ap.add_argument("--cache", default="", help="folder for the fitted traces (re-runs of the variants skip the fits)")
     args = ap.parse_args()
     ds = load_dataset(args.data)
     labels = [x for x in args.labels.split(",") if x] or list(ds.labels)
     table: dict[str, dict[str, float]] = {}
     counts: dict[str, int] = {}
+    per_instance: dict[str, dict[str, list[float]]] = {}
     for label in labels:
         insts = ds.of_label(label).interactions
         folds = make_folds(insts, 4, args.split, rng=fold_rng(0, label))
@@ -211,18 +221,19 @@ def main() -> None:
         prim_s = time.perf_counter() - t1
         kc = key_columns(train[0])
         va_rows = [instance_rows(i, tr, T0, SwitchingConfig().features) for i, tr in zip(val, va_traces, strict=True)]
-        row = {"hold": float(np.mean([_err(np.zeros_like(Y[:, kc]), Y[:, kc]) for _, Y, _, _ in va_rows]))}
+        per: dict[str, list[float]] = {}
+        row = {"hold": _keep(per, "hold", [_err(np.zeros_like(Y[:, kc]), Y[:, kc]) for _, Y, _, _ in va_rows])}
         width = va_rows[0][0].shape[1]
         plan_cols = (width - 30 + np.arange(15)).reshape(5, 3)[train[0].layout.key_available].reshape(-1)
-        row["plan"] = float(np.mean([_err(X[:, plan_cols], Y[:, kc]) for X, Y, _, _ in va_rows]))
-        row["promp"] = float(np.mean([_err(X[:, plan_cols + 15], Y[:, kc]) for X, Y, _, _ in va_rows]))
+        row["plan"] = _keep(per, "plan", [_err(X[:, plan_cols], Y[:, kc]) for X, Y, _, _ in va_rows])
+        row["promp"] = _keep(per, "promp", [_err(X[:, plan_cols + 15], Y[:, kc]) for X, Y, _, _ in va_rows])
         chosen = {}
         names = [v for v in args.variants.split(",") if v and not (args.no_gated and v in ("motion+subevent", "gated_all"))]
         for name in names:
             families, steps = VARIANTS[name]
             reg = SwitchingRegression(SwitchingConfig(families=families, blend_steps=steps, contiguous=args.contiguous)).fit(
                 train, tr_traces, n_subevents=S, rng=np.random.default_rng(args.seed))
-            row["sw:" + name] = float(np.mean([_err(reg.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows]))
+            row["sw:" + name] = _keep(per, "sw:" + name, [_err(reg.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
             chosen[name] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg.members_) or "hold"
         if args.v2:
             t2 = time.perf_counter()
@@ -242,28 +253,38 @@ def main() -> None:
             tr2, va2 = _with_primitive(tr2, tr_traces), _with_primitive(va2, va_traces)
             va2_rows = [instance_rows(i, tr, T0, SwitchingConfig().features) for i, tr in zip(val, va2, strict=True)]
             plan_cols2 = plan_cols - width + va2_rows[0][0].shape[1]  # the same 15 columns, counted from the end
-            row["plan_v2"] = float(np.mean([_err(X[:, plan_cols2], Y[:, kc]) for X, Y, _, _ in va2_rows]))
+            row["plan_v2"] = _keep(per, "plan_v2", [_err(X[:, plan_cols2], Y[:, kc]) for X, Y, _, _ in va2_rows])
             reg2 = SwitchingRegression(SwitchingConfig(contiguous=args.contiguous)).fit(train, tr2, n_subevents=S2, rng=np.random.default_rng(args.seed))
-            row["sw:v2_default"] = float(np.mean([_err(reg2.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va2_rows]))
+            row["sw:v2_default"] = _keep(per, "sw:v2_default", [_err(reg2.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va2_rows])
             chosen["v2_default"] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg2.members_) or "hold"
             for name, fams in (("check", PRIMITIVE_FAMILIES), ("default+plan_v2", PRIMITIVE_FAMILIES + (V2_FAMILY,))):
                 cfg = SwitchingConfig(families=fams, contiguous=args.contiguous)
                 members, scale = blend_sources(train, {"own": tr_traces, "v2": tr2}, {"own": S, "v2": S2}, cfg,
                                                np.random.default_rng(args.seed))
                 preds = [blend_displacement(members, scale, {"own": a, "v2": b}) for a, b in zip(va_rows, va2_rows, strict=True)]
-                row["sw:" + name] = float(np.mean([_err(p[:, kc], r[1][:, kc]) for p, r in zip(preds, va_rows, strict=True)]))
+                row["sw:" + name] = _keep(per, "sw:" + name, [_err(p[:, kc], r[1][:, kc]) for p, r in zip(preds, va_rows, strict=True)])
                 chosen[name] = " + ".join(f"{a:.1f}·{f}[{'+'.join(g)} λ={lam:g}]" for f, g, lam, a, _, _ in members) or "hold"
             if "sw:default" in row and abs(row["sw:check"] - row["sw:default"]) > 1e-12:
                 raise SystemExit(f"blend_sources does not reproduce SwitchingRegression: {row['sw:check']} vs {row['sw:default']}")
             print(f"{'':>14} V2 fits+traces {v2_s:.0f}s (S={S2})", flush=True)
         table[label] = row
         counts[label] = len(val)
+        per_instance[label] = per
         print(f"{label:>14} n={len(train)}/{len(val)} S={S} fit+traces {fit_s:.0f}s primitive {prim_s:.1f}s  "
               + "  ".join(f"{k} {v:.4f}" for k, v in row.items()), flush=True)
         print(f"{'':>14} chosen: " + "; ".join(f"{k}: {v}" for k, v in chosen.items()),
               flush=True)
     keys = next(iter(table.values())).keys()
     print(f"{'AVERAGE':>14} " + "  ".join(f"{k} {np.mean([r[k] for r in table.values()]):.4f}" for k in keys))
+    if args.errors:
+        Path(args.errors).write_text(json.dumps(per_instance))
+    for name in ("sw:default+plan_v2", "sw:v2_default"):
+        if name in keys and "sw:default" in keys:  # paired, stratified bootstrap over the validation instances
+            diffs = [np.subtract(per_instance[c][name], per_instance[c]["sw:default"]) for c in table]
+            cls = paired_difference(diffs, rng=np.random.default_rng(0))
+            pooled = paired_difference([np.concatenate(diffs)], rng=np.random.default_rng(0))
+            print(f"{name} − sw:default: class average {cls[0]:+.4f} [{cls[1]:+.4f}, {cls[2]:+.4f}], "
+                  f"pooled {pooled[0]:+.4f} [{pooled[1]:+.4f}, {pooled[2]:+.4f}]")
     n = np.array([counts[c] for c in table])  # the mean over every validation instance
     print(f"{'POOLED':>14} n={n.sum()} " + "  ".join(f"{k} {np.dot(n, [r[k] for r in table.values()]) / n.sum():.4f}" for k in keys))
 
