@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from socialaff_sim.data import load_dataset
+from socialaff_sim.data import Interaction, load_dataset
 from socialaff_sim.evaluation.compare import paired_difference
 from socialaff_sim.evaluation.crossval import fold_rng
 from socialaff_sim.evaluation.splits import make_folds
@@ -78,13 +78,23 @@ def _prior_of(groups: tuple[str, ...]) -> str | None:
     return next((g for g in groups if g in PRIORS), None)
 
 
-def blend_sources(
-    train: list, sources: dict[str, list[Trace]], n_sub: dict[str, int], cfg: SwitchingConfig, rng: np.random.Generator,
-) -> tuple[list[tuple[str, tuple[str, ...], float, float, np.ndarray, np.ndarray]], dict[str, np.ndarray]]:
-    """``SwitchingRegression.fit`` with each family reading its own trace set (``SOURCES``; ``n_sub``: S per set).
+BlendMember = tuple[str, tuple[str, ...], float, float, np.ndarray, np.ndarray]
+"""(family, groups, λ, α, columns (F_m,) int64, coefficients (F_m, J·3)) of one member of the blend."""
+Rows = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+"""``instance_rows``' (rows (N, ·), targets (N, J·3) m, ``from_plan`` prior (N, J·3) m, ``from_primitive`` prior)."""
 
-    Returns the members (family, groups, λ, α, columns, coefficients) and each set's column scales (F,)."""
-    stacked, scale = {}, {}
+
+def blend_sources(
+    train: list[Interaction], sources: dict[str, list[Trace]], n_sub: dict[str, int], cfg: SwitchingConfig,
+    rng: np.random.Generator,
+) -> tuple[list[BlendMember], dict[str, np.ndarray]]:
+    """``SwitchingRegression.fit`` with each family reading its own trace set (``SOURCES``: family → set name, else
+    ``"own"``; ``sources``: set name → one trace per instance of ``train``; ``n_sub``: S per set). Without the
+    library's single-instance fallback (every class here has at least two inner folds).
+
+    Returns the members with α > 0 and each set's column scales (F,)."""
+    stacked: dict[str, tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]] = {}
+    scale: dict[str, np.ndarray] = {}
     for src, traces in sources.items():
         (X, Y, pp, prp), w, ids = stack_instances(
             train, cfg.n_observed, lambda i, inst, tr=traces: instance_rows(inst, tr[i], cfg.n_observed, cfg.features), src)
@@ -99,7 +109,7 @@ def blend_sources(
         src = SOURCES.get(family, "own")
         Xs, _, priors = stacked[src]
         candidates = {g: switching_columns(g, n_sub[src]) for g in cfg.candidates(family)}
-        cv: dict = {}
+        cv: dict[tuple[tuple[str, ...], float], float] = {}
         for prior in (None,) + PRIORS:
             some = {g: c for g, c in candidates.items() if _prior_of(g) == prior}
             if some:
@@ -112,7 +122,7 @@ def blend_sources(
         preds.append(fold_predictions(Xs, Yk, w, ids, folds, candidates[groups], lam, base))
     alpha, _ = blend_weights(np.stack(preds), Yk, ids, cfg.blend_steps)
     wn = w / w.sum()
-    members = []
+    members: list[BlendMember] = []
     for (family, groups, lam), a in zip(winners, alpha, strict=True):
         if a <= 0:
             continue
@@ -130,8 +140,8 @@ def blend_sources(
     return members, scale
 
 
-def blend_displacement(members: list, scale: dict[str, np.ndarray], rows: dict[str, tuple]) -> np.ndarray:
-    """(N, J·3) the blend's displacement from each trace set's validation rows (X, Y, plan prior, primitive prior)."""
+def blend_displacement(members: list[BlendMember], scale: dict[str, np.ndarray], rows: dict[str, Rows]) -> np.ndarray:
+    """(N, J·3) anchor-frame displacements, metres: the blend's, from each trace set's rows of one validation instance."""
     out = np.zeros_like(rows["own"][1])
     for family, groups, _, a, cols, coef in members:
         X, _, pp, prp = rows[SOURCES.get(family, "own")]
