@@ -64,12 +64,15 @@ from socialaff_sim.data.interaction import Interaction  # noqa: E402
 from socialaff_sim.data.synthetic import generate_dataset  # noqa: E402
 from socialaff_sim.data.synthetic.config import SyntheticConfig  # noqa: E402
 from socialaff_sim.environment import SocialAffordanceEnv  # noqa: E402
+from socialaff_sim.environment.config import CONTROL_DT, EnvConfig  # noqa: E402
+from socialaff_sim.environment.reward import RewardConfig  # noqa: E402
 from socialaff_sim.errors import ConfigError  # noqa: E402
 from socialaff_sim.evaluation.compare import paired_difference  # noqa: E402
 from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
 from socialaff_sim.learning.config import LearningConfig  # noqa: E402
 
 LABELS = ("shake_hands", "hand_over")
+RESIDUAL_BOUND = EnvConfig().residual_bound
 Policy = Callable[[np.ndarray], np.ndarray]
 
 
@@ -91,23 +94,35 @@ class Settings:
     """PPO environment steps (over all sub-environments)."""
     n_envs: int = 8
     """Sub-environments stepped in one process (``DummyVecEnv``)."""
-    n_steps: int = 128
+    n_steps: int = 256
     """PPO rollout length per sub-environment between updates."""
     batch_size: int = 256
     """PPO minibatch size."""
-    n_epochs: int = 10
+    n_epochs: int = 5
     """PPO epochs per update."""
-    learning_rate: float = 3e-4
+    learning_rate: float = 1e-4
     """Adam step size."""
-    gamma: float = 0.99
-    """Discount factor."""
-    log_std_init: float = -2.0
-    """Initial log standard deviation of the Gaussian policy in the rescaled action space [−1, 1]: e^−2 ≈ 0.14,
-    i.e. about 4 cm of exploration noise on the ±0.3 m residual, so early episodes stay close to the proposal."""
+    gamma: float = 0.998
+    """Discount factor per env step (0.998 per 0.015 s control step ≈ 0.99 per frame of a 12 fps instance)."""
+    gae_lambda: float = 0.98
+    """λ of PPO's generalized advantage estimate."""
+    log_std_init: float = -2.3
+    """Initial log standard deviation of the Gaussian policy in the rescaled action space [−1, 1]: e^−2.3 ≈ 0.1,
+    i.e. about 1 cm of exploration noise on the ±0.1 m residual (``action_scale``), so early episodes stay close
+    to the proposal."""
     hidden: int = 256
     """Width of the two hidden layers of the policy and value networks."""
+    action_scale: float = 0.1
+    """ρ_π [m]: the policy's action [−1, 1] is a residual of ±ρ_π per coordinate (at most the environment's
+    ``residual_bound``, 0.3 m)."""
+    train_affordance_weight: float = RewardConfig().affordance_weight
+    """w_a of the TRAINING environments' reward (the evaluation and the curve's reference keep the environment's
+    default reward, so held-out returns stay comparable with other runs)."""
     physics: str = "fast"
     """The environment's physics preset."""
+    control_dt: float | None = CONTROL_DT
+    """The environment's control period, s (its default, 0.015 s: one env step per control period);
+    ``None``: one env step per data frame, as the first two recorded runs were trained and evaluated."""
     max_frames: int | None = None
     """Cut every instance to its first frames (short episodes; tests only)."""
 
@@ -130,16 +145,22 @@ def fit_models(s: Settings, train: Sequence[Interaction]) -> dict[str, SocialAff
     return models
 
 
-def make_env(s: Settings, instances: Sequence[Interaction], models: Mapping[str, SocialAffordanceModel]) -> gym.Env:
-    """The residual-mode environment as SB3 wants it: flat float32 observation, a flat action in [−1, 1]."""
+def make_env(s: Settings, instances: Sequence[Interaction], models: Mapping[str, SocialAffordanceModel],
+             training: bool = False) -> gym.Env:
+    """The residual-mode environment as SB3 wants it: flat float32 observation, a flat action in [−1, 1] that is
+    a residual of ±``s.action_scale`` m per coordinate. ``training``: with the training reward
+    (``s.train_affordance_weight``); otherwise the environment's default reward."""
+    if not 0.0 < s.action_scale <= RESIDUAL_BOUND:
+        raise ConfigError(f"--action-scale: expected a residual in (0, {RESIDUAL_BOUND}] m, found {s.action_scale!r}")
+    reward = dataclasses.replace(RewardConfig(), affordance_weight=s.train_affordance_weight) if training else None
     env: gym.Env = SocialAffordanceEnv(interactions=list(s.labels), data=list(instances), action_mode="residual",
                                        model=dict(models), physics=s.physics, max_frames=s.max_frames,
-                                       control_dt=None)  # one step per data frame, as the recorded result was trained
+                                       control_dt=s.control_dt, reward=reward)
     env = gym.wrappers.FlattenObservation(env)
-    env = gym.wrappers.RescaleAction(env, np.float32(-1.0), np.float32(1.0))
     shape = env.action_space.shape
     flat = gym.spaces.Box(-1.0, 1.0, shape=(int(np.prod(shape)),), dtype=np.float32)
-    return gym.wrappers.TransformAction(env, lambda a: np.asarray(a, np.float32).reshape(shape), flat)
+    scale = np.float32(s.action_scale)
+    return gym.wrappers.TransformAction(env, lambda a: (scale * np.asarray(a, np.float32)).reshape(shape), flat)
 
 
 # -- training ------------------------------------------------------------------------------------------------------
@@ -187,12 +208,12 @@ def train(s: Settings, train_set: Sequence[Interaction], models: Mapping[str, So
     have passed (checked after each rollout); returns the agent, its observation normalizer and the recorder
     (curve rows, the steps trained on)."""
     torch.set_num_threads(1)
-    venv = DummyVecEnv([lambda: make_env(s, train_set, models) for _ in range(s.n_envs)])
+    venv = DummyVecEnv([lambda: make_env(s, train_set, models, training=True) for _ in range(s.n_envs)])
     venv.seed(s.seed)
     norm = VecNormalize(VecMonitor(venv), norm_obs=True, norm_reward=True, gamma=s.gamma)
     agent = PPO(
         "MlpPolicy", norm, n_steps=s.n_steps, batch_size=s.batch_size, n_epochs=s.n_epochs,
-        learning_rate=s.learning_rate, gamma=s.gamma, seed=s.seed, device="cpu", verbose=0,
+        learning_rate=s.learning_rate, gamma=s.gamma, gae_lambda=s.gae_lambda, seed=s.seed, device="cpu", verbose=0,
         policy_kwargs={"log_std_init": s.log_std_init, "net_arch": {"pi": [s.hidden] * 2, "vf": [s.hidden] * 2}},
     )
     recorder = CurveRecorder(log, budget_s=budget_s)
@@ -338,8 +359,8 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
     norm.save(str(out / "vecnormalize.pkl"))
     log(f"trained in {train_wall:.0f} s wall ({len(curve)} training episodes); evaluating")
 
-    # Reference for the curve: the zero residual once on every training instance.
-    train_env = make_env(s, train_set, models)
+    # Reference for the curve: the zero residual once on every training instance, with the training reward.
+    train_env = make_env(s, train_set, models, training=True)
     train_eps = [(i.instance_id, s.seed + k) for k, i in enumerate(train_set)]
     ref_rows = run_episodes(train_env, train_eps, zero_policy)
     reference = {lbl: {"success": float(np.mean([r["success"] for r in ref_rows if r["interaction"] == lbl])),
@@ -369,6 +390,11 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
     return results
 
 
+def _control_dt(text: str) -> float | None:
+    """``--control-dt``: seconds, or ``none`` for one env step per data frame."""
+    return None if text.strip().lower() == "none" else float(text)
+
+
 def main() -> None:
     d = Settings()
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -376,10 +402,12 @@ def main() -> None:
     ap.add_argument("--models", type=Path, default=None, help="load <interaction>.npz from here instead of fitting")
     ap.add_argument("--interactions", nargs="+", default=list(d.labels))
     for f in dataclasses.fields(Settings):
-        if f.name in ("labels", "max_frames"):
+        if f.name in ("labels", "max_frames", "control_dt"):
             continue
         ap.add_argument("--" + f.name.replace("_", "-"), type=type(f.default), default=f.default)
     ap.add_argument("--max-frames", type=int, default=None)
+    ap.add_argument("--control-dt", type=_control_dt, default=d.control_dt,
+                    help=f"env control period in s (default {d.control_dt}); 'none': one env step per data frame")
     ap.add_argument("--budget-minutes", type=float, default=None,
                     help="stop training after the first rollout that ends past this much wall time; the results "
                          "record the steps trained, and --timesteps with that number reproduces the policy")

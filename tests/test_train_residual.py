@@ -87,7 +87,7 @@ def test_zero_residual_rows_match_a_plain_environment(script, tiny) -> None:  # 
     _, held = script.build_data(settings)
     models = {lbl: SocialAffordanceModel.load(out / "models" / f"{lbl}.npz") for lbl in settings.labels}
     env = SocialAffordanceEnv(interactions=list(settings.labels), data=held, action_mode="residual", model=models,
-                              physics=settings.physics, control_dt=None)  # the script's: one step per frame
+                              physics=settings.physics, control_dt=settings.control_dt)
     for row in results["episodes"]["zero_residual"]:
         env.reset(seed=row["seed"], options={"instance": row["instance"]})
         total, done, info = 0.0, False, {}
