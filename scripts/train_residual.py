@@ -1,14 +1,17 @@
 """Train a residual policy on top of the affordance model with Stable-Baselines3, and test it on held-out instances.
 
-The environment's ``residual`` action mode adds the policy's offsets (±0.3 m per
-coordinate) to the key-frame targets the affordance model proposes (its causal
-online synthesis of agent 1). This script:
+The environment's ``residual`` action mode adds the policy's offsets (at most ±0.3 m per
+coordinate; the policy's action [−1, 1] is scaled to ±``--action-scale``, 0.1 m by default)
+to the key-frame targets the affordance model proposes (its causal online synthesis of
+agent 1). The environment steps at its default control rate (one env step per 0.015 s
+control period, ``--control-dt``; ``none`` gives the older one step per data frame), so
+the policy may change its residual every control step. This script:
 
 1. generates the synthetic training data (``--seed``; ``--train-instances`` per
    interaction) and fits one affordance model per interaction on it (or loads
    them with ``--models DIR``);
 2. trains one PPO policy (Stable-Baselines3, observations flattened and
-   normalized with ``VecNormalize``, actions rescaled to [−1, 1]) on episodes
+   normalized with ``VecNormalize``, actions in [−1, 1]) on episodes
    of those training instances, both interactions in one environment (the
    observation carries the interaction's one-hot);
 3. evaluates, on HELD-OUT instances — a second synthetic dataset generated with
@@ -29,7 +32,7 @@ met and no failure condition triggered. The target (issue 26): the trained
 residual's success minus the affordance model's, paired over the held-out
 episodes, has a 95 % interval above zero. Needs the ``[rl]`` extra. Example::
 
-    OMP_NUM_THREADS=1 nice python scripts/train_residual.py --timesteps 300000 --out rl_out
+    OMP_NUM_THREADS=1 nice -n 10 python scripts/train_residual.py --timesteps 300000 --out rl_out
 """
 
 from __future__ import annotations
@@ -234,20 +237,29 @@ def zero_policy(obs: np.ndarray) -> np.ndarray:
 
 # -- evaluation ----------------------------------------------------------------------------------------------------
 def run_episodes(env: gym.Env, episodes: Sequence[tuple[str, int]], policy: Policy) -> list[dict[str, Any]]:
-    """One episode per (instance id, reset seed); per-episode return, success, sub-goals and failure."""
+    """One episode per (instance id, reset seed); per-episode return (and its ``reward_<term>`` sums), success,
+    sub-goals, failures, the termination reason and the mean |action| (policy units, [0, 1])."""
     rows = []
     for instance, seed in episodes:
         obs, _ = env.reset(seed=seed, options={"instance": instance})
-        total, steps = 0.0, 0
+        total, steps, action_sum = 0.0, 0, 0.0
+        terms: dict[str, float] = {}
         while True:
-            obs, reward, terminated, truncated, info = env.step(policy(obs))
+            action = policy(obs)
+            obs, reward, terminated, truncated, info = env.step(action)
             total, steps = total + float(reward), steps + 1
+            action_sum += float(np.mean(np.abs(action)))
+            for key, value in info.items():
+                if key.startswith("reward_"):
+                    terms[key[len("reward_"):]] = terms.get(key[len("reward_"):], 0.0) + float(value)
             if terminated or truncated:
                 break
         subgoals = dict(info["subgoals"])
         rows.append({"instance": instance, "seed": seed, "interaction": info["interaction"], "return": total,
                      "steps": steps, "success": bool(info["success"]), "failed": bool(info["failed"]),
                      "failures": sorted(k for k, hit in info["failures"].items() if hit),
+                     "termination_reason": info["termination_reason"], "reward_terms": terms,
+                     "mean_abs_action": action_sum / steps,
                      "subgoals": subgoals, "subgoals_met": float(np.mean(list(subgoals.values())))})
     return rows
 

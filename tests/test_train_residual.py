@@ -73,6 +73,33 @@ def test_writes_policy_curve_and_results(tiny) -> None:  # noqa: ANN001
     assert any("models ready" in m for m in logged)
 
 
+def test_rows_carry_reward_terms_and_termination_reasons(script, tiny) -> None:  # noqa: ANN001
+    settings, _, results, _ = tiny
+    frames = {i.instance_id: i.n_frames for i in script.build_data(settings)[1]}
+    reasons = {"task_complete", "instance_end", "self_collision", "contact_force", "object_dropped", "fell",
+               "physics_unstable"}
+    for pol in ("residual", "zero_residual"):
+        for row in results["episodes"][pol]:
+            assert math.fsum(row["reward_terms"].values()) == pytest.approx(row["return"], abs=1e-9)
+            assert "affordance" in row["reward_terms"] and row["termination_reason"] in reasons
+            if row["termination_reason"] in ("task_complete", "instance_end"):  # several control steps a frame
+                assert row["steps"] >= 4 * (frames[row["instance"]] - 1)
+    assert all(row["mean_abs_action"] == 0.0 for row in results["episodes"]["zero_residual"])
+
+
+def test_action_scale_maps_the_unit_box_to_metres(script, tiny) -> None:  # noqa: ANN001
+    settings, out, _, _ = tiny
+    train, _ = script.build_data(settings)
+    models = {lbl: SocialAffordanceModel.load(out / "models" / f"{lbl}.npz") for lbl in settings.labels}
+    env = script.make_env(dataclasses.replace(settings, action_scale=0.05), train, models)
+    assert env.action_space.shape == (15,) and float(env.action_space.high.max()) == 1.0
+    unit = np.linspace(-1.0, 1.0, 15, dtype=np.float32)
+    np.testing.assert_allclose(env.action(unit), 0.05 * unit.reshape(5, 3), rtol=0, atol=1e-8)
+    assert env.unwrapped.config.control_dt == settings.control_dt == 0.015  # the environment's default rate
+    with pytest.raises(ConfigError, match="action-scale"):
+        script.make_env(dataclasses.replace(settings, action_scale=0.31), train, models)
+
+
 def test_held_out_instances_are_not_training_instances(script, tiny) -> None:  # noqa: ANN001
     settings = tiny[0]
     train, held = script.build_data(settings)
