@@ -119,8 +119,8 @@ class Settings:
     """ρ_π [m]: the policy's action [−1, 1] is a residual of ±ρ_π per coordinate (at most the environment's
     ``residual_bound``, 0.3 m)."""
     train_affordance_weight: float = RewardConfig().affordance_weight
-    """w_a of the TRAINING environments' reward (the evaluation and the curve's reference keep the environment's
-    default reward, so held-out returns stay comparable with other runs)."""
+    """w_a of the TRAINING environments' reward (also the learning curve's and its zero-residual reference's);
+    the held-out evaluation keeps the environment's default reward, so its returns stay comparable across runs."""
     physics: str = "fast"
     """The environment's physics preset."""
     control_dt: float | None = CONTROL_DT

@@ -26,6 +26,7 @@ from stable_baselines3 import PPO  # noqa: E402
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize  # noqa: E402
 
 from socialaff_sim.environment import SocialAffordanceEnv  # noqa: E402
+from socialaff_sim.environment.episode_end import TERMINATION_REASONS  # noqa: E402
 from socialaff_sim.errors import ConfigError  # noqa: E402
 from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
 
@@ -77,8 +78,7 @@ def test_writes_policy_curve_and_results(tiny) -> None:  # noqa: ANN001
 def test_rows_carry_reward_terms_and_termination_reasons(script, tiny) -> None:  # noqa: ANN001
     settings, _, results, _ = tiny
     frames = {i.instance_id: min(i.n_frames, settings.max_frames) for i in script.build_data(settings)[1]}
-    reasons = {"task_complete", "instance_end", "self_collision", "contact_force", "object_dropped", "fell",
-               "physics_unstable"}
+    reasons = set(TERMINATION_REASONS)
     for pol in ("residual", "zero_residual"):
         for row in results["episodes"][pol]:
             assert math.fsum(row["reward_terms"].values()) == pytest.approx(row["return"], abs=1e-9)
