@@ -107,9 +107,22 @@ class BodyFitConfig:
     """[frames]: Training frames kept for clustering (an even stride subsample above this)."""
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(T, 3) a × b of (T, 3) or (3,) vectors: the products and differences of ``np.cross``, in its order (the same
+    values), without its set-up (the body fit runs once per frame on a stream)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack(np.broadcast_arrays(a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
+
+
+def _norm(v: np.ndarray, keepdims: bool = False) -> np.ndarray:
+    """Euclidean norm over the last axis: ``np.linalg.norm(v, axis=-1)``'s sum of squares, without its set-up."""
+    return np.sqrt(np.add.reduce(v * v, axis=-1, keepdims=keepdims))
+
+
 def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(T, 3, 3): the smallest rotation taking unit vectors a (T, 3) onto b (T, 3)."""
-    v = np.cross(a, b)
+    v = _cross(a, b)
     c = np.einsum("td,td->t", a, b)
     vx = np.zeros(a.shape[:-1] + (3, 3))
     vx[..., 0, 1], vx[..., 0, 2], vx[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
@@ -118,16 +131,16 @@ def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     scale = np.where(anti, 0.0, 1.0 / np.where(anti, 1.0, 1.0 + c))
     rot = np.eye(3) + vx + (vx @ vx) * scale[..., None, None]
     if anti.any():  # half turn about an axis perpendicular to a
-        ax = np.cross(a[anti], np.array([1.0, 0.0, 0.0]))
-        small = np.linalg.norm(ax, axis=-1) < 1e-6
-        ax[small] = np.cross(a[anti][small], np.array([0.0, 1.0, 0.0]))
-        ax /= np.linalg.norm(ax, axis=-1, keepdims=True)
+        ax = _cross(a[anti], np.array([1.0, 0.0, 0.0]))
+        small = _norm(ax) < 1e-6
+        ax[small] = _cross(a[anti][small], np.array([0.0, 1.0, 0.0]))
+        ax /= _norm(ax, keepdims=True)
         rot[anti] = 2.0 * ax[:, :, None] * ax[:, None, :] - np.eye(3)
     return rot
 
 
 def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    n = _norm(v, keepdims=True)
     return v / np.maximum(n, _EPS), n[..., 0]
 
 
@@ -141,17 +154,17 @@ def two_bone_ik(
     in the limb's plane keeps that bend plane). Out of reach, the limb is fully
     stretched (or fully folded) along the root→target line. Returns (mid', end').
     """
-    a = np.linalg.norm(mid - root, axis=-1)
-    b = np.linalg.norm(end - mid, axis=-1)
+    a = _norm(mid - root)
+    b = _norm(end - mid)
     u, d = _unit(target - root)
     pole = mid - root
     v = pole - np.einsum("td,td->t", pole, u)[:, None] * u
-    weak = np.linalg.norm(v, axis=-1) < 1e-9 * np.maximum(a, 1.0)
+    weak = _norm(v) < 1e-9 * np.maximum(a, 1.0)
     if weak.any():  # old mid on the root→target line: bend toward the old end, else downward
         alt = end[weak] - root[weak]
         alt = alt - np.einsum("td,td->t", alt, u[weak])[:, None] * u[weak]
         for fallback in (np.array([0.0, 0.0, -1.0]), np.array([1.0, 0.0, 0.0])):
-            bad = np.linalg.norm(alt, axis=-1) < 1e-9
+            bad = _norm(alt) < 1e-9
             f = fallback - (u[weak] @ fallback)[:, None] * u[weak]
             alt[bad] = f[bad]
         v[weak] = alt
