@@ -16,7 +16,7 @@ from socialaff_sim.evaluation.streaming import run_protocol
 from socialaff_sim.inference import synthesis
 from socialaff_sim.inference.canonical_stream import CanonicalStream
 from socialaff_sim.inference.methods import AffordanceMethod
-from socialaff_sim.inference.protocol import Prediction, protocol_view
+from socialaff_sim.inference.protocol import Prediction, observed_part, protocol_view
 from socialaff_sim.inference.switching import PRIMITIVE_FAMILIES, SwitchingConfig
 from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.model.frame import CanonicalFrame
@@ -122,6 +122,15 @@ def test_the_reactor_equals_the_whole_view_recomputed(shake8, monkeypatch: pytes
     m = AffordanceMethod("full", learning=LearningConfig(iterations=1), reaction=cfg).fit(data[:4], rng=np.random.default_rng(0))
     tests = [(data[5], "causal"), (data[6], "paper"), (_repeat(data[4], 3), "causal")]
     new = [_run(m, inst, protocol) for inst, protocol in tests]
+    # A live loop: frames appended one at a time (checked on the way in), the reactor asked for each as it arrives.
+    inst = observed_part(tests[0][0], T0)
+    live = GrowingInteraction(inst)
+    reactor = m.start(n_observed=T0, offline=False, rng=np.random.default_rng(3))
+    for t in range(T0, inst.n_frames):
+        lo = 0 if t == T0 else t
+        live.append(inst.joints[lo : t + 1], np.asarray(inst.valid)[lo : t + 1],
+                    None if inst.object is None else inst.object[lo : t + 1])
+        assert np.array_equal(reactor.react(live.view(), t, t + 1).joints[0], new[0].joints[t])
     monkeypatch.setattr(synthesis, "CanonicalStream", _FullView)
     old = [_run(m, inst, protocol) for inst, protocol in tests]
     for a, b in zip(new, old, strict=True):
