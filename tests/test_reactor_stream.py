@@ -68,6 +68,11 @@ def test_canonical_stream_work_is_bounded_on_a_long_stream(rng: np.random.Genera
         assert stream.n_frames - changed <= 6 or t == T0
     with pytest.raises(ModelError, match="views must grow"):
         stream.update(protocol_view(inst, T0 + 3, T0), T0 + 3)
+    # A view lengthened by held frames, whose held frames then become real, is refused (they would not be read).
+    held = CanonicalStream(CanonicalFrame(origin=np.zeros(3), heading=0.3))
+    held.update(protocol_view(inst, T0 + 1, T0).extend_held(T0 + 4))
+    with pytest.raises(ModelError, match="views must grow"):
+        held.update(protocol_view(inst, T0 + 5, T0))
 
 
 def test_growing_views_equal_protocol_views_without_copies(rng: np.random.Generator) -> None:

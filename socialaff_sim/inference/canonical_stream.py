@@ -38,7 +38,8 @@ class CanonicalStream:
     call by call (module docstring), in the canonical ``frame`` fixed at the start.
 
     Calls come in order: each view holds the previous one's frames unchanged (more may follow), and ``n_frames``
-    does not decrease.
+    does not decrease (a view whose last frame seen before changed is an error: e.g. a view lengthened by held frames,
+    whose held frames later become real).
     """
 
     def __init__(self, frame: CanonicalFrame) -> None:
@@ -80,6 +81,9 @@ class CanonicalStream:
         if V < self._seen or n < self._n:
             raise ModelError(f"canonical stream: the view has {V} frames and asks for {n}, but {self._seen} frames were "
                              f"seen and {self._n} made: views must grow")
+        if self._seen and not self._same_tail(view):
+            raise ModelError(f"canonical stream: frame {self._seen - 1} of the view differs from the one seen before: views "
+                             "must grow (pass the frames known, and the held length as n_frames, not a lengthened view)")
         self._world = grown(self._world, V)
         self._canon = grown(self._canon, n)
         self._paths = grown(self._paths, n, 0.0)
@@ -91,8 +95,15 @@ class CanonicalStream:
         if n > V:
             self._canon[V:n] = self.frame.to_canonical(np.broadcast_to(held, (n - V, N_JOINTS, 3)))
         self._seen, self._n = V, n
+        self._tail = (view.joints[V - 1].copy(), np.array(view.valid[V - 1]))
         self._update_paths(changed, n)
         return changed
+
+    def _same_tail(self, view: Interaction) -> bool:
+        """Whether the last frame consumed is unchanged in ``view`` (a cheap check that views grow)."""
+        joints, valid = self._tail
+        k = self._seen - 1
+        return bool(np.array_equal(view.valid[k], valid) and np.array_equal(view.joints[k], joints, equal_nan=True))
 
     def _consume(self, view: Interaction, start: int, stop: int) -> int:
         """Fill the view's frames [start, stop) and the gaps they close; the first frame changed."""
