@@ -144,6 +144,13 @@ def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return v / np.maximum(n, _EPS), n[..., 0]
 
 
+def _independent(chains: Sequence[tuple[int, int, int, int, np.ndarray, np.ndarray]]) -> bool:
+    """Whether no limb chain (key slot, root, mid, end, mid subtree, end subtree) moves another's root, mid or end:
+    then the chains can be solved as one stack."""
+    moved = [set(c[4].tolist()) | set(c[5].tolist()) for c in chains]
+    return all(not set(c[1:4]) & m for i, c in enumerate(chains) for j, m in enumerate(moved) if i != j)
+
+
 def two_bone_ik(
     root: np.ndarray, mid: np.ndarray, end: np.ndarray, target: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -226,6 +233,7 @@ class BodyFitter:
         self.poses_ = poses - poses[:, base : base + 1]
         self.keys_ = layout.key_joints(self.poses_)
         self._chains = [c for c in self._limb_chains(layout) if usable[list(c[1:4])].all()]
+        self._independent = _independent(self._chains)
         return self
 
     def fit_interactions(
@@ -320,23 +328,29 @@ class BodyFitter:
         if not np.isfinite(tg[:, 0]).all():
             raise ModelError("body fit: the base target (key joint 0) must be finite in every frame")
         poses = self.poses_[self.select_clusters(tg)] + tg[:, None, 0]
-        done: set[int] = set()
-        for k, root, mid, end, mid_sub, end_sub in self._chains:
-            done.add(k)
-            t = tg[:, k]
-            ok = np.isfinite(t).all(-1)
-            if not ok.any():
+        done = {c[0] for c in self._chains}
+        # Independent limbs: their two-bone problems stacked into one (the same row-wise arithmetic, a few calls
+        # instead of a few per limb; a stream fits one frame at a time); else limb by limb.
+        if getattr(self, "_independent", None) is None:  # a fitter saved before the flag existed
+            self._independent = _independent(self._chains)
+        groups = [self._chains] if self._independent else [[c] for c in self._chains]
+        for chains in groups:
+            rows = [np.flatnonzero(np.isfinite(tg[:, c[0]]).all(-1)) for c in chains]
+            if not sum(len(r) for r in rows):
                 continue
-            p = poses[ok]
-            r0, m0, e0 = p[:, root], p[:, mid], p[:, end]
-            m1, e1 = two_bone_ik(r0, m0, e0, t[ok])
+            r0, m0, e0, t = (np.concatenate([poses[r, c[i]] if i < 4 else tg[r, c[0]] for c, r in zip(chains, rows, strict=True)])
+                             for i in (1, 2, 3, 4))
+            m1, e1 = two_bone_ik(r0, m0, e0, t)
             rot_up = _rotation_between(_unit(m0 - r0)[0], _unit(m1 - r0)[0])
             lower_old = np.einsum("tij,tj->ti", rot_up, e0 - m0)
             rot_lo = _rotation_between(_unit(lower_old)[0], _unit(e1 - m1)[0]) @ rot_up
-            if len(mid_sub):
-                p[:, mid_sub] = m1[:, None] + np.einsum("tij,tnj->tni", rot_up, p[:, mid_sub] - m0[:, None])
-            p[:, end_sub] = e1[:, None] + np.einsum("tij,tnj->tni", rot_lo, p[:, end_sub] - e0[:, None])
-            poses[ok] = p
+            at = np.cumsum([0] + [len(r) for r in rows])
+            for (_, _, _, _, mid_sub, end_sub), r, a, b in zip(chains, rows, at[:-1], at[1:], strict=True):
+                p = poses[r]
+                if len(mid_sub):
+                    p[:, mid_sub] = m1[a:b, None] + np.einsum("tij,tnj->tni", rot_up[a:b], p[:, mid_sub] - m0[a:b, None])
+                p[:, end_sub] = e1[a:b, None] + np.einsum("tij,tnj->tni", rot_lo[a:b], p[:, end_sub] - e0[a:b, None])
+                poses[r] = p
         for k, idx in enumerate(self.layout_.key_indices):  # key joints with no limb chain
             if k > 0 and idx is not None and k not in done:
                 t = tg[:, k]
