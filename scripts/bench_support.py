@@ -21,7 +21,8 @@ also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stan
 :mod:`socialaff_sim.sim.balance_control`) and ``balance_steady`` (the same with the steadied base); ``qp`` and
 ``qp_steady``: the same with the quadratic program (:data:`QP`: ``solver="qp"``, ``sole_gap=0.01``,
 ``w_torso=3.0``);
-``--balance FIELD=VALUE ...`` changes the controller's settings for the last four, ``--labels`` picks
+``--balance FIELD=VALUE ...`` changes the controller's settings for the last four, ``--foot-lock FIELD=VALUE ...``
+the foot lock's (:class:`~socialaff_sim.sim.footlock.FootLockConfig`) for every mode, ``--labels`` picks
 interactions. After the per-interaction table, one line per robot and mode summarises the contact phases.
 
 The targets of issue 25 for feet that stay planted: outside support ≤ 5 % of
@@ -74,7 +75,13 @@ def main() -> None:
     p.add_argument("--balance", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="BalanceConfig fields for the balance modes (Python literals), e.g. com_bandwidth=3.0")
     p.add_argument("--labels", nargs="*", help="only these interactions")
+    p.add_argument("--foot-lock", nargs="*", default=[], metavar="FIELD=VALUE",
+                   help="FootLockConfig fields for every mode (Python literals), e.g. hold_lift=0.08")
     args = p.parse_args()
+    if args.foot_lock:
+        lock = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.foot_lock)}
+        for mode, cfg in MODES.items():
+            MODES[mode] = dataclasses.replace(cfg, foot_lock=dataclasses.replace(cfg.foot_lock, **lock))
     if args.balance:
         over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.balance)}
         for mode in ("balance", "balance_steady", "qp", "qp_steady"):

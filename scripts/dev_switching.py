@@ -13,10 +13,18 @@ key joints, the full model before this change) and ``promp``: the interaction pr
 alone (the ``promp`` baseline on the development split), whose traces (cross-fitted like the plans, on their own
 split) feed the ``primitive`` variants. ``--contiguous``: one pair's inner folds and cross-fitting parts as
 consecutive runs (``SwitchingConfig.contiguous``); ``--no-gated``: cheaper traces, no belief-gated variants.
+
+``--v2`` also fits the V2 ablation (preset ``default``, no sub-events) on the same training instances, its
+training traces cross-fitted as the plans (its own split: the cached plans' split is not stored), and reports
+``plan_v2`` (V2's plan alone), ``sw:default+plan_v2`` (today's default's families plus V2's plan as one more
+family, ``plan_v2``: the same candidates as ``plan`` on V2's traces, blended by the same inner CV) and
+``sw:v2_default`` (V2's own switching regression: today's default families on V2's traces; the primitive's
+traces shared). The blend over several traces' families is fitted by :func:`blend_sources`, which reproduces
+``SwitchingRegression`` exactly when every family reads one trace set (checked on every class: ``check``).
 Usage::
 
     python scripts/dev_switching.py --data nuisi:../shared/data/nuisi_v1 --split block [--rotation 0] [--labels a,b]
-        [--cache DIR] [--variants default,primitive] [--contiguous] [--no-gated]
+        [--cache DIR] [--variants default,primitive] [--contiguous] [--no-gated] [--v2]
 
 Prints one line per class and the averages; the library never imports this script.
 """
@@ -25,21 +33,26 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import pickle
 import time
 from pathlib import Path
 
 import numpy as np
 
-from socialaff_sim.data import load_dataset
+from socialaff_sim.data import Interaction, load_dataset
+from socialaff_sim.evaluation.compare import paired_difference
 from socialaff_sim.evaluation.crossval import fold_rng
 from socialaff_sim.evaluation.splits import make_folds
 from socialaff_sim.inference.body_fit import BodyFitConfig, BodyFitter
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive
 from socialaff_sim.inference.methods import AffordanceMethod, primitive_trace, trace
-from socialaff_sim.inference.reaction_regression import inner_folds, key_columns
+from socialaff_sim.inference.reaction_regression import (
+    HOLD, blend_weights, cv_errors, fold_predictions, inner_folds, key_columns, ridge_solve, select, stack_instances,
+)
 from socialaff_sim.inference.switching import (
-    FAMILIES, GATED_FAMILIES, PRIMITIVE_FAMILIES, SwitchingConfig, SwitchingRegression, instance_rows,
+    FAMILIES, GATED_FAMILIES, PRIMITIVE_FAMILIES, PRIORS, SwitchingConfig, SwitchingRegression, Trace, instance_rows,
+    switching_columns, switching_scale,
 )
 
 T0 = 10
@@ -55,6 +68,100 @@ VARIANTS = {  # name: (families, blend steps)
     "motion+primitive": ((FAMILIES[0], PRIMITIVE_FAMILIES[-1]), 10),
     "primitive_best1": (PRIMITIVE_FAMILIES, 1),
 }
+
+
+V2_FAMILY = ("plan_v2", FAMILIES[1][1])  # the plan's candidates, read from V2's traces
+SOURCES = {"plan_v2": "v2"}  # family -> trace set (every other family: "own", the default model's)
+
+
+def _prior_of(groups: tuple[str, ...]) -> str | None:
+    return next((g for g in groups if g in PRIORS), None)
+
+
+BlendMember = tuple[str, tuple[str, ...], float, float, np.ndarray, np.ndarray]
+"""(family, groups, λ, α, columns (F_m,) int64, coefficients (F_m, J·3)) of one member of the blend."""
+Rows = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+"""``instance_rows``' (rows (N, ·), targets (N, J·3) m, ``from_plan`` prior (N, J·3) m, ``from_primitive`` prior)."""
+
+
+def blend_sources(
+    train: list[Interaction], sources: dict[str, list[Trace]], n_sub: dict[str, int], cfg: SwitchingConfig,
+    rng: np.random.Generator,
+) -> tuple[list[BlendMember], dict[str, np.ndarray]]:
+    """``SwitchingRegression.fit`` with each family reading its own trace set (``SOURCES``: family → set name, else
+    ``"own"``; ``sources``: set name → one trace per instance of ``train``; ``n_sub``: S per set). Without the
+    library's single-instance fallback (every class here has at least two inner folds).
+
+    Returns the members with α > 0 and each set's column scales (F,)."""
+    stacked: dict[str, tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]] = {}
+    scale: dict[str, np.ndarray] = {}
+    for src, traces in sources.items():
+        (X, Y, pp, prp), w, ids = stack_instances(
+            train, cfg.n_observed, lambda i, inst, tr=traces: instance_rows(inst, tr[i], cfg.n_observed, cfg.features), src)
+        scale[src] = switching_scale(X, w, n_sub[src])
+        stacked[src] = (X / scale[src], Y, {"from_plan": pp, "from_primitive": prp})
+    folds = inner_folds(train, np.unique(ids), cfg.inner_folds, rng, contiguous=cfg.contiguous)
+    kc = key_columns(train[0])
+    Y = stacked["own"][1]
+    Yk = Y[:, kc]
+    winners, preds = [], []
+    for family, _ in cfg.families:
+        src = SOURCES.get(family, "own")
+        Xs, _, priors = stacked[src]
+        candidates = {g: switching_columns(g, n_sub[src]) for g in cfg.candidates(family)}
+        cv: dict[tuple[tuple[str, ...], float], float] = {}
+        for prior in (None,) + PRIORS:
+            some = {g: c for g, c in candidates.items() if _prior_of(g) == prior}
+            if some:
+                cv.update(cv_errors(Xs, Yk, w, ids, folds, some, cfg.penalties,
+                                    offset=priors[prior][:, kc] if prior else None, from_offset=some if prior else ()))
+        groups, lam = select({k: v for k, v in cv.items() if k[0] != HOLD})
+        winners.append((family, groups, lam))
+        prior = _prior_of(groups)
+        base = priors[prior][:, kc] if prior else np.zeros_like(Yk)
+        preds.append(fold_predictions(Xs, Yk, w, ids, folds, candidates[groups], lam, base))
+    alpha, _ = blend_weights(np.stack(preds), Yk, ids, cfg.blend_steps)
+    wn = w / w.sum()
+    members: list[BlendMember] = []
+    for (family, groups, lam), a in zip(winners, alpha, strict=True):
+        if a <= 0:
+            continue
+        src = SOURCES.get(family, "own")
+        Xs, _, priors = stacked[src]
+        cols = switching_columns(groups, n_sub[src])
+        prior = _prior_of(groups)
+        target = Y - priors[prior] if prior else Y
+        if len(cols) and np.isfinite(lam):
+            Xc = Xs[:, cols]
+            coef = ridge_solve((Xc * wn[:, None]).T @ Xc, (Xc * wn[:, None]).T @ target, lam)
+        else:
+            cols, coef = np.zeros(0, np.int64), np.zeros((0, Y.shape[1]))
+        members.append((family, groups, lam, float(a), cols, coef))
+    return members, scale
+
+
+def blend_displacement(members: list[BlendMember], scale: dict[str, np.ndarray], rows: dict[str, Rows]) -> np.ndarray:
+    """(N, J·3) anchor-frame displacements, metres: the blend's, from each trace set's rows of one validation instance."""
+    out = np.zeros_like(rows["own"][1])
+    for family, groups, _, a, cols, coef in members:
+        X, _, pp, prp = rows[SOURCES.get(family, "own")]
+        prior = _prior_of(groups)
+        part = (pp if prior == "from_plan" else prp if prior == "from_primitive" else np.zeros_like(out)).copy()
+        if len(cols):
+            part += (X[:, cols] / scale[SOURCES.get(family, "own")][cols]) @ coef
+        out += a * part
+    return out
+
+
+def _with_primitive(traces: list[Trace], donor: list[Trace]) -> list[Trace]:
+    return [dataclasses.replace(t, primitive=d.primitive, primitive_skeleton=d.primitive_skeleton)
+            for t, d in zip(traces, donor, strict=True)]
+
+
+def _keep(per: dict[str, list[float]], name: str, errors: list[float]) -> float:
+    """Record one variant's per-instance errors (m) of a class; return their mean."""
+    per[name] = [float(e) for e in errors]
+    return float(np.mean(errors))
 
 
 def _err(pred: np.ndarray, truth: np.ndarray) -> float:
@@ -75,11 +182,15 @@ def main() -> None:
                          "synthesis; the belief-gated variants are then not valid and are skipped)")
     ap.add_argument("--contiguous", action="store_true",
                     help="inner folds and cross-fitting parts as consecutive runs with one actor pair (SwitchingConfig.contiguous)")
+    ap.add_argument("--v2", action="store_true", help="also V2's plan as one more family, and V2's own regression")
+    ap.add_argument("--errors", default="", help="JSON file for every variant's per-instance errors, per class")
     ap.add_argument("--cache", default="", help="folder for the fitted traces (re-runs of the variants skip the fits)")
     args = ap.parse_args()
     ds = load_dataset(args.data)
     labels = [x for x in args.labels.split(",") if x] or list(ds.labels)
     table: dict[str, dict[str, float]] = {}
+    counts: dict[str, int] = {}
+    per_instance: dict[str, dict[str, list[float]]] = {}
     for label in labels:
         insts = ds.of_label(label).interactions
         folds = make_folds(insts, 4, args.split, rng=fold_rng(0, label))
@@ -120,26 +231,72 @@ def main() -> None:
         prim_s = time.perf_counter() - t1
         kc = key_columns(train[0])
         va_rows = [instance_rows(i, tr, T0, SwitchingConfig().features) for i, tr in zip(val, va_traces, strict=True)]
-        row = {"hold": float(np.mean([_err(np.zeros_like(Y[:, kc]), Y[:, kc]) for _, Y, _, _ in va_rows]))}
+        per: dict[str, list[float]] = {}
+        row = {"hold": _keep(per, "hold", [_err(np.zeros_like(Y[:, kc]), Y[:, kc]) for _, Y, _, _ in va_rows])}
         width = va_rows[0][0].shape[1]
         plan_cols = (width - 30 + np.arange(15)).reshape(5, 3)[train[0].layout.key_available].reshape(-1)
-        row["plan"] = float(np.mean([_err(X[:, plan_cols], Y[:, kc]) for X, Y, _, _ in va_rows]))
-        row["promp"] = float(np.mean([_err(X[:, plan_cols + 15], Y[:, kc]) for X, Y, _, _ in va_rows]))
+        row["plan"] = _keep(per, "plan", [_err(X[:, plan_cols], Y[:, kc]) for X, Y, _, _ in va_rows])
+        row["promp"] = _keep(per, "promp", [_err(X[:, plan_cols + 15], Y[:, kc]) for X, Y, _, _ in va_rows])
         chosen = {}
         names = [v for v in args.variants.split(",") if v and not (args.no_gated and v in ("motion+subevent", "gated_all"))]
         for name in names:
             families, steps = VARIANTS[name]
             reg = SwitchingRegression(SwitchingConfig(families=families, blend_steps=steps, contiguous=args.contiguous)).fit(
                 train, tr_traces, n_subevents=S, rng=np.random.default_rng(args.seed))
-            row["sw:" + name] = float(np.mean([_err(reg.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows]))
+            row["sw:" + name] = _keep(per, "sw:" + name, [_err(reg.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
             chosen[name] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg.members_) or "hold"
+        if args.v2:
+            t2 = time.perf_counter()
+            v2_cache = cache.with_name(cache.stem + "_v2.pkl") if cache is not None else None
+            if v2_cache is not None and v2_cache.exists():
+                S2, tr2, va2 = pickle.loads(v2_cache.read_bytes())
+            else:
+                rng2 = np.random.default_rng(args.seed)
+                m2 = AffordanceMethod.from_preset("v2", "default", reaction=None).fit(train, rng=rng2)
+                syn2 = dataclasses.replace(m2.synthesis, n_observed=T0)
+                tr2 = m2._training_traces(train, SwitchingConfig(families=FAMILIES, cross_fit=args.cross_fit, contiguous=args.contiguous), rng2)
+                va2 = [trace(m2.model_, m2.body_, i, syn2, rng2) for i in val]
+                S2 = m2.model_.n_subevents_
+                if v2_cache is not None:
+                    v2_cache.write_bytes(pickle.dumps((S2, tr2, va2)))
+            v2_s = time.perf_counter() - t2
+            tr2, va2 = _with_primitive(tr2, tr_traces), _with_primitive(va2, va_traces)
+            va2_rows = [instance_rows(i, tr, T0, SwitchingConfig().features) for i, tr in zip(val, va2, strict=True)]
+            plan_cols2 = plan_cols - width + va2_rows[0][0].shape[1]  # the same 15 columns, counted from the end
+            row["plan_v2"] = _keep(per, "plan_v2", [_err(X[:, plan_cols2], Y[:, kc]) for X, Y, _, _ in va2_rows])
+            reg2 = SwitchingRegression(SwitchingConfig(contiguous=args.contiguous)).fit(train, tr2, n_subevents=S2, rng=np.random.default_rng(args.seed))
+            row["sw:v2_default"] = _keep(per, "sw:v2_default", [_err(reg2.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va2_rows])
+            chosen["v2_default"] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg2.members_) or "hold"
+            for name, fams in (("check", PRIMITIVE_FAMILIES), ("default+plan_v2", PRIMITIVE_FAMILIES + (V2_FAMILY,))):
+                cfg = SwitchingConfig(families=fams, contiguous=args.contiguous)
+                members, scale = blend_sources(train, {"own": tr_traces, "v2": tr2}, {"own": S, "v2": S2}, cfg,
+                                               np.random.default_rng(args.seed))
+                preds = [blend_displacement(members, scale, {"own": a, "v2": b}) for a, b in zip(va_rows, va2_rows, strict=True)]
+                row["sw:" + name] = _keep(per, "sw:" + name, [_err(p[:, kc], r[1][:, kc]) for p, r in zip(preds, va_rows, strict=True)])
+                chosen[name] = " + ".join(f"{a:.1f}·{f}[{'+'.join(g)} λ={lam:g}]" for f, g, lam, a, _, _ in members) or "hold"
+            if "sw:default" in row and abs(row["sw:check"] - row["sw:default"]) > 1e-12:
+                raise SystemExit(f"blend_sources does not reproduce SwitchingRegression: {row['sw:check']} vs {row['sw:default']}")
+            print(f"{'':>14} V2 fits+traces {v2_s:.0f}s (S={S2})", flush=True)
         table[label] = row
+        counts[label] = len(val)
+        per_instance[label] = per
         print(f"{label:>14} n={len(train)}/{len(val)} S={S} fit+traces {fit_s:.0f}s primitive {prim_s:.1f}s  "
               + "  ".join(f"{k} {v:.4f}" for k, v in row.items()), flush=True)
         print(f"{'':>14} chosen: " + "; ".join(f"{k}: {v}" for k, v in chosen.items()),
               flush=True)
     keys = next(iter(table.values())).keys()
     print(f"{'AVERAGE':>14} " + "  ".join(f"{k} {np.mean([r[k] for r in table.values()]):.4f}" for k in keys))
+    if args.errors:
+        Path(args.errors).write_text(json.dumps(per_instance))
+    for name in ("sw:default+plan_v2", "sw:v2_default"):
+        if name in keys and "sw:default" in keys:  # paired, stratified bootstrap over the validation instances
+            diffs = [np.subtract(per_instance[c][name], per_instance[c]["sw:default"]) for c in table]
+            cls = paired_difference(diffs, rng=np.random.default_rng(0))
+            pooled = paired_difference([np.concatenate(diffs)], rng=np.random.default_rng(0))
+            print(f"{name} − sw:default: class average {cls[0]:+.4f} [{cls[1]:+.4f}, {cls[2]:+.4f}], "
+                  f"pooled {pooled[0]:+.4f} [{pooled[1]:+.4f}, {pooled[2]:+.4f}]")
+    n = np.array([counts[c] for c in table])  # the mean over every validation instance
+    print(f"{'POOLED':>14} n={n.sum()} " + "  ".join(f"{k} {np.dot(n, [r[k] for r in table.values()]) / n.sum():.4f}" for k in keys))
 
 
 if __name__ == "__main__":

@@ -1,14 +1,17 @@
 """Train a residual policy on top of the affordance model with Stable-Baselines3, and test it on held-out instances.
 
-The environment's ``residual`` action mode adds the policy's offsets (±0.3 m per
-coordinate) to the key-frame targets the affordance model proposes (its causal
-online synthesis of agent 1). This script:
+The environment's ``residual`` action mode adds the policy's offsets (at most ±0.3 m per
+coordinate; the policy's action [−1, 1] is scaled to ±``--action-scale``, 0.1 m by default)
+to the key-frame targets the affordance model proposes (its causal online synthesis of
+agent 1). The environment steps at its default control rate (one env step per 0.015 s
+control period, ``--control-dt``; ``none`` gives the older one step per data frame), so
+the policy may change its residual every control step. This script:
 
 1. generates the synthetic training data (``--seed``; ``--train-instances`` per
    interaction) and fits one affordance model per interaction on it (or loads
    them with ``--models DIR``);
 2. trains one PPO policy (Stable-Baselines3, observations flattened and
-   normalized with ``VecNormalize``, actions rescaled to [−1, 1]) on episodes
+   normalized with ``VecNormalize``, actions in [−1, 1]) on episodes
    of those training instances, both interactions in one environment (the
    observation carries the interaction's one-hot);
 3. evaluates, on HELD-OUT instances — a second synthetic dataset generated with
@@ -29,7 +32,7 @@ met and no failure condition triggered. The target (issue 26): the trained
 residual's success minus the affordance model's, paired over the held-out
 episodes, has a 95 % interval above zero. Needs the ``[rl]`` extra. Example::
 
-    OMP_NUM_THREADS=1 nice python scripts/train_residual.py --timesteps 300000 --out rl_out
+    OMP_NUM_THREADS=1 nice -n 10 python scripts/train_residual.py --timesteps 300000 --out rl_out
 """
 
 from __future__ import annotations
@@ -64,12 +67,15 @@ from socialaff_sim.data.interaction import Interaction  # noqa: E402
 from socialaff_sim.data.synthetic import generate_dataset  # noqa: E402
 from socialaff_sim.data.synthetic.config import SyntheticConfig  # noqa: E402
 from socialaff_sim.environment import SocialAffordanceEnv  # noqa: E402
+from socialaff_sim.environment.config import CONTROL_DT, EnvConfig  # noqa: E402
+from socialaff_sim.environment.reward import RewardConfig  # noqa: E402
 from socialaff_sim.errors import ConfigError  # noqa: E402
 from socialaff_sim.evaluation.compare import paired_difference  # noqa: E402
 from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
 from socialaff_sim.learning.config import LearningConfig  # noqa: E402
 
 LABELS = ("shake_hands", "hand_over")
+RESIDUAL_BOUND = EnvConfig().residual_bound
 Policy = Callable[[np.ndarray], np.ndarray]
 
 
@@ -91,23 +97,35 @@ class Settings:
     """PPO environment steps (over all sub-environments)."""
     n_envs: int = 8
     """Sub-environments stepped in one process (``DummyVecEnv``)."""
-    n_steps: int = 128
+    n_steps: int = 256
     """PPO rollout length per sub-environment between updates."""
     batch_size: int = 256
     """PPO minibatch size."""
-    n_epochs: int = 10
+    n_epochs: int = 5
     """PPO epochs per update."""
-    learning_rate: float = 3e-4
+    learning_rate: float = 1e-4
     """Adam step size."""
-    gamma: float = 0.99
-    """Discount factor."""
-    log_std_init: float = -2.0
-    """Initial log standard deviation of the Gaussian policy in the rescaled action space [−1, 1]: e^−2 ≈ 0.14,
-    i.e. about 4 cm of exploration noise on the ±0.3 m residual, so early episodes stay close to the proposal."""
+    gamma: float = 0.998
+    """Discount factor per env step (0.998 per 0.015 s control step ≈ 0.99 per frame of a 12 fps instance)."""
+    gae_lambda: float = 0.98
+    """λ of PPO's generalized advantage estimate."""
+    log_std_init: float = -2.3
+    """Initial log standard deviation of the Gaussian policy in the rescaled action space [−1, 1]: e^−2.3 ≈ 0.1,
+    i.e. about 1 cm of exploration noise on the ±0.1 m residual (``action_scale``), so early episodes stay close
+    to the proposal."""
     hidden: int = 256
     """Width of the two hidden layers of the policy and value networks."""
+    action_scale: float = 0.1
+    """ρ_π [m]: the policy's action [−1, 1] is a residual of ±ρ_π per coordinate (at most the environment's
+    ``residual_bound``, 0.3 m)."""
+    train_affordance_weight: float = RewardConfig().affordance_weight
+    """w_a of the TRAINING environments' reward (also the learning curve's and its zero-residual reference's);
+    the held-out evaluation keeps the environment's default reward, so its returns stay comparable across runs."""
     physics: str = "fast"
     """The environment's physics preset."""
+    control_dt: float | None = CONTROL_DT
+    """The environment's control period, s (its default, 0.015 s: one env step per control period);
+    ``None``: one env step per data frame, as the first two recorded runs were trained and evaluated."""
     max_frames: int | None = None
     """Cut every instance to its first frames (short episodes; tests only)."""
 
@@ -130,16 +148,22 @@ def fit_models(s: Settings, train: Sequence[Interaction]) -> dict[str, SocialAff
     return models
 
 
-def make_env(s: Settings, instances: Sequence[Interaction], models: Mapping[str, SocialAffordanceModel]) -> gym.Env:
-    """The residual-mode environment as SB3 wants it: flat float32 observation, a flat action in [−1, 1]."""
+def make_env(s: Settings, instances: Sequence[Interaction], models: Mapping[str, SocialAffordanceModel],
+             training: bool = False) -> gym.Env:
+    """The residual-mode environment as SB3 wants it: flat float32 observation, a flat action in [−1, 1] that is
+    a residual of ±``s.action_scale`` m per coordinate. ``training``: with the training reward
+    (``s.train_affordance_weight``); otherwise the environment's default reward."""
+    if not 0.0 < s.action_scale <= RESIDUAL_BOUND:
+        raise ConfigError(f"--action-scale: expected a residual in (0, {RESIDUAL_BOUND}] m, found {s.action_scale!r}")
+    reward = dataclasses.replace(RewardConfig(), affordance_weight=s.train_affordance_weight) if training else None
     env: gym.Env = SocialAffordanceEnv(interactions=list(s.labels), data=list(instances), action_mode="residual",
                                        model=dict(models), physics=s.physics, max_frames=s.max_frames,
-                                       control_dt=None)  # one step per data frame, as the recorded result was trained
+                                       control_dt=s.control_dt, reward=reward)
     env = gym.wrappers.FlattenObservation(env)
-    env = gym.wrappers.RescaleAction(env, np.float32(-1.0), np.float32(1.0))
     shape = env.action_space.shape
     flat = gym.spaces.Box(-1.0, 1.0, shape=(int(np.prod(shape)),), dtype=np.float32)
-    return gym.wrappers.TransformAction(env, lambda a: np.asarray(a, np.float32).reshape(shape), flat)
+    scale = np.float32(s.action_scale)
+    return gym.wrappers.TransformAction(env, lambda a: (scale * np.asarray(a, np.float32)).reshape(shape), flat)
 
 
 # -- training ------------------------------------------------------------------------------------------------------
@@ -187,12 +211,12 @@ def train(s: Settings, train_set: Sequence[Interaction], models: Mapping[str, So
     have passed (checked after each rollout); returns the agent, its observation normalizer and the recorder
     (curve rows, the steps trained on)."""
     torch.set_num_threads(1)
-    venv = DummyVecEnv([lambda: make_env(s, train_set, models) for _ in range(s.n_envs)])
+    venv = DummyVecEnv([lambda: make_env(s, train_set, models, training=True) for _ in range(s.n_envs)])
     venv.seed(s.seed)
     norm = VecNormalize(VecMonitor(venv), norm_obs=True, norm_reward=True, gamma=s.gamma)
     agent = PPO(
         "MlpPolicy", norm, n_steps=s.n_steps, batch_size=s.batch_size, n_epochs=s.n_epochs,
-        learning_rate=s.learning_rate, gamma=s.gamma, seed=s.seed, device="cpu", verbose=0,
+        learning_rate=s.learning_rate, gamma=s.gamma, gae_lambda=s.gae_lambda, seed=s.seed, device="cpu", verbose=0,
         policy_kwargs={"log_std_init": s.log_std_init, "net_arch": {"pi": [s.hidden] * 2, "vf": [s.hidden] * 2}},
     )
     recorder = CurveRecorder(log, budget_s=budget_s)
@@ -213,20 +237,29 @@ def zero_policy(obs: np.ndarray) -> np.ndarray:
 
 # -- evaluation ----------------------------------------------------------------------------------------------------
 def run_episodes(env: gym.Env, episodes: Sequence[tuple[str, int]], policy: Policy) -> list[dict[str, Any]]:
-    """One episode per (instance id, reset seed); per-episode return, success, sub-goals and failure."""
+    """One episode per (instance id, reset seed); per-episode return (and its ``reward_<term>`` sums), success,
+    sub-goals, failures, the termination reason and the mean |action| (policy units, [0, 1])."""
     rows = []
     for instance, seed in episodes:
         obs, _ = env.reset(seed=seed, options={"instance": instance})
-        total, steps = 0.0, 0
+        total, steps, action_sum = 0.0, 0, 0.0
+        terms: dict[str, float] = {}
         while True:
-            obs, reward, terminated, truncated, info = env.step(policy(obs))
+            action = policy(obs)
+            obs, reward, terminated, truncated, info = env.step(action)
             total, steps = total + float(reward), steps + 1
+            action_sum += float(np.mean(np.abs(action)))
+            for key, value in info.items():
+                if key.startswith("reward_"):
+                    terms[key[len("reward_"):]] = terms.get(key[len("reward_"):], 0.0) + float(value)
             if terminated or truncated:
                 break
         subgoals = dict(info["subgoals"])
         rows.append({"instance": instance, "seed": seed, "interaction": info["interaction"], "return": total,
                      "steps": steps, "success": bool(info["success"]), "failed": bool(info["failed"]),
                      "failures": sorted(k for k, hit in info["failures"].items() if hit),
+                     "termination_reason": info["termination_reason"], "reward_terms": terms,
+                     "mean_abs_action": action_sum / steps,
                      "subgoals": subgoals, "subgoals_met": float(np.mean(list(subgoals.values())))})
     return rows
 
@@ -338,8 +371,8 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
     norm.save(str(out / "vecnormalize.pkl"))
     log(f"trained in {train_wall:.0f} s wall ({len(curve)} training episodes); evaluating")
 
-    # Reference for the curve: the zero residual once on every training instance.
-    train_env = make_env(s, train_set, models)
+    # Reference for the curve: the zero residual once on every training instance, with the training reward.
+    train_env = make_env(s, train_set, models, training=True)
     train_eps = [(i.instance_id, s.seed + k) for k, i in enumerate(train_set)]
     ref_rows = run_episodes(train_env, train_eps, zero_policy)
     reference = {lbl: {"success": float(np.mean([r["success"] for r in ref_rows if r["interaction"] == lbl])),
@@ -369,6 +402,11 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
     return results
 
 
+def _control_dt(text: str) -> float | None:
+    """``--control-dt``: seconds, or ``none`` for one env step per data frame."""
+    return None if text.strip().lower() == "none" else float(text)
+
+
 def main() -> None:
     d = Settings()
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -376,10 +414,12 @@ def main() -> None:
     ap.add_argument("--models", type=Path, default=None, help="load <interaction>.npz from here instead of fitting")
     ap.add_argument("--interactions", nargs="+", default=list(d.labels))
     for f in dataclasses.fields(Settings):
-        if f.name in ("labels", "max_frames"):
+        if f.name in ("labels", "max_frames", "control_dt"):
             continue
         ap.add_argument("--" + f.name.replace("_", "-"), type=type(f.default), default=f.default)
     ap.add_argument("--max-frames", type=int, default=None)
+    ap.add_argument("--control-dt", type=_control_dt, default=d.control_dt,
+                    help=f"env control period in s (default {d.control_dt}); 'none': one env step per data frame")
     ap.add_argument("--budget-minutes", type=float, default=None,
                     help="stop training after the first rollout that ends past this much wall time; the results "
                          "record the steps trained, and --timesteps with that number reproduces the policy")

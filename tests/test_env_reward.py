@@ -25,6 +25,7 @@ from socialaff_sim.environment.reward import affordance_term
 from socialaff_sim.errors import ConfigError, ModelError
 from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.learning import SocialAffordanceModel
+from socialaff_sim.retarget.intent import ContactIntent
 
 
 @pytest.fixture(scope="module")
@@ -224,7 +225,9 @@ def test_model_adapter_drives_the_synthesizer(model, data):
     t, scored = 0, 0
     while True:
         np.testing.assert_allclose(obs["subevent_belief"], steps[t + 1].belief, atol=1e-6)
-        np.testing.assert_allclose(obs["proposal"], env.simulator.retarget(steps[t + 1].key_joints, frame=t + 1), atol=1e-5)
+        intent = ContactIntent.of(model).at(steps[t + 1].subevent)  # the model's intent, as the env passes it
+        np.testing.assert_allclose(obs["proposal"], env.simulator.retarget(steps[t + 1].key_joints, frame=t + 1,
+                                                                           **intent.kwargs()), atol=1e-5)
         obs, r, term, _, info = env.step(np.zeros((5, 3), np.float32))
         t += 1
         assert info["subevent_index"] == steps[t].subevent

@@ -7,10 +7,17 @@ import numpy as np
 import pytest
 
 from socialaff_sim.data.skeletons import get_layout
+from socialaff_sim.data.synthetic import generate_dataset
+from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.robot import load_robot
+from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.feedforward import StandingFeedforward
+from socialaff_sim.sim.balance_config import BalanceConfig
+from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
 from socialaff_sim.sim.scene import build_scene, pose_compliant
+from socialaff_sim.sim.simulator import SimConfig, Simulator
+from socialaff_sim.sim.stance import StanceConfig
 from socialaff_sim.sim.support import SupportMeter
 
 LAYOUT = get_layout("kinect_v2")
@@ -118,3 +125,49 @@ def test_foot_lock_plants_a_standing_foot_and_lets_a_step_go() -> None:
     lifted = np.array([[0.06, 0.1, 0.13], [0.0, -0.1, 0.30]])  # 5 cm above home height: released
     np.testing.assert_allclose(lock.apply(lifted)[0], lifted[0])
     assert lock.planted[0] is None
+
+
+def test_hold_lift_keeps_a_planted_foot_through_a_heel_rise_but_plants_no_raised_foot() -> None:
+    lock = FootLock((0.08, 0.08), FootLockConfig(lift=0.04, radius=0.05, hold_lift=0.12))
+    lock.apply(np.array([[0.0, 0.1, 0.09], [0.0, -0.1, 0.09]]))  # both planted
+    rise = np.array([[0.02, 0.1, 0.15], [0.0, -0.1, 0.09]])  # left target 7 cm up, 2 cm aside: a heel rise
+    np.testing.assert_allclose(lock.apply(rise)[0], [0.0, 0.1, 0.08])  # held where it stood
+    # Without hold_lift the same rise is a step (the foot follows its target).
+    plain = FootLock((0.08, 0.08), FootLockConfig(lift=0.04, radius=0.05))
+    plain.apply(np.array([[0.0, 0.1, 0.09], [0.0, -0.1, 0.09]]))
+    np.testing.assert_allclose(plain.apply(rise)[0], rise[0])
+    # Above hold_lift, or beyond the radius, the planted foot steps.
+    high = np.array([[0.0, 0.1, 0.21], [0.0, -0.1, 0.09]])  # 13 cm up
+    np.testing.assert_allclose(lock.apply(high)[0], high[0])
+    assert lock.planted[0] is None
+    # Hysteresis: a foot not planted is not planted by a target between lift and hold_lift.
+    np.testing.assert_allclose(lock.apply(rise)[0], rise[0])
+    assert lock.planted[0] is None
+    lock.apply(np.array([[0.0, 0.1, 0.09], [0.0, -0.1, 0.09]]))  # down again: planted
+    far = np.array([[0.07, 0.1, 0.15], [0.0, -0.1, 0.09]])  # 7 cm aside and up: a step
+    np.testing.assert_allclose(lock.apply(far)[0], far[0])
+    assert lock.planted[0] is None
+
+
+@pytest.mark.parametrize("kw", [{"hold_lift": 0.03}, {"lift": -0.01}, {"radius": -0.1}])
+def test_foot_lock_config_errors(kw) -> None:  # noqa: ANN001
+    with pytest.raises(ConfigError, match="FootLockConfig"):
+        FootLockConfig(**{"lift": 0.04, **kw})
+
+
+def test_hold_lift_keeps_a_pulling_robot_planted_and_released_longer() -> None:
+    """In a pull-up the recorded puller's ankle rises 4–7 cm without stepping (synthetic pull_up_001): with
+    ``hold_lift`` the balance controller's robot keeps both feet planted in more frames and stands free of the
+    harness for more physics steps."""
+    inter = next(i for i in generate_dataset(seed=0) if i.instance_id == "pull_up_001")
+    qp = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0)
+    planted, released = [], []
+    for hold in (None, 0.12):
+        sim = Simulator("ours", "pull_up", SimConfig(foot_lock=FootLockConfig(hold_lift=hold), balance=qp,
+                                                     stance=StanceConfig(release=False)))
+        frames: list[bool] = []
+        run_episode(sim, GroundTruthSource(), inter,
+                    on_frame=lambda s, r, _: frames.append(all(p is not None for p in s._footlock.planted)))
+        planted.append(sum(frames))
+        released.append(sim._stage.stepper.balance.released_steps)
+    assert planted[1] > planted[0] and released[1] > released[0]

@@ -1,7 +1,8 @@
 """scripts/train_residual.py: a few hundred PPO steps through the script's own code path.
 
-The tiny run (2 training and 2 held-out instances per interaction, a one-iteration model fit, 256 PPO
-steps) proves the example works end to end; its figures are not judged. What is checked: the files it
+The tiny run (2 training and 2 held-out instances per interaction cut to 15 frames, so that episodes of
+about 6 control steps a frame end within the rollouts, a one-iteration model fit, 256 PPO steps) proves the
+example works end to end; its figures are not judged. What is checked: the files it
 writes (policy, normalizer, models, learning curve, results), that the evaluation rows are what the
 environment gives — the zero-residual rows are replayed with a plain ``SocialAffordanceEnv`` and the
 trained policy is reloaded from disk and replayed — and the summary statistics against hand counts and
@@ -25,6 +26,7 @@ from stable_baselines3 import PPO  # noqa: E402
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize  # noqa: E402
 
 from socialaff_sim.environment import SocialAffordanceEnv  # noqa: E402
+from socialaff_sim.environment.episode_end import TERMINATION_REASONS  # noqa: E402
 from socialaff_sim.errors import ConfigError  # noqa: E402
 from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
 
@@ -40,7 +42,7 @@ def script():  # noqa: ANN201
 @pytest.fixture(scope="module")
 def tiny(script, tmp_path_factory):  # noqa: ANN001, ANN201
     settings = script.Settings(train_instances=2, eval_instances=2, fit_iterations=1, timesteps=256, n_envs=2,
-                               n_steps=64, batch_size=64, n_epochs=2, hidden=32, seed=3)
+                               n_steps=64, batch_size=64, n_epochs=2, hidden=32, seed=3, max_frames=15)
     out = tmp_path_factory.mktemp("rl")
     logged: list[str] = []
     results = script.run(settings, out, log=logged.append)
@@ -73,6 +75,32 @@ def test_writes_policy_curve_and_results(tiny) -> None:  # noqa: ANN001
     assert any("models ready" in m for m in logged)
 
 
+def test_rows_carry_reward_terms_and_termination_reasons(script, tiny) -> None:  # noqa: ANN001
+    settings, _, results, _ = tiny
+    frames = {i.instance_id: min(i.n_frames, settings.max_frames) for i in script.build_data(settings)[1]}
+    reasons = set(TERMINATION_REASONS)
+    for pol in ("residual", "zero_residual"):
+        for row in results["episodes"][pol]:
+            assert math.fsum(row["reward_terms"].values()) == pytest.approx(row["return"], abs=1e-9)
+            assert "affordance" in row["reward_terms"] and row["termination_reason"] in reasons
+            if row["termination_reason"] in ("task_complete", "instance_end"):  # several control steps a frame
+                assert row["steps"] >= 4 * (frames[row["instance"]] - 1)
+    assert all(row["mean_abs_action"] == 0.0 for row in results["episodes"]["zero_residual"])
+
+
+def test_action_scale_maps_the_unit_box_to_metres(script, tiny) -> None:  # noqa: ANN001
+    settings, out, _, _ = tiny
+    train, _ = script.build_data(settings)
+    models = {lbl: SocialAffordanceModel.load(out / "models" / f"{lbl}.npz") for lbl in settings.labels}
+    env = script.make_env(dataclasses.replace(settings, action_scale=0.05), train, models)
+    assert env.action_space.shape == (15,) and float(env.action_space.high.max()) == 1.0
+    unit = np.linspace(-1.0, 1.0, 15, dtype=np.float32)
+    np.testing.assert_allclose(env.action(unit), 0.05 * unit.reshape(5, 3), rtol=0, atol=1e-8)
+    assert env.unwrapped.config.control_dt == settings.control_dt == 0.015  # the environment's default rate
+    with pytest.raises(ConfigError, match="action-scale"):
+        script.make_env(dataclasses.replace(settings, action_scale=0.31), train, models)
+
+
 def test_held_out_instances_are_not_training_instances(script, tiny) -> None:  # noqa: ANN001
     settings = tiny[0]
     train, held = script.build_data(settings)
@@ -87,7 +115,7 @@ def test_zero_residual_rows_match_a_plain_environment(script, tiny) -> None:  # 
     _, held = script.build_data(settings)
     models = {lbl: SocialAffordanceModel.load(out / "models" / f"{lbl}.npz") for lbl in settings.labels}
     env = SocialAffordanceEnv(interactions=list(settings.labels), data=held, action_mode="residual", model=models,
-                              physics=settings.physics, control_dt=None)  # the script's: one step per frame
+                              physics=settings.physics, control_dt=settings.control_dt, max_frames=settings.max_frames)
     for row in results["episodes"]["zero_residual"]:
         env.reset(seed=row["seed"], options={"instance": row["instance"]})
         total, done, info = 0.0, False, {}

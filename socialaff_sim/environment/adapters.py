@@ -35,6 +35,7 @@ import numpy as np
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, SimulationError
+from ..retarget.intent import NO_INTENT, TouchIntent
 
 __all__ = ["AdapterFrame", "AffordanceScore", "RobotPose", "AffordanceAdapter", "GroundTruthAdapter"]
 
@@ -50,6 +51,9 @@ class AdapterFrame(NamedTuple):
     """Index of the current sub-event in the adapter's names, −1 when unknown."""
     subevent_name: str | None
     """Its name, ``None`` when unknown."""
+    intent: TouchIntent = NO_INTENT
+    """The model's intent to touch at this frame (:class:`~socialaff_sim.retarget.intent.TouchIntent`), passed to
+    the simulator's retargeting as ``socialaff-sim simulate`` passes it; :data:`NO_INTENT` for the recording."""
 
 
 class AffordanceScore(NamedTuple):

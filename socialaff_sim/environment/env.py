@@ -213,7 +213,7 @@ class SocialAffordanceEnv(gym.Env):
         """Set the proposal for frame ``t``: the adapter's, retargeted (``_reference``, NaN rows where it has
         none) and with those rows holding the robot's key frames (``_proposal``, the observation's)."""
         sim = self._sim
-        self._reference = sim.retarget(frame.proposal, frame=t, subevent=frame.subevent_name)
+        self._reference = sim.retarget(frame.proposal, frame=t, subevent=frame.subevent_name, **frame.intent.kwargs())
         out = self._reference.copy()
         bad = ~np.isfinite(out).all(axis=1)
         if bad.any():
@@ -230,7 +230,7 @@ class SocialAffordanceEnv(gym.Env):
         first = self.adapter.observe(0)
         # The model's synthesis sees agent 1's first T0 frames only, and so does the robot's placement.
         sim.reset(inter, placement_frames=getattr(self.adapter, "placement_frames", None))
-        sim.settle(sim.retarget(first.proposal, frame=0, subevent=first.subevent_name))
+        sim.settle(sim.retarget(first.proposal, frame=0, subevent=first.subevent_name, **first.intent.kwargs()))
         self.clock.reset(inter.fps, sim.n_sub)
         self._frame_obs: tuple[int, dict[str, np.ndarray]] | None = None
         self._projected: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None

@@ -29,6 +29,7 @@ from ..learning.estimator import SocialAffordanceModel
 from ..model.densities import vonmises_logpdf, weibull_logpdf
 from ..model.handedness import KEY_SWAP, relabel
 from ..model.joints import OBJECT, canonical_joints, instance_frame
+from ..retarget.intent import ContactIntent
 from .adapters import AdapterFrame, AffordanceScore, RobotPose
 
 __all__ = ["ModelSpec", "load_models", "weibull_max_logpdf", "spatial_upper_bound", "ModelScorer", "ModelAdapter"]
@@ -139,14 +140,18 @@ class ModelAdapter:
     The synthesizer (:class:`~socialaff_sim.inference.synthesis.OnlineSynthesizer`, Algorithm 2,
     without the full-body fit; by default ``SynthesisConfig.reactive()``, causal) copies agent 1's first T0 frames from the recording and then plans
     every ΔT frames from agent 0 and the object observed so far; its belief is uniform and its
-    sub-event unknown (−1) over those T0 frames. Instances must be longer than T0.
+    sub-event unknown (−1) over those T0 frames. Instances must be longer than T0. Each frame carries the
+    model's intent to touch in its current sub-event (:class:`~socialaff_sim.retarget.intent.ContactIntent`), read
+    as ``socialaff-sim simulate``'s :class:`~socialaff_sim.retarget.model_source.ModelSource` reads it.
     """
 
     def __init__(self, models: Mapping[str, SocialAffordanceModel], config: SynthesisConfig | None = None) -> None:
         config = config or SynthesisConfig.reactive()
         self.scorer = ModelScorer(models)
         self._synth = {lbl: OnlineSynthesizer(m, None, config) for lbl, m in self.scorer.models.items()}
+        self._intents = {lbl: ContactIntent.of(m) for lbl, m in self.scorer.models.items()}
         self._current: Any = None
+        self._intent: ContactIntent | None = None
         self._steps: list[Any] = []
 
     @property
@@ -168,6 +173,7 @@ class ModelAdapter:
         self.scorer.reset(interaction)
         self._current = self._synth[interaction.label]
         self._current.reset(interaction, rng=rng)
+        self._intent = self._intents[interaction.label]
         self._steps = []
 
     def observe(self, t: int) -> AdapterFrame:
@@ -176,8 +182,10 @@ class ModelAdapter:
         while len(self._steps) <= t:
             self._steps.append(self._current.step())
         st = self._steps[t]
+        assert self._intent is not None
+        s = int(st.subevent)
         return AdapterFrame(np.array(st.key_joints, dtype=np.float64), np.array(st.belief, dtype=np.float64),
-                            int(st.subevent), st.subevent_name)
+                            s, st.subevent_name, self._intent.at(s))
 
     def log_likelihood(self, subevent: int, pose: RobotPose) -> AffordanceScore:
         if subevent < 0:

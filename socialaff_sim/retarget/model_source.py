@@ -16,7 +16,7 @@ from ..data.interaction import Interaction
 from ..errors import SimulationError
 from ..inference.synthesis import OnlineSynthesizer, SynthesisConfig
 from ..learning.estimator import SocialAffordanceModel
-from ..model.contact_keys import contact_types
+from .intent import ContactIntent
 from .sources import KeyJointSource, SourceFrame
 
 __all__ = ["ModelSource", "key_joint_source", "model_source"]
@@ -35,7 +35,7 @@ class ModelSource:
         self.config = config or SynthesisConfig.reactive()
         self._syn: OnlineSynthesizer | None = None
         self._cache: list = []
-        self._flags: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # read from the model when first used
+        self._intent: ContactIntent | None = None  # read from the model when first used
 
     def reset(self, interaction: Interaction) -> None:
         """Start on an instance."""
@@ -52,34 +52,29 @@ class ModelSource:
                 raise SimulationError(f"frame {t} is outside the instance (0 ≤ t < {len(self._cache)})")
             self._cache.append(self._syn.step())
         step = self._cache[t]
-        touch, inside, inside_next = self._contact_flags()
-        s = step.subevent
-        known = 0 <= s < len(touch)
-        return SourceFrame(step.key_joints.copy(), step.subevent_name, known and bool(touch[s]),
-                           known and bool(inside[s]), known and bool(inside_next[s]))
+        return SourceFrame(step.key_joints.copy(), step.subevent_name, *self.intent.at(step.subevent))
 
-    def _contact_flags(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        if self._flags is None:
-            m = self.model
-            inside = np.isfinite(m.contact_keys_.phase).any(axis=1)
-            self._flags = (contact_types(m.mean_end_, m.contact_keys_), inside,
-                           inside | inside[np.argmax(m.transitions_, axis=1)])
-        return self._flags
+    @property
+    def intent(self) -> ContactIntent:
+        """The model's intent to touch per sub-event type (:class:`~socialaff_sim.retarget.intent.ContactIntent`)."""
+        if self._intent is None:
+            self._intent = ContactIntent.of(self.model)
+        return self._intent
 
     @property
     def contact_types(self) -> np.ndarray:
-        """(S,) bool: the model's sub-event types that make a hand contact (:func:`contact_types`)."""
-        return self._contact_flags()[0]
+        """(S,) bool: the model's sub-event types that make a hand contact (:attr:`ContactIntent.touch`)."""
+        return self.intent.touch
 
     @property
     def contact_inside_types(self) -> np.ndarray:
         """(S,) bool: the types whose contact is a keyframe inside the interval (released before its end)."""
-        return self._contact_flags()[1]
+        return self.intent.inside
 
     @property
     def contact_inside_next_types(self) -> np.ndarray:
         """(S,) bool: the types with such a contact or whose most likely successor (``transitions_``) has one."""
-        return self._contact_flags()[2]
+        return self.intent.inside_next
 
     @property
     def placement_frames(self) -> int:

@@ -7,8 +7,8 @@ foot that rises by a centimetre drops the robot's weight onto the other one or
 onto its harness, and one that moves sideways on the floor slides. :class:`FootLock`
 holds an ankle target at the place where its foot came down (on the floor, at
 the robot's home ankle height) while the target stays within ``radius`` of that
-place and below ``lift`` above home height; a target that leaves that ball (a
-step) is followed again.
+place and below ``lift`` above home height (``hold_lift``, when set, for a foot already planted); a
+target that leaves that ball (a step) is followed again.
 """
 
 from __future__ import annotations
@@ -16,6 +16,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..errors import ConfigError
 
 __all__ = ["FootLock", "FootLockConfig"]
 
@@ -29,6 +31,17 @@ class FootLockConfig:
     radius: float = 0.05
     """r [m]: a planted foot stays put while its target stays within this horizontal distance of where it was
     planted; beyond, the foot steps (the target is followed again)."""
+    hold_lift: float | None = None
+    """h_hold [m]: a foot already planted stays planted while its target is at most this far above the ankle's
+    home height (and within ``radius``): a recorded heel or toe rise of a person leaning into a pull is not a
+    step. ``None``: ``lift`` (no hysteresis). At least ``lift``."""
+
+    def __post_init__(self) -> None:
+        if not (self.lift >= 0.0 and self.radius >= 0.0):
+            raise ConfigError(f"FootLockConfig: expected lift ≥ 0 and radius ≥ 0 in metres, found {self.lift}, {self.radius}")
+        if self.hold_lift is not None and not self.hold_lift >= self.lift:
+            raise ConfigError(f"FootLockConfig.hold_lift: expected None or a height ≥ lift ({self.lift} m), found "
+                              f"{self.hold_lift}")
 
 
 class FootLock:
@@ -49,11 +62,13 @@ class FootLock:
         """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted."""
         out = np.array(ankles, dtype=np.float64)
         c = self.config
+        hold = c.lift if c.hold_lift is None else c.hold_lift
         for s in (0, 1):
             t = out[s]
-            low = t[2] - self.home_height[s] <= c.lift
+            rise = t[2] - self.home_height[s]
+            low = rise <= c.lift
             p = self.planted[s]
-            if low and p is not None and np.linalg.norm(t[:2] - p[:2]) <= c.radius:
+            if rise <= hold and p is not None and np.linalg.norm(t[:2] - p[:2]) <= c.radius:
                 out[s] = p
             elif low:
                 self.planted[s] = np.array([t[0], t[1], self.home_height[s]])
