@@ -4,9 +4,9 @@ The reactor is the one the evaluation steps under ``--protocol causal`` (``metho
 ``react(view, t, t + 1)`` with the view of frames [0, t] and agent 1 hidden after T0, as
 :func:`~socialaff_sim.evaluation.streaming.run_protocol` calls it). Each call's CPU time (``time.thread_time``)
 is recorded; per elapsed minute of the stream (per recording for the recordings) the p50, p99 and max, and overall
-the frames per CPU second. Building the view is not timed: the script hides agent 1 once and then takes array views
-of the first t + 1 frames without re-validating them (``protocol_view`` copies and validates the whole view, 70 ms at
-18,000 frames).
+the frames per CPU second. The views come from a :class:`~socialaff_sim.data.growing.GrowingInteraction` filled
+frame by frame, as the evaluation makes them (``protocol_view`` copied and validated the whole view, 70 ms at 18,000
+frames); building each view is timed separately (``view_*`` figures), not in the reactor's.
 
 Two interaction-primitive paths are timed, on the same views:
 ``stream`` — :class:`~socialaff_sim.inference.primitive_stream.PrimitiveStream` (running sums; the reactor's path
@@ -23,7 +23,6 @@ code of 7f68f7b). The batch path's cost grows with the frames seen: on the long 
 from __future__ import annotations
 
 import argparse
-import copy
 import json
 import os
 import pickle
@@ -35,6 +34,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from socialaff_sim._atomic import atomic_write_text  # noqa: E402
+from socialaff_sim.data.growing import GrowingInteraction  # noqa: E402
 from socialaff_sim.data.interaction import Interaction  # noqa: E402
 from socialaff_sim.data.specs import load_dataset  # noqa: E402
 from socialaff_sim.evaluation.registry import get_method  # noqa: E402
@@ -58,16 +58,6 @@ class BatchPrimitive:
         return self.primitive.react_keys(view, start, stop, n_observed=self.n_observed)
 
 
-def prefix(hidden: Interaction, n: int) -> Interaction:
-    """Frames [0, n) of an already validated instance as array views (what ``hidden.slice(0, n)`` holds, unchecked)."""
-    out = copy.copy(hidden)
-    object.__setattr__(out, "joints", hidden.joints[:n])
-    object.__setattr__(out, "valid", hidden.valid[:n])
-    if hidden.object is not None:
-        object.__setattr__(out, "object", hidden.object[:n])
-    return out
-
-
 def _stats(ms: np.ndarray) -> dict[str, float]:
     if ms.size == 0:
         return {"frames": 0}
@@ -87,16 +77,20 @@ def run(method, inst: Interaction, *, part: str, path: str, seconds: float | Non
     else:
         prim = (PrimitiveStream if path == "stream" else BatchPrimitive)(method.primitive_, T0)
         call = prim.react_keys
-    ms = np.full(T, np.nan)
+    ms, view_ms = np.full(T, np.nan), np.full(T, np.nan)
     load, ref = os.getloadavg(), reference_seconds(np.random.default_rng(0))
+    views = GrowingInteraction(hidden)
     for t in range(T0, T):
-        view = prefix(hidden, t + 1)
         c0 = time.thread_time()
+        views.append_from(hidden, t + 1)
+        view = views.view()
+        c1 = time.thread_time()
         call(view, t, t + 1)
-        ms[t] = (time.thread_time() - c0) * 1e3
+        ms[t], view_ms[t] = (time.thread_time() - c1) * 1e3, (c1 - c0) * 1e3
     edges = np.r_[np.arange(0, T, int(60 * inst.fps)), T]
     minutes = [{"minute": k, **_stats(ms[max(edges[k], T0):edges[k + 1]])} for k in range(len(edges) - 1)]
-    return {"instance": inst.instance_id, "part": part, "path": path, "frames": T, **_stats(ms[T0:]),
+    views_ = {f"view_{k}": v for k, v in _stats(view_ms[T0:]).items() if k != "frames"}
+    return {"instance": inst.instance_id, "part": part, "path": path, "frames": T, **_stats(ms[T0:]), **views_,
             "per_minute": minutes, "load_avg_1_5_15": [round(x, 2) for x in load], "reference_ms": ref * 1e3}
 
 
@@ -109,6 +103,7 @@ def main() -> None:
     p.add_argument("--minutes", type=float, default=10.0, help="and a stream of the held-out recordings end to end")
     p.add_argument("--batch-minutes", type=float, default=1.0, help="the batch path on the long stream: its first minutes")
     p.add_argument("--part", default="primitive,reactor")
+    p.add_argument("--paths", default="stream,batch", help="primitive paths to time (module docstring)")
     p.add_argument("--model", default=None, help="pickle of the fitted method: read if present, else written")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", default=None)
@@ -136,13 +131,14 @@ def main() -> None:
         n = int(round(args.minutes * 60 * test[0].fps))
         streams.append(("stream", concatenate(test, n, f"{label}_{args.minutes:g}min")))
     for part in [x for x in args.part.split(",") if x]:
-        for path in ("stream", "batch"):
+        for path in [x for x in args.paths.split(",") if x]:
             for kind, inst in streams:
                 secs = args.batch_minutes * 60 if (kind == "stream" and path == "batch") else None
                 r = {"kind": kind, **run(method, inst, part=part, path=path, seconds=secs, seed=args.seed)}
                 out["runs"].append(r)
                 print(f"[{part}/{path}] {kind} {r['instance']}: {r['frames']} frames, {r['frames_per_cpu_s']:.0f} frames/CPU s, "
-                      f"p50 {r['p50_ms']:.2f} p99 {r['p99_ms']:.2f} max {r['max_ms']:.1f} ms; load {r['load_avg_1_5_15']}, "
+                      f"p50 {r['p50_ms']:.2f} p99 {r['p99_ms']:.2f} max {r['max_ms']:.1f} ms (view: p99 {r['view_p99_ms']:.3f} "
+                      f"max {r['view_max_ms']:.2f} ms); load {r['load_avg_1_5_15']}, "
                       f"reference {r['reference_ms']:.1f} ms", flush=True)
                 if kind == "stream":
                     for m in r["per_minute"]:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
@@ -182,3 +184,22 @@ def test_never_tracked_joints_are_left_out(rng: np.random.Generator) -> None:
     assert np.isnan(poses[:, leg]).all() and np.isfinite(np.delete(poses, leg, axis=1)).all()
     np.testing.assert_allclose(poses[:, KINECT.index("right_wrist")], targets[:, 2], atol=1e-6)
     np.testing.assert_allclose(poses[:, KINECT.index("right_ankle")], targets[:, 4], atol=1e-6)
+
+
+def test_independent_limbs_solved_as_one_stack_equal_limb_by_limb(fitter: BodyFitter, rng: np.random.Generator) -> None:
+    """The limbs of a humanoid move none of each other's roots, elbows/knees or ends, so fit_poses stacks their
+    two-bone problems: bitwise the limb-by-limb fit (missing targets, one frame or several). A chain that moves another
+    chain's root makes the fitter solve limb by limb."""
+    assert fitter._independent and len(fitter._chains) == 4
+    limb_by_limb = copy.copy(fitter)
+    limb_by_limb._independent = False
+    for n in (1, 1, 4):
+        targets = fitter.keys_[rng.integers(0, len(fitter.keys_), n)] + rng.normal(0, 0.2, (n, 5, 3))
+        targets[:, 1:] += targets[:, :1]
+        targets[0, int(rng.integers(1, 5))] = np.nan
+        assert np.array_equal(fitter.fit_poses(targets), limb_by_limb.fit_poses(targets), equal_nan=True)
+    k, root, mid, end, mid_sub, end_sub = fitter._chains[0]
+    chained = copy.copy(fitter)
+    chained._limb_chains = lambda layout: [fitter._chains[0], (k, mid, end, end_sub[1], end_sub[2:], end_sub[1:2])]
+    skeletons = fitter.poses_ + rng.normal(0, 0.01, fitter.poses_.shape)
+    assert not chained.fit(skeletons, fitter.layout_, rng=rng)._independent

@@ -179,8 +179,18 @@ def get_layout(name: str) -> SkeletonLayout:
         raise DataError(f"unknown skeleton layout {name!r}; known layouts: {choices(LAYOUTS)}") from None
 
 
+_BY_NAMES: dict[tuple[str, ...], SkeletonLayout] = {lay.joint_names: lay for lay in LAYOUTS.values()}
+
+
 def layout_for_joint_names(names: tuple[str, ...] | list[str]) -> SkeletonLayout:
     """The layout whose joint order is exactly ``names``."""
+    # A dict lookup: every view of a stream asks for its layout, several times per frame.
+    try:
+        found = _BY_NAMES.get(tuple(names))
+    except TypeError:  # unhashable names: no layout has them (the error below says so)
+        found = None
+    if found is not None:
+        return found
     names = tuple(str(n) for n in names)
     for lay in LAYOUTS.values():
         if lay.joint_names == names:

@@ -27,10 +27,12 @@ Horizons and latency (:func:`run_protocol_measured`)
     The wall time of every call of the original reactor is recorded (its latency; under ``causal``
     one call is one frame), not that of the copies.
 
-Enforcement: the view handed to the method is a new :class:`Interaction` cut after its visible
-frames (:func:`~socialaff_sim.evaluation.protocol.protocol_view`), so agent 0's later frames do
-not exist in anything the method receives; its length is the number of visible frames, so the
-instance's duration is not revealed either. The evaluator checks every block's shape and
+Enforcement: the view handed to the method is an :class:`Interaction` cut after its visible
+frames (what :func:`~socialaff_sim.inference.protocol.protocol_view` builds), made without a copy from a
+:class:`~socialaff_sim.data.growing.GrowingInteraction` that the evaluator fills with each frame only when it
+becomes visible: agent 0's later frames do not exist in anything the method can reach when it runs (O(1)
+work per view instead of O(t)); its length is the number of visible frames, so the instance's duration is
+not revealed either. The evaluator checks every block's shape and
 assembles the track; frames < T0 are the observation.
 """
 
@@ -43,6 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..data.growing import GrowingInteraction
 from ..data.interaction import Interaction
 from ..errors import ConfigError, ModelError, choices
 from ..inference.protocol import (
@@ -52,7 +55,6 @@ from ..inference.protocol import (
     StreamingMethod,
     observed_part,
     prediction_from_joints,
-    protocol_view,
 )
 
 __all__ = ["PAPER_DELTA_T", "PROTOCOLS", "PrefixReactor", "ProtocolRun", "run_protocol", "run_protocol_measured", "schedule"]
@@ -160,8 +162,11 @@ def run_protocol_measured(
     forecasts: list[np.ndarray] = []
     length = horizon_frames + 1
     next_forecast = n_observed if horizon_frames > 0 and protocol != "offline" else T
+    hidden = observed_part(interaction, n_observed)  # = protocol_view(interaction, visible, n_observed) cut at visible
+    views = GrowingInteraction(hidden)
     for visible, start, stop in schedule(protocol, T, n_observed, delta_t):
-        view = protocol_view(interaction, visible, n_observed)
+        views.append_from(hidden, visible)
+        view = views.view()
         if start >= next_forecast:
             ahead = _check(_fork(reactor, method).react(view, start, start + length), name, interaction, start,
                            start + length, J)
@@ -183,7 +188,7 @@ def run_protocol_measured(
         else:
             subs = None
     prediction = prediction_from_joints(
-        observed_part(interaction, n_observed), joints, n_observed=n_observed, key_joints=keys, subevents=subs
+        hidden, joints, n_observed=n_observed, key_joints=keys, subevents=subs
     )
     return ProtocolRun(
         prediction=prediction,

@@ -107,9 +107,22 @@ class BodyFitConfig:
     """[frames]: Training frames kept for clustering (an even stride subsample above this)."""
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(T, 3) a × b of (T, 3) or (3,) vectors: the products and differences of ``np.cross``, in its order (the same
+    values), without its set-up (the body fit runs once per frame on a stream)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack(np.broadcast_arrays(a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
+
+
+def _norm(v: np.ndarray, keepdims: bool = False) -> np.ndarray:
+    """Euclidean norm over the last axis: ``np.linalg.norm(v, axis=-1)``'s sum of squares, without its set-up."""
+    return np.sqrt(np.add.reduce(v * v, axis=-1, keepdims=keepdims))
+
+
 def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(T, 3, 3): the smallest rotation taking unit vectors a (T, 3) onto b (T, 3)."""
-    v = np.cross(a, b)
+    v = _cross(a, b)
     c = np.einsum("td,td->t", a, b)
     vx = np.zeros(a.shape[:-1] + (3, 3))
     vx[..., 0, 1], vx[..., 0, 2], vx[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
@@ -118,17 +131,24 @@ def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     scale = np.where(anti, 0.0, 1.0 / np.where(anti, 1.0, 1.0 + c))
     rot = np.eye(3) + vx + (vx @ vx) * scale[..., None, None]
     if anti.any():  # half turn about an axis perpendicular to a
-        ax = np.cross(a[anti], np.array([1.0, 0.0, 0.0]))
-        small = np.linalg.norm(ax, axis=-1) < 1e-6
-        ax[small] = np.cross(a[anti][small], np.array([0.0, 1.0, 0.0]))
-        ax /= np.linalg.norm(ax, axis=-1, keepdims=True)
+        ax = _cross(a[anti], np.array([1.0, 0.0, 0.0]))
+        small = _norm(ax) < 1e-6
+        ax[small] = _cross(a[anti][small], np.array([0.0, 1.0, 0.0]))
+        ax /= _norm(ax, keepdims=True)
         rot[anti] = 2.0 * ax[:, :, None] * ax[:, None, :] - np.eye(3)
     return rot
 
 
 def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    n = _norm(v, keepdims=True)
     return v / np.maximum(n, _EPS), n[..., 0]
+
+
+def _independent(chains: Sequence[tuple[int, int, int, int, np.ndarray, np.ndarray]]) -> bool:
+    """Whether no limb chain (key slot, root, mid, end, mid subtree, end subtree) moves another's root, mid or end:
+    then the chains can be solved as one stack."""
+    moved = [set(c[4].tolist()) | set(c[5].tolist()) for c in chains]
+    return all(not set(c[1:4]) & m for i, c in enumerate(chains) for j, m in enumerate(moved) if i != j)
 
 
 def two_bone_ik(
@@ -141,17 +161,17 @@ def two_bone_ik(
     in the limb's plane keeps that bend plane). Out of reach, the limb is fully
     stretched (or fully folded) along the root→target line. Returns (mid', end').
     """
-    a = np.linalg.norm(mid - root, axis=-1)
-    b = np.linalg.norm(end - mid, axis=-1)
+    a = _norm(mid - root)
+    b = _norm(end - mid)
     u, d = _unit(target - root)
     pole = mid - root
     v = pole - np.einsum("td,td->t", pole, u)[:, None] * u
-    weak = np.linalg.norm(v, axis=-1) < 1e-9 * np.maximum(a, 1.0)
+    weak = _norm(v) < 1e-9 * np.maximum(a, 1.0)
     if weak.any():  # old mid on the root→target line: bend toward the old end, else downward
         alt = end[weak] - root[weak]
         alt = alt - np.einsum("td,td->t", alt, u[weak])[:, None] * u[weak]
         for fallback in (np.array([0.0, 0.0, -1.0]), np.array([1.0, 0.0, 0.0])):
-            bad = np.linalg.norm(alt, axis=-1) < 1e-9
+            bad = _norm(alt) < 1e-9
             f = fallback - (u[weak] @ fallback)[:, None] * u[weak]
             alt[bad] = f[bad]
         v[weak] = alt
@@ -213,6 +233,7 @@ class BodyFitter:
         self.poses_ = poses - poses[:, base : base + 1]
         self.keys_ = layout.key_joints(self.poses_)
         self._chains = [c for c in self._limb_chains(layout) if usable[list(c[1:4])].all()]
+        self._independent = _independent(self._chains)
         return self
 
     def fit_interactions(
@@ -307,23 +328,29 @@ class BodyFitter:
         if not np.isfinite(tg[:, 0]).all():
             raise ModelError("body fit: the base target (key joint 0) must be finite in every frame")
         poses = self.poses_[self.select_clusters(tg)] + tg[:, None, 0]
-        done: set[int] = set()
-        for k, root, mid, end, mid_sub, end_sub in self._chains:
-            done.add(k)
-            t = tg[:, k]
-            ok = np.isfinite(t).all(-1)
-            if not ok.any():
+        done = {c[0] for c in self._chains}
+        # Independent limbs: their two-bone problems stacked into one (the same row-wise arithmetic, a few calls
+        # instead of a few per limb; a stream fits one frame at a time); else limb by limb.
+        if getattr(self, "_independent", None) is None:  # a fitter saved before the flag existed
+            self._independent = _independent(self._chains)
+        groups = [self._chains] if self._independent else [[c] for c in self._chains]
+        for chains in groups:
+            rows = [np.flatnonzero(np.isfinite(tg[:, c[0]]).all(-1)) for c in chains]
+            if not sum(len(r) for r in rows):
                 continue
-            p = poses[ok]
-            r0, m0, e0 = p[:, root], p[:, mid], p[:, end]
-            m1, e1 = two_bone_ik(r0, m0, e0, t[ok])
+            r0, m0, e0, t = (np.concatenate([poses[r, c[i]] if i < 4 else tg[r, c[0]] for c, r in zip(chains, rows, strict=True)])
+                             for i in (1, 2, 3, 4))
+            m1, e1 = two_bone_ik(r0, m0, e0, t)
             rot_up = _rotation_between(_unit(m0 - r0)[0], _unit(m1 - r0)[0])
             lower_old = np.einsum("tij,tj->ti", rot_up, e0 - m0)
             rot_lo = _rotation_between(_unit(lower_old)[0], _unit(e1 - m1)[0]) @ rot_up
-            if len(mid_sub):
-                p[:, mid_sub] = m1[:, None] + np.einsum("tij,tnj->tni", rot_up, p[:, mid_sub] - m0[:, None])
-            p[:, end_sub] = e1[:, None] + np.einsum("tij,tnj->tni", rot_lo, p[:, end_sub] - e0[:, None])
-            poses[ok] = p
+            at = np.cumsum([0] + [len(r) for r in rows])
+            for (_, _, _, _, mid_sub, end_sub), r, a, b in zip(chains, rows, at[:-1], at[1:], strict=True):
+                p = poses[r]
+                if len(mid_sub):
+                    p[:, mid_sub] = m1[a:b, None] + np.einsum("tij,tnj->tni", rot_up[a:b], p[:, mid_sub] - m0[a:b, None])
+                p[:, end_sub] = e1[a:b, None] + np.einsum("tij,tnj->tni", rot_lo[a:b], p[:, end_sub] - e0[a:b, None])
+                poses[r] = p
         for k, idx in enumerate(self.layout_.key_indices):  # key joints with no limb chain
             if k > 0 and idx is not None and k not in done:
                 t = tg[:, k]

@@ -279,17 +279,17 @@ class _AffordanceReactor:
         """Agent 1's frames [start, stop): step every chain's synthesizer up to ``stop``.
 
         Streaming, the synthesizer gets the view lengthened by ΔT held frames past ``stop``, so that it
-        plans ΔT frames ahead as it does on a whole track (the held frames carry no information);
-        offline, the view is the whole instance."""
-        longer = view.extend_held(stop if self.offline else stop + self.config.delta_t)
+        plans ΔT frames ahead as it does on a whole track (the held frames carry no information), and reads
+        only the frames new since the last call; offline, the view is the whole instance."""
+        n_frames = stop if self.offline else stop + self.config.delta_t
         if not self.synths:
             self.synths = [OnlineSynthesizer(m, None, self.config) for m in self.method.models_]
             for syn, r in zip(self.synths, self.rngs, strict=True):
-                syn.reset(longer, rng=r)
+                syn.reset(view, rng=r, n_frames=n_frames)
             self._frame = instance_frame(view)
         else:
             for syn in self.synths:
-                syn.observe(longer)
+                syn.observe(view, n_frames)
         blocks = []
         for syn in self.synths:
             steps = []

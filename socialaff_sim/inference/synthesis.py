@@ -27,7 +27,10 @@ After ``T0`` observed frames of both agents, every ``ΔT`` frames the synthesize
 
 The belief of every step (:attr:`SynthesisStep.belief`) is what the simulator and the environment read.
 
-It runs one frame at a time (:meth:`OnlineSynthesizer.step`), reading agent 0 and the object
+It runs one frame at a time (:meth:`OnlineSynthesizer.step`); fed a growing view
+(:meth:`OnlineSynthesizer.observe`, a stream) it reads only the view's new frames
+(:class:`~socialaff_sim.inference.canonical_stream.CanonicalStream`), so its work per frame does not grow with
+the time elapsed. It reads agent 0 and the object
 causally: at frame t only frames before t are used, unless ``lookahead`` is set, in which case the
 spatial references use agent 0's recorded position at the predicted end (the setting of an offline
 evaluation where agent 0's whole track is given, as it is to the baselines); there ``parse="observed"``
@@ -36,19 +39,19 @@ replaces steps 1–2 by one parse of agent 0's whole track (:meth:`SynthesisConf
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..data.growing import grown
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ModelError
 from ..model.frame_regression import frame_context
-from ..model.handedness import KEY_SWAP, relabel, wrist_paths
-from ..model.joints import canonical_joints
+from ..model.handedness import KEY_SWAP, relabel
 from ..model.ridge import RidgeRegression
 from .candidate_planner import CandidatePlanner
+from .canonical_stream import CanonicalStream
 from .candidates import AGENT1 as _AGENT1
 from .forward_belief import ForwardBelief
 from .hedging import branch_plans, shrink_factor
@@ -57,6 +60,7 @@ from .observed import ObservedInteraction
 from .observed_parse import parse_observed
 from .stream_parse import ParseWork, StreamParser
 from .synthesis_config import SynthesisConfig
+from .synthesis_step import SynthesisStep
 from .timing import remaining_fraction, sample_remaining_seconds
 
 if TYPE_CHECKING:
@@ -66,31 +70,6 @@ if TYPE_CHECKING:
 __all__ = ["SynthesisConfig", "SynthesisStep", "OnlineSynthesizer", "sample_remaining_seconds", "remaining_fraction"]
 
 _OTHERS = np.r_[np.arange(N_KEY), 2 * N_KEY]
-
-
-@dataclass(frozen=True)
-class SynthesisStep:
-    """What the synthesizer emits for one frame."""
-
-    t: int
-    """Frame index."""
-    key_joints: np.ndarray
-    """(5, 3) float64, metres, world frame: agent 1's key joints (NaN where the layout lacks one)."""
-    skeleton: np.ndarray | None
-    """(J, 3) float64, metres, world frame: agent 1's full skeleton, or ``None`` without a body fitter."""
-    belief: np.ndarray
-    """(S,) float64: belief over the current sub-event: the forward filter's posterior given the frames before
-    this one (``belief="forward"``, from frame 1 on), else the DP's max-product weights at the latest re-planning
-    (uniform before T0)."""
-    subevent: int
-    """Index of the current sub-event (−1 while agent 1 is still observed)."""
-    subevent_name: str | None
-    """Its name, or ``None``."""
-    observed: bool
-    """True for the first T0 frames, which are copied from the observation."""
-    phase: float = float("nan")
-    """Elapsed fraction [0, 1] of the running sub-event at this frame, from its start and predicted end at the
-    latest re-planning (NaN while agent 1 is still observed)."""
 
 
 class OnlineSynthesizer(CandidatePlanner):
@@ -109,10 +88,13 @@ class OnlineSynthesizer(CandidatePlanner):
         self._tables = TypeTables(model) if model.config.vector_density == "polar" else None
 
     # -- episode -----------------------------------------------------------------------------------
-    def reset(self, interaction: Interaction, *, rng: np.random.Generator) -> None:
-        """Start on an instance: agent 0 and the object are read causally, agent 1's first T0 frames observed."""
+    def reset(self, interaction: Interaction, *, rng: np.random.Generator, n_frames: int | None = None) -> None:
+        """Start on an instance: agent 0 and the object are read causally, agent 1's first T0 frames observed.
+        ``n_frames``: the working track's length, the instance lengthened by held frames
+        (:meth:`~socialaff_sim.data.interaction.Interaction.extend_held`; a stream's first view)."""
         cfg = self.config
-        obs = ObservedInteraction.of(interaction, cfg.n_observed)  # canonicalised once; agent 1 hidden after T0
+        # Canonicalised once; agent 1 hidden after T0.
+        obs = ObservedInteraction.of(interaction.extend_held(n_frames or 0), cfg.n_observed)
         if interaction.label != self.model.label_:
             raise ModelError(
                 f"instance {interaction.instance_id!r} is a {interaction.label!r} interaction but the model learned "
@@ -126,10 +108,12 @@ class OnlineSynthesizer(CandidatePlanner):
             interaction.filled_joints()[: cfg.n_observed, 1] if self.body is not None else None
         )
         self._frame = obs.frame
-        self._raw = obs.track  # as recorded
-        self._paths = wrist_paths(obs.track, 0)
+        # The model joints as recorded and agent 0's wrist paths, updated with each view's new frames only.
+        self._view = CanonicalStream(obs.frame)
+        self._view.update(interaction, obs.n_frames)
         # Agent 0 and the object stay in the track over the whole instance (read beyond t - 1 with lookahead only).
-        self._track = obs.track.copy()
+        self._buffer = obs.track.copy()
+        self._track = self._buffer
         self._parser = None
         if cfg.parse == "online":
             lc = self.model.learning
@@ -160,26 +144,25 @@ class OnlineSynthesizer(CandidatePlanner):
         if cfg.parse == "observed":
             self._rows = parse_observed(self.model, self._observed_track(), interaction.fps, step=cfg.observed_parse_step)
 
-    def observe(self, view: Interaction) -> None:
-        """Stream mode: agent 0's and the object's frames from ``view``, the instance as known now (grown
-        if longer); agent 1's frames are kept. The evaluation's protocols feed views this way."""
+    def observe(self, view: Interaction, n_frames: int | None = None) -> None:
+        """Stream mode: agent 0's and the object's new frames from ``view``, the instance as known now, lengthened
+        to ``n_frames`` frames by held ones (default: the view's length); agent 1's frames are kept. Views grow: the
+        frames of earlier views are unchanged (the evaluation's protocols feed them so). Work per call: the new and
+        held frames, and a tracking gap that closes (:class:`~.canonical_stream.CanonicalStream`)."""
         if self._inter is None:
             raise ModelError("OnlineSynthesizer.observe called before reset(interaction, rng=...)")
-        T, old = view.n_frames, self._track.shape[0]
+        T = max(view.n_frames if n_frames is None else int(n_frames), view.n_frames)
         if T < self._t:
             raise ModelError(f"observe: the view has {T} frames, but {self._t} were emitted already")
-        track = canonical_joints(view, self._frame)  # as recorded
-        pad = np.full((max(T - old, 0),) + self._track.shape[1:], np.nan)
-        raw = np.concatenate([self._raw, pad])  # a new array: the reset's observation stays read-only
-        raw[:T, _OTHERS] = track[:, _OTHERS]
-        self._raw = raw
-        self._paths = wrist_paths(raw, 0)
-        new = relabel(track, self._hands)[:, _OTHERS]
+        old = self._track.shape[0]
+        changed = self._view.update(view, T)
+        new = relabel(self._view.track[changed:T], self._hands)[:, _OTHERS]
         seen = min(self._t, old, T)  # frames the parser may have scored: a change there makes its cache stale
-        if not np.array_equal(self._track[:seen, _OTHERS], new[:seen], equal_nan=True):
+        if changed < seen and not np.array_equal(self._track[changed:seen, _OTHERS], new[: seen - changed], equal_nan=True):
             self._history_changed()
-        self._track = np.concatenate([self._track, pad])
-        self._track[:T, _OTHERS] = new
+        self._buffer = grown(self._buffer, T)
+        self._track = self._buffer[:max(T, old)]
+        self._track[changed:T, _OTHERS] = new
         self._inter = view
 
     def _set_hands(self, t: int) -> None:
@@ -188,12 +171,12 @@ class OnlineSynthesizer(CandidatePlanner):
         the history too, so emitted frames keep their recorded labels and the track stays continuous."""
         cfg = self.config
         if cfg.lookahead:
-            hands = self.model.reaction_hands(self._raw, None, 0.0)
+            hands = self.model.reaction_hands(self._view.track, None, 0.0)
         else:  # agent 0's wrist paths so far, from running sums: O(1) per re-planning on a stream of any length
-            hands = self.model.reaction_hands_at(self._paths, t, cfg.hand_margin)
+            hands = self.model.reaction_hands_at(self._view.paths, t, cfg.hand_margin)
         change = hands != self._hands
         if change.any():
-            self._track = relabel(self._track, change)
+            self._track[:] = relabel(self._track, change)
             self._hands = hands
             self._history_changed()
 
@@ -239,7 +222,7 @@ class OnlineSynthesizer(CandidatePlanner):
     @property
     def done(self) -> bool:
         """Whether every frame of the instance has been emitted."""
-        return self._inter is not None and self._t >= self._inter.n_frames
+        return self._inter is not None and self._t >= self._track.shape[0]
 
     def step(self) -> SynthesisStep:
         """Emit the next frame."""
