@@ -11,7 +11,8 @@ training traces and scored on the validation instances (mean key-joint distance 
 ≥ T0, averaged per class, then over classes). Also reported: ``hold`` and the plan itself (Algorithm 2's
 key joints, the full model before this change) and ``promp``: the interaction primitive's causal prediction
 alone (the ``promp`` baseline on the development split), whose traces (cross-fitted like the plans, on their own
-split) feed the ``primitive`` variants. ``--contiguous``: one pair's inner folds and cross-fitting parts as
+split) feed the ``primitive`` variants. ``--iterations N``: every affordance model fitted here runs N iterations of Algorithm 1's MH chain instead of the
+preset's (traces cached in the subfolder ``itN`` of ``--cache``). ``--contiguous``: one pair's inner folds and cross-fitting parts as
 consecutive runs (``SwitchingConfig.contiguous``); ``--no-gated``: cheaper traces, no belief-gated variants.
 
 ``--v2`` also fits the V2 ablation (preset ``default``, no sub-events) on the same training instances, its
@@ -24,7 +25,7 @@ traces shared). The blend over several traces' families is fitted by :func:`blen
 Usage::
 
     python scripts/dev_switching.py --data nuisi:../shared/data/nuisi_v1 --split block [--rotation 0] [--labels a,b]
-        [--cache DIR] [--variants default,primitive] [--contiguous] [--no-gated] [--v2]
+        [--cache DIR] [--variants default,primitive] [--contiguous] [--no-gated] [--v2] [--iterations N]
 
 Prints one line per class and the averages; the library never imports this script.
 """
@@ -158,6 +159,13 @@ def _with_primitive(traces: list[Trace], donor: list[Trace]) -> list[Trace]:
             for t, d in zip(traces, donor, strict=True)]
 
 
+def _with_iterations(method: AffordanceMethod, iterations: int | None) -> AffordanceMethod:
+    """``method`` with ``iterations`` MH iterations in its learning configuration (``None``: the preset's)."""
+    if iterations is not None:
+        method.learning = dataclasses.replace(method.learning, iterations=iterations)
+    return method
+
+
 def _keep(per: dict[str, list[float]], name: str, errors: list[float]) -> float:
     """Record one variant's per-instance errors (m) of a class; return their mean."""
     per[name] = [float(e) for e in errors]
@@ -185,7 +193,13 @@ def main() -> None:
     ap.add_argument("--v2", action="store_true", help="also V2's plan as one more family, and V2's own regression")
     ap.add_argument("--errors", default="", help="JSON file for every variant's per-instance errors, per class")
     ap.add_argument("--cache", default="", help="folder for the fitted traces (re-runs of the variants skip the fits)")
+    ap.add_argument("--iterations", type=int, default=None,
+                    help="Algorithm 1's MH iterations (LearningConfig.iterations) of every affordance model fitted here, "
+                         "instead of the preset's; its traces are cached in the subfolder it<N> of --cache")
     args = ap.parse_args()
+    if args.iterations is not None and args.iterations < 0:
+        raise SystemExit(f"--iterations: expected an integer >= 0, found {args.iterations}")
+    cache_dir = Path(args.cache) / f"it{args.iterations}" if args.cache and args.iterations is not None else Path(args.cache)
     ds = load_dataset(args.data)
     labels = [x for x in args.labels.split(",") if x] or list(ds.labels)
     table: dict[str, dict[str, float]] = {}
@@ -201,11 +215,15 @@ def main() -> None:
         val = [insts[i] for i in val_idx if insts[i].n_frames > T0 + 1]
         rng = np.random.default_rng(args.seed)
         t0 = time.perf_counter()
-        cache = Path(args.cache) / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}.pkl" if args.cache else None
+        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}.pkl" if args.cache else None
+        model_s = float("nan")  # the model fit alone (Algorithm 1 and the body clusters; nan: read from the cache)
         if cache is not None and cache.exists():
             S, tr_traces, va_traces = pickle.loads(cache.read_bytes())
         else:
-            method = AffordanceMethod.from_preset("full", "default", reaction=None).fit(train, rng=rng)
+            method = _with_iterations(AffordanceMethod.from_preset("full", "default", reaction=None), args.iterations)
+            t_model = time.perf_counter()
+            method.fit(train, rng=rng)
+            model_s = time.perf_counter() - t_model
             syn = dataclasses.replace(method.synthesis, n_observed=T0)
             tr_traces = method._training_traces(train, SwitchingConfig(families=FAMILIES if args.no_gated else GATED_FAMILIES, cross_fit=args.cross_fit, contiguous=args.contiguous), rng)
             va_traces = [trace(method.model_, method.body_, i, syn, rng) for i in val]
@@ -252,7 +270,7 @@ def main() -> None:
                 S2, tr2, va2 = pickle.loads(v2_cache.read_bytes())
             else:
                 rng2 = np.random.default_rng(args.seed)
-                m2 = AffordanceMethod.from_preset("v2", "default", reaction=None).fit(train, rng=rng2)
+                m2 = _with_iterations(AffordanceMethod.from_preset("v2", "default", reaction=None), args.iterations).fit(train, rng=rng2)
                 syn2 = dataclasses.replace(m2.synthesis, n_observed=T0)
                 tr2 = m2._training_traces(train, SwitchingConfig(families=FAMILIES, cross_fit=args.cross_fit, contiguous=args.contiguous), rng2)
                 va2 = [trace(m2.model_, m2.body_, i, syn2, rng2) for i in val]
@@ -280,7 +298,7 @@ def main() -> None:
         table[label] = row
         counts[label] = len(val)
         per_instance[label] = per
-        print(f"{label:>14} n={len(train)}/{len(val)} S={S} fit+traces {fit_s:.0f}s primitive {prim_s:.1f}s  "
+        print(f"{label:>14} n={len(train)}/{len(val)} S={S} fit+traces {fit_s:.0f}s (model fit {model_s:.0f}s) primitive {prim_s:.1f}s  "
               + "  ".join(f"{k} {v:.4f}" for k, v in row.items()), flush=True)
         print(f"{'':>14} chosen: " + "; ".join(f"{k}: {v}" for k, v in chosen.items()),
               flush=True)
