@@ -11,9 +11,9 @@ training traces and scored on the validation instances (mean key-joint distance 
 ≥ T0, averaged per class, then over classes). Also reported: ``hold`` and the plan itself (Algorithm 2's
 key joints, the full model before this change) and ``promp``: the interaction primitive's causal prediction
 alone (the ``promp`` baseline on the development split), whose traces (cross-fitted like the plans, on their own
-split) feed the ``primitive`` variants. ``--iterations N``: every affordance model fitted here runs N iterations of Algorithm 1's MH chain instead of the
-preset's (traces cached in the subfolder ``itN`` of ``--cache``). ``--contiguous``: one pair's inner folds and cross-fitting parts as
-consecutive runs (``SwitchingConfig.contiguous``); ``--no-gated``: cheaper traces, no belief-gated variants.
+split) feed the ``primitive`` variants. ``--iterations N``: every affordance model fitted here runs N iterations of
+Algorithm 1's MH chain instead of the preset's (traces cached in the subfolder ``itN`` of ``--cache``).
+``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``); ``--no-gated``: cheaper traces, no belief-gated variants.
 
 ``--v2`` also fits the V2 ablation (preset ``default``, no sub-events) on the same training instances, its
 training traces cross-fitted as the plans (its own split: the cached plans' split is not stored), and reports
