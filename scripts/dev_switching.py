@@ -13,7 +13,8 @@ key joints, the full model before this change) and ``promp``: the interaction pr
 alone (the ``promp`` baseline on the development split), whose traces (cross-fitted like the plans, on their own
 split) feed the ``primitive`` variants. ``--iterations N``: every affordance model fitted here runs N iterations of
 Algorithm 1's MH chain instead of the preset's (traces cached in the subfolder ``itN`` of ``--cache``).
-``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``); ``--no-gated``: cheaper traces, no belief-gated variants.
+``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
+``--no-gated``: cheaper traces, no belief-gated variants.
 
 ``--v2`` also fits the V2 ablation (preset ``default``, no sub-events) on the same training instances, its
 training traces cross-fitted as the plans (its own split: the cached plans' split is not stored), and reports
