@@ -38,11 +38,9 @@ instances (:mod:`.reaction_regression`) picks each family's best (groups, λ), t
 held-out error of the families' held-out predictions; ties go to more ``hold``. A part of the affordance
 model is thus used only as far as it lowered the held-out error on the training data, and averaging the
 families' predictions (instead of keeping one winner) damps the selection noise of small training sets.
-The same configuration (:class:`SwitchingConfig`) serves every dataset. The plans (and the interaction
-primitive's predictions) of the training rows are cross-fitted (``SwitchingConfig.cross_fit`` parts: each from a
-model fitted on the other parts, out of sample as at test); their beliefs and phases come from the synthesizer run
-causally over each training instance with the model fitted on all of them (in sample: slightly optimistic about the
-belief-gated groups).
+The same configuration (:class:`SwitchingConfig`) serves every dataset. The training rows' plans and primitive
+predictions are cross-fitted (``SwitchingConfig.cross_fit``: out of sample, as at test); their beliefs and phases
+come from the model fitted on all training instances (in sample: slightly optimistic about the belief-gated groups).
 """
 
 from __future__ import annotations
