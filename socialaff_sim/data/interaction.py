@@ -14,7 +14,7 @@ from ..errors import DataError
 from .names import stem_problem
 from .skeletons import N_KEY, SkeletonLayout, layout_for_joint_names
 
-__all__ = ["Interaction", "MIN_FRAMES", "LABEL_PATTERN", "fill_key_joints"]
+__all__ = ["Interaction", "MIN_FRAMES", "LABEL_PATTERN", "fill_gaps", "fill_key_joints"]
 
 MIN_FRAMES = 3
 """Fewest frames an instance may have: the model needs at least two displacements."""
@@ -32,28 +32,31 @@ def _real_array(value: object, field: str, err: Callable[[str, str], DataError])
     return np.array(arr, dtype=np.float64, copy=True)
 
 
+def fill_gaps(joints: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """(T, 2, J, 3) float64, metres: a copy of ``joints`` (T, 2, J, 3) metres with each (agent, joint)'s invalid
+    frames (``valid`` (T, 2, J) False) linearly interpolated in time between its valid ones (held before the first
+    and after the last); NaN where a joint is never valid."""
+    out = np.array(joints, dtype=np.float64, copy=True)
+    if valid.all():
+        return out
+    t = np.arange(out.shape[0])
+    for a, j in zip(*np.nonzero(~valid.all(axis=0)), strict=True):
+        ok = valid[:, a, j]
+        if not ok.any():
+            out[:, a, j] = np.nan
+            continue
+        for d in range(3):
+            out[:, a, j, d] = np.interp(t, t[ok], out[ok, a, j, d])
+    return out
+
+
 def fill_key_joints(joints: np.ndarray, valid: np.ndarray, key_indices: tuple[int | None, ...]) -> np.ndarray:
     """(T, 2, 5, 3) float64, metres: the key joints ``key_indices`` (5 joint indices or ``None``) of ``joints``
-    (T, 2, J, 3) metres, each agent's invalid frames (``valid`` (T, 2, J) False) linearly interpolated in time
-    between its valid ones (held before the first and after the last), NaN where never valid or absent: what
-    :meth:`Interaction.filled_joints` gives for those columns."""
-    T = joints.shape[0]
-    out = np.full((T, 2, N_KEY, 3), np.nan)
-    t = np.arange(T)
-    for k, idx in enumerate(key_indices):
-        if idx is None:
-            continue
-        out[:, :, k] = joints[:, :, idx]
-        for a in range(2):
-            ok = valid[:, a, idx]
-            if ok.all():
-                continue
-            if not ok.any():
-                out[:, a, k] = np.nan
-                continue
-            for d in range(3):
-                out[:, a, k, d] = np.interp(t, t[ok], joints[ok, a, idx, d])
-    return out
+    (T, 2, J, 3) metres, gaps filled by :func:`fill_gaps` (``valid`` (T, 2, J)), NaN where never valid or absent:
+    what :meth:`Interaction.filled_joints` gives for those columns (each joint is filled from its own frames only)."""
+    present = np.array([i is not None for i in key_indices])
+    cols = [0 if i is None else i for i in key_indices]
+    return fill_gaps(joints[:, :, cols], valid[:, :, cols] & present)  # an absent joint: never valid, so NaN
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -219,19 +222,7 @@ class Interaction:
 
         A joint never valid in the whole instance stays NaN.
         """
-        joints = self.joints.copy()
-        valid = self._valid_mask
-        if valid.all():
-            return joints
-        t = np.arange(self.n_frames)
-        for a, j in zip(*np.nonzero(~valid.all(axis=0)), strict=True):
-            ok = valid[:, a, j]
-            if not ok.any():
-                joints[:, a, j] = np.nan
-                continue
-            for d in range(3):
-                joints[:, a, j, d] = np.interp(t, t[ok], joints[ok, a, j, d])
-        return joints
+        return fill_gaps(self.joints, self._valid_mask)
 
     def key_joints(self) -> np.ndarray:
         """(T, 2, 5, 3) float64, metres: the five key joints per agent (filled); NaN where the layout lacks one.
