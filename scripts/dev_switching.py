@@ -13,6 +13,8 @@ key joints, the full model before this change) and ``promp``: the interaction pr
 alone (the ``promp`` baseline on the development split), whose traces (cross-fitted like the plans, on their own
 split) feed the ``primitive`` variants. ``--iterations N``: every affordance model fitted here runs N iterations of
 Algorithm 1's MH chain instead of the preset's (traces cached in the subfolder ``itN`` of ``--cache``).
+``--training-stream``: the cross-fitted training traces' primitive predictions from ``PrimitiveStream``
+(``ProMPConfig.training_stream``); the validation traces keep the batch rule, so only the training side changes.
 ``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
 ``--no-gated``: cheaper traces, no belief-gated variants.
 
@@ -26,7 +28,7 @@ traces shared). The blend over several traces' families is fitted by :func:`blen
 Usage::
 
     python scripts/dev_switching.py --data nuisi:../shared/data/nuisi_v1 --split block [--rotation 0] [--labels a,b]
-        [--cache DIR] [--variants default,primitive] [--contiguous] [--no-gated] [--v2] [--iterations N]
+        [--cache DIR] [--variants default,primitive] [--contiguous] [--no-gated] [--v2] [--iterations N] [--training-stream]
 
 Prints one line per class and the averages; the library never imports this script.
 """
@@ -47,7 +49,7 @@ from socialaff_sim.evaluation.compare import paired_difference
 from socialaff_sim.evaluation.crossval import fold_rng
 from socialaff_sim.evaluation.splits import make_folds
 from socialaff_sim.inference.body_fit import BodyFitConfig, BodyFitter
-from socialaff_sim.inference.interaction_primitive import InteractionPrimitive
+from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, ProMPConfig
 from socialaff_sim.inference.methods import AffordanceMethod, primitive_trace, trace
 from socialaff_sim.inference.reaction_regression import (
     HOLD, blend_weights, cv_errors, fold_predictions, inner_folds, key_columns, ridge_solve, select, stack_instances,
@@ -197,6 +199,9 @@ def main() -> None:
     ap.add_argument("--iterations", type=int, default=None,
                     help="Algorithm 1's MH iterations (LearningConfig.iterations) of every affordance model fitted here, "
                          "instead of the preset's; its traces are cached in the subfolder it<N> of --cache")
+    ap.add_argument("--training-stream", action="store_true",
+                    help="the training rows' primitive predictions from PrimitiveStream (ProMPConfig.training_stream); "
+                         "the validation rows keep the batch rule, so only the training side differs")
     args = ap.parse_args()
     if args.iterations is not None and args.iterations < 0:
         raise SystemExit(f"--iterations: expected an integer >= 0, found {args.iterations}")
@@ -242,7 +247,7 @@ def main() -> None:
         tr_traces = list(tr_traces)
         for part in parts:
             rest = [inst for i, inst in enumerate(train) if i not in set(part)] if args.cross_fit > 1 else train
-            prim = InteractionPrimitive().fit(rest)
+            prim = InteractionPrimitive(ProMPConfig(training_stream=args.training_stream)).fit(rest)
             for i in part:
                 tr_traces[i] = primitive_trace(prim, body, tr_traces[i], train[i], T0)
         prim_all = InteractionPrimitive().fit(train)
