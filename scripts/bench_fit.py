@@ -15,14 +15,14 @@ figure much) is reported, split into the parts of :meth:`~socialaff_sim.inferenc
 * ``other``: the rest (the body fitter, canonical tracks, ...).
 
 The parts are timed by wrapping those functions for the run (the library is not changed). ``--stream`` sets
-``ProMPConfig.training_stream`` (an option that changes the fit's numerics; off by default); ``--iterations N``
+``ProMPConfig.training_stream`` (the default since 2026-11-26; ``--batch-rows`` turns it off); ``--iterations N``
 runs every Algorithm 1 fit with N outer Metropolis–Hastings iterations (a model change); ``--primitive`` times
 the interaction primitive's causal predictions alone (:func:`primitive_only`; with ``--stream`` also the stream's). A fingerprint of
 the fitted method (the model's learned arrays, the switching regression's members and scales) is printed so that
 two code trees can be compared for bitwise-equal fits. Usage::
 
     OMP_NUM_THREADS=1 nice -n 10 python scripts/bench_fit.py [--datasets synthetic sbu handover nuisi]
-        [--classes NAME ...] [--fold 0] [--method full] [--seed 0] [--stream] [--iterations N] [--primitive] [--data-root ../shared/data]
+        [--classes NAME ...] [--fold 0] [--method full] [--seed 0] [--stream | --batch-rows] [--iterations N] [--primitive] [--data-root ../shared/data]
         [--json PATH]
 
 Without ``--classes`` every class of each dataset is fitted (long on the handovers: one class of 112 training
@@ -160,7 +160,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fold", type=int, default=0, help="which of the 4 folds' training set (default 0)")
     ap.add_argument("--method", default="full")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--stream", action="store_true", help="ProMPConfig.training_stream (changes the fit's numerics)")
+    ap.add_argument("--stream", action="store_true", help="ProMPConfig.training_stream on (the default since 2026-11-26)")
+    ap.add_argument("--batch-rows", action="store_true",
+                    help="ProMPConfig.training_stream off: the training rows from the batch conditioning (the default before)")
     ap.add_argument("--iterations", type=int, default=None,
                     help="LearningConfig.iterations of every Algorithm 1 run (a model change; default: the preset's)")
     ap.add_argument("--primitive", action="store_true",
@@ -185,10 +187,10 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{name:10s} {label:18s} primitive only: {rows[-1]}", flush=True)
                 continue
             method = make_method(task.factory, task.preset)
-            if args.stream:
+            if args.stream or args.batch_rows:
                 reaction = method.reaction
                 method.reaction = dataclasses.replace(
-                    reaction, primitive=dataclasses.replace(reaction.primitive, training_stream=True))
+                    reaction, primitive=dataclasses.replace(reaction.primitive, training_stream=not args.batch_rows))
             if args.iterations is not None:
                 method.learning = dataclasses.replace(method.learning or LearningConfig(), iterations=args.iterations)
             rng = np.random.default_rng(task_seed(task.seed, task.label, task.fold, task.method))

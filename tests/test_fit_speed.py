@@ -117,17 +117,17 @@ def test_causal_key_joints_equal_the_per_view_loop(rng: np.random.Generator, gap
     assert np.array_equal(prim.causal_key_joints(long, T0), _causal_reference(prim, long, T0), equal_nan=True)
 
 
-def test_training_stream_option_reads_the_stream_and_is_off_by_default(rng: np.random.Generator) -> None:
+def test_training_stream_option_reads_the_stream_and_is_on_by_default(rng: np.random.Generator) -> None:
     """``ProMPConfig.training_stream`` switches the training rows' primitive predictions to the reactor's
-    PrimitiveStream: equal to rounding on instances within the training durations, and off by default."""
-    assert ProMPConfig().training_stream is False
+    PrimitiveStream: equal to rounding on instances within the training durations, and on by default."""
+    assert ProMPConfig().training_stream is True
     insts = [_instance(rng, k, gaps=True, obj=True) for k in range(9)]
     body = BodyFitter().fit_interactions(insts[1:], agent=1, rng=np.random.default_rng(0))
     empty = Trace(belief=np.zeros((1, 1)), phase=np.zeros(1), plan=np.zeros((1, 5, 3)), skeleton=np.zeros((1, 1, 3)))
     probe = insts[0]
     while probe.n_frames > max(i.n_frames for i in insts[1:]):
         probe = _instance(rng, 0, gaps=True, obj=True)
-    batch = primitive_trace(InteractionPrimitive().fit(insts[1:]), body, empty, probe, T0)
+    batch = primitive_trace(InteractionPrimitive(ProMPConfig(training_stream=False)).fit(insts[1:]), body, empty, probe, T0)
     streamed = primitive_trace(InteractionPrimitive(ProMPConfig(training_stream=True)).fit(insts[1:]), body, empty, probe, T0)
     assert np.array_equal(batch.primitive, _causal_reference(InteractionPrimitive().fit(insts[1:]), probe, T0), equal_nan=True)
     assert np.array_equal(streamed.primitive, stream_key_joints(InteractionPrimitive().fit(insts[1:]), probe, T0), equal_nan=True)
