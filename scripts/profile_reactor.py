@@ -65,6 +65,7 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--model", required=True, help="pickle of the fitted method (scripts/bench_reactor.py --model)")
     p.add_argument("--data", default="handover:../shared/data/handover_h2h")
+    p.add_argument("--interaction", default=None, help="label (default: the dataset's first)")
     p.add_argument("--skip", type=int, default=40, help="recordings of the label to skip (the model's training set)")
     p.add_argument("--recordings", type=int, default=5)
     p.add_argument("--seconds", type=float, default=0.0, help="> 0: a stream of the recordings end to end instead")
@@ -75,7 +76,8 @@ def main() -> None:
     with open(args.model, "rb") as f:
         method = pickle.load(f)
     data = load_dataset(args.data)
-    pool = [i for i in data if i.label == data[0].label][args.skip : args.skip + args.recordings]
+    label = args.interaction or data[0].label
+    pool = [i for i in data if i.label == label][args.skip : args.skip + args.recordings]
     insts = [concatenate(pool, int(args.seconds * pool[0].fps), "stream")] if args.seconds > 0 else pool
     total, n = 0.0, 0
     for inst in insts:

@@ -274,6 +274,11 @@ class _AffordanceReactor:
         # The interaction primitive's causal prediction, from running sums (bounded work per frame).
         self.primitive = (PrimitiveStream(method.primitive_, config.n_observed)
                           if self.reaction is not None and self.reaction.uses_primitive else None)
+        # Which skeletons the blend reads as priors: a body fit nobody reads is skipped (it runs every frame).
+        priors = {m.prior for m in self.reaction.members_} if self.reaction is not None else set()
+        self._plan_prior = self.reaction is None or "from_plan" in priors
+        self._primitive_prior = "from_primitive" in priors
+        self._anchor_keys: np.ndarray | None = None  # agent 1's key joints at the anchor (world), once per instance
 
     def react(self, view: Interaction, start: int, stop: int) -> Prediction:
         """Agent 1's frames [start, stop): step every chain's synthesizer up to ``stop``.
@@ -300,19 +305,22 @@ class _AffordanceReactor:
             blocks.append(steps)
         keys = np.mean([[st.key_joints for st in steps] for steps in blocks], axis=0)
         subs = np.array([st.subevent for st in blocks[0]], dtype=np.int64)
-        joints = self.method.body_.fit_poses(keys, self._frame)
+        joints = self.method.body_.fit_poses(keys, self._frame) if self._plan_prior else None
         if self.reaction is None or self.stream is None:
             return Prediction(joints=joints, key_joints=keys, subevents=subs, n_observed=0)
         # The switching regression: the first chain's belief and phase, the chains' mean plan.
         motion = self.stream.rows(view, start, stop)
         anchor = self.stream.anchor
+        if self._anchor_keys is None:
+            self._anchor_keys = view.layout.key_joints(anchor.pose[None])[0]
         prim, prim_offset = None, None
         if self.primitive is not None:  # the interaction primitive conditioned on the same view
             prim_keys = self.primitive.react_keys(view, start, stop)
-            prim = plan_displacement(anchor, prim_keys, view)
-            if any(m.prior == "from_primitive" for m in self.reaction.members_):
+            prim = plan_displacement(anchor, prim_keys, view, keys=self._anchor_keys)
+            if self._primitive_prior:
                 prim_offset = plan_offset(anchor, self.method.body_.fit_poses(prim_keys, self._frame))
         rows = switching_rows(motion, np.stack([st.belief for st in blocks[0]]), np.array([st.phase for st in blocks[0]]),
-                              plan_displacement(anchor, keys, view), prim)
-        joints = anchor.to_world(self.reaction.displacement(rows, plan_offset(anchor, joints), prim_offset))
+                              plan_displacement(anchor, keys, view, keys=self._anchor_keys), prim)
+        offset = plan_offset(anchor, joints) if joints is not None else None
+        joints = anchor.to_world(self.reaction.displacement(rows, offset, prim_offset))
         return Prediction(joints=joints, key_joints=view.layout.key_joints(joints), subevents=subs, n_observed=0)

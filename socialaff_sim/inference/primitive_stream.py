@@ -33,13 +33,14 @@ import weakref
 
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
+from scipy.linalg.lapack import dpotrf, dpotrs
 
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ModelError
 from ..model.frame import CanonicalFrame
 from .body_fit import instance_frame
-from .interaction_primitive import InteractionPrimitive, rbf_basis
+from .interaction_primitive import InteractionPrimitive
 from .protocol import protocol_view
 
 __all__ = ["PrimitiveStream", "SHARED_SOLVERS", "stream_key_joints"]
@@ -78,10 +79,13 @@ class PrimitiveStream:
         self._mean = primitive.mean_.reshape(n_dof, self._n)
         self._a = self._d0 * self._n  # size of the agent-0 (and object) block
         self._width = cfg.basis_width
+        # rbf_basis's centres and width, once (its arithmetic, without the per-call linspace).
+        self._centres = np.linspace(0.0, 1.0, self._n)
+        self._sigma = self._width / max(self._n - 1, 1)
         self._joint_names: tuple[str, ...] = ()
         self._frames_seen = 0
         self._frame: CanonicalFrame | None = None
-        self._solvers: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._solvers: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
         self.duration: int | None = None
         """T̂ of the last call, frames."""
 
@@ -93,8 +97,9 @@ class PrimitiveStream:
         return int(sums + sum(sum(a.size for a in s) for s in self._solvers.values()))
 
     def _rbf(self, phase: np.ndarray) -> np.ndarray:
-        """(G, N) :func:`~.interaction_primitive.rbf_basis` at phases (G,)."""
-        return rbf_basis(phase, self._n, self._width)
+        """(G, N) :func:`~.interaction_primitive.rbf_basis` at phases (G,) (the same operations, bitwise)."""
+        phi = np.exp(-0.5 * ((phase[:, None] - self._centres[None]) / self._sigma) ** 2)
+        return phi / phi.sum(axis=1, keepdims=True)
 
     def _add_blocks(self, lam: np.ndarray, blocks: np.ndarray) -> np.ndarray:
         """``lam`` (M·N, M·N) plus the block-diagonal of ``blocks`` (M, N, N), in place."""
@@ -117,7 +122,7 @@ class PrimitiveStream:
         yz = np.where(seen[:, cols], y[:, cols], 0.0) * self._inv_var[cols]  # (G, K)
         span = np.maximum(self._cands[act] - 1, 1)
         phi = self._rbf(np.minimum(frames[:, None] / span[None], 1.0).ravel()).reshape(len(frames), len(act), self._n)
-        sub = np.ix_(act, cols)
+        sub = _block(act, cols)
         if len(frames) == 1:  # the per-frame path
             p0 = phi[0]
             self._hty[sub] += sign * (p0[:, None, :] * yz[0][None, :, None])
@@ -130,11 +135,13 @@ class PrimitiveStream:
                 w = seen[:, cols] * self._inv_var[cols]
                 self._hth[sub] += sign * np.einsum("gcn,gcm,gd->cdnm", phi, phi, w)
         # The duration match: frames s < T̂ of each candidate, agent 0's (and the object's) DoFs.
+        eligible = frames[:, None] < self._cands[act][None]
+        if not eligible.any():  # past every candidate (a long stream): the sums would gain zeros
+            return
         obs = y[:, : self._d0] - self._first[None]
         ok = np.isfinite(obs)
         mu = phi @ self._mean[: self._d0].T - self._mu0  # (G, A, d0)
         sq = np.where(ok[:, None], obs[:, None] - mu, 0.0) ** 2
-        eligible = frames[:, None] < self._cands[act][None]
         self._err[act] += sign * np.where(eligible, sq.sum(axis=2), 0.0).sum(axis=0)
 
     def _dofs(self, joints: np.ndarray, obj: np.ndarray | None) -> np.ndarray:
@@ -222,9 +229,9 @@ class PrimitiveStream:
             return int(eligible[0])
         return int(eligible[np.argmin(self._err[eligible])])
 
-    def _solver(self, c: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Candidate ``c``'s fixed part of the conditioning: S = P_aa − P_ar K (a, a), K = Λ_rr⁻¹ P_ra (r, a)
-        and u = Λ_rr⁻¹ (HᵀR⁻¹y − HᵀR⁻¹H μ)_r (r,) (module docstring)."""
+    def _solver(self, c: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Candidate ``c``'s fixed part of the conditioning: S = P_aa − P_ar K (a, a), K = Λ_rr⁻¹ P_ra (r, a),
+        u = Λ_rr⁻¹ (HᵀR⁻¹y − HᵀR⁻¹H μ)_r (r,) and P_ar u (a,) (module docstring)."""
         if c not in self._solvers:
             a, d0 = self._a, self._d0
             blocks = self._hth[c, d0:]
@@ -243,7 +250,8 @@ class PrimitiveStream:
                 shared[key] = (factor[0], k, 0.5 * (s + s.T))
             chol, k, s_aa = shared[key]
             rhs_r = (self._hty[c, d0:] - np.einsum("dnm,dm->dn", blocks, self._mean[d0:])).ravel()
-            self._solvers[c] = (s_aa, k, cho_solve((chol, True), rhs_r, check_finite=False))
+            u = cho_solve((chol, True), rhs_r, check_finite=False)
+            self._solvers[c] = (s_aa, k, u, self.primitive.precision_[: self._a, self._a :] @ u)
         return self._solvers[c]
 
     def keys(self, view: Interaction, start: int, stop: int) -> np.ndarray:
@@ -261,13 +269,18 @@ class PrimitiveStream:
             self._ingest(view)
         c = self._choose(stop)
         self.duration = int(self._cands[c])
-        s_aa, k_ra, u = self._solver(c)
+        s_aa, k_ra, u, p_u = self._solver(c)
         d0, n = self._d0, self._n
         blocks = self._hth[c, :d0]
         lam = self._add_blocks(s_aa.copy(), blocks)
         rhs_a = (self._hty[c, :d0] - np.einsum("dnm,dm->dn", blocks, self._mean[:d0])).ravel()
-        rhs = rhs_a - self.primitive.precision_[: self._a, self._a :] @ u
-        x_a = cho_solve(cho_factor(lam, lower=True, check_finite=False), rhs, check_finite=False)
+        rhs = rhs_a - p_u
+        # LAPACK's potrf/potrs called as scipy's cho_factor/cho_solve call them (the same arguments, the same
+        # values), without their per-call checks: this runs at every frame.
+        chol, info = dpotrf(lam, lower=1, clean=0, overwrite_a=1)
+        if info != 0:
+            raise ModelError(f"PrimitiveStream: the conditioning at frame {start} is not positive definite (potrf {info})")
+        x_a, info = dpotrs(chol, rhs, lower=1)
         w_r = self._mean[d0:] + (u - k_ra @ x_a).reshape(-1, n)  # (D − d0, N) agent 1's posterior mean weights
         frames = np.arange(start, stop)
         phi = self._rbf(np.minimum(frames / max(self.duration - 1, 1), 1.0))
@@ -280,6 +293,14 @@ class PrimitiveStream:
         keys = self.keys(view, start, stop)
         assert self._frame is not None
         return self._frame.to_world(keys)
+
+
+def _block(rows: np.ndarray, cols: np.ndarray) -> tuple[slice, slice] | tuple[np.ndarray, np.ndarray]:
+    """The index of the (rows, cols) sub-array: slices when both runs are contiguous (the usual case: an in-place
+    add on a view instead of a gather and a scatter; the same sums), else ``np.ix_``."""
+    if rows.size and cols.size and rows[-1] - rows[0] + 1 == rows.size and cols[-1] - cols[0] + 1 == cols.size:
+        return slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1)
+    return np.ix_(rows, cols)
 
 
 def stream_key_joints(primitive: InteractionPrimitive, interaction: Interaction, n_observed: int) -> np.ndarray:

@@ -37,8 +37,8 @@ from ..errors import ConfigError, ModelError
 from ..model.frame import CanonicalFrame, canonical_frame
 
 __all__ = [
-    "FEATURE_GROUPS", "N_FEATURES", "RAMP_COLUMN", "Anchor", "FeatureConfig", "FeatureStream", "forward_fill", "group_columns", "training_rows",
-    "velocity_estimate",
+    "FEATURE_GROUPS", "N_FEATURES", "RAMP_COLUMN", "Anchor", "FeatureConfig", "FeatureStream", "forward_fill", "group_columns", "nan_to_zero",
+    "training_rows", "velocity_estimate",
 ]
 
 FEATURE_GROUPS: tuple[str, ...] = ("agent0", "gap", "own_velocity", "agent0_velocity")
@@ -75,6 +75,15 @@ def group_columns(groups: Sequence[str]) -> np.ndarray:
 N_FEATURES = sum(_WIDTH.values())
 RAMP_COLUMN = _WIDTH["agent0"] + 3
 """Column of r(s), the ramp of the ``gap`` group (its last column)."""
+
+
+def nan_to_zero(x: np.ndarray) -> np.ndarray:
+    """``np.nan_to_num(x)`` of a float64 array (a new array, NaN → 0, ±inf → ±the largest float), with fewer calls when
+    nothing is infinite (the reactor calls it several times a frame)."""
+    out = np.where(np.isnan(x), 0.0, x)
+    if not np.isfinite(out).all():
+        return np.nan_to_num(x)
+    return out
 
 
 def velocity_estimate(positions: np.ndarray) -> np.ndarray:
@@ -152,7 +161,7 @@ class Anchor:
             frame = CanonicalFrame(origin=np.zeros(3), heading=0.0)
         k = min(config.window, n_observed)
         v = velocity_estimate(keys1[-k:]) * view.fps if k >= 2 else np.zeros((N_KEY, 3))
-        v = np.nan_to_num(v @ frame.rotation)
+        v = nan_to_zero(v @ frame.rotation)
         return cls(obs[a, 1], b0, keys0[a], v, b1, frame, a, float(view.fps))
 
     def features(self, keys0: np.ndarray, vel0: np.ndarray, frames: np.ndarray, config: FeatureConfig) -> np.ndarray:
@@ -162,10 +171,10 @@ class Anchor:
         s = (np.asarray(frames, dtype=np.float64) - self.index) / self.fps
         tau = config.time_constant_s
         ramp = -np.expm1(-s / tau)
-        d0 = np.nan_to_num((keys0 - self.keys0[None]) @ R).reshape(len(s), -1)
-        gap = np.nan_to_num((keys0[:, 0] - self.base1[None]) @ R) * ramp[:, None]
+        d0 = nan_to_zero((keys0 - self.keys0[None]) @ R).reshape(len(s), -1)
+        gap = nan_to_zero((keys0[:, 0] - self.base1[None]) @ R) * ramp[:, None]
         own = (tau * ramp)[:, None] * self.velocity1.reshape(1, -1)
-        v0 = np.nan_to_num(vel0 @ R).reshape(len(s), -1)
+        v0 = nan_to_zero(vel0 @ R).reshape(len(s), -1)
         return np.concatenate([d0, gap, ramp[:, None], own, v0], axis=1)
 
     def to_world(self, displacement: np.ndarray) -> np.ndarray:

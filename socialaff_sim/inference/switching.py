@@ -57,7 +57,7 @@ from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError, NotFittedError
 from .interaction_primitive import ProMPConfig
 from .protocol import DEFAULT_N_OBSERVED
-from .reaction_features import FEATURE_GROUPS, N_FEATURES, RAMP_COLUMN, Anchor, FeatureConfig, group_columns, training_rows
+from .reaction_features import FEATURE_GROUPS, N_FEATURES, RAMP_COLUMN, Anchor, FeatureConfig, group_columns, nan_to_zero, training_rows
 from .reaction_regression import (
     HOLD, blend_weights, cv_errors, fold_predictions, inner_folds, key_columns, ridge_solve, scale_of, select,
     stack_instances,
@@ -223,10 +223,10 @@ def switching_rows(
     x = np.asarray(motion, dtype=np.float64)
     b = np.asarray(belief, dtype=np.float64)
     ramp = x[:, RAMP_COLUMN]
-    phi = np.nan_to_num(np.asarray(phase, dtype=np.float64))
+    phi = nan_to_zero(np.asarray(phase, dtype=np.float64))
     gated = (b[:, :, None] * x[:, None, :]).reshape(len(x), -1)
-    prim = np.zeros((len(x), 3 * N_KEY)) if primitive is None else np.nan_to_num(primitive)
-    return np.concatenate([x, b * ramp[:, None], b * (phi * ramp)[:, None], gated, np.nan_to_num(plan), prim], axis=1)
+    prim = np.zeros((len(x), 3 * N_KEY)) if primitive is None else nan_to_zero(primitive)
+    return np.concatenate([x, b * ramp[:, None], b * (phi * ramp)[:, None], gated, nan_to_zero(plan), prim], axis=1)
 
 
 def switching_scale(rows: np.ndarray, w: np.ndarray, n_subevents: int) -> np.ndarray:
@@ -242,19 +242,21 @@ def switching_scale(rows: np.ndarray, w: np.ndarray, n_subevents: int) -> np.nda
     return scale
 
 
-def plan_displacement(anchor: Anchor, plan: np.ndarray, interaction: Interaction) -> np.ndarray:
+def plan_displacement(anchor: Anchor, plan: np.ndarray, interaction: Interaction, *, keys: np.ndarray | None = None) -> np.ndarray:
     """(N, 15) metres, anchor frame: the planned key joints (N, 5, 3) world minus agent 1's at the anchor
-    (0 where either is unknown)."""
-    keys = interaction.layout.key_joints(anchor.pose[None])[0]
+    (0 where either is unknown). ``keys``: agent 1's key joints at the anchor (5, 3), world, when already known
+    (``interaction.layout.key_joints(anchor.pose[None])[0]``, what is used otherwise)."""
+    if keys is None:
+        keys = interaction.layout.key_joints(anchor.pose[None])[0]
     d = (np.asarray(plan, dtype=np.float64) - keys[None]) @ anchor.frame.rotation
-    return np.nan_to_num(d).reshape(len(d), -1)
+    return nan_to_zero(d).reshape(len(d), -1)
 
 
 def plan_offset(anchor: Anchor, skeleton: np.ndarray) -> np.ndarray:
     """(N, J·3) metres, anchor frame: the plan's skeletons (N, J, 3) world minus agent 1's at the anchor (0 where
     either is unknown): the ``from_plan`` prior."""
     d = (np.asarray(skeleton, dtype=np.float64) - anchor.pose[None]) @ anchor.frame.rotation
-    return np.nan_to_num(d).reshape(len(d), -1)
+    return nan_to_zero(d).reshape(len(d), -1)
 
 
 def instance_rows(
@@ -370,10 +372,11 @@ class SwitchingRegression:
         self.n_outputs_ = Y.shape[1]
         return self
 
-    def displacement(self, rows: np.ndarray, offset: np.ndarray, primitive_offset: np.ndarray | None = None) -> np.ndarray:
+    def displacement(self, rows: np.ndarray, offset: np.ndarray | None, primitive_offset: np.ndarray | None = None) -> np.ndarray:
         """(N, J·3) anchor-frame displacements, metres: Σ_m α_m (prior_m + rows_m W_m) for rows (N, ·) of
         :func:`switching_rows`, the ``from_plan`` prior ``offset`` (N, J·3) (:func:`plan_offset`) and the
-        ``from_primitive`` prior ``primitive_offset`` (N, J·3), each read only by members whose prior it is."""
+        ``from_primitive`` prior ``primitive_offset`` (N, J·3), each read only by members whose prior it is
+        (``None`` where no member reads it)."""
         if not hasattr(self, "members_"):
             raise NotFittedError("switching regression: call fit(...) before displacement")
         priors = {"from_plan": offset, "from_primitive": primitive_offset}
