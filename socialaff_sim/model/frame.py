@@ -13,6 +13,7 @@ can therefore build the same frame. When the two bases coincide horizontally
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -30,11 +31,14 @@ class CanonicalFrame:
     heading: float
     """Angle of the canonical x axis in the world x-y plane, radians (counter-clockwise from world x)."""
 
-    @property
+    @cached_property
     def rotation(self) -> np.ndarray:
-        """(3, 3) float64: columns are the canonical axes expressed in the world frame."""
+        """(3, 3) float64, read-only: columns are the canonical axes expressed in the world frame (computed once: a
+        stream converts a few points at every frame)."""
         c, s = np.cos(self.heading), np.sin(self.heading)
-        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        rot.setflags(write=False)
+        return rot
 
     def to_canonical(self, points: np.ndarray) -> np.ndarray:
         """World points ``(..., 3)`` metres → canonical ``(..., 3)`` metres (NaN stays NaN)."""
