@@ -12,9 +12,10 @@ per type they equal the model's scores (tests/test_forward_belief.py).
 from __future__ import annotations
 
 import numpy as np
+from scipy.special import i0e
 
 from ..model.affordance import AffordanceParameters
-from ..model.densities import expon_logpdf, lognorm_logpdf, vonmises_logpdf, weibull_logpdf
+from ..model.densities import LOG_2PI, expon_logpdf, lognorm_logpdf, weibull_logpdf
 from ..model.features import polar
 from ..model.potentials import reference_weights
 
@@ -61,6 +62,7 @@ class TypeTables:
             self._sp.append((rows, cols, self.sp_w[np.ix_(rows, cols)]))
             self._read[np.ix_(rows, cols)] = True
         self.dur = np.asarray(model.duration_params_, float)
+        self._cache: dict[tuple[str, int | None], tuple] = {}
         self.log_seconds = cfg.duration_density == "log_seconds"
 
     def _per_type(self, rows: np.ndarray, types: np.ndarray, only: int | None) -> np.ndarray:
@@ -75,12 +77,32 @@ class TypeTables:
                     out[..., s] = rows[..., sel].sum(axis=-1)
         return np.where(np.isnan(out), -np.inf, out)
 
-    def _density(self, vecs: np.ndarray, params: np.ndarray, expon: np.ndarray) -> np.ndarray:
+    def _rows(self, key: tuple[str, int | None], params: np.ndarray, expon: np.ndarray) -> tuple:
+        """A set of rows' parameters (R, 6), their exponential flags (R,), whether any and all are exponential, and
+        log i0e(κ) (R,) of the von Mises term: made once per (potential, type) (a re-planning scores every frame
+        on a long stream); the same arrays the per-call selection made, so the same values."""
+        rows = self._cache.get(key)
+        if rows is None:
+            kap = params.T[5]
+            rows = self._cache[key] = (params, expon, bool(expon.any()), bool(expon.all()), np.log(i0e(kap)))
+        return rows
+
+    def _density(self, vecs: np.ndarray, rows: tuple) -> np.ndarray:
+        """Row log-densities (N, R) of vectors (N, R, 3): :func:`~socialaff_sim.model.densities.weibull_logpdf` (or
+        ``expon_logpdf`` on the exponential rows) of the horizontal and vertical distances plus ``vonmises_logpdf``
+        of the angle, with the terms of the rows' own kind only (``np.where`` picked them; the same values)."""
+        params, expon, any_expon, all_expon, log_i0e = rows
         h, v, th = polar(vecs, self.eps)
         kh, lh, kv, lv, mu, kap = params.T
         with np.errstate(divide="ignore", invalid="ignore"):
-            dist = np.where(expon, expon_logpdf(h, lh) + expon_logpdf(v, lv), weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv))
-            return dist + vonmises_logpdf(th, mu, kap)
+            if all_expon:
+                dist = expon_logpdf(h, lh) + expon_logpdf(v, lv)
+            elif not any_expon:
+                dist = weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv)
+            else:
+                dist = np.where(expon, expon_logpdf(h, lh) + expon_logpdf(v, lv), weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv))
+            # vonmises_logpdf(th, mu, kap), its operations in its order, log i0e(κ) made once
+            return dist + (kap * (np.cos(th - mu) - 1.0) - LOG_2PI - log_i0e)
 
     def spatial(self, end: np.ndarray, s: int | None = None) -> np.ndarray:
         """Spatial log-potential of N configurations ``end`` (N, 11, 3): (N, S), or (N,) under type ``s``."""
@@ -88,21 +110,22 @@ class TypeTables:
         if s is None:  # every row at once; a NaN in a column its type reads makes the row NaN, as in the model
             refs = np.where(self._read[None, :, :, None], self.sp_w[None, :, :, None] * end[:, None], 0.0).sum(axis=2)
             offsets = end[:, self.sp_joint] - refs
-            rows = self._density(offsets, self.sp_params, np.zeros(self.sp_joint.size, bool))
+            rows = self._density(offsets, self._rows(("spatial", None), self.sp_params, np.zeros(self.sp_joint.size, bool)))
             return self._per_type(rows, self.sp_type, None)
         rows, cols, w = self._sp[s]
         if rows.size == 0:
             return np.zeros(end.shape[0])
         refs = np.einsum("kj,njd->nkd", w, end[:, cols])
         offsets = end[:, self.sp_joint[rows]] - refs
-        dens = self._density(offsets, self.sp_params[rows], np.zeros(rows.size, bool))
+        dens = self._density(offsets, self._rows(("spatial", s), self.sp_params[rows], np.zeros(rows.size, bool)))
         out = dens.sum(axis=-1)
         return np.where(np.isnan(out), -np.inf, out)
 
     def motion(self, disp: np.ndarray, s: int | None = None) -> np.ndarray:
         """Motion log-potential of N displacement sets (N, 11, 3): (N, S), or (N,) under type ``s``."""
         sel = slice(None) if s is None else self.mo_type == s
-        rows = self._density(np.asarray(disp, float)[:, self.mo_joint[sel]], self.mo_params[sel], self.mo_expon[sel])
+        rows = self._density(np.asarray(disp, float)[:, self.mo_joint[sel]],
+                             self._rows(("motion", s), self.mo_params[sel], self.mo_expon[sel]))
         return self._per_type(rows, self.mo_type[sel], s)
 
     def duration(self, seconds: np.ndarray) -> np.ndarray:
