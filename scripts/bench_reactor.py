@@ -58,6 +58,38 @@ class BatchPrimitive:
         return self.primitive.react_keys(view, start, stop, n_observed=self.n_observed)
 
 
+def state_bytes(obj: object, exclude: tuple[object, ...]) -> int:
+    """Bytes of the NumPy buffers reachable from ``obj`` (attributes, containers), each buffer counted once at its
+    capacity (a view counts its base), not reaching into ``exclude`` (the fitted method: shared, fixed) nor into the
+    view the reactor was last handed (the evaluation's frames, counted apart)."""
+    seen: set[int] = {id(x) for x in exclude}
+    total, stack = 0, [obj]
+    while stack:
+        x = stack.pop()
+        if id(x) in seen or isinstance(x, (str, bytes, int, float, bool, type(None), np.random.Generator)):
+            continue
+        seen.add(id(x))
+        if isinstance(x, np.ndarray):
+            base = x
+            while isinstance(base.base, np.ndarray):
+                base = base.base
+            if base is not x:
+                stack.append(base)
+            else:
+                total += x.nbytes
+            continue
+        if isinstance(x, Interaction):
+            continue
+        if isinstance(x, dict):
+            stack.extend(x.keys())
+            stack.extend(x.values())
+        elif isinstance(x, (list, tuple, set, frozenset)):
+            stack.extend(x)
+        elif hasattr(x, "__dict__"):
+            stack.extend(vars(x).values())
+    return total
+
+
 def _stats(ms: np.ndarray) -> dict[str, float]:
     if ms.size == 0:
         return {"frames": 0}
@@ -80,6 +112,9 @@ def run(method, inst: Interaction, *, part: str, path: str, seconds: float | Non
     ms, view_ms = np.full(T, np.nan), np.full(T, np.nan)
     load, ref = os.getloadavg(), reference_seconds(np.random.default_rng(0))
     views = GrowingInteraction(hidden)
+    edges = np.r_[np.arange(0, T, int(60 * inst.fps)), T]
+    owner = reactor if part == "reactor" else prim
+    memory: dict[int, int] = {}  # frame → bytes of the reactor's state after it (not timed)
     for t in range(T0, T):
         c0 = time.thread_time()
         views.append_from(hidden, t + 1)
@@ -87,10 +122,13 @@ def run(method, inst: Interaction, *, part: str, path: str, seconds: float | Non
         c1 = time.thread_time()
         call(view, t, t + 1)
         ms[t], view_ms[t] = (time.thread_time() - c1) * 1e3, (c1 - c0) * 1e3
-    edges = np.r_[np.arange(0, T, int(60 * inst.fps)), T]
-    minutes = [{"minute": k, **_stats(ms[max(edges[k], T0):edges[k + 1]])} for k in range(len(edges) - 1)]
+        if t + 1 in edges:
+            memory[t] = state_bytes(owner, (method,))
+    minutes = [{"minute": k, **_stats(ms[max(edges[k], T0):edges[k + 1]]), "state_bytes_at_end": memory.get(int(edges[k + 1]) - 1)}
+               for k in range(len(edges) - 1)]
     views_ = {f"view_{k}": v for k, v in _stats(view_ms[T0:]).items() if k != "frames"}
     return {"instance": inst.instance_id, "part": part, "path": path, "frames": T, **_stats(ms[T0:]), **views_,
+            "state_bytes_end": state_bytes(owner, (method,)), "views_bytes_end": state_bytes(views, ()),
             "per_minute": minutes, "load_avg_1_5_15": [round(x, 2) for x in load], "reference_ms": ref * 1e3}
 
 
@@ -138,12 +176,13 @@ def main() -> None:
                 out["runs"].append(r)
                 print(f"[{part}/{path}] {kind} {r['instance']}: {r['frames']} frames, {r['frames_per_cpu_s']:.0f} frames/CPU s, "
                       f"p50 {r['p50_ms']:.2f} p99 {r['p99_ms']:.2f} max {r['max_ms']:.1f} ms (view: p99 {r['view_p99_ms']:.3f} "
-                      f"max {r['view_max_ms']:.2f} ms); load {r['load_avg_1_5_15']}, "
+                      f"max {r['view_max_ms']:.2f} ms); state {r['state_bytes_end'] / 1e6:.2f} MB (views {r['views_bytes_end'] / 1e6:.2f} MB); "
+                      f"load {r['load_avg_1_5_15']}, "
                       f"reference {r['reference_ms']:.1f} ms", flush=True)
                 if kind == "stream":
                     for m in r["per_minute"]:
                         print(f"    minute {m['minute']:>2}: p50 {m['p50_ms']:6.2f} p99 {m['p99_ms']:6.2f} max {m['max_ms']:6.1f} ms, "
-                              f"{m['frames_per_cpu_s']:.0f} frames/CPU s", flush=True)
+                              f"{m['frames_per_cpu_s']:.0f} frames/CPU s, state {m['state_bytes_at_end'] / 1e6:.2f} MB", flush=True)
                 if args.json:
                     atomic_write_text(args.json, json.dumps(out, indent=2))
 
