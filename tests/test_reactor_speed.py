@@ -19,6 +19,7 @@ from socialaff_sim.data.growing import GrowingInteraction
 from socialaff_sim.errors import ModelError
 from socialaff_sim.evaluation.streaming import run_protocol
 from socialaff_sim.inference import methods, primitive_stream
+from socialaff_sim.inference.forward_belief import ForwardBelief
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, ProMPConfig, rbf_basis
 from socialaff_sim.inference.methods import AffordanceMethod
 from socialaff_sim.inference.primitive_stream import PrimitiveStream
@@ -30,6 +31,7 @@ from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.model.densities import expon_logpdf, vonmises_logpdf, weibull_logpdf
 from socialaff_sim.model.features import polar
 from socialaff_sim.model.frame import canonical_frame
+from socialaff_sim.model.joints import canonical_joints, instance_frame
 
 from test_primitive_stream import _instances
 from test_reactor_stream import _repeat
@@ -237,3 +239,22 @@ def test_reactor_state_grows_only_by_the_canonical_track(shake8, primitive_metho
     assert sizes[a] == sizes[b] > 0
     assert tracks[b] <= 2 * 8 * (b + 1 + 5) * (3 * 11 * 3 + 2)
     assert tracks[b] >= 8 * (b + 1) * (3 * 11 * 3 + 2)  # the track does grow: the bound above is what is left
+
+
+def test_forward_belief_posterior_read_twice_and_after_a_reset(shake8, shake8_model) -> None:  # noqa: ANN001
+    """The posterior kept for a second read at the same frame is the one computed afresh, also after a reset."""
+    inst = list(shake8)[6]
+    track = canonical_joints(inst, instance_frame(inst))
+    fb = ForwardBelief(shake8_model, inst.fps, stride=3, horizon=12)
+    t = 40
+    fb.advance(track, t)
+    first = fb.posterior(t)
+    assert all(np.array_equal(a, b) for a, b in zip(first, fb.posterior(t), strict=True))
+    fb.reset(21)
+    fb.advance(track, t)
+    fresh = ForwardBelief(shake8_model, inst.fps, stride=3, horizon=12)
+    fresh.reset(21)
+    fresh.advance(track, t)
+    again, ref = fb.posterior(t), fresh.posterior(t)
+    assert all(np.array_equal(a, b) for a, b in zip(again, ref, strict=True))
+    assert not all(a.shape == b.shape and np.array_equal(a, b) for a, b in zip(again, first, strict=True))

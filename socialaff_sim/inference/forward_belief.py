@@ -89,6 +89,7 @@ class ForwardBelief:
         self._long = np.full((self.M, self.S), -np.inf)
         self._G_long = np.full(self.S, -np.inf)
         self._next = self.origin  # the next cut to process
+        self._posterior: tuple[int, np.ndarray, np.ndarray] | None = None  # the last posterior read, until the next cut
         self.cuts = 0
         """Cuts processed since the last reset."""
 
@@ -142,6 +143,7 @@ class ForwardBelief:
             self._long -= top
         self._G = _logsumexp_finite(self._F, axis=1)
         self._G_long = _logsumexp_finite(self._long, axis=0)
+        self._posterior = None
         self.cuts += 1
 
     def _closing(self, track: np.ndarray, starts: np.ndarray, b: int) -> np.ndarray:
@@ -172,6 +174,13 @@ class ForwardBelief:
         nothing is possible."""
         if self._next <= t - 1:
             raise ModelError(f"ForwardBelief.posterior({t}): advance(track, {t}) first")
+        if self._posterior is not None and self._posterior[0] == t:  # read twice at a re-planning frame
+            return self._posterior[1], self._posterior[2]
+        starts, p = self._posterior_at(t)
+        self._posterior = (t, starts, p)
+        return starts, p
+
+    def _posterior_at(self, t: int) -> tuple[np.ndarray, np.ndarray]:
         starts = self._starts  # every start kept is a cut before t
         d = np.minimum(t - starts, self.horizon)
         logp = self._G + self._surv[d]  # (K, S)
