@@ -269,6 +269,10 @@ class PrimitiveStream:
             self._ingest(view)
         c = self._choose(stop)
         self.duration = int(self._cands[c])
+        # Candidates shorter than the frames seen are never chosen again (T̂ ≥ stop ≥ the view's length): drop their
+        # fixed parts (about 0.7 MB each on the handovers), so a long stream keeps T_max's only.
+        for k in [k for k in self._solvers if self._cands[k] < self._frames_seen and k != c]:
+            del self._solvers[k]
         s_aa, k_ra, u, p_u = self._solver(c)
         d0, n = self._d0, self._n
         blocks = self._hth[c, :d0]
