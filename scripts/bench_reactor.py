@@ -6,7 +6,9 @@ The reactor is the one the evaluation steps under ``--protocol causal`` (``metho
 is recorded; per elapsed minute of the stream (per recording for the recordings) the p50, p99 and max, and overall
 the frames per CPU second. The views come from a :class:`~socialaff_sim.data.growing.GrowingInteraction` filled
 frame by frame, as the evaluation makes them (``protocol_view`` copied and validated the whole view, 70 ms at 18,000
-frames); building each view is timed separately (``view_*`` figures), not in the reactor's.
+frames); building each view is timed separately (``view_*`` figures), not in the reactor's. At each minute's end (and
+after each run) the bytes of the NumPy buffers the reactor holds are recorded (:func:`state_bytes`: each buffer once at
+its capacity; not the fitted method, not the evaluation's views, whose buffers are ``views_bytes_end``), not timed.
 
 Two interaction-primitive paths are timed, on the same views:
 ``stream`` — :class:`~socialaff_sim.inference.primitive_stream.PrimitiveStream` (running sums; the reactor's path
