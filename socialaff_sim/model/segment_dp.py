@@ -118,3 +118,75 @@ def best_segmentation(
     if not np.isfinite(total):
         return -np.inf, []
     return total, backtrace(back, B, m, s)
+
+
+def best_segmentations(
+    segs: list[np.ndarray],
+    log_start: np.ndarray,
+    log_trans: np.ndarray,
+    *,
+    distinct: bool = True,
+    unique: bool = False,
+) -> list[tuple[float, list[tuple[int, int, int]]]]:
+    """:func:`best_segmentation` of several instances at once (the same labels and rules), bitwise: the instances'
+    tables are stacked (the longest first) and row b of all the instances with at least b cut points is computed
+    in one step, by the very operations of :func:`segmentation_tables` on each instance's own entries."""
+    n = len(segs)
+    if n == 0:
+        return []
+    S = log_start.shape[0]
+    M = 1 << S if unique else 1
+    sizes = np.array([seg.shape[0] - 1 for seg in segs])
+    order = np.argsort(-sizes, kind="stable")
+    Bmax = int(sizes.max())
+    stacked = np.full((n, Bmax + 1, Bmax + 1, S), -np.inf)
+    for r, i in enumerate(order):
+        B = sizes[i]
+        stacked[r, : B + 1, : B + 1] = np.where(np.isnan(segs[i]), -np.inf, segs[i])
+    trans = np.array(log_trans, dtype=float)
+    if distinct:
+        np.fill_diagonal(trans, -np.inf)
+    best = np.full((n, Bmax + 1, M, S), -np.inf)
+    back = np.full((n, Bmax + 1, M, S, 3), -1, dtype=np.int64)
+    masks = np.arange(M)
+    bits = 1 << np.arange(S)
+    if unique:
+        src_m, src_s = np.nonzero((masks[:, None] & bits[None, :]) == 0)
+        tgt = src_m | bits[src_s]
+    else:
+        src_s = np.arange(S)
+        src_m = tgt = np.zeros(S, np.int64)
+    trans_t = trans.T[None, None, :, None, :]  # (1, 1, s, 1, s')
+    first_mask = bits if unique else np.zeros(S, np.int64)
+    labels = np.arange(S)
+    sorted_sizes = sizes[order]
+    for b in range(1, Bmax + 1):
+        k = int(np.count_nonzero(sorted_sizes >= b))  # the instances with a cut point b: the first k
+        best[:k, b, first_mask, labels] = log_start + stacked[:k, 0, b]
+        if b == 1:
+            continue
+        # cand[r, m, s, a - 1, s'] as in segmentation_tables, for every instance r < k.
+        cand = best[:k, 1:b].transpose(0, 2, 1, 3)[:, :, None] + trans_t + stacked[:k, 1:b, b].transpose(0, 2, 1)[:, None, :, :, None]
+        flat = cand.reshape(k * M * S, -1)
+        arg = np.argmax(flat, axis=1)
+        val = flat[np.arange(k * M * S), arg].reshape(k, M, S)
+        arg = arg.reshape(k, M, S)
+        v = val[:, src_m, src_s]  # (k, P)
+        better = v > best[:k, b][:, tgt, src_s]
+        if better.any():
+            r, p = np.nonzero(better)
+            m, s, t = src_m[p], src_s[p], tgt[p]
+            a = arg[r, m, s]
+            best[r, b, t, s] = v[r, p]
+            back[r, b, t, s, 0] = a // S + 1
+            back[r, b, t, s, 1] = m
+            back[r, b, t, s, 2] = a % S
+    out: list[tuple[float, list[tuple[int, int, int]]]] = [(-np.inf, [])] * n
+    for r, i in enumerate(order):
+        B = int(sizes[i])
+        flat_best = best[r, B].reshape(-1)
+        idx = int(np.argmax(flat_best))
+        m_, s_ = divmod(idx, S)
+        total = float(flat_best[idx])
+        out[i] = (-np.inf, []) if not np.isfinite(total) else (total, backtrace(back[r], B, m_, s_))
+    return out
