@@ -3,7 +3,8 @@
 Each is checked with ``np.array_equal`` against the plain computation it replaces, kept here (or in the library
 as the documented reference) for the purpose: the ridge's held-out residuals over its whole grid against one
 :func:`ridge_solve` per (target, λ, group); the segmentation DP's vectorised label step against the loop over
-labels it replaced; the sample-set memo (:mod:`socialaff_sim.learning.sample_fits`) against fresh fits, and a
+labels it replaced; the interval scores from the polar table (:mod:`socialaff_sim.learning.polar_table`) against
+``log_spatial`` + ``log_motion``; the sample-set memo (:mod:`socialaff_sim.learning.sample_fits`) against fresh fits, and a
 whole fit with the memo against one where every sample set starts an empty memo.
 """
 
@@ -12,13 +13,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from socialaff_sim.learning import algorithm
+from socialaff_sim.learning import algorithm, initial
 from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.learning.estimator import SocialAffordanceModel
 from socialaff_sim.learning.likelihood import TypeLikelihood
+from socialaff_sim.learning.polar_table import PolarTable
 from socialaff_sim.learning.sample_fits import SampleFits, SampleFitsStore
 from socialaff_sim.model import ridge
 from socialaff_sim.model.config import AffordanceConfig
+from socialaff_sim.model.densities import lognorm_logpdf
+from socialaff_sim.model.features import interval_features
+from socialaff_sim.model.path import path_loglik
+from socialaff_sim.model.potentials import fit_type_potentials, log_motion, log_spatial
 from socialaff_sim.model.segment_dp import segmentation_tables
 
 
@@ -203,3 +209,43 @@ def test_fit_with_the_memo_is_bitwise_the_fit_without(monkeypatch: pytest.Monkey
         if key.endswith("_") and key != "fit_seconds_" and isinstance(getattr(plain, key), np.ndarray):
             assert np.array_equal(getattr(memo, key), getattr(plain, key), equal_nan=True), key
     assert memo.history_["log_posterior"].tolist() == plain.history_["log_posterior"].tolist()
+
+
+# -- the polar table -----------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("density", ["polar", "cartesian"])
+def test_column_from_the_polar_table_is_bitwise_log_spatial_plus_log_motion(density: str) -> None:
+    """A type's interval scores read from the polar table (kept over groupings and instances, evicted beyond
+    ``keep``) equal the plain sum of :func:`log_spatial`, :func:`log_motion` and the duration and path terms."""
+    rng = np.random.default_rng(10)
+    acfg = AffordanceConfig(vector_density=density)
+    polars = PolarTable(acfg, keep=2)
+    tracks = [np.cumsum(rng.normal(scale=0.02, size=(int(rng.integers(40, 90)), 11, 3)), axis=0) for _ in range(3)]
+    for x in tracks[1:]:
+        x[:, 10] = np.nan  # no object
+    available = np.ones(11, bool)
+    available[10] = False
+    bounds = [np.unique(np.r_[0, rng.choice(np.arange(1, len(x)), size=8, replace=False), len(x)]) for x in tracks]
+    feats = [interval_features(x, b[np.triu_indices(len(b), 1)[0]], b[np.triu_indices(len(b), 1)[1]], 30.0, "minjerk")
+             for x, b in zip(tracks, bounds, strict=True)]
+    groupings = [np.where(available, rng.integers(0, 3, size=11), -1) for _ in range(4)] + [np.where(available, 0, -1)]
+    for rep in range(3):  # revisits: hits, and after evictions, recomputations
+        for z in groupings:
+            z = z.astype(np.int64)
+            sample = feats[0].take(rng.choice(len(feats[0]), size=12, replace=False))
+            pot = fit_type_potentials(sample.end, sample.disp, z, acfg)
+            dur, sigma = (0.1 * rep, 0.5), np.where(available, 0.02, np.nan)
+            for i, (fe, b) in enumerate(zip(feats, bounds, strict=True)):
+                ia, ib = np.triu_indices(len(b), 1)
+                short = (b[ib] - b[ia]) < 3
+                got = initial._column(pot, z, dur, sigma, i, fe, short, acfg, polars)
+                cart = density == "cartesian"
+                want = (
+                    log_spatial(pot, z, fe.end, acfg.eps, other_side=acfg.other_side_reference,
+                                include_self=acfg.reference_self, cartesian=cart)
+                    + log_motion(pot, z, fe.disp, acfg.eps, cartesian=cart)
+                    + lognorm_logpdf(fe.seconds, *dur)
+                    + path_loglik(fe.path_sq, fe.path_n, sigma).sum(axis=1)
+                )
+                want = np.where(np.isnan(want) | short, -np.inf, want)
+                assert np.array_equal(got, want)
+    assert len(polars._spatial) == 2  # bounded

@@ -31,6 +31,7 @@ from .interval_table import IntervalTable
 from .mh import mh_step
 from .parse import Parse, ParseSpace
 from .restructure import restructure
+from .polar_table import PolarTable
 from .sample_fits import SampleFitsStore
 from .scorer import AffordanceTarget
 
@@ -120,6 +121,7 @@ def _initial_target(
     of ``lcfg.init_starts`` Dirichlet-fraction splits (see :class:`LearningConfig`)."""
     table = IntervalTable(tracks, fps, acfg.feature_path_profile)  # every interval's features once per run
     store = SampleFitsStore()  # and every sample set's deterministic fits
+    polars = PolarTable(acfg)  # and the candidate intervals' polar coordinates
     if not acfg.use_subevents:
         parses = [Parse((0,), (0,)) for _ in spaces]
         return AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng, table, store)
@@ -131,7 +133,7 @@ def _initial_target(
         parses = [sp.initial_parse(n_labels) if k == 0 else sp.fraction_parse(fr) for sp in spaces]
         if lcfg.init_rounds and n_labels > 1:
             parses = hard_em_parses(
-                tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng=rng, rounds=lcfg.init_rounds, table=table, store=store
+                tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng=rng, rounds=lcfg.init_rounds, table=table, store=store, polars=polars
             )
         candidates.append(AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng, table, store))
     start = max(candidates, key=lambda t: t.log_prob)  # the first (equal parts) wins ties
@@ -144,7 +146,7 @@ def _initial_target(
         if rounds == 0:
             return ps
         return hard_em_parses(
-            tracks, fps, spaces, ps, available, n_labels, acfg, lcfg, rng=rng, rounds=rounds, groupings=warm, table=table, store=store
+            tracks, fps, spaces, ps, available, n_labels, acfg, lcfg, rng=rng, rounds=rounds, groupings=warm, table=table, store=store, polars=polars
         )
 
     def target(ps: list[Parse]) -> AffordanceTarget:

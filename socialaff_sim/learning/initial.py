@@ -25,7 +25,7 @@ from ..model.config import AffordanceConfig
 from ..model.densities import fit_lognorm, lognorm_logpdf
 from ..model.path import fit_path_noise, path_loglik
 from ..model.features import IntervalFeatures
-from ..model.potentials import TypePotentials, fit_type_potentials, log_motion, log_spatial
+from ..model.potentials import TypePotentials, fit_type_potentials, score_polar
 from ..model.segment_dp import best_segmentation
 from ..model.transitions import count_transitions, smoothed_probs
 from .config import LearningConfig
@@ -33,6 +33,7 @@ from .gibbs import gibbs_optimize
 from .interval_table import IntervalTable
 from .likelihood import TypeLikelihood
 from .parse import Parse, ParseSpace
+from .polar_table import PolarTable
 from .sample_fits import SampleFits, SampleFitsStore
 from .scorer import lone_grouping
 
@@ -54,13 +55,17 @@ def hard_em_parses(
     groupings: np.ndarray | None = None,
     table: IntervalTable | None = None,
     store: SampleFitsStore | None = None,
+    polars: PolarTable | None = None,
 ) -> list[Parse]:
     """Refine ``parses`` by alternating parameter fits and DP re-segmentation (see module doc).
 
     ``groupings`` (S, 11) int64 warm-starts the Gibbs inner loop of each type (default: all Null); ``table``
     holds the interval features of ``tracks`` (shared by the caller across calls; default: a new one);
-    ``store`` the run's memo of the sample sets' fits (:mod:`.sample_fits`; shared likewise; None: none)."""
+    ``store`` the run's memo of the sample sets' fits (:mod:`.sample_fits`; shared likewise; None: none); ``polars``
+    the candidate intervals' polar coordinates (:mod:`.polar_table`; shared likewise; default: a new one)."""
     parses = list(parses)
+    if polars is None:
+        polars = PolarTable(acfg)
     if table is None:
         table = IntervalTable(tracks, fps, acfg.feature_path_profile)
     n_joints = tracks[0].shape[1] if len(tracks) else 11
@@ -111,7 +116,7 @@ def hard_em_parses(
                     continue
                 fits, zs = columns[s]
                 seg[ia, ib, s] = fits.keep(
-                    ("column", i, zs.tobytes()), lambda: _column(pots[s], zs, durs[s], sigmas[s], feats, short, acfg)  # noqa: B023
+                    ("column", i, zs.tobytes()), lambda: _column(pots[s], zs, durs[s], sigmas[s], i, feats, short, acfg, polars)  # noqa: B023
                 )
             total, rows = best_segmentation(
                 seg, log_s, log_t, distinct=space.distinct_neighbours and S > 1, unique=space.max_repeats == 1
@@ -137,19 +142,35 @@ def _column(
     z: np.ndarray,
     dur: tuple[float, float],
     sigma: np.ndarray,
+    i: int,
     feats: IntervalFeatures,
     short: np.ndarray,
     acfg: AffordanceConfig,
+    polars: PolarTable,
 ) -> np.ndarray:
-    """One type's log score of every candidate interval of one instance (``feats``: all atom pairs, in
-    ``np.triu_indices`` order), −inf where NaN or ``short``: a pure function of the type's fits and the instance."""
-    cartesian = acfg.vector_density == "cartesian"
+    """One type's log score of every candidate interval of instance ``i`` (``feats``: all its atom pairs, in
+    ``np.triu_indices`` order), −inf where NaN or ``short``: a pure function of the type's fits and the instance.
+    :func:`~socialaff_sim.model.potentials.log_spatial` + :func:`~socialaff_sim.model.potentials.log_motion` + the
+    duration and path terms, the polar coordinates read from ``polars``."""
+    aff = np.flatnonzero(z > 0)
+    if aff.size == 0:
+        spatial = np.zeros(feats.end.shape[0])
+    else:
+        h, v, th, corr = polars.spatial(i, z, feats)
+        spatial = score_polar(h, v, th, pot.spatial[aff], np.zeros(aff.size, bool))
+        if corr is not None:
+            spatial = spatial + corr
+    used = np.flatnonzero(z >= 0)
+    if used.size == 0:
+        motion = np.zeros(feats.disp.shape[0])
+    else:
+        h, v, th, corr = polars.motion(i, used, feats)
+        motion = score_polar(h, v, th, pot.motion[used], z[used] == 0)
+        if corr is not None:
+            motion = motion + corr
     score = (
-        log_spatial(
-            pot, z, feats.end, acfg.eps, other_side=acfg.other_side_reference, include_self=acfg.reference_self,
-            cartesian=cartesian,
-        )
-        + log_motion(pot, z, feats.disp, acfg.eps, cartesian=cartesian)
+        spatial
+        + motion
         + lognorm_logpdf(feats.seconds, *dur)
         + (np.log(feats.seconds) if acfg.duration_density == "log_seconds" else 0.0)
     )
