@@ -13,6 +13,10 @@ roughly equal intervals per instance, labelled in order, repeat
 until no parse changes or ``rounds`` is reached. Each round can only move the parses toward
 higher joint probability under the current parameters (a coordinate ascent), and the result
 seeds the chain.
+
+The rounds (and the restructuring candidates' rounds, :mod:`.restructure`) often meet a type's sample set or
+grouping again; what follows from them alone is read back from the run's memos (:mod:`.sample_fits`,
+:mod:`.polar_table`), bitwise what a new computation gives. The Gibbs loop, which draws, always runs again.
 """
 
 from __future__ import annotations
