@@ -30,8 +30,8 @@ from .initial import hard_em_parses
 from .interval_table import IntervalTable
 from .mh import mh_step
 from .parse import Parse, ParseSpace
-from .restructure import restructure
 from .polar_table import PolarTable
+from .restructure import restructure
 from .sample_fits import SampleFitsStore
 from .scorer import AffordanceTarget
 
