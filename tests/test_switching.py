@@ -17,7 +17,6 @@ from socialaff_sim.evaluation.streaming import run_protocol
 from socialaff_sim.inference.body_fit import BodyFitter
 from socialaff_sim.inference.methods import AffordanceMethod, trace
 from socialaff_sim.inference.synthesis_config import SynthesisConfig
-from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.inference.reaction_features import FEATURE_GROUPS, N_FEATURES, RAMP_COLUMN, group_columns
 from socialaff_sim.inference.reaction_regression import (
     HOLD,
