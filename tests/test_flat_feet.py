@@ -15,14 +15,14 @@ import pytest
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
-from socialaff_sim.sim.contact_qp import solve_contact_qp
+from socialaff_sim.sim.contact_qp import cop_rows, solve_contact_qp
 from socialaff_sim.sim.episode import foot_drift
 from socialaff_sim.sim.flat_feet import flat_attitude, foot_rows, sole_corners, sole_points
 from socialaff_sim.sim.scene import build_scene
 from socialaff_sim.sim.support import FrameSupport, SupportMeter
 import test_balance_control
 from test_balance_control import LAYOUT, _biped, _stand
-from test_balance_qp import _lean_forward, _problem, _qp
+from test_balance_qp import _cop, _lean_forward, _problem, _qp
 
 
 @pytest.fixture(scope="module")
@@ -123,20 +123,30 @@ def test_hard_rows_hold_exactly_where_the_objective_would_trade_them_away() -> N
     assert np.abs(tau[:6]).max() <= 1e-6 * pr["mass"]
 
 
-def test_rows_that_cannot_hold_are_dropped_and_said_so() -> None:
-    # Two contradicting hard rows: relaxed, the objective's solution.
+def test_rows_that_cannot_hold_are_dropped_first_and_the_sole_bounds_kept() -> None:
+    # Two contradicting hard rows: relaxed; the centre-of-pressure bounds still hold (the solution is the one
+    # without the rows), and without bounds it is the objective's own solution.
     m, d, tasks = _lean_forward()
     pr = _problem(m, d, tasks)
     A = np.vstack([np.eye(m.nv)[:1], np.eye(m.nv)[:1]])
     res = _qp_eq(pr, (A, np.array([0.5, -0.5])))
     assert res.found and res.relaxed
     assert np.allclose(res.qacc, _qp(pr).qacc, atol=1e-6)
+    free = _qp(pr)
+    lo_x = float(max(_cop(free.forces, pr["pts"], pr["foot"] == s)[0] for s in (0, 1))) + 0.02
+    bounds = np.array([[[lo_x, 1.0], [-1.0, 1.0]]] * 2)
+    held = _qp_eq(pr, (A, np.array([0.5, -0.5])), bounds)
+    assert held.found and held.relaxed
+    assert np.allclose(held.qacc, _qp(pr, bounds=bounds).qacc, atol=1e-6)
+    assert all(_cop(held.forces, pr["pts"], pr["foot"] == s)[0] >= lo_x - 1e-6 for s in (0, 1))
 
 
-def _qp_eq(pr: dict, eq: tuple[np.ndarray, np.ndarray]):
+def _qp_eq(pr: dict, eq: tuple[np.ndarray, np.ndarray], bounds: np.ndarray | None = None):
     n = pr["M"].shape[0]
+    cop = None if bounds is None else cop_rows(pr["pts"], pr["edges"], pr["foot"], np.eye(2), bounds)
     return solve_contact_qp(pr["M"], pr["h"], pr["unactuated"], pr["point_jac"], pr["edges"], pr["tasks"],
-                            pr["mass"], pr["w_force"], np.tile([-np.inf, np.inf], (n, 1)), equalities=eq)
+                            pr["mass"], pr["w_force"], np.tile([-np.inf, np.inf], (n, 1)), cop, pr["foot"],
+                            equalities=eq)
 
 
 def _cop_by_hand(m: mujoco.MjModel, d: mujoco.MjData, scene, body: int) -> tuple[np.ndarray | None, float]:

@@ -122,7 +122,7 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     with at least this vertical force (a foot left without load lifts off the floor and loses its contacts);
     ``equalities``: (A (r, n), b (r,)) rows ``A q̈ = b`` that must hold exactly (m/s², rad/s²); should the
     equalities, the loads and the centre-of-pressure rows not hold together, the problem is solved again without
-    them (``relaxed``); ``w_reg``: ε, the regularisation of q̈. Should DAQP fail (it should not: free fall is
+    the equalities, then without all three (``relaxed``); ``w_reg``: ε, the regularisation of q̈. Should DAQP fail (it should not: free fall is
     feasible), the result is free fall (β = 0, τ = 0, ``found=False``) and a warning is logged.
     """
     n = M.shape[0]
@@ -148,7 +148,8 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     lower.append(np.where(np.isfinite(lim[act, 0]), lim[act, 0] / mass - hm[act], -_INF))
     sense.append(np.zeros(int(act.sum())))
     base = len(rows)
-    if equalities is not None and len(equalities[1]):
+    has_eq = equalities is not None and len(equalities[1]) > 0
+    if equalities is not None and has_eq:
         A_eq, b_eq = equalities
         rows.append(np.hstack([np.zeros((len(b_eq), K)), A_eq]))
         upper.append(np.asarray(b_eq, dtype=np.float64))
@@ -169,7 +170,12 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     H = np.ascontiguousarray(H)
     x, flag = _daqp(H, f, K, rows, upper, lower, sense)
     relaxed = flag <= 0 and len(rows) > base
-    if relaxed:  # the equalities, minimum loads and centre-of-pressure bounds cannot hold together
+    if relaxed and has_eq and len(rows) > base + 1:  # first without the hard task rows only
+        log.debug("balance QP: exit flag %d; solved again without the hard task rows", flag)
+        keep = [i for i in range(len(rows)) if i != base]
+        x, flag = _daqp(H, f, K, [rows[i] for i in keep], [upper[i] for i in keep], [lower[i] for i in keep],
+                        [sense[i] for i in keep])
+    if relaxed and flag <= 0:  # the equalities, minimum loads and centre-of-pressure bounds cannot hold together
         log.debug("balance QP: exit flag %d; solved again without the hard task rows, foot loads and "
                   "centre-of-pressure bounds", flag)
         x, flag = _daqp(H, f, K, rows[:base], upper[:base], lower[:base], sense[:base])
