@@ -23,7 +23,8 @@ also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stan
 :mod:`socialaff_sim.sim.balance_control`) and ``balance_steady`` (the same with the steadied base); ``qp`` and
 ``qp_steady``: the same with the quadratic program (:data:`QP`: ``solver="qp"``, ``sole_gap=0.01``,
 ``w_torso=3.0``);
-``--balance FIELD=VALUE ...`` changes the controller's settings for the last four, ``--foot-lock FIELD=VALUE ...``
+``--balance FIELD=VALUE ...`` changes the controller's settings for those of the last four being run (e.g.
+``flat_feet=True``, which needs the QP), ``--foot-lock FIELD=VALUE ...``
 the foot lock's (:class:`~socialaff_sim.sim.footlock.FootLockConfig`) for every mode, ``--labels`` picks
 interactions. After the per-interaction table, one line per robot and mode summarises the contact phases.
 
