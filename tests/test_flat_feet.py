@@ -17,7 +17,7 @@ from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.contact_qp import cop_rows, solve_contact_qp
 from socialaff_sim.sim.episode import foot_drift
-from socialaff_sim.sim.flat_feet import flat_attitude, foot_rows, sole_corners, sole_points
+from socialaff_sim.sim.flat_feet import flat_attitude, flat_contacts, foot_rows, sole_corners, sole_points
 from socialaff_sim.sim.scene import build_scene
 from socialaff_sim.sim.support import FrameSupport, SupportMeter
 import test_balance_control
@@ -238,3 +238,27 @@ def test_a_foot_shaken_in_place_slides_a_long_path_but_drifts_its_amplitude(scen
     fs = meter.end_frame()
     assert fs.slide == pytest.approx(0.12, abs=1e-9)
     assert foot_drift([fs]) == pytest.approx(0.01, abs=1e-9)
+
+
+def test_a_foot_gets_its_corners_and_rows_in_contact_or_within_the_gap_only(scene) -> None:
+    # Stubby at home pressed 1 mm into the floor; the right foot's contacts "lost for a step" (only the left's
+    # passed). Within sole_gap the right foot stands on its corners too (8 points, 12 rows); with the floor 5 cm
+    # lower than its sole (the left's contacts moved down) it is left out (4 points, 6 rows), its live contacts
+    # (none) kept.
+    m = scene.model
+    d = mujoco.MjData(m)
+    d.qpos[scene.robot_qadr] = scene.home_qpos
+    d.qpos[scene.robot_qadr[2]] -= 0.001
+    mujoco.mj_forward(m, d)
+    ctl = test_balance_control.BalanceController(scene, BalanceConfig(solver="qp", flat_feet=True, sole_gap=0.01))
+    pts, frames, which = ctl._foot_contacts(d)
+    left = which == 0
+    anchors = [(d.xpos[b].copy(), d.xmat[b].reshape(3, 3).copy()) for b in ctl._feet]
+    va = np.asarray(scene.robot_vadr)
+    args = (m, d, ctl._feet, ctl._corners, anchors, va)
+    p, f, w, eq = flat_contacts(*args, pts[left], frames[left], which[left], 0.01, 100.0, 20.0)
+    assert sorted(w.tolist()) == [0] * 4 + [1] * 4 and eq is not None and eq[0].shape == (12, len(va))
+    low = pts[left] - [0.0, 0.0, 0.05]
+    p, f, w, eq = flat_contacts(*args, low, frames[left], which[left], 0.01, 100.0, 20.0)
+    assert w.tolist() == [0] * 4 and eq is not None and eq[0].shape == (6, len(va))
+    assert np.allclose(p, sole_points(d.xpos[ctl._feet[0]], d.xmat[ctl._feet[0]].reshape(3, 3), ctl._corners[0])[0])
