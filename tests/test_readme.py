@@ -2,8 +2,8 @@
 
 Runs as a newcomer would, in an empty folder, block after block (the Python API block reads the model the
 "your own recordings" block wrote). Only documented size knobs are made smaller: MCMC iterations
-(``LearningConfig.iterations`` / ``--iterations``), the video size, ``--folds``; and ``evaluate`` runs its
-baselines only (the full model's three MCMC chains per fold take minutes; ``test_evaluation`` covers it).
+where a block sets them (``--iterations``), the video size, ``--folds``; and ``evaluate`` runs its
+baselines only (the full model's three Algorithm 1 fits per fold take minutes; ``test_evaluation`` covers it).
 """
 
 from __future__ import annotations
@@ -62,8 +62,6 @@ def _shrunk(argv: list[str]) -> list[str]:
     out = list(argv)
     if "--iterations" in out:
         out[out.index("--iterations") + 1] = "2"
-    if out[0] == "demo":
-        out += ["--iterations", "2"]
     if out[0] == "evaluate":
         out[out.index("--methods") + 1] = "hmm,promp"
         out[out.index("--folds") + 1] = "2"
@@ -96,7 +94,7 @@ def test_python_blocks_run_in_order(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     own, api, env = _blocks("python")
     monkeypatch.chdir(tmp_path)
     assert main(["data", "synth", "--out", "my_recordings", "--quiet"]) == 0  # as the README says, to try it
-    printed = _run(_shrink(own, ("iterations=30", "iterations=2"), ("width=640, height=480", "width=320, height=240")),
+    printed = _run(_shrink(own, ("width=640, height=480", "width=320, height=240")),
                    tmp_path)
     assert "hands_clasped" in printed
     for name in ("shake_hands.npz", "reaction.mp4", "reaction.png"):

@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from .._atomic import output_folder
-from .validate import declare_outputs, non_negative_int, positive_int
+from .validate import declare_outputs, non_negative_int
 from ..report import write_demo_page
 from .help_format import HelpFormatter
 
@@ -63,7 +63,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--interaction", help="one interaction (default: all five)")
     p.add_argument("--out", default="demo_out", help="output folder (default: demo_out)")
-    p.add_argument("--iterations", type=positive_int, default=30, help="MCMC iterations of the learning (default 30)")
+    p.add_argument("--iterations", type=non_negative_int, default=0,
+                   help="MCMC iterations after Algorithm 1's initial parse (default 0, the library's default)")
     p.add_argument("--robot", default="ours",
                    help="robot to simulate: ours, cmu, unitree_h1, unitree_g1 (these two need --mjcf) or a mapping "
                         ".toml (default ours)")

@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-from .validate import MAX_SUBEVENTS, add_data_options, declare_outputs, int_range, non_negative_int, positive_int
+from .validate import MAX_SUBEVENTS, add_data_options, declare_outputs, int_range, non_negative_int
 from .help_format import HelpFormatter
 
 __all__ = ["register", "run"]
@@ -55,9 +55,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "fit",
         help="learn the social affordance model of one interaction",
         description="Learn sub-events, joint groupings and potentials of one interaction from every instance "
-        "of it in the data (Algorithm 1: MCMC over parses); shows one progress step per iteration. About 30 s "
-        "for 18 synthetic instances at the default 100 iterations.",
-        epilog="example:\n  socialaff-sim fit --data synthetic --interaction shake_hands --out model.npz --iterations 30\n"
+        "of it in the data (Algorithm 1: an initial parse, then --iterations sweeps of MCMC over parses, 0 with the "
+        "default preset and 100 with the paper's); shows one progress step per iteration. About 20 s of CPU "
+        "for 18 synthetic instances with the default preset.",
+        epilog="example:\n  socialaff-sim fit --data synthetic --interaction shake_hands --out model.npz\n"
+        "  socialaff-sim fit --data synthetic --interaction shake_hands --out paper.npz --preset paper\n"
         "  socialaff-sim fit --data npz:my_recordings --interaction hand_over --out hand_over.npz",
         formatter_class=HelpFormatter,
     )
@@ -65,7 +67,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="dataset spec: sbu:PATH, handover:PATH, nuisi:PATH, hhoi:PATH, npz:DIR or synthetic[:SEED]")
     p.add_argument("--interaction", required=True, metavar="NAME", help="interaction label to learn (e.g. shake_hands)")
     p.add_argument("--out", required=True, metavar="MODEL.npz", help="where to write the model")
-    p.add_argument("--iterations", type=positive_int, default=None, help="outer MCMC iterations (default 100)")
+    p.add_argument("--iterations", type=non_negative_int, default=None,
+                   help="outer MCMC iterations after the initial parse (default: the preset's, 0 default, 100 paper)")
     p.add_argument("--subevents", type=int_range(1, MAX_SUBEVENTS), default=None, metavar="S",
                    help=f"|S|, sub-event types, 1 to {MAX_SUBEVENTS} (default: per interaction)")
     p.add_argument("--seed", type=non_negative_int, default=0, help="random seed (default 0)")

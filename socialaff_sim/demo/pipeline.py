@@ -40,8 +40,9 @@ Progress = Callable[[str], None]
 class DemoConfig:
     """Settings of the demo: the real algorithms with settings that finish quickly."""
 
-    iterations: int = 30
-    """[—]: Outer MCMC iterations of Algorithm 1 (the paper uses 100)."""
+    iterations: int = 0
+    """[—]: Outer MCMC iterations of Algorithm 1 after its initial parse (the library's default 0; the paper
+    uses 100)."""
     n_test: int = 3
     """[—]: Held-out instances per interaction (actors never seen in training) for the error table."""
     baselines: tuple[str, ...] = ("hmm", "promp")

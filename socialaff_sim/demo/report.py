@@ -26,7 +26,8 @@ def write_report(path: str | Path, results: Sequence[InteractionResult], config:
         "# socialaff_sim demo report",
         "",
         "The social affordance model (Shu, Ryoo & Zhu, IJCAI 2016) learned on the embedded synthetic dataset "
-        f"({config.iterations} MCMC iterations, seed {config.seed}), the robot's reaction synthesized causally for "
+        f"(the initial parse and {config.iterations} MCMC iterations, seed {config.seed}), the robot's reaction "
+        "synthesized causally for "
         f"humans whose actors were held out of training, retargeted onto the {config.robot!r} robot with mink "
         f"(contact completion {'on' if config.contact_completion else 'off'}) and simulated in MuJoCo.",
         "",
