@@ -103,6 +103,8 @@ def test_action_scale_maps_the_unit_box_to_metres(script, tiny) -> None:  # noqa
     assert env.unwrapped.config.control_dt == settings.control_dt == 0.015  # the environment's default rate
     with pytest.raises(ConfigError, match="action-scale"):
         script.make_env(dataclasses.replace(settings, action_scale=0.31), train, models)
+    assert env.unwrapped.robot.name == "ours"
+    assert script.make_env(dataclasses.replace(settings, robot="cmu"), train, models).unwrapped.robot.name == "cmu"
 
 
 def test_held_out_instances_are_not_training_instances(script, tiny) -> None:  # noqa: ANN001
