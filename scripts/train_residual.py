@@ -81,7 +81,7 @@ from socialaff_sim.data.synthetic.config import SyntheticConfig  # noqa: E402
 from socialaff_sim.environment import SocialAffordanceEnv  # noqa: E402
 from socialaff_sim.environment.config import CONTROL_DT, EnvConfig  # noqa: E402
 from socialaff_sim.environment.reward import RewardConfig  # noqa: E402
-from socialaff_sim.errors import ConfigError  # noqa: E402
+from socialaff_sim.errors import ConfigError, SocialAffError  # noqa: E402
 from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
 from socialaff_sim.learning.config import LearningConfig  # noqa: E402
 
@@ -468,10 +468,14 @@ def main() -> None:
                          "record the steps trained, and --timesteps with that number reproduces the policy")
     args = ap.parse_args()
     kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(Settings) if f.name not in ("labels", "data", "split")}
-    s = Settings(labels=tuple(args.interactions), data=tuple(args.data), split=tuple(args.split), **kw)
-    parse_splits(s.split)  # a bad --split fails before anything runs
     budget = None if args.budget_minutes is None else 60.0 * args.budget_minutes
-    r = run(s, args.out, args.models, budget_s=budget, reference_only=args.reference_only, reference_file=args.reference)
+    try:
+        s = Settings(labels=tuple(args.interactions), data=tuple(args.data), split=tuple(args.split), **kw)
+        parse_splits(s.split)  # a bad --split fails before anything runs
+        r = run(s, args.out, args.models, budget_s=budget, reference_only=args.reference_only, reference_file=args.reference)
+    except SocialAffError as err:  # bad flags or data: one line naming the flag, exit 2 (results are written atomically)
+        print(f"train_residual.py: error: {err}", file=sys.stderr)
+        raise SystemExit(2) from None
     if args.reference_only:
         for lbl, ref in r["train_reference_zero_residual"].items():
             n = sum(row["interaction"] == lbl for row in r["episodes"])

@@ -251,3 +251,16 @@ def test_saved_reference_must_come_from_the_same_training_set(script, tmp_path) 
     for change in ({"seed": 5}, {"held_out_fold": 1}, {"split": ("block",)}, {"data": ("npz:/y",)}):
         with pytest.raises(ConfigError, match=f"--reference .*{next(iter(change))}"):
             script.load_reference(path, dataclasses.replace(settings, **change))
+
+
+def test_bad_flag_is_one_line_and_exit_2(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """A bad ``--split`` ends the script with exit 2 and one line naming the flag, before anything is written."""
+    mod = load_script("train_residual")
+    out = tmp_path / "rl"
+    monkeypatch.setattr("sys.argv", ["train_residual.py", "--out", str(out), "--split", "bogus"])
+    with pytest.raises(SystemExit) as exc:
+        mod.main()
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--split" in err[0] and "bogus" in err[0]
+    assert not out.exists()
