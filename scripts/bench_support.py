@@ -7,7 +7,9 @@ sub-goal's contact holds now; ``metrics.json``'s ``support.contact_phase``):
 
 * outside support (harness force plus gravity compensation) as a fraction of the
   robot's weight: mean over frames, and the peak;
-* foot sliding (cm, summed over the phase's frames, the larger foot), the
+* foot sliding (cm, summed over the phase's frames, the larger foot: the path of the ankle body), the foot's
+  drift (cm, the diagonal of the box of the ankle body's positions on the floor over the phase, the larger foot:
+  how far it got from where it stood, which a foot rocking in place does not add to), the
   deepest robot–floor penetration (cm), the largest actuator force against its
   limit, the fraction of physics steps with a saturated servo or a joint at its
   limit;
@@ -21,7 +23,8 @@ also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stan
 :mod:`socialaff_sim.sim.balance_control`) and ``balance_steady`` (the same with the steadied base); ``qp`` and
 ``qp_steady``: the same with the quadratic program (:data:`QP`: ``solver="qp"``, ``sole_gap=0.01``,
 ``w_torso=3.0``);
-``--balance FIELD=VALUE ...`` changes the controller's settings for the last four, ``--foot-lock FIELD=VALUE ...``
+``--balance FIELD=VALUE ...`` changes the controller's settings for those of the last four being run (e.g.
+``flat_feet=True``, which needs the QP), ``--foot-lock FIELD=VALUE ...``
 the foot lock's (:class:`~socialaff_sim.sim.footlock.FootLockConfig`) for every mode, ``--labels`` picks
 interactions. After the per-interaction table, one line per robot and mode summarises the contact phases.
 
@@ -59,7 +62,7 @@ MODES = {"weight": SimConfig(), "puppet": SimConfig(gravity_compensation=True),
          "balance_steady": SimConfig(balance=BalanceConfig(), stance=StanceConfig(release=False)),
          "qp": SimConfig(balance=QP),
          "qp_steady": SimConfig(balance=QP, stance=StanceConfig(release=False))}
-KEYS = ("released_frames", "outside_support_mean", "outside_support_peak", "foot_slide_cm", "penetration_cm", "torque_ratio_max",
+KEYS = ("released_frames", "outside_support_mean", "outside_support_peak", "foot_slide_cm", "foot_drift_cm", "penetration_cm", "torque_ratio_max",
         "saturated_fraction", "at_joint_limit_fraction", "torso_tilt_deg_max")
 
 
@@ -84,7 +87,7 @@ def main() -> None:
             MODES[mode] = dataclasses.replace(cfg, foot_lock=dataclasses.replace(cfg.foot_lock, **lock))
     if args.balance:
         over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.balance)}
-        for mode in ("balance", "balance_steady", "qp", "qp_steady"):
+        for mode in (m for m in ("balance", "balance_steady", "qp", "qp_steady") if m in args.modes):
             MODES[mode] = dataclasses.replace(MODES[mode], balance=dataclasses.replace(MODES[mode].balance, **over))
     paths = dict(item.split("=", 1) for item in args.mjcf)
     data = generate_dataset(seed=args.seed)
@@ -125,7 +128,7 @@ def main() -> None:
                       f"{top('torque_ratio_max'):>8.2f}{100 * mean('saturated_fraction'):>6.0f}%{100 * mean('at_joint_limit_fraction'):>6.0f}%"
                       f"{100 * released:>9.0f}%")
     print(f"{'robot':<12}{'mode':<16}{'ok':>7}{'support mean':>14}{'range':>12}{'<=5%':>7}{'peak':>7}{'slide med':>10}"
-          f"{'<=2cm':>7}{'sat':>6}{'limit':>7}{'tilt med/max':>14}{'released':>9}")
+          f"{'<=2cm':>7}{'drift med':>10}{'<=2cm':>7}{'torque':>8}{'sat':>6}{'limit':>7}{'tilt med/max':>14}{'released':>9}")
     for robot in args.robots:
         for mode in args.modes:
             sel = [r for r in rows if r["robot"] == robot and r["mode"] == mode]
@@ -134,12 +137,15 @@ def main() -> None:
                 continue
             sup = np.array([r["outside_support_mean"] for r in have])
             slide = np.array([r["foot_slide_cm"] for r in have])
+            drift = np.array([r["foot_drift_cm"] for r in have])
             tilt = np.array([r["torso_tilt_deg_max"] for r in have])
             rel = np.mean([r["released_frames"] / r["contact_frames"] for r in have])
             print(f"{robot:<12}{mode:<16}{sum(r['success'] for r in sel):>3}/{len(sel):<3}{100 * sup.mean():>13.1f}%"
                   f"{100 * sup.min():>6.0f}-{100 * sup.max():<4.0f}%{int((sup <= 0.05).sum()):>3}/{len(have):<3}"
                   f"{100 * max(r['outside_support_peak'] for r in have):>6.0f}%{np.median(slide):>9.1f}"
-                  f"{int((slide <= 2.0).sum()):>4}/{len(have):<3}{100 * np.mean([r['saturated_fraction'] for r in have]):>5.0f}%"
+                  f"{int((slide <= 2.0).sum()):>4}/{len(have):<3}{np.median(drift):>9.1f}{int((drift <= 2.0).sum()):>4}/{len(have):<3}"
+                  f"{max(r['torque_ratio_max'] for r in have):>8.2f}"
+                  f"{100 * np.mean([r['saturated_fraction'] for r in have]):>5.0f}%"
                   f"{100 * np.mean([r['at_joint_limit_fraction'] for r in have]):>6.0f}%"
                   f"{np.median(tilt):>8.1f}/{tilt.max():<5.1f}{100 * rel:>8.0f}%")
     if args.json:

@@ -15,6 +15,9 @@ split) feed the ``primitive`` variants. ``--iterations N``: every affordance mod
 Algorithm 1's MH chain instead of the preset's (traces cached in the subfolder ``itN`` of ``--cache``).
 ``--training-stream``: the cross-fitted training traces' primitive predictions from ``PrimitiveStream``
 (``ProMPConfig.training_stream``); the validation traces keep the batch rule, so only the training side changes.
+``--cross-fit-type-passes N``: the cross-fitted models of the training traces run N type-level restructuring passes
+(``SwitchingConfig.cross_fit_type_passes``; the model fitted on all training instances keeps the preset's); the traces
+are cached under their own name (suffix ``_tpN``).
 ``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
 ``--no-gated``: cheaper traces, no belief-gated variants.
 
@@ -29,6 +32,7 @@ Usage::
 
     python scripts/dev_switching.py --data nuisi:../shared/data/nuisi_v1 --split block [--rotation 0] [--labels a,b]
         [--cache DIR] [--variants default,primitive] [--contiguous] [--no-gated] [--v2] [--iterations N] [--training-stream]
+        [--cross-fit-type-passes N]
 
 Prints one line per class and the averages; the library never imports this script.
 """
@@ -202,7 +206,13 @@ def main() -> None:
     ap.add_argument("--training-stream", action="store_true",
                     help="the training rows' primitive predictions from PrimitiveStream (ProMPConfig.training_stream); "
                          "the validation rows keep the batch rule, so only the training side differs")
+    ap.add_argument("--cross-fit-type-passes", type=int, default=None,
+                    help="type-level restructuring passes of the cross-fitted models only (SwitchingConfig.cross_fit_type_passes; "
+                         "default: the preset's); traces cached apart (suffix _tpN)")
     args = ap.parse_args()
+    if args.cross_fit_type_passes is not None and args.cross_fit_type_passes < 0:
+        raise SystemExit(f"--cross-fit-type-passes: expected an integer >= 0, found {args.cross_fit_type_passes}")
+    passes = args.cross_fit_type_passes
     if args.iterations is not None and args.iterations < 0:
         raise SystemExit(f"--iterations: expected an integer >= 0, found {args.iterations}")
     cache_dir = Path(args.cache) / f"it{args.iterations}" if args.cache and args.iterations is not None else Path(args.cache)
@@ -221,7 +231,7 @@ def main() -> None:
         val = [insts[i] for i in val_idx if insts[i].n_frames > T0 + 1]
         rng = np.random.default_rng(args.seed)
         t0 = time.perf_counter()
-        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}.pkl" if args.cache else None
+        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}{f'_tp{passes}' if passes is not None else ''}.pkl" if args.cache else None
         model_s = float("nan")  # the model fit alone (Algorithm 1 and the body clusters; nan: read from the cache)
         if cache is not None and cache.exists():
             S, tr_traces, va_traces = pickle.loads(cache.read_bytes())
@@ -231,7 +241,7 @@ def main() -> None:
             method.fit(train, rng=rng)
             model_s = time.perf_counter() - t_model
             syn = dataclasses.replace(method.synthesis, n_observed=T0)
-            tr_traces = method._training_traces(train, SwitchingConfig(families=FAMILIES if args.no_gated else GATED_FAMILIES, cross_fit=args.cross_fit, contiguous=args.contiguous), rng)
+            tr_traces = method._training_traces(train, SwitchingConfig(families=FAMILIES if args.no_gated else GATED_FAMILIES, cross_fit=args.cross_fit, contiguous=args.contiguous, cross_fit_type_passes=passes), rng)
             va_traces = [trace(method.model_, method.body_, i, syn, rng) for i in val]
             S = method.model_.n_subevents_
             if cache is not None:
@@ -278,7 +288,7 @@ def main() -> None:
                 rng2 = np.random.default_rng(args.seed)
                 m2 = _with_iterations(AffordanceMethod.from_preset("v2", "default", reaction=None), args.iterations).fit(train, rng=rng2)
                 syn2 = dataclasses.replace(m2.synthesis, n_observed=T0)
-                tr2 = m2._training_traces(train, SwitchingConfig(families=FAMILIES, cross_fit=args.cross_fit, contiguous=args.contiguous), rng2)
+                tr2 = m2._training_traces(train, SwitchingConfig(families=FAMILIES, cross_fit=args.cross_fit, contiguous=args.contiguous, cross_fit_type_passes=passes), rng2)
                 va2 = [trace(m2.model_, m2.body_, i, syn2, rng2) for i in val]
                 S2 = m2.model_.n_subevents_
                 if v2_cache is not None:

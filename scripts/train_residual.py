@@ -8,15 +8,19 @@ control period, ``--control-dt``; ``none`` gives the older one step per data fra
 the policy may change its residual every control step. This script:
 
 1. generates the synthetic training data (``--seed``; ``--train-instances`` per
-   interaction) and fits one affordance model per interaction on it (or loads
-   them with ``--models DIR``);
+   interaction) — or, with ``--data SPEC ...`` (``handover:PATH``, ``sbu:PATH``,
+   ``nuisi:PATH``, ...), splits each recorded (dataset, label) class into ``--folds``
+   folds under ``--split`` (pair-disjoint by default, NuiSI by contiguous block)
+   and trains on all folds but ``--held-out-fold`` — and fits one affordance model
+   per label on the training instances (or loads them with ``--models DIR``);
 2. trains one PPO policy (Stable-Baselines3, observations flattened and
    normalized with ``VecNormalize``, actions in [−1, 1]) on episodes
    of those training instances, both interactions in one environment (the
    observation carries the interaction's one-hot);
 3. evaluates, on HELD-OUT instances — a second synthetic dataset generated with
    seed ``--seed + 1`` (other actors' bodies, other instances; none of them seen
-   by the model fit or by the policy) — the trained residual (deterministic
+   by the model fit or by the policy), or the held-out fold of the recordings —
+   the trained residual (deterministic
    actions) against the affordance model alone (zero residual), one episode per
    held-out instance, the same reset seed for both policies, so every pair of
    episodes shares the instance and the synthesizer's sampling: the comparison
@@ -27,12 +31,20 @@ the policy may change its residual every control step. This script:
    the policy ``residual_ppo.zip`` and its observation statistics
    ``vecnormalize.pkl``.
 
+``--reference-only`` stops after step 1 and plays the zero residual on the TRAINING
+instances alone (``reference.json``): how much room a residual has, measured without
+touching the held-out instances.
+
 "Success" is the environment's ``info["success"]``: every sub-goal of the task
 met and no failure condition triggered. The target (issue 26): the trained
 residual's success minus the affordance model's, paired over the held-out
 episodes, has a 95 % interval above zero. Needs the ``[rl]`` extra. Example::
 
     OMP_NUM_THREADS=1 nice -n 10 python scripts/train_residual.py --timesteps 300000 --out rl_out
+    # on the shared recordings (labels of one task, e.g. shaking_hands and handshake, are one stratum):
+    OMP_NUM_THREADS=1 nice -n 10 python scripts/train_residual.py --out rl_real \
+        --data handover:../shared/data/handover_h2h sbu:../shared/data/sbu_kinect_interaction nuisi:../shared/data/nuisi_v1 \
+        --interactions hand_over shaking_hands handshake
 """
 
 from __future__ import annotations
@@ -45,6 +57,7 @@ import argparse  # noqa: E402
 import dataclasses  # noqa: E402
 import json  # noqa: E402
 import time  # noqa: E402
+import sys  # noqa: E402
 import zlib  # noqa: E402
 from collections.abc import Callable, Mapping, Sequence  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -57,7 +70,6 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
-from scipy import stats  # noqa: E402
 from stable_baselines3 import PPO  # noqa: E402
 from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
 from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize  # noqa: E402
@@ -69,10 +81,15 @@ from socialaff_sim.data.synthetic.config import SyntheticConfig  # noqa: E402
 from socialaff_sim.environment import SocialAffordanceEnv  # noqa: E402
 from socialaff_sim.environment.config import CONTROL_DT, EnvConfig  # noqa: E402
 from socialaff_sim.environment.reward import RewardConfig  # noqa: E402
-from socialaff_sim.errors import ConfigError  # noqa: E402
-from socialaff_sim.evaluation.compare import paired_difference  # noqa: E402
+from socialaff_sim.errors import ConfigError, SocialAffError  # noqa: E402
 from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
 from socialaff_sim.learning.config import LearningConfig  # noqa: E402
+
+_HERE = str(Path(__file__).resolve().parent)
+if _HERE not in sys.path:  # run as `python scripts/train_residual.py` it is sys.path[0]; the tests load this file by path
+    sys.path.append(_HERE)
+from _residual_data import DEFAULT_SPLITS, parse_splits, real_split  # noqa: E402
+from _residual_stats import summarize  # noqa: E402
 
 LABELS = ("shake_hands", "hand_over")
 RESIDUAL_BOUND = EnvConfig().residual_bound
@@ -128,11 +145,29 @@ class Settings:
     ``None``: one env step per data frame, as the first two recorded runs were trained and evaluated."""
     max_frames: int | None = None
     """Cut every instance to its first frames (short episodes; tests only)."""
+    robot: str = "ours"
+    """The environment's robot."""
+    data: tuple[str, ...] = ()
+    """Recorded dataset specs (``handover:PATH``, ``sbu:PATH``, ``nuisi:PATH``, ...); empty: the synthetic
+    datasets (seeds ``seed`` and ``seed + 1``). Each (dataset, label) class is split on its own
+    (``scripts/_residual_data.py``); ``train_instances`` / ``eval_instances`` are then unused."""
+    split: tuple[str, ...] = DEFAULT_SPLITS
+    """Split of the recorded data: a name for every dataset kind, ``KIND=NAME`` for one kind
+    (:data:`socialaff_sim.evaluation.splits.SPLITS`)."""
+    folds: int = 2
+    """Folds each recorded class is dealt into; one is held out, the others are trained on."""
+    held_out_fold: int = 0
+    """The fold held out."""
 
 
 # -- data and environments -----------------------------------------------------------------------------------------
 def build_data(s: Settings) -> tuple[list[Interaction], list[Interaction]]:
-    """(training instances, held-out instances): two synthetic datasets, seeds ``s.seed`` and ``s.seed + 1``."""
+    """(training instances, held-out instances): with ``s.data``, the recorded classes split as
+    :func:`_residual_data.real_split` splits them; otherwise two synthetic datasets, seeds ``s.seed`` and
+    ``s.seed + 1``."""
+    if s.data:
+        train_r, held_r, _ = real_split(s.data, s.labels, parse_splits(s.split), s.folds, s.held_out_fold, s.seed)
+        return train_r, held_r
     train = generate_dataset(s.seed, SyntheticConfig(interactions=s.labels, instances_per_interaction=s.train_instances))
     held = generate_dataset(s.seed + 1, SyntheticConfig(interactions=s.labels, instances_per_interaction=s.eval_instances))
     return list(train.interactions), list(held.interactions)
@@ -157,7 +192,7 @@ def make_env(s: Settings, instances: Sequence[Interaction], models: Mapping[str,
         raise ConfigError(f"--action-scale: expected a residual in (0, {RESIDUAL_BOUND}] m, found {s.action_scale!r}")
     reward = dataclasses.replace(RewardConfig(), affordance_weight=s.train_affordance_weight) if training else None
     env: gym.Env = SocialAffordanceEnv(interactions=list(s.labels), data=list(instances), action_mode="residual",
-                                       model=dict(models), physics=s.physics, max_frames=s.max_frames,
+                                       model=dict(models), physics=s.physics, robot=s.robot, max_frames=s.max_frames,
                                        control_dt=s.control_dt, reward=reward)
     env = gym.wrappers.FlattenObservation(env)
     shape = env.action_space.shape
@@ -238,7 +273,10 @@ def zero_policy(obs: np.ndarray) -> np.ndarray:
 # -- evaluation ----------------------------------------------------------------------------------------------------
 def run_episodes(env: gym.Env, episodes: Sequence[tuple[str, int]], policy: Policy) -> list[dict[str, Any]]:
     """One episode per (instance id, reset seed); per-episode return (and its ``reward_<term>`` sums), success,
-    sub-goals, failures, the termination reason and the mean |action| (policy units, [0, 1])."""
+    sub-goals, failures, the termination reason and the mean |action| (policy units, [0, 1]). ``interaction``
+    is the instance's label, ``task`` the interaction of its task file (``shaking_hands`` and ``handshake``
+    are both ``shake_hands``)."""
+    tasks = env.unwrapped.pool.tasks  # type: ignore[attr-defined]
     rows = []
     for instance, seed in episodes:
         obs, _ = env.reset(seed=seed, options={"instance": instance})
@@ -255,67 +293,14 @@ def run_episodes(env: gym.Env, episodes: Sequence[tuple[str, int]], policy: Poli
             if terminated or truncated:
                 break
         subgoals = dict(info["subgoals"])
-        rows.append({"instance": instance, "seed": seed, "interaction": info["interaction"], "return": total,
+        rows.append({"instance": instance, "seed": seed, "interaction": info["interaction"],
+                     "task": tasks[info["interaction"]].interaction, "return": total,
                      "steps": steps, "success": bool(info["success"]), "failed": bool(info["failed"]),
                      "failures": sorted(k for k, hit in info["failures"].items() if hit),
                      "termination_reason": info["termination_reason"], "reward_terms": terms,
                      "mean_abs_action": action_sum / steps,
                      "subgoals": subgoals, "subgoals_met": float(np.mean(list(subgoals.values())))})
     return rows
-
-
-def wilson(k: int, n: int) -> tuple[float, float]:
-    """Wilson score 95 % interval of a binomial proportion k / n."""
-    ci = stats.binomtest(k, n).proportion_ci(0.95, method="wilson")
-    return float(ci.low), float(ci.high)
-
-
-def _by_label(rows: Sequence[Mapping[str, Any]], key: str) -> dict[str, np.ndarray]:
-    out: dict[str, list[float]] = {}
-    for r in rows:
-        out.setdefault(r["interaction"], []).append(float(r[key]))
-    return {k: np.array(v) for k, v in sorted(out.items())}
-
-
-def _policy_summary(rows: Sequence[Mapping[str, Any]], rng: np.random.Generator) -> dict[str, Any]:
-    k, n = sum(r["success"] for r in rows), len(rows)
-    ret, ret_lo, ret_hi = paired_difference(list(_by_label(rows, "return").values()), rng=rng)
-    return {"episodes": n, "successes": int(k), "success_rate": k / n, "success_ci95": wilson(int(k), n),
-            "subgoals_met": float(np.mean([r["subgoals_met"] for r in rows])),
-            "failure_rate": float(np.mean([r["failed"] for r in rows])),
-            "mean_return": ret, "mean_return_ci95": (ret_lo, ret_hi)}
-
-
-def summarize(residual: Sequence[Mapping[str, Any]], zero: Sequence[Mapping[str, Any]], seed: int) -> dict[str, Any]:
-    """Rates and the paired residual − zero differences, overall (classes weighted equally) and per interaction.
-
-    Episodes are paired by (instance, seed); the difference intervals are stratified percentile bootstraps over
-    the pairs (:func:`socialaff_sim.evaluation.compare.paired_difference`). ``target_met``: the overall success
-    difference's interval lies above zero."""
-    key = {(r["instance"], r["seed"]): r for r in zero}
-    if sorted(key) != sorted((r["instance"], r["seed"]) for r in residual):
-        raise ConfigError("summarize: the two policies must be evaluated on the same (instance, seed) episodes")
-    pairs = [(r, key[(r["instance"], r["seed"])]) for r in residual]
-    rng = np.random.default_rng(seed)
-
-    def block(sel: Sequence[tuple[Mapping[str, Any], Mapping[str, Any]]]) -> dict[str, Any]:
-        res, ref = [p[0] for p in sel], [p[1] for p in sel]
-        out: dict[str, Any] = {"residual": _policy_summary(res, rng), "zero_residual": _policy_summary(ref, rng)}
-        for metric in ("success", "subgoals_met", "return"):
-            diffs: dict[str, list[float]] = {}
-            for a, b in sel:
-                diffs.setdefault(a["interaction"], []).append(float(a[metric]) - float(b[metric]))
-            mean, lo, hi = paired_difference([np.array(v) for _, v in sorted(diffs.items())], rng=rng)
-            out[f"paired_{metric}_difference"] = {"mean": mean, "ci95": (lo, hi)}
-        out["residual_only_successes"] = sum(a["success"] and not b["success"] for a, b in sel)
-        out["zero_only_successes"] = sum(b["success"] and not a["success"] for a, b in sel)
-        return out
-
-    summary = block(pairs)
-    summary["per_interaction"] = {lbl: block([p for p in pairs if p[0]["interaction"] == lbl])
-                                  for lbl in sorted({p[0]["interaction"] for p in pairs})}
-    summary["target_met"] = bool(summary["paired_success_difference"]["ci95"][0] > 0.0)
-    return summary
 
 
 # -- learning curve ------------------------------------------------------------------------------------------------
@@ -348,13 +333,58 @@ def plot_curve(rows: Sequence[Mapping[str, Any]], reference: Mapping[str, Mappin
 
 
 # -- the whole run -------------------------------------------------------------------------------------------------
+def describe_split(s: Settings, train: Sequence[Interaction], held: Sequence[Interaction]) -> dict[str, Any]:
+    """What was trained on and what was held out: instance ids per label."""
+    def ids(insts: Sequence[Interaction]) -> dict[str, list[str]]:
+        return {lbl: [i.instance_id for i in insts if i.label == lbl] for lbl in sorted({i.label for i in insts})}
+    if s.data:
+        what = (f"recorded: {', '.join(s.data)}; split {' '.join(s.split)}, fold {s.held_out_fold} of {s.folds} "
+                f"held out per (dataset, label), seed {s.seed}")
+    else:
+        what = (f"synthetic dataset seed {s.seed + 1}, {s.eval_instances} instances per interaction "
+                f"(training: seed {s.seed}, {s.train_instances} per interaction)")
+    return {"held_out": what, "train_ids": ids(train), "held_out_ids": ids(held)}
+
+
+def reference_rows(s: Settings, train_set: Sequence[Interaction],
+                   models: Mapping[str, SocialAffordanceModel]) -> tuple[list[dict[str, Any]], dict[str, dict[str, float]]]:
+    """The zero residual once on every TRAINING instance, with the training reward: the episode rows and, per
+    label, the success rate and mean return (the learning curve's dashed references)."""
+    train_env = make_env(s, train_set, models, training=True)
+    train_eps = [(i.instance_id, s.seed + k) for k, i in enumerate(train_set)]
+    ref_rows = run_episodes(train_env, train_eps, zero_policy)
+    reference = {lbl: {"success": float(np.mean([r["success"] for r in ref_rows if r["interaction"] == lbl])),
+                       "return": float(np.mean([r["return"] for r in ref_rows if r["interaction"] == lbl]))}
+                 for lbl in s.labels}
+    return ref_rows, reference
+
+
+REFERENCE_KEYS = ("labels", "seed", "train_instances", "fit_iterations", "train_affordance_weight", "physics",
+                  "control_dt", "max_frames", "robot", "data", "split", "folds", "held_out_fold")
+"""Settings a ``reference.json`` must share with a run that reuses it (the training set, the models and the
+training reward)."""
+
+
+def load_reference(path: Path, s: Settings) -> dict[str, dict[str, float]]:
+    """The zero-residual reference of a ``--reference-only`` run, checked to be of the same training set."""
+    saved = json.loads(path.read_text())
+    mine = json.loads(json.dumps(dataclasses.asdict(s)))
+    differ = [k for k in REFERENCE_KEYS if saved["settings"].get(k) != mine[k]]
+    if differ:
+        raise ConfigError(f"--reference {path}: made with other settings ({', '.join(differ)}); expected the run's own")
+    return saved["train_reference_zero_residual"]
+
+
 def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[str], None] = lambda m: print(m, flush=True),
-        budget_s: float | None = None) -> dict[str, Any]:
+        budget_s: float | None = None, reference_only: bool = False, reference_file: Path | None = None) -> dict[str, Any]:
     """Fit (or load), train (at most ``budget_s`` s of wall time, if given), evaluate and write everything into
-    ``out``; returns the results written."""
+    ``out``; returns the results written. ``reference_only``: stop after the zero residual on the training
+    instances (no training, nothing held out is played) and write ``reference.json``; ``reference_file``: take
+    the learning curve's zero-residual reference from such a file instead of playing it again."""
     out.mkdir(parents=True, exist_ok=True)
     wall0, cpu0 = time.perf_counter(), time.process_time()
     train_set, held_out = build_data(s)
+    split = describe_split(s, train_set, held_out)
     if models_dir is not None:
         models = {lbl: SocialAffordanceModel.load(models_dir / f"{lbl}.npz") for lbl in s.labels}
     else:
@@ -362,7 +392,16 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
         (out / "models").mkdir(exist_ok=True)
         for lbl, m in models.items():
             m.save(out / "models" / f"{lbl}.npz")
-    log(f"models ready ({time.perf_counter() - wall0:.0f} s); training {s.timesteps} steps on {len(train_set)} instances")
+    reference_saved = None if reference_file is None else load_reference(reference_file, s)
+    log(f"models ready ({time.perf_counter() - wall0:.0f} s)")
+    if reference_only:
+        ref_rows, reference = reference_rows(s, train_set, models)
+        ref = {"settings": dataclasses.asdict(s), "split": split, "train_reference_zero_residual": reference,
+               "total_wall_s": time.perf_counter() - wall0, "total_cpu_s": time.process_time() - cpu0,
+               "episodes": ref_rows}
+        atomic_write_text(out / "reference.json", json.dumps(ref, indent=2))
+        return ref
+    log(f"training {s.timesteps} steps on {len(train_set)} instances")
     wall1 = time.perf_counter()
     agent, norm, recorder = train(s, train_set, models, log, budget_s)
     train_wall = time.perf_counter() - wall1
@@ -372,12 +411,7 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
     log(f"trained in {train_wall:.0f} s wall ({len(curve)} training episodes); evaluating")
 
     # Reference for the curve: the zero residual once on every training instance, with the training reward.
-    train_env = make_env(s, train_set, models, training=True)
-    train_eps = [(i.instance_id, s.seed + k) for k, i in enumerate(train_set)]
-    ref_rows = run_episodes(train_env, train_eps, zero_policy)
-    reference = {lbl: {"success": float(np.mean([r["success"] for r in ref_rows if r["interaction"] == lbl])),
-                       "return": float(np.mean([r["return"] for r in ref_rows if r["interaction"] == lbl]))}
-                 for lbl in s.labels}
+    reference = reference_saved if reference_saved is not None else reference_rows(s, train_set, models)[1]
     plot_curve(curve, reference, out / "learning_curve.png")
 
     # Held-out evaluation: the same (instance, reset seed) pairs for both policies.
@@ -388,8 +422,7 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
     summary = summarize(rows_res, rows_zero, s.seed)
     results = {
         "settings": dataclasses.asdict(s),
-        "held_out": f"synthetic dataset seed {s.seed + 1}, {s.eval_instances} instances per interaction "
-                    f"(training: seed {s.seed}, {s.train_instances} per interaction)",
+        "held_out": split["held_out"], "split": split,
         "train_wall_s": train_wall, "total_wall_s": time.perf_counter() - wall0,
         "total_cpu_s": time.process_time() - cpu0, "training_episodes": len(curve),
         "timesteps_trained": recorder.updated_timesteps, "stopped_by_budget": recorder.stopped,
@@ -414,21 +447,43 @@ def main() -> None:
     ap.add_argument("--models", type=Path, default=None, help="load <interaction>.npz from here instead of fitting")
     ap.add_argument("--interactions", nargs="+", default=list(d.labels))
     for f in dataclasses.fields(Settings):
-        if f.name in ("labels", "max_frames", "control_dt"):
+        if f.name in ("labels", "max_frames", "control_dt", "data", "split"):
             continue
         ap.add_argument("--" + f.name.replace("_", "-"), type=type(f.default), default=f.default)
     ap.add_argument("--max-frames", type=int, default=None)
+    ap.add_argument("--data", nargs="+", default=list(d.data), metavar="SPEC",
+                    help="recorded dataset specs (handover:PATH sbu:PATH nuisi:PATH ...); default: synthetic")
+    ap.add_argument("--split", nargs="+", default=list(d.split), metavar="[KIND=]NAME",
+                    help=f"split of the recorded data, per dataset kind (default: {' '.join(d.split)})")
+    ap.add_argument("--reference", type=Path, default=None, metavar="JSON",
+                    help="the learning curve's zero-residual reference from a --reference-only run's reference.json "
+                         "(same settings) instead of playing the training instances again")
+    ap.add_argument("--reference-only", action="store_true",
+                    help="fit the models and play the zero residual on the training instances only; write "
+                         "reference.json and stop (no training, no held-out episode)")
     ap.add_argument("--control-dt", type=_control_dt, default=d.control_dt,
                     help=f"env control period in s (default {d.control_dt}); 'none': one env step per data frame")
     ap.add_argument("--budget-minutes", type=float, default=None,
                     help="stop training after the first rollout that ends past this much wall time; the results "
                          "record the steps trained, and --timesteps with that number reproduces the policy")
     args = ap.parse_args()
-    kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(Settings) if f.name != "labels"}
-    s = Settings(labels=tuple(args.interactions), **kw)
-    r = run(s, args.out, args.models, budget_s=None if args.budget_minutes is None else 60.0 * args.budget_minutes)
+    kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(Settings) if f.name not in ("labels", "data", "split")}
+    budget = None if args.budget_minutes is None else 60.0 * args.budget_minutes
+    try:
+        s = Settings(labels=tuple(args.interactions), data=tuple(args.data), split=tuple(args.split), **kw)
+        parse_splits(s.split)  # a bad --split fails before anything runs
+        r = run(s, args.out, args.models, budget_s=budget, reference_only=args.reference_only, reference_file=args.reference)
+    except SocialAffError as err:  # bad flags or data: one line naming the flag, exit 2 (results are written atomically)
+        print(f"train_residual.py: error: {err}", file=sys.stderr)
+        raise SystemExit(2) from None
+    if args.reference_only:
+        for lbl, ref in r["train_reference_zero_residual"].items():
+            n = sum(row["interaction"] == lbl for row in r["episodes"])
+            print(f"{lbl:14s} zero residual on the training instances: success {ref['success']:.3f} (n={n}), "
+                  f"return {ref['return']:.2f}")
+        return
     sm = r["summary"]
-    for name, block in [("all", sm), *sm["per_interaction"].items()]:
+    for name, block in [("all", sm), *sm["per_interaction"].items(), *sm.get("per_label", {}).items()]:
         for pol in ("zero_residual", "residual"):
             p = block[pol]
             print(f"{name:12s} {pol:14s} success {p['success_rate']:.3f} [{p['success_ci95'][0]:.3f}, "

@@ -4,6 +4,7 @@ method end to end (default preset uses it, the paper preset does not)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -300,3 +301,34 @@ def test_training_plans_are_cross_fitted(monkeypatch: pytest.MonkeyPatch, rng: n
     traces = m._training_traces(insts, SwitchingConfig(families=GATED_FAMILIES), rng)
     assert all(np.all(t.plan == 0.0) and np.all(t.belief == 1.0) for t in traces)
     assert len(fitted) >= 3 and all(len(ids) < len(insts) for ids in fitted[1:])
+
+
+def test_cross_fit_type_passes_reach_the_cross_fitted_models_only(monkeypatch: pytest.MonkeyPatch, rng: np.random.Generator) -> None:
+    """``SwitchingConfig.cross_fit_type_passes`` sets the restructuring passes of the cross-fitted models; None keeps
+    the method's own learning configuration (the model on all instances is not fitted here and keeps it too)."""
+    seen: list[LearningConfig | None] = []
+
+    class FakeModel:
+        def __init__(self, config: object, learning: LearningConfig | None) -> None:
+            seen.append(learning)
+
+        def fit(self, insts: list[Interaction], *, rng: np.random.Generator) -> FakeModel:
+            return self
+
+    def fake_trace(model: FakeModel, body: object, inst: Interaction, config: object, rng: object) -> Trace:
+        T = inst.n_frames
+        return Trace(belief=np.zeros((T, 2)), phase=np.zeros(T), plan=np.zeros((T, 5, 3)), skeleton=np.zeros((T, 5, 3)))
+
+    monkeypatch.setattr(methods_module, "SocialAffordanceModel", FakeModel)
+    monkeypatch.setattr(methods_module, "trace", fake_trace)
+    insts = [_instance(rng, k) for k in range(6)]
+    own = LearningConfig(init_type_passes=3, init_rounds=4)
+    m = AffordanceMethod("full", learning=own)
+    m.body_ = None
+    m._training_traces(insts, SwitchingConfig(families=FAMILIES), rng)
+    assert len(seen) == 2 and all(cfg is own for cfg in seen)
+    seen.clear()
+    m._training_traces(insts, SwitchingConfig(families=FAMILIES, cross_fit_type_passes=0), rng)
+    assert len(seen) == 2 and all(cfg == dataclasses.replace(own, init_type_passes=0) for cfg in seen)
+    with pytest.raises(ConfigError):
+        SwitchingConfig(cross_fit_type_passes=-1)

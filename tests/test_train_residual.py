@@ -25,6 +25,10 @@ pytest.importorskip("stable_baselines3")  # the [rl] extra
 from stable_baselines3 import PPO  # noqa: E402
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize  # noqa: E402
 
+from socialaff_sim.data.dataset import Dataset  # noqa: E402
+from socialaff_sim.data.npz_format import save_dataset  # noqa: E402
+from socialaff_sim.data.synthetic import generate_dataset  # noqa: E402
+from socialaff_sim.data.synthetic.config import SyntheticConfig  # noqa: E402
 from socialaff_sim.environment import SocialAffordanceEnv  # noqa: E402
 from socialaff_sim.environment.episode_end import TERMINATION_REASONS  # noqa: E402
 from socialaff_sim.errors import ConfigError  # noqa: E402
@@ -99,6 +103,8 @@ def test_action_scale_maps_the_unit_box_to_metres(script, tiny) -> None:  # noqa
     assert env.unwrapped.config.control_dt == settings.control_dt == 0.015  # the environment's default rate
     with pytest.raises(ConfigError, match="action-scale"):
         script.make_env(dataclasses.replace(settings, action_scale=0.31), train, models)
+    assert env.unwrapped.robot.name == "ours"
+    assert script.make_env(dataclasses.replace(settings, robot="cmu"), train, models).unwrapped.robot.name == "cmu"
 
 
 def test_held_out_instances_are_not_training_instances(script, tiny) -> None:  # noqa: ANN001
@@ -195,3 +201,66 @@ def test_wall_clock_budget_stops_after_a_whole_rollout(script, tiny) -> None:  #
     assert recorder.stopped and recorder.updated_timesteps == rollout
     assert agent.num_timesteps == rollout + settings.n_envs  # one step of the next rollout, then the stop
     assert all(r["timesteps"] <= rollout for r in recorder.rows)
+
+
+def test_summary_strata_are_tasks_not_labels(script) -> None:  # noqa: ANN001
+    # Two labels of one task (SBU's shaking_hands, NuiSI's handshake) are one stratum; a third task is another.
+    def row(label: str, task: str, k: int, success: bool) -> dict:
+        return {**_row(label, k, success, float(success)), "task": task}
+
+    res = [row("shaking_hands", "shake_hands", 0, True), row("handshake", "shake_hands", 1, True),
+           row("handshake", "shake_hands", 2, True), row("hand_over", "hand_over", 3, False)]
+    zero = [row("shaking_hands", "shake_hands", 0, False), row("handshake", "shake_hands", 1, True),
+            row("handshake", "shake_hands", 2, True), row("hand_over", "hand_over", 3, False)]
+    s = script.summarize(res, zero, seed=0)
+    assert set(s["per_interaction"]) == {"shake_hands", "hand_over"}
+    assert set(s["per_label"]) == {"shaking_hands", "handshake", "hand_over"}
+    # by task: (1/3 + 0) / 2; weighting the three labels equally would give (1 + 0 + 0) / 3
+    np.testing.assert_allclose(s["paired_success_difference"]["mean"], (1 / 3) / 2, atol=1e-12)
+    assert s["per_label"]["shaking_hands"]["paired_success_difference"]["mean"] == 1.0
+    assert "per_label" not in script.summarize(res[3:], zero[3:], seed=0)
+
+
+def test_reference_only_plays_the_training_recordings_and_nothing_else(script, tmp_path) -> None:  # noqa: ANN001
+    insts = list(generate_dataset(7, SyntheticConfig(interactions=("shake_hands",), instances_per_interaction=4)))
+    recorded = [inst.replace(label="handshake", actors=(f"a{k}", f"b{k}"), instance_id=f"rec_{k}")
+                for k, inst in enumerate(insts)]
+    save_dataset(Dataset("rec", recorded), tmp_path / "rec")
+    settings = script.Settings(labels=("handshake",), data=(f"npz:{tmp_path / 'rec'}",), split=("pair",), folds=2,
+                               fit_iterations=1, max_frames=15, seed=2)
+    ref = script.run(settings, tmp_path / "out", log=lambda m: None, reference_only=True)
+    split = ref["split"]
+    train_ids, held_ids = split["train_ids"]["handshake"], split["held_out_ids"]["handshake"]
+    assert len(train_ids) == len(held_ids) == 2 and not set(train_ids) & set(held_ids)
+    assert sorted(r["instance"] for r in ref["episodes"]) == sorted(train_ids)  # no held-out instance is played
+    assert {r["task"] for r in ref["episodes"]} == {"shake_hands"} and {r["interaction"] for r in ref["episodes"]} == {"handshake"}
+    assert ref["train_reference_zero_residual"]["handshake"]["success"] == np.mean([r["success"] for r in ref["episodes"]])
+    assert (tmp_path / "out" / "reference.json").is_file() and (tmp_path / "out" / "models" / "handshake.npz").is_file()
+    assert not (tmp_path / "out" / "residual_ppo.zip").exists()
+    again = script.build_data(settings)  # the split is a function of the settings
+    assert [i.instance_id for i in again[0]] == train_ids and [i.instance_id for i in again[1]] == held_ids
+
+
+def test_saved_reference_must_come_from_the_same_training_set(script, tmp_path) -> None:  # noqa: ANN001
+    settings = script.Settings(data=("npz:/x",), labels=("handshake",), seed=4)
+    ref = {"handshake": {"success": 0.5, "return": 3.0}}
+    path = tmp_path / "reference.json"
+    path.write_text(json.dumps({"settings": dataclasses.asdict(settings), "train_reference_zero_residual": ref}))
+    assert script.load_reference(path, settings) == ref
+    assert script.load_reference(path, dataclasses.replace(settings, timesteps=5)) == ref  # training budget: free
+    for change in ({"seed": 5}, {"held_out_fold": 1}, {"split": ("block",)}, {"data": ("npz:/y",)}):
+        with pytest.raises(ConfigError, match=f"--reference .*{next(iter(change))}"):
+            script.load_reference(path, dataclasses.replace(settings, **change))
+
+
+def test_bad_flag_is_one_line_and_exit_2(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """A bad ``--split`` ends the script with exit 2 and one line naming the flag, before anything is written."""
+    mod = load_script("train_residual")
+    out = tmp_path / "rl"
+    monkeypatch.setattr("sys.argv", ["train_residual.py", "--out", str(out), "--split", "bogus"])
+    with pytest.raises(SystemExit) as exc:
+        mod.main()
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--split" in err[0] and "bogus" in err[0]
+    assert not out.exists()

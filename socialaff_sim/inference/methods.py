@@ -224,9 +224,12 @@ class AffordanceMethod:
                     own = [primitive_trace(self.primitive_, self.body_, tr, inst, cfg.n_observed) for tr, inst in zip(own, inters, strict=True)]
                 return own
         out: dict[int, Trace] = {}
+        learning = self.learning
+        if reaction.cross_fit_type_passes is not None:  # cheaper cross-fitted models (issue 24)
+            learning = dataclasses.replace(learning or LearningConfig(), init_type_passes=reaction.cross_fit_type_passes)
         for part in parts:
             rest = [inst for i, inst in enumerate(inters) if i not in set(part)]
-            model = SocialAffordanceModel(self.model_config, self.learning).fit(rest, rng=rng)
+            model = SocialAffordanceModel(self.model_config, learning).fit(rest, rng=rng)
             primitive = InteractionPrimitive(reaction.primitive).fit(rest) if reaction.needs_primitive else None
             for i in part:
                 out[i] = trace(model, self.body_, inters[i], cfg, rng)

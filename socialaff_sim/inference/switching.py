@@ -121,6 +121,10 @@ class SwitchingConfig:
     of sample, as at test. 1: from the model
     fitted on all of them, in sample, which the inner CV then over-trusts (NuiSI's development split, docs/design.md).
     The beliefs and phases always come from the model fitted on all of them (its sub-event labels are the test's)."""
+    cross_fit_type_passes: int | None = None
+    """[—]: ``LearningConfig.init_type_passes`` of the cross-fitted models only (Algorithm 1's type-level restructuring
+    passes; 0: none); None: the method's own, as for the model fitted on all instances. Fewer passes make the fit
+    cheaper and change the cross-fitted plans (issue 24; docs/design.md §8, "Fit time")."""
     penalties: tuple[float, ...] = (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0)
     """λ [—]: Ridge penalties the inner CV chooses among (unit-RMS features, rows weighing one per instance)."""
     inner_folds: int = 3
@@ -150,6 +154,8 @@ class SwitchingConfig:
             raise ConfigError(f"families: a set holds at most one of the priors {PRIORS}")
         if self.cross_fit < 1:
             raise ConfigError(f"cross_fit: expected at least 1, found {self.cross_fit}")
+        if self.cross_fit_type_passes is not None and self.cross_fit_type_passes < 0:
+            raise ConfigError(f"cross_fit_type_passes: expected None or at least 0, found {self.cross_fit_type_passes}")
         if self.blend_steps < 1:
             raise ConfigError(f"blend_steps: expected at least 1, found {self.blend_steps}")
         if self.inner_folds < 2:

@@ -30,7 +30,9 @@ from .initial import hard_em_parses
 from .interval_table import IntervalTable
 from .mh import mh_step
 from .parse import Parse, ParseSpace
+from .polar_table import PolarTable
 from .restructure import restructure
+from .sample_fits import SampleFitsStore
 from .scorer import AffordanceTarget
 
 __all__ = ["FitProgress", "LearningResult", "learn", "make_spaces", "temperatures"]
@@ -118,9 +120,11 @@ def _initial_target(
     """The chain's start: the best (highest log P*) of the hard-EM refinements of the equal parts and
     of ``lcfg.init_starts`` Dirichlet-fraction splits (see :class:`LearningConfig`)."""
     table = IntervalTable(tracks, fps, acfg.feature_path_profile)  # every interval's features once per run
+    store = SampleFitsStore()  # and every sample set's deterministic fits
+    polars = PolarTable(acfg)  # and the candidate intervals' polar coordinates
     if not acfg.use_subevents:
         parses = [Parse((0,), (0,)) for _ in spaces]
-        return AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng, table)
+        return AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng, table, store)
     fractions = [np.full(n_labels, 1.0 / n_labels)]
     if n_labels > 1:
         fractions += [rng.dirichlet(np.full(n_labels, lcfg.init_dirichlet)) for _ in range(lcfg.init_starts)]
@@ -129,9 +133,9 @@ def _initial_target(
         parses = [sp.initial_parse(n_labels) if k == 0 else sp.fraction_parse(fr) for sp in spaces]
         if lcfg.init_rounds and n_labels > 1:
             parses = hard_em_parses(
-                tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng=rng, rounds=lcfg.init_rounds, table=table
+                tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng=rng, rounds=lcfg.init_rounds, table=table, store=store, polars=polars
             )
-        candidates.append(AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng, table))
+        candidates.append(AffordanceTarget(tracks, fps, spaces, parses, available, n_labels, acfg, lcfg, rng, table, store))
     start = max(candidates, key=lambda t: t.log_prob)  # the first (equal parts) wins ties
     if lcfg.init_type_passes == 0 or n_labels < 3:
         return start
@@ -142,11 +146,11 @@ def _initial_target(
         if rounds == 0:
             return ps
         return hard_em_parses(
-            tracks, fps, spaces, ps, available, n_labels, acfg, lcfg, rng=rng, rounds=rounds, groupings=warm, table=table
+            tracks, fps, spaces, ps, available, n_labels, acfg, lcfg, rng=rng, rounds=rounds, groupings=warm, table=table, store=store, polars=polars
         )
 
     def target(ps: list[Parse]) -> AffordanceTarget:
-        return AffordanceTarget(tracks, fps, spaces, ps, available, n_labels, acfg, lcfg, rng, table)
+        return AffordanceTarget(tracks, fps, spaces, ps, available, n_labels, acfg, lcfg, rng, table, store)
 
     parses, value = restructure(
         spaces, start.parses, n_labels, refine=refine, score=lambda ps: target(ps).log_prob,
@@ -183,6 +187,7 @@ def learn(
     spaces = make_spaces(atoms, n_labels, acfg)
     seconds["atoms"] = time.perf_counter() - clock
     target = _initial_target(tracks, fps, spaces, available, n_labels, acfg, lcfg, rng)
+    target.store = None  # the chain's proposals rarely revisit a sample set: no memo there (bounded memory)
     current = target.log_prob
     seconds["init"] = time.perf_counter() - clock - seconds["atoms"]
     best = (current, tuple(target.parses), target.groupings())

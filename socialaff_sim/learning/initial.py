@@ -13,6 +13,10 @@ roughly equal intervals per instance, labelled in order, repeat
 until no parse changes or ``rounds`` is reached. Each round can only move the parses toward
 higher joint probability under the current parameters (a coordinate ascent), and the result
 seeds the chain.
+
+The rounds (and the restructuring candidates' rounds, :mod:`.restructure`) often meet a type's sample set or
+grouping again; what follows from them alone is read back from the run's memos (:mod:`.sample_fits`,
+:mod:`.polar_table`), bitwise what a new computation gives. The Gibbs loop, which draws, always runs again.
 """
 
 from __future__ import annotations
@@ -24,7 +28,8 @@ import numpy as np
 from ..model.config import AffordanceConfig
 from ..model.densities import fit_lognorm, lognorm_logpdf
 from ..model.path import fit_path_noise, path_loglik
-from ..model.potentials import fit_type_potentials, log_motion, log_spatial
+from ..model.features import IntervalFeatures
+from ..model.potentials import TypePotentials, fit_type_potentials, score_polar
 from ..model.segment_dp import best_segmentation
 from ..model.transitions import count_transitions, smoothed_probs
 from .config import LearningConfig
@@ -32,6 +37,8 @@ from .gibbs import gibbs_optimize
 from .interval_table import IntervalTable
 from .likelihood import TypeLikelihood
 from .parse import Parse, ParseSpace
+from .polar_table import PolarTable
+from .sample_fits import SampleFits, SampleFitsStore
 from .scorer import lone_grouping
 
 __all__ = ["hard_em_parses"]
@@ -51,12 +58,18 @@ def hard_em_parses(
     rounds: int,
     groupings: np.ndarray | None = None,
     table: IntervalTable | None = None,
+    store: SampleFitsStore | None = None,
+    polars: PolarTable | None = None,
 ) -> list[Parse]:
     """Refine ``parses`` by alternating parameter fits and DP re-segmentation (see module doc).
 
     ``groupings`` (S, 11) int64 warm-starts the Gibbs inner loop of each type (default: all Null); ``table``
-    holds the interval features of ``tracks`` (shared by the caller across calls; default: a new one)."""
+    holds the interval features of ``tracks`` (shared by the caller across calls; default: a new one);
+    ``store`` the run's memo of the sample sets' fits (:mod:`.sample_fits`; shared likewise; None: none); ``polars``
+    the candidate intervals' polar coordinates (:mod:`.polar_table`; shared likewise; default: a new one)."""
     parses = list(parses)
+    if polars is None:
+        polars = PolarTable(acfg)
     if table is None:
         table = IntervalTable(tracks, fps, acfg.feature_path_profile)
     n_joints = tracks[0].shape[1] if len(tracks) else 11
@@ -66,27 +79,31 @@ def hard_em_parses(
         z = [np.where(available, np.asarray(g, np.int64), -1) for g in groupings]
     for _ in range(rounds):
         spans = [sp.frame_spans(p) for sp, p in zip(spaces, parses, strict=True)]
-        pots, durs = [], []
+        pots, durs, columns = [], [], []
         sigmas = np.full((S, available.shape[0]), np.nan)
         for s in range(S):
-            feats = table.type_samples(spans, s, n_joints)
+            keys = table.type_keys(spans, s)
+            feats = table.rows(keys, n_joints)
             if len(feats) == 0:
                 pots.append(None)
                 durs.append(None)
+                columns.append(None)
                 continue
+            fits = store.of(tuple(keys)) if store is not None else SampleFits()
             if acfg.use_grouping:
-                lik = TypeLikelihood(feats.end, feats.disp, available, acfg)
+                lik = TypeLikelihood(feats.end, feats.disp, available, acfg, fits)
                 z[s] = gibbs_optimize(
                     lik, z[s], beta=acfg.beta, gamma=acfg.gamma, rng=rng,
                     max_sweeps=lcfg.initial_gibbs_sweeps, patience=lcfg.gibbs_patience,
                 ).z
             else:
                 z[s] = lone_grouping(available)
-            pots.append(fit_type_potentials(feats.end, feats.disp, z[s], acfg))
-            ln = fit_lognorm(feats.seconds, sigma_min=acfg.sigma_min)
-            durs.append((float(ln.mu[0]), float(ln.sigma[0])))
+            zs = z[s]
+            pots.append(fits.keep(("potentials", zs.tobytes()), lambda: fit_type_potentials(feats.end, feats.disp, zs, acfg)))
+            durs.append(fits.keep("duration", lambda: _duration(feats.seconds, acfg)))
             if acfg.path_noise and feats.path_sq is not None:
-                sigmas[s] = fit_path_noise(feats.path_sq, feats.path_n, acfg.path_sigma_min, available)[0]
+                sigmas[s] = fits.keep("path_sigma", lambda: fit_path_noise(feats.path_sq, feats.path_n, acfg.path_sigma_min, available)[0])
+            columns.append((fits, zs))
         p_start, p_trans = smoothed_probs(*count_transitions(spans, S), acfg.transition_alpha, acfg.distinct_neighbours, acfg.start_prior)
         with np.errstate(divide="ignore"):
             log_s, log_t = np.log(p_start), np.log(p_trans)
@@ -97,23 +114,14 @@ def hard_em_parses(
             ia, ib = np.triu_indices(B + 1, k=1)
             feats = table.all_pairs(i, b)
             seg = np.full((B + 1, B + 1, S), -np.inf)
+            short = (b[ib] - b[ia]) < acfg.min_subevent_seconds * f
             for s in range(S):
                 if pots[s] is None:
                     continue
-                zs = z[s]
-                score = (
-                    log_spatial(
-                        pots[s], zs, feats.end, acfg.eps, other_side=acfg.other_side_reference, include_self=acfg.reference_self,
-                        cartesian=acfg.vector_density == "cartesian",
-                    )
-                    + log_motion(pots[s], zs, feats.disp, acfg.eps, cartesian=acfg.vector_density == "cartesian")
-                    + lognorm_logpdf(feats.seconds, *durs[s])
-                    + (np.log(feats.seconds) if acfg.duration_density == "log_seconds" else 0.0)
+                fits, zs = columns[s]
+                seg[ia, ib, s] = fits.keep(
+                    ("column", i, zs.tobytes()), lambda: _column(pots[s], zs, durs[s], sigmas[s], i, feats, short, acfg, polars)  # noqa: B023
                 )
-                if feats.path_sq is not None and feats.path_n is not None:
-                    score = score + path_loglik(feats.path_sq, feats.path_n, sigmas[s]).sum(axis=1)
-                short = (b[ib] - b[ia]) < acfg.min_subevent_seconds * f
-                seg[ia, ib, s] = np.where(np.isnan(score) | short, -np.inf, score)
             total, rows = best_segmentation(
                 seg, log_s, log_t, distinct=space.distinct_neighbours and S > 1, unique=space.max_repeats == 1
             )
@@ -125,3 +133,51 @@ def hard_em_parses(
             break
         parses = new
     return parses
+
+
+def _duration(seconds: np.ndarray, acfg: AffordanceConfig) -> tuple[float, float]:
+    """(μ, σ) of the log-normal duration fit of one type's intervals (seconds)."""
+    ln = fit_lognorm(seconds, sigma_min=acfg.sigma_min)
+    return float(ln.mu[0]), float(ln.sigma[0])
+
+
+def _column(
+    pot: TypePotentials,
+    z: np.ndarray,
+    dur: tuple[float, float],
+    sigma: np.ndarray,
+    i: int,
+    feats: IntervalFeatures,
+    short: np.ndarray,
+    acfg: AffordanceConfig,
+    polars: PolarTable,
+) -> np.ndarray:
+    """One type's log score of every candidate interval of instance ``i`` (``feats``: all its atom pairs, in
+    ``np.triu_indices`` order), −inf where NaN or ``short``: a pure function of the type's fits and the instance.
+    :func:`~socialaff_sim.model.potentials.log_spatial` + :func:`~socialaff_sim.model.potentials.log_motion` + the
+    duration and path terms, the polar coordinates read from ``polars``."""
+    aff = np.flatnonzero(z > 0)
+    if aff.size == 0:
+        spatial = np.zeros(feats.end.shape[0])
+    else:
+        h, v, th, corr = polars.spatial(i, z, feats)
+        spatial = score_polar(h, v, th, pot.spatial[aff], np.zeros(aff.size, bool))
+        if corr is not None:
+            spatial = spatial + corr
+    used = np.flatnonzero(z >= 0)
+    if used.size == 0:
+        motion = np.zeros(feats.disp.shape[0])
+    else:
+        h, v, th, corr = polars.motion(i, used, feats)
+        motion = score_polar(h, v, th, pot.motion[used], z[used] == 0)
+        if corr is not None:
+            motion = motion + corr
+    score = (
+        spatial
+        + motion
+        + lognorm_logpdf(feats.seconds, *dur)
+        + (np.log(feats.seconds) if acfg.duration_density == "log_seconds" else 0.0)
+    )
+    if feats.path_sq is not None and feats.path_n is not None:
+        score = score + path_loglik(feats.path_sq, feats.path_n, sigma).sum(axis=1)
+    return np.where(np.isnan(score) | short, -np.inf, score)

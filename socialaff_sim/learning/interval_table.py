@@ -67,4 +67,9 @@ class IntervalTable:
     def type_samples(self, spans: Sequence[Sequence[tuple[int, int, int]]], s: int, n_joints: int = 11) -> IntervalFeatures:
         """Features of every interval labelled ``s`` in the parses ``spans`` (per instance, rows (start frame,
         stop frame, label)), instance by instance: :func:`~socialaff_sim.model.features.type_samples`'s rows."""
-        return self.rows([(i, f0, f1) for i, sp in enumerate(spans) for f0, f1, lab in sp if lab == s], n_joints)
+        return self.rows(self.type_keys(spans, s), n_joints)
+
+    @staticmethod
+    def type_keys(spans: Sequence[Sequence[tuple[int, int, int]]], s: int) -> list[tuple[int, int, int]]:
+        """The keys (instance, start frame, stop frame) of :meth:`type_samples`'s rows, in its order."""
+        return [(i, f0, f1) for i, sp in enumerate(spans) for f0, f1, lab in sp if lab == s]

@@ -17,6 +17,7 @@ import numpy as np
 from ..model.config import AffordanceConfig
 from ..model.joints import N_JOINTS, reference_row
 from ..model.potentials import fit_affordable_motion, fit_null_motion, fit_offsets
+from .sample_fits import SampleFits
 
 __all__ = ["TypeLikelihood"]
 
@@ -24,8 +25,11 @@ __all__ = ["TypeLikelihood"]
 class TypeLikelihood:
     """Maximized log-likelihood of one type's samples for any grouping vector."""
 
-    def __init__(self, end: np.ndarray, disp: np.ndarray, available: np.ndarray, cfg: AffordanceConfig) -> None:
-        """``end``, ``disp``: (N, 11, 3) canonical metres; ``available``: (11,) bool."""
+    def __init__(
+        self, end: np.ndarray, disp: np.ndarray, available: np.ndarray, cfg: AffordanceConfig, fits: SampleFits | None = None
+    ) -> None:
+        """``end``, ``disp``: (N, 11, 3) canonical metres; ``available``: (11,) bool; ``fits``: the run's memo of
+        this sample set's fits (:mod:`.sample_fits`; the same ``available`` and ``cfg`` at every use), or None."""
         self.end = end
         self.cfg = cfg
         self.available = np.asarray(available, bool)
@@ -36,10 +40,17 @@ class TypeLikelihood:
         self.group_sums: dict[int, float] = {}
         """Σ of a group's (bitmask's) spatial terms, kept by the Gibbs loop (:mod:`.gibbs`)."""
         self.n_fits = 0
+        self.fits = fits
         av = np.flatnonzero(self.available)
         if self.n and av.size:
-            self.null_ll[av] = fit_null_motion(disp[:, av], cfg)[1]
-            self.aff_motion_ll[av] = fit_affordable_motion(disp[:, av], cfg)[1]
+            if fits is None or fits.motion is None:
+                self.null_ll[av] = fit_null_motion(disp[:, av], cfg)[1]
+                self.aff_motion_ll[av] = fit_affordable_motion(disp[:, av], cfg)[1]
+                if fits is not None:
+                    fits.motion = (self.null_ll.copy(), self.aff_motion_ll.copy())
+            else:
+                self.null_ll[:] = fits.motion[0]
+                self.aff_motion_ll[:] = fits.motion[1]
 
     @staticmethod
     def key(j: int, others: int) -> int:
@@ -78,13 +89,17 @@ class TypeLikelihood:
             for k in keys:
                 self._memo[k] = 0.0
             return
+        values = self._fit(keys) if self.fits is None else self.fits.batch(tuple(keys), lambda: self._fit(keys))
+        self.n_fits += len(keys)
+        for k, v in zip(keys, values, strict=True):
+            self._memo[k] = v
+
+    def _fit(self, keys: list[int]) -> list[float]:
+        """The spatial terms of one batch of keys, fitted together (:func:`fit_offsets`)."""
         js = np.array([k & 15 for k in keys])
         side, own = self.cfg.other_side_reference, self.cfg.reference_self
         W = np.array([_key_reference(k, side, own) for k in keys])
-        ll = fit_offsets(self.end, js, W, self.cfg, with_params=False)[1]
-        self.n_fits += len(keys)
-        for k, v in zip(keys, ll.tolist(), strict=True):
-            self._memo[k] = v
+        return fit_offsets(self.end, js, W, self.cfg, with_params=False)[1].tolist()
 
     @staticmethod
     def _keys_of(z: np.ndarray | list[int]) -> list[int]:

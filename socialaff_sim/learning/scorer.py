@@ -33,6 +33,7 @@ from .gibbs import gibbs_optimize
 from .interval_table import IntervalTable
 from .likelihood import TypeLikelihood
 from .parse import Parse, ParseSpace
+from .sample_fits import SampleFits, SampleFitsStore
 
 __all__ = ["TypeState", "AffordanceTarget", "duration_loglik", "lone_grouping", "path_term"]
 
@@ -102,8 +103,10 @@ class AffordanceTarget:
         lcfg: LearningConfig,
         rng: np.random.Generator,
         table: IntervalTable | None = None,
+        store: SampleFitsStore | None = None,
     ) -> None:
-        """``table``: the interval features of ``tracks``, shared with other targets of one run (default: a new one)."""
+        """``table``: the interval features of ``tracks``, shared with other targets of one run (default: a new one);
+        ``store``: the run's memo of the sample sets' fits (:mod:`.sample_fits`), shared likewise (None: none)."""
         self.tracks = list(tracks)
         self.fps = [float(f) for f in fps]
         self.spaces = list(spaces)
@@ -114,6 +117,7 @@ class AffordanceTarget:
         self.distinct = spaces[0].distinct_neighbours if spaces else True
         self.spans = [sp.frame_spans(p) for sp, p in zip(self.spaces, self.parses, strict=True)]
         self.table = table if table is not None else IntervalTable(tracks, fps, acfg.feature_path_profile)
+        self.store = store
         self.trans = np.zeros((self.S, self.S))
         self.start = np.zeros(self.S)
         for sp in self.spans:
@@ -134,19 +138,19 @@ class AffordanceTarget:
         for a, b in zip(labels, labels[1:]):
             trans[a, b] += sign
 
-    def _samples(self, s: int, override: dict[int, list[tuple[int, int, int]]]) -> IntervalFeatures:
+    def _samples(self, s: int, override: dict[int, list[tuple[int, int, int]]]) -> tuple[IntervalFeatures, SampleFits]:
         """Features of the intervals labelled ``s`` (as :func:`type_samples`), memoized per interval in the
-        run's :class:`~.interval_table.IntervalTable`: a proposal changes one instance, so the other
-        instances' rows are look-ups."""
+        run's :class:`~.interval_table.IntervalTable` (a proposal changes one instance, so the other
+        instances' rows are look-ups), and the memo of their fits (a new, empty one without a store)."""
         keys = [(i, f0, f1) for i, sp in enumerate(self.spans) for f0, f1, lab in override.get(i, sp) if lab == s]
-        return self.table.rows(keys, self.available.shape[0])
+        fits = self.store.of(tuple(keys)) if self.store is not None else SampleFits()
+        return self.table.rows(keys, self.available.shape[0]), fits
 
     def _type_state(self, s: int, override: dict, z0: np.ndarray, max_sweeps: int) -> TypeState:
-        feats = self._samples(s, override)
-        lik = TypeLikelihood(feats.end, feats.disp, self.available, self.acfg)
-        secs = feats.seconds
-        duration = duration_loglik(secs, self.acfg)
-        path = path_term(feats, self.available, self.acfg)
+        feats, fits = self._samples(s, override)
+        lik = TypeLikelihood(feats.end, feats.disp, self.available, self.acfg, fits)
+        duration = fits.keep("duration_loglik", lambda: duration_loglik(feats.seconds, self.acfg))
+        path = fits.keep("path_term", lambda: path_term(feats, self.available, self.acfg))
         if not self.acfg.use_grouping:
             z = lone_grouping(self.available)
             return TypeState(lik, z, lik.loglik(z), duration, path)

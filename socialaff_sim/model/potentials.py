@@ -54,6 +54,8 @@ __all__ = [
     "fit_type_potentials",
     "log_spatial",
     "log_motion",
+    "score_polar",
+    "spatial_offsets",
 ]
 
 N_PARAMS = 6
@@ -190,7 +192,12 @@ def fit_type_potentials(end: np.ndarray, disp: np.ndarray, z: np.ndarray, cfg: A
 
 def _score_rows(vecs: np.ndarray, params: np.ndarray, eps: float, expon: np.ndarray) -> np.ndarray:
     """Log-density of vectors (N, K, 3) under K parameter rows (K, 6) → (N,) summed over K."""
-    h, v, th = polar(vecs, eps)
+    return score_polar(*polar(vecs, eps), params, expon)
+
+
+def score_polar(h: np.ndarray, v: np.ndarray, th: np.ndarray, params: np.ndarray, expon: np.ndarray) -> np.ndarray:
+    """Log-density of vectors given in polar form (:func:`~socialaff_sim.model.features.polar`: h, |dz|, θ, each
+    (N, K)) under K parameter rows (K, 6) → (N,) summed over K (``expon`` (K,): exponential rows)."""
     kh, lh, kv, lv, mu, kap = params.T
     dist = np.where(
         expon,
@@ -212,12 +219,19 @@ def log_spatial(
     aff = np.flatnonzero(z > 0)
     if aff.size == 0:
         return np.zeros(end.shape[0])
-    W = reference_weights(z, other_side=other_side, include_self=include_self)[aff]
-    offsets = end[:, aff] - _references(W, end)
+    offsets = spatial_offsets(z, end, other_side=other_side, include_self=include_self)
     out = _score_rows(offsets, pot.spatial[aff], eps, np.zeros(aff.size, bool))
     if cartesian:
         out = out + cartesian_correction(offsets, eps).sum(axis=-1)
     return out
+
+
+def spatial_offsets(z: np.ndarray, end: np.ndarray, *, other_side: bool, include_self: bool = False) -> np.ndarray:
+    """(N, K, 3) offsets of the K affordable joints of grouping ``z`` (in joint order) from their reference points
+    in N configurations ``end`` (N, 11, 3), as :func:`log_spatial` scores them."""
+    aff = np.flatnonzero(np.asarray(z) > 0)
+    W = reference_weights(z, other_side=other_side, include_self=include_self)[aff]
+    return end[:, aff] - _references(W, end)
 
 
 def log_motion(pot: TypePotentials, z: np.ndarray, disp: np.ndarray, eps: float, *, cartesian: bool = False) -> np.ndarray:

@@ -88,11 +88,12 @@ def fit_ridge(
     Y = np.asarray(target, float)
     groups = np.asarray(groups)
     cols = None if offset_columns is None else np.asarray(offset_columns, np.int64)
+    alphas = (0.0,) if cols is None else (0.0, 1.0)
+    residuals = _held_out_grid(X, [_shifted(X, Y, cols, alpha) for alpha in alphas], groups, grid)
     best: tuple[float, float, float, np.ndarray] | None = None
-    for alpha in (0.0,) if cols is None else (0.0, 1.0):
-        Ya = _shifted(X, Y, cols, alpha)
-        for lam in grid:
-            res = _held_out_residuals(X, Ya, groups, lam)
+    for a, alpha in enumerate(alphas):
+        for r, lam in enumerate(grid):
+            res = residuals[a][r]
             err = float(np.mean(res**2))
             if best is None or err < best[0]:  # ties keep α = 0 and the smaller λ
                 best = (err, alpha, lam, res)
@@ -110,10 +111,36 @@ def _shifted(X: np.ndarray, Y: np.ndarray, cols: np.ndarray | None, alpha: float
 
 
 def _held_out_residuals(X: np.ndarray, Y: np.ndarray, groups: np.ndarray, lam: float) -> np.ndarray:
-    """(M, D) residuals of each group's targets under the ridge fitted without that group."""
+    """(M, D) residuals of each group's targets under the ridge fitted without that group (:func:`ridge_solve`
+    per group: the reference of :func:`_held_out_grid`)."""
     res = np.empty_like(Y)
     for g in np.unique(groups):  # one small solve of size C per held-out group
         out = groups == g
         mean, scale, y_mean, coef = ridge_solve(X[~out], Y[~out], lam)
         res[out] = Y[out] - (((X[out] - mean) / scale) @ coef + y_mean)
+    return res
+
+
+def _held_out_grid(X: np.ndarray, targets: list[np.ndarray], groups: np.ndarray, grid: tuple[float, ...]) -> list[list[np.ndarray]]:
+    """``out[t][r]``: :func:`_held_out_residuals` of ``targets[t]`` at penalty ``grid[r]``, bitwise, with what
+    does not depend on the target or λ (the held-in context's standardization and Gram matrix) computed once
+    per held-out group and what does not depend on λ once per target, by :func:`ridge_solve`'s very operations."""
+    res = [[np.empty_like(Y) for _ in grid] for Y in targets]
+    for g in np.unique(groups):
+        out = groups == g
+        held_in = X[~out]
+        mean = held_in.mean(axis=0)
+        scale = held_in.std(axis=0)
+        scale = np.where(scale > 1e-9, scale, 1.0)
+        z = (held_in - mean) / scale
+        gram = z.T @ z
+        eye = np.eye(z.shape[1])
+        z_out = (X[out] - mean) / scale
+        for t, Y in enumerate(targets):
+            target = Y[~out]
+            y_mean = target.mean(axis=0)
+            cross = z.T @ (target - y_mean)
+            for r, lam in enumerate(grid):
+                coef = np.linalg.solve(gram + lam * eye, cross)
+                res[t][r][out] = Y[out] - (z_out @ coef + y_mean)
     return res

@@ -44,6 +44,17 @@ def segmentation_tables(
     back = np.full((B + 1, M, S, 3), -1, dtype=np.int64)  # (a, mask, s) of the previous interval
     masks = np.arange(M)
     bits = 1 << np.arange(S)
+    # Every (used-label set m, label s) an interval can extend: s not in m when labels are unique (the state
+    # becomes m | s), every s from the one set otherwise; the targets (m', s) are all distinct.
+    if unique:
+        src_m, src_s = np.nonzero((masks[:, None] & bits[None, :]) == 0)
+        tgt = src_m | bits[src_s]
+    else:
+        src_s = np.arange(S)
+        src_m = tgt = np.zeros(S, np.int64)
+    trans_t = trans.T[None, :, None, :]  # (1, s, 1, s')
+    first_mask = bits if unique else np.zeros(S, np.int64)
+    labels = np.arange(S)
     first = 1
     if rows is not None:
         k = rows[0].shape[0] - 1
@@ -51,31 +62,25 @@ def segmentation_tables(
         first = k + 1
     for b in range(first, B + 1):
         # A first interval [0, b).
-        first_mask = bits if unique else np.zeros(S, np.int64)
-        best[b, first_mask, np.arange(S)] = log_start + seg[0, b]
+        best[b, first_mask, labels] = log_start + seg[0, b]
         if b == 1:
             continue
-        # cand[a, m, s', s] for previous cut a in 1..b-1
-        cand = best[1:b, :, :, None] + trans[None, None] + seg[1:b, b][:, None, None, :]
-        flat = cand.transpose(1, 3, 0, 2).reshape(M, S, -1)  # (m, s, a·S + s')
-        arg = np.argmax(flat, axis=2)
-        val = np.take_along_axis(flat, arg[:, :, None], axis=2)[:, :, 0]
-        prev_a = arg // S + 1
-        prev_s = arg % S
-        for s in range(S):
-            if unique:
-                ms = masks[(masks & bits[s]) == 0]
-                tgt = ms | bits[s]
-            else:
-                ms = tgt = masks
-            v = val[ms, s]
-            better = v > best[b, tgt, s]
-            if better.any():
-                t = tgt[better]
-                best[b, t, s] = v[better]
-                back[b, t, s, 0] = prev_a[ms[better], s]
-                back[b, t, s, 1] = ms[better]
-                back[b, t, s, 2] = prev_s[ms[better], s]
+        # cand[m, s, a - 1, s'] = best[a, m, s'] + trans[s', s] + seg[a, b, s] for previous cut a in 1..b-1, laid
+        # out so that each (m, s) reads its candidates in the order a·S + s' (argmax keeps the first maximum).
+        cand = best[1:b].transpose(1, 0, 2)[:, None] + trans_t + seg[1:b, b].T[None, :, :, None]
+        flat = cand.reshape(M * S, -1)
+        arg = np.argmax(flat, axis=1)
+        val = flat[np.arange(M * S), arg].reshape(M, S)
+        arg = arg.reshape(M, S)
+        v = val[src_m, src_s]
+        better = v > best[b, tgt, src_s]
+        if better.any():
+            m, s, t = src_m[better], src_s[better], tgt[better]
+            a = arg[m, s]
+            best[b, t, s] = v[better]
+            back[b, t, s, 0] = a // S + 1
+            back[b, t, s, 1] = m
+            back[b, t, s, 2] = a % S
     return best, back
 
 
@@ -113,3 +118,4 @@ def best_segmentation(
     if not np.isfinite(total):
         return -np.inf, []
     return total, backtrace(back, B, m, s)
+

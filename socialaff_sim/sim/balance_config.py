@@ -29,7 +29,7 @@ class BalanceConfig:
     - Tracking: joint_bandwidth, torso_bandwidth, foot_damping, foot_stiffness
     - Balance: com_bandwidth, com_damping, com_reference, support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
-      cop_margin, min_foot_load, torque_fraction
+      cop_margin, min_foot_load, torque_fraction, flat_feet
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, catch_tilt, catch_margin, catch_blend,
       drive_harnessed
     """
@@ -90,6 +90,11 @@ class BalanceConfig:
     min_foot_load: float = 0.05
     """[—]: ``qp``: each planted foot in contact pushes on the floor with at least this fraction of the robot's
     weight (an unloaded foot lifts off by a hair and its contacts flicker)."""
+    flat_feet: bool = False
+    """[—]: ``qp``: every planted foot on the floor stands flat on its whole sole (:mod:`~.flat_feet`): the QP's
+    contact points are the sole's four corners (the centre-of-pressure bounds then span the whole sole) and the
+    foot's acceleration toward where it stood, level, is a hard constraint (``False``: the live contact points, and
+    the feet's task in the objective toward the attitude they came down in)."""
     sole_gap: float = 0.0
     """[m]: a planted foot without contacts whose sole is at most this high above the floor still counts for the
     support box of the harness's decisions (0: only feet in contact; a contact lost for a step then shrinks the
@@ -135,6 +140,8 @@ class BalanceConfig:
             raise ConfigError(f"BalanceConfig.friction: expected μ > 0, found {self.friction}")
         if self.solver not in SOLVERS:
             raise ConfigError(f"BalanceConfig.solver: expected one of {', '.join(SOLVERS)}, found {self.solver!r}")
+        if self.flat_feet and self.solver != "qp":
+            raise ConfigError(f"BalanceConfig.flat_feet: needs solver='qp' (hard constraints), found {self.solver!r}")
         if not 0.0 <= self.min_foot_load < 0.5:
             raise ConfigError(f"BalanceConfig.min_foot_load: expected a fraction in [0, 0.5), found "
                               f"{self.min_foot_load}")

@@ -48,6 +48,7 @@ from .balance_config import BalanceConfig
 from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
 from .external_force import ExternalForces
+from .flat_feet import flat_attitude, flat_contacts, sole_corners
 from .scene import Scene
 from .support_box import SupportBox, cop_interval
 
@@ -99,6 +100,9 @@ class BalanceController:
         self._foot_fwd = np.array([d0.xmat[b].reshape(3, 3).T @ np.array([1.0, 0.0, 0.0]) for b in self._feet])
         self._torso_up = d0.xmat[self._torso].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
         self._sole = self._soles(m, scene)
+        self._corners = [None if sole is None else sole_corners(sole) for sole in self._sole]
+        self._home_rot = [d0.xmat[b].reshape(3, 3).copy() for b in self._feet]
+        self._home_z = [float(d0.xpos[b][2]) for b in self._feet]
         self._external = ExternalForces(scene)
         self._plan = mujoco.MjData(m)
         self._M = np.zeros((m.nv, m.nv))
@@ -275,13 +279,20 @@ class BalanceController:
         h = d.qfrc_bias[va] - d.qfrc_passive[va] - np.where(self.unactuated, self._ext_gen, 0.0)
         qv = d.qvel[va]
         n = len(va)
+        tasks: list[tuple[np.ndarray, np.ndarray, float]] = []
+        if self._anchor is None:  # where the feet stand (level, at the home ankle height, with flat_feet)
+            self._anchor = [(d.xpos[b].copy(), d.xmat[b].reshape(3, 3).copy()) for b in self._feet]
+            if c.flat_feet:
+                self._anchor = [(np.array([p[0], p[1], self._home_z[s]]), flat_attitude(r, self._home_rot[s],
+                                 self._foot_fwd[s])) for s, (p, r) in enumerate(self._anchor)]
+        eq = None
+        if c.flat_feet:
+            pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
+                                                   which, c.sole_gap, c.foot_stiffness, c.foot_damping)
         jac = np.empty((len(pts), 3, n))
         for i, (p, s) in enumerate(zip(pts, which, strict=True)):
             mujoco.mj_jac(m, d, self._jp, None, p, self._feet[int(s)])
             jac[i] = self._jp[:, va]
-        tasks: list[tuple[np.ndarray, np.ndarray, float]] = []
-        if self._anchor is None:  # where the feet stand
-            self._anchor = [(d.xpos[b].copy(), d.xmat[b].reshape(3, 3).copy()) for b in self._feet]
         for body, (pos, rot) in zip(self._feet, self._anchor, strict=True):  # planted feet held where they stand
             mujoco.mj_jacBody(m, d, self._jp, self._jr, body)
             J = np.vstack([self._jp[:, va], self._jr[:, va]])
@@ -324,7 +335,8 @@ class BalanceController:
         area = np.array([np.count_nonzero(which == s) >= 3 for s in range(len(self._feet))])
         foot = np.where(area[which], which, -1)
         res = solve_contact_qp(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_force, limits,
-                               self._cop(d, pts, edges, foot, box), foot, c.min_foot_load * self.mass * self._g)
+                               self._cop(d, pts, edges, foot, box), foot, c.min_foot_load * self.mass * self._g,
+                               equalities=eq)
         self.limit_steps += int(res.at_limit.any())
         self.relaxed_steps += int(res.relaxed)
         if not res.found:  # (not seen since the rows are scaled) the least-squares torques instead of none

@@ -13,6 +13,7 @@ minimises
 * the unactuated rows of ``M q̈ + h = Sᵀτ + Gβ`` (the root's six; equalities);
 * β ≥ 0: every contact force pushes and stays inside its friction pyramid;
 * τ_lo ≤ (M q̈ + h − Gβ)_a ≤ τ_hi on the actuated rows: the actuators' real limits (:func:`actuator_limits`);
+* optionally, hard task rows ``A q̈ = b`` (a planted foot held flat, :mod:`~.flat_feet`);
 * optionally, each foot's vertical force at least a minimum load;
 * each foot's centre of pressure inside an interval per horizontal axis (:func:`cop_rows`), the sole shrunk by a
   margin: ``Σ_i f_z,i (r_i − lo) ≥ 0`` and ``Σ_i f_z,i (hi − r_i) ≥ 0`` over the foot's points.
@@ -56,7 +57,8 @@ class ContactQPResult:
     found: bool
     """Whether DAQP reported an optimal solution (``False``: free fall is returned, see :func:`solve_contact_qp`)."""
     relaxed: bool
-    """Whether the foot loads and centre-of-pressure bounds were dropped because they could not hold together."""
+    """Whether the hard task rows, foot loads and centre-of-pressure bounds were dropped because they could not
+    hold together."""
 
 
 def actuator_limits(m: mujoco.MjModel, act_ids: np.ndarray, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
@@ -107,7 +109,8 @@ def cop_rows(points: np.ndarray, edges: np.ndarray, foot: np.ndarray, axes: np.n
 def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point_jac: np.ndarray,
                      edges: np.ndarray, tasks: list[tuple[np.ndarray, np.ndarray, float]], mass: float,
                      w_force: float, tau_limits: np.ndarray, cop: np.ndarray | None = None,
-                     foot: np.ndarray | None = None, min_load: float = 0.0, w_reg: float = 1e-6) -> ContactQPResult:
+                     foot: np.ndarray | None = None, min_load: float = 0.0, w_reg: float = 1e-6,
+                     equalities: tuple[np.ndarray, np.ndarray] | None = None) -> ContactQPResult:
     """Accelerations, contact forces and torques of a standing robot under hard constraints (module docstring).
 
     ``M`` (n, n), ``h`` (n,): mass matrix and bias forces (N, N·m); ``unactuated`` (n,) bool: coordinates
@@ -117,8 +120,9 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     ±inf: none; the unactuated rows' are ignored); ``cop`` (R, 4P): rows with ``cop β ≥ 0`` (:func:`cop_rows`);
     ``foot`` (P,) each point's foot (−1: none) and ``min_load`` (N): every foot with points pushes on the floor
     with at least this vertical force (a foot left without load lifts off the floor and loses its contacts);
-    should the loads and the centre-of-pressure rows not hold together, the problem is solved again without
-    them (``relaxed``); ``w_reg``: ε, the regularisation of q̈. Should DAQP fail (it should not: free fall is
+    ``equalities``: (A (r, n), b (r,)) rows ``A q̈ = b`` that must hold exactly (m/s², rad/s²); should the
+    equalities, the loads and the centre-of-pressure rows not hold together, the problem is solved again without
+    the equalities, then without all three (``relaxed``); ``w_reg``: ε, the regularisation of q̈. Should DAQP fail (it should not: free fall is
     feasible), the result is free fall (β = 0, τ = 0, ``found=False``) and a warning is logged.
     """
     n = M.shape[0]
@@ -144,6 +148,13 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     lower.append(np.where(np.isfinite(lim[act, 0]), lim[act, 0] / mass - hm[act], -_INF))
     sense.append(np.zeros(int(act.sum())))
     base = len(rows)
+    has_eq = equalities is not None and len(equalities[1]) > 0
+    if equalities is not None and has_eq:
+        A_eq, b_eq = equalities
+        rows.append(np.hstack([np.zeros((len(b_eq), K)), A_eq]))
+        upper.append(np.asarray(b_eq, dtype=np.float64))
+        lower.append(np.asarray(b_eq, dtype=np.float64))
+        sense.append(np.full(len(b_eq), 5))
     if foot is not None and min_load > 0.0 and P:
         for s in np.unique(foot[foot >= 0]):
             r = np.where((foot == s)[:, None], edges[:, 2, :], 0.0).ravel()
@@ -159,8 +170,14 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     H = np.ascontiguousarray(H)
     x, flag = _daqp(H, f, K, rows, upper, lower, sense)
     relaxed = flag <= 0 and len(rows) > base
-    if relaxed:  # the minimum loads and centre-of-pressure bounds cannot hold together (a foot on few contacts)
-        log.debug("balance QP: exit flag %d; solved again without the foot loads and centre-of-pressure bounds", flag)
+    if relaxed and has_eq and len(rows) > base + 1:  # first without the hard task rows only
+        log.debug("balance QP: exit flag %d; solved again without the hard task rows", flag)
+        keep = [i for i in range(len(rows)) if i != base]
+        x, flag = _daqp(H, f, K, [rows[i] for i in keep], [upper[i] for i in keep], [lower[i] for i in keep],
+                        [sense[i] for i in keep])
+    if relaxed and flag <= 0:  # the equalities, minimum loads and centre-of-pressure bounds cannot hold together
+        log.debug("balance QP: exit flag %d; solved again without the hard task rows, foot loads and "
+                  "centre-of-pressure bounds", flag)
         x, flag = _daqp(H, f, K, rows[:base], upper[:base], lower[:base], sense[:base])
     found = flag > 0
     if not found:

@@ -14,7 +14,7 @@ from ..retarget.sources import KeyJointSource
 from .simulator import Simulator, StepResult
 from .support import FrameSupport
 
-__all__ = ["run_episode", "summarize", "support_summary", "support_caption", "ERROR_OK"]
+__all__ = ["run_episode", "summarize", "support_summary", "support_caption", "foot_drift", "ERROR_OK"]
 
 ERROR_OK = 0.02
 """Key-frame error (m) under which a reachable target counts as met."""
@@ -64,15 +64,27 @@ def _stats(x: np.ndarray) -> dict[str, float | None]:
     return {"mean": float(x.mean()), "p50": float(np.median(x)), "p95": float(np.percentile(x, 95)), "max": float(x.max())}
 
 
+def foot_drift(frames: list[FrameSupport]) -> float:
+    """How far a foot got from where it stood over ``frames`` (m): per foot, the diagonal of the box of its
+    horizontal positions while it touched the floor (at least the farthest two positions are apart, at most
+    √2 times that), the larger of the feet (0: no foot touched). Unlike the sliding path, a foot rocking or
+    shaking in place adds nothing to it beyond the extent of the motion."""
+    lo = np.min([f.feet_lo for f in frames], axis=0).reshape(2, 2)
+    hi = np.max([f.feet_hi for f in frames], axis=0).reshape(2, 2)
+    touched = np.isfinite(lo).all(axis=1)
+    return float(np.linalg.norm(hi[touched] - lo[touched], axis=1).max()) if touched.any() else 0.0
+
+
 def _support_stats(frames: list[FrameSupport]) -> dict[str, float | None]:
     if not frames:
-        return {k: None for k in ("outside_support_mean", "outside_support_peak", "foot_slide_cm", "penetration_cm",
-                                  "torque_ratio_max", "saturated_fraction", "at_joint_limit_fraction",
-                                  "torso_tilt_deg_max")}
+        return {k: None for k in ("outside_support_mean", "outside_support_peak", "foot_slide_cm", "foot_drift_cm",
+                                  "penetration_cm", "torque_ratio_max", "saturated_fraction",
+                                  "at_joint_limit_fraction", "torso_tilt_deg_max")}
     return {
         "outside_support_mean": float(np.mean([f.outside_mean for f in frames])),
         "outside_support_peak": float(max(f.outside_peak for f in frames)),
         "foot_slide_cm": 100.0 * float(sum(f.slide for f in frames)),
+        "foot_drift_cm": 100.0 * foot_drift(frames),
         "penetration_cm": 100.0 * float(max(f.penetration for f in frames)),
         "torque_ratio_max": float(max(f.torque_ratio for f in frames)),
         "saturated_fraction": float(np.mean([f.saturated for f in frames])),

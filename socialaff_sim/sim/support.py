@@ -11,7 +11,10 @@ data frame:
   fraction of the robot's weight ``m·g``: the mean over the frame's physics steps
   and its peak;
 * **foot sliding**: the horizontal distance a foot (the subtree of an ankle key
-  frame's body) moves while it touches the floor on two consecutive steps, m;
+  frame's body) moves while it touches the floor on two consecutive steps, m (the
+  path: a foot rocking or shaking in place adds to it as one dragged along does),
+  and the box of the foot's horizontal positions while it touches the floor (its
+  diagonal over a phase bounds how far the foot got from where it stood);
 * **penetration**: the deepest robot–floor contact, m;
 * **effort**: the largest ratio of an actuator's force to its force limit, and
   whether any servo is saturated (≥ :data:`SATURATED` of its limit) or any robot
@@ -58,6 +61,11 @@ class FrameSupport:
     tilt_deg: float = 0.0
     """Largest angle in the frame between the torso's up axis and the vertical, degrees (the torso: the
     body both shoulders hang from)."""
+    feet_lo: tuple[float, float, float, float] = (math.inf,) * 4
+    """Lowest horizontal coordinates (m, world; left x, left y, right x, right y) of each foot's body at the
+    frame's physics steps in which it touches the floor (inf: it did not)."""
+    feet_hi: tuple[float, float, float, float] = (-math.inf,) * 4
+    """... and the highest (−inf: it did not touch)."""
 
 
 class SupportMeter:
@@ -131,6 +139,8 @@ class SupportMeter:
         self._slide = [0.0, 0.0]
         self._sat = self._lim = 0
         self._tilt = 0.0
+        self._lo = np.full(4, math.inf)
+        self._hi = np.full(4, -math.inf)
         self._clear_pending()
 
     def _clear_pending(self) -> None:
@@ -234,6 +244,10 @@ class SupportMeter:
                 for v in moved[both].tolist():
                     self._slide[s] += v
             self._foot_prev[s] = pos[-1, s].copy() if touching[s, -1] else None
+            if touching[s].any():
+                on = pos[touching[s], s]
+                self._lo[2 * s: 2 * s + 2] = np.minimum(self._lo[2 * s: 2 * s + 2], on.min(axis=0))
+                self._hi[2 * s: 2 * s + 2] = np.maximum(self._hi[2 * s: 2 * s + 2], on.max(axis=0))
         self._feet_down = (self._foot_prev[0] is not None, self._foot_prev[1] is not None)
         if self._p_force:
             top = (np.abs(np.array(self._p_force)) / self._act_limit).max(axis=1)
@@ -253,7 +267,8 @@ class SupportMeter:
         n = max(self._n, 1)
         fs = FrameSupport(outside_mean=self._out_sum / n, outside_peak=self._out_peak, slide=max(self._slide),
                           penetration=self._pen, torque_ratio=self._ratio, saturated=self._sat / n, at_limit=self._lim / n,
-                          tilt_deg=self._tilt)
+                          tilt_deg=self._tilt, feet_lo=tuple(self._lo.tolist()),  # type: ignore[arg-type]
+                          feet_hi=tuple(self._hi.tolist()))  # type: ignore[arg-type]
         self.frames.append(fs)
         self._clear_frame()
         return fs

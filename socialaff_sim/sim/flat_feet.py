@@ -1,0 +1,108 @@
+"""Feet held flat on their soles: the balance QP's contact model and hard constraints for ``BalanceConfig.flat_feet``.
+
+Traced step by step, the planted feet of a robot under the balance controller do not creep across the floor
+so much as rock and pivot on their soles' edges: a foot tipped by a degree or two touches the floor at one or
+two corners only, the inverse dynamics can then put its force only there, and its ankle's torque (computed for
+those corners) keeps it tipped. With ``flat_feet`` the controller instead models every planted foot that is on
+the floor (in contact, or its sole within ``sole_gap`` of it) as standing flat on its whole sole:
+
+* the contact points are the sole's four corners (:func:`sole_corners`, found at home from the foot's contacts
+  with the floor), with the floor's normal and friction cones, whatever corners MuJoCo's contacts touch now; the
+  centre-of-pressure bounds then hold ``cop_margin`` inside the whole sole, so the ankle never asks the floor to
+  push at an edge;
+* the foot's six-dimensional acceleration is a hard equality of the QP (:func:`foot_rows`): toward where it
+  stood, at the home ankle height, with the sole level (the attitude it has at home, turned about the vertical
+  to its heading when it came down, :func:`flat_attitude`), as the stiffness and damping of the feet's task ask,
+  the Jacobian's drift ``J̇q̇`` included. The QP can no longer buy the centre of mass's acceleration by tipping a
+  foot onto an edge.
+
+The functions here are geometry only; :class:`~.balance_control.BalanceController` calls them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+__all__ = ["flat_attitude", "flat_contacts", "foot_rows", "sole_corners", "sole_points"]
+
+
+def sole_corners(sole: np.ndarray) -> np.ndarray:
+    """(4, 3) the bottom corners of a sole box ``sole`` (8, 3) (foot body frame, m; as the controller finds it
+    at home): the lowest face's corners, heel-left, heel-right, toe-left, toe-right order of the box's extent."""
+    lo, hi = sole.min(axis=0), sole.max(axis=0)
+    return np.array([[x, y, lo[2]] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])])
+
+
+def sole_points(pos: np.ndarray, rot: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World points (4, 3) of a foot's sole ``corners`` (4, 3) (body frame) at the foot's pose ``pos`` (3,),
+    ``rot`` (3, 3), and their contact frames (4, 3, 3): the floor's normal (+z) first, then the world's x and y
+    as tangents (the rows of MuJoCo's ``contact.frame`` for a level floor)."""
+    pts = pos + corners @ rot.T
+    frames = np.tile(np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]), (len(corners), 1, 1))
+    return pts, frames
+
+
+def flat_attitude(rot: np.ndarray, home_rot: np.ndarray, forward: np.ndarray) -> np.ndarray:
+    """(3, 3) the attitude of a foot standing level: its home attitude ``home_rot`` (3, 3; the robot facing +x)
+    turned about the vertical to the heading of ``rot`` (3, 3), the foot's axis ``forward`` (3,) (body frame;
+    +x of the world at home) projected on the floor."""
+    f = rot @ forward
+    yaw = math.atan2(float(f[1]), float(f[0]))
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ home_rot
+
+
+def foot_rows(m: mujoco.MjModel, d: mujoco.MjData, body: int, vadr: np.ndarray, goal_pos: np.ndarray,
+              goal_rot: np.ndarray, stiffness: float, damping: float) -> tuple[np.ndarray, np.ndarray]:
+    """(A (6, n), b (6,)) rows ``A q̈ = b`` of a foot's wanted acceleration, on the robot's coordinates ``vadr``
+    (n,): linear and angular (world), ``k_x`` (``stiffness``, 1/s²) times the displacement to ``goal_pos`` (3,)
+    and the rotation vector to ``goal_rot`` (3, 3), minus ``k_f`` (``damping``, 1/s) times the foot's velocity,
+    minus the drift ``J̇q̇`` (so that ``J q̈ + J̇ q̇`` is what is asked)."""
+    nv = m.nv
+    jp, jr = np.zeros((3, nv)), np.zeros((3, nv))
+    mujoco.mj_jacBody(m, d, jp, jr, body)
+    J = np.vstack([jp[:, vadr], jr[:, vadr]])
+    dp, dr = np.zeros((3, nv)), np.zeros((3, nv))
+    mujoco.mj_jacDot(m, d, dp, dr, d.xpos[body], body)
+    drift = np.vstack([dp, dr]) @ d.qvel
+    quat, vel = np.zeros(4), np.zeros(3)
+    mujoco.mju_mat2Quat(quat, (goal_rot @ d.xmat[body].reshape(3, 3).T).ravel())
+    mujoco.mju_quat2Vel(vel, quat, 1.0)
+    off = np.concatenate([goal_pos - d.xpos[body], vel])
+    return J, stiffness * off - damping * (J @ d.qvel[vadr]) - drift
+
+
+def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners: list[np.ndarray | None],
+                  anchors: list[tuple[np.ndarray, np.ndarray]], vadr: np.ndarray, pts: np.ndarray, frames: np.ndarray,
+                  which: np.ndarray, sole_gap: float, stiffness: float, damping: float
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+    """The contacts of a standing robot with its feet held flat (the module docstring).
+
+    ``feet``: the feet's bodies; ``corners``: each one's :func:`sole_corners` (``None``: sole unknown, its live
+    contacts kept); ``anchors``: each one's level goal (position (3,), attitude (3, 3)); ``vadr`` (n,) the robot's
+    coordinates; ``pts`` (P, 3), ``frames`` (P, 3, 3), ``which`` (P,): the live contacts with the floor and their
+    foot (not empty); a foot with live contacts, or whose lowest corner is within ``sole_gap`` (+ 2 mm) of the
+    lowest live contact, has them replaced by its sole's corners and gets the hard rows of :func:`foot_rows`.
+    Returns the contact points, frames and feet, and the stacked rows (``None``: no such foot)."""
+    floor = float(pts[:, 2].min())
+    keep = np.ones(len(pts), dtype=bool)
+    add_p, add_f, add_w, rows = [], [], [], []
+    for s, body in enumerate(feet):
+        c = corners[s]
+        if c is None:
+            continue
+        p, f = sole_points(d.xpos[body], d.xmat[body].reshape(3, 3), c)
+        if not (which == s).any() and float(p[:, 2].min()) > floor + sole_gap + 0.002:
+            continue
+        keep &= which != s
+        add_p.append(p)
+        add_f.append(f)
+        add_w.append(np.full(len(p), s, dtype=np.int64))
+        rows.append(foot_rows(m, d, body, vadr, anchors[s][0], anchors[s][1], stiffness, damping))
+    if not rows:
+        return pts, frames, which, None
+    return (np.vstack([pts[keep], *add_p]), np.concatenate([frames[keep], *add_f]),
+            np.concatenate([which[keep], *add_w]), (np.vstack([r[0] for r in rows]), np.concatenate([r[1] for r in rows])))
