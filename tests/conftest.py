@@ -6,13 +6,16 @@ import importlib.util
 import os
 import sys
 import types
+import warnings
 from pathlib import Path
 
 # Offscreen rendering on headless machines; must be set before mujoco is imported.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
+from gymnasium.utils.env_checker import check_env  # noqa: E402
 
 SHARED_DATA = Path(os.environ.get("SOCIALAFF_SHARED_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
 
@@ -32,6 +35,13 @@ def load_script(name: str) -> types.ModuleType:
     finally:
         sys.modules.pop(spec.name, None)
     return module
+
+
+def check_env_strict(env: gym.Env) -> None:
+    """Gymnasium's env checker on ``env.unwrapped`` with every warning an error (the project's rule for its envs)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env.unwrapped)
 
 
 def shared_path(*parts: str) -> Path:

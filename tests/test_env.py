@@ -6,12 +6,11 @@ import os
 import pickle
 import subprocess
 import sys
-import warnings
 
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env
+from conftest import check_env_strict
 
 import socialaff_sim.environment as senv
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
@@ -51,9 +50,7 @@ def test_check_env_warnings_are_errors(data):
     for kw in ({"action_mode": "targets"}, {"action_mode": "residual", "interactions": "hand_over"}):
         env = gym.make("SocialAffordance-v0", data=data, max_frames=FRAMES, **kw)
         try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("error")
-                check_env(env.unwrapped)
+            check_env_strict(env)
         finally:
             env.close()
 

@@ -4,13 +4,12 @@ contact states in physics, and without the flags the episode is a different one.
 
 from __future__ import annotations
 
-import warnings
 from types import SimpleNamespace
 
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env
+from conftest import check_env_strict
 
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.environment import AdapterFrame, GroundTruthAdapter, ModelAdapter, SocialAffordanceEnv
@@ -129,8 +128,6 @@ def test_env_checker_clean_with_a_model(high_five) -> None:  # noqa: ANN001
     env = gym.make("SocialAffordance-v0", data=[inter], model={"high_five": model}, action_mode="residual",
                    max_frames=16)
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error")
-            check_env(env.unwrapped)
+        check_env_strict(env)
     finally:
         env.close()

@@ -7,7 +7,6 @@ against its geometry computed here, and against physics with the projection swit
 from __future__ import annotations
 
 import dataclasses
-import warnings
 from pathlib import Path
 
 import gymnasium as gym
@@ -15,8 +14,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 import pytest
-from conftest import load_script
-from gymnasium.utils.env_checker import check_env
+from conftest import check_env_strict, load_script
 from scipy.spatial.transform import Rotation
 
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
@@ -325,9 +323,7 @@ def test_env_checker_clean_for_every_id(env_id):
     checks ``targets`` too) with the sub-event and sub-goal observation keys."""
     env = gym.make(env_id, max_frames=12, action_mode="residual")
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error")
-            check_env(env.unwrapped)
+        check_env_strict(env)
         assert {"subevent_belief", "subgoal_achieved", "subgoal_current"} <= set(env.observation_space.spaces)
     finally:
         env.close()
