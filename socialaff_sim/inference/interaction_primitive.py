@@ -41,7 +41,7 @@ from ..model.frame import CanonicalFrame, canonical_frame
 from .body_fit import BodyFitConfig, instance_frame
 from .protocol import PrefixViews
 
-__all__ = ["InteractionPrimitive", "ProMPConfig", "condition_gaussian", "condition_on_statistics", "rbf_basis"]
+__all__ = ["InteractionPrimitive", "ProMPConfig", "condition_gaussian", "condition_on_statistics", "rbf_basis", "rbf_centres", "rbf_rows"]
 
 
 @dataclass(frozen=True)
@@ -90,13 +90,21 @@ class ProMPConfig:
     development split's error moved by at most 0.0001 m (docs/design.md §8)."""
 
 
+def rbf_centres(n_basis: int, width: float = 1.0) -> tuple[np.ndarray, float]:
+    """The (N,) centres in [0, 1] and the width σ (phase units) of :func:`rbf_basis`'s functions."""
+    return np.linspace(0.0, 1.0, n_basis), width / max(n_basis - 1, 1)
+
+
+def rbf_rows(phase: np.ndarray, centres: np.ndarray, sigma: float) -> np.ndarray:
+    """(T, N) normalized Gaussian basis functions with ``centres`` (N,) and width ``sigma`` at phases (T,) (rows sum
+    to 1); a caller evaluating the same basis every frame keeps :func:`rbf_centres` once."""
+    phi = np.exp(-0.5 * ((np.asarray(phase, dtype=np.float64)[:, None] - centres[None]) / sigma) ** 2)
+    return phi / phi.sum(axis=1, keepdims=True)
+
+
 def rbf_basis(phase: np.ndarray, n_basis: int, width: float = 1.0) -> np.ndarray:
     """(T, N) normalized Gaussian basis functions at phases (T,) in [0, 1] (rows sum to 1)."""
-    s = np.asarray(phase, dtype=np.float64)
-    centres = np.linspace(0.0, 1.0, n_basis)
-    sigma = width / max(n_basis - 1, 1)
-    phi = np.exp(-0.5 * ((s[:, None] - centres[None]) / sigma) ** 2)
-    return phi / phi.sum(axis=1, keepdims=True)
+    return rbf_rows(phase, *rbf_centres(n_basis, width))
 
 
 def condition_on_statistics(

@@ -40,7 +40,7 @@ from ..data.skeletons import N_KEY
 from ..errors import ModelError
 from ..model.frame import CanonicalFrame
 from .body_fit import instance_frame
-from .interaction_primitive import InteractionPrimitive
+from .interaction_primitive import InteractionPrimitive, rbf_centres, rbf_rows
 from .protocol import protocol_view
 
 __all__ = ["PrimitiveStream", "SHARED_SOLVERS", "stream_key_joints"]
@@ -79,9 +79,7 @@ class PrimitiveStream:
         self._mean = primitive.mean_.reshape(n_dof, self._n)
         self._a = self._d0 * self._n  # size of the agent-0 (and object) block
         self._width = cfg.basis_width
-        # rbf_basis's centres and width, once (its arithmetic, without the per-call linspace).
-        self._centres = np.linspace(0.0, 1.0, self._n)
-        self._sigma = self._width / max(self._n - 1, 1)
+        self._centres, self._sigma = rbf_centres(self._n, self._width)  # rbf_basis's, once (not per frame)
         self._joint_names: tuple[str, ...] = ()
         self._frames_seen = 0
         self._frame: CanonicalFrame | None = None
@@ -97,9 +95,8 @@ class PrimitiveStream:
         return int(sums + sum(sum(a.size for a in s) for s in self._solvers.values()))
 
     def _rbf(self, phase: np.ndarray) -> np.ndarray:
-        """(G, N) :func:`~.interaction_primitive.rbf_basis` at phases (G,) (the same operations, bitwise)."""
-        phi = np.exp(-0.5 * ((phase[:, None] - self._centres[None]) / self._sigma) ** 2)
-        return phi / phi.sum(axis=1, keepdims=True)
+        """(G, N) :func:`~.interaction_primitive.rbf_basis` at phases (G,)."""
+        return rbf_rows(phase, self._centres, self._sigma)
 
     def _add_blocks(self, lam: np.ndarray, blocks: np.ndarray) -> np.ndarray:
         """``lam`` (M·N, M·N) plus the block-diagonal of ``blocks`` (M, N, N), in place."""

@@ -15,9 +15,9 @@ import numpy as np
 from scipy.special import i0e
 
 from ..model.affordance import AffordanceParameters
-from ..model.densities import LOG_2PI, expon_logpdf, lognorm_logpdf, weibull_logpdf
+from ..model.densities import lognorm_logpdf
 from ..model.features import polar
-from ..model.potentials import reference_weights
+from ..model.potentials import polar_rows_logpdf, reference_weights
 
 __all__ = ["TypeTables"]
 
@@ -62,7 +62,7 @@ class TypeTables:
             self._sp.append((rows, cols, self.sp_w[np.ix_(rows, cols)]))
             self._read[np.ix_(rows, cols)] = True
         self.dur = np.asarray(model.duration_params_, float)
-        self._cache: dict[tuple[str, int | None], tuple] = {}
+        self._cache: dict[tuple[str, int | None], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self.log_seconds = cfg.duration_density == "log_seconds"
 
     def _per_type(self, rows: np.ndarray, types: np.ndarray, only: int | None) -> np.ndarray:
@@ -77,32 +77,21 @@ class TypeTables:
                     out[..., s] = rows[..., sel].sum(axis=-1)
         return np.where(np.isnan(out), -np.inf, out)
 
-    def _rows(self, key: tuple[str, int | None], params: np.ndarray, expon: np.ndarray) -> tuple:
-        """A set of rows' parameters (R, 6), their exponential flags (R,), whether any and all are exponential, and
-        log i0e(κ) (R,) of the von Mises term: made once per (potential, type) (a re-planning scores every frame
-        on a long stream); the same arrays the per-call selection made, so the same values."""
+    def _rows(self, key: tuple[str, int | None], params: np.ndarray, expon: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A set of rows' parameters (R, 6), their exponential flags (R,) and log i0e(κ) (R,) of the von Mises term:
+        made once per (potential, type) (a re-planning scores every frame on a long stream); the same arrays the
+        per-call selection made, so the same values."""
         rows = self._cache.get(key)
         if rows is None:
-            kap = params.T[5]
-            rows = self._cache[key] = (params, expon, bool(expon.any()), bool(expon.all()), np.log(i0e(kap)))
+            rows = self._cache[key] = (params, expon, np.log(i0e(params.T[5])))
         return rows
 
-    def _density(self, vecs: np.ndarray, rows: tuple) -> np.ndarray:
-        """Row log-densities (N, R) of vectors (N, R, 3): :func:`~socialaff_sim.model.densities.weibull_logpdf` (or
-        ``expon_logpdf`` on the exponential rows) of the horizontal and vertical distances plus ``vonmises_logpdf``
-        of the angle, with the terms of the rows' own kind only (``np.where`` picked them; the same values)."""
-        params, expon, any_expon, all_expon, log_i0e = rows
+    def _density(self, vecs: np.ndarray, rows: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+        """Row log-densities (N, R) of vectors (N, R, 3) (:func:`~socialaff_sim.model.potentials.polar_rows_logpdf`)."""
+        params, expon, log_i0e = rows
         h, v, th = polar(vecs, self.eps)
-        kh, lh, kv, lv, mu, kap = params.T
         with np.errstate(divide="ignore", invalid="ignore"):
-            if all_expon:
-                dist = expon_logpdf(h, lh) + expon_logpdf(v, lv)
-            elif not any_expon:
-                dist = weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv)
-            else:
-                dist = np.where(expon, expon_logpdf(h, lh) + expon_logpdf(v, lv), weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv))
-            # vonmises_logpdf(th, mu, kap), its operations in its order, log i0e(κ) made once
-            return dist + (kap * (np.cos(th - mu) - 1.0) - LOG_2PI - log_i0e)
+            return polar_rows_logpdf(h, v, th, params, expon, log_i0e=log_i0e)
 
     def spatial(self, end: np.ndarray, s: int | None = None) -> np.ndarray:
         """Spatial log-potential of N configurations ``end`` (N, 11, 3): (N, S), or (N,) under type ``s``."""

@@ -64,11 +64,14 @@ def weibull_logpdf(x: np.ndarray, k: np.ndarray | float, lam: np.ndarray | float
     return np.where(x < 0, -np.inf, out)
 
 
-def vonmises_logpdf(theta: np.ndarray, mu: np.ndarray | float, kappa: np.ndarray | float) -> np.ndarray:
-    """log f(θ; μ, κ) of the von Mises distribution (periodic in θ, radians)."""
+def vonmises_logpdf(
+    theta: np.ndarray, mu: np.ndarray | float, kappa: np.ndarray | float, *, log_i0e: np.ndarray | None = None
+) -> np.ndarray:
+    """log f(θ; μ, κ) of the von Mises distribution (periodic in θ, radians). ``log_i0e``: log i0e(κ) when the caller
+    already has it (a table scoring the same rows every frame), the same values as computed here."""
     theta = np.asarray(theta, float)
     kappa = np.asarray(kappa, float)
-    return kappa * (np.cos(theta - mu) - 1.0) - LOG_2PI - np.log(i0e(kappa))
+    return kappa * (np.cos(theta - mu) - 1.0) - LOG_2PI - (np.log(i0e(kappa)) if log_i0e is None else log_i0e)
 
 
 def expon_logpdf(x: np.ndarray, mean: np.ndarray | float) -> np.ndarray:

@@ -54,6 +54,7 @@ __all__ = [
     "fit_type_potentials",
     "log_spatial",
     "log_motion",
+    "polar_rows_logpdf",
     "score_polar",
     "spatial_offsets",
 ]
@@ -195,16 +196,27 @@ def _score_rows(vecs: np.ndarray, params: np.ndarray, eps: float, expon: np.ndar
     return score_polar(*polar(vecs, eps), params, expon)
 
 
+def polar_rows_logpdf(
+    h: np.ndarray, v: np.ndarray, th: np.ndarray, params: np.ndarray, expon: np.ndarray, *, log_i0e: np.ndarray | None = None
+) -> np.ndarray:
+    """Log-density (N, K) of vectors given in polar form (:func:`~socialaff_sim.model.features.polar`: h, |dz|, θ,
+    each (N, K)) under K parameter rows (K, 6), one column per row: Weibull (``expon`` (K,): exponential) of h and
+    |dz| plus von Mises of θ. Only the kind the rows use is evaluated when they are all of one kind (``np.where``
+    would pick the same values). ``log_i0e``: log i0e(κ) of the rows, when the caller keeps it."""
+    kh, lh, kv, lv, mu, kap = params.T
+    if expon.all():
+        dist = expon_logpdf(h, lh) + expon_logpdf(v, lv)
+    elif not expon.any():
+        dist = weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv)
+    else:
+        dist = np.where(expon, expon_logpdf(h, lh) + expon_logpdf(v, lv), weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv))
+    return dist + vonmises_logpdf(th, mu, kap, log_i0e=log_i0e)
+
+
 def score_polar(h: np.ndarray, v: np.ndarray, th: np.ndarray, params: np.ndarray, expon: np.ndarray) -> np.ndarray:
     """Log-density of vectors given in polar form (:func:`~socialaff_sim.model.features.polar`: h, |dz|, θ, each
     (N, K)) under K parameter rows (K, 6) → (N,) summed over K (``expon`` (K,): exponential rows)."""
-    kh, lh, kv, lv, mu, kap = params.T
-    dist = np.where(
-        expon,
-        expon_logpdf(h, lh) + expon_logpdf(v, lv),
-        weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv),
-    )
-    return (dist + vonmises_logpdf(th, mu, kap)).sum(axis=-1)
+    return polar_rows_logpdf(h, v, th, params, expon).sum(axis=-1)
 
 
 def log_spatial(
