@@ -18,6 +18,8 @@ Algorithm 1's MH chain instead of the preset's (traces cached in the subfolder `
 ``--cross-fit-type-passes N``: the cross-fitted models of the training traces run N type-level restructuring passes
 (``SwitchingConfig.cross_fit_type_passes``; the model fitted on all training instances keeps the preset's); the traces
 are cached under their own name (suffix ``_tpN``).
+``--overrun-delta-t``: the synthesizer's traces (training and validation) with ``SynthesisConfig.overrun_delta_t``
+(cached apart, suffix ``_od``).
 ``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
 ``--no-gated``: cheaper traces, no belief-gated variants.
 
@@ -209,6 +211,9 @@ def main() -> None:
     ap.add_argument("--cross-fit-type-passes", type=int, default=None,
                     help="type-level restructuring passes of the cross-fitted models only (SwitchingConfig.cross_fit_type_passes; "
                          "default: the preset's); traces cached apart (suffix _tpN)")
+    ap.add_argument("--overrun-delta-t", action="store_true",
+                    help="the synthesizer's traces with SynthesisConfig.overrun_delta_t (re-plan every ΔT frames once the "
+                         "running sub-event has overrun its predicted end); traces cached apart (suffix _od)")
     args = ap.parse_args()
     if args.cross_fit_type_passes is not None and args.cross_fit_type_passes < 0:
         raise SystemExit(f"--cross-fit-type-passes: expected an integer >= 0, found {args.cross_fit_type_passes}")
@@ -231,12 +236,14 @@ def main() -> None:
         val = [insts[i] for i in val_idx if insts[i].n_frames > T0 + 1]
         rng = np.random.default_rng(args.seed)
         t0 = time.perf_counter()
-        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}{f'_tp{passes}' if passes is not None else ''}.pkl" if args.cache else None
+        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}{f'_tp{passes}' if passes is not None else ''}{'_od' if args.overrun_delta_t else ''}.pkl" if args.cache else None
         model_s = float("nan")  # the model fit alone (Algorithm 1 and the body clusters; nan: read from the cache)
         if cache is not None and cache.exists():
             S, tr_traces, va_traces = pickle.loads(cache.read_bytes())
         else:
             method = _with_iterations(AffordanceMethod.from_preset("full", "default", reaction=None), args.iterations)
+            if args.overrun_delta_t:
+                method.synthesis = dataclasses.replace(method.synthesis, overrun_delta_t=True)
             t_model = time.perf_counter()
             method.fit(train, rng=rng)
             model_s = time.perf_counter() - t_model

@@ -346,11 +346,12 @@ class OnlineSynthesizer(CandidatePlanner):
     ) -> tuple[np.ndarray, int]:
         """Agent 1's key joints (F, 5, 3) for frames [t, stop) on the way from frame t − 1 to ``target`` at ``last``
         (blended with the frame regression of sub-event ``s`` begun at ``start`` when ``frame_weight`` > 0), and
-        stop: t + ΔT (up to ``last`` with ``replan_at_end``) unless given."""
+        stop: t + ΔT (up to ``last`` with ``replan_at_end``, unless the sub-event overran with ``overrun_delta_t``)
+        unless given."""
         cfg = self.config
         if stop is None:
             stop = min(t + cfg.delta_t, self._track.shape[0])
-            if cfg.replan_at_end:
+            if cfg.replan_at_end and not (cfg.overrun_delta_t and last <= t):
                 stop = min(stop, last + 1)  # last >= t: at least one frame
         prev = self._track[t - 1, _AGENT1]
         frames = np.arange(t, stop)

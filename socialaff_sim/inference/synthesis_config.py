@@ -27,7 +27,7 @@ class SynthesisConfig:
 
     Fields by concept
     -----------------
-    - Online schedule: n_observed, delta_t, replan_at_end
+    - Online schedule: n_observed, delta_t, replan_at_end, overrun_delta_t
     - Running sub-event and its end: parse, belief, belief_step, belief_horizon, parse_window, observed_parse_step,
       open_interval, duration, lookahead
     - Candidate end configurations: n_samples, spatial_fraction, coherent_fraction, refine_sweeps, vertical_sign,
@@ -123,6 +123,13 @@ class SynthesisConfig:
     """[—]: Also re-plan at the predicted end of the running sub-event when that comes before the next ΔT
     boundary, so the next sub-event's first frames head for its own end instead of holding this one's
     end configuration. False: every ΔT frames, as in the paper."""
+    overrun_delta_t: bool = False
+    """[—]: With ``replan_at_end``: a re-planning whose running sub-event has overrun (its predicted last frame is the
+    current frame t: the sub-event has lasted as long as its duration model expects, or longer, as every sub-event
+    does once its start is the ``"forward"`` belief's long bucket, ``belief_horizon`` ago) plans the next ΔT frames
+    instead of one, so the next re-planning is ΔT frames later. False (the default): re-plan after every predicted
+    end, i.e. at every frame while the sub-event overruns (on a long handover stream 94 % of the frames re-plan; an
+    option for the real-time target of issue 24, docs/design.md §8)."""
     contact: str = "none"
     """[—]: Pull of agent 1's wrist toward its contact keyframes (the model's ``contact_keys_``): toward the
     touched joint plus the learned offset, with a Gaussian weight that is 1 at the keyframe.
