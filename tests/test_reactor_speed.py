@@ -24,7 +24,7 @@ from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, 
 from socialaff_sim.inference.methods import AffordanceMethod
 from socialaff_sim.inference.primitive_stream import PrimitiveStream
 from socialaff_sim.inference.protocol import observed_part
-from socialaff_sim.inference.reaction_features import nan_to_zero
+from socialaff_sim.model.nan_fill import nan_to_value, nan_to_zero
 from socialaff_sim.inference.switching import PRIMITIVE_FAMILIES, SwitchingConfig
 from socialaff_sim.inference.type_tables import TypeTables
 from socialaff_sim.learning.config import LearningConfig
@@ -51,6 +51,10 @@ def test_nan_to_zero_equals_nan_to_num(rng: np.random.Generator) -> None:
         out = nan_to_zero(y)
         assert np.array_equal(out, ref) and np.array_equal(np.signbit(out), np.signbit(ref))
         assert out is not y and np.isnan(y).any()  # a new array; the input kept
+        for fill in (1.0, -2.5):  # the candidates' parameter rows fill NaN with 1
+            ref, out = np.nan_to_num(y, nan=fill), nan_to_value(y, fill)
+            assert np.array_equal(out, ref) and np.array_equal(np.signbit(out), np.signbit(ref))
+            assert (out == fill).sum() == np.isnan(y).sum()  # the fill is used, not 0
 
 
 def _density_reference(tables: TypeTables, vecs: np.ndarray, params: np.ndarray, expon: np.ndarray) -> np.ndarray:

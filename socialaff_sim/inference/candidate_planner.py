@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..data.skeletons import N_KEY
+from ..model.nan_fill import nan_to_zero
 from ..model.potentials import reference_weights
 from .candidates import AGENT1 as _AGENT1
 from .candidates import RegressionPrior, draw_vectors, expected_error_choice, sign_loglik
@@ -58,7 +59,7 @@ class CandidatePlanner:
             # (2, 11): P(dz > 0) of spatial offsets and of displacements; ½ without the sign term (the paper).
             up = model.vertical_up_[s] if cfg.vertical_sign else np.full_like(model.vertical_up_[s], 0.5)
             W = self._weights(s, z)[aff]
-            refs = W @ np.nan_to_num(config)  # (A, 3)
+            refs = W @ nan_to_zero(config)  # (A, 3)
             sp = draw_vectors(model.spatial_params_[s, aff], up[0, aff], n_sp, self._rng) + refs[None]
             mo = draw_vectors(model.motion_params_[s, aff], up[1, aff], N - n_sp, self._rng) + before[aff][None]
             cand[:, aff] = np.concatenate([sp, mo])

@@ -15,6 +15,7 @@ import numpy as np
 from ..data.skeletons import N_KEY
 from ..model.affordance import AffordanceParameters
 from ..model.end_regression import end_context
+from ..model.nan_fill import nan_to_value, nan_to_zero
 from ..model.potentials import reference_weights
 from ..model.ridge import RidgeRegression
 
@@ -29,7 +30,7 @@ def draw_vectors(params: np.ndarray, up: np.ndarray, n: int, rng: np.random.Gene
     K = params.shape[0]
     if n == 0:
         return np.zeros((0, K, 3))
-    kh, lh, kv, lv, mu, kap = np.nan_to_num(params, nan=1.0).T
+    kh, lh, kv, lv, mu, kap = nan_to_value(np.asarray(params, dtype=float), 1.0).T
     h = lh * rng.weibull(kh, size=(n, K))
     v = lv * rng.weibull(kv, size=(n, K))
     sign = np.where(rng.random((n, K)) < up, 1.0, -1.0)
@@ -48,7 +49,7 @@ def expected_error_choice(cand: np.ndarray, score: np.ndarray, temperature: floa
         return 0
     w = np.where(finite, np.exp(score - score[finite].max()), 0.0)
     w /= w.sum()
-    x = np.nan_to_num(np.asarray(cand, dtype=float))
+    x = nan_to_zero(np.asarray(cand, dtype=float))
     mean = np.tensordot(w, x, axes=(0, 0))
     d2 = ((x - mean[None]) ** 2).sum(axis=(1, 2))
     return int(np.argmin(np.where(finite, d2, np.inf)))
@@ -69,7 +70,7 @@ def sign_loglik(
         if weights is None:
             weights = reference_weights(z, other_side=model.config.other_side_reference, include_self=model.config.reference_self)
         W = weights[aff]
-        off_z = cand[:, aff, 2] - np.einsum("kj,nj->nk", W, np.nan_to_num(cand[:, :, 2]))
+        off_z = cand[:, aff, 2] - np.einsum("kj,nj->nk", W, nan_to_zero(cand[:, :, 2]))
         out += np.where(off_z > 0, np.log(up[0, aff]), np.log1p(-up[0, aff])).sum(axis=1)
     moving = AGENT1[z[AGENT1] >= 0]
     if moving.size:

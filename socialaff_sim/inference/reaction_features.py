@@ -35,6 +35,7 @@ from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError
 from ..model.frame import CanonicalFrame, canonical_frame
+from ..model.nan_fill import nan_to_zero
 
 __all__ = [
     "FEATURE_GROUPS", "N_FEATURES", "RAMP_COLUMN", "Anchor", "FeatureConfig", "FeatureStream", "forward_fill", "group_columns", "nan_to_zero",
@@ -75,15 +76,6 @@ def group_columns(groups: Sequence[str]) -> np.ndarray:
 N_FEATURES = sum(_WIDTH.values())
 RAMP_COLUMN = _WIDTH["agent0"] + 3
 """Column of r(s), the ramp of the ``gap`` group (its last column)."""
-
-
-def nan_to_zero(x: np.ndarray) -> np.ndarray:
-    """``np.nan_to_num(x)`` of a float64 array (a new array, NaN → 0, ±inf → ±the largest float), with fewer calls when
-    nothing is infinite (the reactor calls it several times a frame)."""
-    out = np.where(np.isnan(x), 0.0, x)
-    if not np.isfinite(out).all():
-        return np.nan_to_num(x)
-    return out
 
 
 def velocity_estimate(positions: np.ndarray) -> np.ndarray:

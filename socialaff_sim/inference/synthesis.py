@@ -49,6 +49,7 @@ from ..data.skeletons import N_KEY
 from ..errors import ModelError
 from ..model.frame_regression import frame_context
 from ..model.handedness import KEY_SWAP, relabel
+from ..model.nan_fill import nan_to_zero
 from ..model.ridge import RidgeRegression
 from .candidate_planner import CandidatePlanner
 from .canonical_stream import CanonicalStream
@@ -385,5 +386,5 @@ class OnlineSynthesizer(CandidatePlanner):
         ctx = frame_context(config, ref, phase, self._available)
         pred = reg.predict(ctx).reshape(-1, N_KEY, 3) + config[:, 0:1]
         fade = np.exp(-(frames[1:] - (t - 1)) / cfg.frame_decay)[:, None, None]
-        out = pred[1:] + fade * (np.nan_to_num(prev) - pred[0])[None]
+        out = pred[1:] + fade * (nan_to_zero(prev) - pred[0])[None]
         return np.where(np.isfinite(prev)[None], out, np.nan)

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..data.skeletons import N_KEY
 from .joints import OBJECT
+from .nan_fill import nan_to_zero
 from .ridge import RidgeRegression, fit_ridge
 
 __all__ = ["end_context", "fit_end_regression", "interval_samples", "n_context", "offset_columns"]
@@ -70,7 +71,7 @@ def end_context(end: np.ndarray, before: np.ndarray, reference: np.ndarray, avai
     for cfg in (before, reference):
         parts.append(np.asarray(cfg, float)[:, N_KEY : 2 * N_KEY] - anchor)
     parts.append(anchor)
-    return np.nan_to_num(np.concatenate([p.reshape(end.shape[0], -1) for p in parts], axis=1))
+    return nan_to_zero(np.concatenate([p.reshape(end.shape[0], -1) for p in parts], axis=1))
 
 
 def _target(end: np.ndarray) -> np.ndarray:

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..data.skeletons import N_KEY
 from .joints import OBJECT
+from .nan_fill import nan_to_zero
 from .ridge import RidgeRegression, fit_ridge
 
 __all__ = ["fit_frame_regression", "frame_context", "frame_samples", "frame_offset_columns", "n_frame_context"]
@@ -48,7 +49,7 @@ def frame_context(frames: np.ndarray, reference: np.ndarray, phase: np.ndarray, 
     if available[OBJECT]:
         parts.append(frames[:, OBJECT : OBJECT + 1] - anchor)
     parts += [np.asarray(reference, float)[:, N_KEY : 2 * N_KEY] - anchor, anchor]
-    x = np.nan_to_num(np.concatenate([p.reshape(frames.shape[0], -1) for p in parts], axis=1))
+    x = nan_to_zero(np.concatenate([p.reshape(frames.shape[0], -1) for p in parts], axis=1))
     u = np.asarray(phase, float)[:, None]
     return np.concatenate([x, u, u**2, u * x[:, frame_offset_columns(available)]], axis=1)
 
