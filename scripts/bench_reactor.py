@@ -13,7 +13,8 @@ its capacity; not the fitted method, not the evaluation's views, whose buffers a
 Two interaction-primitive paths are timed, on the same views:
 ``stream`` — :class:`~socialaff_sim.inference.primitive_stream.PrimitiveStream` (running sums; the reactor's path
 since it was added) and ``batch`` — :meth:`InteractionPrimitive.react_keys` recomputing everything from the view
-(the reactor's path at commit 7f68f7b). ``--part primitive`` times the primitive alone; ``--part reactor`` times
+(the reactor's path at commit 7f68f7b). ``--overrun on`` runs the reactor with ``SynthesisConfig.overrun_delta_t`` (``both``: every run with it off, then on,
+alternated). ``--part primitive`` times the primitive alone; ``--part reactor`` times
 the whole reactor with each path (``batch`` swaps the reactor's stream for a call of ``react_keys``, exactly the
 code of 7f68f7b). The batch path's cost grows with the frames seen: on the long stream it runs for
 ``--batch-minutes`` only.
@@ -25,6 +26,7 @@ code of 7f68f7b). The batch path's cost grows with the frames seen: on the long 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import pickle
@@ -147,6 +149,8 @@ def main() -> None:
     p.add_argument("--model", default=None, help="pickle of the fitted method: read if present, else written")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", default=None)
+    p.add_argument("--overrun", default="off", choices=("off", "on", "both"),
+                   help="SynthesisConfig.overrun_delta_t of the reactor (both: each run with off, then on)")
     args = p.parse_args()
     data = load_dataset(args.data)
     label = args.interaction or data[0].label
@@ -170,13 +174,17 @@ def main() -> None:
     if args.minutes > 0:
         n = int(round(args.minutes * 60 * test[0].fps))
         streams.append(("stream", concatenate(test, n, f"{label}_{args.minutes:g}min")))
+    synthesis = method.synthesis
+    modes = {"off": [False], "on": [True], "both": [False, True]}[args.overrun]
     for part in [x for x in args.part.split(",") if x]:
         for path in [x for x in args.paths.split(",") if x]:
-            for kind, inst in streams:
+            for (kind, inst), overrun in [(x, o) for x in streams for o in modes]:
                 secs = args.batch_minutes * 60 if (kind == "stream" and path == "batch") else None
-                r = {"kind": kind, **run(method, inst, part=part, path=path, seconds=secs, seed=args.seed)}
+                method.synthesis = dataclasses.replace(synthesis, overrun_delta_t=overrun)
+                r = {"kind": kind, "overrun_delta_t": overrun,
+                     **run(method, inst, part=part, path=path, seconds=secs, seed=args.seed)}
                 out["runs"].append(r)
-                print(f"[{part}/{path}] {kind} {r['instance']}: {r['frames']} frames, {r['frames_per_cpu_s']:.0f} frames/CPU s, "
+                print(f"[{part}/{path}{'/overrun ΔT' if overrun else ''}] {kind} {r['instance']}: {r['frames']} frames, {r['frames_per_cpu_s']:.0f} frames/CPU s, "
                       f"p50 {r['p50_ms']:.2f} p99 {r['p99_ms']:.2f} max {r['max_ms']:.1f} ms (view: p99 {r['view_p99_ms']:.3f} "
                       f"max {r['view_max_ms']:.2f} ms); state {r['state_bytes_end'] / 1e6:.2f} MB (views {r['views_bytes_end'] / 1e6:.2f} MB); "
                       f"load {r['load_avg_1_5_15']}, "

@@ -14,6 +14,7 @@ frame and share. Parts named ``step.*`` are inside ``step``. The model is a pick
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import functools
 import os
 import pickle
@@ -69,12 +70,15 @@ def main() -> None:
     p.add_argument("--skip", type=int, default=40, help="recordings of the label to skip (the model's training set)")
     p.add_argument("--recordings", type=int, default=5)
     p.add_argument("--seconds", type=float, default=0.0, help="> 0: a stream of the recordings end to end instead")
+    p.add_argument("--overrun-delta-t", action="store_true", help="the reactor with SynthesisConfig.overrun_delta_t")
     args = p.parse_args()
     acc: dict[str, float] = {}
     for owner, name, label in PARTS:
         setattr(owner, name, _timed(getattr(owner, name), label, acc))
     with open(args.model, "rb") as f:
         method = pickle.load(f)
+    if args.overrun_delta_t:
+        method.synthesis = dataclasses.replace(method.synthesis, overrun_delta_t=True)
     data = load_dataset(args.data)
     label = args.interaction or data[0].label
     pool = [i for i in data if i.label == label][args.skip : args.skip + args.recordings]
