@@ -210,6 +210,9 @@ def main() -> None:
     ap.add_argument("--clip-features", action="store_true",
                     help="every variant's regression clips its scaled columns to the training rows' range at prediction "
                     "(SwitchingConfig.clip_features; the traces and their cache are the same)")
+    ap.add_argument("--clip-margin", type=float, default=0.0,
+                    help="with --clip-features: the range widened on each side by this multiple of its width "
+                    "(SwitchingConfig.clip_margin)")
     ap.add_argument("--cross-fit-type-passes", type=int, default=None,
                     help="type-level restructuring passes of the cross-fitted models only (SwitchingConfig.cross_fit_type_passes; "
                          "default: the preset's); traces cached apart (suffix _tpN)")
@@ -280,7 +283,7 @@ def main() -> None:
         for name in names:
             families, steps = VARIANTS[name]
             reg = SwitchingRegression(SwitchingConfig(families=families, blend_steps=steps, contiguous=args.contiguous,
-                                                      clip_features=args.clip_features)).fit(
+                                                      clip_features=args.clip_features, clip_margin=args.clip_margin)).fit(
                 train, tr_traces, n_subevents=S, rng=np.random.default_rng(args.seed))
             row["sw:" + name] = _keep(per, "sw:" + name, [_err(reg.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
             chosen[name] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg.members_) or "hold"
