@@ -126,14 +126,15 @@ class SwitchingConfig:
     passes; 0: none, the default since its development-split rule held); None: the method's own, as for the model
     fitted on all instances. Fewer passes make the fit cheaper and change the cross-fitted plans (issue 24;
     docs/design.md §8, "Cheaper cross-fitted models")."""
-    clip_features: bool = False
-    """[—]: At prediction, clip each scaled column to the range [min, max] it had in the training rows, so that a
+    clip_features: bool = True
+    """[—]: At prediction, clip each scaled column to the range it had in the training rows (widened by
+    ``clip_margin``; the default since its development-split rule held), so that a
     feature far outside them (a test plan, from the model fitted on all instances, moving a joint that the
     cross-fitted training plans hardly moved) cannot extrapolate a member linearly (docs/design.md §8, "Clipped
     features")."""
-    clip_margin: float = 0.0
-    """m [—]: With ``clip_features``, the range is widened on each side by m times its width (0: the training
-    rows' [min, max])."""
+    clip_margin: float = 1.0
+    """m [—]: With ``clip_features``, the range [min, max] of the training rows is widened on each side by m times
+    its width (0: the bare range, which failed its development rule on the synthetic set)."""
     penalties: tuple[float, ...] = (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0)
     """λ [—]: Ridge penalties the inner CV chooses among (unit-RMS features, rows weighing one per instance)."""
     inner_folds: int = 3
