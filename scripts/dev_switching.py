@@ -18,6 +18,9 @@ Algorithm 1's MH chain instead of the preset's (traces cached in the subfolder `
 ``--cross-fit-type-passes N``: the cross-fitted models of the training traces run N type-level restructuring passes
 (``SwitchingConfig.cross_fit_type_passes``; the model fitted on all training instances keeps the preset's); the traces
 are cached under their own name (suffix ``_tpN``).
+``--type-passes N``: the model fitted on all training instances runs N type-level restructuring passes
+(``LearningConfig.init_type_passes``; the cross-fitted models too unless ``--cross-fit-type-passes`` is given); the
+traces are cached under their own name (suffix ``_fpN``).
 ``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
 ``--no-gated``: cheaper traces, no belief-gated variants.
 
@@ -32,7 +35,7 @@ Usage::
 
     python scripts/dev_switching.py --data nuisi:../shared/data/nuisi_v1 --split block [--rotation 0] [--labels a,b]
         [--cache DIR] [--variants default,primitive] [--contiguous] [--no-gated] [--v2] [--iterations N] [--training-stream]
-        [--cross-fit-type-passes N]
+        [--cross-fit-type-passes N] [--type-passes N]
 
 Prints one line per class and the averages; the library never imports this script.
 """
@@ -209,7 +212,13 @@ def main() -> None:
     ap.add_argument("--cross-fit-type-passes", type=int, default=None,
                     help="type-level restructuring passes of the cross-fitted models only (SwitchingConfig.cross_fit_type_passes; "
                          "default: the preset's); traces cached apart (suffix _tpN)")
+    ap.add_argument("--type-passes", type=int, default=None,
+                    help="type-level restructuring passes of the model fitted on all training instances "
+                         "(LearningConfig.init_type_passes; also the cross-fitted models' unless --cross-fit-type-passes); "
+                         "default: the preset's; traces cached apart (suffix _fpN)")
     args = ap.parse_args()
+    if args.type_passes is not None and args.type_passes < 0:
+        raise SystemExit(f"--type-passes: expected an integer >= 0, found {args.type_passes}")
     if args.cross_fit_type_passes is not None and args.cross_fit_type_passes < 0:
         raise SystemExit(f"--cross-fit-type-passes: expected an integer >= 0, found {args.cross_fit_type_passes}")
     passes = args.cross_fit_type_passes
@@ -231,12 +240,14 @@ def main() -> None:
         val = [insts[i] for i in val_idx if insts[i].n_frames > T0 + 1]
         rng = np.random.default_rng(args.seed)
         t0 = time.perf_counter()
-        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}{f'_tp{passes}' if passes is not None else ''}.pkl" if args.cache else None
+        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}{f'_tp{passes}' if passes is not None else ''}{f'_fp{args.type_passes}' if args.type_passes is not None else ''}.pkl" if args.cache else None
         model_s = float("nan")  # the model fit alone (Algorithm 1 and the body clusters; nan: read from the cache)
         if cache is not None and cache.exists():
             S, tr_traces, va_traces = pickle.loads(cache.read_bytes())
         else:
             method = _with_iterations(AffordanceMethod.from_preset("full", "default", reaction=None), args.iterations)
+            if args.type_passes is not None:  # the model fitted on all instances (issue 24: a cheaper fit)
+                method.learning = dataclasses.replace(method.learning, init_type_passes=args.type_passes)
             t_model = time.perf_counter()
             method.fit(train, rng=rng)
             model_s = time.perf_counter() - t_model

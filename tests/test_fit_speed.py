@@ -16,12 +16,13 @@ import pytest
 from socialaff_sim.data import Interaction
 from socialaff_sim.data.interaction import fill_key_joints
 from socialaff_sim.data.skeletons import KEY_JOINTS
+from socialaff_sim.errors import ModelError
 from socialaff_sim.inference.body_fit import BodyFitter
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, PrefixBasis, ProMPConfig, rbf_basis
 from socialaff_sim.inference.methods import primitive_trace
-from socialaff_sim.inference.primitive_stream import stream_key_joints
-from socialaff_sim.inference.protocol import PrefixViews, protocol_view
-from socialaff_sim.inference.switching import Trace
+from socialaff_sim.inference.primitive_stream import PrimitiveStream, stream_key_joints
+from socialaff_sim.inference.protocol import PrefixViews, observed_part, protocol_view
+from socialaff_sim.inference.switching_rows import Trace
 
 T0 = 10
 
@@ -133,3 +134,34 @@ def test_training_stream_option_reads_the_stream_and_is_on_by_default(rng: np.ra
     assert np.array_equal(streamed.primitive, stream_key_joints(InteractionPrimitive().fit(insts[1:]), probe, T0), equal_nan=True)
     np.testing.assert_allclose(streamed.primitive[T0:], batch.primitive[T0:], atol=1e-9)
     assert not np.array_equal(streamed.primitive, batch.primitive)  # not bitwise: why it is an option
+
+
+def _stream_reference(prim: InteractionPrimitive, inst: Interaction, n_observed: int) -> np.ndarray:
+    """The loop :func:`stream_key_joints` replaced: one stream fed every causal view, built and validated."""
+    out = np.full((inst.n_frames, 5, 3), np.nan)
+    stream = PrimitiveStream(prim, n_observed)
+    for t in range(n_observed, inst.n_frames):
+        out[t] = stream.react_keys(protocol_view(inst, t + 1, n_observed), t, t + 1)[0]
+    return out
+
+
+@pytest.mark.parametrize(("gaps", "obj"), [(False, False), (True, False), (True, True)])
+def test_stream_key_joints_equal_the_stream_fed_every_view(rng: np.random.Generator, gaps: bool, obj: bool) -> None:
+    """The training rows' stream reads each frame from the once-hidden instance (``prefix_keys``) instead of a new
+    view a frame: bitwise the same, with agent 0's base first tracked at frame 3 (the stream rebuilds), gaps that
+    close, an object, and an instance longer than every training one."""
+    insts = [_instance(rng, k, gaps=gaps, obj=obj) for k in range(9)]
+    prim = InteractionPrimitive().fit(insts[1:])
+    long = _instance(np.random.default_rng(5), 98, gaps=gaps, obj=obj)
+    long = long.replace(joints=np.concatenate([long.joints, long.joints]), valid=np.concatenate([long.valid, long.valid]),
+                        object=None if long.object is None else np.concatenate([long.object, long.object]))
+    assert long.n_frames > prim.durations_.max()
+    for inst in [insts[0], _instance(rng, 20, gaps=gaps, obj=obj), long]:
+        got = stream_key_joints(prim, inst, T0)
+        assert np.array_equal(got, _stream_reference(prim, inst, T0), equal_nan=True)
+        assert np.isnan(got[:T0]).all() and np.isfinite(got[T0:]).all()
+    short = insts[1].slice(0, T0)  # nothing to predict
+    assert np.isnan(stream_key_joints(prim, short, T0)).all()
+    stream = PrimitiveStream(prim, T0)
+    with pytest.raises(ModelError, match="visible"):
+        stream.prefix_keys(observed_part(insts[0], T0), insts[0].n_frames + 1, T0, T0 + 1)
