@@ -3,18 +3,20 @@ random stream for every method."""
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Sequence
 
 import numpy as np
 import pytest
+from conftest import load_script
 from test_evaluation import toy_dataset
 
 from socialaff_sim.baselines.simple import HoldPose
 from socialaff_sim.cli.main import main
 from socialaff_sim.data import Interaction, save_dataset
 from socialaff_sim.errors import ConfigError
-from socialaff_sim.evaluation import EvaluationConfig, evaluate, format_tables
+from socialaff_sim.evaluation import EvaluationConfig, evaluate, format_tables, write_results
 from socialaff_sim.evaluation.crossval import make_tasks, task_seed
 from socialaff_sim.evaluation.merge import reuse_results
 from socialaff_sim.evaluation.registry import METHODS
@@ -90,3 +92,40 @@ def test_cli_rejects_a_negative_replicate(tmp_path, capsys: pytest.CaptureFixtur
     code = main(["evaluate", "--data", str(path), "--methods", "hold", "--out", str(tmp_path / "out"), "--replicate", "-1"])
     assert code == 2 and "argument --replicate: expected an integer >= 0, found -1" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_replicate_summary_averages_the_instances_over_replicates(registered: None, tmp_path,  # noqa: ANN001
+                                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    script = load_script("replicate_summary")
+    data = toy_dataset(seed=2, labels=("shake_hands", "hand_over"), n_pairs=4, per_pair=2)
+    paths, runs = [], []
+    for r in (2, 0, 1):
+        res = evaluate(data, ["drift", "hold"], config=EvaluationConfig(executor="serial", seed=1, replicate=r))
+        paths.append(write_results(res, tmp_path / f"r{r}")["json"])
+        runs.append(json.loads(paths[-1].read_text()))
+    assert script.main([str(p) for p in paths] + ["--method", "drift", "--references", "hold"]) == 0
+    out = capsys.readouterr().out
+    # independent reference: the class means of the per-instance differences, averaged over the replicates
+    diff = []
+    for label in ("shake_hands", "hand_over"):
+        hold = {(r["instance_id"], r["fold"]): r["key_joint_error_m"] for r in runs[0]["per_instance"][label]["hold"]}
+        per_rep = [{(r["instance_id"], r["fold"]): r["key_joint_error_m"] for r in run["per_instance"][label]["drift"]}
+                   for run in runs]
+        diff.append(np.mean([np.mean([p[k] for p in per_rep]) - hold[k] for k in hold]))
+    mean_row = next(line for line in out.splitlines() if line.startswith("| mean of 3 |"))
+    assert f"**{np.mean(diff):+.4f} [" in mean_row
+    averages = [run["average"]["drift"]["key_joint_error_m"] for run in runs]
+    assert f"{np.mean(averages):.4f}" in mean_row and f"standard deviation {np.std(averages, ddof=1):.4f} m" in out
+    rows = [line.split(" | ")[0] for line in out.splitlines() if line.startswith("| ") and line[2].isdigit()]
+    assert rows == ["| 0", "| 1", "| 2"]  # ordered by replicate
+    # a reference with randomness is averaged over the files too: hold − mean(drift) is the negated difference
+    assert script.main([str(paths[1]), str(paths[2]), str(paths[0]), "--method", "hold", "--references", "drift"]) == 0
+    out = capsys.readouterr().out
+    assert "References' replicates: `drift` [0, 1, 2]" in out
+    mean_row = next(line for line in out.splitlines() if line.startswith("| mean of 3 |"))
+    assert f"**{-np.mean(diff):+.4f} [" in mean_row
+    # a replicate given twice, and a reference not evaluated: exit 2 with a line naming it
+    assert script.main([str(paths[1]), str(paths[1]), "--method", "drift", "--references", "hold"]) == 2
+    assert "each replicate once" in capsys.readouterr().err
+    assert script.main([str(paths[0]), "--method", "drift", "--references", "ridge"]) == 2
+    assert "method 'ridge' was not evaluated" in capsys.readouterr().err
