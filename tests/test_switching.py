@@ -325,10 +325,11 @@ def test_cross_fit_type_passes_reach_the_cross_fitted_models_only(monkeypatch: p
     own = LearningConfig(init_type_passes=3, init_rounds=4)
     m = AffordanceMethod("full", learning=own)
     m.body_ = None
-    m._training_traces(insts, SwitchingConfig(families=FAMILIES), rng)
+    m._training_traces(insts, SwitchingConfig(families=FAMILIES, cross_fit_type_passes=None), rng)
     assert len(seen) == 2 and all(cfg is own for cfg in seen)
     seen.clear()
-    m._training_traces(insts, SwitchingConfig(families=FAMILIES, cross_fit_type_passes=0), rng)
+    assert SwitchingConfig().cross_fit_type_passes == 0  # the default since its development-split rule held
+    m._training_traces(insts, SwitchingConfig(families=FAMILIES), rng)
     assert len(seen) == 2 and all(cfg == dataclasses.replace(own, init_type_passes=0) for cfg in seen)
     with pytest.raises(ConfigError):
         SwitchingConfig(cross_fit_type_passes=-1)

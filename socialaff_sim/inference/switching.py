@@ -121,10 +121,11 @@ class SwitchingConfig:
     of sample, as at test. 1: from the model
     fitted on all of them, in sample, which the inner CV then over-trusts (NuiSI's development split, docs/design.md).
     The beliefs and phases always come from the model fitted on all of them (its sub-event labels are the test's)."""
-    cross_fit_type_passes: int | None = None
+    cross_fit_type_passes: int | None = 0
     """[—]: ``LearningConfig.init_type_passes`` of the cross-fitted models only (Algorithm 1's type-level restructuring
-    passes; 0: none); None: the method's own, as for the model fitted on all instances. Fewer passes make the fit
-    cheaper and change the cross-fitted plans (issue 24; docs/design.md §8, "Fit time")."""
+    passes; 0: none, the default since its development-split rule held); None: the method's own, as for the model
+    fitted on all instances. Fewer passes make the fit cheaper and change the cross-fitted plans (issue 24;
+    docs/design.md §8, "Cheaper cross-fitted models")."""
     penalties: tuple[float, ...] = (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0)
     """λ [—]: Ridge penalties the inner CV chooses among (unit-RMS features, rows weighing one per instance)."""
     inner_folds: int = 3
