@@ -18,7 +18,7 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    ``solver="lsq"``: weighted least squares (:mod:`~.contact_dynamics`); ``solver="qp"``: a quadratic program
    (:mod:`~.contact_qp`) in which the root's rows, each actuator's torque limit at this state (times
    ``torque_fraction``), each foot's centre of pressure ``cop_margin`` inside its sole and a minimum load per
-   foot hold as constraints;
+   foot hold as constraints (with ``self_clearance`` also the arms' distances to the body, :mod:`~.self_clearance`);
 3. the servos are made to exert τ exactly: ctrl = (τ − b₀ − b₁ q − b₂ q̇) / g for force = g·ctrl + b₀ + b₁q +
    b₂q̇ (MuJoCo clips it at the actuator's force limit, which the support meter reports as saturation).
 
@@ -396,4 +396,3 @@ class BalanceController:
         """The torso's angle from upright, degrees."""
         up = d.xmat[self._torso].reshape(3, 3)[2] @ self._torso_up
         return float(np.degrees(np.arccos(np.clip(up, -1.0, 1.0))))
-
