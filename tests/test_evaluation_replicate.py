@@ -118,6 +118,12 @@ def test_replicate_summary_averages_the_instances_over_replicates(registered: No
     assert f"{np.mean(averages):.4f}" in mean_row and f"standard deviation {np.std(averages, ddof=1):.4f} m" in out
     rows = [line.split(" | ")[0] for line in out.splitlines() if line.startswith("| ") and line[2].isdigit()]
     assert rows == ["| 0", "| 1", "| 2"]  # ordered by replicate
+    # a reference with randomness is averaged over the files too: hold − mean(drift) is the negated difference
+    assert script.main([str(paths[1]), str(paths[2]), str(paths[0]), "--method", "hold", "--references", "drift"]) == 0
+    out = capsys.readouterr().out
+    assert "References' replicates: `drift` [0, 1, 2]" in out
+    mean_row = next(line for line in out.splitlines() if line.startswith("| mean of 3 |"))
+    assert f"**{-np.mean(diff):+.4f} [" in mean_row
     # a replicate given twice, and a reference not evaluated: exit 2 with a line naming it
     assert script.main([str(paths[1]), str(paths[1]), "--method", "drift", "--references", "hold"]) == 2
     assert "each replicate once" in capsys.readouterr().err

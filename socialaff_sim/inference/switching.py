@@ -126,6 +126,11 @@ class SwitchingConfig:
     passes; 0: none, the default since its development-split rule held); None: the method's own, as for the model
     fitted on all instances. Fewer passes make the fit cheaper and change the cross-fitted plans (issue 24;
     docs/design.md §8, "Cheaper cross-fitted models")."""
+    clip_features: bool = False
+    """[—]: At prediction, clip each scaled column to the range [min, max] it had in the training rows, so that a
+    feature far outside them (a test plan, from the model fitted on all instances, moving a joint that the
+    cross-fitted training plans hardly moved) cannot extrapolate a member linearly (docs/design.md §8, "Clipped
+    features")."""
     penalties: tuple[float, ...] = (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0)
     """λ [—]: Ridge penalties the inner CV chooses among (unit-RMS features, rows weighing one per instance)."""
     inner_folds: int = 3
@@ -318,7 +323,7 @@ class SwitchingRegression:
     """The switching regression (module docstring). Learned attributes: ``n_subevents_`` (S), ``members_``
     (the families' fitted candidates with weight α > 0; empty: ``hold``), ``cv_errors_`` ({(groups, λ): mean
     held-out key-joint error, m}), ``blend_error_`` (the blend's held-out error, m), ``scale_`` (the columns'
-    RMS)."""
+    RMS), ``lower_``/``upper_`` (each scaled column's range over the training rows)."""
 
     def __init__(self, config: SwitchingConfig | None = None) -> None:
         self.config = config or SwitchingConfig()
@@ -337,6 +342,8 @@ class SwitchingRegression:
         S = self.n_subevents_ = int(n_subevents)
         self.scale_ = switching_scale(X, w, S)
         Xs = X / self.scale_
+        seen = Xs[w > 0] if np.any(w > 0) else Xs
+        self.lower_, self.upper_ = seen.min(axis=0), seen.max(axis=0)
         folds = inner_folds(interactions, np.unique(row_ids), cfg.inner_folds, rng, contiguous=cfg.contiguous)
         priors = {"from_plan": plan_prior, "from_primitive": prim_prior}
         self.cv_errors_: dict[tuple[tuple[str, ...], float], float] = {}
@@ -394,7 +401,10 @@ class SwitchingRegression:
                 raise ModelError(f"switching regression: a member's prior is {m.prior!r}: pass its offset")
             part = np.array(given, dtype=np.float64) if given is not None else np.zeros_like(out)
             if len(m.columns):
-                part += (rows[:, m.columns] / self.scale_[m.columns]) @ m.coefficients
+                x = rows[:, m.columns] / self.scale_[m.columns]
+                if self.config.clip_features:  # no linear extrapolation beyond the training rows
+                    x = np.clip(x, self.lower_[m.columns], self.upper_[m.columns])
+                part += x @ m.coefficients
             out += m.weight * part
         return out
 
