@@ -19,8 +19,9 @@ Algorithm 1's MH chain instead of the preset's (traces cached in the subfolder `
 (``SwitchingConfig.cross_fit_type_passes``; the model fitted on all training instances keeps the preset's); the traces
 are cached under their own name (suffix ``_tpN``).
 ``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
-``--no-gated``: cheaper traces, no belief-gated variants. ``--clip-features``: every variant's regression with
-``SwitchingConfig.clip_features`` (the traces, and their cache, are the same).
+``--no-gated``: cheaper traces, no belief-gated variants. ``--clip-features on|off``, ``--clip-margin M``: every variant's
+regression with ``SwitchingConfig.clip_features`` / ``clip_margin`` (default: the library's; the traces and their
+cache are the same).
 
 ``--v2`` also fits the V2 ablation (preset ``default``, no sub-events) on the same training instances, its
 training traces cross-fitted as the plans (its own split: the cached plans' split is not stored), and reports
@@ -207,9 +208,12 @@ def main() -> None:
     ap.add_argument("--training-stream", action="store_true",
                     help="the training rows' primitive predictions from PrimitiveStream (ProMPConfig.training_stream); "
                          "the validation rows keep the batch rule, so only the training side differs")
-    ap.add_argument("--clip-features", action="store_true",
+    ap.add_argument("--clip-features", choices=("on", "off"), default="on" if SwitchingConfig().clip_features else "off",
                     help="every variant's regression clips its scaled columns to the training rows' range at prediction "
-                    "(SwitchingConfig.clip_features; the traces and their cache are the same)")
+                    "(SwitchingConfig.clip_features, default on; the traces and their cache are the same)")
+    ap.add_argument("--clip-margin", type=float, default=SwitchingConfig().clip_margin,
+                    help="the clipped range widened on each side by this multiple of its width "
+                    "(SwitchingConfig.clip_margin, default %(default)s)")
     ap.add_argument("--cross-fit-type-passes", type=int, default=None,
                     help="type-level restructuring passes of the cross-fitted models only (SwitchingConfig.cross_fit_type_passes; "
                          "default: the preset's); traces cached apart (suffix _tpN)")
@@ -280,7 +284,7 @@ def main() -> None:
         for name in names:
             families, steps = VARIANTS[name]
             reg = SwitchingRegression(SwitchingConfig(families=families, blend_steps=steps, contiguous=args.contiguous,
-                                                      clip_features=args.clip_features)).fit(
+                                                      clip_features=args.clip_features == "on", clip_margin=args.clip_margin)).fit(
                 train, tr_traces, n_subevents=S, rng=np.random.default_rng(args.seed))
             row["sw:" + name] = _keep(per, "sw:" + name, [_err(reg.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
             chosen[name] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg.members_) or "hold"

@@ -340,7 +340,8 @@ def test_clip_features_bounds_each_column_by_the_training_rows(rng: np.random.Ge
     row far outside it gives the prediction of the row clipped there; rows inside are unchanged; off: linear."""
     insts, traces = _toy(rng, "switch", 16)
     families = tuple(f for f in GATED_FAMILIES if f[0] != "plan")
-    config = SwitchingConfig(motion=(("agent0",),), families=families)
+    assert SwitchingConfig().clip_features and SwitchingConfig().clip_margin == 1.0  # the defaults since their rule held
+    config = SwitchingConfig(motion=(("agent0",),), families=families, clip_features=False, clip_margin=0.0)
     free = SwitchingRegression(config).fit(insts, traces, n_subevents=2, rng=np.random.default_rng(1))
     clipped = SwitchingRegression(dataclasses.replace(config, clip_features=True)).fit(
         insts, traces, n_subevents=2, rng=np.random.default_rng(1))
@@ -354,3 +355,10 @@ def test_clip_features_bounds_each_column_by_the_training_rows(rng: np.random.Ge
     inside = np.clip(far / free.scale_, free.lower_, free.upper_) * free.scale_
     np.testing.assert_allclose(clipped.displacement(far, O), free.displacement(inside, O), rtol=1e-10, atol=1e-12)
     assert np.abs(free.displacement(far, O)).max() > 5 * np.abs(clipped.displacement(far, O)).max()
+    wide = SwitchingRegression(dataclasses.replace(config, clip_features=True, clip_margin=0.5)).fit(
+        insts, traces, n_subevents=2, rng=np.random.default_rng(1))
+    width = Xs.max(axis=0) - Xs.min(axis=0)
+    np.testing.assert_allclose(wide.lower_, Xs.min(axis=0) - 0.5 * width, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(wide.upper_, Xs.max(axis=0) + 0.5 * width, rtol=0, atol=1e-12)
+    with pytest.raises(ConfigError, match="clip_margin"):
+        SwitchingConfig(clip_margin=-0.1)

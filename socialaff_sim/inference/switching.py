@@ -126,11 +126,15 @@ class SwitchingConfig:
     passes; 0: none, the default since its development-split rule held); None: the method's own, as for the model
     fitted on all instances. Fewer passes make the fit cheaper and change the cross-fitted plans (issue 24;
     docs/design.md §8, "Cheaper cross-fitted models")."""
-    clip_features: bool = False
-    """[—]: At prediction, clip each scaled column to the range [min, max] it had in the training rows, so that a
+    clip_features: bool = True
+    """[—]: At prediction, clip each scaled column to the range it had in the training rows (widened by
+    ``clip_margin``; the default since its development-split rule held), so that a
     feature far outside them (a test plan, from the model fitted on all instances, moving a joint that the
     cross-fitted training plans hardly moved) cannot extrapolate a member linearly (docs/design.md §8, "Clipped
     features")."""
+    clip_margin: float = 1.0
+    """m [—]: With ``clip_features``, the range [min, max] of the training rows is widened on each side by m times
+    its width (0: the bare range, which failed its development rule on the synthetic set)."""
     penalties: tuple[float, ...] = (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0)
     """λ [—]: Ridge penalties the inner CV chooses among (unit-RMS features, rows weighing one per instance)."""
     inner_folds: int = 3
@@ -162,6 +166,8 @@ class SwitchingConfig:
             raise ConfigError(f"cross_fit: expected at least 1, found {self.cross_fit}")
         if self.cross_fit_type_passes is not None and self.cross_fit_type_passes < 0:
             raise ConfigError(f"cross_fit_type_passes: expected None or at least 0, found {self.cross_fit_type_passes}")
+        if not (self.clip_margin >= 0 and math.isfinite(self.clip_margin)):
+            raise ConfigError(f"clip_margin: expected a finite number >= 0, found {self.clip_margin}")
         if self.blend_steps < 1:
             raise ConfigError(f"blend_steps: expected at least 1, found {self.blend_steps}")
         if self.inner_folds < 2:
@@ -323,7 +329,7 @@ class SwitchingRegression:
     """The switching regression (module docstring). Learned attributes: ``n_subevents_`` (S), ``members_``
     (the families' fitted candidates with weight α > 0; empty: ``hold``), ``cv_errors_`` ({(groups, λ): mean
     held-out key-joint error, m}), ``blend_error_`` (the blend's held-out error, m), ``scale_`` (the columns'
-    RMS), ``lower_``/``upper_`` (each scaled column's range over the training rows)."""
+    RMS), ``lower_``/``upper_`` (each scaled column's range over the training rows, widened by ``clip_margin``)."""
 
     def __init__(self, config: SwitchingConfig | None = None) -> None:
         self.config = config or SwitchingConfig()
@@ -343,7 +349,9 @@ class SwitchingRegression:
         self.scale_ = switching_scale(X, w, S)
         Xs = X / self.scale_
         seen = Xs[w > 0] if np.any(w > 0) else Xs
-        self.lower_, self.upper_ = seen.min(axis=0), seen.max(axis=0)
+        low, high = seen.min(axis=0), seen.max(axis=0)
+        margin = cfg.clip_margin * (high - low)
+        self.lower_, self.upper_ = low - margin, high + margin
         folds = inner_folds(interactions, np.unique(row_ids), cfg.inner_folds, rng, contiguous=cfg.contiguous)
         priors = {"from_plan": plan_prior, "from_primitive": prim_prior}
         self.cv_errors_: dict[tuple[tuple[str, ...], float], float] = {}
