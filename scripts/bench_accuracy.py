@@ -9,7 +9,7 @@ that is stopped keeps what finished. Usage::
 
     python scripts/bench_accuracy.py --out DIR [--datasets synthetic sbu handover nuisi]
         [--protocol causal] [--preset default] [--methods full,v1,v2,hmm,promp,ridge,gru,hold,constvel]
-        [--folds 4] [--workers 2] [--seed 0] [--max-folds sbu=1 ...] [--max-test handover=8 ...]
+        [--folds 4] [--workers 2] [--seed 0] [--replicate 0] [--max-folds sbu=1 ...] [--max-test handover=8 ...]
         [--data-root ../shared/data] [--reuse sbu=OLD/sbu_causal_default/results.json ...]
         [--doc docs/benchmarks.md]
 
@@ -122,6 +122,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--folds", type=int, default=4)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--replicate", type=int, default=0,
+                    help="method replicate (`socialaff-sim evaluate --replicate`): the same folds, another random stream")
     ap.add_argument("--max-folds", nargs="*", default=[], metavar="DATASET=N",
                     help="run only the first N folds of a dataset (time-limited runs; the table says so)")
     ap.add_argument("--max-test", nargs="*", default=[], metavar="DATASET=N",
@@ -150,6 +152,8 @@ def main(argv: list[str] | None = None) -> int:
                "--methods", args.methods, "--protocol", args.protocol, "--split", split, "--preset", args.preset,
                "--folds", str(args.folds), "--seed", str(args.seed), "--workers", str(args.workers),
                "--out", str(out), "--quiet"]
+        if args.replicate:
+            cmd += ["--replicate", str(args.replicate)]
         if name in limits:
             cmd += ["--max-test", str(limits[name])]
         if name in fold_limits:

@@ -18,8 +18,13 @@ Algorithm 1's MH chain instead of the preset's (traces cached in the subfolder `
 ``--cross-fit-type-passes N``: the cross-fitted models of the training traces run N type-level restructuring passes
 (``SwitchingConfig.cross_fit_type_passes``; the model fitted on all training instances keeps the preset's); the traces
 are cached under their own name (suffix ``_tpN``).
+``--type-passes N``: the model fitted on all training instances runs N type-level restructuring passes
+(``LearningConfig.init_type_passes``; the cross-fitted models too unless ``--cross-fit-type-passes`` is given); the
+traces are cached under their own name (suffix ``_fpN``).
 ``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
-``--no-gated``: cheaper traces, no belief-gated variants.
+``--no-gated``: cheaper traces, no belief-gated variants. ``--clip-features on|off``, ``--clip-margin M``: every variant's
+regression with ``SwitchingConfig.clip_features`` / ``clip_margin`` (default: the library's; the traces and their
+cache are the same).
 
 ``--v2`` also fits the V2 ablation (preset ``default``, no sub-events) on the same training instances, its
 training traces cross-fitted as the plans (its own split: the cached plans' split is not stored), and reports
@@ -32,7 +37,7 @@ Usage::
 
     python scripts/dev_switching.py --data nuisi:../shared/data/nuisi_v1 --split block [--rotation 0] [--labels a,b]
         [--cache DIR] [--variants default,primitive] [--contiguous] [--no-gated] [--v2] [--iterations N] [--training-stream]
-        [--cross-fit-type-passes N]
+        [--cross-fit-type-passes N] [--type-passes N]
 
 Prints one line per class and the averages; the library never imports this script.
 """
@@ -206,10 +211,22 @@ def main() -> None:
     ap.add_argument("--training-stream", action="store_true",
                     help="the training rows' primitive predictions from PrimitiveStream (ProMPConfig.training_stream); "
                          "the validation rows keep the batch rule, so only the training side differs")
+    ap.add_argument("--clip-features", choices=("on", "off"), default="on" if SwitchingConfig().clip_features else "off",
+                    help="every variant's regression clips its scaled columns to the training rows' range at prediction "
+                    "(SwitchingConfig.clip_features, default on; the traces and their cache are the same)")
+    ap.add_argument("--clip-margin", type=float, default=SwitchingConfig().clip_margin,
+                    help="the clipped range widened on each side by this multiple of its width "
+                    "(SwitchingConfig.clip_margin, default %(default)s)")
     ap.add_argument("--cross-fit-type-passes", type=int, default=None,
                     help="type-level restructuring passes of the cross-fitted models only (SwitchingConfig.cross_fit_type_passes; "
                          "default: the preset's); traces cached apart (suffix _tpN)")
+    ap.add_argument("--type-passes", type=int, default=None,
+                    help="type-level restructuring passes of the model fitted on all training instances "
+                         "(LearningConfig.init_type_passes; also the cross-fitted models' unless --cross-fit-type-passes); "
+                         "default: the preset's; traces cached apart (suffix _fpN)")
     args = ap.parse_args()
+    if args.type_passes is not None and args.type_passes < 0:
+        raise SystemExit(f"--type-passes: expected an integer >= 0, found {args.type_passes}")
     if args.cross_fit_type_passes is not None and args.cross_fit_type_passes < 0:
         raise SystemExit(f"--cross-fit-type-passes: expected an integer >= 0, found {args.cross_fit_type_passes}")
     passes = args.cross_fit_type_passes
@@ -231,12 +248,14 @@ def main() -> None:
         val = [insts[i] for i in val_idx if insts[i].n_frames > T0 + 1]
         rng = np.random.default_rng(args.seed)
         t0 = time.perf_counter()
-        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}{f'_tp{passes}' if passes is not None else ''}.pkl" if args.cache else None
+        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}{f'_tp{passes}' if passes is not None else ''}{f'_fp{args.type_passes}' if args.type_passes is not None else ''}.pkl" if args.cache else None
         model_s = float("nan")  # the model fit alone (Algorithm 1 and the body clusters; nan: read from the cache)
         if cache is not None and cache.exists():
             S, tr_traces, va_traces = pickle.loads(cache.read_bytes())
         else:
             method = _with_iterations(AffordanceMethod.from_preset("full", "default", reaction=None), args.iterations)
+            if args.type_passes is not None:  # the model fitted on all instances (issue 24: a cheaper fit)
+                method.learning = dataclasses.replace(method.learning, init_type_passes=args.type_passes)
             t_model = time.perf_counter()
             method.fit(train, rng=rng)
             model_s = time.perf_counter() - t_model
@@ -275,7 +294,8 @@ def main() -> None:
         names = [v for v in args.variants.split(",") if v and not (args.no_gated and v in ("motion+subevent", "gated_all"))]
         for name in names:
             families, steps = VARIANTS[name]
-            reg = SwitchingRegression(SwitchingConfig(families=families, blend_steps=steps, contiguous=args.contiguous)).fit(
+            reg = SwitchingRegression(SwitchingConfig(families=families, blend_steps=steps, contiguous=args.contiguous,
+                                                      clip_features=args.clip_features == "on", clip_margin=args.clip_margin)).fit(
                 train, tr_traces, n_subevents=S, rng=np.random.default_rng(args.seed))
             row["sw:" + name] = _keep(per, "sw:" + name, [_err(reg.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
             chosen[name] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg.members_) or "hold"

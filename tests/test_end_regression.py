@@ -364,3 +364,19 @@ def test_frame_blend_keeps_the_track_continuous_and_causal(shake8_model: SocialA
     np.testing.assert_array_equal(keys[: cut + 1], moved[: cut + 1])
     plain = synthesize(shake8_model, inter, rng=np.random.default_rng(4), config=SynthesisConfig())[0]
     assert not np.allclose(plain[10:], keys[10:])  # the frame regression does take part
+
+
+def test_a_type_no_parse_uses_has_no_end_regression(rng: np.random.Generator) -> None:
+    """A sub-event type without intervals (a parse that leaves a label unused, e.g. with no type restructuring):
+    its samples are empty, their context has the usual width, and its regression is None (it used to raise in
+    the reshape); with three intervals there is one."""
+    tracks = [rng.normal(size=(30, 11, 3)) for _ in range(3)]
+    spans = [[(0, 15, 0), (15, 30, 1)] for _ in tracks]
+    available = np.ones(11, bool)
+    end, before, ref = interval_samples(tracks, spans, 2, reference=9)
+    assert end.shape == (0, 11, 3)
+    assert end_context(end, before, ref, available).shape == (0, n_context(available))
+    assert fit_end_regression(end, before, ref, available, sigma_min=0.01) is None
+    used = interval_samples(tracks, spans, 1, reference=9)
+    assert end_context(*used, available).shape == (3, n_context(available))
+    assert fit_end_regression(*used, available, sigma_min=0.01) is not None

@@ -325,10 +325,40 @@ def test_cross_fit_type_passes_reach_the_cross_fitted_models_only(monkeypatch: p
     own = LearningConfig(init_type_passes=3, init_rounds=4)
     m = AffordanceMethod("full", learning=own)
     m.body_ = None
-    m._training_traces(insts, SwitchingConfig(families=FAMILIES), rng)
+    m._training_traces(insts, SwitchingConfig(families=FAMILIES, cross_fit_type_passes=None), rng)
     assert len(seen) == 2 and all(cfg is own for cfg in seen)
     seen.clear()
-    m._training_traces(insts, SwitchingConfig(families=FAMILIES, cross_fit_type_passes=0), rng)
+    assert SwitchingConfig().cross_fit_type_passes == 0  # the default since its development-split rule held
+    m._training_traces(insts, SwitchingConfig(families=FAMILIES), rng)
     assert len(seen) == 2 and all(cfg == dataclasses.replace(own, init_type_passes=0) for cfg in seen)
     with pytest.raises(ConfigError):
         SwitchingConfig(cross_fit_type_passes=-1)
+
+
+def test_clip_features_bounds_each_column_by_the_training_rows(rng: np.random.Generator) -> None:
+    """``SwitchingConfig.clip_features``: at prediction each scaled column is clipped to its training range, so a
+    row far outside it gives the prediction of the row clipped there; rows inside are unchanged; off: linear."""
+    insts, traces = _toy(rng, "switch", 16)
+    families = tuple(f for f in GATED_FAMILIES if f[0] != "plan")
+    assert SwitchingConfig().clip_features and SwitchingConfig().clip_margin == 1.0  # the defaults since their rule held
+    config = SwitchingConfig(motion=(("agent0",),), families=families, clip_features=False, clip_margin=0.0)
+    free = SwitchingRegression(config).fit(insts, traces, n_subevents=2, rng=np.random.default_rng(1))
+    clipped = SwitchingRegression(dataclasses.replace(config, clip_features=True)).fit(
+        insts, traces, n_subevents=2, rng=np.random.default_rng(1))
+    rows = [instance_rows(i, t, T0, config.features)[0] for i, t in zip(insts, traces, strict=True)]
+    Xs = np.concatenate(rows) / free.scale_  # every training row weighs > 0 here
+    np.testing.assert_array_equal(clipped.lower_, Xs.min(axis=0))
+    np.testing.assert_array_equal(clipped.upper_, Xs.max(axis=0))
+    X, _, O, _ = instance_rows(insts[0], traces[0], T0, config.features)
+    np.testing.assert_array_equal(clipped.displacement(X, O), free.displacement(X, O))  # inside: unchanged
+    far = X * 50.0
+    inside = np.clip(far / free.scale_, free.lower_, free.upper_) * free.scale_
+    np.testing.assert_allclose(clipped.displacement(far, O), free.displacement(inside, O), rtol=1e-10, atol=1e-12)
+    assert np.abs(free.displacement(far, O)).max() > 5 * np.abs(clipped.displacement(far, O)).max()
+    wide = SwitchingRegression(dataclasses.replace(config, clip_features=True, clip_margin=0.5)).fit(
+        insts, traces, n_subevents=2, rng=np.random.default_rng(1))
+    width = Xs.max(axis=0) - Xs.min(axis=0)
+    np.testing.assert_allclose(wide.lower_, Xs.min(axis=0) - 0.5 * width, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(wide.upper_, Xs.max(axis=0) + 0.5 * width, rtol=0, atol=1e-12)
+    with pytest.raises(ConfigError, match="clip_margin"):
+        SwitchingConfig(clip_margin=-0.1)

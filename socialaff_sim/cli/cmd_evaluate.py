@@ -50,6 +50,7 @@ def run(args: argparse.Namespace) -> int:
         n_folds=args.folds,
         n_observed=args.n_observed,
         seed=args.seed,
+        replicate=args.replicate,
         executor=args.executor,
         workers=args.workers,
         address=args.address,
@@ -141,6 +142,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--seed", type=non_negative_int, default=0, help="run seed for the folds and every method (default 0)")
+    p.add_argument(
+        "--replicate", type=non_negative_int, default=0, metavar="R",
+        help="method replicate: R >= 1 runs every method with another random stream on the same folds, to measure "
+        "the spread of its own randomness (default 0)",
+    )
     p.add_argument(
         "--executor", choices=EXECUTORS, default="process",
         help="process: local process pool (default); ray: a Ray cluster (pip install socialaff-sim[distributed]); "

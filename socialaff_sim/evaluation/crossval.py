@@ -57,6 +57,10 @@ class EvaluationConfig:
     """T0 [frames]: frames of agent 1 observed before synthesis."""
     seed: int = 0
     """[—]: Run seed: the folds and every task's generator derive from it."""
+    replicate: int = 0
+    """r [—]: Method replicate: ``0`` gives every task the run seed's own generator; ``r >= 1`` gives every
+    task another generator of the same seed while the folds stay the same, so that runs with several ``r``
+    measure the spread that a method's own randomness (initialisation, sampling) puts on its errors."""
     executor: str = "process"
     """[—]: Where tasks run: ``"process"`` (local process pool), ``"ray"`` (a Ray cluster) or ``"serial"`` (this process)."""
     workers: int | None = None
@@ -81,6 +85,8 @@ class EvaluationConfig:
             raise ConfigError(f"max_test: expected at least 1, found {self.max_test}")
         if self.executor not in EXECUTORS:
             raise ConfigError(f"executor: expected {choices(EXECUTORS)}, found {self.executor!r}")
+        if self.replicate < 0:
+            raise ConfigError(f"replicate: expected at least 0, found {self.replicate}")
         if self.n_folds < 2:
             raise ConfigError(f"n_folds: expected at least 2, found {self.n_folds}")
         if self.n_observed < 1:
@@ -97,9 +103,12 @@ def _stable(name: str) -> int:
     return zlib.crc32(name.encode("utf-8"))
 
 
-def task_seed(seed: int, label: str, fold: int, method: str) -> np.random.SeedSequence:
-    """The seed sequence of one task, from the run seed and the task's identity only."""
-    return np.random.SeedSequence(seed, spawn_key=(1, _stable(label), fold, _stable(method)))
+def task_seed(seed: int, label: str, fold: int, method: str, replicate: int = 0) -> np.random.SeedSequence:
+    """The seed sequence of one task, from the run seed, the replicate and the task's identity only."""
+    if replicate == 0:  # the stream of every run before replicates existed: their results stay reproducible
+        return np.random.SeedSequence(seed, spawn_key=(1, _stable(label), fold, _stable(method)))
+    # spawn key 3: apart from the folds' (0, …), replicate 0's (1, …) and the bootstrap's (2, …) streams
+    return np.random.SeedSequence(seed, spawn_key=(3, replicate, _stable(label), fold, _stable(method)))
 
 
 def fold_rng(seed: int, label: str) -> np.random.Generator:
@@ -123,6 +132,7 @@ class Task:
     preset: str = "default"
     horizons_s: tuple[float, ...] = ()
     horizon_every_s: float = 0.5
+    replicate: int = 0
 
 
 @dataclass(frozen=True)
@@ -181,7 +191,8 @@ def make_tasks(
             for name, factory in methods:
                 tasks.append(
                     Task(label, f, name, factory, tuple(insts[i] for i in train), test_set, config.n_observed, config.seed,
-                         config.protocol, config.preset, tuple(config.horizons_s), config.horizon_every_s)
+                         config.protocol, config.preset, tuple(config.horizons_s), config.horizon_every_s,
+                         config.replicate)
                 )
     return tasks, excluded, n_test
 
@@ -197,7 +208,7 @@ def make_method(factory: MethodFactory, preset: str) -> ReactionMethod:
 
 def run_task(task: Task) -> TaskResult:
     """Fit the method on the training instances and score every test instance."""
-    rng = np.random.default_rng(task_seed(task.seed, task.label, task.fold, task.method))
+    rng = np.random.default_rng(task_seed(task.seed, task.label, task.fold, task.method, task.replicate))
     start = time.perf_counter()
     method = make_method(task.factory, task.preset)
     try:

@@ -112,6 +112,9 @@ def reuse_results(results: Mapping[str, Any], earlier: Mapping[str, Any], source
         for key in ("per_interaction", "per_instance"):
             out[key][label] = {m: out[key][label][m] for m in order}
     out["settings"]["methods"] = order
+    # files written before replicates existed ran replicate 0
+    replicates = {**(theirs.get("replicates") or {}), **(mine.get("replicates") or {})}
+    out["settings"]["replicates"] = {m: int(replicates.get(m, 0)) for m in order}
     out["reused"] = {"from": source, "methods": reused}
     if earlier.get("reused"):  # the earlier file reused rows itself: keep where they came from
         out["reused"]["earlier"] = copy.deepcopy(earlier["reused"])

@@ -61,6 +61,10 @@ def format_tables(results: Mapping[str, Any]) -> str:
         while inner:  # that file had itself reused rows
             lines.append(f"That file took {', '.join(inner['methods'])} from `{inner['from']}`.")
             inner = inner.get("earlier")
+    replicates = {m: r for m, r in (settings.get("replicates") or {}).items() if r}
+    if replicates:
+        lines.append("Method replicates (the same folds, another random stream for the method): "
+                     + ", ".join(f"{m} {r}" for m, r in replicates.items()) + "; every other method ran replicate 0.")
     for key, title in _METRICS:
         lines += ["", f"## {title}", ""]
         lines.append("| Method | " + " | ".join(labels) + " | Average |")

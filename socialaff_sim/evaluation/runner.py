@@ -170,7 +170,8 @@ def evaluate(
                                  "differences": {metric: {method: {"mean_m", "low_m", "high_m",
                                                                    "n_instances", "verdict"}}}}},
          "settings": {"n_folds", "n_observed", "seed", "protocol", "split", "preset", "max_folds", "max_test",
-                      "methods", "interactions", "n_test_available"}}
+                      "methods", "interactions", "n_test_available", "horizons_s", "horizon_every_s",
+                      "replicates": {method: r}}}   # each method's replicate (EvaluationConfig.replicate)
 
     ``paired`` has up to two comparisons: ``"hold"`` (every method minus ``hold``, when ``hold`` was
     evaluated) and ``"best_baseline"`` (every method minus the evaluated baseline of :data:`BASELINES`
@@ -275,6 +276,7 @@ def evaluate(
             "n_test_available": n_test,
             "horizons_s": list(config.horizons_s),
             "horizon_every_s": config.horizon_every_s,
+            "replicates": {m: config.replicate for m in methods},
         },
     }
     out["paired"] = paired_comparisons(out, config.seed, metrics)
@@ -303,6 +305,7 @@ def run_title(dataset: str, config: EvaluationConfig) -> str:
     )
     limited = f", only the first {config.max_folds} of the {config.n_folds} folds run" if config.max_folds else ""
     limited += f", at most {config.max_test} test instances per fold" if config.max_test else ""
+    limited += f", method replicate {config.replicate}" if config.replicate else ""
     return f"`{dataset}`, {protocol}, {split}, preset {config.preset}{limited}"
 
 

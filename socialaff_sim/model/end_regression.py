@@ -70,13 +70,14 @@ def end_context(end: np.ndarray, before: np.ndarray, reference: np.ndarray, avai
     for cfg in (before, reference):
         parts.append(np.asarray(cfg, float)[:, N_KEY : 2 * N_KEY] - anchor)
     parts.append(anchor)
-    return np.nan_to_num(np.concatenate([p.reshape(end.shape[0], -1) for p in parts], axis=1))
+    # Explicit widths: with no interval (M = 0, a type no parse uses) reshape cannot infer them.
+    return np.nan_to_num(np.concatenate([p.reshape(end.shape[0], int(np.prod(p.shape[1:]))) for p in parts], axis=1))
 
 
 def _target(end: np.ndarray) -> np.ndarray:
     """(M, 15) agent 1's key joints at the end relative to agent 0's base."""
     end = np.asarray(end, float)
-    return np.nan_to_num((end[:, N_KEY : 2 * N_KEY] - end[:, 0:1]).reshape(end.shape[0], -1))
+    return np.nan_to_num((end[:, N_KEY : 2 * N_KEY] - end[:, 0:1]).reshape(end.shape[0], 3 * N_KEY))
 
 
 def fit_end_regression(
