@@ -26,7 +26,8 @@ also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stan
 ``--balance FIELD=VALUE ...`` changes the controller's settings for those of the last four being run (e.g.
 ``flat_feet=True``, which needs the QP), ``--foot-lock FIELD=VALUE ...``
 the foot lock's (:class:`~socialaff_sim.sim.footlock.FootLockConfig`) for every mode, ``--labels`` picks
-interactions. After the per-interaction table, one line per robot and mode summarises the contact phases.
+interactions. After the per-interaction table, one line per robot and mode summarises the contact phases, and one
+more counts the episodes failing by each failure kind (self-collision, force on the person, a drop).
 
 The targets of issue 25 for feet that stay planted: outside support ≤ 5 % of
 the weight, sliding ≤ 2 cm, torques within the limits. Example::
@@ -104,6 +105,7 @@ def main() -> None:
                     cp = m["support"]["contact_phase"]
                     rows.append({"robot": robot, "mode": mode, "label": label, "instance": inter.instance_id,
                                  "success": m["success"], "contact_frames": cp["frames"],
+                                 "failures": [f["kind"] for f in m["failures"] if f["triggered"]],
                                  **{k: cp[k] for k in KEYS}})
     print(f"{'robot':<12}{'mode':<8}{'interaction':<16}{'ok':>6}{'support mean':>14}{'peak':>8}{'slide cm':>10}"
           f"{'pen cm':>8}{'torque':>8}{'sat':>7}{'limit':>7}{'released':>10}")
@@ -148,6 +150,12 @@ def main() -> None:
                   f"{100 * np.mean([r['saturated_fraction'] for r in have]):>5.0f}%"
                   f"{100 * np.mean([r['at_joint_limit_fraction'] for r in have]):>6.0f}%"
                   f"{np.median(tilt):>8.1f}/{tilt.max():<5.1f}{100 * rel:>8.0f}%")
+    for robot in args.robots:
+        for mode in args.modes:
+            sel = [r for r in rows if r["robot"] == robot and r["mode"] == mode]
+            kinds = sorted({k for r in sel for k in r["failures"]})
+            print(f"{robot:<12}{mode:<16}episodes failing by: "
+                  + (", ".join(f"{k} {sum(k in r['failures'] for r in sel)}" for k in kinds) or "none"))
     if args.json:
         atomic_write_text(args.json, json.dumps({"config": vars(args), "rows": rows,
                                                  "sim_config": {k: repr(v) for k, v in dataclasses.asdict(SimConfig()).items()

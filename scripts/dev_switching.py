@@ -20,6 +20,9 @@ Algorithm 1's MH chain instead of the preset's (traces cached in the subfolder `
 are cached under their own name (suffix ``_tpN``).
 ``--overrun-delta-t``: the synthesizer's traces (training and validation) with ``SynthesisConfig.overrun_delta_t``
 (cached apart, suffix ``_od``).
+``--type-passes N``: the model fitted on all training instances runs N type-level restructuring passes
+(``LearningConfig.init_type_passes``; the cross-fitted models too unless ``--cross-fit-type-passes`` is given); the
+traces are cached under their own name (suffix ``_fpN``).
 ``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
 ``--no-gated``: cheaper traces, no belief-gated variants. ``--clip-features on|off``, ``--clip-margin M``: every variant's
 regression with ``SwitchingConfig.clip_features`` / ``clip_margin`` (default: the library's; the traces and their
@@ -36,7 +39,7 @@ Usage::
 
     python scripts/dev_switching.py --data nuisi:../shared/data/nuisi_v1 --split block [--rotation 0] [--labels a,b]
         [--cache DIR] [--variants default,primitive] [--contiguous] [--no-gated] [--v2] [--iterations N] [--training-stream]
-        [--cross-fit-type-passes N]
+        [--cross-fit-type-passes N] [--type-passes N]
 
 Prints one line per class and the averages; the library never imports this script.
 """
@@ -222,7 +225,13 @@ def main() -> None:
     ap.add_argument("--overrun-delta-t", action="store_true",
                     help="the synthesizer's traces with SynthesisConfig.overrun_delta_t (re-plan every ΔT frames once the "
                          "running sub-event has overrun its predicted end); traces cached apart (suffix _od)")
+    ap.add_argument("--type-passes", type=int, default=None,
+                    help="type-level restructuring passes of the model fitted on all training instances "
+                         "(LearningConfig.init_type_passes; also the cross-fitted models' unless --cross-fit-type-passes); "
+                         "default: the preset's; traces cached apart (suffix _fpN)")
     args = ap.parse_args()
+    if args.type_passes is not None and args.type_passes < 0:
+        raise SystemExit(f"--type-passes: expected an integer >= 0, found {args.type_passes}")
     if args.cross_fit_type_passes is not None and args.cross_fit_type_passes < 0:
         raise SystemExit(f"--cross-fit-type-passes: expected an integer >= 0, found {args.cross_fit_type_passes}")
     passes = args.cross_fit_type_passes
@@ -244,7 +253,7 @@ def main() -> None:
         val = [insts[i] for i in val_idx if insts[i].n_frames > T0 + 1]
         rng = np.random.default_rng(args.seed)
         t0 = time.perf_counter()
-        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}{f'_tp{passes}' if passes is not None else ''}{'_od' if args.overrun_delta_t else ''}.pkl" if args.cache else None
+        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}{f'_tp{passes}' if passes is not None else ''}{f'_fp{args.type_passes}' if args.type_passes is not None else ''}{'_od' if args.overrun_delta_t else ''}.pkl" if args.cache else None
         model_s = float("nan")  # the model fit alone (Algorithm 1 and the body clusters; nan: read from the cache)
         if cache is not None and cache.exists():
             S, tr_traces, va_traces = pickle.loads(cache.read_bytes())
@@ -252,6 +261,8 @@ def main() -> None:
             method = _with_iterations(AffordanceMethod.from_preset("full", "default", reaction=None), args.iterations)
             if args.overrun_delta_t:
                 method.synthesis = dataclasses.replace(method.synthesis, overrun_delta_t=True)
+            if args.type_passes is not None:  # the model fitted on all instances (issue 24: a cheaper fit)
+                method.learning = dataclasses.replace(method.learning, init_type_passes=args.type_passes)
             t_model = time.perf_counter()
             method.fit(train, rng=rng)
             model_s = time.perf_counter() - t_model

@@ -92,8 +92,8 @@ def summarise(runs: list[dict[str, Any]], method: str, references: list[str], se
     cells = []
     for ref in references:
         d = paired_differences(merged, ref, rng=np.random.default_rng(seed))[method]
-        cells.append(f"**{d.mean_m:+.4f} [{d.low_m:+.4f}, {d.high_m:+.4f}]**")
-    lines.append(f"| mean of {len(runs)} | {np.mean(averages):.4f} | " + " | ".join(cells) + " |")
+        cells.append(f"{d.mean_m:+.4f} [{d.low_m:+.4f}, {d.high_m:+.4f}]")
+    lines.append(f"| **mean of {len(runs)}** | {np.mean(averages):.4f} | " + " | ".join(cells) + " |")
     spread = np.std(averages, ddof=1) if len(averages) > 1 else float("nan")
     lines += ["", f"Spread of `{method}`'s average over the replicates: standard deviation {spread:.4f} m, "
               f"range {min(averages):.4f}–{max(averages):.4f} m. The last row pairs the per-instance errors "

@@ -64,14 +64,9 @@ from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
 import gymnasium as gym  # noqa: E402
-import matplotlib  # noqa: E402
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 from stable_baselines3 import PPO  # noqa: E402
-from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
 from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize  # noqa: E402
 
 from socialaff_sim._atomic import atomic_write_text  # noqa: E402
@@ -88,12 +83,14 @@ from socialaff_sim.learning.config import LearningConfig  # noqa: E402
 _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:  # run as `python scripts/train_residual.py` it is sys.path[0]; the tests load this file by path
     sys.path.append(_HERE)
+from _residual_curve import CurveRecorder, plot_curve  # noqa: E402
+from _residual_episodes import run_episodes, trained_policy, zero_policy  # noqa: E402
 from _residual_data import DEFAULT_SPLITS, parse_splits, real_split  # noqa: E402
+from _residual_reward import FallPenalty  # noqa: E402
 from _residual_stats import summarize  # noqa: E402
 
 LABELS = ("shake_hands", "hand_over")
 RESIDUAL_BOUND = EnvConfig().residual_bound
-Policy = Callable[[np.ndarray], np.ndarray]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -135,6 +132,9 @@ class Settings:
     action_scale: float = 0.1
     """ρ_π [m]: the policy's action [−1, 1] is a residual of ±ρ_π per coordinate (at most the environment's
     ``residual_bound``, 0.3 m)."""
+    train_fall_penalty: float = 0.0
+    """w_fell [reward]: subtracted once when a TRAINING episode ends because the robot fell
+    (``_residual_reward.FallPenalty``; the environment's reward has no such term); 0: the environment's reward."""
     train_affordance_weight: float = RewardConfig().affordance_weight
     """w_a of the TRAINING environments' reward (also the learning curve's and its zero-residual reference's);
     the held-out evaluation keeps the environment's default reward, so its returns stay comparable across runs."""
@@ -187,13 +187,15 @@ def make_env(s: Settings, instances: Sequence[Interaction], models: Mapping[str,
              training: bool = False) -> gym.Env:
     """The residual-mode environment as SB3 wants it: flat float32 observation, a flat action in [−1, 1] that is
     a residual of ±``s.action_scale`` m per coordinate. ``training``: with the training reward
-    (``s.train_affordance_weight``); otherwise the environment's default reward."""
+    (``s.train_affordance_weight``, and ``s.train_fall_penalty`` when it is not 0); otherwise the environment's default reward."""
     if not 0.0 < s.action_scale <= RESIDUAL_BOUND:
         raise ConfigError(f"--action-scale: expected a residual in (0, {RESIDUAL_BOUND}] m, found {s.action_scale!r}")
     reward = dataclasses.replace(RewardConfig(), affordance_weight=s.train_affordance_weight) if training else None
     env: gym.Env = SocialAffordanceEnv(interactions=list(s.labels), data=list(instances), action_mode="residual",
                                        model=dict(models), physics=s.physics, robot=s.robot, max_frames=s.max_frames,
                                        control_dt=s.control_dt, reward=reward)
+    if training and s.train_fall_penalty != 0.0:
+        env = FallPenalty(env, s.train_fall_penalty)
     env = gym.wrappers.FlattenObservation(env)
     shape = env.action_space.shape
     flat = gym.spaces.Box(-1.0, 1.0, shape=(int(np.prod(shape)),), dtype=np.float32)
@@ -202,43 +204,6 @@ def make_env(s: Settings, instances: Sequence[Interaction], models: Mapping[str,
 
 
 # -- training ------------------------------------------------------------------------------------------------------
-class CurveRecorder(BaseCallback):
-    """Records every finished training episode: (timesteps so far, interaction, return, success)."""
-
-    def __init__(self, log: Callable[[str], None] | None = None, every: int = 10_000,
-                 budget_s: float | None = None) -> None:
-        super().__init__()
-        self.rows: list[dict[str, Any]] = []
-        self._log, self._every, self._next = log, every, every
-        self._t0 = time.perf_counter()
-        self._budget_s = budget_s
-        self.stopped = False
-        self.updated_timesteps = 0
-        """Environment steps of the rollouts the policy has been updated on (or will be, for the last one)."""
-
-    def _on_rollout_end(self) -> None:
-        # The rollout just collected is trained on; once the budget is spent, the next rollout's first step
-        # stops learn() before any update, so the policy is exactly that of --timesteps updated_timesteps.
-        self.updated_timesteps = int(self.num_timesteps)
-        if self._budget_s is not None and time.perf_counter() - self._t0 > self._budget_s:
-            self.stopped = True
-            self.training_env.training = False  # type: ignore[attr-defined]  # the stop step leaves the statistics alone
-
-    def _on_step(self) -> bool:
-        if self.stopped:
-            return False
-        for done, info in zip(self.locals["dones"], self.locals["infos"]):
-            if done:
-                self.rows.append({"timesteps": int(self.num_timesteps), "interaction": info["interaction"],
-                                  "return": float(info["episode"]["r"]), "success": bool(info["success"])})
-        if self._log is not None and self.num_timesteps >= self._next:
-            self._next += self._every
-            last = self.rows[-100:]
-            self._log(f"  {self.num_timesteps} steps, {time.perf_counter() - self._t0:.0f} s; last {len(last)} episodes: "
-                      f"success {np.mean([r['success'] for r in last]):.2f}, return {np.mean([r['return'] for r in last]):.1f}")
-        return True
-
-
 def train(s: Settings, train_set: Sequence[Interaction], models: Mapping[str, SocialAffordanceModel],
           log: Callable[[str], None] | None = None, budget_s: float | None = None
           ) -> tuple[PPO, VecNormalize, CurveRecorder]:
@@ -258,78 +223,6 @@ def train(s: Settings, train_set: Sequence[Interaction], models: Mapping[str, So
     agent.learn(total_timesteps=s.timesteps, callback=recorder)
     norm.training = False
     return agent, norm, recorder
-
-
-def trained_policy(agent: PPO, norm: VecNormalize) -> Policy:
-    """The deterministic policy on a raw flat observation (normalized with the training statistics)."""
-    return lambda obs: agent.predict(norm.normalize_obs(obs), deterministic=True)[0]
-
-
-def zero_policy(obs: np.ndarray) -> np.ndarray:
-    """The affordance model alone: no residual."""
-    return np.zeros(15, np.float32)
-
-
-# -- evaluation ----------------------------------------------------------------------------------------------------
-def run_episodes(env: gym.Env, episodes: Sequence[tuple[str, int]], policy: Policy) -> list[dict[str, Any]]:
-    """One episode per (instance id, reset seed); per-episode return (and its ``reward_<term>`` sums), success,
-    sub-goals, failures, the termination reason and the mean |action| (policy units, [0, 1]). ``interaction``
-    is the instance's label, ``task`` the interaction of its task file (``shaking_hands`` and ``handshake``
-    are both ``shake_hands``)."""
-    tasks = env.unwrapped.pool.tasks  # type: ignore[attr-defined]
-    rows = []
-    for instance, seed in episodes:
-        obs, _ = env.reset(seed=seed, options={"instance": instance})
-        total, steps, action_sum = 0.0, 0, 0.0
-        terms: dict[str, float] = {}
-        while True:
-            action = policy(obs)
-            obs, reward, terminated, truncated, info = env.step(action)
-            total, steps = total + float(reward), steps + 1
-            action_sum += float(np.mean(np.abs(action)))
-            for key, value in info.items():
-                if key.startswith("reward_"):
-                    terms[key[len("reward_"):]] = terms.get(key[len("reward_"):], 0.0) + float(value)
-            if terminated or truncated:
-                break
-        subgoals = dict(info["subgoals"])
-        rows.append({"instance": instance, "seed": seed, "interaction": info["interaction"],
-                     "task": tasks[info["interaction"]].interaction, "return": total,
-                     "steps": steps, "success": bool(info["success"]), "failed": bool(info["failed"]),
-                     "failures": sorted(k for k, hit in info["failures"].items() if hit),
-                     "termination_reason": info["termination_reason"], "reward_terms": terms,
-                     "mean_abs_action": action_sum / steps,
-                     "subgoals": subgoals, "subgoals_met": float(np.mean(list(subgoals.values())))})
-    return rows
-
-
-# -- learning curve ------------------------------------------------------------------------------------------------
-def plot_curve(rows: Sequence[Mapping[str, Any]], reference: Mapping[str, Mapping[str, float]], path: Path,
-               window: int = 50) -> None:
-    """Training episodes' success and return (moving average over ``window`` episodes of each interaction)
-    against timesteps, with the zero-residual policy on the training instances as dashed reference lines."""
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), layout="constrained")
-    colors = dict(zip(sorted(reference), ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")))
-    for label, color in colors.items():
-        mine = [r for r in rows if r["interaction"] == label]
-        x = np.array([r["timesteps"] for r in mine], float)
-        for ax, key in zip(axes, ("success", "return")):
-            y = np.array([float(r[key]) for r in mine])
-            if y.size:
-                w = min(window, y.size)
-                ax.plot(x[w - 1:], np.convolve(y, np.ones(w) / w, mode="valid"), color=color,
-                        label=f"{label}: residual PPO (training episodes, stochastic)")
-            ax.axhline(reference[label][key], color=color, ls="--", lw=1,
-                       label=f"{label}: affordance model alone (training instances)")
-    axes[0].set(xlabel="environment steps", ylabel=f"success rate (moving mean of {window} episodes)", ylim=(-0.02, 1.02))
-    axes[1].set(xlabel="environment steps", ylabel=f"episode return (moving mean of {window} episodes)")
-    handles, names = axes[0].get_legend_handles_labels()
-    fig.legend(handles, names, fontsize=8, loc="outside lower center", ncol=2)
-    fig.suptitle("Residual PPO on the affordance model: learning curve")
-    tmp = path.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    tmp.replace(path)
 
 
 # -- the whole run -------------------------------------------------------------------------------------------------
@@ -360,7 +253,7 @@ def reference_rows(s: Settings, train_set: Sequence[Interaction],
 
 
 REFERENCE_KEYS = ("labels", "seed", "train_instances", "fit_iterations", "train_affordance_weight", "physics",
-                  "control_dt", "max_frames", "robot", "data", "split", "folds", "held_out_fold")
+                  "train_fall_penalty", "control_dt", "max_frames", "robot", "data", "split", "folds", "held_out_fold")
 """Settings a ``reference.json`` must share with a run that reuses it (the training set, the models and the
 training reward)."""
 
@@ -369,7 +262,8 @@ def load_reference(path: Path, s: Settings) -> dict[str, dict[str, float]]:
     """The zero-residual reference of a ``--reference-only`` run, checked to be of the same training set."""
     saved = json.loads(path.read_text())
     mine = json.loads(json.dumps(dataclasses.asdict(s)))
-    differ = [k for k in REFERENCE_KEYS if saved["settings"].get(k) != mine[k]]
+    default = json.loads(json.dumps(dataclasses.asdict(Settings())))  # a key older files lack had its default
+    differ = [k for k in REFERENCE_KEYS if saved["settings"].get(k, default[k]) != mine[k]]
     if differ:
         raise ConfigError(f"--reference {path}: made with other settings ({', '.join(differ)}); expected the run's own")
     return saved["train_reference_zero_residual"]

@@ -12,16 +12,20 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from socialaff_sim.data import Interaction
 from socialaff_sim.data.interaction import fill_key_joints
 from socialaff_sim.data.skeletons import KEY_JOINTS
+from socialaff_sim.errors import ModelError
 from socialaff_sim.inference.body_fit import BodyFitter
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, PrefixBasis, ProMPConfig, rbf_basis
 from socialaff_sim.inference.methods import primitive_trace
-from socialaff_sim.inference.primitive_stream import stream_key_joints
-from socialaff_sim.inference.protocol import PrefixViews, protocol_view
-from socialaff_sim.inference.switching import Trace
+from socialaff_sim.inference.primitive_stream import PrimitiveStream, stream_key_joints
+from socialaff_sim.inference.protocol import PrefixViews, observed_part, protocol_view
+from socialaff_sim.inference.reaction_regression import key_error
+from socialaff_sim.inference.switching_rows import Trace
+from socialaff_sim.model.densities import weibull_logpdf
 
 T0 = 10
 
@@ -133,3 +137,81 @@ def test_training_stream_option_reads_the_stream_and_is_on_by_default(rng: np.ra
     assert np.array_equal(streamed.primitive, stream_key_joints(InteractionPrimitive().fit(insts[1:]), probe, T0), equal_nan=True)
     np.testing.assert_allclose(streamed.primitive[T0:], batch.primitive[T0:], atol=1e-9)
     assert not np.array_equal(streamed.primitive, batch.primitive)  # not bitwise: why it is an option
+
+
+def _stream_reference(prim: InteractionPrimitive, inst: Interaction, n_observed: int) -> np.ndarray:
+    """The loop :func:`stream_key_joints` replaced: one stream fed every causal view, built and validated."""
+    out = np.full((inst.n_frames, 5, 3), np.nan)
+    stream = PrimitiveStream(prim, n_observed)
+    for t in range(n_observed, inst.n_frames):
+        out[t] = stream.react_keys(protocol_view(inst, t + 1, n_observed), t, t + 1)[0]
+    return out
+
+
+@pytest.mark.parametrize(("gaps", "obj"), [(False, False), (True, False), (True, True)])
+def test_stream_key_joints_equal_the_stream_fed_every_view(rng: np.random.Generator, gaps: bool, obj: bool) -> None:
+    """The training rows' stream reads each frame from the once-hidden instance (``prefix_keys``) instead of a new
+    view a frame: bitwise the same, with agent 0's base first tracked at frame 3 (the stream rebuilds), gaps that
+    close, an object, and an instance longer than every training one."""
+    insts = [_instance(rng, k, gaps=gaps, obj=obj) for k in range(9)]
+    prim = InteractionPrimitive().fit(insts[1:])
+    long = _instance(np.random.default_rng(5), 98, gaps=gaps, obj=obj)
+    long = long.replace(joints=np.concatenate([long.joints, long.joints]), valid=np.concatenate([long.valid, long.valid]),
+                        object=None if long.object is None else np.concatenate([long.object, long.object]))
+    assert long.n_frames > prim.durations_.max()
+    for inst in [insts[0], _instance(rng, 20, gaps=gaps, obj=obj), long]:
+        got = stream_key_joints(prim, inst, T0)
+        assert np.array_equal(got, _stream_reference(prim, inst, T0), equal_nan=True)
+        assert np.isnan(got[:T0]).all() and np.isfinite(got[T0:]).all()
+    short = insts[1].slice(0, T0)  # nothing to predict
+    assert np.isnan(stream_key_joints(prim, short, T0)).all()
+    stream = PrimitiveStream(prim, T0)
+    with pytest.raises(ModelError, match="visible"):
+        stream.prefix_keys(observed_part(insts[0], T0), insts[0].n_frames + 1, T0, T0 + 1)
+
+
+def _weibull_reference(x: np.ndarray, k: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    """The Weibull log-density as it was computed before: every term on the broadcast (N, K) arrays."""
+    x, k, lam = np.broadcast_arrays(np.asarray(x, float), np.asarray(k, float), np.asarray(lam, float))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = x / lam
+        out = np.log(k / lam) - z**k + np.where(k == 1.0, 0.0, (k - 1.0) * np.log(z))
+    return np.where(x < 0, -np.inf, out)
+
+
+def test_weibull_logpdf_on_parameter_rows_is_the_broadcast_computation(rng: np.random.Generator) -> None:
+    """The parameters' terms are computed per row (K,) and broadcast: bitwise the (N, K) computation, with x = 0,
+    x < 0, NaN and k = 1 among the values, in the layouts the callers use (rows, (B, 1) columns, scalars); and
+    scipy's density where it is defined."""
+    for _ in range(50):
+        n, k_rows = int(rng.integers(1, 200)), int(rng.integers(1, 9))
+        x = np.abs(rng.normal(0, 1, (n, k_rows)))
+        x[rng.random(x.shape) < 0.05] = 0.0
+        x[rng.random(x.shape) < 0.03] = -0.2
+        x[rng.random(x.shape) < 0.03] = np.nan
+        k = rng.uniform(0.5, 5.0, k_rows)
+        k[rng.random(k_rows) < 0.3] = 1.0
+        lam = rng.uniform(0.01, 2.0, k_rows)
+        for args in ((x, k, lam), (x.T, k[:, None], lam[:, None]), (x[:, 0], float(k[0]), float(lam[0]))):
+            got = weibull_logpdf(*args)
+            assert np.array_equal(got, _weibull_reference(*args), equal_nan=True)
+    xs = np.array([0.05, 0.4, 1.3, 2.5])
+    np.testing.assert_allclose(weibull_logpdf(xs, 1.7, 0.8), stats.weibull_min.logpdf(xs, 1.7, scale=0.8), rtol=1e-12)
+
+
+def test_key_error_by_runs_is_the_mean_over_instances(rng: np.random.Generator) -> None:
+    """Rows stacked by instance (sorted ids) are averaged by runs: bitwise the per-instance mask loop; unsorted ids
+    (a fold's rows in another order) take the loop; and a hand-computed two-instance case."""
+    def reference(pred: np.ndarray, truth: np.ndarray, ids: np.ndarray) -> float:
+        d = np.linalg.norm((pred - truth).reshape(len(pred), -1, 3), axis=-1).mean(axis=1)
+        return float(np.mean([d[ids == i].mean() for i in np.unique(ids)]))
+
+    for trial in range(100):
+        n = int(rng.integers(1, 300))
+        ids = rng.integers(0, 25, n)
+        ids = np.sort(ids) if trial % 2 else ids
+        pred, truth = rng.normal(size=(n, 15)), rng.normal(size=(n, 15))
+        assert key_error(pred, truth, ids) == reference(pred, truth, ids)
+    pred = np.zeros((3, 3))
+    truth = np.array([[3.0, 4.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 3.0]])
+    assert key_error(pred, truth, np.array([0, 1, 1])) == pytest.approx((5.0 + 2.0) / 2)

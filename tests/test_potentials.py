@@ -10,7 +10,7 @@ from socialaff_sim.data import KEY_JOINTS, Interaction
 from socialaff_sim.errors import DataError, ModelError
 from socialaff_sim.model.config import AffordanceConfig
 from socialaff_sim.model.features import interval_features, polar
-from socialaff_sim.model.frame import canonical_frame
+from socialaff_sim.model.frame import CanonicalFrame, canonical_frame
 from socialaff_sim.model.joints import JOINT_NAMES, LONE_REFERENCE, N_JOINTS, OBJECT, canonical_joints
 from socialaff_sim.model.potentials import TypePotentials, fit_type_potentials, log_motion, log_spatial, reference_weights
 
@@ -35,6 +35,22 @@ def test_canonical_frame_degenerate_and_invalid() -> None:
     assert frame.heading == 0.0
     with pytest.raises(DataError, match="finite"):
         canonical_frame(np.array([np.nan, 0, 0]), np.zeros(3))
+
+
+def test_canonical_frames_compare_by_value_and_hash_alike() -> None:
+    b0, b1 = np.array([1.0, 2.0, 0.9]), np.array([-1.0, 4.0, 1.0])
+    a, b = canonical_frame(b0, b1), canonical_frame(b0.copy(), b1.copy())
+    assert a is not b and a == b and not (a != b) and hash(a) == hash(b)
+    assert len({a, b}) == 1 and {a: 1}[b] == 1  # usable as a key, by value
+    moved = CanonicalFrame(origin=a.origin + [0.0, 1e-9, 0.0], heading=a.heading)  # origin differs, heading alike
+    turned = CanonicalFrame(origin=a.origin.copy(), heading=a.heading + 1e-9)  # heading differs, origin alike
+    assert a != moved and a != turned and not (a == moved) and not (a == turned)
+    # -0.0 and 0.0 are the same point: equal frames, equal hashes.
+    z = CanonicalFrame(origin=np.array([0.0, 0.0, 0.0]), heading=0.0)
+    nz = CanonicalFrame(origin=np.array([-0.0, 0.0, -0.0]), heading=-0.0)
+    assert z == nz and hash(z) == hash(nz)
+    assert a != "a frame" and a != (a.origin, a.heading)  # other types are never equal
+    np.testing.assert_array_equal(a.rotation, b.rotation)
 
 
 def _instance(rng: np.random.Generator, with_object: bool) -> Interaction:

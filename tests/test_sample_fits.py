@@ -211,6 +211,34 @@ def test_fit_with_the_memo_is_bitwise_the_fit_without(monkeypatch: pytest.Monkey
     assert memo.history_["log_posterior"].tolist() == plain.history_["log_posterior"].tolist()
 
 
+def test_the_memo_is_detached_for_the_chain(monkeypatch: pytest.MonkeyPatch, shake8) -> None:  # noqa: ANN001
+    """The initial parse fills the run's memo; the MCMC chain neither reads nor grows it (bounded memory): its
+    size and look-up count, observed after the initial parse and after every iteration, stay where the initial
+    parse left them, though the chain's proposals score sample sets (a memo left attached would count them)."""
+    lcfg = LearningConfig(iterations=3, init_rounds=3, init_type_passes=1, init_type_rounds=2)
+    made: list[SampleFitsStore] = []
+
+    class Counting(SampleFitsStore):
+        def __init__(self) -> None:
+            super().__init__()
+            made.append(self)
+
+    seen: list[tuple[int, int, int]] = []
+
+    def watch(state: algorithm.FitProgress) -> None:
+        store = made[0]
+        seen.append((state.iteration, len(store), store.hits + store.misses))
+
+    monkeypatch.setattr(algorithm, "SampleFitsStore", Counting)
+    model = SocialAffordanceModel(learning=lcfg).fit(shake8.interactions[:6], rng=np.random.default_rng(4),
+                                                     callback=watch)
+    assert len(made) == 1 and [s[0] for s in seen] == list(range(lcfg.iterations + 1))
+    assert seen[0][1] > 0 and seen[0][2] > 0  # the initial parse used the memo
+    proposed = sum(int(np.sum(v)) for k, v in model.history_.items() if k.startswith("proposed_"))
+    assert proposed > 0  # the chain proposed moves (and scored them)
+    assert all(s[1:] == seen[0][1:] for s in seen), seen
+
+
 # -- the polar table -----------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("density", ["polar", "cartesian"])
 def test_column_from_the_polar_table_is_bitwise_log_spatial_plus_log_motion(density: str) -> None:

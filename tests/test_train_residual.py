@@ -16,6 +16,7 @@ import json
 import math
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
 from conftest import load_script
@@ -248,7 +249,14 @@ def test_saved_reference_must_come_from_the_same_training_set(script, tmp_path) 
     path.write_text(json.dumps({"settings": dataclasses.asdict(settings), "train_reference_zero_residual": ref}))
     assert script.load_reference(path, settings) == ref
     assert script.load_reference(path, dataclasses.replace(settings, timesteps=5)) == ref  # training budget: free
-    for change in ({"seed": 5}, {"held_out_fold": 1}, {"split": ("block",)}, {"data": ("npz:/y",)}):
+    older = {k: v for k, v in dataclasses.asdict(settings).items() if k != "train_fall_penalty"}  # before the option
+    path.write_text(json.dumps({"settings": older, "train_reference_zero_residual": ref}))
+    assert script.load_reference(path, settings) == ref
+    with pytest.raises(ConfigError, match="train_fall_penalty"):
+        script.load_reference(path, dataclasses.replace(settings, train_fall_penalty=5.0))
+    path.write_text(json.dumps({"settings": dataclasses.asdict(settings), "train_reference_zero_residual": ref}))
+    for change in ({"seed": 5}, {"held_out_fold": 1}, {"split": ("block",)}, {"data": ("npz:/y",)},
+                   {"train_fall_penalty": 5.0}):
         with pytest.raises(ConfigError, match=f"--reference .*{next(iter(change))}"):
             script.load_reference(path, dataclasses.replace(settings, **change))
 
@@ -264,3 +272,55 @@ def test_bad_flag_is_one_line_and_exit_2(tmp_path: Path, monkeypatch: pytest.Mon
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--split" in err[0] and "bogus" in err[0]
     assert not out.exists()
+
+
+class _Scripted(gym.Env):
+    """Ends its episode at step ``len(reasons)`` with the last reason; reward 1 per step."""
+
+    observation_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+    action_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+
+    def __init__(self, reasons: list[str | None]) -> None:
+        self.reasons, self.k = reasons, 0
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):  # noqa: ANN206
+        self.k = 0
+        return np.zeros(1, np.float32), {"termination_reason": None}
+
+    def step(self, action):  # noqa: ANN001, ANN201
+        reason = self.reasons[self.k]
+        self.k += 1
+        return np.zeros(1, np.float32), 1.0, reason is not None, False, {"termination_reason": reason, "reward_x": 1.0}
+
+
+@pytest.mark.parametrize("last", ["fell", "self_collision", "task_complete"])
+def test_fall_penalty_only_on_the_step_that_ends_in_a_fall(last: str) -> None:
+    reward_mod = load_script("_residual_reward")
+    env = reward_mod.FallPenalty(_Scripted([None, None, last]), 7.5)
+    env.reset(seed=0)
+    got = [env.step(np.zeros(1, np.float32)) for _ in range(3)]
+    expected_last = 1.0 - 7.5 if last == "fell" else 1.0
+    assert [g[1] for g in got] == [1.0, 1.0, expected_last]
+    for _, reward, _, _, info in got:  # the reward_<term> entries still sum to the reward
+        assert info["reward_x"] + info["reward_failure_fell"] == reward
+    with pytest.raises(ConfigError, match="--train-fall-penalty"):
+        reward_mod.FallPenalty(_Scripted([None]), -1.0)
+
+
+def test_fall_penalty_wraps_training_environments_only(script, tiny) -> None:  # noqa: ANN001
+    settings = tiny[0]
+    train, held = script.build_data(settings)
+    models = {lbl: SocialAffordanceModel.load(tiny[1] / "models" / f"{lbl}.npz") for lbl in settings.labels}
+
+    def wrapped(s, training: bool) -> bool:  # noqa: ANN001
+        env = script.make_env(s, train if training else held, models, training=training)
+        while not isinstance(env, SocialAffordanceEnv):
+            if type(env).__name__ == "FallPenalty":
+                return True
+            env = env.env
+        return False
+
+    penal = dataclasses.replace(settings, train_fall_penalty=20.0)
+    assert wrapped(penal, training=True)
+    assert not wrapped(penal, training=False)  # the held-out evaluation keeps the environment's reward
+    assert not wrapped(settings, training=True)  # default 0: the environment's reward unchanged

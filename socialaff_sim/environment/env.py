@@ -11,7 +11,8 @@ or by one whole frame with ``control_dt=None``. Observations are documented in
 :mod:`socialaff_sim.environment.reward`, actions below and in docs/environment.md.
 
 Actions, a (5, 3) float32 :class:`~gymnasium.spaces.Box` (rows: base, left wrist,
-right wrist, left ankle, right ankle; metres, robot frame), clipped to the space:
+right wrist, left ankle, right ankle; metres, robot frame), clipped to the space
+(:mod:`~socialaff_sim.environment.actions`):
 
 * ``targets``: the key-frame targets themselves, in ``EnvConfig.target_low … target_high``;
 * ``residual``: offsets in [−ρ, ρ] added to the adapter's proposal for the frame
@@ -23,7 +24,8 @@ steps they give the frame's physics exactly; changed within it, the IK is solved
 The resulting targets are then projected onto what the robot's body can follow
 (:mod:`~socialaff_sim.environment.action_limits`; ``info["action_adjustment"]`` says how far
 each row was moved). Why an episode ended is ``info["termination_reason"]``
-(:mod:`~socialaff_sim.environment.episode_end`), MuJoCo's warnings of the step ``info["physics_warnings"]``.
+(:mod:`~socialaff_sim.environment.episode_end`), MuJoCo's warnings of the step ``info["physics_warnings"]``;
+every ``info`` key is listed in :mod:`~socialaff_sim.environment.info`.
 """
 
 from __future__ import annotations
@@ -35,18 +37,19 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, SimulationError, choices
 from ..retarget.robot import RobotSpec, load_robot
 from ..sim.simulator import SimConfig, Simulator, StepResult
 from .action_limits import BodyEnvelope, EnvelopeConfig, FeasibleTargets
+from .actions import ActionDecoder
 from .adapters import AdapterFrame, AffordanceAdapter, AffordanceScore, GroundTruthAdapter, RobotPose
 from .bodymap import RobotToAgent
 from .config import CONTROL_DT, EnvConfig, physics_config
 from .control import ControlClock
-from .episode_end import UNSTABLE_WARNINGS, WarningMonitor, body_up, tilt_cosine
+from .episode_end import EpisodeEnd, WarningMonitor
+from .info import step_info
 from .instances import DataSpec, EpisodePool, load_pool
 from .model_adapter import ModelAdapter, ModelSpec, load_models
 from .observation import ObservationLayout
@@ -170,14 +173,9 @@ class SocialAffordanceEnv(gym.Env):
             position_bound=self.config.position_bound, velocity_bound=self.config.velocity_bound,
         )
         self.observation_space = self.layout.space()
-        cfg = self.config
-        if cfg.action_mode == "targets":
-            low = np.tile(np.asarray(cfg.target_low, np.float32), (N_KEY, 1))
-            high = np.tile(np.asarray(cfg.target_high, np.float32), (N_KEY, 1))
-            self.action_space = spaces.Box(low=low, high=high, dtype=np.float32)
-        else:
-            r = np.float32(cfg.residual_bound)
-            self.action_space = spaces.Box(low=-r, high=r, shape=(N_KEY, 3), dtype=np.float32)
+        self._decoder = ActionDecoder(self.config, self.feasible)
+        self.action_space = self._decoder.space
+        self._end = EpisodeEnd(self.config.fall_height, self.config.fall_tilt, self.config.terminate_on_failure)
         modes = ["rgb_array"] + (["human"] if display_available() else [])
         self.metadata = {"render_modes": modes, "render_fps": float(first.fps)}
         self._index: int | None = None
@@ -233,7 +231,7 @@ class SocialAffordanceEnv(gym.Env):
         sim.settle(sim.retarget(first.proposal, frame=0, subevent=first.subevent_name, **first.intent.kwargs()))
         self.clock.reset(inter.fps, sim.n_sub)
         self._frame_obs: tuple[int, dict[str, np.ndarray]] | None = None
-        self._projected: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._decoder.reset()
         idx = inter.layout.key_indices
         self._human_mask = np.array([i is not None for i in idx], dtype=np.float32)
         track = np.zeros((inter.n_frames, N_KEY, 3))
@@ -252,34 +250,18 @@ class SocialAffordanceEnv(gym.Env):
         self._last_terms: dict[str, float] = {}
         self._done = False
         self._reason: str | None = None
-        self._adjustment = np.zeros(N_KEY)
         self._step_warnings = dict.fromkeys(self.warnings.totals, 0)
         self.warnings.reset(sim.data)
-        # Fall thresholds of this robot and scene: base height (m) and the cosine of the tilt.
-        self._fall = (self.config.fall_height * float(sim.home_key_frames[0, 2]),
-                      float(np.cos(np.deg2rad(self.config.fall_tilt))), body_up(sim.scene.home_qpos[3:7]))
+        self._end.reset(sim)
         self.metadata["render_fps"] = float(inter.fps) * self.clock.per_frame
 
     def _advance(self, action: np.ndarray) -> tuple[float, dict[str, float], StepResult]:
         sim, cfg = self._sim, self.config
-        a = np.asarray(action, dtype=np.float64)
-        if a.shape == (N_KEY * 3,):
-            a = a.reshape(N_KEY, 3)
-        if a.shape != (N_KEY, 3):
-            raise SimulationError(f"action: expected shape (5, 3) (rows base, wrists, ankles; metres), found {a.shape}")
-        if not np.isfinite(a).all():
-            raise SimulationError("action: expected finite numbers, found NaN or inf")
-        a = np.minimum(np.maximum(a, self.action_space.low), self.action_space.high)  # np.clip's value, less overhead
+        a = self._decoder.clip(action)
         self._actions.append(a.copy())
         k = sim.substep
-        if k and self._projected is not None and np.array_equal(a, self._projected[0]):
-            targets = self._projected[1]  # the action held within the frame: the same targets as its last step
-        else:
-            wanted = a if cfg.action_mode == "targets" else self._proposal + a
-            targets = self.feasible.project(wanted, sim.last_targets[0], sim.interaction.fps)  # type: ignore[union-attr]
-            d = targets - wanted
-            self._adjustment = np.sqrt(np.add.reduce(d * d, axis=1))  # np.linalg.norm(d, axis=1), without its checks
-            self._projected = (a, targets, self._adjustment)
+        targets = self._decoder.targets(a, self._proposal, bool(k), sim.last_targets[0],
+                                        sim.interaction.fps)  # type: ignore[union-attr]
         if self.clock.needs_solve(k, targets):
             sim.solve(targets, subevent=self._frame.subevent_name, iterations=cfg.resolve_iterations if k else None)
         res = sim.advance(self.clock.end_of(k) - k)
@@ -288,7 +270,7 @@ class SocialAffordanceEnv(gym.Env):
             self._robot_keys = sim.robot_key_frames()
             terms = self.rewards.step(_UNSCORED, sim.scorer)
             self._last_terms = terms
-            self._reason = self._termination_reason()
+            self._reason = self._end.reason(sim, self._step_warnings, self._robot_keys)
             self._done = self._reason is not None
             return RewardTracker.total(terms), terms, self._last  # type: ignore[return-value]
         t = sim.frame
@@ -305,28 +287,9 @@ class SocialAffordanceEnv(gym.Env):
             self._frame = self.adapter.observe(t + 1)
             self._retarget(self._frame, t + 1)
         self._last, self._last_terms = res, terms
-        self._reason = self._termination_reason()
+        self._reason = self._end.reason(sim, self._step_warnings, self._robot_keys)
         self._done = self._reason is not None
         return RewardTracker.total(terms), terms, res
-
-    def _termination_reason(self) -> str | None:
-        """Why the episode ends after this step (docs in :mod:`~socialaff_sim.environment.episode_end`), or ``None``."""
-        sim, cfg = self._sim, self.config
-        data, scene = sim.data, sim.scene
-        finite = np.logical_and.reduce  # ndarray.all's reduction without its wrappers (every control step)
-        if any(self._step_warnings[k] for k in UNSTABLE_WARNINGS) or not (
-                finite(np.isfinite(data.qpos)) and finite(np.isfinite(data.qvel))):
-            return "physics_unstable"
-        low, cos_tilt, up = self._fall
-        if self._robot_keys[0, 2] < low or tilt_cosine(data.qpos[scene.robot_qadr[3:7]], up) < cos_tilt:
-            return "fell"
-        scorer = sim.scorer
-        if cfg.terminate_on_failure and scorer.failed:
-            return next(f.kind for f in scorer.failures if f.triggered)
-        if sim.done:
-            met = all(r.success for r in scorer.subgoals) and not scorer.failed
-            return "task_complete" if met else "instance_end"
-        return None
 
     # -- observation and info ----------------------------------------------------------------
     def _observation(self) -> dict[str, np.ndarray]:
@@ -346,34 +309,9 @@ class SocialAffordanceEnv(gym.Env):
         ))
 
     def _info(self, terms: dict[str, float] | None) -> dict[str, Any]:
-        sim = self._sim
         inter = self.pool.instances[self._index]  # type: ignore[index]
-        scorer = sim.scorer
-        frame = self._scored_frame
-        subgoals = {r.name: bool(r.success) for r in scorer.subgoals}
-        subgoals_now = {r.name: bool(r.current) for r in scorer.subgoals}
-        info: dict[str, Any] = {
-            "interaction": inter.label,
-            "instance": inter.instance_id,
-            "frame": int(sim.frame),
-            "time": float(sim.time),
-            "subevent": frame.subevent_name,
-            "subevent_index": int(frame.subevent),
-            "subgoals": subgoals,
-            "subgoals_now": subgoals_now,
-            "success": bool(all(subgoals.values()) and not scorer.failed),
-            "failed": bool(scorer.failed),
-            "failures": {f.kind: bool(f.triggered) for f in scorer.failures},
-            "adapter": self.adapter.kind,
-            "termination_reason": self._reason,
-            "physics_warnings": dict(self._step_warnings),
-            "action_adjustment": self._adjustment.copy(),
-        }
-        if terms is not None:  # the IK's error after its latest solve, the force over this step's physics steps
-            info["ik_error"] = np.array(sim.ik_errors, dtype=np.float64)
-            info["force_on_human"] = float(sim.control_force)
-            info.update({f"reward_{k}": float(v) for k, v in terms.items()})
-        return info
+        return step_info(self._sim, inter, self._scored_frame, self.adapter.kind, self._reason, self._step_warnings,
+                         self._decoder.adjustment, terms)
 
     # -- Gymnasium API -----------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:

@@ -26,16 +26,20 @@ the end of the track. A :class:`gymnasium.wrappers.TimeLimit` truncation (the re
 
 MuJoCo counts its warnings in ``MjData.warning`` (cleared by every reset of the data);
 :class:`WarningMonitor` reads the counters after each step and reports the increase per
-warning under :data:`WARNING_NAMES`.
+warning under :data:`WARNING_NAMES`. :class:`EpisodeEnd` makes the decision above, step by step.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import mujoco
 import numpy as np
 
-__all__ = ["TERMINATION_REASONS", "FAILURE_REASONS", "WARNING_NAMES", "UNSTABLE_WARNINGS", "WarningMonitor", "body_up",
-           "tilt_cosine", "tilt_angle"]
+from ..sim.simulator import Simulator
+
+__all__ = ["TERMINATION_REASONS", "FAILURE_REASONS", "WARNING_NAMES", "UNSTABLE_WARNINGS", "WarningMonitor",
+           "EpisodeEnd", "body_up", "tilt_cosine", "tilt_angle"]
 
 FAILURE_REASONS = ("self_collision", "contact_force", "object_dropped")
 """The task files' failure kinds (docs/task_format.md), each a termination reason of its own."""
@@ -112,3 +116,44 @@ def tilt_angle(quat: np.ndarray, home_quat: np.ndarray) -> float:
     about the vertical axis alone gives 0.
     """
     return float(np.arccos(min(1.0, max(-1.0, tilt_cosine(quat, body_up(home_quat))))))
+
+
+class EpisodeEnd:
+    """Why an episode ends after a step, in the order of precedence of the module docstring.
+
+    ``fall_height`` [—], ``fall_tilt`` [deg], ``terminate_on_failure``: the fields of
+    :class:`~socialaff_sim.environment.config.EnvConfig`. Call :meth:`reset` at every episode's start (the fall
+    thresholds are the robot's and the scene's), then :meth:`reason` after every step.
+    """
+
+    def __init__(self, fall_height: float, fall_tilt: float, terminate_on_failure: bool) -> None:
+        self.fall_height, self.fall_tilt, self.terminate_on_failure = fall_height, fall_tilt, terminate_on_failure
+        self._fall: tuple[float, float, np.ndarray] = (0.0, 1.0, np.array([0.0, 0.0, 1.0]))
+
+    def reset(self, sim: Simulator) -> None:
+        """Set the fall thresholds of ``sim``'s robot and scene (after ``sim.reset``)."""
+        # Base height (m) below which the robot has fallen, the cosine of the tilt, the body's own up axis.
+        self._fall = (self.fall_height * float(sim.home_key_frames[0, 2]),
+                      float(np.cos(np.deg2rad(self.fall_tilt))), body_up(sim.scene.home_qpos[3:7]))
+
+    def reason(self, sim: Simulator, step_warnings: Mapping[str, int], robot_keys: np.ndarray) -> str | None:
+        """Why the episode ends after this step (one of :data:`TERMINATION_REASONS`), or ``None``.
+
+        ``step_warnings``: the step's :meth:`WarningMonitor.step`; ``robot_keys`` (5, 3): the robot's key
+        frames now, robot frame (m).
+        """
+        data, scene = sim.data, sim.scene
+        finite = np.logical_and.reduce  # ndarray.all's reduction without its wrappers (every control step)
+        if any(step_warnings[k] for k in UNSTABLE_WARNINGS) or not (
+                finite(np.isfinite(data.qpos)) and finite(np.isfinite(data.qvel))):
+            return "physics_unstable"
+        low, cos_tilt, up = self._fall
+        if robot_keys[0, 2] < low or tilt_cosine(data.qpos[scene.robot_qadr[3:7]], up) < cos_tilt:
+            return "fell"
+        scorer = sim.scorer
+        if self.terminate_on_failure and scorer.failed:
+            return next(f.kind for f in scorer.failures if f.triggered)
+        if sim.done:
+            met = all(r.success for r in scorer.subgoals) and not scorer.failed
+            return "task_complete" if met else "instance_end"
+        return None

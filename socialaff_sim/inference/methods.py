@@ -37,7 +37,8 @@ from .presets import preset as named_preset
 from .protocol import Prediction
 from .reaction_features import FeatureStream
 from .reaction_regression import inner_folds
-from .switching import SwitchingConfig, SwitchingRegression, Trace, plan_displacement, plan_offset, switching_rows
+from .switching import SwitchingConfig, SwitchingRegression
+from .switching_rows import Trace, plan_displacement, plan_offset, switching_rows
 from .synthesis import OnlineSynthesizer, SynthesisConfig
 
 

@@ -41,7 +41,7 @@ from ..errors import ModelError
 from ..model.frame import CanonicalFrame
 from .body_fit import instance_frame
 from .interaction_primitive import InteractionPrimitive, rbf_centres, rbf_rows
-from .protocol import protocol_view
+from .protocol import observed_part
 
 __all__ = ["PrimitiveStream", "SHARED_SOLVERS", "stream_key_joints"]
 
@@ -120,7 +120,13 @@ class PrimitiveStream:
         span = np.maximum(self._cands[act] - 1, 1)
         phi = self._rbf(np.minimum(frames[:, None] / span[None], 1.0).ravel()).reshape(len(frames), len(act), self._n)
         sub = _block(act, cols)
-        if len(frames) == 1:  # the per-frame path
+        if len(frames) == 1 and sign == 1.0:  # the per-frame path (adding 1.0 × a is adding a: one temporary less)
+            p0 = phi[0]
+            self._hty[sub] += p0[:, None, :] * yz[0][None, :, None]
+            if information:
+                w = seen[0, cols] * self._inv_var[cols]
+                self._hth[sub] += (p0[:, :, None] * p0[:, None, :])[:, None] * w[None, :, None, None]
+        elif len(frames) == 1:
             p0 = phi[0]
             self._hty[sub] += sign * (p0[:, None, :] * yz[0][None, :, None])
             if information:
@@ -176,9 +182,10 @@ class PrimitiveStream:
         self._last_value = self._frame.to_canonical(filled[np.maximum(self._last_frame, 0), 0, np.arange(len(keys))])
         self._frames_seen = view.n_frames
 
-    def _ingest(self, view: Interaction) -> None:
-        """Add the view's new frames, holding untracked key joints and closing the gaps that end."""
-        T, keys = view.n_frames, self.primitive.keys_
+    def _ingest(self, view: Interaction, T: int) -> None:
+        """Add the new frames of the view of ``view``'s first ``T`` frames (``view`` itself when T is its length),
+        holding untracked key joints and closing the gaps that end."""
+        keys = self.primitive.keys_
         if T < self._frames_seen:
             raise ModelError(f"PrimitiveStream: views must grow; had {self._frames_seen} frames, got {T}")
         idx = self._idx
@@ -254,16 +261,29 @@ class PrimitiveStream:
     def keys(self, view: Interaction, start: int, stop: int) -> np.ndarray:
         """(stop − start, 5, 3) agent 1's key joints of frames [start, stop), metres, the view's canonical frame
         (as :meth:`~.interaction_primitive.InteractionPrimitive.conditioned_keys` with ``offline=False``)."""
+        return self._keys(view, view.n_frames, start, stop)
+
+    def prefix_keys(self, hidden: Interaction, visible: int, start: int, stop: int) -> np.ndarray:
+        """:meth:`keys` of the view ``hidden.slice(0, visible)`` without building it (the same values): ``hidden``
+        is the whole instance as the protocol hides it (:func:`~.protocol.observed_part`), so that view is the
+        causal protocol's :func:`~.protocol.protocol_view` of ``visible`` frames. Each frame's view would be a new
+        validated instance; this reads the new frames from ``hidden`` (the training rows' stream, every frame)."""
+        if not 0 < visible <= hidden.n_frames:
+            raise ModelError(f"PrimitiveStream: expected 1..{hidden.n_frames} visible frames, found {visible}")
+        return self._keys(hidden, visible, start, stop)
+
+    def _keys(self, view: Interaction, T: int, start: int, stop: int) -> np.ndarray:
+        """:meth:`keys` of the view of ``view``'s first ``T`` frames."""
         prim = self.primitive
         if view.joint_names != self._joint_names and view.layout.name != prim.layout_.name:
             raise ModelError(f"ProMP: trained on layout {prim.layout_.name!r}, asked for {view.layout.name!r}")
-        if stop < view.n_frames or start >= stop:
-            raise ModelError(f"PrimitiveStream: expected start < stop with stop ≥ the view's {view.n_frames} frames, "
+        if stop < T or start >= stop:
+            raise ModelError(f"PrimitiveStream: expected start < stop with stop ≥ the view's {T} frames, "
                              f"found [{start}, {stop})")
         if self._frames_seen == 0:
-            self._rebuild(view)
+            self._rebuild(view if T == view.n_frames else view.slice(0, T))
         else:
-            self._ingest(view)
+            self._ingest(view, T)
         c = self._choose(stop)
         self.duration = int(self._cands[c])
         # Candidates shorter than the frames seen are never chosen again (T̂ ≥ stop ≥ the view's length): drop their
@@ -295,6 +315,12 @@ class PrimitiveStream:
         assert self._frame is not None
         return self._frame.to_world(keys)
 
+    def react_prefix_keys(self, hidden: Interaction, visible: int, start: int, stop: int) -> np.ndarray:
+        """:meth:`prefix_keys` in the world frame (metres)."""
+        keys = self.prefix_keys(hidden, visible, start, stop)
+        assert self._frame is not None
+        return self._frame.to_world(keys)
+
 
 def _block(rows: np.ndarray, cols: np.ndarray) -> tuple[slice, slice] | tuple[np.ndarray, np.ndarray]:
     """The index of the (rows, cols) sub-array: slices when both runs are contiguous (the usual case: an in-place
@@ -310,7 +336,10 @@ def stream_key_joints(primitive: InteractionPrimitive, interaction: Interaction,
     reactor predicts them; NaN before T0 (:meth:`~.interaction_primitive.InteractionPrimitive.causal_key_joints`
     to rounding, but for the duration past the longest training instance)."""
     out = np.full((interaction.n_frames, N_KEY, 3), np.nan)
+    if interaction.n_frames <= n_observed:
+        return out
     stream = PrimitiveStream(primitive, n_observed)
+    hidden = observed_part(interaction, n_observed)  # its first t + 1 frames: protocol_view(interaction, t + 1, n_observed)
     for t in range(n_observed, interaction.n_frames):
-        out[t] = stream.react_keys(protocol_view(interaction, t + 1, n_observed), t, t + 1)[0]
+        out[t] = stream.react_prefix_keys(hidden, t + 1, t, t + 1)[0]
     return out

@@ -77,6 +77,9 @@ def key_columns(interaction: Interaction) -> np.ndarray:
 def key_error(pred: np.ndarray, truth: np.ndarray, ids: np.ndarray) -> float:
     """Mean over instances of the mean key-joint distance, metres (pred/truth (N, 3·k) key columns, ids (N,))."""
     d = np.linalg.norm((pred - truth).reshape(len(pred), -1, 3), axis=-1).mean(axis=1)
+    if len(ids) > 1 and (ids[1:] >= ids[:-1]).all():  # sorted (rows stacked by instance): each instance one run
+        cuts = np.flatnonzero(ids[1:] != ids[:-1]) + 1  # the runs in np.unique's order; the same elements, same order
+        return float(np.mean([run.mean() for run in np.split(d, cuts)]))
     return float(np.mean([d[ids == i].mean() for i in np.unique(ids)]))
 
 
@@ -125,24 +128,28 @@ def cv_errors(
         ho = np.isin(ids, held)
         tr = ~ho
         wt = w[tr] / w[tr].sum()
-        gram = (Xs[tr] * wt[:, None]).T @ Xs[tr]
+        x_tr, x_ho, ids_ho = Xs[tr], Xs[ho], ids[ho]  # once per fold (the same arrays every candidate indexed)
+        gram = (x_tr * wt[:, None]).T @ x_tr
         truth = Yk[ho]
-        errors.setdefault((HOLD, math.inf), []).append(key_error(np.zeros_like(truth), truth, ids[ho]))
+        errors.setdefault((HOLD, math.inf), []).append(key_error(np.zeros_like(truth), truth, ids_ho))
         crosses: dict[bool, np.ndarray] = {}
+        bases: dict[bool, np.ndarray] = {}
         for name, cols in candidates.items():
             shifted = name in from_offset
             base = (offset if shifted and offset is not None else zero)
+            if shifted not in bases:
+                bases[shifted] = base[ho]
             if len(cols) == 0:
-                errors.setdefault((name, math.inf), []).append(key_error(base[ho], truth, ids[ho]))
+                errors.setdefault((name, math.inf), []).append(key_error(bases[shifted], truth, ids_ho))
                 continue
             if shifted not in crosses:
-                crosses[shifted] = (Xs[tr] * wt[:, None]).T @ (Yk[tr] - base[tr])
+                crosses[shifted] = (x_tr * wt[:, None]).T @ (Yk[tr] - base[tr])
             # One eigendecomposition of the Gram matrix serves every λ: W(λ) = V (Vᵀ cross) / (e + λ).
             evals, V = np.linalg.eigh(gram[np.ix_(cols, cols)])
-            vc, xv = V.T @ crosses[shifted][cols], Xs[ho][:, cols] @ V
+            vc, xv = V.T @ crosses[shifted][cols], x_ho[:, cols] @ V
             for lam in penalties:
-                pred = base[ho] + xv @ (vc / (evals + lam)[:, None])
-                errors.setdefault((name, float(lam)), []).append(key_error(pred, truth, ids[ho]))
+                pred = bases[shifted] + xv @ (vc / (evals + lam)[:, None])
+                errors.setdefault((name, float(lam)), []).append(key_error(pred, truth, ids_ho))
     return {key: float(np.mean(v)) for key, v in errors.items()}
 
 

@@ -53,10 +53,11 @@ LOG_2PI = float(np.log(2.0 * np.pi))
 # -- log-densities ----------------------------------------------------------------------
 def weibull_logpdf(x: np.ndarray, k: np.ndarray | float, lam: np.ndarray | float) -> np.ndarray:
     """log f(x; k, λ) of the two-parameter Weibull; −inf for x < 0 (x = 0 follows the limit)."""
-    x, k, lam = np.broadcast_arrays(np.asarray(x, float), np.asarray(k, float), np.asarray(lam, float))
+    x, k, lam = np.asarray(x, float), np.asarray(k, float), np.asarray(lam, float)
     with np.errstate(divide="ignore", invalid="ignore"):
         z = x / lam
         logz = np.log(z)
+        # The parameters' terms on their own shape (K parameter rows, not N × K): the same values, broadcast.
         core = np.log(k / lam) - z**k
         # (k - 1) * log z with the convention 0 * log 0 = 0 (k = 1 at x = 0).
         term = np.where(k == 1.0, 0.0, (k - 1.0) * logz)

@@ -31,6 +31,16 @@ class CanonicalFrame:
     heading: float
     """Angle of the canonical x axis in the world x-y plane, radians (counter-clockwise from world x)."""
 
+    # The generated __eq__ would compare the origin arrays' truth (an error) and the generated __hash__ would hash
+    # an array (another): two frames are equal when their origins are elementwise equal and their headings are.
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, CanonicalFrame):
+            return NotImplemented
+        return bool(np.array_equal(self.origin, other.origin)) and float(self.heading) == float(other.heading)
+
+    def __hash__(self) -> int:
+        return hash((tuple(float(v) for v in np.ravel(self.origin)), float(self.heading)))
+
     @cached_property
     def rotation(self) -> np.ndarray:
         """(3, 3) float64, read-only: columns are the canonical axes expressed in the world frame (computed once: a

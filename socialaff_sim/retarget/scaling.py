@@ -57,6 +57,8 @@ stops it at the person's surface; a ball or a cup is squeezed between two
 hands). δ_w = δ + hand_h − hand_r aims the middle of the robot's hand, not its
 wrist, δ beyond the middle of agent 1's hand: a robot hand reaching farther past
 its wrist than a person's is held back by the difference.
+
+The bounds on k (reach, trunk and body clearance) are computed in :mod:`~socialaff_sim.retarget.placement`.
 """
 
 from __future__ import annotations
@@ -68,6 +70,7 @@ import numpy as np
 from ..data.interaction import Interaction
 from .anchors import GRAVITY, LOOKAHEAD_POINTS, object_anchors
 from .measure import BodyMeasurements, RobotFrame, heading_matrix, measure_human, measure_robot
+from .placement import body_clearance_k, frame_clearance_k, is_body_joint, k_clear_of_trunk, k_within_reach
 from .scaling_config import ScalingConfig
 
 __all__ = [
@@ -111,8 +114,7 @@ class KeyJointScaler:
         self._agent_frame = RobotFrame(a1, heading_matrix(a0 - a1))
         idx = inter.layout.key_indices[0]
         self._partner_base = 0 if idx is None else idx
-        self._body = np.array([j for j, n in enumerate(inter.joint_names)
-                               if not any(p in n for p in ("elbow", "wrist", "hand", "thumb", "tip"))], dtype=np.int64)
+        self._body = np.array([j for j, n in enumerate(inter.joint_names) if is_body_joint(n)], dtype=np.int64)
         """Agent 0's trunk, head and leg joints (the ones the robot's trunk keeps clear of)."""
         self.s_arm = self.robot.arm / self.human.arm
         self.s_leg = self.robot.leg / self.human.leg
@@ -136,13 +138,14 @@ class KeyJointScaler:
             if self.trunk_k is not None:
                 k = max(k, self.trunk_k)
         if c.scale_placement and self.robot.trunk_radius > 0:
-            k = max(k, self._clearance_k(inter, offset, k))
+            k = max(k, body_clearance_k(inter, offset, self._partner_base, k, self.robot, c))
         self.k = float(np.clip(k, c.k_min, c.k_max)) if c.scale_placement else 1.0
         self._online = c.online_placement and c.contact_placement and c.scale_placement and self.contact_k is None
         # Moving in never undercuts the trunk's clearance from the person (over the frames placed from).
         self._k_floor = c.k_min
         if self._online and self.robot.trunk_radius > 0:
-            self._k_floor = max(self._clearance_k(inter, offset, c.k_min), self.trunk_k or c.k_min)
+            self._k_floor = max(body_clearance_k(inter, offset, self._partner_base, c.k_min, self.robot, c),
+                                self.trunk_k or c.k_min)
         self._k_step = c.placement_speed / max(inter.fps, 1e-9)  # metres of base motion per frame
         self._approach_step = c.approach_speed / max(inter.fps, 1e-9)
         self.stand_cap = np.inf
@@ -152,27 +155,6 @@ class KeyJointScaler:
         origin = a0 + (a1 - a0) * self.k
         self.frame = RobotFrame(origin, heading_matrix(a0 - a1))
         return self.frame
-
-    def _clearance_k(self, inter: Interaction, offset: np.ndarray, k0: float) -> float:
-        """The smallest k ≥ ``k0`` (in steps of 0.01, up to ``k_max``) at which the robot's trunk clears the
-        partner's trunk, head and legs by ``body_clearance`` at every frame (``k0`` when it already does)."""
-        c, r = self.config, self.robot
-        names = inter.joint_names
-        body = [j for j, n in enumerate(names) if not any(p in n for p in ("elbow", "wrist", "hand", "thumb", "tip"))]
-        joints = inter.filled_joints()[:, 0][:, body] + offset  # (T, J, 3) the partner's body joints
-        keys = inter.key_joints()[:, 1] + offset
-        p0 = (inter.filled_joints()[:, 0, self._partner_base] + offset)[:, :2]
-        D = keys[:, 0, :2] - p0  # (T, 2)
-        ok = np.isfinite(D).all(axis=1) & np.isfinite(p0).all(axis=1)
-        top = r.height if r.height > 0 else np.inf
-        relevant = np.isfinite(joints).all(axis=2) & (joints[..., 2] <= top) & ok[:, None]
-        if not relevant.any():
-            return k0
-        ks = np.arange(k0, max(k0, c.k_max) + 1e-9, 0.01)
-        base = p0[None, :, :] + ks[:, None, None] * D[None, :, :]  # (K, T, 2)
-        gap = np.linalg.norm(base[:, :, None, :] - joints[None, :, :, :2], axis=-1)  # (K, T, J)
-        clear = np.where(relevant[None], gap >= r.trunk_radius + c.body_clearance, True).all(axis=(1, 2))
-        return float(ks[np.argmax(clear)]) if clear.any() else float(ks[-1])
 
     def _contact_bounds(self, inter: Interaction, offset: np.ndarray, rotation: np.ndarray
                         ) -> tuple[float | None, float | None]:
@@ -216,59 +198,14 @@ class KeyJointScaler:
 
     def _bounds(self, wrist: np.ndarray, base1: np.ndarray, p0: np.ndarray, side: np.ndarray,
                 shoulder_h: np.ndarray, rotation: np.ndarray) -> tuple[float | None, float | None]:
-        """Of N contact samples (arguments as in :meth:`_k_within_reach`): the largest k keeping them within
-        reach and the smallest keeping their wrists clear of the robot's trunk (``None`` where no bound)."""
-        return (self._k_within_reach(wrist, base1, p0, side, shoulder_h, rotation),
-                self._k_clear_of_trunk(wrist, base1, p0))
-
-    def _k_clear_of_trunk(self, wrist: np.ndarray, base1: np.ndarray, p0: np.ndarray) -> float | None:
-        """The smallest k putting every contact sample's ``wrist`` (N, 3) at least ``trunk_radius`` +
-        ``wrist_clearance`` horizontally from the robot's base axis, agent 1's base ``base1`` and agent 0's
-        ``p0`` (N, 3) world frame; ``None`` when no sample needs it (the wrist is clear at every k)."""
-        if self.robot.trunk_radius <= 0:
-            return None
-        r = self.robot.trunk_radius + self.config.wrist_clearance
-        W = wrist[:, :2] - p0[:, :2]
-        D = base1[:, :2] - p0[:, :2]
-        # |W − k·D| ≥ r: outside the roots of a quadratic in k; the robot stands back (the larger root).
-        dd = np.einsum("ij,ij->i", D, D)
-        wd = np.einsum("ij,ij->i", W, D)
-        disc = wd * wd - dd * (np.einsum("ij,ij->i", W, W) - r * r)
-        need = (dd > 1e-6) & (disc > 0)
-        if not need.any():
-            return None
-        return float(((wd[need] + np.sqrt(disc[need])) / dd[need]).max())
-
-    def _k_within_reach(self, wrist: np.ndarray, base1: np.ndarray, p0: np.ndarray, side: np.ndarray,
-                        shoulder_h: np.ndarray, rotation: np.ndarray, extension: np.ndarray | None = None
-                        ) -> float | None:
-        """The largest k keeping N contact samples within the robot's reach: agent 1's ``wrist``, ``base1``,
-        agent 0's base ``p0`` and agent 1's shoulder ``shoulder_h`` (N, 3) world frame, the wrist's
-        ``side`` (N,) 0/1; ``None`` when no sample can be brought within reach. ``extension`` (N,): the
-        fraction of the robot's arm each sample may use (default: agent 1's own there, at most
-        ``max_extension``)."""
-        c, h, r = self.config, self.human, self.robot
-        if extension is None:
-            extension = np.minimum(np.linalg.norm(wrist - shoulder_h, axis=1) / h.arm, c.max_extension)
-        reach = extension * r.arm
-        # Robot shoulder for placement k: p₀ + k·(b₁ − p₀) horizontally, at the scaled base height, plus its offset.
-        D = np.zeros_like(base1)
-        D[:, :2] = base1[:, :2] - p0[:, :2]
-        A = np.zeros_like(base1)
-        A[:, :2] = p0[:, :2]
-        A[:, 2] = r.base_height + self.s_leg * (base1[:, 2] - h.base_height)
-        A += r.shoulders[side] @ rotation.T - wrist
-        dd = np.einsum("ij,ij->i", D, D)
-        ad = np.einsum("ij,ij->i", A, D)
-        aa = np.einsum("ij,ij->i", A, A)
-        disc = ad * ad - dd * (aa - reach * reach)
-        # Largest k within reach. A sample no placement brings within reach (a contact far below
-        # a tall robot's shoulders, which it meets by bending) says nothing about where to stand.
-        valid = (dd > 1e-6) & (disc >= 0)
-        if not valid.any():
-            return None
-        upper = (-ad[valid] + np.sqrt(disc[valid])) / dd[valid]
-        return float(upper.min())
+        """Of N contact samples (agent 1's ``wrist``, ``base1`` and ``shoulder_h``, agent 0's base ``p0`` (N, 3)
+        world frame, the wrist's ``side`` (N,), the robot frame's ``rotation``): the largest k keeping them
+        within reach, each using the extension agent 1's arm had there (at most ``max_extension``), and the
+        smallest keeping their wrists clear of the robot's trunk (``None`` where no bound)."""
+        c = self.config
+        extension = np.minimum(np.linalg.norm(wrist - shoulder_h, axis=1) / self.human.arm, c.max_extension)
+        return (k_within_reach(wrist, base1, p0, side, rotation, self.robot, self.human, self.s_leg, extension),
+                k_clear_of_trunk(wrist, base1, p0, self.robot.trunk_radius, c.wrist_clearance))
 
     def _place_online(self, keys: np.ndarray, d: np.ndarray, p0: np.ndarray) -> None:
         """Lower k toward what the wrists within ``contact_radius`` (distances ``d`` (2,)) of agent 1's
@@ -284,21 +221,6 @@ class KeyJointScaler:
         if self._k_goal < self.k:
             spread = float(np.linalg.norm(keys[0, :2] - p0[:2])) if np.isfinite(keys[0]).all() else 0.0
             self.k = max(self._k_goal, self.k - self._k_step / max(spread, 1e-3))
-
-    def _clear_now(self, partner: np.ndarray, base1: np.ndarray, p0: np.ndarray) -> float:
-        """The smallest k (steps of 0.01 up to the current k) at which the robot's trunk clears agent 0's trunk,
-        head and legs ``partner`` (J, 3) of this frame by ``body_clearance``, agent 1's base ``base1`` and agent
-        0's ``p0`` (3,), world frame (the current k when none does; ``k_min`` without a trunk)."""
-        c, r = self.config, self.robot
-        joints = partner[self._body]
-        joints = joints[np.isfinite(joints).all(axis=1)]
-        if r.trunk_radius <= 0 or not len(joints):
-            return c.k_min
-        ks = np.arange(c.k_min, max(c.k_min, self.k) + 1e-9, 0.01)
-        base = p0[None, :2] + ks[:, None] * (base1[:2] - p0[:2])[None]  # (K, 2)
-        gap = np.linalg.norm(base[:, None, :] - joints[None, :, :2], axis=-1).min(axis=1)
-        clear = gap >= r.trunk_radius + c.body_clearance
-        return float(ks[np.argmax(clear)]) if clear.any() else self.k
 
     def approach(self, points: np.ndarray, side: np.ndarray, keys: np.ndarray, partner: np.ndarray) -> bool:
         """Move in toward contacts the source means to make but the robot cannot reach from where it stands.
@@ -324,15 +246,17 @@ class KeyJointScaler:
         base1 = np.repeat(keys[None, 0], n, axis=0)
         p0s = np.repeat(p0[None], n, axis=0)
         # Either of the robot's hands may make the contact: the robot moves in only as far as the nearer needs.
-        ks = [self._k_within_reach(points, base1, p0s, s, self._shoulders(base1, s), self.frame.rotation,
-                                   extension=np.full(n, self.config.max_extension)) for s in (side, 1 - side)]
+        reach = np.full(n, self.config.max_extension)
+        ks = [k_within_reach(points, base1, p0s, s, self.frame.rotation, self.robot, self.human, self.s_leg, reach)
+              for s in (side, 1 - side)]
         finite = [v for v in ks if v is not None]
         if not finite:
             return False
         k = max(finite)
-        front = self._k_clear_of_trunk(points, base1, p0s)
+        front = k_clear_of_trunk(points, base1, p0s, self.robot.trunk_radius, self.config.wrist_clearance)
+        body = np.asarray(partner, dtype=np.float64)[self._body]
         goal = max(k, self._k_floor, -np.inf if front is None else front,
-                   self._clear_now(np.asarray(partner, dtype=np.float64), keys[0], p0))
+                   frame_clearance_k(body, keys[0], p0, self.k, self.robot, self.config))
         spread = float(np.linalg.norm(keys[0, :2] - p0[:2]))
         now = min(self.stand_cap, self.k * spread)
         if goal * spread >= now:

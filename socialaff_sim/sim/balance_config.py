@@ -30,6 +30,7 @@ class BalanceConfig:
     - Balance: com_bandwidth, com_damping, com_reference, support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, min_foot_load, torque_fraction, flat_feet
+    - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, catch_tilt, catch_margin, catch_blend,
       drive_harnessed
     """
@@ -95,6 +96,17 @@ class BalanceConfig:
     contact points are the sole's four corners (the centre-of-pressure bounds then span the whole sole) and the
     foot's acceleration toward where it stood, level, is a hard constraint (``False``: the live contact points, and
     the feet's task in the objective toward the attitude they came down in)."""
+    self_clearance: float | None = None
+    """d_min [m]: ``qp``: the forearms and hands are kept this far from the rest of the robot (and from each other)
+    by hard rows of the QP (:mod:`~.self_clearance`: a critically damped barrier on each close pair's distance);
+    ``None``: no such rows (the arms then trail their references as the balance allows, and may swing into the
+    body: Stubby's forearms into its pelvis, 2.1–2.8 cm deep, with ``flat_feet``)."""
+    clearance_detection: float = 0.1
+    """[m]: a pair of geoms farther apart than this gets no row of ``self_clearance``."""
+    clearance_bandwidth: float = 30.0
+    """ω_s [rad/s]: the barrier d̈ ≥ −2 ω_s ḋ − ω_s² (d − d_min) of ``self_clearance``: a pair entering
+    ``clearance_detection`` − d_min away stops short of d_min if it approaches at most ω_s times that (30 rad/s,
+    9 cm: 2.7 m/s)."""
     sole_gap: float = 0.0
     """[m]: a planted foot without contacts whose sole is at most this high above the floor still counts for the
     support box of the harness's decisions (0: only feet in contact; a contact lost for a step then shrinks the
@@ -140,6 +152,12 @@ class BalanceConfig:
             raise ConfigError(f"BalanceConfig.friction: expected μ > 0, found {self.friction}")
         if self.solver not in SOLVERS:
             raise ConfigError(f"BalanceConfig.solver: expected one of {', '.join(SOLVERS)}, found {self.solver!r}")
+        if self.self_clearance is not None and (self.solver != "qp" or not self.self_clearance >= 0.0):
+            raise ConfigError(f"BalanceConfig.self_clearance: needs solver='qp' and a distance ≥ 0 m, found "
+                              f"{self.self_clearance!r} with solver {self.solver!r}")
+        if not (self.clearance_detection > 0.0 and self.clearance_bandwidth > 0.0):
+            raise ConfigError(f"BalanceConfig: expected clearance_detection > 0 m and clearance_bandwidth > 0 rad/s, "
+                              f"found {self.clearance_detection}, {self.clearance_bandwidth}")
         if self.flat_feet and self.solver != "qp":
             raise ConfigError(f"BalanceConfig.flat_feet: needs solver='qp' (hard constraints), found {self.solver!r}")
         if not 0.0 <= self.min_foot_load < 0.5:

@@ -18,7 +18,7 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    ``solver="lsq"``: weighted least squares (:mod:`~.contact_dynamics`); ``solver="qp"``: a quadratic program
    (:mod:`~.contact_qp`) in which the root's rows, each actuator's torque limit at this state (times
    ``torque_fraction``), each foot's centre of pressure ``cop_margin`` inside its sole and a minimum load per
-   foot hold as constraints;
+   foot hold as constraints (with ``self_clearance`` also the arms' distances to the body, :mod:`~.self_clearance`);
 3. the servos are made to exert τ exactly: ctrl = (τ − b₀ − b₁ q − b₂ q̇) / g for force = g·ctrl + b₀ + b₁q +
    b₂q̇ (MuJoCo clips it at the actuator's force limit, which the support meter reports as saturation).
 
@@ -47,13 +47,13 @@ from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
 from .balance_config import BalanceConfig
 from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
-from .external_force import ExternalForces
+from .external_force import ExternalForces, lean_offset
 from .flat_feet import flat_attitude, flat_contacts, sole_corners
 from .scene import Scene
+from .self_clearance import SelfClearance
 from .support_box import SupportBox, cop_interval
 
 __all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
-
 
 
 class BalanceController:
@@ -104,6 +104,9 @@ class BalanceController:
         self._home_rot = [d0.xmat[b].reshape(3, 3).copy() for b in self._feet]
         self._home_z = [float(d0.xpos[b][2]) for b in self._feet]
         self._external = ExternalForces(scene)
+        c = self.config
+        self._clearance = None if c.self_clearance is None else SelfClearance.of_scene(
+            scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
         self._plan = mujoco.MjData(m)
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
@@ -171,6 +174,8 @@ class BalanceController:
         self.limit_steps = self.relaxed_steps = self.qp_failures = 0
         """``qp``: driven steps with a torque on its limit's bound; solved again without the foot loads and
         centre-of-pressure bounds; whose QP DAQP did not solve (the least-squares torques were used)."""
+        self.clearance_steps = self.clearance_dropped_steps = 0
+        """``self_clearance``: driven steps with a clearance row in the QP; of them, those whose rows were dropped."""
 
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
@@ -334,11 +339,14 @@ class BalanceController:
         # already keeps the centre of pressure on them, and the bounds' box may miss their segment.
         area = np.array([np.count_nonzero(which == s) >= 3 for s in range(len(self._feet))])
         foot = np.where(area[which], which, -1)
+        ineq = None if self._clearance is None else self._clearance.rows(m, d)
         res = solve_contact_qp(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_force, limits,
                                self._cop(d, pts, edges, foot, box), foot, c.min_foot_load * self.mass * self._g,
-                               equalities=eq)
+                               equalities=eq, inequalities=ineq)
         self.limit_steps += int(res.at_limit.any())
         self.relaxed_steps += int(res.relaxed)
+        self.clearance_steps += int(ineq is not None)
+        self.clearance_dropped_steps += int(res.inequalities_dropped)
         if not res.found:  # (not seen since the rows are scaled) the least-squares torques instead of none
             self.qp_failures += 1
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
@@ -388,12 +396,3 @@ class BalanceController:
         """The torso's angle from upright, degrees."""
         up = d.xmat[self._torso].reshape(3, 3)[2] @ self._torso_up
         return float(np.degrees(np.arccos(np.clip(up, -1.0, 1.0))))
-
-
-def lean_offset(moment: np.ndarray, force: np.ndarray, point: np.ndarray, weight: float) -> np.ndarray:
-    """(2,) horizontal shift (m) of the centre of mass that keeps the centre of pressure at ``point`` (3,) on the
-    floor under external forces of resultant ``force`` (3,) N and moment ``moment`` (3,) N·m about the world
-    origin, for a robot of ``weight`` N: with M their moment about the point, M_y + W (c_x − p_x) = 0 and
-    M_x − W (c_y − p_y) = 0 (a forward pull above the floor leans the robot back)."""
-    mom = np.asarray(moment, dtype=np.float64) - np.cross(point, force)
-    return np.array([-mom[1], mom[0]]) / weight

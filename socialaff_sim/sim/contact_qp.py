@@ -14,6 +14,7 @@ minimises
 * β ≥ 0: every contact force pushes and stays inside its friction pyramid;
 * τ_lo ≤ (M q̈ + h − Gβ)_a ≤ τ_hi on the actuated rows: the actuators' real limits (:func:`actuator_limits`);
 * optionally, hard task rows ``A q̈ = b`` (a planted foot held flat, :mod:`~.flat_feet`);
+* optionally, hard inequality rows ``A q̈ ≥ lo`` (the arms kept clear of the body, :mod:`~.self_clearance`);
 * optionally, each foot's vertical force at least a minimum load;
 * each foot's centre of pressure inside an interval per horizontal axis (:func:`cop_rows`), the sole shrunk by a
   margin: ``Σ_i f_z,i (r_i − lo) ≥ 0`` and ``Σ_i f_z,i (hi − r_i) ≥ 0`` over the foot's points.
@@ -59,6 +60,8 @@ class ContactQPResult:
     relaxed: bool
     """Whether the hard task rows, foot loads and centre-of-pressure bounds were dropped because they could not
     hold together."""
+    inequalities_dropped: bool = False
+    """Whether the hard inequality rows were dropped too (they could not hold with the torque limits alone)."""
 
 
 def actuator_limits(m: mujoco.MjModel, act_ids: np.ndarray, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
@@ -110,7 +113,8 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
                      edges: np.ndarray, tasks: list[tuple[np.ndarray, np.ndarray, float]], mass: float,
                      w_force: float, tau_limits: np.ndarray, cop: np.ndarray | None = None,
                      foot: np.ndarray | None = None, min_load: float = 0.0, w_reg: float = 1e-6,
-                     equalities: tuple[np.ndarray, np.ndarray] | None = None) -> ContactQPResult:
+                     equalities: tuple[np.ndarray, np.ndarray] | None = None,
+                     inequalities: tuple[np.ndarray, np.ndarray] | None = None) -> ContactQPResult:
     """Accelerations, contact forces and torques of a standing robot under hard constraints (module docstring).
 
     ``M`` (n, n), ``h`` (n,): mass matrix and bias forces (N, N·m); ``unactuated`` (n,) bool: coordinates
@@ -122,7 +126,9 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     with at least this vertical force (a foot left without load lifts off the floor and loses its contacts);
     ``equalities``: (A (r, n), b (r,)) rows ``A q̈ = b`` that must hold exactly (m/s², rad/s²); should the
     equalities, the loads and the centre-of-pressure rows not hold together, the problem is solved again without
-    the equalities, then without all three (``relaxed``); ``w_reg``: ε, the regularisation of q̈. Should DAQP fail (it should not: free fall is
+    the equalities, then without all three (``relaxed``); ``inequalities``: (A (r, n), lo (r,)) rows ``A q̈ ≥ lo``
+    that must hold (m/s²), kept through both of those relaxations and dropped last, when they cannot hold with the
+    root's rows and the torque limits alone (``inequalities_dropped``); ``w_reg``: ε, the regularisation of q̈. Should DAQP fail (it should not: free fall is
     feasible), the result is free fall (β = 0, τ = 0, ``found=False``) and a warning is logged.
     """
     n = M.shape[0]
@@ -167,6 +173,15 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
         upper.append(np.full(len(cop), _INF))
         lower.append(np.zeros(len(cop)))
         sense.append(np.zeros(len(cop)))
+    # The inequality rows go first among the optional ones: the relaxations below drop what follows them.
+    has_ineq = inequalities is not None and len(inequalities[1]) > 0
+    if inequalities is not None and has_ineq:
+        A_in, lo_in = inequalities
+        rows.insert(base, np.hstack([np.zeros((len(lo_in), K)), A_in]))
+        upper.insert(base, np.full(len(lo_in), _INF))
+        lower.insert(base, np.asarray(lo_in, dtype=np.float64))
+        sense.insert(base, np.zeros(len(lo_in)))
+        base += 1
     H = np.ascontiguousarray(H)
     x, flag = _daqp(H, f, K, rows, upper, lower, sense)
     relaxed = flag <= 0 and len(rows) > base
@@ -179,6 +194,11 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
         log.debug("balance QP: exit flag %d; solved again without the hard task rows, foot loads and "
                   "centre-of-pressure bounds", flag)
         x, flag = _daqp(H, f, K, rows[:base], upper[:base], lower[:base], sense[:base])
+    dropped = False
+    if flag <= 0 and has_ineq:  # the inequality rows cannot hold with the torque limits: the root's rows alone
+        log.debug("balance QP: exit flag %d; solved again without the inequality rows", flag)
+        dropped = True
+        x, flag = _daqp(H, f, K, rows[:base - 1], upper[:base - 1], lower[:base - 1], sense[:base - 1])
     found = flag > 0
     if not found:
         log.warning("balance QP: DAQP exit flag %d; free fall returned", flag)
@@ -193,7 +213,7 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     at_limit = act & ((tau >= lim[:, 1] - tol) | (tau <= lim[:, 0] + tol))
     forces = np.einsum("pik,pk->pi", edges, beta.reshape(P, 4)) if P else np.zeros((0, 3))
     return ContactQPResult(qacc=qacc, forces=forces, beta=beta, tau=tau, at_limit=at_limit, found=found,
-                           relaxed=relaxed)
+                           relaxed=relaxed, inequalities_dropped=dropped)
 
 
 def _daqp(H: np.ndarray, f: np.ndarray, K: int, rows: list[np.ndarray], upper: list[np.ndarray],

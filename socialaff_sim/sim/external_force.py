@@ -15,7 +15,7 @@ import numpy as np
 
 from .scene import Scene
 
-__all__ = ["ExternalForces"]
+__all__ = ["ExternalForces", "lean_offset"]
 
 
 class ExternalForces:
@@ -60,3 +60,12 @@ class ExternalForces:
         if not pts:
             return gen, np.zeros((0, 3)), np.zeros((0, 3))
         return gen, np.array(pts), np.array(forces)
+
+
+def lean_offset(moment: np.ndarray, force: np.ndarray, point: np.ndarray, weight: float) -> np.ndarray:
+    """(2,) horizontal shift (m) of the centre of mass that keeps the centre of pressure at ``point`` (3,) on the
+    floor under external forces of resultant ``force`` (3,) N and moment ``moment`` (3,) N·m about the world
+    origin, for a robot of ``weight`` N: with M their moment about the point, M_y + W (c_x − p_x) = 0 and
+    M_x − W (c_y − p_y) = 0 (a forward pull above the floor leans the robot back)."""
+    mom = np.asarray(moment, dtype=np.float64) - np.cross(point, force)
+    return np.array([-mom[1], mom[0]]) / weight

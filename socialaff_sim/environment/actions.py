@@ -1,0 +1,87 @@
+"""From a policy's action to the key-frame targets the robot is sent for the end of the data frame.
+
+The action is a (5, 3) float32 box (rows: base, left wrist, right wrist, left ankle, right ankle;
+metres, robot frame) laid out by :class:`~socialaff_sim.environment.config.EnvConfig`:
+
+* ``targets``: the targets themselves, in ``target_low … target_high`` per coordinate;
+* ``residual``: offsets in [−ρ, ρ] (ρ = ``residual_bound``) added to the frame's proposal.
+
+:class:`ActionDecoder` checks an action (shape (5, 3) or (15,), finite), clips it to the box, and
+projects what it asks for onto the robot's envelope
+(:class:`~socialaff_sim.environment.action_limits.FeasibleTargets`), keeping how far each row was
+moved (``info["action_adjustment"]``). An action held through a frame's control steps is projected
+once: its later steps reuse the frame's targets (and so give the frame's physics exactly).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from gymnasium import spaces
+
+from ..data.skeletons import N_KEY
+from ..errors import SimulationError
+from .action_limits import FeasibleTargets
+from .config import EnvConfig
+
+__all__ = ["action_box", "ActionDecoder"]
+
+
+def action_box(config: EnvConfig) -> spaces.Box:
+    """The (5, 3) float32 action space of ``config.action_mode`` (see the module docstring)."""
+    if config.action_mode == "targets":
+        low = np.tile(np.asarray(config.target_low, np.float32), (N_KEY, 1))
+        high = np.tile(np.asarray(config.target_high, np.float32), (N_KEY, 1))
+        return spaces.Box(low=low, high=high, dtype=np.float32)
+    r = np.float32(config.residual_bound)
+    return spaces.Box(low=-r, high=r, shape=(N_KEY, 3), dtype=np.float32)
+
+
+class ActionDecoder:
+    """Checks, clips and projects the actions of one environment (see the module docstring).
+
+    ``config``: the environment's layout (its ``action_mode`` and bounds); ``feasible``: the projection onto
+    the robot's envelope.
+    """
+
+    def __init__(self, config: EnvConfig, feasible: FeasibleTargets) -> None:
+        self.residual = config.action_mode != "targets"
+        self.feasible = feasible
+        self.space = action_box(config)
+        """The action space (the environment's ``action_space``)."""
+        self.adjustment = np.zeros(N_KEY)
+        """(5,) metres each row of the latest projected action was moved by the projection."""
+        self._projected: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def reset(self) -> None:
+        """Forget the previous episode's projection."""
+        self._projected = None
+        self.adjustment = np.zeros(N_KEY)
+
+    def clip(self, action: np.ndarray) -> np.ndarray:
+        """(5, 3) float64 ``action`` clipped to the box; :class:`~socialaff_sim.errors.SimulationError` on a
+        wrong shape or a non-finite entry."""
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape == (N_KEY * 3,):
+            a = a.reshape(N_KEY, 3)
+        if a.shape != (N_KEY, 3):
+            raise SimulationError(f"action: expected shape (5, 3) (rows base, wrists, ankles; metres), found {a.shape}")
+        if not np.isfinite(a).all():
+            raise SimulationError("action: expected finite numbers, found NaN or inf")
+        return np.minimum(np.maximum(a, self.space.low), self.space.high)  # np.clip's value, less overhead
+
+    def targets(self, a: np.ndarray, proposal: np.ndarray, within_frame: bool, previous_base: np.ndarray,
+                fps: float) -> np.ndarray:
+        """(5, 3) robot-frame targets (m) for the clipped action ``a`` (:meth:`clip`).
+
+        ``proposal`` (5, 3): the frame's proposal (what a residual adds to); ``within_frame``: a control step
+        after the frame's first (an unchanged action then keeps the frame's targets); ``previous_base`` (3,):
+        the base target sent last; ``fps``: the recording's frame rate (the envelope's speed limits).
+        """
+        if within_frame and self._projected is not None and np.array_equal(a, self._projected[0]):
+            return self._projected[1]  # the action held within the frame: the same targets as its last step
+        wanted = proposal + a if self.residual else a
+        targets = self.feasible.project(wanted, previous_base, fps)
+        d = targets - wanted
+        self.adjustment = np.sqrt(np.add.reduce(d * d, axis=1))  # np.linalg.norm(d, axis=1), without its checks
+        self._projected = (a, targets, self.adjustment)
+        return targets
