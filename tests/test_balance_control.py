@@ -147,11 +147,9 @@ def scene(ours) -> Scene:
     return build_scene(ours, LAYOUT, harness_time_constant=0.02)
 
 
-def _stand(scene: Scene, config: BalanceConfig, seconds: float, push: tuple[float, float, float] = (0.0, 0.0, 0.0),
-           planted: tuple[bool, bool] = (True, True)) -> tuple[BalanceController, mujoco.MjData, list[tuple[np.ndarray, int]]]:
-    """Stubby at home on its feet under the controller, the person far away; ``push``: (start s, end s, force N
-    forward on the torso's centre of mass). Returns the controller, the data and, at the start and every 0.1 s, the centre of mass and
-    whether the harness weld is on."""
+def standing_far(scene: Scene, config: BalanceConfig) -> tuple[mujoco.MjData, np.ndarray, BalanceController, np.ndarray]:
+    """Stubby at home on its feet, the person's bodies far away, under a fresh controller: (data, the home
+    qpos, the controller, the servos' commands at home with the standing feed-forward)."""
     m = scene.model
     d = mujoco.MjData(m)
     q = scene.home_qpos.copy()
@@ -163,6 +161,16 @@ def _stand(scene: Scene, config: BalanceConfig, seconds: float, push: tuple[floa
     mujoco.mj_forward(m, d)
     ctl = BalanceController(scene, config)
     ctrl0 = scene.ctrl_for(d.qpos.copy()) + StandingFeedforward(scene).ctrl_offset(d.qpos.copy())
+    return d, q, ctl, ctrl0
+
+
+def _stand(scene: Scene, config: BalanceConfig, seconds: float, push: tuple[float, float, float] = (0.0, 0.0, 0.0),
+           planted: tuple[bool, bool] = (True, True)) -> tuple[BalanceController, mujoco.MjData, list[tuple[np.ndarray, int]]]:
+    """Stubby at home on its feet under the controller, the person far away; ``push``: (start s, end s, force N
+    forward on the torso's centre of mass). Returns the controller, the data and, at the start and every 0.1 s, the centre of mass and
+    whether the harness weld is on."""
+    m = scene.model
+    d, q, ctl, ctrl0 = standing_far(scene, config)
     weld = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, "robot_anchor")
     trace = [(np.array(d.subtree_com[scene.root_body]), 1)]
     for k in range(int(round(seconds / m.opt.timestep))):

@@ -16,10 +16,9 @@ from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.balance_control import BalanceController
 from socialaff_sim.sim.contact_qp import solve_contact_qp
-from socialaff_sim.sim.feedforward import StandingFeedforward
-from socialaff_sim.sim.scene import build_scene, pose_compliant
+from socialaff_sim.sim.scene import build_scene
 from socialaff_sim.sim.self_clearance import SelfClearance
-from test_balance_control import LAYOUT
+from test_balance_control import LAYOUT, standing_far
 from test_balance_qp import _lean_forward, _problem
 
 ROLL_IN = 0.2
@@ -202,16 +201,7 @@ def _swing_in(scene, config: BalanceConfig) -> tuple[float, BalanceController]:
     """Stubby released on its feet under the controller, its right arm's reference rolled into the pelvis
     (``ROLL_IN``) after 0.6 s; the smallest forearm–pelvis distance (m) over the next 0.6 s."""
     m = scene.model
-    d = mujoco.MjData(m)
-    q = scene.home_qpos.copy()
-    d.qpos[scene.robot_qadr] = q
-    far = np.array([10.0, 10.0, 1.0]) + np.arange(len(scene.human_mocap))[:, None] * [0.0, 0.3, 0.0]
-    d.mocap_pos[scene.human_mocap] = far
-    pose_compliant(scene, d, far, np.array(d.mocap_quat[scene.human_mocap]))
-    d.mocap_pos[scene.anchor_mocap], d.mocap_quat[scene.anchor_mocap] = q[:3], q[3:7]
-    mujoco.mj_forward(m, d)
-    ctl = BalanceController(scene, config)
-    ctrl0 = scene.ctrl_for(d.qpos.copy()) + StandingFeedforward(scene).ctrl_offset(d.qpos.copy())
+    d, q, ctl, ctrl0 = standing_far(scene, config)
     ref = q.copy()
     closest = np.inf
     for k in range(int(round(1.2 / m.opt.timestep))):
