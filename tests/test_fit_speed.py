@@ -200,8 +200,8 @@ def test_weibull_logpdf_on_parameter_rows_is_the_broadcast_computation(rng: np.r
 
 
 def test_key_error_by_runs_is_the_mean_over_instances(rng: np.random.Generator) -> None:
-    """Rows stacked by instance (sorted ids) are averaged by runs: bitwise the per-instance mask loop; unsorted ids
-    (a fold's rows in another order) take the loop; and a hand-computed two-instance case."""
+    """The rows are averaged by runs of stably sorted ids: bitwise the per-instance mask loop, for rows stacked by
+    instance (sorted ids) and for a fold's rows in another order; and a hand-computed two-instance case."""
     def reference(pred: np.ndarray, truth: np.ndarray, ids: np.ndarray) -> float:
         d = np.linalg.norm((pred - truth).reshape(len(pred), -1, 3), axis=-1).mean(axis=1)
         return float(np.mean([d[ids == i].mean() for i in np.unique(ids)]))

@@ -120,18 +120,18 @@ class PrimitiveStream:
         span = np.maximum(self._cands[act] - 1, 1)
         phi = self._rbf(np.minimum(frames[:, None] / span[None], 1.0).ravel()).reshape(len(frames), len(act), self._n)
         sub = _block(act, cols)
-        if len(frames) == 1 and sign == 1.0:  # the per-frame path (adding 1.0 × a is adding a: one temporary less)
+        if len(frames) == 1:  # the per-frame path
             p0 = phi[0]
-            self._hty[sub] += p0[:, None, :] * yz[0][None, :, None]
+            hty = p0[:, None, :] * yz[0][None, :, None]
+            if sign != 1.0:  # 1.0 × a is a: the usual (adding) call skips the product
+                hty *= sign
+            self._hty[sub] += hty
             if information:
                 w = seen[0, cols] * self._inv_var[cols]
-                self._hth[sub] += (p0[:, :, None] * p0[:, None, :])[:, None] * w[None, :, None, None]
-        elif len(frames) == 1:
-            p0 = phi[0]
-            self._hty[sub] += sign * (p0[:, None, :] * yz[0][None, :, None])
-            if information:
-                w = seen[0, cols] * self._inv_var[cols]
-                self._hth[sub] += sign * ((p0[:, :, None] * p0[:, None, :])[:, None] * w[None, :, None, None])
+                hth = (p0[:, :, None] * p0[:, None, :])[:, None] * w[None, :, None, None]
+                if sign != 1.0:
+                    hth *= sign
+                self._hth[sub] += hth
         else:
             self._hty[sub] += sign * np.einsum("gcn,gd->cdn", phi, yz)
             if information:
