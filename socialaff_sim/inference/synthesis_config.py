@@ -127,9 +127,10 @@ class SynthesisConfig:
     """[—]: With ``replan_at_end``: a re-planning whose running sub-event has overrun (its predicted last frame is the
     current frame t: the sub-event has lasted as long as its duration model expects, or longer, as every sub-event
     does once its start is the ``"forward"`` belief's long bucket, ``belief_horizon`` ago) plans the next ΔT frames
-    instead of one, so the next re-planning is ΔT frames later. False (the default): re-plan after every predicted
-    end, i.e. at every frame while the sub-event overruns (on a long handover stream 94 % of the frames re-plan; an
-    option for the real-time target of issue 24, docs/design.md §8)."""
+    instead of one, so the next re-planning is ΔT frames later (on by :meth:`reactive`, the default preset's
+    synthesis, since session 22: its declared rule held, docs/design.md §8). False (the field's default, and the
+    paper's): re-plan after every predicted end, i.e. at every frame while the sub-event overruns (on a long handover
+    stream 94 % of the frames re-plan)."""
     contact: str = "none"
     """[—]: Pull of agent 1's wrist toward its contact keyframes (the model's ``contact_keys_``): toward the
     touched joint plus the learned offset, with a Gaussian weight that is 1 at the keyframe.
@@ -238,8 +239,10 @@ class SynthesisConfig:
         """Causal settings for a robot reacting to a person (the simulator's and the environment's
         default): the default Algorithm 2 plus an equal share of the frame regression, which reads
         agent 0, and the phase, at the latest observed frame, a re-planning at each predicted sub-event end, and the
-        pull toward contact keyframes triggered by agent 0's touching joint reaching its contact pose."""
-        return cls(**{"frame_weight": 0.5, "replan_at_end": True, "contact": "triggered", **changes})  # type: ignore[arg-type]
+        pull toward contact keyframes triggered by agent 0's touching joint reaching its contact pose; an overrun
+        sub-event is re-planned every ΔT frames (``overrun_delta_t``, docs/design.md §8)."""
+        return cls(**{"frame_weight": 0.5, "replan_at_end": True, "overrun_delta_t": True, "contact": "triggered",
+                      **changes})  # type: ignore[arg-type]
 
     @classmethod
     def offline(cls, **changes: object) -> SynthesisConfig:
