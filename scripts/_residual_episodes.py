@@ -21,9 +21,10 @@ def trained_policy(agent: PPO, norm: VecNormalize) -> Policy:
     return lambda obs: agent.predict(norm.normalize_obs(obs), deterministic=True)[0]
 
 
-def zero_policy(obs: np.ndarray) -> np.ndarray:
-    """The affordance model alone: no residual."""
-    return np.zeros(15, np.float32)
+def zero_policy(env: gym.Env) -> Policy:
+    """The affordance model alone on ``env``: no residual (zeros of its action space's shape)."""
+    zeros = np.zeros(env.action_space.shape, np.float32)
+    return lambda obs: zeros.copy()
 
 
 def run_episodes(env: gym.Env, episodes: Sequence[tuple[str, int]], policy: Policy) -> list[dict[str, Any]]:

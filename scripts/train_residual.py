@@ -132,6 +132,13 @@ class Settings:
     action_scale: float = 0.1
     """ρ_π [m]: the policy's action [−1, 1] is a residual of ±ρ_π per coordinate (at most the environment's
     ``residual_bound``, 0.3 m)."""
+    residual_groups: tuple[str, ...] = ()
+    """The environment's ``residual_groups`` as flags: one word per group, its key joints joined by ``+``
+    (``base left_wrist+right_wrist``: the action is one offset for the base and one shared by both wrists);
+    empty: one offset per key joint (the (5, 3) action)."""
+    residual_tau: float | None = None
+    """τ_r [s]: the environment's ``residual_tau`` (the offset follows the action through a low-pass filter of
+    this time constant); ``None``: no filter."""
     train_fall_penalty: float = 0.0
     """w_fell [reward]: subtracted once when a TRAINING episode ends because the robot fell
     (``_residual_reward.FallPenalty``; the environment's reward has no such term); 0: the environment's reward."""
@@ -191,9 +198,11 @@ def make_env(s: Settings, instances: Sequence[Interaction], models: Mapping[str,
     if not 0.0 < s.action_scale <= RESIDUAL_BOUND:
         raise ConfigError(f"--action-scale: expected a residual in (0, {RESIDUAL_BOUND}] m, found {s.action_scale!r}")
     reward = dataclasses.replace(RewardConfig(), affordance_weight=s.train_affordance_weight) if training else None
+    groups = [g.split("+") for g in s.residual_groups] or None
     env: gym.Env = SocialAffordanceEnv(interactions=list(s.labels), data=list(instances), action_mode="residual",
                                        model=dict(models), physics=s.physics, robot=s.robot, max_frames=s.max_frames,
-                                       control_dt=s.control_dt, reward=reward)
+                                       control_dt=s.control_dt, reward=reward, residual_groups=groups,
+                                       residual_tau=s.residual_tau)
     if training and s.train_fall_penalty != 0.0:
         env = FallPenalty(env, s.train_fall_penalty)
     env = gym.wrappers.FlattenObservation(env)
@@ -245,7 +254,7 @@ def reference_rows(s: Settings, train_set: Sequence[Interaction],
     label, the success rate and mean return (the learning curve's dashed references)."""
     train_env = make_env(s, train_set, models, training=True)
     train_eps = [(i.instance_id, s.seed + k) for k, i in enumerate(train_set)]
-    ref_rows = run_episodes(train_env, train_eps, zero_policy)
+    ref_rows = run_episodes(train_env, train_eps, zero_policy(train_env))
     reference = {lbl: {"success": float(np.mean([r["success"] for r in ref_rows if r["interaction"] == lbl])),
                        "return": float(np.mean([r["return"] for r in ref_rows if r["interaction"] == lbl]))}
                  for lbl in s.labels}
@@ -312,7 +321,7 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
     held_env = make_env(s, held_out, models)
     episodes = [(i.instance_id, 10_000 + s.seed * 1_000 + k) for k, i in enumerate(held_out)]
     rows_res = run_episodes(held_env, episodes, trained_policy(agent, norm))
-    rows_zero = run_episodes(held_env, episodes, zero_policy)
+    rows_zero = run_episodes(held_env, episodes, zero_policy(held_env))
     summary = summarize(rows_res, rows_zero, s.seed)
     results = {
         "settings": dataclasses.asdict(s),
@@ -330,7 +339,7 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
 
 
 def _control_dt(text: str) -> float | None:
-    """``--control-dt``: seconds, or ``none`` for one env step per data frame."""
+    """``--control-dt`` (``--residual-tau``): seconds, or ``none`` for one env step per data frame (no filter)."""
     return None if text.strip().lower() == "none" else float(text)
 
 
@@ -341,10 +350,14 @@ def main() -> None:
     ap.add_argument("--models", type=Path, default=None, help="load <interaction>.npz from here instead of fitting")
     ap.add_argument("--interactions", nargs="+", default=list(d.labels))
     for f in dataclasses.fields(Settings):
-        if f.name in ("labels", "max_frames", "control_dt", "data", "split"):
+        if f.name in ("labels", "max_frames", "control_dt", "data", "split", "residual_groups", "residual_tau"):
             continue
         ap.add_argument("--" + f.name.replace("_", "-"), type=type(f.default), default=f.default)
     ap.add_argument("--max-frames", type=int, default=None)
+    ap.add_argument("--residual-groups", nargs="+", default=list(d.residual_groups), metavar="JOINT[+JOINT...]",
+                    help="one offset per group of key joints (e.g. base left_wrist+right_wrist); default: one per key joint")
+    ap.add_argument("--residual-tau", type=_control_dt, default=d.residual_tau, metavar="SECONDS",
+                    help="low-pass filter the residual offset with this time constant (default: none)")
     ap.add_argument("--data", nargs="+", default=list(d.data), metavar="SPEC",
                     help="recorded dataset specs (handover:PATH sbu:PATH nuisi:PATH ...); default: synthetic")
     ap.add_argument("--split", nargs="+", default=list(d.split), metavar="[KIND=]NAME",
@@ -361,10 +374,12 @@ def main() -> None:
                     help="stop training after the first rollout that ends past this much wall time; the results "
                          "record the steps trained, and --timesteps with that number reproduces the policy")
     args = ap.parse_args()
-    kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(Settings) if f.name not in ("labels", "data", "split")}
+    kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(Settings)
+          if f.name not in ("labels", "data", "split", "residual_groups")}
     budget = None if args.budget_minutes is None else 60.0 * args.budget_minutes
     try:
-        s = Settings(labels=tuple(args.interactions), data=tuple(args.data), split=tuple(args.split), **kw)
+        s = Settings(labels=tuple(args.interactions), data=tuple(args.data), split=tuple(args.split),
+                     residual_groups=tuple(args.residual_groups), **kw)
         parse_splits(s.split)  # a bad --split fails before anything runs
         r = run(s, args.out, args.models, budget_s=budget, reference_only=args.reference_only, reference_file=args.reference)
     except SocialAffError as err:  # bad flags or data: one line naming the flag, exit 2 (results are written atomically)

@@ -324,3 +324,32 @@ def test_fall_penalty_wraps_training_environments_only(script, tiny) -> None:  #
     assert wrapped(penal, training=True)
     assert not wrapped(penal, training=False)  # the held-out evaluation keeps the environment's reward
     assert not wrapped(settings, training=True)  # default 0: the environment's reward unchanged
+
+
+def test_residual_shape_flags_reach_the_environment(script, tiny, monkeypatch: pytest.MonkeyPatch) -> None:  # noqa: ANN001
+    """``--residual-groups base left_wrist+right_wrist --residual-tau 0.5``: a (2, 3) residual (6 policy numbers,
+    scaled like the plain one), filtered, and the zero policy of that shape."""
+    settings, out, _, _ = tiny
+    train, _ = script.build_data(settings)
+    models = {lbl: SocialAffordanceModel.load(out / "models" / f"{lbl}.npz") for lbl in settings.labels}
+    s = dataclasses.replace(settings, residual_groups=("base", "left_wrist+right_wrist"), residual_tau=0.5)
+    env = script.make_env(s, train, models)
+    assert env.action_space.shape == (6,)
+    assert env.unwrapped.config.residual_groups == (("base",), ("left_wrist", "right_wrist"))
+    assert env.unwrapped.config.residual_tau == 0.5
+    unit = np.linspace(-1.0, 1.0, 6, dtype=np.float32)
+    np.testing.assert_allclose(env.action(unit), 0.1 * unit.reshape(2, 3), rtol=0, atol=1e-8)
+    episodes_mod = load_script("_residual_episodes")
+    assert episodes_mod.zero_policy(env)(None).shape == (6,)
+    # The command line parses into the same settings (stopped at the first thing the run checks).
+    seen = {}
+
+    def fake_run(s2, *args, **kwargs):  # noqa: ANN001, ANN002, ANN003, ANN202
+        seen["s"] = s2
+        raise ConfigError("stop")
+    monkeypatch.setattr(script, "run", fake_run)
+    monkeypatch.setattr("sys.argv", ["train_residual.py", "--out", str(out / "x"), "--residual-groups", "base",
+                                     "left_wrist+right_wrist", "--residual-tau", "0.5"])
+    with pytest.raises(SystemExit):
+        script.main()
+    assert seen["s"].residual_groups == s.residual_groups and seen["s"].residual_tau == 0.5

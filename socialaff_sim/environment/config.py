@@ -12,6 +12,7 @@ from dataclasses import dataclass, replace
 
 from ..errors import ConfigError, choices
 from ..sim.simulator import SimConfig
+from .residual import group_matrix
 
 __all__ = ["ACTION_MODES", "CONTROL_DT", "PHYSICS_PRESETS", "EnvConfig", "physics_config"]
 
@@ -53,7 +54,7 @@ class EnvConfig:
 
     Fields by concept
     -----------------
-    - Actions: action_mode, target_low, target_high, residual_bound
+    - Actions: action_mode, target_low, target_high, residual_bound, residual_groups, residual_tau
     - Observations: history, position_bound, velocity_bound
     - Episodes: terminate_on_failure, fall_height, fall_tilt, max_frames, physics, control_dt, resolve_iterations
     - Rendering: render_width, render_height
@@ -69,6 +70,14 @@ class EnvConfig:
     """[m]: Upper bound (x, y, z) of every key-frame target in ``targets`` mode, metres, robot frame."""
     residual_bound: float = 0.3
     """ρ [m]: a ``residual`` action is an offset in [−ρ, ρ] per coordinate."""
+    residual_groups: tuple[tuple[str, ...], ...] | None = None
+    """[—]: ``residual`` mode only: groups of key joints (names of ``KEY_JOINTS``) that share one offset; the
+    action is then (G, 3), one row per group, and key joints in no group get no offset
+    (:mod:`~socialaff_sim.environment.residual`). ``None``: every key joint its own row, the (5, 3) action."""
+    residual_tau: float | None = None
+    """τ_r [s]: ``residual`` mode only: the offset sent follows the action through a first-order low-pass filter
+    of this time constant (a slowly varying offset; the observation then carries it as ``residual_offset``).
+    ``None``: the action's offset is sent as it is."""
     position_bound: float = 6.0
     """P [m]: positions in observations are clipped to [−P, P] (the observation bounds)."""
     velocity_bound: float = 30.0
@@ -122,6 +131,15 @@ class EnvConfig:
             raise bad("target_low", f"values below target_high = {self.target_high}")
         if max(abs(v) for v in (*self.target_low, *self.target_high)) > self.position_bound:
             raise bad("target_low", f"targets within the observation bound ±{self.position_bound} m")
+        if self.residual_groups is not None:
+            group_matrix(self.residual_groups)  # names, empty or overlapping groups: a ConfigError naming them
+            if self.action_mode != "residual":
+                raise bad("residual_groups", "None unless action_mode is 'residual'")
+        if self.residual_tau is not None:
+            if not (isinstance(self.residual_tau, (int, float)) and 0.0 < float(self.residual_tau) <= 60.0):
+                raise bad("residual_tau", "None or a time constant in (0, 60] seconds")
+            if self.action_mode != "residual":
+                raise bad("residual_tau", "None unless action_mode is 'residual'")
         if self.control_dt is not None and not (isinstance(self.control_dt, (int, float))
                                                 and 0.0 < float(self.control_dt) <= 1.0):
             raise bad("control_dt", "None or a control period in (0, 1] seconds")

@@ -16,7 +16,9 @@ right wrist, left ankle, right ankle; metres, robot frame), clipped to the space
 
 * ``targets``: the key-frame targets themselves, in ``EnvConfig.target_low … target_high``;
 * ``residual``: offsets in [−ρ, ρ] added to the adapter's proposal for the frame
-  (the ``proposal`` entry of the observation), so a policy learns corrections.
+  (the ``proposal`` entry of the observation), so a policy learns corrections; ``residual_groups``
+  (one offset per group of key joints, a (G, 3) box) and ``residual_tau`` (the offset low-pass
+  filtered) make it fewer and slower numbers (:mod:`~socialaff_sim.environment.residual`).
 
 Either way they are the targets for the end of the current data frame: held through the frame's control
 steps they give the frame's physics exactly; changed within it, the IK is solved again.
@@ -82,7 +84,7 @@ class SocialAffordanceEnv(gym.Env):
         sub-event belief, its spatial potentials the affordance reward. ``None``: the ground-truth adapter.
     adapter:
         A custom :class:`~socialaff_sim.environment.adapters.AffordanceAdapter` (instead of ``model``).
-    history, max_frames, physics, control_dt, resolve_iterations, terminate_on_failure, fall_height, fall_tilt, render_width, render_height:
+    history, max_frames, physics, control_dt, resolve_iterations, terminate_on_failure, fall_height, fall_tilt, render_width, render_height, residual_groups, residual_tau:
         Fields of :class:`~socialaff_sim.environment.config.EnvConfig` (``control_dt``: the simulated seconds
         of one env step, :mod:`~socialaff_sim.environment.control`; ``None``: one data frame).
     sim_config:
@@ -124,13 +126,17 @@ class SocialAffordanceEnv(gym.Env):
         render_mode: str | None = None,
         render_width: int = 640,
         render_height: int = 480,
+        residual_groups: Sequence[Sequence[str]] | None = None,
+        residual_tau: float | None = None,
     ) -> None:
         self._init_kwargs = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
         self.config = EnvConfig(
             action_mode=action_mode, history=history, max_frames=max_frames, physics=physics, control_dt=control_dt,
             resolve_iterations=resolve_iterations,
             terminate_on_failure=terminate_on_failure, fall_height=fall_height, fall_tilt=fall_tilt,
-            render_width=render_width, render_height=render_height,
+            render_width=render_width, render_height=render_height, residual_tau=residual_tau,
+            residual_groups=None if residual_groups is None else tuple(
+                (g,) if isinstance(g, str) else tuple(g) for g in residual_groups),
         )
         self.envelope = envelope or EnvelopeConfig()
         self.warnings = WarningMonitor()
@@ -171,6 +177,7 @@ class SocialAffordanceEnv(gym.Env):
             history=self.config.history, n_joints=n_joints, n_subevents=max(1, *(len(n) for n in names.values())),
             interactions=self.pool.labels, subgoals=self.rewards.subgoal_names,
             position_bound=self.config.position_bound, velocity_bound=self.config.velocity_bound,
+            residual_bound=None if self.config.residual_tau is None else self.config.residual_bound,
         )
         self.observation_space = self.layout.space()
         self._decoder = ActionDecoder(self.config, self.feasible)
@@ -260,11 +267,12 @@ class SocialAffordanceEnv(gym.Env):
         a = self._decoder.clip(action)
         self._actions.append(a.copy())
         k = sim.substep
-        targets = self._decoder.targets(a, self._proposal, bool(k), sim.last_targets[0],
-                                        sim.interaction.fps)  # type: ignore[union-attr]
+        end = self.clock.end_of(k)
+        targets = self._decoder.targets(a, self._proposal, bool(k), sim.last_targets[0], sim.interaction.fps,  # type: ignore[union-attr]
+                                        (end - k) * self.clock.step_seconds)
         if self.clock.needs_solve(k, targets):
             sim.solve(targets, subevent=self._frame.subevent_name, iterations=cfg.resolve_iterations if k else None)
-        res = sim.advance(self.clock.end_of(k) - k)
+        res = sim.advance(end - k)
         self._step_warnings = self.warnings.step(sim.data)
         if res is None:  # a control step within the frame: the physics' terms; the affordance is scored per frame
             self._robot_keys = sim.robot_key_frames()
@@ -306,6 +314,7 @@ class SocialAffordanceEnv(gym.Env):
             subgoal_achieved={r.name: bool(r.success) for r in sim.scorer.subgoals},
             subgoal_current={r.name: bool(r.current) for r in sim.scorer.subgoals},
             frame=sim.frame, n_frames=sim.n_frames, phase=sim.substep / sim.n_sub,
+            residual_offset=self._decoder.offsets.offset,
         ))
 
     def _info(self, terms: dict[str, float] | None) -> dict[str, Any]:

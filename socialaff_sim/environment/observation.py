@@ -27,6 +27,9 @@ key                  shape           content
 ``progress``         (1,)            (t + φ) / (T − 1), the fraction of the person's track played
                                      (φ: the share of frame t → t+1 already simulated, with a
                                      control period; 0 at frame boundaries)
+``residual_offset``  (5, 3)          only with ``EnvConfig.residual_tau``: the filtered residual
+                                     offset sent on the latest step, metres, robot frame, in [−ρ, ρ]
+                                     (the filter's state; 0 at reset)
 ==================== =============== =======================================================
 """
 
@@ -71,6 +74,9 @@ class ObservationLayout:
     """P, metres."""
     velocity_bound: float
     """V, rad/s."""
+    residual_bound: float | None = None
+    """ρ, metres: when set, the observation has a ``residual_offset`` entry bounded by it (a filtered residual's
+    state); ``None``: no such entry."""
 
     def space(self) -> spaces.Dict:
         H, P = self.history, self.position_bound
@@ -89,6 +95,8 @@ class ObservationLayout:
             "subgoal_achieved": _box(0.0, 1.0, (len(self.subgoals),)),
             "subgoal_current": _box(0.0, 1.0, (len(self.subgoals),)),
             "progress": _box(0.0, 1.0, (1,)),
+            **({} if self.residual_bound is None else
+               {"residual_offset": _box(-self.residual_bound, self.residual_bound, (N_KEY, 3))}),
         })
 
     def build(
@@ -152,13 +160,19 @@ class ObservationLayout:
     def step_entries(self, *, robot_keys: np.ndarray, joint_pos: np.ndarray, joint_vel: np.ndarray,
                      subgoal_progress: dict[str, float], subgoal_achieved: dict[str, bool],
                      subgoal_current: dict[str, bool], frame: int, n_frames: int,
-                     phase: float = 0.0) -> dict[str, np.ndarray]:
-        """The entries that change every step (arguments as in :meth:`build`)."""
+                     phase: float = 0.0, residual_offset: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """The entries that change every step (arguments as in :meth:`build`; ``residual_offset`` (5, 3) m, read
+        only when the layout has that entry)."""
         prog = np.array([min(max(subgoal_progress.get(n, 0.0), 0.0), 1.0) for n in self.subgoals], dtype=np.float32)
 
         def flags(state: dict[str, bool]) -> np.ndarray:
             return np.array([1.0 if state.get(n, False) else 0.0 for n in self.subgoals], dtype=np.float32)
+        extra = {}
+        if self.residual_bound is not None:
+            extra["residual_offset"] = _clip32(np.zeros((N_KEY, 3)) if residual_offset is None else residual_offset,
+                                               self.residual_bound)
         return {
+            **extra,
             "robot_keys": _clip32(robot_keys, self.position_bound),
             "joint_pos": _clip32(joint_pos, np.pi),
             "joint_vel": _clip32(joint_vel, self.velocity_bound),
@@ -171,8 +185,11 @@ class ObservationLayout:
     @staticmethod
     def assemble(frame_part: dict[str, np.ndarray], step_part: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """One observation (keys in :data:`OBSERVATION_KEYS` order) from a frame's entries (copied: the caller may
-        keep them for the frame's next control steps) and a step's."""
-        return {k: frame_part[k].copy() if k in frame_part else step_part[k] for k in OBSERVATION_KEYS}
+        keep them for the frame's next control steps) and a step's (``residual_offset`` last, when it has one)."""
+        obs = {k: frame_part[k].copy() if k in frame_part else step_part[k] for k in OBSERVATION_KEYS}
+        if "residual_offset" in step_part:
+            obs["residual_offset"] = step_part["residual_offset"]
+        return obs
 
 
 def _clip32(a: np.ndarray, bound: float) -> np.ndarray:
