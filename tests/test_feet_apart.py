@@ -1,8 +1,9 @@
 """The robot's feet stay apart (``IKConfig.leg_clearance``): ankle targets closer together than the feet are wide
 (a recording whose person's ankles are close or crossed) put the feet side by side, not inside each other, in the
 IK and in physics from the reset on; without the limit they interpenetrate (the old behaviour, which failed
-recorded handovers on their first step). Distances are checked with MuJoCo's ``mj_geomDistance`` on the geoms
-themselves, not with the limit's own rows."""
+recorded handovers on their first step). A forearm found inside the body is pushed out (``IKConfig.push_self``),
+held without it. Distances are checked with MuJoCo's ``mj_geomDistance`` on the geoms themselves, not with the
+limit's own rows."""
 
 from __future__ import annotations
 
@@ -135,3 +136,29 @@ def test_feet_do_not_interpenetrate_at_reset_and_step_one(handover: Interaction,
         assert at_reset >= clearance - 0.003
         assert at_step > -0.002  # physics may let the feet touch, not sink into each other
         assert "self_collision" not in failed
+
+
+# Stubby's right arm folded across its chest, every joint inside its range: the forearm 1.7 cm inside the
+# torso box (found by a grid search over the arm's joints, checked below with mj_geomDistance).
+FOLDED = {"right_shoulder_pitch": -0.6, "right_shoulder_roll": 0.0, "right_shoulder_yaw": 1.4, "right_elbow": -2.4}
+
+
+@pytest.mark.parametrize("push", [True, False])
+def test_a_forearm_inside_the_torso_is_pushed_out_only_with_push_self(push: bool) -> None:
+    ik, _ = _ik(dataclasses.replace(IKConfig(), push_self=push))
+    m, d = ik.spec.model, ik.configuration.data
+    q = ik.configuration.q.copy()
+    for name, value in FOLDED.items():
+        q[m.jnt_qposadr[m.joint(f"robot/{name}").id]] = value
+    ik.reset(q)
+    forearm, torso = m.geom("robot/right_forearm").id, m.geom("robot/torso").id
+    start = mujoco.mj_geomDistance(m, d, forearm, torso, 1.0, None)
+    assert -0.02 < start < -0.015
+    targets = ik.frame_positions().copy()  # every key frame where it is: only the limit moves the arm
+    for _ in range(10):
+        ik.solve(targets, 0.0, dt=1.0 / 30)
+    end = mujoco.mj_geomDistance(m, d, forearm, torso, 1.0, None)
+    if push:
+        assert end >= IKConfig().min_distance - 0.003
+    else:
+        assert end < 0.0  # held inside: the rows only forbid going deeper

@@ -7,8 +7,8 @@ foot, which are also trunk geoms). The pairs, each with its distance ``d_min`` (
 * trunk and person: ``min_distance``, pushed out when the person moves in;
 * each arm and the person: ``min_distance``, except that the hand may press ``contact_depth`` into the parts
   a sub-goal wants touched (held, not pushed);
-* each arm and the rest of the robot: ``min_distance`` (held);
-* the left leg and the right leg: ``leg_clearance`` (pushed apart).
+* each arm and the rest of the robot: ``min_distance``, pushed out with ``push_self`` (else held);
+* the left leg and the right leg: ``leg_clearance``, pushed apart.
 
 :func:`set_collision_bits` sets the model's contype/conaffinity bits so that MuJoCo's collision detection
 finds these pairs and no other: trunk pairs other than the legs' never reach the narrow phase.
@@ -105,7 +105,7 @@ def pair_limit(model: mujoco.MjModel, groups: GeomGroups, self_pairs: Sequence[n
         parts.append((clear, c.min_distance, c.detection_distance, False))
         if c.contact_depth is not None:
             parts.append((collision_pairs(model, hand, touch), -c.contact_depth, c.detection_distance, False))
-        parts.append((self_pairs[s], c.min_distance, c.self_detection_distance, False))
+        parts.append((self_pairs[s], c.min_distance, c.self_detection_distance, c.push_self))
     if c.leg_clearance is not None:
         # Unlike an arm against the body, the legs may be found inside each other (ankle targets of a recording
         # with crossed ankles draw the feet together from the first frame on): they are pushed apart.
