@@ -330,16 +330,20 @@ def _block(rows: np.ndarray, cols: np.ndarray) -> tuple[slice, slice] | tuple[np
     return np.ix_(rows, cols)
 
 
-def stream_key_joints(primitive: InteractionPrimitive, interaction: Interaction, n_observed: int) -> np.ndarray:
+def stream_key_joints(primitive: InteractionPrimitive, interaction: Interaction, n_observed: int, *, stride: int = 1) -> np.ndarray:
     """(T, 5, 3) metres, world: agent 1's key joints at every frame t ≥ T0 = ``n_observed`` from one
     :class:`PrimitiveStream` fed the causal protocol's views (frames [0, t] for frame t), as the full method's
     reactor predicts them; NaN before T0 (:meth:`~.interaction_primitive.InteractionPrimitive.causal_key_joints`
-    to rounding, but for the duration past the longest training instance)."""
+    to rounding, but for the duration past the longest training instance). ``stride`` k > 1: predicted at frames
+    T0, T0 + k, … only (NaN at the others; the stream still reads every frame, so those frames' values are the
+    same)."""
+    if stride < 1:
+        raise ModelError(f"stream_key_joints: expected a stride >= 1, found {stride}")
     out = np.full((interaction.n_frames, N_KEY, 3), np.nan)
     if interaction.n_frames <= n_observed:
         return out
     stream = PrimitiveStream(primitive, n_observed)
     hidden = observed_part(interaction, n_observed)  # its first t + 1 frames: protocol_view(interaction, t + 1, n_observed)
-    for t in range(n_observed, interaction.n_frames):
+    for t in range(n_observed, interaction.n_frames, stride):
         out[t] = stream.react_prefix_keys(hidden, t + 1, t, t + 1)[0]
     return out

@@ -1,0 +1,176 @@
+"""Issue 24's cheaper-fit options (model changes, off by default): the switching regression's training rows every
+k-th frame (``SwitchingConfig.row_stride``) and the restructuring's candidates screened without a hard-EM round
+(``LearningConfig.init_type_screen_rounds``). Each decision is checked both ways: the option's value changes what is
+computed, the default leaves it as before."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from socialaff_sim.data import Interaction, load_dataset
+from socialaff_sim.errors import ConfigError, ModelError
+from socialaff_sim.inference.body_fit import BodyFitter
+from socialaff_sim.inference.interaction_primitive import InteractionPrimitive
+from socialaff_sim.inference.methods import primitive_trace, trace
+from socialaff_sim.inference.primitive_stream import stream_key_joints
+from socialaff_sim.inference.reaction_features import FeatureConfig
+from socialaff_sim.inference.switching import SwitchingConfig, SwitchingRegression
+from socialaff_sim.inference.switching_rows import Trace, instance_rows
+from socialaff_sim.learning import algorithm
+from socialaff_sim.learning.config import LearningConfig
+from socialaff_sim.learning.estimator import SocialAffordanceModel
+from socialaff_sim.learning.parse import Parse, ParseSpace
+from socialaff_sim.learning.restructure import restructure
+
+from test_fit_speed import _instance
+
+T0 = 10
+
+
+def _trace(inst: Interaction, rng: np.random.Generator, S: int = 3) -> Trace:
+    """A trace with random beliefs, phases and plans (what the regression reads; no model needed)."""
+    T = inst.n_frames
+    belief = rng.dirichlet(np.ones(S), size=T)
+    plan = inst.filled_joints()[:, 1][:, :5] + rng.normal(0, 0.02, size=(T, 5, 3))
+    return Trace(belief=belief, phase=rng.uniform(0, 1, T), plan=plan,
+                 skeleton=inst.filled_joints()[:, 1] + rng.normal(0, 0.02, size=(T, inst.joints.shape[2], 3)))
+
+
+def test_row_stride_config_is_checked_and_off_by_default() -> None:
+    assert SwitchingConfig().row_stride == 1
+    for bad in (0, -2, 1.5, True):
+        with pytest.raises(ConfigError, match="row_stride"):
+            SwitchingConfig(row_stride=bad)  # type: ignore[arg-type]
+
+
+def test_instance_rows_with_a_stride_are_every_kth_row(rng: np.random.Generator) -> None:
+    """stride k: the rows (and targets and priors) of frames T0, T0 + k, …, each the same as without the stride;
+    k = 1 is every frame from T0."""
+    inst = _instance(rng, 1, gaps=True, obj=False)
+    tr = _trace(inst, rng)
+    full = instance_rows(inst, tr, T0, FeatureConfig())
+    assert len(full[0]) == inst.n_frames - T0
+    for k in (2, 3):
+        sub = instance_rows(inst, tr, T0, FeatureConfig(), stride=k)
+        assert len(sub[0]) == len(range(T0, inst.n_frames, k))
+        for a, b in zip(full, sub, strict=True):
+            np.testing.assert_allclose(b, a[::k], rtol=0, atol=1e-12)
+        assert not np.array_equal(sub[1], full[1][: len(sub[1])])  # not the first rows: every k-th
+
+
+def test_switching_regression_with_a_stride_fits_on_every_kth_row(rng: np.random.Generator) -> None:
+    """The regression fitted with ``row_stride`` k is the one fitted on traces whose instances keep only those rows'
+    information: its column scales come from every k-th row (each instance still weighing one); k = 1 reads all."""
+    insts = [_instance(rng, k, gaps=False, obj=False) for k in range(8)]
+    traces = [_trace(i, rng) for i in insts]
+    one = SwitchingRegression(SwitchingConfig(families=SwitchingConfig().families[:2])).fit(
+        insts, traces, n_subevents=3, rng=np.random.default_rng(0))
+    two = SwitchingRegression(SwitchingConfig(families=SwitchingConfig().families[:2], row_stride=2)).fit(
+        insts, traces, n_subevents=3, rng=np.random.default_rng(0))
+    rows1 = [instance_rows(i, t, T0, FeatureConfig()) for i, t in zip(insts, traces, strict=True)]
+    rows2 = [instance_rows(i, t, T0, FeatureConfig(), stride=2) for i, t in zip(insts, traces, strict=True)]
+    lo1 = np.min([r[0].min(axis=0) for r in rows1], axis=0) / one.scale_
+    lo2 = np.min([r[0].min(axis=0) for r in rows2], axis=0) / two.scale_
+    span1, span2 = one.upper_ - one.lower_, two.upper_ - two.lower_
+    # the clipped range (margin 1: [lo − w, hi + w], w = hi − lo) starts at lo − w of the rows each read
+    np.testing.assert_allclose(one.lower_, lo1 - span1 / 3, atol=1e-9)
+    np.testing.assert_allclose(two.lower_, lo2 - span2 / 3, atol=1e-9)
+    assert not np.allclose(one.scale_, two.scale_)
+
+
+@pytest.mark.parametrize("gaps", [False, True])
+def test_stream_key_joints_with_a_stride_are_the_streams_values_at_those_frames(rng: np.random.Generator, gaps: bool) -> None:
+    """The stream still reads every frame: at frames T0, T0 + k, … bitwise the every-frame stream's values (with a
+    rebuild and closing gaps), NaN at the others; a stride below 1 is an error."""
+    insts = [_instance(rng, k, gaps=gaps, obj=gaps) for k in range(9)]
+    prim = InteractionPrimitive().fit(insts[1:])
+    for inst in (insts[0], _instance(rng, 20, gaps=gaps, obj=gaps)):
+        every = stream_key_joints(prim, inst, T0)
+        for k in (2, 3):
+            got = stream_key_joints(prim, inst, T0, stride=k)
+            at = np.arange(T0, inst.n_frames, k)
+            assert np.array_equal(got[at], every[at])
+            others = np.setdiff1d(np.arange(inst.n_frames), at)
+            assert np.isnan(got[others]).all()
+    with pytest.raises(ModelError, match="stride"):
+        stream_key_joints(prim, insts[0], T0, stride=0)
+
+
+def test_trace_skeletons_with_a_stride_only_at_those_frames(rng: np.random.Generator) -> None:
+    """``primitive_trace`` with a stride fits the skeletons at frames T0, T0 + k, … (the same values as without it)
+    and leaves the others NaN."""
+    insts = [_instance(rng, k, gaps=False, obj=False) for k in range(9)]
+    body = BodyFitter().fit_interactions(insts[1:], agent=1, rng=np.random.default_rng(0))
+    prim = InteractionPrimitive().fit(insts[1:])
+    empty = Trace(belief=np.zeros((1, 1)), phase=np.zeros(1), plan=np.zeros((1, 5, 3)), skeleton=np.zeros((1, 1, 3)))
+    full = primitive_trace(prim, body, empty, insts[0], T0)
+    sub = primitive_trace(prim, body, empty, insts[0], T0, stride=3)
+    at = np.arange(T0, insts[0].n_frames, 3)
+    np.testing.assert_allclose(sub.primitive_skeleton[at], full.primitive_skeleton[at], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(sub.primitive[at], full.primitive[at])
+    off = np.setdiff1d(np.arange(T0, insts[0].n_frames), at)
+    assert np.isnan(sub.primitive_skeleton[off]).all() and np.isfinite(full.primitive_skeleton[off]).all()
+    assert trace.__kwdefaults__ == {"stride": 1}
+
+
+def test_screen_rounds_config_is_checked_and_one_by_default() -> None:
+    assert LearningConfig().init_type_screen_rounds == 1
+    with pytest.raises(ConfigError, match="init_type_screen_rounds"):
+        LearningConfig(init_type_screen_rounds=-1)
+
+
+def _toy_restructure(screen_rounds: int) -> tuple[list[tuple[int, int]], list[Parse]]:
+    """A restructuring over 2 instances with 4 labels, a refine that records its calls, and a score that ranks
+    the candidates differently before and after refining: the calls and the chosen parses."""
+    spaces = [ParseSpace(np.arange(0, 90, 10), np.ones(9), 4, True, None) for _ in range(2)]
+    parses = [sp.initial_parse(4) for sp in spaces]
+    calls: list[tuple[int, int]] = []
+    state: dict[int, int] = {}
+
+    def refine(ps: list[Parse], rounds: int) -> list[Parse]:
+        calls.append((len(calls), rounds))
+        out = [Parse(p.starts, p.labels) for p in ps]
+        state[id(out[0])] = state.get(id(ps[0]), 0) + rounds
+        return out
+
+    def score(ps: list[Parse]) -> float:
+        refined = state.get(id(ps[0]), 0)
+        # labels' order as a number: unrefined candidates rank by it, refined ones by its negation
+        key = float(sum(s * 10**i for i, s in enumerate(ps[0].labels)))
+        return key if refined == 0 else -key + 1e9 * refined
+
+    best, _ = restructure(spaces, parses, 4, refine=refine, score=score, passes=1, rounds=3,
+                          screen_rounds=screen_rounds)
+    return calls, best
+
+
+def test_restructure_screen_rounds_decide_the_screening_and_the_rest() -> None:
+    """screen_rounds 1 (the default): every candidate gets one round, the kept three get rounds − 1 = 2 more;
+    0: the candidates are ranked as they are (no round) and the kept three get all 3 rounds; the ranking then
+    differs, so the chosen parses differ."""
+    calls1, best1 = _toy_restructure(1)
+    calls0, best0 = _toy_restructure(0)
+    n_cand = sum(1 for r in calls1 if r[1] == 1)
+    assert n_cand == 12 and [r for _, r in calls1[n_cand:]] == [2, 2, 2]
+    assert [r for _, r in calls0] == [0] * n_cand + [3, 3, 3]
+    assert best0 != best1
+
+
+def test_screen_rounds_reach_the_restructuring(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``LearningConfig.init_type_screen_rounds`` is what Algorithm 1's start passes to :func:`restructure`."""
+    seen: list[int] = []
+    real = algorithm.restructure
+
+    def spy(*args: object, **kwargs: object):  # type: ignore[no-untyped-def]
+        seen.append(int(kwargs["screen_rounds"]))  # type: ignore[arg-type]
+        return real(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(algorithm, "restructure", spy)
+    data = load_dataset("synthetic").of_label("shake_hands").interactions[:4]
+    cfg = dataclasses.replace(LearningConfig(), init_type_passes=1, init_type_screen_rounds=0, init_rounds=1,
+                              n_clusters=12, initial_gibbs_sweeps=2)
+    SocialAffordanceModel(learning=cfg).fit(data, rng=np.random.default_rng(0))
+    assert seen == [0]
