@@ -128,7 +128,11 @@ class PrimitiveStream:
             self._hty[sub] += hty
             if information:
                 w = seen[0, cols] * self._inv_var[cols]
-                hth = (p0[:, :, None] * p0[:, None, :])[:, None] * w[None, :, None, None]
+                outer = p0[:, :, None] * p0[:, None, :]  # (A, N, N)
+                if w.size and (w == w[0]).all():  # one weight for every DoF (the usual frame): the same products, broadcast
+                    hth = (outer * w[0])[:, None]
+                else:
+                    hth = outer[:, None] * w[None, :, None, None]
                 if sign != 1.0:
                     hth *= sign
                 self._hth[sub] += hth
