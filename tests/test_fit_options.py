@@ -9,6 +9,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from socialaff_sim.data import Interaction, load_dataset
 from socialaff_sim.errors import ConfigError, ModelError
@@ -24,6 +25,8 @@ from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.learning.estimator import SocialAffordanceModel
 from socialaff_sim.learning.parse import Parse, ParseSpace
 from socialaff_sim.learning.restructure import restructure
+from socialaff_sim.model.densities import expon_logpdf, vonmises_logpdf, weibull_logpdf
+from socialaff_sim.model.potentials import polar_rows_logpdf
 
 from test_fit_speed import _instance
 
@@ -179,3 +182,31 @@ def test_screen_rounds_reach_the_restructuring(monkeypatch: pytest.MonkeyPatch, 
     with pytest.raises(_Reached):
         SocialAffordanceModel(learning=cfg).fit(data, rng=np.random.default_rng(0))
     assert seen == [screen]
+
+
+@pytest.mark.parametrize("kinds", ["mixed", "weibull", "expon"])
+def test_polar_rows_logpdf_scores_each_kind_on_its_columns(rng: np.random.Generator, kinds: str) -> None:
+    """Rows of both kinds (Weibull and exponential distances) are scored each on its own columns: bitwise the
+    computation on every column followed by ``np.where`` that it replaced, and scipy's densities per column
+    (x = 0 and x < 0 included)."""
+    N, K = 40, 7
+    h, v = rng.uniform(0, 2, (N, K)), rng.uniform(0, 2, (N, K))
+    h[0, :], v[1, :], h[2, :] = 0.0, 0.0, -0.5
+    th = rng.uniform(-np.pi, np.pi, (N, K))
+    params = np.c_[rng.uniform(0.5, 3, K), rng.uniform(0.1, 1, K), rng.uniform(0.5, 3, K), rng.uniform(0.1, 1, K),
+                   rng.uniform(-3, 3, K), rng.uniform(0, 5, K)]
+    params[0, 0] = 1.0  # k = 1 at x = 0
+    expon = {"mixed": rng.random(K) < 0.5, "weibull": np.zeros(K, bool), "expon": np.ones(K, bool)}[kinds]
+    if kinds == "mixed":
+        expon[:2] = [True, False]
+    kh, lh, kv, lv, mu, kap = params.T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        old = np.where(expon, expon_logpdf(h, lh) + expon_logpdf(v, lv),
+                       weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv)) + vonmises_logpdf(th, mu, kap)
+        got = polar_rows_logpdf(h, v, th, params, expon)
+    assert np.array_equal(got, old)
+    for j in range(K):
+        dist = (stats.expon(scale=lh[j]).logpdf(h[:, j]) + stats.expon(scale=lv[j]).logpdf(v[:, j]) if expon[j] else
+                stats.weibull_min(kh[j], scale=lh[j]).logpdf(h[:, j]) + stats.weibull_min(kv[j], scale=lv[j]).logpdf(v[:, j]))
+        want = dist + stats.vonmises(kap[j], loc=mu[j]).logpdf(th[:, j])
+        np.testing.assert_allclose(got[:, j], want, rtol=1e-9, atol=1e-9)  # ±inf where scipy has them
