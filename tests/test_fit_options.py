@@ -15,7 +15,8 @@ from socialaff_sim.data import Interaction, load_dataset
 from socialaff_sim.errors import ConfigError, ModelError
 from socialaff_sim.inference.body_fit import BodyFitter
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive
-from socialaff_sim.inference.methods import primitive_trace, trace
+from socialaff_sim.inference import methods as methods_module
+from socialaff_sim.inference.methods import AffordanceMethod, primitive_trace, trace
 from socialaff_sim.inference.primitive_stream import stream_key_joints
 from socialaff_sim.inference.reaction_features import FeatureConfig
 from socialaff_sim.inference.switching import SwitchingConfig, SwitchingRegression
@@ -210,3 +211,40 @@ def test_polar_rows_logpdf_scores_each_kind_on_its_columns(rng: np.random.Genera
                 stats.weibull_min(kh[j], scale=lh[j]).logpdf(h[:, j]) + stats.weibull_min(kv[j], scale=lv[j]).logpdf(v[:, j]))
         want = dist + stats.vonmises(kap[j], loc=mu[j]).logpdf(th[:, j])
         np.testing.assert_allclose(got[:, j], want, rtol=1e-9, atol=1e-9)  # ±inf where scipy has them
+
+
+@pytest.mark.parametrize(("stride", "cross_fit"), [(1, 2), (3, 2), (3, 1)])
+def test_row_stride_reaches_every_training_trace(monkeypatch: pytest.MonkeyPatch, rng: np.random.Generator, stride: int,
+                                                 cross_fit: int) -> None:
+    """``AffordanceMethod._training_traces`` passes ``SwitchingConfig.row_stride`` to every synthesizer trace and
+    primitive trace it computes (cross-fitted or in sample); 1 (the default) to all of them otherwise."""
+    strides: list[tuple[str, int]] = []
+
+    class FakeModel:
+        def __init__(self, *args: object) -> None:
+            pass
+
+        def fit(self, insts: list[Interaction], *, rng: np.random.Generator | None = None) -> FakeModel:
+            return self
+
+    def fake_trace(model: FakeModel, body: object, inst: Interaction, config: object, rng: object, *, stride: int = 1) -> Trace:
+        strides.append(("trace", stride))
+        T = inst.n_frames
+        return Trace(belief=np.zeros((T, 2)), phase=np.zeros(T), plan=np.zeros((T, 5, 3)), skeleton=np.zeros((T, 5, 3)))
+
+    def fake_primitive_trace(prim: FakeModel, body: object, tr: Trace, inst: Interaction, n_observed: int, *,
+                             stride: int = 1) -> Trace:
+        strides.append(("primitive", stride))
+        return tr
+
+    monkeypatch.setattr(methods_module, "SocialAffordanceModel", FakeModel)
+    monkeypatch.setattr(methods_module, "InteractionPrimitive", FakeModel)
+    monkeypatch.setattr(methods_module, "trace", fake_trace)
+    monkeypatch.setattr(methods_module, "primitive_trace", fake_primitive_trace)
+    insts = [_instance(rng, k, gaps=False, obj=False) for k in range(6)]
+    m = AffordanceMethod("full")
+    m.model_ = m.primitive_ = FakeModel()
+    m.body_ = None
+    m._training_traces(insts, SwitchingConfig(row_stride=stride, cross_fit=cross_fit), rng)
+    assert {kind for kind, _ in strides} == {"trace", "primitive"}
+    assert len(strides) == 2 * len(insts) and all(k == stride for _, k in strides)

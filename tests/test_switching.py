@@ -283,7 +283,7 @@ def test_training_plans_are_cross_fitted(monkeypatch: pytest.MonkeyPatch, rng: n
             fitted.append(self.ids)
             return self
 
-    def fake_trace(model: FakeModel, body: object, inst: Interaction, config: object, rng: object) -> Trace:
+    def fake_trace(model: FakeModel, body: object, inst: Interaction, config: object, rng: object, *, stride: int = 1) -> Trace:
         T = inst.n_frames
         own = float(inst.instance_id in model.ids)  # 1: the model saw this instance
         return Trace(belief=np.full((T, 2), own), phase=np.zeros(T), plan=np.full((T, 5, 3), own),
@@ -315,7 +315,7 @@ def test_cross_fit_type_passes_reach_the_cross_fitted_models_only(monkeypatch: p
         def fit(self, insts: list[Interaction], *, rng: np.random.Generator) -> FakeModel:
             return self
 
-    def fake_trace(model: FakeModel, body: object, inst: Interaction, config: object, rng: object) -> Trace:
+    def fake_trace(model: FakeModel, body: object, inst: Interaction, config: object, rng: object, *, stride: int = 1) -> Trace:
         T = inst.n_frames
         return Trace(belief=np.zeros((T, 2)), phase=np.zeros(T), plan=np.zeros((T, 5, 3)), skeleton=np.zeros((T, 5, 3)))
 
