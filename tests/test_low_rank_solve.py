@@ -52,9 +52,9 @@ def test_low_rank_solver_checks_its_input(rng: np.random.Generator) -> None:
 
 
 def _reach(rng: np.random.Generator, T: int, k: int) -> Interaction:
-    """Agent 0 moves a wrist (and an object with it) back and forth, agent 1 mirrors it; past 200 frames agent 0's
-    right wrist has a tracking gap (held, then interpolated when it closes). The motion keeps going, so a long
-    stream's phase-1 observations carry information."""
+    """Agent 0 moves a wrist (and an object with it) back and forth, agent 1 mirrors it; on a stream of more than
+    200 frames agent 0's right wrist has a tracking gap and its left ankle is first tracked at frame 220. The
+    motion keeps going, so a long stream's phase-1 observations carry information."""
     body0 = np.array([[0, 0, 0.9], [0, 0.3, 1.0], [0, -0.3, 1.0], [0, 0.1, 0.05], [0, -0.1, 0.05]], float)
     body1 = body0 * [-1, -1, 1] + [1.4, 0, 0]
     s = np.arange(T) / 10.0
@@ -64,8 +64,9 @@ def _reach(rng: np.random.Generator, T: int, k: int) -> Interaction:
     a0[:, 1, 0] += bump
     a1[:, 2, 0] -= bump
     valid = np.ones((T, 2, 5), bool)
-    if T > 200:  # a tracking gap of a wrist past T_max: held, then interpolated when it closes
-        valid[150:170, 0, 2] = False
+    if T > 200:  # past T_max: a wrist's tracking gap (held, then interpolated when it closes), and the left ankle
+        valid[150:170, 0, 2] = False  # first tracked at frame 220 (the stream rebuilds its sums: a new factor)
+        valid[:220, 0, 3] = False
     return Interaction("reach", 10.0, np.stack([a0, a1], 1), KEY_JOINTS, ("p", "q"), object=a0[:, 1] + [0.05, 0, 0],
                        valid=valid, instance_id=f"r{k:02d}")
 
@@ -97,7 +98,7 @@ def test_past_t_max_the_low_rank_solves_equal_the_direct_ones(rng: np.random.Gen
         return x
 
     monkeypatch.setattr(LowRankUpdatedSolver, "solve", spy)
-    worst_w, worst_keys, used, refactored = 0.0, 0.0, 0, 0
+    worst_w, worst_keys, used, refactored, rebuilt = 0.0, 0.0, 0, 0, 0
     for t in range(T0, long.n_frames):
         view = protocol_view(long, t + 1, T0)
         n_before = len(solved)
@@ -109,6 +110,7 @@ def test_past_t_max_the_low_rank_solves_equal_the_direct_ones(rng: np.random.Gen
             used += 1
             assert low._phase_one is not None
             refactored += int(not low._phase_one.weights.any())
+            rebuilt += int(t == 220)
             lam, rhs = _a_block(low)
             ref = np.linalg.solve(lam, rhs)
             worst_w = max(worst_w, float(np.abs(solved[-1] - ref).max() / np.abs(ref).max()))
@@ -118,8 +120,10 @@ def test_past_t_max_the_low_rank_solves_equal_the_direct_ones(rng: np.random.Gen
         assert np.array_equal(np.isnan(got), np.isnan(want))
         worst_keys = max(worst_keys, float(np.nanmax(np.abs(got - want))))
     assert used == long.n_frames - t_max + 1
-    # Renewed at the first such frame, then every `refactor` phase-1 frames.
-    assert refactored == -(-used // refactor)
+    # Renewed at the first such frame, then every `refactor` phase-1 frames, and once more where the late-tracked
+    # ankle rebuilt the sums (frame 220, mid-period: the solve there is checked against the direct one above).
+    assert rebuilt == 1 and (220 - (t_max - 1)) % refactor != 0
+    assert refactored == -(-(220 - (t_max - 1)) // refactor) + -(-(long.n_frames - 220) // refactor)
     assert worst_w <= REL
     assert worst_keys <= 1e-9  # metres
     # The low-rank term matters: without it (weights ignored) the weights would be those of a stale factor.
