@@ -12,7 +12,10 @@ rotation at a time: ``--cache`` and ``--suffix`` name them) and breaks the valid
 * the plans' timing: the time at which the plan's and the truth's base first cover half of the truth's base
   displacement since T0, and the error left after the best monotone time alignment of the plan to the truth
   (dynamic time warping of the key joints: the part of the error that a different clock could not remove);
-* the belief: its entropy, how often its arg-max changes, the arg-max label per phase;
+* the belief: its entropy, how often its arg-max changes, the arg-max label per phase; against the model's own offline
+  parse of each validation instance (``best_parse`` of the whole recording): the share of frames where its arg-max is
+  the same sub-event, one or more ahead, behind, or has *returned* below the highest rank (``order_ranks``) it reached
+  in the instance, and the plans' errors on each;
 * the parses of the training instances by the model fitted on all of them (refitted here with the script's
   seed: ``dev_switching.py`` fits it first from ``default_rng(seed)``, so it is the same model): intervals per
   instance and each type's duration;
@@ -23,7 +26,8 @@ Usage::
     python scripts/dev_subevents.py --data handover:../shared/data/handover_h2h --split pair --cache DIR/it0
         --suffix _cf_ng_tp0_od [--json OUT]
 
-The interaction primitive's traces are computed as ``dev_switching.py`` computes them (same generator) and cached
+``--suffix`` may name an option's traces (e.g. ``_cf_ng_tp0_od_or``); without a V2 trace file beside them the V2 columns
+repeat the default model's. The interaction primitive's traces are computed as ``dev_switching.py`` computes them (same generator) and cached
 beside the others (suffix ``_prim``). Prints tables; the library never imports this script.
 """
 
@@ -47,6 +51,7 @@ from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, 
 from socialaff_sim.inference.methods import AffordanceMethod, primitive_trace
 from socialaff_sim.inference.reaction_regression import inner_folds, key_columns
 from socialaff_sim.inference.switching import SwitchingConfig, SwitchingRegression, Trace, instance_rows
+from socialaff_sim.model.transitions import order_ranks
 
 PHASES = ("approach", "transfer", "retreat")
 HORIZONS = (0.0, 0.5, 1.0, 2.0, 3.0, np.inf)  # seconds since T0: bin edges
@@ -174,7 +179,8 @@ def main() -> None:
         stem = f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{args.suffix}"
         cache = Path(args.cache)
         S, tr, va = pickle.loads((cache / f"{stem}.pkl").read_bytes())
-        S2, tr2, va2 = pickle.loads((cache / f"{stem}_v2.pkl").read_bytes())
+        v2_file = cache / f"{stem}_v2.pkl"
+        S2, tr2, va2 = pickle.loads(v2_file.read_bytes()) if v2_file.exists() else (S, tr, va)  # without V2: its own
         tr, va = primitive_traces(train, val, tr, va, args.seed, cache / f"{stem}_prim.pkl")
         tr2 = [dataclasses.replace(t, primitive=d.primitive, primitive_skeleton=d.primitive_skeleton) for t, d in zip(tr2, tr, strict=True)]
         va2 = [dataclasses.replace(t, primitive=d.primitive, primitive_skeleton=d.primitive_skeleton) for t, d in zip(va2, va, strict=True)]
@@ -265,6 +271,12 @@ def main() -> None:
                   f"error {inst_mean[n].mean():.4f} → after time alignment {np.mean(dtw[n]):.4f} m")
         out["timing"] = {n: [float(x) for x in v] for n, v in timing.items()}
         out["dtw"] = {n: [float(x) for x in v] for n, v in dtw.items()}
+        model = None
+        if not args.no_refit:  # the model fitted on all training instances: dev_switching.py's first fit, same generator
+            m = AffordanceMethod.from_preset("full", "default", reaction=None)
+            m.learning = dataclasses.replace(m.learning, iterations=0)
+            m.fit(train, rng=np.random.default_rng(args.seed))
+            model = m.model_
         # The belief on the validation instances.
         ent, switches, argmax_phase = [], [], np.zeros((3, S))
         for k, inst in enumerate(val):
@@ -280,6 +292,39 @@ def main() -> None:
               f"(max {max(switches)}); arg-max label share per phase (rows {PHASES}):")
         print(np.round(argmax_phase / np.maximum(argmax_phase.sum(1, keepdims=True), 1), 2))
         out["belief"] = {"entropy": ent, "switches": switches, "argmax_per_phase": argmax_phase.tolist()}
+        # The belief's clock against the model's own offline parse of each validation instance (its whole recording),
+        # and the frames where the belief's arg-max has returned below the highest rank it reached in the instance.
+        if model is not None:
+            ranks = order_ranks(model.parses_, S)
+            cls = {"same": [], "ahead 1": [], "ahead 2+": [], "behind": [], "returned": []}
+            cls_v2 = {k: [] for k in cls}
+            for k, inst in enumerate(val):
+                _, parse = model.best_parse(inst)
+                lab = np.full(inst.n_frames, -1)
+                pos = {}
+                for n, (a, b, s_) in enumerate(parse):
+                    lab[a:b] = s_
+                    pos[int(s_)] = n
+                am = va[k].belief.argmax(axis=1)
+                e = frame_errors(rows[k][0][:, plan_cols], rows[k][1][:, kc]).mean(axis=1)
+                e2 = frame_errors(rows2[k][0][:, width2 - 30 + np.arange(15)], rows2[k][1][:, kc]).mean(axis=1)
+                top = -np.inf
+                for i, t in enumerate(range(T0, inst.n_frames)):
+                    r = ranks[am[t]]
+                    if r < top:
+                        c = "returned"
+                    else:
+                        d = pos.get(int(am[t]), 99) - pos.get(int(lab[t]), 99)
+                        c = "same" if d == 0 else "ahead 1" if d == 1 else "ahead 2+" if d > 1 else "behind"
+                    top = max(top, r)
+                    cls[c].append(e[i])
+                    cls_v2[c].append(e2[i])
+            n_all = sum(len(v) for v in cls.values())
+            print("belief arg-max against the offline parse: " + "; ".join(
+                f"{c} {len(v) / n_all:.2f} of frames (plan {np.mean(v) if v else np.nan:.3f}, plan_v2 "
+                f"{np.mean(cls_v2[c]) if v else np.nan:.3f} m)" for c, v in cls.items()))
+            out["clock"] = {c: {"share": len(v) / n_all, "plan": float(np.mean(v)) if v else None,
+                                "plan_v2": float(np.mean(cls_v2[c])) if v else None} for c, v in cls.items()}
         # The inner CV's view: the plans' error on the cross-fitted training rows against the validation rows.
         for name, traces, w_ in (("plan", tr, width), ("plan_v2", tr2, width2)):
             errs = []
@@ -288,12 +333,8 @@ def main() -> None:
                 errs.append(frame_errors(X[:, w_ - 30 + np.arange(15)], Y[:, kc]).mean())
             print(f"{name}: cross-fitted training rows {np.mean(errs):.4f} m, validation {inst_mean[name].mean():.4f} m")
             out[f"{name} train rows"] = float(np.mean(errs))
-        # The training parses of the model fitted on all training instances (refitted: the same model).
-        if not args.no_refit:
-            m = AffordanceMethod.from_preset("full", "default", reaction=None)
-            m.learning = dataclasses.replace(m.learning, iterations=0)
-            m.fit(train, rng=np.random.default_rng(args.seed))
-            model = m.model_
+        # The training parses of the model fitted on all training instances (refitted above: the same model).
+        if model is not None:
             n_int = [len(p) for p in model.parses_]
             print(f"training parses: intervals per instance {np.bincount(n_int).tolist()} (count of 0, 1, 2 …); "
                   f"names {model.subevent_names_}")
