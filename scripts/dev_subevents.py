@@ -37,21 +37,25 @@ import argparse
 import dataclasses
 import json
 import pickle
+import sys
 from pathlib import Path
 
 import numpy as np
 
-from dev_switching import T0, VARIANTS  # the development split's constants and variants (same folder)
-from socialaff_sim.data import Interaction, load_dataset
-from socialaff_sim.evaluation.compare import paired_difference
-from socialaff_sim.evaluation.crossval import fold_rng
-from socialaff_sim.evaluation.splits import make_folds
-from socialaff_sim.inference.body_fit import BodyFitConfig, BodyFitter
-from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, ProMPConfig
-from socialaff_sim.inference.methods import AffordanceMethod, primitive_trace
-from socialaff_sim.inference.reaction_regression import inner_folds, key_columns
-from socialaff_sim.inference.switching import SwitchingConfig, SwitchingRegression, Trace, instance_rows
-from socialaff_sim.model.transitions import order_ranks
+_HERE = str(Path(__file__).resolve().parent)
+if _HERE not in sys.path:  # run as `python scripts/dev_subevents.py` it is sys.path[0]; the tests load this file by path
+    sys.path.append(_HERE)
+from dev_switching import T0, VARIANTS  # noqa: E402  (the development split's constants and variants)
+from socialaff_sim.data import Interaction, load_dataset  # noqa: E402
+from socialaff_sim.evaluation.compare import paired_difference  # noqa: E402
+from socialaff_sim.evaluation.crossval import fold_rng  # noqa: E402
+from socialaff_sim.evaluation.splits import make_folds  # noqa: E402
+from socialaff_sim.inference.body_fit import BodyFitConfig, BodyFitter  # noqa: E402
+from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, ProMPConfig  # noqa: E402
+from socialaff_sim.inference.methods import AffordanceMethod, primitive_trace  # noqa: E402
+from socialaff_sim.inference.reaction_regression import inner_folds, key_columns  # noqa: E402
+from socialaff_sim.inference.switching import SwitchingConfig, SwitchingRegression, Trace, instance_rows  # noqa: E402
+from socialaff_sim.model.transitions import order_ranks  # noqa: E402
 
 PHASES = ("approach", "transfer", "retreat")
 HORIZONS = (0.0, 0.5, 1.0, 2.0, 3.0, np.inf)  # seconds since T0: bin edges
