@@ -55,6 +55,8 @@ from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, 
 from socialaff_sim.inference.methods import AffordanceMethod, primitive_trace  # noqa: E402
 from socialaff_sim.inference.reaction_regression import inner_folds, key_columns  # noqa: E402
 from socialaff_sim.inference.switching import SwitchingConfig, SwitchingRegression, Trace, instance_rows  # noqa: E402
+from socialaff_sim.inference.online_parse import closed_scores  # noqa: E402
+from socialaff_sim.model.joints import canonical_joints, instance_frame  # noqa: E402
 from socialaff_sim.model.transitions import order_ranks  # noqa: E402
 
 PHASES = ("approach", "transfer", "retreat")
@@ -302,6 +304,8 @@ def main() -> None:
             ranks = order_ranks(model.parses_, S)
             cls = {"same": [], "ahead 1": [], "ahead 2+": [], "behind": [], "returned": []}
             cls_v2 = {k: [] for k in cls}
+            back: dict[int, list[tuple[float, float]]] = {}  # returned frames by the label returned to
+            odds: list[float] = []  # their log-odds of the arg-max against the highest-ranked type reached
             for k, inst in enumerate(val):
                 _, parse = model.best_parse(inst)
                 lab = np.full(inst.n_frames, -1)
@@ -323,10 +327,30 @@ def main() -> None:
                     top = max(top, r)
                     cls[c].append(e[i])
                     cls_v2[c].append(e2[i])
+                    if c == "returned":
+                        back.setdefault(int(am[t]), []).append((e[i], e2[i]))
+                        top_type = int(np.nanargmax(np.where(ranks <= top, ranks, -np.inf)))  # the highest reached
+                        odds.append(float(np.log(va[k].belief[t, am[t]] / max(va[k].belief[t, top_type], 1e-300))))
             n_all = sum(len(v) for v in cls.values())
             print("belief arg-max against the offline parse: " + "; ".join(
                 f"{c} {len(v) / n_all:.2f} of frames (plan {np.mean(v) if v else np.nan:.3f}, plan_v2 "
                 f"{np.mean(cls_v2[c]) if v else np.nan:.3f} m)" for c, v in cls.items()))
+            print("returned frames by the label returned to: " + "; ".join(
+                f"type {s_}: {len(v)} frames (plan {np.mean([a for a, _ in v]):.3f}, plan_v2 {np.mean([b for _, b in v]):.3f} m)"
+                for s_, v in sorted(back.items())))
+            if odds:
+                print("returned frames: log-odds of the arg-max against the highest type reached, quantiles 10/50/90 % "
+                      + " / ".join(f"{q:.1f}" for q in np.percentile(odds, [10, 50, 90])) + " nats")
+            print("mean belief at T0: " + " ".join(f"{b:.2f}" for b in np.mean([t_.belief[T0] for t_ in va], axis=0)))
+            scores: dict[int, list[tuple[float, int]]] = {}
+            for inst, parse in zip(train, model.parses_, strict=True):  # the training intervals' closed scores
+                track = canonical_joints(inst, instance_frame(inst))
+                for a, b, s_ in parse:
+                    scores.setdefault(int(s_), []).append(
+                        (float(closed_scores(model, track, inst.fps, np.array([a]), np.array([b]))[0, s_]), int(b - a)))
+            print("training intervals' closed score under their own type (log, nats): " + "; ".join(
+                f"type {s_}: mean {np.mean([x for x, _ in v]):.0f}, per frame {np.mean([x / n for x, n in v]):.1f}"
+                for s_, v in sorted(scores.items())))
             out["clock"] = {c: {"share": len(v) / n_all, "plan": float(np.mean(v)) if v else None,
                                 "plan_v2": float(np.mean(cls_v2[c])) if v else None} for c, v in cls.items()}
         # The inner CV's view: the plans' error on the cross-fitted training rows against the validation rows.
