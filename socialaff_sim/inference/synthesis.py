@@ -50,8 +50,8 @@ from ..errors import ModelError
 from ..model.frame_regression import frame_context
 from ..model.handedness import KEY_SWAP, relabel
 from ..model.nan_fill import nan_to_zero
-from ..model.transitions import order_ranks
 from ..model.ridge import RidgeRegression
+from ..model.transitions import order_ranks
 from .candidate_planner import CandidatePlanner
 from .canonical_stream import CanonicalStream
 from .candidates import AGENT1 as _AGENT1
