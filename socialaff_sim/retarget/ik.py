@@ -15,8 +15,11 @@ Limits: :class:`mink.ConfigurationLimit` (joint ranges) and
 (:class:`~.collision.GeomPairLimit`): the whole robot keeps ``min_distance``
 clear of the person, except that a hand may press at most
 ``contact_depth`` into the parts the task wants touched; the forearms and hands
-keep clear of the rest of the robot. A person moving into the robot pushes it
-back out (at most ``max_push`` per step).
+keep clear of the rest of the robot, and the two legs of each other
+(``leg_clearance``: ankle targets closer together than the feet are wide put the
+feet side by side, not inside each other). A person moving into the robot pushes it
+back out (at most ``max_push`` per step), and so does a leg found inside the other
+(the pairs and their distances: :mod:`~.ik_pairs`).
 
 Each call of :meth:`RobotIK.solve` takes one data frame of period ``dt``: it warm
 starts from the previous frame's solution and runs QP steps (at least one) until
@@ -45,8 +48,9 @@ import mujoco
 import numpy as np
 
 from ..errors import SimulationError
-from .collision import GeomPairLimit, collision_pairs
+from .collision import GeomPairLimit
 from .ik_config import IKConfig
+from .ik_pairs import GeomGroups, arm_self_pairs, pair_limit, set_collision_bits
 from .joint_limits import JointBoxLimit
 from .key_task import KeyFramesTask
 from .balance import StandingBalance
@@ -77,6 +81,10 @@ class IKModel:
     """(G,) mocap index of each human geom's body."""
     max_joint_velocity: float
     """rad/s for every hinge."""
+    leg_geoms: tuple[np.ndarray, np.ndarray] = field(
+        default_factory=lambda: (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)))
+    """Geom ids of the left and right leg (thigh, shin, foot: the subtree of each hip limb root), kept
+    ``IKConfig.leg_clearance`` apart; empty: no such pairs."""
     torso_dofs: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     """Dof indices of the spine: the joints between the base and the torso (the body both shoulders hang
     from). Their posture cost is ``IKConfig.torso_posture_cost``, which keeps the torso upright."""
@@ -128,11 +136,10 @@ class RobotIK:
         free_speed = np.array([c.max_base_speed] * 3 + [c.max_base_turn] * 3)
         self._box = JointBoxLimit(m, self.config_limit, self.velocity_limit, free_dofs, free_speed)
         robot = np.asarray(ik_model.robot_geoms, dtype=np.int64)
-        self._set_collision_bits()
-        self._self_pairs = [
-            collision_pairs(m, np.asarray(ik_model.arm_geoms[s]), np.setdiff1d(robot, ik_model.arm_geoms[s]))
-            for s in (0, 1)
-        ]
+        self._groups = GeomGroups.of(ik_model.human_geoms, robot, ik_model.arm_geoms, ik_model.hand_geoms,
+                                     ik_model.leg_geoms)
+        set_collision_bits(m, self._groups, legs=c.leg_clearance is not None)
+        self._self_pairs = arm_self_pairs(m, self._groups)
         self.collision_limit: GeomPairLimit
         self.set_contact_exemptions([])
         self._home_quat = self._frame_quats(ik_model.home_qpos)
@@ -159,27 +166,6 @@ class RobotIK:
         """(3,) the robot's centre of mass at the current configuration, world frame, metres."""
         return np.array(self.configuration.data.subtree_com[1])
 
-    def _set_collision_bits(self) -> None:
-        """Let MuJoCo's collision detection in the IK model find only the pairs the IK watches.
-
-        Bits: person (contype 2, conaffinity 0); trunk, i.e. every collidable robot geom
-        but the forearms and hands (1, 2: the person only); forearms and hands (4, 7: the
-        person, the trunk and each other). Trunk pairs and the person's own pairs never
-        reach the narrow phase.
-        """
-        m = self.spec.model
-        human = np.asarray(self.spec.human_geoms, dtype=np.int64)
-        robot = np.asarray(self.spec.robot_geoms, dtype=np.int64)
-        arms = np.concatenate([np.asarray(a, dtype=np.int64) for a in self.spec.arm_geoms])
-        trunk = np.setdiff1d(robot, arms)
-        for geoms, contype, conaffinity in ((human, 2, 0), (trunk, 1, 2), (arms, 4, 7)):
-            m.geom_contype[geoms] = contype
-            m.geom_conaffinity[geoms] = conaffinity
-        for b in np.unique(m.geom_bodyid[np.concatenate([human, robot])]):
-            mine = m.geom_bodyid == b
-            m.body_contype[b] = np.bitwise_or.reduce(m.geom_contype[mine])
-            m.body_conaffinity[b] = np.bitwise_or.reduce(m.geom_conaffinity[mine])
-
     def set_contact_exemptions(self, exempt: Sequence[tuple[int, Sequence[int]]]) -> None:
         """Rebuild the collision pairs; (hand side 0/1, human geom ids): those parts may be touched.
 
@@ -189,45 +175,10 @@ class RobotIK:
         so a required contact happens without the hand being driven deep into the person.
         Call it again whenever the human's capsule sizes change (the limit caches bounding radii).
         """
-        c = self.config
-        m = self.spec.model
         free: dict[int, set[int]] = {0: set(), 1: set()}
         for side, geoms in exempt:
             free[int(side)].update(int(g) for g in geoms)
-        human = np.asarray(self.spec.human_geoms, dtype=np.int64)
-        robot = np.asarray(self.spec.robot_geoms, dtype=np.int64)
-        arms = [np.asarray(self.spec.arm_geoms[s], dtype=np.int64) for s in (0, 1)]
-        trunk = np.setdiff1d(robot, np.concatenate(arms))
-        parts: list[tuple[np.ndarray, float, float, bool]] = [
-            (collision_pairs(m, trunk, human), c.min_distance, c.detection_distance, True)]
-        for s in (0, 1):
-            touch = np.array(sorted(free[s]), dtype=np.int64)
-            hand = np.intersect1d(arms[s], np.asarray(self.spec.hand_geoms[s], dtype=np.int64))
-            # Only the hand may touch the wanted parts; the forearm keeps clear of them like of the rest.
-            # A hand or forearm the person moves into is held, not pushed: around a hand in contact the
-            # person's capsules surround it from several sides, and pushes would contradict each other.
-            clear = np.concatenate([collision_pairs(m, arms[s], np.setdiff1d(human, touch)),
-                                    collision_pairs(m, np.setdiff1d(arms[s], hand), touch)])
-            parts.append((clear, c.min_distance, c.detection_distance, False))
-            if c.contact_depth is not None:
-                parts.append((collision_pairs(m, hand, touch), -c.contact_depth, c.detection_distance, False))
-            parts.append((self._self_pairs[s], c.min_distance, c.self_detection_distance, False))
-        pairs = np.concatenate([p for p, *_ in parts])
-        # A geom pair listed twice (a forearm against the other forearm) keeps one row.
-        _, first = np.unique(np.sort(pairs, axis=1), axis=0, return_index=True)
-        first.sort()
-
-        def column(k: int) -> np.ndarray:
-            return np.concatenate([np.full(len(p[0]), p[k]) for p in parts])[first]
-
-        # Contact margins (MuJoCo adds a pair's two): person–robot pairs reach the detection
-        # distance, robot–robot pairs the (shorter) self-detection distance.
-        margins = np.zeros(m.ngeom)
-        half_self = 0.5 * c.self_detection_distance
-        margins[robot] = half_self
-        margins[human] = max(c.detection_distance - half_self, 0.0)
-        self.collision_limit = GeomPairLimit(m, pairs[first], column(1), column(2), column(3),
-                                             gain=c.collision_gain, max_push=c.max_push, margins=margins)
+        self.collision_limit = pair_limit(self.spec.model, self._groups, self._self_pairs, free, self.config)
 
     def limits(self) -> list[mink.Limit]:
         """The limits passed to the QP."""

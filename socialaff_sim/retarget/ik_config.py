@@ -19,8 +19,8 @@ class IKConfig:
       planted_foot_orientation_cost
     - Damping and stopping rule: damping, max_worsening, damping_growth, max_damping, iterations, tolerance,
       min_progress, patience
-    - Collision avoidance: min_distance, contact_depth, detection_distance, self_detection_distance, collision_gain,
-      collision_slack, backtracks, max_push
+    - Collision avoidance: min_distance, contact_depth, detection_distance, self_detection_distance, leg_clearance,
+      push_self, collision_gain, collision_slack, backtracks, max_push
     - Speed limits and solver: max_base_speed, max_base_turn, solver
     """
 
@@ -101,7 +101,25 @@ class IKConfig:
     detection_distance: float = 0.1
     """[m]: Distance below which a robot-person geom pair enters the QP, metres."""
     self_detection_distance: float = 0.05
-    """[m]: Distance below which a pair of robot geoms (a forearm or hand and the rest) enters the QP, metres."""
+    """[m]: Distance below which a pair of robot geoms (a forearm or hand and the rest, or a geom of each leg)
+    enters the QP, metres."""
+    leg_clearance: float | None = 0.01
+    """d_legs [m]: Distance the IK keeps between each geom of the left leg and each of the right leg (the
+    subtrees of the robot's hip limb roots: thighs, shins, feet), metres; a pair found closer is pushed apart
+    (at most ``max_push`` per step). ``None``: the legs may pass through each other. The ankle targets come
+    from the recorded person, whose ankles may be closer together than the robot's feet are wide (tracking
+    noise, a step, feet side by side on a robot with broader feet): without this limit Stubby settled with
+    its feet 1.5–4.9 cm inside each other on 39 of the 150 recorded handovers, and the physics failed 19 of
+    the 75 training handovers of the RL example on its first step (docs/robots.md, "Feet apart")."""
+    push_self: bool = False
+    """[—]: Whether a forearm or hand found inside the rest of the robot is pushed back out (at most
+    ``max_push`` per step), as the legs are; ``False`` (the default): held where it is (its rows only forbid
+    going deeper, and they are linear). Held, a forearm creeps into the torso over the reset's settle, whose QP
+    steps are a whole second long, by a few millimetres per solve: 3.3 cm deep for Stubby on SBU
+    s04s02_07_001, 4–5 cm for the H1 on four SBU and handover recordings, each failing with ``self_collision``
+    on its first step; pushed, none of these (docs/robots.md, "Feet apart"). Not the default: pushed, Stubby's
+    torso tilted 11.0° in the catch of throw_catch_000 with ``SimConfig.stance`` (the stance test's bound is
+    10°), and its effect on the other figures was not measured."""
     collision_gain: float = 0.85
     """[—]: Fraction of the remaining gap a pair may close per step."""
     collision_slack: float = 0.003

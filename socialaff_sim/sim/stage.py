@@ -18,7 +18,7 @@ import numpy as np
 from ..data.skeletons import SkeletonLayout
 from ..errors import SimulationError
 from ..retarget.ik import IKModel, RobotIK
-from ..retarget.kinematic_tree import ancestry, shared_ancestor
+from ..retarget.kinematic_tree import ancestry, shared_ancestor, subtree_mask
 from ..retarget.robot import RobotSpec
 from .reach import ReachModel
 from .robot_mjcf import limit_hand_force
@@ -28,7 +28,7 @@ from .substeps import FrameStepper
 from .stance import StanceControl
 from .tasks import SubgoalSpec
 
-__all__ = ["Stage", "compile_scenes", "key_frames", "key_frames_at", "contact_exemptions"]
+__all__ = ["Stage", "compile_scenes", "key_frames", "key_frames_at", "contact_exemptions", "leg_geoms"]
 
 
 @dataclass
@@ -55,6 +55,13 @@ class Stage:
 
     def __post_init__(self) -> None:
         self.kinematics = mujoco.MjData(self.ik_scene.model)
+
+    def to_physics(self, q_ik: np.ndarray) -> np.ndarray:
+        """Robot coordinates of the physics scene (..., nq_r) from IK ones (..., nq_ik); frozen joints at home."""
+        q_ik = np.asarray(q_ik)
+        out = np.broadcast_to(self.scene.home_qpos, (*q_ik.shape[:-1], len(self.scene.home_qpos))).copy()
+        out[..., self.ik_map] = q_ik
+        return out
 
 
 def compile_scenes(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None, *, timestep: float,
@@ -83,12 +90,21 @@ def compile_scenes(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | N
         arm_geoms=tuple(np.flatnonzero(a) for a in ik_scene.arm_geom), robot_geoms=np.flatnonzero(collide),
         human_geoms=ik_scene.human_geom_ids, human_mocap=ik_scene.human_mocap,
         max_joint_velocity=robot.max_joint_velocity, torso_dofs=torso_dofs(ik_scene),
+        leg_geoms=leg_geoms(ik_scene, collide),
     )
     if not np.array_equal(ik_scene.robot_qadr, np.arange(ik_scene.model.nq)):
         raise SimulationError("IK scene: the robot must own every coordinate")
     phys_index = {n: i for i, n in enumerate(scene.robot_joint_names)}
     ik_map = np.concatenate([np.arange(7), 6 + np.array([phys_index[n] for n in ik_scene.robot_joint_names[1:]], dtype=np.int64)])
     return scene, ik_scene, ik_model, ik_map
+
+
+def leg_geoms(scene: Scene, collide: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The left and right leg's geom ids among ``collide`` (ngeom,) bool: the geoms of the subtree of each hip
+    limb root (thigh, shin, foot)."""
+    m = scene.model
+    legs = [np.flatnonzero(subtree_mask(m, int(b))[m.geom_bodyid] & collide) for b in scene.limb_body_ids[2:4]]
+    return legs[0], legs[1]
 
 
 def torso_dofs(scene: Scene) -> np.ndarray:
