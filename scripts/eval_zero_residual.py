@@ -7,8 +7,8 @@ instead, with the seeds and the training reward of ``train_residual.py --referen
 ``zero_residual.json`` (rows and, per label, success and termination reasons) into ``--out``. Example::
 
     OMP_NUM_THREADS=1 nice -n 10 python scripts/eval_zero_residual.py --out zr --models rl_real_ref/models \\
-        --data handover:../shared/data/handover_h2h sbu:../shared/data/sbu_kinect_interaction nuisi:../shared/data/nuisi_v1 \\
-        --interactions hand_over shaking_hands handshake
+        --data handover:../shared/data/handover_h2h sbu:../shared/data/sbu_kinect_interaction \\
+        nuisi:../shared/data/nuisi_v1 --interactions hand_over shaking_hands handshake
 
 Needs the ``[rl]`` extra (it reuses ``train_residual.py``). The library never imports this script.
 """

@@ -124,7 +124,8 @@ def main() -> None:
     ap.add_argument("--labels", nargs="+", default=None, help="only these labels (default: every label with a task)")
     ap.add_argument("--robots", nargs="+", default=["ours"])
     ap.add_argument("--mjcf", nargs="+", default=[], metavar="ROBOT=PATH", help="the MJCF of a robot not shipped")
-    ap.add_argument("--models", type=Path, default=None, help="affordance models DIR/<label>.npz (default: the recording)")
+    ap.add_argument("--models", type=Path, default=None,
+                    help="affordance models DIR/<label>.npz (default: the recording)")
     ap.add_argument("--physics", default="fast")
     ap.add_argument("--seed", type=int, default=0, help="reset seed of every episode")
     ap.add_argument("--limit", type=int, default=None, help="at most this many instances per label")
@@ -163,8 +164,9 @@ def main() -> None:
           "self_collision on step 1 | deepest at reset (cm) |" + (" success | reasons |" if a.replay else ""))
     print("|---|---|---|---:|---:|---:|---:|---:|" + ("---:|---|" if a.replay else ""))
     for g in results["groups"]:
-        line = (f"| {g['data']} | {g['label']} | {g['robot']} | {g['episodes']} | {g['reset_any']} ({g['reset_legs']}) | "
-                f"{g['reset_over_threshold']} | {g['step1_self_collision']} | {g['max_reset_depth_cm']:.1f} |")
+        line = (f"| {g['data']} | {g['label']} | {g['robot']} | {g['episodes']} | "
+                f"{g['reset_any']} ({g['reset_legs']}) | {g['reset_over_threshold']} | {g['step1_self_collision']} | "
+                f"{g['max_reset_depth_cm']:.1f} |")
         if a.replay:
             line += f" {g['success']} | " + ", ".join(f"{k} {v}" for k, v in sorted(g["reasons"].items())) + " |"
         print(line)

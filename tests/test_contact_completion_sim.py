@@ -39,7 +39,7 @@ def test_completion_reads_nothing_after_frame_t_and_can_be_switched_off(shake8) 
     while sim.frame < t - 1:  # the recorded agent 1 up to the frame before
         sim.step(sim.retarget(recorded[sim.frame + 1]))
     out = sim.retarget(keys, frame=t)
-    assert sim._completion is not None and sim._completion.weight.max() > 0  # it engaged at this frame
+    assert sim._targets.completion is not None and sim._targets.completion.weight.max() > 0  # it engaged at this frame
     # The person's (and the scaler's) frames after t replaced by nonsense: frame t is completed the same way.
     pose = sim.pose
     far = HumanPose(pos=pose.pos.copy(), quat=pose.quat, half_lengths=pose.half_lengths, joints=pose.joints.copy())
@@ -48,11 +48,11 @@ def test_completion_reads_nothing_after_frame_t_and_can_be_switched_off(shake8) 
     sim.pose = far
     np.testing.assert_array_equal(sim.retarget(keys, frame=t), out)
     sim.pose = pose
-    sim._completion = None  # the same state, the stage switched off
+    sim._targets.completion = None  # the same state, the stage switched off
     scaled = sim.retarget(keys, frame=t)
     np.testing.assert_allclose(out[[0, 3, 4]], scaled[[0, 3, 4]], atol=1e-12)  # only the wrists change
     assert np.abs(out[1:3] - scaled[1:3]).max() > 0.005
-    assert Simulator("ours", "shake_hands", OFF)._completion is None
+    assert Simulator("ours", "shake_hands", OFF)._targets.completion is None
 
 
 def test_anchors_follow_the_task_groups() -> None:

@@ -11,6 +11,7 @@ import socialaff_sim.sim.stage_build as stage_build_module
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.environment import SocialAffordanceEnv
 from socialaff_sim.retarget.ik import RobotIK
+from socialaff_sim.sim.frame_targets import fill_targets
 
 FRAMES = 12
 
@@ -139,7 +140,7 @@ def test_settle_not_straight_after_a_reset_is_solved_and_not_cached(data):
     targets = sim.robot_key_frames() + np.array([0.0, 0.0, 0.05])
     sim.settle(targets)
     assert len(sim._placement.settled) == 1
-    assert sim._placement.settled_for(sim.frame_R.to_world(sim._fill_targets(targets))) is None
+    assert sim._placement.settled_for(sim.frame_R.to_world(fill_targets(targets, sim.home_key_frames))) is None
 
 
 def test_make_vec_two_workers_sync_steps_and_resets(data):

@@ -111,12 +111,15 @@ class IKConfig:
     noise, a step, feet side by side on a robot with broader feet): without this limit Stubby settled with
     its feet 1.5–4.9 cm inside each other on 39 of the 150 recorded handovers, and the physics failed 19 of
     the 75 training handovers of the RL example on its first step (docs/robots.md, "Feet apart")."""
-    push_self: bool = True
+    push_self: bool = False
     """[—]: Whether a forearm or hand found inside the rest of the robot is pushed back out (at most
-    ``max_push`` per step), as the legs are; ``False``: held where it is (its rows only forbid going deeper,
-    and they are linear). Held, a forearm crept into the torso over the reset's settle, whose QP steps are a
-    whole second long, by a few millimetres per solve: 3.3 cm deep for Stubby on SBU s04s02_07_001, 4–5 cm for
-    the H1 on four SBU and handover recordings, each failing with ``self_collision`` on its first step."""
+    ``max_push`` per step), as the legs are; ``False`` (the default): held where it is (its rows only forbid
+    going deeper, and they are linear). Held, a forearm creeps into the torso over the reset's settle, whose QP
+    steps are a whole second long, by a few millimetres per solve: 3.3 cm deep for Stubby on SBU
+    s04s02_07_001, 4–5 cm for the H1 on four SBU and handover recordings, each failing with ``self_collision``
+    on its first step; pushed, none of these (docs/robots.md, "Feet apart"). Not the default: pushed, Stubby's
+    torso tilted 11.0° in the catch of throw_catch_000 with ``SimConfig.stance`` (the stance test's bound is
+    10°), and its effect on the other figures was not measured."""
     collision_gain: float = 0.85
     """[—]: Fraction of the remaining gap a pair may close per step."""
     collision_slack: float = 0.003

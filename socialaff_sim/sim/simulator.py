@@ -8,7 +8,8 @@ through mink IK, the robot's position servos and its base anchor track the
 solution over the frame's physics steps while the human moves to the next
 frame, and the task's sub-goals and failures are scored on the contacts.
 :meth:`Simulator.step` is :meth:`~Simulator.solve` then :meth:`~Simulator.advance` over the whole frame; the
-environment's control period advances a frame in pieces and may solve again within it.
+environment's control period advances a frame in pieces and may solve again within it. A source's key joints
+become a frame's targets through :meth:`Simulator.retarget` (:mod:`~.frame_targets`).
 """
 
 from __future__ import annotations
@@ -22,12 +23,11 @@ import numpy as np
 
 from ..data.interaction import Interaction
 from ..errors import SimulationError
-from ..retarget.contact_completion import ContactCompletion
 from ..retarget.robot import RobotSpec, load_robot
-from ..retarget.scaling import RobotFrame, object_anchors
+from ..retarget.scaling import RobotFrame
 from .chair import chair_pose, place_chair
-from .contact_targets import ContactAnchors, object_in_flight, offered_hand
 from .carry import CarryPlan, hold_object, park_object, release_object
+from .frame_targets import FrameTargets, fill_targets
 from .human import HumanPose
 from .reach import reachable_targets
 from .scene import Scene, pose_compliant, set_human_sizes
@@ -56,10 +56,7 @@ class Simulator:
         self.interaction: Interaction | None = None
         self._reset_cache = ResetCache()
         self._settled = False
-        self._anchors: dict[str, ContactAnchors] = {}
-        cc = self.config.contact_completion
-        self._completion = None if cc is None else ContactCompletion(cc)
-        self._completed_frame = -1
+        self._targets = FrameTargets(self.task, self.config.contact_completion, self.config.scaling.object_lookahead)
         self._in_frame = False
 
     # -- set-up -----------------------------------------------------------------------
@@ -94,21 +91,16 @@ class Simulator:
             self._reset_cache.put(place)
         self._placement = place
         scene = stage.scene
-        if self._completion is not None:
-            self._completion.reset()
-            self._completed_frame = -1
-            if inter.layout.name not in self._anchors:
-                self._anchors[inter.layout.name] = ContactAnchors(scene, self.task)
         self.offset = place.offset
         self.pose: HumanPose = place.pose
         set_human_sizes(scene, self.pose.half_lengths)
         set_human_sizes(stage.ik_scene, self.pose.half_lengths)
         self._segments = place.segments
         self.scaler = copy.copy(place.scaler)  # its online placement moves during the episode
+        self._targets.reset(place, self.scaler, scene, stage.ik, self.measurements.arm)
         self.frame_R: RobotFrame = place.frame
         self._yaw = self.frame_R.yaw
         self.carry: CarryPlan | None = place.carry
-        self._obj_track = place.obj_track
         self.n_sub = place.n_sub
         scene.model.opt.timestep = place.timestep
         ik = stage.ik
@@ -131,7 +123,7 @@ class Simulator:
         if self.frame != 0:
             raise SimulationError(f"settle is only possible at frame 0, the simulator is at frame {self.frame}")
         ik = self._stage.ik  # type: ignore[union-attr]
-        world = self.frame_R.to_world(self._fill_targets(np.asarray(targets, dtype=np.float64)))
+        world = self.frame_R.to_world(fill_targets(np.asarray(targets, dtype=np.float64), self._home_keys))
         # Straight after a reset the IK starts from the instance's home pose and a clear collision memory, so
         # its outcome depends on the targets alone and is replayed from the cache when they recur.
         fresh = not self._settled
@@ -161,7 +153,7 @@ class Simulator:
             place_chair(scene.model, data, *chair_pose(scene.body, self.pose.joints[0], scene.body.radii,
                                                        self._yaw + np.pi))
         self._q = q0.copy()
-        data.qpos[scene.robot_qadr] = self._to_physics(q0)
+        data.qpos[scene.robot_qadr] = stage.to_physics(q0)
         data.mocap_pos[scene.anchor_mocap] = q0[:3]
         data.mocap_quat[scene.anchor_mocap] = q0[3:7]
         data.ctrl[scene.act_ids] = scene.ctrl_for(data.qpos)
@@ -182,26 +174,6 @@ class Simulator:
         if self.carry is not None and self.carry.release_frame == 0:
             self._release(0)
         self.last_targets = self.frame_R.to_robot(key_frames_at(stage.ik_scene, q0, stage.kinematics))
-
-    def _to_physics(self, q_ik: np.ndarray) -> np.ndarray:
-        """Robot coordinates of the physics scene (..., nq_r) from IK ones (..., nq_ik); frozen joints at home."""
-        stage = self._stage
-        assert stage is not None
-        q_ik = np.asarray(q_ik)
-        out = np.broadcast_to(stage.scene.home_qpos, (*q_ik.shape[:-1], len(stage.scene.home_qpos))).copy()
-        out[..., stage.ik_map] = q_ik
-        return out
-
-    def _fill_targets(self, targets: np.ndarray) -> np.ndarray:
-        if targets.shape != (5, 3):
-            raise SimulationError(f"targets: expected shape (5, 3) (robot frame, metres), found {targets.shape}")
-        out = targets.copy()
-        home = self._home_keys
-        if not np.isfinite(out[0]).all():
-            out[0] = home[0]
-        bad = ~np.isfinite(out).all(axis=1)
-        out[bad] = out[0] + (home[bad] - home[0])
-        return out
 
     # -- object -----------------------------------------------------------------------
     def _place_object(self, s: float, moving: bool) -> None:
@@ -241,59 +213,15 @@ class Simulator:
         self._require()
         t = self.frame + 1 if frame is None else frame
         t = min(max(t, 0), self.n_frames - 1)
-        world_keys = np.asarray(keys, dtype=np.float64) + self.offset
-        if self._completion is None:
-            return self.scaler(world_keys, self.pose.joints[t], self.object_anchors(t))
-        cc = self._completion.config
-        fps = self.interaction.fps  # type: ignore[union-attr]
-        B = self.scene.n_bones
-        obj, moving = None, False
-        if self.carry is not None:
-            moving = self._released or t >= self.carry.release_frame
-            obj = object_in_flight(self.data, self.scene, (t - self.frame) / fps) if moving else self.carry.track[t]
-        anchors = self._anchors[self.interaction.layout.name]  # type: ignore[union-attr]
-        hands = self.pose.pos[t, B:B + 2]
-        # Of the person's hands, the model's intent is taken to be for the one held out farther.
-        offered = offered_hand(self.interaction.key_joints()[t, 0])  # type: ignore[union-attr]
-        if contact_inside_next and cc.approach and not self._completion.weight.any():
-            self._approach(anchors, world_keys, hands, obj, subevent, t, offered)
-        out = self.scaler(world_keys, self.pose.joints[t], self.object_anchors(t))
-        world = self.frame_R.to_world(out)
-        x = anchors.gather(self.data, world[1:3], self._stage.ik.frame_positions()[1:3],  # type: ignore[union-attr]
-                          hands, obj, self.measurements.arm, subevent, intent=contact, offered=offered,
-                          free=moving, inside=contact_inside)
-        world[1:3] = self._completion(x, t, 1.0 / fps)
-        self._completed_frame = t
-        return self.frame_R.to_robot(world)
-
-    def _approach(self, anchors: ContactAnchors, keys: np.ndarray, hands: np.ndarray, obj: np.ndarray | None,
-                  subevent: str | None, t: int, offered: int) -> None:
-        """Move the robot in toward the contact the model means to make (world-frame ``keys`` of agent 1, the
-        person's ``hands`` (2, 3) and the object ``obj`` at frame ``t``): of the pairs the task wants, the
-        model's wrist and the anchor nearest each other, the person's ``offered`` hand (the one held out farther
-        from their body) the only one of theirs (:meth:`KeyJointScaler.approach`)."""
-        centre, allowed = anchors.wanted(self.data, hands, obj, subevent, offered)
-        allowed[:, 2:] = False  # a person's hand, not an object: a ball in flight is met where the model meets it
-        cc = self._completion.config  # type: ignore[union-attr]
-        d = np.linalg.norm(keys[1:3, None, :] - centre[None], axis=-1)
-        d = np.where(allowed & np.isfinite(d), d, np.inf)
-        if not np.isfinite(d).any():
-            return
-        side, a = np.unravel_index(int(np.argmin(d)), d.shape)
-        shoulders = self.data.xpos[self.scene.limb_body_ids[:2]]
-        if np.linalg.norm(centre[a] - shoulders, axis=1).min() <= cc.reach * self.measurements.arm + cc.reach_band:
-            return  # within reach of a hand already: where the model puts the robot stands
-        self.scaler.approach(centre[a], np.array([side]), keys, self.pose.joints[t])
+        return self._targets(keys, t, self.pose, self.frame, self.data, self._released, subevent, contact,
+                             contact_inside, contact_inside_next)
 
     def object_anchors(self, frame: int) -> np.ndarray | None:
         """(K, 3) world frame: the recorded object at ``frame`` and its path over the next
         ``ScalingConfig.object_lookahead`` s (:func:`~socialaff_sim.retarget.scaling.object_anchors`);
         ``None`` without an object track. These are the object anchors the scaler reacts to."""
         self._require()
-        if self._obj_track is None:
-            return None
-        fps = self.interaction.fps  # type: ignore[union-attr]
-        return object_anchors(self._obj_track, frame, fps, self.config.scaling.object_lookahead)
+        return self._targets.object_anchors(frame)
 
     def _require(self) -> None:
         if self._stage is None or self.interaction is None:
@@ -326,7 +254,7 @@ class Simulator:
         fps = self.interaction.fps  # type: ignore[union-attr]
         t0, t1 = self.frame, self.frame + 1
         k, n = self.substep, self.n_sub
-        tg = self._fill_targets(np.asarray(targets, dtype=np.float64))
+        tg = fill_targets(np.asarray(targets, dtype=np.float64), self._home_keys)
         world = self.frame_R.to_world(tg)
         if self._footlock is not None:
             world[3:5] = self._footlock.apply(world[3:5])
@@ -338,8 +266,11 @@ class Simulator:
         planted = (False, False) if self._footlock is None else (self._footlock.planted[0] is not None,
                                                                  self._footlock.planted[1] is not None)
         com_target = None
-        if stage.stance is not None:
-            com_target = self._stance(stage, planted, world)
+        if stage.stance is not None:  # the standing robot's frame (:mod:`~.stance`)
+            centre = ik.balance.box_centre(key_frames(stage.scene, stage.data)[3:5], self._yaw)
+            frames = stage.stepper.support.frames
+            world[0], com_target = stage.stance.frame(stage.data, world[0], planted[0] and planted[1], centre,
+                                                      frames[-1].tilt_deg if frames else 0.0)
         res = ik.solve(world, self._yaw, dt=1.0 / fps if k == 0 else (n - k) / (n * fps), care=reachable, planted=planted,
                        com_target=com_target, iterations=iterations,
                        com_cost=None if com_target is None else stage.stance.config.com_cost)  # type: ignore[union-attr]
@@ -348,7 +279,7 @@ class Simulator:
         self.ik_errors = res.errors
         """(5,) m: distance of each key frame from its target after the latest IK solve."""
         if self._in_frame:
-            stage.stepper.replan(self._to_physics(res.qpos), feet=feet)
+            stage.stepper.replan(stage.to_physics(res.qpos), feet=feet)
             self._solved = (tg, res, reachable, self._solved[3] + ik_seconds, subevent)
             return
 
@@ -365,7 +296,7 @@ class Simulator:
             return True
 
         stage.stepper.plan(
-            n, fps, self._to_physics(self._q), self._to_physics(res.qpos),
+            n, fps, stage.to_physics(self._q), stage.to_physics(res.qpos),
             (self.pose.pos[t0], self.pose.pos[t1]), (self.pose.quat[t0], self.pose.quat[t1]),
             grip=self.config.grip, carry=carry if plan is not None and not self._released else None, feet=feet,
         )
@@ -405,25 +336,10 @@ class Simulator:
             subgoals_now={r.name: r.current for r in scorer.subgoals},
             subgoal_gaps={r.name: r.gap for r in scorer.subgoals},
             support=stage.stepper.support.frames[-1] if stage.stepper.support.frames else None,
-            completion=(self._completion.weight.copy() if self._completion is not None and self._completed_frame == t1
-                        else None),
+            completion=self._targets.weight_at(t1),
         )
         self.results.append(result)
         return result
-
-    def _stance(self, stage: Stage, planted: tuple[bool, bool], world: np.ndarray) -> np.ndarray | None:
-        """The standing robot's frame (:mod:`~.stance`): steady the base target ``world[0]`` (in place), let
-        go of or catch the robot, and return the IK's centre-of-mass target ((2,) world, m) while released."""
-        stance, data, support = stage.stance, stage.data, stage.stepper.support
-        assert stance is not None
-        standing = planted[0] and planted[1]
-        world[0] = stance.steady_base(world[0], standing)
-        centre = stage.ik.balance.box_centre(key_frames(stage.scene, data)[3:5], self._yaw)
-        com = stance.measured_com(data)
-        tilt = support.frames[-1].tilt_deg if support.frames else 0.0
-        released = stance.decide(standing, tilt, float(np.linalg.norm(com[:2] - centre)))
-        stance.apply(data)
-        return stance.com_target(com, centre) if released else None
 
     # -- observations -----------------------------------------------------------------
     @property

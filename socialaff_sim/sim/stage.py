@@ -56,6 +56,13 @@ class Stage:
     def __post_init__(self) -> None:
         self.kinematics = mujoco.MjData(self.ik_scene.model)
 
+    def to_physics(self, q_ik: np.ndarray) -> np.ndarray:
+        """Robot coordinates of the physics scene (..., nq_r) from IK ones (..., nq_ik); frozen joints at home."""
+        q_ik = np.asarray(q_ik)
+        out = np.broadcast_to(self.scene.home_qpos, (*q_ik.shape[:-1], len(self.scene.home_qpos))).copy()
+        out[..., self.ik_map] = q_ik
+        return out
+
 
 def compile_scenes(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None, *, timestep: float,
                    servo_bandwidth: float | None, hand_force: float | None,

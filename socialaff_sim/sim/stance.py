@@ -125,6 +125,18 @@ class StanceControl:
         """(3,) the robot's centre of mass in ``data`` (world, m; as of its last kinematics pass)."""
         return np.array(data.subtree_com[self.scene.root_body])
 
+    def frame(self, data: mujoco.MjData, base: np.ndarray, standing: bool, centre: np.ndarray,
+              tilt_deg: float) -> tuple[np.ndarray, np.ndarray | None]:
+        """One frame of the standing robot: the base target (:meth:`steady_base`), the harness let go of or
+        caught (:meth:`decide`, :meth:`apply` to ``data``), and the IK's centre-of-mass target ((2,) world, m)
+        while released, else ``None``; ``centre`` (2,) the support rectangle's middle (world, m), ``tilt_deg``
+        the torso's largest tilt in the last frame."""
+        base = self.steady_base(base, standing)
+        com = self.measured_com(data)
+        released = self.decide(standing, tilt_deg, float(np.linalg.norm(com[:2] - centre)))
+        self.apply(data)
+        return base, (self.com_target(com, centre) if released else None)
+
     def com_target(self, com: np.ndarray, centre: np.ndarray) -> np.ndarray:
         """(2,) the IK's horizontal centre-of-mass target (world, m): the support rectangle's middle
         ``centre`` (2,) moved against the measured centre of mass ``com`` (2+,)'s offset from it."""
