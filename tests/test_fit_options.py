@@ -43,8 +43,9 @@ def _trace(inst: Interaction, rng: np.random.Generator, S: int = 3) -> Trace:
                  skeleton=inst.filled_joints()[:, 1] + rng.normal(0, 0.02, size=(T, inst.joints.shape[2], 3)))
 
 
-def test_row_stride_config_is_checked_and_off_by_default() -> None:
-    assert SwitchingConfig().row_stride == 1
+def test_row_stride_config_is_checked_and_two_by_default() -> None:
+    # 2 since session 22 (its development-split rule held, docs/design.md §8); 1 keeps every frame's row.
+    assert SwitchingConfig().row_stride == 2
     for bad in (0, -2, 1.5, True):
         with pytest.raises(ConfigError, match="row_stride"):
             SwitchingConfig(row_stride=bad)  # type: ignore[arg-type]
@@ -71,7 +72,7 @@ def test_switching_regression_with_a_stride_fits_on_every_kth_row(rng: np.random
     insts = [_instance(rng, k, gaps=False, obj=False) for k in range(6)]
     traces = [_trace(i, rng) for i in insts]
     small = dict(families=SwitchingConfig().families[:1], motion=(("agent0",), ("agent0", "gap")), penalties=(0.1, 10.0))
-    one = SwitchingRegression(SwitchingConfig(**small)).fit(  # type: ignore[arg-type]
+    one = SwitchingRegression(SwitchingConfig(**small, row_stride=1)).fit(  # type: ignore[arg-type]
         insts, traces, n_subevents=3, rng=np.random.default_rng(0))
     two = SwitchingRegression(SwitchingConfig(**small, row_stride=2)).fit(  # type: ignore[arg-type]
         insts, traces, n_subevents=3, rng=np.random.default_rng(0))

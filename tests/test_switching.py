@@ -341,7 +341,8 @@ def test_clip_features_bounds_each_column_by_the_training_rows(rng: np.random.Ge
     insts, traces = _toy(rng, "switch", 16)
     families = tuple(f for f in GATED_FAMILIES if f[0] != "plan")
     assert SwitchingConfig().clip_features and SwitchingConfig().clip_margin == 1.0  # the defaults since their rule held
-    config = SwitchingConfig(motion=(("agent0",),), families=families, clip_features=False, clip_margin=0.0)
+    config = SwitchingConfig(motion=(("agent0",),), families=families, clip_features=False, clip_margin=0.0,
+                            row_stride=1)  # every frame: the rows below
     free = SwitchingRegression(config).fit(insts, traces, n_subevents=2, rng=np.random.default_rng(1))
     clipped = SwitchingRegression(dataclasses.replace(config, clip_features=True)).fit(
         insts, traces, n_subevents=2, rng=np.random.default_rng(1))

@@ -127,13 +127,14 @@ class SwitchingConfig:
     passes; 0: none, the default since its development-split rule held); None: the method's own, as for the model
     fitted on all instances. Fewer passes make the fit cheaper and change the cross-fitted plans (issue 24;
     docs/design.md §8, "Cheaper cross-fitted models")."""
-    row_stride: int = 1
+    row_stride: int = 2
     """k [frames]: The training rows are frames T0, T0 + k, T0 + 2k, … of each training instance (each instance's
-    rows still weigh one in all). 1 (default): every frame ≥ T0. The synthesizer still steps every frame (its
+    rows still weigh one in all). 2: the default since its development-split rule held (session 22); 1: every
+    frame ≥ T0, as before. The synthesizer still steps every frame (its
     state is sequential) and the interaction primitive's stream still reads every frame; what is skipped on the
     other frames is the primitive's prediction, the body fits of the plan and of the primitive, and the rows of
-    the inner CV and the refit (issue 24: a cheaper fit; a model change, docs/design.md §8, "Training rows every
-    k-th frame"). Prediction is unchanged: every frame."""
+    the inner CV and the refit (issue 24: a cheaper fit; a model change, docs/design.md §8, "Two cheaper-fit
+    options for the handovers"). Prediction is unchanged: every frame."""
     clip_features: bool = True
     """[—]: At prediction, clip each scaled column to the range it had in the training rows (widened by
     ``clip_margin``; the default since its development-split rule held), so that a
