@@ -29,7 +29,8 @@ traces are cached under their own name (suffix ``_fpN``).
 hard-EM rounds (``LearningConfig.init_type_screen_rounds``; the cross-fitted ones run no restructuring by default); the
 traces are cached under their own name (suffix ``_srN``).
 ``--row-stride K``: every variant's regression reads the training rows of frames T0, T0 + K, … only
-(``SwitchingConfig.row_stride``) and the interaction primitive's training traces are predicted at those frames only;
+(``SwitchingConfig.row_stride``; default: the library's, 2 since session 22; the runs of docs/design.md §8 before it
+passed 1 implicitly) and the interaction primitive's training traces are predicted at those frames only;
 the synthesizer's traces are the same as without it (the option changes neither Algorithm 1 nor the synthesizer nor
 the random stream: only the rows read), so they come from the same cache; the validation rows keep every frame.
 ``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
@@ -244,9 +245,10 @@ def main() -> None:
     ap.add_argument("--type-screen-rounds", type=int, default=None,
                     help="hard-EM rounds of each restructuring candidate before the ranking, model fitted on all training "
                          "instances (LearningConfig.init_type_screen_rounds); default: the preset's; traces cached apart (suffix _srN)")
-    ap.add_argument("--row-stride", type=int, default=1,
-                    help="the regressions' training rows every K-th frame from T0 (SwitchingConfig.row_stride); the "
-                         "synthesizer's traces are unchanged (the same cache), the primitive's predicted at those frames")
+    ap.add_argument("--row-stride", type=int, default=SwitchingConfig().row_stride,
+                    help="the regressions' training rows every K-th frame from T0 (SwitchingConfig.row_stride, default "
+                         "%(default)s: the library's); the synthesizer's traces are unchanged (the same cache), the "
+                         "primitive's predicted at those frames")
     args = ap.parse_args()
     if args.type_screen_rounds is not None and args.type_screen_rounds < 0:
         raise SystemExit(f"--type-screen-rounds: expected an integer >= 0, found {args.type_screen_rounds}")

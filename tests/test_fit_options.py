@@ -16,7 +16,7 @@ from socialaff_sim.errors import ConfigError, ModelError
 from socialaff_sim.inference.body_fit import BodyFitter
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive
 from socialaff_sim.inference import methods as methods_module
-from socialaff_sim.inference.methods import AffordanceMethod, primitive_trace, trace
+from socialaff_sim.inference.methods import AffordanceMethod, primitive_trace
 from socialaff_sim.inference.primitive_stream import stream_key_joints
 from socialaff_sim.inference.reaction_features import FeatureConfig
 from socialaff_sim.inference.switching import SwitchingConfig, SwitchingRegression
@@ -117,7 +117,6 @@ def test_trace_skeletons_with_a_stride_only_at_those_frames(rng: np.random.Gener
     np.testing.assert_array_equal(sub.primitive[at], full.primitive[at])
     off = np.setdiff1d(np.arange(T0, insts[0].n_frames), at)
     assert np.isnan(sub.primitive_skeleton[off]).all() and np.isfinite(full.primitive_skeleton[off]).all()
-    assert trace.__kwdefaults__ == {"stride": 1}
 
 
 def test_screen_rounds_config_is_checked_and_one_by_default() -> None:

@@ -133,8 +133,8 @@ class SwitchingConfig:
     frame ≥ T0, as before. The synthesizer still steps every frame (its
     state is sequential) and the interaction primitive's stream still reads every frame; what is skipped on the
     other frames is the primitive's prediction, the body fits of the plan and of the primitive, and the rows of
-    the inner CV and the refit (issue 24: a cheaper fit; a model change, docs/design.md §8, "Training rows every
-    k-th frame"). Prediction is unchanged: every frame."""
+    the inner CV and the refit (issue 24: a cheaper fit; a model change, docs/design.md §8, "Two cheaper-fit
+    options for the handovers"). Prediction is unchanged: every frame."""
     clip_features: bool = True
     """[—]: At prediction, clip each scaled column to the range it had in the training rows (widened by
     ``clip_margin``; the default since its development-split rule held), so that a

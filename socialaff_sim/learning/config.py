@@ -62,8 +62,8 @@ class LearningConfig(DictConfig):
     """[—]: Of those rounds, how many every candidate of a pass gets before the candidates are ranked by log P* (the
     three best then get the rest, ``init_type_rounds`` minus these). 1 (default): one. 0: the candidates are ranked
     by the log P* of their merge-and-split parses as they are, and only the three best are refined (issue 24: a
-    cheaper fit; a model change, docs/design.md §8, "Screening the restructuring's candidates without a hard-EM
-    round")."""
+    cheaper fit; a model change, docs/design.md §8, "Two cheaper-fit options for the handovers": its rule
+    failed on the synthetic set)."""
     init_dirichlet: float = 2.0
     """[—]: Concentration of the Dirichlet that draws the fractions of the extra starts."""
     p_merge: float = 0.4
