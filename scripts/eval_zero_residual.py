@@ -59,7 +59,7 @@ def main() -> None:
     else:
         env = make_env(s, held_out, models)
         episodes = [(i.instance_id, 10_000 + s.seed * 1_000 + k) for k, i in enumerate(held_out)]
-    rows = run_episodes(env, episodes, zero_policy)
+    rows = run_episodes(env, episodes, zero_policy(env))
     per_label = {}
     for lbl in s.labels:
         mine = [r for r in rows if r["interaction"] == lbl]
