@@ -18,14 +18,16 @@ The parts are timed by wrapping those functions for the run (the library is not 
 ``ProMPConfig.training_stream`` (the default since 2026-11-26; ``--batch-rows`` turns it off); ``--iterations N``
 runs every Algorithm 1 fit with N outer Metropolis–Hastings iterations (a model change); ``--cross-fit-type-passes N``
 sets ``SwitchingConfig.cross_fit_type_passes`` (the cross-fitted models' restructuring passes; a model change);
-``--type-passes N`` sets ``LearningConfig.init_type_passes`` (the model fitted on all instances; a model change); ``--primitive`` times
+``--type-passes N`` sets ``LearningConfig.init_type_passes`` (the model fitted on all instances; a model change);
+``--type-screen-rounds N`` sets ``LearningConfig.init_type_screen_rounds`` (a model change); ``--row-stride K`` sets
+``SwitchingConfig.row_stride`` (the training rows every K-th frame; a model change); ``--primitive`` times
 the interaction primitive's causal predictions alone (:func:`primitive_only`; with ``--stream`` also the stream's). A fingerprint of
 the fitted method (the model's learned arrays, the switching regression's members and scales) is printed so that
 two code trees can be compared for bitwise-equal fits. Usage::
 
     OMP_NUM_THREADS=1 nice -n 10 python scripts/bench_fit.py [--datasets synthetic sbu handover nuisi]
         [--classes NAME ...] [--fold 0] [--method full] [--seed 0] [--stream | --batch-rows] [--iterations N]
-        [--cross-fit-type-passes N] [--type-passes N] [--primitive] [--data-root ../shared/data]
+        [--cross-fit-type-passes N] [--type-passes N] [--type-screen-rounds N] [--row-stride K] [--primitive] [--data-root ../shared/data]
         [--json PATH]
 
 Without ``--classes`` every class of each dataset is fitted (long on the handovers: one class of 112 training
@@ -173,6 +175,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--type-passes", type=int, default=None,
                     help="LearningConfig.init_type_passes of the model fitted on all instances (and of the cross-fitted "
                          "ones unless SwitchingConfig.cross_fit_type_passes sets theirs; a model change)")
+    ap.add_argument("--type-screen-rounds", type=int, default=None,
+                    help="LearningConfig.init_type_screen_rounds (a model change; default: the preset's)")
+    ap.add_argument("--row-stride", type=int, default=None,
+                    help="SwitchingConfig.row_stride: the switching regression's training rows every K-th frame (a model change)")
     ap.add_argument("--primitive", action="store_true",
                     help="time only the interaction primitive's causal predictions (see primitive_only)")
     ap.add_argument("--data-root", type=Path, default=DATA)
@@ -201,6 +207,11 @@ def main(argv: list[str] | None = None) -> int:
                     reaction, primitive=dataclasses.replace(reaction.primitive, training_stream=not args.batch_rows))
             if args.cross_fit_type_passes is not None:
                 method.reaction = dataclasses.replace(method.reaction, cross_fit_type_passes=args.cross_fit_type_passes)
+            if args.row_stride is not None:
+                method.reaction = dataclasses.replace(method.reaction, row_stride=args.row_stride)
+            if args.type_screen_rounds is not None:
+                method.learning = dataclasses.replace(method.learning or LearningConfig(),
+                                                      init_type_screen_rounds=args.type_screen_rounds)
             if args.iterations is not None:
                 method.learning = dataclasses.replace(method.learning or LearningConfig(), iterations=args.iterations)
             if args.type_passes is not None:
@@ -224,7 +235,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         settings = {"method": args.method, "seed": args.seed, "fold": args.fold, "stream": args.stream,
                     "iterations": args.iterations, "cross_fit_type_passes": args.cross_fit_type_passes,
-                    "type_passes": args.type_passes,
+                    "type_passes": args.type_passes, "type_screen_rounds": args.type_screen_rounds,
+                    "row_stride": args.row_stride,
                     "clock": "CPU (time.process_time)", "omp_num_threads": os.environ.get("OMP_NUM_THREADS")}
         atomic_write_text(args.json, json.dumps({"settings": settings, "rows": rows}, indent=2))
     return 0

@@ -20,9 +20,18 @@ Algorithm 1's MH chain instead of the preset's (traces cached in the subfolder `
 are cached under their own name (suffix ``_tpN``).
 ``--overrun-delta-t``: the synthesizer's traces (training and validation) with ``SynthesisConfig.overrun_delta_t``
 (cached apart, suffix ``_od``).
+``--ordered``: the synthesizer's traces (training and validation) with ``SynthesisConfig.ordered`` (cached apart,
+suffix ``_or``).
 ``--type-passes N``: the model fitted on all training instances runs N type-level restructuring passes
 (``LearningConfig.init_type_passes``; the cross-fitted models too unless ``--cross-fit-type-passes`` is given); the
 traces are cached under their own name (suffix ``_fpN``).
+``--type-screen-rounds N``: the model fitted on all training instances screens its restructuring candidates after N
+hard-EM rounds (``LearningConfig.init_type_screen_rounds``; the cross-fitted ones run no restructuring by default); the
+traces are cached under their own name (suffix ``_srN``).
+``--row-stride K``: every variant's regression reads the training rows of frames T0, T0 + K, … only
+(``SwitchingConfig.row_stride``) and the interaction primitive's training traces are predicted at those frames only;
+the synthesizer's traces are the same as without it (the option changes neither Algorithm 1 nor the synthesizer nor
+the random stream: only the rows read), so they come from the same cache; the validation rows keep every frame.
 ``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
 ``--no-gated``: cheaper traces, no belief-gated variants. ``--clip-features on|off``, ``--clip-margin M``: every variant's
 regression with ``SwitchingConfig.clip_features`` / ``clip_margin`` (default: the library's; the traces and their
@@ -39,7 +48,7 @@ Usage::
 
     python scripts/dev_switching.py --data nuisi:../shared/data/nuisi_v1 --split block [--rotation 0] [--labels a,b]
         [--cache DIR] [--variants default,primitive] [--contiguous] [--no-gated] [--v2] [--iterations N] [--training-stream]
-        [--cross-fit-type-passes N] [--type-passes N]
+        [--cross-fit-type-passes N] [--type-passes N] [--type-screen-rounds N] [--row-stride K]
 
 Prints one line per class and the averages; the library never imports this script.
 """
@@ -225,11 +234,24 @@ def main() -> None:
     ap.add_argument("--overrun-delta-t", action="store_true",
                     help="the synthesizer's traces with SynthesisConfig.overrun_delta_t (re-plan every ΔT frames once the "
                          "running sub-event has overrun its predicted end); traces cached apart (suffix _od)")
+    ap.add_argument("--ordered", action="store_true",
+                    help="the synthesizer's traces with SynthesisConfig.ordered (the plan follows the sub-events' learned "
+                         "order); traces cached apart (suffix _or)")
     ap.add_argument("--type-passes", type=int, default=None,
                     help="type-level restructuring passes of the model fitted on all training instances "
                          "(LearningConfig.init_type_passes; also the cross-fitted models' unless --cross-fit-type-passes); "
                          "default: the preset's; traces cached apart (suffix _fpN)")
+    ap.add_argument("--type-screen-rounds", type=int, default=None,
+                    help="hard-EM rounds of each restructuring candidate before the ranking, model fitted on all training "
+                         "instances (LearningConfig.init_type_screen_rounds); default: the preset's; traces cached apart (suffix _srN)")
+    ap.add_argument("--row-stride", type=int, default=1,
+                    help="the regressions' training rows every K-th frame from T0 (SwitchingConfig.row_stride); the "
+                         "synthesizer's traces are unchanged (the same cache), the primitive's predicted at those frames")
     args = ap.parse_args()
+    if args.type_screen_rounds is not None and args.type_screen_rounds < 0:
+        raise SystemExit(f"--type-screen-rounds: expected an integer >= 0, found {args.type_screen_rounds}")
+    if args.row_stride < 1:
+        raise SystemExit(f"--row-stride: expected an integer >= 1, found {args.row_stride}")
     if args.type_passes is not None and args.type_passes < 0:
         raise SystemExit(f"--type-passes: expected an integer >= 0, found {args.type_passes}")
     if args.cross_fit_type_passes is not None and args.cross_fit_type_passes < 0:
@@ -253,7 +275,7 @@ def main() -> None:
         val = [insts[i] for i in val_idx if insts[i].n_frames > T0 + 1]
         rng = np.random.default_rng(args.seed)
         t0 = time.perf_counter()
-        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}{f'_tp{passes}' if passes is not None else ''}{f'_fp{args.type_passes}' if args.type_passes is not None else ''}{'_od' if args.overrun_delta_t else ''}.pkl" if args.cache else None
+        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}{f'_tp{passes}' if passes is not None else ''}{f'_fp{args.type_passes}' if args.type_passes is not None else ''}{'_od' if args.overrun_delta_t else ''}{f'_sr{args.type_screen_rounds}' if args.type_screen_rounds is not None else ''}{'_or' if args.ordered else ''}.pkl" if args.cache else None
         model_s = float("nan")  # the model fit alone (Algorithm 1 and the body clusters; nan: read from the cache)
         if cache is not None and cache.exists():
             S, tr_traces, va_traces = pickle.loads(cache.read_bytes())
@@ -261,8 +283,12 @@ def main() -> None:
             method = _with_iterations(AffordanceMethod.from_preset("full", "default", reaction=None), args.iterations)
             if args.overrun_delta_t:
                 method.synthesis = dataclasses.replace(method.synthesis, overrun_delta_t=True)
+            if args.ordered:
+                method.synthesis = dataclasses.replace(method.synthesis, ordered=True)
             if args.type_passes is not None:  # the model fitted on all instances (issue 24: a cheaper fit)
                 method.learning = dataclasses.replace(method.learning, init_type_passes=args.type_passes)
+            if args.type_screen_rounds is not None:  # the restructuring's screening (issue 24: a cheaper fit)
+                method.learning = dataclasses.replace(method.learning, init_type_screen_rounds=args.type_screen_rounds)
             t_model = time.perf_counter()
             method.fit(train, rng=rng)
             model_s = time.perf_counter() - t_model
@@ -285,7 +311,7 @@ def main() -> None:
             rest = [inst for i, inst in enumerate(train) if i not in set(part)] if args.cross_fit > 1 else train
             prim = InteractionPrimitive(ProMPConfig(training_stream=args.training_stream)).fit(rest)
             for i in part:
-                tr_traces[i] = primitive_trace(prim, body, tr_traces[i], train[i], T0)
+                tr_traces[i] = primitive_trace(prim, body, tr_traces[i], train[i], T0, stride=args.row_stride)
         prim_all = InteractionPrimitive().fit(train)
         va_traces = [primitive_trace(prim_all, body, tr, i, T0) for i, tr in zip(val, va_traces, strict=True)]
         prim_s = time.perf_counter() - t1
@@ -302,7 +328,8 @@ def main() -> None:
         for name in names:
             families, steps = VARIANTS[name]
             reg = SwitchingRegression(SwitchingConfig(families=families, blend_steps=steps, contiguous=args.contiguous,
-                                                      clip_features=args.clip_features == "on", clip_margin=args.clip_margin)).fit(
+                                                      clip_features=args.clip_features == "on", clip_margin=args.clip_margin,
+                                                      row_stride=args.row_stride)).fit(
                 train, tr_traces, n_subevents=S, rng=np.random.default_rng(args.seed))
             row["sw:" + name] = _keep(per, "sw:" + name, [_err(reg.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
             chosen[name] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg.members_) or "hold"

@@ -203,3 +203,19 @@ def test_independent_limbs_solved_as_one_stack_equal_limb_by_limb(fitter: BodyFi
     chained._limb_chains = lambda layout: [fitter._chains[0], (k, mid, end, end_sub[1], end_sub[2:], end_sub[1:2])]
     skeletons = fitter.poses_ + rng.normal(0, 0.01, fitter.poses_.shape)
     assert not chained.fit(skeletons, fitter.layout_, rng=rng)._independent
+
+
+def test_frames_with_every_target_fitted_in_place_equal_gathered_rows(fitter: BodyFitter, rng: np.random.Generator) -> None:
+    """fit_poses works on slices when every frame has every limb target (a stream's call), else on the rows whose
+    target is finite: the same skeletons bitwise; a frame with a missing wrist keeps that arm as in its cluster."""
+    for n in (1, 4):
+        targets = fitter.keys_[rng.integers(0, len(fitter.keys_), n)] + rng.normal(0, 0.2, (n, 5, 3))
+        targets[:, 1:] += targets[:, :1]
+        missing = np.concatenate([targets, targets[:1]])
+        missing[n, 1] = np.nan  # one more frame, its left wrist untracked: every chain's rows gathered
+        every, gathered = fitter.fit_poses(targets), fitter.fit_poses(missing)
+        assert np.array_equal(every, gathered[:n])
+        assert np.isfinite(gathered[n]).all()
+        cluster = fitter.poses_[fitter.select_clusters(missing[n:])[0]] + missing[n, 0]
+        k, root, mid, end, mid_sub, end_sub = next(c for c in fitter._chains if c[0] == 1)
+        np.testing.assert_array_equal(gathered[n, [mid, end]], cluster[[mid, end]])

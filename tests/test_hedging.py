@@ -153,3 +153,67 @@ def test_step_belief_is_the_forward_filter_of_the_track(shake8_model: SocialAffo
         fb.advance(track, st.t)
         np.testing.assert_allclose(st.belief, fb.belief(st.t), atol=1e-12)
     assert np.ptp([st.belief.max() for st in steps[1:]]) > 0.1  # the belief moves during the instance
+
+
+def test_order_ranks_are_mean_positions_in_the_parses() -> None:
+    from socialaff_sim.model.transitions import order_ranks
+
+    spans = [[(0, 5, 2), (5, 9, 0), (9, 12, 1)], [(4, 8, 2), (0, 4, 0), (8, 12, 1)], [(0, 6, 0), (6, 12, 1)]]
+    # time order: 2→0→1, 0→2→1 (rows given out of order), 0→1; type 3 never used
+    np.testing.assert_allclose(order_ranks(spans, 4), [(1 + 0 + 0) / 3, (2 + 2 + 1) / 3, (0 + 1) / 2, np.nan])
+
+
+def test_branch_plans_restricted_to_the_allowed_sub_events() -> None:
+    starts = np.array([0, 4, 8])
+    post = np.array([[0.05, 0.30, 0.02], [0.25, 0.05, 0.01], [0.20, 0.10, 0.02]])  # beliefs 0.5, 0.45, 0.05
+    assert branch_plans(starts, post, 2, np.ones(3, bool)) == branch_plans(starts, post, 2)
+    plans = branch_plans(starts, post, 2, np.array([False, True, True]))
+    # label 0 (the most probable) is excluded; renormalised, label 2 has 0.05 / 0.5 = 0.1 >= the floor
+    assert [s for _, s, _ in plans] == [1, 2]
+    np.testing.assert_allclose([w for w, _, _ in plans], [0.45 / 0.5, 0.05 / 0.5])
+    assert [a for _, _, a in plans] == [0, 0]
+    assert branch_plans(starts, post, 1, np.array([False, False, True])) == [(1.0, 2, 0)]
+    assert branch_plans(starts, np.zeros((3, 3)) + post * [1, 1, 0], 1, np.array([False, False, True])) == []
+
+
+def _planned(model: SocialAffordanceModel, inter, ordered: bool, horizon: float) -> list[int]:  # noqa: ANN001
+    """The planned sub-event of every synthesized frame (frames ≥ T0)."""
+    syn = OnlineSynthesizer(model, None, SynthesisConfig.reactive(ordered=ordered, belief_horizon=horizon))
+    syn.reset(inter, rng=np.random.default_rng(0))
+    steps = [syn.step() for _ in range(inter.n_frames)]
+    return [s.subevent for s in steps[syn.config.n_observed:]]
+
+
+def test_ordered_plan_never_returns_to_an_earlier_sub_event(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
+    """An instance held still for 100 frames after its end, with a belief horizon (10 s) longer than that: the
+    default plan follows the forward belief back to a sub-event it has passed; with ``ordered`` the plan keeps the
+    learned order (its rank never falls) and stays in the last sub-event; both agree until the first return."""
+    from socialaff_sim.model.transitions import order_ranks
+
+    ranks = order_ranks(shake8_model.parses_, shake8_model.n_subevents_)
+    inter = shake8[6].extend_held(shake8[6].n_frames + 100)
+    free = _planned(shake8_model, inter, False, 10.0)
+    kept = _planned(shake8_model, inter, True, 10.0)
+    back = np.flatnonzero(np.diff(ranks[free]) < 0)
+    assert back.size  # the default plan goes back: the test has teeth
+    assert np.all(np.diff(ranks[kept]) >= 0)
+    assert free[: back[0] + 1] == kept[: back[0] + 1]
+    assert kept[-1] == int(np.nanargmax(ranks))  # the last sub-event runs on
+
+
+def test_ordered_plan_restarts_after_the_belief_horizon(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
+    """With the default 4-s horizon, the planned sub-event may fall in rank only once it began a horizon ago (a
+    stream can start the interaction again, as the forward belief forgets the labels used before its horizon)."""
+    from socialaff_sim.model.transitions import order_ranks
+
+    ranks = order_ranks(shake8_model.parses_, shake8_model.n_subevents_)
+    inter = shake8[6].extend_held(shake8[6].n_frames + 100)
+    kept = np.array(_planned(shake8_model, inter, True, 4.0))
+    horizon = int(round(4.0 * inter.fps))
+    falls = np.flatnonzero(np.diff(ranks[kept]) < 0) + 1
+    assert falls.size
+    for k in falls:  # the sub-event left began at least a horizon before
+        begun = k - 1
+        while begun > 0 and kept[begun - 1] == kept[k - 1]:
+            begun -= 1
+        assert k - begun >= horizon - SynthesisConfig().delta_t

@@ -140,12 +140,13 @@ def test_training_primitives_are_fitted_without_their_instance(monkeypatch: pyte
             seen.append(self.ids)
             return self
 
-    def fake_trace(model: FakeModel, body: object, inst: Interaction, config: object, rng: object) -> Trace:
+    def fake_trace(model: FakeModel, body: object, inst: Interaction, config: object, rng: object, *, stride: int = 1) -> Trace:
         T, own = inst.n_frames, float(inst.instance_id in model.ids)
         return Trace(belief=np.full((T, 2), own), phase=np.zeros(T), plan=np.full((T, 5, 3), own),
                      skeleton=np.full((T, 5, 3), own))
 
-    def fake_primitive_trace(prim: FakeModel, body: object, tr: Trace, inst: Interaction, n_observed: int) -> Trace:
+    def fake_primitive_trace(prim: FakeModel, body: object, tr: Trace, inst: Interaction, n_observed: int, *,
+                             stride: int = 1) -> Trace:
         own = float(inst.instance_id in prim.ids)
         return Trace(tr.belief, tr.phase, tr.plan, tr.skeleton, np.full_like(tr.plan, own), np.full_like(tr.plan, own))
 

@@ -283,7 +283,7 @@ def test_training_plans_are_cross_fitted(monkeypatch: pytest.MonkeyPatch, rng: n
             fitted.append(self.ids)
             return self
 
-    def fake_trace(model: FakeModel, body: object, inst: Interaction, config: object, rng: object) -> Trace:
+    def fake_trace(model: FakeModel, body: object, inst: Interaction, config: object, rng: object, *, stride: int = 1) -> Trace:
         T = inst.n_frames
         own = float(inst.instance_id in model.ids)  # 1: the model saw this instance
         return Trace(belief=np.full((T, 2), own), phase=np.zeros(T), plan=np.full((T, 5, 3), own),
@@ -315,7 +315,7 @@ def test_cross_fit_type_passes_reach_the_cross_fitted_models_only(monkeypatch: p
         def fit(self, insts: list[Interaction], *, rng: np.random.Generator) -> FakeModel:
             return self
 
-    def fake_trace(model: FakeModel, body: object, inst: Interaction, config: object, rng: object) -> Trace:
+    def fake_trace(model: FakeModel, body: object, inst: Interaction, config: object, rng: object, *, stride: int = 1) -> Trace:
         T = inst.n_frames
         return Trace(belief=np.zeros((T, 2)), phase=np.zeros(T), plan=np.zeros((T, 5, 3)), skeleton=np.zeros((T, 5, 3)))
 
@@ -341,7 +341,8 @@ def test_clip_features_bounds_each_column_by_the_training_rows(rng: np.random.Ge
     insts, traces = _toy(rng, "switch", 16)
     families = tuple(f for f in GATED_FAMILIES if f[0] != "plan")
     assert SwitchingConfig().clip_features and SwitchingConfig().clip_margin == 1.0  # the defaults since their rule held
-    config = SwitchingConfig(motion=(("agent0",),), families=families, clip_features=False, clip_margin=0.0)
+    config = SwitchingConfig(motion=(("agent0",),), families=families, clip_features=False, clip_margin=0.0,
+                            row_stride=1)  # every frame: the rows below
     free = SwitchingRegression(config).fit(insts, traces, n_subevents=2, rng=np.random.default_rng(1))
     clipped = SwitchingRegression(dataclasses.replace(config, clip_features=True)).fit(
         insts, traces, n_subevents=2, rng=np.random.default_rng(1))

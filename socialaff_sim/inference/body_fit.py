@@ -334,9 +334,12 @@ class BodyFitter:
         if getattr(self, "_independent", None) is None:  # a fitter saved before the flag existed
             self._independent = _independent(self._chains)
         groups = [self._chains] if self._independent else [[c] for c in self._chains]
+        finite = np.isfinite(tg).all(-1)  # (T, 5)
         for chains in groups:
-            rows = [np.flatnonzero(np.isfinite(tg[:, c[0]]).all(-1)) for c in chains]
-            if not sum(len(r) for r in rows):
+            # Every frame of every chain (a stream's usual call): slices, not gathers of the same rows.
+            every = bool(chains) and bool(finite[:, [c[0] for c in chains]].all())
+            rows = [slice(None) if every else np.flatnonzero(finite[:, c[0]]) for c in chains]
+            if not every and not sum(len(r) for r in rows):  # type: ignore[arg-type]
                 continue
             r0, m0, e0, t = (np.concatenate([poses[r, c[i]] if i < 4 else tg[r, c[0]] for c, r in zip(chains, rows, strict=True)])
                              for i in (1, 2, 3, 4))
@@ -344,13 +347,14 @@ class BodyFitter:
             rot_up = _rotation_between(_unit(m0 - r0)[0], _unit(m1 - r0)[0])
             lower_old = np.einsum("tij,tj->ti", rot_up, e0 - m0)
             rot_lo = _rotation_between(_unit(lower_old)[0], _unit(e1 - m1)[0]) @ rot_up
-            at = np.cumsum([0] + [len(r) for r in rows])
+            at = np.cumsum([0] + [len(tg) if every else len(r) for r in rows])  # type: ignore[arg-type]
             for (_, _, _, _, mid_sub, end_sub), r, a, b in zip(chains, rows, at[:-1], at[1:], strict=True):
-                p = poses[r]
+                p = poses if every else poses[r]  # in place when every row is the chain's (the same values)
                 if len(mid_sub):
                     p[:, mid_sub] = m1[a:b, None] + np.einsum("tij,tnj->tni", rot_up[a:b], p[:, mid_sub] - m0[a:b, None])
                 p[:, end_sub] = e1[a:b, None] + np.einsum("tij,tnj->tni", rot_lo[a:b], p[:, end_sub] - e0[a:b, None])
-                poses[r] = p
+                if not every:
+                    poses[r] = p
         for k, idx in enumerate(self.layout_.key_indices):  # key joints with no limb chain
             if k > 0 and idx is not None and k not in done:
                 t = tg[:, k]

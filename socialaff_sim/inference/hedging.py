@@ -17,11 +17,21 @@ BRANCH_FLOOR = 0.1
 """Least belief of a sub-event planned for besides the most probable one (fixed a priori)."""
 
 
-def branch_plans(starts: np.ndarray, posterior: np.ndarray, branches: int) -> list[tuple[float, int, int]]:
+def branch_plans(
+    starts: np.ndarray, posterior: np.ndarray, branches: int, allowed: np.ndarray | None = None
+) -> list[tuple[float, int, int]]:
     """(weight, sub-event, start frame) of the at most ``branches`` most probable sub-events of the joint
     posterior ``posterior`` (K, S) over the running interval's start ``starts`` (K,) and its label; each
     sub-event's start is its most probable one. The most probable sub-event is always planned, the others
-    when their belief is at least :data:`BRANCH_FLOOR`; the weights are their beliefs, renormalised."""
+    when their belief is at least :data:`BRANCH_FLOOR`; the weights are their beliefs, renormalised.
+    ``allowed`` (S,) bool: only those sub-events, the posterior restricted to them and renormalised (the
+    floor then applies to the restricted belief); an empty list when none of them has any mass."""
+    if allowed is not None:
+        posterior = np.where(np.asarray(allowed, bool)[None], posterior, 0.0)
+        mass = float(posterior.sum())
+        if not mass > 0:
+            return []
+        posterior = posterior / mass
     belief = posterior.sum(axis=0)
     order = np.argsort(-belief, kind="stable")[: max(int(branches), 1)]
     keep = [int(s) for k, s in enumerate(order) if k == 0 or belief[s] >= BRANCH_FLOOR]

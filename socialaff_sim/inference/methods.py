@@ -96,11 +96,14 @@ def synthesize(
 
 
 def trace(
-    model: SocialAffordanceModel, body: BodyFitter, interaction: Interaction, config: SynthesisConfig, rng: np.random.Generator
+    model: SocialAffordanceModel, body: BodyFitter, interaction: Interaction, config: SynthesisConfig, rng: np.random.Generator,
+    *, stride: int = 1,
 ) -> Trace:
     """The synthesizer's belief, phase and plan (key joints, and the skeleton ``body`` fits to them) at every frame
     of ``interaction``, run causally with ``config`` (what the switching regression learns from; :mod:`.switching`).
-    An instance no longer than T0 frames has nothing to synthesize: its trace is all NaN (the regression skips it)."""
+    An instance no longer than T0 frames has nothing to synthesize: its trace is all NaN (the regression skips it).
+    ``stride`` k > 1: the skeleton only at frames T0, T0 + k, … (NaN at the others; ``SwitchingConfig.row_stride``);
+    the synthesizer still steps every frame."""
     T = interaction.n_frames
     if T <= config.n_observed:
         return Trace(belief=np.full((T, model.n_subevents_), np.nan), phase=np.full(T, np.nan),
@@ -110,22 +113,26 @@ def trace(
     steps = [syn.step() for _ in range(interaction.n_frames)]
     plan = np.stack([st.key_joints for st in steps])
     skeleton = np.full((interaction.n_frames, interaction.joints.shape[2], 3), np.nan)
-    skeleton[config.n_observed:] = body.fit_poses(plan[config.n_observed:], instance_frame(interaction))
+    skeleton[config.n_observed::stride] = body.fit_poses(plan[config.n_observed::stride], instance_frame(interaction))
     return Trace(belief=np.stack([st.belief for st in steps]), phase=np.array([st.phase for st in steps]), plan=plan,
                  skeleton=skeleton)
 
 
-def primitive_trace(primitive: InteractionPrimitive, body: BodyFitter, trace_: Trace, interaction: Interaction, n_observed: int) -> Trace:
+def primitive_trace(
+    primitive: InteractionPrimitive, body: BodyFitter, trace_: Trace, interaction: Interaction, n_observed: int,
+    *, stride: int = 1,
+) -> Trace:
     """``trace_`` with the interaction primitive's causal key joints of every frame ≥ T0 = ``n_observed``
     (:meth:`~.interaction_primitive.InteractionPrimitive.causal_key_joints`, or with ``ProMPConfig.training_stream``
-    :func:`~.primitive_stream.stream_key_joints`) and the skeletons ``body`` fits to them."""
+    :func:`~.primitive_stream.stream_key_joints`) and the skeletons ``body`` fits to them. ``stride`` k > 1: the
+    skeletons (and the stream's key joints) only at frames T0, T0 + k, … (``SwitchingConfig.row_stride``)."""
     T = interaction.n_frames
     keys = np.full((T, 5, 3), np.nan)
     skeleton = np.full((T, interaction.joints.shape[2], 3), np.nan)
     if T > n_observed:
-        keys = (stream_key_joints(primitive, interaction, n_observed) if primitive.config.training_stream
+        keys = (stream_key_joints(primitive, interaction, n_observed, stride=stride) if primitive.config.training_stream
                 else primitive.causal_key_joints(interaction, n_observed))
-        skeleton[n_observed:] = body.fit_poses(keys[n_observed:], instance_frame(interaction))
+        skeleton[n_observed::stride] = body.fit_poses(keys[n_observed::stride], instance_frame(interaction))
     return dataclasses.replace(trace_, primitive=keys, primitive_skeleton=skeleton)
 
 
@@ -215,14 +222,16 @@ class AffordanceMethod:
         family reads them) from models fitted on the other parts of a ``reaction.cross_fit``-part split (out of
         sample), beliefs and phases from ``model_`` (module :mod:`.switching`)."""
         cfg = dataclasses.replace(self.synthesis, n_observed=reaction.n_observed)
+        k = reaction.row_stride  # the rows read only frames T0, T0 + k, …: nothing else is fitted to a plan
         parts = (inner_folds(inters, np.arange(len(inters)), reaction.cross_fit, rng, contiguous=reaction.contiguous)
                  if reaction.cross_fit > 1 else [])
         crossed = len(parts) >= 2 and all(len(inters) - len(p) >= 2 for p in parts)
         if not crossed or reaction.needs_belief:
-            own = [trace(self.model_, self.body_, inst, cfg, rng) for inst in inters]
+            own = [trace(self.model_, self.body_, inst, cfg, rng, stride=k) for inst in inters]
             if not crossed:
                 if reaction.needs_primitive:  # in sample, as the plans
-                    own = [primitive_trace(self.primitive_, self.body_, tr, inst, cfg.n_observed) for tr, inst in zip(own, inters, strict=True)]
+                    own = [primitive_trace(self.primitive_, self.body_, tr, inst, cfg.n_observed, stride=k)
+                           for tr, inst in zip(own, inters, strict=True)]
                 return own
         out: dict[int, Trace] = {}
         learning = self.learning
@@ -233,9 +242,9 @@ class AffordanceMethod:
             model = SocialAffordanceModel(self.model_config, learning).fit(rest, rng=rng)
             primitive = InteractionPrimitive(reaction.primitive).fit(rest) if reaction.needs_primitive else None
             for i in part:
-                out[i] = trace(model, self.body_, inters[i], cfg, rng)
+                out[i] = trace(model, self.body_, inters[i], cfg, rng, stride=k)
                 if primitive is not None:  # out of sample: fitted without instance i, as the plan
-                    out[i] = primitive_trace(primitive, self.body_, out[i], inters[i], cfg.n_observed)
+                    out[i] = primitive_trace(primitive, self.body_, out[i], inters[i], cfg.n_observed, stride=k)
         if reaction.needs_belief:  # the plans out of sample, the beliefs in the labels of model_
             return [dataclasses.replace(own[i], plan=out[i].plan, skeleton=out[i].skeleton, primitive=out[i].primitive,
                                         primitive_skeleton=out[i].primitive_skeleton) for i in range(len(inters))]

@@ -24,7 +24,10 @@ first frame (and possibly the canonical frame): the stream then rebuilds its sum
 Beyond the longest training duration T_max (the bounded rule, docs/design.md §8): the batch estimate would
 take the frames seen so far as the duration (phase t / (t − 1), every past frame's phase changing at each
 frame); the stream keeps T̂ = T_max, and every later frame is an observation at phase 1 (what
-:meth:`~.interaction_primitive.InteractionPrimitive.predict_key_joints` does with ``duration=T_max``).
+:meth:`~.interaction_primitive.InteractionPrimitive.predict_key_joints` does with ``duration=T_max``). The a-block
+then grows by w·φ(1)φ(1)ᵀ per observed DoF and frame, a fixed low-rank term: the stream factors it once every
+:data:`PHASE_ONE_REFACTOR` frames and solves the frames between with the Woodbury identity
+(:class:`~.low_rank_solve.LowRankUpdatedSolver`; equal in exact arithmetic, to rounding in floating point).
 """
 
 from __future__ import annotations
@@ -41,9 +44,15 @@ from ..errors import ModelError
 from ..model.frame import CanonicalFrame
 from .body_fit import instance_frame
 from .interaction_primitive import InteractionPrimitive, rbf_centres, rbf_rows
+from .low_rank_solve import LowRankUpdatedSolver
 from .protocol import observed_part
 
-__all__ = ["PrimitiveStream", "SHARED_SOLVERS", "stream_key_joints"]
+__all__ = ["PHASE_ONE_REFACTOR", "PrimitiveStream", "SHARED_SOLVERS", "stream_key_joints"]
+
+PHASE_ONE_REFACTOR = 256
+"""[frames]: past T_max, the a-block S + B_a is factored anew after this many frames (the frames between solve
+against the last factor with the Woodbury identity; the refactoring bounds how far the low-rank term grows from
+the factored matrix). A frame that refactors costs what a frame within T_max does."""
 
 SHARED_SOLVERS = 32
 """[—]: At most this many candidates' fixed conditioning parts (S, K and Λ_rr's factor, about 0.9 MB each on the
@@ -84,6 +93,12 @@ class PrimitiveStream:
         self._frames_seen = 0
         self._frame: CanonicalFrame | None = None
         self._solvers: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
+        # Past T_max (module docstring): the a-block's factor at the last refactoring, its candidate and the frames
+        # added since; U = I ⊗ φ(1), one column per agent-0 (and object) DoF.
+        self._phase_one: LowRankUpdatedSolver | None = None
+        self._phase_one_c = -1
+        self._phase_one_frames = 0
+        self._u_one = np.kron(np.eye(self._d0), self._rbf(np.ones(1)).reshape(-1, 1))  # (a, d0)
         self.duration: int | None = None
         """T̂ of the last call, frames."""
 
@@ -92,7 +107,8 @@ class PrimitiveStream:
     def state_size(self) -> int:
         """Floats the stream holds (running sums and cached factors): it does not grow with the frames seen."""
         sums = self._hth.size + self._hty.size + self._err.size + self._last_value.size if self._frames_seen else 0
-        return int(sums + sum(sum(a.size for a in s) for s in self._solvers.values()))
+        low_rank = self._phase_one.size if self._phase_one is not None else 0
+        return int(sums + low_rank + sum(sum(a.size for a in s) for s in self._solvers.values()))
 
     def _rbf(self, phase: np.ndarray) -> np.ndarray:
         """(G, N) :func:`~.interaction_primitive.rbf_basis` at phases (G,)."""
@@ -128,10 +144,18 @@ class PrimitiveStream:
             self._hty[sub] += hty
             if information:
                 w = seen[0, cols] * self._inv_var[cols]
-                hth = (p0[:, :, None] * p0[:, None, :])[:, None] * w[None, :, None, None]
+                outer = p0[:, :, None] * p0[:, None, :]  # (A, N, N)
+                if w.size and (w == w[0]).all():  # one weight for every DoF (the usual frame): the same products, broadcast
+                    hth = (outer * w[0])[:, None]
+                else:
+                    hth = outer[:, None] * w[None, :, None, None]
                 if sign != 1.0:
                     hth *= sign
                 self._hth[sub] += hth
+                if self._phase_one is not None:  # past T_max: the frame's phase is 1 (anchored at ≥ T_max frames)
+                    a_cols = cols < self._d0
+                    self._phase_one.weights[cols[a_cols]] += sign * w[a_cols]
+                    self._phase_one_frames += 1
         else:
             self._hty[sub] += sign * np.einsum("gcn,gd->cdn", phi, yz)
             if information:
@@ -174,6 +198,7 @@ class PrimitiveStream:
         self._first = y[0, : self._d0].copy()
         self._mu0 = self._rbf(np.zeros(1))[0] @ self._mean[: self._d0].T  # (d0,)
         self._solvers = {}
+        self._phase_one = None
         self._add(np.arange(view.n_frames), y)
         # Agent 0's key joints: the last tracked frame and its (canonical) value, for holding and gaps.
         valid = view.key_valid()[:, 0][:, keys]  # (T, k)
@@ -293,21 +318,33 @@ class PrimitiveStream:
         s_aa, k_ra, u, p_u = self._solver(c)
         d0, n = self._d0, self._n
         blocks = self._hth[c, :d0]
-        lam = self._add_blocks(s_aa.copy(), blocks)
         rhs_a = (self._hty[c, :d0] - np.einsum("dnm,dm->dn", blocks, self._mean[:d0])).ravel()
         rhs = rhs_a - p_u
-        # LAPACK's potrf/potrs called as scipy's cho_factor/cho_solve call them (the same arguments, the same
-        # values), without their per-call checks: this runs at every frame.
-        chol, info = dpotrf(lam, lower=1, clean=0, overwrite_a=1)
-        if info != 0:
-            raise ModelError(f"PrimitiveStream: the conditioning at frame {start} is not positive definite (potrf {info})")
-        x_a, info = dpotrs(chol, rhs, lower=1)
+        if self._frames_seen >= self.t_max and self._cands[c] == self.t_max:  # every later frame at phase 1
+            x_a = self._phase_one_solve(c, s_aa, blocks, rhs)
+        else:
+            lam = self._add_blocks(s_aa.copy(), blocks)
+            # LAPACK's potrf/potrs called as scipy's cho_factor/cho_solve call them (the same arguments, the same
+            # values), without their per-call checks: this runs at every frame.
+            chol, info = dpotrf(lam, lower=1, clean=0, overwrite_a=1)
+            if info != 0:
+                raise ModelError(f"PrimitiveStream: the conditioning at frame {start} is not positive definite (potrf {info})")
+            x_a, info = dpotrs(chol, rhs, lower=1)
         w_r = self._mean[d0:] + (u - k_ra @ x_a).reshape(-1, n)  # (D − d0, N) agent 1's posterior mean weights
         frames = np.arange(start, stop)
         phi = self._rbf(np.minimum(frames / max(self.duration - 1, 1), 1.0))
         out = np.full((len(frames), N_KEY, 3), np.nan)
         out[:, prim.keys_] = (phi @ w_r.T).reshape(len(frames), len(prim.keys_), 3) + self._anchor
         return out
+
+    def _phase_one_solve(self, c: int, s_aa: np.ndarray, blocks: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        """(a,) (S + B_a)⁻¹ rhs past T_max: against the last factor and the phase-1 frames added since (Woodbury),
+        refactoring S + B_a (as within T_max) when there is none for candidate ``c`` or it is
+        :data:`PHASE_ONE_REFACTOR` frames old; on a refactoring frame the solve is the direct one."""
+        if self._phase_one is None or self._phase_one_c != c or self._phase_one_frames >= PHASE_ONE_REFACTOR:
+            self._phase_one = LowRankUpdatedSolver(self._add_blocks(s_aa.copy(), blocks), self._u_one)
+            self._phase_one_c, self._phase_one_frames = c, 0
+        return self._phase_one.solve(rhs)
 
     def react_keys(self, view: Interaction, start: int, stop: int) -> np.ndarray:
         """:meth:`keys` in the world frame (metres)."""
@@ -330,16 +367,20 @@ def _block(rows: np.ndarray, cols: np.ndarray) -> tuple[slice, slice] | tuple[np
     return np.ix_(rows, cols)
 
 
-def stream_key_joints(primitive: InteractionPrimitive, interaction: Interaction, n_observed: int) -> np.ndarray:
+def stream_key_joints(primitive: InteractionPrimitive, interaction: Interaction, n_observed: int, *, stride: int = 1) -> np.ndarray:
     """(T, 5, 3) metres, world: agent 1's key joints at every frame t ≥ T0 = ``n_observed`` from one
     :class:`PrimitiveStream` fed the causal protocol's views (frames [0, t] for frame t), as the full method's
     reactor predicts them; NaN before T0 (:meth:`~.interaction_primitive.InteractionPrimitive.causal_key_joints`
-    to rounding, but for the duration past the longest training instance)."""
+    to rounding, but for the duration past the longest training instance). ``stride`` k > 1: predicted at frames
+    T0, T0 + k, … only (NaN at the others; the stream still reads every frame, so those frames' values are the
+    same)."""
+    if stride < 1:
+        raise ModelError(f"stream_key_joints: expected a stride >= 1, found {stride}")
     out = np.full((interaction.n_frames, N_KEY, 3), np.nan)
     if interaction.n_frames <= n_observed:
         return out
     stream = PrimitiveStream(primitive, n_observed)
     hidden = observed_part(interaction, n_observed)  # its first t + 1 frames: protocol_view(interaction, t + 1, n_observed)
-    for t in range(n_observed, interaction.n_frames):
+    for t in range(n_observed, interaction.n_frames, stride):
         out[t] = stream.react_prefix_keys(hidden, t + 1, t, t + 1)[0]
     return out

@@ -127,6 +127,14 @@ class SwitchingConfig:
     passes; 0: none, the default since its development-split rule held); None: the method's own, as for the model
     fitted on all instances. Fewer passes make the fit cheaper and change the cross-fitted plans (issue 24;
     docs/design.md §8, "Cheaper cross-fitted models")."""
+    row_stride: int = 2
+    """k [frames]: The training rows are frames T0, T0 + k, T0 + 2k, … of each training instance (each instance's
+    rows still weigh one in all). 2: the default since its development-split rule held (session 22); 1: every
+    frame ≥ T0, as before. The synthesizer still steps every frame (its
+    state is sequential) and the interaction primitive's stream still reads every frame; what is skipped on the
+    other frames is the primitive's prediction, the body fits of the plan and of the primitive, and the rows of
+    the inner CV and the refit (issue 24: a cheaper fit; a model change, docs/design.md §8, "Training rows every
+    k-th frame"). Prediction is unchanged: every frame."""
     clip_features: bool = True
     """[—]: At prediction, clip each scaled column to the range it had in the training rows (widened by
     ``clip_margin``; the default since its development-split rule held), so that a
@@ -167,6 +175,8 @@ class SwitchingConfig:
             raise ConfigError(f"cross_fit: expected at least 1, found {self.cross_fit}")
         if self.cross_fit_type_passes is not None and self.cross_fit_type_passes < 0:
             raise ConfigError(f"cross_fit_type_passes: expected None or at least 0, found {self.cross_fit_type_passes}")
+        if isinstance(self.row_stride, bool) or not isinstance(self.row_stride, int) or self.row_stride < 1:
+            raise ConfigError(f"row_stride: expected an integer >= 1, found {self.row_stride!r}")
         if not (self.clip_margin >= 0 and math.isfinite(self.clip_margin)):
             raise ConfigError(f"clip_margin: expected a finite number >= 0, found {self.clip_margin}")
         if self.blend_steps < 1:
@@ -244,7 +254,8 @@ class SwitchingRegression:
             raise ModelError(f"switching regression: {len(interactions)} interactions but {len(traces)} traces")
         (X, Y, plan_prior, prim_prior), w, row_ids = stack_instances(
             interactions, cfg.n_observed,
-            lambda i, inst: instance_rows(inst, traces[i], cfg.n_observed, cfg.features), "switching regression")
+            lambda i, inst: instance_rows(inst, traces[i], cfg.n_observed, cfg.features, stride=cfg.row_stride),
+            "switching regression")
         S = self.n_subevents_ = int(n_subevents)
         self.scale_ = switching_scale(X, w, S)
         Xs = X / self.scale_

@@ -106,12 +106,14 @@ def plan_offset(anchor: Anchor, skeleton: np.ndarray) -> np.ndarray:
 
 
 def instance_rows(
-    interaction: Interaction, trace: Trace, n_observed: int, config: FeatureConfig
+    interaction: Interaction, trace: Trace, n_observed: int, config: FeatureConfig, *, stride: int = 1
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Rows (N, ·) of :func:`switching_rows`, targets (N, J·3) (anchor-frame displacements, metres), the
     ``from_plan`` prior (N, J·3) and the ``from_primitive`` prior (N, J·3; zeros without the primitive) of
-    frames T0 … T − 1 of a training instance."""
+    frames T0, T0 + ``stride``, … < T of a training instance (``SwitchingConfig.row_stride``; 1: every frame ≥ T0)."""
     X, Y, frames = training_rows(interaction, n_observed, config)
+    if stride != 1:  # every stride-th row (the features of a row do not depend on the others)
+        X, Y, frames = X[::stride], Y[::stride], frames[::stride]
     anchor = Anchor.from_view(interaction.hide_agent_after(1, n_observed), n_observed, config)
     plan = plan_displacement(anchor, trace.plan[frames], interaction)
     prim = None if trace.primitive is None else plan_displacement(anchor, trace.primitive[frames], interaction)

@@ -51,6 +51,7 @@ from ..model.frame_regression import frame_context
 from ..model.handedness import KEY_SWAP, relabel
 from ..model.nan_fill import nan_to_zero
 from ..model.ridge import RidgeRegression
+from ..model.transitions import order_ranks
 from .candidate_planner import CandidatePlanner
 from .canonical_stream import CanonicalStream
 from .candidates import AGENT1 as _AGENT1
@@ -137,6 +138,8 @@ class OnlineSynthesizer(CandidatePlanner):
         self._planned_until = cfg.n_observed
         self._span = (0, 0)  # (first, last frame) of the running sub-event at the latest re-planning
         self._sub = -1  # the running sub-event of the latest re-planning
+        # With ``ordered``: each type's mean position in the training parses (NaN: never used, always allowed).
+        self._ranks = order_ranks(self.model.parses_, self.model.n_subevents_) if cfg.ordered else None
         self._available = self.model.available_.copy()
         self._refw: dict[int, np.ndarray] = {}
         S = self.model.n_subevents_
@@ -270,7 +273,9 @@ class OnlineSynthesizer(CandidatePlanner):
         if not self.config.lookahead:  # with lookahead the flags were fixed at reset
             self._set_hands(t)
         if self._filter is not None:
-            plans = branch_plans(*self._filter.posterior(t), self.config.branches)
+            plans = branch_plans(*self._filter.posterior(t), self.config.branches, self._allowed(t))
+            if not plans:  # ordered, and nothing at or after the planned sub-event is possible: it runs on
+                plans = [(1.0, self._sub, self._span[0])]
         else:
             s, start = self._current(t)
             plans = [(1.0, s, start)]
@@ -291,6 +296,17 @@ class OnlineSynthesizer(CandidatePlanner):
         assert stop is not None  # at least one plan
         self._track[t:stop, _AGENT1] = path
         self._planned_until = stop
+
+    def _allowed(self, t: int) -> np.ndarray | None:
+        """(S,) bool: the sub-events a re-planning at frame t may choose (``ordered``: not ranked before the planned
+        one), or None (any: not ordered, nothing planned yet, or the planned one began a belief horizon ago or more,
+        beyond which the forward belief forgets the labels used, so that a stream can start the sequence again)."""
+        fb = self._filter
+        if self._ranks is None or self._sub < 0 or not np.isfinite(self._ranks[self._sub]):
+            return None
+        if fb is not None and t - self._span[0] >= fb.horizon:
+            return None
+        return ~(self._ranks < self._ranks[self._sub])  # NaN ranks compare False: allowed
 
     def _pull_contacts(self, t: int) -> None:
         """Blend agent 1's wrists at frame t toward their contact keyframes (touched joint + learned offset)

@@ -154,7 +154,7 @@ def _initial_target(
 
     parses, value = restructure(
         spaces, start.parses, n_labels, refine=refine, score=lambda ps: target(ps).log_prob,
-        passes=lcfg.init_type_passes, rounds=lcfg.init_type_rounds,
+        passes=lcfg.init_type_passes, rounds=lcfg.init_type_rounds, screen_rounds=lcfg.init_type_screen_rounds,
     )
     return start if value <= start.log_prob else target(parses)
 

@@ -21,7 +21,8 @@ class LearningConfig(DictConfig):
     Fields by concept
     -----------------
     - Atomic time intervals: n_clusters, kmeans_iterations, min_atomic_frames, max_atomic_seconds, velocity_seconds
-    - Initial parses: init_rounds, init_starts, init_type_passes, init_type_rounds, init_dirichlet
+    - Initial parses: init_rounds, init_starts, init_type_passes, init_type_rounds, init_type_screen_rounds,
+      init_dirichlet
     - Outer loop: Metropolis-Hastings over parses: iterations, p_merge, p_split, p_relabel, p_shift, temperature, lam
     - Inner loop: Gibbs sampling of the groupings: gibbs_max_sweeps, gibbs_patience, initial_gibbs_sweeps
     """
@@ -57,6 +58,12 @@ class LearningConfig(DictConfig):
     instance at once, refine by hard-EM, keep it if log P* rises. 0 (the paper): none."""
     init_type_rounds: int = 3
     """[—]: Hard-EM rounds refining each candidate of those moves."""
+    init_type_screen_rounds: int = 1
+    """[—]: Of those rounds, how many every candidate of a pass gets before the candidates are ranked by log P* (the
+    three best then get the rest, ``init_type_rounds`` minus these). 1 (default): one. 0: the candidates are ranked
+    by the log P* of their merge-and-split parses as they are, and only the three best are refined (issue 24: a
+    cheaper fit; a model change, docs/design.md §8, "Screening the restructuring's candidates without a hard-EM
+    round")."""
     init_dirichlet: float = 2.0
     """[—]: Concentration of the Dirichlet that draws the fractions of the extra starts."""
     p_merge: float = 0.4
@@ -97,7 +104,8 @@ class LearningConfig(DictConfig):
                      "gibbs_patience", "initial_gibbs_sweeps"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 raise bad(name, "an integer >= 1")
-        for name in ("iterations", "init_rounds", "init_starts", "init_type_passes", "init_type_rounds"):
+        for name in ("iterations", "init_rounds", "init_starts", "init_type_passes", "init_type_rounds",
+                     "init_type_screen_rounds"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 0:
                 raise bad(name, "an integer >= 0")
         probs = (self.p_merge, self.p_split, self.p_relabel)

@@ -13,7 +13,8 @@ all instances at once, in the spirit of split-merge samplers for mixtures:
   half taking label b;
 * refine the result by hard-EM and score it by log P*.
 
-Each pass screens every admissible (b, c) after one hard-EM round, refines the three best further,
+Each pass screens every admissible (b, c) after one hard-EM round (``LearningConfig.init_type_screen_rounds``; 0: as
+the move leaves it), refines the three best further,
 and keeps the best if it beats the current log P*; the search stops when a pass finds no improvement or after ``LearningConfig.init_type_passes``.
 It is a deterministic coordinate ascent on the same objective, before the chain starts.
 """
@@ -71,13 +72,14 @@ def restructure(
     passes: int,
     rounds: int,
     keep: int = 3,
+    screen_rounds: int = 1,
 ) -> tuple[list[Parse], float]:
     """Best parses found by type-level merge-and-split passes (see the module doc) and their score.
 
     ``refine(parses, rounds)`` improves a set of parses by that many hard-EM rounds (0: unchanged); ``score``
     gives log P* of a set.
-    Each pass screens every admissible move after one refining round and refines the ``keep``
-    best of them for ``rounds`` rounds.
+    Each pass screens every admissible move after ``screen_rounds`` refining rounds and refines the ``keep``
+    best of them for the rest of ``rounds`` (``rounds − screen_rounds``, at least 0).
     """
     current = list(parses)
     best = score(current)
@@ -91,12 +93,12 @@ def restructure(
                 cand = [merge_split(p, sp, b, c) for p, sp in zip(current, spaces, strict=True)]
                 if any(p is None for p in cand):
                     continue
-                once = refine([p for p in cand if p is not None], 1)
+                once = refine([p for p in cand if p is not None], screen_rounds)
                 screened.append((score(once), once))
         screened.sort(key=lambda item: -item[0])
         found: tuple[float, list[Parse]] | None = None
         for _, once in screened[:keep]:
-            refined = refine(once, max(rounds - 1, 0))
+            refined = refine(once, max(rounds - screen_rounds, 0))
             value = score(refined)
             if found is None or value > found[0]:
                 found = (value, refined)

@@ -208,8 +208,11 @@ def polar_rows_logpdf(
         dist = expon_logpdf(h, lh) + expon_logpdf(v, lv)
     elif not expon.any():
         dist = weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv)
-    else:
-        dist = np.where(expon, expon_logpdf(h, lh) + expon_logpdf(v, lv), weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv))
+    else:  # each kind on its own columns (was: both on every column, then np.where; the same values per element)
+        w = ~expon
+        dist = np.empty(np.broadcast_shapes(h.shape, v.shape))
+        dist[..., expon] = expon_logpdf(h[..., expon], lh[expon]) + expon_logpdf(v[..., expon], lv[expon])
+        dist[..., w] = weibull_logpdf(h[..., w], kh[w], lh[w]) + weibull_logpdf(v[..., w], kv[w], lv[w])
     return dist + vonmises_logpdf(th, mu, kap, log_i0e=log_i0e)
 
 

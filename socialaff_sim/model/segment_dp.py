@@ -52,35 +52,41 @@ def segmentation_tables(
     else:
         src_s = np.arange(S)
         src_m = tgt = np.zeros(S, np.int64)
-    trans_t = trans.T[None, :, None, :]  # (1, s, 1, s')
     first_mask = bits if unique else np.zeros(S, np.int64)
     labels = np.arange(S)
+    trans_sp = trans[None, :, :]  # (1, s', s)
+    trans_rows = trans.T[src_s]  # (P, s'): trans[s', s] of each extendable pair's label
+    # reach[a, p] = max over s' of (best[a, m, s'] + trans[s', s]) for the extendable pair p = (m, s) = (src_m[p],
+    # src_s[p]): what an interval of label s starting at cut a can extend, fixed once row a is (seg is added after).
+    pairs = np.arange(len(src_s))
+    reach = np.full((B + 1, len(src_s)), -np.inf)
     first = 1
     if rows is not None:
         k = rows[0].shape[0] - 1
         best[: k + 1], back[: k + 1] = rows[0], rows[1]
+        reach[1 : k + 1] = (best[1 : k + 1, :, :, None] + trans_sp[:, None]).max(axis=2)[:, src_m, src_s]
         first = k + 1
+    seg_p = seg[:, first:, src_s]  # (B + 1, B + 1 − first, P): seg[a, b, s] of each pair's label
     for b in range(first, B + 1):
         # A first interval [0, b).
         best[b, first_mask, labels] = log_start + seg[0, b]
-        if b == 1:
-            continue
-        # cand[m, s, a - 1, s'] = best[a, m, s'] + trans[s', s] + seg[a, b, s] for previous cut a in 1..b-1, laid
-        # out so that each (m, s) reads its candidates in the order a·S + s' (argmax keeps the first maximum).
-        cand = best[1:b].transpose(1, 0, 2)[:, None] + trans_t + seg[1:b, b].T[None, :, :, None]
-        flat = cand.reshape(M * S, -1)
-        arg = np.argmax(flat, axis=1)
-        val = flat[np.arange(M * S), arg].reshape(M, S)
-        arg = arg.reshape(M, S)
-        v = val[src_m, src_s]
-        better = v > best[b, tgt, src_s]
-        if better.any():
-            m, s, t = src_m[better], src_s[better], tgt[better]
-            a = arg[m, s]
-            best[b, t, s] = v[better]
-            back[b, t, s, 0] = a // S + 1
-            back[b, t, s, 1] = m
-            back[b, t, s, 2] = a % S
+        if b > 1:
+            # The candidates are best[a, m, s'] + trans[s', s] + seg[a, b, s] (summed in that order) over the previous
+            # cut a in 1..b-1 and label s', read in the order a·S + s' (the first maximum wins). Rounding is monotone,
+            # so each a's largest candidate is reach[a, m, s] + seg[a, b, s] exactly; the first a reaching the
+            # overall maximum is the chosen one, and its first s' is found among that a's S candidates, recomputed.
+            per_a = reach[1:b] + seg_p[1:b, b - first]  # (b − 1, P)
+            a_idx = np.argmax(per_a, axis=0)  # (P,)
+            v = per_a[a_idx, pairs]
+            better = v > best[b, tgt, src_s]
+            if better.any():
+                a_idx, m, s, t = a_idx[better], src_m[better], src_s[better], tgt[better]
+                cand = best[a_idx + 1, m] + trans_rows[better] + seg[a_idx + 1, b, s][:, None]  # (P', s')
+                best[b, t, s] = v[better]
+                back[b, t, s, 0] = a_idx + 1
+                back[b, t, s, 1] = m
+                back[b, t, s, 2] = np.argmax(cand, axis=1)
+        reach[b] = (best[b, :, :, None] + trans_sp).max(axis=1)[src_m, src_s]
     return best, back
 
 

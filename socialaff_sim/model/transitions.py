@@ -3,6 +3,9 @@
 p(s_1 = s) = (n_s + α) / (N + α |S|) and p(s_k = s′ | s_{k−1} = s) = (n_ss′ + α) / (n_s + α m),
 where m is the number of allowed successors: |S| − 1 when consecutive labels must differ
 (the diagonal is then 0), else |S|. With α = 0 an unseen row is uniform over the allowed successors.
+
+:func:`order_ranks`: each type's mean position in the parses (0 for the first interval), the learned order of
+the sub-events that ``SynthesisConfig.ordered`` makes the causal plan follow.
 """
 
 from __future__ import annotations
@@ -11,7 +14,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["count_transitions", "smoothed_probs", "transition_loglik"]
+__all__ = ["count_transitions", "order_ranks", "smoothed_probs", "transition_loglik"]
 
 
 def count_transitions(spans: Sequence[Sequence[tuple[int, int, int]]], S: int) -> tuple[np.ndarray, np.ndarray]:
@@ -52,3 +55,15 @@ def transition_loglik(
     ll = (start * np.log(np.where(start > 0, p_start, 1.0))).sum()
     ll += (trans * np.log(np.where(trans > 0, p_trans, 1.0))).sum()
     return float(ll)
+
+
+def order_ranks(spans: Sequence[Sequence[tuple[int, int, int]]], S: int) -> np.ndarray:
+    """(S,) mean position of each type's intervals in parses given as rows (start, stop, label), in time order (0:
+    the first interval of its parse); NaN for a type no parse uses."""
+    total = np.zeros(S)
+    count = np.zeros(S)
+    for sp in spans:
+        for k, (_, _, s) in enumerate(sorted(sp, key=lambda row: row[0])):
+            total[int(s)] += k
+            count[int(s)] += 1
+    return np.where(count > 0, total / np.where(count > 0, count, 1.0), np.nan)
