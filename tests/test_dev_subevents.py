@@ -3,7 +3,6 @@ force, the half-way time, and the phases of a transfer read from the object trac
 
 from __future__ import annotations
 
-import itertools
 
 import numpy as np
 import pytest
