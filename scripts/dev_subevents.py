@@ -45,7 +45,7 @@ import numpy as np
 _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:  # run as `python scripts/dev_subevents.py` it is sys.path[0]; the tests load this file by path
     sys.path.append(_HERE)
-from dev_switching import T0, VARIANTS  # noqa: E402  (the development split's constants and variants)
+from dev_switching import T0, VARIANTS, add_split_arguments  # noqa: E402  (the development split's constants and variants)
 from socialaff_sim.data import Interaction, load_dataset  # noqa: E402
 from socialaff_sim.evaluation.compare import paired_difference  # noqa: E402
 from socialaff_sim.evaluation.crossval import fold_rng  # noqa: E402
@@ -160,11 +160,7 @@ def primitive_traces(train: list[Interaction], val: list[Interaction], tr: list[
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--data", required=True)
-    ap.add_argument("--split", default="pair")
-    ap.add_argument("--rotation", type=int, default=0, choices=(0, 1, 2))
-    ap.add_argument("--labels", default="")
-    ap.add_argument("--seed", type=int, default=0)
+    add_split_arguments(ap)
     ap.add_argument("--cache", required=True, help="dev_switching.py's trace folder (with its it<N> subfolder)")
     ap.add_argument("--suffix", default="_cf_ng_tp0_od", help="the cached traces' name suffix (dev_switching.py's flags)")
     ap.add_argument("--reach", type=float, default=0.35, help="m: the receiver's wrist this near the object starts the transfer")

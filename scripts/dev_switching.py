@@ -200,13 +200,18 @@ def _err(pred: np.ndarray, truth: np.ndarray) -> float:
     return float(np.linalg.norm((pred - truth).reshape(len(pred), -1, 3), axis=-1).mean())
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser()
+def add_split_arguments(ap: argparse.ArgumentParser) -> None:
+    """The development split's arguments (data, split, rotation, labels, seed), shared with dev_subevents.py."""
     ap.add_argument("--data", required=True)
     ap.add_argument("--split", default="pair")
     ap.add_argument("--rotation", type=int, default=0, choices=(0, 1, 2))
     ap.add_argument("--labels", default="")
     ap.add_argument("--seed", type=int, default=0)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    add_split_arguments(ap)
     ap.add_argument("--cross-fit", type=int, default=2, help="parts of the training traces' cross-fitting (1: in sample)")
     ap.add_argument("--variants", default=",".join(VARIANTS), help="comma-separated subset of " + ",".join(VARIANTS))
     ap.add_argument("--no-gated", action="store_true",
