@@ -11,7 +11,7 @@ import numpy as np
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecNormalize
 
-__all__ = ["Policy", "run_episodes", "trained_policy", "zero_policy"]
+__all__ = ["Policy", "held_out_episodes", "run_episodes", "trained_policy", "training_episodes", "zero_policy"]
 
 Policy = Callable[[np.ndarray], np.ndarray]
 
@@ -25,6 +25,18 @@ def zero_policy(env: gym.Env) -> Policy:
     """The affordance model alone on ``env``: no residual (zeros of its action space's shape)."""
     zeros = np.zeros(env.action_space.shape, np.float32)
     return lambda obs: zeros.copy()
+
+
+def training_episodes(instance_ids: Sequence[str], seed: int) -> list[tuple[str, int]]:
+    """(instance, reset seed) of the zero residual's reference run on the training instances: seed + k for the
+    k-th."""
+    return [(i, seed + k) for k, i in enumerate(instance_ids)]
+
+
+def held_out_episodes(instance_ids: Sequence[str], seed: int) -> list[tuple[str, int]]:
+    """(instance, reset seed) of the held-out evaluation, the same for every policy judged: 10000 + 1000·seed + k
+    for the k-th held-out instance."""
+    return [(i, 10_000 + seed * 1_000 + k) for k, i in enumerate(instance_ids)]
 
 
 def run_episodes(env: gym.Env, episodes: Sequence[tuple[str, int]], policy: Policy) -> list[dict[str, Any]]:

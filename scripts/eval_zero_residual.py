@@ -32,7 +32,7 @@ from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
 _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:
     sys.path.append(_HERE)
-from _residual_episodes import run_episodes, zero_policy  # noqa: E402
+from _residual_episodes import held_out_episodes, run_episodes, training_episodes, zero_policy  # noqa: E402
 from train_residual import Settings, build_data, make_env  # noqa: E402
 
 
@@ -55,10 +55,10 @@ def main() -> None:
     models = {lbl: SocialAffordanceModel.load(a.models / f"{lbl}.npz") for lbl in s.labels}
     if a.train:
         env = make_env(s, train_set, models, training=True)
-        episodes = [(i.instance_id, s.seed + k) for k, i in enumerate(train_set)]
+        episodes = training_episodes([i.instance_id for i in train_set], s.seed)
     else:
         env = make_env(s, held_out, models)
-        episodes = [(i.instance_id, 10_000 + s.seed * 1_000 + k) for k, i in enumerate(held_out)]
+        episodes = held_out_episodes([i.instance_id for i in held_out], s.seed)
     rows = run_episodes(env, episodes, zero_policy(env))
     per_label = {}
     for lbl in s.labels:

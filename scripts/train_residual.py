@@ -84,7 +84,7 @@ _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:  # run as `python scripts/train_residual.py` it is sys.path[0]; the tests load this file by path
     sys.path.append(_HERE)
 from _residual_curve import CurveRecorder, plot_curve  # noqa: E402
-from _residual_episodes import run_episodes, trained_policy, zero_policy  # noqa: E402
+from _residual_episodes import held_out_episodes, run_episodes, trained_policy, training_episodes, zero_policy  # noqa: E402
 from _residual_data import DEFAULT_SPLITS, parse_splits, real_split  # noqa: E402
 from _residual_reward import FallPenalty  # noqa: E402
 from _residual_stats import summarize  # noqa: E402
@@ -253,7 +253,7 @@ def reference_rows(s: Settings, train_set: Sequence[Interaction],
     """The zero residual once on every TRAINING instance, with the training reward: the episode rows and, per
     label, the success rate and mean return (the learning curve's dashed references)."""
     train_env = make_env(s, train_set, models, training=True)
-    train_eps = [(i.instance_id, s.seed + k) for k, i in enumerate(train_set)]
+    train_eps = training_episodes([i.instance_id for i in train_set], s.seed)
     ref_rows = run_episodes(train_env, train_eps, zero_policy(train_env))
     reference = {lbl: {"success": float(np.mean([r["success"] for r in ref_rows if r["interaction"] == lbl])),
                        "return": float(np.mean([r["return"] for r in ref_rows if r["interaction"] == lbl]))}
@@ -319,7 +319,7 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
 
     # Held-out evaluation: the same (instance, reset seed) pairs for both policies.
     held_env = make_env(s, held_out, models)
-    episodes = [(i.instance_id, 10_000 + s.seed * 1_000 + k) for k, i in enumerate(held_out)]
+    episodes = held_out_episodes([i.instance_id for i in held_out], s.seed)
     rows_res = run_episodes(held_env, episodes, trained_policy(agent, norm))
     rows_zero = run_episodes(held_env, episodes, zero_policy(held_env))
     summary = summarize(rows_res, rows_zero, s.seed)
