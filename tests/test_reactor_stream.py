@@ -107,7 +107,10 @@ class _FullView:
     def __init__(self, frame: CanonicalFrame) -> None:
         self.frame = frame
 
-    def update(self, view: Interaction, n_frames: int | None = None) -> int:
+    def pin(self, frame: int) -> None:
+        pass  # every frame is held
+
+    def update(self, view: Interaction, n_frames: int | None = None, *, keep_from: int = 0) -> int:
         self.track = canonical_joints(view.extend_held(n_frames or view.n_frames), self.frame)
         self.paths = wrist_paths(self.track, 0)
         return 0

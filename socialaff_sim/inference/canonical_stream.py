@@ -15,22 +15,33 @@ from the frames new since the last call:
 
 The frames that change at a call are the new ones, the held ones and an open gap that closes: bounded work per
 frame on average, each gap frame refilled once (a joint first tracked late refills every frame before it, once).
-Memory is the track itself (11 × 3 floats per frame, twice, plus the paths), in buffers that double when full.
+
+Memory: the world and canonical copies (11 × 3 floats per frame each) and the paths are
+:class:`~socialaff_sim.inference.track_window.TrackWindow` s: with ``keep_from`` (:meth:`CanonicalStream.update`) the
+frames before it are forgotten, so that a stream of any length holds a bounded window (docs/design.md §7). What the
+stream still needs of the frames before the window is kept apart: each joint's last tracked position (the held
+frames and the interpolation of a gap that closes start from it) and the pinned frames (:meth:`CanonicalStream.pin`).
+A gap of an agent-0 wrist that began before the window and closes refills the frames held (and the pinned ones) only;
+the wrist's running sum is carried across the frames before the window by the same interpolation, recomputed in
+chunks and not stored, so the paths stay those of the whole track (bitwise).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..data.growing import grown
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ModelError
 from ..model.frame import CanonicalFrame
 from ..model.handedness import wrist_paths
 from ..model.joints import N_JOINTS, OBJECT
+from .track_window import TrackWindow
 
 __all__ = ["CanonicalStream"]
+
+_WRISTS = (1, 2)  # agent 0's left and right wrists among the model joints (the paths' columns 0 and 1)
+_CHUNK = 4096  # frames per step of a running sum carried across the frames before the window
 
 
 class CanonicalStream:
@@ -44,12 +55,15 @@ class CanonicalStream:
 
     def __init__(self, frame: CanonicalFrame) -> None:
         self.frame = frame
-        self._world = np.full((0, N_JOINTS, 3), np.nan)  # filled model joints of the view's frames, metres, world
-        self._canon = np.full((0, N_JOINTS, 3), np.nan)  # their canonical values, then the held frames'
-        self._paths = np.zeros((0, 2))
+        # Filled model joints of the view's frames, metres, world; their canonical values, then the held frames'.
+        self._world = TrackWindow((N_JOINTS, 3), name="canonical stream (world)")
+        self._canon = TrackWindow((N_JOINTS, 3), name="canonical stream")
+        self._paths = TrackWindow((2,), 0.0, name="wrist paths")
         self._last = np.full(N_JOINTS, -1, dtype=np.int64)  # each joint's last tracked frame (−1: none yet)
+        self._last_pos = np.full((N_JOINTS, 3), np.nan)  # its world position there (what held frames and gaps start from)
         self._seen = 0  # frames of the views consumed
         self._n = 0  # frames of the track (the view's and the held ones)
+        self._carry: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}  # this call's wrist gaps refilled from before the window
 
     @property
     def n_frames(self) -> int:
@@ -62,20 +76,31 @@ class CanonicalStream:
         return self._seen
 
     @property
-    def track(self) -> np.ndarray:
-        """(T, 11, 3) float64, metres, canonical frame: the model joints as recorded (a view of the buffer: valid
-        until the next :meth:`update`)."""
-        return self._canon[: self._n]
+    def floor(self) -> int:
+        """The first frame held (0 unless ``keep_from`` was given)."""
+        return self._canon.floor
 
     @property
-    def paths(self) -> np.ndarray:
-        """(T, 2) float64, metres: agent 0's cumulative left and right wrist paths over :attr:`track`
-        (:func:`~socialaff_sim.model.handedness.wrist_paths`; a view of the buffer)."""
-        return self._paths[: self._n]
+    def track(self) -> TrackWindow:
+        """(T, 11, 3) float64, metres, canonical frame: the model joints as recorded, by absolute frame (frames from
+        :attr:`floor` held; valid until the next :meth:`update`)."""
+        return self._canon
 
-    def update(self, view: Interaction, n_frames: int | None = None) -> int:
+    @property
+    def paths(self) -> TrackWindow:
+        """(T, 2) float64, metres: agent 0's cumulative left and right wrist paths over :attr:`track`
+        (:func:`~socialaff_sim.model.handedness.wrist_paths` of the whole track), by absolute frame."""
+        return self._paths
+
+    def pin(self, frame: int) -> None:
+        """Keep frame ``frame`` of :attr:`track` (refilled when a gap over it closes) after the window passes it."""
+        self._world.pin(frame)
+        self._canon.pin(frame)
+
+    def update(self, view: Interaction, n_frames: int | None = None, *, keep_from: int = 0) -> int:
         """Consume the new frames of ``view`` and lengthen the track to ``n_frames`` (default the view's length)
-        frames; returns the first frame whose value may have changed (earlier frames are bitwise unchanged)."""
+        frames; returns the first frame whose value may have changed (earlier frames are bitwise unchanged; it may
+        precede :attr:`floor`). ``keep_from``: frames before it (and before the frames seen) are no longer read."""
         V = view.n_frames
         n = V if n_frames is None else max(int(n_frames), V)
         if V < self._seen or n < self._n:
@@ -84,16 +109,23 @@ class CanonicalStream:
         if self._seen and not self._same_tail(view):
             raise ModelError(f"canonical stream: frame {self._seen - 1} of the view differs from the one seen before: views "
                              "must grow (pass the frames known, and the held length as n_frames, not a lengthened view)")
-        self._world = grown(self._world, V)
-        self._canon = grown(self._canon, n)
-        self._paths = grown(self._paths, n, 0.0)
+        keep = min(int(keep_from), self._seen)
+        for w in (self._world, self._canon, self._paths):
+            w.forget(keep)
+        self._world.extend(V)
+        self._canon.extend(n)
+        self._paths.extend(n)
+        self._carry = {}
         # From the previous view's end on (its held frames change too), or from the first gap frame refilled.
         changed = self._consume(view, self._seen, V) if V > self._seen else self._seen
-        # Held frames: each joint at its last tracked position (NaN if never tracked), the object at its last.
-        held = np.where((self._last >= 0)[:, None], self._world[np.maximum(self._last, 0), np.arange(N_JOINTS)], np.nan)
-        self._canon[changed:V] = self.frame.to_canonical(self._world[changed:V])
-        if n > V:
-            self._canon[V:n] = self.frame.to_canonical(np.broadcast_to(held, (n - V, N_JOINTS, 3)))
+        floor = self._canon.floor
+        lo = max(changed, floor)
+        self._canon[lo:V] = self.frame.to_canonical(self._world[lo:V])
+        for p in self._canon.pinned:  # a pinned frame before the window, refilled by a gap that closed
+            if changed <= p < floor:
+                self._canon[p] = self.frame.to_canonical(self._world[p][None])[0]
+        if n > V:  # held frames: each joint at its last tracked position (NaN if never tracked), the object at its last
+            self._canon[V:n] = self.frame.to_canonical(np.broadcast_to(self._last_pos, (n - V, N_JOINTS, 3)))
         self._seen, self._n = V, n
         self._tail = (view.joints[V - 1].copy(), np.array(view.valid[V - 1]))
         self._update_paths(changed, n)
@@ -119,34 +151,71 @@ class CanonicalStream:
         if view.object is not None:
             x[:, OBJECT] = view.object[start:stop]
             ok[:, OBJECT] = True
+        world = self._world
+        floor = world.floor
         # Tracked in every new frame right after its last tracked one: the values as recorded (np.interp returns a
         # tracked frame's own value).
         simple = ok.all(axis=0) & (self._last == start - 1)
-        self._world[start:stop, simple] = x[:, simple]
+        world[start:stop, simple] = x[:, simple]
         self._last[simple] = stop - 1
+        self._last_pos[simple] = world[stop - 1, simple]
         first = start
         for j in np.flatnonzero(~simple):
             tracked = np.flatnonzero(ok[:, j])
             last = int(self._last[j])
             if not tracked.size:  # held at its last tracked position (NaN if never tracked)
-                self._world[start:stop, j] = self._world[last, j] if last >= 0 else np.nan
+                world[start:stop, j] = self._last_pos[j]
                 continue
             lo = last + 1 if last >= 0 else 0  # from the open gap's first frame (or the stream's first)
             xp = np.r_[[last] if last >= 0 else [], start + tracked].astype(np.float64)
-            fp = np.concatenate([self._world[last, j][None] if last >= 0 else np.zeros((0, 3)), x[tracked, j]])
-            at = np.arange(lo, stop)
+            fp = np.concatenate([self._last_pos[j][None] if last >= 0 else np.zeros((0, 3)), x[tracked, j]])
+            a = max(lo, floor)  # the frames held of the gap (those before the window are not read again)
+            at = np.arange(a, stop)
             for d in range(3):  # as filled_joints: np.interp on the tracked frames bracketing each frame
-                self._world[lo:stop, j, d] = np.interp(at, xp, fp[:, d])
+                world[a:stop, j, d] = np.interp(at, xp, fp[:, d])
+            for p in world.pinned:  # a pinned frame before the window, in the gap
+                if lo <= p < floor:
+                    for d in range(3):
+                        world[p, j, d] = np.interp(float(p), xp, fp[:, d])
+            if j in _WRISTS and lo <= floor and floor > 0:  # its running sum is carried across frames not held
+                self._carry[j] = (last, xp, fp)
             self._last[j] = start + int(tracked[-1])
+            self._last_pos[j] = world[int(self._last[j]), j]
             first = min(first, lo)
         return first
 
     def _update_paths(self, changed: int, n: int) -> None:
         """Agent 0's cumulative wrist paths from frame ``changed`` on (the same running sum as
         :func:`~socialaff_sim.model.handedness.wrist_paths`)."""
-        track = self._canon[:n]
-        if changed <= 0:
-            self._paths[:n] = wrist_paths(track, 0)
+        paths, track = self._paths, self._canon
+        floor = track.floor
+        if changed <= 0 and floor == 0:
+            paths[:n] = wrist_paths(track[:n], 0)
             return
-        steps = np.nan_to_num(np.linalg.norm(np.diff(track[changed - 1 :, 1:3], axis=0), axis=-1), nan=0.0)
-        self._paths[changed - 1 : n] = np.cumsum(np.concatenate([self._paths[changed - 1 : changed], steps]), axis=0)
+        if changed - 1 < floor:  # frames before the window changed: the sums at the window's first frame
+            for j, (last, xp, fp) in self._carry.items():
+                paths[floor, j - 1] = self._carried(j, last, xp, fp, floor, float(paths[floor, j - 1]))
+            changed = floor + 1
+        steps = np.nan_to_num(np.linalg.norm(np.diff(track[changed - 1 : n, 1:3], axis=0), axis=-1), nan=0.0)
+        paths[changed - 1 : n] = np.cumsum(np.concatenate([paths[changed - 1 : changed], steps]), axis=0)
+
+    def _carried(self, j: int, last: int, xp: np.ndarray, fp: np.ndarray, stop: int, total: float) -> float:
+        """Wrist ``j``'s cumulative path at frame ``stop``: ``total`` (its value at frame ``last``, the gap's last
+        tracked frame, held since) plus the steps over frames ``last`` … ``stop`` of the gap's interpolation, in the
+        canonical frame, summed in order as the whole track's running sum does (work O(gap), memory O(chunk))."""
+        prev = None
+        k = max(last, 0)
+        while k <= stop:
+            hi = min(k + _CHUNK, stop + 1)
+            at = np.arange(k, hi)
+            x = np.zeros((hi - k, N_JOINTS, 3))
+            for d in range(3):
+                x[:, j, d] = np.interp(at, xp, fp[:, d])
+            c = self.frame.to_canonical(x)[:, 1:3]
+            if prev is not None:
+                c = np.concatenate([prev[None], c])
+            steps = np.nan_to_num(np.linalg.norm(np.diff(c, axis=0), axis=-1), nan=0.0)[:, j - 1]
+            if steps.size:
+                total = float(np.cumsum(np.concatenate([[total], steps]))[-1])
+            prev, k = c[-1], hi
+        return total

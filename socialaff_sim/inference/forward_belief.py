@@ -98,14 +98,15 @@ class ForwardBelief:
         """F rows held (at most ``horizon / stride``): what bounds the per-cut work."""
         return int(self._starts.shape[0])
 
-    def advance(self, track: np.ndarray, t: int) -> None:
+    def advance(self, track: np.ndarray, t: int, *, offset: int = 0) -> None:
         """Process every cut before frame ``t`` of the canonical ``track`` (≥ t frames, 11, 3). Frames
-        before ``t`` must not change between calls (else :meth:`reset`)."""
+        before ``t`` must not change between calls (else :meth:`reset`). ``offset``: the absolute frame of
+        ``track``'s first row (a window of a longer track); reading an earlier frame is an error."""
         while self._next <= t - 1:
-            self._cut(track, self._next)
+            self._cut(track, self._next, offset)
             self._next += self.stride
 
-    def _cut(self, track: np.ndarray, b: int) -> None:
+    def _cut(self, track: np.ndarray, b: int, offset: int = 0) -> None:
         S, M = self.S, self.M
         if b == self.origin:
             F = np.full((M, S), -np.inf)
@@ -119,7 +120,10 @@ class ForwardBelief:
             has_long = bool(np.isfinite(self._long).any())
             starts = np.append(self._starts, b - self.horizon) if has_long else self._starts
             if starts.size:
-                seg = self._closing(track, starts, b)  # (K, S)
+                if offset and int(starts.min()) - 1 < offset:  # an interval reads the frame before its start
+                    raise ModelError(f"ForwardBelief: frame {int(starts.min()) - 1} is read, but the track holds "
+                                     f"frames from {offset} on")
+                seg = self._closing(track, starts - offset, b - offset)  # (K, S)
                 C = _logsumexp_finite(self._F + seg[: self._starts.size, None, :], axis=0)
                 if has_long:
                     C = np.logaddexp(C, self._long + seg[-1][None])

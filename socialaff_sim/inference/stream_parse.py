@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, ModelError
 from ..learning.atomic import cut_atoms
 from ..model.affordance import AffordanceParameters
 from .online_parse import PrefixParse, closed_scores, parse_segments
@@ -76,7 +76,8 @@ class StreamParser:
         self.fps = float(fps)
         self.window = window
         self.open_interval = open_interval
-        self._hop = max(window // 2, 1) if window is not None else 1
+        self.hop = max(window // 2, 1) if window is not None else 1
+        """Frames the window's start moves by."""
         self._scores: dict[tuple[int, int], np.ndarray] = {}
         # The previous parse's window start, cuts and DP tables.
         self._w0 = 0
@@ -92,18 +93,24 @@ class StreamParser:
         self._w0, self._bounds, self._tables = 0, None, None
         self.work = ParseWork()
 
-    def parse(self, track: np.ndarray, t: int, available: np.ndarray) -> tuple[PrefixParse, int]:
+    def parse(self, track: np.ndarray, t: int, available: np.ndarray, *, offset: int = 0) -> tuple[PrefixParse, int]:
         """The parse of frames ``[w0, t)`` of the canonical ``track`` (≥ t frames, 11, 3) and w0.
 
         Frames before ``t`` must not change between calls (else :meth:`reset`). The parse's rows are
-        in absolute frames.
+        in absolute frames. ``offset``: the absolute frame of ``track``'s first row (a window of a longer
+        track, :class:`~socialaff_sim.inference.track_window.TrackWindow`); the parse reads frames from
+        w0 − 1 on (w0 > 0), an error if the window starts later.
         """
         model = self.model
         W = self.window
         # The window's start moves in hops of W / 2, so that between hops its cut points, and the DP rows
         # over them, stay those of the previous parse except near its end.
-        w0 = 0 if W is None or t < W + self._hop else ((t - W) // self._hop) * self._hop
-        x = track[w0:t]
+        w0 = 0 if W is None or t < W + self.hop else ((t - W) // self.hop) * self.hop
+        if offset and (w0 == 0 or w0 - 1 < offset):
+            raise ModelError(f"StreamParser.parse: frames from {max(w0 - 1, 0)} are read, but the track holds frames "
+                             f"from {offset} on")
+        track = track[: t - offset]
+        x = track[w0 - offset :]
         bounds = cut_atoms(
             x, self.fps, available, model.centroids_, min_frames=self._min_frames, max_seconds=self._max_seconds, tau=self._tau
         )
@@ -117,7 +124,7 @@ class StreamParser:
         missing = [k for k, key in enumerate(keys) if key not in self._scores]
         if missing:
             idx = np.asarray(missing, dtype=np.int64)
-            new = closed_scores(model, track[:t], self.fps, starts[idx], stops[idx])
+            new = closed_scores(model, track, self.fps, starts[idx] - offset, stops[idx] - offset)
             for k, row in zip(missing, new):
                 self._scores[keys[k]] = row
         S = model.n_subevents_
@@ -126,7 +133,7 @@ class StreamParser:
             seg[a, b] = np.array([self._scores[key] for key in keys])
         if self.open_interval == "closed":  # the running interval scored as if it ended at t (not cached: t moves)
             oa = np.arange(B)
-            seg[oa, B] = closed_scores(model, track[:t], self.fps, bounds[oa] + w0, np.full(B, t))
+            seg[oa, B] = closed_scores(model, track, self.fps, bounds[oa] + w0 - offset, np.full(B, t - offset))
         if w0 > self._w0:  # what began before the window has left it: evict, keep memory bounded
             for key in [key for key in self._scores if key[0] < w0]:
                 del self._scores[key]

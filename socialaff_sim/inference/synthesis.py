@@ -30,7 +30,9 @@ The belief of every step (:attr:`SynthesisStep.belief`) is what the simulator an
 It runs one frame at a time (:meth:`OnlineSynthesizer.step`); fed a growing view
 (:meth:`OnlineSynthesizer.observe`, a stream) it reads only the view's new frames
 (:class:`~socialaff_sim.inference.canonical_stream.CanonicalStream`), so its work per frame does not grow with
-the time elapsed. It reads agent 0 and the object
+the time elapsed; under a causal configuration it holds only the last frames its readers read
+(:class:`~socialaff_sim.inference.track_window.TrackWindow`, :attr:`OnlineSynthesizer.window`), so neither does its
+memory. It reads agent 0 and the object
 causally: at frame t only frames before t are used, unless ``lookahead`` is set, in which case the
 spatial references use agent 0's recorded position at the predicted end (the setting of an offline
 evaluation where agent 0's whole track is given, as it is to the baselines); there ``parse="observed"``
@@ -43,7 +45,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..data.growing import grown
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ModelError
@@ -63,6 +64,7 @@ from .observed_parse import parse_observed
 from .stream_parse import ParseWork, StreamParser
 from .synthesis_config import SynthesisConfig
 from .synthesis_step import SynthesisStep
+from .track_window import TrackWindow
 from .timing import remaining_fraction, sample_remaining_seconds
 
 if TYPE_CHECKING:
@@ -112,10 +114,13 @@ class OnlineSynthesizer(CandidatePlanner):
         self._frame = obs.frame
         # The model joints as recorded and agent 0's wrist paths, updated with each view's new frames only.
         self._view = CanonicalStream(obs.frame)
+        if cfg.n_observed >= 1:
+            self._view.pin(cfg.n_observed - 1)
         self._view.update(interaction, obs.n_frames)
         # Agent 0 and the object stay in the track over the whole instance (read beyond t - 1 with lookahead only).
-        self._buffer = obs.track.copy()
-        self._track = self._buffer
+        self._track = TrackWindow.of(obs.track, "the synthesizer's working track")
+        if cfg.n_observed >= 1:
+            self._track.pin(cfg.n_observed - 1)  # the hold frame T0 - 1: the planner's reference, read at every re-planning
         self._parser = None
         if cfg.parse == "online":
             lc = self.model.learning
@@ -131,6 +136,7 @@ class OnlineSynthesizer(CandidatePlanner):
             horizon = max(int(round(cfg.belief_horizon * interaction.fps)), stride)
             self._filter = ForwardBelief(self.model, interaction.fps, stride=stride, horizon=horizon)
             self._parser = None  # the forward belief replaces the DP parse
+        self._keep = self._window_frames()
         self._stale = False
         self._hands = np.zeros(2, bool)
         self._set_hands(cfg.n_observed)
@@ -159,28 +165,54 @@ class OnlineSynthesizer(CandidatePlanner):
         if T < self._t:
             raise ModelError(f"observe: the view has {T} frames, but {self._t} were emitted already")
         old = self._track.shape[0]
-        changed = self._view.update(view, T)
-        new = relabel(self._view.track[changed:T], self._hands)[:, _OTHERS]
+        floor = 0 if self._keep is None else max(self._t - self._keep, 0)  # frames before it are read no more
+        changed = self._view.update(view, T, keep_from=floor)
+        self._track.forget(floor)
+        lo = max(changed, self._track.floor)  # frames before the window that changed: only the pinned ones are kept
+        new = relabel(self._view.track[lo:T], self._hands)[:, _OTHERS]
+        pins = [(p, relabel(self._view.track[p], self._hands)[_OTHERS]) for p in self._track.pinned if changed <= p < lo]
         seen = min(self._t, old, T)  # frames the parser may have scored: a change there makes its cache stale
-        if changed < seen and not np.array_equal(self._track[changed:seen, _OTHERS], new[: seen - changed], equal_nan=True):
+        if (lo < seen and not np.array_equal(self._track[lo:seen, _OTHERS], new[: seen - lo], equal_nan=True)) or any(
+                p < seen and not np.array_equal(self._track[p, _OTHERS], row, equal_nan=True) for p, row in pins):
             self._history_changed()
-        self._buffer = grown(self._buffer, T)
-        self._track = self._buffer[:max(T, old)]
-        self._track[changed:T, _OTHERS] = new
+        self._track.extend(max(T, old))
+        self._track[lo:T, _OTHERS] = new
+        for p, row in pins:
+            self._track[p, _OTHERS] = row
         self._inter = view
+
+    def _window_frames(self) -> int | None:
+        """L: frames before t the readers may still read at frame t (docs/design.md §7), or None (every frame: with
+        ``lookahead``, the observed parse, or an unbounded online parse). The forward belief reads intervals back to
+        a horizon H and a stride before t (2 H after a history change, while t <= 2 H: it replays from frame 0), the
+        windowed parse from w0 - 1 >= t - W - hop, the planner its running sub-event's start - 1 (from the same
+        belief) and the frame before t; the hold frame T0 - 1 is pinned apart."""
+        cfg = self.config
+        if cfg.lookahead or cfg.parse != "online":
+            return None
+        if self._filter is not None:
+            return 2 * self._filter.horizon + 2 * self._filter.stride + 2
+        if self._parser is not None and self._parser.window is not None:
+            return self._parser.window + 2 * self._parser.hop + 2
+        return None
+
+    @property
+    def window(self) -> int | None:
+        """L: frames before the next frame that the synthesizer still holds at least (None: every frame)."""
+        return self._keep
 
     def _set_hands(self, t: int) -> None:
         """Relabel the working tracks by the active-hand flags known at frame ``t`` (agent 0's whole track
         with ``lookahead``, else its frames before ``t`` and ``hand_margin``); a flag that changes relabels
         the history too, so emitted frames keep their recorded labels and the track stays continuous."""
         cfg = self.config
-        if cfg.lookahead:
-            hands = self.model.reaction_hands(self._view.track, None, 0.0)
+        if cfg.lookahead:  # no window: every frame held
+            hands = self.model.reaction_hands(np.asarray(self._view.track), None, 0.0)
         else:  # agent 0's wrist paths so far, from running sums: O(1) per re-planning on a stream of any length
             hands = self.model.reaction_hands_at(self._view.paths, t, cfg.hand_margin)
         change = hands != self._hands
-        if change.any():
-            self._track[:] = relabel(self._track, change)
+        if change.any():  # the frames held and the pinned hold frame: the older ones are read no more
+            self._track.map(lambda x: relabel(x, change))
             self._hands = hands
             self._history_changed()
 
@@ -199,13 +231,14 @@ class OnlineSynthesizer(CandidatePlanner):
             origin = 0 if t <= 2 * fb.horizon else ((t - fb.horizon) // fb.stride) * fb.stride
             fb.reset(origin)
             self._stale = False
-        fb.advance(self._track, t)
+        fb.advance(self._track.rows, t, offset=self._track.floor)
         self._belief = fb.belief(t)
 
     def _observed_track(self) -> np.ndarray:
         """(T, 11, 3) canonical: agent 0 and the object over the whole instance, agent 1 NaN."""
-        x = np.full_like(self._track, np.nan)
-        x[:, _OTHERS] = self._track[:, _OTHERS]
+        track = np.asarray(self._track)  # every frame: the observed parse holds no window
+        x = np.full_like(track, np.nan)
+        x[:, _OTHERS] = track[:, _OTHERS]
         return x
 
     @property
@@ -336,7 +369,7 @@ class OnlineSynthesizer(CandidatePlanner):
             self._belief = np.eye(S)[row[2]]
             return int(row[2]), int(row[0])
         assert self._parser is not None  # internal invariant: set by reset for parse == "online"
-        parse, _ = self._parser.parse(self._track, t, self._available)
+        parse, _ = self._parser.parse(self._track.rows, t, self._available, offset=self._track.floor)
         self._belief = parse.belief
         return parse.current, parse.start
 
