@@ -64,7 +64,7 @@ from .observed_parse import parse_observed
 from .stream_parse import ParseWork, StreamParser
 from .synthesis_config import SynthesisConfig
 from .synthesis_step import SynthesisStep
-from .track_window import TrackWindow
+from .working_track import OTHERS as _OTHERS, WorkingTrack, reader_window
 from .timing import remaining_fraction, sample_remaining_seconds
 
 if TYPE_CHECKING:
@@ -73,7 +73,6 @@ if TYPE_CHECKING:
 
 __all__ = ["SynthesisConfig", "SynthesisStep", "OnlineSynthesizer", "sample_remaining_seconds", "remaining_fraction"]
 
-_OTHERS = np.r_[np.arange(N_KEY), 2 * N_KEY]
 
 
 class OnlineSynthesizer(CandidatePlanner):
@@ -118,7 +117,7 @@ class OnlineSynthesizer(CandidatePlanner):
             self._view.pin(cfg.n_observed - 1)
         self._view.update(interaction, obs.n_frames)
         # Agent 0 and the object stay in the track over the whole instance (read beyond t - 1 with lookahead only).
-        self._track = TrackWindow.of(obs.track, "the synthesizer's working track")
+        self._track = WorkingTrack.of(obs.track, "the synthesizer's working track")
         if cfg.n_observed >= 1:
             self._track.pin(cfg.n_observed - 1)  # the hold frame T0 - 1: the planner's reference, read at every re-planning
         self._parser = None
@@ -136,7 +135,7 @@ class OnlineSynthesizer(CandidatePlanner):
             horizon = max(int(round(cfg.belief_horizon * interaction.fps)), stride)
             self._filter = ForwardBelief(self.model, interaction.fps, stride=stride, horizon=horizon)
             self._parser = None  # the forward belief replaces the DP parse
-        self._keep = self._window_frames()
+        self._keep = reader_window(cfg, self._filter, self._parser)
         self._stale = False
         self._hands = np.zeros(2, bool)
         self._set_hands(cfg.n_observed)
@@ -164,37 +163,12 @@ class OnlineSynthesizer(CandidatePlanner):
         T = max(view.n_frames if n_frames is None else int(n_frames), view.n_frames)
         if T < self._t:
             raise ModelError(f"observe: the view has {T} frames, but {self._t} were emitted already")
-        old = self._track.shape[0]
         floor = 0 if self._keep is None else max(self._t - self._keep, 0)  # frames before it are read no more
         changed = self._view.update(view, T, keep_from=floor)
         self._track.forget(floor)
-        lo = max(changed, self._track.floor)  # frames before the window that changed: only the pinned ones are kept
-        new = relabel(self._view.track[lo:T], self._hands)[:, _OTHERS]
-        pins = [(p, relabel(self._view.track[p], self._hands)[_OTHERS]) for p in self._track.pinned if changed <= p < lo]
-        seen = min(self._t, old, T)  # frames the parser may have scored: a change there makes its cache stale
-        if (lo < seen and not np.array_equal(self._track[lo:seen, _OTHERS], new[: seen - lo], equal_nan=True)) or any(
-                p < seen and not np.array_equal(self._track[p, _OTHERS], row, equal_nan=True) for p, row in pins):
+        if self._track.take(self._view, changed, T, self._hands, self._t):  # the parser's scores or the belief are stale
             self._history_changed()
-        self._track.extend(max(T, old))
-        self._track[lo:T, _OTHERS] = new
-        for p, row in pins:
-            self._track[p, _OTHERS] = row
         self._inter = view
-
-    def _window_frames(self) -> int | None:
-        """L: frames before t the readers may still read at frame t (docs/design.md §7), or None (every frame: with
-        ``lookahead``, the observed parse, or an unbounded online parse). The forward belief reads intervals back to
-        a horizon H and a stride before t (2 H after a history change, while t <= 2 H: it replays from frame 0), the
-        windowed parse from w0 - 1 >= t - W - hop, the planner its running sub-event's start - 1 (from the same
-        belief) and the frame before t; the hold frame T0 - 1 is pinned apart."""
-        cfg = self.config
-        if cfg.lookahead or cfg.parse != "online":
-            return None
-        if self._filter is not None:
-            return 2 * self._filter.horizon + 2 * self._filter.stride + 2
-        if self._parser is not None and self._parser.window is not None:
-            return self._parser.window + 2 * self._parser.hop + 2
-        return None
 
     @property
     def window(self) -> int | None:

@@ -4,8 +4,8 @@ The causal reactor's tracks (the synthesizer's working track, the canonical stre
 agent 0's wrist paths) are read by absolute frame, but on a stream each reader reads only the last few seconds
 (docs/design.md §7, "The reactor's memory: a bounded window"). :class:`TrackWindow` keeps frames ``[floor, n)`` of
 such an array in a buffer that is compacted (the frames before ``floor`` dropped, the rest moved to its front) when
-it is full and at least half of it is forgettable, and doubled otherwise: amortized O(1) work per frame, and a buffer
-of at most twice the frames held. :meth:`TrackWindow.forget` raises the floor; a frame below it is no longer readable
+it is full and at least half of it is forgettable, and else reallocated at twice the frames held: amortized O(1) work
+per frame, and a buffer of at most twice the most frames held at once (or the initial capacity). :meth:`TrackWindow.forget` raises the floor; a frame below it is no longer readable
 nor writable (a :class:`~socialaff_sim.errors.ModelError` naming the frame and the floor, never a stale value), except
 the frames pinned with :meth:`TrackWindow.pin`, whose rows are kept apart when the floor passes them (the planner's
 hold frame T0 − 1).
@@ -101,8 +101,8 @@ class TrackWindow:
             if size <= cap // 2:  # compact in place: the frames held to the front
                 self._buf[: live.shape[0]] = live.copy()
                 self._buf[live.shape[0] :] = self._fill
-            else:  # grow: at least double, so that compactions are rare
-                buf = np.full((max(2 * cap, 2 * size, _MIN_CAPACITY),) + self._buf.shape[1:], self._fill)
+            else:  # grow to twice the frames held: the next compaction or growth comes after as many new frames
+                buf = np.full((max(2 * size, 8),) + self._buf.shape[1:], self._fill)
                 buf[: live.shape[0]] = live
                 self._buf = buf
             self._base = self._floor
