@@ -62,11 +62,37 @@ class BatchPrimitive:
         return self.primitive.react_keys(view, start, stop, n_observed=self.n_observed)
 
 
+def _children(x: object) -> list:
+    if isinstance(x, dict):
+        return [*x.keys(), *x.values()]
+    if isinstance(x, (list, tuple, set, frozenset)):
+        return list(x)
+    return list(vars(x).values()) if hasattr(x, "__dict__") else []
+
+
+def _reachable(objs: tuple[object, ...]) -> set[int]:
+    """Ids of every object reachable from ``objs`` (attributes, containers; arrays and their bases)."""
+    seen: set[int] = set()
+    stack = list(objs)
+    while stack:
+        x = stack.pop()
+        if id(x) in seen:
+            continue
+        seen.add(id(x))
+        if isinstance(x, np.ndarray):
+            if isinstance(x.base, np.ndarray):
+                stack.append(x.base)
+        elif not isinstance(x, (str, bytes, int, float, bool, type(None), np.random.Generator)):
+            stack.extend(_children(x))
+    return seen
+
+
 def state_bytes(obj: object, exclude: tuple[object, ...]) -> int:
     """Bytes of the NumPy buffers reachable from ``obj`` (attributes, containers), each buffer counted once at its
-    capacity (a view counts its base), not reaching into ``exclude`` (the fitted method: shared, fixed) nor into the
+    capacity (a view counts its base), not reaching into ``exclude`` (the fitted method: shared, fixed; nothing
+    reachable from it is counted, also when the reactor holds it, e.g. the model and the primitive) nor into the
     view the reactor was last handed (the evaluation's frames, counted apart)."""
-    seen: set[int] = {id(x) for x in exclude}
+    seen: set[int] = _reachable(exclude)
     total, stack = 0, [obj]
     while stack:
         x = stack.pop()
