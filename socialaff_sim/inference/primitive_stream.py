@@ -45,6 +45,7 @@ from ..model.frame import CanonicalFrame
 from .body_fit import instance_frame
 from .interaction_primitive import InteractionPrimitive, rbf_centres, rbf_rows
 from .low_rank_solve import LowRankUpdatedSolver
+from .primitive_sums import PrimitiveSums
 from .protocol import observed_part
 
 __all__ = ["PHASE_ONE_REFACTOR", "PrimitiveStream", "SHARED_SOLVERS", "stream_key_joints"]
@@ -63,7 +64,7 @@ _SHARED: weakref.WeakKeyDictionary[InteractionPrimitive, dict[tuple[int, bytes],
 _SHARED = weakref.WeakKeyDictionary()
 
 
-class PrimitiveStream:
+class PrimitiveStream(PrimitiveSums):
     """The causal prediction of a fitted :class:`~.interaction_primitive.InteractionPrimitive` on one
     instance whose view grows (module docstring).
 
@@ -107,6 +108,7 @@ class PrimitiveStream:
         self._table = self._rbf(phases.ravel()).reshape(self.t_max + 1, len(self._cands), self._n)
         self._lam = np.empty((self._a, self._a), order="F")  # the a-block, factored in place every frame within T_max
         self._row = np.empty(n_dof)  # one frame's DoFs
+        self._col_runs: dict[bytes, list[tuple[int, int, int, int]]] = {}  # _runs of the seen DoFs, per pattern
         self._key_cols = slice(0, 3 * len(primitive.keys_))
         self.duration: int | None = None
         """T̂ of the last call, frames."""
@@ -130,92 +132,6 @@ class PrimitiveStream:
         diag = np.arange(m)
         view[diag, :, diag, :] += blocks
         return lam
-
-    def _add(self, frames: np.ndarray, y: np.ndarray, sign: float = 1.0, information: bool = True) -> None:
-        """Add (``sign`` −1: remove) frames (G,) with canonical DoF values y (G, D) (NaN: not seen) to the sums;
-        ``information`` False leaves HᵀR⁻¹H alone (the values change, not which are seen).
-
-        Only the candidates still to be chosen are updated: T̂ ≥ the frames seen (the calls' ``stop`` grows), and
-        T_max (the bounded rule); the others' sums are left as they were (never read again)."""
-        if len(frames) == 1 and sign == 1.0 and information:
-            self._add_frame(int(frames[0]), y[0])
-            return
-        seen = np.isfinite(y)
-        seen[frames >= self.n_observed, self._d0 :] = False  # agent 1 after the prefix is never used
-        act = np.flatnonzero((self._cands > frames[0]) | (self._cands == self.t_max))
-        cols = np.flatnonzero(seen.any(axis=0))
-        yz = np.where(seen[:, cols], y[:, cols], 0.0) * self._inv_var[cols]  # (G, K)
-        span = np.maximum(self._cands[act] - 1, 1)
-        phi = self._rbf(np.minimum(frames[:, None] / span[None], 1.0).ravel()).reshape(len(frames), len(act), self._n)
-        sub = _block(act, cols)
-        if len(frames) == 1:  # the per-frame path
-            p0 = phi[0]
-            hty = p0[:, None, :] * yz[0][None, :, None]
-            if sign != 1.0:  # 1.0 × a is a: the usual (adding) call skips the product
-                hty *= sign
-            self._hty[sub] += hty
-            if information:
-                w = seen[0, cols] * self._inv_var[cols]
-                outer = p0[:, :, None] * p0[:, None, :]  # (A, N, N)
-                if w.size and (w == w[0]).all():  # one weight for every DoF (the usual frame): the same products, broadcast
-                    hth = (outer * w[0])[:, None]
-                else:
-                    hth = outer[:, None] * w[None, :, None, None]
-                if sign != 1.0:
-                    hth *= sign
-                self._hth[sub] += hth
-                if self._phase_one is not None:  # past T_max: the frame's phase is 1 (anchored at ≥ T_max frames)
-                    a_cols = cols < self._d0
-                    self._phase_one.weights[cols[a_cols]] += sign * w[a_cols]
-                    self._phase_one_frames += 1
-        else:
-            self._hty[sub] += sign * np.einsum("gcn,gd->cdn", phi, yz)
-            if information:
-                w = seen[:, cols] * self._inv_var[cols]
-                self._hth[sub] += sign * np.einsum("gcn,gcm,gd->cdnm", phi, phi, w)
-        # The duration match: frames s < T̂ of each candidate, agent 0's (and the object's) DoFs.
-        eligible = frames[:, None] < self._cands[act][None]
-        if not eligible.any():  # past every candidate (a long stream): the sums would gain zeros
-            return
-        obs = y[:, : self._d0] - self._first[None]
-        ok = np.isfinite(obs)
-        mu = phi @ self._mean[: self._d0].T - self._mu0  # (G, A, d0)
-        sq = np.where(ok[:, None], obs[:, None] - mu, 0.0) ** 2
-        self._err[act] += sign * np.where(eligible, sq.sum(axis=2), 0.0).sum(axis=0)
-
-    def _add_frame(self, s: int, y: np.ndarray) -> None:
-        """:meth:`_add` of one frame s with DoF values y (D,) (the per-frame call): the same sums, bitwise, from the
-        basis table, with the active candidates (a contiguous run: the durations are sorted) and usually the seen
-        DoFs as slices, and the duration match without its no-op selections."""
-        seen = np.isfinite(y)
-        if s >= self.n_observed:
-            seen[self._d0 :] = False  # agent 1 after the prefix is never used
-        n_c = len(self._cands)
-        lo = min(int(np.searchsorted(self._cands, s, side="right")), n_c - 1)  # candidates > s, and T_max
-        cols = np.flatnonzero(seen)
-        p0 = self._table[min(s, self.t_max), lo:]  # (A, N)
-        sub = _block(np.arange(lo, n_c), cols)
-        yz = y[cols] * self._inv_var[cols]
-        self._hty[sub] += p0[:, None, :] * yz[None, :, None]
-        w = self._inv_var[cols]
-        outer = p0[:, :, None] * p0[:, None, :]  # (A, N, N)
-        if w.size and (w == w[0]).all():  # one weight for every DoF (the usual frame): the same products, broadcast
-            hth = (outer * w[0])[:, None]
-        else:
-            hth = outer[:, None] * w[None, :, None, None]
-        self._hth[sub] += hth
-        if self._phase_one is not None:  # past T_max: the frame's phase is 1 (anchored at ≥ T_max frames)
-            a_cols = cols < self._d0
-            self._phase_one.weights[cols[a_cols]] += w[a_cols]
-            self._phase_one_frames += 1
-        if s >= self.t_max:  # past every candidate (a long stream): the duration match's sums would gain zeros
-            return
-        obs = y[: self._d0] - self._first
-        mu = p0 @ self._mean[: self._d0].T - self._mu0  # (A, d0)
-        diff = obs[None] - mu
-        if not np.isfinite(obs).all():
-            diff = np.where(np.isfinite(obs)[None], diff, 0.0)
-        self._err[lo:] += (diff**2).sum(axis=1)
 
     def _dofs(self, joints: np.ndarray, obj: np.ndarray | None) -> np.ndarray:
         """(G, D) canonical DoFs from world key joints (G, 2, k, 3) and the object (G, 3) or ``None``."""
@@ -413,14 +329,6 @@ class PrimitiveStream:
         keys = self.prefix_keys(hidden, visible, start, stop)
         assert self._frame is not None
         return self._frame.to_world(keys)
-
-
-def _block(rows: np.ndarray, cols: np.ndarray) -> tuple[slice, slice] | tuple[np.ndarray, np.ndarray]:
-    """The index of the (rows, cols) sub-array: slices when both runs are contiguous (the usual case: an in-place
-    add on a view instead of a gather and a scatter; the same sums), else ``np.ix_``."""
-    if rows.size and cols.size and rows[-1] - rows[0] + 1 == rows.size and cols[-1] - cols[0] + 1 == cols.size:
-        return slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1)
-    return np.ix_(rows, cols)
 
 
 def stream_key_joints(primitive: InteractionPrimitive, interaction: Interaction, n_observed: int, *, stride: int = 1) -> np.ndarray:
