@@ -35,6 +35,7 @@ __all__ = ["BodyFitConfig", "BodyFitter", "instance_frame", "kmeans", "two_bone_
 _EPS = 1e-12
 _EYE3 = np.eye(3)
 _EYE3.setflags(write=False)
+_NEXT, _AFTER = np.array([1, 2, 0]), np.array([2, 0, 1])  # _cross's component indices
 
 
 def instance_frame(interaction: Interaction) -> CanonicalFrame:
@@ -112,12 +113,11 @@ class BodyFitConfig:
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(T, 3) a × b of (T, 3) or (3,) vectors: the products and differences of ``np.cross``, in its order (the same
     values), without its set-up (the body fit runs once per frame on a stream)."""
+    if a.shape == b.shape:  # component i is a[i+1]·b[i+2] − a[i+2]·b[i+1] (indices mod 3): the same products, gathered
+        return a[..., _NEXT] * b[..., _AFTER] - a[..., _AFTER] * b[..., _NEXT]
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    parts = (a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0)
-    if a.shape != b.shape:  # a (3,) against (T, 3): broadcast the components
-        parts = np.broadcast_arrays(*parts)
-    return np.stack(parts, axis=-1)
+    return np.stack(np.broadcast_arrays(a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
 
 
 def _norm(v: np.ndarray, keepdims: bool = False) -> np.ndarray:
