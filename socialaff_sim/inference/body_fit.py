@@ -239,8 +239,8 @@ class BodyFitter:
         self.poses_ = poses - poses[:, base : base + 1]
         self.keys_ = layout.key_joints(self.poses_)
         self._chains = [c for c in self._limb_chains(layout) if usable[list(c[1:4])].all()]
-        self._keys_ok = None  # _keys_finite's, made on first use
-        self._stacked = None  # _move_subtrees's, made on first use
+        self._keys_ok: np.ndarray | None = None  # select_clusters's and _move_subtrees's index arrays, made on first use
+        self._stacked: tuple[np.ndarray, ...] | None = None
         self._independent = _independent(self._chains)
         return self
 
@@ -315,18 +315,14 @@ class BodyFitter:
         self._check()
         tg = np.asarray(key_targets, dtype=np.float64)
         rel = tg[:, 1:] - tg[:, :1]
-        ok = np.isfinite(rel).all(-1) & self._keys_finite()[None]
+        if getattr(self, "_keys_ok", None) is None:  # the clusters' finite key joints (4,), once: the fit is fixed
+            self._keys_ok = np.isfinite(self.keys_[:, 1:]).all(-1).all(0)
+        ok = np.isfinite(rel).all(-1) & self._keys_ok[None]
         diff = rel[:, None] - self.keys_[None, :, 1:]
         if not ok.all():  # a key joint missing from the targets or the clusters: it does not count
             diff = np.where(ok[:, None, :, None], diff, 0.0)
         return np.argmin((diff**2).sum(axis=(2, 3)), axis=1)
 
-    def _keys_finite(self) -> np.ndarray:
-        """(4,) whether every cluster has key joint k + 1 (made once: the fit is fixed)."""
-        ok = getattr(self, "_keys_ok", None)
-        if ok is None:
-            ok = self._keys_ok = np.isfinite(self.keys_[:, 1:]).all(-1).all(0)
-        return ok
 
     def fit_poses(self, key_targets: np.ndarray, frame: CanonicalFrame | None = None) -> np.ndarray:
         """Skeletons (T, J, 3), metres, reaching the key-joint targets (T, 5, 3).
@@ -388,15 +384,12 @@ class BodyFitter:
 
     def _move_subtrees(self, pose: np.ndarray, m0: np.ndarray, m1: np.ndarray, e0: np.ndarray, e1: np.ndarray,
                        rot_up: np.ndarray, rot_lo: np.ndarray) -> None:
-        """One frame's limbs moved in place: every chain's mid subtree (J, 3) by its rotation ``rot_up`` (C, 3, 3) about
-        the old mid m0 (C, 3) to the new m1, its end subtree by ``rot_lo`` about e0 to e1; the subtrees of all the
-        (independent) chains at once, the same per-joint products as chain by chain."""
+        """One frame's limbs moved in place (``pose`` (J, 3)): each chain's mid subtree by ``rot_up`` (C, 3, 3) from m0 (C, 3)
+        to m1, its end subtree by ``rot_lo`` from e0 to e1; all (independent) chains at once, chain by chain's products."""
         stacked = getattr(self, "_stacked", None)
         if stacked is None:  # the subtrees' joints and their chain, made once
-            mids = [(j, k) for k, c in enumerate(self._chains) for j in c[4].tolist()]
-            ends = [(j, k) for k, c in enumerate(self._chains) for j in c[5].tolist()]
-            stacked = self._stacked = tuple(np.array([x[i] for x in xs], dtype=np.int64).reshape(-1)
-                                            for xs in (mids, ends) for i in (0, 1))
+            pairs = [[(j, k) for k, c in enumerate(self._chains) for j in c[i].tolist()] for i in (4, 5)]
+            stacked = self._stacked = tuple(np.array([x[i] for x in xs], dtype=np.int64).reshape(-1) for xs in pairs for i in (0, 1))
         mid_j, mid_c, end_j, end_c = stacked
         if len(mid_j):
             pose[mid_j] = m1[mid_c] + np.einsum("tij,tnj->tni", rot_up[mid_c], (pose[mid_j] - m0[mid_c])[:, None])[:, 0]
