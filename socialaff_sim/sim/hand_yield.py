@@ -19,7 +19,10 @@ harness catches it (docs/benchmarks.md, issue 25).
 :class:`HandYield` is the force-limited arm a real robot has: while |f| > κ F_feet (κ ``hand_yield``) each arm's
 wrist reference gives way along the horizontal force on that arm, as a damper of ``yield_damping`` b:
 ȯ_s = (|f| − κ F_feet) / b · f_s / |f|; otherwise the offset returns over ``yield_return`` τ: ȯ_s = −o_s / τ.
-The offset (world, m, at most :data:`MAX_OFFSET`) moves the arm's hinge references by the damped least-squares
+Only the person's contacts count: an object a grip weld holds
+presses on the hand it is welded to (forces internal to robot and object; in the hand overs they set the arms
+giving way for seconds), and a ball's impact is over before a give would help. The offset (world, m, at most
+:data:`MAX_OFFSET`) moves the arm's hinge references by the damped least-squares
 Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ o over the arm's hinges (J the wrist's translational Jacobian there), and their
 reference velocities by the same map of ȯ. The forces are the contacts' of the last step
 (:class:`~.external_force.ExternalForces`), low-pass filtered over ``external_filter``.
@@ -84,6 +87,8 @@ class HandYield:
         self.fraction, self.damping, self.back, self.filter_time = fraction, damping, back, filter_time
         self.vadr = np.asarray(scene.robot_vadr)
         self._arm_geom = np.asarray(scene.arm_geom, dtype=bool)
+        self._person = np.zeros(m.ngeom, dtype=bool)
+        self._person[np.asarray(scene.human_geom_ids, dtype=np.int64)] = True
         self._wrist = []
         self._cols = []
         for s in (0, 1):
@@ -109,8 +114,10 @@ class HandYield:
         """Updates in which the arms gave way."""
 
     def measure(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
-        """Fold the contact forces on each arm of the step just taken into their filtered estimate."""
-        pts, forces, geoms = self._external.contacts(m, d)
+        """Fold the person's contact forces on each arm of the step just taken into their filtered estimate."""
+        pts, forces, geoms, others = self._external.contacts(m, d)
+        mine = self._person[others]  # an object held by a grip weld presses on the hand it is welded to
+        pts, forces, geoms = pts[mine], forces[mine], geoms[mine]
         a = math.exp(-m.opt.timestep / self.filter_time) if self.filter_time > 0 else 0.0
         now = np.array([forces[self._arm_geom[s][geoms]].sum(axis=0) if len(geoms) else np.zeros(3) for s in (0, 1)])
         self.force = a * self.force + (1.0 - a) * now
