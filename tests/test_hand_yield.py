@@ -165,3 +165,21 @@ def test_a_pulled_robot_whose_hands_give_way_stays_upright_and_free_longer() -> 
         tilt.append(cp["torso_tilt_deg_max"])
         released.append(cp["released_frames"] / cp["frames"])
     assert tilt[1] < tilt[0] - 2.0 and released[1] > released[0]
+
+
+def test_only_the_persons_contacts_set_the_arms_giving_way(scene, monkeypatch) -> None:
+    """An object a grip weld holds presses on the hand it is welded to (forces internal to robot and object): those
+    contacts do not count, the person's do."""
+    m = scene.model
+    d = mujoco.MjData(m)
+    hy = _yield(scene)
+    left = int(np.flatnonzero(scene.arm_geom[0])[0])
+    person = int(scene.human_geom_ids[-1])
+    other = int(next(g for g in range(m.ngeom) if g not in set(scene.human_geom_ids.tolist()) and not scene.robot_geom[g]))
+    pts = np.array([[0.3, 0.1, 1.0], [0.3, 0.1, 0.9]])
+    forces = np.array([[-40.0, 0.0, 5.0], [0.0, 70.0, 0.0]])
+    monkeypatch.setattr(hy._external, "contacts", lambda *_: (pts, forces, np.array([left, left]),
+                                                              np.array([person, other])))
+    hy.measure(m, d)
+    np.testing.assert_allclose(hy.force, [[-40.0, 0.0, 5.0], [0.0, 0.0, 0.0]], atol=1e-12)
+    assert hy._height == pytest.approx(1.0)
