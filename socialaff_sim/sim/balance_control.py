@@ -11,7 +11,8 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    reference c* over the feet (ω_c, ζ): the IK's centre of mass relative to its feet carried over to the
    physical feet (or the middle of the feet), optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
-   with the floor, where they stand now) shrunk by a margin;
+   with the floor, where they stand now) shrunk by a margin; with ``hand_yield`` the arms' references give way
+   to a person's force beyond what the feet carry (:mod:`~.hand_yield`);
 2. floating-base inverse dynamics with the floor's contact forces: at the feet's contact points as MuJoCo found
    them, forces inside friction cones that balance the root's six unactuated rows, q̈ as close to the wanted one
    as the weights allow (the arms' and head's joints by ``upper_weight`` less); τ = M q̈ + h − Jᵀf on the hinges.
