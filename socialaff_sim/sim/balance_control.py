@@ -180,10 +180,10 @@ class BalanceController:
         """``qp``: driven steps with a torque on its limit's bound; solved again without the foot loads and
         centre-of-pressure bounds; whose QP DAQP did not solve (the least-squares torques were used)."""
         self.clearance_steps = self.clearance_dropped_steps = 0
+        """``self_clearance``: driven steps with a clearance row in the QP; of them, those whose rows were dropped."""
         self._capture = np.zeros(2)
         if self.hand_yield is not None:
             self.hand_yield.reset()
-        """``self_clearance``: driven steps with a clearance row in the QP; of them, those whose rows were dropped."""
 
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,

@@ -12,19 +12,19 @@ toward that edge has less to spare), the horizontal force the feet carry is
 
 a person leaning on the hands (f_z < 0) in front of the robot (x·u < e) helps it.
 
-Stubby's pull-ups: the seated person's hand, replayed, presses the robot's hand back with 50–145 N at 1.0 m;
-its 16 cm soles allow about 60 N standing upright, so the robot tips over its heels (torso 10–15°) until the
-harness catches it (docs/benchmarks.md, issue 25).
+Stubby's pull-ups: the rising person's hand, replayed, presses the robot's hand back and down (a median 46 N
+horizontally at 1.05 m, up to 216 N); its 16 cm soles carry about 30 N there with the centre of mass over the
+middle of the feet, so the robot tips over its heels (torso 10–15°) until the harness catches it
+(docs/benchmarks.md, "The pull-ups' outside support …", issue 25).
 
 :class:`HandYield` is the force-limited arm a real robot has: while |f| > κ F_feet (κ ``hand_yield``) each arm's
 wrist reference gives way along the horizontal force on that arm, as a damper of ``yield_damping`` b:
 ȯ_s = (|f| − κ F_feet) / b · f_s / |f|; otherwise the offset returns over ``yield_return`` τ: ȯ_s = −o_s / τ.
-Only the person's contacts count: an object a grip weld holds
-presses on the hand it is welded to (forces internal to robot and object; in the hand overs they set the arms
-giving way for seconds), and a ball's impact is over before a give would help. The offset (world, m, at most
-:data:`MAX_OFFSET`) moves the arm's hinge references by the damped least-squares
-Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ o over the arm's hinges (J the wrist's translational Jacobian there), and their
-reference velocities by the same map of ȯ. The forces are the contacts' of the last step
+Only the person's contacts count: an object a grip weld holds presses on the hand it is welded to (forces
+internal to robot and object; counted, they set the hand overs' arms giving way for seconds). The offset (world,
+horizontal, m, at most :data:`MAX_OFFSET`) moves the arm's hinge references by the damped least-squares
+Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ o over the arm's hinges (J the wrist's horizontal translational Jacobian there), and
+their reference velocities by the same map of ȯ. The forces are the contacts' of the last step
 (:class:`~.external_force.ExternalForces`), low-pass filtered over ``external_filter``.
 """
 
