@@ -32,8 +32,11 @@ import numpy as np
 
 from ..errors import ConfigError, ModelError
 from ..model.affordance import AffordanceParameters
-from .type_tables import TypeTables
+from ..model.features import IntervalFeatures
+from ..model.path import path_residuals
 from .online_parse import log_duration_survival
+from .path_sums import PathSums
+from .type_tables import TypeTables
 
 __all__ = ["ForwardBelief"]
 
@@ -75,6 +78,10 @@ class ForwardBelief:
         d = np.arange(self.horizon + 1) / self.fps
         self._surv = np.stack([log_duration_survival(model, s, d) for s in range(S)], axis=1)  # (H + 1, S)
         self._tables = TypeTables(model) if cfg.vector_density == "polar" else None
+        # The path terms of the kept starts' intervals from running sums (docs/design.md §7: within a declared
+        # tolerance of path_residuals, not bitwise), one row per F row.
+        kind = cfg.feature_path_profile
+        self._sums = None if kind is None else PathSums(kind, model.available_.shape[0])
         self.reset()
 
     def reset(self, origin: int = 0) -> None:
@@ -89,6 +96,8 @@ class ForwardBelief:
         self._long = np.full((self.M, self.S), -np.inf)
         self._G_long = np.full(self.S, -np.inf)
         self._next = self.origin  # the next cut to process
+        if self._sums is not None:
+            self._sums.reset()
         self._posterior: tuple[int, np.ndarray, np.ndarray] | None = None  # the last posterior read, until the next cut
         self.cuts = 0
         """Cuts processed since the last reset."""
@@ -129,10 +138,14 @@ class ForwardBelief:
                 F[self._dst[s], s] = V[self._src[s], s]
         self._starts = np.append(self._starts, b)
         self._F = np.concatenate([self._F, F[None]])
+        if self._sums is not None:
+            self._sums.add(track, b)
         old = self._starts <= b - self.horizon  # an interval from there to the next cut would exceed the horizon
         if old.any():
             self._long = np.logaddexp(self._long, _logsumexp_finite(self._F[old], axis=0))
             self._starts, self._F = self._starts[~old], self._F[~old]
+            if self._sums is not None:
+                self._sums.keep(~old)
             if self.M > 1:  # the long bucket forgets the labels used before it: a stream can start the interaction again
                 merged = _logsumexp_finite(self._long, axis=0)  # (S,)
                 self._long = np.full((self.M, self.S), -np.inf)
@@ -152,7 +165,7 @@ class ForwardBelief:
         spatial potentials are evaluated once per type."""
         model = self.model
         stops = np.full(starts.size, b)
-        feats = model.interval_features(track, starts, stops, self.fps)
+        feats = self._features(track, starts, b)
         short = (stops - starts) < model.config.min_subevent_seconds * self.fps
         tab = self._tables
         if tab is None:  # the Cartesian densities: the model's own scoring, type by type
@@ -166,6 +179,25 @@ class ForwardBelief:
             out[:, s] += model.log_path(s, feats)
         out[short] = -np.inf
         return out
+
+    def _features(self, track: np.ndarray, starts: np.ndarray, b: int) -> IntervalFeatures:
+        """The features of the intervals [starts, b) (those of ``model.interval_features``), their path residuals
+        from the running sums of the kept starts (:class:`~.path_sums.PathSums`); ``starts`` are the kept
+        ones, then possibly the long bucket's representative start."""
+        if self._sums is None:
+            return self.model.interval_features(track, starts, np.full(starts.size, b), self.fps)
+        sq, n = self._sums.residuals(track, b)
+        K = self._starts.size
+        if starts.size > K:  # the long bucket's start: that of the oldest kept row (b − horizon), else from the frames
+            rep = starts[K:]
+            at = np.minimum(np.searchsorted(self._starts, rep), max(K - 1, 0))
+            if K and np.array_equal(self._starts[at], rep):
+                sq, n = np.concatenate([sq, sq[at]]), np.concatenate([n, n[at]])
+            else:
+                sq_r, n_r = path_residuals(track, rep, np.full(rep.size, b), self._sums.kind)
+                sq, n = np.concatenate([sq, sq_r]), np.concatenate([n, n_r])
+        end, disp, seconds = _ends(track, starts, b, self.fps)
+        return IntervalFeatures(end, disp, seconds, sq, n)
 
     def posterior(self, t: int) -> tuple[np.ndarray, np.ndarray]:
         """At frame ``t`` (after :meth:`advance` to t): the starts (K,) int64 of the running interval and
@@ -197,6 +229,14 @@ class ForwardBelief:
     def belief(self, t: int) -> np.ndarray:
         """(S,) P(current sub-event = s | frames < t)."""
         return self.posterior(t)[1].sum(axis=0)
+
+
+def _ends(track: np.ndarray, starts: np.ndarray, b: int, fps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The end (K, J, 3), displacement (K, J, 3) and seconds (K,) of the intervals [starts, b) (those of
+    :func:`~socialaff_sim.model.features.interval_features`)."""
+    end = np.repeat(np.asarray(track[b - 1], float)[None], starts.size, axis=0)
+    disp = end - track[np.maximum(starts - 1, 0)]
+    return end, disp, (b - starts) / float(fps)
 
 
 def _logsumexp_finite(x: np.ndarray, axis: int) -> np.ndarray:
