@@ -162,3 +162,24 @@ def test_long_bucket_start_outside_the_rows_falls_back_to_the_frames(shake8: Dat
     np.testing.assert_array_equal(feats.end, ref.end)
     np.testing.assert_array_equal(feats.disp, ref.disp)
     np.testing.assert_array_equal(feats.seconds, ref.seconds)
+
+
+def test_closing_scores_every_type_at_once_equal_the_models_path_terms(shake8: Dataset, shake8_model: SocialAffordanceModel) -> None:
+    """The cut's closed-interval scores (path terms of every type at once) against the model's own scoring of the
+    same intervals, type by type (``interval_log_score``, path_residuals inside)."""
+    m = shake8_model
+    track = _track(list(shake8)[6])
+    fps = list(shake8)[0].fps
+    fb = ForwardBelief(m, fps, stride=2, horizon=20)
+    fb.advance(track, 31)
+    b = 32
+    starts = fb._starts.copy()
+    got = fb._closing(track, starts, b)
+    feats = m.interval_features(track, starts, np.full(starts.size, b), fps)
+    ref = np.column_stack([m.interval_log_score(feats, s) for s in range(m.n_subevents_)])
+    ref[(b - starts) < m.config.min_subevent_seconds * fps] = -np.inf
+    assert np.isfinite(ref).sum() > starts.size  # scores to compare, not only −inf
+    np.testing.assert_array_equal(np.isneginf(got), np.isneginf(ref))
+    fin = np.isfinite(ref)
+    np.testing.assert_allclose(got[fin], ref[fin], rtol=1e-10, atol=1e-8)
+    assert np.ptp(np.column_stack([m.log_path(s, feats) for s in range(m.n_subevents_)])) > 1.0  # the path terms weigh

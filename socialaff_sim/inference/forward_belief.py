@@ -40,6 +40,8 @@ from .type_tables import TypeTables
 
 __all__ = ["ForwardBelief"]
 
+_LOG_2PI = float(np.log(2.0 * np.pi))
+
 
 class ForwardBelief:
     """Filtering posterior over (current sub-event, elapsed frames) of a growing canonical track."""
@@ -82,6 +84,11 @@ class ForwardBelief:
         # tolerance of path_residuals, not bitwise), one row per F row.
         kind = cfg.feature_path_profile
         self._sums = None if kind is None else PathSums(kind, model.available_.shape[0])
+        if self._sums is not None:  # path_loglik's per-type constants, every type at once (S, J)
+            sigma = np.asarray(model.path_sigma_, float)
+            self._path_use = np.isfinite(sigma)
+            s2 = np.where(self._path_use, sigma, 1.0) ** 2
+            self._path_c, self._path_2s2 = _LOG_2PI + np.log(s2), 2.0 * s2
         self.reset()
 
     def reset(self, origin: int = 0) -> None:
@@ -95,6 +102,8 @@ class ForwardBelief:
         self._G = np.zeros((0, self.S))  # log Σ_m exp F: what the posterior reads
         self._long = np.full((self.M, self.S), -np.inf)
         self._G_long = np.full(self.S, -np.inf)
+        self._has_long = False  # whether the long bucket holds mass (made at each cut, read at every frame)
+        self._long_read = self._G_long  # its posterior term at the horizon, G_long + log P(D > horizon)
         self._next = self.origin  # the next cut to process
         if self._sums is not None:
             self._sums.reset()
@@ -125,7 +134,7 @@ class ForwardBelief:
                 F[0] = prior
         else:
             C = np.full((M, S), -np.inf)
-            has_long = bool(np.isfinite(self._long).any())
+            has_long = self._has_long
             starts = np.append(self._starts, b - self.horizon) if has_long else self._starts
             if starts.size:
                 seg = self._closing(track, starts, b)  # (K, S)
@@ -156,6 +165,9 @@ class ForwardBelief:
             self._long -= top
         self._G = _logsumexp_finite(self._F, axis=1)
         self._G_long = _logsumexp_finite(self._long, axis=0)
+        self._has_long = bool(np.isfinite(self._long).any())
+        if self._has_long:
+            self._long_read = self._G_long + self._surv[self.horizon]
         self._posterior = None
         self.cuts += 1
 
@@ -175,8 +187,14 @@ class ForwardBelief:
                 out[:, s] = spatial + model.log_motion(s, feats.disp) + model.log_duration(s, feats.seconds)
         else:
             out = tab.spatial(feats.end[:1]) + tab.motion(feats.disp) + tab.duration(feats.seconds)
-        for s in range(self.S):
-            out[:, s] += model.log_path(s, feats)
+        if self._sums is None:
+            for s in range(self.S):
+                out[:, s] += model.log_path(s, feats)
+        else:  # model.log_path of every type at once (the path terms are within the tolerance of design.md §7)
+            assert feats.path_sq is not None and feats.path_n is not None  # internal invariant: made by _features
+            nf = feats.path_n.astype(float)[:, None, None]
+            ll = -1.5 * nf * self._path_c[None] - feats.path_sq[:, None, :] / self._path_2s2[None]  # (K, S, J)
+            out += np.where(self._path_use[None], ll, 0.0).sum(axis=2)
         out[short] = -np.inf
         return out
 
@@ -216,9 +234,9 @@ class ForwardBelief:
         starts = self._starts  # every start kept is a cut before t
         d = np.minimum(t - starts, self.horizon)
         logp = self._G + self._surv[d]  # (K, S)
-        if np.isfinite(self._long).any():
+        if self._has_long:
             starts = np.append(starts, t - self.horizon)
-            logp = np.concatenate([logp, (self._G_long + self._surv[self.horizon])[None]])
+            logp = np.concatenate([logp, self._long_read[None]])
         top = np.max(logp) if logp.size else -np.inf
         if not np.isfinite(top):
             S = self.S
