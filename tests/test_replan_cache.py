@@ -147,3 +147,22 @@ def test_type_plan_equals_what_a_replanning_computed(shake8: Dataset, shake8_mod
         np.testing.assert_array_equal(plan.static, AGENT1[syn._available[AGENT1] & ~np.isin(AGENT1, aff)])
         assert not plan.z.flags.writeable
     assert isinstance(syn, CandidatePlanner)
+
+
+def test_expected_error_choice_is_the_old_choice(rng: np.random.Generator) -> None:
+    """The weighted mean by one np.dot (what np.tensordot called) gives bitwise the old means, so the same choices."""
+    from socialaff_sim.inference.candidates import expected_error_choice
+
+    for n in (1, 2, 7, 150):
+        cand = rng.normal(size=(n, 5, 3))
+        cand[:, 2] = np.nan if n > 2 else cand[:, 2]  # a joint absent in every candidate: ignored
+        score = rng.normal(scale=5.0, size=n)
+        score[0] = -np.inf
+        w = np.where(np.isfinite(score / 5.0), np.exp(score / 5.0 - np.max(score[np.isfinite(score)] / 5.0)), 0.0) if n > 1 else np.ones(1)
+        w /= w.sum()
+        x = nan_to_zero(cand)
+        ref_mean = np.tensordot(w, x, axes=(0, 0))
+        d2 = ((x - ref_mean[None]) ** 2).sum(axis=(1, 2))
+        ref = int(np.argmin(np.where(np.isfinite(score / 5.0), d2, np.inf))) if n > 1 else 0
+        assert expected_error_choice(cand, score, temperature=5.0) == ref
+        np.testing.assert_array_equal(np.dot(w.reshape(1, -1), x.reshape(n, -1)).reshape(5, 3), ref_mean)

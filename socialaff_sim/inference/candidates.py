@@ -65,7 +65,7 @@ def expected_error_choice(cand: np.ndarray, score: np.ndarray, temperature: floa
     w = np.where(finite, np.exp(score - score[finite].max()), 0.0)
     w /= w.sum()
     x = nan_to_zero(np.asarray(cand, dtype=float))
-    mean = np.tensordot(w, x, axes=(0, 0))
+    mean = np.dot(w.reshape(1, -1), x.reshape(x.shape[0], -1)).reshape(x.shape[1:])  # np.tensordot(w, x, axes=(0, 0)), its own call
     d2 = ((x - mean[None]) ** 2).sum(axis=(1, 2))
     return int(np.argmin(np.where(finite, d2, np.inf)))
 
