@@ -45,14 +45,17 @@ class PathSums:
 
     def reset(self) -> None:
         """Forget every row."""
-        P, J = self._powers.size, self.J
         self.starts = np.zeros(0, np.int64)
         """(K,) int64: the rows' start frames, in the order they were added."""
         self._a = np.zeros(0, np.int64)  # anchors: max(start − 1, 0)
         self._upto = np.zeros(0, np.int64)  # interior frames [a + 1, upto) are summed
-        self._xa = np.zeros((0, J, 3))  # x_a
-        self._sq = np.zeros((0, J))  # Σ ‖y_k‖²
-        self._mom = np.zeros((0, P, J, 3))  # Σ k^p y_k
+        # One float row per start, packed: x_a, Σ y_k² and Σ k^p y_k per coordinate (J·3 each, the last P times):
+        # one array to add to and select.
+        self._rows = np.zeros((0, self._width))
+
+    @property
+    def _width(self) -> int:
+        return (2 + self._powers.size) * self.J * 3
 
     def __len__(self) -> int:
         return int(self.starts.shape[0])
@@ -64,14 +67,19 @@ class PathSums:
         self.starts = np.append(self.starts, int(start))
         self._a = np.append(self._a, a)
         self._upto = np.append(self._upto, a + 1)
-        self._xa = np.concatenate([self._xa, np.asarray(track[a], float)[None]])
-        self._sq = np.concatenate([self._sq, np.zeros((1, self.J))])
-        self._mom = np.concatenate([self._mom, np.zeros((1,) + self._mom.shape[1:])])
+        row = np.zeros((1, self._width))
+        row[0, : self.J * 3] = np.asarray(track[a], float).reshape(-1)
+        self._rows = np.concatenate([self._rows, row])
 
     def keep(self, rows: np.ndarray) -> None:
         """Keep only the rows selected by ``rows`` (K,) bool (or indices), in their order."""
-        self.starts, self._a, self._upto = self.starts[rows], self._a[rows], self._upto[rows]
-        self._xa, self._sq, self._mom = self._xa[rows], self._sq[rows], self._mom[rows]
+        self.starts, self._a, self._upto, self._rows = self.starts[rows], self._a[rows], self._upto[rows], self._rows[rows]
+
+    def _parts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Views of the packed rows: x_a (K, J·3), Σ y_k² (K, J·3), Σ k^p y_k (K, P, J·3)."""
+        J3 = self.J * 3
+        K = self._rows.shape[0]
+        return self._rows[:, :J3], self._rows[:, J3 : 2 * J3], self._rows[:, 2 * J3 :].reshape(K, -1, J3)
 
     def residuals(self, track: np.ndarray, stop: int) -> tuple[np.ndarray, np.ndarray]:
         """Every row's interval ``[start, stop)`` of ``track`` (T, J, 3) float64, metres: ``sq`` (K, J) m², the
@@ -84,20 +92,22 @@ class PathSums:
         self._advance(track, e)
         L = np.maximum(e - self._a, 0)
         n = np.maximum(L - 1, 0)
-        if not len(self):
+        K = len(self)
+        if not K:
             return np.zeros((0, self.J)), n
-        Ls = np.maximum(L, 1).astype(float)
-        # Σ_p c_p L^(−p) Σ_k k^p y_k: the path's fraction-weighted sum of the y_k, (K, J, 3)
-        w = self._coefs[None] / Ls[:, None] ** self._powers[None]  # (K, P)
-        cross = np.einsum("kp,kpjd->kjd", w, self._mom)
-        D = np.asarray(track[e], float)[None] - self._xa  # (K, J, 3)
-        sq = self._sq - 2.0 * np.einsum("kjd,kjd->kj", D, cross) + np.einsum("kjd,kjd->kj", D, D) * self._u2_of(L)[:, None]
+        xa, sq0, mom = self._parts()
+        # Σ_p c_p L^(−p) Σ_k k^p y_k: the path's fraction-weighted sum of the y_k, (K, J·3)
+        w = self._coefs[None] / np.maximum(L, 1).astype(float)[:, None] ** self._powers[None]  # (K, P)
+        cross = np.matmul(w[:, None, :], mom)[:, 0]
+        D = np.asarray(track[e], float).reshape(1, -1) - xa  # (K, J·3)
+        sq = (sq0 - 2.0 * D * cross + D * D * self._u2_of(L)[:, None]).reshape(K, self.J, 3).sum(axis=2)
         # The true sum is ≥ 0: clip the rounding of a near-zero difference (NaN stays NaN).
         return np.maximum(sq, 0.0), n
 
     def _advance(self, track: np.ndarray, e: int) -> None:
         """Add to each row its interior frames from ``upto`` up to (not including) the end frame ``e``."""
-        if not len(self):
+        K = len(self)
+        if not K:
             return
         if np.any(self._upto > np.maximum(e, self._a + 1)):
             raise ModelError(f"PathSums.residuals: interior frames past the end frame {e} were summed already (stop went back)")
@@ -105,14 +115,24 @@ class PathSums:
         if lo >= e:
             return
         frames = np.arange(lo, e)
-        new = frames[None] >= self._upto[:, None]  # (K, F): not summed yet by that row
-        y = np.asarray(track[lo:e], float)[None] - self._xa[:, None]  # (K, F, J, 3)
-        y = np.where(new[:, :, None, None], y, 0.0)  # a where, not a product: frames outside may be NaN
+        xa, sq0, mom = self._parts()
+        y = np.asarray(track[lo:e], float).reshape(1, e - lo, -1) - xa[:, None]  # (K, F, J·3)
         k = (frames[None] - self._a[:, None]).astype(float)  # (K, F)
-        kp = np.where(new[..., None], k[..., None] ** self._powers, 0.0)  # (K, F, P)
-        self._sq += np.einsum("kfjd,kfjd->kj", y, y)
-        self._mom += np.einsum("kfp,kfjd->kpjd", kp, y)
+        kp = k[:, None, :] ** self._powers[None, :, None]  # (K, P, F)
+        # Frames a row must not add: those it summed already, and those before its anchor. Its anchor frame itself
+        # adds exactly nothing (y = 0, k = 0; a NaN anchor makes the row NaN either way): the belief's new row, whose
+        # first frame here is its anchor, needs no mask.
+        if np.any((self._upto > lo) & ~((self._upto == lo + 1) & (self._a == lo))):
+            new = frames[None] >= self._upto[:, None]  # (K, F)
+            y = np.where(new[:, :, None], y, 0.0)  # a where, not a product: those frames may be NaN
+            kp = np.where(new[:, None, :], kp, 0.0)
+        sq0 += np.matmul(self._ones(e - lo), y * y)[:, 0]
+        mom += np.matmul(kp, y)
         self._upto = np.maximum(self._upto, e)
+
+    @staticmethod
+    def _ones(F: int) -> np.ndarray:
+        return np.ones((1, F))
 
     def _u2_of(self, L: np.ndarray) -> np.ndarray:
         """(K,) Σ_{k=1}^{L−1} u(k/L)² of interval lengths ``L`` (K,) (made once per length)."""
