@@ -68,14 +68,12 @@ class CandidatePlanner:
 
     def _type_plan(self, s: int) -> _TypePlan:
         """Type ``s``'s :class:`_TypePlan`, made once per episode (the cache goes with ``_refw``, which the
-        synthesizer's reset makes anew with the episode's joints ``_available``)."""
+        synthesizer's reset makes anew with the episode's joints ``_available``). Every type's plan is made at the
+        episode's first re-planning, so that the reactor's state does not change size later in a stream."""
         cache = self.__dict__.get("_plans")
         if cache is None or cache[0] is not self._refw:
-            cache = self._plans = (self._refw, {})
-        plan = cache[1].get(s)
-        if plan is None:
-            plan = cache[1][s] = self._make_type_plan(s)
-        return plan
+            cache = self._plans = (self._refw, {k: self._make_type_plan(k) for k in range(self.model.n_subevents_)})
+        return cache[1][s]
 
     def _make_type_plan(self, s: int) -> _TypePlan:
         model, cfg = self.model, self.config

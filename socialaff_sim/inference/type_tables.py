@@ -68,6 +68,12 @@ class TypeTables:
         self._mo_groups = [(s, np.flatnonzero(self.mo_type == s)) for s in range(S) if np.any(self.mo_type == s)]
         self._mo_joints = {s: self.mo_joint[self.mo_type == s] for s in range(S)}
         self._mo_joints[None] = self.mo_joint
+        # Every row set made now, not at a type's first scoring: the tables do not change size later in a stream.
+        self._rows(("spatial", None), self.sp_params, None)
+        self._rows(("motion", None), self.mo_params, self.mo_expon)
+        for s in range(S):
+            self._rows(("spatial", s), self.sp_params, None, self._sp[s][0])
+            self._rows(("motion", s), self.mo_params, self.mo_expon, self.mo_type == s)
         self.log_seconds = cfg.duration_density == "log_seconds"
 
     def _per_type(
