@@ -9,6 +9,7 @@ joints ``_available``); subclasses (the tests) override :meth:`CandidatePlanner.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -17,7 +18,7 @@ from ..data.skeletons import N_KEY
 from ..model.nan_fill import nan_to_zero
 from ..model.potentials import reference_weights
 from .candidates import AGENT1 as _AGENT1
-from .candidates import RegressionPrior, draw_vectors, expected_error_choice, sign_loglik
+from .candidates import RegressionPrior, SignTerms, draw_from, expected_error_choice, gaussian_factor, vector_rows
 from .synthesis_config import SynthesisConfig
 from .type_tables import TypeTables
 
@@ -27,6 +28,31 @@ if TYPE_CHECKING:
 __all__ = ["CandidatePlanner"]
 
 _OTHERS = np.r_[np.arange(N_KEY), 2 * N_KEY]
+
+
+@dataclass(frozen=True)
+class _TypePlan:
+    """What a re-planning reads of one sub-event type that depends only on the model and the episode's joints:
+    made at its first re-planning, read at the next ones (the same arrays, so the same values)."""
+
+    z: np.ndarray
+    """(11,) the type's grouping, absent joints −1 (read-only)."""
+    aff: np.ndarray
+    """(A,) agent 1's affordable joints: those sampled."""
+    static: np.ndarray
+    """Agent 1's present joints not sampled: they follow the base."""
+    weights: np.ndarray
+    """(A, 11) the sampled joints' reference weights."""
+    spatial: tuple[np.ndarray, ...]
+    """The sampled joints' spatial parameter columns (:func:`~.candidates.vector_rows`)."""
+    motion: tuple[np.ndarray, ...]
+    """Their motion parameter columns."""
+    up: np.ndarray
+    """(2, A) P(dz > 0) of their spatial offsets and displacements (½ without ``vertical_sign``)."""
+    sign: SignTerms | None
+    """The vertical-sign terms (None without ``vertical_sign``)."""
+    factor: tuple[np.ndarray, float] | None
+    """The end regression's covariance factor (None without one)."""
 
 
 class CandidatePlanner:
@@ -40,6 +66,32 @@ class CandidatePlanner:
     _refw: dict[int, np.ndarray]
     _tables: TypeTables | None
 
+    def _type_plan(self, s: int) -> _TypePlan:
+        """Type ``s``'s :class:`_TypePlan`, made once per episode (the cache goes with ``_refw``, which the
+        synthesizer's reset makes anew with the episode's joints ``_available``). Every type's plan is made at the
+        episode's first re-planning, so that the reactor's state does not change size later in a stream."""
+        cache = self.__dict__.get("_plans")
+        if cache is None or cache[0] is not self._refw:
+            cache = self._plans = (self._refw, {k: self._make_type_plan(k) for k in range(self.model.n_subevents_)})
+        return cache[1][s]
+
+    def _make_type_plan(self, s: int) -> _TypePlan:
+        model, cfg = self.model, self.config
+        z = model.grouping_[s].copy()
+        z[~self._available] = -1
+        z.setflags(write=False)
+        aff = _AGENT1[z[_AGENT1] > 0]
+        # (2, 11): P(dz > 0) of spatial offsets and of displacements; ½ without the sign term (the paper).
+        up = model.vertical_up_[s] if cfg.vertical_sign else np.full_like(model.vertical_up_[s], 0.5)
+        W = self._weights(s, z)
+        reg = model.end_regression_[s] if cfg.end_prior == "regression" else None
+        return _TypePlan(
+            z=z, aff=aff, static=_AGENT1[self._available[_AGENT1] & ~np.isin(_AGENT1, aff)], weights=W[aff],
+            spatial=vector_rows(model.spatial_params_[s, aff]), motion=vector_rows(model.motion_params_[s, aff]),
+            up=up[:, aff], sign=SignTerms.of(model, s, z, W) if cfg.vertical_sign else None,
+            factor=None if reg is None else gaussian_factor(reg),
+        )
+
     def _best_configuration(self, s: int, t: int, start: int, last: int) -> np.ndarray:
         """(5, 3) canonical: agent 1's key joints at frame ``last``, the best of N candidates."""
         model, cfg = self.model, self.config
@@ -48,20 +100,16 @@ class CandidatePlanner:
         if cfg.lookahead:
             config[_OTHERS] = self._track[min(last, T - 1), _OTHERS]
         before = self._track[max(start - 1, 0)]
-        z = model.grouping_[s].copy()
-        z[~self._available] = -1
+        plan = self._type_plan(s)
+        z, aff = plan.z, plan.aff
         prev = config[_AGENT1].copy()
         N = cfg.n_samples
         cand = np.repeat(config[None], N, axis=0)
-        aff = _AGENT1[z[_AGENT1] > 0]
         if aff.size:
             n_sp = int(round(cfg.spatial_fraction * N))
-            # (2, 11): P(dz > 0) of spatial offsets and of displacements; ½ without the sign term (the paper).
-            up = model.vertical_up_[s] if cfg.vertical_sign else np.full_like(model.vertical_up_[s], 0.5)
-            W = self._weights(s, z)[aff]
-            refs = W @ nan_to_zero(config)  # (A, 3)
-            sp = draw_vectors(model.spatial_params_[s, aff], up[0, aff], n_sp, self._rng) + refs[None]
-            mo = draw_vectors(model.motion_params_[s, aff], up[1, aff], N - n_sp, self._rng) + before[aff][None]
+            refs = plan.weights @ nan_to_zero(config)  # (A, 3)
+            sp = draw_from(plan.spatial, plan.up[0], n_sp, self._rng) + refs[None]
+            mo = draw_from(plan.motion, plan.up[1], N - n_sp, self._rng) + before[aff][None]
             cand[:, aff] = np.concatenate([sp, mo])
             base = N_KEY
             n_co = int(round(cfg.coherent_fraction * N))
@@ -74,12 +122,12 @@ class CandidatePlanner:
         # Joints not sampled (Null) stay static relative to agent 1's base, which may have moved.
         base = N_KEY
         shift = cand[:, base] - prev[0] if base in aff else np.zeros((N, 3))
-        static = _AGENT1[self._available[_AGENT1] & ~np.isin(_AGENT1, aff)]
+        static = plan.static
         cand[:, static] = prev[static - N_KEY][None] + shift[:, None]
         prior = None
         reg = model.end_regression_[s] if cfg.end_prior == "regression" else None
         if reg is not None:
-            prior = RegressionPrior.at(reg, config, before, self._track[cfg.n_observed - 1], self._available)
+            prior = RegressionPrior.at(reg, config, before, self._track[cfg.n_observed - 1], self._available, plan.factor)
             extra = np.repeat(config[None], cfg.prior_samples, axis=0)
             extra[:, _AGENT1] = prior.draw(cfg.prior_samples, self._rng)
             cand = np.concatenate([cand, extra])
@@ -108,7 +156,9 @@ class CandidatePlanner:
         else:
             score = model.log_spatial(s, configs) + model.log_motion(s, disp)
         if self.config.vertical_sign:
-            score = score + sign_loglik(model, s, z, configs, disp, self._weights(s, z))
+            plan = self._type_plan(s)
+            sign = plan.sign if plan.sign is not None and np.array_equal(z, plan.z) else SignTerms.of(model, s, z, self._weights(s, z))
+            score = score + sign.loglik(configs, disp)
         if prior is not None:
             score = score + prior.log_density(configs)
         return np.where(np.isnan(score), -np.inf, score)

@@ -32,10 +32,15 @@ import numpy as np
 
 from ..errors import ConfigError, ModelError
 from ..model.affordance import AffordanceParameters
-from .type_tables import TypeTables
+from ..model.features import IntervalFeatures
+from ..model.path import path_residuals
 from .online_parse import log_duration_survival
+from .path_sums import PathSums
+from .type_tables import TypeTables
 
 __all__ = ["ForwardBelief"]
+
+_LOG_2PI = float(np.log(2.0 * np.pi))
 
 
 class ForwardBelief:
@@ -75,6 +80,15 @@ class ForwardBelief:
         d = np.arange(self.horizon + 1) / self.fps
         self._surv = np.stack([log_duration_survival(model, s, d) for s in range(S)], axis=1)  # (H + 1, S)
         self._tables = TypeTables(model) if cfg.vector_density == "polar" else None
+        # The path terms of the kept starts' intervals from running sums (docs/design.md §7: within a declared
+        # tolerance of path_residuals, not bitwise), one row per F row.
+        kind = cfg.feature_path_profile
+        self._sums = None if kind is None else PathSums(kind, model.available_.shape[0])
+        if self._sums is not None:  # path_loglik's per-type constants, every type at once (S, J)
+            sigma = np.asarray(model.path_sigma_, float)
+            self._path_use = np.isfinite(sigma)
+            s2 = np.where(self._path_use, sigma, 1.0) ** 2
+            self._path_c, self._path_2s2 = _LOG_2PI + np.log(s2), 2.0 * s2
         self.reset()
 
     def reset(self, origin: int = 0) -> None:
@@ -88,7 +102,11 @@ class ForwardBelief:
         self._G = np.zeros((0, self.S))  # log Σ_m exp F: what the posterior reads
         self._long = np.full((self.M, self.S), -np.inf)
         self._G_long = np.full(self.S, -np.inf)
+        self._has_long = False  # whether the long bucket holds mass (made at each cut, read at every frame)
+        self._long_read = self._G_long  # its posterior term at the horizon, G_long + log P(D > horizon)
         self._next = self.origin  # the next cut to process
+        if self._sums is not None:
+            self._sums.reset()
         self._posterior: tuple[int, np.ndarray, np.ndarray] | None = None  # the last posterior read, until the next cut
         self.cuts = 0
         """Cuts processed since the last reset."""
@@ -117,7 +135,7 @@ class ForwardBelief:
                 F[0] = prior
         else:
             C = np.full((M, S), -np.inf)
-            has_long = bool(np.isfinite(self._long).any())
+            has_long = self._has_long
             starts = np.append(self._starts, b - self.horizon) if has_long else self._starts
             if starts.size:
                 if offset and int(starts.min()) - 1 < offset:  # an interval reads the frame before its start
@@ -133,10 +151,14 @@ class ForwardBelief:
                 F[self._dst[s], s] = V[self._src[s], s]
         self._starts = np.append(self._starts, b)
         self._F = np.concatenate([self._F, F[None]])
+        if self._sums is not None:
+            self._sums.add(track, b)
         old = self._starts <= b - self.horizon  # an interval from there to the next cut would exceed the horizon
         if old.any():
             self._long = np.logaddexp(self._long, _logsumexp_finite(self._F[old], axis=0))
             self._starts, self._F = self._starts[~old], self._F[~old]
+            if self._sums is not None:
+                self._sums.keep(~old)
             if self.M > 1:  # the long bucket forgets the labels used before it: a stream can start the interaction again
                 merged = _logsumexp_finite(self._long, axis=0)  # (S,)
                 self._long = np.full((self.M, self.S), -np.inf)
@@ -147,6 +169,9 @@ class ForwardBelief:
             self._long -= top
         self._G = _logsumexp_finite(self._F, axis=1)
         self._G_long = _logsumexp_finite(self._long, axis=0)
+        self._has_long = bool(np.isfinite(self._long).any())
+        if self._has_long:
+            self._long_read = self._G_long + self._surv[self.horizon]
         self._posterior = None
         self.cuts += 1
 
@@ -156,7 +181,7 @@ class ForwardBelief:
         spatial potentials are evaluated once per type."""
         model = self.model
         stops = np.full(starts.size, b)
-        feats = model.interval_features(track, starts, stops, self.fps)
+        feats = self._features(track, starts, b)
         short = (stops - starts) < model.config.min_subevent_seconds * self.fps
         tab = self._tables
         if tab is None:  # the Cartesian densities: the model's own scoring, type by type
@@ -166,10 +191,35 @@ class ForwardBelief:
                 out[:, s] = spatial + model.log_motion(s, feats.disp) + model.log_duration(s, feats.seconds)
         else:
             out = tab.spatial(feats.end[:1]) + tab.motion(feats.disp) + tab.duration(feats.seconds)
-        for s in range(self.S):
-            out[:, s] += model.log_path(s, feats)
+        if self._sums is None:
+            for s in range(self.S):
+                out[:, s] += model.log_path(s, feats)
+        else:  # model.log_path of every type at once (the path terms are within the tolerance of design.md §7)
+            assert feats.path_sq is not None and feats.path_n is not None  # internal invariant: made by _features
+            nf = feats.path_n.astype(float)[:, None, None]
+            ll = -1.5 * nf * self._path_c[None] - feats.path_sq[:, None, :] / self._path_2s2[None]  # (K, S, J)
+            out += np.where(self._path_use[None], ll, 0.0).sum(axis=2)
         out[short] = -np.inf
         return out
+
+    def _features(self, track: np.ndarray, starts: np.ndarray, b: int) -> IntervalFeatures:
+        """The features of the intervals [starts, b) (those of ``model.interval_features``), their path residuals
+        from the running sums of the kept starts (:class:`~.path_sums.PathSums`); ``starts`` are the kept
+        ones, then possibly the long bucket's representative start."""
+        if self._sums is None:
+            return self.model.interval_features(track, starts, np.full(starts.size, b), self.fps)
+        sq, n = self._sums.residuals(track, b)
+        K = self._starts.size
+        if starts.size > K:  # the long bucket's start: that of the oldest kept row (b − horizon), else from the frames
+            rep = starts[K:]
+            at = np.minimum(np.searchsorted(self._starts, rep), max(K - 1, 0))
+            if K and np.array_equal(self._starts[at], rep):
+                sq, n = np.concatenate([sq, sq[at]]), np.concatenate([n, n[at]])
+            else:
+                sq_r, n_r = path_residuals(track, rep, np.full(rep.size, b), self._sums.kind)
+                sq, n = np.concatenate([sq, sq_r]), np.concatenate([n, n_r])
+        end, disp, seconds = _ends(track, starts, b, self.fps)
+        return IntervalFeatures(end, disp, seconds, sq, n)
 
     def posterior(self, t: int) -> tuple[np.ndarray, np.ndarray]:
         """At frame ``t`` (after :meth:`advance` to t): the starts (K,) int64 of the running interval and
@@ -188,9 +238,9 @@ class ForwardBelief:
         starts = self._starts  # every start kept is a cut before t
         d = np.minimum(t - starts, self.horizon)
         logp = self._G + self._surv[d]  # (K, S)
-        if np.isfinite(self._long).any():
+        if self._has_long:
             starts = np.append(starts, t - self.horizon)
-            logp = np.concatenate([logp, (self._G_long + self._surv[self.horizon])[None]])
+            logp = np.concatenate([logp, self._long_read[None]])
         top = np.max(logp) if logp.size else -np.inf
         if not np.isfinite(top):
             S = self.S
@@ -201,6 +251,14 @@ class ForwardBelief:
     def belief(self, t: int) -> np.ndarray:
         """(S,) P(current sub-event = s | frames < t)."""
         return self.posterior(t)[1].sum(axis=0)
+
+
+def _ends(track: np.ndarray, starts: np.ndarray, b: int, fps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The end (K, J, 3), displacement (K, J, 3) and seconds (K,) of the intervals [starts, b) (those of
+    :func:`~socialaff_sim.model.features.interval_features`)."""
+    end = np.repeat(np.asarray(track[b - 1], float)[None], starts.size, axis=0)
+    disp = end - track[np.maximum(starts - 1, 0)]
+    return end, disp, (b - starts) / float(fps)
 
 
 def _logsumexp_finite(x: np.ndarray, axis: int) -> np.ndarray:

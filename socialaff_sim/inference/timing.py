@@ -4,6 +4,7 @@ of the remaining way covered at each frame."""
 from __future__ import annotations
 
 import numpy as np
+from scipy.special import ndtr, ndtri
 
 from ..model.path import profile
 
@@ -18,8 +19,6 @@ def sample_remaining_seconds(
     Inverse-CDF sampling on the truncated part: u ~ U(F(elapsed), 1), D = F⁻¹(u);
     ``median`` takes u halfway instead.
     """
-    from scipy.special import ndtr, ndtri
-
     if not (np.isfinite(mu) and np.isfinite(sigma)):
         return elapsed
     lo = float(ndtr((np.log(max(elapsed, 1e-9)) - mu) / sigma))

@@ -63,27 +63,47 @@ class TypeTables:
             self._read[np.ix_(rows, cols)] = True
         self.dur = np.asarray(model.duration_params_, float)
         self._cache: dict[tuple[str, int | None], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        # Per type: the columns of its rows among all rows (the same selection as types == s, made once).
+        self._sp_groups = [(s, np.flatnonzero(self.sp_type == s)) for s in range(S) if np.any(self.sp_type == s)]
+        self._mo_groups = [(s, np.flatnonzero(self.mo_type == s)) for s in range(S) if np.any(self.mo_type == s)]
+        self._mo_joints = {s: self.mo_joint[self.mo_type == s] for s in range(S)}
+        self._mo_joints[None] = self.mo_joint
+        # Every row set made now, not at a type's first scoring: the tables do not change size later in a stream.
+        self._rows(("spatial", None), self.sp_params, None)
+        self._rows(("motion", None), self.mo_params, self.mo_expon)
+        for s in range(S):
+            self._rows(("spatial", s), self.sp_params, None, self._sp[s][0])
+            self._rows(("motion", s), self.mo_params, self.mo_expon, self.mo_type == s)
         self.log_seconds = cfg.duration_density == "log_seconds"
 
-    def _per_type(self, rows: np.ndarray, types: np.ndarray, only: int | None) -> np.ndarray:
-        """Row log-densities (N, R) summed by type → (N, S), or (N,) for type ``only``; NaN → −inf."""
+    def _per_type(
+        self, rows: np.ndarray, types: np.ndarray | None, only: int | None, groups: list[tuple[int, np.ndarray]] | None = None
+    ) -> np.ndarray:
+        """Row log-densities (N, R) summed by type → (N, S), or (N,) for type ``only``; NaN → −inf. The rows' types
+        ``types`` (R,), or ``groups``: each type's columns as made once (``_sp_groups``, ``_mo_groups``)."""
         if only is not None:
             out = rows.sum(axis=-1)
         else:
+            if groups is None:
+                assert types is not None  # internal invariant: one of the two
+                groups = [(s, np.flatnonzero(types == s)) for s in range(self.S) if np.any(types == s)]
             out = np.zeros(rows.shape[:-1] + (self.S,))
-            for s in range(self.S):
-                sel = types == s
-                if sel.any():
-                    out[..., s] = rows[..., sel].sum(axis=-1)
+            for s, cols in groups:
+                out[..., s] = rows[..., cols].sum(axis=-1)
         return np.where(np.isnan(out), -np.inf, out)
 
-    def _rows(self, key: tuple[str, int | None], params: np.ndarray, expon: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """A set of rows' parameters (R, 6), their exponential flags (R,) and log i0e(κ) (R,) of the von Mises term:
-        made once per (potential, type) (a re-planning scores every frame on a long stream); the same arrays the
+    def _rows(
+        self, key: tuple[str, int | None], params: np.ndarray, expon: np.ndarray | None, sel: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A set of rows' parameters (R, 6), their exponential flags (R,) (None: none exponential) and log i0e(κ)
+        (R,) of the von Mises term, the rows ``sel`` (a selection; None: all) of ``params`` and ``expon``: made
+        once per (potential, type) (a re-planning scores every frame on a long stream); the same arrays the
         per-call selection made, so the same values."""
         rows = self._cache.get(key)
         if rows is None:
-            rows = self._cache[key] = (params, expon, np.log(i0e(params.T[5])))
+            p = params if sel is None else params[sel]
+            e = np.zeros(p.shape[0], bool) if expon is None else (expon if sel is None else expon[sel])
+            rows = self._cache[key] = (p, e, np.log(i0e(p.T[5])))
         return rows
 
     def _density(self, vecs: np.ndarray, rows: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
@@ -99,23 +119,22 @@ class TypeTables:
         if s is None:  # every row at once; a NaN in a column its type reads makes the row NaN, as in the model
             refs = np.where(self._read[None, :, :, None], self.sp_w[None, :, :, None] * end[:, None], 0.0).sum(axis=2)
             offsets = end[:, self.sp_joint] - refs
-            rows = self._density(offsets, self._rows(("spatial", None), self.sp_params, np.zeros(self.sp_joint.size, bool)))
-            return self._per_type(rows, self.sp_type, None)
+            rows = self._density(offsets, self._rows(("spatial", None), self.sp_params, None))
+            return self._per_type(rows, None, None, self._sp_groups)
         rows, cols, w = self._sp[s]
         if rows.size == 0:
             return np.zeros(end.shape[0])
         refs = np.einsum("kj,njd->nkd", w, end[:, cols])
         offsets = end[:, self.sp_joint[rows]] - refs
-        dens = self._density(offsets, self._rows(("spatial", s), self.sp_params[rows], np.zeros(rows.size, bool)))
+        dens = self._density(offsets, self._rows(("spatial", s), self.sp_params, None, rows))
         out = dens.sum(axis=-1)
         return np.where(np.isnan(out), -np.inf, out)
 
     def motion(self, disp: np.ndarray, s: int | None = None) -> np.ndarray:
         """Motion log-potential of N displacement sets (N, 11, 3): (N, S), or (N,) under type ``s``."""
-        sel = slice(None) if s is None else self.mo_type == s
-        rows = self._density(np.asarray(disp, float)[:, self.mo_joint[sel]],
-                             self._rows(("motion", s), self.mo_params[sel], self.mo_expon[sel]))
-        return self._per_type(rows, self.mo_type[sel], s)
+        rows = self._density(np.asarray(disp, float)[:, self._mo_joints[s]],
+                             self._rows(("motion", s), self.mo_params, self.mo_expon, None if s is None else self.mo_type == s))
+        return self._per_type(rows, None, s, self._mo_groups)
 
     def duration(self, seconds: np.ndarray) -> np.ndarray:
         """(N, S) duration log-density of N interval lengths (seconds) under every type."""

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["PATH_PROFILES", "profile", "path_residuals", "fit_path_noise", "path_loglik"]
+__all__ = ["PATH_PROFILES", "PROFILE_POLYNOMIALS", "profile", "path_residuals", "fit_path_noise", "path_loglik"]
 
 _LOG_2PI = float(np.log(2.0 * np.pi))
 _CHUNK = 1 << 16  # most (interval, frame) pairs gathered at once
@@ -32,6 +32,14 @@ _CHUNK = 1 << 16  # most (interval, frame) pairs gathered at once
 
 PATH_PROFILES = ("minjerk", "linear")
 """Valid time profiles u(v) of the path between a sub-event's ends (v = elapsed fraction)."""
+
+
+PROFILE_POLYNOMIALS: dict[str, tuple[tuple[int, float], ...]] = {
+    "minjerk": ((3, 10.0), (4, -15.0), (5, 6.0)),
+    "linear": ((1, 1.0),),
+}
+"""Each profile u(v) of :func:`profile` as its monomials (power p, coefficient c_p): u(v) = Σ c_p v^p. What the
+forward belief's running path sums (:mod:`~socialaff_sim.inference.path_sums`) expand the path in."""
 
 
 def profile(v: np.ndarray, kind: str) -> np.ndarray:
