@@ -36,6 +36,7 @@ from ..model.features import IntervalFeatures
 from ..model.path import path_residuals
 from .online_parse import log_duration_survival
 from .path_sums import PathSums
+from .track_window import TrackWindow
 from .type_tables import TypeTables
 
 __all__ = ["ForwardBelief"]
@@ -116,15 +117,15 @@ class ForwardBelief:
         """F rows held (at most ``horizon / stride``): what bounds the per-cut work."""
         return int(self._starts.shape[0])
 
-    def advance(self, track: np.ndarray, t: int, *, offset: int = 0) -> None:
-        """Process every cut before frame ``t`` of the canonical ``track`` (≥ t frames, 11, 3). Frames
-        before ``t`` must not change between calls (else :meth:`reset`). ``offset``: the absolute frame of
-        ``track``'s first row (a window of a longer track); reading an earlier frame is an error."""
+    def advance(self, track: np.ndarray | TrackWindow, t: int) -> None:
+        """Process every cut before frame ``t`` of the canonical ``track`` (≥ t frames, 11, 3; or a window of it,
+        read by absolute frame: a frame older than the window is an error). Frames before ``t`` must not change
+        between calls (else :meth:`reset`)."""
         while self._next <= t - 1:
-            self._cut(track, self._next, offset)
+            self._cut(track, self._next)
             self._next += self.stride
 
-    def _cut(self, track: np.ndarray, b: int, offset: int = 0) -> None:
+    def _cut(self, track: np.ndarray, b: int) -> None:
         S, M = self.S, self.M
         if b == self.origin:
             F = np.full((M, S), -np.inf)
@@ -138,10 +139,7 @@ class ForwardBelief:
             has_long = self._has_long
             starts = np.append(self._starts, b - self.horizon) if has_long else self._starts
             if starts.size:
-                if offset and int(starts.min()) - 1 < offset:  # an interval reads the frame before its start
-                    raise ModelError(f"ForwardBelief: frame {int(starts.min()) - 1} is read, but the track holds "
-                                     f"frames from {offset} on")
-                seg = self._closing(track, starts - offset, b - offset)  # (K, S)
+                seg = self._closing(track, starts, b)  # (K, S)
                 C = _logsumexp_finite(self._F + seg[: self._starts.size, None, :], axis=0)
                 if has_long:
                     C = np.logaddexp(C, self._long + seg[-1][None])
@@ -207,7 +205,8 @@ class ForwardBelief:
         from the running sums of the kept starts (:class:`~.path_sums.PathSums`); ``starts`` are the kept
         ones, then possibly the long bucket's representative start."""
         if self._sums is None:
-            return self.model.interval_features(track, starts, np.full(starts.size, b), self.fps)
+            x, o = _held(track, starts)
+            return self.model.interval_features(x, starts - o, np.full(starts.size, b - o), self.fps)
         sq, n = self._sums.residuals(track, b)
         K = self._starts.size
         if starts.size > K:  # the long bucket's start: that of the oldest kept row (b − horizon), else from the frames
@@ -216,7 +215,8 @@ class ForwardBelief:
             if K and np.array_equal(self._starts[at], rep):
                 sq, n = np.concatenate([sq, sq[at]]), np.concatenate([n, n[at]])
             else:
-                sq_r, n_r = path_residuals(track, rep, np.full(rep.size, b), self._sums.kind)
+                x, o = _held(track, rep)
+                sq_r, n_r = path_residuals(x, rep - o, np.full(rep.size, b - o), self._sums.kind)
                 sq, n = np.concatenate([sq, sq_r]), np.concatenate([n, n_r])
         end, disp, seconds = _ends(track, starts, b, self.fps)
         return IntervalFeatures(end, disp, seconds, sq, n)
@@ -259,6 +259,16 @@ def _ends(track: np.ndarray, starts: np.ndarray, b: int, fps: float) -> tuple[np
     end = np.repeat(np.asarray(track[b - 1], float)[None], starts.size, axis=0)
     disp = end - track[np.maximum(starts - 1, 0)]
     return end, disp, (b - starts) / float(fps)
+
+
+def _held(track: np.ndarray | TrackWindow, starts: np.ndarray) -> tuple[np.ndarray, int]:
+    """The frames held of ``track`` and the absolute frame of the first (a window's), checked to hold the frame
+    before every interval's start (what its features read)."""
+    if not isinstance(track, TrackWindow):
+        return track, 0
+    if track.floor and starts.size and int(starts.min()) - 1 < track.floor:
+        raise ModelError(f"ForwardBelief: frame {int(starts.min()) - 1} is read, but the track holds frames from {track.floor} on")
+    return track.rows, track.floor
 
 
 def _logsumexp_finite(x: np.ndarray, axis: int) -> np.ndarray:

@@ -205,7 +205,7 @@ class OnlineSynthesizer(CandidatePlanner):
             origin = 0 if t <= 2 * fb.horizon else ((t - fb.horizon) // fb.stride) * fb.stride
             fb.reset(origin)
             self._stale = False
-        fb.advance(self._track.rows, t, offset=self._track.floor)
+        fb.advance(self._track, t)
         self._belief = fb.belief(t)
 
     def _observed_track(self) -> np.ndarray:
