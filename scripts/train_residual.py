@@ -88,6 +88,7 @@ from _residual_episodes import held_out_episodes, run_episodes, trained_policy, 
 from _residual_data import DEFAULT_SPLITS, parse_splits, real_split  # noqa: E402
 from _residual_reward import FallPenalty  # noqa: E402
 from _residual_reach import ReachResidual  # noqa: E402
+from _residual_report import load_reference, reference_lines, reference_summary, result_lines  # noqa: E402
 from _residual_stats import summarize  # noqa: E402
 
 LABELS = ("shake_hands", "hand_over")
@@ -275,27 +276,7 @@ def reference_rows(s: Settings, train_set: Sequence[Interaction],
     train_env = make_env(s, train_set, models, training=True)
     train_eps = training_episodes([i.instance_id for i in train_set], s.seed)
     ref_rows = run_episodes(train_env, train_eps, zero_policy(train_env))
-    reference = {lbl: {"success": float(np.mean([r["success"] for r in ref_rows if r["interaction"] == lbl])),
-                       "return": float(np.mean([r["return"] for r in ref_rows if r["interaction"] == lbl]))}
-                 for lbl in s.labels}
-    return ref_rows, reference
-
-
-REFERENCE_KEYS = ("labels", "seed", "train_instances", "fit_iterations", "train_affordance_weight", "physics",
-                  "train_fall_penalty", "control_dt", "max_frames", "robot", "data", "split", "folds", "held_out_fold")
-"""Settings a ``reference.json`` must share with a run that reuses it (the training set, the models and the
-training reward)."""
-
-
-def load_reference(path: Path, s: Settings) -> dict[str, dict[str, float]]:
-    """The zero-residual reference of a ``--reference-only`` run, checked to be of the same training set."""
-    saved = json.loads(path.read_text())
-    mine = json.loads(json.dumps(dataclasses.asdict(s)))
-    default = json.loads(json.dumps(dataclasses.asdict(Settings())))  # a key older files lack had its default
-    differ = [k for k in REFERENCE_KEYS if saved["settings"].get(k, default[k]) != mine[k]]
-    if differ:
-        raise ConfigError(f"--reference {path}: made with other settings ({', '.join(differ)}); expected the run's own")
-    return saved["train_reference_zero_residual"]
+    return ref_rows, reference_summary(ref_rows, s.labels)
 
 
 def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[str], None] = lambda m: print(m, flush=True),
@@ -421,25 +402,7 @@ def main() -> None:
     except SocialAffError as err:  # bad flags or data: one line naming the flag, exit 2 (results are written atomically)
         print(f"train_residual.py: error: {err}", file=sys.stderr)
         raise SystemExit(2) from None
-    if args.reference_only:
-        for lbl, ref in r["train_reference_zero_residual"].items():
-            n = sum(row["interaction"] == lbl for row in r["episodes"])
-            print(f"{lbl:14s} zero residual on the training instances: success {ref['success']:.3f} (n={n}), "
-                  f"return {ref['return']:.2f}")
-        return
-    sm = r["summary"]
-    for name, block in [("all", sm), *sm["per_interaction"].items(), *sm.get("per_label", {}).items()]:
-        for pol in ("zero_residual", "residual"):
-            p = block[pol]
-            print(f"{name:12s} {pol:14s} success {p['success_rate']:.3f} [{p['success_ci95'][0]:.3f}, "
-                  f"{p['success_ci95'][1]:.3f}]  return {p['mean_return']:7.2f} [{p['mean_return_ci95'][0]:.2f}, "
-                  f"{p['mean_return_ci95'][1]:.2f}]  n={p['episodes']}")
-        dsu, dre = block["paired_success_difference"], block["paired_return_difference"]
-        print(f"{name:12s} paired residual - zero: success {dsu['mean']:+.3f} [{dsu['ci95'][0]:+.3f}, {dsu['ci95'][1]:+.3f}]"
-              f"  return {dre['mean']:+.2f} [{dre['ci95'][0]:+.2f}, {dre['ci95'][1]:+.2f}]")
-    print(f"target met: {sm['target_met']}; trained {r['timesteps_trained']} steps"
-          f"{' (stopped by the budget)' if r['stopped_by_budget'] else ''} in {r['train_wall_s']:.0f} s wall; "
-          f"total {r['total_wall_s']:.0f} s")
+    print("\n".join(reference_lines(r) if args.reference_only else result_lines(r)))
 
 
 if __name__ == "__main__":

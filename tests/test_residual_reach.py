@@ -135,3 +135,30 @@ def test_script_flag_builds_the_reach_environment() -> None:
     assert type(env.env).__name__ == "ReachResidual" and env.env.reach_scale == 0.15
     with pytest.raises(ConfigError, match="--reach-scale"):
         script.make_env(dataclasses.replace(s, residual_groups=("base",)), train, {}, training=True)
+
+
+def test_constant_action_is_evaluated_on_the_same_pairs(tmp_path) -> None:  # noqa: ANN001
+    pytest.importorskip("stable_baselines3")
+    script = load_script("train_residual")
+    report = load_script("_residual_report")
+    s = script.Settings(train_instances=1, eval_instances=2, fit_iterations=1, timesteps=64, n_envs=1, n_steps=64,
+                        batch_size=32, n_epochs=1, hidden=16, seed=5, max_frames=12, reach_scale=0.2,
+                        action_scale=0.05, use_sde=True, sde_sample_freq=8, log_std_init=-3.0,
+                        eval_constant=(0.0, 0.0, 0.0, 1.0, 0.0))
+    with pytest.raises(ConfigError, match="--eval-constant"):  # a wrong length fails before any training
+        script.run(dataclasses.replace(s, eval_constant=(1.0,)), tmp_path / "bad", log=lambda m: None)
+    assert not (tmp_path / "bad" / "residual_ppo.zip").exists()
+    r = script.run(s, tmp_path / "ok", log=lambda m: None)
+    zero, const = r["episodes"]["zero_residual"], r["episodes_constant"]
+    assert [(x["instance"], x["seed"]) for x in const] == [(x["instance"], x["seed"]) for x in zero]
+    assert all(x["mean_abs_action"] == pytest.approx(0.2) for x in const)  # |a| averaged over the 5 numbers
+    assert r["summary_constant"]["residual"]["successes"] == sum(x["success"] for x in const)
+    # The constant rows are what the reach environment gives for that action, replayed from scratch.
+    train, held = script.build_data(s)
+    models = {lbl: script.SocialAffordanceModel.load(tmp_path / "ok" / "models" / f"{lbl}.npz") for lbl in s.labels}
+    env = script.make_env(s, held, models)
+    again = script.run_episodes(env, [(x["instance"], x["seed"]) for x in const], lambda obs: np.array(s.eval_constant, np.float32))
+    assert [x["return"] for x in again] == [x["return"] for x in const]
+    lines = report.result_lines(r)
+    assert any(line.startswith("all") and "paired constant - zero" in line for line in lines)
+    assert any("paired residual - zero" in line for line in lines) and lines[-1].startswith("target met")
