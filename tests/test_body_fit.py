@@ -219,3 +219,32 @@ def test_frames_with_every_target_fitted_in_place_equal_gathered_rows(fitter: Bo
         cluster = fitter.poses_[fitter.select_clusters(missing[n:])[0]] + missing[n, 0]
         k, root, mid, end, mid_sub, end_sub = next(c for c in fitter._chains if c[0] == 1)
         np.testing.assert_array_equal(gathered[n, [mid, end]], cluster[[mid, end]])
+
+
+def test_one_frame_fit_with_stacked_subtrees_equals_the_chain_by_chain_fit(fitter: BodyFitter, rng: np.random.Generator,
+                                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """A one-frame call with every limb target (the reactor's) moves all the limbs' subtrees in one stacked product
+    and picks clusters without the missing-joint mask: bitwise the chain-by-chain fit of the same frame inside a
+    batch whose other frame misses a wrist (the gathered path), on random, out-of-reach, and degenerate targets (an
+    elbow on the shoulder→wrist line: a limb already straight toward its target; a target on its root)."""
+    targets = fitter.keys_[rng.integers(0, len(fitter.keys_), 60)] + rng.normal(0, 0.3, (60, 5, 3))
+    targets[:, 1:] += targets[:, :1]
+    targets[::7, 1:] *= 3.0  # out of reach
+    straight = fitter.poses_[0] + targets[1, 0]
+    targets[1, 1:] = fitter.layout_.key_joints(straight[None])[0, 1:]  # every limb already at its target
+    k, root, mid, end, _, _ = fitter._chains[0]
+    targets[2, k] = targets[2, 0] + fitter.poses_[fitter.select_clusters(targets[2:3])[0], root]  # on the root
+    used = []
+    real = BodyFitter._move_subtrees
+
+    def spy(self: BodyFitter, *args: np.ndarray) -> None:
+        used.append(True)
+        real(self, *args)
+
+    monkeypatch.setattr(BodyFitter, "_move_subtrees", spy)
+    for t in range(len(targets)):
+        one = fitter.fit_poses(targets[t:t + 1])
+        pair = np.concatenate([targets[t:t + 1], targets[t:t + 1]])
+        pair[1, 2] = np.nan  # the second frame's right wrist missing: both frames' chains gathered
+        assert np.array_equal(one[0], fitter.fit_poses(pair)[0])
+    assert len(used) == len(targets)  # the one-frame calls took the stacked path, the pairs did not

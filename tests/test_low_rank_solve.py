@@ -134,3 +134,29 @@ def test_past_t_max_the_low_rank_solves_equal_the_direct_ones(rng: np.random.Gen
     stale.weights[:] = 0.0
     assert np.abs(stale.solve(rhs) - np.linalg.solve(lam, rhs)).max() > 1e3 * REL * np.abs(np.linalg.solve(lam, rhs)).max()
     stale.weights[:] = keep
+
+
+def test_equal_weights_take_the_eigendecomposed_capacitance(rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Equal non-zero weights on a subset of U's columns (the stream's usual frame) solve through the eigenvectors of
+    C_SS, made once per subset; unequal weights through the m×m system; both within the declared tolerance of
+    numpy.linalg.solve on the explicit matrix (docs/design.md §7)."""
+    n, m = 48, 8
+    a = _spd(rng, n)
+    u = rng.normal(size=(n, m))
+    solver = LowRankUpdatedSolver(a.copy(), u)
+    eighs: list[int] = []
+    real_eigh = np.linalg.eigh
+
+    def spy(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        eighs.append(len(x))
+        return real_eigh(x)
+
+    monkeypatch.setattr(np.linalg, "eigh", spy)
+    subset = np.array([1.0, 1, 0, 1, 0, 1, 1, 0])
+    for d in (5.0 * subset, 7.0 * subset, np.full(m, 1e4), 5.0 * subset, np.array([1.0, 2, 0, 3, 0, 4, 5, 6])):
+        solver.weights[:] = d
+        b = rng.normal(size=n)
+        ref = np.linalg.solve(a + (u * d) @ u.T, b)
+        assert np.abs(solver.solve(b) - ref).max() <= REL * np.abs(ref).max()
+    # 5 columns; the same 5 with another δ (reused); all 8; the 5 again (remade); unequal weights (the m×m system).
+    assert eighs == [5, 8, 5]

@@ -18,7 +18,7 @@ from socialaff_sim.data import Interaction
 from socialaff_sim.data.growing import GrowingInteraction
 from socialaff_sim.errors import ModelError
 from socialaff_sim.evaluation.streaming import run_protocol
-from socialaff_sim.inference import methods, primitive_stream
+from socialaff_sim.inference import methods, primitive_stream, primitive_sums
 from socialaff_sim.inference.forward_belief import ForwardBelief
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, ProMPConfig, rbf_basis
 from socialaff_sim.inference.methods import AffordanceMethod
@@ -121,7 +121,7 @@ def test_primitive_stream_shortcuts_equal_scipy_and_rbf_basis(monkeypatch: pytes
     monkeypatch.setattr(primitive_stream, "dpotrf", potrf)
     monkeypatch.setattr(primitive_stream, "dpotrs", potrs)
     monkeypatch.setattr(PrimitiveStream, "_rbf", lambda self, phase: rbf_basis(phase, self._n, self._width))
-    monkeypatch.setattr(primitive_stream, "_block", np.ix_)
+    monkeypatch.setattr(primitive_sums, "_block", np.ix_)
     old = [_stream_outputs(prim, inst) for inst in tests]
     for a, b in zip(new, old, strict=True):
         assert np.array_equal(a, b, equal_nan=True)
@@ -132,7 +132,7 @@ def test_primitive_stream_block_index() -> None:
     a = np.arange(60.0).reshape(6, 10)
     for rows, cols in [([1, 2, 3], [4, 5]), ([1, 3], [4, 5]), ([2], [0, 2, 3]), ([], [1])]:
         r, c = np.array(rows, np.int64), np.array(cols, np.int64)
-        idx = primitive_stream._block(r, c)
+        idx = primitive_sums._block(r, c)
         assert isinstance(idx[0], slice) == (len(rows) > 0 and rows == list(range(rows[0], rows[-1] + 1))
                                              and cols == list(range(cols[0], cols[-1] + 1)))
         assert np.array_equal(a[idx], a[np.ix_(r, c)])

@@ -33,6 +33,9 @@ if TYPE_CHECKING:
 __all__ = ["BodyFitConfig", "BodyFitter", "instance_frame", "kmeans", "two_bone_ik"]
 
 _EPS = 1e-12
+_EYE3 = np.eye(3)
+_EYE3.setflags(write=False)
+_NEXT, _AFTER = np.array([1, 2, 0]), np.array([2, 0, 1])  # _cross's component indices
 
 
 def instance_frame(interaction: Interaction) -> CanonicalFrame:
@@ -110,6 +113,8 @@ class BodyFitConfig:
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(T, 3) a × b of (T, 3) or (3,) vectors: the products and differences of ``np.cross``, in its order (the same
     values), without its set-up (the body fit runs once per frame on a stream)."""
+    if a.shape == b.shape:  # component i is a[i+1]·b[i+2] − a[i+2]·b[i+1] (indices mod 3): the same products, gathered
+        return a[..., _NEXT] * b[..., _AFTER] - a[..., _AFTER] * b[..., _NEXT]
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     return np.stack(np.broadcast_arrays(a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
@@ -128,9 +133,10 @@ def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     vx[..., 0, 1], vx[..., 0, 2], vx[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
     vx = vx - np.swapaxes(vx, -1, -2)
     anti = c < -1.0 + 1e-9
-    scale = np.where(anti, 0.0, 1.0 / np.where(anti, 1.0, 1.0 + c))
-    rot = np.eye(3) + vx + (vx @ vx) * scale[..., None, None]
-    if anti.any():  # half turn about an axis perpendicular to a
+    any_anti = bool(anti.any())
+    scale = np.where(anti, 0.0, 1.0 / np.where(anti, 1.0, 1.0 + c)) if any_anti else 1.0 / (1.0 + c)
+    rot = _EYE3 + vx + (vx @ vx) * scale[..., None, None]
+    if any_anti:  # half turn about an axis perpendicular to a
         ax = _cross(a[anti], np.array([1.0, 0.0, 0.0]))
         small = _norm(ax) < 1e-6
         ax[small] = _cross(a[anti][small], np.array([0.0, 1.0, 0.0]))
@@ -233,6 +239,8 @@ class BodyFitter:
         self.poses_ = poses - poses[:, base : base + 1]
         self.keys_ = layout.key_joints(self.poses_)
         self._chains = [c for c in self._limb_chains(layout) if usable[list(c[1:4])].all()]
+        self._keys_ok: np.ndarray | None = None  # select_clusters's and _move_subtrees's index arrays, made on first use
+        self._stacked: tuple[np.ndarray, ...] | None = None
         self._independent = _independent(self._chains)
         return self
 
@@ -307,9 +315,14 @@ class BodyFitter:
         self._check()
         tg = np.asarray(key_targets, dtype=np.float64)
         rel = tg[:, 1:] - tg[:, :1]
-        ok = np.isfinite(rel).all(-1) & np.isfinite(self.keys_[:, 1:]).all(-1).all(0)[None]
-        diff = np.where(ok[:, None, :, None], rel[:, None] - self.keys_[None, :, 1:], 0.0)
+        if getattr(self, "_keys_ok", None) is None:  # the clusters' finite key joints (4,), once: the fit is fixed
+            self._keys_ok = np.isfinite(self.keys_[:, 1:]).all(-1).all(0)
+        ok = np.isfinite(rel).all(-1) & self._keys_ok[None]
+        diff = rel[:, None] - self.keys_[None, :, 1:]
+        if not ok.all():  # a key joint missing from the targets or the clusters: it does not count
+            diff = np.where(ok[:, None, :, None], diff, 0.0)
         return np.argmin((diff**2).sum(axis=(2, 3)), axis=1)
+
 
     def fit_poses(self, key_targets: np.ndarray, frame: CanonicalFrame | None = None) -> np.ndarray:
         """Skeletons (T, J, 3), metres, reaching the key-joint targets (T, 5, 3).
@@ -341,12 +354,19 @@ class BodyFitter:
             rows = [slice(None) if every else np.flatnonzero(finite[:, c[0]]) for c in chains]
             if not every and not sum(len(r) for r in rows):  # type: ignore[arg-type]
                 continue
-            r0, m0, e0, t = (np.concatenate([poses[r, c[i]] if i < 4 else tg[r, c[0]] for c, r in zip(chains, rows, strict=True)])
-                             for i in (1, 2, 3, 4))
+            if every:  # the chains' joints by one index array each, chain-major as the concatenation below
+                r0, m0, e0, t = (np.swapaxes(x[:, [c[i] for c in chains]], 0, 1).reshape(-1, 3)
+                                 for x, i in ((poses, 1), (poses, 2), (poses, 3), (tg, 0)))
+            else:
+                r0, m0, e0, t = (np.concatenate([poses[r, c[i]] if i < 4 else tg[r, c[0]]
+                                                 for c, r in zip(chains, rows, strict=True)]) for i in (1, 2, 3, 4))
             m1, e1 = two_bone_ik(r0, m0, e0, t)
             rot_up = _rotation_between(_unit(m0 - r0)[0], _unit(m1 - r0)[0])
             lower_old = np.einsum("tij,tj->ti", rot_up, e0 - m0)
             rot_lo = _rotation_between(_unit(lower_old)[0], _unit(e1 - m1)[0]) @ rot_up
+            if every and len(tg) == 1 and chains is self._chains:  # one frame, every limb (the stream's call)
+                self._move_subtrees(poses[0], m0, m1, e0, e1, rot_up, rot_lo)
+                continue
             at = np.cumsum([0] + [len(tg) if every else len(r) for r in rows])  # type: ignore[arg-type]
             for (_, _, _, _, mid_sub, end_sub), r, a, b in zip(chains, rows, at[:-1], at[1:], strict=True):
                 p = poses if every else poses[r]  # in place when every row is the chain's (the same values)
@@ -361,6 +381,19 @@ class BodyFitter:
                 ok = np.isfinite(t).all(-1)
                 poses[ok, idx] = t[ok]
         return frame.to_world(poses) if frame is not None else poses
+
+    def _move_subtrees(self, pose: np.ndarray, m0: np.ndarray, m1: np.ndarray, e0: np.ndarray, e1: np.ndarray,
+                       rot_up: np.ndarray, rot_lo: np.ndarray) -> None:
+        """One frame's limbs moved in place (``pose`` (J, 3)): each chain's mid subtree by ``rot_up`` (C, 3, 3) from m0 (C, 3)
+        to m1, its end subtree by ``rot_lo`` from e0 to e1; all (independent) chains at once, chain by chain's products."""
+        stacked = getattr(self, "_stacked", None)
+        if stacked is None:  # the subtrees' joints and their chain, made once
+            pairs = [[(j, k) for k, c in enumerate(self._chains) for j in c[i].tolist()] for i in (4, 5)]
+            stacked = self._stacked = tuple(np.array([x[i] for x in xs], dtype=np.int64).reshape(-1) for xs in pairs for i in (0, 1))
+        mid_j, mid_c, end_j, end_c = stacked
+        if len(mid_j):
+            pose[mid_j] = m1[mid_c] + np.einsum("tij,tnj->tni", rot_up[mid_c], (pose[mid_j] - m0[mid_c])[:, None])[:, 0]
+        pose[end_j] = e1[end_c] + np.einsum("tij,tnj->tni", rot_lo[end_c], (pose[end_j] - e0[end_c])[:, None])[:, 0]
 
     def fit_pose(self, key_targets: np.ndarray, frame: CanonicalFrame | None = None) -> np.ndarray:
         """One skeleton (J, 3), metres, for key-joint targets (5, 3); see :meth:`fit_poses`."""

@@ -45,6 +45,7 @@ from ..model.frame import CanonicalFrame
 from .body_fit import instance_frame
 from .interaction_primitive import InteractionPrimitive, rbf_centres, rbf_rows
 from .low_rank_solve import LowRankUpdatedSolver
+from .primitive_sums import PrimitiveSums
 from .protocol import observed_part
 
 __all__ = ["PHASE_ONE_REFACTOR", "PrimitiveStream", "SHARED_SOLVERS", "stream_key_joints"]
@@ -63,7 +64,7 @@ _SHARED: weakref.WeakKeyDictionary[InteractionPrimitive, dict[tuple[int, bytes],
 _SHARED = weakref.WeakKeyDictionary()
 
 
-class PrimitiveStream:
+class PrimitiveStream(PrimitiveSums):
     """The causal prediction of a fitted :class:`~.interaction_primitive.InteractionPrimitive` on one
     instance whose view grows (module docstring).
 
@@ -99,6 +100,16 @@ class PrimitiveStream:
         self._phase_one_c = -1
         self._phase_one_frames = 0
         self._u_one = np.kron(np.eye(self._d0), self._rbf(np.ones(1)).reshape(-1, 1))  # (a, d0)
+        # The basis rows of every candidate at every frame s ≤ T_max (phase min(s / (T̂ − 1), 1); frames past T_max
+        # read row T_max, at phase 1 for every candidate): (T_max + 1, candidates, N), each row rbf_rows's value at
+        # its phase (a row depends on its own phase only), read per frame instead of evaluated.
+        spans = np.maximum(self._cands - 1, 1)
+        phases = np.minimum(np.arange(self.t_max + 1)[:, None] / spans[None], 1.0)
+        self._table = self._rbf(phases.ravel()).reshape(self.t_max + 1, len(self._cands), self._n)
+        self._lam = np.empty((self._a, self._a), order="F")  # the a-block, factored in place every frame within T_max
+        self._row = np.empty(n_dof)  # one frame's DoFs
+        self._col_runs: dict[bytes, list[tuple[int, int, int, int]]] = {}  # _runs of the seen DoFs, per pattern
+        self._key_cols = slice(0, 3 * len(primitive.keys_))
         self.duration: int | None = None
         """T̂ of the last call, frames."""
 
@@ -122,55 +133,6 @@ class PrimitiveStream:
         view[diag, :, diag, :] += blocks
         return lam
 
-    def _add(self, frames: np.ndarray, y: np.ndarray, sign: float = 1.0, information: bool = True) -> None:
-        """Add (``sign`` −1: remove) frames (G,) with canonical DoF values y (G, D) (NaN: not seen) to the sums;
-        ``information`` False leaves HᵀR⁻¹H alone (the values change, not which are seen).
-
-        Only the candidates still to be chosen are updated: T̂ ≥ the frames seen (the calls' ``stop`` grows), and
-        T_max (the bounded rule); the others' sums are left as they were (never read again)."""
-        seen = np.isfinite(y)
-        seen[frames >= self.n_observed, self._d0 :] = False  # agent 1 after the prefix is never used
-        act = np.flatnonzero((self._cands > frames[0]) | (self._cands == self.t_max))
-        cols = np.flatnonzero(seen.any(axis=0))
-        yz = np.where(seen[:, cols], y[:, cols], 0.0) * self._inv_var[cols]  # (G, K)
-        span = np.maximum(self._cands[act] - 1, 1)
-        phi = self._rbf(np.minimum(frames[:, None] / span[None], 1.0).ravel()).reshape(len(frames), len(act), self._n)
-        sub = _block(act, cols)
-        if len(frames) == 1:  # the per-frame path
-            p0 = phi[0]
-            hty = p0[:, None, :] * yz[0][None, :, None]
-            if sign != 1.0:  # 1.0 × a is a: the usual (adding) call skips the product
-                hty *= sign
-            self._hty[sub] += hty
-            if information:
-                w = seen[0, cols] * self._inv_var[cols]
-                outer = p0[:, :, None] * p0[:, None, :]  # (A, N, N)
-                if w.size and (w == w[0]).all():  # one weight for every DoF (the usual frame): the same products, broadcast
-                    hth = (outer * w[0])[:, None]
-                else:
-                    hth = outer[:, None] * w[None, :, None, None]
-                if sign != 1.0:
-                    hth *= sign
-                self._hth[sub] += hth
-                if self._phase_one is not None:  # past T_max: the frame's phase is 1 (anchored at ≥ T_max frames)
-                    a_cols = cols < self._d0
-                    self._phase_one.weights[cols[a_cols]] += sign * w[a_cols]
-                    self._phase_one_frames += 1
-        else:
-            self._hty[sub] += sign * np.einsum("gcn,gd->cdn", phi, yz)
-            if information:
-                w = seen[:, cols] * self._inv_var[cols]
-                self._hth[sub] += sign * np.einsum("gcn,gcm,gd->cdnm", phi, phi, w)
-        # The duration match: frames s < T̂ of each candidate, agent 0's (and the object's) DoFs.
-        eligible = frames[:, None] < self._cands[act][None]
-        if not eligible.any():  # past every candidate (a long stream): the sums would gain zeros
-            return
-        obs = y[:, : self._d0] - self._first[None]
-        ok = np.isfinite(obs)
-        mu = phi @ self._mean[: self._d0].T - self._mu0  # (G, A, d0)
-        sq = np.where(ok[:, None], obs[:, None] - mu, 0.0) ** 2
-        self._err[act] += sign * np.where(eligible, sq.sum(axis=2), 0.0).sum(axis=0)
-
     def _dofs(self, joints: np.ndarray, obj: np.ndarray | None) -> np.ndarray:
         """(G, D) canonical DoFs from world key joints (G, 2, k, 3) and the object (G, 3) or ``None``."""
         assert self._frame is not None
@@ -187,7 +149,7 @@ class PrimitiveStream:
         keys = prim.keys_
         self._frame = instance_frame(view)
         self._joint_names = view.joint_names
-        self._idx = [view.layout.key_indices[k] for k in keys]
+        self._idx = np.array([view.layout.key_indices[k] for k in keys], dtype=np.int64)
         filled = view.key_joints()[:, :, keys]  # (T, 2, k, 3) world
         self._anchor = (self._frame.to_canonical(filled[0, 1, 0]) if prim.config.relative_to_start else np.zeros(3))
         y = self._dofs(filled, view.object)
@@ -214,23 +176,29 @@ class PrimitiveStream:
         if T < self._frames_seen:
             raise ModelError(f"PrimitiveStream: views must grow; had {self._frames_seen} frames, got {T}")
         idx = self._idx
+        row = self._row
         for s in range(self._frames_seen, T):
             valid = view.valid[s, 0, idx] if view.valid is not None else np.ones(len(idx), bool)
-            if (valid & ~self._tracked).any():  # first tracked after frame 0: the filled past changes
-                self._rebuild(view.slice(0, s + 1))
+            every = bool(valid.all())
+            if not every and (valid & ~self._tracked).any() or every and not self._tracked.all():
+                self._rebuild(view.slice(0, s + 1))  # first tracked after frame 0: the filled past changes
                 continue
             assert self._frame is not None
             raw = self._frame.to_canonical(view.joints[s, 0, idx])  # (k, 3)
-            value = np.where(valid[:, None], raw, self._last_value)
-            row = np.full((1, self._n_dof), np.nan)  # agent 1 is not seen after the prefix
-            row[0, : 3 * len(keys)] = value.ravel()
+            value = raw if every else np.where(valid[:, None], raw, self._last_value)
+            row.fill(np.nan)  # agent 1 is not seen after the prefix
+            row[self._key_cols] = value.ravel()
             if self.primitive.has_object_ and view.object is not None:
-                row[0, 3 * len(keys) : self._d0] = self._frame.to_canonical(view.object[s])
-            self._add(np.array([s]), row)
-            for j in np.flatnonzero(valid & (s - self._last_frame > 1)):
+                row[3 * len(keys) : self._d0] = self._frame.to_canonical(view.object[s])
+            self._add_frame(s, row)
+            for j in np.flatnonzero((s - self._last_frame > 1) if every else valid & (s - self._last_frame > 1)):
                 self._close_gap(j, s, raw[j])
-            self._last_frame = np.where(valid, s, self._last_frame)
-            self._last_value = np.where(valid[:, None], raw, self._last_value)
+            if every:
+                self._last_frame[:] = s
+                self._last_value = raw
+            else:
+                self._last_frame = np.where(valid, s, self._last_frame)
+                self._last_value = np.where(valid[:, None], raw, self._last_value)
         self._frames_seen = T
 
     def _close_gap(self, joint: int, s: int, value: np.ndarray) -> None:
@@ -251,12 +219,13 @@ class PrimitiveStream:
     # ------------------------------------------------------------------------------------ prediction
     def _choose(self, at_least: int) -> int:
         """Index (into the candidates) of T̂: the best match among the candidates ≥ ``at_least``; past T_max, T_max."""
-        eligible = np.flatnonzero(self._cands >= at_least)
-        if eligible.size == 0:
-            return int(np.argmax(self._cands))  # the bounded rule (module docstring)
-        if eligible.size == 1:
-            return int(eligible[0])
-        return int(eligible[np.argmin(self._err[eligible])])
+        lo = int(np.searchsorted(self._cands, at_least, side="left"))  # the candidates ≥ at_least: [lo, end)
+        n_c = len(self._cands)
+        if lo == n_c:
+            return n_c - 1  # T_max, the bounded rule (module docstring)
+        if lo == n_c - 1:
+            return lo
+        return lo + int(np.argmin(self._err[lo:]))
 
     def _solver(self, c: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Candidate ``c``'s fixed part of the conditioning: S = P_aa − P_ar K (a, a), K = Λ_rr⁻¹ P_ra (r, a),
@@ -323,7 +292,10 @@ class PrimitiveStream:
         if self._frames_seen >= self.t_max and self._cands[c] == self.t_max:  # every later frame at phase 1
             x_a = self._phase_one_solve(c, s_aa, blocks, rhs)
         else:
-            lam = self._add_blocks(s_aa.copy(), blocks)
+            lam = self._lam  # Fortran order, as LAPACK reads it: no copy in the call
+            np.copyto(lam, s_aa)
+            m, n = self._d0, self._n
+            lam.reshape((n, m, n, m), order="F")[:, np.arange(m), :, np.arange(m)] += blocks  # the diagonal blocks
             # LAPACK's potrf/potrs called as scipy's cho_factor/cho_solve call them (the same arguments, the same
             # values), without their per-call checks: this runs at every frame.
             chol, info = dpotrf(lam, lower=1, clean=0, overwrite_a=1)
@@ -332,7 +304,7 @@ class PrimitiveStream:
             x_a, info = dpotrs(chol, rhs, lower=1)
         w_r = self._mean[d0:] + (u - k_ra @ x_a).reshape(-1, n)  # (D − d0, N) agent 1's posterior mean weights
         frames = np.arange(start, stop)
-        phi = self._rbf(np.minimum(frames / max(self.duration - 1, 1), 1.0))
+        phi = self._table[np.minimum(frames, self.t_max), c]  # (F, N) the basis at min(s / (T̂ − 1), 1)
         out = np.full((len(frames), N_KEY, 3), np.nan)
         out[:, prim.keys_] = (phi @ w_r.T).reshape(len(frames), len(prim.keys_), 3) + self._anchor
         return out
@@ -357,14 +329,6 @@ class PrimitiveStream:
         keys = self.prefix_keys(hidden, visible, start, stop)
         assert self._frame is not None
         return self._frame.to_world(keys)
-
-
-def _block(rows: np.ndarray, cols: np.ndarray) -> tuple[slice, slice] | tuple[np.ndarray, np.ndarray]:
-    """The index of the (rows, cols) sub-array: slices when both runs are contiguous (the usual case: an in-place
-    add on a view instead of a gather and a scatter; the same sums), else ``np.ix_``."""
-    if rows.size and cols.size and rows[-1] - rows[0] + 1 == rows.size and cols[-1] - cols[0] + 1 == cols.size:
-        return slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1)
-    return np.ix_(rows, cols)
 
 
 def stream_key_joints(primitive: InteractionPrimitive, interaction: Interaction, n_observed: int, *, stride: int = 1) -> np.ndarray:

@@ -88,6 +88,20 @@ def velocity_estimate(positions: np.ndarray) -> np.ndarray:
     return np.tensordot(t, x, axes=(0, 0)) / float(t @ t)
 
 
+_SLOPE_WEIGHTS: dict[int, tuple[np.ndarray, float]] = {}
+
+
+def _window_slope(x: np.ndarray) -> np.ndarray:
+    """:func:`velocity_estimate` of ``x`` (K, 5, 3), bitwise: the same ``np.dot`` that ``np.tensordot`` makes of it,
+    with the weights and their squared norm made once per K."""
+    k = x.shape[0]
+    if k not in _SLOPE_WEIGHTS:
+        t = np.arange(k, dtype=np.float64) - (k - 1) / 2.0
+        _SLOPE_WEIGHTS[k] = (t.reshape(1, k), float(t @ t))
+    t, tt = _SLOPE_WEIGHTS[k]
+    return np.dot(t, x.reshape(k, -1)).reshape(x.shape[1:]) / tt
+
+
 def forward_fill(values: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """(T, …, 3) ``values`` with each entry invalid in ``valid`` (T, …) replaced by its last valid frame
     (by its first valid frame before that; NaN if never valid)."""
@@ -223,11 +237,16 @@ class FeatureStream:
 
     def _consume(self, view: Interaction) -> None:
         new = slice(self._seen, view.n_frames)
-        keys = view.layout.key_joints(view.joints[new, 0])
-        valid = np.zeros((keys.shape[0], N_KEY), dtype=bool)
-        for k, idx in enumerate(view.layout.key_indices):
-            if idx is not None:
-                valid[:, k] = np.asarray(view.valid)[new, 0, idx]
+        idx = view.layout.key_indices
+        if None in idx:
+            keys = view.layout.key_joints(view.joints[new, 0])
+            valid = np.zeros((keys.shape[0], N_KEY), dtype=bool)
+            for k, i in enumerate(idx):
+                if i is not None:
+                    valid[:, k] = np.asarray(view.valid)[new, 0, i]
+        else:  # every key joint in the layout: one gather each (the same values)
+            keys = np.asarray(view.joints[new, 0][:, list(idx)], dtype=np.float64)
+            valid = np.asarray(view.valid)[new, 0][:, list(idx)]
         for cur, ok in zip(keys, valid, strict=True):
             self._last = np.where(ok[:, None] & np.isfinite(cur), cur, self._last)
             self._window.append(self._last)
@@ -249,8 +268,8 @@ class FeatureStream:
         frames = np.arange(max(start, last), stop)
         if len(frames):
             win = np.stack(self._window)
-            vel = velocity_estimate(win) * view.fps if len(win) >= 2 else np.zeros((N_KEY, 3))
+            vel = _window_slope(win) * view.fps if len(win) >= 2 else np.zeros((N_KEY, 3))
             n = len(frames)
-            parts.append(self.anchor.features(np.repeat(win[-1][None], n, 0), np.repeat(vel[None], n, 0), frames,
-                                              self.config))
+            keys0, vel0 = (win[-1][None], vel[None]) if n == 1 else (np.repeat(win[-1][None], n, 0), np.repeat(vel[None], n, 0))
+            parts.append(self.anchor.features(keys0, vel0, frames, self.config))
         return np.concatenate(parts, axis=0)

@@ -252,9 +252,10 @@ class SynthesisConfig:
         default): the default Algorithm 2 plus an equal share of the frame regression, which reads
         agent 0, and the phase, at the latest observed frame, a re-planning at each predicted sub-event end, and the
         pull toward contact keyframes triggered by agent 0's touching joint reaching its contact pose; an overrun
-        sub-event is re-planned every ΔT frames (``overrun_delta_t``, docs/design.md §8)."""
-        return cls(**{"frame_weight": 0.5, "replan_at_end": True, "overrun_delta_t": True, "contact": "triggered",
-                      **changes})  # type: ignore[arg-type]
+        sub-event is re-planned every ΔT frames (``overrun_delta_t``), and re-plannings follow the sub-events' learned
+        order (``ordered``; both adopted by development-split rules, docs/design.md §8)."""
+        return cls(**{"frame_weight": 0.5, "replan_at_end": True, "overrun_delta_t": True, "ordered": True,
+                      "contact": "triggered", **changes})  # type: ignore[arg-type]
 
     @classmethod
     def offline(cls, **changes: object) -> SynthesisConfig:

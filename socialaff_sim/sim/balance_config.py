@@ -31,6 +31,7 @@ class BalanceConfig:
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, min_foot_load, torque_fraction, flat_feet
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
+    - Hands that give way: hand_yield, yield_damping, yield_return
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, catch_tilt, catch_margin, catch_blend,
       drive_harnessed
     """
@@ -107,6 +108,16 @@ class BalanceConfig:
     """ω_s [rad/s]: the barrier d̈ ≥ −2 ω_s ḋ − ω_s² (d − d_min) of ``self_clearance``: a pair entering
     ``clearance_detection`` − d_min away stops short of d_min if it approaches at most ω_s times that (30 rad/s,
     9 cm: 2.7 m/s)."""
+    hand_yield: float | None = None
+    """κ [—]: the arms give way while the horizontal force of the person or object on them exceeds κ times the
+    force the feet can carry at that height (F_feet = W (e − m − ξ·u) / h, :mod:`~.hand_yield`): each wrist's
+    reference moves along the force on its arm (a force-limited grasp). ``None``: the arms track their
+    references whatever pushes them (a pull-up's 50–145 N at Stubby's hands tips it over its heels)."""
+    yield_damping: float = 50.0
+    """b [N·s/m]: a wrist gives way at (|f| − κ F_feet) / b along the force (25 N over the allowance: 0.5 m/s; a
+    person's hand that keeps coming at v is met with b·v over the allowance)."""
+    yield_return: float = 1.0
+    """τ [s]: while the force is within the allowance, a wrist's offset returns as ȯ = −o / τ."""
     sole_gap: float = 0.0
     """[m]: a planted foot without contacts whose sole is at most this high above the floor still counts for the
     support box of the harness's decisions (0: only feet in contact; a contact lost for a step then shrinks the
@@ -158,6 +169,11 @@ class BalanceConfig:
         if not (self.clearance_detection > 0.0 and self.clearance_bandwidth > 0.0):
             raise ConfigError(f"BalanceConfig: expected clearance_detection > 0 m and clearance_bandwidth > 0 rad/s, "
                               f"found {self.clearance_detection}, {self.clearance_bandwidth}")
+        if self.hand_yield is not None and not self.hand_yield >= 0.0:
+            raise ConfigError(f"BalanceConfig.hand_yield: expected None or a fraction ≥ 0, found {self.hand_yield}")
+        if not (self.yield_damping > 0.0 and self.yield_return >= 0.0):
+            raise ConfigError(f"BalanceConfig: expected yield_damping > 0 N·s/m and yield_return ≥ 0 s, found "
+                              f"{self.yield_damping}, {self.yield_return}")
         if self.flat_feet and self.solver != "qp":
             raise ConfigError(f"BalanceConfig.flat_feet: needs solver='qp' (hard constraints), found {self.solver!r}")
         if not 0.0 <= self.min_foot_load < 0.5:

@@ -11,7 +11,8 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    reference c* over the feet (ω_c, ζ): the IK's centre of mass relative to its feet carried over to the
    physical feet (or the middle of the feet), optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
-   with the floor, where they stand now) shrunk by a margin;
+   with the floor, where they stand now) shrunk by a margin; with ``hand_yield`` the arms' references give way
+   to a person's force beyond what the feet carry (:mod:`~.hand_yield`);
 2. floating-base inverse dynamics with the floor's contact forces: at the feet's contact points as MuJoCo found
    them, forces inside friction cones that balance the root's six unactuated rows, q̈ as close to the wanted one
    as the weights allow (the arms' and head's joints by ``upper_weight`` less); τ = M q̈ + h − Jᵀf on the hinges.
@@ -49,6 +50,7 @@ from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
 from .external_force import ExternalForces, lean_offset
 from .flat_feet import flat_attitude, flat_contacts, sole_corners
+from .hand_yield import HandYield
 from .scene import Scene
 from .self_clearance import SelfClearance
 from .support_box import SupportBox, cop_interval
@@ -107,6 +109,9 @@ class BalanceController:
         c = self.config
         self._clearance = None if c.self_clearance is None else SelfClearance.of_scene(
             scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
+        self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
+                                                                      c.yield_return, c.external_filter)
+        """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
         self._plan = mujoco.MjData(m)
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
@@ -176,6 +181,9 @@ class BalanceController:
         centre-of-pressure bounds; whose QP DAQP did not solve (the least-squares torques were used)."""
         self.clearance_steps = self.clearance_dropped_steps = 0
         """``self_clearance``: driven steps with a clearance row in the QP; of them, those whose rows were dropped."""
+        self._capture = np.zeros(2)
+        if self.hand_yield is not None:
+            self.hand_yield.reset()
 
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
@@ -213,7 +221,7 @@ class BalanceController:
             jcom = self._jp[:, self.vadr].copy()
             comvel = jcom @ d.qvel[self.vadr]
             height = max(float(com[2] - pts[:, 2].mean()), 1e-3)
-            capture = com[:2] + comvel[:2] / math.sqrt(self._g / height)
+            capture = self._capture = com[:2] + comvel[:2] / math.sqrt(self._g / height)
         was = self.released
         if not standing:
             self.released = False
@@ -239,6 +247,8 @@ class BalanceController:
             b = self._bias
             d.ctrl[self.scene.act_ids] = (tau - b[:, 0] - b[:, 1] * q - b[:, 2] * v) / self._gain
         mujoco.mj_step2(m, d)
+        if standing and self.hand_yield is not None:
+            self.hand_yield.measure(m, d)
         if standing and c.external_forces:
             self._measure_external(m, d)
         else:
@@ -325,7 +335,9 @@ class BalanceController:
         tasks.append((Jt, wo * wo * self._rot - 2.0 * wo * (Jt @ qv), c.w_torso))
         hinge_q = d.qpos[self.qadr[7:]]
         wq = c.joint_bandwidth
-        want = wq * wq * (q_ref[7:] - hinge_q) + 2.0 * wq * (qd_ref - qv[6:])
+        dq, dv = (0.0, 0.0) if self.hand_yield is None else self.hand_yield.references(  # the arms give way to a
+            m, d, box, self._capture, float(pts[:, 2].mean()), c.cop_margin, self.mass * self._g)  # force too large
+        want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside one task
         tasks.append((np.eye(n)[6:] * scale[:, None], want * scale, c.w_joint))
         edges = cone_edges(frames, c.friction)

@@ -37,29 +37,39 @@ class ExternalForces:
         (nv_r,) on the robot's coordinates (N, N·m), the contact points (K, 3) and their forces on the robot
         (K, 3), world frame."""
         gen = np.zeros(len(self.vadr))
+        pts, forces, geoms, _ = self.contacts(m, d)
+        for p, f, g in zip(pts, forces, geoms, strict=True):
+            mujoco.mj_jac(m, d, self._jp, None, p, int(m.geom_bodyid[g]))
+            gen += self._jp[:, self.vadr].T @ f
+        return gen, pts, forces
+
+    def contacts(self, m: mujoco.MjModel,
+                 d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The contacts of :meth:`measure`: points (K, 3), forces on the robot (K, 3), world frame, the robot geom
+        (K,) each acts on and the geom (K,) that pushes it."""
+        none = np.zeros(0, dtype=np.int64)
         nc = d.ncon
         if not nc:
-            return gen, np.zeros((0, 3)), np.zeros((0, 3))
+            return np.zeros((0, 3)), np.zeros((0, 3)), none, none
         g = d.contact.geom[:nc]
         r0, r1 = self._robot[g[:, 0]], self._robot[g[:, 1]]
         floor = (g[:, 0] == self._floor) | (g[:, 1] == self._floor)
         rows = np.flatnonzero((r0 ^ r1) & ~floor & (d.contact.efc_address[:nc] >= 0))
-        pts, forces = [], []
+        pts, forces, geoms, others = [], [], [], []
         for i in rows.tolist():
             mujoco.mj_contactForce(m, d, i, self._f6)
             frame = d.contact.frame[i].reshape(3, 3)
             f = frame.T @ self._f6[:3]  # on geom 1, world frame
-            robot_geom = int(g[i, 1])
+            robot_geom, other = int(g[i, 1]), int(g[i, 0])
             if r0[i]:
-                f, robot_geom = -f, int(g[i, 0])
-            p = d.contact.pos[i]
-            mujoco.mj_jac(m, d, self._jp, None, p, int(m.geom_bodyid[robot_geom]))
-            gen += self._jp[:, self.vadr].T @ f
-            pts.append(p.copy())
+                f, robot_geom, other = -f, int(g[i, 0]), int(g[i, 1])
+            pts.append(d.contact.pos[i].copy())
             forces.append(f)
+            geoms.append(robot_geom)
+            others.append(other)
         if not pts:
-            return gen, np.zeros((0, 3)), np.zeros((0, 3))
-        return gen, np.array(pts), np.array(forces)
+            return np.zeros((0, 3)), np.zeros((0, 3)), none, none
+        return np.array(pts), np.array(forces), np.array(geoms, dtype=np.int64), np.array(others, dtype=np.int64)
 
 
 def lean_offset(moment: np.ndarray, force: np.ndarray, point: np.ndarray, weight: float) -> np.ndarray:

@@ -35,6 +35,11 @@ class FootLockConfig:
     """h_hold [m]: a foot already planted stays planted while its target is at most this far above the ankle's
     home height (and within ``radius``): a recorded heel or toe rise of a person leaning into a pull is not a
     step. ``None``: ``lift`` (no hysteresis). At least ``lift``."""
+    hold_in_contact: bool = False
+    """[—]: While a sub-goal's contact held at the end of the last frame (the robot holds the person's hand), a
+    foot planted stays planted wherever its target goes: the robot does not step while it holds on (the recorded
+    helper of a pull-up steps back to keep the arms taut; a robot whose hands give way,
+    ``BalanceConfig.hand_yield``, needs no step). ``False``: the targets decide as at any other time."""
 
     def __post_init__(self) -> None:
         if not (self.lift >= 0.0 and self.radius >= 0.0):
@@ -58,10 +63,13 @@ class FootLock:
         """No foot planted."""
         self.planted = [None, None]
 
-    def apply(self, ankles: np.ndarray) -> np.ndarray:
-        """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted."""
+    def apply(self, ankles: np.ndarray, touching: bool = False) -> np.ndarray:
+        """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted;
+        ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted)."""
         out = np.array(ankles, dtype=np.float64)
         c = self.config
+        if touching and c.hold_in_contact and all(p is not None for p in self.planted):
+            return np.array([np.array(p) for p in self.planted])
         hold = c.lift if c.hold_lift is None else c.hold_lift
         for s in (0, 1):
             t = out[s]

@@ -257,7 +257,7 @@ class Simulator:
         tg = fill_targets(np.asarray(targets, dtype=np.float64), self._home_keys)
         world = self.frame_R.to_world(tg)
         if self._footlock is not None:
-            world[3:5] = self._footlock.apply(world[3:5])
+            world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()))
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik

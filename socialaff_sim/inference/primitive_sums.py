@@ -1,0 +1,154 @@
+"""The interaction primitive stream's running sums (:mod:`.primitive_stream`): adding frames to them.
+
+Per candidate duration T̂ (index c) and degree of freedom d: the information HᵀR⁻¹H (``_hth``, (C, D, N, N)),
+HᵀR⁻¹y (``_hty``, (C, D, N)) and the duration match's squared error (``_err``, (C,)). A frame s is at phase
+min(s / (T̂ − 1), 1) for each candidate. :meth:`PrimitiveSums._add_frame` is the per-frame call (the stream's usual
+one): the same sums, bitwise, as the gathers of :meth:`PrimitiveSums._add_rows`, from a table of the basis rows and
+with the active candidates and the seen DoFs as slices.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .low_rank_solve import LowRankUpdatedSolver
+
+__all__ = ["PrimitiveSums"]
+
+
+class PrimitiveSums:
+    """The running sums' updates, a base of :class:`~.primitive_stream.PrimitiveStream`, which sets the attributes
+    read here: ``n_observed`` (T0), ``t_max``, ``_cands`` (C,) sorted durations, ``_d0`` (agent 0's and the object's
+    DoFs), ``_n`` (N), ``_inv_var`` (D,), ``_mean`` (D, N), ``_table`` (T_max + 1, C, N) the basis rows,
+    ``_first`` (d0,) and ``_mu0`` (d0,), the sums, ``_col_runs`` and the past-T_max solver ``_phase_one``."""
+
+    n_observed: int
+    t_max: int
+    _cands: np.ndarray
+    _d0: int
+    _n: int
+    _inv_var: np.ndarray
+    _mean: np.ndarray
+    _table: np.ndarray
+    _first: np.ndarray
+    _mu0: np.ndarray
+    _hth: np.ndarray
+    _hty: np.ndarray
+    _err: np.ndarray
+    _col_runs: dict[bytes, list[tuple[int, int, int, int]]]
+    _phase_one: LowRankUpdatedSolver | None
+    _phase_one_frames: int
+
+    def _rbf(self, phase: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def _add(self, frames: np.ndarray, y: np.ndarray, sign: float = 1.0, information: bool = True) -> None:
+        """Add (``sign`` −1: remove) frames (G,) with canonical DoF values y (G, D) (NaN: not seen) to the sums;
+        ``information`` False leaves HᵀR⁻¹H alone (the values change, not which are seen).
+
+        Only the candidates still to be chosen are updated: T̂ ≥ the frames seen (the calls' ``stop`` grows), and
+        T_max (the bounded rule); the others' sums are left as they were (never read again)."""
+        if len(frames) == 1 and sign == 1.0 and information:
+            self._add_frame(int(frames[0]), y[0])
+        else:
+            self._add_rows(frames, y, sign, information)
+
+    def _add_rows(self, frames: np.ndarray, y: np.ndarray, sign: float = 1.0, information: bool = True) -> None:
+        """:meth:`_add` by gathers over the active candidates and seen DoFs (any frames, any sign)."""
+        seen = np.isfinite(y)
+        seen[frames >= self.n_observed, self._d0 :] = False  # agent 1 after the prefix is never used
+        act = np.flatnonzero((self._cands > frames[0]) | (self._cands == self.t_max))
+        cols = np.flatnonzero(seen.any(axis=0))
+        yz = np.where(seen[:, cols], y[:, cols], 0.0) * self._inv_var[cols]  # (G, K)
+        span = np.maximum(self._cands[act] - 1, 1)
+        phi = self._rbf(np.minimum(frames[:, None] / span[None], 1.0).ravel()).reshape(len(frames), len(act), self._n)
+        sub = _block(act, cols)
+        if len(frames) == 1:  # the per-frame path
+            p0 = phi[0]
+            hty = p0[:, None, :] * yz[0][None, :, None]
+            if sign != 1.0:  # 1.0 × a is a: the usual (adding) call skips the product
+                hty *= sign
+            self._hty[sub] += hty
+            if information:
+                w = seen[0, cols] * self._inv_var[cols]
+                outer = p0[:, :, None] * p0[:, None, :]  # (A, N, N)
+                if w.size and (w == w[0]).all():  # one weight for every DoF (the usual frame): the same products, broadcast
+                    hth = (outer * w[0])[:, None]
+                else:
+                    hth = outer[:, None] * w[None, :, None, None]
+                if sign != 1.0:
+                    hth *= sign
+                self._hth[sub] += hth
+                if self._phase_one is not None:  # past T_max: the frame's phase is 1 (anchored at ≥ T_max frames)
+                    a_cols = cols < self._d0
+                    self._phase_one.weights[cols[a_cols]] += sign * w[a_cols]
+                    self._phase_one_frames += 1
+        else:
+            self._hty[sub] += sign * np.einsum("gcn,gd->cdn", phi, yz)
+            if information:
+                w = seen[:, cols] * self._inv_var[cols]
+                self._hth[sub] += sign * np.einsum("gcn,gcm,gd->cdnm", phi, phi, w)
+        # The duration match: frames s < T̂ of each candidate, agent 0's (and the object's) DoFs.
+        eligible = frames[:, None] < self._cands[act][None]
+        if not eligible.any():  # past every candidate (a long stream): the sums would gain zeros
+            return
+        obs = y[:, : self._d0] - self._first[None]
+        ok = np.isfinite(obs)
+        mu = phi @ self._mean[: self._d0].T - self._mu0  # (G, A, d0)
+        sq = np.where(ok[:, None], obs[:, None] - mu, 0.0) ** 2
+        self._err[act] += sign * np.where(eligible, sq.sum(axis=2), 0.0).sum(axis=0)
+
+    def _add_frame(self, s: int, y: np.ndarray) -> None:
+        """:meth:`_add` of one frame s with DoF values y (D,) (the per-frame call): the same sums, bitwise, from the
+        basis table, with the active candidates (a contiguous run: the durations are sorted) and usually the seen
+        DoFs as slices, and the duration match without its no-op selections."""
+        seen = np.isfinite(y)
+        if s >= self.n_observed:
+            seen[self._d0 :] = False  # agent 1 after the prefix is never used
+        n_c = len(self._cands)
+        lo = min(int(np.searchsorted(self._cands, s, side="right")), n_c - 1)  # candidates > s, and T_max
+        cols = np.flatnonzero(seen)
+        p0 = self._table[min(s, self.t_max), lo:]  # (A, N)
+        yz = y[cols] * self._inv_var[cols]
+        w = self._inv_var[cols]
+        outer = p0[:, :, None] * p0[:, None, :]  # (A, N, N)
+        equal = bool(w.size) and bool((w == w[0]).all())
+        hth = (outer * w[0])[:, None] if equal else outer[:, None] * w[None, :, None, None]  # equal: broadcast
+        # The seen DoFs as runs of consecutive columns (e.g. agent 0's never-tracked ankles between its arms and
+        # the object): a slice per run instead of a gather and a scatter of the same entries (the same sums).
+        key = cols.tobytes()
+        runs = self._col_runs.get(key)
+        if runs is None:
+            runs = self._col_runs[key] = _runs(cols)
+        for a, b, ka, kb in runs:
+            self._hty[lo:, a:b] += p0[:, None, :] * yz[None, ka:kb, None]
+            self._hth[lo:, a:b] += hth if equal else hth[:, ka:kb]
+        if self._phase_one is not None:  # past T_max: the frame's phase is 1 (anchored at ≥ T_max frames)
+            a_cols = cols < self._d0
+            self._phase_one.weights[cols[a_cols]] += w[a_cols]
+            self._phase_one_frames += 1
+        if s >= self.t_max:  # past every candidate (a long stream): the duration match's sums would gain zeros
+            return
+        obs = y[: self._d0] - self._first
+        mu = p0 @ self._mean[: self._d0].T - self._mu0  # (A, d0)
+        diff = obs[None] - mu
+        if not np.isfinite(obs).all():
+            diff = np.where(np.isfinite(obs)[None], diff, 0.0)
+        self._err[lo:] += (diff**2).sum(axis=1)
+
+
+def _runs(cols: np.ndarray) -> list[tuple[int, int, int, int]]:
+    """The runs of consecutive indices of the sorted ``cols`` (K,): (first, end, start in cols, end in cols) each."""
+    if not cols.size:
+        return []
+    cuts = np.flatnonzero(np.diff(cols) != 1) + 1
+    starts, ends = np.r_[0, cuts], np.r_[cuts, cols.size]
+    return [(int(cols[i]), int(cols[j - 1]) + 1, int(i), int(j)) for i, j in zip(starts, ends, strict=True)]
+
+
+def _block(rows: np.ndarray, cols: np.ndarray) -> tuple[slice, slice] | tuple[np.ndarray, np.ndarray]:
+    """The index of the (rows, cols) sub-array: slices when both runs are contiguous (the usual case: an in-place
+    add on a view instead of a gather and a scatter; the same sums), else ``np.ix_``."""
+    if rows.size and cols.size and rows[-1] - rows[0] + 1 == rows.size and cols[-1] - cols[0] + 1 == cols.size:
+        return slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1)
+    return np.ix_(rows, cols)

@@ -1,0 +1,168 @@
+"""Hands that give way to a push or pull beyond what the feet can carry (``BalanceConfig.hand_yield``).
+
+A robot standing on its feet resists a horizontal force at its hands only by moving its centre of pressure
+toward the edge of its soles. Quasi-statically, with the robot's weight W at the centre of mass c, the contacts'
+resultant on both arms (horizontal part f, N, u = f / |f|; vertical part f_z, N, up positive) applied at x
+(horizontal, m) h above the floor, the moments about the centre of pressure p along u balance:
+W (p − c)·u − f_z (p − x)·u = |f| h. The centre of pressure stays ``cop_margin`` m inside the support box,
+p·u ≤ e − m, e the box's farthest extent along u. With the capture point ξ in place of c (a robot already moving
+toward that edge has less to spare), the horizontal force the feet carry is
+
+    F_feet = (W (e − m − ξ·u) + f_z (x·u − (e − m))) / h      (≤ 0: none);
+
+a person leaning on the hands (f_z < 0) in front of the robot (x·u < e) helps it.
+
+Stubby's pull-ups: the rising person's hand, replayed, presses the robot's hand back and down (a median 46 N
+horizontally at 1.05 m, up to 216 N); its 16 cm soles carry about 30 N there with the centre of mass over the
+middle of the feet, so the robot tips over its heels (torso 10–15°) until the harness catches it
+(docs/benchmarks.md, "The pull-ups' outside support …", issue 25).
+
+:class:`HandYield` is the force-limited arm a real robot has: while |f| > κ F_feet (κ ``hand_yield``) each arm's
+wrist reference gives way along the horizontal force on that arm, as a damper of ``yield_damping`` b:
+ȯ_s = (|f| − κ F_feet) / b · f_s / |f|; otherwise the offset returns over ``yield_return`` τ: ȯ_s = −o_s / τ.
+Only the person's contacts count: an object a grip weld holds presses on the hand it is welded to (forces
+internal to robot and object; counted, they set the hand overs' arms giving way for seconds). The offset (world,
+horizontal, m, at most :data:`MAX_OFFSET`) moves the arm's hinge references by the damped least-squares
+Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ o over the arm's hinges (J the wrist's horizontal translational Jacobian there), and
+their reference velocities by the same map of ȯ. The forces are the contacts' of the last step
+(:class:`~.external_force.ExternalForces`), low-pass filtered over ``external_filter``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from ..retarget.kinematic_tree import subtree_mask
+from .external_force import ExternalForces
+from .scene import Scene
+from .support_box import SupportBox
+
+__all__ = ["HandYield", "feet_allowance", "yield_rate", "MAX_OFFSET", "DAMPING_LAMBDA"]
+
+MAX_OFFSET = 0.3
+"""[m]: the longest a wrist reference gives way."""
+DAMPING_LAMBDA = 0.05
+"""λ [m]: damping of the least-squares map of a wrist offset onto the arm's hinges."""
+
+
+def feet_allowance(box: SupportBox, direction: np.ndarray, point: np.ndarray, margin: float, weight: float,
+                   height: float, lift: float = 0.0, at: np.ndarray | None = None) -> float:
+    """F_feet (N, ≥ 0): the horizontal force along ``direction`` (2,) (unit, world) at ``height`` (m) above the floor
+    that the feet carry with the centre of pressure kept ``margin`` (m) inside ``box`` and the weight ``weight``
+    (N) acting at ``point`` (2,) (world, m; the capture point), while the same contacts also push up with ``lift``
+    (N; negative: down) at ``at`` (2,) (world, m)."""
+    u = np.asarray(direction, dtype=np.float64)
+    local = box.R @ u  # the direction along the box's axes: its farthest corner is where each axis' sign points
+    corner = np.where(local >= 0.0, box.hi, box.lo)
+    edge = float(corner @ local) - margin
+    moment = weight * (edge - float(np.asarray(point, dtype=np.float64) @ u))
+    if at is not None:
+        moment += lift * (float(np.asarray(at, dtype=np.float64) @ u) - edge)
+    return max(moment / max(height, 1e-3), 0.0)
+
+
+def yield_rate(forces: np.ndarray, allowance: float, fraction: float, damping: float) -> np.ndarray:
+    """(2, 2) ȯ (m/s, world, horizontal) of each arm's wrist offset while the horizontal forces ``forces`` (2, 2)
+    (N, on the left and right arm) exceed ``fraction`` × ``allowance``; zeros otherwise (the offsets then return,
+    :meth:`HandYield.update`)."""
+    f = np.asarray(forces, dtype=np.float64)
+    total = float(np.linalg.norm(f.sum(axis=0)))
+    excess = total - fraction * allowance
+    if excess <= 0.0 or total <= 0.0:
+        return np.zeros((2, 2))
+    return excess / damping * f / total
+
+
+class HandYield:
+    """The arms' give of one physics scene (see the module docstring); :meth:`reset` per episode, :meth:`measure`
+    after each physics step the robot stands, :meth:`references` (:meth:`update`, :meth:`offsets`) before each solve
+    of the balance controller."""
+
+    def __init__(self, scene: Scene, fraction: float, damping: float, back: float, filter_time: float) -> None:
+        m = scene.model
+        self.scene = scene
+        self.fraction, self.damping, self.back, self.filter_time = fraction, damping, back, filter_time
+        self.vadr = np.asarray(scene.robot_vadr)
+        self._arm_geom = np.asarray(scene.arm_geom, dtype=bool)
+        self._person = np.zeros(m.ngeom, dtype=bool)
+        self._person[np.asarray(scene.human_geom_ids, dtype=np.int64)] = True
+        self._wrist = []
+        self._cols = []
+        for s in (0, 1):
+            fid = int(scene.frame_ids[1 + s])
+            self._wrist.append(int(m.site_bodyid[fid]) if scene.frame_kinds[1 + s] == "site" else fid)
+            arm = subtree_mask(m, int(scene.limb_body_ids[s]))
+            self._cols.append(np.flatnonzero(arm[m.dof_bodyid[self.vadr]] & (np.arange(len(self.vadr)) >= 6)))
+        self._external = ExternalForces(scene)
+        self._jp = np.zeros((3, m.nv))
+        self.reset()
+
+    def reset(self) -> None:
+        """No offsets, no forces measured."""
+        self.offset = np.zeros((2, 2))
+        """(2, 2) each arm's wrist reference offset (world, horizontal, m)."""
+        self.rate = np.zeros((2, 2))
+        """(2, 2) its rate of change at the last update (m/s)."""
+        self.force = np.zeros((2, 3))
+        """(2, 3) the filtered contact force on each arm (world, N)."""
+        self._height = 1.0
+        self._at = np.zeros(2)
+        self.yield_steps = 0
+        """Updates in which the arms gave way."""
+
+    def measure(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
+        """Fold the person's contact forces on each arm of the step just taken into their filtered estimate."""
+        pts, forces, geoms, others = self._external.contacts(m, d)
+        mine = self._person[others]  # an object held by a grip weld presses on the hand it is welded to
+        pts, forces, geoms = pts[mine], forces[mine], geoms[mine]
+        a = math.exp(-m.opt.timestep / self.filter_time) if self.filter_time > 0 else 0.0
+        now = np.array([forces[self._arm_geom[s][geoms]].sum(axis=0) if len(geoms) else np.zeros(3) for s in (0, 1)])
+        self.force = a * self.force + (1.0 - a) * now
+        on = self._arm_geom[:, geoms].any(axis=0) if len(geoms) else np.zeros(0, dtype=bool)
+        if on.any():  # where the forces act: their points' mean, weighted by the force
+            w = np.linalg.norm(forces[on], axis=1) + 1e-9
+            self._height = float(pts[on, 2] @ w / w.sum())
+            self._at = (w @ pts[on, :2]) / w.sum()
+
+    def update(self, dt: float, box: SupportBox, capture: np.ndarray, floor: float, margin: float,
+               weight: float) -> None:
+        """Advance the offsets by ``dt`` (s): give way while the arms' horizontal force exceeds the feet's allowance
+        (:func:`feet_allowance` at ``capture`` (2,), the floor's height ``floor`` m), return otherwise."""
+        f = self.force[:, :2]
+        total = f.sum(axis=0)
+        nrm = float(np.linalg.norm(total))
+        allow = feet_allowance(box, total / nrm, capture, margin, weight, self._height - floor,
+                               float(self.force[:, 2].sum()), self._at) if nrm > 0 else 0.0
+        rate = yield_rate(f, allow, self.fraction, self.damping)
+        if rate.any():
+            self.yield_steps += 1
+        else:
+            rate = -self.offset / self.back if self.back > 0 else -self.offset / dt
+        self.offset = self.offset + dt * rate
+        n = np.linalg.norm(self.offset, axis=1, keepdims=True)
+        self.offset *= np.minimum(1.0, MAX_OFFSET / np.maximum(n, 1e-12))
+        self.rate = rate
+
+    def references(self, m: mujoco.MjModel, d: mujoco.MjData, box: SupportBox, capture: np.ndarray, floor: float,
+                   margin: float, weight: float) -> tuple[np.ndarray, np.ndarray]:
+        """One physics step of ``d`` (:meth:`update` over its time step, then :meth:`offsets`)."""
+        self.update(m.opt.timestep, box, capture, floor, margin, weight)
+        return self.offsets(m, d)
+
+    def offsets(self, m: mujoco.MjModel, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """(n − 6,) hinge reference offsets (rad) and (n − 6,) reference velocity offsets (rad/s) that move each
+        wrist by its offset (:attr:`offset`, :attr:`rate`) at the state ``d``."""
+        dq = np.zeros(len(self.vadr))
+        dv = np.zeros(len(self.vadr))
+        for s in (0, 1):
+            if not (self.offset[s].any() or self.rate[s].any()):
+                continue
+            mujoco.mj_jacBody(m, d, self._jp, None, self._wrist[s])
+            J = self._jp[:2][:, self.vadr[self._cols[s]]]
+            inv = J.T @ np.linalg.inv(J @ J.T + DAMPING_LAMBDA ** 2 * np.eye(2))
+            dq[self._cols[s]] += inv @ self.offset[s]
+            dv[self._cols[s]] += inv @ self.rate[s]
+        return dq[6:], dv[6:]
