@@ -87,6 +87,8 @@ from _residual_curve import CurveRecorder, plot_curve  # noqa: E402
 from _residual_episodes import held_out_episodes, run_episodes, trained_policy, training_episodes, zero_policy  # noqa: E402
 from _residual_data import DEFAULT_SPLITS, parse_splits, real_split  # noqa: E402
 from _residual_reward import FallPenalty  # noqa: E402
+from _residual_reach import ReachResidual  # noqa: E402
+from _residual_report import load_reference, reference_lines, reference_summary, result_lines  # noqa: E402
 from _residual_stats import summarize  # noqa: E402
 
 LABELS = ("shake_hands", "hand_over")
@@ -127,6 +129,15 @@ class Settings:
     """Initial log standard deviation of the Gaussian policy in the rescaled action space [−1, 1]: e^−2.3 ≈ 0.1,
     i.e. about 1 cm of exploration noise on the ±0.1 m residual (``action_scale``), so early episodes stay close
     to the proposal."""
+    use_sde: bool = False
+    """Generalized state-dependent exploration (SB3's gSDE): the exploration noise is a function of the state
+    drawn anew every ``sde_sample_freq`` steps, so it is held over a stretch of an episode instead of white;
+    ``log_std_init`` is then the log σ of the noise weights (``--use-sde``)."""
+    sde_sample_freq: int = -1
+    """With ``use_sde``: steps between noise draws (−1: once per rollout)."""
+    eval_constant: tuple[float, ...] = ()
+    """A constant action (policy units) also played on the held-out episodes and compared with the zero residual
+    (``results["summary_constant"]``; what the action's parametrization gives without learning); empty: none."""
     hidden: int = 256
     """Width of the two hidden layers of the policy and value networks."""
     action_scale: float = 0.1
@@ -139,6 +150,11 @@ class Settings:
     residual_tau: float | None = None
     """τ_r [s]: the environment's ``residual_tau`` (the offset follows the action through a low-pass filter of
     this time constant); ``None``: no filter."""
+    reach_scale: float | None = None
+    """ρ_reach [m]: with a value, the task-frame residual of ``_residual_reach.ReachResidual``: the action is the
+    base's offset (3 numbers, ±``action_scale`` m each) and one reach per hand (±ρ_reach m along the line from
+    the proposal's wrist to the hand's target, the object or the person's nearer wrist); ``None``: the plain
+    residual (``residual_groups``). Not with ``residual_groups``."""
     train_fall_penalty: float = 0.0
     """w_fell [reward]: subtracted once when a TRAINING episode ends because the robot fell
     (``_residual_reward.FallPenalty``; the environment's reward has no such term); 0: the environment's reward."""
@@ -199,12 +215,16 @@ def make_env(s: Settings, instances: Sequence[Interaction], models: Mapping[str,
         raise ConfigError(f"--action-scale: expected a residual in (0, {RESIDUAL_BOUND}] m, found {s.action_scale!r}")
     reward = dataclasses.replace(RewardConfig(), affordance_weight=s.train_affordance_weight) if training else None
     groups = [g.split("+") for g in s.residual_groups] or None
+    if s.reach_scale is not None and groups is not None:
+        raise ConfigError("--reach-scale: not with --residual-groups (the reach residual sets every row itself)")
     env: gym.Env = SocialAffordanceEnv(interactions=list(s.labels), data=list(instances), action_mode="residual",
                                        model=dict(models), physics=s.physics, robot=s.robot, max_frames=s.max_frames,
                                        control_dt=s.control_dt, reward=reward, residual_groups=groups,
                                        residual_tau=s.residual_tau)
     if training and s.train_fall_penalty != 0.0:
         env = FallPenalty(env, s.train_fall_penalty)
+    if s.reach_scale is not None:  # its action is already the policy's [−1, 1] box
+        return gym.wrappers.FlattenObservation(ReachResidual(env, s.action_scale, s.reach_scale))
     env = gym.wrappers.FlattenObservation(env)
     shape = env.action_space.shape
     flat = gym.spaces.Box(-1.0, 1.0, shape=(int(np.prod(shape)),), dtype=np.float32)
@@ -226,6 +246,7 @@ def train(s: Settings, train_set: Sequence[Interaction], models: Mapping[str, So
     agent = PPO(
         "MlpPolicy", norm, n_steps=s.n_steps, batch_size=s.batch_size, n_epochs=s.n_epochs,
         learning_rate=s.learning_rate, gamma=s.gamma, gae_lambda=s.gae_lambda, seed=s.seed, device="cpu", verbose=0,
+        use_sde=s.use_sde, sde_sample_freq=s.sde_sample_freq,
         policy_kwargs={"log_std_init": s.log_std_init, "net_arch": {"pi": [s.hidden] * 2, "vf": [s.hidden] * 2}},
     )
     recorder = CurveRecorder(log, budget_s=budget_s)
@@ -255,27 +276,7 @@ def reference_rows(s: Settings, train_set: Sequence[Interaction],
     train_env = make_env(s, train_set, models, training=True)
     train_eps = training_episodes([i.instance_id for i in train_set], s.seed)
     ref_rows = run_episodes(train_env, train_eps, zero_policy(train_env))
-    reference = {lbl: {"success": float(np.mean([r["success"] for r in ref_rows if r["interaction"] == lbl])),
-                       "return": float(np.mean([r["return"] for r in ref_rows if r["interaction"] == lbl]))}
-                 for lbl in s.labels}
-    return ref_rows, reference
-
-
-REFERENCE_KEYS = ("labels", "seed", "train_instances", "fit_iterations", "train_affordance_weight", "physics",
-                  "train_fall_penalty", "control_dt", "max_frames", "robot", "data", "split", "folds", "held_out_fold")
-"""Settings a ``reference.json`` must share with a run that reuses it (the training set, the models and the
-training reward)."""
-
-
-def load_reference(path: Path, s: Settings) -> dict[str, dict[str, float]]:
-    """The zero-residual reference of a ``--reference-only`` run, checked to be of the same training set."""
-    saved = json.loads(path.read_text())
-    mine = json.loads(json.dumps(dataclasses.asdict(s)))
-    default = json.loads(json.dumps(dataclasses.asdict(Settings())))  # a key older files lack had its default
-    differ = [k for k in REFERENCE_KEYS if saved["settings"].get(k, default[k]) != mine[k]]
-    if differ:
-        raise ConfigError(f"--reference {path}: made with other settings ({', '.join(differ)}); expected the run's own")
-    return saved["train_reference_zero_residual"]
+    return ref_rows, reference_summary(ref_rows, s.labels)
 
 
 def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[str], None] = lambda m: print(m, flush=True),
@@ -304,6 +305,10 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
                "episodes": ref_rows}
         atomic_write_text(out / "reference.json", json.dumps(ref, indent=2))
         return ref
+    held_env = make_env(s, held_out, models)
+    if s.eval_constant and len(s.eval_constant) != int(np.prod(held_env.action_space.shape)):
+        raise ConfigError(f"--eval-constant: expected {int(np.prod(held_env.action_space.shape))} numbers, "
+                          f"found {len(s.eval_constant)}")
     log(f"training {s.timesteps} steps on {len(train_set)} instances")
     wall1 = time.perf_counter()
     agent, norm, recorder = train(s, train_set, models, log, budget_s)
@@ -318,11 +323,15 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
     plot_curve(curve, reference, out / "learning_curve.png")
 
     # Held-out evaluation: the same (instance, reset seed) pairs for both policies.
-    held_env = make_env(s, held_out, models)
     episodes = held_out_episodes([i.instance_id for i in held_out], s.seed)
     rows_res = run_episodes(held_env, episodes, trained_policy(agent, norm))
     rows_zero = run_episodes(held_env, episodes, zero_policy(held_env))
     summary = summarize(rows_res, rows_zero, s.seed)
+    const: dict[str, Any] = {}
+    if s.eval_constant:
+        action = np.asarray(s.eval_constant, np.float32)
+        rows_const = run_episodes(held_env, episodes, lambda obs: action.copy())
+        const = {"summary_constant": summarize(rows_const, rows_zero, s.seed), "episodes_constant": rows_const}
     results = {
         "settings": dataclasses.asdict(s),
         "held_out": split["held_out"], "split": split,
@@ -332,6 +341,7 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
         "train_reference_zero_residual": reference,
         "summary": summary,
         "episodes": {"residual": rows_res, "zero_residual": rows_zero},
+        **const,
     }
     atomic_write_text(out / "curve.json", json.dumps(curve))
     atomic_write_text(out / "results.json", json.dumps(results, indent=2))
@@ -350,7 +360,8 @@ def main() -> None:
     ap.add_argument("--models", type=Path, default=None, help="load <interaction>.npz from here instead of fitting")
     ap.add_argument("--interactions", nargs="+", default=list(d.labels))
     for f in dataclasses.fields(Settings):
-        if f.name in ("labels", "max_frames", "control_dt", "data", "split", "residual_groups", "residual_tau"):
+        if f.name in ("labels", "max_frames", "control_dt", "data", "split", "residual_groups", "residual_tau",
+                      "reach_scale", "use_sde", "eval_constant"):
             continue
         ap.add_argument("--" + f.name.replace("_", "-"), type=type(f.default), default=f.default)
     ap.add_argument("--max-frames", type=int, default=None)
@@ -358,6 +369,12 @@ def main() -> None:
                     help="one offset per group of key joints (e.g. base left_wrist+right_wrist); default: one per key joint")
     ap.add_argument("--residual-tau", type=_control_dt, default=d.residual_tau, metavar="SECONDS",
                     help="low-pass filter the residual offset with this time constant (default: none)")
+    ap.add_argument("--reach-scale", type=float, default=d.reach_scale, metavar="METRES",
+                    help="task-frame residual: the base's offset and one reach per hand toward its target, "
+                         "at most this far (default: the plain residual)")
+    ap.add_argument("--use-sde", action="store_true", help="gSDE exploration (noise held for --sde-sample-freq steps)")
+    ap.add_argument("--eval-constant", nargs="+", type=float, default=list(d.eval_constant), metavar="A",
+                    help="also play this constant action (policy units) on the held-out episodes")
     ap.add_argument("--data", nargs="+", default=list(d.data), metavar="SPEC",
                     help="recorded dataset specs (handover:PATH sbu:PATH nuisi:PATH ...); default: synthetic")
     ap.add_argument("--split", nargs="+", default=list(d.split), metavar="[KIND=]NAME",
@@ -375,35 +392,17 @@ def main() -> None:
                          "record the steps trained, and --timesteps with that number reproduces the policy")
     args = ap.parse_args()
     kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(Settings)
-          if f.name not in ("labels", "data", "split", "residual_groups")}
+          if f.name not in ("labels", "data", "split", "residual_groups", "eval_constant")}
     budget = None if args.budget_minutes is None else 60.0 * args.budget_minutes
     try:
         s = Settings(labels=tuple(args.interactions), data=tuple(args.data), split=tuple(args.split),
-                     residual_groups=tuple(args.residual_groups), **kw)
+                     residual_groups=tuple(args.residual_groups), eval_constant=tuple(args.eval_constant), **kw)
         parse_splits(s.split)  # a bad --split fails before anything runs
         r = run(s, args.out, args.models, budget_s=budget, reference_only=args.reference_only, reference_file=args.reference)
     except SocialAffError as err:  # bad flags or data: one line naming the flag, exit 2 (results are written atomically)
         print(f"train_residual.py: error: {err}", file=sys.stderr)
         raise SystemExit(2) from None
-    if args.reference_only:
-        for lbl, ref in r["train_reference_zero_residual"].items():
-            n = sum(row["interaction"] == lbl for row in r["episodes"])
-            print(f"{lbl:14s} zero residual on the training instances: success {ref['success']:.3f} (n={n}), "
-                  f"return {ref['return']:.2f}")
-        return
-    sm = r["summary"]
-    for name, block in [("all", sm), *sm["per_interaction"].items(), *sm.get("per_label", {}).items()]:
-        for pol in ("zero_residual", "residual"):
-            p = block[pol]
-            print(f"{name:12s} {pol:14s} success {p['success_rate']:.3f} [{p['success_ci95'][0]:.3f}, "
-                  f"{p['success_ci95'][1]:.3f}]  return {p['mean_return']:7.2f} [{p['mean_return_ci95'][0]:.2f}, "
-                  f"{p['mean_return_ci95'][1]:.2f}]  n={p['episodes']}")
-        dsu, dre = block["paired_success_difference"], block["paired_return_difference"]
-        print(f"{name:12s} paired residual - zero: success {dsu['mean']:+.3f} [{dsu['ci95'][0]:+.3f}, {dsu['ci95'][1]:+.3f}]"
-              f"  return {dre['mean']:+.2f} [{dre['ci95'][0]:+.2f}, {dre['ci95'][1]:+.2f}]")
-    print(f"target met: {sm['target_met']}; trained {r['timesteps_trained']} steps"
-          f"{' (stopped by the budget)' if r['stopped_by_budget'] else ''} in {r['train_wall_s']:.0f} s wall; "
-          f"total {r['total_wall_s']:.0f} s")
+    print("\n".join(reference_lines(r) if args.reference_only else result_lines(r)))
 
 
 if __name__ == "__main__":
