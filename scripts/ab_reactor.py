@@ -31,6 +31,7 @@ import time
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
+from _reactor_args import add_reactor_source_arguments  # noqa: E402  (scripts/ is sys.path[0] when run as a script)
 
 T0 = 10
 PARTS = (
@@ -95,12 +96,7 @@ def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--a", required=True, help="tree A (the reference, e.g. a worktree of main)")
     p.add_argument("--b", required=True, help="tree B (the candidate)")
-    p.add_argument("--model", required=True, help="pickle of the fitted method (scripts/bench_reactor.py --model)")
-    p.add_argument("--data", default="handover:../shared/data/handover_h2h")
-    p.add_argument("--interaction", default=None, help="label (default: the dataset's first)")
-    p.add_argument("--skip", type=int, default=40, help="recordings of the label to skip (the model's training set)")
-    p.add_argument("--recordings", type=int, default=5)
-    p.add_argument("--seconds", type=float, default=120.0, help="> 0: a stream of the recordings end to end instead")
+    add_reactor_source_arguments(p, seconds=120.0)
     p.add_argument("--block", type=int, default=100, help="frames per block (each tree steps a block in turn)")
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args()

@@ -33,6 +33,7 @@ from socialaff_sim.inference.protocol import observed_part  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_stream import concatenate  # noqa: E402
+from _reactor_args import add_reactor_source_arguments  # noqa: E402
 
 T0 = 10
 PARTS: list[tuple[object, str, str]] = [
@@ -64,12 +65,7 @@ def _timed(f: Callable, label: str, acc: dict[str, float]) -> Callable:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--model", required=True, help="pickle of the fitted method (scripts/bench_reactor.py --model)")
-    p.add_argument("--data", default="handover:../shared/data/handover_h2h")
-    p.add_argument("--interaction", default=None, help="label (default: the dataset's first)")
-    p.add_argument("--skip", type=int, default=40, help="recordings of the label to skip (the model's training set)")
-    p.add_argument("--recordings", type=int, default=5)
-    p.add_argument("--seconds", type=float, default=0.0, help="> 0: a stream of the recordings end to end instead")
+    add_reactor_source_arguments(p, seconds=0.0)
     p.add_argument("--overrun-delta-t", action="store_true", help="the reactor with SynthesisConfig.overrun_delta_t")
     args = p.parse_args()
     acc: dict[str, float] = {}
