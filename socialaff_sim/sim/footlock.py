@@ -8,7 +8,8 @@ onto its harness, and one that moves sideways on the floor slides. :class:`FootL
 holds an ankle target at the place where its foot came down (on the floor, at
 the robot's home ankle height) while the target stays within ``radius`` of that
 place and below ``lift`` above home height (``hold_lift``, when set, for a foot already planted); a
-target that leaves that ball (a step) is followed again.
+target that leaves that ball (a step) is followed again. With ``catch_up`` a planted foot that is not where
+it is planted steps there (:mod:`~.catch_up`).
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, SimulationError
+from .catch_up import CatchUp
 
 __all__ = ["FootLock", "FootLockConfig"]
 
@@ -41,7 +43,27 @@ class FootLockConfig:
     helper of a pull-up steps back to keep the arms taut; a robot whose hands give way,
     ``BalanceConfig.hand_yield``, needs no step). ``False``: the targets decide as at any other time."""
 
+    catch_up: float | None = None
+    """d_c [m]: while both feet are planted (and no contact holds, with ``hold_in_contact``), a foot whose
+    physical ankle frame is farther than this (horizontally) from where it is planted steps there: lifted by
+    ``catch_up_height`` until within d_c / 2 (:mod:`~.catch_up`). ``None``: the feet stand wherever the physics
+    left them (the H1's were 10–30 cm from where the IK planned them; docs/benchmarks.md, "The H1's feet where
+    the IK plans them")."""
+    catch_up_height: float = 0.06
+    """h_c [m]: a catch-up step's target is the planted point raised by this."""
+    catch_up_frames: int = 3
+    """N_c [frames]: a foot lifted for a catch-up step is put down after at most this many frames."""
+    catch_up_quiet: int = 0
+    """N_q [frames]: no catch-up step begins (and a lifted foot is put down) within this many frames after a
+    sub-goal's contact held (a handshake's contact comes and goes; a step between its frames costs the harness
+    more than the foot's offset). 0: only while it holds (with ``hold_in_contact``)."""
+
     def __post_init__(self) -> None:
+        if self.catch_up is not None and not (self.catch_up > 0.0 and self.catch_up_height > 0.0
+                                              and self.catch_up_frames >= 1 and self.catch_up_quiet >= 0):
+            raise ConfigError(f"FootLockConfig: expected catch_up None or > 0 m, catch_up_height > 0 m and "
+                              f"catch_up_frames ≥ 1, found {self.catch_up}, {self.catch_up_height}, "
+                              f"{self.catch_up_frames}, quiet {self.catch_up_quiet}")
         if not (self.lift >= 0.0 and self.radius >= 0.0):
             raise ConfigError(f"FootLockConfig: expected lift ≥ 0 and radius ≥ 0 in metres, found {self.lift}, {self.radius}")
         if self.hold_lift is not None and not self.hold_lift >= self.lift:
@@ -58,14 +80,40 @@ class FootLock:
         self.config = config or FootLockConfig()
         self.planted: list[np.ndarray | None] = [None, None]
         """Where each foot is planted (world, (3,) m), or ``None`` while it steps."""
+        c = self.config
+        self.catch_up = None if c.catch_up is None else CatchUp(c.catch_up, c.catch_up_height, c.catch_up_frames)
+        """The catch-up steps (``catch_up``), else ``None``."""
+        self._since = 1 << 30
 
     def reset(self) -> None:
         """No foot planted."""
         self.planted = [None, None]
+        self._since = 1 << 30
+        if self.catch_up is not None:
+            self.catch_up.reset()
 
-    def apply(self, ankles: np.ndarray, touching: bool = False) -> np.ndarray:
+    @property
+    def standing(self) -> tuple[bool, bool]:
+        """(left, right): whether each foot stands (planted, and not lifted for a catch-up step)."""
+        up = (0, 0) if self.catch_up is None else self.catch_up.lifted
+        return (self.planted[0] is not None and not up[0], self.planted[1] is not None and not up[1])
+
+    def apply(self, ankles: np.ndarray, touching: bool = False, physical: np.ndarray | None = None) -> np.ndarray:
         """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted;
-        ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted)."""
+        ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted);
+        ``physical`` (2, 3): the physical ankle frames (world, m), which ``catch_up`` needs."""
+        out = self._lock(ankles, touching)
+        if self.catch_up is None:
+            return out
+        if physical is None:
+            raise SimulationError("FootLock.apply: catch_up needs the physical ankle frames")
+        c = self.config
+        self._since = 0 if touching else self._since + 1  # frames since a contact last held
+        held = touching and c.hold_in_contact
+        self.catch_up.update(self.planted, physical, not held and (c.catch_up_quiet == 0 or self._since > c.catch_up_quiet))
+        return self.catch_up.targets(self.planted, out)
+
+    def _lock(self, ankles: np.ndarray, touching: bool) -> np.ndarray:
         out = np.array(ankles, dtype=np.float64)
         c = self.config
         if touching and c.hold_in_contact and all(p is not None for p in self.planted):

@@ -257,14 +257,15 @@ class Simulator:
         tg = fill_targets(np.asarray(targets, dtype=np.float64), self._home_keys)
         world = self.frame_R.to_world(tg)
         if self._footlock is not None:
-            world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()))
+            physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.catch_up is not None else None
+            world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()),
+                                              physical)
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
         tic = time.thread_time()
         ik.set_human(self.pose.pos[t1], self.pose.quat[t1])
-        planted = (False, False) if self._footlock is None else (self._footlock.planted[0] is not None,
-                                                                 self._footlock.planted[1] is not None)
+        planted = (False, False) if self._footlock is None else self._footlock.standing
         com_target = None
         if stage.stance is not None:  # the standing robot's frame (:mod:`~.stance`)
             centre = ik.balance.box_centre(key_frames(stage.scene, stage.data)[3:5], self._yaw)
