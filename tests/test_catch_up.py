@@ -6,9 +6,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.errors import ConfigError, SimulationError
+from socialaff_sim.retarget.sources import GroundTruthSource
+from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.catch_up import CatchUp
+from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
+from socialaff_sim.sim.simulator import SimConfig, Simulator
+from socialaff_sim.sim.stage import key_frames
+from socialaff_sim.sim.stance import StanceConfig
 
 HOME = (0.08, 0.08)
 ANKLES = np.array([[0.0, 0.1, 0.08], [0.0, -0.1, 0.08]])
@@ -90,3 +97,30 @@ def test_without_catch_up_nothing_changes_and_the_settings_are_checked() -> None
     for kw in ({"catch_up": 0.0}, {"catch_up": 0.05, "catch_up_height": 0.0}, {"catch_up": 0.05, "catch_up_frames": 0}):
         with pytest.raises(ConfigError, match="catch_up"):
             FootLockConfig(**kw)
+
+
+def test_catch_up_brings_a_standing_robots_feet_to_where_the_ik_plans_them() -> None:
+    """Stubby replaying shake_hands_001 (synthetic, seed 0) on the balance QP: its feet come down short of their
+    planted points during the walk-up and stand there (the IK plans them elsewhere); with catch-up steps the
+    physical ankles stand closer to the planted points in the frames where both feet stand, and steps were
+    taken."""
+    inter = next(i for i in generate_dataset(seed=0) if i.instance_id == "shake_hands_001")
+    qp = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0)
+    errors, steps = [], []
+    for catch in (None, 0.05):
+        lock = FootLockConfig(hold_lift=0.12, hold_in_contact=True, catch_up=catch, catch_up_quiet=10)
+        sim = Simulator("ours", "shake_hands", SimConfig(foot_lock=lock, balance=qp, stance=StanceConfig(release=False)))
+        err: list[float] = []
+
+        def frame(s: Simulator, r: object, _: object) -> None:
+            fl = s._footlock
+            if r is None or not all(fl.standing):
+                return
+            phys = key_frames(s.scene, s.data)[3:5]
+            err.append(max(float(np.linalg.norm(phys[k, :2] - fl.planted[k][:2])) for k in (0, 1)))
+
+        run_episode(sim, GroundTruthSource(), inter, on_frame=frame)
+        errors.append(float(np.median(err)))
+        steps.append(0 if sim._footlock.catch_up is None else sim._footlock.catch_up.steps)
+    assert steps[0] == 0 and steps[1] > 0
+    assert errors[1] < 0.75 * errors[0]

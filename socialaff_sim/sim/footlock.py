@@ -47,8 +47,8 @@ class FootLockConfig:
     """d_c [m]: while both feet are planted (and no contact holds, with ``hold_in_contact``), a foot whose
     physical ankle frame is farther than this (horizontally) from where it is planted steps there: lifted by
     ``catch_up_height`` until within d_c / 2 (:mod:`~.catch_up`). ``None``: the feet stand wherever the physics
-    left them (the H1's were 10–30 cm from where the IK planned them; docs/benchmarks.md, "The H1's feet where
-    the IK plans them")."""
+    left them (the H1's stood 10–30 cm from where the IK planned them; docs/benchmarks.md, "The H1's outside
+    support in the contact phases, diagnosed …")."""
     catch_up_height: float = 0.06
     """h_c [m]: a catch-up step's target is the planted point raised by this."""
     catch_up_frames: int = 3
