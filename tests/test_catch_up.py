@@ -34,6 +34,9 @@ def test_a_foot_far_from_its_point_is_lifted_onto_it_and_put_down_when_there() -
     halfway = ANKLES - np.array([[0.0, 0.0, 0.0], [0.04, 0.0, 0.0]])  # 4 cm off: more than d_c / 2, still up
     out = lock.apply(ANKLES, physical=halfway)
     assert lock.standing == (True, False) and out[1, 2] == pytest.approx(0.14)
+    for _ in range(3):  # solved again within the frame: the frame's decision stands (no frame counted)
+        np.testing.assert_allclose(lock.apply(ANKLES, physical=halfway, new_frame=False)[1], out[1])
+    assert lock.catch_up.lifted == [0, 2]
     there = ANKLES - np.array([[0.0, 0.0, 0.0], [0.02, 0.0, 0.0]])  # within d_c / 2: put down on its point
     out = lock.apply(ANKLES, physical=there)
     np.testing.assert_allclose(out, ANKLES)

@@ -98,19 +98,23 @@ class FootLock:
         up = (0, 0) if self.catch_up is None else self.catch_up.lifted
         return (self.planted[0] is not None and not up[0], self.planted[1] is not None and not up[1])
 
-    def apply(self, ankles: np.ndarray, touching: bool = False, physical: np.ndarray | None = None) -> np.ndarray:
+    def apply(self, ankles: np.ndarray, touching: bool = False, physical: np.ndarray | None = None,
+              new_frame: bool = True) -> np.ndarray:
         """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted;
         ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted);
-        ``physical`` (2, 3): the physical ankle frames (world, m), which ``catch_up`` needs."""
+        ``physical`` (2, 3): the physical ankle frames (world, m), which ``catch_up`` needs; ``new_frame``:
+        ``False`` for a solve again within a data frame (the catch-up steps then keep the frame's decision)."""
         out = self._lock(ankles, touching)
         if self.catch_up is None:
             return out
         if physical is None:
             raise SimulationError("FootLock.apply: catch_up needs the physical ankle frames")
         c = self.config
-        self._since = 0 if touching else self._since + 1  # frames since a contact last held
-        held = touching and c.hold_in_contact
-        self.catch_up.update(self.planted, physical, not held and (c.catch_up_quiet == 0 or self._since > c.catch_up_quiet))
+        if new_frame:
+            self._since = 0 if touching else self._since + 1  # frames since a contact last held
+            held = touching and c.hold_in_contact
+            self.catch_up.update(self.planted, physical,
+                                 not held and (c.catch_up_quiet == 0 or self._since > c.catch_up_quiet))
         return self.catch_up.targets(self.planted, out)
 
     def _lock(self, ankles: np.ndarray, touching: bool) -> np.ndarray:

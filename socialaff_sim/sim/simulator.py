@@ -259,7 +259,7 @@ class Simulator:
         if self._footlock is not None:
             physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.catch_up is not None else None
             world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()),
-                                              physical)
+                                              physical, new_frame=not self._in_frame)
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
