@@ -80,6 +80,8 @@ from socialaff_sim.inference.switching import (
     switching_columns, switching_scale,
 )
 
+from _dev_draws import add_regression_arguments, partition_draws, regression_settings  # scripts/ (sys.path[0])
+
 T0 = 10
 _G = dict(GATED_FAMILIES)
 VARIANTS = {  # name: (families, blend steps)
@@ -254,7 +256,9 @@ def main() -> None:
                     help="the regressions' training rows every K-th frame from T0 (SwitchingConfig.row_stride, default "
                          "%(default)s: the library's); the synthesizer's traces are unchanged (the same cache), the "
                          "primitive's predicted at those frames")
+    add_regression_arguments(ap)
     args = ap.parse_args()
+    settings = regression_settings(args)
     if args.type_screen_rounds is not None and args.type_screen_rounds < 0:
         raise SystemExit(f"--type-screen-rounds: expected an integer >= 0, found {args.type_screen_rounds}")
     if args.row_stride < 1:
@@ -336,9 +340,17 @@ def main() -> None:
             families, steps = VARIANTS[name]
             reg = SwitchingRegression(SwitchingConfig(families=families, blend_steps=steps, contiguous=args.contiguous,
                                                       clip_features=args.clip_features == "on", clip_margin=args.clip_margin,
-                                                      row_stride=args.row_stride)).fit(
+                                                      row_stride=args.row_stride, **settings)).fit(  # type: ignore[arg-type]
                 train, tr_traces, n_subevents=S, rng=np.random.default_rng(args.seed))
             row["sw:" + name] = _keep(per, "sw:" + name, [_err(reg.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
+            if name == "default" and args.draws > 1:  # the same regression per partition draw, and their average
+                more, took = partition_draws(reg.config, train, tr_traces, S, args.seed, args.draws,
+                                             lambda r: [_err(r.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
+                more["sw:default@0"] = per["sw:default"]
+                more["sw:default@mean"] = list(np.mean([more[f"sw:default@{k}"] for k in range(args.draws)], axis=0))
+                row.update({k: _keep(per, k, v) for k, v in more.items() if k.startswith("sw:default_bag") or k.endswith("@mean")})
+                per.update({k: [float(e) for e in v] for k, v in more.items()})
+                chosen["draws"] = ", ".join(f"{k} {v}" for k, v in took.items())
             chosen[name] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg.members_) or "hold"
         if args.v2:
             t2 = time.perf_counter()
