@@ -54,12 +54,12 @@ def regression_settings(args: argparse.Namespace) -> dict[str, object]:
 
 def partition_draws(
     config: SwitchingConfig, train: Sequence[Interaction], traces: Sequence[Trace], n_subevents: int, seed: int, draws: int,
-    score: Callable[[SwitchingRegression], list[float]],
-) -> tuple[dict[str, list[float]], dict[str, str]]:
+    first: list[float], score: Callable[[SwitchingRegression], list[float]],
+) -> tuple[dict[str, list[float]], str]:
     """The per-instance errors (``score``'s, m) of ``config``'s regression fitted once per partition draw k = 1 …
-    K−1 (draw 0 is the caller's own fit), their per-instance mean over k = 0 … K−1 (``sw:default@0`` must be
-    filled by the caller: it is ``sw:default``), and the average of the K blends (``sw:default_bagK``); also the
-    seconds each took, as text."""
+    K−1 (draw 0 is the caller's own fit, whose errors are ``first``: ``sw:default@0``), their per-instance mean over
+    k = 0 … K−1 (``sw:default@mean``), and the average of the K blends (``sw:default_bagK``); and the seconds each
+    fit took, as text."""
     usable = np.unique(stack_instances(
         train, config.n_observed,
         lambda i, inst: instance_rows(inst, traces[i], config.n_observed, config.features, stride=config.row_stride),
@@ -78,4 +78,6 @@ def partition_draws(
     per[f"sw:default_bag{draws}"] = score(SwitchingRegression(bag).fit(train, traces, n_subevents=n_subevents,
                                                                        rng=np.random.default_rng(seed)))
     times[f"bag{draws}"] = f"{time.perf_counter() - t:.1f}s"
-    return per, times
+    per["sw:default@0"] = [float(e) for e in first]
+    per["sw:default@mean"] = [float(e) for e in np.mean([per[f"sw:default@{k}"] for k in range(draws)], axis=0)]
+    return per, ", ".join(f"{k} {v}" for k, v in times.items())

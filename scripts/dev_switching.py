@@ -29,10 +29,11 @@ traces are cached under their own name (suffix ``_fpN``).
 hard-EM rounds (``LearningConfig.init_type_screen_rounds``; the cross-fitted ones run no restructuring by default); the
 traces are cached under their own name (suffix ``_srN``).
 ``--row-stride K``: every variant's regression reads the training rows of frames T0, T0 + K, … only
-(``SwitchingConfig.row_stride``; default: the library's, 2 since session 22; the runs of docs/design.md §8 before it
-passed 1 implicitly) and the interaction primitive's training traces are predicted at those frames only;
-the synthesizer's traces are the same as without it (the option changes neither Algorithm 1 nor the synthesizer nor
-the random stream: only the rows read), so they come from the same cache; the validation rows keep every frame.
+(``SwitchingConfig.row_stride``; default: the library's, 2 since session 22; before it the runs passed 1) and the
+primitive's training traces are predicted at those frames only; the synthesizer's traces (and their cache) are the
+same; the validation rows keep every frame.
+``--inner-repeats``, ``--inner-average``, ``--inner-folds``, ``--penalties``, ``--draws K``: every variant's regression
+settings, and the default's regression per draw of its inner folds (scripts/_dev_draws.py).
 ``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
 ``--no-gated``: cheaper traces, no belief-gated variants. ``--clip-features on|off``, ``--clip-margin M``: every variant's
 regression with ``SwitchingConfig.clip_features`` / ``clip_margin`` (default: the library's; the traces and their
@@ -344,13 +345,10 @@ def main() -> None:
                 train, tr_traces, n_subevents=S, rng=np.random.default_rng(args.seed))
             row["sw:" + name] = _keep(per, "sw:" + name, [_err(reg.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
             if name == "default" and args.draws > 1:  # the same regression per partition draw, and their average
-                more, took = partition_draws(reg.config, train, tr_traces, S, args.seed, args.draws,
-                                             lambda r: [_err(r.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
-                more["sw:default@0"] = per["sw:default"]
-                more["sw:default@mean"] = list(np.mean([more[f"sw:default@{k}"] for k in range(args.draws)], axis=0))
-                row.update({k: _keep(per, k, v) for k, v in more.items() if k.startswith("sw:default_bag") or k.endswith("@mean")})
-                per.update({k: [float(e) for e in v] for k, v in more.items()})
-                chosen["draws"] = ", ".join(f"{k} {v}" for k, v in took.items())
+                more, chosen["draws"] = partition_draws(reg.config, train, tr_traces, S, args.seed, args.draws, per["sw:default"],
+                                                        lambda r: [_err(r.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
+                per.update(more)
+                row.update({k: float(np.mean(v)) for k, v in more.items() if "_bag" in k or k.endswith("@mean")})
             chosen[name] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg.members_) or "hold"
         if args.v2:
             t2 = time.perf_counter()
