@@ -18,7 +18,15 @@ from .footlock import FootLockConfig
 from .stance import StanceConfig
 from .support import FrameSupport
 
-__all__ = ["SimConfig", "StepResult"]
+__all__ = ["SimConfig", "StepResult", "STANDING_BALANCE", "STANDING_FOOT_LOCK"]
+
+STANDING_BALANCE = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0, flat_feet=True, self_clearance=0.01,
+                                 hand_yield=0.5, yield_damping=50.0)
+"""The balance controller of :meth:`SimConfig.standing`: the quadratic program with the feet flat on their soles,
+the arms kept 1 cm clear of the body and hands that give way (docs/design.md §5, issue 25)."""
+STANDING_FOOT_LOCK = FootLockConfig(hold_lift=0.12, hold_in_contact=True)
+"""The foot lock of :meth:`SimConfig.standing`: a planted foot stays planted up to 12 cm of recorded rise, and
+whatever the recording's feet do while a sub-goal's contact holds."""
 
 
 @dataclass(frozen=True)
@@ -93,6 +101,21 @@ class SimConfig:
     step about twice as fast. See docs/environment.md, "Speed", for the measured effect."""
     settle_iterations: int = 20
     """[—]: IK solves spent at reset to reach the first frame's targets before physics starts."""
+
+    @classmethod
+    def harness(cls, **changes: object) -> SimConfig:
+        """The robot hanging from its compliant harness: position servos tracking the IK, the harness following
+        the retargeted base throughout, the foot lock's own settings, no balance controller (``changes``: other
+        fields)."""
+        return cls(**{"foot_lock": FootLockConfig(), "stance": None, "balance": None, **changes})  # type: ignore[arg-type]
+
+    @classmethod
+    def standing(cls, **changes: object) -> SimConfig:
+        """The robot standing on its own feet while they are planted: the balance QP (:data:`STANDING_BALANCE`)
+        on a steadied base, the harness let go of a steady robot, the foot lock :data:`STANDING_FOOT_LOCK`
+        (``changes``: other fields)."""
+        return cls(**{"foot_lock": STANDING_FOOT_LOCK, "stance": StanceConfig(release=False),  # type: ignore[arg-type]
+                      "balance": STANDING_BALANCE, **changes})
 
     def __post_init__(self) -> None:
         if self.balance is not None and self.stance is not None and self.stance.release:
