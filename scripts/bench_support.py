@@ -15,11 +15,11 @@ sub-goal's contact holds now; ``metrics.json``'s ``support.contact_phase``):
   limit;
 * sub-goal success (every sub-goal met, no failure).
 
-Modes: ``weight`` (the default: real weight, compliant harness), ``puppet``
-(gravity compensation, rigid weld), ``steady`` (``SimConfig(stance=StanceConfig(release=False))``: the
-base target steadied while both feet are planted) and ``stance`` (``SimConfig(stance=StanceConfig())``:
+Modes: ``weight`` (``SimConfig()``, whatever the defaults are: today ``harness``), ``puppet``
+(gravity compensation, rigid weld), ``steady`` (``SimConfig.harness(stance=StanceConfig(release=False))``: the
+base target steadied while both feet are planted) and ``stance`` (``SimConfig.harness(stance=StanceConfig())``:
 also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stance`), ``balance``
-(``SimConfig(balance=BalanceConfig())``: the physics-rate balance controller,
+(``SimConfig.harness(balance=BalanceConfig())``: the physics-rate balance controller,
 :mod:`socialaff_sim.sim.balance_control`) and ``balance_steady`` (the same with the steadied base); ``qp`` and
 ``qp_steady``: the same with the quadratic program (:data:`QP`: ``solver="qp"``, ``sole_gap=0.01``,
 ``w_torso=3.0``); ``harness`` (``SimConfig.harness()``: the position servos on the compliant harness) and
@@ -60,12 +60,15 @@ from socialaff_sim.sim.stance import StanceConfig
 
 QP = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0)
 """The balance QP as measured for issue 25 (docs/benchmarks.md, "The balance solve as a quadratic program")."""
-MODES = {"weight": SimConfig(), "puppet": SimConfig(gravity_compensation=True),
-         "steady": SimConfig(stance=StanceConfig(release=False)), "stance": SimConfig(stance=StanceConfig()),
-         "balance": SimConfig(balance=BalanceConfig()),
-         "balance_steady": SimConfig(balance=BalanceConfig(), stance=StanceConfig(release=False)),
-         "qp": SimConfig(balance=QP),
-         "qp_steady": SimConfig(balance=QP, stance=StanceConfig(release=False)),
+# Every mode but ``weight`` is built on a named preset, so that it keeps its meaning whatever SimConfig()'s
+# defaults are (issue 25; the foot lock's own settings unless --foot-lock says otherwise).
+H = SimConfig.harness
+MODES = {"weight": SimConfig(), "puppet": H(gravity_compensation=True),
+         "steady": H(stance=StanceConfig(release=False)), "stance": H(stance=StanceConfig()),
+         "balance": H(balance=BalanceConfig()),
+         "balance_steady": H(balance=BalanceConfig(), stance=StanceConfig(release=False)),
+         "qp": H(balance=QP),
+         "qp_steady": H(balance=QP, stance=StanceConfig(release=False)),
          # Named presets: their meaning does not move with SimConfig's defaults (issue 25).
          "harness": SimConfig.harness(), "standing": SimConfig.standing()}
 KEYS = ("released_frames", "outside_support_mean", "outside_support_peak", "foot_slide_cm", "foot_drift_cm", "penetration_cm", "torque_ratio_max",
