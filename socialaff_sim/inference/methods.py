@@ -316,7 +316,10 @@ class _AffordanceReactor:
                 if step.t >= start:
                     steps.append(step)
             blocks.append(steps)
-        keys = np.mean([[st.key_joints for st in steps] for steps in blocks], axis=0)
+        if len(blocks) == 1:  # np.mean over one chain is 0 + x (its sum starts from 0: −0 becomes +0), divided by 1
+            keys = np.array([st.key_joints for st in blocks[0]]) + 0.0
+        else:
+            keys = np.mean([[st.key_joints for st in steps] for steps in blocks], axis=0)
         subs = np.array([st.subevent for st in blocks[0]], dtype=np.int64)
         joints = self.method.body_.fit_poses(keys, self._frame) if self._plan_prior else None
         if self.reaction is None or self.stream is None:
