@@ -33,7 +33,7 @@ from socialaff_sim.inference.protocol import observed_part  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_stream import concatenate  # noqa: E402
-from _reactor_args import add_reactor_source_arguments  # noqa: E402
+from _reactor_args import add_reactor_source_arguments, add_setting_argument, changed_synthesis  # noqa: E402
 
 T0 = 10
 PARTS: list[tuple[object, str, str]] = [
@@ -63,26 +63,11 @@ def _timed(f: Callable, label: str, acc: dict[str, float]) -> Callable:
     return g
 
 
-def _setting(config: object, text: str) -> tuple[str, object]:
-    """``FIELD=VALUE`` → (field, value of the field's current type); a ValueError naming the flag when malformed."""
-    name, eq, value = text.partition("=")
-    fields = {f.name for f in dataclasses.fields(config)}  # type: ignore[arg-type]
-    if not eq or name not in fields:
-        raise ValueError(f"--set {text!r}: expected FIELD=VALUE with FIELD one of SynthesisConfig's fields")
-    kind = type(getattr(config, name))
-    try:
-        return name, (value.lower() in ("1", "true", "yes") if kind is bool else kind(value))
-    except ValueError:
-        raise ValueError(f"--set {text!r}: expected a {kind.__name__} value") from None
-
-
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_reactor_source_arguments(p, seconds=0.0)
     p.add_argument("--overrun-delta-t", action="store_true", help="the reactor with SynthesisConfig.overrun_delta_t")
-    p.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
-                   help="a SynthesisConfig field of the pickled method's synthesis, changed (repeatable; e.g. n_samples=50): "
-                        "what a setting would cost, not a default")
+    add_setting_argument(p, "the pickled method's synthesis")
     args = p.parse_args()
     acc: dict[str, float] = {}
     for owner, name, label in PARTS:
@@ -92,11 +77,7 @@ def main() -> None:
     if args.overrun_delta_t:
         method.synthesis = dataclasses.replace(method.synthesis, overrun_delta_t=True)
     if args.set:
-        try:
-            changes = dict(_setting(method.synthesis, s) for s in args.set)
-        except ValueError as e:
-            p.error(str(e))  # exit 2
-        method.synthesis = dataclasses.replace(method.synthesis, **changes)
+        method.synthesis = changed_synthesis(method.synthesis, args.set, p)
         print(f"synthesis changed: {', '.join(args.set)}")
     data = load_dataset(args.data)
     label = args.interaction or data[0].label
