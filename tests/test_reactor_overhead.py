@@ -262,3 +262,39 @@ def test_contact_keyframe_lists_made_once(shake8, shake8_model) -> None:  # noqa
     other = SimpleNamespace(contact_keys_=keys.empty(shake8_model.n_subevents_), n_subevents_=shake8_model.n_subevents_)
     syn.model = other  # type: ignore[assignment]
     assert syn._keyframes(None) == []  # noqa: SLF001
+
+
+def test_logsumexp_by_the_ufunc_reductions_equals_np_max_and_np_sum(rng: np.random.Generator) -> None:
+    """The forward belief's log-sum-exp (every cut) against the same formula with np.max and np.sum, bitwise, with
+    rows and columns all −inf (−inf out, no warning) and mixed ones."""
+    from socialaff_sim.inference.forward_belief import _logsumexp_finite
+
+    x = rng.normal(scale=20.0, size=(7, 4, 5))
+    x[0] = -np.inf
+    x[:, 1, 2] = -np.inf
+    x[3, 2] = [-np.inf, 1.0, -np.inf, -np.inf, 2.0]
+    for axis in (0, 1, 2):
+        top = np.max(x, axis=axis, keepdims=True)
+        safe = np.where(np.isfinite(top), top, 0.0)
+        with np.errstate(divide="ignore"):
+            ref = np.log(np.sum(np.exp(x - safe), axis=axis)) + np.squeeze(safe, axis=axis)
+        assert _logsumexp_finite(x, axis).tobytes() == ref.tobytes()
+    assert np.isneginf(_logsumexp_finite(x, 1)[0]).all()
+
+
+def test_weibull_terms_kept_give_the_same_log_density(rng: np.random.Generator) -> None:
+    """weibull_logpdf with its parameter terms given (the tables' rows) against computing them, bitwise: shape 1 at
+    x = 0 (the 0 · log 0 convention), x < 0, x = 0 with shape < 1 (+inf) and NaN."""
+    from socialaff_sim.model.densities import weibull_logpdf, weibull_terms
+
+    R = 8
+    params = np.column_stack([rng.uniform(0.5, 3, R), rng.uniform(0.1, 1, R)])
+    params[1, 0], params[2, 0] = 1.0, 0.7
+    k, lam = params.T
+    x = rng.uniform(-0.1, 2.0, (40, R))
+    x[:, 1:3] = 0.0
+    x[5, 4] = np.nan
+    with np.errstate(divide="ignore", invalid="ignore"):
+        new = weibull_logpdf(x, k, lam, terms=weibull_terms(k, lam))
+    assert new.tobytes() == weibull_logpdf(x, k, lam).tobytes()
+    assert np.isfinite(new[:, 1]).all() and np.isposinf(new[:, 2]).all() and np.isneginf(new[x < 0]).all()

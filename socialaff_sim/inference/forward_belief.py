@@ -275,8 +275,8 @@ def _held(track: np.ndarray | TrackWindow, starts: np.ndarray) -> tuple[np.ndarr
 
 def _logsumexp_finite(x: np.ndarray, axis: int) -> np.ndarray:
     """logsumexp that returns −inf (without a warning) where every term is −inf."""
-    top = np.max(x, axis=axis, keepdims=True)
+    top = _max(x, axis=axis, keepdims=True)  # np.max's and np.sum's reductions, without their wrappers (every cut)
     safe = np.where(np.isfinite(top), top, 0.0)
     with np.errstate(divide="ignore"):
-        out = np.log(np.sum(np.exp(x - safe), axis=axis)) + np.squeeze(safe, axis=axis)
+        out = np.log(_sum(np.exp(x - safe), axis=axis)) + np.squeeze(safe, axis=axis)
     return out
