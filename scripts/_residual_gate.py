@@ -28,7 +28,20 @@ import numpy as np
 
 from socialaff_sim.errors import ConfigError, SimulationError, choices
 
-__all__ = ["GatedResidual"]
+__all__ = ["GatedResidual", "check_gate"]
+
+
+def check_gate(labels: Sequence[str], acting: Sequence[str], bias: Sequence[float], n: int) -> None:
+    """Raise a :class:`ConfigError` naming the flag unless ``acting`` is a non-empty subset of the run's ``labels``
+    and ``bias`` is empty or ``n`` numbers in [−1, 1] (``n``: the policy's action size)."""
+    unknown = [lbl for lbl in acting if lbl not in labels]
+    if not acting or unknown:
+        raise ConfigError(f"--residual-labels: expected interactions of this run ({choices(sorted(labels))}), "
+                          f"found {choices(list(acting)) if acting else 'none'}")
+    if len(bias) not in (0, n):
+        raise ConfigError(f"--action-bias: expected {n} numbers (one per action coordinate), found {len(bias)}")
+    if any(not -1.0 <= float(b) <= 1.0 for b in bias):
+        raise ConfigError(f"--action-bias: expected numbers in [-1, 1] (policy units), found {list(bias)}")
 
 
 class GatedResidual(gym.Wrapper):
@@ -40,15 +53,7 @@ class GatedResidual(gym.Wrapper):
         if not isinstance(space, gym.spaces.Box) or not (np.all(space.low == -1.0) and np.all(space.high == 1.0)):
             raise ConfigError(f"--residual-labels: needs the policy's [-1, 1] action box, found {space}")
         pool = env.unwrapped.pool  # type: ignore[attr-defined]
-        unknown = [lbl for lbl in labels if lbl not in pool.labels]
-        if not labels or unknown:
-            raise ConfigError(f"--residual-labels: expected interactions of this run ({choices(pool.labels)}), "
-                              f"found {choices(list(labels)) if labels else 'none'}")
-        n = int(np.prod(space.shape))
-        if len(bias) not in (0, n):
-            raise ConfigError(f"--action-bias: expected {n} numbers (one per action coordinate), found {len(bias)}")
-        if any(not -1.0 <= float(b) <= 1.0 for b in bias):
-            raise ConfigError(f"--action-bias: expected numbers in [-1, 1] (policy units), found {list(bias)}")
+        check_gate(pool.labels, labels, bias, int(np.prod(space.shape)))
         self.labels = tuple(labels)
         self.bias = np.zeros(space.shape, np.float32) if len(bias) == 0 else np.asarray(bias, np.float32).reshape(space.shape)
         self.train_only = bool(train_only)

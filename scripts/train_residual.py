@@ -85,7 +85,7 @@ from _residual_episodes import held_out_episodes, run_episodes, trained_policy, 
 from _residual_eval import evaluate_held_out  # noqa: E402
 from _residual_data import DEFAULT_SPLITS, build_data, describe_split, fit_models, parse_splits  # noqa: E402
 from _residual_reward import FallPenalty  # noqa: E402
-from _residual_gate import GatedResidual  # noqa: E402
+from _residual_gate import GatedResidual, check_gate  # noqa: E402
 from _residual_reach import ReachResidual  # noqa: E402
 from _residual_report import load_reference, load_start_reference, reference_lines, reference_summary, result_lines  # noqa: E402
 
@@ -389,7 +389,10 @@ def main() -> None:
         s = Settings(labels=tuple(args.interactions), data=tuple(args.data), split=tuple(args.split),
                      residual_groups=tuple(args.residual_groups), eval_constant=tuple(args.eval_constant),
                      residual_labels=tuple(args.residual_labels), action_bias=tuple(args.action_bias), **kw)
-        parse_splits(s.split)  # a bad --split fails before anything runs
+        parse_splits(s.split)  # a bad --split fails before anything runs, and so does a bad gate
+        if s.gated:
+            check_gate(s.labels, s.residual_labels or s.labels, s.action_bias,
+                       5 if s.reach_scale is not None else 3 * (len(s.residual_groups) or 5))
         r = run(s, args.out, args.models, budget_s=budget, reference_only=args.reference_only, reference_file=args.reference)
     except SocialAffError as err:  # bad flags or data: one line naming the flag, exit 2 (results are written atomically)
         print(f"train_residual.py: error: {err}", file=sys.stderr)

@@ -167,3 +167,20 @@ def test_gated_run_plays_start_and_trained_on_the_same_pairs(tmp_path) -> None: 
     assert r["summary_learned"]["zero_residual"]["successes"] == sum(x["success"] for x in start)
     d = r["summary"]["per_interaction"]["shake_hands"]["paired_success_difference"]
     assert d["mean"] == 0.0 and tuple(d["ci95"]) == (0.0, 0.0)
+
+
+@pytest.mark.parametrize(("flags", "word"), [(["--residual-labels", "wave"], "--residual-labels"),
+                                             (["--action-bias", "0.5"], "--action-bias"),
+                                             (["--reach-scale", "0.2", "--action-bias", "0", "0", "0", "2", "0"], "--action-bias")])
+def test_bad_gate_flag_is_one_line_and_exit_2(flags: list[str], word: str, tmp_path, monkeypatch: pytest.MonkeyPatch,  # noqa: ANN001
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    """Before any data is made or model fitted: exit 2, one line naming the flag, nothing written."""
+    mod = load_script("train_residual")
+    out = tmp_path / "rl"
+    monkeypatch.setattr("sys.argv", ["train_residual.py", "--out", str(out), *flags])
+    with pytest.raises(SystemExit) as exc:
+        mod.main()
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and word in err[0]
+    assert not out.exists()
