@@ -97,7 +97,11 @@ def paired_differences(
 ) -> dict[str, PairedDifference]:
     """Each other method of an evaluation's ``results`` (as :func:`~socialaff_sim.evaluation.evaluate`
     returns them) against ``reference``, paired by (instance, fold) within each class; instances
-    where either error is NaN are left out, and so are classes with no pair left."""
+    where either error is NaN are left out, and so are classes with no pair left.
+
+    One seed is drawn from ``rng`` and every method's bootstrap starts from it, so a method's interval
+    does not depend on which other methods were evaluated or in what order, and methods paired on the
+    same instances are resampled with the same draws (common random numbers)."""
     per_instance = results["per_instance"]
     methods = list(results["average"])  # type: ignore[call-overload]
     if reference not in methods:
@@ -105,6 +109,7 @@ def paired_differences(
     if metric not in METRICS and not is_horizon_metric(metric):
         raise ConfigError(f"metric: expected one of {choices(METRICS)}, found {metric!r}")
     refs = {label: _scores(per_instance, label, reference, metric) for label in per_instance}  # type: ignore[arg-type, union-attr]
+    seed = int(rng.integers(0, 2**63 - 1))
     out: dict[str, PairedDifference] = {}
     for m in methods:
         if m == reference:
@@ -117,6 +122,7 @@ def paired_differences(
                 diffs.append(np.array(d))
         if not diffs:
             continue
-        mean, low, high = paired_difference(diffs, confidence=confidence, n_resamples=n_resamples, rng=rng)
+        mean, low, high = paired_difference(diffs, confidence=confidence, n_resamples=n_resamples,
+                                            rng=np.random.default_rng(seed))
         out[m] = PairedDifference(m, reference, mean, low, high, confidence, sum(d.size for d in diffs))
     return out
