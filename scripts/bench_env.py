@@ -150,11 +150,16 @@ class Runner:
 
 
 def sim_options(physics: str, compliant_person: int | None, timestep: float | None,
-                ik_iterations: int | None) -> SimConfig | None:
-    """The preset's simulator settings with the given fields replaced (``None``: the preset as it is)."""
-    if compliant_person is None and timestep is None and ik_iterations is None:
+                ik_iterations: int | None, sim_mode: str = "preset") -> SimConfig | None:
+    """The preset's simulator settings with the given fields replaced (``None``: the preset as it is);
+    ``sim_mode`` ``harness`` or ``standing``: the foot lock, stance and balance fields of
+    ``SimConfig.harness()`` or ``SimConfig.standing()`` instead of the preset's."""
+    if compliant_person is None and timestep is None and ik_iterations is None and sim_mode == "preset":
         return None
     cfg = physics_config(physics)
+    if sim_mode != "preset":
+        named = SimConfig.harness() if sim_mode == "harness" else SimConfig.standing()
+        cfg = dataclasses.replace(cfg, foot_lock=named.foot_lock, stance=named.stance, balance=named.balance)
     if compliant_person is not None:
         cfg = dataclasses.replace(cfg, compliant_person=bool(compliant_person))
     if timestep is not None:
@@ -335,6 +340,9 @@ def main() -> None:
     ap.add_argument("--ik-iterations", type=int, default=None, help="override IKConfig.iterations of the preset")
     ap.add_argument("--control-dt", default="default",
                     help="our env's control period: default (the env's), none (one step per data frame) or seconds")
+    ap.add_argument("--sim-mode", default="preset", choices=["preset", "harness", "standing"],
+                    help="the physics mode of our env: the preset's own, or SimConfig.harness()'s / .standing()'s "
+                         "foot lock, stance and balance fields (issue 25)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--profile", action="store_true", help="print a cProfile of one ours_zero pass")
     ap.add_argument("--json", default=None, help="also write the result here")
@@ -342,7 +350,7 @@ def main() -> None:
 
     load0 = os.getloadavg()
     t0 = time.perf_counter()
-    options = sim_options(args.physics, args.compliant_person, args.timestep, args.ik_iterations)
+    options = sim_options(args.physics, args.compliant_person, args.timestep, args.ik_iterations, args.sim_mode)
     control = control_kwargs(args.control_dt)
     runners = [
         Runner("ours_zero", make_ours("zero", args.robot, args.physics, options, control), "zero", args.seed),
@@ -361,7 +369,8 @@ def main() -> None:
     ref = runners[2]
     res: dict[str, Any] = {"env_id": ENV_ID, "reference_id": REFERENCE_ID, "robot": args.robot,
                            "physics": args.physics, "sim_options": {"compliant_person": args.compliant_person,
-                           "timestep": args.timestep, "ik_iterations": args.ik_iterations},
+                           "timestep": args.timestep, "ik_iterations": args.ik_iterations,
+                           "sim_mode": args.sim_mode},
                            "control_dt": runners[0].env.unwrapped.config.control_dt,
                            "rounds": args.rounds, "steps_per_round": args.steps,
                            "omp_num_threads": os.environ.get("OMP_NUM_THREADS"), "cpus": os.cpu_count(),

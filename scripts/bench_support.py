@@ -15,14 +15,16 @@ sub-goal's contact holds now; ``metrics.json``'s ``support.contact_phase``):
   limit;
 * sub-goal success (every sub-goal met, no failure).
 
-Modes: ``weight`` (the default: real weight, compliant harness), ``puppet``
-(gravity compensation, rigid weld), ``steady`` (``SimConfig(stance=StanceConfig(release=False))``: the
-base target steadied while both feet are planted) and ``stance`` (``SimConfig(stance=StanceConfig())``:
+Modes: ``weight`` (``SimConfig()``, whatever the defaults are: today ``harness``), ``puppet``
+(gravity compensation, rigid weld), ``steady`` (``SimConfig.harness(stance=StanceConfig(release=False))``: the
+base target steadied while both feet are planted) and ``stance`` (``SimConfig.harness(stance=StanceConfig())``:
 also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stance`), ``balance``
-(``SimConfig(balance=BalanceConfig())``: the physics-rate balance controller,
+(``SimConfig.harness(balance=BalanceConfig())``: the physics-rate balance controller,
 :mod:`socialaff_sim.sim.balance_control`) and ``balance_steady`` (the same with the steadied base); ``qp`` and
 ``qp_steady``: the same with the quadratic program (:data:`QP`: ``solver="qp"``, ``sole_gap=0.01``,
-``w_torso=3.0``);
+``w_torso=3.0``); ``harness`` (``SimConfig.harness()``: the position servos on the compliant harness) and
+``standing`` (``SimConfig.standing()``: ``qp_steady`` with ``flat_feet=True``, ``self_clearance=0.01``,
+``hand_yield=0.5``, ``yield_damping=50.0`` and ``FootLockConfig(hold_lift=0.12, hold_in_contact=True)``);
 ``--balance FIELD=VALUE ...`` changes the controller's settings for those of the last four being run (e.g.
 ``flat_feet=True``, which needs the QP), ``--foot-lock FIELD=VALUE ...``
 the foot lock's (:class:`~socialaff_sim.sim.footlock.FootLockConfig`) for every mode, ``--labels`` picks
@@ -42,6 +44,7 @@ import argparse
 import ast
 import dataclasses
 import json
+import time
 
 import numpy as np
 
@@ -57,12 +60,17 @@ from socialaff_sim.sim.stance import StanceConfig
 
 QP = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0)
 """The balance QP as measured for issue 25 (docs/benchmarks.md, "The balance solve as a quadratic program")."""
-MODES = {"weight": SimConfig(), "puppet": SimConfig(gravity_compensation=True),
-         "steady": SimConfig(stance=StanceConfig(release=False)), "stance": SimConfig(stance=StanceConfig()),
-         "balance": SimConfig(balance=BalanceConfig()),
-         "balance_steady": SimConfig(balance=BalanceConfig(), stance=StanceConfig(release=False)),
-         "qp": SimConfig(balance=QP),
-         "qp_steady": SimConfig(balance=QP, stance=StanceConfig(release=False))}
+# Every mode but ``weight`` is built on a named preset, so that it keeps its meaning whatever SimConfig()'s
+# defaults are (issue 25; the foot lock's own settings unless --foot-lock says otherwise).
+H = SimConfig.harness
+MODES = {"weight": SimConfig(), "puppet": H(gravity_compensation=True),
+         "steady": H(stance=StanceConfig(release=False)), "stance": H(stance=StanceConfig()),
+         "balance": H(balance=BalanceConfig()),
+         "balance_steady": H(balance=BalanceConfig(), stance=StanceConfig(release=False)),
+         "qp": H(balance=QP),
+         "qp_steady": H(balance=QP, stance=StanceConfig(release=False)),
+         # Named presets: their meaning does not move with SimConfig's defaults (issue 25).
+         "harness": SimConfig.harness(), "standing": SimConfig.standing()}
 KEYS = ("released_frames", "outside_support_mean", "outside_support_peak", "foot_slide_cm", "foot_drift_cm", "penetration_cm", "torque_ratio_max",
         "saturated_fraction", "at_joint_limit_fraction", "torso_tilt_deg_max")
 
@@ -73,6 +81,8 @@ def main() -> None:
     p.add_argument("--mjcf", nargs="*", default=[], help="NAME=PATH: the MJCF of a robot the project does not ship")
     p.add_argument("--modes", nargs="+", default=["weight"], choices=sorted(MODES))
     p.add_argument("--per-label", type=int, default=2, help="instances per interaction (default 2)")
+    p.add_argument("--offset", type=int, default=0,
+                   help="skip this many instances of each interaction first (episodes not used before; default 0)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--model", help="an affordance model (model.npz): simulate its causal synthesis instead of the recording")
     p.add_argument("--json", help="write the per-instance figures here")
@@ -99,13 +109,17 @@ def main() -> None:
             for label in data.labels:
                 if args.labels and label not in args.labels:
                     continue
-                for inter in list(data.of_label(label))[: args.per_label]:
+                for inter in list(data.of_label(label))[args.offset: args.offset + args.per_label]:
                     source = GroundTruthSource() if args.model is None else model_source(args.model, offline=False)
+                    tic = time.process_time()
                     m = run_episode(Simulator(spec, label, MODES[mode]), source, inter)
+                    cpu = time.process_time() - tic
                     cp = m["support"]["contact_phase"]
                     rows.append({"robot": robot, "mode": mode, "label": label, "instance": inter.instance_id,
                                  "success": m["success"], "contact_frames": cp["frames"],
                                  "failures": [f["kind"] for f in m["failures"] if f["triggered"]],
+                                 "cpu_seconds": cpu, "frames": m["frames"],
+                                 "episode_tilt_deg_max": m["support"]["episode"]["torso_tilt_deg_max"],
                                  **{k: cp[k] for k in KEYS}})
     print(f"{'robot':<12}{'mode':<8}{'interaction':<16}{'ok':>6}{'support mean':>14}{'peak':>8}{'slide cm':>10}"
           f"{'pen cm':>8}{'torque':>8}{'sat':>7}{'limit':>7}{'released':>10}")
@@ -155,7 +169,10 @@ def main() -> None:
             sel = [r for r in rows if r["robot"] == robot and r["mode"] == mode]
             kinds = sorted({k for r in sel for k in r["failures"]})
             print(f"{robot:<12}{mode:<16}episodes failing by: "
-                  + (", ".join(f"{k} {sum(k in r['failures'] for r in sel)}" for k in kinds) or "none"))
+                  + (", ".join(f"{k} {sum(k in r['failures'] for r in sel)}" for k in kinds) or "none")
+                  + f"; torso past 60 deg in {sum(r['episode_tilt_deg_max'] > 60.0 for r in sel)}; CPU "
+                  f"{np.mean([r['cpu_seconds'] for r in sel]):.2f} s per episode, "
+                  f"{1e3 * sum(r['cpu_seconds'] for r in sel) / sum(r['frames'] for r in sel):.1f} ms per frame")
     if args.json:
         atomic_write_text(args.json, json.dumps({"config": vars(args), "rows": rows,
                                                  "sim_config": {k: repr(v) for k, v in dataclasses.asdict(SimConfig()).items()

@@ -6,6 +6,11 @@ in both, and how many instances changed. Usage::
 
     python scripts/dev_compare.py BASE.json OTHER.json [--key sw:default] [--label NAME] [--per-class]
     python scripts/dev_compare.py BASE.json OTHER.json --second BASE2.json OTHER2.json [...]
+    python scripts/dev_compare.py RUN.json RUN.json --key sw:default@mean --other-key sw:default_bag5 [--second RUN2.json RUN2.json]
+
+``--other-key`` (default: ``--key``) reads the other run's errors under another name, so two variants of one run
+compare (the same file as base and other; ``scripts/_dev_draws.py``: the default averaged over its partition draws
+against the average of their blends).
 
 With ``--second`` (the same split at a second seed; the evaluation's folds do not depend on ``--seed``, so both seeds
 validate on the same instances, in the same order) the figures are the means over the two seeds, and the difference is
@@ -63,9 +68,9 @@ def two_seed_difference(base: tuple[np.ndarray, np.ndarray], other: tuple[np.nda
     return paired_difference([d], rng=rng)
 
 
-def _per_class(base: list[Errors], other: list[Errors], key: str, classes: list[str]) -> str:
+def _per_class(base: list[Errors], other: list[Errors], key: str, other_key: str, classes: list[str]) -> str:
     return "; ".join(f"{c} {np.mean([np.mean(b[c][key]) for b in base]):.4f} → "
-                     f"{np.mean([np.mean(o[c][key]) for o in other]):.4f}" for c in classes)
+                     f"{np.mean([np.mean(o[c][other_key]) for o in other]):.4f}" for c in classes)
 
 
 def main() -> None:
@@ -75,18 +80,23 @@ def main() -> None:
     ap.add_argument("--second", nargs=2, metavar=("BASE2", "OTHER2"), default=None,
                     help="the same split's two files at a second seed (two-seed means and interval)")
     ap.add_argument("--key", default="sw:default")
+    ap.add_argument("--other-key", default=None, help="the other run's variant (default: --key)")
     ap.add_argument("--label", default="")
     ap.add_argument("--per-class", action="store_true", help="also each class's mean error, base → other")
     args = ap.parse_args()
     names = [args.base, args.other] + (list(args.second) if args.second else [])
+    other_key = args.other_key or args.key
     files = {n: load(n) for n in names}
-    if len(files) != len(names):
-        raise SystemExit("expected distinct files for the base and other runs")
+    if len(files) != len(names) and other_key == args.key:
+        raise SystemExit("expected distinct files for the base and other runs (or --other-key)")
     classes = check_same_instances(files, args.key)
     errs = [files[n] for n in names]
     base, other = errs[0::2], errs[1::2]
+    for n in names[1::2]:
+        if any(other_key not in files[n][c] for c in classes):
+            raise SystemExit(f"{n}: expected the variant {other_key!r} in every class")
     b = [pooled(e, args.key, classes) for e in base]
-    o = [pooled(e, args.key, classes) for e in other]
+    o = [pooled(e, other_key, classes) for e in other]
     pb = [pooled(e, "plan", classes) for e in base]
     po = [pooled(e, "plan", classes) for e in other]
     hold = pooled(base[0], "hold", classes)
@@ -101,8 +111,8 @@ def main() -> None:
           f"{np.mean([x.mean() for x in o]):.4f} | {m:+.4f} [{lo:+.4f}, {hi:+.4f}] | "
           f"{np.mean([x.mean() for x in pb]):.4f} → {np.mean([x.mean() for x in po]):.4f} |{extra}")
     if args.per_class:
-        print(f"per class, {args.key}: {_per_class(base, other, args.key, classes)}")
-        print(f"per class, plan: {_per_class(base, other, 'plan', classes)}")
+        print(f"per class, {args.key} → {other_key}: {_per_class(base, other, args.key, other_key, classes)}")
+        print(f"per class, plan: {_per_class(base, other, 'plan', 'plan', classes)}")
 
 
 if __name__ == "__main__":

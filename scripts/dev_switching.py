@@ -29,10 +29,11 @@ traces are cached under their own name (suffix ``_fpN``).
 hard-EM rounds (``LearningConfig.init_type_screen_rounds``; the cross-fitted ones run no restructuring by default); the
 traces are cached under their own name (suffix ``_srN``).
 ``--row-stride K``: every variant's regression reads the training rows of frames T0, T0 + K, … only
-(``SwitchingConfig.row_stride``; default: the library's, 2 since session 22; the runs of docs/design.md §8 before it
-passed 1 implicitly) and the interaction primitive's training traces are predicted at those frames only;
-the synthesizer's traces are the same as without it (the option changes neither Algorithm 1 nor the synthesizer nor
-the random stream: only the rows read), so they come from the same cache; the validation rows keep every frame.
+(``SwitchingConfig.row_stride``; default: the library's, 2 since session 22; before it the runs passed 1) and the
+primitive's training traces are predicted at those frames only; the synthesizer's traces (and their cache) are the
+same; the validation rows keep every frame.
+``--inner-repeats``, ``--inner-average``, ``--inner-folds``, ``--penalties``, ``--draws K``: every variant's regression
+settings, and the default's regression per draw of its inner folds (scripts/_dev_draws.py).
 ``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
 ``--no-gated``: cheaper traces, no belief-gated variants. ``--clip-features on|off``, ``--clip-margin M``: every variant's
 regression with ``SwitchingConfig.clip_features`` / ``clip_margin`` (default: the library's; the traces and their
@@ -79,6 +80,8 @@ from socialaff_sim.inference.switching import (
     FAMILIES, GATED_FAMILIES, PRIMITIVE_FAMILIES, PRIORS, SwitchingConfig, SwitchingRegression, Trace, instance_rows,
     switching_columns, switching_scale,
 )
+
+from _dev_draws import add_regression_arguments, partition_draws, regression_settings  # scripts/ (sys.path[0])
 
 T0 = 10
 _G = dict(GATED_FAMILIES)
@@ -254,7 +257,9 @@ def main() -> None:
                     help="the regressions' training rows every K-th frame from T0 (SwitchingConfig.row_stride, default "
                          "%(default)s: the library's); the synthesizer's traces are unchanged (the same cache), the "
                          "primitive's predicted at those frames")
+    add_regression_arguments(ap)
     args = ap.parse_args()
+    settings = regression_settings(args)
     if args.type_screen_rounds is not None and args.type_screen_rounds < 0:
         raise SystemExit(f"--type-screen-rounds: expected an integer >= 0, found {args.type_screen_rounds}")
     if args.row_stride < 1:
@@ -336,9 +341,14 @@ def main() -> None:
             families, steps = VARIANTS[name]
             reg = SwitchingRegression(SwitchingConfig(families=families, blend_steps=steps, contiguous=args.contiguous,
                                                       clip_features=args.clip_features == "on", clip_margin=args.clip_margin,
-                                                      row_stride=args.row_stride)).fit(
+                                                      row_stride=args.row_stride, **settings)).fit(  # type: ignore[arg-type]
                 train, tr_traces, n_subevents=S, rng=np.random.default_rng(args.seed))
             row["sw:" + name] = _keep(per, "sw:" + name, [_err(reg.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
+            if name == "default" and args.draws > 1:  # the same regression per partition draw, and their average
+                more, chosen["draws"] = partition_draws(reg.config, train, tr_traces, S, args.seed, args.draws, per["sw:default"],
+                                                        lambda r: [_err(r.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
+                per.update(more)
+                row.update({k: float(np.mean(v)) for k, v in more.items() if "_bag" in k or k.endswith("@mean")})
             chosen[name] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg.members_) or "hold"
         if args.v2:
             t2 = time.perf_counter()

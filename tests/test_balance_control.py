@@ -247,7 +247,7 @@ def _episode(ours, config: SimConfig) -> list:
 
 
 def test_an_episode_under_the_controller_is_deterministic(ours) -> None:
-    cfg = SimConfig(balance=BalanceConfig(), stance=StanceConfig(release=False))
+    cfg = SimConfig.harness(balance=BalanceConfig(), stance=StanceConfig(release=False))
     a, b = _episode(ours, cfg), _episode(ours, cfg)
     assert [r.support for r in a] == [r.support for r in b]
     assert [r.subgoals for r in a] == [r.subgoals for r in b]
@@ -265,10 +265,13 @@ def test_balance_config_rejects_bad_values(kw) -> None:
 def test_sim_config_rejects_two_controllers_of_the_harness_and_a_controller_without_foot_lock() -> None:
     with pytest.raises(ConfigError, match="stance.release"):
         SimConfig(balance=BalanceConfig(), stance=StanceConfig())
+    with pytest.raises(ConfigError, match="stance.release"):
+        SimConfig.standing(stance=StanceConfig())  # the standing mode's balance controller switches the harness
     with pytest.raises(ConfigError, match="foot_lock"):
         SimConfig(balance=BalanceConfig(), foot_lock=None)
     assert SimConfig(balance=BalanceConfig(), stance=StanceConfig(release=False)).balance is not None
-    assert SimConfig().balance is None  # off by default
+    assert SimConfig.harness(stance=StanceConfig()).balance is None
+    assert SimConfig().balance is None  # off by default (docs/design.md §5: the rule for the standing mode failed)
 
 
 def test_external_contact_forces_are_the_constraint_forces_they_come_from(scene: Scene) -> None:

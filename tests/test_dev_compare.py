@@ -104,3 +104,31 @@ def test_cli_one_seed(tmp_path: Path, rng: np.random.Generator, capsys: pytest.C
     pool = [np.concatenate([e[c]["sw:default"] for c in ("a", "b")]) for e in es]
     m, lo, hi = dev_compare.paired_difference([pool[1] - pool[0]], rng=np.random.default_rng(0))
     assert f"| {m:+.4f} [{lo:+.4f}, {hi:+.4f}] |" in out and "changed 9/9" in out
+
+
+def test_cli_other_key_compares_two_variants_of_one_run(tmp_path: Path, rng: np.random.Generator,
+                                                        capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--other-key``: the other side reads another variant (here of the same files, at two seeds); the figures are
+    the two variants' own (swapping the keys flips the sign), and the same file without it is refused."""
+    files = [tmp_path / f"s{k}.json" for k in (4, 5)]
+    es = []
+    for f in files:
+        e = _write(f, rng, {"a": 5, "b": 4}, 0.0)
+        for c in e:
+            e[c]["sw:bag"] = list(np.asarray(e[c]["sw:default"]) - rng.uniform(0.0, 0.01, len(e[c]["sw:default"])))
+        f.write_text(json.dumps(e))
+        es.append(e)
+    pool = {k: [np.concatenate([e[c][k] for c in ("a", "b")]) for e in es] for k in ("sw:default", "sw:bag")}
+    mean = 0.5 * sum((pool["sw:bag"][i] - pool["sw:default"][i]).mean() for i in range(2))
+    for key, other, sign in (("sw:default", "sw:bag", 1.0), ("sw:bag", "sw:default", -1.0)):
+        monkeypatch.setattr(sys, "argv", ["dev_compare", str(files[0]), str(files[0]), "--key", key, "--other-key", other,
+                                          "--second", str(files[1]), str(files[1])])
+        dev_compare.main()
+        assert f"| {sign * mean:+.4f} [" in capsys.readouterr().out
+    assert mean < 0
+    monkeypatch.setattr(sys, "argv", ["dev_compare", str(files[0]), str(files[0])])
+    with pytest.raises(SystemExit, match="distinct files"):
+        dev_compare.main()
+    monkeypatch.setattr(sys, "argv", ["dev_compare", str(files[0]), str(files[0]), "--other-key", "sw:nope"])
+    with pytest.raises(SystemExit, match="sw:nope"):
+        dev_compare.main()

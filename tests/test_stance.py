@@ -125,7 +125,7 @@ def test_box_centre_is_the_middle_of_the_feet_turned_with_the_robot(ours) -> Non
 
 def _catch(ours, stance: StanceConfig | None) -> tuple[dict, list]:
     inter = generate_dataset(seed=0).of_label("throw_catch")[0]
-    sim = Simulator(ours, "throw_catch", SimConfig(stance=stance))
+    sim = Simulator(ours, "throw_catch", SimConfig.harness(stance=stance))
     metrics = run_episode(sim, GroundTruthSource(), inter)
     contact = [r.support for r in sim.results if any(r.subgoals_now.values())]
     return metrics, contact
@@ -147,10 +147,11 @@ def test_stubby_catches_the_ball_on_its_own_feet(ours) -> None:
 
 
 def test_stance_defaults_are_off_and_leg_gains_follow_the_controller(ours) -> None:
-    assert SimConfig().stance is None
-    assert leg_bandwidth(SimConfig(stance=StanceConfig(leg_bandwidth=7.0))) == 7.0
-    assert leg_bandwidth(SimConfig(stance=StanceConfig(release=False))) is None
-    assert leg_bandwidth(dataclasses.replace(SimConfig(stance=StanceConfig()), stance_bandwidth=12.0)) == 12.0
+    assert SimConfig().stance is None and SimConfig.harness().stance is None
+    assert SimConfig.standing().stance == StanceConfig(release=False) and leg_bandwidth(SimConfig.standing()) is None
+    assert leg_bandwidth(SimConfig.harness(stance=StanceConfig(leg_bandwidth=7.0))) == 7.0
+    assert leg_bandwidth(SimConfig.harness(stance=StanceConfig(release=False))) is None
+    assert leg_bandwidth(dataclasses.replace(SimConfig.harness(stance=StanceConfig()), stance_bandwidth=12.0)) == 12.0
     assert IKConfig().com_cost == 0.0  # the IK's own centre-of-mass task stays off outside released frames
 
 
@@ -169,10 +170,10 @@ def test_every_figure_names_the_stance_control(ours) -> None:
     inter = generate_dataset(seed=0).of_label("high_five")[0]
     modes = {}
     for name, stance in (("off", None), ("steady", StanceConfig(release=False)), ("release", StanceConfig())):
-        sim = Simulator(ours, "high_five", SimConfig(stance=stance))
+        sim = Simulator(ours, "high_five", SimConfig.harness(stance=stance))
         sim.reset(inter)
         sim.step(sim.home_key_frames)
         modes[name] = (support_summary(sim)["mode"], support_caption(sim))
-    assert modes["off"][0] == "real weight" and modes["off"][1].startswith("real weight:")
-    assert "steadied base" in modes["steady"][0] and "steadied base" in modes["steady"][1]
-    assert "harness let go" in modes["release"][0] and "harness let go" in modes["release"][1]
+    assert modes["off"][0] == "real weight, on the harness" and modes["off"][1].startswith("harness: outside support")
+    assert "steadied base" in modes["steady"][0] and modes["steady"][1].startswith("steady base: outside support")
+    assert "harness let go" in modes["release"][0] and modes["release"][1].startswith("stance: outside support")

@@ -21,7 +21,8 @@ def _run(args: argparse.Namespace) -> int:
 
     labels = [args.interaction] if args.interaction else list(INTERACTIONS)
     config = DemoConfig(iterations=args.iterations, robot=args.robot, mjcf=args.mjcf, video=not args.no_video,
-                        seed=args.seed, contact_completion=not args.no_contact_completion)
+                        seed=args.seed, contact_completion=not args.no_contact_completion,
+                        physics=args.physics)
     start = time.perf_counter()
     done = 0
     total = 3 * len(labels)
@@ -74,6 +75,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--no-contact-completion", action="store_true",
                    help="send the scaled targets to the IK as they are (no blending of a wrist onto the contact "
                         "the synthesized reaction is making; docs/design.md)")
+    p.add_argument("--physics", choices=["harness", "standing"], default="harness",
+                   help="physics mode: harness (the default: position servos, the robot hanging from a compliant "
+                        "harness) or standing (a balance controller stands it on its own feet while they are "
+                        "planted; docs/design.md §5)")
     p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the synthetic data and of every sampler")
     declare_outputs(p, out="folder")
     p.set_defaults(func=_run)

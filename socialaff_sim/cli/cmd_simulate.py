@@ -9,6 +9,7 @@ DIR/video.mp4 and DIR/contact_sheet.png.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -47,7 +48,10 @@ def run(args: argparse.Namespace) -> int:
     dataset = load_dataset(args.data, policy=args.policy, units=args.units)
     inter = dataset.by_id(args.instance)
     task = load_task(args.task) if args.task else task_for_label(inter.label)
-    sim = Simulator(robot, task, SimConfig(contact_completion=None) if args.no_contact_completion else None)
+    physics = SimConfig.mode(args.physics)
+    if args.no_contact_completion:
+        physics = dataclasses.replace(physics, contact_completion=None)
+    sim = Simulator(robot, task, physics)
     out = Path(args.out)
     with output_folder(out) as staging:  # metrics, video and sheet together or not at all
 
@@ -130,6 +134,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--no-contact-completion", action="store_true",
                    help="send the scaled targets to the IK as they are (no blending of a wrist onto the contact "
                         "the reaction is making; docs/design.md)")
+    p.add_argument("--physics", choices=["harness", "standing"], default="harness",
+                   help="physics mode: harness (the default: position servos, the robot hanging from a compliant "
+                        "harness) or standing (a balance controller stands it on its own feet while they are "
+                        "planted; docs/design.md §5)")
     p.add_argument("--width", type=int_range(16, 4096), default=640, help="video width in pixels, 16-4096 (default 640)")
     p.add_argument("--height", type=int_range(16, 4096), default=480, help="video height in pixels, 16-4096 (default 480)")
     add_data_options(p)

@@ -64,6 +64,13 @@ class DemoConfig:
     """[—]: Whether the simulator completes the contacts the synthesized reaction is making
     (``SimConfig.contact_completion``, :mod:`~socialaff_sim.retarget.contact_completion`); off: the scaled
     key-joint targets go to the IK as they are."""
+    physics: str = "harness"
+    """[—]: The physics mode simulated (:data:`~socialaff_sim.sim.sim_config.PHYSICS_MODES`): ``harness`` (the
+    simulator's default: position servos, the robot's root hanging from a compliant harness) or ``standing``
+    (the balance controller stands the robot on its own feet while they are planted; docs/design.md §5)."""
+
+    def __post_init__(self) -> None:
+        SimConfig.mode(self.physics)  # an unknown mode: a ConfigError naming the choices
 
 
 @dataclass
@@ -155,7 +162,9 @@ def run_interaction(
     tic = time.perf_counter()
     task = task_for_label(label)
     robot = load_robot(config.robot, mjcf=config.mjcf)
-    physics = SimConfig() if config.contact_completion else dataclasses.replace(SimConfig(), contact_completion=None)
+    physics = SimConfig.mode(config.physics)
+    if not config.contact_completion:
+        physics = dataclasses.replace(physics, contact_completion=None)
     reference = run_episode(Simulator(robot, task, physics), GroundTruthSource(), shown)
     sim = Simulator(robot, task, physics)
     # The robot reacts causally: at frame t the synthesis reads the person's frames up to t only.

@@ -55,6 +55,23 @@ def _subgoal_table(r: InteractionResult) -> str:
     return text
 
 
+def _physics_note(metrics: Mapping[str, Any]) -> str:
+    """The physics mode the synthesized reaction ran in, and its honesty figures over the contact phase."""
+    sup = metrics.get("support") or {}
+    cp = sup.get("contact_phase") or {}
+    text = f"Physics mode: {sup.get('mode', 'not recorded')}."
+    if cp.get("frames") and cp.get("outside_support_mean") is not None:
+        text += (f" Over the contact phase ({cp['frames']} frames with a sub-goal's contact held): outside support "
+                 f"{100 * cp['outside_support_mean']:.1f} % of the robot's weight on average (peak "
+                 f"{100 * cp['outside_support_peak']:.0f} %), harness off in {cp['released_frames']} frames, feet slid "
+                 f"{cp['foot_slide_cm']:.1f} cm (path) and drifted {cp['foot_drift_cm']:.1f} cm, servos at up to "
+                 f"{100 * cp['torque_ratio_max']:.0f} % of their torque limits, torso tilted up to "
+                 f"{cp['torso_tilt_deg_max']:.0f}°.")
+    elif sup:
+        text += " No contact phase (no sub-goal's contact held)."
+    return f"<p class=\"note\">{esc(text)}</p>"
+
+
 def _interaction_section(r: InteractionResult, config: DemoConfig) -> str:
     parts = []
     if r.video:
@@ -68,6 +85,7 @@ def _interaction_section(r: InteractionResult, config: DemoConfig) -> str:
     else:
         parts.append(f"<p class=\"note\">Video: {esc(r.video_note)}.</p>")
     parts.append(_subgoal_table(r))
+    parts.append(_physics_note(r.simulation))
     parts.append(table(
         ["sub-event", "mean duration (s)"], [[n, d] for n, d in r.subevents],
         caption="Sub-events learned by Algorithm 1 and their mean durations.", digits=2,
@@ -96,19 +114,23 @@ def write_demo_page(out: str | Path, results: Sequence[InteractionResult], confi
     )
     overview = [[
         r.label, r.instance, r.errors.get("full"), _met(r.simulation), _met(r.reference),
-        _rtf(r.simulation.get("real_time_factor")),
+        _rtf(r.simulation.get("real_time_factor")), _contact_support(r.simulation),
     ] for r in results]
     page.section("overview", "Overview", table(
         ["interaction", "instance shown", "key-joint error of the model (m)", "sub-goals met: synthesized",
-         "sub-goals met: ground truth", "real-time factor"],
+         "sub-goals met: ground truth", "real-time factor", "outside support in contact"],
         overview,
         caption="One held-out instance per interaction is simulated; the error is averaged over all held-out "
-                "instances (table below). Real-time factor: simulated seconds per wall-clock second.",
+                "instances (table below). Real-time factor: simulated seconds per wall-clock second. Outside "
+                "support: the synthesized reaction's support from anything but its feet (harness), mean over the "
+                "frames where a sub-goal's contact holds, percent of the robot's weight (–: no such frame).",
         digits=3,
     ) + definitions([
         ("MCMC iterations (Algorithm 1)", config.iterations),
         ("held-out instances per interaction", config.n_test),
         ("robot", config.robot),
+        ("physics mode", "; ".join(sorted({str((r.simulation.get("support") or {}).get("mode", "not recorded"))
+                                           for r in results})) or "–"),
         ("seed", config.seed),
     ]))
     rows = [[m, *(r.errors.get(m) for r in results)] for m in methods]
@@ -130,6 +152,12 @@ def write_demo_page(out: str | Path, results: Sequence[InteractionResult], confi
     for r in results:
         page.section(r.label, r.label.replace("_", " "), _interaction_section(r, config))
     return page.write(Path(out) / DEMO_PAGE)
+
+
+def _contact_support(metrics: Mapping[str, Any]) -> str:
+    cp = (metrics.get("support") or {}).get("contact_phase") or {}
+    value = cp.get("outside_support_mean")
+    return f"{100 * value:.1f} %" if isinstance(value, (int, float)) and cp.get("frames") else "–"
 
 
 def _rtf(value: object) -> str:

@@ -97,13 +97,32 @@ def _mode(sim: Simulator, puppet: str) -> str:
     """The physics mode's name (``puppet``: the gravity-compensated one's), with the standing control if on."""
     if sim.config.gravity_compensation:
         return puppet
-    stance = sim.config.stance
+    stance, balance = sim.config.stance, sim.config.balance
     name = "real weight"
     if stance is not None:
         name += ", stance control" + (" (harness let go when steady)" if stance.release else " (steadied base)")
-    if sim.config.balance is not None:
-        name += ", physics-rate balance control" + (" (harness let go when steady)" if sim.config.balance.release else "")
+    if balance is not None:
+        name += (", physics-rate balance control (" + ("QP" if balance.solver == "qp" else "least squares")
+                 + (", harness let go when steady)" if balance.release else ", on the harness)"))
+    elif stance is None or not stance.release:  # nothing ever lets go of the robot
+        name += ", on the harness"
     return name
+
+
+def _short_mode(sim: Simulator) -> str:
+    """The physics mode in a word or two, for captions that must fit a 640 px video frame (``support_summary``'s
+    ``mode`` spells it out): ``puppet``, ``harness``, ``steady base`` (the harness on a steadied base), ``stance``
+    (the stance control lets go), ``balance QP`` / ``balance LS`` (the balance controller lets go), ``harness+QP`` /
+    ``harness+LS`` (it never does)."""
+    stance, balance = sim.config.stance, sim.config.balance
+    if sim.config.gravity_compensation:
+        return "puppet"
+    if balance is not None:
+        solver = "QP" if balance.solver == "qp" else "LS"
+        return f"balance {solver}" if balance.release else f"harness+{solver}"
+    if stance is not None:
+        return "stance" if stance.release else "steady base"
+    return "harness"
 
 
 def support_summary(sim: Simulator) -> dict[str, Any]:
@@ -123,16 +142,17 @@ def support_summary(sim: Simulator) -> dict[str, Any]:
 
 
 def support_caption(sim: Simulator) -> str:
-    """One caption line: the mode; this frame's outside support (% of the weight), the episode's foot sliding
-    so far, this frame's largest servo force (% of its limit) and the torso's tilt from the vertical."""
-    mode = _mode(sim, "puppet (gravity compensated)")
+    """One caption line: the mode in a few words (``support_summary``'s ``mode`` spells it out); this frame's outside
+    support (% of the weight), the episode's foot sliding so far, this frame's largest servo force (% of its limit)
+    and the torso's tilt from the vertical."""
+    mode = _short_mode(sim)
     frames = [r.support for r in sim.results if r.support is not None]
     if not frames:
         return f"{mode}"
     last = frames[-1]
-    return (f"{mode}: outside support {100 * last.outside_mean:.0f} %, feet slid "
+    return (f"{mode}: outside support {100 * last.outside_mean:.0f} %, slid "
             f"{100 * sum(f.slide for f in frames):.0f} cm, torque {100 * last.torque_ratio:.0f} %, "
-            f"torso {last.tilt_deg:.0f} deg")
+            f"tilt {last.tilt_deg:.0f} deg")
 
 
 def summarize(sim: Simulator, wall_seconds: float) -> dict[str, Any]:

@@ -18,12 +18,29 @@ from .footlock import FootLockConfig
 from .stance import StanceConfig
 from .support import FrameSupport
 
-__all__ = ["SimConfig", "StepResult"]
+__all__ = ["SimConfig", "StepResult", "PHYSICS_MODES", "STANDING_BALANCE", "STANDING_FOOT_LOCK"]
+
+PHYSICS_MODES = ("harness", "standing")
+"""The named physics modes: :meth:`SimConfig.harness` (the default) and :meth:`SimConfig.standing`."""
+
+STANDING_BALANCE = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0, flat_feet=True, self_clearance=0.01,
+                                 hand_yield=0.5, yield_damping=50.0)
+"""The balance controller of :meth:`SimConfig.standing`: the quadratic program with the feet flat on their soles,
+the arms kept 1 cm clear of the body and hands that give way (docs/design.md §5, issue 25)."""
+STANDING_FOOT_LOCK = FootLockConfig(hold_lift=0.12, hold_in_contact=True)
+"""The foot lock of :meth:`SimConfig.standing`: a planted foot stays planted up to 12 cm of recorded rise, and
+whatever the recording's feet do while a sub-goal's contact holds."""
 
 
 @dataclass(frozen=True)
 class SimConfig:
     """Settings of the physics loop.
+
+    The defaults are the harness mode (:meth:`harness`: the robot's real weight, position servos tracking the IK,
+    its root hanging from a compliant harness throughout); :meth:`standing` stands it on its own feet while they
+    are planted (the balance QP, the harness let go of a steady robot). Which to default to was decided by the
+    rule of docs/design.md §5 (issue 25): the standing mode cut the contact phases' outside support from 34 to
+    4 % but lost 13 of 80 successes, so the harness stays the default.
 
     Fields by concept
     -----------------
@@ -44,7 +61,7 @@ class SimConfig:
     (:mod:`~socialaff_sim.sim.support`); every figure says which mode ran (``metrics.json``'s ``support.mode``)."""
     foot_lock: FootLockConfig | None = field(default_factory=FootLockConfig)
     """[—]: When a standing foot's target is held where the foot came down (:mod:`~socialaff_sim.sim.footlock`);
-    ``None``: ankle targets are followed as given."""
+    ``None``: ankle targets are followed as given (:meth:`standing` uses :data:`STANDING_FOOT_LOCK`)."""
     harness_time_constant: float = 0.02
     """τ_h [s]: with the robot's real weight, its root hangs from the IK's base pose by a compliant harness,
     a soft weld of this time constant (:func:`~socialaff_sim.sim.scene.build_scene`). Standing still at home
@@ -67,7 +84,8 @@ class SimConfig:
     floor's contact forces at every physics step, and the harness let go of a steady robot
     (:mod:`~socialaff_sim.sim.balance_control`); ``None`` (the default): the position servos track the IK with the
     standing feed-forward, on the harness. Needs ``foot_lock``; not with ``stance.release`` (both would switch the
-    harness). Not used with gravity compensation."""
+    harness). Not used with gravity compensation. :meth:`standing` uses :data:`STANDING_BALANCE`; the rule for
+    making it the default failed on successes (docs/design.md §5, issue 25)."""
     hand_force: float | None = 60.0
     """F_max [N]: the arm servos' torque limits are set so that a hand pushes with at most about
     this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,
@@ -93,6 +111,28 @@ class SimConfig:
     step about twice as fast. See docs/environment.md, "Speed", for the measured effect."""
     settle_iterations: int = 20
     """[—]: IK solves spent at reset to reach the first frame's targets before physics starts."""
+
+    @classmethod
+    def harness(cls, **changes: object) -> SimConfig:
+        """The robot hanging from its compliant harness: position servos tracking the IK, the harness following
+        the retargeted base throughout, the foot lock's own settings, no balance controller (``changes``: other
+        fields). The defaults: ``SimConfig.harness() == SimConfig()``."""
+        return cls(**{"foot_lock": FootLockConfig(), "stance": None, "balance": None, **changes})  # type: ignore[arg-type]
+
+    @classmethod
+    def standing(cls, **changes: object) -> SimConfig:
+        """The robot standing on its own feet while they are planted: the balance QP (:data:`STANDING_BALANCE`)
+        on a steadied base, the harness let go of a steady robot, the foot lock :data:`STANDING_FOOT_LOCK`
+        (``changes``: other fields)."""
+        return cls(**{"foot_lock": STANDING_FOOT_LOCK, "stance": StanceConfig(release=False),  # type: ignore[arg-type]
+                      "balance": STANDING_BALANCE, **changes})
+
+    @classmethod
+    def mode(cls, name: str, **changes: object) -> SimConfig:
+        """The physics mode called ``name`` (one of :data:`PHYSICS_MODES`) with ``changes`` to other fields."""
+        if name not in PHYSICS_MODES:
+            raise ConfigError(f"physics mode: expected one of {', '.join(PHYSICS_MODES)}, found {name!r}")
+        return cls.harness(**changes) if name == "harness" else cls.standing(**changes)
 
     def __post_init__(self) -> None:
         if self.balance is not None and self.stance is not None and self.stance.release:
