@@ -57,9 +57,11 @@ class CurveRecorder(BaseCallback):
 
 
 def plot_curve(rows: Sequence[Mapping[str, Any]], reference: Mapping[str, Mapping[str, float]], path: Path,
-               window: int = 50) -> None:
+               window: int = 50, start: Mapping[str, Mapping[str, float]] | None = None) -> None:
     """Training episodes' success and return (moving average over ``window`` episodes of each interaction)
-    against timesteps, with the zero-residual policy on the training instances as dashed reference lines."""
+    against timesteps, with the zero-residual policy on the training instances as dashed reference lines and,
+    given ``start`` (a gated run's zero action through its gate and bias, same instances), dotted ones for the
+    labels the residual acts on (``rows`` has episodes of them)."""
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), layout="constrained")
     colors = dict(zip(sorted(reference), ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")))
     for label, color in colors.items():
@@ -73,6 +75,9 @@ def plot_curve(rows: Sequence[Mapping[str, Any]], reference: Mapping[str, Mappin
                         label=f"{label}: residual PPO (training episodes, stochastic)")
             ax.axhline(reference[label][key], color=color, ls="--", lw=1,
                        label=f"{label}: affordance model alone (training instances)")
+            if start is not None and mine:
+                ax.axhline(start[label][key], color=color, ls=":", lw=1.5,
+                           label=f"{label}: the start, bias alone, deterministic (training instances)")
     axes[0].set(xlabel="environment steps", ylabel=f"success rate (moving mean of {window} episodes)", ylim=(-0.02, 1.02))
     axes[1].set(xlabel="environment steps", ylabel=f"episode return (moving mean of {window} episodes)")
     handles, names = axes[0].get_legend_handles_labels()

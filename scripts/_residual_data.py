@@ -1,4 +1,4 @@
-"""Training and held-out instances of ``scripts/train_residual.py`` from recorded datasets.
+"""Training and held-out instances of ``scripts/train_residual.py`` (recorded or synthetic), and its model fits.
 
 Each dataset spec (``handover:PATH``, ``sbu:PATH``, ``nuisi:PATH``, ``npz:DIR``, ...) is loaded, its
 instances of the requested labels kept, and every (dataset, label) class is split on its own with
@@ -13,13 +13,18 @@ from __future__ import annotations
 import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from socialaff_sim.data.interaction import Interaction
 from socialaff_sim.data.specs import load_dataset
+from socialaff_sim.data.synthetic import generate_dataset
+from socialaff_sim.data.synthetic.config import SyntheticConfig
 from socialaff_sim.errors import ConfigError, choices
 from socialaff_sim.evaluation.splits import SPLITS, make_folds
+from socialaff_sim.learning import SocialAffordanceModel
+from socialaff_sim.learning.config import LearningConfig
 
 DEFAULT_SPLITS: tuple[str, ...] = ("pair", "nuisi=block")
 """``--split`` default: pair-disjoint everywhere, block for NuiSI (each class is one recording of one pair, so
@@ -93,3 +98,39 @@ def real_split(specs: Sequence[str], labels: Sequence[str], splits: Mapping[str,
     if len(set(ids)) != len(ids):
         raise ConfigError("--data: two instances share an id; the episodes are addressed by id (one dataset twice?)")
     return train, held, table
+
+
+# -- the run's instances and models (``s``: a ``train_residual.Settings``) -----------------------------------------------------
+def build_data(s: Any) -> tuple[list[Interaction], list[Interaction]]:
+    """(training instances, held-out instances): with ``s.data``, the recorded classes split as
+    :func:`real_split` splits them; otherwise two synthetic datasets, seeds ``s.seed`` and
+    ``s.seed + 1``."""
+    if s.data:
+        train_r, held_r, _ = real_split(s.data, s.labels, parse_splits(s.split), s.folds, s.held_out_fold, s.seed)
+        return train_r, held_r
+    train = generate_dataset(s.seed, SyntheticConfig(interactions=s.labels, instances_per_interaction=s.train_instances))
+    held = generate_dataset(s.seed + 1, SyntheticConfig(interactions=s.labels, instances_per_interaction=s.eval_instances))
+    return list(train.interactions), list(held.interactions)
+
+
+def fit_models(s: Any, train: Sequence[Interaction]) -> dict[str, SocialAffordanceModel]:
+    """One affordance model per interaction, fitted on the training instances (seeded per label)."""
+    models = {}
+    for label in s.labels:
+        rng = np.random.default_rng([s.seed, zlib.crc32(label.encode())])
+        learning = LearningConfig(iterations=s.fit_iterations)
+        models[label] = SocialAffordanceModel(learning=learning).fit([i for i in train if i.label == label], rng=rng)
+    return models
+
+
+def describe_split(s: Any, train: Sequence[Interaction], held: Sequence[Interaction]) -> dict[str, Any]:
+    """What was trained on and what was held out: instance ids per label."""
+    def ids(insts: Sequence[Interaction]) -> dict[str, list[str]]:
+        return {lbl: [i.instance_id for i in insts if i.label == lbl] for lbl in sorted({i.label for i in insts})}
+    if s.data:
+        what = (f"recorded: {', '.join(s.data)}; split {' '.join(s.split)}, fold {s.held_out_fold} of {s.folds} "
+                f"held out per (dataset, label), seed {s.seed}")
+    else:
+        what = (f"synthetic dataset seed {s.seed + 1}, {s.eval_instances} instances per interaction "
+                f"(training: seed {s.seed}, {s.train_instances} per interaction)")
+    return {"held_out": what, "train_ids": ids(train), "held_out_ids": ids(held)}

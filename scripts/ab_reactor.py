@@ -5,10 +5,11 @@ one after the other differ by the load as much as by their code. This script loa
 reactor (the default ``full`` method from a pickle, as ``scripts/bench_reactor.py --model`` writes it) on the
 recordings or their stream, then does the same with tree B's package (each tree's classes keep their own module
 globals), and steps both on the same frames in alternated blocks (A then B, then B then A: no first-mover bias), so
-that both see the same machine state. It prints each tree's CPU ms per frame, the per-block ratio B/A (median and
-quartiles) and per-stage CPU per frame (``time.thread_time`` around the same methods as
+that both see the same machine state. It prints each tree's CPU ms per frame (and per call: p50, p99, max), the
+per-block ratio B/A (median and quartiles) and per-stage CPU per frame (``time.thread_time`` around the same methods as
 ``scripts/profile_reactor.py``). Stages whose code the two trees share should come out at B/A ≈ 1: the check that
-the pairing is fair. Both trees must import nothing of ``socialaff_sim`` lazily on the reactor's path (a lazy import
+the pairing is fair. ``--set FIELD=VALUE`` changes tree B's synthesis (``--a`` and ``--b`` the same tree: the paired
+cost of a setting). Both trees must import nothing of ``socialaff_sim`` lazily on the reactor's path (a lazy import
 would bind to the tree loaded last). Usage::
 
     OMP_NUM_THREADS=1 nice -n 10 python scripts/ab_reactor.py --a /tmp/main_tree --b . \\
@@ -31,7 +32,7 @@ import time
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
-from _reactor_args import add_reactor_source_arguments  # noqa: E402  (scripts/ is sys.path[0] when run as a script)
+from _reactor_args import add_reactor_source_arguments, add_setting_argument, changed_synthesis  # noqa: E402  (scripts/ is sys.path[0] when run as a script)
 
 T0 = 10
 PARTS = (
@@ -45,9 +46,10 @@ PARTS = (
 )
 
 
-def _load(tree: str, args: argparse.Namespace, acc: dict[str, float]) -> list[tuple]:
+def _load(tree: str, args: argparse.Namespace, acc: dict[str, float], settings: tuple[str, ...] | list[str] = (),
+          parser: argparse.ArgumentParser | None = None) -> list[tuple]:
     """Import ``tree``'s package afresh, time its parts into ``acc`` and start its reactors: (frames, hidden, views,
-    reactor) per instance."""
+    reactor) per instance; ``settings``: ``--set`` changes of the method's synthesis."""
     tree = os.path.abspath(tree)
     for k in [k for k in sys.modules if k == "socialaff_sim" or k.startswith("socialaff_sim.") or k == "bench_stream"]:
         del sys.modules[k]
@@ -77,6 +79,8 @@ def _load(tree: str, args: argparse.Namespace, acc: dict[str, float]) -> list[tu
 
         with open(args.model, "rb") as fh:
             method = pickle.load(fh)
+        if settings:
+            method.synthesis = changed_synthesis(method.synthesis, list(settings), parser)  # type: ignore[arg-type]
         data = load_dataset(args.data)
         label = args.interaction or data[0].label
         pool = [i for i in data if i.label == label][args.skip : args.skip + args.recordings]
@@ -97,12 +101,14 @@ def main() -> int:
     p.add_argument("--a", required=True, help="tree A (the reference, e.g. a worktree of main)")
     p.add_argument("--b", required=True, help="tree B (the candidate)")
     add_reactor_source_arguments(p, seconds=120.0)
+    add_setting_argument(p, "tree B's method (A runs the pickled one): the paired cost of a setting, --a and --b the same tree")
     p.add_argument("--block", type=int, default=100, help="frames per block (each tree steps a block in turn)")
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args()
     acc: dict[str, dict[str, float]] = {"a": {}, "b": {}}
-    runs = {k: _load(getattr(args, k), args, acc[k]) for k in ("a", "b")}
+    runs = {k: _load(getattr(args, k), args, acc[k], args.set if k == "b" else [], p) for k in ("a", "b")}
     blocks: dict[str, list[float]] = {"a": [], "b": []}
+    per_frame: dict[str, list[float]] = {"a": [], "b": []}
     frames = 0
     for i in range(len(runs["a"])):
         T = runs["a"][i][0]
@@ -116,14 +122,20 @@ def main() -> int:
                     view = views.view()
                     c0 = time.thread_time()
                     reactor.react(view, t, t + 1)
-                    c += time.thread_time() - c0
+                    dt = time.thread_time() - c0
+                    c += dt
+                    per_frame[k].append(dt)
                 blocks[k].append(c)
             frames += hi - lo
     a, b = np.array(blocks["a"]), np.array(blocks["b"])
     r = b / a
     print(f"{frames} frames in {a.size} paired blocks of {args.block}; load {tuple(round(x, 2) for x in os.getloadavg())}")
     print(f"A {args.a}: {a.sum() / frames * 1e3:.3f} ms CPU per frame, {frames / a.sum():.0f} frames/CPU s")
-    print(f"B {args.b}: {b.sum() / frames * 1e3:.3f} ms CPU per frame, {frames / b.sum():.0f} frames/CPU s")
+    print(f"B {args.b}{' with ' + ', '.join(args.set) if args.set else ''}: {b.sum() / frames * 1e3:.3f} ms CPU per frame, "
+          f"{frames / b.sum():.0f} frames/CPU s")
+    for k in ("a", "b"):  # CPU per call: on a loaded machine the tail is the load's as much as the code's
+        x = np.array(per_frame[k]) * 1e3
+        print(f"{k.upper()} per frame: p50 {np.percentile(x, 50):.3f}, p99 {np.percentile(x, 99):.3f}, max {x.max():.2f} ms CPU")
     print(f"B/A: total {b.sum() / a.sum():.3f}; per block median {np.median(r):.3f} (quartiles {np.percentile(r, 25):.3f}–{np.percentile(r, 75):.3f})")
     for *_, label in PARTS:
         ta, tb = acc["a"].get(label, 0.0) / frames * 1e3, acc["b"].get(label, 0.0) / frames * 1e3

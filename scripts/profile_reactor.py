@@ -33,7 +33,7 @@ from socialaff_sim.inference.protocol import observed_part  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_stream import concatenate  # noqa: E402
-from _reactor_args import add_reactor_source_arguments  # noqa: E402
+from _reactor_args import add_reactor_source_arguments, add_setting_argument, changed_synthesis  # noqa: E402
 
 T0 = 10
 PARTS: list[tuple[object, str, str]] = [
@@ -67,6 +67,7 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_reactor_source_arguments(p, seconds=0.0)
     p.add_argument("--overrun-delta-t", action="store_true", help="the reactor with SynthesisConfig.overrun_delta_t")
+    add_setting_argument(p, "the pickled method's synthesis")
     args = p.parse_args()
     acc: dict[str, float] = {}
     for owner, name, label in PARTS:
@@ -75,6 +76,9 @@ def main() -> None:
         method = pickle.load(f)
     if args.overrun_delta_t:
         method.synthesis = dataclasses.replace(method.synthesis, overrun_delta_t=True)
+    if args.set:
+        method.synthesis = changed_synthesis(method.synthesis, args.set, p)
+        print(f"synthesis changed: {', '.join(args.set)}")
     data = load_dataset(args.data)
     label = args.interaction or data[0].label
     pool = [i for i in data if i.label == label][args.skip : args.skip + args.recordings]

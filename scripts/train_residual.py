@@ -58,7 +58,6 @@ import dataclasses  # noqa: E402
 import json  # noqa: E402
 import time  # noqa: E402
 import sys  # noqa: E402
-import zlib  # noqa: E402
 from collections.abc import Callable, Mapping, Sequence  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
@@ -71,8 +70,6 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormali
 
 from socialaff_sim._atomic import atomic_write_text  # noqa: E402
 from socialaff_sim.data.interaction import Interaction  # noqa: E402
-from socialaff_sim.data.synthetic import generate_dataset  # noqa: E402
-from socialaff_sim.data.synthetic.config import SyntheticConfig  # noqa: E402
 from socialaff_sim.environment import SocialAffordanceEnv  # noqa: E402
 from socialaff_sim.environment.config import CONTROL_DT, EnvConfig  # noqa: E402
 from socialaff_sim.environment.reward import RewardConfig  # noqa: E402
@@ -85,11 +82,12 @@ if _HERE not in sys.path:  # run as `python scripts/train_residual.py` it is sys
     sys.path.append(_HERE)
 from _residual_curve import CurveRecorder, plot_curve  # noqa: E402
 from _residual_episodes import held_out_episodes, run_episodes, trained_policy, training_episodes, zero_policy  # noqa: E402
-from _residual_data import DEFAULT_SPLITS, parse_splits, real_split  # noqa: E402
+from _residual_eval import evaluate_held_out  # noqa: E402
+from _residual_data import DEFAULT_SPLITS, build_data, describe_split, fit_models, parse_splits  # noqa: E402
 from _residual_reward import FallPenalty  # noqa: E402
+from _residual_gate import GatedResidual, check_gate  # noqa: E402
 from _residual_reach import ReachResidual  # noqa: E402
-from _residual_report import load_reference, reference_lines, reference_summary, result_lines  # noqa: E402
-from _residual_stats import summarize  # noqa: E402
+from _residual_report import load_reference, load_start_reference, reference_lines, reference_summary, result_lines  # noqa: E402
 
 LABELS = ("shake_hands", "hand_over")
 RESIDUAL_BOUND = EnvConfig().residual_bound
@@ -181,36 +179,38 @@ class Settings:
     """Folds each recorded class is dealt into; one is held out, the others are trained on."""
     held_out_fold: int = 0
     """The fold held out."""
+    residual_labels: tuple[str, ...] = ()
+    """The interactions the residual acts on (``_residual_gate.GatedResidual``): elsewhere the policy's action is
+    replaced by zeros (the affordance model alone), and training episodes are drawn from these labels only;
+    empty: every label of ``labels``."""
+    action_bias: tuple[float, ...] = ()
+    """b (policy units): on the acting labels the environment gets clip(b + a, −1, 1) for the policy's action a, so
+    the untrained policy plays the constant b and learns a correction to it; empty: no bias. With either of these
+    two the held-out evaluation also plays the zero action through the gate (the start: b on the acting labels,
+    nothing elsewhere; ``results["summary_start"]``, and the trained policy against it, ``summary_learned``)."""
+
+    @property
+    def gated(self) -> bool:
+        """Whether the residual goes through :class:`GatedResidual` (a label set or a bias is given)."""
+        return bool(self.residual_labels or self.action_bias)
 
 
 # -- data and environments -----------------------------------------------------------------------------------------
-def build_data(s: Settings) -> tuple[list[Interaction], list[Interaction]]:
-    """(training instances, held-out instances): with ``s.data``, the recorded classes split as
-    :func:`_residual_data.real_split` splits them; otherwise two synthetic datasets, seeds ``s.seed`` and
-    ``s.seed + 1``."""
-    if s.data:
-        train_r, held_r, _ = real_split(s.data, s.labels, parse_splits(s.split), s.folds, s.held_out_fold, s.seed)
-        return train_r, held_r
-    train = generate_dataset(s.seed, SyntheticConfig(interactions=s.labels, instances_per_interaction=s.train_instances))
-    held = generate_dataset(s.seed + 1, SyntheticConfig(interactions=s.labels, instances_per_interaction=s.eval_instances))
-    return list(train.interactions), list(held.interactions)
-
-
-def fit_models(s: Settings, train: Sequence[Interaction]) -> dict[str, SocialAffordanceModel]:
-    """One affordance model per interaction, fitted on the training instances (seeded per label)."""
-    models = {}
-    for label in s.labels:
-        rng = np.random.default_rng([s.seed, zlib.crc32(label.encode())])
-        learning = LearningConfig(iterations=s.fit_iterations)
-        models[label] = SocialAffordanceModel(learning=learning).fit([i for i in train if i.label == label], rng=rng)
-    return models
-
-
 def make_env(s: Settings, instances: Sequence[Interaction], models: Mapping[str, SocialAffordanceModel],
-             training: bool = False) -> gym.Env:
+             training: bool = False, gate: bool = False) -> gym.Env:
     """The residual-mode environment as SB3 wants it: flat float32 observation, a flat action in [−1, 1] that is
     a residual of ±``s.action_scale`` m per coordinate. ``training``: with the training reward
-    (``s.train_affordance_weight``, and ``s.train_fall_penalty`` when it is not 0); otherwise the environment's default reward."""
+    (``s.train_affordance_weight``, and ``s.train_fall_penalty`` when it is not 0); otherwise the environment's default
+    reward. ``gate`` (with ``s.gated``): through :class:`GatedResidual` (``s.residual_labels``, ``s.action_bias``;
+    training environments draw their episodes from the acting labels only)."""
+    env = _residual_env(s, instances, models, training)
+    if gate and s.gated:
+        env = GatedResidual(env, s.residual_labels or s.labels, s.action_bias, train_only=training)
+    return env
+
+
+def _residual_env(s: Settings, instances: Sequence[Interaction], models: Mapping[str, SocialAffordanceModel],
+                  training: bool) -> gym.Env:
     if not 0.0 < s.action_scale <= RESIDUAL_BOUND:
         raise ConfigError(f"--action-scale: expected a residual in (0, {RESIDUAL_BOUND}] m, found {s.action_scale!r}")
     reward = dataclasses.replace(RewardConfig(), affordance_weight=s.train_affordance_weight) if training else None
@@ -240,7 +240,7 @@ def train(s: Settings, train_set: Sequence[Interaction], models: Mapping[str, So
     have passed (checked after each rollout); returns the agent, its observation normalizer and the recorder
     (curve rows, the steps trained on)."""
     torch.set_num_threads(1)
-    venv = DummyVecEnv([lambda: make_env(s, train_set, models, training=True) for _ in range(s.n_envs)])
+    venv = DummyVecEnv([lambda: make_env(s, train_set, models, training=True, gate=True) for _ in range(s.n_envs)])
     venv.seed(s.seed)
     norm = VecNormalize(VecMonitor(venv), norm_obs=True, norm_reward=True, gamma=s.gamma)
     agent = PPO(
@@ -256,24 +256,12 @@ def train(s: Settings, train_set: Sequence[Interaction], models: Mapping[str, So
 
 
 # -- the whole run -------------------------------------------------------------------------------------------------
-def describe_split(s: Settings, train: Sequence[Interaction], held: Sequence[Interaction]) -> dict[str, Any]:
-    """What was trained on and what was held out: instance ids per label."""
-    def ids(insts: Sequence[Interaction]) -> dict[str, list[str]]:
-        return {lbl: [i.instance_id for i in insts if i.label == lbl] for lbl in sorted({i.label for i in insts})}
-    if s.data:
-        what = (f"recorded: {', '.join(s.data)}; split {' '.join(s.split)}, fold {s.held_out_fold} of {s.folds} "
-                f"held out per (dataset, label), seed {s.seed}")
-    else:
-        what = (f"synthetic dataset seed {s.seed + 1}, {s.eval_instances} instances per interaction "
-                f"(training: seed {s.seed}, {s.train_instances} per interaction)")
-    return {"held_out": what, "train_ids": ids(train), "held_out_ids": ids(held)}
-
-
-def reference_rows(s: Settings, train_set: Sequence[Interaction],
-                   models: Mapping[str, SocialAffordanceModel]) -> tuple[list[dict[str, Any]], dict[str, dict[str, float]]]:
+def reference_rows(s: Settings, train_set: Sequence[Interaction], models: Mapping[str, SocialAffordanceModel],
+                   gate: bool = False) -> tuple[list[dict[str, Any]], dict[str, dict[str, float]]]:
     """The zero residual once on every TRAINING instance, with the training reward: the episode rows and, per
-    label, the success rate and mean return (the learning curve's dashed references)."""
-    train_env = make_env(s, train_set, models, training=True)
+    label, the success rate and mean return (the learning curve's dashed references). ``gate``: the zero action
+    through the run's gate and bias instead (its start; the curve's dotted references)."""
+    train_env = make_env(s, train_set, models, training=True, gate=gate)
     train_eps = training_episodes([i.instance_id for i in train_set], s.seed)
     ref_rows = run_episodes(train_env, train_eps, zero_policy(train_env))
     return ref_rows, reference_summary(ref_rows, s.labels)
@@ -301,11 +289,14 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
     if reference_only:
         ref_rows, reference = reference_rows(s, train_set, models)
         ref = {"settings": dataclasses.asdict(s), "split": split, "train_reference_zero_residual": reference,
-               "total_wall_s": time.perf_counter() - wall0, "total_cpu_s": time.process_time() - cpu0,
                "episodes": ref_rows}
+        if s.gated:  # the start (the bias on the acting labels) on the same training episodes
+            ref["episodes_start"], ref["train_reference_start"] = reference_rows(s, train_set, models, gate=True)
+        ref |= {"total_wall_s": time.perf_counter() - wall0, "total_cpu_s": time.process_time() - cpu0}
         atomic_write_text(out / "reference.json", json.dumps(ref, indent=2))
         return ref
     held_env = make_env(s, held_out, models)
+    held_gated = make_env(s, held_out, models, gate=True) if s.gated else None  # bad --residual-labels fail here
     if s.eval_constant and len(s.eval_constant) != int(np.prod(held_env.action_space.shape)):
         raise ConfigError(f"--eval-constant: expected {int(np.prod(held_env.action_space.shape))} numbers, "
                           f"found {len(s.eval_constant)}")
@@ -318,30 +309,24 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
     norm.save(str(out / "vecnormalize.pkl"))
     log(f"trained in {train_wall:.0f} s wall ({len(curve)} training episodes); evaluating")
 
-    # Reference for the curve: the zero residual once on every training instance, with the training reward.
+    # References for the curve: the zero residual (and the start) once on every training instance, training reward.
     reference = reference_saved if reference_saved is not None else reference_rows(s, train_set, models)[1]
-    plot_curve(curve, reference, out / "learning_curve.png")
+    start = None if reference_file is None else load_start_reference(reference_file, s)
+    if start is None and s.gated:
+        start = reference_rows(s, train_set, models, gate=True)[1]
+    plot_curve(curve, reference, out / "learning_curve.png", start=start)
 
-    # Held-out evaluation: the same (instance, reset seed) pairs for both policies.
+    # Held-out evaluation: the same (instance, reset seed) pairs for every policy.
     episodes = held_out_episodes([i.instance_id for i in held_out], s.seed)
-    rows_res = run_episodes(held_env, episodes, trained_policy(agent, norm))
-    rows_zero = run_episodes(held_env, episodes, zero_policy(held_env))
-    summary = summarize(rows_res, rows_zero, s.seed)
-    const: dict[str, Any] = {}
-    if s.eval_constant:
-        action = np.asarray(s.eval_constant, np.float32)
-        rows_const = run_episodes(held_env, episodes, lambda obs: action.copy())
-        const = {"summary_constant": summarize(rows_const, rows_zero, s.seed), "episodes_constant": rows_const}
+    evaluated = evaluate_held_out(held_env, held_gated, episodes, trained_policy(agent, norm), s.seed, s.eval_constant)
     results = {
         "settings": dataclasses.asdict(s),
         "held_out": split["held_out"], "split": split,
         "train_wall_s": train_wall, "total_wall_s": time.perf_counter() - wall0,
         "total_cpu_s": time.process_time() - cpu0, "training_episodes": len(curve),
         "timesteps_trained": recorder.updated_timesteps, "stopped_by_budget": recorder.stopped,
-        "train_reference_zero_residual": reference,
-        "summary": summary,
-        "episodes": {"residual": rows_res, "zero_residual": rows_zero},
-        **const,
+        "train_reference_zero_residual": reference, "train_reference_start": start,
+        **evaluated,
     }
     atomic_write_text(out / "curve.json", json.dumps(curve))
     atomic_write_text(out / "results.json", json.dumps(results, indent=2))
@@ -361,7 +346,7 @@ def main() -> None:
     ap.add_argument("--interactions", nargs="+", default=list(d.labels))
     for f in dataclasses.fields(Settings):
         if f.name in ("labels", "max_frames", "control_dt", "data", "split", "residual_groups", "residual_tau",
-                      "reach_scale", "use_sde", "eval_constant"):
+                      "reach_scale", "use_sde", "eval_constant", "residual_labels", "action_bias"):
             continue
         ap.add_argument("--" + f.name.replace("_", "-"), type=type(f.default), default=f.default)
     ap.add_argument("--max-frames", type=int, default=None)
@@ -375,6 +360,12 @@ def main() -> None:
     ap.add_argument("--use-sde", action="store_true", help="gSDE exploration (noise held for --sde-sample-freq steps)")
     ap.add_argument("--eval-constant", nargs="+", type=float, default=list(d.eval_constant), metavar="A",
                     help="also play this constant action (policy units) on the held-out episodes")
+    ap.add_argument("--residual-labels", nargs="+", default=list(d.residual_labels), metavar="LABEL",
+                    help="the residual acts on these interactions only (zeros elsewhere; training episodes of these "
+                         "only); default: every interaction")
+    ap.add_argument("--action-bias", nargs="+", type=float, default=list(d.action_bias), metavar="A",
+                    help="add this constant (policy units) to the policy's action on the acting interactions, so "
+                         "training starts from it (default: none)")
     ap.add_argument("--data", nargs="+", default=list(d.data), metavar="SPEC",
                     help="recorded dataset specs (handover:PATH sbu:PATH nuisi:PATH ...); default: synthetic")
     ap.add_argument("--split", nargs="+", default=list(d.split), metavar="[KIND=]NAME",
@@ -392,12 +383,16 @@ def main() -> None:
                          "record the steps trained, and --timesteps with that number reproduces the policy")
     args = ap.parse_args()
     kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(Settings)
-          if f.name not in ("labels", "data", "split", "residual_groups", "eval_constant")}
+          if f.name not in ("labels", "data", "split", "residual_groups", "eval_constant", "residual_labels", "action_bias")}
     budget = None if args.budget_minutes is None else 60.0 * args.budget_minutes
     try:
         s = Settings(labels=tuple(args.interactions), data=tuple(args.data), split=tuple(args.split),
-                     residual_groups=tuple(args.residual_groups), eval_constant=tuple(args.eval_constant), **kw)
-        parse_splits(s.split)  # a bad --split fails before anything runs
+                     residual_groups=tuple(args.residual_groups), eval_constant=tuple(args.eval_constant),
+                     residual_labels=tuple(args.residual_labels), action_bias=tuple(args.action_bias), **kw)
+        parse_splits(s.split)  # a bad --split fails before anything runs, and so does a bad gate
+        if s.gated:
+            check_gate(s.labels, s.residual_labels or s.labels, s.action_bias,
+                       5 if s.reach_scale is not None else 3 * (len(s.residual_groups) or 5))
         r = run(s, args.out, args.models, budget_s=budget, reference_only=args.reference_only, reference_file=args.reference)
     except SocialAffError as err:  # bad flags or data: one line naming the flag, exit 2 (results are written atomically)
         print(f"train_residual.py: error: {err}", file=sys.stderr)

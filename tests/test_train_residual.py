@@ -37,6 +37,7 @@ from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "scripts" / "train_residual.py"
+STATS = load_script("_residual_stats")  # the summaries (train_residual calls them through _residual_eval)
 
 
 @pytest.fixture(scope="module")
@@ -165,7 +166,7 @@ def test_summary_by_hand(script) -> None:  # noqa: ANN001
            _row("b", 0, True, 2.0), _row("b", 1, False, 1.0)]
     zero = [_row("a", 0, True, 4.0), _row("a", 1, False, 1.0), _row("a", 2, False, 1.0), _row("a", 3, True, 2.0),
             _row("b", 0, True, 2.0), _row("b", 1, False, 3.0)]
-    s = script.summarize(res, zero[::-1], seed=0)  # pairing is by (instance, seed), not by order
+    s = STATS.summarize(res, zero[::-1], seed=0)  # pairing is by (instance, seed), not by order
     assert s["residual_only_successes"] == 2 and s["zero_only_successes"] == 1
     assert s["residual"]["successes"] == 4 and s["zero_residual"]["successes"] == 3
     np.testing.assert_allclose(s["residual"]["success_ci95"], _wilson(4, 6), atol=1e-9)
@@ -181,14 +182,14 @@ def test_target_decision(script) -> None:  # noqa: ANN001
     n = 20
     better = [_row("a", k, True, 1.0) for k in range(n)]
     worse = [_row("a", k, k < 2, 0.0) for k in range(n)]
-    assert script.summarize(better, worse, seed=0)["target_met"] is True
-    assert script.summarize(worse, better, seed=0)["target_met"] is False
-    assert script.summarize(better, better, seed=0)["target_met"] is False
+    assert STATS.summarize(better, worse, seed=0)["target_met"] is True
+    assert STATS.summarize(worse, better, seed=0)["target_met"] is False
+    assert STATS.summarize(better, better, seed=0)["target_met"] is False
 
 
 def test_summary_rejects_unpaired_episodes(script) -> None:  # noqa: ANN001
     with pytest.raises(ConfigError, match="same"):
-        script.summarize([_row("a", 0, True, 1.0)], [_row("a", 1, True, 1.0)], seed=0)
+        STATS.summarize([_row("a", 0, True, 1.0)], [_row("a", 1, True, 1.0)], seed=0)
 
 
 def test_wall_clock_budget_stops_after_a_whole_rollout(script, tiny) -> None:  # noqa: ANN001
@@ -213,13 +214,13 @@ def test_summary_strata_are_tasks_not_labels(script) -> None:  # noqa: ANN001
            row("handshake", "shake_hands", 2, True), row("hand_over", "hand_over", 3, False)]
     zero = [row("shaking_hands", "shake_hands", 0, False), row("handshake", "shake_hands", 1, True),
             row("handshake", "shake_hands", 2, True), row("hand_over", "hand_over", 3, False)]
-    s = script.summarize(res, zero, seed=0)
+    s = STATS.summarize(res, zero, seed=0)
     assert set(s["per_interaction"]) == {"shake_hands", "hand_over"}
     assert set(s["per_label"]) == {"shaking_hands", "handshake", "hand_over"}
     # by task: (1/3 + 0) / 2; weighting the three labels equally would give (1 + 0 + 0) / 3
     np.testing.assert_allclose(s["paired_success_difference"]["mean"], (1 / 3) / 2, atol=1e-12)
     assert s["per_label"]["shaking_hands"]["paired_success_difference"]["mean"] == 1.0
-    assert "per_label" not in script.summarize(res[3:], zero[3:], seed=0)
+    assert "per_label" not in STATS.summarize(res[3:], zero[3:], seed=0)
 
 
 def test_reference_only_plays_the_training_recordings_and_nothing_else(script, tmp_path) -> None:  # noqa: ANN001

@@ -45,7 +45,11 @@ def draw_from(rows: tuple[np.ndarray, ...], up: np.ndarray, n: int, rng: np.rand
     v = lv * rng.weibull(kv, size=(n, K))
     sign = np.where(rng.random((n, K)) < up, 1.0, -1.0)
     th = rng.vonmises(mu, kap, size=(n, K))
-    return np.stack([h * np.cos(th), h * np.sin(th), sign * v], axis=-1)
+    out = np.empty((n, K, 3))  # np.stack's result, each product written in place (the same values)
+    np.multiply(h, np.cos(th), out=out[..., 0])
+    np.multiply(h, np.sin(th), out=out[..., 1])
+    np.multiply(sign, v, out=out[..., 2])
+    return out
 
 
 def draw_vectors(params: np.ndarray, up: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:

@@ -36,12 +36,30 @@ from ..errors import ModelError
 from ..model.frame import CanonicalFrame
 from ..model.handedness import wrist_paths
 from ..model.joints import N_JOINTS, OBJECT
+from ..model.nan_fill import nan_to_zero
 from .track_window import TrackWindow
 
 __all__ = ["CanonicalStream"]
 
 _WRISTS = (1, 2)  # agent 0's left and right wrists among the model joints (the paths' columns 0 and 1)
 _CHUNK = 4096  # frames per step of a running sum carried across the frames before the window
+
+
+_COLUMNS: dict[tuple[int | None, ...], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def _key_columns(key_indices: tuple[int | None, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For a layout's key joints: the model columns a * N_KEY + k (D,), agents a (D,) and the layout's joint indices
+    (D,) of the key joints it has, agent by agent in the order of a joint-by-joint copy; made once per layout."""
+    cols = _COLUMNS.get(key_indices)
+    if cols is None:
+        have = [(k, idx) for k, idx in enumerate(key_indices) if idx is not None]
+        cols = _COLUMNS[key_indices] = (
+            np.array([a * N_KEY + k for k, _ in have for a in range(2)], np.int64),
+            np.array([a for _ in have for a in range(2)], np.int64),
+            np.array([idx for _, idx in have for _a in range(2)], np.int64),
+        )
+    return cols
 
 
 class CanonicalStream:
@@ -135,19 +153,21 @@ class CanonicalStream:
         """Whether the last frame consumed is unchanged in ``view`` (a cheap check that views grow)."""
         joints, valid = self._tail
         k = self._seen - 1
-        return bool(np.array_equal(view.valid[k], valid) and np.array_equal(view.joints[k], joints, equal_nan=True))
+        vj, vv = view.joints[k], view.valid[k]
+        # The same bytes are equal arrays (NaN to NaN included): the usual case, without array_equal's set-up.
+        if vj.tobytes() == joints.tobytes() and np.asarray(vv).tobytes() == valid.tobytes():
+            return True
+        return bool(np.array_equal(vv, valid) and np.array_equal(vj, joints, equal_nan=True))
 
     def _consume(self, view: Interaction, start: int, stop: int) -> int:
         """Fill the view's frames [start, stop) and the gaps they close; the first frame changed."""
-        layout = view.layout
+        dst, agent, src = _key_columns(view.layout.key_indices)
         x = np.full((stop - start, N_JOINTS, 3), np.nan)
         ok = np.zeros((stop - start, N_JOINTS), dtype=bool)
         valid = np.asarray(view.valid)
-        for k, idx in enumerate(layout.key_indices):
-            if idx is not None:
-                for a in range(2):
-                    x[:, a * N_KEY + k] = view.joints[start:stop, a, idx]
-                    ok[:, a * N_KEY + k] = valid[start:stop, a, idx]
+        if dst.size:  # the key joints of both agents, one gather each (the same values as joint by joint)
+            x[:, dst] = view.joints[start:stop][:, agent, src]
+            ok[:, dst] = valid[start:stop][:, agent, src]
         if view.object is not None:
             x[:, OBJECT] = view.object[start:stop]
             ok[:, OBJECT] = True
@@ -160,12 +180,13 @@ class CanonicalStream:
         self._last[simple] = stop - 1
         self._last_pos[simple] = world[stop - 1, simple]
         first = start
-        for j in np.flatnonzero(~simple):
-            tracked = np.flatnonzero(ok[:, j])
+        rest = ~simple
+        held = rest & ~ok.any(axis=0)  # not tracked in any new frame: held at its last tracked position (NaN if never)
+        if held.any():
+            world[start:stop, held] = self._last_pos[held]
+        for j in (rest & ~held).nonzero()[0]:
+            tracked = ok[:, j].nonzero()[0]
             last = int(self._last[j])
-            if not tracked.size:  # held at its last tracked position (NaN if never tracked)
-                world[start:stop, j] = self._last_pos[j]
-                continue
             lo = last + 1 if last >= 0 else 0  # from the open gap's first frame (or the stream's first)
             xp = np.r_[[last] if last >= 0 else [], start + tracked].astype(np.float64)
             fp = np.concatenate([self._last_pos[j][None] if last >= 0 else np.zeros((0, 3)), x[tracked, j]])
@@ -196,7 +217,9 @@ class CanonicalStream:
             for j, (last, xp, fp) in self._carry.items():
                 paths[floor, j - 1] = self._carried(j, last, xp, fp, floor, float(paths[floor, j - 1]))
             changed = floor + 1
-        steps = np.nan_to_num(np.linalg.norm(np.diff(track[changed - 1 : n, 1:3], axis=0), axis=-1), nan=0.0)
+        seg = track[changed - 1 : n, 1:3]
+        d = seg[1:] - seg[:-1]  # np.diff's subtraction; np.linalg.norm's sum of squares (the same values, fewer calls)
+        steps = nan_to_zero(np.sqrt(np.add.reduce(d * d, axis=-1)))
         paths[changed - 1 : n] = np.cumsum(np.concatenate([paths[changed - 1 : changed], steps]), axis=0)
 
     def _carried(self, j: int, last: int, xp: np.ndarray, fp: np.ndarray, stop: int, total: float) -> float:

@@ -42,6 +42,7 @@ from .type_tables import TypeTables
 __all__ = ["ForwardBelief"]
 
 _LOG_2PI = float(np.log(2.0 * np.pi))
+_max, _sum = np.maximum.reduce, np.add.reduce  # what np.max and ndarray.sum call
 
 
 class ForwardBelief:
@@ -235,22 +236,23 @@ class ForwardBelief:
         return starts, p
 
     def _posterior_at(self, t: int) -> tuple[np.ndarray, np.ndarray]:
+        # Every frame reads this: the reductions by the ufuncs that np.max and ndarray.sum call, without their wrappers.
         starts = self._starts  # every start kept is a cut before t
         d = np.minimum(t - starts, self.horizon)
         logp = self._G + self._surv[d]  # (K, S)
         if self._has_long:
-            starts = np.append(starts, t - self.horizon)
-            logp = np.concatenate([logp, self._long_read[None]])
-        top = np.max(logp) if logp.size else -np.inf
+            starts = np.concatenate((starts, (t - self.horizon,)))  # np.append's concatenation
+            logp = np.concatenate((logp, self._long_read[None]))
+        top = _max(logp, axis=None) if logp.size else -np.inf
         if not np.isfinite(top):
             S = self.S
             return np.array([self.origin], np.int64), np.full((1, S), 1.0 / S)
         p = np.exp(logp - top)
-        return starts, p / p.sum()
+        return starts, p / _sum(p, axis=None)
 
     def belief(self, t: int) -> np.ndarray:
         """(S,) P(current sub-event = s | frames < t)."""
-        return self.posterior(t)[1].sum(axis=0)
+        return _sum(self.posterior(t)[1], axis=0)
 
 
 def _ends(track: np.ndarray, starts: np.ndarray, b: int, fps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -273,8 +275,8 @@ def _held(track: np.ndarray | TrackWindow, starts: np.ndarray) -> tuple[np.ndarr
 
 def _logsumexp_finite(x: np.ndarray, axis: int) -> np.ndarray:
     """logsumexp that returns −inf (without a warning) where every term is −inf."""
-    top = np.max(x, axis=axis, keepdims=True)
+    top = _max(x, axis=axis, keepdims=True)  # np.max's and np.sum's reductions, without their wrappers (every cut)
     safe = np.where(np.isfinite(top), top, 0.0)
     with np.errstate(divide="ignore"):
-        out = np.log(np.sum(np.exp(x - safe), axis=axis)) + np.squeeze(safe, axis=axis)
+        out = np.log(_sum(np.exp(x - safe), axis=axis)) + np.squeeze(safe, axis=axis)
     return out

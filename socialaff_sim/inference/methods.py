@@ -40,6 +40,7 @@ from .reaction_regression import inner_folds
 from .switching import SwitchingConfig, SwitchingRegression
 from .switching_rows import Trace, plan_displacement, plan_offset, switching_rows
 from .synthesis import OnlineSynthesizer, SynthesisConfig
+from .synthesis_step import SynthesisStep
 
 
 __all__ = [
@@ -144,6 +145,15 @@ def fit_skeleton(
     skel = interaction.filled_joints()[:, 1].copy()
     skel[n_observed:] = body.fit_poses(keys[n_observed:], instance_frame(interaction))
     return skel
+
+
+def chains_mean(blocks: Sequence[Sequence[SynthesisStep]]) -> np.ndarray:
+    """(F, 5, 3) the mean over the chains (K lists of F steps each) of their key joints, ``np.mean``'s values bitwise:
+    with one chain (the registered methods; every frame of a stream) its key joints as ``np.mean`` makes them, 0 + x
+    (its sum starts from 0, so −0 becomes +0) divided by 1, without its set-up."""
+    if len(blocks) == 1:
+        return np.array([st.key_joints for st in blocks[0]]) + 0.0
+    return np.mean([[st.key_joints for st in steps] for steps in blocks], axis=0)
 
 
 def _chain_generators(rng: np.random.Generator, k: int) -> list[np.random.Generator]:
@@ -316,7 +326,7 @@ class _AffordanceReactor:
                 if step.t >= start:
                     steps.append(step)
             blocks.append(steps)
-        keys = np.mean([[st.key_joints for st in steps] for steps in blocks], axis=0)
+        keys = chains_mean(blocks)
         subs = np.array([st.subevent for st in blocks[0]], dtype=np.int64)
         joints = self.method.body_.fit_poses(keys, self._frame) if self._plan_prior else None
         if self.reaction is None or self.stream is None:

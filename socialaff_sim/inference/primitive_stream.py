@@ -191,7 +191,7 @@ class PrimitiveStream(PrimitiveSums):
             if self.primitive.has_object_ and view.object is not None:
                 row[3 * len(keys) : self._d0] = self._frame.to_canonical(view.object[s])
             self._add_frame(s, row)
-            for j in np.flatnonzero((s - self._last_frame > 1) if every else valid & (s - self._last_frame > 1)):
+            for j in ((s - self._last_frame > 1) if every else valid & (s - self._last_frame > 1)).nonzero()[0]:
                 self._close_gap(j, s, raw[j])
             if every:
                 self._last_frame[:] = s
@@ -219,13 +219,13 @@ class PrimitiveStream(PrimitiveSums):
     # ------------------------------------------------------------------------------------ prediction
     def _choose(self, at_least: int) -> int:
         """Index (into the candidates) of T̂: the best match among the candidates ≥ ``at_least``; past T_max, T_max."""
-        lo = int(np.searchsorted(self._cands, at_least, side="left"))  # the candidates ≥ at_least: [lo, end)
+        lo = int(self._cands.searchsorted(at_least, side="left"))  # the candidates ≥ at_least: [lo, end)
         n_c = len(self._cands)
         if lo == n_c:
             return n_c - 1  # T_max, the bounded rule (module docstring)
         if lo == n_c - 1:
             return lo
-        return lo + int(np.argmin(self._err[lo:]))
+        return lo + int(self._err[lo:].argmin())
 
     def _solver(self, c: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Candidate ``c``'s fixed part of the conditioning: S = P_aa − P_ar K (a, a), K = Λ_rr⁻¹ P_ra (r, a),

@@ -106,8 +106,8 @@ class PrimitiveSums:
         if s >= self.n_observed:
             seen[self._d0 :] = False  # agent 1 after the prefix is never used
         n_c = len(self._cands)
-        lo = min(int(np.searchsorted(self._cands, s, side="right")), n_c - 1)  # candidates > s, and T_max
-        cols = np.flatnonzero(seen)
+        lo = min(int(self._cands.searchsorted(s, side="right")), n_c - 1)  # candidates > s, and T_max
+        cols = seen.nonzero()[0]  # np.flatnonzero of the 1-d mask, without its wrappers
         p0 = self._table[min(s, self.t_max), lo:]  # (A, N)
         yz = y[cols] * self._inv_var[cols]
         w = self._inv_var[cols]

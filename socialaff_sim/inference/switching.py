@@ -360,18 +360,27 @@ class SwitchingRegression:
             raise NotFittedError("switching regression: call fit(...) before displacement")
         priors = {"from_plan": offset, "from_primitive": primitive_offset}
         out = np.zeros((len(rows), self.n_outputs_))
-        for m in self.members_:
-            given = priors[m.prior] if m.prior else None
-            if m.prior and given is None:
-                raise ModelError(f"switching regression: a member's prior is {m.prior!r}: pass its offset")
+        for m, (prior, scale, lower, upper) in zip(self.members_, self._member_tables(), strict=True):
+            given = priors[prior] if prior else None
+            if prior and given is None:
+                raise ModelError(f"switching regression: a member's prior is {prior!r}: pass its offset")
             part = np.array(given, dtype=np.float64) if given is not None else np.zeros_like(out)
             if len(m.columns):
-                x = rows[:, m.columns] / self.scale_[m.columns]
+                x = rows[:, m.columns] / scale
                 if self.config.clip_features:  # no linear extrapolation beyond the training rows
-                    x = np.clip(x, self.lower_[m.columns], self.upper_[m.columns])
+                    x = x.clip(lower, upper)  # what np.clip calls
                 part += x @ m.coefficients
             out += m.weight * part
         return out
+
+    def _member_tables(self) -> tuple[tuple[str | None, np.ndarray, np.ndarray, np.ndarray], ...]:
+        """Per member: its prior and the scales and clip bounds of its columns (the same selections of ``scale_``,
+        ``lower_`` and ``upper_`` as at every call), made once per fit: the reactor reads them at every frame."""
+        cache = self.__dict__.get("_tables")
+        if cache is None or cache[0] is not self.members_:
+            cache = self._tables = (self.members_, tuple(
+                (m.prior, self.scale_[m.columns], self.lower_[m.columns], self.upper_[m.columns]) for m in self.members_))
+        return cache[1]
 
     @property
     def groups_(self) -> tuple[str, ...]:

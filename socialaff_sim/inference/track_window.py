@@ -141,7 +141,18 @@ class TrackWindow:
     # -- indexing --------------------------------------------------------------------------------
     def _first(self, key: object) -> tuple[object, np.ndarray | None]:
         """The first-axis key in buffer rows, or (None, the pinned row) for a pinned frame below the floor."""
-        if isinstance(key, (int, np.integer)):
+        kind = type(key)
+        if kind is slice and key.step is None:  # the usual read of a stream: no isinstance chain, no min/max calls
+            a = 0 if key.start is None else int(key.start)
+            b = self._n if key.stop is None or key.stop > self._n else int(key.stop)
+            if a >= self._floor and b >= 0:
+                return slice(a - self._base, (b if b > a else a) - self._base), None
+            if a < 0 or b < 0:
+                raise ModelError(f"{self.name}: negative frames are not supported (found {a}:{b})")
+            if b > a:
+                raise ModelError(f"{self.name}: frames {a}:{b} reach before the window (frames from {self._floor} are held)")
+            return slice(self._floor - self._base, self._floor - self._base), None
+        if kind is int or isinstance(key, (int, np.integer)):
             k = int(key)
             if k < 0 or k >= self._n:
                 raise IndexError(f"{self.name}: frame {k} out of range [0, {self._n})")

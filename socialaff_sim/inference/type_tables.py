@@ -15,7 +15,7 @@ import numpy as np
 from scipy.special import i0e
 
 from ..model.affordance import AffordanceParameters
-from ..model.densities import lognorm_logpdf
+from ..model.densities import lognorm_logpdf, weibull_terms
 from ..model.features import polar
 from ..model.potentials import polar_rows_logpdf, reference_weights
 
@@ -62,7 +62,7 @@ class TypeTables:
             self._sp.append((rows, cols, self.sp_w[np.ix_(rows, cols)]))
             self._read[np.ix_(rows, cols)] = True
         self.dur = np.asarray(model.duration_params_, float)
-        self._cache: dict[tuple[str, int | None], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._cache: dict[tuple[str, int | None], tuple] = {}
         # Per type: the columns of its rows among all rows (the same selection as types == s, made once).
         self._sp_groups = [(s, np.flatnonzero(self.sp_type == s)) for s in range(S) if np.any(self.sp_type == s)]
         self._mo_groups = [(s, np.flatnonzero(self.mo_type == s)) for s in range(S) if np.any(self.mo_type == s)]
@@ -94,24 +94,25 @@ class TypeTables:
 
     def _rows(
         self, key: tuple[str, int | None], params: np.ndarray, expon: np.ndarray | None, sel: np.ndarray | None = None
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """A set of rows' parameters (R, 6), their exponential flags (R,) (None: none exponential) and log i0e(κ)
-        (R,) of the von Mises term, the rows ``sel`` (a selection; None: all) of ``params`` and ``expon``: made
+    ) -> tuple:
+        """A set of rows' parameters (R, 6), their exponential flags (R,) (None: none exponential), log i0e(κ)
+        (R,) of the von Mises term and the Weibull terms of h and |dz| (:func:`~socialaff_sim.model.densities.weibull_terms`), the rows ``sel`` (a selection; None: all) of ``params`` and ``expon``: made
         once per (potential, type) (a re-planning scores every frame on a long stream); the same arrays the
         per-call selection made, so the same values."""
         rows = self._cache.get(key)
         if rows is None:
             p = params if sel is None else params[sel]
             e = np.zeros(p.shape[0], bool) if expon is None else (expon if sel is None else expon[sel])
-            rows = self._cache[key] = (p, e, np.log(i0e(p.T[5])))
+            kh, lh, kv, lv = p.T[:4]  # the columns polar_rows_logpdf reads (the same views)
+            rows = self._cache[key] = (p, e, np.log(i0e(p.T[5])), (weibull_terms(kh, lh), weibull_terms(kv, lv)))
         return rows
 
-    def _density(self, vecs: np.ndarray, rows: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    def _density(self, vecs: np.ndarray, rows: tuple) -> np.ndarray:
         """Row log-densities (N, R) of vectors (N, R, 3) (:func:`~socialaff_sim.model.potentials.polar_rows_logpdf`)."""
-        params, expon, log_i0e = rows
+        params, expon, log_i0e, weibull = rows
         h, v, th = polar(vecs, self.eps)
         with np.errstate(divide="ignore", invalid="ignore"):
-            return polar_rows_logpdf(h, v, th, params, expon, log_i0e=log_i0e)
+            return polar_rows_logpdf(h, v, th, params, expon, log_i0e=log_i0e, weibull=weibull)
 
     def spatial(self, end: np.ndarray, s: int | None = None) -> np.ndarray:
         """Spatial log-potential of N configurations ``end`` (N, 11, 3): (N, S), or (N,) under type ``s``."""

@@ -46,6 +46,19 @@ def reader_window(config: SynthesisConfig, belief: ForwardBelief | None, parser:
     return None
 
 
+def _relabelled_others(hands: np.ndarray) -> np.ndarray:
+    """(6,) the model joints that ``relabel(x, hands)[..., OTHERS, :]`` reads of x, in its order: made once per flags."""
+    key = (bool(hands[0]), bool(hands[1]))
+    cols = _OTHERS_BY_HANDS.get(key)
+    if cols is None:
+        order = relabel(np.arange(2 * N_KEY + 1)[:, None], np.array(key))[:, 0]  # where relabel takes each joint from
+        cols = _OTHERS_BY_HANDS[key] = order[OTHERS]
+    return cols
+
+
+_OTHERS_BY_HANDS: dict[tuple[bool, bool], np.ndarray] = {}
+
+
 class WorkingTrack(TrackWindow):
     """(T, 11, 3) float64, metres, canonical: the synthesizer's working track by absolute frame (module docstring)."""
 
@@ -56,8 +69,9 @@ class WorkingTrack(TrackWindow):
         (the parse's and the belief's history), judged on those frames."""
         old = self.n
         lo = max(changed, self.floor)
-        new = relabel(stream.track[lo:n], hands)[:, OTHERS]
-        pins = [(p, relabel(stream.track[p], hands)[OTHERS]) for p in self.pinned if changed <= p < lo]
+        cols = _relabelled_others(hands)  # relabel(x, hands)[..., OTHERS, :] as one gather (the same values)
+        new = stream.track[lo:n][:, cols]
+        pins = [(p, stream.track[p][cols]) for p in self.pinned if changed <= p < lo]
         seen = min(emitted, old, n)
         history = lo < seen and not np.array_equal(self[lo:seen, OTHERS], new[: seen - lo], equal_nan=True)
         history = history or any(p < seen and not np.array_equal(self[p, OTHERS], row, equal_nan=True) for p, row in pins)

@@ -28,6 +28,7 @@ from scipy.special import i0e, i1e
 
 __all__ = [
     "weibull_logpdf",
+    "weibull_terms",
     "vonmises_logpdf",
     "expon_logpdf",
     "lognorm_logpdf",
@@ -51,16 +52,29 @@ LOG_2PI = float(np.log(2.0 * np.pi))
 
 
 # -- log-densities ----------------------------------------------------------------------
-def weibull_logpdf(x: np.ndarray, k: np.ndarray | float, lam: np.ndarray | float) -> np.ndarray:
-    """log f(x; k, λ) of the two-parameter Weibull; −inf for x < 0 (x = 0 follows the limit)."""
+def weibull_terms(k: np.ndarray | float, lam: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """log(k / λ), k − 1 and k == 1 of Weibull parameter rows: what :func:`weibull_logpdf` computes of the parameters
+    alone, for a caller that scores the same rows again (the reactor's tables, every frame)."""
+    k, lam = np.asarray(k, float), np.asarray(lam, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.log(k / lam), k - 1.0, k == 1.0
+
+
+def weibull_logpdf(
+    x: np.ndarray, k: np.ndarray | float, lam: np.ndarray | float,
+    *, terms: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
+    """log f(x; k, λ) of the two-parameter Weibull; −inf for x < 0 (x = 0 follows the limit). ``terms``:
+    :func:`weibull_terms` of (k, λ) when the caller keeps them (the same values as computed here)."""
     x, k, lam = np.asarray(x, float), np.asarray(k, float), np.asarray(lam, float)
     with np.errstate(divide="ignore", invalid="ignore"):
         z = x / lam
         logz = np.log(z)
         # The parameters' terms on their own shape (K parameter rows, not N × K): the same values, broadcast.
-        core = np.log(k / lam) - z**k
+        log_k_lam, k_minus_1, k_is_1 = weibull_terms(k, lam) if terms is None else terms
+        core = log_k_lam - z**k
         # (k - 1) * log z with the convention 0 * log 0 = 0 (k = 1 at x = 0).
-        term = np.where(k == 1.0, 0.0, (k - 1.0) * logz)
+        term = np.where(k_is_1, 0.0, k_minus_1 * logz)
         out = core + term
     return np.where(x < 0, -np.inf, out)
 

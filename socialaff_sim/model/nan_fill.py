@@ -11,9 +11,13 @@ import numpy as np
 
 __all__ = ["nan_to_value", "nan_to_zero"]
 
+_all = np.logical_and.reduce  # what ndarray.all calls, without its Python wrapper
+
 
 def nan_to_value(x: np.ndarray, nan: float) -> np.ndarray:
     """``np.nan_to_num(x, nan=nan)`` of a float64 array ``x`` (a new array)."""
+    if type(x) is np.ndarray and x.dtype == np.float64 and x.flags.c_contiguous and _all(np.isfinite(x), axis=None):
+        return x.copy()  # nothing to replace (the reactor's usual case): a copy (C order, as np.where's), two calls fewer
     out = np.where(np.isnan(x), nan, x)
     if not np.isfinite(out).all():
         return np.nan_to_num(x, nan=nan)

@@ -197,17 +197,21 @@ def _score_rows(vecs: np.ndarray, params: np.ndarray, eps: float, expon: np.ndar
 
 
 def polar_rows_logpdf(
-    h: np.ndarray, v: np.ndarray, th: np.ndarray, params: np.ndarray, expon: np.ndarray, *, log_i0e: np.ndarray | None = None
+    h: np.ndarray, v: np.ndarray, th: np.ndarray, params: np.ndarray, expon: np.ndarray, *, log_i0e: np.ndarray | None = None,
+    weibull: tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]] | None = None,
 ) -> np.ndarray:
     """Log-density (N, K) of vectors given in polar form (:func:`~socialaff_sim.model.features.polar`: h, |dz|, θ,
     each (N, K)) under K parameter rows (K, 6), one column per row: Weibull (``expon`` (K,): exponential) of h and
     |dz| plus von Mises of θ. Only the kind the rows use is evaluated when they are all of one kind (``np.where``
-    would pick the same values). ``log_i0e``: log i0e(κ) of the rows, when the caller keeps it."""
+    would pick the same values). ``log_i0e``: log i0e(κ) of the rows, when the caller keeps it; ``weibull``:
+    :func:`~.densities.weibull_terms` of (k_h, λ_h) and of (k_v, λ_v), when the caller keeps them (read when every row
+    is a Weibull row)."""
     kh, lh, kv, lv, mu, kap = params.T
     if expon.all():
         dist = expon_logpdf(h, lh) + expon_logpdf(v, lv)
     elif not expon.any():
-        dist = weibull_logpdf(h, kh, lh) + weibull_logpdf(v, kv, lv)
+        th_, tv_ = (None, None) if weibull is None else weibull
+        dist = weibull_logpdf(h, kh, lh, terms=th_) + weibull_logpdf(v, kv, lv, terms=tv_)
     else:  # each kind on its own columns (was: both on every column, then np.where; the same values per element)
         w = ~expon
         dist = np.empty(np.broadcast_shapes(h.shape, v.shape))
