@@ -88,6 +88,17 @@ def shake8():  # noqa: ANN201 (Dataset, imported lazily)
 
 
 @pytest.fixture(scope="session")
+def shake1_npz(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder with one synthetic shake_hands recording (seed 0) in the project's npz format, for CLI tests."""
+    from socialaff_sim.data import save_dataset
+    from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
+
+    folder = tmp_path_factory.mktemp("npz")
+    save_dataset(generate_dataset(seed=0, config=SyntheticConfig(interactions=("shake_hands",), instances_per_interaction=1)), folder)
+    return folder
+
+
+@pytest.fixture(scope="session")
 def shake8_model(shake8):  # noqa: ANN001, ANN201
     """A model fitted on the first six of :func:`shake8` with 3 MCMC iterations (seed 0)."""
     from socialaff_sim.learning.config import LearningConfig

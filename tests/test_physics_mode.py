@@ -9,8 +9,7 @@ import pytest
 
 from socialaff_sim.cli.main import main
 from socialaff_sim.errors import ConfigError
-from socialaff_sim.data import save_dataset
-from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
+from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.demo.pipeline import DemoConfig, InteractionResult
 from socialaff_sim.demo.report import write_report
 from socialaff_sim.report.demo_page import write_demo_page
@@ -83,11 +82,8 @@ def test_the_support_caption_fits_a_video_frame() -> None:
 
 
 @pytest.fixture(scope="module")
-def data_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    folder = tmp_path_factory.mktemp("npz")
-    data = generate_dataset(seed=0, config=SyntheticConfig(interactions=("shake_hands",), instances_per_interaction=1))
-    save_dataset(data, folder)
-    return folder
+def data_dir(shake1_npz: Path) -> Path:
+    return shake1_npz
 
 
 def _simulate(data_dir: Path, out: Path, *extra: str) -> dict:

@@ -8,16 +8,11 @@ from pathlib import Path
 import pytest
 
 from socialaff_sim.cli.main import main
-from socialaff_sim.data import save_dataset
-from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 
 
 @pytest.fixture(scope="module")
-def data_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    folder = tmp_path_factory.mktemp("npz")
-    data = generate_dataset(seed=0, config=SyntheticConfig(interactions=("shake_hands",), instances_per_interaction=1))
-    save_dataset(data, folder)
-    return folder
+def data_dir(shake1_npz: Path) -> Path:
+    return shake1_npz
 
 
 def test_gt_replay_writes_metrics(data_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
