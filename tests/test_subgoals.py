@@ -179,8 +179,15 @@ def test_a_gripped_object_counts_as_held_without_touching(cup_scene: Scene) -> N
             scorer.mark_release(0.0)
         for k in range(steps):
             scorer.update(d, dt, (k + 1) * dt, None)
+        res = scorer.subgoals[0]
+        # judged only at the end: before finish() the caption must not claim "not achieved"
+        assert res.pending and res.state_text().endswith("| judged at the end") and not res.success
         scorer.finish(steps * dt)
-        return scorer.subgoals[0].success
+        assert not res.pending
+        assert res.state_text().endswith(f"| achieved at {res.time:.2f} s" if res.success else "| not achieved")
+        scorer.reset()
+        assert scorer.subgoals[0].pending
+        return res.success
 
     assert run(grip=True, release=True)
     assert not run(grip=False, release=True)  # neither touched nor gripped
@@ -335,5 +342,6 @@ def test_contact_now_and_achieved_are_separate_and_a_lost_contact_shows(scene: S
     assert all(c for c, _, _ in touch) and touch[-1][1] and not touch[23][1]  # met on the 25th touching step
     assert all(a and not c for c, a, _ in lost)  # achieved stays, the contact now does not
     assert lost[-1][2] > 0.03  # (the thumb is nearer than the palm's face: checked against the reference above)
+    assert not res.pending  # a contact sub-goal is judged as it happens
     assert res.state_text() == f"clasp: now apart ({100 * lost[-1][2]:.1f} cm) | achieved at {res.time:.2f} s"
     assert res.time == pytest.approx(35 * dt)

@@ -55,6 +55,9 @@ class SubgoalResult:
     current: bool = False
     """Whether the sub-goal's contact holds *now* (at the last physics step): the robot group touches the
     human group (or the object, or holds it by its grip weld). Unlike :attr:`success`, never latched."""
+    pending: bool = False
+    """Whether the sub-goal is judged only at the episode's end and has not been judged yet (``object_in_hand``
+    before :meth:`SubgoalScorer.finish`): its :attr:`success` is then not yet known, not false."""
     gap: float | None = None
     """Distance (m) between the robot group's and the other group's geoms at the last
     :meth:`SubgoalScorer.measure_gaps` (negative: penetration; ``None`` before the first, or farther
@@ -73,8 +76,11 @@ class SubgoalResult:
             now = f"now apart ({100 * max(self.gap, 0.0):.1f} cm)"
         else:
             now = "now apart"
-        ever = f"achieved at {self.time:.2f} s" if self.success and self.time is not None else (
-            "achieved" if self.success else "not achieved")
+        if self.pending:
+            ever = "judged at the end"
+        else:
+            ever = f"achieved at {self.time:.2f} s" if self.success and self.time is not None else (
+                "achieved" if self.success else "not achieved")
         return f"{self.name}: {now} | {ever}"
 
 
@@ -157,7 +163,7 @@ class SubgoalScorer:
 
     def reset(self) -> None:
         """Clear all accumulated state."""
-        self.subgoals = [SubgoalResult(sg.name, sg.kind) for sg in self.task.subgoals]
+        self.subgoals = [SubgoalResult(sg.name, sg.kind, pending=sg.kind == "object_in_hand") for sg in self.task.subgoals]
         self.failures = [FailureResult(f.kind, f.threshold) for f in self.task.failures]
         self.tracks = _Tracks()
         self.max_force_on_human = 0.0
@@ -319,4 +325,4 @@ class SubgoalScorer:
                 tr.released and since is not None and last is not None and t_end - last <= GAP + 1e-9
                 and last - since >= sg.min_duration - 1e-9 and tr.floor_time is None
             )
-            res.success, res.time = bool(held), (since if held else None)
+            res.success, res.time, res.pending = bool(held), (since if held else None), False
