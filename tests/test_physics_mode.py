@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from socialaff_sim.cli.main import main
+from socialaff_sim.cli.validate import PHYSICS_CHOICES
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.demo.pipeline import DemoConfig, InteractionResult
@@ -18,6 +19,7 @@ from socialaff_sim.sim.episode import support_caption, support_summary
 from socialaff_sim.sim.footlock import FootLockConfig
 from socialaff_sim.sim.render import _font
 from socialaff_sim.sim.simulator import SimConfig, Simulator
+from socialaff_sim.sim.sim_config import PHYSICS_MODES
 from socialaff_sim.sim.stance import StanceConfig
 
 
@@ -34,6 +36,7 @@ def test_the_default_is_the_harness_and_standing_is_a_named_preset() -> None:
     assert d.foot_lock == FootLockConfig(hold_lift=0.12, hold_in_contact=True)
     assert not d.gravity_compensation
     assert h != d
+    assert PHYSICS_CHOICES == PHYSICS_MODES  # the command line's --physics, written out to keep start-up light
     with pytest.raises(ConfigError, match="harness, standing"):
         SimConfig.mode("hover")
     with pytest.raises(ConfigError, match="harness, standing"):

@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from .._atomic import output_folder
-from .validate import declare_outputs, non_negative_int
+from .validate import add_physics_option, declare_outputs, non_negative_int
 from ..report import write_demo_page
 from .help_format import HelpFormatter
 
@@ -75,10 +75,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--no-contact-completion", action="store_true",
                    help="send the scaled targets to the IK as they are (no blending of a wrist onto the contact "
                         "the synthesized reaction is making; docs/design.md)")
-    p.add_argument("--physics", choices=["harness", "standing"], default="harness",
-                   help="physics mode: harness (the default: position servos, the robot hanging from a compliant "
-                        "harness) or standing (a balance controller stands it on its own feet while they are "
-                        "planted; docs/design.md §5)")
+    add_physics_option(p)
     p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the synthetic data and of every sampler")
     declare_outputs(p, out="folder")
     p.set_defaults(func=_run)

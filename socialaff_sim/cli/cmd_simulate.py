@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 from .._atomic import output_folder
-from .validate import add_data_options, declare_outputs, int_range
+from .validate import add_data_options, add_physics_option, declare_outputs, int_range
 from .progress import FrameProgress, Reporter
 
 from .help_format import HelpFormatter
@@ -134,10 +134,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--no-contact-completion", action="store_true",
                    help="send the scaled targets to the IK as they are (no blending of a wrist onto the contact "
                         "the reaction is making; docs/design.md)")
-    p.add_argument("--physics", choices=["harness", "standing"], default="harness",
-                   help="physics mode: harness (the default: position servos, the robot hanging from a compliant "
-                        "harness) or standing (a balance controller stands it on its own feet while they are "
-                        "planted; docs/design.md §5)")
+    add_physics_option(p)
     p.add_argument("--width", type=int_range(16, 4096), default=640, help="video width in pixels, 16-4096 (default 640)")
     p.add_argument("--height", type=int_range(16, 4096), default=480, help="video height in pixels, 16-4096 (default 480)")
     add_data_options(p)

@@ -17,8 +17,8 @@ from ..data.policy import DEFAULT_POLICY
 from ..errors import OutputError
 
 __all__ = [
-    "MAX_SUBEVENTS", "int_range", "non_negative_int", "positive_int", "add_data_options",
-    "declare_outputs", "check_outputs",
+    "MAX_SUBEVENTS", "PHYSICS_CHOICES", "int_range", "non_negative_int", "positive_int", "add_data_options",
+    "add_physics_option", "declare_outputs", "check_outputs",
 ]
 
 MAX_SUBEVENTS = 12
@@ -58,6 +58,19 @@ def add_data_options(parser: argparse.ArgumentParser) -> None:
                        help="skip such files with one warning listing them (default)")
     parser.add_argument("--units", choices=tuple(UNITS), default="m",
                         help="length unit of npz: data files (default m); the other formats have their own")
+
+
+PHYSICS_CHOICES = ("harness", "standing")
+"""``--physics``'s choices: :data:`socialaff_sim.sim.sim_config.PHYSICS_MODES`, written out so that parsing the
+command line does not import the simulator (a test keeps the two equal)."""
+
+
+def add_physics_option(parser: argparse.ArgumentParser) -> None:
+    """``--physics harness|standing``: the simulator's physics mode (``SimConfig.mode``)."""
+    parser.add_argument("--physics", choices=PHYSICS_CHOICES, default="harness",
+                        help="physics mode: harness (the default: position servos, the robot hanging from a compliant "
+                             "harness) or standing (a balance controller stands it on its own feet while they are "
+                             "planted; docs/design.md §5)")
 
 
 def declare_outputs(parser: argparse.ArgumentParser, **outputs: str) -> None:

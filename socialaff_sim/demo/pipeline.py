@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,7 +31,7 @@ from ..sim.simulator import SimConfig, Simulator
 from ..sim.tasks import task_for_label
 from ..sim.video import EpisodeRecorder
 
-__all__ = ["DemoConfig", "InteractionResult", "Progress", "held_out", "run_interaction"]
+__all__ = ["DemoConfig", "InteractionResult", "Progress", "held_out", "physics_modes", "run_interaction"]
 
 Progress = Callable[[str], None]
 
@@ -94,6 +94,24 @@ class InteractionResult:
     contact_sheet: str | None = None
     video_note: str = ""
     seconds: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def physics_mode(self) -> str:
+        """The physics mode the synthesized reaction ran in, as its metrics name it (``"not recorded"`` if absent)."""
+        return str((self.simulation.get("support") or {}).get("mode", "not recorded"))
+
+    @property
+    def contact_support(self) -> float | None:
+        """The synthesized reaction's outside support over its contact phase (mean fraction of the robot's weight
+        over the frames where a sub-goal's contact holds); ``None`` without such a frame."""
+        cp = (self.simulation.get("support") or {}).get("contact_phase") or {}
+        value = cp.get("outside_support_mean")
+        return float(value) if isinstance(value, (int, float)) and cp.get("frames") else None
+
+
+def physics_modes(results: Sequence[InteractionResult]) -> str:
+    """The distinct physics modes of ``results``, sorted and joined by "; " ("" for no result)."""
+    return "; ".join(sorted({r.physics_mode for r in results}))
 
 
 def held_out(items: list, n_test: int) -> tuple[list, list]:

@@ -6,7 +6,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from .._atomic import atomic_write_text
-from .pipeline import DemoConfig, InteractionResult
+from .pipeline import DemoConfig, InteractionResult, physics_modes
 
 __all__ = ["write_report"]
 
@@ -19,14 +19,9 @@ def _success(metrics: dict) -> str:
     return text + (f" (failure: {', '.join(failed)})" if failed else "")
 
 
-def _support(metrics: dict) -> str:
-    cp = (metrics.get("support") or {}).get("contact_phase") or {}
-    value = cp.get("outside_support_mean")
-    return f"{100 * value:.1f} %" if cp.get("frames") and value is not None else "-"
-
-
-def _modes(results: Sequence[InteractionResult]) -> str:
-    return "; ".join(sorted({str((r.simulation.get("support") or {}).get("mode", "not recorded")) for r in results}))
+def _support(r: InteractionResult) -> str:
+    value = r.contact_support
+    return "-" if value is None else f"{100 * value:.1f} %"
 
 
 def write_report(path: str | Path, results: Sequence[InteractionResult], config: DemoConfig) -> Path:
@@ -57,7 +52,7 @@ def write_report(path: str | Path, results: Sequence[InteractionResult], config:
         "",
         "## Sub-goals scored in physics",
         "",
-        f"Physics mode: {_modes(results) or '-'}. Outside support: the synthesized reaction's support from anything "
+        f"Physics mode: {physics_modes(results) or '-'}. Outside support: the synthesized reaction's support from anything "
         "but its feet (harness), mean over the frames where a sub-goal's contact holds, percent of the robot's weight.",
         "",
         "| interaction | instance | synthesized reaction | ground-truth replay | real-time factor | outside support in contact |",
@@ -66,7 +61,7 @@ def write_report(path: str | Path, results: Sequence[InteractionResult], config:
     for r in results:
         rtf = r.simulation.get("real_time_factor")
         lines.append(f"| {r.label} | {r.instance} | {_success(r.simulation)} | {_success(r.reference)} | "
-                     + (f"{rtf:.1f}×" if rtf else "-") + f" | {_support(r.simulation)} |")
+                     + (f"{rtf:.1f}×" if rtf else "-") + f" | {_support(r)} |")
     for r in results:
         lines += [
             "",

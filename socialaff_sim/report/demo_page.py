@@ -6,7 +6,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..demo.pipeline import DemoConfig, InteractionResult
+from ..demo.pipeline import DemoConfig, InteractionResult, physics_modes
 from .html import Page, definitions, esc, figure, table, video
 
 __all__ = ["write_demo_page", "DEMO_PAGE"]
@@ -114,7 +114,7 @@ def write_demo_page(out: str | Path, results: Sequence[InteractionResult], confi
     )
     overview = [[
         r.label, r.instance, r.errors.get("full"), _met(r.simulation), _met(r.reference),
-        _rtf(r.simulation.get("real_time_factor")), _contact_support(r.simulation),
+        _rtf(r.simulation.get("real_time_factor")), _contact_support(r),
     ] for r in results]
     page.section("overview", "Overview", table(
         ["interaction", "instance shown", "key-joint error of the model (m)", "sub-goals met: synthesized",
@@ -129,8 +129,7 @@ def write_demo_page(out: str | Path, results: Sequence[InteractionResult], confi
         ("MCMC iterations (Algorithm 1)", config.iterations),
         ("held-out instances per interaction", config.n_test),
         ("robot", config.robot),
-        ("physics mode", "; ".join(sorted({str((r.simulation.get("support") or {}).get("mode", "not recorded"))
-                                           for r in results})) or "–"),
+        ("physics mode", physics_modes(results) or "–"),
         ("seed", config.seed),
     ]))
     rows = [[m, *(r.errors.get(m) for r in results)] for m in methods]
@@ -154,10 +153,9 @@ def write_demo_page(out: str | Path, results: Sequence[InteractionResult], confi
     return page.write(Path(out) / DEMO_PAGE)
 
 
-def _contact_support(metrics: Mapping[str, Any]) -> str:
-    cp = (metrics.get("support") or {}).get("contact_phase") or {}
-    value = cp.get("outside_support_mean")
-    return f"{100 * value:.1f} %" if isinstance(value, (int, float)) and cp.get("frames") else "–"
+def _contact_support(r: InteractionResult) -> str:
+    value = r.contact_support
+    return "–" if value is None else f"{100 * value:.1f} %"
 
 
 def _rtf(value: object) -> str:
