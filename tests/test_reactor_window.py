@@ -74,6 +74,13 @@ def test_track_window_matches_an_array_and_refuses_forgotten_frames(rng: np.rand
         win[win.floor - 2 : win.floor + 1]
     with pytest.raises(ModelError, match="forgotten"):
         np.asarray(win)
+    f, n = win.floor, win.n
+    assert np.array_equal(win[f : n : 1], win[f:n], equal_nan=True)  # a unit step reads as no step
+    with pytest.raises(ModelError, match="with a step"):
+        win[f : n : 2]
+    with pytest.raises(ModelError, match="negative frames"):
+        win[-1 : n]
+    assert win[n - 1 : f].shape == (0, 3, 2) and win[n : n + 5].shape == (0, 3, 2)  # empty, clipped at n
     win.map(lambda x: -x)  # the pinned row too
     assert np.array_equal(win[3], -ref[3], equal_nan=True)
     assert np.array_equal(win.rows, -ref[win.floor :], equal_nan=True)

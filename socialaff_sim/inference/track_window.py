@@ -142,7 +142,9 @@ class TrackWindow:
     def _first(self, key: object) -> tuple[object, np.ndarray | None]:
         """The first-axis key in buffer rows, or (None, the pinned row) for a pinned frame below the floor."""
         kind = type(key)
-        if kind is slice and key.step is None:  # the usual read of a stream: no isinstance chain, no min/max calls
+        if kind is slice:  # the usual read of a stream: first, without an isinstance chain or min/max calls
+            if key.step is not None and key.step != 1:
+                raise ModelError(f"{self.name}: slices with a step are not supported")
             a = 0 if key.start is None else int(key.start)
             b = self._n if key.stop is None or key.stop > self._n else int(key.stop)
             if a >= self._floor and b >= 0:
@@ -162,17 +164,6 @@ class TrackWindow:
                     raise ModelError(f"{self.name}: frame {k} is older than the window (frames from {self._floor} are held)")
                 return None, row
             return k - self._base, None
-        if isinstance(key, slice):
-            if key.step not in (None, 1):
-                raise ModelError(f"{self.name}: slices with a step are not supported")
-            a = 0 if key.start is None else int(key.start)
-            b = self._n if key.stop is None else min(int(key.stop), self._n)
-            if a < 0 or b < 0:
-                raise ModelError(f"{self.name}: negative frames are not supported (found {a}:{b})")
-            if a < self._floor and b > a:
-                raise ModelError(f"{self.name}: frames {a}:{b} reach before the window (frames from {self._floor} are held)")
-            a = max(a, self._floor)
-            return slice(a - self._base, max(b, a) - self._base), None
         idx = np.asarray(key)
         if idx.dtype.kind not in "iu":
             raise ModelError(f"{self.name}: expected integer frames, found {idx.dtype}")
