@@ -76,17 +76,12 @@ class TypeTables:
             self._rows(("motion", s), self.mo_params, self.mo_expon, self.mo_type == s)
         self.log_seconds = cfg.duration_density == "log_seconds"
 
-    def _per_type(
-        self, rows: np.ndarray, types: np.ndarray | None, only: int | None, groups: list[tuple[int, np.ndarray]] | None = None
-    ) -> np.ndarray:
-        """Row log-densities (N, R) summed by type → (N, S), or (N,) for type ``only``; NaN → −inf. The rows' types
-        ``types`` (R,), or ``groups``: each type's columns as made once (``_sp_groups``, ``_mo_groups``)."""
+    def _per_type(self, rows: np.ndarray, only: int | None, groups: list[tuple[int, np.ndarray]]) -> np.ndarray:
+        """Row log-densities (N, R) summed by type → (N, S), or (N,) for type ``only``; NaN → −inf. ``groups``: each
+        type's columns among the rows, as made once (``_sp_groups``, ``_mo_groups``)."""
         if only is not None:
             out = rows.sum(axis=-1)
         else:
-            if groups is None:
-                assert types is not None  # internal invariant: one of the two
-                groups = [(s, np.flatnonzero(types == s)) for s in range(self.S) if np.any(types == s)]
             out = np.zeros(rows.shape[:-1] + (self.S,))
             for s, cols in groups:
                 out[..., s] = rows[..., cols].sum(axis=-1)
@@ -121,7 +116,7 @@ class TypeTables:
             refs = np.where(self._read[None, :, :, None], self.sp_w[None, :, :, None] * end[:, None], 0.0).sum(axis=2)
             offsets = end[:, self.sp_joint] - refs
             rows = self._density(offsets, self._rows(("spatial", None), self.sp_params, None))
-            return self._per_type(rows, None, None, self._sp_groups)
+            return self._per_type(rows, None, self._sp_groups)
         rows, cols, w = self._sp[s]
         if rows.size == 0:
             return np.zeros(end.shape[0])
@@ -135,7 +130,7 @@ class TypeTables:
         """Motion log-potential of N displacement sets (N, 11, 3): (N, S), or (N,) under type ``s``."""
         rows = self._density(np.asarray(disp, float)[:, self._mo_joints[s]],
                              self._rows(("motion", s), self.mo_params, self.mo_expon, None if s is None else self.mo_type == s))
-        return self._per_type(rows, None, s, self._mo_groups)
+        return self._per_type(rows, s, self._mo_groups)
 
     def duration(self, seconds: np.ndarray) -> np.ndarray:
         """(N, S) duration log-density of N interval lengths (seconds) under every type."""
