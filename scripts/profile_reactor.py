@@ -14,10 +14,13 @@ frame and share. Parts named ``step.*`` are inside ``step``. The model is a pick
 from __future__ import annotations
 
 import argparse
+import cProfile
 import dataclasses
 import functools
+import io
 import os
 import pickle
+import pstats
 import sys
 import time
 from collections.abc import Callable
@@ -68,7 +71,17 @@ def main() -> None:
     add_reactor_source_arguments(p, seconds=0.0)
     p.add_argument("--overrun-delta-t", action="store_true", help="the reactor with SynthesisConfig.overrun_delta_t")
     add_setting_argument(p, "the pickled method's synthesis")
+    p.add_argument("--by-index", type=int, default=0, metavar="K", help="CPU per call by frame index, first K calls")
+    p.add_argument("--frames", default=None, metavar="LO:HI", help="time only the calls of index LO ≤ i < HI")
+    p.add_argument("--cprofile", type=int, default=0, metavar="N", help="cProfile those calls; print N functions")
     args = p.parse_args()
+    lo, hi = 0, None
+    if args.frames is not None:
+        try:
+            lo_s, hi_s = args.frames.split(":")
+            lo, hi = int(lo_s or 0), (int(hi_s) if hi_s else None)
+        except ValueError:
+            p.error(f"--frames {args.frames!r}: expected LO:HI (integers, either may be empty)")
     acc: dict[str, float] = {}
     for owner, name, label in PARTS:
         setattr(owner, name, _timed(getattr(owner, name), label, acc))
@@ -83,22 +96,55 @@ def main() -> None:
     label = args.interaction or data[0].label
     pool = [i for i in data if i.label == label][args.skip : args.skip + args.recordings]
     insts = [concatenate(pool, int(args.seconds * pool[0].fps), "stream")] if args.seconds > 0 else pool
-    total, n = 0.0, 0
+    prof = cProfile.Profile(time.thread_time) if args.cprofile else None
+    total, n, start_cpu = 0.0, 0, 0.0
+    by_index: list[list[float]] = []
     for inst in insts:
         hidden = observed_part(inst, T0)
         views = GrowingInteraction(hidden)
+        c0 = time.thread_time()
         reactor = method.start(n_observed=T0, offline=False, rng=np.random.default_rng(0))
+        start_cpu += time.thread_time() - c0
+        calls = []
         for t in range(T0, inst.n_frames):
             views.append_from(hidden, t + 1)
             view = views.view()
+            on = lo <= t - T0 and (hi is None or t - T0 < hi)
+            if not on:  # stepped, not timed: the parts' accumulators are reset after it
+                before = dict(acc)
+                reactor.react(view, t, t + 1)
+                acc.clear()
+                acc.update(before)
+                continue
+            if prof is not None:
+                prof.enable()
             c0 = time.thread_time()
             reactor.react(view, t, t + 1)
-            total += time.thread_time() - c0
+            dt = time.thread_time() - c0
+            if prof is not None:
+                prof.disable()
+            total += dt
             n += 1
+            calls.append(dt)
+        by_index.append(calls)
+    if not n:
+        p.error("--frames: no call in that range")
     print(f"{n} calls: {total / n * 1e3:.3f} ms CPU per frame, {n / total:.0f} frames/CPU s; load {os.getloadavg()}")
+    print(f"  method.start: {start_cpu / len(insts) * 1e3:.3f} ms CPU per recording (not in the calls' figures)")
+    if args.by_index:
+        k = min(args.by_index, max(len(c) for c in by_index))
+        med = [np.median([c[i] for c in by_index if len(c) > i]) * 1e3 for i in range(k)]
+        top = [max(c[i] for c in by_index if len(c) > i) * 1e3 for i in range(k)]
+        print(f"  CPU ms per call by index from {lo} (median over {len(by_index)} recordings): "
+              + " ".join(f"{x:.2f}" for x in med))
+        print("  max: " + " ".join(f"{x:.2f}" for x in top))
     for label, v in sorted(acc.items(), key=lambda kv: -kv[1]):
         print(f"  {label:18s} {v / n * 1e3:7.3f} ms/frame  {100 * v / total:5.1f} %")
     print(f"  {'rest of react':18s} {(total - sum(v for k, v in acc.items() if '.' not in k)) / n * 1e3:7.3f} ms/frame")
+    if prof is not None:
+        out = io.StringIO()
+        pstats.Stats(prof, stream=out).sort_stats("cumulative").print_stats(args.cprofile)
+        print(out.getvalue())
 
 
 if __name__ == "__main__":

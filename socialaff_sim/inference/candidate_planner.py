@@ -19,6 +19,7 @@ from ..model.nan_fill import nan_to_zero
 from ..model.potentials import reference_weights
 from .candidates import AGENT1 as _AGENT1
 from .candidates import RegressionPrior, SignTerms, draw_from, expected_error_choice, gaussian_factor, vector_rows
+from .model_cache import per_model, read_only
 from .synthesis_config import SynthesisConfig
 from .type_tables import TypeTables
 
@@ -67,13 +68,25 @@ class CandidatePlanner:
     _tables: TypeTables | None
 
     def _type_plan(self, s: int) -> _TypePlan:
-        """Type ``s``'s :class:`_TypePlan`, made once per episode (the cache goes with ``_refw``, which the
-        synthesizer's reset makes anew with the episode's joints ``_available``). Every type's plan is made at the
-        episode's first re-planning, so that the reactor's state does not change size later in a stream."""
+        """Type ``s``'s :class:`_TypePlan`, made once per fitted model, settings read (``vertical_sign``,
+        ``end_prior``) and episode joints ``_available`` (:func:`~.model_cache.per_model`; every recording of one
+        model has the model's joints), read-only: the same arrays at every re-planning of every recording, so the
+        same values. Every type's plan is made at once, so that the reactor's state does not change size later in a
+        stream."""
         cache = self.__dict__.get("_plans")
-        if cache is None or cache[0] is not self._refw:
-            cache = self._plans = (self._refw, {k: self._make_type_plan(k) for k in range(self.model.n_subevents_)})
+        if cache is None or cache[0] is not self._refw:  # looked up once per episode (reset renews _refw)
+            cfg = self.config
+            key = ("type_plans", cfg.vertical_sign, cfg.end_prior, self._available.tobytes())
+            cache = self._plans = (self._refw, per_model(self.model, key, self._make_type_plans))
         return cache[1][s]
+
+    def _make_type_plans(self) -> dict[int, _TypePlan]:
+        plans = {k: self._make_type_plan(k) for k in range(self.model.n_subevents_)}
+        for p in plans.values():
+            read_only(p.aff, p.static, p.weights, p.spatial, p.motion, p.up, p.factor)
+            if p.sign is not None:
+                read_only(p.sign.aff, p.sign.weights, p.sign.offset_up, p.sign.moving, p.sign.disp_up)
+        return plans
 
     def _make_type_plan(self, s: int) -> _TypePlan:
         model, cfg = self.model, self.config

@@ -35,6 +35,7 @@ from ..model.affordance import AffordanceParameters
 from ..model.features import IntervalFeatures
 from ..model.path import path_residuals
 from .online_parse import log_duration_survival
+from .model_cache import per_model, read_only
 from .path_sums import PathSums
 from .track_window import TrackWindow
 from .type_tables import TypeTables
@@ -60,37 +61,17 @@ class ForwardBelief:
         self.stride = int(stride)
         self.n_starts = -(-int(horizon) // self.stride)
         self.horizon = self.n_starts * self.stride
-        S = model.n_subevents_
-        self.S = S
-        cfg = model.config
-        self.M = 1 << S if cfg.unique_labels else 1
-        trans = np.array(model.log_transitions_, dtype=float)
-        if cfg.distinct_neighbours and S > 1:
-            np.fill_diagonal(trans, -np.inf)
-        self._trans = trans
-        bits = 1 << np.arange(S)
-        masks = np.arange(self.M)
-        # For every target label s: the source masks that do not hold s, and the masks they become.
-        if self.M > 1:
-            self._src = [masks[(masks & bits[s]) == 0] for s in range(S)]
-            self._dst = [m | bits[s] for s, m in enumerate(self._src)]
-        else:
-            self._src = [masks] * S
-            self._dst = [masks] * S
-        self._bits = bits
-        # log P(D_s > d / fps) for d = 0 … horizon frames.
-        d = np.arange(self.horizon + 1) / self.fps
-        self._surv = np.stack([log_duration_survival(model, s, d) for s in range(S)], axis=1)  # (H + 1, S)
-        self._tables = TypeTables(model) if cfg.vector_density == "polar" else None
+        self.S = model.n_subevents_
+        self.M = 1 << self.S if model.config.unique_labels else 1
+        # What depends on the model, the frame rate, the stride and the horizon only: made once per fitted model
+        # (model_cache.per_model), read-only, the same arrays for every recording.
+        (self._trans, self._src, self._dst, self._bits, self._surv, self._tables, self._path_use, self._path_c,
+         self._path_2s2) = per_model(model, ("forward_belief", self.fps, self.stride, self.horizon),
+                                     lambda: _constants(model, self.fps, self.horizon))
         # The path terms of the kept starts' intervals from running sums (docs/design.md §7: within a declared
         # tolerance of path_residuals, not bitwise), one row per F row.
-        kind = cfg.feature_path_profile
+        kind = model.config.feature_path_profile
         self._sums = None if kind is None else PathSums(kind, model.available_.shape[0])
-        if self._sums is not None:  # path_loglik's per-type constants, every type at once (S, J)
-            sigma = np.asarray(model.path_sigma_, float)
-            self._path_use = np.isfinite(sigma)
-            s2 = np.where(self._path_use, sigma, 1.0) ** 2
-            self._path_c, self._path_2s2 = _LOG_2PI + np.log(s2), 2.0 * s2
         self.reset()
 
     def reset(self, origin: int = 0) -> None:
@@ -253,6 +234,40 @@ class ForwardBelief:
     def belief(self, t: int) -> np.ndarray:
         """(S,) P(current sub-event = s | frames < t)."""
         return _sum(self.posterior(t)[1], axis=0)
+
+
+def _constants(model: AffordanceParameters, fps: float, horizon: int) -> tuple:
+    """:class:`ForwardBelief`'s model constants (read-only): the transitions (S, S) (−inf on the diagonal with
+    distinct neighbours), per target label the source masks and the masks they become, the label bits (S,),
+    log P(D_s > d / fps) for d = 0 … ``horizon`` frames (H + 1, S), the type tables (None: Cartesian densities) and
+    path_loglik's per-type constants (S, J) (None each without a path profile)."""
+    S = model.n_subevents_
+    cfg = model.config
+    M = 1 << S if cfg.unique_labels else 1
+    trans = np.array(model.log_transitions_, dtype=float)
+    if cfg.distinct_neighbours and S > 1:
+        np.fill_diagonal(trans, -np.inf)
+    bits = 1 << np.arange(S)
+    masks = np.arange(M)
+    # For every target label s: the source masks that do not hold s, and the masks they become.
+    if M > 1:
+        src = [masks[(masks & bits[s]) == 0] for s in range(S)]
+        dst = [m | bits[s] for s, m in enumerate(src)]
+    else:
+        src = [masks] * S
+        dst = [masks] * S
+    d = np.arange(horizon + 1) / fps
+    surv = np.stack([log_duration_survival(model, s, d) for s in range(S)], axis=1)  # (H + 1, S)
+    tables = TypeTables.of(model) if cfg.vector_density == "polar" else None
+    path_use = path_c = path_2s2 = None
+    if cfg.feature_path_profile is not None:  # path_loglik's per-type constants, every type at once (S, J)
+        sigma = np.asarray(model.path_sigma_, float)
+        path_use = np.isfinite(sigma)
+        s2 = np.where(path_use, sigma, 1.0) ** 2
+        path_c, path_2s2 = _LOG_2PI + np.log(s2), 2.0 * s2
+    out = (trans, src, dst, bits, surv, tables, path_use, path_c, path_2s2)
+    read_only(*(x for x in out if not isinstance(x, TypeTables)))
+    return out
 
 
 def _ends(track: np.ndarray, starts: np.ndarray, b: int, fps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

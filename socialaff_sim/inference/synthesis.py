@@ -54,6 +54,7 @@ from .canonical_stream import CanonicalStream
 from .candidates import AGENT1 as _AGENT1
 from .forward_belief import ForwardBelief
 from .hedging import branch_plans, shrink_factor
+from .model_cache import per_model, read_only
 from .type_tables import TypeTables
 from .observed import ObservedInteraction
 from .observed_parse import parse_observed
@@ -84,8 +85,8 @@ class OnlineSynthesizer(CandidatePlanner, PathPlanner):
         self.config = config or SynthesisConfig()
         self._inter: Interaction | None = None
         self._parser: StreamParser | None = None
-        # The potentials of every type stacked once: the candidates' scores without per-call set-up.
-        self._tables = TypeTables(model) if model.config.vector_density == "polar" else None
+        # The potentials of every type stacked once per fitted model: the candidates' scores without per-call set-up.
+        self._tables = TypeTables.of(model) if model.config.vector_density == "polar" else None
 
     # -- episode -----------------------------------------------------------------------------------
     def reset(self, interaction: Interaction, *, rng: np.random.Generator, n_frames: int | None = None) -> None:
@@ -141,7 +142,7 @@ class OnlineSynthesizer(CandidatePlanner, PathPlanner):
         self._span = (0, 0)  # (first, last frame) of the running sub-event at the latest re-planning
         self._sub = -1  # the running sub-event of the latest re-planning
         # With ``ordered``: each type's mean position in the training parses (NaN: never used, always allowed).
-        self._ranks = order_ranks(self.model.parses_, self.model.n_subevents_) if cfg.ordered else None
+        self._ranks = self._order_ranks() if cfg.ordered else None
         self._available = self.model.available_.copy()
         self._refw: dict[int, np.ndarray] = {}
         S = self.model.n_subevents_
@@ -149,6 +150,17 @@ class OnlineSynthesizer(CandidatePlanner, PathPlanner):
         self._rows: np.ndarray | None = None
         if cfg.parse == "observed":
             self._rows = parse_observed(self.model, self._observed_track(), interaction.fps, step=cfg.observed_parse_step)
+
+    def _order_ranks(self) -> np.ndarray:
+        """(S,) :func:`~socialaff_sim.model.transitions.order_ranks` of the model's training parses, read-only, made
+        once per fitted model (:func:`~.model_cache.per_model`)."""
+        model = self.model
+
+        def build() -> np.ndarray:
+            ranks = order_ranks(model.parses_, model.n_subevents_)
+            read_only(ranks)
+            return ranks
+        return per_model(model, "order_ranks", build)
 
     def observe(self, view: Interaction, n_frames: int | None = None) -> None:
         """Stream mode: agent 0's and the object's new frames from ``view``, the instance as known now, lengthened

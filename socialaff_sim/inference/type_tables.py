@@ -6,7 +6,8 @@ at a time and rebuild the type's reference weights at every call; the forward be
 every cut, and the synthesizer N candidates at every re-planning. :class:`TypeTables` precomputes, once
 per model, one row per (type, joint) with its parameters and reference weights, and evaluates the same
 densities (:mod:`~socialaff_sim.model.densities`, polar vector densities) for all rows at once; summed
-per type they equal the model's scores (tests/test_forward_belief.py).
+per type they equal the model's scores (tests/test_forward_belief.py). :meth:`TypeTables.of` keeps one per fitted
+model (:func:`~.model_cache.per_model`), shared read-only by every synthesizer and forward belief of that model.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from ..model.affordance import AffordanceParameters
 from ..model.densities import lognorm_logpdf, weibull_terms
 from ..model.features import polar
 from ..model.potentials import polar_rows_logpdf, reference_weights
+from .model_cache import per_model, read_only
 
 __all__ = ["TypeTables"]
 
@@ -61,7 +63,7 @@ class TypeTables:
             cols = np.flatnonzero(self.sp_w[rows].any(axis=0))
             self._sp.append((rows, cols, self.sp_w[np.ix_(rows, cols)]))
             self._read[np.ix_(rows, cols)] = True
-        self.dur = np.asarray(model.duration_params_, float)
+        self.dur = np.array(model.duration_params_, float)  # a copy: made read-only with the tables
         self._cache: dict[tuple[str, int | None], tuple] = {}
         # Per type: the columns of its rows among all rows (the same selection as types == s, made once).
         self._sp_groups = [(s, np.flatnonzero(self.sp_type == s)) for s in range(S) if np.any(self.sp_type == s)]
@@ -75,6 +77,16 @@ class TypeTables:
             self._rows(("spatial", s), self.sp_params, None, self._sp[s][0])
             self._rows(("motion", s), self.mo_params, self.mo_expon, self.mo_type == s)
         self.log_seconds = cfg.duration_density == "log_seconds"
+
+    @classmethod
+    def of(cls, model: AffordanceParameters) -> TypeTables:
+        """The tables of ``model``, made once per fitted model (:func:`~.model_cache.per_model`) and read-only: the
+        same arrays for every recording, so the same values as tables made per recording."""
+        def build() -> TypeTables:
+            tables = cls(model)
+            read_only(*(v for k, v in vars(tables).items() if k != "_cache"), *tables._cache.values())
+            return tables
+        return per_model(model, "type_tables", build)
 
     def _per_type(self, rows: np.ndarray, only: int | None, groups: list[tuple[int, np.ndarray]]) -> np.ndarray:
         """Row log-densities (N, R) summed by type → (N, S), or (N,) for type ``only``; NaN → −inf. ``groups``: each

@@ -1,0 +1,179 @@
+"""The causal reactor's set-up made once per fitted model instead of once per recording (issue 24, real-time speed: the
+recordings' first frames), against what it replaces, bitwise: the type tables against tables made anew, the forward
+belief's constants against its former per-recording set-up written out here, the ranks of the types, and the reactor's
+outputs on recordings stepped one after another with one model against the same recordings each with its own set-up
+(every cached value built per recording). The cache's decision points: a value is made once per model and key, made
+anew when a learned attribute is replaced (a refit, a load), and the model's own arrays stay writable."""
+
+from __future__ import annotations
+
+import copy
+import gc
+
+import numpy as np
+import pytest
+from scipy.special import log_ndtr
+
+from socialaff_sim.evaluation.streaming import run_protocol
+from socialaff_sim.inference import candidate_planner, forward_belief, model_cache, synthesis, type_tables
+from socialaff_sim.inference.forward_belief import ForwardBelief
+from socialaff_sim.inference.methods import AffordanceMethod
+from socialaff_sim.inference.switching import PRIMITIVE_FAMILIES, SwitchingConfig
+from socialaff_sim.inference.synthesis import OnlineSynthesizer, SynthesisConfig
+from socialaff_sim.inference.type_tables import TypeTables
+from socialaff_sim.learning.config import LearningConfig
+from socialaff_sim.model.transitions import order_ranks
+
+T0 = 10
+_USERS = (type_tables, forward_belief, synthesis, candidate_planner)  # the modules that call per_model
+
+
+def _arrays_equal(a: object, b: object) -> None:
+    """``a`` and ``b`` hold bitwise-equal arrays in the same structure (NaN equal to NaN)."""
+    if isinstance(a, np.ndarray):
+        assert isinstance(b, np.ndarray) and a.dtype == b.dtype and a.shape == b.shape
+        assert a.tobytes() == b.tobytes()
+    elif isinstance(a, (tuple, list)):
+        assert type(a) is type(b) and len(a) == len(b)  # type: ignore[arg-type]
+        for x, y in zip(a, b, strict=True):  # type: ignore[call-overload]
+            _arrays_equal(x, y)
+    elif isinstance(a, dict):
+        assert isinstance(b, dict) and a.keys() == b.keys()
+        for k in a:
+            _arrays_equal(a[k], b[k])
+    elif isinstance(a, TypeTables):
+        assert isinstance(b, TypeTables)
+        _arrays_equal(vars(a), vars(b))
+    else:
+        assert a == b or (a != a and b != b)
+
+
+def test_per_model_once_per_model_and_key_and_anew_after_a_refit(shake8_model) -> None:  # noqa: ANN001
+    model = copy.copy(shake8_model)  # an object of its own: nothing cached for it yet
+    built: list[str] = []
+
+    def build(tag: str):  # noqa: ANN202
+        return lambda: built.append(tag) or np.arange(3.0)
+
+    first = model_cache.per_model(model, "k", build("a"))
+    assert model_cache.per_model(model, "k", build("b")) is first and built == ["a"]
+    other = model_cache.per_model(model, ("k", 2), build("c"))  # another key: its own value
+    assert other is not first and built == ["a", "c"]
+    assert model_cache.per_model(copy.copy(shake8_model), "k", build("d")) is not first  # another model object
+    model.spatial_params_ = model.spatial_params_.copy()  # what fit and load do: a learned attribute replaced
+    again = model_cache.per_model(model, "k", build("e"))
+    assert again is not first and built[-1] == "e"
+    model.config = copy.copy(model.config)  # a configuration replaced, too
+    assert model_cache.per_model(model, "k", build("f")) is not again and built[-1] == "f"
+    n = len(model_cache._CACHE)
+    del model
+    gc.collect()
+    assert len(model_cache._CACHE) == n - 1  # held weakly: dropped with the model
+
+
+def test_type_tables_of_the_model_are_the_tables_made_anew(shake8_model, rng: np.random.Generator) -> None:  # noqa: ANN001
+    model = copy.copy(shake8_model)
+    cached = TypeTables.of(model)
+    assert TypeTables.of(model) is cached
+    fresh = TypeTables(model)  # what every synthesizer and forward belief made before, per recording
+    _arrays_equal(vars(cached), vars(fresh))
+    assert not cached.sp_params.flags.writeable and not cached._cache[("motion", None)][0].flags.writeable
+    end = rng.normal(scale=0.5, size=(40, 11, 3))
+    end[3, 2] = np.nan
+    for s in (None, *range(model.n_subevents_)):
+        np.testing.assert_array_equal(cached.spatial(end, s), fresh.spatial(end, s))
+        np.testing.assert_array_equal(cached.motion(end, s), fresh.motion(end, s))
+    np.testing.assert_array_equal(cached.duration(np.linspace(0.1, 3, 7)), fresh.duration(np.linspace(0.1, 3, 7)))
+    for name in ("spatial_params_", "motion_params_", "duration_params_", "grouping_", "available_"):
+        assert getattr(model, name).flags.writeable  # the model's own arrays are not made read-only
+    changed = copy.copy(model)
+    changed.spatial_params_ = model.spatial_params_ * 1.5  # a refit's new parameters: new tables
+    assert not np.array_equal(TypeTables.of(changed).sp_params, cached.sp_params)
+
+
+def _old_belief_constants(model, fps: float, horizon: int) -> tuple:  # noqa: ANN001
+    """ForwardBelief.__init__'s constants as it computed them per recording (commit db864ad), written out."""
+    S = model.n_subevents_
+    cfg = model.config
+    M = 1 << S if cfg.unique_labels else 1
+    trans = np.array(model.log_transitions_, dtype=float)
+    if cfg.distinct_neighbours and S > 1:
+        np.fill_diagonal(trans, -np.inf)
+    bits = 1 << np.arange(S)
+    masks = np.arange(M)
+    src = [masks[(masks & bits[s]) == 0] for s in range(S)] if M > 1 else [masks] * S
+    dst = [m | bits[s] for s, m in enumerate(src)] if M > 1 else [masks] * S
+    d = np.arange(horizon + 1) / fps
+    surv = []
+    for s in range(S):
+        mu, sigma = model.duration_params_[s]
+        secs = np.maximum(d, 1e-9)
+        surv.append(log_ndtr(-(np.log(secs) - mu) / sigma) if np.isfinite(mu) and np.isfinite(sigma) else np.full(d.shape, -np.inf))
+    sigma = np.asarray(model.path_sigma_, float)
+    use = np.isfinite(sigma)
+    s2 = np.where(use, sigma, 1.0) ** 2
+    return trans, src, dst, bits, np.stack(surv, axis=1), use, np.log(2.0 * np.pi) + np.log(s2), 2.0 * s2
+
+
+@pytest.mark.parametrize(("fps", "stride", "horizon"), [(30.0, 6, 120), (10.0, 2, 40)])
+def test_forward_belief_constants_are_the_per_recording_ones(shake8_model, fps: float, stride: int, horizon: int) -> None:  # noqa: ANN001
+    model = copy.copy(shake8_model)
+    assert model.config.feature_path_profile is not None  # the path constants are made (the default)
+    a = ForwardBelief(model, fps, stride=stride, horizon=horizon)
+    b = ForwardBelief(model, fps, stride=stride, horizon=horizon)
+    assert a._surv is b._surv and a._tables is b._tables is TypeTables.of(model)  # made once, shared
+    assert a._sums is not b._sums  # the running sums are the recording's own
+    trans, src, dst, bits, surv, use, c, two_s2 = _old_belief_constants(model, fps, a.horizon)
+    for got, ref in ((a._trans, trans), (a._src, src), (a._dst, dst), (a._bits, bits), (a._surv, surv),
+                     (a._path_use, use), (a._path_c, c), (a._path_2s2, two_s2)):
+        _arrays_equal(got, ref)
+    assert not a._surv.flags.writeable and not a._trans.flags.writeable
+    other = ForwardBelief(model, fps, stride=stride, horizon=2 * horizon)  # another horizon: its own survival table
+    assert other._surv.shape[0] == other.horizon + 1 != a._surv.shape[0]
+
+
+def test_order_ranks_once_per_model(shake8_model) -> None:  # noqa: ANN001
+    model = copy.copy(shake8_model)
+    a = OnlineSynthesizer(model, None, SynthesisConfig(ordered=True))
+    b = OnlineSynthesizer(model, None, SynthesisConfig(ordered=True))
+    assert a._order_ranks() is b._order_ranks()
+    np.testing.assert_array_equal(a._order_ranks(), order_ranks(model.parses_, model.n_subevents_))
+
+
+@pytest.fixture(scope="module")
+def method(shake8) -> AffordanceMethod:  # noqa: ANN001
+    cfg = SwitchingConfig(families=PRIMITIVE_FAMILIES, cross_fit=1, inner_folds=2)
+    return AffordanceMethod("full", learning=LearningConfig(iterations=1), reaction=cfg).fit(list(shake8)[:4], rng=np.random.default_rng(0))
+
+
+def test_recordings_one_after_another_are_bitwise_those_set_up_each_alone(shake8, method: AffordanceMethod,  # noqa: ANN001
+                                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """Recordings stepped one after another with one fitted model (its set-up made at the first, read by the others)
+    against the same recordings each with every cached value built anew (the per-recording set-up): bitwise."""
+    insts = list(shake8)[4:7]
+    assert method.synthesis.ordered and method.synthesis.belief == "forward"  # the reactor's default path
+    made: list[object] = []
+    per_model = model_cache.per_model
+
+    def counted(model, key, build):  # noqa: ANN001, ANN202
+        return per_model(model, key, lambda: made.append(key) or build())
+
+    for mod in _USERS:
+        monkeypatch.setattr(mod, "per_model", counted)
+    shared = [run_protocol(method, inst, protocol="causal", n_observed=T0, rng=np.random.default_rng(k))
+              for k, inst in enumerate(insts)]
+    assert made and len(made) == len(set(made))  # each value once, at the first recording
+
+    def anew(model, key, build):  # noqa: ANN001, ANN202
+        made.append(key)
+        return build()
+
+    made.clear()
+    for mod in _USERS:
+        monkeypatch.setattr(mod, "per_model", anew)
+    alone = [run_protocol(method, inst, protocol="causal", n_observed=T0, rng=np.random.default_rng(k))
+             for k, inst in enumerate(insts)]
+    assert len(made) > len(set(made))  # built again for every recording: the reference did its own set-up
+    for a, b in zip(shared, alone, strict=True):
+        for name in ("joints", "key_joints", "subevents"):
+            assert np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True), name
