@@ -143,7 +143,10 @@ def main() -> None:
     print(f"  {'rest of react':18s} {(total - sum(v for k, v in acc.items() if '.' not in k)) / n * 1e3:7.3f} ms/frame")
     if prof is not None:
         out = io.StringIO()
-        pstats.Stats(prof, stream=out).sort_stats("cumulative").print_stats(args.cprofile)
+        stats = pstats.Stats(prof, stream=out).sort_stats("cumulative")
+        stats.print_stats(args.cprofile)
+        if os.environ.get("PROFILE_DUMP"):  # the raw profile, for pstats (callers, callees)
+            stats.dump_stats(os.environ["PROFILE_DUMP"])
         print(out.getvalue())
 
 

@@ -3,7 +3,10 @@ recordings' first frames), against what it replaces, bitwise: the type tables ag
 belief's constants against its former per-recording set-up written out here, the ranks of the types, and the reactor's
 outputs on recordings stepped one after another with one model against the same recordings each with its own set-up
 (every cached value built per recording). The cache's decision points: a value is made once per model and key, made
-anew when a learned attribute is replaced (a refit, a load), and the model's own arrays stay writable."""
+anew when a learned attribute is replaced (a refit, a load), and the model's own arrays stay writable. And the first
+call's cheaper arithmetic-preserving steps: the primitive's information sums of the first frames against
+``np.einsum``, the canonical track, the primitive's frame and the switching regression's anchor each from one gap
+filling against the fillings they replace (on layouts with gaps at the first frames)."""
 
 from __future__ import annotations
 
@@ -14,15 +17,29 @@ import numpy as np
 import pytest
 from scipy.special import log_ndtr
 
+from socialaff_sim.data import Interaction
 from socialaff_sim.evaluation.streaming import run_protocol
 from socialaff_sim.inference import candidate_planner, forward_belief, model_cache, synthesis, type_tables
 from socialaff_sim.inference.forward_belief import ForwardBelief
 from socialaff_sim.inference.methods import AffordanceMethod
+from socialaff_sim.inference.observed import ObservedInteraction
+from socialaff_sim.inference.primitive_stream import PrimitiveStream
+from socialaff_sim.inference.primitive_sums import outer_sums
+from socialaff_sim.inference.protocol import protocol_view
+from socialaff_sim.inference import primitive_sums
+from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, ProMPConfig
+from socialaff_sim.inference.reaction_features import Anchor, FeatureConfig, forward_fill, velocity_estimate
 from socialaff_sim.inference.switching import PRIMITIVE_FAMILIES, SwitchingConfig
 from socialaff_sim.inference.synthesis import OnlineSynthesizer, SynthesisConfig
 from socialaff_sim.inference.type_tables import TypeTables
 from socialaff_sim.learning.config import LearningConfig
+from socialaff_sim.model.frame import canonical_frame
+from socialaff_sim.model.joints import canonical_joints, instance_frame
+from socialaff_sim.model.nan_fill import nan_to_zero
 from socialaff_sim.model.transitions import order_ranks
+
+from test_primitive_stream import _instances
+from test_reactor_overhead import _nuitrack_instance
 
 T0 = 10
 _USERS = (type_tables, forward_belief, synthesis, candidate_planner)  # the modules that call per_model
@@ -177,3 +194,86 @@ def test_recordings_one_after_another_are_bitwise_those_set_up_each_alone(shake8
     for a, b in zip(shared, alone, strict=True):
         for name in ("joints", "key_joints", "subevents"):
             assert np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True), name
+
+
+@pytest.mark.parametrize("G", [1, 2, 11, 40, 700])
+def test_outer_sums_are_einsums_values(rng: np.random.Generator, G: int) -> None:
+    """The information of G frames added at once (the stream's first call, and its rebuild after a late-tracked joint)
+    per distinct weight column: np.einsum's values, bitwise, with DoFs unseen in some frames (weight 0)."""
+    for C, D, N in ((15, 33, 12), (1, 1, 2), (7, 20, 9)):
+        phi = np.exp(-10.0 * rng.random((G, C, N)))
+        w = np.where(rng.random((G, 1)) < 0.3, 0.0, 1.0) * rng.choice([1 / 0.05**2, 1 / 0.02**2], size=(1, D))
+        w = np.where(rng.random((G, D)) < 0.1, 0.0, w)
+        got = outer_sums(phi, w)
+        assert got.shape == (C, D, N, N)
+        assert np.einsum("gcn,gcm,gd->cdnm", phi, phi, w).tobytes() == np.ascontiguousarray(got).tobytes()
+
+
+def _gappy(rng: np.random.Generator) -> Interaction:
+    """The nuitrack10 instance of tests/test_reactor_overhead.py (agent 0's wrist first tracked at frame 18, a gap that
+    closes) with agent 1's elbow and base untracked in some of its first frames (the base at frame 0)."""
+    inst = _nuitrack_instance(rng, 40)
+    valid = np.array(inst.valid, copy=True)
+    k = inst.layout.key_indices
+    valid[0, 1, k[0]] = False
+    valid[3:6, 1, 2] = False
+    valid[:4, 1, 5] = False
+    joints = np.where(valid[..., None], inst.joints, np.nan)
+    return inst.replace(joints=joints, valid=valid)
+
+
+def test_first_call_fillings_are_the_ones_they_replace(rng: np.random.Generator) -> None:
+    inst = _gappy(rng)
+    for n in (T0 + 1, 16, 40):
+        view = protocol_view(inst, n, T0) if n < inst.n_frames else inst
+        longer = view.extend_held(n + 5)
+        # The synthesizer's canonical track: one filling for the frame and the joints (was instance_frame's and
+        # canonical_joints' own).
+        obs = ObservedInteraction.of(longer, T0)
+        frame = instance_frame(longer)
+        ref = canonical_joints(longer, frame)
+        ref[T0:, 5:10] = np.nan
+        assert obs.track.tobytes() == ref.tobytes()
+        assert obs.frame.rotation.tobytes() == frame.rotation.tobytes() and obs.frame.origin.tobytes() == frame.origin.tobytes()
+        np.testing.assert_array_equal(canonical_joints(longer, frame, keys=longer.key_joints()), canonical_joints(longer, frame))
+        # The switching regression's anchor: agent 1 filled alone (was the sliced instance's filled_joints).
+        cfg = FeatureConfig()
+        got = Anchor.from_view(view, T0, cfg)
+        filled = view.slice(0, T0).filled_joints()
+        valid = np.asarray(view.valid)[:T0]
+        keys0 = view.layout.key_joints(forward_fill(view.joints[:T0, 0], valid[:, 0]))
+        keys1 = view.layout.key_joints(filled[:, 1])
+        b0, b1 = keys0[T0 - 1, 0], keys1[T0 - 1, 0]
+        ref_frame = canonical_frame(b0, b1)
+        assert np.isfinite(b1).all() and not inst.valid[0, 1, inst.layout.key_indices[0]]  # the gap at frame 0 filled
+        assert got.pose.tobytes() == filled[T0 - 1, 1].tobytes() and got.base1.tobytes() == b1.tobytes()
+        assert got.keys0.tobytes() == keys0[T0 - 1].tobytes() and got.frame.rotation.tobytes() == ref_frame.rotation.tobytes()
+        v = nan_to_zero((velocity_estimate(keys1[-min(cfg.window, T0):]) * view.fps) @ ref_frame.rotation)
+        assert got.velocity1.tobytes() == v.tobytes()
+
+
+def test_primitive_stream_first_call_is_the_einsum_one(rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The primitive stream over a recording with gaps (agent 0's base untracked at frame 0, a joint first tracked
+    after the first call: a rebuild over more frames) with the sums of its first frames by outer_sums against the same
+    stream with np.einsum's (the code it replaces): every frame's key joints, the sums and the frame, bitwise."""
+    insts = _instances(rng, 6, gaps=True)
+    inst = insts[0]
+    valid = np.array(inst.valid, copy=True)
+    valid[:2, 0, 0] = False
+    inst = inst.replace(joints=np.where(valid[..., None], inst.joints, np.nan), valid=valid)
+    prim = InteractionPrimitive(ProMPConfig(n_basis=6, n_durations=5)).fit(insts[1:])
+
+    def run() -> tuple[list[np.ndarray], PrimitiveStream]:
+        stream = PrimitiveStream(prim, T0)
+        return [stream.keys(protocol_view(inst, t + 1, T0), t, t + 1) for t in range(T0, inst.n_frames)], stream
+
+    new, a = run()
+    rebuilt: list[int] = []
+    monkeypatch.setattr(primitive_sums, "outer_sums", lambda phi, w: rebuilt.append(len(phi)) or np.einsum("gcn,gcm,gd->cdnm", phi, phi, w))
+    old, b = run()
+    assert rebuilt[0] == T0 + 1 and max(rebuilt) > T0 + 1  # the first call, and a rebuild after the late joint
+    for x, y in zip(new, old, strict=True):
+        assert x.tobytes() == y.tobytes()
+    assert a._hth.tobytes() == b._hth.tobytes() and a._hty.tobytes() == b._hty.tobytes() and a._err.tobytes() == b._err.tobytes()
+    frame = instance_frame(protocol_view(inst, inst.n_frames, T0))
+    assert a._frame.rotation.tobytes() == frame.rotation.tobytes() and a._frame.origin.tobytes() == frame.origin.tobytes()

@@ -16,8 +16,8 @@ import numpy as np
 
 from ..data.interaction import Interaction
 from ..errors import ModelError
-from ..model.frame import CanonicalFrame
-from ..model.joints import N_JOINTS, canonical_joints, instance_frame
+from ..model.frame import CanonicalFrame, canonical_frame
+from ..model.joints import N_JOINTS, canonical_joints
 from .candidates import AGENT1
 
 __all__ = ["ObservedInteraction"]
@@ -49,8 +49,9 @@ class ObservedInteraction:
                 f"instance {interaction.instance_id!r}: synthesis needs more than T0 = {n_observed} frames, "
                 f"found {interaction.n_frames}"
             )
-        frame = instance_frame(interaction)
-        track = canonical_joints(interaction, frame)
+        keys = interaction.key_joints()  # filled once: instance_frame's frame and the track read the same
+        frame = canonical_frame(keys[0, 0, 0], keys[0, 1, 0])
+        track = canonical_joints(interaction, frame, keys=keys)
         track[n_observed:, AGENT1] = np.nan  # never read agent 1 beyond the observation
         track.setflags(write=False)
         return cls(frame, track, float(interaction.fps), int(n_observed), interaction.instance_id, interaction.label)

@@ -41,8 +41,7 @@ from scipy.linalg.lapack import dpotrf, dpotrs
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ModelError
-from ..model.frame import CanonicalFrame
-from .body_fit import instance_frame
+from ..model.frame import CanonicalFrame, canonical_frame
 from .interaction_primitive import InteractionPrimitive, rbf_centres, rbf_rows
 from .low_rank_solve import LowRankUpdatedSolver
 from .primitive_sums import PrimitiveSums
@@ -147,10 +146,11 @@ class PrimitiveStream(PrimitiveSums):
         """The sums from scratch over the whole view (the first call, and a key joint first tracked late)."""
         prim = self.primitive
         keys = prim.keys_
-        self._frame = instance_frame(view)
+        every = view.key_joints()  # filled once: instance_frame's frame and the sums read the same
+        self._frame = canonical_frame(every[0, 0, 0], every[0, 1, 0])
         self._joint_names = view.joint_names
         self._idx = np.array([view.layout.key_indices[k] for k in keys], dtype=np.int64)
-        filled = view.key_joints()[:, :, keys]  # (T, 2, k, 3) world
+        filled = every[:, :, keys]  # (T, 2, k, 3) world
         self._anchor = (self._frame.to_canonical(filled[0, 1, 0]) if prim.config.relative_to_start else np.zeros(3))
         y = self._dofs(filled, view.object)
         n_c, n_dof, n = len(self._cands), self._n_dof, self._n

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..data.interaction import Interaction
+from ..data.interaction import Interaction, fill_gaps
 from ..data.skeletons import N_KEY
 from ..errors import ConfigError, ModelError
 from ..model.frame import CanonicalFrame, canonical_frame
@@ -154,10 +154,12 @@ class Anchor:
     @classmethod
     def from_view(cls, view: Interaction, n_observed: int, config: FeatureConfig) -> Anchor:
         """The anchor of an instance from the frames a method may see (agent 1's first ``n_observed`` frames)."""
-        obs = view.slice(0, n_observed).filled_joints()
         valid = np.asarray(view.valid)[:n_observed]
+        # Agent 1's joints of view.slice(0, T0).filled_joints(), filled alone (each joint is filled from its own
+        # frames, so the same values, without filling agent 0's or validating a sliced instance).
+        obs1 = fill_gaps(view.joints[:n_observed, 1:], valid[:, 1:])[:, 0]
         keys0 = view.layout.key_joints(forward_fill(view.joints[:n_observed, 0], valid[:, 0]))
-        keys1 = view.layout.key_joints(obs[:, 1])
+        keys1 = view.layout.key_joints(obs1)
         a = n_observed - 1
         b0 = keys0[a, 0]
         b1 = keys1[a, 0]
@@ -168,7 +170,7 @@ class Anchor:
         k = min(config.window, n_observed)
         v = velocity_estimate(keys1[-k:]) * view.fps if k >= 2 else np.zeros((N_KEY, 3))
         v = nan_to_zero(v @ frame.rotation)
-        return cls(obs[a, 1], b0, keys0[a], v, b1, frame, a, float(view.fps))
+        return cls(obs1[a], b0, keys0[a], v, b1, frame, a, float(view.fps))
 
     def features(self, keys0: np.ndarray, vel0: np.ndarray, frames: np.ndarray, config: FeatureConfig) -> np.ndarray:
         """(F, N_FEATURES) rows for output frames ``frames`` (F,), given agent 0's key joints (F, 5, 3)

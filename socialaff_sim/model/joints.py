@@ -88,9 +88,10 @@ def instance_frame(inter: Interaction) -> CanonicalFrame:
     return canonical_frame(key[0, 0, 0], key[0, 1, 0])
 
 
-def canonical_joints(inter: Interaction, frame: CanonicalFrame | None = None) -> np.ndarray:
-    """(T, 11, 3) float64, metres, canonical frame: the model joints of an instance; NaN where absent."""
-    key = inter.key_joints()
+def canonical_joints(inter: Interaction, frame: CanonicalFrame | None = None, *, keys: np.ndarray | None = None) -> np.ndarray:
+    """(T, 11, 3) float64, metres, canonical frame: the model joints of an instance; NaN where absent. ``keys``: its
+    :meth:`~socialaff_sim.data.interaction.Interaction.key_joints` if the caller has them (read, not changed)."""
+    key = inter.key_joints() if keys is None else keys
     if frame is None:
         frame = canonical_frame(key[0, 0, 0], key[0, 1, 0])
     out = np.full((inter.n_frames, N_JOINTS, 3), np.nan)
