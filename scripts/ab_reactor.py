@@ -104,11 +104,15 @@ def main() -> int:
     add_setting_argument(p, "tree B's method (A runs the pickled one): the paired cost of a setting, --a and --b the same tree")
     p.add_argument("--block", type=int, default=100, help="frames per block (each tree steps a block in turn)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--by-index", type=int, default=0, metavar="K",
+                   help="also print each tree's CPU per call by frame index (0: the first call after T0), median and "
+                        "max over the recordings, for the first K calls of each")
     args = p.parse_args()
     acc: dict[str, dict[str, float]] = {"a": {}, "b": {}}
     runs = {k: _load(getattr(args, k), args, acc[k], args.set if k == "b" else [], p) for k in ("a", "b")}
     blocks: dict[str, list[float]] = {"a": [], "b": []}
     per_frame: dict[str, list[float]] = {"a": [], "b": []}
+    by_index: dict[str, dict[int, list[float]]] = {"a": {}, "b": {}}
     frames = 0
     for i in range(len(runs["a"])):
         T = runs["a"][i][0]
@@ -125,6 +129,7 @@ def main() -> int:
                     dt = time.thread_time() - c0
                     c += dt
                     per_frame[k].append(dt)
+                    by_index[k].setdefault(t - T0, []).append(dt)
                 blocks[k].append(c)
             frames += hi - lo
     a, b = np.array(blocks["a"]), np.array(blocks["b"])
@@ -136,6 +141,10 @@ def main() -> int:
     for k in ("a", "b"):  # CPU per call: on a loaded machine the tail is the load's as much as the code's
         x = np.array(per_frame[k]) * 1e3
         print(f"{k.upper()} per frame: p50 {np.percentile(x, 50):.3f}, p99 {np.percentile(x, 99):.3f}, max {x.max():.2f} ms CPU")
+    for k in ("a", "b") if args.by_index else ():
+        idx = sorted(by_index[k])[: args.by_index]
+        print(f"{k.upper()} per call by index, median ms CPU: " + " ".join(f"{np.median(by_index[k][i]) * 1e3:.2f}" for i in idx))
+        print(f"{k.upper()} per call by index, max ms CPU:    " + " ".join(f"{max(by_index[k][i]) * 1e3:.2f}" for i in idx))
     print(f"B/A: total {b.sum() / a.sum():.3f}; per block median {np.median(r):.3f} (quartiles {np.percentile(r, 25):.3f}–{np.percentile(r, 75):.3f})")
     for *_, label in PARTS:
         ta, tb = acc["a"].get(label, 0.0) / frames * 1e3, acc["b"].get(label, 0.0) / frames * 1e3

@@ -6,7 +6,8 @@ outputs on recordings stepped one after another with one model against the same 
 anew when a learned attribute is replaced (a refit, a load), and the model's own arrays stay writable. And the first
 call's cheaper arithmetic-preserving steps: the primitive's information sums of the first frames against
 ``np.einsum``, the canonical track, the primitive's frame and the switching regression's anchor each from one gap
-filling against the fillings they replace (on layouts with gaps at the first frames)."""
+filling against the fillings they replace (on layouts with gaps at the first frames), and the primitive's fixed
+conditioning parts made before the first frame against those made when first needed."""
 
 from __future__ import annotations
 
@@ -26,7 +27,7 @@ from socialaff_sim.inference.observed import ObservedInteraction
 from socialaff_sim.inference.primitive_stream import PrimitiveStream
 from socialaff_sim.inference.primitive_sums import outer_sums
 from socialaff_sim.inference.protocol import protocol_view
-from socialaff_sim.inference import primitive_sums
+from socialaff_sim.inference import primitive_stream, primitive_sums
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, ProMPConfig
 from socialaff_sim.inference.reaction_features import Anchor, FeatureConfig, forward_fill, velocity_estimate
 from socialaff_sim.inference.switching import PRIMITIVE_FAMILIES, SwitchingConfig
@@ -277,3 +278,45 @@ def test_primitive_stream_first_call_is_the_einsum_one(rng: np.random.Generator,
     assert a._hth.tobytes() == b._hth.tobytes() and a._hty.tobytes() == b._hty.tobytes() and a._err.tobytes() == b._err.tobytes()
     frame = instance_frame(protocol_view(inst, inst.n_frames, T0))
     assert a._frame.rotation.tobytes() == frame.rotation.tobytes() and a._frame.origin.tobytes() == frame.origin.tobytes()
+
+
+def test_warm_fixed_parts_are_the_ones_the_first_recording_made(rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The primitive's fixed conditioning parts made before the first frame (warm) are the ones the stream looks up:
+    with agent 1 tracked in its first T0 frames no frame factors Λ_rr, and the key joints are bitwise those of a cold
+    primitive that factors at the frames where it needs them; agent 1 untracked in one of those frames misses and
+    makes its own (the same values as cold; a gap between tracked frames is filled, so only a joint never tracked
+    before T0 changes B_r); a refitted primitive (a new precision_) does not read the old parts."""
+    insts = _instances(rng, 7)
+    prim = InteractionPrimitive(ProMPConfig(n_basis=6, n_durations=5)).fit(insts[2:])
+    factored: list[int] = []
+    cho = primitive_stream.cho_factor
+    monkeypatch.setattr(primitive_stream, "cho_factor", lambda *a, **k: factored.append(1) or cho(*a, **k))
+
+    def run(p: InteractionPrimitive, inst: Interaction, warm: bool) -> list[np.ndarray]:
+        stream = PrimitiveStream(p, T0)
+        if warm:
+            stream.warm()
+        return [stream.keys(protocol_view(inst, t + 1, T0), t, t + 1) for t in range(T0, inst.n_frames)]
+
+    gap = insts[1].replace(valid=np.array(insts[1].valid, copy=True))
+    valid = np.array(gap.valid, copy=True)
+    valid[:T0, 1, 2] = False  # agent 1's wrist never tracked before T0 (a gap is filled): another B_r
+    gap = gap.replace(joints=np.where(valid[..., None], gap.joints, np.nan), valid=valid)
+    for inst, hits in ((insts[0], True), (gap, False)):
+        cold = run(copy.deepcopy(prim), inst, warm=False)
+        assert factored  # the cold primitive factors at the frames that need it
+        warm_prim = copy.deepcopy(prim)
+        PrimitiveStream(warm_prim, T0).warm()
+        assert len(factored) >= len(warm_prim.durations_)  # every candidate, before the first frame
+        factored.clear()
+        got = run(warm_prim, inst, warm=True)
+        assert (not factored) == hits  # tracked as usual: no factorisation while stepping; a gap: its own
+        for a, b in zip(got, cold, strict=True):
+            assert a.tobytes() == b.tobytes()
+        factored.clear()
+    refit = copy.deepcopy(prim)
+    PrimitiveStream(refit, T0).warm()
+    refit._precision = refit.precision_ * 2.0  # what a refit does: a new precision_
+    factored.clear()
+    PrimitiveStream(refit, T0).warm()
+    assert len(factored) == len(refit.durations_)  # made anew for the new parameters

@@ -297,6 +297,8 @@ class _AffordanceReactor:
         # The interaction primitive's causal prediction, from running sums (bounded work per frame).
         self.primitive = (PrimitiveStream(method.primitive_, config.n_observed)
                           if self.reaction is not None and self.reaction.uses_primitive else None)
+        if self.primitive is not None:  # its fixed conditioning parts, once per fitted primitive (not per recording)
+            self.primitive.warm()
         # Which skeletons the blend reads as priors: a body fit nobody reads is skipped (it runs every frame).
         priors = {m.prior for m in self.reaction.members_} if self.reaction is not None else set()
         self._plan_prior = self.reaction is None or "from_plan" in priors

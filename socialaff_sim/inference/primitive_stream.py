@@ -44,7 +44,7 @@ from ..errors import ModelError
 from ..model.frame import CanonicalFrame, canonical_frame
 from .interaction_primitive import InteractionPrimitive, rbf_centres, rbf_rows
 from .low_rank_solve import LowRankUpdatedSolver
-from .primitive_sums import PrimitiveSums
+from .primitive_sums import PrimitiveSums, outer_sums
 from .protocol import observed_part
 
 __all__ = ["PHASE_ONE_REFACTOR", "PrimitiveStream", "SHARED_SOLVERS", "stream_key_joints"]
@@ -59,8 +59,9 @@ SHARED_SOLVERS = 32
 handovers; one per candidate duration and agent-1 tracking pattern) are kept per fitted primitive, shared by its
 streams (oldest dropped first)."""
 
-_SHARED: weakref.WeakKeyDictionary[InteractionPrimitive, dict[tuple[int, bytes], tuple[np.ndarray, np.ndarray, np.ndarray]]]
-_SHARED = weakref.WeakKeyDictionary()
+_SHARED: weakref.WeakKeyDictionary[InteractionPrimitive, tuple[np.ndarray, dict[tuple[int, bytes], tuple[np.ndarray, ...]]]]
+_SHARED = weakref.WeakKeyDictionary()  # per primitive: its precision_ (a refit replaces it) and the fixed parts
+_WARM: weakref.WeakKeyDictionary[InteractionPrimitive, tuple[np.ndarray, set[int]]] = weakref.WeakKeyDictionary()
 
 
 class PrimitiveStream(PrimitiveSums):
@@ -231,26 +232,56 @@ class PrimitiveStream(PrimitiveSums):
         """Candidate ``c``'s fixed part of the conditioning: S = P_aa − P_ar K (a, a), K = Λ_rr⁻¹ P_ra (r, a),
         u = Λ_rr⁻¹ (HᵀR⁻¹y − HᵀR⁻¹H μ)_r (r,) and P_ar u (a,) (module docstring)."""
         if c not in self._solvers:
-            a, d0 = self._a, self._d0
+            d0 = self._d0
             blocks = self._hth[c, d0:]
-            # S and K depend on the instance only through B_r, the same on every instance whose agent 1 is
-            # tracked alike in its first T0 frames: shared between the streams of one primitive.
-            shared = _SHARED.setdefault(self.primitive, {})
-            key = (int(self._cands[c]), blocks.tobytes())
-            if key not in shared:
-                prec = self.primitive.precision_
-                lam_rr = self._add_blocks(prec[a:, a:].copy(), blocks)
-                factor = cho_factor(0.5 * (lam_rr + lam_rr.T), lower=True, check_finite=False)
-                k = cho_solve(factor, prec[a:, :a], check_finite=False)
-                s = prec[:a, :a] - prec[:a, a:] @ k
-                if len(shared) >= SHARED_SOLVERS:
-                    shared.pop(next(iter(shared)))  # the oldest
-                shared[key] = (factor[0], k, 0.5 * (s + s.T))
-            chol, k, s_aa = shared[key]
+            chol, k, s_aa = self._fixed(c, blocks)
             rhs_r = (self._hty[c, d0:] - np.einsum("dnm,dm->dn", blocks, self._mean[d0:])).ravel()
             u = cho_solve((chol, True), rhs_r, check_finite=False)
             self._solvers[c] = (s_aa, k, u, self.primitive.precision_[: self._a, self._a :] @ u)
         return self._solvers[c]
+
+    def _fixed(self, c: int, blocks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Λ_rr's Cholesky factor, K and S of candidate ``c`` given agent 1's information blocks B_r ``blocks``
+        (r-DoFs, N, N). They depend on the instance only through B_r, the same on every instance whose agent 1 is
+        tracked alike in its first T0 frames: shared between the streams of one primitive (made anew if it is
+        refitted), keyed by the candidate and B_r's bytes."""
+        entry = _SHARED.get(self.primitive)
+        if entry is None or entry[0] is not self.primitive.precision_:
+            entry = _SHARED[self.primitive] = (self.primitive.precision_, {})
+        shared = entry[1]
+        key = (int(self._cands[c]), blocks.tobytes())
+        if key not in shared:
+            a = self._a
+            prec = self.primitive.precision_
+            lam_rr = self._add_blocks(prec[a:, a:].copy(), blocks)
+            factor = cho_factor(0.5 * (lam_rr + lam_rr.T), lower=True, check_finite=False)
+            k = cho_solve(factor, prec[a:, :a], check_finite=False)
+            s = prec[:a, :a] - prec[:a, a:] @ k
+            if len(shared) >= SHARED_SOLVERS:
+                shared.pop(next(iter(shared)))  # the oldest
+            shared[key] = (factor[0], k, 0.5 * (s + s.T))
+        return shared[key]
+
+    def warm(self) -> None:
+        """Make every candidate's fixed part (:meth:`_fixed`) for an agent 1 tracked in all of its first T0 frames (the
+        usual recording) before the first frame, once per primitive and T0 (the reactor's constructor calls it): on
+        the first recording after a load they were made at the frames where the chosen duration first changed to
+        each candidate (a factorisation each, 1.5–3 ms). B_r is what the stream's first call adds, the view's T0 + 1
+        frames at once (:meth:`~.primitive_sums.PrimitiveSums._add_rows`, agent 1 seen before T0): the same
+        products and sums, so the same bytes, the same key; a recording tracked otherwise misses and makes its own."""
+        entry = _WARM.get(self.primitive)
+        if entry is None or entry[0] is not self.primitive.precision_:
+            entry = _WARM[self.primitive] = (self.primitive.precision_, set())
+        if self.n_observed in entry[1]:
+            return
+        frames = np.arange(self.n_observed + 1)
+        span = np.maximum(self._cands - 1, 1)  # every candidate is active at frame 0
+        phi = self._rbf(np.minimum(frames[:, None] / span[None], 1.0).ravel()).reshape(len(frames), len(self._cands), self._n)
+        w = np.where(frames[:, None] < self.n_observed, self._inv_var[None, self._d0 :], 0.0)  # seen × 1/σ², as _add_rows
+        blocks = 0.0 + 1.0 * outer_sums(phi, w)  # the sums start at zero; sign 1.0
+        for c in range(len(self._cands)):
+            self._fixed(c, np.ascontiguousarray(blocks[c]))
+        entry[1].add(self.n_observed)
 
     def keys(self, view: Interaction, start: int, stop: int) -> np.ndarray:
         """(stop − start, 5, 3) agent 1's key joints of frames [start, stop), metres, the view's canonical frame
