@@ -320,3 +320,15 @@ def test_warm_fixed_parts_are_the_ones_the_first_recording_made(rng: np.random.G
     factored.clear()
     PrimitiveStream(refit, T0).warm()
     assert len(factored) == len(refit.durations_)  # made anew for the new parameters
+
+
+def test_add_rows_basis_from_the_table_is_rbf_rows_at_each_phase(rng: np.random.Generator) -> None:
+    """The rows added at once read the basis table instead of evaluating rbf_rows at min(s / (T̂ − 1), 1): bitwise
+    the evaluated rows, for the first frames, a gap's frames within T_max and frames past T_max (phase 1)."""
+    prim = InteractionPrimitive(ProMPConfig(n_basis=6, n_durations=5)).fit(_instances(rng, 6)[1:])
+    st = PrimitiveStream(prim, T0)
+    for frames in (np.arange(T0 + 1), np.arange(3, 9), np.arange(st.t_max - 4, st.t_max + 30), np.array([2, 5, 40])):
+        for act in (np.arange(len(st._cands)), np.arange(2, len(st._cands))):
+            span = np.maximum(st._cands[act] - 1, 1)
+            ref = st._rbf(np.minimum(frames[:, None] / span[None], 1.0).ravel()).reshape(len(frames), len(act), st._n)
+            assert np.ascontiguousarray(st._table[np.minimum(frames, st.t_max)][:, act]).tobytes() == ref.tobytes()

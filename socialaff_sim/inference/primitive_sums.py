@@ -60,8 +60,9 @@ class PrimitiveSums:
         act = np.flatnonzero((self._cands > frames[0]) | (self._cands == self.t_max))
         cols = np.flatnonzero(seen.any(axis=0))
         yz = np.where(seen[:, cols], y[:, cols], 0.0) * self._inv_var[cols]  # (G, K)
-        span = np.maximum(self._cands[act] - 1, 1)
-        phi = self._rbf(np.minimum(frames[:, None] / span[None], 1.0).ravel()).reshape(len(frames), len(act), self._n)
+        # The basis rows at phases min(s / (T̂ − 1), 1), read from the table (rbf_rows's value at each row's own phase;
+        # frames past T_max are at phase 1 for every candidate, the table's last row), not evaluated again.
+        phi = self._table[np.minimum(frames, self.t_max)][:, act]
         sub = _block(act, cols)
         if len(frames) == 1:  # the per-frame path
             p0 = phi[0]
