@@ -15,6 +15,10 @@ difference against ``--tol`` (metres for positions and errors; sub-events must b
     PYTHONPATH=$PWD          python scripts/check_reactor_outputs.py run --models /tmp/m --out new.npz
     python scripts/check_reactor_outputs.py compare ref.npz new.npz [--tol 1e-9]
 
+``run --set FIELD=VALUE`` changes every method's causal synthesis in memory (e.g. ``kernel=numba``: how far an option
+moves the outputs); ``compare`` also prints, per kind of array, how many differ, the largest difference and the rows
+(frames) that differ by more than 1 µm (a changed choice rather than rounding).
+
 The library never imports this script.
 """
 
@@ -40,6 +44,7 @@ from socialaff_sim.evaluation.streaming import run_protocol_measured  # noqa: E4
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_stream import concatenate  # noqa: E402
+from _reactor_args import add_setting_argument, changed_synthesis  # noqa: E402
 
 _DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 T0 = 10
@@ -78,10 +83,13 @@ def _method(case: Case, train: list, models: str | None) -> object:
     return method
 
 
-def run_case(case: Case, models: str | None, stream_s: float, arrays: dict[str, np.ndarray], seconds: dict[str, float]) -> None:
+def run_case(case: Case, models: str | None, stream_s: float, arrays: dict[str, np.ndarray], seconds: dict[str, float],
+             settings: list[str] | None = None, parser: argparse.ArgumentParser | None = None) -> None:
     pool = [i for i in load_dataset(case.spec) if i.label == case.label]
     train, test = pool[: case.n_fit], pool[case.n_fit : case.n_fit + case.n_test]
     method = _method(case, train, models)
+    if settings:  # --set: the method's causal synthesis changed in memory (the pickle is not rewritten)
+        method.synthesis = changed_synthesis(method.synthesis, settings, parser)  # type: ignore[attr-defined]
     tic = time.process_time()
     rng = np.random.default_rng(1)
     # The held-out recordings, then them end to end for ``stream_s`` seconds (past the primitive's longest
@@ -127,6 +135,23 @@ def compare(reference: str, candidate: str, tol: float) -> int:
         if diff > tol:
             print(f"DIFFERS {k}: max |diff| {diff:.3g} > {tol:g}")
             bad += 1
+    for kind in ("key_joints", "joints", "forecasts", "errors", "subevents"):  # per kind: where and how much they differ
+        ks = [k for k in sorted(keys_a & keys_b) if k.endswith("/" + kind)]
+        diffs = [(k, a[k], b[k]) for k in ks if a[k].shape == b[k].shape and not np.array_equal(a[k], b[k], equal_nan=True)]
+        if not diffs:
+            continue
+        if kind == "subevents":
+            frames = sum(int((x != y).sum()) for _, x, y in diffs)
+            total = sum(a[k].size for k in ks)
+            print(f"  subevents: {len(diffs)} of {len(ks)} arrays differ, {frames} of {total} frames")
+            continue
+        worst_k, big = max(diffs, key=lambda d: np.nanmax(np.abs(d[1] - d[2]))), 0
+        for _, x, y in diffs:  # frames (first axis) whose largest difference exceeds 1 µm: a changed choice, not rounding
+            d = np.abs(x - y).reshape(len(x), -1)
+            big += int((np.nanmax(np.where(np.isnan(d), 0.0, d), axis=1) > 1e-6).sum())
+        w = float(np.nanmax(np.abs(worst_k[1] - worst_k[2])))
+        print(f"  {kind}: {len(diffs)} of {len(ks)} arrays differ; largest |diff| {w:.3g} ({worst_k[0]}); "
+              f"{big} rows with a difference > 1e-6")
     n = len(keys_a & keys_b)
     print(f"{n} arrays compared: {n - inexact - bad} bitwise equal, {inexact} within {tol:g} or not "
           f"(largest difference {worst:.3g}), {bad} differ or are missing")
@@ -141,6 +166,7 @@ def main() -> int:
     r.add_argument("--models", default=None, help="folder of fitted methods, one pickle per case (read, else written)")
     r.add_argument("--only", default="", help="comma-separated case names (default: all)")
     r.add_argument("--stream-seconds", type=float, default=120.0, help="the held-out recordings end to end (0: none)")
+    add_setting_argument(r, "every case's method (in memory; e.g. kernel=numba)")
     c = sub.add_parser("compare")
     c.add_argument("reference")
     c.add_argument("candidate")
@@ -153,7 +179,7 @@ def main() -> int:
     only = {s for s in args.only.split(",") if s}
     for case in CASES:
         if not only or case.name in only:
-            run_case(case, args.models, args.stream_seconds, arrays, seconds)
+            run_case(case, args.models, args.stream_seconds, arrays, seconds, args.set, r)
     arrays["__seconds__"] = np.array(json.dumps(seconds))
     np.savez_compressed(args.out, **arrays)
     return 0
