@@ -174,7 +174,8 @@ class SynthesisConfig:
     kernel: str = "numpy"
     """[—]: How the potentials' densities are evaluated in the forward belief's cuts and the candidates' scores:
     ``"numpy"`` (the default, the reference) or ``"numba"``, one compiled loop (:mod:`~.kernels`; the optional extra
-    ``[fast]``), a probe of issue 24's speed target: not bitwise (other exp, log, pow and cos; docs/design.md §7)."""
+    ``[fast]``), a probe of issue 24's speed target: not bitwise (scalar forms, the C library's exp, log and sqrt;
+    docs/design.md §7)."""
     hand_margin: float = 0.2
     """[m]: causal synthesis with a model whose ``config.active_hand`` is on: agent 0 counts as
     left-active only once its left wrist's path so far exceeds its right's by this much (right-active
