@@ -34,8 +34,7 @@ primitive's training traces are predicted at those frames only; the synthesizer'
 same; the validation rows keep every frame.
 ``--inner-repeats``, ``--inner-average``, ``--inner-folds``, ``--penalties``, ``--draws K``: every variant's regression
 settings, and the default's regression per draw of its inner folds (scripts/_dev_draws.py).
-``--set FIELD=VALUE``: the default's causal synthesis changed (scripts/_dev_synthesis.py; traces cached apart; the fitted
-models, which read no synthesis setting, cached once per class, rotation and seed and shared by such runs).
+``--set FIELD=VALUE``: the default's causal synthesis changed; the fitted models shared (scripts/_dev_synthesis.py).
 ``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
 ``--no-gated``: cheaper traces, no belief-gated variants. ``--clip-features on|off``, ``--clip-margin M``: every variant's
 regression with ``SwitchingConfig.clip_features`` / ``clip_margin`` (default: the library's; the traces and their
@@ -291,8 +290,7 @@ def main() -> None:
         val = [insts[i] for i in val_idx if insts[i].n_frames > T0 + 1]
         rng = np.random.default_rng(args.seed)
         t0 = time.perf_counter()
-        fit_key = (f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{f'_fp{args.type_passes}' if args.type_passes is not None else ''}"
-                   f"{f'_sr{args.type_screen_rounds}' if args.type_screen_rounds is not None else ''}")
+        fit_key = f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{f'_fp{args.type_passes}' if args.type_passes is not None else ''}{f'_sr{args.type_screen_rounds}' if args.type_screen_rounds is not None else ''}"
         cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}{f'_tp{passes}' if passes is not None else ''}{f'_fp{args.type_passes}' if args.type_passes is not None else ''}{'_od' if args.overrun_delta_t else ''}{f'_sr{args.type_screen_rounds}' if args.type_screen_rounds is not None else ''}{'_or' if args.ordered else ''}{settings_suffix(args.set)}.pkl" if args.cache else None
         model_s = float("nan")  # the model fit alone (Algorithm 1 and the body clusters; nan: read from the cache)
         if cache is not None and cache.exists():
