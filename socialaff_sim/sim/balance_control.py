@@ -12,7 +12,8 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    physical feet (or the middle of the feet), optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
    with the floor, where they stand now) shrunk by a margin; with ``hand_yield`` the arms' references give way
-   to a person's force beyond what the feet carry (:mod:`~.hand_yield`);
+   to a person's force beyond what the feet carry (:mod:`~.hand_yield`); with ``hand_weight`` the wrists are also
+   drawn on the arms' hinges toward where the plan puts them in the world, near a contact (:mod:`~.hand_task`);
 2. floating-base inverse dynamics with the floor's contact forces: at the feet's contact points as MuJoCo found
    them, forces inside friction cones that balance the root's six unactuated rows, q̈ as close to the wanted one
    as the weights allow (the arms' and head's joints by ``upper_weight`` less); τ = M q̈ + h − Jᵀf on the hinges.
@@ -51,6 +52,7 @@ from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
 from .external_force import ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts
+from .hand_task import HandTask
 from .hand_yield import HandYield
 from .scene import Scene
 from .self_clearance import SelfClearance
@@ -104,6 +106,9 @@ class BalanceController:
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
                                                                       c.yield_return, c.external_filter)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
+        self.hand_task = None if c.hand_weight is None else HandTask(scene, c.hand_bandwidth, c.hand_weight,
+                                                                      c.hand_near, c.hand_far, c.hand_release)
+        """``hand_weight``: the wrists' world-frame rows (:mod:`~.hand_task`), else ``None``."""
         self._plan = mujoco.MjData(m)
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
@@ -140,6 +145,8 @@ class BalanceController:
         self._capture = np.zeros(2)
         if self.hand_yield is not None:
             self.hand_yield.reset()
+        if self.hand_task is not None:
+            self.hand_task.reset()
 
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
@@ -161,6 +168,8 @@ class BalanceController:
         mujoco.mj_step1(m, d)
         self.steps += 1
         c = self.config
+        if self.hand_task is not None:  # every step, so that the reference's velocity is known when the solve starts
+            self.hand_task.reference(m, self.steps, q_ref)
         pts, frames, which = self.feet.contacts(d)
         standing = self._planted[0] and self._planted[1] and len(pts) > 0
         self._engaged = self._engaged + m.opt.timestep if standing else 0.0
@@ -296,6 +305,10 @@ class BalanceController:
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside one task
         tasks.append((np.eye(n)[6:] * scale[:, None], want * scale, c.w_joint))
+        if self.hand_task is not None:
+            give = self.hand_yield
+            tasks += self.hand_task.rows(m, d, None if give is None else give.offset, None if give is None else give.rate,
+                                         None if give is None else give.force)
         edges = cone_edges(frames, c.friction)
         if c.solver == "lsq":
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
