@@ -81,25 +81,24 @@ def _compile() -> Callable[..., np.ndarray]:
     return kernel
 
 
-def polar_rows(vecs: np.ndarray, rows: tuple, eps: float) -> np.ndarray:
+def polar_rows(vecs: np.ndarray, rows: tuple, eps: float, columns: dict[int, tuple] | None = None) -> np.ndarray:
     """(N, R) row log-densities of vectors ``vecs`` (N, R, 3) under a :class:`~.type_tables.TypeTables` row set
     ``rows`` (parameters (R, 6), exponential flags (R,), log i0e(κ) (R,), the Weibull terms of h and |dz|): the values
-    of ``polar_rows_logpdf(*polar(vecs, eps), ...)`` up to the compiled functions' last bits (module docstring)."""
+    of ``polar_rows_logpdf(*polar(vecs, eps), ...)`` up to the compiled functions' last bits (module docstring).
+    ``columns``: the caller's dict that keeps each row set's contiguous columns (by the row set's id; the tables keep
+    their row sets for their lifetime), else made at each call."""
     kernel = _compile()
-    return kernel(np.ascontiguousarray(vecs, dtype=np.float64), *_columns(rows), float(eps))
+    return kernel(np.ascontiguousarray(vecs, dtype=np.float64), *_columns(rows, columns), float(eps))
 
 
-def _columns(rows: tuple) -> tuple[np.ndarray, ...]:
-    """The kernel's contiguous parameter columns of a row set, made once per row set (kept by its identity)."""
-    key = id(rows)
-    hit = _COLUMNS.get(key)
+def _columns(rows: tuple, cache: dict[int, tuple] | None) -> tuple[np.ndarray, ...]:
+    """The kernel's contiguous parameter columns of a row set, with cos μ and sin μ."""
+    hit = None if cache is None else cache.get(id(rows))
     if hit is not None and hit[0] is rows:
         return hit[1]
     params, expon, log_i0e, ((lkl_h, km1_h, k1_h), (lkl_v, km1_v, k1_v)) = rows
     cols = tuple(np.ascontiguousarray(a) for a in (params, expon, log_i0e, lkl_h, km1_h, k1_h, lkl_v, km1_v, k1_v,
                                                    np.cos(params[:, 4]), np.sin(params[:, 4])))
-    _COLUMNS[key] = (rows, cols)
+    if cache is not None:
+        cache[id(rows)] = (rows, cols)
     return cols
-
-
-_COLUMNS: dict[int, tuple[tuple, tuple[np.ndarray, ...]]] = {}

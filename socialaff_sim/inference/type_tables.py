@@ -66,6 +66,7 @@ class TypeTables:
             self._read[np.ix_(rows, cols)] = True
         self.dur = np.array(model.duration_params_, float)  # a copy: made read-only with the tables
         self._cache: dict[tuple[str, int | None], tuple] = {}
+        self._kernel_columns: dict[int, tuple] = {}  # kernel="numba": each row set's columns, made at its first use
         # Per type: the columns of its rows among all rows (the same selection as types == s, made once).
         self._sp_groups = [(s, np.flatnonzero(self.sp_type == s)) for s in range(S) if np.any(self.sp_type == s)]
         self._mo_groups = [(s, np.flatnonzero(self.mo_type == s)) for s in range(S) if np.any(self.mo_type == s)]
@@ -119,7 +120,7 @@ class TypeTables:
         """Row log-densities (N, R) of vectors (N, R, 3) (:func:`~socialaff_sim.model.potentials.polar_rows_logpdf`);
         ``kernel="numba"``: :func:`~.kernels.polar_rows` (compiled, not bitwise: an option, docs/design.md §7)."""
         if kernel == "numba":
-            return kernels.polar_rows(vecs, rows, self.eps)
+            return kernels.polar_rows(vecs, rows, self.eps, self._kernel_columns)
         params, expon, log_i0e, weibull = rows
         h, v, th = polar(vecs, self.eps)
         with np.errstate(divide="ignore", invalid="ignore"):
