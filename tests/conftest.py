@@ -107,6 +107,19 @@ def shake8_model(shake8):  # noqa: ANN001, ANN201
     return SocialAffordanceModel(learning=LearningConfig(iterations=3)).fit(list(shake8)[:6], rng=np.random.default_rng(0))
 
 
+@pytest.fixture(scope="session")
+def primitive_method(shake8):  # noqa: ANN001, ANN201 (AffordanceMethod, imported lazily)
+    """The default ``full`` method with the interaction primitive's families in its blend, fitted on the first four of
+    :func:`shake8` with 1 MCMC iteration (seed 0): the reactor's whole path, for the reactor's speed tests (read-only:
+    a test that changes it works on a copy)."""
+    from socialaff_sim.inference.methods import AffordanceMethod
+    from socialaff_sim.inference.switching import PRIMITIVE_FAMILIES, SwitchingConfig
+    from socialaff_sim.learning.config import LearningConfig
+
+    cfg = SwitchingConfig(families=PRIMITIVE_FAMILIES, cross_fit=1, inner_folds=2)
+    return AffordanceMethod("full", learning=LearningConfig(iterations=1), reaction=cfg).fit(list(shake8)[:4], rng=np.random.default_rng(0))
+
+
 def labelled_partitions(B: int, S: int, *, distinct: bool, unique: bool):  # noqa: ANN201 (Iterator)
     """Every parse of B cut-point intervals: (points, labels) with points 0 = p_0 < … < p_K = B, for brute force."""
     import itertools

@@ -30,10 +30,8 @@ from socialaff_sim.inference.protocol import protocol_view
 from socialaff_sim.inference import primitive_stream, primitive_sums
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, ProMPConfig
 from socialaff_sim.inference.reaction_features import Anchor, FeatureConfig, forward_fill, velocity_estimate
-from socialaff_sim.inference.switching import PRIMITIVE_FAMILIES, SwitchingConfig
 from socialaff_sim.inference.synthesis import OnlineSynthesizer, SynthesisConfig
 from socialaff_sim.inference.type_tables import TypeTables
-from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.model.frame import canonical_frame
 from socialaff_sim.model.joints import canonical_joints, instance_frame
 from socialaff_sim.model.nan_fill import nan_to_zero
@@ -158,17 +156,12 @@ def test_order_ranks_once_per_model(shake8_model) -> None:  # noqa: ANN001
     np.testing.assert_array_equal(a._order_ranks(), order_ranks(model.parses_, model.n_subevents_))
 
 
-@pytest.fixture(scope="module")
-def method(shake8) -> AffordanceMethod:  # noqa: ANN001
-    cfg = SwitchingConfig(families=PRIMITIVE_FAMILIES, cross_fit=1, inner_folds=2)
-    return AffordanceMethod("full", learning=LearningConfig(iterations=1), reaction=cfg).fit(list(shake8)[:4], rng=np.random.default_rng(0))
-
-
-def test_recordings_one_after_another_are_bitwise_those_set_up_each_alone(shake8, method: AffordanceMethod,  # noqa: ANN001
+def test_recordings_one_after_another_are_bitwise_those_set_up_each_alone(shake8, primitive_method: AffordanceMethod,  # noqa: ANN001
                                                                           monkeypatch: pytest.MonkeyPatch) -> None:
     """Recordings stepped one after another with one fitted model (its set-up made at the first, read by the others)
     against the same recordings each with every cached value built anew (the per-recording set-up): bitwise."""
-    insts = list(shake8)[4:7]
+    method = copy.deepcopy(primitive_method)  # model objects of its own: nothing cached for them yet
+    insts = list(shake8)[4:6]  # the second reads the set-up the first made
     assert method.synthesis.ordered and method.synthesis.belief == "forward"  # the reactor's default path
     made: list[object] = []
     per_model = model_cache.per_model

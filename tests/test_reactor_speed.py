@@ -25,9 +25,7 @@ from socialaff_sim.inference.methods import AffordanceMethod
 from socialaff_sim.inference.primitive_stream import PrimitiveStream
 from socialaff_sim.inference.protocol import observed_part
 from socialaff_sim.model.nan_fill import nan_to_value, nan_to_zero
-from socialaff_sim.inference.switching import PRIMITIVE_FAMILIES, SwitchingConfig
 from socialaff_sim.inference.type_tables import TypeTables
-from socialaff_sim.learning.config import LearningConfig
 from socialaff_sim.model.densities import expon_logpdf, vonmises_logpdf, weibull_logpdf
 from socialaff_sim.model.features import polar
 from socialaff_sim.model.frame import canonical_frame
@@ -150,12 +148,6 @@ def test_canonical_rotation_is_made_once_and_read_only() -> None:
     with pytest.raises(ValueError):
         frame.rotation[0, 0] = 2.0
     assert copy.deepcopy(frame).rotation is not frame.rotation
-
-
-@pytest.fixture(scope="module")
-def primitive_method(shake8) -> AffordanceMethod:  # noqa: ANN001
-    cfg = SwitchingConfig(families=PRIMITIVE_FAMILIES, cross_fit=1, inner_folds=2)
-    return AffordanceMethod("full", learning=LearningConfig(iterations=1), reaction=cfg).fit(list(shake8)[:4], rng=np.random.default_rng(0))
 
 
 def _with_priors(method: AffordanceMethod, plan: bool) -> AffordanceMethod:
