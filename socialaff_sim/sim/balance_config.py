@@ -144,9 +144,10 @@ class BalanceConfig:
     then moves over this time onto the IK's base (0: at once onto the IK's base, which yanks the robot by as
     much as it strayed from the plan while released)."""
     release_reach: float | None = None
-    """κ_r [—]: the harness lets go only while the measured centre of mass and the capture point lie within the
+    """κ_r [—]: the harness lets go only while the measured centre of mass, the capture point and the centre of
+    pressure the controller would ask for (toward its centre-of-mass goal, on the linear pendulum) lie within the
     ankles' reach along the heading: where the ankle servos, at κ_r of their torque limits, can hold the centre
-    of pressure under them (:mod:`~.ankle_reach`). ``None``: the support box alone decides (the H1's ankles hold
+    of pressure (:mod:`~.ankle_reach`). ``None``: the support box alone decides (the H1's ankles hold
     its centre of mass at most 15.8 cm ahead of them, its soles reach 19.5 cm: released beyond, it tips)."""
     drive_harnessed: bool = False
     """[—]: Whether the controller's torques drive the joints also while the harness holds a standing robot

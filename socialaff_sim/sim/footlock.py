@@ -62,16 +62,16 @@ class FootLockConfig:
 
     touchdown: float | None = None
     """d_t [m]: a foot the lock would put down at a new point q waits in the air (its target q raised by
-    ``touchdown_height``, counted as stepping) while its physical ankle frame is farther than this
-    (horizontally) from q, for at most ``touchdown_frames`` frames; one foot at a time, while the other stands,
-    which meanwhile does not lift (:mod:`~.touchdown`). ``None``: a foot is put down at its target wherever the
+    ``touchdown_height``, at most ``touchdown_stride`` from the physical foot toward q, counted as stepping)
+    while its physical ankle frame is farther than this (horizontally) from q, for at most ``touchdown_frames``
+    frames; one foot at a time, while the other stands, which meanwhile does not lift (:mod:`~.touchdown`). ``None``: a foot is put down at its target wherever the
     physical foot is (the H1's walk-up steps land 25–47 cm short; docs/benchmarks.md, "The H1's outside support
     in the contact phases, diagnosed …")."""
-    touchdown_height: float = 0.06
+    touchdown_height: float = 0.08
     """h_t [m]: a waiting foot's target is its foothold raised by this."""
-    touchdown_frames: int = 4
+    touchdown_frames: int = 8
     """N_t [frames]: a foot waits at most this many frames, then is put down on its foothold."""
-    touchdown_stride: float | None = None
+    touchdown_stride: float | None = 0.3
     """s_t [m]: a waiting foot's target is at most this far (horizontally) from the physical foot, toward the
     foothold (lifted where it is before it is carried); ``None``: over the foothold."""
 

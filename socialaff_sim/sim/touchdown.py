@@ -6,7 +6,9 @@ and its foot touches down 25–47 cm short of its target (docs/benchmarks.md, "T
 contact phases, diagnosed …"). A loaded foot does not slide, so the robot then stands elsewhere than the IK
 plans it. :class:`Touchdown` decides, for a foot the lock would put down at a new point q, whether it waits in
 the air instead: while its physical ankle frame is farther than ``distance`` (horizontally) from q, its target
-is q raised by ``height`` (the swing continues to the foothold, clear of the floor) and it counts as stepping;
+is q raised by ``height``, and at most ``stride`` (horizontally) from the physical foot toward q (the foot is
+lifted where it stands, then carried: a straight leg reaching for a foothold far ahead drags its toe, which
+carries 120–250 N of a robot leaning on it in the harness), and it counts as stepping;
 it is put down on q once within ``distance``, after ``frames`` frames of waiting, or when a contact begins
 (with ``FootLockConfig.hold_in_contact``). One foot waits at a time, and only while the other stands; a foot
 that stands does not lift (the recording's next step is held back) while the other waits, so the robot is
