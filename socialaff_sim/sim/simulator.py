@@ -257,7 +257,7 @@ class Simulator:
         tg = fill_targets(np.asarray(targets, dtype=np.float64), self._home_keys)
         world = self.frame_R.to_world(tg)
         if self._footlock is not None:
-            physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.catch_up is not None else None
+            physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.needs_physical else None
             world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()),
                                               physical, new_frame=not self._in_frame)
         seg_a, seg_b, radius = self._segments
