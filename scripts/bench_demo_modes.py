@@ -5,7 +5,8 @@ held-out instance. This script simulates that same instance with that model, cau
 (``ModelSource(model, seed, SynthesisConfig.reactive())``), once per physics mode (``SimConfig.mode``:
 ``harness``, ``standing``), and prints per interaction and mode: sub-goals met, failures, and over the contact
 phase (frames where a sub-goal's contact holds now) the outside support (mean and peak, % of the weight), the
-frames with the harness off, the feet's slide path and drift (cm), the torso's largest tilt and the CPU time::
+frames with the harness off, the feet's slide path and drift (cm), the torso's largest tilt and the CPU time
+(``--balance FIELD=VALUE ...``: the standing mode's controller changed)::
 
     OMP_NUM_THREADS=1 python scripts/bench_demo_modes.py --demo demo_out --json modes.json
 """
@@ -13,6 +14,8 @@ frames with the harness off, the feet's slide path and drift (cm), the torso's l
 from __future__ import annotations
 
 import argparse
+import ast
+import dataclasses
 import json
 import time
 from pathlib import Path
@@ -36,7 +39,10 @@ def main() -> None:
     p.add_argument("--seed", type=int, default=DemoConfig().seed, help="the demo's seed (default: the demo's)")
     p.add_argument("--robot", default="ours")
     p.add_argument("--json", help="write the figures here")
+    p.add_argument("--balance", nargs="*", default=[], metavar="FIELD=VALUE",
+                   help="BalanceConfig fields for the standing mode (Python literals), e.g. hand_weight=100.0")
     args = p.parse_args()
+    over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.balance)}
     data = generate_dataset(args.seed)
     rows = []
     for label in INTERACTIONS:
@@ -49,7 +55,10 @@ def main() -> None:
         for mode in args.modes:
             source = ModelSource(model, seed=args.seed, config=SynthesisConfig.reactive())
             tic = time.process_time()
-            m = run_episode(Simulator(args.robot, task_for_label(label), SimConfig.mode(mode)), source, shown)
+            physics = SimConfig.mode(mode)
+            if over and physics.balance is not None:
+                physics = dataclasses.replace(physics, balance=dataclasses.replace(physics.balance, **over))
+            m = run_episode(Simulator(args.robot, task_for_label(label), physics), source, shown)
             cp = m["support"]["contact_phase"]
             rows.append({"label": label, "instance": shown.instance_id, "mode": mode, "success": m["success"],
                          "subgoals": {g["name"]: g["success"] for g in m["subgoals"]},

@@ -25,9 +25,10 @@ also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stan
 ``w_torso=3.0``); ``harness`` (``SimConfig.harness()``: the position servos on the compliant harness) and
 ``standing`` (``SimConfig.standing()``: ``qp_steady`` with ``flat_feet=True``, ``self_clearance=0.01``,
 ``hand_yield=0.5``, ``yield_damping=50.0`` and ``FootLockConfig(hold_lift=0.12, hold_in_contact=True)``);
-``--balance FIELD=VALUE ...`` changes the controller's settings for those of the last four being run (e.g.
+``--balance FIELD=VALUE ...`` changes the controller's settings for the modes with the controller being run (e.g.
 ``flat_feet=True``, which needs the QP), ``--foot-lock FIELD=VALUE ...``
-the foot lock's (:class:`~socialaff_sim.sim.footlock.FootLockConfig`) for every mode, ``--labels`` picks
+the foot lock's (:class:`~socialaff_sim.sim.footlock.FootLockConfig`) for every mode, ``--stance FIELD=VALUE ...``
+the steadied base's (:class:`~socialaff_sim.sim.stance.StanceConfig`) for the modes that have one, ``--labels`` picks
 interactions. After the per-interaction table, one line per robot and mode summarises the contact phases, and one
 more counts the episodes failing by each failure kind (self-collision, force on the person, a drop).
 
@@ -89,6 +90,8 @@ def main() -> None:
     p.add_argument("--balance", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="BalanceConfig fields for the balance modes (Python literals), e.g. com_bandwidth=3.0")
     p.add_argument("--labels", nargs="*", help="only these interactions")
+    p.add_argument("--stance", nargs="*", default=[], metavar="FIELD=VALUE",
+                   help="StanceConfig fields for the modes that have one (Python literals), e.g. base_smoothing=0.0")
     p.add_argument("--foot-lock", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="FootLockConfig fields for every mode (Python literals), e.g. hold_lift=0.08")
     args = p.parse_args()
@@ -98,8 +101,13 @@ def main() -> None:
             MODES[mode] = dataclasses.replace(cfg, foot_lock=dataclasses.replace(cfg.foot_lock, **lock))
     if args.balance:
         over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.balance)}
-        for mode in (m for m in ("balance", "balance_steady", "qp", "qp_steady") if m in args.modes):
+        for mode in (m for m in ("balance", "balance_steady", "qp", "qp_steady", "standing") if m in args.modes):
             MODES[mode] = dataclasses.replace(MODES[mode], balance=dataclasses.replace(MODES[mode].balance, **over))
+    if args.stance:
+        over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.stance)}
+        for mode, cfg in MODES.items():
+            if cfg.stance is not None:
+                MODES[mode] = dataclasses.replace(cfg, stance=dataclasses.replace(cfg.stance, **over))
     paths = dict(item.split("=", 1) for item in args.mjcf)
     data = generate_dataset(seed=args.seed)
     rows = []

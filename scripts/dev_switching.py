@@ -34,6 +34,7 @@ primitive's training traces are predicted at those frames only; the synthesizer'
 same; the validation rows keep every frame.
 ``--inner-repeats``, ``--inner-average``, ``--inner-folds``, ``--penalties``, ``--draws K``: every variant's regression
 settings, and the default's regression per draw of its inner folds (scripts/_dev_draws.py).
+``--set FIELD=VALUE``: the default's causal synthesis changed; the fitted models shared (scripts/_dev_synthesis.py).
 ``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
 ``--no-gated``: cheaper traces, no belief-gated variants. ``--clip-features on|off``, ``--clip-margin M``: every variant's
 regression with ``SwitchingConfig.clip_features`` / ``clip_margin`` (default: the library's; the traces and their
@@ -82,6 +83,7 @@ from socialaff_sim.inference.switching import (
 )
 
 from _dev_draws import add_regression_arguments, partition_draws, regression_settings  # scripts/ (sys.path[0])
+from _dev_synthesis import add_synthesis_arguments, fit_cached, settings_suffix, with_settings
 
 T0 = 10
 _G = dict(GATED_FAMILIES)
@@ -258,6 +260,7 @@ def main() -> None:
                          "%(default)s: the library's); the synthesizer's traces are unchanged (the same cache), the "
                          "primitive's predicted at those frames")
     add_regression_arguments(ap)
+    add_synthesis_arguments(ap)
     args = ap.parse_args()
     settings = regression_settings(args)
     if args.type_screen_rounds is not None and args.type_screen_rounds < 0:
@@ -287,12 +290,13 @@ def main() -> None:
         val = [insts[i] for i in val_idx if insts[i].n_frames > T0 + 1]
         rng = np.random.default_rng(args.seed)
         t0 = time.perf_counter()
-        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}{f'_tp{passes}' if passes is not None else ''}{f'_fp{args.type_passes}' if args.type_passes is not None else ''}{'_od' if args.overrun_delta_t else ''}{f'_sr{args.type_screen_rounds}' if args.type_screen_rounds is not None else ''}{'_or' if args.ordered else ''}.pkl" if args.cache else None
+        fit_key = f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{f'_fp{args.type_passes}' if args.type_passes is not None else ''}{f'_sr{args.type_screen_rounds}' if args.type_screen_rounds is not None else ''}"
+        cache = cache_dir / f"{args.data.split(':')[0]}_{label}_r{args.rotation}_s{args.seed}{'_cf' if args.cross_fit > 1 else ''}{'_cc' if args.contiguous else ''}{'_ng' if args.no_gated else ''}{f'_tp{passes}' if passes is not None else ''}{f'_fp{args.type_passes}' if args.type_passes is not None else ''}{'_od' if args.overrun_delta_t else ''}{f'_sr{args.type_screen_rounds}' if args.type_screen_rounds is not None else ''}{'_or' if args.ordered else ''}{settings_suffix(args.set)}.pkl" if args.cache else None
         model_s = float("nan")  # the model fit alone (Algorithm 1 and the body clusters; nan: read from the cache)
         if cache is not None and cache.exists():
             S, tr_traces, va_traces = pickle.loads(cache.read_bytes())
         else:
-            method = _with_iterations(AffordanceMethod.from_preset("full", "default", reaction=None), args.iterations)
+            method = with_settings(_with_iterations(AffordanceMethod.from_preset("full", "default", reaction=None), args.iterations), args.set, ap)
             if args.overrun_delta_t:
                 method.synthesis = dataclasses.replace(method.synthesis, overrun_delta_t=True)
             if args.ordered:
@@ -301,9 +305,7 @@ def main() -> None:
                 method.learning = dataclasses.replace(method.learning, init_type_passes=args.type_passes)
             if args.type_screen_rounds is not None:  # the restructuring's screening (issue 24: a cheaper fit)
                 method.learning = dataclasses.replace(method.learning, init_type_screen_rounds=args.type_screen_rounds)
-            t_model = time.perf_counter()
-            method.fit(train, rng=rng)
-            model_s = time.perf_counter() - t_model
+            model_s = fit_cached(method, train, rng, cache_dir / f"{fit_key}_fit.pkl" if args.cache else None)
             syn = dataclasses.replace(method.synthesis, n_observed=T0)
             tr_traces = method._training_traces(train, SwitchingConfig(families=FAMILIES if args.no_gated else GATED_FAMILIES, cross_fit=args.cross_fit, contiguous=args.contiguous, cross_fit_type_passes=passes), rng)
             va_traces = [trace(method.model_, method.body_, i, syn, rng) for i in val]

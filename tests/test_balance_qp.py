@@ -231,9 +231,9 @@ def test_a_hovering_planted_foot_counts_for_the_support_box_only_with_sole_gap()
     widths = []
     for gap in (0.0, 0.01):
         ctl = BalanceController(scene, BalanceConfig(sole_gap=gap))
-        pts, _, which = ctl._foot_contacts(d)
+        pts, _, which = ctl.feet.contacts(d)
         assert set(which.tolist()) == {0, 1}
-        xy = ctl._footprint(d, pts[which == 0], which[which == 0])  # the right foot's contacts lost for a step
+        xy = ctl.feet.footprint(d, pts[which == 0], which[which == 0])  # the right foot's contacts lost for a step
         widths.append(float(np.ptp(xy[:, 1])))
     assert widths[1] >= widths[0] + 0.1  # both soles (the feet are 20+ cm apart) against one
 

@@ -251,7 +251,7 @@ def test_a_foot_gets_its_corners_and_rows_in_contact_or_within_the_gap_only(scen
     d.qpos[scene.robot_qadr[2]] -= 0.001
     mujoco.mj_forward(m, d)
     ctl = test_balance_control.BalanceController(scene, BalanceConfig(solver="qp", flat_feet=True, sole_gap=0.01))
-    pts, frames, which = ctl._foot_contacts(d)
+    pts, frames, which = ctl.feet.contacts(d)
     left = which == 0
     anchors = [(d.xpos[b].copy(), d.xmat[b].reshape(3, 3).copy()) for b in ctl._feet]
     va = np.asarray(scene.robot_vadr)

@@ -325,11 +325,14 @@ class OnlineSynthesizer(CandidatePlanner, PathPlanner):
         return parse.current, parse.start
 
     def _end_frame(self, s: int, start: int, t: int) -> int:
-        """The predicted last frame (≥ t) of the running sub-event ``s`` begun at ``start``."""
+        """The predicted last frame (≥ t) of the running sub-event ``s`` begun at ``start`` (t itself: overrun)."""
         if self._rows is not None:
             return max(int(self._row(t)[1]) - 1, t)
         inter = self._inter
         assert inter is not None  # internal invariant: set by reset
+        fb = self._filter
+        if self.config.horizon_overrun and fb is not None and t - start >= fb.horizon:
+            return t  # the long bucket: its true start is older than the belief knows, so it counts as overrun
         mu, sigma = self.model.duration_params_[s]
         total = sample_remaining_seconds(
             mu, sigma, (t - start) / inter.fps, self._rng, median=self.config.duration == "median"

@@ -12,7 +12,8 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    physical feet (or the middle of the feet), optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
    with the floor, where they stand now) shrunk by a margin; with ``hand_yield`` the arms' references give way
-   to a person's force beyond what the feet carry (:mod:`~.hand_yield`);
+   to a person's force beyond what the feet carry (:mod:`~.hand_yield`); with ``hand_weight`` the wrists are also
+   drawn on the arms' hinges toward where the plan puts them in the world, near a contact (:mod:`~.hand_task`);
 2. floating-base inverse dynamics with the floor's contact forces: at the feet's contact points as MuJoCo found
    them, forces inside friction cones that balance the root's six unactuated rows, q̈ as close to the wanted one
    as the weights allow (the arms' and head's joints by ``upper_weight`` less); τ = M q̈ + h − Jᵀf on the hinges.
@@ -49,7 +50,9 @@ from .balance_config import BalanceConfig
 from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
 from .external_force import ExternalForces, lean_offset
-from .flat_feet import flat_attitude, flat_contacts, sole_corners
+from .feet_on_floor import FeetOnFloor
+from .flat_feet import flat_attitude, flat_contacts
+from .hand_task import HandTask
 from .hand_yield import HandYield
 from .scene import Scene
 from .self_clearance import SelfClearance
@@ -76,15 +79,11 @@ class BalanceController:
         robot = subtree_mask(m, scene.root_body)
         self.mass = float(m.body_mass[robot].sum())
         self._g = float(np.linalg.norm(m.opt.gravity))
-        self._feet: list[int] = []
-        foot_geom = np.full(m.ngeom, -1, dtype=np.int64)
-        for s, k in enumerate((3, 4)):
-            fid = int(scene.frame_ids[k])
-            body = int(m.site_bodyid[fid]) if scene.frame_kinds[k] == "site" else fid
-            self._feet.append(body)
-            foot_geom[subtree_mask(m, body)[m.geom_bodyid] & scene.robot_geom] = s
-        self._foot_geom = foot_geom
-        self._floor = int(scene.floor_geom)
+        self.feet = FeetOnFloor(scene, self.config.sole_gap)
+        """The feet, their soles and their contacts with the floor (:mod:`~.feet_on_floor`)."""
+        f = self.feet
+        self._feet, self._foot_fwd, self._sole, self._corners = f.bodies, f.forward, f.soles, f.corners
+        self._home_rot, self._home_z = f.home_rot, f.home_z
         # the body both shoulders hang from (as SupportMeter measures tilt)
         self._torso = shared_ancestor(m, int(scene.limb_body_ids[0]), int(scene.limb_body_ids[1]), scene.root_body)
         upper = subtree_mask(m, self._torso)
@@ -98,13 +97,8 @@ class BalanceController:
         d0 = mujoco.MjData(m)
         d0.qpos[self.qadr] = scene.home_qpos
         mujoco.mj_kinematics(m, d0)
-        # Each foot's own axis that points forward at home (the robot faces +x there), and the torso's up axis.
-        self._foot_fwd = np.array([d0.xmat[b].reshape(3, 3).T @ np.array([1.0, 0.0, 0.0]) for b in self._feet])
+        # the torso's up axis at home
         self._torso_up = d0.xmat[self._torso].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
-        self._sole = self._soles(m, scene)
-        self._corners = [None if sole is None else sole_corners(sole) for sole in self._sole]
-        self._home_rot = [d0.xmat[b].reshape(3, 3).copy() for b in self._feet]
-        self._home_z = [float(d0.xpos[b][2]) for b in self._feet]
         self._external = ExternalForces(scene)
         c = self.config
         self._clearance = None if c.self_clearance is None else SelfClearance.of_scene(
@@ -112,6 +106,9 @@ class BalanceController:
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
                                                                       c.yield_return, c.external_filter)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
+        self.hand_task = None if c.hand_weight is None else HandTask(scene, c.hand_bandwidth, c.hand_weight,
+                                                                      c.hand_near, c.hand_far, c.hand_release)
+        """``hand_weight``: the wrists' world-frame rows (:mod:`~.hand_task`), else ``None``."""
         self._plan = mujoco.MjData(m)
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
@@ -119,42 +116,6 @@ class BalanceController:
         self._quat = np.zeros(4)
         self._rot = np.zeros(3)
         self.reset()
-
-    def _soles(self, m: mujoco.MjModel, scene: Scene) -> list[np.ndarray | None]:
-        """Each foot's sole: the corners (8, 3) of the box, in the foot body's frame, of its contact points with
-        the floor at home pressed 2 mm into it (``None``: no contact found; the live contacts are used)."""
-        d = mujoco.MjData(m)
-        d.qpos[self.qadr] = scene.home_qpos
-        d.qpos[self.qadr[2]] -= 0.002
-        mujoco.mj_forward(m, d)
-        pts, _, which = self._foot_contacts(d)
-        out: list[np.ndarray | None] = []
-        for s, body in enumerate(self._feet):
-            mine = pts[which == s]
-            if len(mine) < 3:
-                out.append(None)
-                continue
-            local = (mine - d.xpos[body]) @ d.xmat[body].reshape(3, 3)
-            lo, hi = local.min(axis=0), local.max(axis=0)
-            out.append(np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]))
-        return out
-
-    def _footprint(self, d: mujoco.MjData, pts: np.ndarray, which: np.ndarray) -> np.ndarray:
-        """(K, 2) world points whose box is the feet's support: the soles of the feet on the floor now (the live
-        contact points of a foot whose sole is unknown), and of a foot whose sole is within ``sole_gap`` of it
-        (the soles' boxes were found pressed 2 mm into the floor)."""
-        out = []
-        floor = float(pts[:, 2].min())
-        for s, body in enumerate(self._feet):
-            sole = self._sole[s]
-            if not (which == s).any() and (sole is None or float((d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T)[
-                    :, 2].min()) > floor + self.config.sole_gap + 0.002 or self.config.sole_gap <= 0.0):
-                continue
-            if sole is None:
-                out.append(pts[which == s, :2])
-            else:
-                out.append((d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T)[:, :2])
-        return np.vstack(out)
 
     # -- episode and frame ----------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -184,6 +145,8 @@ class BalanceController:
         self._capture = np.zeros(2)
         if self.hand_yield is not None:
             self.hand_yield.reset()
+        if self.hand_task is not None:
+            self.hand_task.reset()
 
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
@@ -205,7 +168,9 @@ class BalanceController:
         mujoco.mj_step1(m, d)
         self.steps += 1
         c = self.config
-        pts, frames, which = self._foot_contacts(d)
+        if self.hand_task is not None:  # every step, so that the reference's velocity is known when the solve starts
+            self.hand_task.reference(m, self.steps, q_ref)
+        pts, frames, which = self.feet.contacts(d)
         standing = self._planted[0] and self._planted[1] and len(pts) > 0
         self._engaged = self._engaged + m.opt.timestep if standing else 0.0
         if not (self._planted[0] and self._planted[1]):
@@ -213,8 +178,8 @@ class BalanceController:
         tilt = self._tilt(d)
         box = None
         if standing:
-            fwd = self._heading(d)
-            box = SupportBox(self._footprint(d, pts, which), fwd)
+            fwd = self.feet.heading(d)
+            box = SupportBox(self.feet.footprint(d, pts, which), fwd)
             com = d.subtree_com[self.scene.root_body]
             self._jp[:] = 0.0
             mujoco.mj_jacSubtreeCom(m, d, self._jp, self.scene.root_body)
@@ -340,6 +305,10 @@ class BalanceController:
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside one task
         tasks.append((np.eye(n)[6:] * scale[:, None], want * scale, c.w_joint))
+        if self.hand_task is not None:
+            give = self.hand_yield
+            tasks += self.hand_task.rows(m, d, None if give is None else give.offset, None if give is None else give.rate,
+                                         None if give is None else give.force)
         edges = cone_edges(frames, c.friction)
         if c.solver == "lsq":
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
@@ -380,30 +349,6 @@ class BalanceController:
         return cop_rows(pts, edges, which, box.R, bounds)
 
     # -- measurements ---------------------------------------------------------------------------------------
-    def _foot_contacts(self, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The feet's contacts with the floor: points (P, 3), frames (P, 3, 3) (normal first, pointing from the
-        floor into the foot) and the foot (P,) of each (0 left, 1 right)."""
-        nc = d.ncon
-        if not nc:
-            return np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(0, dtype=np.int64)
-        con = d.contact
-        g = con.geom[:nc]
-        floor0, floor1 = g[:, 0] == self._floor, g[:, 1] == self._floor
-        other = np.where(floor0, g[:, 1], g[:, 0])
-        side = self._foot_geom[other]
-        keep = (floor0 | floor1) & (side >= 0)
-        frames = con.frame[:nc][keep].reshape(-1, 3, 3).copy()
-        # MuJoCo's normal points from geom 0 to geom 1: from the floor into the foot when the floor is geom 0.
-        flip = ~floor0[keep]
-        frames[flip] *= -1.0
-        return con.pos[:nc][keep].copy(), frames, side[keep]
-
-    def _heading(self, d: mujoco.MjData) -> np.ndarray:
-        """(2,) unit: the feet's forward direction on the floor."""
-        f = sum(d.xmat[b].reshape(3, 3) @ a for b, a in zip(self._feet, self._foot_fwd, strict=True))[:2]
-        nrm = float(np.linalg.norm(f))
-        return f / nrm if nrm > 1e-9 else np.array([1.0, 0.0])
-
     def _tilt(self, d: mujoco.MjData) -> float:
         """The torso's angle from upright, degrees."""
         up = d.xmat[self._torso].reshape(3, 3)[2] @ self._torso_up
