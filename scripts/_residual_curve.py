@@ -57,11 +57,14 @@ class CurveRecorder(BaseCallback):
 
 
 def plot_curve(rows: Sequence[Mapping[str, Any]], reference: Mapping[str, Mapping[str, float]], path: Path,
-               window: int = 50, start: Mapping[str, Mapping[str, float]] | None = None) -> None:
+               window: int = 50, start: Mapping[str, Mapping[str, float]] | None = None,
+               selection: Mapping[str, Any] | None = None) -> None:
     """Training episodes' success and return (moving average over ``window`` episodes of each interaction)
     against timesteps, with the zero-residual policy on the training instances as dashed reference lines and,
     given ``start`` (a gated run's zero action through its gate and bias, same instances), dotted ones for the
-    labels the residual acts on (``rows`` has episodes of them)."""
+    labels the residual acts on (``rows`` has episodes of them). ``selection`` (``results["selection"]``): the
+    checkpoints' deterministic success and return on the selection episodes as black points, the start's as a
+    black line, the chosen checkpoint ringed."""
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), layout="constrained")
     colors = dict(zip(sorted(reference), ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")))
     for label, color in colors.items():
@@ -78,6 +81,17 @@ def plot_curve(rows: Sequence[Mapping[str, Any]], reference: Mapping[str, Mappin
             if start is not None and mine:
                 ax.axhline(start[label][key], color=color, ls=":", lw=1.5,
                            label=f"{label}: the start, bias alone, deterministic (training instances)")
+    if selection is not None:
+        cps = selection["checkpoints"]
+        for ax, key, div in ((axes[0], "successes", "episodes"), (axes[1], "mean_return", None)):
+            y0 = selection["start"][key] / (selection["start"][div] if div else 1)
+            ax.axhline(y0, color="k", lw=0.8, label="selection: the start, deterministic (selection episodes)")
+            x = [c["timesteps"] for c in cps]
+            y = [c[key] / (c[div] if div else 1) for c in cps]
+            ax.plot(x, y, "ko-", ms=4, lw=0.8, label="selection: checkpoint, deterministic (selection episodes)")
+            if selection["chosen"] is not None:
+                ax.plot([x[selection["chosen"]]], [y[selection["chosen"]]], "o", ms=11, mfc="none", mec="red",
+                        mew=1.5, label="selection: chosen checkpoint")
     axes[0].set(xlabel="environment steps", ylabel=f"success rate (moving mean of {window} episodes)", ylim=(-0.02, 1.02))
     axes[1].set(xlabel="environment steps", ylabel=f"episode return (moving mean of {window} episodes)")
     handles, names = axes[0].get_legend_handles_labels()

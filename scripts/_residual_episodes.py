@@ -33,10 +33,10 @@ def training_episodes(instance_ids: Sequence[str], seed: int) -> list[tuple[str,
     return [(i, seed + k) for k, i in enumerate(instance_ids)]
 
 
-def held_out_episodes(instance_ids: Sequence[str], seed: int) -> list[tuple[str, int]]:
-    """(instance, reset seed) of the held-out evaluation, the same for every policy judged: 10000 + 1000·seed + k
-    for the k-th held-out instance."""
-    return [(i, 10_000 + seed * 1_000 + k) for k, i in enumerate(instance_ids)]
+def held_out_episodes(instance_ids: Sequence[str], seed: int, base: int = 10_000) -> list[tuple[str, int]]:
+    """(instance, reset seed) of the held-out evaluation, the same for every policy judged: base + 1000·seed + k
+    for the k-th held-out instance (``base`` 10000 in the first five declared runs)."""
+    return [(i, base + seed * 1_000 + k) for k, i in enumerate(instance_ids)]
 
 
 def run_episodes(env: gym.Env, episodes: Sequence[tuple[str, int]], policy: Policy) -> list[dict[str, Any]]:

@@ -23,20 +23,25 @@ from _residual_stats import summarize
 __all__ = ["evaluate_held_out"]
 
 
-def evaluate_held_out(plain: gym.Env, gated: gym.Env | None, episodes: Sequence[tuple[str, int]], trained: Policy,
-                      seed: int, constant: Sequence[float] = ()) -> dict[str, Any]:
+def evaluate_held_out(plain: gym.Env, gated: gym.Env | None, episodes: Sequence[tuple[str, int]],
+                      trained: Policy | None, seed: int, constant: Sequence[float] = ()) -> dict[str, Any]:
     """Play the arms of the module docstring on ``episodes``; ``gated``: the gated environment (``None``: the
-    run has no gate; the trained policy plays ``plain``). Returns the summaries and the per-episode rows."""
-    rows_res = run_episodes(plain if gated is None else gated, episodes, trained)
+    run has no gate; the trained policy plays ``plain``). ``trained`` ``None``: the model selection kept the
+    start, and the "residual" arm is the start's rows (the zero output through the gate; without a gate, the
+    zero residual's). Returns the summaries and the per-episode rows."""
     rows_zero = run_episodes(plain, episodes, zero_policy(plain))
+    rows_start = None if gated is None else run_episodes(gated, episodes, zero_policy(gated))
+    if trained is not None:
+        rows_res = run_episodes(plain if gated is None else gated, episodes, trained)
+    else:
+        rows_res = [dict(r) for r in (rows_zero if rows_start is None else rows_start)]
     out: dict[str, Any] = {"summary": summarize(rows_res, rows_zero, seed),
                            "episodes": {"residual": rows_res, "zero_residual": rows_zero}}
     if constant:
         action = np.asarray(constant, np.float32)
         rows_const = run_episodes(plain, episodes, lambda obs: action.copy())
         out |= {"summary_constant": summarize(rows_const, rows_zero, seed), "episodes_constant": rows_const}
-    if gated is not None:
-        rows_start = run_episodes(gated, episodes, zero_policy(gated))
+    if rows_start is not None:
         out |= {"summary_start": summarize(rows_start, rows_zero, seed),
                 "summary_learned": summarize(rows_res, rows_start, seed), "episodes_start": rows_start}
     return out

@@ -86,6 +86,13 @@ def result_lines(r: dict[str, Any]) -> list[str]:
             dsu, dre = block["paired_success_difference"], block["paired_return_difference"]
             out.append(f"{label:12s} paired {name} - {ref}: success {dsu['mean']:+.3f} [{dsu['ci95'][0]:+.3f}, "
                        f"{dsu['ci95'][1]:+.3f}]  return {dre['mean']:+.2f} [{dre['ci95'][0]:+.2f}, {dre['ci95'][1]:+.2f}]")
+    sel = r.get("selection")
+    if sel:
+        cps = ", ".join(f"{c['updates']}: {c['successes']}" for c in sel["checkpoints"])
+        chosen = "the start (nothing trained counts)" if sel["chosen"] is None else \
+            f"the checkpoint after {sel['checkpoints'][sel['chosen']]['updates']} updates"
+        out.append(f"selection on {sel['episodes']} training episodes: start {sel['start']['successes']}; "
+                   f"checkpoints (updates: successes) {cps}; chosen: {chosen}")
     out.append(f"target met: {r['summary']['target_met']}; trained {r['timesteps_trained']} steps"
                f"{' (stopped by the budget)' if r['stopped_by_budget'] else ''} in {r['train_wall_s']:.0f} s wall; "
                f"total {r['total_wall_s']:.0f} s")

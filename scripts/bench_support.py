@@ -30,7 +30,10 @@ also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stan
 the foot lock's (:class:`~socialaff_sim.sim.footlock.FootLockConfig`) for every mode, ``--stance FIELD=VALUE ...``
 the steadied base's (:class:`~socialaff_sim.sim.stance.StanceConfig`) for the modes that have one, ``--labels`` picks
 interactions. After the per-interaction table, one line per robot and mode summarises the contact phases, and one
-more counts the episodes failing by each failure kind (self-collision, force on the person, a drop).
+more counts the episodes failing by each failure kind (self-collision, force on the person, a drop), and one
+more gives how far the feet stand from where the foot lock planted them (the larger foot, in the frames in which
+both stand; ``FootLockConfig.touchdown`` and ``catch_up`` bring them there) with the touchdown waits and the
+physics steps in which ``BalanceConfig.release_reach`` held the harness on.
 
 The targets of issue 25 for feet that stay planted: outside support ≤ 5 % of
 the weight, sliding ≤ 2 cm, torques within the limits. Example::
@@ -56,6 +59,7 @@ from socialaff_sim.retarget.model_source import model_source
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.simulator import SimConfig, Simulator
+from socialaff_sim.sim.stage import key_frames
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.stance import StanceConfig
 
@@ -74,6 +78,17 @@ MODES = {"weight": SimConfig(), "puppet": H(gravity_compensation=True),
          "harness": SimConfig.harness(), "standing": SimConfig.standing()}
 KEYS = ("released_frames", "outside_support_mean", "outside_support_peak", "foot_slide_cm", "foot_drift_cm", "penetration_cm", "torque_ratio_max",
         "saturated_fraction", "at_joint_limit_fraction", "torso_tilt_deg_max")
+
+
+def _feet_offset(sim: Simulator, result: object, out: list[tuple[float, bool]]) -> None:
+    """After a frame in which both feet stand (the foot lock's): the larger foot's horizontal distance (m) from its
+    planted point, and whether a sub-goal's contact holds (appended to ``out``)."""
+    lock = sim._footlock
+    if result is None or lock is None or not all(lock.standing):
+        return
+    phys = key_frames(sim.scene, sim.data)[3:5]
+    out.append((max(float(np.linalg.norm(phys[k, :2] - lock.planted[k][:2])) for k in (0, 1)),  # type: ignore[index]
+                any(result.subgoals_now.values())))  # type: ignore[attr-defined]
 
 
 def main() -> None:
@@ -120,14 +135,24 @@ def main() -> None:
                 for inter in list(data.of_label(label))[args.offset: args.offset + args.per_label]:
                     source = GroundTruthSource() if args.model is None else model_source(args.model, offline=False)
                     tic = time.process_time()
-                    m = run_episode(Simulator(spec, label, MODES[mode]), source, inter)
+                    sim = Simulator(spec, label, MODES[mode])
+                    offsets: list[tuple[float, bool]] = []
+                    m = run_episode(sim, source, inter, on_frame=lambda s, r, _: _feet_offset(s, r, offsets))
                     cpu = time.process_time() - tic
+                    both = np.array([o for o, _ in offsets])
+                    touching = np.array([o for o, c in offsets if c])
+                    lock = sim._footlock
+                    bal = sim._stage.stepper.balance
                     cp = m["support"]["contact_phase"]
                     rows.append({"robot": robot, "mode": mode, "label": label, "instance": inter.instance_id,
                                  "success": m["success"], "contact_frames": cp["frames"],
                                  "failures": [f["kind"] for f in m["failures"] if f["triggered"]],
                                  "cpu_seconds": cpu, "frames": m["frames"],
                                  "episode_tilt_deg_max": m["support"]["episode"]["torso_tilt_deg_max"],
+                                 "feet_offset_cm_median": 100 * float(np.median(both)) if both.size else None,
+                                 "feet_offset_contact_cm_median": 100 * float(np.median(touching)) if touching.size else None,
+                                 "touchdown_waits": None if lock is None or lock.touchdown is None else lock.touchdown.waits,
+                                 "reach_withheld_steps": None if bal is None or bal.reach is None else bal.reach.withheld,
                                  **{k: cp[k] for k in KEYS}})
     print(f"{'robot':<12}{'mode':<8}{'interaction':<16}{'ok':>6}{'support mean':>14}{'peak':>8}{'slide cm':>10}"
           f"{'pen cm':>8}{'torque':>8}{'sat':>7}{'limit':>7}{'released':>10}")
@@ -181,6 +206,16 @@ def main() -> None:
                   + f"; torso past 60 deg in {sum(r['episode_tilt_deg_max'] > 60.0 for r in sel)}; CPU "
                   f"{np.mean([r['cpu_seconds'] for r in sel]):.2f} s per episode, "
                   f"{1e3 * sum(r['cpu_seconds'] for r in sel) / sum(r['frames'] for r in sel):.1f} ms per frame")
+    for robot in args.robots:
+        for mode in args.modes:
+            sel = [r for r in rows if r["robot"] == robot and r["mode"] == mode]
+            off = [r["feet_offset_cm_median"] for r in sel if r["feet_offset_cm_median"] is not None]
+            offc = [r["feet_offset_contact_cm_median"] for r in sel if r["feet_offset_contact_cm_median"] is not None]
+            print(f"{robot:<12}{mode:<16}feet from their planted points while both stand (median over episodes of "
+                  f"each episode's median): {np.median(off) if off else float('nan'):.1f} cm, in contact frames "
+                  f"{np.median(offc) if offc else float('nan'):.1f} cm; touchdown waits "
+                  f"{sum(r['touchdown_waits'] or 0 for r in sel)}, release withheld by the ankles' reach in "
+                  f"{sum(r['reach_withheld_steps'] or 0 for r in sel)} physics steps")
     if args.json:
         atomic_write_text(args.json, json.dumps({"config": vars(args), "rows": rows,
                                                  "sim_config": {k: repr(v) for k, v in dataclasses.asdict(SimConfig()).items()

@@ -31,6 +31,10 @@ the policy may change its residual every control step. This script:
    the policy ``residual_ppo.zip`` and its observation statistics
    ``vecnormalize.pkl``.
 
+``--select-every E`` chooses the final policy on the TRAINING side (``scripts/_residual_select.py``): checkpoints
+after every E-th update, played deterministically on the training instances of the acting labels, against the
+start; the held-out arms are played after the choice.
+
 ``--reference-only`` stops after step 1 and plays the zero residual on the TRAINING
 instances alone (``reference.json``): how much room a residual has, measured without
 touching the held-out instances.
@@ -53,7 +57,6 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # no rendering, but dm_control picks a GL backend on import
 
-import argparse  # noqa: E402
 import dataclasses  # noqa: E402
 import json  # noqa: E402
 import time  # noqa: E402
@@ -66,6 +69,7 @@ import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 from stable_baselines3 import PPO  # noqa: E402
+from stable_baselines3.common.callbacks import CallbackList  # noqa: E402
 from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize  # noqa: E402
 
 from socialaff_sim._atomic import atomic_write_text  # noqa: E402
@@ -80,6 +84,7 @@ from socialaff_sim.learning.config import LearningConfig  # noqa: E402
 _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:  # run as `python scripts/train_residual.py` it is sys.path[0]; the tests load this file by path
     sys.path.append(_HERE)
+from _residual_cli import parser, settings_from_args  # noqa: E402
 from _residual_curve import CurveRecorder, plot_curve  # noqa: E402
 from _residual_episodes import held_out_episodes, run_episodes, trained_policy, training_episodes, zero_policy  # noqa: E402
 from _residual_eval import evaluate_held_out  # noqa: E402
@@ -87,6 +92,7 @@ from _residual_data import DEFAULT_SPLITS, build_data, describe_split, fit_model
 from _residual_reward import FallPenalty  # noqa: E402
 from _residual_gate import GatedResidual, check_gate  # noqa: E402
 from _residual_reach import ReachResidual  # noqa: E402
+from _residual_select import CheckpointSelector  # noqa: E402
 from _residual_report import load_reference, load_start_reference, reference_lines, reference_summary, result_lines  # noqa: E402
 
 LABELS = ("shake_hands", "hand_over")
@@ -119,6 +125,9 @@ class Settings:
     """PPO epochs per update."""
     learning_rate: float = 1e-4
     """Adam step size."""
+    target_kl: float | None = None
+    """PPO's KL target: an update's epochs stop once the approximate KL divergence from the rollout's policy
+    exceeds 1.5 times this; ``None``: every epoch runs."""
     gamma: float = 0.998
     """Discount factor per env step (0.998 per 0.015 s control step ≈ 0.99 per frame of a 12 fps instance)."""
     gae_lambda: float = 0.98
@@ -189,6 +198,15 @@ class Settings:
     two the held-out evaluation also plays the zero action through the gate (the start: b on the acting labels,
     nothing elsewhere; ``results["summary_start"]``, and the trained policy against it, ``summary_learned``)."""
 
+    select_every: int = 0
+    """E (PPO updates): with E > 0, the policy is played deterministically on the selection episodes (every
+    training instance of the acting labels, the ``--reference-only`` reset seeds) after every E-th update and after
+    the last one, and the result is the checkpoint with the most successes if it beats the start there, else the
+    start (``_residual_select``; the held-out "residual" arm then plays the start); 0: the last policy."""
+    held_out_seed_base: int = 10_000
+    """Reset seed of the first held-out episode (the k-th: this + 1000·seed + k); a new base gives fresh episodes
+    of the same held-out instances."""
+
     @property
     def gated(self) -> bool:
         """Whether the residual goes through :class:`GatedResidual` (a label set or a bias is given)."""
@@ -235,24 +253,41 @@ def _residual_env(s: Settings, instances: Sequence[Interaction], models: Mapping
 # -- training ------------------------------------------------------------------------------------------------------
 def train(s: Settings, train_set: Sequence[Interaction], models: Mapping[str, SocialAffordanceModel],
           log: Callable[[str], None] | None = None, budget_s: float | None = None
-          ) -> tuple[PPO, VecNormalize, CurveRecorder]:
+          ) -> tuple[PPO, VecNormalize, CurveRecorder, CheckpointSelector | None]:
     """Train PPO on the training instances for ``s.timesteps`` steps, or until ``budget_s`` seconds of wall time
-    have passed (checked after each rollout); returns the agent, its observation normalizer and the recorder
-    (curve rows, the steps trained on)."""
+    (the start's and the checkpoints' selection episodes included) have passed (checked after each rollout);
+    returns the agent, its observation normalizer, the recorder (curve rows, the steps trained on) and, with
+    ``s.select_every``, the selector (the agent and normalizer then hold the chosen checkpoint, or the last
+    policy if the start was kept: ``selector.chosen is None``)."""
     torch.set_num_threads(1)
     venv = DummyVecEnv([lambda: make_env(s, train_set, models, training=True, gate=True) for _ in range(s.n_envs)])
     venv.seed(s.seed)
     norm = VecNormalize(VecMonitor(venv), norm_obs=True, norm_reward=True, gamma=s.gamma)
     agent = PPO(
         "MlpPolicy", norm, n_steps=s.n_steps, batch_size=s.batch_size, n_epochs=s.n_epochs,
-        learning_rate=s.learning_rate, gamma=s.gamma, gae_lambda=s.gae_lambda, seed=s.seed, device="cpu", verbose=0,
+        learning_rate=s.learning_rate, target_kl=s.target_kl, gamma=s.gamma, gae_lambda=s.gae_lambda, seed=s.seed, device="cpu", verbose=0,
         use_sde=s.use_sde, sde_sample_freq=s.sde_sample_freq,
         policy_kwargs={"log_std_init": s.log_std_init, "net_arch": {"pi": [s.hidden] * 2, "vf": [s.hidden] * 2}},
     )
     recorder = CurveRecorder(log, budget_s=budget_s)
-    agent.learn(total_timesteps=s.timesteps, callback=recorder)
+    selector = None
+    if s.select_every > 0:
+        env = make_env(s, train_set, models, training=True, gate=True)
+        selector = CheckpointSelector(env, selection_episodes(s, train_set), norm, s.select_every,
+                                      s.n_steps * s.n_envs, log)
+        selector.play_start(zero_policy(env))
+    agent.learn(total_timesteps=s.timesteps, callback=CallbackList([recorder] + ([selector] if selector else [])))
     norm.training = False
-    return agent, norm, recorder
+    if selector is not None:
+        selector.finish(agent, recorder.updated_timesteps // (s.n_steps * s.n_envs))
+    return agent, norm, recorder, selector
+
+
+def selection_episodes(s: Settings, train_set: Sequence[Interaction]) -> list[tuple[str, int]]:
+    """(instance, reset seed) of the selection: the ``--reference-only`` run's episodes of the acting labels."""
+    acting = set(s.residual_labels or s.labels)
+    label = {i.instance_id: i.label for i in train_set}
+    return [(i, seed) for i, seed in training_episodes(list(label), s.seed) if label[i] in acting]
 
 
 # -- the whole run -------------------------------------------------------------------------------------------------
@@ -302,7 +337,7 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
                           f"found {len(s.eval_constant)}")
     log(f"training {s.timesteps} steps on {len(train_set)} instances")
     wall1 = time.perf_counter()
-    agent, norm, recorder = train(s, train_set, models, log, budget_s)
+    agent, norm, recorder, selector = train(s, train_set, models, log, budget_s)
     train_wall = time.perf_counter() - wall1
     curve = [r for r in recorder.rows if r["timesteps"] <= recorder.updated_timesteps]
     agent.save(out / "residual_ppo.zip")
@@ -314,18 +349,22 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
     start = None if reference_file is None else load_start_reference(reference_file, s)
     if start is None and s.gated:
         start = reference_rows(s, train_set, models, gate=True)[1]
-    plot_curve(curve, reference, out / "learning_curve.png", start=start)
+    selection = None if selector is None else {"start": selector.start, "checkpoints": selector.checkpoints,
+                                               "chosen": selector.chosen, "episodes": len(selector.episodes)}
+    plot_curve(curve, reference, out / "learning_curve.png", start=start, selection=selection)
 
     # Held-out evaluation: the same (instance, reset seed) pairs for every policy.
-    episodes = held_out_episodes([i.instance_id for i in held_out], s.seed)
-    evaluated = evaluate_held_out(held_env, held_gated, episodes, trained_policy(agent, norm), s.seed, s.eval_constant)
+    episodes = held_out_episodes([i.instance_id for i in held_out], s.seed, s.held_out_seed_base)
+    kept_start = selector is not None and selector.chosen is None  # the held-out "residual" arm is the start
+    evaluated = evaluate_held_out(held_env, held_gated, episodes, None if kept_start else trained_policy(agent, norm),
+                                  s.seed, s.eval_constant)
     results = {
         "settings": dataclasses.asdict(s),
         "held_out": split["held_out"], "split": split,
         "train_wall_s": train_wall, "total_wall_s": time.perf_counter() - wall0,
         "total_cpu_s": time.process_time() - cpu0, "training_episodes": len(curve),
         "timesteps_trained": recorder.updated_timesteps, "stopped_by_budget": recorder.stopped,
-        "train_reference_zero_residual": reference, "train_reference_start": start,
+        "train_reference_zero_residual": reference, "train_reference_start": start, "selection": selection,
         **evaluated,
     }
     atomic_write_text(out / "curve.json", json.dumps(curve))
@@ -333,66 +372,18 @@ def run(s: Settings, out: Path, models_dir: Path | None = None, log: Callable[[s
     return results
 
 
-def _control_dt(text: str) -> float | None:
-    """``--control-dt`` (``--residual-tau``): seconds, or ``none`` for one env step per data frame (no filter)."""
-    return None if text.strip().lower() == "none" else float(text)
-
-
 def main() -> None:
-    d = Settings()
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, required=True, help="output folder")
-    ap.add_argument("--models", type=Path, default=None, help="load <interaction>.npz from here instead of fitting")
-    ap.add_argument("--interactions", nargs="+", default=list(d.labels))
-    for f in dataclasses.fields(Settings):
-        if f.name in ("labels", "max_frames", "control_dt", "data", "split", "residual_groups", "residual_tau",
-                      "reach_scale", "use_sde", "eval_constant", "residual_labels", "action_bias"):
-            continue
-        ap.add_argument("--" + f.name.replace("_", "-"), type=type(f.default), default=f.default)
-    ap.add_argument("--max-frames", type=int, default=None)
-    ap.add_argument("--residual-groups", nargs="+", default=list(d.residual_groups), metavar="JOINT[+JOINT...]",
-                    help="one offset per group of key joints (e.g. base left_wrist+right_wrist); default: one per key joint")
-    ap.add_argument("--residual-tau", type=_control_dt, default=d.residual_tau, metavar="SECONDS",
-                    help="low-pass filter the residual offset with this time constant (default: none)")
-    ap.add_argument("--reach-scale", type=float, default=d.reach_scale, metavar="METRES",
-                    help="task-frame residual: the base's offset and one reach per hand toward its target, "
-                         "at most this far (default: the plain residual)")
-    ap.add_argument("--use-sde", action="store_true", help="gSDE exploration (noise held for --sde-sample-freq steps)")
-    ap.add_argument("--eval-constant", nargs="+", type=float, default=list(d.eval_constant), metavar="A",
-                    help="also play this constant action (policy units) on the held-out episodes")
-    ap.add_argument("--residual-labels", nargs="+", default=list(d.residual_labels), metavar="LABEL",
-                    help="the residual acts on these interactions only (zeros elsewhere; training episodes of these "
-                         "only); default: every interaction")
-    ap.add_argument("--action-bias", nargs="+", type=float, default=list(d.action_bias), metavar="A",
-                    help="add this constant (policy units) to the policy's action on the acting interactions, so "
-                         "training starts from it (default: none)")
-    ap.add_argument("--data", nargs="+", default=list(d.data), metavar="SPEC",
-                    help="recorded dataset specs (handover:PATH sbu:PATH nuisi:PATH ...); default: synthetic")
-    ap.add_argument("--split", nargs="+", default=list(d.split), metavar="[KIND=]NAME",
-                    help=f"split of the recorded data, per dataset kind (default: {' '.join(d.split)})")
-    ap.add_argument("--reference", type=Path, default=None, metavar="JSON",
-                    help="the learning curve's zero-residual reference from a --reference-only run's reference.json "
-                         "(same settings) instead of playing the training instances again")
-    ap.add_argument("--reference-only", action="store_true",
-                    help="fit the models and play the zero residual on the training instances only; write "
-                         "reference.json and stop (no training, no held-out episode)")
-    ap.add_argument("--control-dt", type=_control_dt, default=d.control_dt,
-                    help=f"env control period in s (default {d.control_dt}); 'none': one env step per data frame")
-    ap.add_argument("--budget-minutes", type=float, default=None,
-                    help="stop training after the first rollout that ends past this much wall time; the results "
-                         "record the steps trained, and --timesteps with that number reproduces the policy")
+    ap = parser(Settings, __doc__)
     args = ap.parse_args()
-    kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(Settings)
-          if f.name not in ("labels", "data", "split", "residual_groups", "eval_constant", "residual_labels", "action_bias")}
     budget = None if args.budget_minutes is None else 60.0 * args.budget_minutes
     try:
-        s = Settings(labels=tuple(args.interactions), data=tuple(args.data), split=tuple(args.split),
-                     residual_groups=tuple(args.residual_groups), eval_constant=tuple(args.eval_constant),
-                     residual_labels=tuple(args.residual_labels), action_bias=tuple(args.action_bias), **kw)
+        s = settings_from_args(Settings, args)
         parse_splits(s.split)  # a bad --split fails before anything runs, and so does a bad gate
         if s.gated:
             check_gate(s.labels, s.residual_labels or s.labels, s.action_bias,
                        5 if s.reach_scale is not None else 3 * (len(s.residual_groups) or 5))
+        if s.select_every < 0:
+            raise ConfigError(f"--select-every: expected a number of PPO updates >= 0 (0: off), found {s.select_every}")
         r = run(s, args.out, args.models, budget_s=budget, reference_only=args.reference_only, reference_file=args.reference)
     except SocialAffError as err:  # bad flags or data: one line naming the flag, exit 2 (results are written atomically)
         print(f"train_residual.py: error: {err}", file=sys.stderr)

@@ -198,7 +198,8 @@ def test_wall_clock_budget_stops_after_a_whole_rollout(script, tiny) -> None:  #
     train, _ = script.build_data(settings)
     models = {lbl: SocialAffordanceModel.load(out / "models" / f"{lbl}.npz") for lbl in settings.labels}
     long = dataclasses.replace(settings, timesteps=100_000)
-    agent, norm, recorder = script.train(long, train, models, budget_s=0.0)
+    agent, norm, recorder, selector = script.train(long, train, models, budget_s=0.0)
+    assert selector is None  # select_every 0: no model selection
     rollout = settings.n_steps * settings.n_envs
     assert recorder.stopped and recorder.updated_timesteps == rollout
     assert agent.num_timesteps == rollout + settings.n_envs  # one step of the next rollout, then the stop

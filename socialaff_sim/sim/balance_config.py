@@ -33,8 +33,8 @@ class BalanceConfig:
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return
     - Hands in the world: hand_weight, hand_bandwidth, hand_near, hand_far, hand_release
-    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, catch_tilt, catch_margin, catch_blend,
-      drive_harnessed
+    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_reach, catch_tilt,
+      catch_margin, catch_blend, drive_harnessed
     """
 
     joint_bandwidth: float = 20.0
@@ -160,6 +160,12 @@ class BalanceConfig:
     """[s]: a caught robot is held where it is caught (the harness's anchor at its measured root), and the anchor
     then moves over this time onto the IK's base (0: at once onto the IK's base, which yanks the robot by as
     much as it strayed from the plan while released)."""
+    release_reach: float | None = None
+    """κ_r [—]: the harness lets go only while the measured centre of mass, the capture point and the centre of
+    pressure the controller would ask for (toward its centre-of-mass goal, on the linear pendulum) lie within the
+    ankles' reach along the heading: where the ankle servos, at κ_r of their torque limits, can hold the centre
+    of pressure (:mod:`~.ankle_reach`). ``None``: the support box alone decides (the H1's ankles hold
+    its centre of mass at most 15.8 cm ahead of them, its soles reach 19.5 cm: released beyond, it tips)."""
     drive_harnessed: bool = False
     """[—]: Whether the controller's torques drive the joints also while the harness holds a standing robot
     (``False``: the position servos and the standing feed-forward do, as without the controller)."""
@@ -210,6 +216,9 @@ class BalanceConfig:
         if self.com_reference not in COM_REFERENCES:
             raise ConfigError(f"BalanceConfig.com_reference: expected one of {', '.join(COM_REFERENCES)}, found "
                               f"{self.com_reference!r}")
+        if self.release_reach is not None and not 0.0 < self.release_reach <= 1.0:
+            raise ConfigError(f"BalanceConfig.release_reach: expected None or a fraction in (0, 1], found "
+                              f"{self.release_reach}")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

@@ -27,9 +27,10 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
 The harness weld lets go (``eq_active = 0``; its force is then zero by construction) once the feet have been
 planted ``release_delay`` and the robot is steady: torso within ``release_tilt`` and the capture point
 ξ = c + ċ/ω₀ inside the support box by ``release_margin`` (the support box: the soles of the feet in contact, and
-of a planted foot within ``sole_gap`` of the floor). It catches the robot again at once when the torso
-tilts past ``catch_tilt``, the capture point leaves the box by more than ``catch_margin``, or a foot steps;
-the caught robot is held where it is and led back onto the IK's base over ``catch_blend``, and the release
+of a planted foot within ``sole_gap`` of the floor; with ``release_reach`` also the centre of mass, the capture
+point and the centre of pressure it would ask for within the ankles' reach, :mod:`~.ankle_reach`). It catches
+the robot again at once when the torso tilts past ``catch_tilt``, the capture point leaves the box by more than
+``catch_margin``, or a foot steps; the caught robot is held where it is and led back onto the IK's base over ``catch_blend``, and the release
 waits its delay again. Everything is decided per physics step; the per-frame part is the IK's plan
 (:meth:`begin_frame`).
 
@@ -46,6 +47,7 @@ import mujoco
 import numpy as np
 
 from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
+from .ankle_reach import AnkleReach, wanted_cop
 from .balance_config import BalanceConfig
 from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
@@ -101,6 +103,9 @@ class BalanceController:
         self._torso_up = d0.xmat[self._torso].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
         self._external = ExternalForces(scene)
         c = self.config
+        self.reach = None if c.release_reach is None else AnkleReach(m, self._feet, scene.act_ids, c.release_reach,
+                                                                      self._sole)
+        """``release_reach``: the ankles' reach that gates the release (:mod:`~.ankle_reach`), else ``None``."""
         self._clearance = None if c.self_clearance is None else SelfClearance.of_scene(
             scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
@@ -147,6 +152,8 @@ class BalanceController:
             self.hand_yield.reset()
         if self.hand_task is not None:
             self.hand_task.reset()
+        if self.reach is not None:
+            self.reach.reset()
 
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
@@ -194,7 +201,9 @@ class BalanceController:
             self.released = tilt <= c.catch_tilt and box.inside(capture, -c.catch_margin)  # type: ignore[union-attr]
         else:
             self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and tilt <= c.release_tilt
-                             and box.inside(capture, c.release_margin))  # type: ignore[union-attr]
+                             and box.inside(capture, c.release_margin)  # type: ignore[union-attr]
+                             and (self.reach is None or self._within_reach(m, d, fwd, box, com, comvel, height,  # type: ignore[arg-type]
+                                                                           pts, which)))
         if was and not self.released:
             self.catches += 1
             self.catch_reasons["step" if not standing else "tilt" if tilt > c.catch_tilt else "capture"] += 1
@@ -218,6 +227,18 @@ class BalanceController:
             self._measure_external(m, d)
         else:
             self._ext_gen[:], self._ext_force[:], self._ext_moment[:] = 0.0, 0.0, 0.0
+
+    def _within_reach(self, m: mujoco.MjModel, d: mujoco.MjData, fwd: np.ndarray, box: SupportBox, com: np.ndarray,
+                      comvel: np.ndarray, height: float, pts: np.ndarray, which: np.ndarray) -> bool:
+        """``release_reach``: the centre of mass, the capture point and the centre of pressure the controller would
+        ask for (toward its goal as :meth:`_torques` sets it, the external forces' lean left out) within the
+        ankles' reach (:mod:`~.ankle_reach`)."""
+        c = self.config
+        goal = box.clip(d.xpos[self._feet, :2].mean(axis=0) + self._com_offset if c.com_reference == "plan"
+                        else box.middle(), c.support_margin)
+        cop = wanted_cop(com[:2], comvel[:2], goal, c.com_bandwidth, c.com_damping, height, self._g)
+        return self.reach.holds(m, d, fwd, (com[:2], self._capture, cop), pts, which,  # type: ignore[union-attr]
+                                self.mass * self._g, c.min_foot_load)
 
     def _measure_external(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
         """Fold the external contact forces of the step just taken into their low-pass filtered estimate."""

@@ -9,7 +9,8 @@ holds an ankle target at the place where its foot came down (on the floor, at
 the robot's home ankle height) while the target stays within ``radius`` of that
 place and below ``lift`` above home height (``hold_lift``, when set, for a foot already planted); a
 target that leaves that ball (a step) is followed again. With ``catch_up`` a planted foot that is not where
-it is planted steps there (:mod:`~.catch_up`).
+it is planted steps there (:mod:`~.catch_up`); with ``touchdown`` a foot is put down only once it is over its
+target (:mod:`~.touchdown`).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import numpy as np
 
 from ..errors import ConfigError, SimulationError
 from .catch_up import CatchUp
+from .touchdown import Touchdown
 
 __all__ = ["FootLock", "FootLockConfig"]
 
@@ -58,7 +60,28 @@ class FootLockConfig:
     sub-goal's contact held (a handshake's contact comes and goes; a step between its frames costs the harness
     more than the foot's offset). 0: only while it holds (with ``hold_in_contact``)."""
 
+    touchdown: float | None = None
+    """d_t [m]: a foot the lock would put down at a new point q waits in the air (its target q raised by
+    ``touchdown_height``, at most ``touchdown_stride`` from the physical foot toward q, counted as stepping)
+    while its physical ankle frame is farther than this (horizontally) from q, for at most ``touchdown_frames``
+    frames; one foot at a time, while the other stands, which meanwhile does not lift (:mod:`~.touchdown`). ``None``: a foot is put down at its target wherever the
+    physical foot is (the H1's walk-up steps land 25–47 cm short; docs/benchmarks.md, "The H1's outside support
+    in the contact phases, diagnosed …")."""
+    touchdown_height: float = 0.08
+    """h_t [m]: a waiting foot's target is its foothold raised by this."""
+    touchdown_frames: int = 8
+    """N_t [frames]: a foot waits at most this many frames, then is put down on its foothold."""
+    touchdown_stride: float | None = 0.3
+    """s_t [m]: a waiting foot's target is at most this far (horizontally) from the physical foot, toward the
+    foothold (lifted where it is before it is carried); ``None``: over the foothold."""
+
     def __post_init__(self) -> None:
+        if self.touchdown is not None and not (self.touchdown > 0.0 and self.touchdown_height > 0.0
+                                               and self.touchdown_frames >= 1 and (self.touchdown_stride is None
+                                                                                   or self.touchdown_stride > 0.0)):
+            raise ConfigError(f"FootLockConfig: expected touchdown None or > 0 m, touchdown_height > 0 m, "
+                              f"touchdown_frames ≥ 1 and touchdown_stride None or > 0 m, found {self.touchdown}, "
+                              f"{self.touchdown_height}, {self.touchdown_frames}, {self.touchdown_stride}")
         if self.catch_up is not None and not (self.catch_up > 0.0 and self.catch_up_height > 0.0
                                               and self.catch_up_frames >= 1 and self.catch_up_quiet >= 0):
             raise ConfigError(f"FootLockConfig: expected catch_up None or > 0 m, catch_up_height > 0 m and "
@@ -83,6 +106,9 @@ class FootLock:
         c = self.config
         self.catch_up = None if c.catch_up is None else CatchUp(c.catch_up, c.catch_up_height, c.catch_up_frames)
         """The catch-up steps (``catch_up``), else ``None``."""
+        self.touchdown = None if c.touchdown is None else Touchdown(c.touchdown, c.touchdown_height,
+                                                                     c.touchdown_frames, c.touchdown_stride)
+        """The touchdown timing (``touchdown``), else ``None``."""
         self._since = 1 << 30
 
     def reset(self) -> None:
@@ -91,6 +117,13 @@ class FootLock:
         self._since = 1 << 30
         if self.catch_up is not None:
             self.catch_up.reset()
+        if self.touchdown is not None:
+            self.touchdown.reset()
+
+    @property
+    def needs_physical(self) -> bool:
+        """Whether :meth:`apply` needs the physical ankle frames (``catch_up`` or ``touchdown``)."""
+        return self.catch_up is not None or self.touchdown is not None
 
     @property
     def standing(self) -> tuple[bool, bool]:
@@ -104,11 +137,11 @@ class FootLock:
         ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted);
         ``physical`` (2, 3): the physical ankle frames (world, m), which ``catch_up`` needs; ``new_frame``:
         ``False`` for a solve again within a data frame (the catch-up steps then keep the frame's decision)."""
-        out = self._lock(ankles, touching)
+        if self.needs_physical and physical is None:
+            raise SimulationError("FootLock.apply: catch_up and touchdown need the physical ankle frames")
+        out = self._lock(ankles, touching, physical, new_frame)
         if self.catch_up is None:
             return out
-        if physical is None:
-            raise SimulationError("FootLock.apply: catch_up needs the physical ankle frames")
         c = self.config
         if new_frame:
             self._since = 0 if touching else self._since + 1  # frames since a contact last held
@@ -117,22 +150,35 @@ class FootLock:
                                  not held and (c.catch_up_quiet == 0 or self._since > c.catch_up_quiet))
         return self.catch_up.targets(self.planted, out)
 
-    def _lock(self, ankles: np.ndarray, touching: bool) -> np.ndarray:
+    def _lock(self, ankles: np.ndarray, touching: bool, physical: np.ndarray | None = None,
+              new_frame: bool = True) -> np.ndarray:
         out = np.array(ankles, dtype=np.float64)
         c = self.config
-        if touching and c.hold_in_contact and all(p is not None for p in self.planted):
+        held = touching and c.hold_in_contact
+        td = self.touchdown
+        if held and all(p is not None for p in self.planted):
+            if td is not None:
+                td.decide([None, None], [True, True], physical, False, new_frame)  # type: ignore[arg-type]
             return np.array([np.array(p) for p in self.planted])
         hold = c.lift if c.hold_lift is None else c.hold_lift
+        waiting = [False, False] if td is None else [bool(w) for w in td.waiting]
+        landing: list[np.ndarray | None] = [None, None]
         for s in (0, 1):
             t = out[s]
             rise = t[2] - self.home_height[s]
-            low = rise <= c.lift
             p = self.planted[s]
-            if rise <= hold and p is not None and np.linalg.norm(t[:2] - p[:2]) <= c.radius:
-                out[s] = p
-            elif low:
-                self.planted[s] = np.array([t[0], t[1], self.home_height[s]])
-                out[s] = self.planted[s]
+            if p is not None and (rise <= hold and np.linalg.norm(t[:2] - p[:2]) <= c.radius or waiting[1 - s]):
+                out[s] = p  # stands (and does not lift while the other foot waits to touch down)
+            elif rise <= c.lift:
+                landing[s] = np.array([t[0], t[1], self.home_height[s]])
+                self.planted[s] = landing[s]
+                out[s] = landing[s]
             else:
                 self.planted[s] = None
+        if td is not None:
+            standing = [p is not None for p in self.planted]
+            for s, w in enumerate(td.decide(landing, standing, physical, not held, new_frame)):  # type: ignore[arg-type]
+                if w:
+                    self.planted[s] = None
+                    out[s] = td.lifted(landing[s], physical[s])  # type: ignore[arg-type,index]
         return out

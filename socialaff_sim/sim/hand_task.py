@@ -36,7 +36,16 @@ import numpy as np
 from ..retarget.kinematic_tree import subtree_mask
 from .scene import Scene
 
-__all__ = ["HandTask", "hand_rows"]
+__all__ = ["HandTask", "hand_rows", "reach_points"]
+
+
+def reach_points(scene: Scene, d: mujoco.MjData) -> np.ndarray:
+    """(K, 3) what a robot's hand may have to meet in ``d`` (world, m): the person's two hands and, in a scene
+    with an object not gripped by the robot, the object."""
+    pts = [d.geom_xpos[g] for g in np.asarray(scene.human_geom_ids)[-2:]]
+    if scene.has_object and not d.eq_active[np.asarray(scene.grip_eq)].any():
+        pts.append(d.geom_xpos[int(scene.object_geom)])
+    return np.array(pts)
 
 
 def hand_rows(J: np.ndarray, Jdot_qv: np.ndarray, x: np.ndarray, v: np.ndarray, x_ref: np.ndarray,
@@ -68,10 +77,6 @@ class HandTask:
             arm = subtree_mask(m, int(scene.limb_body_ids[s]))[m.dof_bodyid[self.vadr]]
             arm[:6] = False
             self._arm.append(arm)
-        hg = np.asarray(scene.human_geom_ids)
-        self._person_hands = hg[-2:]
-        self._object = int(scene.object_geom) if scene.has_object else -1
-        self._grip = np.asarray(scene.grip_eq)
         self._jp = np.zeros((3, m.nv))
         self._jd = np.zeros((3, m.nv))
         self.reset()
@@ -101,10 +106,7 @@ class HandTask:
 
     def gates(self, d: mujoco.MjData, force: np.ndarray | None) -> np.ndarray:
         """(2,) in [0, 1]: each wrist's rows' share of the weight."""
-        pts = [d.geom_xpos[g] for g in self._person_hands]
-        if self._object >= 0 and not d.eq_active[self._grip].any():
-            pts.append(d.geom_xpos[self._object])
-        P = np.array(pts)
+        P = reach_points(self.scene, d)
         dist = np.linalg.norm(self.x_ref[:, None, :] - P[None], axis=2).min(axis=1)
         g = np.clip((self.far - dist) / (self.far - self.near), 0.0, 1.0)
         if force is not None:

@@ -257,7 +257,7 @@ class Simulator:
         tg = fill_targets(np.asarray(targets, dtype=np.float64), self._home_keys)
         world = self.frame_R.to_world(tg)
         if self._footlock is not None:
-            physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.catch_up is not None else None
+            physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.needs_physical else None
             world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()),
                                               physical, new_frame=not self._in_frame)
         seg_a, seg_b, radius = self._segments
@@ -271,7 +271,7 @@ class Simulator:
             centre = ik.balance.box_centre(key_frames(stage.scene, stage.data)[3:5], self._yaw)
             frames = stage.stepper.support.frames
             world[0], com_target = stage.stance.frame(stage.data, world[0], planted[0] and planted[1], centre,
-                                                      frames[-1].tilt_deg if frames else 0.0)
+                                                      frames[-1].tilt_deg if frames else 0.0, world[1:3])
         res = ik.solve(world, self._yaw, dt=1.0 / fps if k == 0 else (n - k) / (n * fps), care=reachable, planted=planted,
                        com_target=com_target, iterations=iterations,
                        com_cost=None if com_target is None else stage.stance.config.com_cost)  # type: ignore[union-attr]
