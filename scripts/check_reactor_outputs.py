@@ -15,7 +15,7 @@ difference against ``--tol`` (metres for positions and errors; sub-events must b
     PYTHONPATH=$PWD          python scripts/check_reactor_outputs.py run --models /tmp/m --out new.npz
     python scripts/check_reactor_outputs.py compare ref.npz new.npz [--tol 1e-9]
 
-``run --set FIELD=VALUE`` changes every method's causal synthesis in memory (e.g. ``kernel=numba``: how far an option
+``run --set FIELD=VALUE`` changes every method's causal synthesis in memory (e.g. ``belief_step=0.4``: how far an option
 moves the outputs); ``compare`` also prints, per kind of array, how many differ, the largest difference and the rows
 (frames) that differ by more than 1 µm (a changed choice rather than rounding).
 
@@ -166,7 +166,7 @@ def main() -> int:
     r.add_argument("--models", default=None, help="folder of fitted methods, one pickle per case (read, else written)")
     r.add_argument("--only", default="", help="comma-separated case names (default: all)")
     r.add_argument("--stream-seconds", type=float, default=120.0, help="the held-out recordings end to end (0: none)")
-    add_setting_argument(r, "every case's method (in memory; e.g. kernel=numba)")
+    add_setting_argument(r, "every case's method (in memory; e.g. belief_step=0.4)")
     c = sub.add_parser("compare")
     c.add_argument("reference")
     c.add_argument("candidate")

@@ -165,8 +165,7 @@ class CandidatePlanner:
         model = self.model
         disp = configs - before[None]
         if self._tables is not None:
-            kernel = self.config.kernel
-            score = self._tables.spatial(configs, s, kernel=kernel) + self._tables.motion(disp, s, kernel=kernel)
+            score = self._tables.spatial(configs, s) + self._tables.motion(disp, s)
         else:
             score = model.log_spatial(s, configs) + model.log_motion(s, disp)
         if self.config.vertical_sign:

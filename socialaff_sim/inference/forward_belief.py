@@ -49,11 +49,9 @@ _max, _sum = np.maximum.reduce, np.add.reduce  # what np.max and ndarray.sum cal
 class ForwardBelief:
     """Filtering posterior over (current sub-event, elapsed frames) of a growing canonical track."""
 
-    def __init__(self, model: AffordanceParameters, fps: float, *, stride: int, horizon: int, kernel: str = "numpy") -> None:
+    def __init__(self, model: AffordanceParameters, fps: float, *, stride: int, horizon: int) -> None:
         """``stride`` [frames]: distance between cut points; ``horizon`` [frames]: longest interval kept
-        exactly (rounded up to a multiple of ``stride``); ``kernel``: the potentials' implementation
-        (:meth:`~.type_tables.TypeTables.spatial`; ``"numpy"``, the reference)."""
-        self.kernel = kernel
+        exactly (rounded up to a multiple of ``stride``)."""
         if stride < 1:
             raise ConfigError(f"belief_stride: expected at least 1 frame, found {stride}")
         if horizon < stride:
@@ -172,8 +170,7 @@ class ForwardBelief:
                 spatial = model.log_spatial(s, feats.end[:1])[0]
                 out[:, s] = spatial + model.log_motion(s, feats.disp) + model.log_duration(s, feats.seconds)
         else:
-            k = self.kernel
-            out = tab.spatial(feats.end[:1], kernel=k) + tab.motion(feats.disp, kernel=k) + tab.duration(feats.seconds)
+            out = tab.spatial(feats.end[:1]) + tab.motion(feats.disp) + tab.duration(feats.seconds)
         if self._sums is None:
             for s in range(self.S):
                 out[:, s] += model.log_path(s, feats)

@@ -6,7 +6,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..errors import ConfigError, choices
-from .kernels import KERNELS
 
 __all__ = ["SynthesisConfig"]
 
@@ -37,7 +36,6 @@ class SynthesisConfig:
     - Motion toward the chosen end: interpolation, frame_weight, frame_decay
     - Contacts: contact, contact_width, trigger_scale
     - Handedness: hand_margin
-    - Implementation: kernel
     """
 
     n_observed: int = 10
@@ -180,11 +178,6 @@ class SynthesisConfig:
     probability that its duration exceeds the time elapsed, its end not yet reached; ``"closed"``
     (the paper's DP over the frames so far), like every other interval, as if it ended at the latest
     frame (potentials at that frame and the duration density of the elapsed time)."""
-    kernel: str = "numpy"
-    """[—]: How the potentials' densities are evaluated in the forward belief's cuts and the candidates' scores:
-    ``"numpy"`` (the default, the reference) or ``"numba"``, one compiled loop (:mod:`~.kernels`; the optional extra
-    ``[fast]``), a probe of issue 24's speed target: not bitwise (scalar forms, the C library's exp, log and sqrt;
-    docs/design.md §7)."""
     hand_margin: float = 0.2
     """[m]: causal synthesis with a model whose ``config.active_hand`` is on: agent 0 counts as
     left-active only once its left wrist's path so far exceeds its right's by this much (right-active
@@ -245,8 +238,6 @@ class SynthesisConfig:
             raise ConfigError(f"belief_horizon: expected seconds > 0, found {self.belief_horizon}")
         if not 0.0 <= self.shrink <= 1.0:
             raise ConfigError(f"shrink: expected a value in [0, 1], found {self.shrink}")
-        if self.kernel not in KERNELS:
-            raise ConfigError(f"kernel: expected {choices(KERNELS)}, found {self.kernel!r}")
         if self.duration not in _DURATION_MODES:
             raise ConfigError(f"duration: expected {choices(_DURATION_MODES)}, found {self.duration!r}")
 

@@ -19,7 +19,6 @@ from ..model.affordance import AffordanceParameters
 from ..model.densities import lognorm_logpdf, weibull_terms
 from ..model.features import polar
 from ..model.potentials import polar_rows_logpdf, reference_weights
-from . import kernels
 from .model_cache import per_model, read_only
 
 __all__ = ["TypeTables"]
@@ -66,7 +65,6 @@ class TypeTables:
             self._read[np.ix_(rows, cols)] = True
         self.dur = np.array(model.duration_params_, float)  # a copy: made read-only with the tables
         self._cache: dict[tuple[str, int | None], tuple] = {}
-        self._kernel_columns: dict[int, tuple] = {}  # kernel="numba": each row set's columns, made at its first use
         # Per type: the columns of its rows among all rows (the same selection as types == s, made once).
         self._sp_groups = [(s, np.flatnonzero(self.sp_type == s)) for s in range(S) if np.any(self.sp_type == s)]
         self._mo_groups = [(s, np.flatnonzero(self.mo_type == s)) for s in range(S) if np.any(self.mo_type == s)]
@@ -116,40 +114,34 @@ class TypeTables:
             rows = self._cache[key] = (p, e, np.log(i0e(p.T[5])), (weibull_terms(kh, lh), weibull_terms(kv, lv)))
         return rows
 
-    def _density(self, vecs: np.ndarray, rows: tuple, kernel: str = "numpy") -> np.ndarray:
-        """Row log-densities (N, R) of vectors (N, R, 3) (:func:`~socialaff_sim.model.potentials.polar_rows_logpdf`);
-        ``kernel="numba"``: :func:`~.kernels.polar_rows` (compiled, not bitwise: an option, docs/design.md §7)."""
-        if kernel == "numba":
-            return kernels.polar_rows(vecs, rows, self.eps, self._kernel_columns)
+    def _density(self, vecs: np.ndarray, rows: tuple) -> np.ndarray:
+        """Row log-densities (N, R) of vectors (N, R, 3) (:func:`~socialaff_sim.model.potentials.polar_rows_logpdf`)."""
         params, expon, log_i0e, weibull = rows
         h, v, th = polar(vecs, self.eps)
         with np.errstate(divide="ignore", invalid="ignore"):
             return polar_rows_logpdf(h, v, th, params, expon, log_i0e=log_i0e, weibull=weibull)
 
-    def spatial(self, end: np.ndarray, s: int | None = None, *, kernel: str = "numpy") -> np.ndarray:
-        """Spatial log-potential of N configurations ``end`` (N, 11, 3): (N, S), or (N,) under type ``s``; ``kernel``:
-        the densities' implementation (:meth:`_density`)."""
+    def spatial(self, end: np.ndarray, s: int | None = None) -> np.ndarray:
+        """Spatial log-potential of N configurations ``end`` (N, 11, 3): (N, S), or (N,) under type ``s``."""
         end = np.asarray(end, float)
         if s is None:  # every row at once; a NaN in a column its type reads makes the row NaN, as in the model
             refs = np.where(self._read[None, :, :, None], self.sp_w[None, :, :, None] * end[:, None], 0.0).sum(axis=2)
             offsets = end[:, self.sp_joint] - refs
-            rows = self._density(offsets, self._rows(("spatial", None), self.sp_params, None), kernel)
+            rows = self._density(offsets, self._rows(("spatial", None), self.sp_params, None))
             return self._per_type(rows, None, self._sp_groups)
         rows, cols, w = self._sp[s]
         if rows.size == 0:
             return np.zeros(end.shape[0])
         refs = np.einsum("kj,njd->nkd", w, end[:, cols])
         offsets = end[:, self.sp_joint[rows]] - refs
-        dens = self._density(offsets, self._rows(("spatial", s), self.sp_params, None, rows), kernel)
+        dens = self._density(offsets, self._rows(("spatial", s), self.sp_params, None, rows))
         out = dens.sum(axis=-1)
         return np.where(np.isnan(out), -np.inf, out)
 
-    def motion(self, disp: np.ndarray, s: int | None = None, *, kernel: str = "numpy") -> np.ndarray:
-        """Motion log-potential of N displacement sets (N, 11, 3): (N, S), or (N,) under type ``s``; ``kernel``: the
-        densities' implementation (:meth:`_density`)."""
+    def motion(self, disp: np.ndarray, s: int | None = None) -> np.ndarray:
+        """Motion log-potential of N displacement sets (N, 11, 3): (N, S), or (N,) under type ``s``."""
         rows = self._density(np.asarray(disp, float)[:, self._mo_joints[s]],
-                             self._rows(("motion", s), self.mo_params, self.mo_expon, None if s is None else self.mo_type == s),
-                             kernel)
+                             self._rows(("motion", s), self.mo_params, self.mo_expon, None if s is None else self.mo_type == s))
         return self._per_type(rows, s, self._mo_groups)
 
     def duration(self, seconds: np.ndarray) -> np.ndarray:
