@@ -5,16 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import planted_feet_error
 
 from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.errors import ConfigError, SimulationError
-from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.catch_up import CatchUp
-from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
 from socialaff_sim.sim.simulator import SimConfig, Simulator
-from socialaff_sim.sim.stage import key_frames
 from socialaff_sim.sim.stance import StanceConfig
 
 HOME = (0.08, 0.08)
@@ -113,17 +111,7 @@ def test_catch_up_brings_a_standing_robots_feet_to_where_the_ik_plans_them() -> 
     for catch in (None, 0.05):
         lock = FootLockConfig(hold_lift=0.12, hold_in_contact=True, catch_up=catch, catch_up_quiet=10)
         sim = Simulator("ours", "shake_hands", SimConfig(foot_lock=lock, balance=qp, stance=StanceConfig(release=False)))
-        err: list[float] = []
-
-        def frame(s: Simulator, r: object, _: object) -> None:
-            fl = s._footlock
-            if r is None or not all(fl.standing):
-                return
-            phys = key_frames(s.scene, s.data)[3:5]
-            err.append(max(float(np.linalg.norm(phys[k, :2] - fl.planted[k][:2])) for k in (0, 1)))
-
-        run_episode(sim, GroundTruthSource(), inter, on_frame=frame)
-        errors.append(float(np.median(err)))
+        errors.append(planted_feet_error(sim, inter))
         steps.append(0 if sim._footlock.catch_up is None else sim._footlock.catch_up.steps)
     assert steps[0] == 0 and steps[1] > 0
     assert errors[1] < 0.75 * errors[0]

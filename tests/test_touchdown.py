@@ -5,16 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import shared_robot
+from conftest import planted_feet_error, shared_robot
 
 from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.errors import ConfigError, SimulationError
 from socialaff_sim.retarget.robot import load_robot
-from socialaff_sim.retarget.sources import GroundTruthSource
-from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
 from socialaff_sim.sim.simulator import SimConfig, Simulator
-from socialaff_sim.sim.stage import key_frames
 from socialaff_sim.sim.touchdown import Touchdown
 
 HOME = (0.08, 0.08)
@@ -133,17 +130,7 @@ def test_touchdown_puts_a_walking_robots_feet_down_where_the_ik_plans_them() -> 
         lock = FootLockConfig(hold_lift=0.12, hold_in_contact=True, touchdown=td, touchdown_height=0.08,
                               touchdown_stride=0.25, touchdown_frames=6)
         sim = Simulator(h1, "shake_hands", SimConfig.standing(foot_lock=lock))
-        err: list[float] = []
-
-        def frame(s: Simulator, r: object, _: object) -> None:
-            fl = s._footlock
-            if r is None or not all(fl.standing):
-                return
-            phys = key_frames(s.scene, s.data)[3:5]
-            err.append(max(float(np.linalg.norm(phys[k, :2] - fl.planted[k][:2])) for k in (0, 1)))
-
-        run_episode(sim, GroundTruthSource(), inter, on_frame=frame)
-        errors.append(float(np.median(err)))
+        errors.append(planted_feet_error(sim, inter))
         waits.append(0 if sim._footlock.touchdown is None else sim._footlock.touchdown.waits)
     assert waits[0] == 0 and waits[1] > 0
     assert errors[1] < 0.6 * errors[0], errors
