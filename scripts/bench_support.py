@@ -28,7 +28,9 @@ also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stan
 ``--balance FIELD=VALUE ...`` changes the controller's settings for the modes with the controller being run (e.g.
 ``flat_feet=True``, which needs the QP), ``--foot-lock FIELD=VALUE ...``
 the foot lock's (:class:`~socialaff_sim.sim.footlock.FootLockConfig`) for every mode, ``--stance FIELD=VALUE ...``
-the steadied base's (:class:`~socialaff_sim.sim.stance.StanceConfig`) for the modes that have one, ``--labels`` picks
+the steadied base's (:class:`~socialaff_sim.sim.stance.StanceConfig`) for the modes that have one, ``--completion
+FIELD=VALUE ...`` the contact completion's (:class:`~socialaff_sim.retarget.contact_completion.ContactCompletionConfig`)
+for every mode that has one, ``--labels`` picks
 interactions. After the per-interaction table, one line per robot and mode summarises the contact phases, and one
 more counts the episodes failing by each failure kind (self-collision, force on the person, a drop), and one
 more gives how far the feet stand from where the foot lock planted them (the larger foot, in the frames in which
@@ -109,7 +111,16 @@ def main() -> None:
                    help="StanceConfig fields for the modes that have one (Python literals), e.g. base_smoothing=0.0")
     p.add_argument("--foot-lock", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="FootLockConfig fields for every mode (Python literals), e.g. hold_lift=0.08")
+    p.add_argument("--completion", nargs="*", default=[], metavar="FIELD=VALUE",
+                   help="ContactCompletionConfig fields for every mode with the contact completion (Python "
+                        "literals), e.g. planned_shoulder=True")
     args = p.parse_args()
+    if args.completion:
+        over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.completion)}
+        for mode, cfg in MODES.items():
+            if cfg.contact_completion is not None:
+                MODES[mode] = dataclasses.replace(
+                    cfg, contact_completion=dataclasses.replace(cfg.contact_completion, **over))
     if args.foot_lock:
         lock = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.foot_lock)}
         for mode, cfg in MODES.items():
