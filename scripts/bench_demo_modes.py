@@ -6,7 +6,9 @@ held-out instance. This script simulates that same instance with that model, cau
 ``harness``, ``standing``), and prints per interaction and mode: sub-goals met, failures, and over the contact
 phase (frames where a sub-goal's contact holds now) the outside support (mean and peak, % of the weight), the
 frames with the harness off, the feet's slide path and drift (cm), the torso's largest tilt and the CPU time
-(``--balance FIELD=VALUE ...``: the standing mode's controller changed)::
+(``--balance FIELD=VALUE ...``: the standing mode's controller changed; ``--completion FIELD=VALUE ...``: the
+contact completion's settings changed in every mode; ``--foot-lock FIELD=VALUE ...``: the standing mode's foot
+lock changed; ``--labels``: only these interactions)::
 
     OMP_NUM_THREADS=1 python scripts/bench_demo_modes.py --demo demo_out --json modes.json
 """
@@ -41,13 +43,20 @@ def main() -> None:
     p.add_argument("--json", help="write the figures here")
     p.add_argument("--balance", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="BalanceConfig fields for the standing mode (Python literals), e.g. hand_weight=100.0")
+    p.add_argument("--completion", nargs="*", default=[], metavar="FIELD=VALUE",
+                   help="ContactCompletionConfig fields for every mode (Python literals), e.g. planned_shoulder=True")
+    p.add_argument("--foot-lock", nargs="*", default=[], metavar="FIELD=VALUE",
+                   help="FootLockConfig fields for the standing mode (Python literals), e.g. catch_up=0.05")
+    p.add_argument("--labels", nargs="*", help="only these interactions")
     args = p.parse_args()
     over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.balance)}
+    completion = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.completion)}
+    lock = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.foot_lock)}
     data = generate_dataset(args.seed)
     rows = []
     for label in INTERACTIONS:
         model_path = Path(args.demo) / f"{label}_model.npz"
-        if not model_path.exists():
+        if not model_path.exists() or (args.labels and label not in args.labels):
             continue
         model = SocialAffordanceModel.load(model_path)
         _, test = held_out(list(data.of_label(label)), DemoConfig().n_test)
@@ -58,6 +67,11 @@ def main() -> None:
             physics = SimConfig.mode(mode)
             if over and physics.balance is not None:
                 physics = dataclasses.replace(physics, balance=dataclasses.replace(physics.balance, **over))
+            if lock and mode == "standing":
+                physics = dataclasses.replace(physics, foot_lock=dataclasses.replace(physics.foot_lock, **lock))
+            if completion and physics.contact_completion is not None:
+                physics = dataclasses.replace(
+                    physics, contact_completion=dataclasses.replace(physics.contact_completion, **completion))
             m = run_episode(Simulator(args.robot, task_for_label(label), physics), source, shown)
             cp = m["support"]["contact_phase"]
             rows.append({"label": label, "instance": shown.instance_id, "mode": mode, "success": m["success"],
