@@ -55,7 +55,7 @@ import time
 import numpy as np
 
 from socialaff_sim._atomic import atomic_write_text
-from socialaff_sim.data.synthetic import generate_dataset
+from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.model_source import model_source
 from socialaff_sim.retarget.sources import GroundTruthSource
@@ -102,6 +102,10 @@ def main() -> None:
     p.add_argument("--offset", type=int, default=0,
                    help="skip this many instances of each interaction first (episodes not used before; default 0)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--instances", type=int, default=SyntheticConfig().instances_per_interaction,
+                   help="instances generated per interaction (default: the synthetic set's 24); each instance is drawn "
+                        "from its own seeded stream, so instances 000-023 are the same whatever this says and "
+                        "--instances 40 adds 024-039")
     p.add_argument("--model", help="an affordance model (model.npz): simulate its causal synthesis instead of the recording")
     p.add_argument("--json", help="write the per-instance figures here")
     p.add_argument("--balance", nargs="*", default=[], metavar="FIELD=VALUE",
@@ -135,7 +139,7 @@ def main() -> None:
             if cfg.stance is not None:
                 MODES[mode] = dataclasses.replace(cfg, stance=dataclasses.replace(cfg.stance, **over))
     paths = dict(item.split("=", 1) for item in args.mjcf)
-    data = generate_dataset(seed=args.seed)
+    data = generate_dataset(seed=args.seed, config=SyntheticConfig(instances_per_interaction=args.instances))
     rows = []
     for robot in args.robots:
         spec = load_robot(robot, mjcf=paths.get(robot))
