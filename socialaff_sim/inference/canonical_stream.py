@@ -143,7 +143,9 @@ class CanonicalStream:
             if changed <= p < floor:
                 self._canon[p] = self.frame.to_canonical(self._world[p][None])[0]
         if n > V:  # held frames: each joint at its last tracked position (NaN if never tracked), the object at its last
-            self._canon[V:n] = self.frame.to_canonical(np.broadcast_to(self._last_pos, (n - V, N_JOINTS, 3)))
+            # One frame's conversion, broadcast to the held frames: the same values as converting each copy (the
+            # rotation is applied frame by frame, each the same (11, 3) @ (3, 3) product; tests/test_reactor_frames.py).
+            self._canon[V:n] = self.frame.to_canonical(self._last_pos[None])
         self._seen, self._n = V, n
         self._tail = (view.joints[V - 1].copy(), np.array(view.valid[V - 1]))
         self._update_paths(changed, n)

@@ -44,7 +44,7 @@ from ..errors import ModelError
 from ..model.frame import CanonicalFrame, canonical_frame
 from .interaction_primitive import InteractionPrimitive, rbf_centres, rbf_rows
 from .low_rank_solve import LowRankUpdatedSolver
-from .primitive_sums import PrimitiveSums, outer_sums
+from .primitive_sums import PrimitiveSums, diagonal_blocks, outer_sums
 from .protocol import observed_part
 
 __all__ = ["PHASE_ONE_REFACTOR", "PrimitiveStream", "SHARED_SOLVERS", "stream_key_joints"]
@@ -107,8 +107,9 @@ class PrimitiveStream(PrimitiveSums):
         phases = np.minimum(np.arange(self.t_max + 1)[:, None] / spans[None], 1.0)
         self._table = self._rbf(phases.ravel()).reshape(self.t_max + 1, len(self._cands), self._n)
         self._lam = np.empty((self._a, self._a), order="F")  # the a-block, factored in place every frame within T_max
+        self._lam_blocks = diagonal_blocks(self._lam, self._d0, self._n)  # its diagonal N×N blocks, a strided view
         self._row = np.empty(n_dof)  # one frame's DoFs
-        self._col_runs: dict[bytes, list[tuple[int, int, int, int]]] = {}  # _runs of the seen DoFs, per pattern
+        self._col_runs: dict[bytes, object] = {}  # what the per-frame sums read of a pattern of seen DoFs
         self._key_cols = slice(0, 3 * len(primitive.keys_))
         self.duration: int | None = None
         """T̂ of the last call, frames."""
@@ -323,10 +324,7 @@ class PrimitiveStream(PrimitiveSums):
         if self._frames_seen >= self.t_max and self._cands[c] == self.t_max:  # every later frame at phase 1
             x_a = self._phase_one_solve(c, s_aa, blocks, rhs)
         else:
-            lam = self._lam  # Fortran order, as LAPACK reads it: no copy in the call
-            np.copyto(lam, s_aa)
-            m, n = self._d0, self._n
-            lam.reshape((n, m, n, m), order="F")[:, np.arange(m), :, np.arange(m)] += blocks  # the diagonal blocks
+            lam = self._a_block(s_aa, blocks)
             # LAPACK's potrf/potrs called as scipy's cho_factor/cho_solve call them (the same arguments, the same
             # values), without their per-call checks: this runs at every frame.
             chol, info = dpotrf(lam, lower=1, clean=0, overwrite_a=1)
@@ -339,6 +337,18 @@ class PrimitiveStream(PrimitiveSums):
         out = np.full((len(frames), N_KEY, 3), np.nan)
         out[:, prim.keys_] = (phi @ w_r.T).reshape(len(frames), len(prim.keys_), 3) + self._anchor
         return out
+
+    def _a_block(self, s_aa: np.ndarray, blocks: np.ndarray) -> np.ndarray:
+        """S + B_a (a, a) in the stream's Fortran-ordered buffer (as LAPACK reads it: no copy in the call), from S
+        (a, a) and the diagonal blocks B_a (d0, N, N). S is exactly symmetric (0.5 (S + Sᵀ), :meth:`_fixed`), so Sᵀ,
+        Fortran-ordered, is S itself: a contiguous copy instead of a transposing one; the blocks added through a
+        strided view of the buffer instead of a fancy-indexed read, add and write (the same sums, bitwise)."""
+        lam = self._lam
+        np.copyto(lam, s_aa.T)
+        if self._lam_blocks.base is not lam:  # a copied stream (deepcopy, pickle) holds the view apart from lam
+            self._lam_blocks = diagonal_blocks(lam, self._d0, self._n)
+        self._lam_blocks += blocks
+        return lam
 
     def _phase_one_solve(self, c: int, s_aa: np.ndarray, blocks: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         """(a,) (S + B_a)⁻¹ rhs past T_max: against the last factor and the phase-1 frames added since (Woodbury),

@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import ModelError
 from .low_rank_solve import LowRankUpdatedSolver
 
-__all__ = ["PrimitiveSums", "outer_sums"]
+__all__ = ["PrimitiveSums", "diagonal_blocks", "outer_sums"]
 
 
 class PrimitiveSums:
@@ -35,7 +36,7 @@ class PrimitiveSums:
     _hth: np.ndarray
     _hty: np.ndarray
     _err: np.ndarray
-    _col_runs: dict[bytes, list[tuple[int, int, int, int]]]
+    _col_runs: dict[bytes, _Seen]
     _phase_one: LowRankUpdatedSolver | None
     _phase_one_frames: int
 
@@ -102,31 +103,31 @@ class PrimitiveSums:
     def _add_frame(self, s: int, y: np.ndarray) -> None:
         """:meth:`_add` of one frame s with DoF values y (D,) (the per-frame call): the same sums, bitwise, from the
         basis table, with the active candidates (a contiguous run: the durations are sorted) and usually the seen
-        DoFs as slices, and the duration match without its no-op selections."""
+        DoFs as slices, and the duration match without its no-op selections. What depends on the seen DoFs alone
+        (their weights, whether they are equal, their runs) is made once per pattern (:class:`_Seen`)."""
         seen = np.isfinite(y)
         if s >= self.n_observed:
             seen[self._d0 :] = False  # agent 1 after the prefix is never used
         n_c = len(self._cands)
         lo = min(int(self._cands.searchsorted(s, side="right")), n_c - 1)  # candidates > s, and T_max
         cols = seen.nonzero()[0]  # np.flatnonzero of the 1-d mask, without its wrappers
+        key = cols.tobytes()
+        pattern = self._col_runs.get(key)
+        if pattern is None:
+            pattern = self._col_runs[key] = _Seen(cols, self._inv_var, self._d0)
         p0 = self._table[min(s, self.t_max), lo:]  # (A, N)
-        yz = y[cols] * self._inv_var[cols]
-        w = self._inv_var[cols]
+        w = pattern.w
+        yz = y[cols] * w
         outer = p0[:, :, None] * p0[:, None, :]  # (A, N, N)
-        equal = bool(w.size) and bool((w == w[0]).all())
-        hth = (outer * w[0])[:, None] if equal else outer[:, None] * w[None, :, None, None]  # equal: broadcast
+        equal = pattern.w0 is not None
+        hth = (outer * pattern.w0)[:, None] if equal else outer[:, None] * w[None, :, None, None]  # equal: broadcast
         # The seen DoFs as runs of consecutive columns (e.g. agent 0's never-tracked ankles between its arms and
         # the object): a slice per run instead of a gather and a scatter of the same entries (the same sums).
-        key = cols.tobytes()
-        runs = self._col_runs.get(key)
-        if runs is None:
-            runs = self._col_runs[key] = _runs(cols)
-        for a, b, ka, kb in runs:
+        for a, b, ka, kb in pattern.runs:
             self._hty[lo:, a:b] += p0[:, None, :] * yz[None, ka:kb, None]
             self._hth[lo:, a:b] += hth if equal else hth[:, ka:kb]
         if self._phase_one is not None:  # past T_max: the frame's phase is 1 (anchored at ≥ T_max frames)
-            a_cols = cols < self._d0
-            self._phase_one.weights[cols[a_cols]] += w[a_cols]
+            self._phase_one.weights[pattern.cols_a] += pattern.w_a
             self._phase_one_frames += 1
         if s >= self.t_max:  # past every candidate (a long stream): the duration match's sums would gain zeros
             return
@@ -136,6 +137,22 @@ class PrimitiveSums:
         if not np.isfinite(obs).all():
             diff = np.where(np.isfinite(obs)[None], diff, 0.0)
         self._err[lo:] += (diff**2).sum(axis=1)
+
+
+class _Seen:
+    """What :meth:`PrimitiveSums._add_frame` reads of a pattern of seen DoFs ``cols`` (K,), sorted, made once per
+    pattern: their weights ``w`` = 1/σ² (K,), the common weight ``w0`` (``w[0]``, a NumPy scalar) when all are equal
+    (else None), their runs of consecutive columns, and the agent-0 (and object) ones ``cols_a`` with weights ``w_a``
+    (the past-T_max low-rank weights)."""
+
+    __slots__ = ("cols_a", "runs", "w", "w0", "w_a")
+
+    def __init__(self, cols: np.ndarray, inv_var: np.ndarray, d0: int) -> None:
+        self.w = inv_var[cols]
+        self.w0 = self.w[0] if self.w.size and bool((self.w == self.w[0]).all()) else None
+        self.runs = _runs(cols)
+        a_cols = cols < d0
+        self.cols_a, self.w_a = cols[a_cols], self.w[a_cols]
 
 
 def outer_sums(phi: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -151,6 +168,16 @@ def outer_sums(phi: np.ndarray, w: np.ndarray) -> np.ndarray:
         p = phi[g]
         acc += (p[:, :, None] * p[:, None, :])[None] * distinct[g][:, None, None, None]
     return acc[inverse.ravel()].transpose(1, 0, 2, 3)
+
+
+def diagonal_blocks(lam: np.ndarray, m: int, n: int) -> np.ndarray:
+    """(m, n, n) a writable strided view of the m diagonal n×n blocks of ``lam`` (m·n, m·n), Fortran-ordered: element
+    [i, p, q] is ``lam[i·n + p, i·n + q]`` (what ``lam.reshape((n, m, n, m), order="F")[:, i, :, i]`` reads and
+    writes, without a gather and a scatter)."""
+    if lam.shape != (m * n, m * n) or not lam.flags.f_contiguous:
+        raise ModelError(f"diagonal_blocks: expected a Fortran-ordered ({m * n}, {m * n}) array, found {lam.shape}")
+    it, size = lam.itemsize, m * n
+    return np.ndarray((m, n, n), lam.dtype, lam, 0, ((n + n * size) * it, it, size * it))  # its base is ``lam``
 
 
 def _runs(cols: np.ndarray) -> list[tuple[int, int, int, int]]:
