@@ -16,14 +16,17 @@ import numpy as np
 import pytest
 
 from socialaff_sim.errors import ModelError
-from socialaff_sim.inference import methods
+from socialaff_sim.inference import methods, primitive_sums
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, ProMPConfig
 from socialaff_sim.inference.primitive_stream import PrimitiveStream
 from socialaff_sim.inference.primitive_sums import diagonal_blocks
 from socialaff_sim.inference.protocol import observed_part, protocol_view
 from socialaff_sim.inference.reaction_features import FEATURE_GROUPS
 from socialaff_sim.inference.switching_rows import switching_columns, switching_rows
+from socialaff_sim.inference.canonical_stream import _WRISTS, CanonicalStream, _key_columns
+from socialaff_sim.inference.primitive_sums import OUTER_SUMS_KEPT, outer_sums
 from socialaff_sim.inference.track_window import TrackWindow
+from socialaff_sim.model.joints import N_JOINTS, OBJECT, instance_frame
 from socialaff_sim.model.frame import CanonicalFrame
 
 from test_primitive_stream import _instances
@@ -83,6 +86,54 @@ class _OldSums(_OldABlock):
         if not np.isfinite(obs).all():
             diff = np.where(np.isfinite(obs)[None], diff, 0.0)
         self._err[lo:] += (diff**2).sum(axis=1)
+
+
+class _OldCanonical(CanonicalStream):
+    """The canonical stream's frames consumed as they were: every call by the masks over the new frames (the one-frame
+    call included)."""
+
+    def _consume(self, view, start: int, stop: int) -> int:  # noqa: ANN001
+        dst, agent, src = _key_columns(view.layout.key_indices)
+        x = np.full((stop - start, N_JOINTS, 3), np.nan)
+        ok = np.zeros((stop - start, N_JOINTS), dtype=bool)
+        valid = np.asarray(view.valid)
+        if dst.size:
+            x[:, dst] = view.joints[start:stop][:, agent, src]
+            ok[:, dst] = valid[start:stop][:, agent, src]
+        if view.object is not None:
+            x[:, OBJECT] = view.object[start:stop]
+            ok[:, OBJECT] = True
+        world = self._world
+        floor = world.floor
+        simple = ok.all(axis=0) & (self._last == start - 1)
+        world[start:stop, simple] = x[:, simple]
+        self._last[simple] = stop - 1
+        self._last_pos[simple] = world[stop - 1, simple]
+        first = start
+        rest = ~simple
+        held = rest & ~ok.any(axis=0)
+        if held.any():
+            world[start:stop, held] = self._last_pos[held]
+        for j in (rest & ~held).nonzero()[0]:
+            tracked = ok[:, j].nonzero()[0]
+            last = int(self._last[j])
+            lo = last + 1 if last >= 0 else 0
+            xp = np.r_[[last] if last >= 0 else [], start + tracked].astype(np.float64)
+            fp = np.concatenate([self._last_pos[j][None] if last >= 0 else np.zeros((0, 3)), x[tracked, j]])
+            a = max(lo, floor)
+            at = np.arange(a, stop)
+            for d in range(3):
+                world[a:stop, j, d] = np.interp(at, xp, fp[:, d])
+            for p in world.pinned:
+                if lo <= p < floor:
+                    for d in range(3):
+                        world[p, j, d] = np.interp(float(p), xp, fp[:, d])
+            if j in _WRISTS and lo <= floor and floor > 0:
+                self._carry[j] = (last, xp, fp)
+            self._last[j] = start + int(tracked[-1])
+            self._last_pos[j] = world[int(self._last[j]), j]
+            first = min(first, lo)
+        return first
 
 
 def _held_frames_old(frame: CanonicalFrame, last_pos: np.ndarray, k: int) -> np.ndarray:
@@ -277,3 +328,78 @@ def test_reactor_blend_groups_against_every_group(primitive_method, shake8) -> N
             _bytes_equal(pa.joints, pb.joints)
             _bytes_equal(pa.key_joints, pb.key_joints)
         assert hidden.n_frames == inst.n_frames
+
+
+@pytest.mark.parametrize(("layout", "keep"), [("default", None), ("nuitrack10", None), ("default", 6), ("nuitrack10", 4)])
+def test_canonical_stream_one_frame_call_against_the_masks(rng: np.random.Generator, layout: str, keep: int | None) -> None:
+    """The one-new-frame call (the row by one selection) against the masks over the new frames (written out above):
+    the track, the paths, each joint's last tracked frame and position bitwise equal at every call, on instances with
+    gaps that close, a joint first tracked late, an open gap at the end, the nuitrack10 layout's absent key joints,
+    held frames past the view, and a bounded window (``keep_from``) with the pinned hold frame; a call with several
+    new frames (the general way) in between."""
+    insts = [_nuitrack_instance(rng, 45)] if layout == "nuitrack10" else _instances(rng, 2, gaps=True)
+    for inst in insts:
+        new = old = None
+        t = T0
+        while t < inst.n_frames:
+            view = protocol_view(inst, t + 1, T0)
+            if new is None:
+                frame = instance_frame(view)
+                new, old = CanonicalStream(frame), _OldCanonical(frame)
+                for s in (new, old):
+                    s.pin(T0 - 1)
+            floor = 0 if keep is None else max(t - keep, 0)
+            ca = new.update(view, t + 1 + 5, keep_from=floor)
+            cb = old.update(view, t + 1 + 5, keep_from=floor)
+            assert ca == cb
+            lo = new.floor
+            _bytes_equal(new.track[lo : new.n_frames], old.track[lo : old.n_frames])
+            _bytes_equal(new.paths[lo : new.n_frames], old.paths[lo : old.n_frames])
+            _bytes_equal(new.track[T0 - 1], old.track[T0 - 1])
+            _bytes_equal(new._last, old._last)
+            _bytes_equal(new._last_pos, old._last_pos)
+            t += 3 if t % 7 == 0 else 1  # now and then several new frames at once
+
+
+def test_outer_sums_kept_by_their_inputs(rng: np.random.Generator) -> None:
+    """A kept result is the one computed anew (bitwise), read-only; other inputs (one weight changed, or the basis)
+    are not served it; results of more than 64 frames are computed and not kept; the oldest is dropped first."""
+    primitive_sums._OUTER.clear()
+    phi = rng.random((11, 5, 4))
+    w = np.where(rng.random((11, 7)) < 0.5, 100.0, 1.0)
+    first = outer_sums(phi, w)
+    again = outer_sums(phi.copy(), w.copy())
+    assert again is first and not first.flags.writeable
+    primitive_sums._OUTER.clear()
+    _bytes_equal(outer_sums(phi, w), np.asarray(first))
+    w2 = w.copy()
+    w2[3, 2] = 7.0
+    other = outer_sums(phi, w2)
+    assert other is not first and not np.array_equal(other, first)
+    _bytes_equal(other, np.einsum("gcn,gcm,gd->cdnm", phi, phi, w2))
+    long = rng.random((65, 5, 4)), np.ones((65, 7))
+    n = len(primitive_sums._OUTER)
+    outer_sums(*long)
+    assert len(primitive_sums._OUTER) == n
+    for k in range(OUTER_SUMS_KEPT + 1):
+        outer_sums(rng.random((3, 2, 2)), np.ones((3, 2)) * k)
+    assert len(primitive_sums._OUTER) == OUTER_SUMS_KEPT
+    assert all(v is not first for v in primitive_sums._OUTER.values())
+    primitive_sums._OUTER.clear()
+
+
+def test_reactor_frame_made_only_for_a_prior(primitive_method, shake8) -> None:  # noqa: ANN001
+    """The instance's frame (a gap filling) is made when a member reads a body-fit prior, and is then
+    instance_frame's; without one it is not made."""
+    inst = list(shake8)[5]
+    view = protocol_view(inst, T0 + 1, T0)
+    r = primitive_method.start(n_observed=T0, offline=False, rng=np.random.default_rng(0))
+    r.react(view, T0, T0 + 1)
+    if r._plan_prior or r._primitive_prior:
+        assert r._frame == instance_frame(view)
+    else:
+        assert r._frame is None
+    r2 = primitive_method.start(n_observed=T0, offline=False, rng=np.random.default_rng(0))
+    r2._plan_prior = True  # a prior read: the frame is made (and the plan's body fit runs)
+    r2.react(view, T0, T0 + 1)
+    assert r2._frame == instance_frame(view)

@@ -318,7 +318,9 @@ class _AffordanceReactor:
             self.synths = [OnlineSynthesizer(m, None, self.config) for m in self.method.models_]
             for syn, r in zip(self.synths, self.rngs, strict=True):
                 syn.reset(view, rng=r, n_frames=n_frames)
-            self._frame = instance_frame(view)
+            # The instance's frame is read by the body fits of the priors only (a gap filling of the view: skipped
+            # when no member reads a prior; the synthesizer's reset builds the same frame and raises as it would).
+            self._frame = instance_frame(view) if self._plan_prior or self._primitive_prior else None
         else:
             for syn in self.synths:
                 syn.observe(view, n_frames)

@@ -200,7 +200,7 @@ class PrimitiveStream(PrimitiveSums):
                 self._last_value = raw
             else:
                 self._last_frame = np.where(valid, s, self._last_frame)
-                self._last_value = np.where(valid[:, None], raw, self._last_value)
+                self._last_value = value  # np.where(valid[:, None], raw, the last values) was made above: the same array
         self._frames_seen = T
 
     def _close_gap(self, joint: int, s: int, value: np.ndarray) -> None:
