@@ -206,6 +206,7 @@ def test_primitive_stream_frames_against_the_replaced_code(rng: np.random.Genera
         hidden = observed_part(long, T0)
         new, old = PrimitiveStream(prim, T0), _OldSums(prim, T0)
         fork = None
+        deferred = 0
         for t in range(T0, long.n_frames):
             a = new.react_prefix_keys(hidden, t + 1, t, t + 1)
             b = old.react_prefix_keys(hidden, t + 1, t, t + 1)
@@ -215,8 +216,20 @@ def test_primitive_stream_frames_against_the_replaced_code(rng: np.random.Genera
             if t == T0 + 8:
                 fork = copy.deepcopy(new)
                 assert fork._lam_blocks.base is not fork._lam  # the copy's view is apart: it is made anew
-        for name in ("_hth", "_hty", "_err"):
-            _bytes_equal(getattr(new, name), getattr(old, name))
+            # Every candidate still to be chosen, its deferred frames added (on a copy: the stream's own flushes
+            # stay as they come), has the sums of the frames added as they came; _err is never deferred.
+            flushed = copy.deepcopy(new)
+            deferred += len(flushed._log) > 0
+            flushed._flush_active()
+            lo = flushed._active
+            for name in ("_hth", "_hty"):
+                _bytes_equal(getattr(flushed, name)[lo:], getattr(old, name)[lo:])
+            _bytes_equal(new._err, old._err)
+        assert deferred > 0  # frames were deferred within T_max
+        assert not new._log  # past T_max: T_max alone, nothing deferred
+        lo = new._active
+        for name in ("_hth", "_hty"):
+            _bytes_equal(getattr(new, name)[lo:], getattr(old, name)[lo:])
         assert new._phase_one is not None and old._phase_one is not None
         _bytes_equal(new._phase_one.weights, old._phase_one.weights)
         assert fork._lam_blocks.base is fork._lam
@@ -403,3 +416,35 @@ def test_reactor_frame_made_only_for_a_prior(primitive_method, shake8) -> None: 
     r2._plan_prior = True  # a prior read: the frame is made (and the plan's body fit runs)
     r2.react(view, T0, T0 + 1)
     assert r2._frame == instance_frame(view)
+
+
+def test_deferred_frames_are_what_a_read_candidate_lacks(rng: np.random.Generator) -> None:
+    """Within T_max a candidate not read has not gained the frames deferred (its sums differ from those of every
+    frame added as it came), and gains exactly them when flushed (bitwise): the flush is what makes a candidate's
+    sums whole, and reading one without it would read other sums. A gap that closes (terms added otherwise) flushes
+    first, so the order of every candidate's additions is kept."""
+    prim, tests = _fitted(rng, "default")
+    inst = tests[0]
+    hidden = observed_part(inst, T0)
+    new, old = PrimitiveStream(prim, T0), _OldSums(prim, T0)
+    t_stop = min(inst.n_frames, int(prim.durations_.min()) - 2)
+    for t in range(T0, t_stop):
+        new.react_prefix_keys(hidden, t + 1, t, t + 1)
+        old.react_prefix_keys(hidden, t + 1, t, t + 1)
+    read = {int(new._cands.searchsorted(new.duration))}
+    unread = [c for c in range(new._active, len(new._cands)) if c not in read and new._done[c] < new._log_base + len(new._log)]
+    assert unread
+    c = unread[0]
+    assert not np.array_equal(new._hth[c], old._hth[c])
+    new.flush(c)
+    _bytes_equal(new._hth[c], old._hth[c])
+    _bytes_equal(new._hty[c], old._hty[c])
+    # A closing gap's corrections (sign −1 then +1, values only) after the deferred frames of every active candidate.
+    frames = np.arange(T0 + 1, T0 + 3)
+    y = np.full((2, new._n_dof), np.nan)
+    y[:, 0:3] = rng.normal(size=(2, 3))
+    for s_ in (new, old):
+        s_._add(frames, y, -1.0, information=False)
+    assert not new._log or all(new._done[k] == new._log_base + len(new._log) for k in range(new._active, len(new._cands)))
+    for name in ("_hth", "_hty"):
+        _bytes_equal(getattr(new, name)[new._active :], getattr(old, name)[new._active :])

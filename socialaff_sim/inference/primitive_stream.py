@@ -119,6 +119,7 @@ class PrimitiveStream(PrimitiveSums):
     def state_size(self) -> int:
         """Floats the stream holds (running sums and cached factors): it does not grow with the frames seen."""
         sums = self._hth.size + self._hty.size + self._err.size + self._last_value.size if self._frames_seen else 0
+        sums += sum(v.size + 1 for _, v, _ in self._log) if self._frames_seen else 0  # frames deferred (at most T_max)
         low_rank = self._phase_one.size if self._phase_one is not None else 0
         return int(sums + low_rank + sum(sum(a.size for a in s) for s in self._solvers.values()))
 
@@ -163,6 +164,7 @@ class PrimitiveStream(PrimitiveSums):
         self._mu0 = self._rbf(np.zeros(1))[0] @ self._mean[: self._d0].T  # (d0,)
         self._solvers = {}
         self._phase_one = None
+        self._reset_log()
         self._add(np.arange(view.n_frames), y)
         # Agent 0's key joints: the last tracked frame and its (canonical) value, for holding and gaps.
         valid = view.key_valid()[:, 0][:, keys]  # (T, k)
@@ -316,6 +318,7 @@ class PrimitiveStream(PrimitiveSums):
         # fixed parts (about 0.7 MB each on the handovers), so a long stream keeps T_max's only.
         for k in [k for k in self._solvers if self._cands[k] < self._frames_seen and k != c]:
             del self._solvers[k]
+        self.flush(c)  # its deferred frames (the other candidates' wait until they are read)
         s_aa, k_ra, u, p_u = self._solver(c)
         d0, n = self._d0, self._n
         blocks = self._hth[c, :d0]

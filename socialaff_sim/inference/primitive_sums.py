@@ -39,6 +39,10 @@ class PrimitiveSums:
     _col_runs: dict[bytes, _Seen]
     _phase_one: LowRankUpdatedSolver | None
     _phase_one_frames: int
+    _log: list[tuple[int, np.ndarray, _Seen]]
+    _log_base: int
+    _done: list[int]
+    _active: int
 
     def _rbf(self, phase: np.ndarray) -> np.ndarray:
         raise NotImplementedError
@@ -55,7 +59,9 @@ class PrimitiveSums:
             self._add_rows(frames, y, sign, information)
 
     def _add_rows(self, frames: np.ndarray, y: np.ndarray, sign: float = 1.0, information: bool = True) -> None:
-        """:meth:`_add` by gathers over the active candidates and seen DoFs (any frames, any sign)."""
+        """:meth:`_add` by gathers over the active candidates and seen DoFs (any frames, any sign); the frames
+        deferred before it are added first (:meth:`flush`), so every candidate's sums gain their terms in order."""
+        self._flush_active()
         seen = np.isfinite(y)
         seen[frames >= self.n_observed, self._d0 :] = False  # agent 1 after the prefix is never used
         act = np.flatnonzero((self._cands > frames[0]) | (self._cands == self.t_max))
@@ -100,6 +106,70 @@ class PrimitiveSums:
         sq = np.where(ok[:, None], obs[:, None] - mu, 0.0) ** 2
         self._err[act] += sign * np.where(eligible, sq.sum(axis=2), 0.0).sum(axis=0)
 
+    def _reset_log(self) -> None:
+        """No frame deferred (the sums start anew)."""
+        self._log: list[tuple[int, np.ndarray, _Seen]] = []
+        self._log_base = 0  # the log's first entry's index among every frame deferred
+        self._done = [0] * len(self._cands)  # per candidate: the frames deferred up to this index are in its sums
+        self._active = 0  # the first active candidate at the last frame added
+
+    def _add_terms(self, lo: int, p0: np.ndarray, yz: np.ndarray, pattern: _Seen) -> None:
+        """A frame's information terms for candidates [lo, lo + A) with basis rows ``p0`` (A, N) and weighted values
+        ``yz`` (K,) of the seen DoFs ``pattern``: HᵀR⁻¹y += φ (y/σ²), HᵀR⁻¹H += φφᵀ/σ² per seen DoF."""
+        hi = lo + len(p0)
+        outer = p0[:, :, None] * p0[:, None, :]  # (A, N, N)
+        equal = pattern.w0 is not None
+        hth = (outer * pattern.w0)[:, None] if equal else outer[:, None] * pattern.w[None, :, None, None]  # equal: broadcast
+        # The seen DoFs as runs of consecutive columns (e.g. agent 0's never-tracked ankles between its arms and
+        # the object): a slice per run instead of a gather and a scatter of the same entries (the same sums).
+        for a, b, ka, kb in pattern.runs:
+            self._hty[lo:hi, a:b] += p0[:, None, :] * yz[None, ka:kb, None]
+            self._hth[lo:hi, a:b] += hth if equal else hth[:, ka:kb]
+
+    def flush(self, c: int) -> None:
+        """Add to candidate ``c``'s sums the frames deferred since it was last read, in order, each term as
+        :meth:`_add_terms` makes it and the sums gaining them one after another (``np.add.accumulate`` from the
+        current sum: the same additions, bitwise, as adding each frame when it came; tests/test_reactor_frames.py).
+        A candidate is read only while still to be chosen, so it was active at every deferred frame."""
+        k = self._done[c] - self._log_base
+        if k >= len(self._log):
+            return
+        pending = self._log[k:]
+        if len(pending) == 1:  # one frame (the chosen candidate, frame after frame): added as it would have been
+            s, yz, pattern = pending[0]
+            self._add_terms(c, self._table[min(s, self.t_max), c : c + 1], yz, pattern)
+            pending = []
+        i = 0
+        while i < len(pending):  # runs of frames with the same seen DoFs (usually one run)
+            pattern = pending[i][2]
+            j = i + 1
+            while j < len(pending) and pending[j][2] is pattern:
+                j += 1
+            frames = np.array([f for f, _, _ in pending[i:j]], dtype=np.int64)
+            yz = np.array([v for _, v, _ in pending[i:j]])  # (G, K)
+            p = self._table[np.minimum(frames, self.t_max), c]  # (G, N)
+            outer = p[:, :, None] * p[:, None, :]  # (G, N, N)
+            for a, b, ka, kb in pattern.runs:
+                terms = p[:, None, :] * yz[:, ka:kb, None]  # (G, b − a, N)
+                self._hty[c, a:b] = np.add.accumulate(np.concatenate([self._hty[c, a:b][None], terms]), axis=0)[-1]
+                if pattern.w0 is not None:
+                    h = np.broadcast_to((outer * pattern.w0)[:, None], (j - i, b - a) + outer.shape[1:])
+                else:
+                    h = outer[:, None] * pattern.w[None, ka:kb, None, None]
+                self._hth[c, a:b] = np.add.accumulate(np.concatenate([self._hth[c, a:b][None], h]), axis=0)[-1]
+            i = j
+        self._done[c] = self._log_base + len(self._log)
+        # Entries every active candidate has are dropped (the log holds at most T_max frames).
+        first = min(self._done[self._active :]) - self._log_base
+        if first > 0:
+            del self._log[:first]
+            self._log_base += first
+
+    def _flush_active(self) -> None:
+        """:meth:`flush` every candidate still active (before terms added otherwise, which must come after)."""
+        for c in range(self._active, len(self._cands)):
+            self.flush(c)
+
     def _add_frame(self, s: int, y: np.ndarray) -> None:
         """:meth:`_add` of one frame s with DoF values y (D,) (the per-frame call): the same sums, bitwise, from the
         basis table, with the active candidates (a contiguous run: the durations are sorted) and usually the seen
@@ -118,14 +188,15 @@ class PrimitiveSums:
         p0 = self._table[min(s, self.t_max), lo:]  # (A, N)
         w = pattern.w
         yz = y[cols] * w
-        outer = p0[:, :, None] * p0[:, None, :]  # (A, N, N)
-        equal = pattern.w0 is not None
-        hth = (outer * pattern.w0)[:, None] if equal else outer[:, None] * w[None, :, None, None]  # equal: broadcast
-        # The seen DoFs as runs of consecutive columns (e.g. agent 0's never-tracked ankles between its arms and
-        # the object): a slice per run instead of a gather and a scatter of the same entries (the same sums).
-        for a, b, ka, kb in pattern.runs:
-            self._hty[lo:, a:b] += p0[:, None, :] * yz[None, ka:kb, None]
-            self._hth[lo:, a:b] += hth if equal else hth[:, ka:kb]
+        self._active = lo
+        if lo < n_c - 1:  # several candidates still to be chosen: their information terms wait until one is read
+            self._log.append((s, yz, pattern))
+        else:  # T_max alone (past the other candidates): its pending terms first, then this frame's
+            self.flush(lo)
+            self._add_terms(lo, p0, yz, pattern)
+            self._log_base += len(self._log)
+            self._log.clear()
+            self._done[lo] = self._log_base
         if self._phase_one is not None:  # past T_max: the frame's phase is 1 (anchored at ≥ T_max frames)
             self._phase_one.weights[pattern.cols_a] += pattern.w_a
             self._phase_one_frames += 1
