@@ -19,7 +19,7 @@ from ..model.nan_fill import nan_to_zero
 from ..model.potentials import reference_weights
 from .candidates import AGENT1 as _AGENT1
 from .candidates import RegressionPrior, SignTerms, draw_from, expected_error_choice, gaussian_factor, vector_rows
-from .model_cache import per_model, read_only
+from .model_cache import per_model
 from .synthesis_config import SynthesisConfig
 from .type_tables import TypeTables
 
@@ -81,18 +81,12 @@ class CandidatePlanner:
         return cache[1][s]
 
     def _make_type_plans(self) -> dict[int, _TypePlan]:
-        plans = {k: self._make_type_plan(k) for k in range(self.model.n_subevents_)}
-        for p in plans.values():
-            read_only(p.aff, p.static, p.weights, p.spatial, p.motion, p.up, p.factor)
-            if p.sign is not None:
-                read_only(p.sign.aff, p.sign.weights, p.sign.offset_up, p.sign.moving, p.sign.disp_up)
-        return plans
+        return {k: self._make_type_plan(k) for k in range(self.model.n_subevents_)}
 
     def _make_type_plan(self, s: int) -> _TypePlan:
         model, cfg = self.model, self.config
         z = model.grouping_[s].copy()
         z[~self._available] = -1
-        z.setflags(write=False)
         aff = _AGENT1[z[_AGENT1] > 0]
         # (2, 11): P(dz > 0) of spatial offsets and of displacements; ½ without the sign term (the paper).
         up = model.vertical_up_[s] if cfg.vertical_sign else np.full_like(model.vertical_up_[s], 0.5)

@@ -35,7 +35,7 @@ from ..model.affordance import AffordanceParameters
 from ..model.features import IntervalFeatures
 from ..model.path import path_residuals
 from .online_parse import log_duration_survival
-from .model_cache import per_model, read_only
+from .model_cache import per_model
 from .path_sums import PathSums
 from .track_window import TrackWindow
 from .type_tables import TypeTables
@@ -237,7 +237,7 @@ class ForwardBelief:
 
 
 def _constants(model: AffordanceParameters, fps: float, horizon: int) -> tuple:
-    """:class:`ForwardBelief`'s model constants (read-only): the transitions (S, S) (−inf on the diagonal with
+    """:class:`ForwardBelief`'s model constants (made read-only by :func:`~.model_cache.per_model`): the transitions (S, S) (−inf on the diagonal with
     distinct neighbours), per target label the source masks and the masks they become, the label bits (S,),
     log P(D_s > d / fps) for d = 0 … ``horizon`` frames (H + 1, S), the type tables (None: Cartesian densities) and
     path_loglik's per-type constants (S, J) (None each without a path profile)."""
@@ -265,9 +265,7 @@ def _constants(model: AffordanceParameters, fps: float, horizon: int) -> tuple:
         path_use = np.isfinite(sigma)
         s2 = np.where(path_use, sigma, 1.0) ** 2
         path_c, path_2s2 = _LOG_2PI + np.log(s2), 2.0 * s2
-    out = (trans, src, dst, bits, surv, tables, path_use, path_c, path_2s2)
-    read_only(*(x for x in out if not isinstance(x, TypeTables)))
-    return out
+    return trans, src, dst, bits, surv, tables, path_use, path_c, path_2s2
 
 
 def _ends(track: np.ndarray, starts: np.ndarray, b: int, fps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -54,7 +54,7 @@ from .canonical_stream import CanonicalStream
 from .candidates import AGENT1 as _AGENT1
 from .forward_belief import ForwardBelief
 from .hedging import branch_plans, shrink_factor
-from .model_cache import per_model, read_only
+from .model_cache import per_model
 from .type_tables import TypeTables
 from .observed import ObservedInteraction
 from .observed_parse import parse_observed
@@ -155,12 +155,7 @@ class OnlineSynthesizer(CandidatePlanner, PathPlanner):
         """(S,) :func:`~socialaff_sim.model.transitions.order_ranks` of the model's training parses, read-only, made
         once per fitted model (:func:`~.model_cache.per_model`)."""
         model = self.model
-
-        def build() -> np.ndarray:
-            ranks = order_ranks(model.parses_, model.n_subevents_)
-            read_only(ranks)
-            return ranks
-        return per_model(model, "order_ranks", build)
+        return per_model(model, "order_ranks", lambda: order_ranks(model.parses_, model.n_subevents_))
 
     def observe(self, view: Interaction, n_frames: int | None = None) -> None:
         """Stream mode: agent 0's and the object's new frames from ``view``, the instance as known now, lengthened

@@ -19,7 +19,7 @@ from ..model.affordance import AffordanceParameters
 from ..model.densities import lognorm_logpdf, weibull_terms
 from ..model.features import polar
 from ..model.potentials import polar_rows_logpdf, reference_weights
-from .model_cache import per_model, read_only
+from .model_cache import per_model
 
 __all__ = ["TypeTables"]
 
@@ -82,11 +82,7 @@ class TypeTables:
     def of(cls, model: AffordanceParameters) -> TypeTables:
         """The tables of ``model``, made once per fitted model (:func:`~.model_cache.per_model`) and read-only: the
         same arrays for every recording, so the same values as tables made per recording."""
-        def build() -> TypeTables:
-            tables = cls(model)
-            read_only(*(v for k, v in vars(tables).items() if k != "_cache"), *tables._cache.values())
-            return tables
-        return per_model(model, "type_tables", build)
+        return per_model(model, "type_tables", lambda: cls(model))
 
     def _per_type(self, rows: np.ndarray, only: int | None, groups: list[tuple[int, np.ndarray]]) -> np.ndarray:
         """Row log-densities (N, R) summed by type → (N, S), or (N,) for type ``only``; NaN → −inf. ``groups``: each
