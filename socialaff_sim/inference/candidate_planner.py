@@ -158,13 +158,15 @@ class CandidatePlanner:
         """(N,) log spatial + log motion (+ vertical signs, + the regression prior) of N configurations (N, 11, 3)."""
         model = self.model
         disp = configs - before[None]
-        if self._tables is not None:
-            score = self._tables.spatial(configs, s) + self._tables.motion(disp, s)
+        if self._tables is not None:  # spatial(configs, s) + motion(disp, s), scored in one pass
+            spatial, motion = self._tables.spatial_motion(configs, disp, s)
+            score = spatial + motion
         else:
             score = model.log_spatial(s, configs) + model.log_motion(s, disp)
         if self.config.vertical_sign:
             plan = self._type_plan(s)
-            sign = plan.sign if plan.sign is not None and np.array_equal(z, plan.z) else SignTerms.of(model, s, z, self._weights(s, z))
+            same = z is plan.z or np.array_equal(z, plan.z)  # the planner passes the plan's own z
+            sign = plan.sign if plan.sign is not None and same else SignTerms.of(model, s, z, self._weights(s, z))
             score = score + sign.loglik(configs, disp)
         if prior is not None:
             score = score + prior.log_density(configs)
