@@ -146,3 +146,18 @@ def test_a_refit_reads_new_tables(shake8_model, rng: np.random.Generator) -> Non
     fb = ForwardBelief(model, 30.0, stride=6, horizon=30)
     assert fb._dur is not first and not np.array_equal(fb._dur, first)
     _both(model, rng, 90, 6, 30)
+
+
+def test_one_plans_path_is_np_sums() -> None:
+    """_replan's path of one plan (branches = 1) is 0.0 + that plan's weighted path instead of np.sum over the
+    one-element list: the same bits, NaN (an absent joint), −0.0 (np.sum's reduction starts from 0: the path itself
+    would keep −0.0) and huge values included."""
+    rng = np.random.default_rng(3)
+    for F in (1, 2, 5):
+        path = rng.normal(size=(F, 5, 3)) * np.exp(rng.normal(scale=20, size=(F, 5, 3)))
+        path[0, 1] = np.nan
+        path[-1, 2, 0] = -0.0
+        for w in (1.0, 0.37):
+            paths = [w * path]
+            assert (paths[0] + 0.0).tobytes() == np.sum(paths, axis=0).tobytes()
+            assert paths[0].tobytes() != np.sum(paths, axis=0).tobytes()  # the −0.0: the path alone would differ

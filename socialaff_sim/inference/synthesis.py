@@ -299,7 +299,8 @@ class OnlineSynthesizer(CandidatePlanner, PathPlanner):
             path, stop_k = self._path(t, s, start, last, target, stop)
             stop = stop_k if stop is None else stop
             paths.append(w * path)
-        path = np.sum(paths, axis=0)
+        # np.sum over one plan's path is 0.0 + that path (its reduction starts from 0: −0.0 becomes 0.0): one addition
+        path = paths[0] + 0.0 if len(paths) == 1 else np.sum(paths, axis=0)
         if self.config.shrink > 0:
             hold = self._track[self.config.n_observed - 1, _AGENT1]
             alpha = shrink_factor(self._belief, self.config.shrink)
