@@ -4,7 +4,8 @@ bucket), with the model's absent joint NaN, with labels unique or not, a minimum
 whose duration is undefined (its rows all −inf), a frame where every row is −inf (nothing possible), after a reset at
 a later origin, and on the tables of a refitted model. The cuts: F's per-label copy as one flat copy, the closed
 intervals' duration term and their shortness from per-model tables of d frames, the densities by
-:class:`~socialaff_sim.inference.row_density.RowSet`."""
+:class:`~socialaff_sim.inference.row_density.RowSet`, one ``np.errstate`` per cut, np.append and np.max by the calls they
+make."""
 
 from __future__ import annotations
 
@@ -14,7 +15,16 @@ import dataclasses
 import numpy as np
 import pytest
 
-from socialaff_sim.inference.forward_belief import ForwardBelief, _logsumexp_finite
+from socialaff_sim.inference.forward_belief import ForwardBelief
+
+
+def _logsumexp_finite(x: np.ndarray, axis: int) -> np.ndarray:
+    """forward_belief._logsumexp_finite as the replaced cut called it (323edde), written out."""
+    top = np.maximum.reduce(x, axis=axis, keepdims=True)
+    safe = np.where(np.isfinite(top), top, 0.0)
+    with np.errstate(divide="ignore"):
+        out = np.log(np.add.reduce(np.exp(x - safe), axis=axis)) + np.squeeze(safe, axis=axis)
+    return out
 
 
 class _Replaced(ForwardBelief):

@@ -93,3 +93,17 @@ def test_the_four_sites_cache_read_only_values(shake8_model) -> None:  # noqa: A
     assert TypeTables.of(model) is not tables and syn2._order_ranks() is not ranks
     assert syn2._type_plan(0) is not plans[0]
     assert ForwardBelief(model, 30.0, stride=6, horizon=120)._surv is not fb._surv
+
+
+def test_the_model_is_walked_once_per_state(shake8_model, monkeypatch: pytest.MonkeyPatch) -> None:  # noqa: ANN001
+    """What the model reaches is walked once for every value of one model state, and again after a refit."""
+    model = copy.copy(shake8_model)
+    walked: list[int] = []
+    reach = model_cache._reachable
+    monkeypatch.setattr(model_cache, "_reachable", lambda roots, skip: walked.append(roots[0] is model) or reach(roots, skip))
+    for k in range(3):
+        model_cache.per_model(model, ("walk", k), lambda: np.zeros(2))
+    assert sum(walked) == 1  # the model once; each value once
+    model.motion_params_ = model.motion_params_.copy()  # a refit
+    assert not model_cache.per_model(model, ("walk", 0), lambda: [model.motion_params_])[0] is None
+    assert sum(walked) == 2 and model.motion_params_.flags.writeable  # walked anew: the new array is the model's

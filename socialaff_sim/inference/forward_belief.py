@@ -108,47 +108,51 @@ class ForwardBelief:
             self._next += self.stride
 
     def _cut(self, track: np.ndarray, b: int) -> None:
+        # One np.errstate for the cut's log-sum-exps (log 0 = −inf is expected), np.append's and np.max's work by the
+        # calls they make (concatenate, the maximum reduction), C made only when no interval closes: the same values.
         S, M = self.S, self.M
-        if b == self.origin:
-            F = np.full((M, S), -np.inf)
-            prior = self.model.log_start_probs_ if b == 0 else np.full(S, -np.log(S))
-            if M > 1:
-                F[self._bits, np.arange(S)] = prior
+        with np.errstate(divide="ignore"):
+            if b == self.origin:
+                F = np.full((M, S), -np.inf)
+                prior = self.model.log_start_probs_ if b == 0 else np.full(S, -np.log(S))
+                if M > 1:
+                    F[self._bits, np.arange(S)] = prior
+                else:
+                    F[0] = prior
             else:
-                F[0] = prior
-        else:
-            C = np.full((M, S), -np.inf)
-            has_long = self._has_long
-            starts = np.append(self._starts, b - self.horizon) if has_long else self._starts
-            if starts.size:
-                seg = self._closing(track, starts, b)  # (K, S)
-                C = _logsumexp_finite(self._F + seg[: self._starts.size, None, :], axis=0)
-                if has_long:
-                    C = np.logaddexp(C, self._long + seg[-1][None])
-            V = _logsumexp_finite(C[:, :, None] + self._trans[None], axis=1)  # (M, S): into label s from mask m
-            F = np.full((M, S), -np.inf)
-            # F[dst[s], s] = V[src[s], s] for every s, as one copy by flat index (_constants)
-            F.reshape(-1)[self._into] = V.reshape(-1)[self._from]
-        self._starts = np.append(self._starts, b)
-        self._F = np.concatenate([self._F, F[None]])
-        if self._sums is not None:
-            self._sums.add(track, b)
-        old = self._starts <= b - self.horizon  # an interval from there to the next cut would exceed the horizon
-        if old.any():
-            self._long = np.logaddexp(self._long, _logsumexp_finite(self._F[old], axis=0))
-            self._starts, self._F = self._starts[~old], self._F[~old]
+                has_long = self._has_long
+                starts = np.concatenate((self._starts, (b - self.horizon,))) if has_long else self._starts
+                if starts.size:
+                    seg = self._closing(track, starts, b)  # (K, S)
+                    C = _lse(self._F + seg[: self._starts.size, None, :], axis=0)
+                    if has_long:
+                        C = np.logaddexp(C, self._long + seg[-1][None])
+                else:
+                    C = np.full((M, S), -np.inf)
+                V = _lse(C[:, :, None] + self._trans[None], axis=1)  # (M, S): into label s from mask m
+                F = np.full((M, S), -np.inf)
+                # F[dst[s], s] = V[src[s], s] for every s, as one copy by flat index (_constants)
+                F.reshape(-1)[self._into] = V.reshape(-1)[self._from]
+            self._starts = np.concatenate((self._starts, (b,)))
+            self._F = np.concatenate([self._F, F[None]])
             if self._sums is not None:
-                self._sums.keep(~old)
-            if self.M > 1:  # the long bucket forgets the labels used before it: a stream can start the interaction again
-                merged = _logsumexp_finite(self._long, axis=0)  # (S,)
-                self._long = np.full((self.M, self.S), -np.inf)
-                self._long[self._bits, np.arange(self.S)] = merged
-        top = max(float(np.max(self._F)), float(np.max(self._long)))
-        if np.isfinite(top):  # renormalise: only ratios matter
-            self._F -= top
-            self._long -= top
-        self._G = _logsumexp_finite(self._F, axis=1)
-        self._G_long = _logsumexp_finite(self._long, axis=0)
+                self._sums.add(track, b)
+            old = self._starts <= b - self.horizon  # an interval from there to the next cut would exceed the horizon
+            if old.any():
+                self._long = np.logaddexp(self._long, _lse(self._F[old], axis=0))
+                self._starts, self._F = self._starts[~old], self._F[~old]
+                if self._sums is not None:
+                    self._sums.keep(~old)
+                if self.M > 1:  # the long bucket forgets the labels used before it: a stream can start the interaction again
+                    merged = _lse(self._long, axis=0)  # (S,)
+                    self._long = np.full((self.M, self.S), -np.inf)
+                    self._long[self._bits, np.arange(self.S)] = merged
+            top = max(float(_max(self._F, axis=None)), float(_max(self._long, axis=None)))
+            if np.isfinite(top):  # renormalise: only ratios matter
+                self._F -= top
+                self._long -= top
+            self._G = _lse(self._F, axis=1)
+            self._G_long = _lse(self._long, axis=0)
         self._has_long = bool(np.isfinite(self._long).any())
         if self._has_long:
             self._long_read = self._G_long + self._surv[self.horizon]
@@ -292,10 +296,9 @@ def _held(track: np.ndarray | TrackWindow, starts: np.ndarray) -> tuple[np.ndarr
     return track.rows, track.floor
 
 
-def _logsumexp_finite(x: np.ndarray, axis: int) -> np.ndarray:
-    """logsumexp that returns −inf (without a warning) where every term is −inf."""
-    top = _max(x, axis=axis, keepdims=True)  # np.max's and np.sum's reductions, without their wrappers (every cut)
+def _lse(x: np.ndarray, axis: int) -> np.ndarray:
+    """logsumexp over ``axis`` that returns −inf where every term is −inf, without a warning under the caller's
+    ``np.errstate(divide="ignore")`` (the cut's, one for its six log-sum-exps)."""
+    top = _max(x, axis=axis, keepdims=True)  # np.max's and np.sum's reductions, without their wrappers
     safe = np.where(np.isfinite(top), top, 0.0)
-    with np.errstate(divide="ignore"):
-        out = np.log(_sum(np.exp(x - safe), axis=axis)) + np.squeeze(safe, axis=axis)
-    return out
+    return np.log(_sum(np.exp(x - safe), axis=axis)) + np.squeeze(safe, axis=axis)

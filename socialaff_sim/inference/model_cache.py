@@ -29,6 +29,8 @@ __all__ = ["per_model", "read_only"]
 
 T = TypeVar("T")
 
+_SPARE = ("model_cache", "spare")  # the entry holding the ids of what the model reaches
+
 _CACHE: weakref.WeakKeyDictionary[Any, dict[Hashable, tuple[tuple[Any, ...], Any]]] = weakref.WeakKeyDictionary()
 
 
@@ -49,7 +51,10 @@ def per_model(model: Any, key: Hashable, build: Callable[[], T]) -> T:
     if hit is not None and len(hit[0]) == len(token) and all(a is b for a, b in zip(hit[0], token, strict=True)):
         return hit[1]
     value = build()
-    read_only(value, spare=model)
+    spare = entries.get(_SPARE)  # what the model reaches, walked once per model state (not once per value)
+    if spare is None or not (len(spare[0]) == len(token) and all(a is b for a, b in zip(spare[0], token, strict=True))):
+        spare = entries[_SPARE] = (token, frozenset(id(x) for x in _reachable((model,), set())))
+    _freeze((value,), spare[1])
     entries[key] = (token, value)
     return value
 
@@ -58,8 +63,13 @@ def read_only(*values: object, spare: object = None) -> None:
     """Make every ndarray reachable from ``values`` read-only: the arrays themselves, inside tuples, lists and dict
     values, and the attributes of objects (dataclasses, the type tables), each object visited once. Nothing reachable
     from ``spare`` (the model) is changed or entered: a value that holds the model's own array leaves it writable."""
-    kept = {id(x) for x in _reachable((spare,), set())} if spare is not None else set()
-    for a in _reachable(values, kept):
+    _freeze(values, frozenset(id(x) for x in _reachable((spare,), set())) if spare is not None else frozenset())
+
+
+def _freeze(values: tuple[object, ...], kept: frozenset[int]) -> None:
+    """Every ndarray reachable from ``values`` made read-only, objects whose id is in ``kept`` neither changed nor
+    entered."""
+    for a in _reachable(values, set(kept)):
         if isinstance(a, np.ndarray):
             a.setflags(write=False)
 
