@@ -63,7 +63,7 @@ class TypeTables:
             self._sp.append((rows, cols, self.sp_w[np.ix_(rows, cols)]))
             self._read[np.ix_(rows, cols)] = True
         self.dur = np.array(model.duration_params_, float)  # a copy: made read-only with the tables
-        self._cache: dict[tuple[str, int | None], tuple] = {}
+        self._cache: dict[tuple[str, int | None], RowSet] = {}
         # Per type: the columns of its rows among all rows (the same selection as types == s, made once).
         self._sp_groups = [(s, np.flatnonzero(self.sp_type == s)) for s in range(S) if np.any(self.sp_type == s)]
         self._mo_groups = [(s, np.flatnonzero(self.mo_type == s)) for s in range(S) if np.any(self.mo_type == s)]
