@@ -43,26 +43,29 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before MuJoCo is imported (dm_contr
 import argparse  # noqa: E402
 import cProfile  # noqa: E402
 import dataclasses  # noqa: E402
-import functools  # noqa: E402
 import io  # noqa: E402
 import json  # noqa: E402
 import platform  # noqa: E402
 import pstats  # noqa: E402
+import sys  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 from dataclasses import dataclass, field  # noqa: E402
+from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
 import gymnasium as gym  # noqa: E402
-import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 import socialaff_sim  # noqa: E402,F401  (registers the ids)
 from socialaff_sim._atomic import atomic_write_text  # noqa: E402
-from socialaff_sim.environment import adapters, env as env_module, model_adapter, physics_config, reward  # noqa: E402
-from socialaff_sim.retarget import ik as ik_module  # noqa: E402
-from socialaff_sim.sim import scoring, simulator, substeps, support  # noqa: E402
+from socialaff_sim.environment import physics_config  # noqa: E402
 from socialaff_sim.sim.simulator import SimConfig  # noqa: E402
+
+_HERE = str(Path(__file__).resolve().parent)
+if _HERE not in sys.path:  # run as `python scripts/bench_env.py` it is sys.path[0]; the tests load this file by path
+    sys.path.append(_HERE)
+from _env_stages import STAGES, StageTimer, instrument  # noqa: E402
 
 ENV_ID = "socialaff_sim/SocialAffordance-v0"
 REFERENCE_ID = "Humanoid-v5"
@@ -194,75 +197,8 @@ def warm_up(env: gym.Env) -> list[float]:
 
 
 # --------------------------------------------------------------------------- stage timing
-class StageTimer:
-    """Exclusive wall time per stage: wrapped callables charge their own time to their stage and
-    subtract it from the stage of the wrapped caller they run in."""
-
-    def __init__(self) -> None:
-        self.seconds: dict[str, float] = {}
-        self.calls: dict[str, int] = {}
-        self._stack: list[float] = []
-        self._undo: list[tuple[Any, str, Any]] = []
-
-    def wrap(self, owner: Any, name: str, stage: str) -> None:
-        original = getattr(owner, name, None)
-        if original is None:  # an attribute another version of the code renamed: not timed
-            return
-        timer = self
-
-        @functools.wraps(original)
-        def timed(*args: Any, **kwargs: Any) -> Any:
-            t = time.perf_counter()
-            timer._stack.append(0.0)
-            try:
-                return original(*args, **kwargs)
-            finally:
-                dt = time.perf_counter() - t
-                inner = timer._stack.pop()
-                timer.seconds[stage] = timer.seconds.get(stage, 0.0) + dt - inner
-                timer.calls[stage] = timer.calls.get(stage, 0) + 1
-                if timer._stack:
-                    timer._stack[-1] += dt
-
-        self._undo.append((owner, name, original))
-        setattr(owner, name, timed)
-
-    def restore(self) -> None:
-        for owner, name, original in reversed(self._undo):
-            setattr(owner, name, original)
-        self._undo.clear()
-
-
-STAGES = ("synthesis", "retargeting", "IK", "physics: mj_step", "physics: sub-step loop", "scoring",
-          "observation", "reset", "other")
-
-
-def instrument(timer: StageTimer) -> None:
-    E = env_module.SocialAffordanceEnv
-    timer.wrap(E, "step", "other")
-    timer.wrap(E, "reset", "reset")
-    for cls in (adapters.GroundTruthAdapter, model_adapter.ModelAdapter):
-        timer.wrap(cls, "observe", "synthesis")
-        timer.wrap(cls, "log_likelihood", "scoring")
-    timer.wrap(simulator.Simulator, "retarget", "retargeting")
-    timer.wrap(simulator.Simulator, "step", "other")
-    timer.wrap(simulator.Simulator, "solve", "other")
-    timer.wrap(simulator.Simulator, "advance", "other")
-    timer.wrap(ik_module.RobotIK, "solve", "IK")
-    timer.wrap(substeps.FrameStepper, "run", "physics: sub-step loop")
-    for name in ("plan", "replan", "advance"):
-        timer.wrap(substeps.FrameStepper, name, "physics: sub-step loop")
-    timer.wrap(mujoco, "mj_step", "physics: mj_step")
-    timer.wrap(scoring.SubgoalScorer, "update", "scoring")
-    timer.wrap(scoring.SubgoalScorer, "measure_gaps", "scoring")
-    timer.wrap(support.SupportMeter, "update", "scoring")
-    timer.wrap(support.SupportMeter, "end_frame", "scoring")
-    timer.wrap(reward.RewardTracker, "step", "scoring")
-    timer.wrap(E, "_observation", "observation")
-    timer.wrap(E, "_info", "observation")
-
-
 def stage_pass(runner: Runner, n: int) -> dict[str, Any]:
+    """``n`` steps of ``runner`` with every stage timed (scripts/_env_stages.py): ms per step per stage, and shares."""
     timer = StageTimer()
     instrument(timer)
     try:

@@ -23,8 +23,8 @@ right under the header, the others follow this script's sections in their order.
 
 ``--quick`` uses small settings (few instances and iterations) to check that the
 pipeline runs; its figures are labelled as such and not judged against targets.
-Each section's Markdown is rendered by scripts/_bench_sections.py. This script is never
-imported by the library.
+Each section's Markdown is rendered by scripts/_bench_sections.py, the machine's facts are read by
+scripts/_bench_machine.py. This script is never imported by the library.
 """
 
 from __future__ import annotations
@@ -33,7 +33,6 @@ import argparse
 import datetime as dt
 import json
 import os
-import platform
 import re
 import shlex
 import shutil
@@ -43,7 +42,6 @@ import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from importlib import metadata
 from pathlib import Path
 
 from socialaff_sim._atomic import atomic_write_text
@@ -51,6 +49,7 @@ from socialaff_sim._atomic import atomic_write_text
 _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:  # run as `python scripts/benchmark.py` it is sys.path[0]; the tests load this file by path
     sys.path.append(_HERE)
+from _bench_machine import load_average, machine_facts  # noqa: E402
 from _bench_sections import _accuracy, _demo, _env, _ik, _learning, _physics, _simsynth, _synthesis, table  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -122,66 +121,6 @@ def execute(run: Run, tmp: Path, cli: str, timeout: float) -> None:
             run.error = f"the command succeeded but its result {run.json_name} could not be read: {exc}"
             return
     run.ok = True
-
-
-# --------------------------------------------------------------------------- machine facts
-def _cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.lower().startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine() or "unknown"
-
-
-def _memory() -> str:
-    try:
-        for line in Path("/proc/meminfo").read_text().splitlines():
-            if line.startswith("MemTotal:"):
-                return f"{int(line.split()[1]) / 2**20:.1f} GiB"
-    except (OSError, ValueError, IndexError):
-        pass
-    return "unknown"
-
-
-def _version(dist: str) -> str:
-    try:
-        return metadata.version(dist)
-    except metadata.PackageNotFoundError:
-        return "not installed"
-
-
-def _git() -> str:
-    try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
-                              check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT,
-                               capture_output=True, text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown (not a git checkout)"
-    return head + (" with uncommitted changes" if dirty else "")
-
-
-def _load() -> str:
-    try:
-        return " / ".join(f"{x:.2f}" for x in os.getloadavg()) + " (1 / 5 / 15 min)"
-    except OSError:
-        return "unknown"
-
-
-def machine_facts() -> dict[str, str]:
-    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return {
-        "CPU": _cpu_model(),
-        "cores": f"{os.cpu_count()} logical, {usable} usable by this process",
-        "memory": _memory(),
-        "OS": platform.platform(),
-        "Python": platform.python_version(),
-        "numpy / scipy": f"{_version('numpy')} / {_version('scipy')}",
-        "mujoco / mink / gymnasium": f"{_version('mujoco')} / {_version('mink')} / {_version('gymnasium')}",
-        "socialaff-sim": f"{_version('socialaff-sim')}, commit {_git()}",
-    }
 
 
 # --------------------------------------------------------------------------- the sections
@@ -343,7 +282,7 @@ def main() -> int:
     tmp.mkdir(parents=True, exist_ok=True)
     invocation = "python scripts/benchmark.py" + "".join(f" {a}" for a in sys.argv[1:])
     started = dt.datetime.now(dt.timezone.utc)
-    load_before, facts, t0 = _load(), machine_facts(), time.perf_counter()
+    load_before, facts, t0 = load_average(), machine_facts(), time.perf_counter()
     all_secs = sections(args.quick, args.workers)
     kept: dict[str, list[str]] = {}
     lead: list[str] = []
@@ -364,7 +303,7 @@ def main() -> int:
                 body += kept.get(name, [])
                 continue
             sec = all_secs[name]
-            sec.load.append(_load().split(" (")[0])
+            sec.load.append(load_average().split(" (")[0])
             sec.reused = all(run.shown for run in sec.runs)
             for run in sec.runs:
                 if not run.shown:  # ik and physics share one run
@@ -373,7 +312,7 @@ def main() -> int:
                         run.error = "the socialaff-sim command is not on PATH (pip install -e .)"
                         continue
                     execute(run, tmp, cli, args.timeout)
-            sec.load.append(_load().split(" (")[0])
+            sec.load.append(load_average().split(" (")[0])
             body += render(sec, args.quick, provenance)
     finally:
         if tmp_ctx is not None:
@@ -393,7 +332,7 @@ def main() -> int:
              "these figures, with their evidence, are in [design.md](design.md).", ""]
     facts_rows = [[k, v] for k, v in facts.items()]
     facts_rows += [["date (UTC)", started.strftime("%Y-%m-%d %H:%M")], ["load average before", load_before],
-                   ["load average after", _load()],
+                   ["load average after", load_average()],
                    ["sections", ", ".join(only) + (f"; kept from earlier runs: {', '.join(kept)}" if kept else "")],
                    ["total wall time", f"{total:.0f} s"]]
     head += table(["machine", ""], facts_rows) + [""]

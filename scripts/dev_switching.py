@@ -45,8 +45,9 @@ training traces cross-fitted as the plans (its own split: the cached plans' spli
 ``plan_v2`` (V2's plan alone), ``sw:default+plan_v2`` (today's default's families plus V2's plan as one more
 family, ``plan_v2``: the same candidates as ``plan`` on V2's traces, blended by the same inner CV) and
 ``sw:v2_default`` (V2's own switching regression: today's default families on V2's traces; the primitive's
-traces shared). The blend over several traces' families is fitted by :func:`blend_sources`, which reproduces
-``SwitchingRegression`` exactly when every family reads one trace set (checked on every class: ``check``).
+traces shared). The blend over several traces' families is fitted by ``blend_sources`` (scripts/_dev_blend.py),
+which reproduces ``SwitchingRegression`` exactly when every family reads one trace set (checked on every class:
+``check``).
 Usage::
 
     python scripts/dev_switching.py --data nuisi:../shared/data/nuisi_v1 --split block [--rotation 0] [--labels a,b]
@@ -67,22 +68,20 @@ from pathlib import Path
 
 import numpy as np
 
-from socialaff_sim.data import Interaction, load_dataset
+from socialaff_sim.data import load_dataset
 from socialaff_sim.evaluation.compare import paired_difference
 from socialaff_sim.evaluation.crossval import fold_rng
 from socialaff_sim.evaluation.splits import make_folds
 from socialaff_sim.inference.body_fit import BodyFitConfig, BodyFitter
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, ProMPConfig
 from socialaff_sim.inference.methods import AffordanceMethod, primitive_trace, trace
-from socialaff_sim.inference.reaction_regression import (
-    HOLD, blend_weights, cv_errors, fold_predictions, inner_folds, key_columns, ridge_solve, select, stack_instances,
-)
+from socialaff_sim.inference.reaction_regression import inner_folds, key_columns
 from socialaff_sim.inference.switching import (
-    FAMILIES, GATED_FAMILIES, PRIMITIVE_FAMILIES, PRIORS, SwitchingConfig, SwitchingRegression, Trace, instance_rows,
-    switching_columns, switching_scale,
+    FAMILIES, GATED_FAMILIES, PRIMITIVE_FAMILIES, SwitchingConfig, SwitchingRegression, Trace, instance_rows,
 )
 
-from _dev_draws import add_regression_arguments, partition_draws, regression_settings  # scripts/ (sys.path[0])
+from _dev_blend import V2_FAMILY, blend_displacement, blend_sources  # scripts/ (sys.path[0])
+from _dev_draws import add_regression_arguments, partition_draws, regression_settings
 from _dev_synthesis import add_synthesis_arguments, fit_cached, settings_suffix, with_settings
 
 T0 = 10
@@ -98,89 +97,6 @@ VARIANTS = {  # name: (families, blend steps)
     "motion+primitive": ((FAMILIES[0], PRIMITIVE_FAMILIES[-1]), 10),
     "primitive_best1": (PRIMITIVE_FAMILIES, 1),
 }
-
-
-V2_FAMILY = ("plan_v2", FAMILIES[1][1])  # the plan's candidates, read from V2's traces
-SOURCES = {"plan_v2": "v2"}  # family -> trace set (every other family: "own", the default model's)
-
-
-def _prior_of(groups: tuple[str, ...]) -> str | None:
-    return next((g for g in groups if g in PRIORS), None)
-
-
-BlendMember = tuple[str, tuple[str, ...], float, float, np.ndarray, np.ndarray]
-"""(family, groups, λ, α, columns (F_m,) int64, coefficients (F_m, J·3)) of one member of the blend."""
-Rows = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-"""``instance_rows``' (rows (N, ·), targets (N, J·3) m, ``from_plan`` prior (N, J·3) m, ``from_primitive`` prior)."""
-
-
-def blend_sources(
-    train: list[Interaction], sources: dict[str, list[Trace]], n_sub: dict[str, int], cfg: SwitchingConfig,
-    rng: np.random.Generator,
-) -> tuple[list[BlendMember], dict[str, np.ndarray]]:
-    """``SwitchingRegression.fit`` with each family reading its own trace set (``SOURCES``: family → set name, else
-    ``"own"``; ``sources``: set name → one trace per instance of ``train``; ``n_sub``: S per set). Without the
-    library's single-instance fallback (every class here has at least two inner folds).
-
-    Returns the members with α > 0 and each set's column scales (F,)."""
-    stacked: dict[str, tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]] = {}
-    scale: dict[str, np.ndarray] = {}
-    for src, traces in sources.items():
-        (X, Y, pp, prp), w, ids = stack_instances(
-            train, cfg.n_observed, lambda i, inst, tr=traces: instance_rows(inst, tr[i], cfg.n_observed, cfg.features), src)
-        scale[src] = switching_scale(X, w, n_sub[src])
-        stacked[src] = (X / scale[src], Y, {"from_plan": pp, "from_primitive": prp})
-    folds = inner_folds(train, np.unique(ids), cfg.inner_folds, rng, contiguous=cfg.contiguous)
-    kc = key_columns(train[0])
-    Y = stacked["own"][1]
-    Yk = Y[:, kc]
-    winners, preds = [], []
-    for family, _ in cfg.families:
-        src = SOURCES.get(family, "own")
-        Xs, _, priors = stacked[src]
-        candidates = {g: switching_columns(g, n_sub[src]) for g in cfg.candidates(family)}
-        cv: dict[tuple[tuple[str, ...], float], float] = {}
-        for prior in (None,) + PRIORS:
-            some = {g: c for g, c in candidates.items() if _prior_of(g) == prior}
-            if some:
-                cv.update(cv_errors(Xs, Yk, w, ids, folds, some, cfg.penalties,
-                                    offset=priors[prior][:, kc] if prior else None, from_offset=some if prior else ()))
-        groups, lam = select({k: v for k, v in cv.items() if k[0] != HOLD})
-        winners.append((family, groups, lam))
-        prior = _prior_of(groups)
-        base = priors[prior][:, kc] if prior else np.zeros_like(Yk)
-        preds.append(fold_predictions(Xs, Yk, w, ids, folds, candidates[groups], lam, base))
-    alpha, _ = blend_weights(np.stack(preds), Yk, ids, cfg.blend_steps)
-    wn = w / w.sum()
-    members: list[BlendMember] = []
-    for (family, groups, lam), a in zip(winners, alpha, strict=True):
-        if a <= 0:
-            continue
-        src = SOURCES.get(family, "own")
-        Xs, _, priors = stacked[src]
-        cols = switching_columns(groups, n_sub[src])
-        prior = _prior_of(groups)
-        target = Y - priors[prior] if prior else Y
-        if len(cols) and np.isfinite(lam):
-            Xc = Xs[:, cols]
-            coef = ridge_solve((Xc * wn[:, None]).T @ Xc, (Xc * wn[:, None]).T @ target, lam)
-        else:
-            cols, coef = np.zeros(0, np.int64), np.zeros((0, Y.shape[1]))
-        members.append((family, groups, lam, float(a), cols, coef))
-    return members, scale
-
-
-def blend_displacement(members: list[BlendMember], scale: dict[str, np.ndarray], rows: dict[str, Rows]) -> np.ndarray:
-    """(N, J·3) anchor-frame displacements, metres: the blend's, from each trace set's rows of one validation instance."""
-    out = np.zeros_like(rows["own"][1])
-    for family, groups, _, a, cols, coef in members:
-        X, _, pp, prp = rows[SOURCES.get(family, "own")]
-        prior = _prior_of(groups)
-        part = (pp if prior == "from_plan" else prp if prior == "from_primitive" else np.zeros_like(out)).copy()
-        if len(cols):
-            part += (X[:, cols] / scale[SOURCES.get(family, "own")][cols]) @ coef
-        out += a * part
-    return out
 
 
 def _with_primitive(traces: list[Trace], donor: list[Trace]) -> list[Trace]:

@@ -40,7 +40,6 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from ..data.skeletons import N_KEY
 from ..errors import ConfigError, SimulationError, choices
 from ..retarget.robot import RobotSpec, load_robot
 from ..sim.simulator import SimConfig, Simulator, StepResult
@@ -57,6 +56,7 @@ from .model_adapter import ModelAdapter, ModelSpec, load_models
 from .observation import ObservationLayout
 from .rendering import FrameRenderer, HumanViewer, display_available
 from .reward import RewardConfig, RewardTracker
+from .tracks import EpisodeTracks
 
 __all__ = ["SocialAffordanceEnv"]
 
@@ -189,6 +189,7 @@ class SocialAffordanceEnv(gym.Env):
         self._actions: list[np.ndarray] = []
         self.clock = ControlClock(self.config.control_dt)
         """How a data frame's physics steps are split into env steps."""
+        self._tracks = EpisodeTracks(self.config.history)
 
     def warm_up(self) -> None:
         """Reset onto every instance once: compile each task's scene and cache each instance's reset, so that
@@ -239,15 +240,7 @@ class SocialAffordanceEnv(gym.Env):
         self.clock.reset(inter.fps, sim.n_sub)
         self._frame_obs: tuple[int, dict[str, np.ndarray]] | None = None
         self._decoder.reset()
-        idx = inter.layout.key_indices
-        self._human_mask = np.array([i is not None for i in idx], dtype=np.float32)
-        track = np.zeros((inter.n_frames, N_KEY, 3))
-        for k, i in enumerate(idx):
-            if i is not None:
-                track[:, k] = sim.frame_R.to_robot(sim.pose.joints[:, i])
-        self._human_track = track
-        obj = sim.object_position()
-        self._obj_hist = np.zeros((self.config.history, 3)) if obj is None else np.tile(obj, (self.config.history, 1))
+        self._tracks.reset(sim, inter)
         self.rewards.reset(sim.task)
         self._frame = self.adapter.observe(min(1, inter.n_frames - 1))
         self._retarget(self._frame, 1)
@@ -290,7 +283,7 @@ class SocialAffordanceEnv(gym.Env):
         terms = self.rewards.step(score, sim.scorer)
         self._scored_frame = self._frame
         if obj_r is not None:
-            self._obj_hist = np.vstack([self._obj_hist[1:], obj_r[None]])
+            self._tracks.push_object(obj_r)
         if not sim.done:
             self._frame = self.adapter.observe(t + 1)
             self._retarget(self._frame, t + 1)
@@ -305,7 +298,7 @@ class SocialAffordanceEnv(gym.Env):
         q, qd = sim.joint_state()
         if self._frame_obs is None or self._frame_obs[0] != sim.frame:  # the frame's entries, shared by its steps
             self._frame_obs = (sim.frame, self.layout.frame_entries(
-                human_track=self._human_track, human_mask=self._human_mask, object_history=self._obj_hist,
+                human_track=self._tracks.human, human_mask=self._tracks.mask, object_history=self._tracks.object,
                 object_present=sim.carry is not None, proposal=self._proposal, belief=self._frame.belief,
                 interaction=self.pool.instances[self._index].label, frame=sim.frame))  # type: ignore[index]
         return self.layout.assemble(self._frame_obs[1], self.layout.step_entries(

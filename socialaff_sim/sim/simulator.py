@@ -271,7 +271,7 @@ class Simulator:
             centre = ik.balance.box_centre(key_frames(stage.scene, stage.data)[3:5], self._yaw)
             frames = stage.stepper.support.frames
             world[0], com_target = stage.stance.frame(stage.data, world[0], planted[0] and planted[1], centre,
-                                                      frames[-1].tilt_deg if frames else 0.0, world[1:3])
+                                                      frames[-1].tilt_deg if frames else 0.0)
         res = ik.solve(world, self._yaw, dt=1.0 / fps if k == 0 else (n - k) / (n * fps), care=reachable, planted=planted,
                        com_target=com_target, iterations=iterations,
                        com_cost=None if com_target is None else stage.stance.config.com_cost)  # type: ignore[union-attr]

@@ -11,12 +11,6 @@ stands (both feet planted by the foot lock, :mod:`~socialaff_sim.sim.footlock`):
    acceleration that moves the zero-moment point by ~20 cm, farther than a foot is
    long). While standing, the base target is low-pass filtered:
    b̂ₜ = α b̂ₜ₋₁ + (1 − α) bₜ (``base_smoothing`` α); a step resets the filter.
-   The filter lags a lean the plan needs: on a high five the IK's wrist stopped 28 cm short of the person's
-   hand behind the steadied base (13 cm on the harness; docs/benchmarks.md, issue 25). With ``approach_far``
-   set, the smoothing gives way as a hand closes in: α is scaled by 1 − s, s the approach share, 1 while a
-   wrist target is within ``approach_near`` of the person's hands (or of the free object, not gripped), 0
-   beyond ``approach_far``, linear in between; the base then follows the plan's lean into a contact and
-   stays steadied elsewhere.
 2. **Letting go.** The harness weld is switched off (its force is then zero by
    construction) once the robot has stood ``release_after`` frames and is steady:
    the torso within ``release_tilt`` of upright and the measured centre of mass
@@ -40,8 +34,6 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from ..errors import ConfigError
-from .hand_task import reach_points
 from .scene import Scene
 
 __all__ = ["StanceConfig", "StanceControl"]
@@ -53,7 +45,7 @@ class StanceConfig:
 
     Fields by concept
     -----------------
-    - Steady base: base_smoothing, approach_near, approach_far
+    - Steady base: base_smoothing
     - Letting go: release, release_after, release_tilt, release_com, catch_tilt, leg_bandwidth
     - Balance while released: com_cost, com_gain
     """
@@ -62,12 +54,6 @@ class StanceConfig:
     """α [—]: while both feet are planted, the base target is b̂ₜ = α b̂ₜ₋₁ + (1 − α) bₜ (0: the target as
     retargeted). Stubby with the harness, 4 synthetic instances per interaction: outside support in the contact
     phases 25 % instead of 33 %, foot sliding median 3.9 cm instead of 9.3 (docs/benchmarks.md)."""
-    approach_near: float = 0.3
-    """[m]: within this distance of the person's hands (or the free object) a wrist target lifts the base's
-    smoothing fully (with ``approach_far`` set)."""
-    approach_far: float | None = None
-    """[m]: beyond this distance of the person's hands (or the free object) a wrist target leaves the base's
-    smoothing whole; linear in between (``None``: α always whole, the approach ignored)."""
     release: bool = True
     """[—]: Whether the harness lets go of a steady standing robot (``False``: only the base is steadied)."""
     release_after: int = 2
@@ -89,12 +75,6 @@ class StanceConfig:
     """ω_s [rad/s]: the leg servos' standing bandwidth when ``SimConfig.stance_bandwidth`` is ``None``."""
 
 
-    def __post_init__(self) -> None:
-        if self.approach_far is not None and not 0.0 <= self.approach_near < self.approach_far:
-            raise ConfigError(f"StanceConfig: expected 0 ≤ approach_near < approach_far (m), found "
-                              f"{self.approach_near}, {self.approach_far}")
-
-
 class StanceControl:
     """The per-frame standing decisions of one physics scene; :meth:`reset` per episode."""
 
@@ -114,22 +94,11 @@ class StanceControl:
         self.released = False
         """Whether the harness is off for the frame being run."""
 
-    def approach(self, wrists: np.ndarray, points: np.ndarray) -> float:
-        """In [0, 1], the approach share s: the wrist targets ``wrists`` (2, 3) against what the hands may meet
-        ``points`` (K, 3) (world, m): 1 within ``approach_near``, 0 beyond ``approach_far`` (and always 0 when
-        that is ``None``), linear in between, by the nearest pair."""
-        c = self.config
-        if c.approach_far is None or len(points) == 0:
-            return 0.0
-        dist = float(np.linalg.norm(np.asarray(wrists)[:, None, :] - np.asarray(points)[None], axis=2).min())
-        return float(np.clip((c.approach_far - dist) / (c.approach_far - c.approach_near), 0.0, 1.0))
-
-    def steady_base(self, base: np.ndarray, standing: bool, share: float = 0.0) -> np.ndarray:
+    def steady_base(self, base: np.ndarray, standing: bool) -> np.ndarray:
         """(3,) the base target (world, m) to use for the retargeted one ``base`` (3,): filtered while
-        ``standing`` (both feet planted) with α (1 − ``share``) (the approach share, :meth:`approach`), as given
-        otherwise (and the filter starts afresh)."""
+        ``standing`` (both feet planted), as given otherwise (and the filter starts afresh)."""
         base = np.asarray(base, dtype=np.float64)
-        a = self.config.base_smoothing * (1.0 - share) if share > 0.0 else self.config.base_smoothing
+        a = self.config.base_smoothing
         out = base if not standing or self._base is None else a * self._base + (1.0 - a) * base
         self._base = out.copy() if standing else None
         return out
@@ -157,16 +126,12 @@ class StanceControl:
         return np.array(data.subtree_com[self.scene.root_body])
 
     def frame(self, data: mujoco.MjData, base: np.ndarray, standing: bool, centre: np.ndarray,
-              tilt_deg: float, wrists: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
-        """One frame of the standing robot: the base target (:meth:`steady_base`, its smoothing lifted by the
-        approach of the wrist targets ``wrists`` (2, 3) (world, m) to what is in ``data``, :meth:`approach`), the
-        harness let go of or caught (:meth:`decide`, :meth:`apply` to ``data``), and the IK's centre-of-mass
-        target ((2,) world, m) while released, else ``None``; ``centre`` (2,) the support rectangle's middle
-        (world, m), ``tilt_deg`` the torso's largest tilt in the last frame."""
-        share = 0.0
-        if wrists is not None and self.config.approach_far is not None:
-            share = self.approach(wrists, reach_points(self.scene, data))
-        base = self.steady_base(base, standing, share)
+              tilt_deg: float) -> tuple[np.ndarray, np.ndarray | None]:
+        """One frame of the standing robot: the base target (:meth:`steady_base`), the harness let go of or
+        caught (:meth:`decide`, :meth:`apply` to ``data``), and the IK's centre-of-mass target ((2,) world, m)
+        while released, else ``None``; ``centre`` (2,) the support rectangle's middle (world, m), ``tilt_deg``
+        the torso's largest tilt in the last frame."""
+        base = self.steady_base(base, standing)
         com = self.measured_com(data)
         released = self.decide(standing, tilt_deg, float(np.linalg.norm(com[:2] - centre)))
         self.apply(data)
