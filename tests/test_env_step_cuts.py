@@ -120,8 +120,9 @@ def _ball() -> tuple[mujoco.MjModel, mujoco.MjData]:
     return m, mujoco.MjData(m)
 
 
-def test_warning_monitor_counts_as_the_replaced_code_did():
+def test_warning_monitor_counts_as_the_replaced_code_did(tmp_path, monkeypatch):
     """Quiet steps, new warnings (NaN state), counters reset by MuJoCo (go down), a second data object."""
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs its warnings to MUJOCO_LOG.TXT in the working directory
     m, d = _ball()
     new, old = WarningMonitor(), WarningMonitorReference()
     new.reset(d)
@@ -157,3 +158,178 @@ def test_warning_monitor_without_a_counter_view():
             stats[int(mujoco.mjtWarning.mjWARN_BADQACC)].number = 0
         assert new.step(data) == old.step(data)
     assert new.totals == old.totals and new.totals["bad_qacc"] > 0
+
+
+# -- reach, IK errors, quaternion blends: np.linalg.norm's arithmetic without its wrapper ------------------------
+def reachable_targets_reference(model, targets, world, seg_a, seg_b, radius) -> np.ndarray:
+    from socialaff_sim.sim.reach import AXIS_SAMPLES, point_segment_distance
+    base = world[0]
+    heights = np.linspace(-model.base_height, model.shoulder_height, AXIS_SAMPLES)
+    axis = base[None, :] + heights[:, None] * np.array([0.0, 0.0, 1.0])
+    trunk_gap = (point_segment_distance(axis, seg_a, seg_b) - radius[None]).min()
+    base_ok = bool(trunk_gap >= model.trunk_radius + model.clearance)
+    out = np.zeros(5, dtype=bool)
+    out[0] = base_ok
+    if not base_ok:
+        return out
+    hand_gap = (point_segment_distance(world[1:3], seg_a, seg_b) - radius[None]).min(axis=1)
+    shoulder = targets[0] + model.shoulders
+    hip = targets[0] + model.hips
+    out[1:3] = (np.linalg.norm(targets[1:3] - shoulder, axis=1) <= model.arm) & (
+        hand_gap >= model.hand_reach + model.clearance)
+    if len(model.base_r):
+        own = point_segment_distance(targets[1:3], targets[0] + model.base_a, targets[0] + model.base_b) - model.base_r
+        out[1:3] &= own.min(axis=1) >= model.wrist_core + model.clearance
+    out[3:5] = np.linalg.norm(targets[3:5] - hip, axis=1) <= model.leg
+    return out
+
+
+def test_reachable_targets_equal_the_two_pass_code_on_both_branches():
+    """The axis and the hands in one distance pass: the same verdicts, with the base in and out of the person."""
+    import gymnasium as gym
+
+    from socialaff_sim.sim.reach import point_segment_distance, reachable_targets
+    env = gym.make("socialaff_sim/SocialAffordance-v0", max_frames=6)
+    env.reset(seed=3)
+    sim = env.unwrapped.simulator
+    model = sim._stage.reach
+    seg_a, seg_b, radius = sim._segments
+    rng = np.random.default_rng(4)
+    home = sim.home_key_frames
+    verdicts = set()
+    for i in range(300):
+        t = i % seg_a.shape[0]
+        tg = home + rng.normal(scale=0.25, size=(5, 3))
+        world = sim.frame_R.to_world(tg)
+        if i % 3 == 0:  # the base inside the person: the first branch
+            world[0] = seg_a[t, 0]
+        got = reachable_targets(model, tg, world, seg_a[t], seg_b[t], radius)
+        np.testing.assert_array_equal(got, reachable_targets_reference(model, tg, world, seg_a[t], seg_b[t], radius))
+        verdicts.add((bool(got[0]), bool(got[1:].any())))
+    assert {(False, False), (True, True)} <= verdicts
+    # and a point's distances do not depend on the other points of the pass
+    p = rng.normal(size=(8, 3))
+    both = point_segment_distance(p, seg_a[0], seg_b[0])
+    np.testing.assert_array_equal(both[:6], point_segment_distance(p[:6], seg_a[0], seg_b[0]))
+    np.testing.assert_array_equal(both[6:], point_segment_distance(p[6:], seg_a[0], seg_b[0]))
+    env.close()
+
+
+def test_norm_arithmetic_equals_numpy_linalg_norm_bit_for_bit():
+    from socialaff_sim.retarget.ik import _row_norms
+    rng = np.random.default_rng(5)
+    for shape in [(5, 3), (2, 3), (7, 3)]:
+        d = rng.normal(scale=10.0 ** rng.integers(-4, 3), size=shape)
+        np.testing.assert_array_equal(_row_norms(d), np.linalg.norm(d, axis=1))
+        assert np.allclose(_row_norms(d), [np.sqrt(sum(v * v for v in row)) for row in d.tolist()], rtol=1e-15)
+    diff = rng.normal(size=(4, 6, 3))  # measure_gaps' centre distances
+    np.testing.assert_array_equal(np.sqrt(np.add.reduce(diff * diff, axis=2)), np.linalg.norm(diff, axis=2))
+
+
+def nlerp_reference(q0, q1, a):
+    sign = np.where(np.sum(q0 * q1, axis=-1, keepdims=True) < 0, -1.0, 1.0)
+    q = (1.0 - a) * q0 + a * sign * q1
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def test_nlerp_equals_the_replaced_code_both_ways_round():
+    from socialaff_sim.sim.substeps import nlerp
+    rng = np.random.default_rng(6)
+    a = (np.arange(1, 10) / 9)[:, None]
+    flips = 0
+    for _ in range(200):
+        q0, q1 = rng.normal(size=4), rng.normal(size=4)
+        flips += float(q0 @ q1) < 0
+        np.testing.assert_array_equal(nlerp(q0, q1, a), nlerp_reference(q0, q1, a))
+        np.testing.assert_array_equal(nlerp(q0, q1, 0.3), nlerp_reference(q0, q1, 0.3))
+    assert 0 < flips < 200  # the shortest-way-round sign taken both ways
+    q = nlerp(np.array([1.0, 0, 0, 0]), np.array([0.0, 0, 0, 1.0]), 0.5)  # halfway about z: an independent value
+    np.testing.assert_allclose(q, [np.sqrt(0.5), 0, 0, np.sqrt(0.5)], rtol=1e-15)
+
+
+# -- the action path ----------------------------------------------------------------------------------------
+def test_same_array_is_numpy_array_equal():
+    from socialaff_sim.environment.control import same_array
+    rng = np.random.default_rng(7)
+    a = rng.normal(size=(5, 3))
+    cases = [(a, a.copy()), (a, a + 1e-300), (a, a[:4]), (a, a.ravel()), (a, a.astype(np.float32))]
+    b = a.copy()
+    b[2, 1] = np.nextafter(b[2, 1], np.inf)
+    n = a.copy()
+    n[0, 0] = np.nan
+    cases += [(a, b), (n, n.copy()), (np.zeros((0, 3)), np.zeros((0, 3)))]
+    results = []
+    for x, y in cases:
+        assert same_array(x, y) == np.array_equal(x, y)
+        results.append(same_array(x, y))
+    assert True in results and False in results
+
+
+def clip_reference(decoder, action):
+    a = np.asarray(action, dtype=np.float64)
+    n = decoder._rows
+    if a.shape == (n * 3,):
+        a = a.reshape(n, 3)
+    if not np.isfinite(a).all():
+        raise ValueError
+    return np.minimum(np.maximum(a, decoder.space.low), decoder.space.high)
+
+
+@pytest.mark.parametrize("mode", ["targets", "residual"])
+def test_action_clip_equals_the_replaced_code(mode):
+    from socialaff_sim.environment.actions import ActionDecoder
+    from socialaff_sim.environment.config import EnvConfig
+    from socialaff_sim.errors import SimulationError
+    dec = ActionDecoder(EnvConfig(action_mode=mode), feasible=None)  # type: ignore[arg-type]
+    rng = np.random.default_rng(8)
+    low, high = dec.space.low, dec.space.high
+    clipped = 0
+    for _ in range(200):
+        a = rng.uniform(low - 1.0, high + 1.0)
+        for x in (a, a.astype(np.float32), a.ravel()):
+            got = dec.clip(x)
+            np.testing.assert_array_equal(got, clip_reference(dec, x))
+            assert got.dtype == np.float64
+        clipped += bool((a < low).any() or (a > high).any())
+    assert clipped > 0
+    bad = rng.uniform(low, high)
+    bad[1, 2] = np.nan
+    with pytest.raises(SimulationError):
+        dec.clip(bad)
+
+
+# -- the harness force ---------------------------------------------------------------------------------------
+def harness_norm_reference(meter, data) -> float:
+    import math
+    nefc = data.nefc
+    if meter._weld < 0 or nefc == 0:
+        return 0.0
+    off = int(meter._eq_rows_before @ data.eq_active[: meter._weld]) if meter._weld else 0
+    if off + 3 <= nefc and data.efc_id[off] == meter._weld and data.efc_type[off] == meter._eq_type:
+        x, y, z = data.efc_force[off: off + 3].tolist()
+        return math.sqrt(x * x + y * y + z * z)
+    return float(np.linalg.norm(meter.harness_force(data)))
+
+
+def test_harness_norm_with_the_weld_row_looked_up_equals_the_summed_one():
+    """Every pattern of active equalities before the weld, each twice (the second from the lookup), against the
+    replaced sum and against the general Jᵀλ path."""
+    import gymnasium as gym
+    env = gym.make("socialaff_sim/SocialAffordance-v0", interactions="hand_over", max_frames=6)
+    env.reset(seed=0)
+    sim = env.unwrapped.simulator
+    meter, m, d = sim._stage.stepper.support, sim.scene.model, sim.data
+    assert meter._weld > 0  # equalities (grips) come before the harness weld in this scene
+    rng = np.random.default_rng(9)
+    saved = d.eq_active.copy()
+    patterns = set()
+    for i in range(2 * 2 ** min(meter._weld, 4)):
+        d.eq_active[: meter._weld] = rng.integers(0, 2, meter._weld)
+        mujoco.mj_forward(m, d)
+        got = meter._harness_norm(d)
+        assert got == harness_norm_reference(meter, d)
+        assert got == pytest.approx(float(np.linalg.norm(meter.harness_force(d))), rel=1e-9, abs=1e-9)
+        patterns.add(d.eq_active[: meter._weld].tobytes())
+    assert len(patterns) > 1 and set(meter._weld_row) >= patterns
+    d.eq_active[:] = saved
+    env.close()
