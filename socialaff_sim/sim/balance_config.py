@@ -34,7 +34,7 @@ class BalanceConfig:
     - Hands that give way: hand_yield, yield_damping, yield_return
     - Hands in the world: hand_weight, hand_bandwidth, hand_near, hand_far, hand_release
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_reach, catch_tilt,
-      catch_margin, catch_blend, drive_harnessed
+      catch_margin, catch_blend, drive_harnessed, torque_handover
     """
 
     joint_bandwidth: float = 20.0
@@ -169,6 +169,12 @@ class BalanceConfig:
     drive_harnessed: bool = False
     """[—]: Whether the controller's torques drive the joints also while the harness holds a standing robot
     (``False``: the position servos and the standing feed-forward do, as without the controller)."""
+    torque_handover: float | None = None
+    """T_h [s]: each time the controller takes the joints over from the position servos (the harness's release;
+    with ``drive_harnessed``, the robot coming to stand), the actuators exert (1 − a) τ_servo + a τ_ctrl, the
+    controller's share a = k Δt / T_h rising from 0 at the take-over to 1 after T_h, τ_servo the servos' own
+    torque at that step (:mod:`~.torque_handover`). ``None``: the controller's torques at once (the H1's ankles,
+    hips and knees then jump by up to 1.3 times their limits at a release)."""
 
     def __post_init__(self) -> None:
         for name in ("joint_bandwidth", "torso_bandwidth", "com_bandwidth"):
@@ -219,6 +225,9 @@ class BalanceConfig:
         if self.release_reach is not None and not 0.0 < self.release_reach <= 1.0:
             raise ConfigError(f"BalanceConfig.release_reach: expected None or a fraction in (0, 1], found "
                               f"{self.release_reach}")
+        if self.torque_handover is not None and not self.torque_handover > 0.0:
+            raise ConfigError(f"BalanceConfig.torque_handover: expected None or a ramp time > 0 s, found "
+                              f"{self.torque_handover}")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

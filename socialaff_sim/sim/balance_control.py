@@ -22,7 +22,9 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    ``torque_fraction``), each foot's centre of pressure ``cop_margin`` inside its sole and a minimum load per
    foot hold as constraints (with ``self_clearance`` also the arms' distances to the body, :mod:`~.self_clearance`);
 3. the servos are made to exert τ exactly: ctrl = (τ − b₀ − b₁ q − b₂ q̇) / g for force = g·ctrl + b₀ + b₁q +
-   b₂q̇ (MuJoCo clips it at the actuator's force limit, which the support meter reports as saturation).
+   b₂q̇ (MuJoCo clips it at the actuator's force limit, which the support meter reports as saturation); with
+   ``torque_handover`` the servos' own torques are handed over to τ over a ramp after each take-over
+   (:mod:`~.torque_handover`).
 
 The harness weld lets go (``eq_active = 0``; its force is then zero by construction) once the feet have been
 planted ``release_delay`` and the robot is steady: torso within ``release_tilt`` and the capture point
@@ -59,6 +61,7 @@ from .hand_yield import HandYield
 from .scene import Scene
 from .self_clearance import SelfClearance
 from .support_box import SupportBox, cop_interval
+from .torque_handover import TorqueHandover, servo_torque
 
 __all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
 
@@ -114,6 +117,8 @@ class BalanceController:
         self.hand_task = None if c.hand_weight is None else HandTask(scene, c.hand_bandwidth, c.hand_weight,
                                                                       c.hand_near, c.hand_far, c.hand_release)
         """``hand_weight``: the wrists' world-frame rows (:mod:`~.hand_task`), else ``None``."""
+        self.handover = None if c.torque_handover is None else TorqueHandover(c.torque_handover, m.opt.timestep)
+        """``torque_handover``: the servos' torques handed over to the controller's (:mod:`~.torque_handover`)."""
         self._plan = mujoco.MjData(m)
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
@@ -154,6 +159,8 @@ class BalanceController:
             self.hand_task.reset()
         if self.reach is not None:
             self.reach.reset()
+        if self.handover is not None:
+            self.handover.reset()
 
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
@@ -219,7 +226,12 @@ class BalanceController:
             tau = self._torques(m, d, q_ref, qd_ref, pts, frames, which, box, com, jcom, comvel)  # type: ignore[arg-type]
             q, v = d.qpos[self._act_q], d.qvel[self._act_v]
             b = self._bias
+            if self.handover is not None:  # d.ctrl holds the servos' commands the stepper set for this step
+                tau = self.handover.torque(servo_torque(m, self.scene.act_ids, d.ctrl[self.scene.act_ids],
+                                                        self._gain, b, q, v), tau)
             d.ctrl[self.scene.act_ids] = (tau - b[:, 0] - b[:, 1] * q - b[:, 2] * v) / self._gain
+        elif self.handover is not None:
+            self.handover.idle()
         mujoco.mj_step2(m, d)
         if standing and self.hand_yield is not None:
             self.hand_yield.measure(m, d)
