@@ -12,7 +12,8 @@ __all__ = ["parser", "settings_from_args"]
 
 # Fields with their own add_argument below (lists, optional numbers, switches); every other field is a plain flag.
 _SPECIAL = ("labels", "max_frames", "control_dt", "data", "split", "residual_groups", "residual_tau", "reach_scale",
-            "use_sde", "eval_constant", "residual_labels", "action_bias", "target_kl")
+            "use_sde", "eval_constant", "residual_labels", "action_bias", "target_kl",
+            "policy_seed")
 _TUPLES = {"labels": "interactions", "data": "data", "split": "split", "residual_groups": "residual_groups",
            "eval_constant": "eval_constant", "residual_labels": "residual_labels", "action_bias": "action_bias"}
 
@@ -45,6 +46,9 @@ def parser(settings_type: type, doc: str | None) -> argparse.ArgumentParser:
     ap.add_argument("--use-sde", action="store_true", help="gSDE exploration (noise held for --sde-sample-freq steps)")
     ap.add_argument("--target-kl", type=float, default=d.target_kl, metavar="KL",
                     help="PPO stops an update's epochs once the approximate KL exceeds 1.5 times this (default: none)")
+    ap.add_argument("--policy-seed", type=int, default=d.policy_seed, metavar="SEED",
+                    help="seed PPO and the training resets with this instead of --seed (split, models, selection "
+                         "and held-out episodes keep --seed; default: --seed)")
     ap.add_argument("--eval-constant", nargs="+", type=float, default=list(d.eval_constant), metavar="A",
                     help="also play this constant action (policy units) on the held-out episodes")
     ap.add_argument("--residual-labels", nargs="+", default=list(d.residual_labels), metavar="LABEL",

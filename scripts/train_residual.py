@@ -107,6 +107,9 @@ class Settings:
     """Interactions trained and evaluated (one policy for all of them)."""
     seed: int = 0
     """Seed of the training data, the model fits, the policy and the evaluation's reset seeds (held-out data: seed + 1)."""
+    policy_seed: int | None = None
+    """Seed of PPO and of the training environments' resets only (the split, the models, the selection and held-out
+    episodes and the bootstrap keep ``seed``): a replicate of a run's training; ``None``: ``seed``."""
     train_instances: int = 48
     """Synthetic training instances per interaction (the model fit and the RL episodes use these)."""
     eval_instances: int = 50
@@ -261,11 +264,12 @@ def train(s: Settings, train_set: Sequence[Interaction], models: Mapping[str, So
     policy if the start was kept: ``selector.chosen is None``)."""
     torch.set_num_threads(1)
     venv = DummyVecEnv([lambda: make_env(s, train_set, models, training=True, gate=True) for _ in range(s.n_envs)])
-    venv.seed(s.seed)
+    policy_seed = s.seed if s.policy_seed is None else s.policy_seed
+    venv.seed(policy_seed)
     norm = VecNormalize(VecMonitor(venv), norm_obs=True, norm_reward=True, gamma=s.gamma)
     agent = PPO(
         "MlpPolicy", norm, n_steps=s.n_steps, batch_size=s.batch_size, n_epochs=s.n_epochs,
-        learning_rate=s.learning_rate, target_kl=s.target_kl, gamma=s.gamma, gae_lambda=s.gae_lambda, seed=s.seed, device="cpu", verbose=0,
+        learning_rate=s.learning_rate, target_kl=s.target_kl, gamma=s.gamma, gae_lambda=s.gae_lambda, seed=policy_seed, device="cpu", verbose=0,
         use_sde=s.use_sde, sde_sample_freq=s.sde_sample_freq,
         policy_kwargs={"log_std_init": s.log_std_init, "net_arch": {"pi": [s.hidden] * 2, "vf": [s.hidden] * 2}},
     )

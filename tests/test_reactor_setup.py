@@ -31,6 +31,7 @@ from socialaff_sim.inference import primitive_stream, primitive_sums
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, ProMPConfig
 from socialaff_sim.inference.reaction_features import Anchor, FeatureConfig, forward_fill, velocity_estimate
 from socialaff_sim.inference.synthesis import OnlineSynthesizer, SynthesisConfig
+from socialaff_sim.inference.row_density import RowSet
 from socialaff_sim.inference.type_tables import TypeTables
 from socialaff_sim.model.frame import canonical_frame
 from socialaff_sim.model.joints import canonical_joints, instance_frame
@@ -57,8 +58,8 @@ def _arrays_equal(a: object, b: object) -> None:
         assert isinstance(b, dict) and a.keys() == b.keys()
         for k in a:
             _arrays_equal(a[k], b[k])
-    elif isinstance(a, TypeTables):
-        assert isinstance(b, TypeTables)
+    elif isinstance(a, (TypeTables, RowSet)):
+        assert type(b) is type(a)
         _arrays_equal(vars(a), vars(b))
     else:
         assert a == b or (a != a and b != b)
@@ -93,7 +94,7 @@ def test_type_tables_of_the_model_are_the_tables_made_anew(shake8_model, rng: np
     assert TypeTables.of(model) is cached
     fresh = TypeTables(model)  # what every synthesizer and forward belief made before, per recording
     _arrays_equal(vars(cached), vars(fresh))
-    assert not cached.sp_params.flags.writeable and not cached._cache[("motion", None)][0].flags.writeable
+    assert not cached.sp_params.flags.writeable and not cached._cache[("motion", None)].params.flags.writeable
     end = rng.normal(scale=0.5, size=(40, 11, 3))
     end[3, 2] = np.nan
     for s in (None, *range(model.n_subevents_)):

@@ -34,7 +34,7 @@ def _outputs(prim: InteractionPrimitive, inst: Interaction) -> tuple[np.ndarray,
         views.append_from(hidden, t + 1)
         out.append(stream.react_keys(views.view(), t, t + 1 if t % 5 else t + 5))
         durations.append(int(stream.duration or 0))
-    return np.concatenate(out), durations, max((len(r) for r in stream._col_runs.values()), default=0)
+    return np.concatenate(out), durations, max((len(p.runs) for p in stream._col_runs.values()), default=0)
 
 
 def _never_tracked(inst: Interaction, joint: int) -> Interaction:

@@ -355,3 +355,38 @@ def test_residual_shape_flags_reach_the_environment(script, tiny, monkeypatch: p
     with pytest.raises(SystemExit):
         script.main()
     assert seen["s"].residual_groups == s.residual_groups and seen["s"].residual_tau == 0.5
+
+
+def test_policy_seed_seeds_the_training_only(script, tiny) -> None:  # noqa: ANN001
+    # --policy-seed replicates a run's training: PPO and the training resets follow it, while the split, the
+    # selection and held-out episodes and the reference check keep --seed.
+    settings, out, _, _ = tiny
+    train, held = script.build_data(settings)
+    models = {lbl: SocialAffordanceModel.load(out / "models" / f"{lbl}.npz") for lbl in settings.labels}
+    one = dataclasses.replace(settings, timesteps=settings.n_steps * settings.n_envs)
+
+    def weights(s) -> list[np.ndarray]:  # noqa: ANN001
+        agent = script.train(s, train, models)[0]
+        return [p.detach().numpy().copy() for p in agent.policy.parameters()]
+
+    default = weights(one)
+    same = weights(dataclasses.replace(one, policy_seed=settings.seed))
+    other = weights(dataclasses.replace(one, policy_seed=settings.seed + 1))
+    assert all(np.array_equal(a, b) for a, b in zip(default, same, strict=True))  # None means --seed
+    assert any(not np.array_equal(a, b) for a, b in zip(default, other, strict=True))
+    moved = dataclasses.replace(settings, policy_seed=settings.seed + 1)
+    train2, held2 = script.build_data(moved)
+    assert [i.instance_id for i in train2] == [i.instance_id for i in train]
+    assert [i.instance_id for i in held2] == [i.instance_id for i in held]
+    assert script.selection_episodes(moved, train) == script.selection_episodes(settings, train)
+    ref = out / "reference_policy_seed.json"
+    ref.write_text(json.dumps({"settings": dataclasses.asdict(settings),
+                               "train_reference_zero_residual": {"x": {"success": 1.0, "return": 0.0}}}))
+    assert script.load_reference(ref, moved) == {"x": {"success": 1.0, "return": 0.0}}
+
+
+def test_policy_seed_flag(script) -> None:  # noqa: ANN001
+    ap = script.parser(script.Settings, None)
+    given = script.settings_from_args(script.Settings, ap.parse_args(["--out", "x", "--policy-seed", "1"]))
+    assert (given.seed, given.policy_seed) == (0, 1)
+    assert script.settings_from_args(script.Settings, ap.parse_args(["--out", "x"])).policy_seed is None

@@ -24,6 +24,7 @@ from ..data.skeletons import N_KEY
 from ..errors import SimulationError
 from .action_limits import FeasibleTargets
 from .config import EnvConfig
+from .control import same_array
 from .residual import ResidualMap
 
 __all__ = ["action_box", "ActionDecoder"]
@@ -56,6 +57,8 @@ class ActionDecoder:
         self.offsets = ResidualMap(config.residual_groups, config.residual_tau)
         """From a residual action to the offset of each control step."""
         self._rows = int(self.space.shape[0])  # type: ignore[index]
+        # The box's bounds widened to float64 once (exact), so that clipping a float64 action mixes no types.
+        self._low, self._high = self.space.low.astype(np.float64), self.space.high.astype(np.float64)
         self.adjustment = np.zeros(N_KEY)
         """(5,) metres each row of the latest projected action was moved by the projection."""
         self._projected: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -76,9 +79,9 @@ class ActionDecoder:
         if a.shape != (n, 3):
             what = "rows base, wrists, ankles" if n == N_KEY and self.offsets.n_groups == N_KEY else "a row per residual group"
             raise SimulationError(f"action: expected shape ({n}, 3) ({what}; metres), found {a.shape}")
-        if not np.isfinite(a).all():
+        if not np.logical_and.reduce(np.isfinite(a), axis=None):  # ndarray.all without its wrappers
             raise SimulationError("action: expected finite numbers, found NaN or inf")
-        return np.minimum(np.maximum(a, self.space.low), self.space.high)  # np.clip's value, less overhead
+        return np.minimum(np.maximum(a, self._low), self._high)  # np.clip's value, less overhead
 
     def targets(self, a: np.ndarray, proposal: np.ndarray, within_frame: bool, previous_base: np.ndarray,
                 fps: float, seconds: float = 0.0) -> np.ndarray:
@@ -90,7 +93,7 @@ class ActionDecoder:
         ``seconds``: the control step's simulated time (the residual filter's Δt).
         """
         sent = self.offsets.step(a, seconds) if self.residual else a
-        if within_frame and self._projected is not None and np.array_equal(sent, self._projected[0]):
+        if within_frame and self._projected is not None and same_array(sent, self._projected[0]):
             return self._projected[1]  # the same offset within the frame: the same targets as its last step
         wanted = proposal + sent if self.residual else a
         targets = self.feasible.project(wanted, previous_base, fps)

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ControlClock", "control_steps_per_frame"]
+__all__ = ["ControlClock", "control_steps_per_frame", "same_array"]
 
 
 def control_steps_per_frame(fps: float, n_sub: int, control_dt: float | None) -> int:
@@ -61,7 +61,14 @@ class ControlClock:
     def needs_solve(self, substep: int, targets: np.ndarray) -> bool:
         """Whether a control step starting at physics step ``substep`` of the frame, toward ``targets`` (5, 3),
         solves the IK: at the frame's start always, later only when the targets changed; remembers them."""
-        if substep == 0 or self._solved is None or not np.array_equal(targets, self._solved):
+        if substep == 0 or self._solved is None or not same_array(targets, self._solved):
             self._solved = np.array(targets, dtype=np.float64)
             return True
         return False
+
+
+def same_array(a: np.ndarray, b: np.ndarray) -> bool:
+    """``np.array_equal(a, b)`` of two arrays (same shape, every entry ``==``; NaN never equal), without its
+    argument handling (it runs every control step)."""
+    a, b = np.asarray(a), np.asarray(b)
+    return a.shape == b.shape and bool(np.logical_and.reduce(a == b, axis=None))

@@ -64,17 +64,24 @@ class WarningMonitor:
     """Per-step increases of MuJoCo's warning counters on one ``MjData`` at a time."""
 
     def __init__(self) -> None:
-        self._index = np.array([int(w) for w in WARNING_NAMES.values()])
-        self._last = np.zeros(len(WARNING_NAMES), dtype=np.int64)
+        self._index = [int(w) for w in WARNING_NAMES.values()]
+        self._last = [0] * len(WARNING_NAMES)
+        self._view: tuple[mujoco.MjData, np.ndarray] | None = None  # a data and its counters' view (read every step)
         self._quiet = dict.fromkeys(WARNING_NAMES, 0)
         self.totals = dict.fromkeys(WARNING_NAMES, 0)
         """Warnings counted since the monitor was made, by name (over every episode)."""
 
-    def _counts(self, data: mujoco.MjData) -> np.ndarray:
-        number = getattr(data.warning, "number", None)  # MuJoCo's bindings: a view of every counter
-        if number is None:
-            return np.array([data.warning[i].number for i in self._index], dtype=np.int64)
-        return np.asarray(number, dtype=np.int64)[self._index]
+    def _counts(self, data: mujoco.MjData) -> list[int]:
+        """Our counters of ``data``, in :data:`WARNING_NAMES` order (Python ints: compared every step)."""
+        if self._view is not None and self._view[0] is data:
+            number = self._view[1]
+        else:
+            number = getattr(data.warning, "number", None)  # MuJoCo's bindings: a view of every counter
+            if number is None:
+                return [int(data.warning[i].number) for i in self._index]
+            self._view = (data, number)  # the view stays valid for the data's life (the data is held here)
+        every = number.tolist()
+        return [every[i] for i in self._index]
 
     def reset(self, data: mujoco.MjData) -> None:
         """Start from ``data``'s counters now (call after the data was reset, e.g. at an episode's start)."""
@@ -83,11 +90,11 @@ class WarningMonitor:
     def step(self, data: mujoco.MjData) -> dict[str, int]:
         """{name: warnings since the last call}; a counter that went down (MuJoCo reset the data) counts from 0."""
         now = self._counts(data)
-        if np.array_equal(now, self._last):  # the usual case: nothing new
+        if now == self._last:  # the usual case: nothing new
             return dict(self._quiet)
-        new = np.where(now >= self._last, now - self._last, now)
+        new = [n - last if n >= last else n for n, last in zip(now, self._last, strict=True)]
         self._last = now
-        out = {name: int(n) for name, n in zip(WARNING_NAMES, new, strict=True)}
+        out = dict(zip(WARNING_NAMES, new, strict=True))
         for name, n in out.items():
             self.totals[name] += n
         return out
@@ -103,10 +110,11 @@ def body_up(home_quat: np.ndarray) -> np.ndarray:
 def tilt_cosine(quat: np.ndarray, up: np.ndarray) -> float:
     """cos of the angle between the vertical and the body's axis ``up`` (:func:`body_up`) carried by the body's
     orientation ``quat`` (4,) (w, x, y, z): the z row of the rotation matrix of a unit quaternion, times ``up``."""
-    w, x, y, z = (float(v) for v in quat)
+    w, x, y, z = np.asarray(quat, dtype=np.float64).tolist()  # Python floats: scalar arithmetic without NumPy's
+    ux, uy, uz = np.asarray(up, dtype=np.float64).tolist()
     n = w * w + x * x + y * y + z * z
     row = (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z)
-    return (row[0] * float(up[0]) + row[1] * float(up[1]) + row[2] * float(up[2])) / max(n, 1e-12)
+    return (row[0] * ux + row[1] * uy + row[2] * uz) / max(n, 1e-12)
 
 
 def tilt_angle(quat: np.ndarray, home_quat: np.ndarray) -> float:
@@ -129,12 +137,16 @@ class EpisodeEnd:
     def __init__(self, fall_height: float, fall_tilt: float, terminate_on_failure: bool) -> None:
         self.fall_height, self.fall_tilt, self.terminate_on_failure = fall_height, fall_tilt, terminate_on_failure
         self._fall: tuple[float, float, np.ndarray] = (0.0, 1.0, np.array([0.0, 0.0, 1.0]))
+        self._quat: slice | np.ndarray = slice(3, 7)
 
     def reset(self, sim: Simulator) -> None:
         """Set the fall thresholds of ``sim``'s robot and scene (after ``sim.reset``)."""
         # Base height (m) below which the robot has fallen, the cosine of the tilt, the body's own up axis.
         self._fall = (self.fall_height * float(sim.home_key_frames[0, 2]),
                       float(np.cos(np.deg2rad(self.fall_tilt))), body_up(sim.scene.home_qpos[3:7]))
+        quat = np.asarray(sim.scene.robot_qadr[3:7], dtype=np.int64)  # the root's orientation in qpos
+        consecutive = bool(np.array_equal(quat, np.arange(quat[0], quat[0] + 4)))
+        self._quat = slice(int(quat[0]), int(quat[0]) + 4) if consecutive else quat  # a view, not a gather, when it can
 
     def reason(self, sim: Simulator, step_warnings: Mapping[str, int], robot_keys: np.ndarray) -> str | None:
         """Why the episode ends after this step (one of :data:`TERMINATION_REASONS`), or ``None``.
@@ -142,13 +154,13 @@ class EpisodeEnd:
         ``step_warnings``: the step's :meth:`WarningMonitor.step`; ``robot_keys`` (5, 3): the robot's key
         frames now, robot frame (m).
         """
-        data, scene = sim.data, sim.scene
+        data = sim.data
         finite = np.logical_and.reduce  # ndarray.all's reduction without its wrappers (every control step)
         if any(step_warnings[k] for k in UNSTABLE_WARNINGS) or not (
                 finite(np.isfinite(data.qpos)) and finite(np.isfinite(data.qvel))):
             return "physics_unstable"
         low, cos_tilt, up = self._fall
-        if robot_keys[0, 2] < low or tilt_cosine(data.qpos[scene.robot_qadr[3:7]], up) < cos_tilt:
+        if robot_keys[0, 2] < low or tilt_cosine(data.qpos[self._quat], up) < cos_tilt:
             return "fell"
         scorer = sim.scorer
         if self.terminate_on_failure and scorer.failed:

@@ -19,7 +19,7 @@ from ..model.nan_fill import nan_to_zero
 from ..model.potentials import reference_weights
 from .candidates import AGENT1 as _AGENT1
 from .candidates import RegressionPrior, SignTerms, draw_from, expected_error_choice, gaussian_factor, vector_rows
-from .model_cache import per_model, read_only
+from .model_cache import per_model
 from .synthesis_config import SynthesisConfig
 from .type_tables import TypeTables
 
@@ -81,18 +81,12 @@ class CandidatePlanner:
         return cache[1][s]
 
     def _make_type_plans(self) -> dict[int, _TypePlan]:
-        plans = {k: self._make_type_plan(k) for k in range(self.model.n_subevents_)}
-        for p in plans.values():
-            read_only(p.aff, p.static, p.weights, p.spatial, p.motion, p.up, p.factor)
-            if p.sign is not None:
-                read_only(p.sign.aff, p.sign.weights, p.sign.offset_up, p.sign.moving, p.sign.disp_up)
-        return plans
+        return {k: self._make_type_plan(k) for k in range(self.model.n_subevents_)}
 
     def _make_type_plan(self, s: int) -> _TypePlan:
         model, cfg = self.model, self.config
         z = model.grouping_[s].copy()
         z[~self._available] = -1
-        z.setflags(write=False)
         aff = _AGENT1[z[_AGENT1] > 0]
         # (2, 11): P(dz > 0) of spatial offsets and of displacements; ½ without the sign term (the paper).
         up = model.vertical_up_[s] if cfg.vertical_sign else np.full_like(model.vertical_up_[s], 0.5)
@@ -164,13 +158,15 @@ class CandidatePlanner:
         """(N,) log spatial + log motion (+ vertical signs, + the regression prior) of N configurations (N, 11, 3)."""
         model = self.model
         disp = configs - before[None]
-        if self._tables is not None:
-            score = self._tables.spatial(configs, s) + self._tables.motion(disp, s)
+        if self._tables is not None:  # spatial(configs, s) + motion(disp, s), scored in one pass
+            spatial, motion = self._tables.spatial_motion(configs, disp, s)
+            score = spatial + motion
         else:
             score = model.log_spatial(s, configs) + model.log_motion(s, disp)
         if self.config.vertical_sign:
             plan = self._type_plan(s)
-            sign = plan.sign if plan.sign is not None and np.array_equal(z, plan.z) else SignTerms.of(model, s, z, self._weights(s, z))
+            same = z is plan.z or np.array_equal(z, plan.z)  # the planner passes the plan's own z
+            sign = plan.sign if plan.sign is not None and same else SignTerms.of(model, s, z, self._weights(s, z))
             score = score + sign.loglik(configs, disp)
         if prior is not None:
             score = score + prior.log_density(configs)

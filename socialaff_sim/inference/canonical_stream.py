@@ -143,7 +143,9 @@ class CanonicalStream:
             if changed <= p < floor:
                 self._canon[p] = self.frame.to_canonical(self._world[p][None])[0]
         if n > V:  # held frames: each joint at its last tracked position (NaN if never tracked), the object at its last
-            self._canon[V:n] = self.frame.to_canonical(np.broadcast_to(self._last_pos, (n - V, N_JOINTS, 3)))
+            # One frame's conversion, broadcast to the held frames: the same values as converting each copy (the
+            # rotation is applied frame by frame, each the same (11, 3) @ (3, 3) product; tests/test_reactor_frames.py).
+            self._canon[V:n] = self.frame.to_canonical(self._last_pos[None])
         self._seen, self._n = V, n
         self._tail = (view.joints[V - 1].copy(), np.array(view.valid[V - 1]))
         self._update_paths(changed, n)
@@ -173,18 +175,30 @@ class CanonicalStream:
             ok[:, OBJECT] = True
         world = self._world
         floor = world.floor
-        # Tracked in every new frame right after its last tracked one: the values as recorded (np.interp returns a
-        # tracked frame's own value).
-        simple = ok.all(axis=0) & (self._last == start - 1)
-        world[start:stop, simple] = x[:, simple]
-        self._last[simple] = stop - 1
-        self._last_pos[simple] = world[stop - 1, simple]
+        if stop - start == 1:  # the stream's usual call: one new frame (the same values, fewer calls)
+            seen = ok[0]
+            simple = seen & (self._last == start - 1)
+            # The frame's row: the simple joints as recorded, every other joint at its last tracked position (the
+            # held ones stay so; the gaps that close are interpolated over it below).
+            row = np.where(simple[:, None], x[0], self._last_pos)
+            world[start:stop] = row[None]
+            self._last[simple] = start
+            np.copyto(self._last_pos, row)
+            closing = seen & ~simple
+        else:
+            # Tracked in every new frame right after its last tracked one: the values as recorded (np.interp returns
+            # a tracked frame's own value).
+            simple = ok.all(axis=0) & (self._last == start - 1)
+            world[start:stop, simple] = x[:, simple]
+            self._last[simple] = stop - 1
+            self._last_pos[simple] = world[stop - 1, simple]
+            rest = ~simple
+            held = rest & ~ok.any(axis=0)  # not tracked in any new frame: held at its last tracked position (NaN if never)
+            if held.any():
+                world[start:stop, held] = self._last_pos[held]
+            closing = rest & ~held
         first = start
-        rest = ~simple
-        held = rest & ~ok.any(axis=0)  # not tracked in any new frame: held at its last tracked position (NaN if never)
-        if held.any():
-            world[start:stop, held] = self._last_pos[held]
-        for j in (rest & ~held).nonzero()[0]:
+        for j in closing.nonzero()[0]:
             tracked = ok[:, j].nonzero()[0]
             last = int(self._last[j])
             lo = last + 1 if last >= 0 else 0  # from the open gap's first frame (or the stream's first)

@@ -35,7 +35,7 @@ from ..model.affordance import AffordanceParameters
 from ..model.features import IntervalFeatures
 from ..model.path import path_residuals
 from .online_parse import log_duration_survival
-from .model_cache import per_model, read_only
+from .model_cache import per_model
 from .path_sums import PathSums
 from .track_window import TrackWindow
 from .type_tables import TypeTables
@@ -66,8 +66,8 @@ class ForwardBelief:
         # What depends on the model, the frame rate, the stride and the horizon only: made once per fitted model
         # (model_cache.per_model), read-only, the same arrays for every recording.
         (self._trans, self._src, self._dst, self._bits, self._surv, self._tables, self._path_use, self._path_c,
-         self._path_2s2) = per_model(model, ("forward_belief", self.fps, self.stride, self.horizon),
-                                     lambda: _constants(model, self.fps, self.horizon))
+         self._path_2s2, self._into, self._from, self._dur, self._short) = per_model(
+            model, ("forward_belief", self.fps, self.stride, self.horizon), lambda: _constants(model, self.fps, self.horizon))
         # The path terms of the kept starts' intervals from running sums (docs/design.md §7: within a declared
         # tolerance of path_residuals, not bitwise), one row per F row.
         kind = model.config.feature_path_profile
@@ -108,47 +108,51 @@ class ForwardBelief:
             self._next += self.stride
 
     def _cut(self, track: np.ndarray, b: int) -> None:
+        # One np.errstate for the cut's log-sum-exps (log 0 = −inf is expected), np.append's and np.max's work by the
+        # calls they make (concatenate, the maximum reduction), C made only when no interval closes: the same values.
         S, M = self.S, self.M
-        if b == self.origin:
-            F = np.full((M, S), -np.inf)
-            prior = self.model.log_start_probs_ if b == 0 else np.full(S, -np.log(S))
-            if M > 1:
-                F[self._bits, np.arange(S)] = prior
+        with np.errstate(divide="ignore"):
+            if b == self.origin:
+                F = np.full((M, S), -np.inf)
+                prior = self.model.log_start_probs_ if b == 0 else np.full(S, -np.log(S))
+                if M > 1:
+                    F[self._bits, np.arange(S)] = prior
+                else:
+                    F[0] = prior
             else:
-                F[0] = prior
-        else:
-            C = np.full((M, S), -np.inf)
-            has_long = self._has_long
-            starts = np.append(self._starts, b - self.horizon) if has_long else self._starts
-            if starts.size:
-                seg = self._closing(track, starts, b)  # (K, S)
-                C = _logsumexp_finite(self._F + seg[: self._starts.size, None, :], axis=0)
-                if has_long:
-                    C = np.logaddexp(C, self._long + seg[-1][None])
-            V = _logsumexp_finite(C[:, :, None] + self._trans[None], axis=1)  # (M, S): into label s from mask m
-            F = np.full((M, S), -np.inf)
-            for s in range(S):
-                F[self._dst[s], s] = V[self._src[s], s]
-        self._starts = np.append(self._starts, b)
-        self._F = np.concatenate([self._F, F[None]])
-        if self._sums is not None:
-            self._sums.add(track, b)
-        old = self._starts <= b - self.horizon  # an interval from there to the next cut would exceed the horizon
-        if old.any():
-            self._long = np.logaddexp(self._long, _logsumexp_finite(self._F[old], axis=0))
-            self._starts, self._F = self._starts[~old], self._F[~old]
+                has_long = self._has_long
+                starts = np.concatenate((self._starts, (b - self.horizon,))) if has_long else self._starts
+                if starts.size:
+                    seg = self._closing(track, starts, b)  # (K, S)
+                    C = _lse(self._F + seg[: self._starts.size, None, :], axis=0)
+                    if has_long:
+                        C = np.logaddexp(C, self._long + seg[-1][None])
+                else:
+                    C = np.full((M, S), -np.inf)
+                V = _lse(C[:, :, None] + self._trans[None], axis=1)  # (M, S): into label s from mask m
+                F = np.full((M, S), -np.inf)
+                # F[dst[s], s] = V[src[s], s] for every s, as one copy by flat index (_constants)
+                F.reshape(-1)[self._into] = V.reshape(-1)[self._from]
+            self._starts = np.concatenate((self._starts, (b,)))
+            self._F = np.concatenate([self._F, F[None]])
             if self._sums is not None:
-                self._sums.keep(~old)
-            if self.M > 1:  # the long bucket forgets the labels used before it: a stream can start the interaction again
-                merged = _logsumexp_finite(self._long, axis=0)  # (S,)
-                self._long = np.full((self.M, self.S), -np.inf)
-                self._long[self._bits, np.arange(self.S)] = merged
-        top = max(float(np.max(self._F)), float(np.max(self._long)))
-        if np.isfinite(top):  # renormalise: only ratios matter
-            self._F -= top
-            self._long -= top
-        self._G = _logsumexp_finite(self._F, axis=1)
-        self._G_long = _logsumexp_finite(self._long, axis=0)
+                self._sums.add(track, b)
+            old = self._starts <= b - self.horizon  # an interval from there to the next cut would exceed the horizon
+            if old.any():
+                self._long = np.logaddexp(self._long, _lse(self._F[old], axis=0))
+                self._starts, self._F = self._starts[~old], self._F[~old]
+                if self._sums is not None:
+                    self._sums.keep(~old)
+                if self.M > 1:  # the long bucket forgets the labels used before it: a stream can start the interaction again
+                    merged = _lse(self._long, axis=0)  # (S,)
+                    self._long = np.full((self.M, self.S), -np.inf)
+                    self._long[self._bits, np.arange(self.S)] = merged
+            top = max(float(_max(self._F, axis=None)), float(_max(self._long, axis=None)))
+            if np.isfinite(top):  # renormalise: only ratios matter
+                self._F -= top
+                self._long -= top
+            self._G = _lse(self._F, axis=1)
+            self._G_long = _lse(self._long, axis=0)
         self._has_long = bool(np.isfinite(self._long).any())
         if self._has_long:
             self._long_read = self._G_long + self._surv[self.horizon]
@@ -160,17 +164,16 @@ class ForwardBelief:
         :func:`~socialaff_sim.inference.online_parse.closed_scores`): they share their last frame, so the
         spatial potentials are evaluated once per type."""
         model = self.model
-        stops = np.full(starts.size, b)
         feats = self._features(track, starts, b)
-        short = (stops - starts) < model.config.min_subevent_seconds * self.fps
+        d = b - starts  # frames, ≤ horizon (the cuts are on the stride grid)
         tab = self._tables
         if tab is None:  # the Cartesian densities: the model's own scoring, type by type
             out = np.empty((starts.size, self.S))
             for s in range(self.S):
                 spatial = model.log_spatial(s, feats.end[:1])[0]
                 out[:, s] = spatial + model.log_motion(s, feats.disp) + model.log_duration(s, feats.seconds)
-        else:
-            out = tab.spatial(feats.end[:1]) + tab.motion(feats.disp) + tab.duration(feats.seconds)
+        else:  # the duration term of d frames from its table (tab.duration(d / fps), made once per model)
+            out = tab.spatial(feats.end[:1]) + tab.motion(feats.disp) + self._dur[d]
         if self._sums is None:
             for s in range(self.S):
                 out[:, s] += model.log_path(s, feats)
@@ -179,7 +182,7 @@ class ForwardBelief:
             nf = feats.path_n.astype(float)[:, None, None]
             ll = -1.5 * nf * self._path_c[None] - feats.path_sq[:, None, :] / self._path_2s2[None]  # (K, S, J)
             out += np.where(self._path_use[None], ll, 0.0).sum(axis=2)
-        out[short] = -np.inf
+        out[self._short[d]] = -np.inf  # shorter than min_subevent_seconds
         return out
 
     def _features(self, track: np.ndarray, starts: np.ndarray, b: int) -> IntervalFeatures:
@@ -237,10 +240,11 @@ class ForwardBelief:
 
 
 def _constants(model: AffordanceParameters, fps: float, horizon: int) -> tuple:
-    """:class:`ForwardBelief`'s model constants (read-only): the transitions (S, S) (−inf on the diagonal with
+    """:class:`ForwardBelief`'s model constants (made read-only by :func:`~.model_cache.per_model`): the transitions (S, S) (−inf on the diagonal with
     distinct neighbours), per target label the source masks and the masks they become, the label bits (S,),
-    log P(D_s > d / fps) for d = 0 … ``horizon`` frames (H + 1, S), the type tables (None: Cartesian densities) and
-    path_loglik's per-type constants (S, J) (None each without a path profile)."""
+    log P(D_s > d / fps) for d = 0 … ``horizon`` frames (H + 1, S), the type tables (None: Cartesian densities),
+    path_loglik's per-type constants (S, J) (None each without a path profile), the flat indices of F and V the
+    recursion copies, and per d the duration term (H + 1, S) (None without the tables) and whether d is short (H + 1,)."""
     S = model.n_subevents_
     cfg = model.config
     M = 1 << S if cfg.unique_labels else 1
@@ -259,15 +263,19 @@ def _constants(model: AffordanceParameters, fps: float, horizon: int) -> tuple:
     d = np.arange(horizon + 1) / fps
     surv = np.stack([log_duration_survival(model, s, d) for s in range(S)], axis=1)  # (H + 1, S)
     tables = TypeTables.of(model) if cfg.vector_density == "polar" else None
+    # Per d = 0 … horizon frames: the closed interval's duration term (the tables' duration of d / fps seconds, as the
+    # cut computed it) and whether it is too short; and the recursion's F[dst[s], s] = V[src[s], s] by flat index.
+    dur = None if tables is None else tables.duration(np.arange(horizon + 1) / float(fps))
+    short = np.arange(horizon + 1) < cfg.min_subevent_seconds * fps
+    into = np.concatenate([dst[s] * S + s for s in range(S)])
+    from_ = np.concatenate([src[s] * S + s for s in range(S)])
     path_use = path_c = path_2s2 = None
     if cfg.feature_path_profile is not None:  # path_loglik's per-type constants, every type at once (S, J)
         sigma = np.asarray(model.path_sigma_, float)
         path_use = np.isfinite(sigma)
         s2 = np.where(path_use, sigma, 1.0) ** 2
         path_c, path_2s2 = _LOG_2PI + np.log(s2), 2.0 * s2
-    out = (trans, src, dst, bits, surv, tables, path_use, path_c, path_2s2)
-    read_only(*(x for x in out if not isinstance(x, TypeTables)))
-    return out
+    return trans, src, dst, bits, surv, tables, path_use, path_c, path_2s2, into, from_, dur, short
 
 
 def _ends(track: np.ndarray, starts: np.ndarray, b: int, fps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -288,10 +296,9 @@ def _held(track: np.ndarray | TrackWindow, starts: np.ndarray) -> tuple[np.ndarr
     return track.rows, track.floor
 
 
-def _logsumexp_finite(x: np.ndarray, axis: int) -> np.ndarray:
-    """logsumexp that returns −inf (without a warning) where every term is −inf."""
-    top = _max(x, axis=axis, keepdims=True)  # np.max's and np.sum's reductions, without their wrappers (every cut)
+def _lse(x: np.ndarray, axis: int) -> np.ndarray:
+    """logsumexp over ``axis`` that returns −inf where every term is −inf, without a warning under the caller's
+    ``np.errstate(divide="ignore")`` (the cut's, one for its six log-sum-exps)."""
+    top = _max(x, axis=axis, keepdims=True)  # np.max's and np.sum's reductions, without their wrappers
     safe = np.where(np.isfinite(top), top, 0.0)
-    with np.errstate(divide="ignore"):
-        out = np.log(_sum(np.exp(x - safe), axis=axis)) + np.squeeze(safe, axis=axis)
-    return out
+    return np.log(_sum(np.exp(x - safe), axis=axis)) + np.squeeze(safe, axis=axis)

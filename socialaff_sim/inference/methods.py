@@ -304,6 +304,8 @@ class _AffordanceReactor:
         self._plan_prior = self.reaction is None or "from_plan" in priors
         self._primitive_prior = "from_primitive" in priors
         self._anchor_keys: np.ndarray | None = None  # agent 1's key joints at the anchor (world), once per instance
+        # The groups the blend reads: the rows' other columns are not computed (zeros; no member reads them).
+        self._groups = self.reaction.groups_ if self.reaction is not None else ()
 
     def react(self, view: Interaction, start: int, stop: int) -> Prediction:
         """Agent 1's frames [start, stop): step every chain's synthesizer up to ``stop``.
@@ -316,7 +318,9 @@ class _AffordanceReactor:
             self.synths = [OnlineSynthesizer(m, None, self.config) for m in self.method.models_]
             for syn, r in zip(self.synths, self.rngs, strict=True):
                 syn.reset(view, rng=r, n_frames=n_frames)
-            self._frame = instance_frame(view)
+            # The instance's frame is read by the body fits of the priors only (a gap filling of the view: skipped
+            # when no member reads a prior; the synthesizer's reset builds the same frame and raises as it would).
+            self._frame = instance_frame(view) if self._plan_prior or self._primitive_prior else None
         else:
             for syn in self.synths:
                 syn.observe(view, n_frames)
@@ -334,7 +338,7 @@ class _AffordanceReactor:
         if self.reaction is None or self.stream is None:
             return Prediction(joints=joints, key_joints=keys, subevents=subs, n_observed=0)
         # The switching regression: the first chain's belief and phase, the chains' mean plan.
-        motion = self.stream.rows(view, start, stop)
+        motion = self.stream.rows(view, start, stop, self._groups)
         anchor = self.stream.anchor
         if self._anchor_keys is None:
             self._anchor_keys = view.layout.key_joints(anchor.pose[None])[0]
@@ -345,7 +349,7 @@ class _AffordanceReactor:
             if self._primitive_prior:
                 prim_offset = plan_offset(anchor, self.method.body_.fit_poses(prim_keys, self._frame))
         rows = switching_rows(motion, np.stack([st.belief for st in blocks[0]]), np.array([st.phase for st in blocks[0]]),
-                              plan_displacement(anchor, keys, view, keys=self._anchor_keys), prim)
+                              plan_displacement(anchor, keys, view, keys=self._anchor_keys), prim, self._groups)
         offset = plan_offset(anchor, joints) if joints is not None else None
         joints = anchor.to_world(self.reaction.displacement(rows, offset, prim_offset))
         return Prediction(joints=joints, key_joints=view.layout.key_joints(joints), subevents=subs, n_observed=0)

@@ -9,8 +9,9 @@ all of it a function of the fitted model (and of fixed settings) only. :func:`pe
 object, keyed by what it depends on besides the model, and makes it anew when the model changes: a value is valid while
 the model's configuration and every learned attribute (a name ending in ``_``) are the very objects they were when it
 was made. :meth:`~socialaff_sim.learning.estimator.SocialAffordanceModel.fit` and ``load`` assign new objects; nothing
-in the package changes a learned array in place. The cached arrays are made read-only (:func:`read_only`): a reader
-that wrote into one would raise instead of changing another recording's set-up.
+in the package changes a learned array in place. :func:`per_model` makes the arrays of the value it builds read-only
+(:func:`read_only`, every array reachable from the value, the model's own arrays excepted): a reader that wrote into
+one would raise instead of changing another recording's set-up. Each caller is one call, its ``build`` the value only.
 
 The values are the same objects every time, so their arithmetic is the same: the reactor's outputs are bitwise those
 of the per-recording set-up (tests/test_reactor_setup.py).
@@ -28,6 +29,8 @@ __all__ = ["per_model", "read_only"]
 
 T = TypeVar("T")
 
+_SPARE = ("model_cache", "spare")  # the entry holding the ids of what the model reaches
+
 _CACHE: weakref.WeakKeyDictionary[Any, dict[Hashable, tuple[tuple[Any, ...], Any]]] = weakref.WeakKeyDictionary()
 
 
@@ -39,7 +42,7 @@ def _token(model: Any) -> tuple[Any, ...]:
 
 def per_model(model: Any, key: Hashable, build: Callable[[], T]) -> T:
     """``build()``, made once per fitted ``model`` and ``key`` (what else the value depends on, e.g. the frame rate),
-    and made anew when the model was refitted or reloaded since (module docstring)."""
+    and made anew when the model was refitted or reloaded since, its arrays made read-only (module docstring)."""
     token = _token(model)
     entries = _CACHE.get(model)
     if entries is None:
@@ -48,16 +51,43 @@ def per_model(model: Any, key: Hashable, build: Callable[[], T]) -> T:
     if hit is not None and len(hit[0]) == len(token) and all(a is b for a, b in zip(hit[0], token, strict=True)):
         return hit[1]
     value = build()
+    spare = entries.get(_SPARE)  # what the model reaches, walked once per model state (not once per value)
+    if spare is None or not (len(spare[0]) == len(token) and all(a is b for a, b in zip(spare[0], token, strict=True))):
+        spare = entries[_SPARE] = (token, frozenset(id(x) for x in _reachable((model,), set())))
+    _freeze((value,), spare[1])
     entries[key] = (token, value)
     return value
 
 
-def read_only(*arrays: object) -> None:
-    """Make every ndarray among ``arrays`` (and inside tuples, lists and dict values of them) read-only."""
-    for a in arrays:
+def read_only(*values: object, spare: object = None) -> None:
+    """Make every ndarray reachable from ``values`` read-only: the arrays themselves, inside tuples, lists and dict
+    values, and the attributes of objects (dataclasses, the type tables), each object visited once. Nothing reachable
+    from ``spare`` (the model) is changed or entered: a value that holds the model's own array leaves it writable."""
+    _freeze(values, frozenset(id(x) for x in _reachable((spare,), set())) if spare is not None else frozenset())
+
+
+def _freeze(values: tuple[object, ...], kept: frozenset[int]) -> None:
+    """Every ndarray reachable from ``values`` made read-only, objects whose id is in ``kept`` neither changed nor
+    entered."""
+    for a in _reachable(values, set(kept)):
         if isinstance(a, np.ndarray):
             a.setflags(write=False)
-        elif isinstance(a, (tuple, list)):
-            read_only(*a)
+
+
+def _reachable(roots: tuple[object, ...], skip: set[int]) -> list[object]:
+    """Every object reachable from ``roots`` through tuples, lists, dict values and object attributes (classes not
+    entered), each once, those whose id is in ``skip`` excepted."""
+    seen, out, stack = set(skip), [], list(roots)
+    while stack:
+        a = stack.pop()
+        if id(a) in seen:
+            continue
+        seen.add(id(a))
+        out.append(a)
+        if isinstance(a, (tuple, list)):
+            stack.extend(a)
         elif isinstance(a, dict):
-            read_only(*a.values())
+            stack.extend(a.values())
+        elif not isinstance(a, (np.ndarray, type)) and hasattr(a, "__dict__"):
+            stack.extend(vars(a).values())
+    return out

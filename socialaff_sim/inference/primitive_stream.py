@@ -44,7 +44,7 @@ from ..errors import ModelError
 from ..model.frame import CanonicalFrame, canonical_frame
 from .interaction_primitive import InteractionPrimitive, rbf_centres, rbf_rows
 from .low_rank_solve import LowRankUpdatedSolver
-from .primitive_sums import PrimitiveSums, outer_sums
+from .primitive_sums import PrimitiveSums, diagonal_blocks, outer_sums
 from .protocol import observed_part
 
 __all__ = ["PHASE_ONE_REFACTOR", "PrimitiveStream", "SHARED_SOLVERS", "stream_key_joints"]
@@ -107,8 +107,9 @@ class PrimitiveStream(PrimitiveSums):
         phases = np.minimum(np.arange(self.t_max + 1)[:, None] / spans[None], 1.0)
         self._table = self._rbf(phases.ravel()).reshape(self.t_max + 1, len(self._cands), self._n)
         self._lam = np.empty((self._a, self._a), order="F")  # the a-block, factored in place every frame within T_max
+        self._lam_blocks = diagonal_blocks(self._lam, self._d0, self._n)  # its diagonal N×N blocks, a strided view
         self._row = np.empty(n_dof)  # one frame's DoFs
-        self._col_runs: dict[bytes, list[tuple[int, int, int, int]]] = {}  # _runs of the seen DoFs, per pattern
+        self._col_runs: dict[bytes, object] = {}  # what the per-frame sums read of a pattern of seen DoFs
         self._key_cols = slice(0, 3 * len(primitive.keys_))
         self.duration: int | None = None
         """T̂ of the last call, frames."""
@@ -118,6 +119,7 @@ class PrimitiveStream(PrimitiveSums):
     def state_size(self) -> int:
         """Floats the stream holds (running sums and cached factors): it does not grow with the frames seen."""
         sums = self._hth.size + self._hty.size + self._err.size + self._last_value.size if self._frames_seen else 0
+        sums += sum(v.size + 1 for _, v, _ in self._log) if self._frames_seen else 0  # frames deferred (at most T_max)
         low_rank = self._phase_one.size if self._phase_one is not None else 0
         return int(sums + low_rank + sum(sum(a.size for a in s) for s in self._solvers.values()))
 
@@ -162,6 +164,7 @@ class PrimitiveStream(PrimitiveSums):
         self._mu0 = self._rbf(np.zeros(1))[0] @ self._mean[: self._d0].T  # (d0,)
         self._solvers = {}
         self._phase_one = None
+        self._reset_log()
         self._add(np.arange(view.n_frames), y)
         # Agent 0's key joints: the last tracked frame and its (canonical) value, for holding and gaps.
         valid = view.key_valid()[:, 0][:, keys]  # (T, k)
@@ -199,7 +202,7 @@ class PrimitiveStream(PrimitiveSums):
                 self._last_value = raw
             else:
                 self._last_frame = np.where(valid, s, self._last_frame)
-                self._last_value = np.where(valid[:, None], raw, self._last_value)
+                self._last_value = value  # np.where(valid[:, None], raw, the last values) was made above: the same array
         self._frames_seen = T
 
     def _close_gap(self, joint: int, s: int, value: np.ndarray) -> None:
@@ -315,6 +318,7 @@ class PrimitiveStream(PrimitiveSums):
         # fixed parts (about 0.7 MB each on the handovers), so a long stream keeps T_max's only.
         for k in [k for k in self._solvers if self._cands[k] < self._frames_seen and k != c]:
             del self._solvers[k]
+        self.flush(c)  # its deferred frames (the other candidates' wait until they are read)
         s_aa, k_ra, u, p_u = self._solver(c)
         d0, n = self._d0, self._n
         blocks = self._hth[c, :d0]
@@ -323,10 +327,7 @@ class PrimitiveStream(PrimitiveSums):
         if self._frames_seen >= self.t_max and self._cands[c] == self.t_max:  # every later frame at phase 1
             x_a = self._phase_one_solve(c, s_aa, blocks, rhs)
         else:
-            lam = self._lam  # Fortran order, as LAPACK reads it: no copy in the call
-            np.copyto(lam, s_aa)
-            m, n = self._d0, self._n
-            lam.reshape((n, m, n, m), order="F")[:, np.arange(m), :, np.arange(m)] += blocks  # the diagonal blocks
+            lam = self._a_block(s_aa, blocks)
             # LAPACK's potrf/potrs called as scipy's cho_factor/cho_solve call them (the same arguments, the same
             # values), without their per-call checks: this runs at every frame.
             chol, info = dpotrf(lam, lower=1, clean=0, overwrite_a=1)
@@ -339,6 +340,18 @@ class PrimitiveStream(PrimitiveSums):
         out = np.full((len(frames), N_KEY, 3), np.nan)
         out[:, prim.keys_] = (phi @ w_r.T).reshape(len(frames), len(prim.keys_), 3) + self._anchor
         return out
+
+    def _a_block(self, s_aa: np.ndarray, blocks: np.ndarray) -> np.ndarray:
+        """S + B_a (a, a) in the stream's Fortran-ordered buffer (as LAPACK reads it: no copy in the call), from S
+        (a, a) and the diagonal blocks B_a (d0, N, N). S is exactly symmetric (0.5 (S + Sᵀ), :meth:`_fixed`), so Sᵀ,
+        Fortran-ordered, is S itself: a contiguous copy instead of a transposing one; the blocks added through a
+        strided view of the buffer instead of a fancy-indexed read, add and write (the same sums, bitwise)."""
+        lam = self._lam
+        np.copyto(lam, s_aa.T)
+        if self._lam_blocks.base is not lam:  # a copied stream (deepcopy, pickle) holds the view apart from lam
+            self._lam_blocks = diagonal_blocks(lam, self._d0, self._n)
+        self._lam_blocks += blocks
+        return lam
 
     def _phase_one_solve(self, c: int, s_aa: np.ndarray, blocks: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         """(a,) (S + B_a)⁻¹ rhs past T_max: against the last factor and the phase-1 frames added since (Woodbury),

@@ -172,17 +172,24 @@ class Anchor:
         v = nan_to_zero(v @ frame.rotation)
         return cls(obs1[a], b0, keys0[a], v, b1, frame, a, float(view.fps))
 
-    def features(self, keys0: np.ndarray, vel0: np.ndarray, frames: np.ndarray, config: FeatureConfig) -> np.ndarray:
+    def features(self, keys0: np.ndarray, vel0: np.ndarray, frames: np.ndarray, config: FeatureConfig,
+                 groups: Sequence[str] = FEATURE_GROUPS) -> np.ndarray:
         """(F, N_FEATURES) rows for output frames ``frames`` (F,), given agent 0's key joints (F, 5, 3)
-        (world, metres, already taken at each row's u) and their velocity (F, 5, 3) (world, m/s)."""
+        (world, metres, already taken at each row's u) and their velocity (F, 5, 3) (world, m/s). ``groups``: the
+        groups computed; the columns of ``agent0``, ``own_velocity`` and ``agent0_velocity`` when not among them
+        are zeros (``gap``, with the ramp, is always computed: the belief's columns read the ramp)."""
         R = self.frame.rotation
         s = (np.asarray(frames, dtype=np.float64) - self.index) / self.fps
         tau = config.time_constant_s
         ramp = -np.expm1(-s / tau)
-        d0 = nan_to_zero((keys0 - self.keys0[None]) @ R).reshape(len(s), -1)
+        n = len(s)
+        d0 = nan_to_zero((keys0 - self.keys0[None]) @ R).reshape(n, -1) if "agent0" in groups else np.zeros((n, 3 * N_KEY))
         gap = nan_to_zero((keys0[:, 0] - self.base1[None]) @ R) * ramp[:, None]
-        own = (tau * ramp)[:, None] * self.velocity1.reshape(1, -1)
-        v0 = nan_to_zero(vel0 @ R).reshape(len(s), -1)
+        if "own_velocity" in groups:
+            own = (tau * ramp)[:, None] * self.velocity1.reshape(1, -1)
+        else:
+            own = np.zeros((n, 3 * N_KEY))
+        v0 = nan_to_zero(vel0 @ R).reshape(n, -1) if "agent0_velocity" in groups else np.zeros((n, 3 * N_KEY))
         return np.concatenate([d0, gap, ramp[:, None], own, v0], axis=1)
 
     def to_world(self, displacement: np.ndarray) -> np.ndarray:
@@ -255,8 +262,9 @@ class FeatureStream:
         self._window = self._window[-self.config.window:]
         self._seen = view.n_frames
 
-    def rows(self, view: Interaction, start: int, stop: int) -> np.ndarray:
-        """(stop − start, N_FEATURES) rows of output frames [start, stop) given ``view``."""
+    def rows(self, view: Interaction, start: int, stop: int, groups: Sequence[str] = FEATURE_GROUPS) -> np.ndarray:
+        """(stop − start, N_FEATURES) rows of output frames [start, stop) given ``view``; ``groups``: those
+        computed (:meth:`Anchor.features`; the others' columns are zeros)."""
         if self._anchor is None:
             self._anchor = Anchor.from_view(view, self.n_observed, self.config)
         if view.n_frames > self._seen:
@@ -266,12 +274,12 @@ class FeatureStream:
         if start < last:  # frames inside the view: each from its own frame of agent 0
             keys0, vel0 = _agent0_tracks(view, self.config)
             inside = np.arange(start, min(stop, last))
-            parts.append(self.anchor.features(keys0[inside], vel0[inside], inside, self.config))
+            parts.append(self.anchor.features(keys0[inside], vel0[inside], inside, self.config, groups))
         frames = np.arange(max(start, last), stop)
         if len(frames):
             win = np.stack(self._window)
             vel = _window_slope(win) * view.fps if len(win) >= 2 else np.zeros((N_KEY, 3))
             n = len(frames)
             keys0, vel0 = (win[-1][None], vel[None]) if n == 1 else (np.repeat(win[-1][None], n, 0), np.repeat(vel[None], n, 0))
-            parts.append(self.anchor.features(keys0, vel0, frames, self.config))
+            parts.append(self.anchor.features(keys0, vel0, frames, self.config, groups))
         return np.concatenate(parts, axis=0)

@@ -59,20 +59,28 @@ def switching_columns(groups: Sequence[str], n_subevents: int) -> np.ndarray:
 
 
 def switching_rows(
-    motion: np.ndarray, belief: np.ndarray, phase: np.ndarray, plan: np.ndarray, primitive: np.ndarray | None = None
+    motion: np.ndarray, belief: np.ndarray, phase: np.ndarray, plan: np.ndarray, primitive: np.ndarray | None = None,
+    groups: Sequence[str] | None = None,
 ) -> np.ndarray:
     """(N, F + 2S + S·F + 30) rows: the motion features (N, F), b·r (N, S), b·φ·r (N, S), the gated motion
     features b_s·x (N, S·F; column F + 2S + s·F + j is b_s·x_j), the plan's displacement (N, 15) and the
     interaction primitive's (N, 15), from the motion features (N, F), the belief (N, S), the phase (N,) (NaN
     counts as 0) and the plan's and the primitive's displacements (N, 15), metres, anchor frame (``primitive``
-    ``None``: zeros)."""
+    ``None``: zeros). ``groups``: when given, the ``subevent``, ``phase`` and ``gated`` columns are computed only
+    if among them (else zeros; the reactor passes the groups its blend reads)."""
     x = np.asarray(motion, dtype=np.float64)
     b = np.asarray(belief, dtype=np.float64)
+    n, S = b.shape
     ramp = x[:, RAMP_COLUMN]
-    phi = nan_to_zero(np.asarray(phase, dtype=np.float64))
-    gated = (b[:, :, None] * x[:, None, :]).reshape(len(x), -1)
-    prim = np.zeros((len(x), 3 * N_KEY)) if primitive is None else nan_to_zero(primitive)
-    return np.concatenate([x, b * ramp[:, None], b * (phi * ramp)[:, None], gated, nan_to_zero(plan), prim], axis=1)
+    every = groups is None
+    by_subevent = b * ramp[:, None] if every or "subevent" in groups else np.zeros((n, S))
+    if every or "phase" in groups:
+        by_phase = b * (nan_to_zero(np.asarray(phase, dtype=np.float64)) * ramp)[:, None]
+    else:
+        by_phase = np.zeros((n, S))
+    gated = (b[:, :, None] * x[:, None, :]).reshape(n, -1) if every or "gated" in groups else np.zeros((n, S * x.shape[1]))
+    prim = np.zeros((n, 3 * N_KEY)) if primitive is None else nan_to_zero(primitive)
+    return np.concatenate([x, by_subevent, by_phase, gated, nan_to_zero(plan), prim], axis=1)
 
 
 def switching_scale(rows: np.ndarray, w: np.ndarray, n_subevents: int) -> np.ndarray:

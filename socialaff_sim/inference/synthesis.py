@@ -54,7 +54,7 @@ from .canonical_stream import CanonicalStream
 from .candidates import AGENT1 as _AGENT1
 from .forward_belief import ForwardBelief
 from .hedging import branch_plans, shrink_factor
-from .model_cache import per_model, read_only
+from .model_cache import per_model
 from .type_tables import TypeTables
 from .observed import ObservedInteraction
 from .observed_parse import parse_observed
@@ -155,12 +155,7 @@ class OnlineSynthesizer(CandidatePlanner, PathPlanner):
         """(S,) :func:`~socialaff_sim.model.transitions.order_ranks` of the model's training parses, read-only, made
         once per fitted model (:func:`~.model_cache.per_model`)."""
         model = self.model
-
-        def build() -> np.ndarray:
-            ranks = order_ranks(model.parses_, model.n_subevents_)
-            read_only(ranks)
-            return ranks
-        return per_model(model, "order_ranks", build)
+        return per_model(model, "order_ranks", lambda: order_ranks(model.parses_, model.n_subevents_))
 
     def observe(self, view: Interaction, n_frames: int | None = None) -> None:
         """Stream mode: agent 0's and the object's new frames from ``view``, the instance as known now, lengthened
@@ -304,7 +299,8 @@ class OnlineSynthesizer(CandidatePlanner, PathPlanner):
             path, stop_k = self._path(t, s, start, last, target, stop)
             stop = stop_k if stop is None else stop
             paths.append(w * path)
-        path = np.sum(paths, axis=0)
+        # np.sum over one plan's path is 0.0 + that path (its reduction starts from 0: −0.0 becomes 0.0): one addition
+        path = paths[0] + 0.0 if len(paths) == 1 else np.sum(paths, axis=0)
         if self.config.shrink > 0:
             hold = self._track[self.config.n_observed - 1, _AGENT1]
             alpha = shrink_factor(self._belief, self.config.shrink)

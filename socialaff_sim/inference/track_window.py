@@ -175,7 +175,23 @@ class TrackWindow:
                 raise ModelError(f"{self.name}: frame {lo} is older than the window (frames from {self._floor} are held)")
         return idx - self._base, None
 
+    def _held(self, key: object) -> tuple[object, ...] | None:
+        """The buffer key of the usual read or write of a stream, frames [a, b) held with a ≤ b given as ints
+        (alone or first in a tuple); None for any other key (:meth:`_first` judges it). The same buffer rows as
+        :meth:`_first` gives, without its checks' calls."""
+        first = key[0] if type(key) is tuple else key
+        if type(first) is not slice or first.step is not None:
+            return None
+        a, b = first.start, first.stop
+        if type(a) is not int or type(b) is not int or not self._floor <= a <= b <= self._n:
+            return None
+        rows = slice(a - self._base, b - self._base)
+        return (rows,) + key[1:] if type(key) is tuple else (rows,)
+
     def __getitem__(self, key: object) -> np.ndarray:
+        fast = self._held(key)
+        if fast is not None:
+            return self._buf[fast]
         first, rest = (key[0], key[1:]) if isinstance(key, tuple) else (key, ())
         k, row = self._first(first)
         if k is None:
@@ -183,6 +199,10 @@ class TrackWindow:
         return self._buf[(k,) + rest]
 
     def __setitem__(self, key: object, value: object) -> None:
+        fast = self._held(key)
+        if fast is not None:
+            self._buf[fast] = value
+            return
         first, rest = (key[0], key[1:]) if isinstance(key, tuple) else (key, ())
         k, row = self._first(first)
         if k is None:

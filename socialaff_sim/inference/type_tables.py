@@ -13,13 +13,12 @@ model (:func:`~.model_cache.per_model`), shared read-only by every synthesizer a
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import i0e
 
 from ..model.affordance import AffordanceParameters
-from ..model.densities import lognorm_logpdf, weibull_terms
-from ..model.features import polar
-from ..model.potentials import polar_rows_logpdf, reference_weights
-from .model_cache import per_model, read_only
+from ..model.densities import lognorm_logpdf
+from ..model.potentials import reference_weights
+from .model_cache import per_model
+from .row_density import RowSet
 
 __all__ = ["TypeTables"]
 
@@ -64,7 +63,7 @@ class TypeTables:
             self._sp.append((rows, cols, self.sp_w[np.ix_(rows, cols)]))
             self._read[np.ix_(rows, cols)] = True
         self.dur = np.array(model.duration_params_, float)  # a copy: made read-only with the tables
-        self._cache: dict[tuple[str, int | None], tuple] = {}
+        self._cache: dict[tuple[str, int | None], RowSet] = {}
         # Per type: the columns of its rows among all rows (the same selection as types == s, made once).
         self._sp_groups = [(s, np.flatnonzero(self.sp_type == s)) for s in range(S) if np.any(self.sp_type == s)]
         self._mo_groups = [(s, np.flatnonzero(self.mo_type == s)) for s in range(S) if np.any(self.mo_type == s)]
@@ -76,17 +75,16 @@ class TypeTables:
         for s in range(S):
             self._rows(("spatial", s), self.sp_params, None, self._sp[s][0])
             self._rows(("motion", s), self.mo_params, self.mo_expon, self.mo_type == s)
+            # A type's spatial rows then its motion rows, one row set: a re-planning scores both on the same candidates.
+            sp, mo = self._cache[("spatial", s)], self._cache[("motion", s)]
+            self._cache[("both", s)] = RowSet(np.concatenate([sp.params, mo.params]), np.concatenate([sp.expon, mo.expon]), self.eps)
         self.log_seconds = cfg.duration_density == "log_seconds"
 
     @classmethod
     def of(cls, model: AffordanceParameters) -> TypeTables:
         """The tables of ``model``, made once per fitted model (:func:`~.model_cache.per_model`) and read-only: the
         same arrays for every recording, so the same values as tables made per recording."""
-        def build() -> TypeTables:
-            tables = cls(model)
-            read_only(*(v for k, v in vars(tables).items() if k != "_cache"), *tables._cache.values())
-            return tables
-        return per_model(model, "type_tables", build)
+        return per_model(model, "type_tables", lambda: cls(model))
 
     def _per_type(self, rows: np.ndarray, only: int | None, groups: list[tuple[int, np.ndarray]]) -> np.ndarray:
         """Row log-densities (N, R) summed by type → (N, S), or (N,) for type ``only``; NaN → −inf. ``groups``: each
@@ -101,25 +99,22 @@ class TypeTables:
 
     def _rows(
         self, key: tuple[str, int | None], params: np.ndarray, expon: np.ndarray | None, sel: np.ndarray | None = None
-    ) -> tuple:
-        """A set of rows' parameters (R, 6), their exponential flags (R,) (None: none exponential), log i0e(κ)
-        (R,) of the von Mises term and the Weibull terms of h and |dz| (:func:`~socialaff_sim.model.densities.weibull_terms`), the rows ``sel`` (a selection; None: all) of ``params`` and ``expon``: made
-        once per (potential, type) (a re-planning scores every frame on a long stream); the same arrays the
-        per-call selection made, so the same values."""
+    ) -> RowSet:
+        """A set of rows (:class:`~.row_density.RowSet`: their parameters, exponential flags and every term of the
+        parameters alone), the rows ``sel`` (a selection; None: all) of ``params`` (R, 6) and ``expon`` (R,) (None: none
+        exponential): made once per (potential, type) (a re-planning scores every frame on a long stream); the same
+        arrays the per-call selection made, so the same values."""
         rows = self._cache.get(key)
         if rows is None:
             p = params if sel is None else params[sel]
             e = np.zeros(p.shape[0], bool) if expon is None else (expon if sel is None else expon[sel])
-            kh, lh, kv, lv = p.T[:4]  # the columns polar_rows_logpdf reads (the same views)
-            rows = self._cache[key] = (p, e, np.log(i0e(p.T[5])), (weibull_terms(kh, lh), weibull_terms(kv, lv)))
+            rows = self._cache[key] = RowSet(p, e, self.eps)
         return rows
 
-    def _density(self, vecs: np.ndarray, rows: tuple) -> np.ndarray:
-        """Row log-densities (N, R) of vectors (N, R, 3) (:func:`~socialaff_sim.model.potentials.polar_rows_logpdf`)."""
-        params, expon, log_i0e, weibull = rows
-        h, v, th = polar(vecs, self.eps)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return polar_rows_logpdf(h, v, th, params, expon, log_i0e=log_i0e, weibull=weibull)
+    def _density(self, vecs: np.ndarray, rows: RowSet) -> np.ndarray:
+        """Row log-densities (N, R) of vectors (N, R, 3) (:func:`~socialaff_sim.model.potentials.polar_rows_logpdf` of
+        :func:`~socialaff_sim.model.features.polar`, by :meth:`~.row_density.RowSet.logpdf`: the same values)."""
+        return rows.logpdf(vecs)
 
     def spatial(self, end: np.ndarray, s: int | None = None) -> np.ndarray:
         """Spatial log-potential of N configurations ``end`` (N, 11, 3): (N, S), or (N,) under type ``s``."""
@@ -143,6 +138,24 @@ class TypeTables:
         rows = self._density(np.asarray(disp, float)[:, self._mo_joints[s]],
                              self._rows(("motion", s), self.mo_params, self.mo_expon, None if s is None else self.mo_type == s))
         return self._per_type(rows, s, self._mo_groups)
+
+    def spatial_motion(self, end: np.ndarray, disp: np.ndarray, s: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(spatial(end, s), motion(disp, s))`` of N configurations ``end`` and displacements ``disp`` (N, 11, 3)
+        under type ``s``, each (N,): the two potentials' vectors side by side, scored in one pass of their rows (the same
+        elementwise arithmetic, each potential's rows summed on their own: the same values, bitwise)."""
+        rows, cols, w = self._sp[s]
+        R = rows.size
+        moved = disp[:, self._mo_joints[s]]
+        if R:
+            refs = np.einsum("kj,njd->nkd", w, end[:, cols])
+            moved = np.concatenate([end[:, self.sp_joint[rows]] - refs, moved], axis=1)
+        dens = self._cache[("both", s)].logpdf(moved)
+        mo = dens[:, R:].sum(axis=-1)
+        mo = np.where(np.isnan(mo), -np.inf, mo)
+        if not R:
+            return np.zeros(end.shape[0]), mo
+        sp = dens[:, :R].sum(axis=-1)
+        return np.where(np.isnan(sp), -np.inf, sp), mo
 
     def duration(self, seconds: np.ndarray) -> np.ndarray:
         """(N, S) duration log-density of N interval lengths (seconds) under every type."""

@@ -261,13 +261,15 @@ def reachable_targets(model: ReachModel, targets: np.ndarray, world: np.ndarray,
     base = world[0]
     heights = np.linspace(-model.base_height, model.shoulder_height, AXIS_SAMPLES)
     axis = base[None, :] + heights[:, None] * np.array([0.0, 0.0, 1.0])
-    trunk_gap = (point_segment_distance(axis, seg_a, seg_b) - radius[None]).min()
+    # The axis' points and the two hands in one pass (each point's distances are computed alone: the same numbers).
+    gaps = point_segment_distance(np.concatenate([axis, world[1:3]]), seg_a, seg_b) - radius[None]
+    trunk_gap = gaps[:AXIS_SAMPLES].min()
     base_ok = bool(trunk_gap >= model.trunk_radius + model.clearance)
     out = np.zeros(5, dtype=bool)
     out[0] = base_ok
     if not base_ok:
         return out
-    hand_gap = (point_segment_distance(world[1:3], seg_a, seg_b) - radius[None]).min(axis=1)
+    hand_gap = gaps[AXIS_SAMPLES:].min(axis=1)
     shoulder = targets[0] + model.shoulders
     hip = targets[0] + model.hips
     out[1:3] = (np.linalg.norm(targets[1:3] - shoulder, axis=1) <= model.arm) & (

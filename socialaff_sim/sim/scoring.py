@@ -274,7 +274,8 @@ class SubgoalScorer:
             if len(gb) and len(ga):
                 # Nearest candidates first (by centre distance), so that distmax shrinks fast.
                 ca, cb = data.geom_xpos[ga], data.geom_xpos[gb]
-                centre = np.linalg.norm(ca[:, None, :] - cb[None, :, :], axis=2)
+                diff = ca[:, None, :] - cb[None, :, :]
+                centre = np.sqrt(np.add.reduce(diff * diff, axis=2))  # np.linalg.norm(diff, axis=2)'s arithmetic
                 for i in np.argsort(centre, axis=None):
                     ia, ib = divmod(int(i), len(gb))
                     reach = self.scene.model.geom_rbound[ga[ia]] + self.scene.model.geom_rbound[gb[ib]]

@@ -88,6 +88,7 @@ class SupportMeter:
         # Constraint rows of each equality before the harness weld when active (weld 6, connect 3, others 1).
         rows = {int(mujoco.mjtEq.mjEQ_WELD): 6, int(mujoco.mjtEq.mjEQ_CONNECT): 3}
         self._eq_rows_before = np.array([rows.get(int(t), 1) for t in m.eq_type[: max(self._weld, 0)]], dtype=np.int64)
+        self._weld_row: dict[bytes, int] = {}  # the weld's first row per pattern of active equalities before it
         self._root_lin = scene.robot_vadr[:3]
         self._feet = []
         for k in (3, 4):
@@ -178,7 +179,13 @@ class SupportMeter:
         nefc = data.nefc
         if self._weld < 0 or nefc == 0:
             return 0.0
-        off = int(self._eq_rows_before @ data.eq_active[: self._weld]) if self._weld else 0
+        off = 0
+        if self._weld:  # the same few patterns recur (grips on or off): looked up, not summed, every physics step
+            active = data.eq_active[: self._weld]
+            key = active.tobytes()
+            off = self._weld_row.get(key, -1)
+            if off < 0:
+                off = self._weld_row[key] = int(self._eq_rows_before @ active)
         if off + 3 <= nefc and data.efc_id[off] == self._weld and data.efc_type[off] == self._eq_type:
             x, y, z = data.efc_force[off: off + 3].tolist()
             return math.sqrt(x * x + y * y + z * z)
