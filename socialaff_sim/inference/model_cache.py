@@ -40,6 +40,11 @@ def _token(model: Any) -> tuple[Any, ...]:
     return (model.__dict__.get("config"),) + tuple(v for k, v in state.items() if k.endswith("_") and not k.startswith("_"))
 
 
+def _same(made: tuple[Any, ...], token: tuple[Any, ...]) -> bool:
+    """Whether an entry made at ``made`` is still valid at ``token``: the very same objects, one by one."""
+    return len(made) == len(token) and all(a is b for a, b in zip(made, token, strict=True))
+
+
 def per_model(model: Any, key: Hashable, build: Callable[[], T]) -> T:
     """``build()``, made once per fitted ``model`` and ``key`` (what else the value depends on, e.g. the frame rate),
     and made anew when the model was refitted or reloaded since, its arrays made read-only (module docstring)."""
@@ -48,11 +53,11 @@ def per_model(model: Any, key: Hashable, build: Callable[[], T]) -> T:
     if entries is None:
         entries = _CACHE[model] = {}
     hit = entries.get(key)
-    if hit is not None and len(hit[0]) == len(token) and all(a is b for a, b in zip(hit[0], token, strict=True)):
+    if hit is not None and _same(hit[0], token):
         return hit[1]
     value = build()
     spare = entries.get(_SPARE)  # what the model reaches, walked once per model state (not once per value)
-    if spare is None or not (len(spare[0]) == len(token) and all(a is b for a, b in zip(spare[0], token, strict=True))):
+    if spare is None or not _same(spare[0], token):
         spare = entries[_SPARE] = (token, frozenset(id(x) for x in _reachable((model,), set())))
     _freeze((value,), spare[1])
     entries[key] = (token, value)
