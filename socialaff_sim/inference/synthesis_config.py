@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..errors import ConfigError, choices
+from .compiled import KERNELS
 
 __all__ = ["SynthesisConfig"]
 
@@ -36,6 +37,7 @@ class SynthesisConfig:
     - Motion toward the chosen end: interpolation, frame_weight, frame_decay
     - Contacts: contact, contact_width, trigger_scale
     - Handedness: hand_margin
+    - Implementation: kernel
     """
 
     n_observed: int = 10
@@ -184,6 +186,10 @@ class SynthesisConfig:
     until then). Early frames are walking, whose arm swing moves both wrists alike; on the synthetic
     data 0.2 m never commits to the wrong side. With ``lookahead`` the whole track decides, margin 0,
     as in training."""
+    kernel: str = "numpy"
+    """[—]: How the reactor's kernels are evaluated: ``"numpy"`` (the default and the reference) or ``"numba"``,
+    compiled loops (:mod:`~.compiled`; the optional extra ``[fast]``), equal to NumPy's within the tolerance
+    declared in docs/design.md §7, not bitwise."""
 
     def __post_init__(self) -> None:
         if self.n_observed < 2:
@@ -238,6 +244,8 @@ class SynthesisConfig:
             raise ConfigError(f"belief_horizon: expected seconds > 0, found {self.belief_horizon}")
         if not 0.0 <= self.shrink <= 1.0:
             raise ConfigError(f"shrink: expected a value in [0, 1], found {self.shrink}")
+        if self.kernel not in KERNELS:
+            raise ConfigError(f"kernel: expected {choices(KERNELS)}, found {self.kernel!r}")
         if self.duration not in _DURATION_MODES:
             raise ConfigError(f"duration: expected {choices(_DURATION_MODES)}, found {self.duration!r}")
 

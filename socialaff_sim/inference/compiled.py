@@ -1,0 +1,38 @@
+"""The optional compiler for the reactor's kernels (``SynthesisConfig.kernel = "numba"``, the extra ``[fast]``).
+
+NumPy is the reference implementation of every kernel; a compiled kernel is an alternative evaluation of the
+same arithmetic, accepted under the tolerance declared in docs/design.md §7 (not bitwise: the compiler's loops
+and the C library's functions round differently). numba is imported only when a compiled kernel is first asked
+for, so the package imports and runs without it.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from collections.abc import Callable
+from typing import Any
+
+from ..errors import ConfigError
+
+__all__ = ["KERNELS", "available", "njit"]
+
+KERNELS = ("numpy", "numba")
+"""The values of ``SynthesisConfig.kernel``: ``"numpy"`` (the reference, the default) and ``"numba"``."""
+
+
+def available() -> bool:
+    """Whether numba can be imported (the ``[fast]`` extra is installed)."""
+    return importlib.util.find_spec("numba") is not None
+
+
+def njit(function: Callable[..., Any]) -> Callable[..., Any]:
+    """``function`` compiled by numba in no-Python mode, without fast-math (IEEE semantics: no reassociation, NaN
+    and infinities kept) and with its machine code cached on disk where the package directory is writable.
+
+    Raises :class:`~socialaff_sim.errors.ConfigError` naming the setting and the extra when numba is missing."""
+    if not available():
+        raise ConfigError("kernel='numba': numba is not installed (pip install 'socialaff-sim[fast]'); "
+                          "use kernel='numpy'")
+    import numba  # the optional extra: imported here so that the package works without it
+
+    return numba.njit(cache=True, fastmath=False, nogil=True)(function)
