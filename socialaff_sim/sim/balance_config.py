@@ -34,7 +34,7 @@ class BalanceConfig:
     - Hands that give way: hand_yield, yield_damping, yield_return
     - Hands in the world: hand_weight, hand_bandwidth, hand_near, hand_far, hand_release
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_reach, catch_tilt,
-      catch_margin, catch_blend, drive_harnessed, torque_handover
+      catch_margin, catch_blend, drive_harnessed, torque_handover, com_glide
     """
 
     joint_bandwidth: float = 20.0
@@ -175,6 +175,12 @@ class BalanceConfig:
     controller's share a = k Δt / T_h rising from 0 at the take-over to 1 after T_h, τ_servo the servos' own
     torque at that step (:mod:`~.torque_handover`). ``None``: the controller's torques at once (the H1's ankles,
     hips and knees then jump by up to 1.3 times their limits at a release)."""
+    com_glide: float | None = None
+    """T_g [s]: at each take-over of the joints by the controller (the harness's release) the centre-of-mass goal
+    c* starts at the measured centre of mass c₀ and glides onto the plan's goal g: c* = g + (c₀ − g₀)(1 + t/T_g)
+    e^{−t/T_g}, t the time since the take-over (:mod:`~.com_glide`). ``None``: the plan's goal at once (on the H1,
+    whose feet stand apart from the plan's, up to 16 cm from the centre of mass at a release, asking for a centre
+    of pressure far beyond the ankles' reach)."""
 
     def __post_init__(self) -> None:
         for name in ("joint_bandwidth", "torso_bandwidth", "com_bandwidth"):
@@ -228,6 +234,8 @@ class BalanceConfig:
         if self.torque_handover is not None and not self.torque_handover > 0.0:
             raise ConfigError(f"BalanceConfig.torque_handover: expected None or a ramp time > 0 s, found "
                               f"{self.torque_handover}")
+        if self.com_glide is not None and not self.com_glide > 0.0:
+            raise ConfigError(f"BalanceConfig.com_glide: expected None or a time constant > 0 s, found {self.com_glide}")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

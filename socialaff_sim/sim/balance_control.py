@@ -51,6 +51,7 @@ import numpy as np
 from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
 from .ankle_reach import AnkleReach, wanted_cop
 from .balance_config import BalanceConfig
+from .com_glide import ComGlide
 from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
 from .external_force import ExternalForces, lean_offset
@@ -119,6 +120,8 @@ class BalanceController:
         """``hand_weight``: the wrists' world-frame rows (:mod:`~.hand_task`), else ``None``."""
         self.handover = None if c.torque_handover is None else TorqueHandover(c.torque_handover, m.opt.timestep)
         """``torque_handover``: the servos' torques handed over to the controller's (:mod:`~.torque_handover`)."""
+        self.glide = None if c.com_glide is None else ComGlide(c.com_glide, m.opt.timestep)
+        """``com_glide``: the centre-of-mass goal glided from the measured centre of mass (:mod:`~.com_glide`)."""
         self._plan = mujoco.MjData(m)
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
@@ -159,8 +162,9 @@ class BalanceController:
             self.hand_task.reset()
         if self.reach is not None:
             self.reach.reset()
-        if self.handover is not None:
-            self.handover.reset()
+        for part in (self.handover, self.glide):
+            if part is not None:
+                part.reset()
 
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
@@ -230,8 +234,10 @@ class BalanceController:
                 tau = self.handover.torque(servo_torque(m, self.scene.act_ids, d.ctrl[self.scene.act_ids],
                                                         self._gain, b, q, v), tau)
             d.ctrl[self.scene.act_ids] = (tau - b[:, 0] - b[:, 1] * q - b[:, 2] * v) / self._gain
-        elif self.handover is not None:
-            self.handover.idle()
+        else:
+            for part in (self.handover, self.glide):
+                if part is not None:
+                    part.idle()
         mujoco.mj_step2(m, d)
         if standing and self.hand_yield is not None:
             self.hand_yield.measure(m, d)
@@ -321,6 +327,8 @@ class BalanceController:
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
             p = np.array([goal[0], goal[1], float(pts[:, 2].mean())])
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
+        if self.glide is not None:  # from the measured centre of mass at a take-over onto the plan's goal
+            goal = self.glide.goal(goal, com[:2])
         goal = box.clip(goal, c.support_margin)
         wc, zc = c.com_bandwidth, c.com_damping
         tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], c.w_com))
