@@ -34,7 +34,7 @@ class BalanceConfig:
     - Hands that give way: hand_yield, yield_damping, yield_return
     - Hands in the world: hand_weight, hand_bandwidth, hand_near, hand_far, hand_release
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_reach, catch_tilt,
-      catch_margin, catch_blend, drive_harnessed, torque_handover, com_glide
+      catch_margin, catch_blend, drive_harnessed, torque_handover, com_glide, glide_rest
     """
 
     joint_bandwidth: float = 20.0
@@ -181,6 +181,10 @@ class BalanceConfig:
     e^{−t/T_g}, t the time since the take-over (:mod:`~.com_glide`). ``None``: the plan's goal at once (on the H1,
     whose feet stand apart from the plan's, up to 16 cm from the centre of mass at a release, asking for a centre
     of pressure far beyond the ankles' reach)."""
+    glide_rest: bool = False
+    """[—]: ``com_glide``: the glide starts at c₀ + k ċ₀, k = (2 ζ ω_c − ω₀) / ω_c² (ω₀ = √(g / h)), where the
+    feedback asks for the capture point as centre of pressure (a released robot brought to rest), instead of at the
+    measured centre of mass c₀ (which asks a moving robot to stop 2 ζ ω_c / ω₀ times harder, 3.8 on the H1)."""
 
     def __post_init__(self) -> None:
         for name in ("joint_bandwidth", "torso_bandwidth", "com_bandwidth"):
@@ -236,6 +240,8 @@ class BalanceConfig:
                               f"{self.torque_handover}")
         if self.com_glide is not None and not self.com_glide > 0.0:
             raise ConfigError(f"BalanceConfig.com_glide: expected None or a time constant > 0 s, found {self.com_glide}")
+        if self.glide_rest and self.com_glide is None:
+            raise ConfigError("BalanceConfig.glide_rest: needs com_glide (a time constant in s)")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

@@ -51,7 +51,7 @@ import numpy as np
 from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
 from .ankle_reach import AnkleReach, wanted_cop
 from .balance_config import BalanceConfig
-from .com_glide import ComGlide
+from .com_glide import ComGlide, rest_lead
 from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
 from .external_force import ExternalForces, lean_offset
@@ -324,13 +324,14 @@ class BalanceController:
             goal = mid + self._com_offset
         else:
             goal = box.middle()
+        wc, zc = c.com_bandwidth, c.com_damping
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
             p = np.array([goal[0], goal[1], float(pts[:, 2].mean())])
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
-        if self.glide is not None:  # from the measured centre of mass at a take-over onto the plan's goal
-            goal = self.glide.goal(goal, com[:2])
+        if self.glide is not None:  # from the measured centre of mass (or its rest goal) at a take-over onto the plan's
+            lead = rest_lead(wc, zc, math.sqrt(self._g / max(float(com[2] - pts[:, 2].mean()), 1e-3)))
+            goal = self.glide.goal(goal, com[:2] + (lead * comvel[:2] if c.glide_rest else 0.0))
         goal = box.clip(goal, c.support_margin)
-        wc, zc = c.com_bandwidth, c.com_damping
         tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], c.w_com))
         mujoco.mj_jacBody(m, d, self._jp, self._jr, self._torso)
         Jt = self._jr[:, va].copy()

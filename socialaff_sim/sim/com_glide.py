@@ -29,7 +29,17 @@ import math
 
 import numpy as np
 
-__all__ = ["ComGlide", "glide_share"]
+__all__ = ["ComGlide", "glide_share", "rest_lead"]
+
+
+def rest_lead(bandwidth: float, damping: float, pendulum: float) -> float:
+    """k [s]: with ``BalanceConfig.glide_rest`` the glide starts at c₀ + k ċ₀, k = (2 ζ ω_c − ω₀) / ω_c²
+    (``bandwidth`` ω_c, ``damping`` ζ, ``pendulum`` ω₀ = √(g / h), all rad/s or —): the goal at which the feedback
+    c̈* = ω_c² (c* − c) − 2 ζ ω_c ċ asks for c̈* = −ω₀ ċ, i.e. a centre of pressure p = c − c̈*/ω₀² at the capture
+    point c + ċ/ω₀, where a linear inverted pendulum comes to rest. From the centre of mass itself (k = 0) a
+    moving one is asked to stop 2 ζ ω_c / ω₀ times harder (3.8 on the H1), with the centre of pressure that far
+    beyond the capture point."""
+    return (2.0 * damping * bandwidth - pendulum) / bandwidth ** 2
 
 
 def glide_share(t: float, time_constant: float) -> float:
@@ -59,8 +69,9 @@ class ComGlide:
         self._k = None
 
     def goal(self, plan: np.ndarray, com: np.ndarray) -> np.ndarray:
-        """(2,) world: the goal of this driven step, from the plan's goal ``plan`` (2,) and the measured centre of
-        mass ``com`` (2,) (m); at a take-over exactly ``com``."""
+        """(2,) world: the goal of this driven step, from the plan's goal ``plan`` (2,) and where the glide starts,
+        ``com`` (2,) (m: the measured centre of mass, or with ``glide_rest`` its rest goal, :func:`rest_lead`),
+        read at a take-over only; at a take-over exactly ``com``."""
         plan = np.asarray(plan, dtype=np.float64)
         if self._k is None:
             self._k = 0
@@ -70,4 +81,6 @@ class ComGlide:
             self._k += 1
         self.last_share = glide_share(self._k * self.timestep, self.time_constant)
         """The share of the starting offset this step's goal kept."""
-        return plan + self.last_share * self._start
+        # (exactly the centre of mass at the take-over: plan + (com − plan) may differ from it in the last bit)
+        self._last_goal = np.asarray(com, dtype=np.float64)[:2].copy() if self._k == 0 else plan + self.last_share * self._start
+        return self._last_goal
