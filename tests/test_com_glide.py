@@ -105,13 +105,14 @@ def h1():
     return build_scene(load_robot("unitree_h1", mjcf=path), get_layout("kinect_v2"), harness_time_constant=0.02)
 
 
-@pytest.mark.parametrize("glide", [None, 0.5])
-def test_h1_the_goal_at_each_driven_step(h1, glide) -> None:
+@pytest.mark.parametrize("glide,rest", [(None, False), (0.5, False), (0.5, True)])
+def test_h1_the_goal_at_each_driven_step(h1, glide, rest) -> None:
     """Released on its feet at home, the plan's centre of mass moved 6 cm forward of the feet: with the option the
-    goal starts at the measured centre of mass and glides; without it, it is the plan's at once."""
+    goal starts at the measured centre of mass (with ``glide_rest`` at its rest goal) and glides; without it, it is
+    the plan's at once."""
     scene = h1
     m = scene.model
-    d, q, ctl, ctrl0 = standing_far(scene, dataclasses.replace(QP, com_glide=glide))
+    d, q, ctl, ctrl0 = standing_far(scene, dataclasses.replace(QP, com_glide=glide, glide_rest=rest))
     assert (ctl.glide is None) == (glide is None)
     feet, root, dt = ctl._feet, scene.root_body, m.opt.timestep
     seen: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
@@ -130,6 +131,12 @@ def test_h1_the_goal_at_each_driven_step(h1, glide) -> None:
             ctl.begin_frame(q, (True, True))
             ctl._com_offset = ctl._com_offset + ctl.feet.heading(d) * 0.06  # the plan leaning 6 cm forward
         d.ctrl[scene.act_ids] = ctrl0
+        probe = mujoco.MjData(m)  # the centre of mass's velocity at the state the step acts on, from MuJoCo
+        probe.qpos[:], probe.qvel[:] = d.qpos, d.qvel
+        mujoco.mj_forward(m, probe)
+        jac = np.zeros((3, m.nv))
+        mujoco.mj_jacSubtreeCom(m, probe, jac, root)
+        vel = (jac @ probe.qvel)[:2]
         ctl.step(m, d, q, np.zeros(len(scene.robot_vadr) - 6))
         if not ctl.active:
             assert k_in is None
@@ -140,7 +147,13 @@ def test_h1_the_goal_at_each_driven_step(h1, glide) -> None:
             continue
         plan, com, out = seen[-1]
         np.testing.assert_allclose(plan, plan_read, atol=1e-12)
-        np.testing.assert_allclose(com, d.subtree_com[root, :2], atol=1e-12)  # the centre of mass of the step
+        if k == k_in and rest:  # the rest goal: c + (2ζω_c − ω₀)/ω_c² ċ, ω₀ = √(g / h), h the height over the soles
+            w0 = math.sqrt(9.81 / d.subtree_com[root, 2])
+            lead = (2.0 * QP.com_damping * QP.com_bandwidth - w0) / QP.com_bandwidth ** 2
+            np.testing.assert_allclose(com, d.subtree_com[root, :2] + lead * vel, atol=2e-3 * np.linalg.norm(vel) + 1e-9)
+            assert np.linalg.norm(vel) > 1e-3  # moving at the release, so that the rest goal is not the centre of mass
+        elif glide is not None and k == k_in:
+            np.testing.assert_allclose(com, d.subtree_com[root, :2], atol=1e-12)  # the centre of mass of the step
         if k == k_in:
             assert np.array_equal(out, com)
             assert np.linalg.norm(out - plan) > 0.04  # the plan's goal lies elsewhere: a start there fails above
