@@ -34,7 +34,8 @@ class BalanceConfig:
     - Hands that give way: hand_yield, yield_damping, yield_return
     - Hands in the world: hand_weight, hand_bandwidth, hand_near, hand_far, hand_release
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_reach, catch_tilt,
-      catch_margin, catch_blend, drive_harnessed, torque_handover, com_glide, glide_rest
+      catch_margin, catch_blend, drive_harnessed, torque_handover, com_glide, glide_rest,
+      glide_joints
     """
 
     joint_bandwidth: float = 20.0
@@ -185,6 +186,10 @@ class BalanceConfig:
     """[—]: ``com_glide``: the glide starts at c₀ + k ċ₀, k = (2 ζ ω_c − ω₀) / ω_c² (ω₀ = √(g / h)), where the
     feedback asks for the capture point as centre of pressure (a released robot brought to rest), instead of at the
     measured centre of mass c₀ (which asks a moving robot to stop 2 ζ ω_c / ω₀ times harder, 3.8 on the H1)."""
+    glide_joints: bool = False
+    """[—]: ``com_glide``: the joints' reference glides too, from their measured positions at the take-over onto the
+    IK's, over the same T_g (:mod:`~.com_glide`; ``False``: the IK's at once, whose posture puts the body over the
+    plan's feet, not the physical ones)."""
 
     def __post_init__(self) -> None:
         for name in ("joint_bandwidth", "torso_bandwidth", "com_bandwidth"):
@@ -240,8 +245,8 @@ class BalanceConfig:
                               f"{self.torque_handover}")
         if self.com_glide is not None and not self.com_glide > 0.0:
             raise ConfigError(f"BalanceConfig.com_glide: expected None or a time constant > 0 s, found {self.com_glide}")
-        if self.glide_rest and self.com_glide is None:
-            raise ConfigError("BalanceConfig.glide_rest: needs com_glide (a time constant in s)")
+        if (self.glide_rest or self.glide_joints) and self.com_glide is None:
+            raise ConfigError("BalanceConfig.glide_rest, glide_joints: need com_glide (a time constant in s)")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

@@ -344,6 +344,9 @@ class BalanceController:
         wq = c.joint_bandwidth
         dq, dv = (0.0, 0.0) if self.hand_yield is None else self.hand_yield.references(  # the arms give way to a
             m, d, box, self._capture, float(pts[:, 2].mean()), c.cop_margin, self.mass * self._g)  # force too large
+        if c.glide_joints:  # from the joints' positions at the take-over onto the plan's
+            gq, gv = self.glide.joints(q_ref[7:], hinge_q)  # type: ignore[union-attr]
+            dq, dv = dq + gq, dv + gv
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside one task
         tasks.append((np.eye(n)[6:] * scale[:, None], want * scale, c.w_joint))

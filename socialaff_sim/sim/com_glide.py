@@ -21,6 +21,12 @@ of mass at rest on a goal that glides over a distance e₀, the wanted accelerat
 pressure's distance from the centre of mass, is bounded by roughly ω_c² e₀ (T_g ω_c)⁻², far below the step's ω_c² e₀
 (a worked bound in the tests: 15 cm over T_g = 1 s asks for less than 1 cm). The offset is taken in the world's
 horizontal plane; the feet stand still while the controller drives (a step catches the robot and ends the glide).
+
+With ``BalanceConfig.glide_joints`` the joints' reference glides the same way, from the joints' measured positions
+at the take-over onto the IK's: the planned posture places the body over the *planned* feet, so with the physical
+feet standing elsewhere the joints' rows (ω_q = 20 rad/s) otherwise move the released body by as much, whatever the
+centre of mass's goal says (traced: shake_hands_002's body swept back at 0.4–0.6 m/s after a release and past
+its heels).
 """
 
 from __future__ import annotations
@@ -84,3 +90,14 @@ class ComGlide:
         # (exactly the centre of mass at the take-over: plan + (com − plan) may differ from it in the last bit)
         self._last_goal = np.asarray(com, dtype=np.float64)[:2].copy() if self._k == 0 else plan + self.last_share * self._start
         return self._last_goal
+
+    def joints(self, reference: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``BalanceConfig.glide_joints``: (offset, rate) (J,) each (rad, rad/s) added to the joints' reference
+        ``reference`` (J,) this driven step, so that it starts at the joints' ``measured`` positions (J,) (read at
+        the take-over only) and glides onto the plan's as the goal does: offset = e_q (1 + s) e^{−s}, rate = −e_q
+        (s / T_g) e^{−s}, s = t / T_g. Called after :meth:`goal` in the same step."""
+        if self._k == 0:
+            self._joint_start = np.asarray(measured, dtype=np.float64) - np.asarray(reference, dtype=np.float64)
+        s = self._k * self.timestep / self.time_constant  # type: ignore[operator]
+        rate = -(s / self.time_constant) * math.exp(-s)
+        return self.last_share * self._joint_start, rate * self._joint_start
