@@ -191,3 +191,58 @@ def test_glide_rest_needs_the_glide() -> None:
     with pytest.raises(ConfigError, match="glide_rest"):
         BalanceConfig(glide_rest=True)
     assert BalanceConfig(com_glide=1.0, glide_rest=True).glide_rest
+
+
+def test_the_joints_glide_from_the_measured_posture_onto_the_reference(rng: np.random.Generator) -> None:
+    dt, T = 0.004, 0.6
+    g = ComGlide(T, dt)
+    ref, meas = rng.normal(size=19), rng.normal(size=19)
+    offsets, rates = [], []
+    for k in range(600):
+        g.goal(np.zeros(2), np.ones(2))
+        o, r = g.joints(ref + 0.001 * k * (k > 0), meas + 5.0 * (k > 0))  # (read at the take-over only)
+        offsets.append(o)
+        rates.append(r)
+    np.testing.assert_allclose(ref + offsets[0], meas, atol=1e-14)  # the reference starts at the posture
+    np.testing.assert_allclose(np.array(offsets), np.outer([glide_share(k * dt, T) for k in range(600)], meas - ref),
+                               atol=1e-14)
+    fd = (np.array(offsets[2:]) - np.array(offsets[:-2])) / (2 * dt)  # the rate against a central difference
+    np.testing.assert_allclose(np.array(rates[1:-1]), fd, atol=2e-4 * np.abs(meas - ref).max())
+    assert np.array_equal(rates[0], np.zeros(19))  # no rate at the take-over
+    g.idle()
+    g.goal(np.zeros(2), np.ones(2))
+    o, _ = g.joints(ref, ref + 0.5)  # a new take-over reads the posture again
+    np.testing.assert_allclose(o, 0.5, atol=1e-15)
+    with pytest.raises(ConfigError, match="glide_joints"):
+        BalanceConfig(glide_joints=True)
+
+
+def test_h1_the_joints_reference_starts_at_the_measured_posture(h1) -> None:
+    scene = h1
+    m = scene.model
+    d, q, ctl, ctrl0 = standing_far(scene, dataclasses.replace(QP, com_glide=0.5, glide_joints=True))
+    q = q.copy()
+    hinges = np.asarray(scene.robot_qadr[7:])
+    seen = []
+    orig = ctl.glide.joints
+
+    def spy(ref: np.ndarray, measured: np.ndarray):
+        out = orig(ref, measured)
+        seen.append((ref.copy(), measured.copy(), out[0].copy()))
+        return out
+
+    ctl.glide.joints = spy  # type: ignore[method-assign]
+    q[hinges] += 0.05  # the plan's posture 0.05 rad off every joint's
+    for k in range(80):
+        if k % 25 == 0:
+            ctl.begin_frame(q, (True, True))
+        d.ctrl[scene.act_ids] = ctrl0
+        before = d.qpos[hinges].copy()
+        ctl.step(m, d, q, np.zeros(len(scene.robot_vadr) - 6))
+        if ctl.active and len(seen) == 1:
+            ref, measured, off = seen[0]
+            np.testing.assert_allclose(ref, q[hinges], atol=0.0)
+            np.testing.assert_allclose(measured, before, atol=0.0)  # the posture of the step's state
+            np.testing.assert_allclose(ref + off, before, atol=1e-12)  # the reference starts there, not at the plan's
+            assert np.abs(off).max() > 0.04
+    assert len(seen) > 20
