@@ -6,8 +6,10 @@ physical ones often stand apart (its walk-up steps land short), so at the harnes
 of mass can lie 15 cm ahead of the goal (traced on shake_hands_002 in the standing mode: measured 14.4 cm ahead of
 the ankles, the goal 1.7 cm behind them, the ankles' reach ending 16.1 cm ahead; docs/benchmarks.md, "The H1's
 centre-of-mass goal glided …"). The feedback c̈* = ω_c² (c* − c) − 2 ζ ω_c ċ then asks at once for a centre of
-pressure p = c − c̈* h / g about 3.7 × 15 cm beyond the centre of mass, far past what the ankles can hold, and the
-QP reaches with hips and arms instead; the torso tips and the harness catches it again.
+pressure p = c − c̈* h / g about 3.7 × 15 cm beyond the centre of mass, far past what the ankles can hold.
+(Measured: on the H1 in the standing mode the glide does not remove the catches, whose releases tip for other
+reasons, a robot still moved by the harness and a body carried back over feet that stand behind the plan's; the
+options stay off, docs/design.md §5.)
 
 With ``BalanceConfig.com_glide`` = T_g the goal starts, at each take-over of the joints by the controller (the
 harness's release), at the measured centre of mass c₀, and moves onto the plan's goal g(t) as a critically damped
