@@ -35,7 +35,7 @@ class BalanceConfig:
     - Hands in the world: hand_weight, hand_bandwidth, hand_near, hand_far, hand_release
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_reach, catch_tilt,
       catch_margin, catch_blend, drive_harnessed, torque_handover, com_glide, glide_rest,
-      glide_joints
+      glide_joints, release_speed
     """
 
     joint_bandwidth: float = 20.0
@@ -190,6 +190,10 @@ class BalanceConfig:
     """[—]: ``com_glide``: the joints' reference glides too, from their measured positions at the take-over onto the
     IK's, over the same T_g (:mod:`~.com_glide`; ``False``: the IK's at once, whose posture puts the body over the
     plan's feet, not the physical ones)."""
+    release_speed: float | None = None
+    """v_r [m/s]: the harness lets go only while the centre of mass's horizontal speed is at most this (a caught
+    robot is led back onto the IK's base over ``catch_blend``, and released during it, at 0.17 m/s median, it is
+    let go while still moving; docs/benchmarks.md, "The H1's centre-of-mass goal glided …"). ``None``: any speed."""
 
     def __post_init__(self) -> None:
         for name in ("joint_bandwidth", "torso_bandwidth", "com_bandwidth"):
@@ -245,6 +249,8 @@ class BalanceConfig:
                               f"{self.torque_handover}")
         if self.com_glide is not None and not self.com_glide > 0.0:
             raise ConfigError(f"BalanceConfig.com_glide: expected None or a time constant > 0 s, found {self.com_glide}")
+        if self.release_speed is not None and not self.release_speed >= 0.0:
+            raise ConfigError(f"BalanceConfig.release_speed: expected None or a speed ≥ 0 m/s, found {self.release_speed}")
         if (self.glide_rest or self.glide_joints) and self.com_glide is None:
             raise ConfigError("BalanceConfig.glide_rest, glide_joints: need com_glide (a time constant in s)")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
