@@ -246,3 +246,39 @@ def test_h1_the_joints_reference_starts_at_the_measured_posture(h1) -> None:
             np.testing.assert_allclose(ref + off, before, atol=1e-12)  # the reference starts there, not at the plan's
             assert np.abs(off).max() > 0.04
     assert len(seen) > 20
+
+
+def _released_speeds(scene, config: BalanceConfig, steps: int = 120) -> tuple[int | None, list[float]]:
+    """The H1 at home under the controller: the first released step (None: none) and the centre of mass's
+    horizontal speed (m/s) at every step's state, from MuJoCo's subtree Jacobian."""
+    m = scene.model
+    d, q, ctl, ctrl0 = standing_far(scene, config)
+    first, speeds = None, []
+    jac = np.zeros((3, m.nv))
+    for k in range(steps):
+        if k % 25 == 0:
+            ctl.begin_frame(q, (True, True))
+        d.ctrl[scene.act_ids] = ctrl0
+        probe = mujoco.MjData(m)
+        probe.qpos[:], probe.qvel[:] = d.qpos, d.qvel
+        mujoco.mj_forward(m, probe)
+        mujoco.mj_jacSubtreeCom(m, probe, jac, scene.root_body)
+        speeds.append(float(np.linalg.norm((jac @ probe.qvel)[:2])))
+        ctl.step(m, d, q, np.zeros(len(scene.robot_vadr) - 6))
+        if ctl.released and first is None:
+            first = k
+    return first, speeds
+
+
+def test_h1_the_release_waits_for_the_centre_of_mass_to_slow_down(h1) -> None:
+    free, speeds = _released_speeds(h1, QP)
+    assert free is not None and speeds[free] > 0.0
+    v_r = 0.5 * speeds[free]  # slower than the robot moves when it is let go without the option
+    held, speeds2 = _released_speeds(h1, dataclasses.replace(QP, release_speed=v_r), steps=400)
+    assert speeds2[:free] == speeds[:free]  # the same robot until then
+    assert held is not None and held > free  # later, once it moves slowly enough (an inverted test: at once)
+    assert speeds2[held] <= v_r * (1 + 1e-9) + 1e-12
+    none, _ = _released_speeds(h1, dataclasses.replace(QP, release_speed=0.0))
+    assert none is None  # a robot never quite at rest is never let go at v_r = 0
+    with pytest.raises(ConfigError, match="release_speed"):
+        BalanceConfig(release_speed=-0.1)
