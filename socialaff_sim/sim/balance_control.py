@@ -221,8 +221,8 @@ class BalanceController:
             self._engaged = 0.0  # caught: the release waits its delay again
             root = self.scene.root_body
             self._caught = (d.xpos[root].copy(), d.xquat[root].copy(), 0.0)
-        if self.released and not was and c.release_speed is not None and np.hypot(*comvel[:2]) > c.release_speed:  # type: ignore[possibly-undefined]
-            self.released = False  # ``release_speed``: not while the harness still moves the robot
+        if self.released and not was and c.release_speed is not None:  # not while the harness still moves the robot
+            self.released = bool(np.hypot(*comvel[:2]) <= c.release_speed)  # type: ignore[possibly-undefined]
         if self._weld >= 0 and c.release:
             d.eq_active[self._weld] = 0 if self.released else 1
         self.released_steps += int(self.released)

@@ -26,9 +26,10 @@ horizontal plane; the feet stand still while the controller drives (a step catch
 
 With ``BalanceConfig.glide_joints`` the joints' reference glides the same way, from the joints' measured positions
 at the take-over onto the IK's: the planned posture places the body over the *planned* feet, so with the physical
-feet standing elsewhere the joints' rows (ω_q = 20 rad/s) otherwise move the released body by as much, whatever the
-centre of mass's goal says (traced: shake_hands_002's body swept back at 0.4–0.6 m/s after a release and past
-its heels).
+feet standing elsewhere the joints' rows (ω_q = 20 rad/s) would move the released body by as much, whatever the
+centre of mass's goal says (traced: shake_hands_002's body swept back at 0.3–0.6 m/s after a release and past its
+heels). Measured, the sweep stays with it too: the torque hand-over's servo share, the whole torque at the release,
+drives the joints toward the IK's posture as well (docs/benchmarks.md).
 """
 
 from __future__ import annotations
@@ -89,8 +90,9 @@ class ComGlide:
             self._k += 1
         self.last_share = glide_share(self._k * self.timestep, self.time_constant)
         """The share of the starting offset this step's goal kept."""
-        # (exactly the centre of mass at the take-over: plan + (com − plan) may differ from it in the last bit)
-        self._last_goal = np.asarray(com, dtype=np.float64)[:2].copy() if self._k == 0 else plan + self.last_share * self._start
+        # (exactly ``com`` at the take-over: plan + (com − plan) may differ from it in the last bit)
+        start = np.asarray(com, dtype=np.float64)[:2].copy()
+        self._last_goal = start if self._k == 0 else plan + self.last_share * self._start
         return self._last_goal
 
     def joints(self, reference: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
