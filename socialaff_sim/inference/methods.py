@@ -295,7 +295,7 @@ class _AffordanceReactor:
         self.reaction = None if offline else reaction
         self.stream = None if self.reaction is None else FeatureStream(config.n_observed, self.reaction.config.features)
         # The interaction primitive's causal prediction, from running sums (bounded work per frame).
-        self.primitive = (PrimitiveStream(method.primitive_, config.n_observed)
+        self.primitive = (PrimitiveStream(method.primitive_, config.n_observed, config.kernel)
                           if self.reaction is not None and self.reaction.uses_primitive else None)
         if self.primitive is not None:  # its fixed conditioning parts, once per fitted primitive (not per recording)
             self.primitive.warm()
