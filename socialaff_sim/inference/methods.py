@@ -293,7 +293,8 @@ class _AffordanceReactor:
         # The switching regression, under the causal protocols (its rows are those of a causal synthesis).
         reaction = getattr(method, "reaction_", None)
         self.reaction = None if offline else reaction
-        self.stream = None if self.reaction is None else FeatureStream(config.n_observed, self.reaction.config.features)
+        self.stream = None if self.reaction is None else FeatureStream(config.n_observed, self.reaction.config.features,
+                                                                           config.kernel)
         # The interaction primitive's causal prediction, from running sums (bounded work per frame).
         self.primitive = (PrimitiveStream(method.primitive_, config.n_observed, config.kernel)
                           if self.reaction is not None and self.reaction.uses_primitive else None)
