@@ -239,6 +239,7 @@ class FeatureStream:
         if kernel not in KERNELS:
             raise ConfigError(f"FeatureStream kernel: expected {choices(KERNELS)}, found {kernel!r}")
         self._row_kernel = feature_kernel.kernels()["feature_row"] if kernel == "numba" else None
+        self._anchor_args: tuple[Anchor, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
         self._anchor: Anchor | None = None
         self._window: list[np.ndarray] = []  # agent 0's last ≤ K causally filled key-joint frames (5, 3)
         self._last = np.full((N_KEY, 3), np.nan)  # last tracked position of each key joint
@@ -296,11 +297,15 @@ class FeatureStream:
     def _kernel_row(self, view: Interaction, frame: int, groups: Sequence[str]) -> np.ndarray:
         """(1, N_FEATURES) :meth:`rows` of the one frame ``frame`` = the view's last, by the compiled kernel."""
         a = self.anchor
+        if self._anchor_args is None or self._anchor_args[0] is not a:  # the anchor's arrays as the kernel reads them
+            self._anchor_args = (a, np.ascontiguousarray(a.frame.rotation), np.ascontiguousarray(a.keys0, dtype=np.float64),
+                                 np.ascontiguousarray(a.base1, dtype=np.float64),
+                                 np.ascontiguousarray(a.velocity1, dtype=np.float64).reshape(-1))
+        _, rot, keys0, base1, velocity1 = self._anchor_args
         out = np.empty((1, N_FEATURES))
         s = (float(frame) - a.index) / a.fps  # Anchor.features's s, one frame
         assert self._row_kernel is not None
-        self._row_kernel(out[0], np.stack(self._window), float(view.fps), np.ascontiguousarray(a.frame.rotation),
-                         np.ascontiguousarray(a.keys0, dtype=np.float64), np.ascontiguousarray(a.base1, dtype=np.float64),
-                         np.ascontiguousarray(a.velocity1, dtype=np.float64).reshape(-1), s, self.config.time_constant_s,
-                         "agent0" in groups, "own_velocity" in groups, "agent0_velocity" in groups)
+        self._row_kernel(out[0], np.stack(self._window), float(view.fps), rot, keys0, base1, velocity1, s,
+                         self.config.time_constant_s, "agent0" in groups, "own_velocity" in groups,
+                         "agent0_velocity" in groups)
         return out
