@@ -53,6 +53,7 @@ def test_kernel_rows_equal_numpys_rows(rng: np.random.Generator, holes: bool) ->
             assert np.allclose(b, a, rtol=1e-12, atol=1e-15)
         # Frames past the view (a forecast) and inside it: NumPy's rows (the kernel does one frame just seen).
         assert np.array_equal(fast.rows(view, t, t + 4, groups), ref.rows(view, t, t + 4, groups))
+    assert len(feature_kernel.kernels()["feature_row"].signatures) == 1  # compiled once, for the stream's types
 
 
 def test_numba_features_without_numba_is_a_config_error(monkeypatch: pytest.MonkeyPatch) -> None:

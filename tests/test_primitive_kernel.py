@@ -119,6 +119,8 @@ def test_compiled_stream_is_within_the_declared_tolerance_of_numpys(rng: np.rand
                 renewed += 1
             updated += age1 > 0
     assert updated > 10 and renewed > 0  # both paths ran
+    # Compiled once, for the types the stream passes (no compilation at a stream's first frame).
+    assert len(primitive_kernel.kernels()["cholesky_update"].signatures) == 1
 
 
 @needs_numba
@@ -147,8 +149,9 @@ def test_updated_factor_bookkeeping() -> None:
     f = UpdatedFactor()
     f.record(5, np.array([0]), np.array([1.0]))
     assert not f.frames and not f.usable(0)  # nothing factored: nothing recorded
-    f.factored(2)
-    assert f.usable(2) and not f.usable(1)
+    buffer, chol = np.zeros((2, 2), order="F"), np.asfortranarray(np.eye(2))
+    f.factored(2, chol, buffer)
+    assert f.usable(2) and not f.usable(1) and np.array_equal(buffer, chol)  # the factor kept where it is updated
     f.record(6, np.array([0, 1]), np.array([1.0, 1.0]))
     assert len(f.frames) == 1
     f.forget()

@@ -25,6 +25,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from scipy.linalg.lapack import dpotrs
+
+from ..errors import ModelError
 from . import compiled
 
 __all__ = ["FACTOR_RENEWAL", "UpdatedFactor", "cholesky_update", "cholesky_update_python", "kernels"]
@@ -145,25 +148,45 @@ class UpdatedFactor:
         """Whether candidate ``c``'s a-block is the factored one plus the recorded frames, within the renewal."""
         return self.candidate == c and self.age + len(self.frames) <= FACTOR_RENEWAL
 
-    def factored(self, c: int) -> None:
-        """The a-block of candidate ``c`` was just factored from its sums."""
+    @classmethod
+    def for_kernel(cls, kernel: str) -> UpdatedFactor | None:
+        """A factor for ``kernel`` "numba" (the kernel compiled now: a missing numba is a ConfigError here, not at the
+        first frame); ``None`` for "numpy" (the stream factors every frame)."""
+        if kernel != "numba":
+            return None
+        kernels()
+        return cls()
+
+    def factored(self, c: int, chol: np.ndarray, buffer: np.ndarray) -> None:
+        """The a-block of candidate ``c`` was just factored from its sums, into ``chol``; kept in ``buffer`` (n, n),
+        Fortran-ordered, where it is updated (potrf factors such a buffer in place: usually ``chol`` is it)."""
+        if chol is not buffer:
+            np.copyto(buffer, chol)
         self.candidate, self.age = c, 0
         self.frames.clear()
 
-    def update(self, lower: np.ndarray, table: np.ndarray, c: int, t_max: int, n_basis: int) -> None:
-        """``lower`` (n, n) Fortran-ordered, the factor, updated by the recorded frames' terms (their basis rows are
-        ``table[min(s, T_max), c]``)."""
+    def solve(self, lower: np.ndarray, rows: np.ndarray, t_max: int, rhs: np.ndarray) -> np.ndarray:
+        """(n,) M⁻¹ ``rhs`` with the factor ``lower`` (n, n), Fortran-ordered, first updated by the recorded frames'
+        terms (:meth:`update`); ``rows`` (T_max + 1, N) the chosen candidate's basis rows by frame."""
+        self.update(lower, rows, t_max)
+        x, info = dpotrs(lower, rhs, lower=1)
+        if info != 0:
+            raise ModelError(f"primitive kernel: potrs failed ({info})")
+        return x
+
+    def update(self, lower: np.ndarray, rows: np.ndarray, t_max: int) -> None:
+        """``lower`` (n, n) Fortran-ordered, the factor, updated by the recorded frames' terms (frame s's basis row is
+        ``rows[min(s, T_max)]``)."""
+        n_basis = rows.shape[1]
         if len(self.frames) == 1:  # the usual frame
             s, dof, w = self.frames[0]
-            rows = table[min(s, t_max), c][None]
-            cholesky_update(lower.T, rows, np.zeros(len(dof), np.int64), dof.astype(np.int64), np.sqrt(w), n_basis)
-            self.age += 1
-            self.frames.clear()
+            cholesky_update(lower.T, rows[min(s, t_max)][None], np.zeros(len(dof), np.int64), dof.astype(np.int64),
+                            np.sqrt(w), n_basis)
         elif self.frames:
-            rows = table[np.minimum([s for s, _, _ in self.frames], t_max), c]  # (F, N)
+            phi = np.ascontiguousarray(rows[np.minimum([s for s, _, _ in self.frames], t_max)])  # (F, N)
             frame = np.concatenate([np.full(len(cols), i, np.int64) for i, (_, cols, _) in enumerate(self.frames)])
             dof = np.concatenate([cols for _, cols, _ in self.frames]).astype(np.int64)
             root_w = np.sqrt(np.concatenate([w for _, _, w in self.frames]))
-            cholesky_update(lower.T, np.ascontiguousarray(rows), frame, dof, root_w, n_basis)
-            self.age += len(self.frames)
-            self.frames.clear()
+            cholesky_update(lower.T, phi, frame, dof, root_w, n_basis)
+        self.age += len(self.frames)
+        self.frames.clear()

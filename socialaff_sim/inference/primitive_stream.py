@@ -45,7 +45,7 @@ from ..model.frame import CanonicalFrame, canonical_frame
 from .interaction_primitive import InteractionPrimitive, rbf_centres, rbf_rows
 from .compiled import KERNELS
 from .low_rank_solve import LowRankUpdatedSolver
-from .primitive_kernel import UpdatedFactor, kernels
+from .primitive_kernel import UpdatedFactor
 from .primitive_sums import PrimitiveSums, diagonal_blocks, outer_sums
 from .protocol import observed_part
 
@@ -79,12 +79,8 @@ class PrimitiveStream(PrimitiveSums):
             raise ModelError("PrimitiveStream: the interaction primitive is not fitted")
         if kernel not in KERNELS:
             raise ConfigError(f"PrimitiveStream kernel: expected {choices(KERNELS)}, found {kernel!r}")
-        # kernel "numba": the a-block's factor updated frame after frame within T_max (:mod:`.primitive_kernel`),
-        # compiled here so that a missing numba is a ConfigError now, not at the first frame.
-        self._factor: UpdatedFactor | None = None
-        if kernel == "numba":
-            kernels()
-            self._factor = UpdatedFactor()
+        # kernel "numba": the a-block's factor updated frame after frame within T_max (:mod:`.primitive_kernel`).
+        self._factor = UpdatedFactor.for_kernel(kernel)
         self.primitive = primitive
         self.n_observed = int(n_observed)
         cfg = primitive.config
@@ -340,8 +336,7 @@ class PrimitiveStream(PrimitiveSums):
             if factor is not None:
                 factor.forget()
         elif factor is not None and factor.usable(c):  # the compiled path: the last factor updated by the new frames
-            factor.update(self._lam, self._table, c, self.t_max, n)
-            x_a, info = dpotrs(self._lam, rhs, lower=1)
+            x_a = factor.solve(self._lam, self._table[:, c], self.t_max, rhs)
         else:
             lam = self._a_block(s_aa, blocks)
             # LAPACK's potrf/potrs called as scipy's cho_factor/cho_solve call them (the same arguments, the same
@@ -351,9 +346,7 @@ class PrimitiveStream(PrimitiveSums):
                 raise ModelError(f"PrimitiveStream: the conditioning at frame {start} is not positive definite (potrf {info})")
             x_a, info = dpotrs(chol, rhs, lower=1)
             if factor is not None:
-                if chol is not self._lam:  # potrf factors in place a Fortran-ordered buffer; kept where it is updated
-                    np.copyto(self._lam, chol)
-                factor.factored(c)
+                factor.factored(c, chol, self._lam)
         w_r = self._mean[d0:] + (u - k_ra @ x_a).reshape(-1, n)  # (D − d0, N) agent 1's posterior mean weights
         frames = np.arange(start, stop)
         phi = self._table[np.minimum(frames, self.t_max), c]  # (F, N) the basis at min(s / (T̂ − 1), 1)
