@@ -297,10 +297,11 @@ class FeatureStream:
     def _kernel_row(self, view: Interaction, frame: int, groups: Sequence[str]) -> np.ndarray:
         """(1, N_FEATURES) :meth:`rows` of the one frame ``frame`` = the view's last, by the compiled kernel."""
         a = self.anchor
-        if self._anchor_args is None or self._anchor_args[0] is not a:  # the anchor's arrays as the kernel reads them
-            self._anchor_args = (a, np.ascontiguousarray(a.frame.rotation), np.ascontiguousarray(a.keys0, dtype=np.float64),
-                                 np.ascontiguousarray(a.base1, dtype=np.float64),
-                                 np.ascontiguousarray(a.velocity1, dtype=np.float64).reshape(-1))
+        if self._anchor_args is None or self._anchor_args[0] is not a:  # the anchor's arrays as the kernel reads them:
+            # writable C-ordered copies (a read-only array, as cached values are, would be compiled for a second time)
+            rot, keys0, base1, vel1 = (np.array(x, dtype=np.float64, order="C")
+                                       for x in (a.frame.rotation, a.keys0, a.base1, a.velocity1))
+            self._anchor_args = (a, rot, keys0, base1, vel1.reshape(-1))
         _, rot, keys0, base1, velocity1 = self._anchor_args
         out = np.empty((1, N_FEATURES))
         s = (float(frame) - a.index) / a.fps  # Anchor.features's s, one frame
