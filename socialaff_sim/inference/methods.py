@@ -29,6 +29,7 @@ from ..learning.config import LearningConfig
 from ..learning.estimator import SocialAffordanceModel
 from ..model.config import AffordanceConfig
 from ..model.joints import instance_frame
+from .blend_kernel import Blend
 from .body_fit import BodyFitConfig, BodyFitter
 from .interaction_primitive import InteractionPrimitive
 from .primitive_stream import PrimitiveStream, stream_key_joints
@@ -307,6 +308,8 @@ class _AffordanceReactor:
         self._anchor_keys: np.ndarray | None = None  # agent 1's key joints at the anchor (world), once per instance
         # The groups the blend reads: the rows' other columns are not computed (zeros; no member reads them).
         self._groups = self.reaction.groups_ if self.reaction is not None else ()
+        # kernel "numba": the blend of one row in one compiled call (:mod:`.blend_kernel`).
+        self._blend = Blend(self.reaction) if self.reaction is not None and config.kernel == "numba" else None
 
     def react(self, view: Interaction, start: int, stop: int) -> Prediction:
         """Agent 1's frames [start, stop): step every chain's synthesizer up to ``stop``.
@@ -352,5 +355,8 @@ class _AffordanceReactor:
         rows = switching_rows(motion, np.stack([st.belief for st in blocks[0]]), np.array([st.phase for st in blocks[0]]),
                               plan_displacement(anchor, keys, view, keys=self._anchor_keys), prim, self._groups)
         offset = plan_offset(anchor, joints) if joints is not None else None
-        joints = anchor.to_world(self.reaction.displacement(rows, offset, prim_offset))
+        if self._blend is not None and len(rows) == 1:  # the compiled blend (one row: the reactor's usual call)
+            joints = anchor.to_world(self._blend.displacement(rows, offset, prim_offset))
+        else:
+            joints = anchor.to_world(self.reaction.displacement(rows, offset, prim_offset))
         return Prediction(joints=joints, key_joints=view.layout.key_joints(joints), subevents=subs, n_observed=0)
