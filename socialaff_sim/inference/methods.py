@@ -296,15 +296,18 @@ class _AffordanceReactor:
         self.reaction = None if offline else reaction
         self.stream = None if self.reaction is None else FeatureStream(config.n_observed, self.reaction.config.features,
                                                                            config.kernel)
-        # The interaction primitive's causal prediction, from running sums (bounded work per frame).
-        self.primitive = (PrimitiveStream(method.primitive_, config.n_observed, config.kernel)
-                          if self.reaction is not None and self.reaction.uses_primitive else None)
-        if self.primitive is not None:  # its fixed conditioning parts, once per fitted primitive (not per recording)
-            self.primitive.warm()
         # Which skeletons the blend reads as priors: a body fit nobody reads is skipped (it runs every frame).
         priors = {m.prior for m in self.reaction.members_} if self.reaction is not None else set()
         self._plan_prior = self.reaction is None or "from_plan" in priors
         self._primitive_prior = "from_primitive" in priors
+        # The interaction primitive's causal prediction, from running sums (bounded work per frame). Its compiled
+        # factor update only where no body fit reads it: the two-bone IK near a straight limb magnifies the update's
+        # 1e-15 m differences past the 1e-9 m declared for kernel "numba" (docs/design.md §7).
+        kernel = "numpy" if self._primitive_prior else config.kernel
+        self.primitive = (PrimitiveStream(method.primitive_, config.n_observed, kernel)
+                          if self.reaction is not None and self.reaction.uses_primitive else None)
+        if self.primitive is not None:  # its fixed conditioning parts, once per fitted primitive (not per recording)
+            self.primitive.warm()
         self._anchor_keys: np.ndarray | None = None  # agent 1's key joints at the anchor (world), once per instance
         # The groups the blend reads: the rows' other columns are not computed (zeros; no member reads them).
         self._groups = self.reaction.groups_ if self.reaction is not None else ()
