@@ -1,0 +1,261 @@
+"""Compiled kernels of the re-planning (``SynthesisConfig.kernel = "numba"``; issue 24, real-time speed, session 27):
+the polar row densities, the candidates' scores and the expected-error choice, each one loop over the arrays.
+
+Each kernel evaluates the arithmetic of the NumPy code it replaces (:meth:`~.row_density.RowSet.logpdf`,
+:meth:`~.candidate_planner.CandidatePlanner._score` with the type tables, the sign terms and the regression prior,
+:func:`~.candidates.expected_error_choice`), in the same order where a choice may depend on it: sums of a row are
+NumPy's pairwise summation (:func:`_pairwise`), sums over a non-contiguous axis are sequential, as NumPy's reduction
+runs them. The elementwise functions (log, exp, cos, power, hypot, arctan2) are the C library's, not NumPy's SIMD ones,
+so values differ from NumPy's in the last bits: accepted under the tolerance declared in docs/design.md §7 (session
+27), tested against the NumPy code in tests/test_score_kernel.py. Random draws are not here: they stay NumPy's.
+
+This module needs numba: it is imported by :func:`~.row_density.compiled_kernels` only, which raises the
+:class:`~socialaff_sim.errors.ConfigError` naming the extra when numba is missing.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..model.densities import LOG_2PI
+from .compiled import njit
+
+__all__ = ["rows_logpdf", "scores", "choice", "pairwise_sum"]
+
+_PW_BLOCK = 128  # NumPy's PW_BLOCKSIZE
+
+
+@njit
+def pairwise_sum(a: np.ndarray, lo: int, n: int) -> float:
+    """Σ a[lo : lo + n] in NumPy's pairwise order (``np.add.reduce`` over a contiguous row: above 128 values split in
+    halves, a multiple of 8 on the left, the halves' sums added; eight running sums within a block, then the tail),
+    from 0.0 as NumPy's reduction starts. The halves are walked by an explicit stack: numba's on-disk cache does not
+    hold recursive functions."""
+    if n <= _PW_BLOCK:
+        return 0.0 + _block(a, lo, n)
+    los = np.empty(64, np.int64)  # depth ≤ log2(n / 128) + 1
+    ns = np.empty(64, np.int64)
+    stage = np.zeros(64, np.int64)
+    vals = np.empty(64)
+    top, vtop = 0, 0
+    los[0], ns[0] = lo, n
+    while top >= 0:
+        m, start = ns[top], los[top]
+        if m <= _PW_BLOCK:
+            vals[vtop] = _block(a, start, m)
+            vtop += 1
+            top -= 1
+            continue
+        half = m // 2
+        half -= half % 8
+        if stage[top] == 0:  # the left half first
+            stage[top] = 1
+            top += 1
+            los[top], ns[top], stage[top] = start, half, 0
+        elif stage[top] == 1:  # then the right half
+            stage[top] = 2
+            top += 1
+            los[top], ns[top], stage[top] = start + half, m - half, 0
+        else:  # left + right
+            vals[vtop - 2] = vals[vtop - 2] + vals[vtop - 1]
+            vtop -= 1
+            top -= 1
+    return 0.0 + vals[0]
+
+
+@njit
+def _block(a: np.ndarray, lo: int, n: int) -> float:
+    """NumPy's pairwise sum of at most 128 values: sequential below 8, else eight running sums, combined, then the tail."""
+    if n < 8:
+        res = 0.0
+        for i in range(n):
+            res += a[lo + i]
+        return res
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    i = 8
+    end = n - n % 8
+    while i < end:
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+_BIG = float(np.finfo(float).max)
+
+
+@njit
+def _nan_to_num(v: float) -> float:
+    """``np.nan_to_num`` of one float: NaN → 0, ±inf → ±the largest float."""
+    if math.isnan(v):
+        return 0.0
+    if math.isinf(v):
+        return _BIG if v > 0 else -_BIG
+    return v
+
+
+@njit
+def _weibull(x: float, lam: float, k: float, lkl: float, km1: float, k1: float) -> float:
+    """``row_density._weibull`` of one element: log(k/λ) − z^k + (k − 1) log z, z = x/λ (0 for the term when k = 1)."""
+    z = x / lam
+    logz = math.log(z) if z > 0.0 else (-math.inf if z == 0.0 else math.nan)
+    core = lkl - z**k
+    term = 0.0 if k1 != 0.0 else km1 * logz
+    return core + term
+
+
+@njit
+def _row(x: float, y: float, zc: float, tab: np.ndarray, i: int, eps: float) -> float:
+    """The log-density of one vector (x, y, z) under row ``i`` of ``tab`` (:meth:`~.row_density.RowSet.logpdf`)."""
+    h = math.hypot(x, y)
+    if h < eps:  # np.maximum(h, ε): NaN stays NaN
+        h = eps
+    v = abs(zc)
+    if v < eps:
+        v = eps
+    th = math.atan2(y, x)
+    if tab[i, 0] != 0.0:
+        dist = (tab[i, 3] - h / tab[i, 2]) + (tab[i, 6] - v / tab[i, 5])
+    else:
+        dist = (_weibull(h, tab[i, 2], tab[i, 1], tab[i, 7], tab[i, 8], tab[i, 9])
+                + _weibull(v, tab[i, 5], tab[i, 4], tab[i, 10], tab[i, 11], tab[i, 12]))
+    return dist + (tab[i, 14] * (math.cos(th - tab[i, 13]) - 1.0) - LOG_2PI - tab[i, 15])
+
+
+@njit
+def rows_logpdf(vecs: np.ndarray, tab: np.ndarray, eps: float) -> np.ndarray:
+    """(N, K) row log-densities of vectors (N, K, 3) under the K rows of ``tab`` (:attr:`~.row_density.RowSet.table`)."""
+    N, K = vecs.shape[0], vecs.shape[1]
+    out = np.empty((N, K))
+    for n in range(N):
+        for k in range(K):
+            out[n, k] = _row(vecs[n, k, 0], vecs[n, k, 1], vecs[n, k, 2], tab, k, eps)
+    return out
+
+
+@njit
+def scores(cand: np.ndarray, before: np.ndarray, sp_joint: np.ndarray, w: np.ndarray, cols: np.ndarray,
+           mo_joint: np.ndarray, tab: np.ndarray, eps: float, sign: int, aff: np.ndarray, sign_w: np.ndarray,
+           off_up: np.ndarray, moving: np.ndarray, disp_up: np.ndarray, prior: int, a1: np.ndarray, mean: np.ndarray,
+           L: np.ndarray, logdet: float, const: float) -> np.ndarray:
+    """(M,) scores of M configurations ``cand`` (M, 11, 3) after ``before`` (11, 3) under one type: its spatial rows
+    (the joints ``sp_joint`` (R,) less the reference weights ``w`` (R, C) of the columns ``cols`` (C,)) and motion rows
+    (the joints ``mo_joint`` (Q,)), the R + Q rows of ``tab``; with ``sign``, the vertical-sign terms
+    (:class:`~.candidates.SignTerms`' arrays); with ``prior``, the regression prior's Gaussian (agent 1's joints
+    ``a1`` (5,), its mean (5, 3), factor L (15, 15), log det, and D log 2π); NaN → −inf."""
+    M = cand.shape[0]
+    R, Q, C = sp_joint.shape[0], mo_joint.shape[0], cols.shape[0]
+    A, B, D = aff.shape[0], moving.shape[0], L.shape[0]
+    out = np.empty(M)
+    dens = np.empty(R + Q)
+    terms = np.empty(max(A, B, 1))
+    res = np.empty(D)
+    for n in range(M):
+        for k in range(R):
+            j = sp_joint[k]
+            rx = 0.0
+            ry = 0.0
+            rz = 0.0
+            for c in range(C):
+                rx += w[k, c] * cand[n, cols[c], 0]
+                ry += w[k, c] * cand[n, cols[c], 1]
+                rz += w[k, c] * cand[n, cols[c], 2]
+            dens[k] = _row(cand[n, j, 0] - rx, cand[n, j, 1] - ry, cand[n, j, 2] - rz, tab, k, eps)
+        for q in range(Q):
+            j = mo_joint[q]
+            dens[R + q] = _row(cand[n, j, 0] - before[j, 0], cand[n, j, 1] - before[j, 1],
+                               cand[n, j, 2] - before[j, 2], tab, R + q, eps)
+        mo = pairwise_sum(dens, R, Q)
+        if math.isnan(mo):
+            mo = -math.inf
+        sp = 0.0
+        if R:
+            sp = pairwise_sum(dens, 0, R)
+            if math.isnan(sp):
+                sp = -math.inf
+        score = sp + mo
+        if sign:
+            sg = 0.0
+            if A:
+                for a in range(A):
+                    ref = 0.0
+                    for j in range(cand.shape[1]):
+                        ref += sign_w[a, j] * _nan_to_num(cand[n, j, 2])
+                    terms[a] = off_up[0, a] if cand[n, aff[a], 2] - ref > 0.0 else off_up[1, a]
+                sg += pairwise_sum(terms, 0, A)
+            if B:
+                for b in range(B):
+                    j = moving[b]
+                    terms[b] = disp_up[0, b] if cand[n, j, 2] - before[j, 2] > 0.0 else disp_up[1, b]
+                sg += pairwise_sum(terms, 0, B)
+            score = score + sg
+        if prior:
+            for i in range(D):
+                a = cand[n, a1[i // 3], i % 3]
+                res[i] = a - mean[i // 3, i % 3] if math.isfinite(a) else 0.0
+            ss = 0.0
+            for i in range(D):  # L y = res, forward substitution
+                acc = res[i]
+                for k in range(i):
+                    acc -= L[i, k] * res[k]
+                res[i] = acc / L[i, i]
+                ss += res[i] * res[i]
+            score = score + -0.5 * (ss + logdet + const)
+        out[n] = -math.inf if math.isnan(score) else score
+    return out
+
+
+@njit
+def choice(cand: np.ndarray, a1: np.ndarray, score: np.ndarray, temperature: float) -> int:
+    """:func:`~.candidates.expected_error_choice` of the joints ``a1`` of ``cand`` (M, 11, 3): the candidate nearest
+    the mean under weights ∝ exp(score / temperature) (−inf scores weigh nothing; all −inf: 0)."""
+    M, J = cand.shape[0], a1.shape[0]
+    sc = score / temperature
+    top = -math.inf
+    any_finite = False
+    for i in range(M):
+        if math.isfinite(sc[i]):
+            if not any_finite or sc[i] > top:
+                top = sc[i]
+            any_finite = True
+    if not any_finite:
+        return 0
+    w = np.empty(M)
+    for i in range(M):
+        w[i] = math.exp(sc[i] - top) if math.isfinite(sc[i]) else 0.0
+    total = pairwise_sum(w, 0, M)
+    for i in range(M):
+        w[i] /= total
+    D = 3 * J
+    x = np.empty((M, D))
+    for i in range(M):
+        for c in range(D):
+            x[i, c] = _nan_to_num(cand[i, a1[c // 3], c % 3])
+    mean = np.zeros(D)
+    for i in range(M):
+        for c in range(D):
+            mean[c] += w[i] * x[i, c]
+    row = np.empty(D)
+    best, best_d2 = 0, math.inf
+    for i in range(M):
+        for c in range(D):
+            row[c] = (x[i, c] - mean[c]) ** 2
+        d2 = pairwise_sum(row, 0, D) if math.isfinite(sc[i]) else math.inf
+        if math.isnan(d2):  # np.argmin: the first NaN
+            return i
+        if d2 < best_d2:
+            best, best_d2 = i, d2
+    return best
