@@ -28,7 +28,7 @@ __all__ = ["RowSet", "TABLE_COLUMNS", "compiled_kernels", "require_kernel"]
 _WEIBULL, _EXPON, _MIXED = 0, 1, 2
 
 TABLE_COLUMNS = ("expon", "k_h", "lam_h", "-log lam_h", "k_v", "lam_v", "-log lam_v", "log(k_h/lam_h)", "k_h - 1",
-                 "k_h == 1", "log(k_v/lam_v)", "k_v - 1", "k_v == 1", "mu", "kappa", "log i0e(kappa)")
+                 "k_h == 1", "log(k_v/lam_v)", "k_v - 1", "k_v == 1", "mu", "kappa", "log i0e(kappa)", "cos mu", "sin mu")
 """The columns of :attr:`RowSet.table`, one row per parameter row: what the compiled densities read."""
 
 _KERNELS: ModuleType | None = None
@@ -104,7 +104,7 @@ class RowSet:
             # terms are NumPy's (elementwise: a term of a row is the same wherever it is made).
             self.table = np.ascontiguousarray(np.column_stack([
                 e.astype(float), kh, lh, -np.log(lh), kv, lv, -np.log(lv), *self.weibull[0], *self.weibull[1], mu, kap,
-                self.log_i0e]).reshape(-1, len(TABLE_COLUMNS)), dtype=float)
+                self.log_i0e, np.cos(mu), np.sin(mu)]).reshape(-1, len(TABLE_COLUMNS)), dtype=float)
 
     def logpdf(self, vecs: np.ndarray) -> np.ndarray:
         """(N, K) row log-densities of vectors (N, K, 3): ``polar_rows_logpdf(*polar(vecs, eps), params, expon)``."""

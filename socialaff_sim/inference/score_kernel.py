@@ -109,30 +109,61 @@ def _nan_to_num(v: float) -> float:
 
 @njit
 def _weibull(x: float, lam: float, k: float, lkl: float, km1: float, k1: float) -> float:
-    """``row_density._weibull`` of one element: log(k/λ) − z^k + (k − 1) log z, z = x/λ (0 for the term when k = 1)."""
+    """``row_density._weibull`` of one element: log(k/λ) − z^k + (k − 1) log z, z = x/λ (0 for the term when k = 1).
+    z^k as exp(k log z) from the log made anyway (C's pow is about as dear as log and exp together; the same value
+    within |k log z| ulp), by pow itself where z is 0, infinite or NaN or k is not finite (its conventions)."""
     z = x / lam
-    logz = math.log(z) if z > 0.0 else (-math.inf if z == 0.0 else math.nan)
-    core = lkl - z**k
+    if z > 0.0 and z < math.inf and math.isfinite(k):
+        logz = math.log(z)
+        zk = math.exp(k * logz)
+    else:
+        logz = -math.inf if z == 0.0 else (math.inf if z == math.inf else math.nan)
+        zk = z**k
+    core = lkl - zk
     term = 0.0 if k1 != 0.0 else km1 * logz
     return core + term
 
 
 @njit
 def _row(x: float, y: float, zc: float, tab: np.ndarray, i: int, eps: float) -> float:
-    """The log-density of one vector (x, y, z) under row ``i`` of ``tab`` (:meth:`~.row_density.RowSet.logpdf`)."""
-    h = math.hypot(x, y)
-    if h < eps:  # np.maximum(h, ε): NaN stays NaN
-        h = eps
+    """The log-density of one vector (x, y, z) under row ``i`` of ``tab`` (:meth:`~.row_density.RowSet.logpdf`).
+    cos(θ − μ) with θ = arctan2(y, x) as (x cos μ + y sin μ) / r (r = hypot(x, y); cos μ and sin μ NumPy's, in the
+    table): the same value within a few ulp of 1, and neither arctan2 nor cos; where r is 0, infinite or NaN (the
+    angle is arctan2's convention there), by arctan2 and cos."""
+    r = math.hypot(x, y)
+    h = eps if r < eps else r  # np.maximum(h, ε): NaN stays NaN
     v = abs(zc)
     if v < eps:
         v = eps
-    th = math.atan2(y, x)
+    if r > 0.0 and r < math.inf:
+        c = (x * tab[i, 16] + y * tab[i, 17]) / r
+    else:
+        c = math.cos(math.atan2(y, x) - tab[i, 13])
     if tab[i, 0] != 0.0:
         dist = (tab[i, 3] - h / tab[i, 2]) + (tab[i, 6] - v / tab[i, 5])
     else:
         dist = (_weibull(h, tab[i, 2], tab[i, 1], tab[i, 7], tab[i, 8], tab[i, 9])
                 + _weibull(v, tab[i, 5], tab[i, 4], tab[i, 10], tab[i, 11], tab[i, 12]))
-    return dist + (tab[i, 14] * (math.cos(th - tab[i, 13]) - 1.0) - LOG_2PI - tab[i, 15])
+    return dist + (tab[i, 14] * (c - 1.0) - LOG_2PI - tab[i, 15])
+
+
+@njit
+def _same(a: float, b: float) -> bool:
+    """a and b the same float (−0.0 and 0.0 differ: arctan2 tells them apart; NaN is never the same)."""
+    return a == b and (a != 0.0 or math.copysign(1.0, a) == math.copysign(1.0, b))
+
+
+@njit
+def _row_kept(x: float, y: float, zc: float, tab: np.ndarray, i: int, eps: float, last: np.ndarray,
+              kept: np.ndarray) -> float:
+    """:func:`_row`, or the value it gave row ``i`` last if the vector is the same (candidates share agent 0's and the
+    object's joints: their rows repeat; a pure function of the same inputs is the same value)."""
+    if _same(x, last[i, 0]) and _same(y, last[i, 1]) and _same(zc, last[i, 2]):
+        return kept[i]
+    val = _row(x, y, zc, tab, i, eps)
+    last[i, 0], last[i, 1], last[i, 2] = x, y, zc
+    kept[i] = val
+    return val
 
 
 @njit
@@ -140,9 +171,11 @@ def rows_logpdf(vecs: np.ndarray, tab: np.ndarray, eps: float) -> np.ndarray:
     """(N, K) row log-densities of vectors (N, K, 3) under the K rows of ``tab`` (:attr:`~.row_density.RowSet.table`)."""
     N, K = vecs.shape[0], vecs.shape[1]
     out = np.empty((N, K))
+    last = np.full((K, 3), np.nan)
+    kept = np.empty(K)
     for n in range(N):
         for k in range(K):
-            out[n, k] = _row(vecs[n, k, 0], vecs[n, k, 1], vecs[n, k, 2], tab, k, eps)
+            out[n, k] = _row_kept(vecs[n, k, 0], vecs[n, k, 1], vecs[n, k, 2], tab, k, eps, last, kept)
     return out
 
 
@@ -161,6 +194,8 @@ def scores(cand: np.ndarray, before: np.ndarray, sp_joint: np.ndarray, w: np.nda
     A, B, D = aff.shape[0], moving.shape[0], L.shape[0]
     out = np.empty(M)
     dens = np.empty(R + Q)
+    last = np.full((R + Q, 3), np.nan)
+    kept = np.empty(R + Q)
     terms = np.empty(max(A, B, 1))
     res = np.empty(D)
     for n in range(M):
@@ -173,11 +208,11 @@ def scores(cand: np.ndarray, before: np.ndarray, sp_joint: np.ndarray, w: np.nda
                 rx += w[k, c] * cand[n, cols[c], 0]
                 ry += w[k, c] * cand[n, cols[c], 1]
                 rz += w[k, c] * cand[n, cols[c], 2]
-            dens[k] = _row(cand[n, j, 0] - rx, cand[n, j, 1] - ry, cand[n, j, 2] - rz, tab, k, eps)
+            dens[k] = _row_kept(cand[n, j, 0] - rx, cand[n, j, 1] - ry, cand[n, j, 2] - rz, tab, k, eps, last, kept)
         for q in range(Q):
             j = mo_joint[q]
-            dens[R + q] = _row(cand[n, j, 0] - before[j, 0], cand[n, j, 1] - before[j, 1],
-                               cand[n, j, 2] - before[j, 2], tab, R + q, eps)
+            dens[R + q] = _row_kept(cand[n, j, 0] - before[j, 0], cand[n, j, 1] - before[j, 1],
+                                    cand[n, j, 2] - before[j, 2], tab, R + q, eps, last, kept)
         mo = pairwise_sum(dens, R, Q)
         if math.isnan(mo):
             mo = -math.inf
