@@ -194,27 +194,50 @@ class CandidatePlanner:
     ) -> np.ndarray:
         """:meth:`_score` by the compiled kernel (:func:`~.score_kernel.scores`, with the type tables): the same terms,
         within the tolerance of docs/design.md §7."""
+        plan = self._type_plan(s)
+        own = z is plan.z or np.array_equal(z, plan.z)  # the planner passes the plan's own z
+        args = self._kernel_args(s, z, plan, own)  # ..., the sign terms, then the end regression's L, log det, D log 2π
+        if prior is None:
+            tail = (0, _A1, _NO_MEAN, *args[-3:])
+        elif prior.factor is not None and prior.factor is plan.factor and args[-3] is not _NO_L:
+            tail = (1, _A1, np.ascontiguousarray(prior.mean, float), *args[-3:])
+        else:  # a prior without the plan's factor (made here, as RegressionPrior.log_density makes it)
+            L, logdet = prior.factor if prior.factor is not None else gaussian_factor(prior.regression)
+            const = float(prior.regression.cov.shape[0] * _LOG_2PI_NP)
+            tail = (1, _A1, np.ascontiguousarray(prior.mean, float), _fixed(L), float(logdet), const)
+        return compiled_kernels().scores(
+            np.ascontiguousarray(configs, float), np.ascontiguousarray(before, float), *args[:-3], *tail)
+
+    def _kernel_args(self, s: int, z: np.ndarray, plan: _TypePlan, own: bool) -> tuple:
+        """The compiled scores' inputs of type ``s`` that do not change within a stream (the type tables' rows, the sign
+        terms, the end regression's factor), read-only: made for every type at once for the plans' own groupings and kept
+        with the plans (so that the reactor's state does not change size later in a stream), else anew."""
+        if not own:
+            return self._make_kernel_args(s, z, plan, False)
+        cache = self.__dict__.get("_kargs")
+        if cache is None or cache[0] is not self._plans[1]:
+            args = {k: self._make_kernel_args(k, p.z, p, True) for k, p in self._plans[1].items()}
+            cache = self._kargs = (self._plans[1], args)
+        return cache[1][s]
+
+    def _make_kernel_args(self, s: int, z: np.ndarray, plan: _TypePlan, own: bool) -> tuple:
         assert self._tables is not None
         sp_joint, w, cols, mo_joint, table = self._tables.score_rows(s)
         sign: SignTerms | None = None
         if self.config.vertical_sign:
-            plan = self._type_plan(s)
-            same = z is plan.z or np.array_equal(z, plan.z)
-            sign = plan.sign if plan.sign is not None and same else SignTerms.of(self.model, s, z, self._weights(s, z))
+            sign = plan.sign if plan.sign is not None and own else SignTerms.of(self.model, s, z, self._weights(s, z))
         if sign is None or not sign.aff.size:
             aff, sign_w, off_up = _NO_INT, _NO_ROWS, _NO_UP
         else:
             aff, sign_w, off_up = _fixed(sign.aff), _fixed(np.ascontiguousarray(sign.weights)), _fixed(sign.offset_up)
         moving, disp_up = (_NO_INT, _NO_UP) if sign is None or not sign.moving.size else (_fixed(sign.moving), _fixed(sign.disp_up))
-        if prior is None:
-            mean, L, logdet, const = _NO_MEAN, _NO_L, 0.0, 0.0
+        reg = self.model.end_regression_[s] if self.config.end_prior == "regression" else None
+        if plan.factor is None or reg is None:
+            prior = (_NO_L, 0.0, 0.0)
         else:
-            L, logdet = prior.factor if prior.factor is not None else gaussian_factor(prior.regression)
-            mean, L, const = np.ascontiguousarray(prior.mean, float), _fixed(L), float(prior.regression.cov.shape[0] * _LOG_2PI_NP)
-        return compiled_kernels().scores(
-            np.ascontiguousarray(configs, float), np.ascontiguousarray(before, float), _fixed(sp_joint), _fixed(w),
-            _fixed(cols), _fixed(mo_joint), _fixed(table), float(self._tables.eps), int(sign is not None), aff, sign_w,
-            off_up, moving, disp_up, int(prior is not None), _A1, mean, L, float(logdet), const)
+            prior = (_fixed(plan.factor[0]), float(plan.factor[1]), float(reg.cov.shape[0] * _LOG_2PI_NP))
+        return (_fixed(sp_joint), _fixed(w), _fixed(cols), _fixed(mo_joint), _fixed(table), float(self._tables.eps),
+                int(sign is not None), aff, sign_w, off_up, moving, disp_up, *prior)
 
     def _select(
         self, s: int, z: np.ndarray, cand: np.ndarray, before: np.ndarray, static: np.ndarray,

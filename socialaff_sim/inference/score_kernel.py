@@ -125,26 +125,30 @@ def _weibull(x: float, lam: float, k: float, lkl: float, km1: float, k1: float) 
 
 
 @njit
-def _row(x: float, y: float, zc: float, tab: np.ndarray, i: int, eps: float) -> float:
-    """The log-density of one vector (x, y, z) under row ``i`` of ``tab`` (:meth:`~.row_density.RowSet.logpdf`).
-    cos(θ − μ) with θ = arctan2(y, x) as (x cos μ + y sin μ) / r (r = hypot(x, y); cos μ and sin μ NumPy's, in the
-    table): the same value within a few ulp of 1, and neither arctan2 nor cos; where r is 0, infinite or NaN (the
-    angle is arctan2's convention there), by arctan2 and cos."""
-    r = math.hypot(x, y)
+def _density(x: float, y: float, zc: float, eps: float, expon: bool, kh: float, lh: float, nlh: float, kv: float,
+             lv: float, nlv: float, lkl_h: float, km1_h: float, k1_h: float, lkl_v: float, km1_v: float, k1_v: float,
+             mu: float, kap: float, li0e: float, cmu: float, smu: float) -> float:
+    """The log-density of one vector (x, y, z) under one row (:meth:`~.row_density.RowSet.logpdf`; the row's terms as
+    scalars: a call that passes no array costs no reference counting). cos(θ − μ) with θ = arctan2(y, x) as
+    (x cos μ + y sin μ) / r (r = |(x, y)|; cos μ and sin μ NumPy's, from the table): the same value within a few ulp of
+    1, without arctan2 and cos; where r is 0, infinite or NaN (arctan2's conventions for the angle), by arctan2 and
+    cos."""
+    r2 = x * x + y * y
+    # sqrt(x² + y²) within an ulp of hypot (a fraction of its cost); hypot itself where the squares could lose range
+    r = math.sqrt(r2) if r2 > 1e-280 and r2 < 1e280 else math.hypot(x, y)
     h = eps if r < eps else r  # np.maximum(h, ε): NaN stays NaN
     v = abs(zc)
     if v < eps:
         v = eps
     if r > 0.0 and r < math.inf:
-        c = (x * tab[i, 16] + y * tab[i, 17]) / r
+        c = (x * cmu + y * smu) / r
     else:
-        c = math.cos(math.atan2(y, x) - tab[i, 13])
-    if tab[i, 0] != 0.0:
-        dist = (tab[i, 3] - h / tab[i, 2]) + (tab[i, 6] - v / tab[i, 5])
+        c = math.cos(math.atan2(y, x) - mu)
+    if expon:
+        dist = (nlh - h / lh) + (nlv - v / lv)
     else:
-        dist = (_weibull(h, tab[i, 2], tab[i, 1], tab[i, 7], tab[i, 8], tab[i, 9])
-                + _weibull(v, tab[i, 5], tab[i, 4], tab[i, 10], tab[i, 11], tab[i, 12]))
-    return dist + (tab[i, 14] * (c - 1.0) - LOG_2PI - tab[i, 15])
+        dist = _weibull(h, lh, kh, lkl_h, km1_h, k1_h) + _weibull(v, lv, kv, lkl_v, km1_v, k1_v)
+    return dist + (kap * (c - 1.0) - LOG_2PI - li0e)
 
 
 @njit
@@ -154,28 +158,31 @@ def _same(a: float, b: float) -> bool:
 
 
 @njit
-def _row_kept(x: float, y: float, zc: float, tab: np.ndarray, i: int, eps: float, last: np.ndarray,
-              kept: np.ndarray) -> float:
-    """:func:`_row`, or the value it gave row ``i`` last if the vector is the same (candidates share agent 0's and the
-    object's joints: their rows repeat; a pure function of the same inputs is the same value)."""
-    if _same(x, last[i, 0]) and _same(y, last[i, 1]) and _same(zc, last[i, 2]):
-        return kept[i]
-    val = _row(x, y, zc, tab, i, eps)
-    last[i, 0], last[i, 1], last[i, 2] = x, y, zc
-    kept[i] = val
-    return val
+def _fill(vecs: np.ndarray, tab: np.ndarray, eps: float, out: np.ndarray) -> None:
+    """``out`` (N, K) ← the row log-densities of vectors (N, K, 3) under the K rows of ``tab``, row by row; a vector
+    the same as the previous one's under that row keeps its value (candidates share agent 0's and the object's joints,
+    so their rows repeat: a pure function of the same inputs is the same value)."""
+    N, K = vecs.shape[0], vecs.shape[1]
+    for k in range(K):
+        expon = tab[k, 0] != 0.0
+        kh, lh, nlh, kv, lv, nlv = tab[k, 1], tab[k, 2], tab[k, 3], tab[k, 4], tab[k, 5], tab[k, 6]
+        lkl_h, km1_h, k1_h, lkl_v, km1_v, k1_v = tab[k, 7], tab[k, 8], tab[k, 9], tab[k, 10], tab[k, 11], tab[k, 12]
+        mu, kap, li0e, cmu, smu = tab[k, 13], tab[k, 14], tab[k, 15], tab[k, 16], tab[k, 17]
+        px, py, pz, val = math.nan, math.nan, math.nan, math.nan
+        for n in range(N):
+            x, y, zc = vecs[n, k, 0], vecs[n, k, 1], vecs[n, k, 2]
+            if not (_same(x, px) and _same(y, py) and _same(zc, pz)):
+                val = _density(x, y, zc, eps, expon, kh, lh, nlh, kv, lv, nlv, lkl_h, km1_h, k1_h, lkl_v, km1_v,
+                               k1_v, mu, kap, li0e, cmu, smu)
+                px, py, pz = x, y, zc
+            out[n, k] = val
 
 
 @njit
 def rows_logpdf(vecs: np.ndarray, tab: np.ndarray, eps: float) -> np.ndarray:
     """(N, K) row log-densities of vectors (N, K, 3) under the K rows of ``tab`` (:attr:`~.row_density.RowSet.table`)."""
-    N, K = vecs.shape[0], vecs.shape[1]
-    out = np.empty((N, K))
-    last = np.full((K, 3), np.nan)
-    kept = np.empty(K)
-    for n in range(N):
-        for k in range(K):
-            out[n, k] = _row_kept(vecs[n, k, 0], vecs[n, k, 1], vecs[n, k, 2], tab, k, eps, last, kept)
+    out = np.empty((vecs.shape[0], vecs.shape[1]))
+    _fill(vecs, tab, eps, out)
     return out
 
 
@@ -193,11 +200,7 @@ def scores(cand: np.ndarray, before: np.ndarray, sp_joint: np.ndarray, w: np.nda
     R, Q, C = sp_joint.shape[0], mo_joint.shape[0], cols.shape[0]
     A, B, D = aff.shape[0], moving.shape[0], L.shape[0]
     out = np.empty(M)
-    dens = np.empty(R + Q)
-    last = np.full((R + Q, 3), np.nan)
-    kept = np.empty(R + Q)
-    terms = np.empty(max(A, B, 1))
-    res = np.empty(D)
+    vecs = np.empty((M, R + Q, 3))
     for n in range(M):
         for k in range(R):
             j = sp_joint[k]
@@ -208,11 +211,21 @@ def scores(cand: np.ndarray, before: np.ndarray, sp_joint: np.ndarray, w: np.nda
                 rx += w[k, c] * cand[n, cols[c], 0]
                 ry += w[k, c] * cand[n, cols[c], 1]
                 rz += w[k, c] * cand[n, cols[c], 2]
-            dens[k] = _row_kept(cand[n, j, 0] - rx, cand[n, j, 1] - ry, cand[n, j, 2] - rz, tab, k, eps, last, kept)
+            vecs[n, k, 0] = cand[n, j, 0] - rx
+            vecs[n, k, 1] = cand[n, j, 1] - ry
+            vecs[n, k, 2] = cand[n, j, 2] - rz
         for q in range(Q):
             j = mo_joint[q]
-            dens[R + q] = _row_kept(cand[n, j, 0] - before[j, 0], cand[n, j, 1] - before[j, 1],
-                                    cand[n, j, 2] - before[j, 2], tab, R + q, eps, last, kept)
+            for d in range(3):
+                vecs[n, R + q, d] = cand[n, j, d] - before[j, d]
+    rows = np.empty((M, R + Q))
+    _fill(vecs, tab, eps, rows)
+    terms = np.empty(max(A, B, 1))
+    res = np.empty(D)
+    J = cand.shape[1]
+    zn = np.empty(J)
+    for n in range(M):
+        dens = rows[n]
         mo = pairwise_sum(dens, R, Q)
         if math.isnan(mo):
             mo = -math.inf
@@ -225,10 +238,12 @@ def scores(cand: np.ndarray, before: np.ndarray, sp_joint: np.ndarray, w: np.nda
         if sign:
             sg = 0.0
             if A:
+                for j in range(J):
+                    zn[j] = _nan_to_num(cand[n, j, 2])
                 for a in range(A):
                     ref = 0.0
-                    for j in range(cand.shape[1]):
-                        ref += sign_w[a, j] * _nan_to_num(cand[n, j, 2])
+                    for j in range(J):
+                        ref += sign_w[a, j] * zn[j]
                     terms[a] = off_up[0, a] if cand[n, aff[a], 2] - ref > 0.0 else off_up[1, a]
                 sg += pairwise_sum(terms, 0, A)
             if B:
