@@ -189,3 +189,27 @@ def test_compiled_choice_is_the_expected_error_choice_on_random_inputs(rng: np.r
             if np.isfinite(score).any():
                 differs += int(want != int(np.argmax(score)))
     assert differs > 10
+
+
+@needs_numba
+def test_type_tables_with_the_compiled_densities_are_numpys(shake8_model: SocialAffordanceModel, rng: np.random.Generator) -> None:
+    """``TypeTables.of(model, "numba")`` (what the forward belief may read): every type's spatial and motion
+    potentials within the tolerance of NumPy's tables, −inf where a read joint is NaN; ``TypeTables.of(model)`` stays
+    NumPy's, one object per model and kernel."""
+    from socialaff_sim.inference.type_tables import TypeTables
+
+    ref, fast = TypeTables.of(shake8_model), TypeTables.of(shake8_model, "numba")
+    assert ref is TypeTables.of(shake8_model) and fast is TypeTables.of(shake8_model, "numba") and ref is not fast
+    assert ref.kernel == "numpy" and fast.kernel == "numba"
+    end = rng.normal(scale=0.5, size=(40, 11, 3))
+    end[3, 0] = np.nan
+    disp = rng.normal(scale=0.1, size=(40, 11, 3))
+    disp[5, 6] = np.nan
+    _close(fast.spatial(end), ref.spatial(end))
+    _close(fast.motion(disp), ref.motion(disp))
+    for s in range(ref.S):
+        _close(fast.spatial(end, s), ref.spatial(end, s))
+        _close(fast.motion(disp, s), ref.motion(disp, s))
+        for a, b in zip(fast.spatial_motion(end, disp, s), ref.spatial_motion(end, disp, s), strict=True):
+            _close(a, b)
+    assert np.isneginf(ref.spatial(end)[3]).all()
