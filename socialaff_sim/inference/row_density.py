@@ -42,12 +42,15 @@ def require_kernel(kernel: str) -> None:
 
 
 def compiled_kernels() -> ModuleType:
-    """The compiled kernels (:mod:`~.score_kernel`), imported at the first call: that module needs numba, an optional
-    extra, so the package imports and runs without it (:func:`require_kernel`'s error when it is missing)."""
+    """The compiled kernels (:mod:`~.score_kernel`), imported and loaded (:func:`~.score_kernel.warm`) at the first call:
+    that module needs numba, an optional extra, so the package imports and runs without it (:func:`require_kernel`'s
+    error when it is missing)."""
     global _KERNELS
     if _KERNELS is None:
         require_kernel("numba")
-        _KERNELS = importlib.import_module(".score_kernel", __package__)
+        kernels = importlib.import_module(".score_kernel", __package__)
+        kernels.warm()  # the JIT's cost (a compilation, or its cache's load) now, not at a stream's first re-planning
+        _KERNELS = kernels
     return _KERNELS
 
 

@@ -309,3 +309,23 @@ def choice(cand: np.ndarray, a1: np.ndarray, score: np.ndarray, temperature: flo
         if d2 < best_d2:
             best, best_d2 = i, d2
     return best
+
+
+def _fixed(a: np.ndarray) -> np.ndarray:
+    v = a.view()
+    v.flags.writeable = False
+    return v
+
+
+def warm() -> None:
+    """Load (or compile) every kernel for the argument types the reactor passes (its fixed inputs read-only, the
+    candidates and the prior's mean writable), on a tiny input: called once, when the first reactor with
+    ``kernel="numba"`` is made, so that the JIT's cost is paid there and not at the stream's first re-planning."""
+    tab = _fixed(np.ones((1, 18)))
+    ints, rows, up = _fixed(np.zeros(1, np.int64)), _fixed(np.zeros((1, 11))), _fixed(np.full((2, 1), -0.5))
+    cand, before = np.zeros((2, 11, 3)), np.zeros((11, 3))
+    a1 = _fixed(np.arange(5, 10, dtype=np.int64))
+    rows_logpdf(np.zeros((2, 1, 3)), tab, 1e-3)
+    scores(cand, before, ints, _fixed(np.ones((1, 1))), ints, ints, _fixed(np.ones((2, 18))), 1e-3, 1, ints, rows, up,
+           ints, up, 1, a1, np.zeros((5, 3)), _fixed(np.eye(15)), 0.0, 0.0)
+    choice(cand, a1, np.zeros(2), 5.0)
