@@ -213,3 +213,21 @@ def test_type_tables_with_the_compiled_densities_are_numpys(shake8_model: Social
         for a, b in zip(fast.spatial_motion(end, disp, s), ref.spatial_motion(end, disp, s), strict=True):
             _close(a, b)
     assert np.isneginf(ref.spatial(end)[3]).all()
+
+
+@needs_numba
+def test_a_repeated_vector_keeps_its_value_but_a_signed_zero_is_not_the_same_vector(rng: np.random.Generator) -> None:
+    """The kept value of a row whose vector repeats is the value NumPy gives it; (−0, 0) is not (0, 0) — arctan2 gives
+    π and 0 — so keeping a value across them (comparing with ==) would fail here."""
+    p = _params(rng, 3)
+    p[:, 4], p[:, 5] = 0.3, 20.0  # μ, κ: the angle weighs
+    rows_np, rows_nb = RowSet(p, np.zeros(3, bool), 1e-3), RowSet(p, np.zeros(3, bool), 1e-3, "numba")
+    vecs = np.repeat(rng.normal(size=(1, 3, 3)), 6, axis=0)
+    vecs[2:4, 1, :2] = [0.0, 0.0]
+    vecs[3, 1, 0] = -0.0
+    vecs[4:, 2, :2] = [-0.0, -0.0]
+    vecs[5, 2, 0] = 0.0  # (0, −0): arctan2 −0, against (−0, −0): −π
+    with np.errstate(all="ignore"):
+        ref = rows_np.logpdf(vecs)
+    assert ref[2, 1] != ref[3, 1] and ref[4, 2] != ref[5, 2]  # the signed zeros matter
+    _close(rows_nb.logpdf(vecs), ref)
