@@ -42,11 +42,11 @@ def main() -> None:
     p.add_argument("--robot", default="ours")
     p.add_argument("--json", help="write the figures here")
     p.add_argument("--balance", nargs="*", default=[], metavar="FIELD=VALUE",
-                   help="BalanceConfig fields for the standing mode (Python literals), e.g. hand_weight=100.0")
+                   help="BalanceConfig fields for the standing mode (Python literals), e.g. hand_yield=0.5")
     p.add_argument("--completion", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="ContactCompletionConfig fields for every mode (Python literals), e.g. planned_shoulder=True")
     p.add_argument("--foot-lock", nargs="*", default=[], metavar="FIELD=VALUE",
-                   help="FootLockConfig fields for the standing mode (Python literals), e.g. catch_up=0.05")
+                   help="FootLockConfig fields for the standing mode (Python literals), e.g. hold_lift=0.08")
     p.add_argument("--labels", nargs="*", help="only these interactions")
     args = p.parse_args()
     over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.balance)}

@@ -34,9 +34,8 @@ for every mode that has one, ``--labels`` picks
 interactions. After the per-interaction table, one line per robot and mode summarises the contact phases, and one
 more counts the episodes failing by each failure kind (self-collision, force on the person, a drop), and one
 more gives how far the feet stand from where the foot lock planted them (the larger foot, in the frames in which
-both stand; ``FootLockConfig.touchdown`` and ``catch_up`` bring them there) with the touchdown waits and the
-physics steps in which ``BalanceConfig.release_reach`` held the harness on; with the balance controller, one more
-counts the harness's releases and catches over the whole episodes (by cause) and the physics steps of
+both stand; ``FootLockConfig.touchdown`` brings them there) with the touchdown waits; with the balance controller,
+one more counts the harness's releases and catches over the whole episodes (by cause) and the physics steps of
 ``BalanceConfig.torque_handover``'s ramps.
 
 The targets of issue 25 for feet that stay planted: outside support ≤ 5 % of
@@ -169,7 +168,6 @@ def main() -> None:
                                  "feet_offset_cm_median": 100 * float(np.median(both)) if both.size else None,
                                  "feet_offset_contact_cm_median": 100 * float(np.median(touching)) if touching.size else None,
                                  "touchdown_waits": None if lock is None or lock.touchdown is None else lock.touchdown.waits,
-                                 "reach_withheld_steps": None if bal is None or bal.reach is None else bal.reach.withheld,
                                  "catches": None if bal is None else bal.catches,
                                  "catch_reasons": None if bal is None else dict(bal.catch_reasons),
                                  "released_steps": None if bal is None else bal.released_steps,
@@ -235,8 +233,7 @@ def main() -> None:
             print(f"{robot:<12}{mode:<16}feet from their planted points while both stand (median over episodes of "
                   f"each episode's median): {np.median(off) if off else float('nan'):.1f} cm, in contact frames "
                   f"{np.median(offc) if offc else float('nan'):.1f} cm; touchdown waits "
-                  f"{sum(r['touchdown_waits'] or 0 for r in sel)}, release withheld by the ankles' reach in "
-                  f"{sum(r['reach_withheld_steps'] or 0 for r in sel)} physics steps")
+                  f"{sum(r['touchdown_waits'] or 0 for r in sel)}")
     for robot in args.robots:
         for mode in args.modes:
             sel = [r for r in rows if r["robot"] == robot and r["mode"] == mode and r["catches"] is not None]
