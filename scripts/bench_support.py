@@ -48,7 +48,6 @@ the weight, sliding ≤ 2 cm, torques within the limits. Example::
 from __future__ import annotations
 
 import argparse
-import ast
 import dataclasses
 import json
 import time
@@ -58,13 +57,17 @@ import numpy as np
 from socialaff_sim._atomic import atomic_write_text
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.retarget.robot import load_robot
+from socialaff_sim.retarget.contact_completion import ContactCompletionConfig
 from socialaff_sim.retarget.model_source import model_source
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.episode import run_episode
+from socialaff_sim.sim.footlock import FootLockConfig
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.stage import key_frames
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.stance import StanceConfig
+
+from _config_flags import field_settings  # scripts/ (sys.path[0])
 
 QP = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0)
 """The balance QP as measured for issue 25 (docs/benchmarks.md, "The balance solve as a quadratic program")."""
@@ -121,21 +124,21 @@ def main() -> None:
                         "literals), e.g. planned_shoulder=True")
     args = p.parse_args()
     if args.completion:
-        over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.completion)}
+        over = field_settings(p, "--completion", ContactCompletionConfig, args.completion)
         for mode, cfg in MODES.items():
             if cfg.contact_completion is not None:
                 MODES[mode] = dataclasses.replace(
                     cfg, contact_completion=dataclasses.replace(cfg.contact_completion, **over))
     if args.foot_lock:
-        lock = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.foot_lock)}
+        lock = field_settings(p, "--foot-lock", FootLockConfig, args.foot_lock)
         for mode, cfg in MODES.items():
             MODES[mode] = dataclasses.replace(cfg, foot_lock=dataclasses.replace(cfg.foot_lock, **lock))
     if args.balance:
-        over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.balance)}
+        over = field_settings(p, "--balance", BalanceConfig, args.balance)
         for mode in (m for m in ("balance", "balance_steady", "qp", "qp_steady", "standing") if m in args.modes):
             MODES[mode] = dataclasses.replace(MODES[mode], balance=dataclasses.replace(MODES[mode].balance, **over))
     if args.stance:
-        over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.stance)}
+        over = field_settings(p, "--stance", StanceConfig, args.stance)
         for mode, cfg in MODES.items():
             if cfg.stance is not None:
                 MODES[mode] = dataclasses.replace(cfg, stance=dataclasses.replace(cfg.stance, **over))
