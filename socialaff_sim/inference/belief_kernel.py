@@ -86,6 +86,14 @@ def _logaddexp(x: float, y: float) -> float:
     return tmp
 
 
+def _exp_term(v: float, safe: float) -> float:
+    """exp(v − safe), a log-sum-exp's term: 0 for v = −inf without calling exp (exp(−inf − safe) is exactly 0; most
+    of F's entries are −inf, the masks that do not hold their label); NaN stays NaN."""
+    if v == -math.inf:
+        return 0.0
+    return math.exp(v - safe)
+
+
 def _finish_lse(top: float, total: float) -> float:
     """The last step of ``forward_belief._lse``: log Σ exp(x − safe) + safe, safe = top if finite else 0."""
     safe = top if math.isfinite(top) else 0.0
@@ -127,7 +135,7 @@ def cuts(rows, floor, b0, n_cuts, stride, origin, horizon, starts, F, long, has_
                         safe = top if math.isfinite(top) else 0.0
                         tot = 0.0
                         for k in range(K):
-                            tot += math.exp((F[k, m, s] + seg[k, s]) - safe)
+                            tot += _exp_term(F[k, m, s] + seg[k, s], safe)
                         c = _finish_lse(top, tot)
                         if has_long:
                             c = _logaddexp(c, long[m, s] + seg[K, s])
@@ -141,7 +149,7 @@ def cuts(rows, floor, b0, n_cuts, stride, origin, horizon, starts, F, long, has_
                     safe = top if math.isfinite(top) else 0.0
                     tot = 0.0
                     for q in range(S):
-                        tot += math.exp((C[m, q] + trans[q, s]) - safe)
+                        tot += _exp_term(C[m, q] + trans[q, s], safe)
                     V[m, s] = _finish_lse(top, tot)
             Vf, Ff = V.reshape(-1), Fn.reshape(-1)
             for i in range(into.shape[0]):
@@ -196,7 +204,7 @@ def cuts(rows, floor, b0, n_cuts, stride, origin, horizon, starts, F, long, has_
                     safe = top if math.isfinite(top) else 0.0
                     tot = 0.0
                     for k in range(old):
-                        tot += math.exp(o[k, m, s] - safe)
+                        tot += _exp_term(o[k, m, s], safe)
                     oldF[m, s] = _finish_lse(top, tot)
             long = long.copy()
             for m in range(M):
@@ -211,7 +219,7 @@ def cuts(rows, floor, b0, n_cuts, stride, origin, horizon, starts, F, long, has_
                     safe = top if math.isfinite(top) else 0.0
                     tot = 0.0
                     for m in range(M):
-                        tot += math.exp(long[m, s] - safe)
+                        tot += _exp_term(long[m, s], safe)
                     merged[s] = _finish_lse(top, tot)
                 long = np.full((M, S), -np.inf)
                 for s in range(S):
@@ -259,7 +267,7 @@ def _lse_col(X: np.ndarray, s: int, M: int) -> float:
     safe = top if math.isfinite(top) else 0.0
     tot = 0.0
     for m in range(M):
-        tot += math.exp(X[m, s] - safe)
+        tot += _exp_term(X[m, s], safe)
     return _finish_lse(top, tot)
 
 
@@ -293,7 +301,7 @@ def posterior(t, starts, G, surv, horizon, has_long, long_read):  # noqa: ANN001
     return out_starts, p / tot, True
 
 
-_COMPILED = ("_nanmax", "_logaddexp", "_finish_lse", "_lse_col", "cuts", "posterior")
+_COMPILED = ("_nanmax", "_logaddexp", "_exp_term", "_finish_lse", "_lse_col", "cuts", "posterior")
 _loaded = False
 
 

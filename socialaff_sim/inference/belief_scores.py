@@ -5,8 +5,9 @@
 for the kept starts and the long bucket's row: the path sums advanced by the new frames, the spatial row densities of
 the common end frame, the motion row densities of each interval's displacement, the duration table, the path terms and
 the shortness mask, written as scalar loops over the same arrays (:func:`row_terms`: the terms
-:class:`~.row_density.RowSet` keeps). Not bitwise (sequential sums, the C library's functions): within the tolerance
-of docs/design.md §7 (session 27). Plain Python until :func:`~.belief_kernel.load` compiles it.
+:class:`~.row_density.RowSet` keeps). Not bitwise (sequential sums, the C library's functions, and two scalar forms:
+the von Mises cosine from μ's cosine and sine, the Weibull power from the logarithm it also needs): within the
+tolerance of docs/design.md §7 (session 27). Plain Python until :func:`~.belief_kernel.load` compiles it.
 """
 
 from __future__ import annotations
@@ -27,38 +28,54 @@ the caller raises)."""
 
 
 def row_terms(params: np.ndarray, expon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Polar parameter rows (R, 6) and their exponential flags (R,) as the kernel reads them: floats (R, 13) k_h, λ_h,
-    k_v, λ_v, μ, κ, log i0e(κ), log(k_h/λ_h), k_h − 1, log(k_v/λ_v), k_v − 1, −log λ_h, −log λ_v, and flags (R, 3)
-    exponential, k_h == 1, k_v == 1 (the terms :class:`~.row_density.RowSet` keeps, by the same functions)."""
+    """Polar parameter rows (R, 6) and their exponential flags (R,) as the kernel reads them: floats (R, 15) k_h, λ_h,
+    k_v, λ_v, μ, κ, log i0e(κ), log(k_h/λ_h), k_h − 1, log(k_v/λ_v), k_v − 1, −log λ_h, −log λ_v, cos μ, sin μ, and
+    flags (R, 3) exponential, k_h == 1, k_v == 1 (the terms :class:`~.row_density.RowSet` keeps, by the same
+    functions, and μ's cosine and sine)."""
     p = np.asarray(params, float).reshape(-1, 6)
-    kh, lh, kv, lv, kap = p[:, 0], p[:, 1], p[:, 2], p[:, 3], p[:, 5]
+    kh, lh, kv, lv, mu, kap = p.T
     with np.errstate(divide="ignore", invalid="ignore"):
         (lkl_h, km1_h, k1_h), (lkl_v, km1_v, k1_v) = weibull_terms(kh, lh), weibull_terms(kv, lv)
-        floats = np.column_stack([p, np.log(i0e(kap)), lkl_h, km1_h, lkl_v, km1_v, -np.log(lh), -np.log(lv)])
+        floats = np.column_stack([p, np.log(i0e(kap)), lkl_h, km1_h, lkl_v, km1_v, -np.log(lh), -np.log(lv),
+                                  np.cos(mu), np.sin(mu)])
     flags = np.column_stack([np.asarray(expon, bool), k1_h, k1_v])
     return np.ascontiguousarray(floats), np.ascontiguousarray(flags)
 
 
+def _power(z: float, lz: float, k: float) -> float:
+    """z^k from lz = log z: exp(k log z) (one exp instead of a pow; equal in exact arithmetic), pow where k = 0
+    (pow(NaN or ∞, 0) = 1)."""
+    return math.exp(k * lz) if k != 0.0 else z**k
+
+
 def _polar_row(x: float, y: float, z: float, f: np.ndarray, g: np.ndarray, r: int, eps: float) -> float:
-    """One row's polar log-density of the vector (x, y, z) (:meth:`~.row_density.RowSet.logpdf`'s arithmetic)."""
-    h = math.hypot(x, y)
+    """One row's polar log-density of the vector (x, y, z): :meth:`~.row_density.RowSet.logpdf`'s terms, with
+    cos(atan2(y, x) − μ) as (x cos μ + y sin μ) / |(x, y)| (where 0 < |(x, y)| < ∞; else as NumPy writes it) and the
+    Weibull z^k as exp(k log z) with log z taken once: equal in exact arithmetic, not bitwise."""
+    h0 = math.hypot(x, y)
+    h = h0
     if h == h and h < eps:
         h = eps
     v = abs(z)
     if v == v and v < eps:
         v = eps
-    th = math.atan2(y, x)
+    if 0.0 < h0 < math.inf:
+        c = (x * f[r, 13] + y * f[r, 14]) / h0
+    else:
+        c = math.cos(math.atan2(y, x) - f[r, 4])
     if g[r, 0]:
         dist = (f[r, 11] - h / f[r, 1]) + (f[r, 12] - v / f[r, 3])
     else:
         zh = h / f[r, 1]
-        a = f[r, 7] - zh ** f[r, 0]
-        a = a + (0.0 if g[r, 1] else f[r, 8] * math.log(zh))
+        lz = math.log(zh)
+        a = f[r, 7] - _power(zh, lz, f[r, 0])
+        a = a + (0.0 if g[r, 1] else f[r, 8] * lz)
         zv = v / f[r, 3]
-        b = f[r, 9] - zv ** f[r, 2]
-        b = b + (0.0 if g[r, 2] else f[r, 10] * math.log(zv))
+        lz = math.log(zv)
+        b = f[r, 9] - _power(zv, lz, f[r, 2])
+        b = b + (0.0 if g[r, 2] else f[r, 10] * lz)
         dist = a + b
-    return dist + (f[r, 5] * (math.cos(th - f[r, 4]) - 1.0) - _LOG_2PI - f[r, 6])
+    return dist + (f[r, 5] * (c - 1.0) - _LOG_2PI - f[r, 6])
 
 
 def _frame_ok(f: int, floor: int, n: int) -> int:
@@ -173,5 +190,5 @@ def closed_scores(rows, floor, b, starts, K, has_long, horizon, a, upto, ps,  # 
     return seg, NO_ERROR, 0
 
 
-_COMPILED = ("_polar_row", "_frame_ok", "closed_scores")
+_COMPILED = ("_power", "_polar_row", "_frame_ok", "closed_scores")
 """What :func:`~.belief_kernel.load` compiles here, helpers first."""
