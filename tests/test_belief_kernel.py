@@ -16,8 +16,9 @@ import numpy as np
 import pytest
 
 from socialaff_sim.errors import ConfigError, ModelError
-from socialaff_sim.inference import belief_scores, compiled
+from socialaff_sim.inference import belief_kernel, belief_scores, compiled
 from socialaff_sim.inference.forward_belief import ForwardBelief
+from socialaff_sim.inference.row_density import RowSet
 from socialaff_sim.inference.track_window import TrackWindow
 
 needs_numba = pytest.mark.skipif(not compiled.available(), reason="numba (the [fast] extra) is not installed")
@@ -147,6 +148,35 @@ def test_nothing_possible_gives_the_uniform_fallback(shake8_model, rng: np.rando
 def test_one_type(shake8_model, rng: np.random.Generator, unique: bool) -> None:  # noqa: ANN001
     model = _one_type(_model(shake8_model, unique_labels=unique))
     assert _both(model, rng, 150, 5, 25, jumps=3)["long"]
+
+
+@needs_numba
+@pytest.mark.parametrize("kind", ["weibull", "exponential", "mixed"])
+def test_polar_row_is_the_row_densities(rng: np.random.Generator, kind: str) -> None:
+    """One row's compiled density against :meth:`RowSet.logpdf` (the NumPy code the belief's cut reads) on random
+    vectors and the edge cases: x = y = 0 (also −0.0: the cosine by atan2, as NumPy), below ε, NaN, ±inf, huge and
+    tiny, k = 1 rows (the convention's branch), κ = 0."""
+    belief_kernel.load()
+    R, eps = 12, 1e-6
+    params = np.column_stack([rng.uniform(0.5, 3.0, R), rng.uniform(0.05, 1.0, R), rng.uniform(0.5, 3.0, R),
+                              rng.uniform(0.05, 1.0, R), rng.uniform(-np.pi, np.pi, R), rng.uniform(0.0, 20.0, R)])
+    params[0, 0] = params[1, 2] = 1.0  # k = 1
+    params[2, 5] = 0.0  # κ = 0
+    expon = {"weibull": np.zeros(R, bool), "exponential": np.ones(R, bool), "mixed": rng.random(R) < 0.5}[kind]
+    vecs = rng.normal(scale=0.3, size=(40, R, 3))
+    vecs[1] = 0.0
+    vecs[2, :, 0], vecs[2, :, 1] = -0.0, 0.0
+    vecs[3] *= 1e-9  # below ε
+    vecs[4, ::3, 0] = np.nan
+    vecs[5, ::2, 1] = np.inf
+    vecs[6, 1::2, 2] = -np.inf
+    vecs[7] *= 1e6
+    vecs[8, :, 1] = 0.0  # on the x axis (θ = 0 or π)
+    ref = RowSet(params, expon, eps).logpdf(vecs)
+    f, g = belief_scores.row_terms(params, expon)
+    got = np.array([[belief_scores._polar_row(*vecs[i, r], f, g, r, eps) for r in range(R)] for i in range(vecs.shape[0])])
+    _close(got, ref, kind)
+    assert np.isnan(ref).any() and np.isfinite(ref).sum() > 300  # the edge cases were met, most rows are finite
 
 
 @needs_numba

@@ -57,10 +57,10 @@ def constants(tables: object, sums: object, base: tuple, horizon: int, stride: i
     powers, coefs, u2 = sums.profile_terms(horizon + stride + 2)
     c = np.ascontiguousarray
     return Constants((c(sp_f), c(sp_b), c(tables.sp_w, float), c(read), c(tables.sp_joint), c(tables.sp_type),
-            c(mo_f), c(mo_b), c(tables.mo_joint), c(tables.mo_type),
-            c(trans, float), c(bits, np.int64), c(surv, float), c(dur, float), c(short, bool),
-            c(path_use, bool), c(path_c, float), c(path_2s2, float), c(into, np.int64), c(from_, np.int64),
-            c(powers), c(coefs), c(u2), c(log_start, float), float(tables.eps)))
+                      c(mo_f), c(mo_b), c(tables.mo_joint), c(tables.mo_type),
+                      c(trans, float), c(bits, np.int64), c(surv, float), c(dur, float), c(short, bool),
+                      c(path_use, bool), c(path_c, float), c(path_2s2, float), c(into, np.int64), c(from_, np.int64),
+                      c(powers), c(coefs), c(u2), c(log_start, float), float(tables.eps)))
 
 
 # --- scalar helpers (NumPy's rules for NaN and −inf) -------------------------------------------------------------
@@ -111,6 +111,7 @@ def cuts(rows, floor, b0, n_cuts, stride, origin, horizon, starts, F, long, has_
     J3 = sp_w.shape[1] * 3
     G = np.empty((0, S))
     G_long = np.full(S, -np.inf)
+    long = long.copy()  # the caller's bucket is not changed in place (renormalised below)
     for done in range(n_cuts):
         b = b0 + done * stride
         K = starts.shape[0]
@@ -123,8 +124,9 @@ def cuts(rows, floor, b0, n_cuts, stride, origin, horizon, starts, F, long, has_
             C = np.full((M, S), -np.inf)
             if K or has_long:
                 seg, code, frame = closed_scores(rows, floor, b, starts, K, has_long, horizon, a, upto, ps,
-                                        sp_f, sp_b, sp_w, read, sp_joint, sp_type, mo_f, mo_b, mo_joint, mo_type,
-                                        dur, short, path_use, path_c, path_2s2, powers, coefs, u2, eps, S)
+                                                 sp_f, sp_b, sp_w, read, sp_joint, sp_type, mo_f, mo_b, mo_joint,
+                                                 mo_type, dur, short, path_use, path_c, path_2s2, powers, coefs, u2,
+                                                 eps, S)
                 if code != NO_ERROR:
                     return starts, F, long, has_long, long_read, a, upto, ps, G, G_long, done, code, frame
                 for m in range(M):
@@ -171,8 +173,6 @@ def cuts(rows, floor, b0, n_cuts, stride, origin, horizon, starts, F, long, has_
         a2 = np.empty(keep, np.int64)
         upto2 = np.empty(keep, np.int64)
         ps2 = np.empty((keep, ps.shape[1]))
-        merged_any = False
-        oldF = np.full((M, S), -np.inf)
         o = np.empty((old, M, S))
         i2, io = 0, 0
         for k in range(K + 1):
@@ -194,8 +194,8 @@ def cuts(rows, floor, b0, n_cuts, stride, origin, horizon, starts, F, long, has_
                 for q in range(J3):
                     ps2[i2, q] = x[q // 3, q % 3]
             i2 += 1
-        if old:
-            merged_any = True
+        if old:  # the rows too old for the next cut join the long bucket
+            oldF = np.empty((M, S))
             for m in range(M):
                 for s in range(S):
                     top = -np.inf
@@ -206,7 +206,6 @@ def cuts(rows, floor, b0, n_cuts, stride, origin, horizon, starts, F, long, has_
                     for k in range(old):
                         tot += _exp_term(o[k, m, s], safe)
                     oldF[m, s] = _finish_lse(top, tot)
-            long = long.copy()
             for m in range(M):
                 for s in range(S):
                     long[m, s] = _logaddexp(long[m, s], oldF[m, s])
@@ -224,8 +223,6 @@ def cuts(rows, floor, b0, n_cuts, stride, origin, horizon, starts, F, long, has_
                 long = np.full((M, S), -np.inf)
                 for s in range(S):
                     long[bits[s], s] = merged[s]
-        if not merged_any:
-            long = long.copy()
         starts, F, a, upto, ps = starts2, F2, a2, upto2, ps2
         # Renormalise: Python's max of the two NumPy maxima (the first unless the second is greater).
         tf = -np.inf

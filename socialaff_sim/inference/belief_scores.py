@@ -86,9 +86,9 @@ def _frame_ok(f: int, floor: int, n: int) -> int:
     return NO_ERROR
 
 
-def closed_scores(rows, floor, b, starts, K, has_long, horizon, a, upto, ps,  # noqa: ANN001, ANN202
-         sp_f, sp_b, sp_w, read, sp_joint, sp_type, mo_f, mo_b, mo_joint, mo_type,
-         dur, short, path_use, path_c, path_2s2, powers, coefs, u2, eps, S):
+def closed_scores(rows, floor, b, starts, K, has_long, horizon, a, upto, ps,  # noqa: ANN001, ANN201
+                  sp_f, sp_b, sp_w, read, sp_joint, sp_type, mo_f, mo_b, mo_joint, mo_type,
+                  dur, short, path_use, path_c, path_2s2, powers, coefs, u2, eps, S):
     """(K + has_long, S) closed-interval scores [starts, b) (``ForwardBelief._closing``), the kept rows' path sums
     advanced to the end frame b − 1 first (``PathSums.residuals``). Returns (seg, error code, frame)."""
     J = sp_w.shape[1]
