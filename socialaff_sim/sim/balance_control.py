@@ -51,6 +51,7 @@ import numpy as np
 from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
 from .ankle_reach import AnkleReach, wanted_cop
 from .balance_config import BalanceConfig
+from .com_glide import ComGlide, rest_lead
 from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
 from .external_force import ExternalForces, lean_offset
@@ -119,6 +120,8 @@ class BalanceController:
         """``hand_weight``: the wrists' world-frame rows (:mod:`~.hand_task`), else ``None``."""
         self.handover = None if c.torque_handover is None else TorqueHandover(c.torque_handover, m.opt.timestep)
         """``torque_handover``: the servos' torques handed over to the controller's (:mod:`~.torque_handover`)."""
+        self.glide = None if c.com_glide is None else ComGlide(c.com_glide, m.opt.timestep)
+        """``com_glide``: the centre-of-mass goal glided from the measured centre of mass (:mod:`~.com_glide`)."""
         self._plan = mujoco.MjData(m)
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
@@ -159,8 +162,9 @@ class BalanceController:
             self.hand_task.reset()
         if self.reach is not None:
             self.reach.reset()
-        if self.handover is not None:
-            self.handover.reset()
+        for part in (self.handover, self.glide):
+            if part is not None:
+                part.reset()
 
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
@@ -217,6 +221,8 @@ class BalanceController:
             self._engaged = 0.0  # caught: the release waits its delay again
             root = self.scene.root_body
             self._caught = (d.xpos[root].copy(), d.xquat[root].copy(), 0.0)
+        if self.released and not was and c.release_speed is not None:  # not while the harness still moves the robot
+            self.released = bool(np.hypot(*comvel[:2]) <= c.release_speed)  # type: ignore[possibly-undefined]
         if self._weld >= 0 and c.release:
             d.eq_active[self._weld] = 0 if self.released else 1
         self.released_steps += int(self.released)
@@ -230,8 +236,10 @@ class BalanceController:
                 tau = self.handover.torque(servo_torque(m, self.scene.act_ids, d.ctrl[self.scene.act_ids],
                                                         self._gain, b, q, v), tau)
             d.ctrl[self.scene.act_ids] = (tau - b[:, 0] - b[:, 1] * q - b[:, 2] * v) / self._gain
-        elif self.handover is not None:
-            self.handover.idle()
+        else:
+            for part in (self.handover, self.glide):
+                if part is not None:
+                    part.idle()
         mujoco.mj_step2(m, d)
         if standing and self.hand_yield is not None:
             self.hand_yield.measure(m, d)
@@ -318,11 +326,14 @@ class BalanceController:
             goal = mid + self._com_offset
         else:
             goal = box.middle()
+        wc, zc = c.com_bandwidth, c.com_damping
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
             p = np.array([goal[0], goal[1], float(pts[:, 2].mean())])
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
+        if self.glide is not None:  # from the measured centre of mass (or its rest goal) at a take-over onto the plan's
+            lead = rest_lead(wc, zc, math.sqrt(self._g / max(float(com[2] - pts[:, 2].mean()), 1e-3)))
+            goal = self.glide.goal(goal, com[:2] + (lead * comvel[:2] if c.glide_rest else 0.0))
         goal = box.clip(goal, c.support_margin)
-        wc, zc = c.com_bandwidth, c.com_damping
         tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], c.w_com))
         mujoco.mj_jacBody(m, d, self._jp, self._jr, self._torso)
         Jt = self._jr[:, va].copy()
@@ -335,6 +346,9 @@ class BalanceController:
         wq = c.joint_bandwidth
         dq, dv = (0.0, 0.0) if self.hand_yield is None else self.hand_yield.references(  # the arms give way to a
             m, d, box, self._capture, float(pts[:, 2].mean()), c.cop_margin, self.mass * self._g)  # force too large
+        if c.glide_joints:  # from the joints' positions at the take-over onto the plan's
+            gq, gv = self.glide.joints(q_ref[7:], hinge_q)  # type: ignore[union-attr]
+            dq, dv = dq + gq, dv + gv
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside one task
         tasks.append((np.eye(n)[6:] * scale[:, None], want * scale, c.w_joint))
