@@ -135,7 +135,7 @@ class OnlineSynthesizer(CandidatePlanner, PathPlanner):
         if cfg.parse == "online" and cfg.belief == "forward":
             stride = max(int(round(cfg.belief_step * interaction.fps)), 1)
             horizon = max(int(round(cfg.belief_horizon * interaction.fps)), stride)
-            self._filter = ForwardBelief(self.model, interaction.fps, stride=stride, horizon=horizon)
+            self._filter = ForwardBelief(self.model, interaction.fps, stride=stride, horizon=horizon, kernel=cfg.kernel)
             self._parser = None  # the forward belief replaces the DP parse
         self._keep = reader_window(cfg, self._filter, self._parser)
         self._stale = False
