@@ -27,6 +27,16 @@ def _logsumexp_finite(x: np.ndarray, axis: int) -> np.ndarray:
     return out
 
 
+def _masks(bits: np.ndarray, M: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Per target label s the source masks without s and the masks they become (what ForwardBelief kept as _src and
+    _dst until its recursion read only their flat indices), from the label bits."""
+    masks = np.arange(M)
+    if M > 1:
+        src = [masks[(masks & bit) == 0] for bit in bits]
+        return src, [m | bit for m, bit in zip(src, bits)]
+    return [masks] * len(bits), [masks] * len(bits)
+
+
 class _Replaced(ForwardBelief):
     """ForwardBelief with _cut's recursion and _closing as they were (323edde)."""
 
@@ -50,8 +60,9 @@ class _Replaced(ForwardBelief):
                     C = np.logaddexp(C, self._long + seg[-1][None])
             V = _logsumexp_finite(C[:, :, None] + self._trans[None], axis=1)
             F = np.full((M, S), -np.inf)
+            src, dst = _masks(self._bits, M)
             for s in range(S):
-                F[self._dst[s], s] = V[self._src[s], s]
+                F[dst[s], s] = V[src[s], s]
         self._starts = np.append(self._starts, b)
         self._F = np.concatenate([self._F, F[None]])
         if self._sums is not None:

@@ -79,7 +79,7 @@ def test_the_four_sites_cache_read_only_values(shake8_model) -> None:  # noqa: A
     syn._type_plan(0)
     plans = syn._plans[1]  # every type's plan, made at the first look-up
     ranks = syn._order_ranks()
-    constants = (fb._trans, fb._src, fb._dst, fb._bits, fb._surv, fb._path_use, fb._path_c, fb._path_2s2)
+    constants = (fb._trans, fb._bits, fb._surv, fb._path_use, fb._path_c, fb._path_2s2, fb._into, fb._from, fb._dur, fb._short)
     for value in (tables, constants, plans, ranks):
         arrays = _arrays(value)
         assert arrays and not any(a.flags.writeable for a in arrays)

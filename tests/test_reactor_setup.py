@@ -141,9 +141,13 @@ def test_forward_belief_constants_are_the_per_recording_ones(shake8_model, fps: 
     assert a._surv is b._surv and a._tables is b._tables is TypeTables.of(model)  # made once, shared
     assert a._sums is not b._sums  # the running sums are the recording's own
     trans, src, dst, bits, surv, use, c, two_s2 = _old_belief_constants(model, fps, a.horizon)
-    for got, ref in ((a._trans, trans), (a._src, src), (a._dst, dst), (a._bits, bits), (a._surv, surv),
-                     (a._path_use, use), (a._path_c, c), (a._path_2s2, two_s2)):
+    for got, ref in ((a._trans, trans), (a._bits, bits), (a._surv, surv), (a._path_use, use), (a._path_c, c),
+                     (a._path_2s2, two_s2)):
         _arrays_equal(got, ref)
+    # The recursion's copy by flat index is F[dst[s], s] = V[src[s], s] of the per-label masks made from the bits.
+    S = model.n_subevents_
+    _arrays_equal(a._into, np.concatenate([dst[s] * S + s for s in range(S)]))
+    _arrays_equal(a._from, np.concatenate([src[s] * S + s for s in range(S)]))
     assert not a._surv.flags.writeable and not a._trans.flags.writeable
     other = ForwardBelief(model, fps, stride=stride, horizon=2 * horizon)  # another horizon: its own survival table
     assert other._surv.shape[0] == other.horizon + 1 != a._surv.shape[0]

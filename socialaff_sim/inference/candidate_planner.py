@@ -20,6 +20,7 @@ from ..model.potentials import reference_weights
 from .candidates import AGENT1 as _AGENT1
 from .candidates import RegressionPrior, SignTerms, draw_from, expected_error_choice, gaussian_factor, vector_rows
 from .model_cache import per_model
+from .row_density import compiled_kernels
 from .synthesis_config import SynthesisConfig
 from .type_tables import TypeTables
 
@@ -29,6 +30,20 @@ if TYPE_CHECKING:
 __all__ = ["CandidatePlanner"]
 
 _OTHERS = np.r_[np.arange(N_KEY), 2 * N_KEY]
+
+
+def _fixed(a: np.ndarray) -> np.ndarray:
+    """A read-only view of ``a``: the compiled kernels' inputs that do not change within a stream are passed read-only
+    whatever their source (a cached plan's, made anew), so that numba compiles one specialisation of each kernel."""
+    v = a.view()
+    v.flags.writeable = False
+    return v
+
+
+_NO_INT, _NO_ROWS, _NO_UP = _fixed(np.zeros(0, np.int64)), _fixed(np.zeros((0, 2 * N_KEY + 1))), _fixed(np.zeros((2, 0)))
+_NO_L, _NO_MEAN = _fixed(np.zeros((0, 0))), np.zeros((N_KEY, 3))
+_A1 = _fixed(_AGENT1)
+_LOG_2PI_NP = np.log(2.0 * np.pi)  # RegressionPrior.log_density's factor, the same NumPy float
 
 
 @dataclass(frozen=True)
@@ -157,6 +172,8 @@ class CandidatePlanner:
     ) -> np.ndarray:
         """(N,) log spatial + log motion (+ vertical signs, + the regression prior) of N configurations (N, 11, 3)."""
         model = self.model
+        if self._tables is not None and self.config.kernel == "numba":
+            return self._score_compiled(s, z, configs, before, prior)
         disp = configs - before[None]
         if self._tables is not None:  # spatial(configs, s) + motion(disp, s), scored in one pass
             spatial, motion = self._tables.spatial_motion(configs, disp, s)
@@ -172,6 +189,56 @@ class CandidatePlanner:
             score = score + prior.log_density(configs)
         return np.where(np.isnan(score), -np.inf, score)
 
+    def _score_compiled(
+        self, s: int, z: np.ndarray, configs: np.ndarray, before: np.ndarray, prior: RegressionPrior | None
+    ) -> np.ndarray:
+        """:meth:`_score` by the compiled kernel (:func:`~.score_kernel.scores`, with the type tables): the same terms,
+        within the tolerance of docs/design.md §7."""
+        plan = self._type_plan(s)
+        own = z is plan.z or np.array_equal(z, plan.z)  # the planner passes the plan's own z
+        args = self._kernel_args(s, z, plan, own)  # ..., the sign terms, then the end regression's L, log det, D log 2π
+        if prior is None:
+            tail = (0, _A1, _NO_MEAN, *args[-3:])
+        elif prior.factor is not None and prior.factor is plan.factor and args[-3] is not _NO_L:
+            tail = (1, _A1, np.ascontiguousarray(prior.mean, float), *args[-3:])
+        else:  # a prior without the plan's factor (made here, as RegressionPrior.log_density makes it)
+            L, logdet = prior.factor if prior.factor is not None else gaussian_factor(prior.regression)
+            const = float(prior.regression.cov.shape[0] * _LOG_2PI_NP)
+            tail = (1, _A1, np.ascontiguousarray(prior.mean, float), _fixed(L), float(logdet), const)
+        return compiled_kernels().scores(
+            np.ascontiguousarray(configs, float), np.ascontiguousarray(before, float), *args[:-3], *tail)
+
+    def _kernel_args(self, s: int, z: np.ndarray, plan: _TypePlan, own: bool) -> tuple:
+        """The compiled scores' inputs of type ``s`` that do not change within a stream (the type tables' rows, the sign
+        terms, the end regression's factor), read-only: made for every type at once for the plans' own groupings and kept
+        with the plans (so that the reactor's state does not change size later in a stream), else anew."""
+        if not own:
+            return self._make_kernel_args(s, z, plan, False)
+        cache = self.__dict__.get("_kargs")
+        if cache is None or cache[0] is not self._plans[1]:
+            args = {k: self._make_kernel_args(k, p.z, p, True) for k, p in self._plans[1].items()}
+            cache = self._kargs = (self._plans[1], args)
+        return cache[1][s]
+
+    def _make_kernel_args(self, s: int, z: np.ndarray, plan: _TypePlan, own: bool) -> tuple:
+        assert self._tables is not None
+        sp_joint, w, cols, mo_joint, table = self._tables.score_rows(s)
+        sign: SignTerms | None = None
+        if self.config.vertical_sign:
+            sign = plan.sign if plan.sign is not None and own else SignTerms.of(self.model, s, z, self._weights(s, z))
+        if sign is None or not sign.aff.size:
+            aff, sign_w, off_up = _NO_INT, _NO_ROWS, _NO_UP
+        else:
+            aff, sign_w, off_up = _fixed(sign.aff), _fixed(np.ascontiguousarray(sign.weights)), _fixed(sign.offset_up)
+        moving, disp_up = (_NO_INT, _NO_UP) if sign is None or not sign.moving.size else (_fixed(sign.moving), _fixed(sign.disp_up))
+        reg = self.model.end_regression_[s] if self.config.end_prior == "regression" else None
+        if plan.factor is None or reg is None:
+            prior = (_NO_L, 0.0, 0.0)
+        else:
+            prior = (_fixed(plan.factor[0]), float(plan.factor[1]), float(reg.cov.shape[0] * _LOG_2PI_NP))
+        return (_fixed(sp_joint), _fixed(w), _fixed(cols), _fixed(mo_joint), _fixed(table), float(self._tables.eps),
+                int(sign is not None), aff, sign_w, off_up, moving, disp_up, *prior)
+
     def _select(
         self, s: int, z: np.ndarray, cand: np.ndarray, before: np.ndarray, static: np.ndarray,
         prior: RegressionPrior | None,
@@ -185,6 +252,8 @@ class CandidatePlanner:
         score = self._score(s, z, cand, before, prior)
         if self.config.selection == "likelihood":
             k = int(np.argmax(score))
+        elif self.config.kernel == "numba":  # the same choice, compiled (score_kernel.choice)
+            k = int(compiled_kernels().choice(np.ascontiguousarray(cand, float), _A1, score, float(N_KEY)))
         else:  # the potentials score each joint as independent evidence: the product is overconfident, so temper it
             k = expected_error_choice(cand[:, _AGENT1], score, temperature=N_KEY)
         best, best_score = cand[k].copy(), score[k]

@@ -34,6 +34,8 @@ from ..errors import ConfigError, ModelError
 from ..model.affordance import AffordanceParameters
 from ..model.features import IntervalFeatures
 from ..model.path import path_residuals
+from . import belief_kernel, belief_scores
+from .compiled import KERNELS
 from .online_parse import log_duration_survival
 from .model_cache import per_model
 from .path_sums import PathSums
@@ -49,9 +51,13 @@ _max, _sum = np.maximum.reduce, np.add.reduce  # what np.max and ndarray.sum cal
 class ForwardBelief:
     """Filtering posterior over (current sub-event, elapsed frames) of a growing canonical track."""
 
-    def __init__(self, model: AffordanceParameters, fps: float, *, stride: int, horizon: int) -> None:
+    def __init__(self, model: AffordanceParameters, fps: float, *, stride: int, horizon: int, kernel: str = "numpy") -> None:
         """``stride`` [frames]: distance between cut points; ``horizon`` [frames]: longest interval kept
-        exactly (rounded up to a multiple of ``stride``)."""
+        exactly (rounded up to a multiple of ``stride``); ``kernel``: ``"numpy"`` (the reference) or ``"numba"``, the
+        cuts and the posterior by :mod:`~.belief_kernel` (within the tolerance of docs/design.md §7, session 27; with
+        the polar type tables and a path profile, else the NumPy cut)."""
+        if kernel not in KERNELS:
+            raise ConfigError(f"kernel: expected one of {KERNELS}, found {kernel!r}")
         if stride < 1:
             raise ConfigError(f"belief_stride: expected at least 1 frame, found {stride}")
         if horizon < stride:
@@ -65,13 +71,24 @@ class ForwardBelief:
         self.M = 1 << self.S if model.config.unique_labels else 1
         # What depends on the model, the frame rate, the stride and the horizon only: made once per fitted model
         # (model_cache.per_model), read-only, the same arrays for every recording.
-        (self._trans, self._src, self._dst, self._bits, self._surv, self._tables, self._path_use, self._path_c,
-         self._path_2s2, self._into, self._from, self._dur, self._short) = per_model(
-            model, ("forward_belief", self.fps, self.stride, self.horizon), lambda: _constants(model, self.fps, self.horizon))
+        base = per_model(model, ("forward_belief", self.fps, self.stride, self.horizon),
+                         lambda: _constants(model, self.fps, self.horizon))
+        (self._trans, self._bits, self._surv, self._tables, self._path_use, self._path_c, self._path_2s2, self._into,
+         self._from, self._dur, self._short) = base
         # The path terms of the kept starts' intervals from running sums (docs/design.md §7: within a declared
         # tolerance of path_residuals, not bitwise), one row per F row.
         kind = model.config.feature_path_profile
         self._sums = None if kind is None else PathSums(kind, model.available_.shape[0])
+        self.kernel = kernel
+        self._compiled: tuple | None = None  # the compiled cuts' per-model arrays (kernel "numba")
+        if kernel == "numba":
+            belief_kernel.load()  # the ConfigError naming the [fast] extra without numba
+            sums = self._sums
+            if self._tables is not None and sums is not None:
+                start = np.asarray(model.log_start_probs_, float)
+                self._compiled = per_model(
+                    model, ("belief_kernel", self.fps, self.stride, self.horizon),
+                    lambda: belief_kernel.constants(self._tables, sums, base, self.horizon, self.stride, start))
         self.reset()
 
     def reset(self, origin: int = 0) -> None:
@@ -103,6 +120,10 @@ class ForwardBelief:
         """Process every cut before frame ``t`` of the canonical ``track`` (≥ t frames, 11, 3; or a window of it,
         read by absolute frame: a frame older than the window is an error). Frames before ``t`` must not change
         between calls (else :meth:`reset`)."""
+        if self._compiled is not None:
+            if self._next <= t - 1:
+                self._compiled_cuts(track, (t - 1 - self._next) // self.stride + 1)
+            return
         while self._next <= t - 1:
             self._cut(track, self._next)
             self._next += self.stride
@@ -158,6 +179,31 @@ class ForwardBelief:
             self._long_read = self._G_long + self._surv[self.horizon]
         self._posterior = None
         self.cuts += 1
+
+    def _compiled_cuts(self, track: np.ndarray | TrackWindow, n: int) -> None:
+        """``n`` cuts from the next one in one compiled call (:func:`~.belief_kernel.cuts`): the state of
+        :meth:`_cut` and of the path sums, within the tolerance of docs/design.md §7 (session 27)."""
+        if isinstance(track, TrackWindow):
+            rows, floor = track.rows, track.floor
+        else:
+            rows, floor = np.ascontiguousarray(track, dtype=float), 0
+        sums = self._sums
+        assert sums is not None and self._compiled is not None  # internal invariant: set together in __init__
+        (self._starts, self._F, self._long, has_long, self._long_read, sums._a, sums._upto, sums._rows, G, G_long,
+         done, code, frame) = belief_kernel.cuts(
+            rows, floor, self._next, n, self.stride, self.origin, self.horizon, self._starts, self._F, self._long,
+            self._has_long, self._long_read, sums._a, sums._upto, sums._rows, *self._compiled)
+        sums.starts = self._starts
+        self._has_long = bool(has_long)
+        if done:
+            self._G, self._G_long = G, G_long
+        self._next += done * self.stride
+        self.cuts += done
+        self._posterior = None
+        if code != belief_scores.NO_ERROR:
+            held = f"frames from {floor} to {floor + rows.shape[0] - 1}"
+            raise ModelError(f"ForwardBelief: frame {frame} is read, but the track holds {held}" if code != belief_scores.NO_REPRESENTATIVE
+                             else f"ForwardBelief: the long bucket's start {frame} is not a kept start (cuts off the stride grid)")
 
     def _closing(self, track: np.ndarray, starts: np.ndarray, b: int) -> np.ndarray:
         """(K, S) log scores of the closed intervals [starts, b) (those of
@@ -215,7 +261,14 @@ class ForwardBelief:
             raise ModelError(f"ForwardBelief.posterior({t}): advance(track, {t}) first")
         if self._posterior is not None and self._posterior[0] == t:  # read twice at a re-planning frame
             return self._posterior[1], self._posterior[2]
-        starts, p = self._posterior_at(t)
+        if self._compiled is not None:
+            surv = self._compiled[belief_kernel.SURV]  # the shared read-only table (one compiled specialisation)
+            starts, p, possible = belief_kernel.posterior(t, self._starts, self._G, surv, self.horizon,
+                                                          self._has_long, self._long_read)
+            if not possible:
+                starts, p = np.array([self.origin], np.int64), np.full((1, self.S), 1.0 / self.S)
+        else:
+            starts, p = self._posterior_at(t)
         self._posterior = (t, starts, p)
         return starts, p
 
@@ -241,10 +294,10 @@ class ForwardBelief:
 
 def _constants(model: AffordanceParameters, fps: float, horizon: int) -> tuple:
     """:class:`ForwardBelief`'s model constants (made read-only by :func:`~.model_cache.per_model`): the transitions (S, S) (−inf on the diagonal with
-    distinct neighbours), per target label the source masks and the masks they become, the label bits (S,),
+    distinct neighbours), the label bits (S,),
     log P(D_s > d / fps) for d = 0 … ``horizon`` frames (H + 1, S), the type tables (None: Cartesian densities),
     path_loglik's per-type constants (S, J) (None each without a path profile), the flat indices of F and V the
-    recursion copies, and per d the duration term (H + 1, S) (None without the tables) and whether d is short (H + 1,)."""
+    recursion copies (into label s from mask m: F[m | bit s, s] = V[m, s] for the masks m without s), and per d the duration term (H + 1, S) (None without the tables) and whether d is short (H + 1,)."""
     S = model.n_subevents_
     cfg = model.config
     M = 1 << S if cfg.unique_labels else 1
@@ -275,7 +328,7 @@ def _constants(model: AffordanceParameters, fps: float, horizon: int) -> tuple:
         path_use = np.isfinite(sigma)
         s2 = np.where(path_use, sigma, 1.0) ** 2
         path_c, path_2s2 = _LOG_2PI + np.log(s2), 2.0 * s2
-    return trans, src, dst, bits, surv, tables, path_use, path_c, path_2s2, into, from_, dur, short
+    return trans, bits, surv, tables, path_use, path_c, path_2s2, into, from_, dur, short
 
 
 def _ends(track: np.ndarray, starts: np.ndarray, b: int, fps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

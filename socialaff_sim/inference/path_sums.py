@@ -134,6 +134,11 @@ class PathSums:
     def _ones(F: int) -> np.ndarray:
         return np.ones((1, F))
 
+    def profile_terms(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The profile's powers (P,) and coefficients (P,) and Σ_{k=1}^{L−1} u(k/L)² (n,) for L = 0 … n − 1: what
+        :meth:`residuals` reads, for the compiled cuts (:mod:`~.belief_kernel`)."""
+        return self._powers.copy(), self._coefs.copy(), self._u2_of(np.arange(int(n))).copy()
+
     def _u2_of(self, L: np.ndarray) -> np.ndarray:
         """(K,) Σ_{k=1}^{L−1} u(k/L)² of interval lengths ``L`` (K,) (made once per length)."""
         top = int(L.max()) if L.size else 0

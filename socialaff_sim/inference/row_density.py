@@ -13,19 +13,51 @@ bitwise (tests/test_row_density.py, against the code it replaces written out).
 
 from __future__ import annotations
 
+import importlib
+from types import ModuleType
+
 import numpy as np
 from scipy.special import i0e
 
+from ..errors import ConfigError
 from ..model.densities import LOG_2PI, weibull_terms
+from . import compiled
 
-__all__ = ["RowSet"]
+__all__ = ["RowSet", "TABLE_COLUMNS", "compiled_kernels", "require_kernel"]
 
 _WEIBULL, _EXPON, _MIXED = 0, 1, 2
 
+TABLE_COLUMNS = ("expon", "k_h", "lam_h", "-log lam_h", "k_v", "lam_v", "-log lam_v", "log(k_h/lam_h)", "k_h - 1",
+                 "k_h == 1", "log(k_v/lam_v)", "k_v - 1", "k_v == 1", "mu", "kappa", "log i0e(kappa)", "cos mu", "sin mu")
+"""The columns of :attr:`RowSet.table`, one row per parameter row: what the compiled densities read."""
 
-def _weibull_parts(k: np.ndarray, lam: np.ndarray) -> tuple:
-    """λ, k and :func:`~socialaff_sim.model.densities.weibull_terms` of Weibull rows, and whether any k is 1."""
-    log_k_lam, k_minus_1, k_is_1 = weibull_terms(k, lam)
+_KERNELS: ModuleType | None = None
+
+
+def require_kernel(kernel: str) -> None:
+    """Raise :class:`~socialaff_sim.errors.ConfigError` naming the extra when ``kernel`` is ``"numba"`` and numba is
+    missing (checked when a synthesizer is made, not at its first re-planning)."""
+    if kernel == "numba" and not compiled.available():
+        raise ConfigError("kernel='numba': numba is not installed (pip install 'socialaff-sim[fast]'); use kernel='numpy'")
+
+
+def compiled_kernels() -> ModuleType:
+    """The compiled kernels (:mod:`~.score_kernel`), imported and loaded (:func:`~.score_kernel.warm`) at the first call:
+    that module needs numba, an optional extra, so the package imports and runs without it (:func:`require_kernel`'s
+    error when it is missing)."""
+    global _KERNELS
+    if _KERNELS is None:
+        require_kernel("numba")
+        kernels = importlib.import_module(".score_kernel", __package__)
+        kernels.warm()  # the JIT's cost (a compilation, or its cache's load) now, not at a stream's first re-planning
+        _KERNELS = kernels
+    return _KERNELS
+
+
+def _weibull_parts(k: np.ndarray, lam: np.ndarray, terms: tuple | None = None) -> tuple:
+    """λ, k and :func:`~socialaff_sim.model.densities.weibull_terms` of Weibull rows (``terms`` if made already),
+    and whether any k is 1."""
+    log_k_lam, k_minus_1, k_is_1 = weibull_terms(k, lam) if terms is None else terms
     return lam, k, log_k_lam, k_minus_1, k_is_1, bool(k_is_1.any())
 
 
@@ -41,12 +73,17 @@ def _weibull(x: np.ndarray, parts: tuple) -> np.ndarray:
 
 
 class RowSet:
-    """K parameter rows (k_h, λ_h, k_v, λ_v, μ, κ) (K, 6) and their exponential flags (K,) (None: none)."""
+    """K parameter rows (k_h, λ_h, k_v, λ_v, μ, κ) (K, 6) and their exponential flags (K,) (None: none); ``kernel``:
+    ``"numba"`` evaluates :meth:`logpdf` by the compiled kernel (:func:`~.score_kernel.rows_logpdf`, within the
+    tolerance of docs/design.md §7), ``"numpy"`` (the default) by NumPy."""
 
-    def __init__(self, params: np.ndarray, expon: np.ndarray | None, eps: float) -> None:
+    def __init__(self, params: np.ndarray, expon: np.ndarray | None, eps: float, kernel: str = "numpy") -> None:
         p = params
         e = np.zeros(p.shape[0], bool) if expon is None else np.asarray(expon, bool)
         self.params, self.expon, self.eps = p, e, eps
+        self.compiled = kernel == "numba"
+        if self.compiled:
+            compiled_kernels()  # the missing extra's error now, not at the first density
         kh, lh, kv, lv, mu, kap = p.T  # polar_rows_logpdf's columns (the same views)
         self.mu, self.kap = mu, kap
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -57,8 +94,8 @@ class RowSet:
                 self._e = (lh, -np.log(lh), lv, -np.log(lv))
             elif not e.any():
                 self.kind = _WEIBULL
-                self._h = (lh, kh, *self.weibull[0], bool(self.weibull[0][2].any()))
-                self._v = (lv, kv, *self.weibull[1], bool(self.weibull[1][2].any()))
+                self._h = _weibull_parts(kh, lh, self.weibull[0])
+                self._v = _weibull_parts(kv, lv, self.weibull[1])
             else:  # each kind on its own columns, as polar_rows_logpdf's third branch
                 self.kind = _MIXED
                 w = ~e
@@ -66,9 +103,16 @@ class RowSet:
                 self._e = (lh[e], -np.log(lh[e]), lv[e], -np.log(lv[e]))
                 self._h = _weibull_parts(kh[w], lh[w])
                 self._v = _weibull_parts(kv[w], lv[w])
+            # Every term of every row, one row per parameter row (TABLE_COLUMNS): what the compiled kernels read. The
+            # terms are NumPy's (elementwise: a term of a row is the same wherever it is made).
+            self.table = np.ascontiguousarray(np.column_stack([
+                e.astype(float), kh, lh, -np.log(lh), kv, lv, -np.log(lv), *self.weibull[0], *self.weibull[1], mu, kap,
+                self.log_i0e, np.cos(mu), np.sin(mu)]).reshape(-1, len(TABLE_COLUMNS)), dtype=float)
 
     def logpdf(self, vecs: np.ndarray) -> np.ndarray:
         """(N, K) row log-densities of vectors (N, K, 3): ``polar_rows_logpdf(*polar(vecs, eps), params, expon)``."""
+        if self.compiled:
+            return compiled_kernels().rows_logpdf(np.ascontiguousarray(vecs, dtype=float), self.table, self.eps)
         with np.errstate(divide="ignore", invalid="ignore"):
             x, y = vecs[..., 0], vecs[..., 1]
             h = np.maximum(np.hypot(x, y), self.eps)

@@ -55,6 +55,7 @@ from .candidates import AGENT1 as _AGENT1
 from .forward_belief import ForwardBelief
 from .hedging import branch_plans, shrink_factor
 from .model_cache import per_model
+from .row_density import require_kernel
 from .type_tables import TypeTables
 from .observed import ObservedInteraction
 from .observed_parse import parse_observed
@@ -86,7 +87,10 @@ class OnlineSynthesizer(CandidatePlanner, PathPlanner):
         self._inter: Interaction | None = None
         self._parser: StreamParser | None = None
         # The potentials of every type stacked once per fitted model: the candidates' scores without per-call set-up.
-        self._tables = TypeTables.of(model) if model.config.vector_density == "polar" else None
+        # kernel="numba" (issue 24, session 27): the tables' densities and the candidates' scores compiled; a missing
+        # extra is named here, not at the first re-planning.
+        require_kernel(self.config.kernel)
+        self._tables = TypeTables.of(model, self.config.kernel) if model.config.vector_density == "polar" else None
 
     # -- episode -----------------------------------------------------------------------------------
     def reset(self, interaction: Interaction, *, rng: np.random.Generator, n_frames: int | None = None) -> None:
@@ -131,7 +135,7 @@ class OnlineSynthesizer(CandidatePlanner, PathPlanner):
         if cfg.parse == "online" and cfg.belief == "forward":
             stride = max(int(round(cfg.belief_step * interaction.fps)), 1)
             horizon = max(int(round(cfg.belief_horizon * interaction.fps)), stride)
-            self._filter = ForwardBelief(self.model, interaction.fps, stride=stride, horizon=horizon)
+            self._filter = ForwardBelief(self.model, interaction.fps, stride=stride, horizon=horizon, kernel=cfg.kernel)
             self._parser = None  # the forward belief replaces the DP parse
         self._keep = reader_window(cfg, self._filter, self._parser)
         self._stale = False

@@ -25,12 +25,13 @@ __all__ = ["TypeTables"]
 
 class TypeTables:
     """One row per (type, affordable joint) for the spatial potentials and per (type, used joint) for the
-    motion potentials (``AffordanceConfig.vector_density == "polar"`` only)."""
+    motion potentials (``AffordanceConfig.vector_density == "polar"`` only). ``kernel``: how the row densities are
+    evaluated (:class:`~.row_density.RowSet`: ``"numpy"``, the reference, or ``"numba"``, compiled)."""
 
-    def __init__(self, model: AffordanceParameters) -> None:
+    def __init__(self, model: AffordanceParameters, kernel: str = "numpy") -> None:
         S = model.n_subevents_
         cfg = model.config
-        self.S, self.eps = S, cfg.eps
+        self.S, self.eps, self.kernel = S, cfg.eps, kernel
         sp_rows, sp_w, sp_joint, sp_type, mo_joint, mo_rows, mo_expon, mo_type = [], [], [], [], [], [], [], []
         for s in range(S):
             z = model._z(s)
@@ -77,14 +78,28 @@ class TypeTables:
             self._rows(("motion", s), self.mo_params, self.mo_expon, self.mo_type == s)
             # A type's spatial rows then its motion rows, one row set: a re-planning scores both on the same candidates.
             sp, mo = self._cache[("spatial", s)], self._cache[("motion", s)]
-            self._cache[("both", s)] = RowSet(np.concatenate([sp.params, mo.params]), np.concatenate([sp.expon, mo.expon]), self.eps)
+            self._cache[("both", s)] = RowSet(np.concatenate([sp.params, mo.params]), np.concatenate([sp.expon, mo.expon]),
+                                              self.eps, kernel)
+        # Per type, what the compiled candidates' scores read (score_rows): its spatial rows' joints, their reference
+        # weights and columns, its motion rows' joints, and the table of its spatial then motion rows.
+        self._score_rows = [
+            (self.sp_joint[self._sp[s][0]], np.ascontiguousarray(self._sp[s][2]), self._sp[s][1],
+             np.ascontiguousarray(self._mo_joints[s]), self._cache[("both", s)].table) for s in range(S)
+        ]
         self.log_seconds = cfg.duration_density == "log_seconds"
 
     @classmethod
-    def of(cls, model: AffordanceParameters) -> TypeTables:
-        """The tables of ``model``, made once per fitted model (:func:`~.model_cache.per_model`) and read-only: the
-        same arrays for every recording, so the same values as tables made per recording."""
-        return per_model(model, "type_tables", lambda: cls(model))
+    def of(cls, model: AffordanceParameters, kernel: str = "numpy") -> TypeTables:
+        """The tables of ``model``, made once per fitted model and ``kernel`` (:func:`~.model_cache.per_model`) and
+        read-only: the same arrays for every recording, so the same values as tables made per recording."""
+        key = "type_tables" if kernel == "numpy" else ("type_tables", kernel)
+        return per_model(model, key, lambda: cls(model, kernel))
+
+    def score_rows(self, s: int) -> tuple[np.ndarray, ...]:
+        """What the compiled scores (:func:`~.score_kernel.scores`) read of type ``s``: its spatial rows' joints (R,),
+        their reference weights (R, C) of the columns (C,) the type reads, its motion rows' joints (Q,), and the table
+        (:attr:`~.row_density.RowSet.table`) of its R spatial then Q motion rows (R + Q, 16)."""
+        return self._score_rows[s]
 
     def _per_type(self, rows: np.ndarray, only: int | None, groups: list[tuple[int, np.ndarray]]) -> np.ndarray:
         """Row log-densities (N, R) summed by type → (N, S), or (N,) for type ``only``; NaN → −inf. ``groups``: each
@@ -108,7 +123,7 @@ class TypeTables:
         if rows is None:
             p = params if sel is None else params[sel]
             e = np.zeros(p.shape[0], bool) if expon is None else (expon if sel is None else expon[sel])
-            rows = self._cache[key] = RowSet(p, e, self.eps)
+            rows = self._cache[key] = RowSet(p, e, self.eps, self.kernel)
         return rows
 
     def _density(self, vecs: np.ndarray, rows: RowSet) -> np.ndarray:
