@@ -25,10 +25,11 @@ Of the person's hands one pair at most is completed (the one of smallest intende
 close on an object.
 
 With ``catch_flight`` (an option, off by default), in a catch sub-goal's window (the object free, no hand gripping
-it, a ``catch`` sub-goal wanting it) the object's target is not where the object is at the frame's end but a point
-of its predicted free flight within the arm's reach, the hand in the ball's way
-(:func:`~socialaff_sim.retarget.flight_target.flight_targets`); the window captures it whatever the intended gap
-(as the model's intent captures a free object), and the reach gate and ramp apply as to any contact.
+it, a ``catch`` sub-goal wanting it) the object's target for the hand its flight passes nearest is not where the
+object is at the frame's end but a point of its predicted free flight within the arm's reach, the hand in the
+ball's way (:func:`~socialaff_sim.retarget.flight_target.flight_targets`); the window captures it for that hand
+whatever the intended gap (as the model's intent captures a free object), and the reach gate and ramp apply as
+to any contact. The other hand is completed as without the option (two hands sent onto one path struck each other).
 """
 
 from __future__ import annotations
@@ -95,17 +96,20 @@ class ContactCompletionConfig:
     robot in (:meth:`~socialaff_sim.retarget.scaling.KeyJointScaler.approach`; online placement only)."""
 
     catch_flight: bool = False
-    """[—]: Whether, in a catch sub-goal's window (the object free and not gripped, a ``catch`` sub-goal wanting it),
-    each hand aims at a point of the object's predicted free flight (from its simulated state now) within the arm's
-    reach, in the ball's way (:func:`~socialaff_sim.retarget.flight_target.flight_targets`), captured by the window
-    whatever the intended gap, rather than at the object where it will be at the frame's end. Off by default
-    (docs/benchmarks.md, "A hand target on the ball's predicted flight")."""
+    """[—]: Whether, in a catch sub-goal's window (the object free, in the air and not gripped, a ``catch`` sub-goal
+    wanting it), the hand whose shoulder the object's predicted free flight (from its simulated state now) passes
+    nearest aims at a point of that flight within the arm's reach, in the ball's way
+    (:func:`~socialaff_sim.retarget.flight_target.flight_targets`), captured by the window whatever the intended
+    gap, rather than at the object where it will be at the frame's end; the other hand is completed as without it.
+    The hand is chosen afresh each frame. Off by default (docs/benchmarks.md, "A hand target on the ball's
+    predicted flight")."""
     catch_approach: bool = False
     """[—]: Whether, with ``catch_flight`` and the window open, a predicted flight that passes beyond the arm's
     reach (``reach``) from both shoulders moves the robot in toward it (:meth:`~socialaff_sim.retarget.scaling.
-    KeyJointScaler.approach`, also when the robot was placed from the whole recording; at most
-    ``ScalingConfig.approach_speed``). Off by default: the recording's placement stands a broad robot back from
-    where the ball flies (docs/benchmarks.md, "A hand target on the ball's predicted flight")."""
+    KeyJointScaler.approach_nearest` with ``flight=True``: also when the robot was placed from the whole recording,
+    and not held back by the recording's trunk bound; at most ``ScalingConfig.approach_speed``). Off by default:
+    the recording's placement stands a broad robot back from where the ball flies (docs/benchmarks.md, "A hand
+    target on the ball's predicted flight")."""
     flight_horizon: float = 1.0
     """T_f [s]: with ``catch_flight``, how far past the end of the frame being planned the flight is searched (it
     ends earlier where the ball lands)."""
