@@ -185,7 +185,7 @@ def _catch_input(catch: bool = True, state: FlightState | None = None, gap_far: 
     )
 
 
-ON = ContactCompletionConfig(catch_flight=True)
+ON = ContactCompletionConfig(catch_flight=True, flight_lead=10.0)  # the lead's own decision tested apart
 
 
 def _settle(c: ContactCompletionConfig, x: CompletionInput, frames: int = 10) -> tuple[np.ndarray, np.ndarray]:
@@ -259,3 +259,19 @@ def test_the_horizon_and_the_speed_are_checked() -> None:
         ContactCompletionConfig(flight_horizon=-0.1)
     with pytest.raises(ConfigError, match="hand_speed"):
         ContactCompletionConfig(hand_speed=0.0)
+
+
+def test_the_hand_goes_onto_the_flight_only_within_the_lead_of_the_balls_arrival() -> None:
+    """Before the ball is within ``flight_lead`` of the chosen point the hand is completed as without the option;
+    inverted (going early, holding back late), both assertions fail."""
+    x = _catch_input()
+    _, _, when, closest = flight_targets(x.flight, R, ON.press, NEAR, WRIST, SHOULDER, ON.reach * x.arm,
+                                         ON.flight_horizon, ON.hand_speed)
+    s = int(np.argmin(closest))
+    early = ContactCompletionConfig(catch_flight=True, flight_lead=float(when[s]) - 0.01)
+    out, beta = _settle(early, x)
+    np.testing.assert_array_equal(out, x.wrist_target)  # too early: today's completion (nothing here)
+    assert not beta.any()
+    near = ContactCompletionConfig(catch_flight=True, flight_lead=float(when[s]) + 0.01)
+    _, beta = _settle(near, x)
+    assert beta[s] == 1.0

@@ -29,7 +29,8 @@ it, a ``catch`` sub-goal wanting it) the object's target for the hand its flight
 object is at the frame's end but a point of its predicted free flight within the arm's reach, the hand in the
 ball's way (:func:`~socialaff_sim.retarget.flight_target.flight_targets`); the window captures it for that hand
 whatever the intended gap (as the model's intent captures a free object), and the reach gate and ramp apply as
-to any contact. The other hand is completed as without the option (two hands sent onto one path struck each other).
+to any contact, from the frame the ball is within ``flight_lead`` of that point. The other hand is completed as
+without the option (two hands sent onto one path struck each other).
 """
 
 from __future__ import annotations
@@ -55,7 +56,7 @@ class ContactCompletionConfig:
     Fields by concept
     -----------------
     - When: capture, engage, reach, reach_band, planned_shoulder, intent, keep, approach
-    - Where: press, catch_flight, catch_approach, flight_horizon, hand_speed
+    - Where: press, catch_flight, catch_approach, flight_horizon, flight_lead, hand_speed
     - How fast: ramp
     """
 
@@ -113,11 +114,17 @@ class ContactCompletionConfig:
     flight_horizon: float = 1.0
     """T_f [s]: with ``catch_flight``, how far past the end of the frame being planned the flight is searched (it
     ends earlier where the ball lands)."""
+    flight_lead: float = 0.4
+    """T_w [s]: with ``catch_flight``, the hand goes onto the flight only once the ball is at most this long from the
+    point chosen for it; before, it is completed as without the option (a hand raised to the flight 0.7 s early
+    tipped a standing Stubby back: docs/benchmarks.md, "A hand target on the ball's predicted flight")."""
     hand_speed: float = 1.5
     """v_h [m/s]: with ``catch_flight``, how fast a hand is taken to move: the target is the earliest point of the
     flight within reach that the hand, at this speed from its commanded wrist, reaches before the ball."""
 
     def __post_init__(self) -> None:
+        if not self.flight_lead >= 0.0:
+            raise ConfigError(f"ContactCompletionConfig.flight_lead: expected seconds ≥ 0, found {self.flight_lead}")
         if not self.hand_speed > 0.0:
             raise ConfigError(f"ContactCompletionConfig.hand_speed: expected a speed > 0 m/s, found {self.hand_speed}")
         if not self.flight_horizon >= 0.0:
@@ -280,11 +287,12 @@ class ContactCompletion:
             flying = np.zeros(2, dtype=bool)
             if self._window(x):  # one hand, the one whose shoulder the flight passes nearest, goes onto it
                 for a in np.flatnonzero(x.shared):
-                    ft, fb, _, closest = flight_targets(
+                    ft, fb, when, closest = flight_targets(
                         x.flight, float(x.radius[a]), c.press, x.nearest[:, a], x.wrist_now, x.shoulder,  # type: ignore[arg-type]
                         c.reach * x.arm, c.flight_horizon, c.hand_speed)
                     s = int(np.argmin(closest))
-                    targets[s, a], beyond[s, a], flying[s] = ft[s], fb[s], True
+                    if when[s] <= c.flight_lead:  # the ball near its point: the hand goes (earlier, it tips a trunk)
+                        targets[s, a], beyond[s, a], flying[s] = ft[s], fb[s], True
             choice = self._assign(gaps, x, beyond, flying)
             for s in (0, 1):
                 a = choice[s]
