@@ -17,7 +17,6 @@ ship)::
 from __future__ import annotations
 
 import argparse
-import ast
 import dataclasses
 import json
 import time
@@ -28,12 +27,17 @@ from socialaff_sim.data.synthetic import INTERACTIONS, generate_dataset
 from socialaff_sim.demo.pipeline import DemoConfig, held_out
 from socialaff_sim.inference import SynthesisConfig
 from socialaff_sim.learning.estimator import SocialAffordanceModel
+from socialaff_sim.retarget.contact_completion import ContactCompletionConfig
 from socialaff_sim.retarget.model_source import ModelSource
 from socialaff_sim.retarget.robot import load_robot
+from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.episode import run_episode
+from socialaff_sim.sim.footlock import FootLockConfig
 from socialaff_sim.sim.sim_config import PHYSICS_MODES
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.tasks import task_for_label
+
+from _config_flags import field_settings  # scripts/ (sys.path[0])
 
 
 def main() -> None:
@@ -45,16 +49,16 @@ def main() -> None:
     p.add_argument("--mjcf", help="the robot's MJCF file, for a robot the project does not ship (e.g. unitree_h1)")
     p.add_argument("--json", help="write the figures here")
     p.add_argument("--balance", nargs="*", default=[], metavar="FIELD=VALUE",
-                   help="BalanceConfig fields for the standing mode (Python literals), e.g. hand_weight=100.0")
+                   help="BalanceConfig fields for the standing mode (Python literals), e.g. hand_yield=0.5")
     p.add_argument("--completion", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="ContactCompletionConfig fields for every mode (Python literals), e.g. planned_shoulder=True")
     p.add_argument("--foot-lock", nargs="*", default=[], metavar="FIELD=VALUE",
-                   help="FootLockConfig fields for the standing mode (Python literals), e.g. catch_up=0.05")
+                   help="FootLockConfig fields for the standing mode (Python literals), e.g. hold_lift=0.08")
     p.add_argument("--labels", nargs="*", help="only these interactions")
     args = p.parse_args()
-    over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.balance)}
-    completion = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.completion)}
-    lock = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.foot_lock)}
+    over = field_settings(p, "--balance", BalanceConfig, args.balance)
+    completion = field_settings(p, "--completion", ContactCompletionConfig, args.completion)
+    lock = field_settings(p, "--foot-lock", FootLockConfig, args.foot_lock)
     robot = load_robot(args.robot, mjcf=args.mjcf)
     data = generate_dataset(args.seed)
     rows = []

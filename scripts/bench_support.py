@@ -34,9 +34,8 @@ for every mode that has one, ``--labels`` picks
 interactions. After the per-interaction table, one line per robot and mode summarises the contact phases, and one
 more counts the episodes failing by each failure kind (self-collision, force on the person, a drop), and one
 more gives how far the feet stand from where the foot lock planted them (the larger foot, in the frames in which
-both stand; ``FootLockConfig.touchdown`` and ``catch_up`` bring them there) with the touchdown waits and the
-physics steps in which ``BalanceConfig.release_reach`` held the harness on; with the balance controller, one more
-counts the harness's releases and catches over the whole episodes (by cause) and the physics steps of
+both stand; ``FootLockConfig.touchdown`` brings them there) with the touchdown waits; with the balance controller,
+one more counts the harness's releases and catches over the whole episodes (by cause) and the physics steps of
 ``BalanceConfig.torque_handover``'s ramps.
 
 The targets of issue 25 for feet that stay planted: outside support ≤ 5 % of
@@ -49,7 +48,6 @@ the weight, sliding ≤ 2 cm, torques within the limits. Example::
 from __future__ import annotations
 
 import argparse
-import ast
 import dataclasses
 import json
 import time
@@ -59,13 +57,17 @@ import numpy as np
 from socialaff_sim._atomic import atomic_write_text
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.retarget.robot import load_robot
+from socialaff_sim.retarget.contact_completion import ContactCompletionConfig
 from socialaff_sim.retarget.model_source import model_source
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.episode import run_episode
+from socialaff_sim.sim.footlock import FootLockConfig
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.stage import key_frames
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.stance import StanceConfig
+
+from _config_flags import field_settings  # scripts/ (sys.path[0])
 
 QP = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0)
 """The balance QP as measured for issue 25 (docs/benchmarks.md, "The balance solve as a quadratic program")."""
@@ -122,21 +124,21 @@ def main() -> None:
                         "literals), e.g. planned_shoulder=True")
     args = p.parse_args()
     if args.completion:
-        over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.completion)}
+        over = field_settings(p, "--completion", ContactCompletionConfig, args.completion)
         for mode, cfg in MODES.items():
             if cfg.contact_completion is not None:
                 MODES[mode] = dataclasses.replace(
                     cfg, contact_completion=dataclasses.replace(cfg.contact_completion, **over))
     if args.foot_lock:
-        lock = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.foot_lock)}
+        lock = field_settings(p, "--foot-lock", FootLockConfig, args.foot_lock)
         for mode, cfg in MODES.items():
             MODES[mode] = dataclasses.replace(cfg, foot_lock=dataclasses.replace(cfg.foot_lock, **lock))
     if args.balance:
-        over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.balance)}
+        over = field_settings(p, "--balance", BalanceConfig, args.balance)
         for mode in (m for m in ("balance", "balance_steady", "qp", "qp_steady", "standing") if m in args.modes):
             MODES[mode] = dataclasses.replace(MODES[mode], balance=dataclasses.replace(MODES[mode].balance, **over))
     if args.stance:
-        over = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.stance)}
+        over = field_settings(p, "--stance", StanceConfig, args.stance)
         for mode, cfg in MODES.items():
             if cfg.stance is not None:
                 MODES[mode] = dataclasses.replace(cfg, stance=dataclasses.replace(cfg.stance, **over))
@@ -169,7 +171,6 @@ def main() -> None:
                                  "feet_offset_cm_median": 100 * float(np.median(both)) if both.size else None,
                                  "feet_offset_contact_cm_median": 100 * float(np.median(touching)) if touching.size else None,
                                  "touchdown_waits": None if lock is None or lock.touchdown is None else lock.touchdown.waits,
-                                 "reach_withheld_steps": None if bal is None or bal.reach is None else bal.reach.withheld,
                                  "catches": None if bal is None else bal.catches,
                                  "catch_reasons": None if bal is None else dict(bal.catch_reasons),
                                  "released_steps": None if bal is None else bal.released_steps,
@@ -235,8 +236,7 @@ def main() -> None:
             print(f"{robot:<12}{mode:<16}feet from their planted points while both stand (median over episodes of "
                   f"each episode's median): {np.median(off) if off else float('nan'):.1f} cm, in contact frames "
                   f"{np.median(offc) if offc else float('nan'):.1f} cm; touchdown waits "
-                  f"{sum(r['touchdown_waits'] or 0 for r in sel)}, release withheld by the ankles' reach in "
-                  f"{sum(r['reach_withheld_steps'] or 0 for r in sel)} physics steps")
+                  f"{sum(r['touchdown_waits'] or 0 for r in sel)}")
     for robot in args.robots:
         for mode in args.modes:
             sel = [r for r in rows if r["robot"] == robot and r["mode"] == mode and r["catches"] is not None]

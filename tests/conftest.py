@@ -17,6 +17,8 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
+from socialaff_sim.errors import ConfigError  # noqa: E402
+
 SHARED_DATA = Path(os.environ.get("SOCIALAFF_SHARED_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
 
 
@@ -35,6 +37,22 @@ def load_script(name: str) -> types.ModuleType:
     finally:
         sys.modules.pop(spec.name, None)
     return module
+
+
+def parsed_settings(script: types.ModuleType, monkeypatch: pytest.MonkeyPatch, argv: list[str]):  # noqa: ANN201
+    """The settings scripts/train_residual.py's ``main`` (``script``, from :func:`load_script`) parses from the
+    command line ``argv`` (without the program's name): its ``run`` is replaced by one that keeps them and stops
+    with a ConfigError, which ``main`` turns into an exit."""
+    seen = {}
+
+    def stop(settings, *args, **kwargs):  # noqa: ANN001, ANN002, ANN003, ANN202
+        seen["settings"] = settings
+        raise ConfigError("stop")
+    monkeypatch.setattr(script, "run", stop)
+    monkeypatch.setattr("sys.argv", ["train_residual.py", *argv])
+    with pytest.raises(SystemExit):
+        script.main()
+    return seen["settings"]
 
 
 def check_env_strict(env: gym.Env) -> None:

@@ -42,7 +42,7 @@ def test_set_up_commands() -> None:
     packages = {"libegl1", "libegl-mesa0", "libgl1"}
     assert packages <= set(shlex.split(demo)) and packages | {"chromium", "chromium-driver"} <= set(shlex.split(tests))
     assert 'pip install ".[render,plot]"' in demo and demo.strip().endswith("socialaff-sim demo --out demo_out")
-    assert 'pip install -e ".[test,rl]"' in tests and tests.strip().endswith("python -m pytest -n 2")
+    assert 'pip install -e ".[test,rl,fast]"' in tests and tests.strip().endswith("python -m pytest -n 2")
     extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
     assert {"render", "plot", "test", "rl"} <= set(extras) and any(d.startswith("selenium") for d in extras["test"])
     # The test command installs stable-baselines3 for tests/test_train_residual.py, and torch only up to 2.13.0

@@ -15,7 +15,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from conftest import load_script
+from conftest import load_script, parsed_settings
 
 pytest.importorskip("stable_baselines3")  # the [rl] extra
 
@@ -23,7 +23,6 @@ import torch  # noqa: E402
 from stable_baselines3 import PPO  # noqa: E402
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize  # noqa: E402
 
-from socialaff_sim.errors import ConfigError  # noqa: E402
 
 _SCRIPT = load_script("train_residual")  # puts scripts/ on sys.path, where _residual_select imports its siblings
 sel = load_script("_residual_select")
@@ -154,17 +153,8 @@ def test_held_out_seed_base() -> None:
 
 def test_flags_parse_and_bad_select_every_is_exit_2(script, tmp_path, monkeypatch: pytest.MonkeyPatch,  # noqa: ANN001
                                                     capsys: pytest.CaptureFixture[str]) -> None:
-    seen = {}
-
-    def fake_run(s, *args, **kwargs):  # noqa: ANN001, ANN002, ANN003, ANN202
-        seen["s"] = s
-        raise ConfigError("stop")
-    monkeypatch.setattr(script, "run", fake_run)
-    monkeypatch.setattr("sys.argv", ["train_residual.py", "--out", str(tmp_path / "x"), "--select-every", "8",
-                                     "--target-kl", "0.02", "--held-out-seed-base", "20000", "--learning-rate", "1e-4"])
-    with pytest.raises(SystemExit):
-        script.main()
-    s = seen["s"]
+    s = parsed_settings(script, monkeypatch, ["--out", str(tmp_path / "x"), "--select-every", "8", "--target-kl", "0.02",
+                                              "--held-out-seed-base", "20000", "--learning-rate", "1e-4"])
     assert (s.select_every, s.target_kl, s.held_out_seed_base, s.learning_rate) == (8, 0.02, 20_000, 1e-4)
     assert script.Settings().target_kl is None and script.Settings().select_every == 0  # defaults unchanged
     capsys.readouterr()

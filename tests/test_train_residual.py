@@ -19,7 +19,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
-from conftest import load_script
+from conftest import load_script, parsed_settings
 
 pytest.importorskip("stable_baselines3")  # the [rl] extra
 
@@ -344,17 +344,9 @@ def test_residual_shape_flags_reach_the_environment(script, tiny, monkeypatch: p
     episodes_mod = load_script("_residual_episodes")
     assert episodes_mod.zero_policy(env)(None).shape == (6,)
     # The command line parses into the same settings (stopped at the first thing the run checks).
-    seen = {}
-
-    def fake_run(s2, *args, **kwargs):  # noqa: ANN001, ANN002, ANN003, ANN202
-        seen["s"] = s2
-        raise ConfigError("stop")
-    monkeypatch.setattr(script, "run", fake_run)
-    monkeypatch.setattr("sys.argv", ["train_residual.py", "--out", str(out / "x"), "--residual-groups", "base",
-                                     "left_wrist+right_wrist", "--residual-tau", "0.5"])
-    with pytest.raises(SystemExit):
-        script.main()
-    assert seen["s"].residual_groups == s.residual_groups and seen["s"].residual_tau == 0.5
+    parsed = parsed_settings(script, monkeypatch, ["--out", str(out / "x"), "--residual-groups", "base",
+                                                   "left_wrist+right_wrist", "--residual-tau", "0.5"])
+    assert parsed.residual_groups == s.residual_groups and parsed.residual_tau == 0.5
 
 
 def test_policy_seed_seeds_the_training_only(script, tiny) -> None:  # noqa: ANN001

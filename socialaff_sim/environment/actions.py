@@ -23,8 +23,8 @@ from gymnasium import spaces
 from ..data.skeletons import N_KEY
 from ..errors import SimulationError
 from .action_limits import FeasibleTargets
+from .arrays import same_array
 from .config import EnvConfig
-from .control import same_array
 from .residual import ResidualMap
 
 __all__ = ["action_box", "ActionDecoder"]

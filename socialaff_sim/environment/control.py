@@ -17,7 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ControlClock", "control_steps_per_frame", "same_array"]
+from .arrays import same_array
+
+__all__ = ["ControlClock", "control_steps_per_frame"]
 
 
 def control_steps_per_frame(fps: float, n_sub: int, control_dt: float | None) -> int:
@@ -65,10 +67,3 @@ class ControlClock:
             self._solved = np.array(targets, dtype=np.float64)
             return True
         return False
-
-
-def same_array(a: np.ndarray, b: np.ndarray) -> bool:
-    """``np.array_equal(a, b)`` of two arrays (same shape, every entry ``==``; NaN never equal), without its
-    argument handling (it runs every control step)."""
-    a, b = np.asarray(a), np.asarray(b)
-    return a.shape == b.shape and bool(np.logical_and.reduce(a == b, axis=None))

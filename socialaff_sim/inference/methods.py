@@ -29,6 +29,7 @@ from ..learning.config import LearningConfig
 from ..learning.estimator import SocialAffordanceModel
 from ..model.config import AffordanceConfig
 from ..model.joints import instance_frame
+from .blend_kernel import Blend
 from .body_fit import BodyFitConfig, BodyFitter
 from .interaction_primitive import InteractionPrimitive
 from .primitive_stream import PrimitiveStream, stream_key_joints
@@ -293,19 +294,25 @@ class _AffordanceReactor:
         # The switching regression, under the causal protocols (its rows are those of a causal synthesis).
         reaction = getattr(method, "reaction_", None)
         self.reaction = None if offline else reaction
-        self.stream = None if self.reaction is None else FeatureStream(config.n_observed, self.reaction.config.features)
-        # The interaction primitive's causal prediction, from running sums (bounded work per frame).
-        self.primitive = (PrimitiveStream(method.primitive_, config.n_observed)
-                          if self.reaction is not None and self.reaction.uses_primitive else None)
-        if self.primitive is not None:  # its fixed conditioning parts, once per fitted primitive (not per recording)
-            self.primitive.warm()
+        self.stream = None if self.reaction is None else FeatureStream(config.n_observed, self.reaction.config.features,
+                                                                           config.kernel)
         # Which skeletons the blend reads as priors: a body fit nobody reads is skipped (it runs every frame).
         priors = {m.prior for m in self.reaction.members_} if self.reaction is not None else set()
         self._plan_prior = self.reaction is None or "from_plan" in priors
         self._primitive_prior = "from_primitive" in priors
+        # The interaction primitive's causal prediction, from running sums (bounded work per frame). Its compiled
+        # factor update only where no body fit reads it: the two-bone IK near a straight limb magnifies the update's
+        # 1e-15 m differences past the 1e-9 m declared for kernel "numba" (docs/design.md §7).
+        kernel = "numpy" if self._primitive_prior else config.kernel
+        self.primitive = (PrimitiveStream(method.primitive_, config.n_observed, kernel)
+                          if self.reaction is not None and self.reaction.uses_primitive else None)
+        if self.primitive is not None:  # its fixed conditioning parts, once per fitted primitive (not per recording)
+            self.primitive.warm()
         self._anchor_keys: np.ndarray | None = None  # agent 1's key joints at the anchor (world), once per instance
         # The groups the blend reads: the rows' other columns are not computed (zeros; no member reads them).
         self._groups = self.reaction.groups_ if self.reaction is not None else ()
+        # kernel "numba": the blend of one row in one compiled call (:mod:`.blend_kernel`).
+        self._blend = Blend(self.reaction) if self.reaction is not None and config.kernel == "numba" else None
 
     def react(self, view: Interaction, start: int, stop: int) -> Prediction:
         """Agent 1's frames [start, stop): step every chain's synthesizer up to ``stop``.
@@ -351,5 +358,8 @@ class _AffordanceReactor:
         rows = switching_rows(motion, np.stack([st.belief for st in blocks[0]]), np.array([st.phase for st in blocks[0]]),
                               plan_displacement(anchor, keys, view, keys=self._anchor_keys), prim, self._groups)
         offset = plan_offset(anchor, joints) if joints is not None else None
-        joints = anchor.to_world(self.reaction.displacement(rows, offset, prim_offset))
+        if self._blend is not None and len(rows) == 1:  # the compiled blend (one row: the reactor's usual call)
+            joints = anchor.to_world(self._blend.displacement(rows, offset, prim_offset))
+        else:
+            joints = anchor.to_world(self.reaction.displacement(rows, offset, prim_offset))
         return Prediction(joints=joints, key_joints=view.layout.key_joints(joints), subevents=subs, n_observed=0)

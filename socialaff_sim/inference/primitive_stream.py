@@ -40,10 +40,12 @@ from scipy.linalg.lapack import dpotrf, dpotrs
 
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
-from ..errors import ModelError
+from ..errors import ConfigError, ModelError, choices
 from ..model.frame import CanonicalFrame, canonical_frame
 from .interaction_primitive import InteractionPrimitive, rbf_centres, rbf_rows
+from .compiled import KERNELS
 from .low_rank_solve import LowRankUpdatedSolver
+from .primitive_kernel import UpdatedFactor
 from .primitive_sums import PrimitiveSums, diagonal_blocks, outer_sums
 from .protocol import observed_part
 
@@ -72,9 +74,13 @@ class PrimitiveStream(PrimitiveSums):
     least the previous one's frames and ``stop`` ≥ the view's length (as the causal and paper protocols make them).
     """
 
-    def __init__(self, primitive: InteractionPrimitive, n_observed: int) -> None:
+    def __init__(self, primitive: InteractionPrimitive, n_observed: int, kernel: str = "numpy") -> None:
         if not hasattr(primitive, "mean_"):
             raise ModelError("PrimitiveStream: the interaction primitive is not fitted")
+        if kernel not in KERNELS:
+            raise ConfigError(f"PrimitiveStream kernel: expected {choices(KERNELS)}, found {kernel!r}")
+        # kernel "numba": the a-block's factor updated frame after frame within T_max (:mod:`.primitive_kernel`).
+        self._factor = UpdatedFactor.for_kernel(kernel)
         self.primitive = primitive
         self.n_observed = int(n_observed)
         cfg = primitive.config
@@ -324,8 +330,13 @@ class PrimitiveStream(PrimitiveSums):
         blocks = self._hth[c, :d0]
         rhs_a = (self._hty[c, :d0] - np.einsum("dnm,dm->dn", blocks, self._mean[:d0])).ravel()
         rhs = rhs_a - p_u
+        factor = self._factor
         if self._frames_seen >= self.t_max and self._cands[c] == self.t_max:  # every later frame at phase 1
             x_a = self._phase_one_solve(c, s_aa, blocks, rhs)
+            if factor is not None:
+                factor.forget()
+        elif factor is not None and factor.usable(c):  # the compiled path: the last factor updated by the new frames
+            x_a = factor.solve(self._lam, self._table[:, c], self.t_max, rhs)
         else:
             lam = self._a_block(s_aa, blocks)
             # LAPACK's potrf/potrs called as scipy's cho_factor/cho_solve call them (the same arguments, the same
@@ -334,6 +345,8 @@ class PrimitiveStream(PrimitiveSums):
             if info != 0:
                 raise ModelError(f"PrimitiveStream: the conditioning at frame {start} is not positive definite (potrf {info})")
             x_a, info = dpotrs(chol, rhs, lower=1)
+            if factor is not None:
+                factor.factored(c, chol, self._lam)
         w_r = self._mean[d0:] + (u - k_ra @ x_a).reshape(-1, n)  # (D − d0, N) agent 1's posterior mean weights
         frames = np.arange(start, stop)
         phi = self._table[np.minimum(frames, self.t_max), c]  # (F, N) the basis at min(s / (T̂ − 1), 1)

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import ModelError
 from .low_rank_solve import LowRankUpdatedSolver
+from .primitive_kernel import UpdatedFactor
 
 __all__ = ["PrimitiveSums", "diagonal_blocks", "outer_sums"]
 
@@ -43,6 +44,7 @@ class PrimitiveSums:
     _log_base: int
     _done: list[int]
     _active: int
+    _factor: UpdatedFactor | None
 
     def _rbf(self, phase: np.ndarray) -> np.ndarray:
         raise NotImplementedError
@@ -62,6 +64,8 @@ class PrimitiveSums:
         """:meth:`_add` by gathers over the active candidates and seen DoFs (any frames, any sign); the frames
         deferred before it are added first (:meth:`flush`), so every candidate's sums gain their terms in order."""
         self._flush_active()
+        if information and self._factor is not None:  # the compiled path's factor: made anew at the next read
+            self._factor.forget()
         seen = np.isfinite(y)
         seen[frames >= self.n_observed, self._d0 :] = False  # agent 1 after the prefix is never used
         act = np.flatnonzero((self._cands > frames[0]) | (self._cands == self.t_max))
@@ -112,6 +116,8 @@ class PrimitiveSums:
         self._log_base = 0  # the log's first entry's index among every frame deferred
         self._done = [0] * len(self._cands)  # per candidate: the frames deferred up to this index are in its sums
         self._active = 0  # the first active candidate at the last frame added
+        if self._factor is not None:
+            self._factor.forget()
 
     def _add_terms(self, lo: int, p0: np.ndarray, yz: np.ndarray, pattern: _Seen) -> None:
         """A frame's information terms for candidates [lo, lo + A) with basis rows ``p0`` (A, N) and weighted values
@@ -200,6 +206,8 @@ class PrimitiveSums:
         if self._phase_one is not None:  # past T_max: the frame's phase is 1 (anchored at ≥ T_max frames)
             self._phase_one.weights[pattern.cols_a] += pattern.w_a
             self._phase_one_frames += 1
+        if self._factor is not None:  # the compiled path: the a-block's terms of this frame, for its factor's update
+            self._factor.record(s, pattern.cols_a, pattern.w_a)
         if s >= self.t_max:  # past every candidate (a long stream): the duration match's sums would gain zeros
             return
         obs = y[: self._d0] - self._first

@@ -33,9 +33,11 @@ import numpy as np
 
 from ..data.interaction import Interaction, fill_gaps
 from ..data.skeletons import N_KEY
-from ..errors import ConfigError, ModelError
+from ..errors import ConfigError, ModelError, choices
 from ..model.frame import CanonicalFrame, canonical_frame
 from ..model.nan_fill import nan_to_zero
+from . import feature_kernel
+from .compiled import KERNELS
 
 __all__ = [
     "FEATURE_GROUPS", "N_FEATURES", "RAMP_COLUMN", "Anchor", "FeatureConfig", "FeatureStream", "forward_fill", "group_columns", "nan_to_zero",
@@ -229,9 +231,15 @@ class FeatureStream:
     call) are computed from the whole view at once.
     """
 
-    def __init__(self, n_observed: int, config: FeatureConfig) -> None:
+    def __init__(self, n_observed: int, config: FeatureConfig, kernel: str = "numpy") -> None:
         self.n_observed = n_observed
         self.config = config
+        # kernel "numba": the row of the frame just seen in one compiled call (:mod:`.feature_kernel`), compiled now
+        # (a missing numba is a ConfigError here, not at the first frame).
+        if kernel not in KERNELS:
+            raise ConfigError(f"FeatureStream kernel: expected {choices(KERNELS)}, found {kernel!r}")
+        self._row_kernel = feature_kernel.kernels()["feature_row"] if kernel == "numba" else None
+        self._anchor_args: tuple[Anchor, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
         self._anchor: Anchor | None = None
         self._window: list[np.ndarray] = []  # agent 0's last ≤ K causally filled key-joint frames (5, 3)
         self._last = np.full((N_KEY, 3), np.nan)  # last tracked position of each key joint
@@ -275,6 +283,8 @@ class FeatureStream:
             keys0, vel0 = _agent0_tracks(view, self.config)
             inside = np.arange(start, min(stop, last))
             parts.append(self.anchor.features(keys0[inside], vel0[inside], inside, self.config, groups))
+        if self._row_kernel is not None and start == last and stop == last + 1:  # the stream's usual call
+            return self._kernel_row(view, last, groups)
         frames = np.arange(max(start, last), stop)
         if len(frames):
             win = np.stack(self._window)
@@ -283,3 +293,20 @@ class FeatureStream:
             keys0, vel0 = (win[-1][None], vel[None]) if n == 1 else (np.repeat(win[-1][None], n, 0), np.repeat(vel[None], n, 0))
             parts.append(self.anchor.features(keys0, vel0, frames, self.config, groups))
         return np.concatenate(parts, axis=0)
+
+    def _kernel_row(self, view: Interaction, frame: int, groups: Sequence[str]) -> np.ndarray:
+        """(1, N_FEATURES) :meth:`rows` of the one frame ``frame`` = the view's last, by the compiled kernel."""
+        a = self.anchor
+        if self._anchor_args is None or self._anchor_args[0] is not a:  # the anchor's arrays as the kernel reads them:
+            # writable C-ordered copies (a read-only array, as cached values are, would be compiled for a second time)
+            rot, keys0, base1, vel1 = (np.array(x, dtype=np.float64, order="C")
+                                       for x in (a.frame.rotation, a.keys0, a.base1, a.velocity1))
+            self._anchor_args = (a, rot, keys0, base1, vel1.reshape(-1))
+        _, rot, keys0, base1, velocity1 = self._anchor_args
+        out = np.empty((1, N_FEATURES))
+        s = (float(frame) - a.index) / a.fps  # Anchor.features's s, one frame
+        assert self._row_kernel is not None
+        self._row_kernel(out[0], np.stack(self._window), float(view.fps), rot, keys0, base1, velocity1, s,
+                         self.config.time_constant_s, "agent0" in groups, "own_velocity" in groups,
+                         "agent0_velocity" in groups)
+        return out

@@ -32,9 +32,9 @@ class BalanceConfig:
       cop_margin, min_foot_load, torque_fraction, flat_feet
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return
-    - Hands in the world: hand_weight, hand_bandwidth, hand_near, hand_far, hand_release
-    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_reach, catch_tilt,
-      catch_margin, catch_blend, drive_harnessed, torque_handover
+    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, catch_tilt,
+      catch_margin, catch_blend, drive_harnessed, torque_handover, com_glide, glide_rest,
+      glide_joints, release_speed
     """
 
     joint_bandwidth: float = 20.0
@@ -119,22 +119,6 @@ class BalanceConfig:
     person's hand that keeps coming at v is met with b·v over the allowance)."""
     yield_return: float = 1.0
     """τ [s]: while the force is within the allowance, a wrist's offset returns as ȯ = −o / τ."""
-    hand_weight: float | None = None
-    """[—]: ``qp``: weight of the wrists' world-frame rows (:mod:`~.hand_task`: each wrist toward where the IK's
-    plan puts it in the world, the give of ``hand_yield`` included, on the arm's own hinges; m/s², as the centre of
-    mass's rows; shared out by ``hand_near``, ``hand_far`` and ``hand_release``). ``None``: no such rows (the hands land where the joint rows put them on the trunk as it stands: on Stubby's high fives 20 cm from
-    the IK's world point, median over the strike)."""
-    hand_bandwidth: float = 20.0
-    """ω_h [rad/s]: the wrists' wanted acceleration is ω_h² (x_ref − x) + 2 ω_h (ẋ_ref − ẋ) − J̇ q̇ (critically
-    damped, the reference's velocity fed forward)."""
-    hand_near: float = 0.3
-    """[m]: a wrist's rows carry their whole weight while its reference is within this distance of the person's
-    hands or of the free object (the approach to a contact) ..."""
-    hand_far: float = 0.5
-    """[m]: ... none beyond this distance, and a share falling linearly in between."""
-    hand_release: float = 20.0
-    """[N]: ... and the share falls linearly to none as the person's (filtered) force on that arm grows to this
-    (a hand in contact is left to ``hand_yield``; measured only with ``hand_yield``)."""
     sole_gap: float = 0.0
     """[m]: a planted foot without contacts whose sole is at most this high above the floor still counts for the
     support box of the harness's decisions (0: only feet in contact; a contact lost for a step then shrinks the
@@ -160,12 +144,6 @@ class BalanceConfig:
     """[s]: a caught robot is held where it is caught (the harness's anchor at its measured root), and the anchor
     then moves over this time onto the IK's base (0: at once onto the IK's base, which yanks the robot by as
     much as it strayed from the plan while released)."""
-    release_reach: float | None = None
-    """κ_r [—]: the harness lets go only while the measured centre of mass, the capture point and the centre of
-    pressure the controller would ask for (toward its centre-of-mass goal, on the linear pendulum) lie within the
-    ankles' reach along the heading: where the ankle servos, at κ_r of their torque limits, can hold the centre
-    of pressure (:mod:`~.ankle_reach`). ``None``: the support box alone decides (the H1's ankles hold
-    its centre of mass at most 15.8 cm ahead of them, its soles reach 19.5 cm: released beyond, it tips)."""
     drive_harnessed: bool = False
     """[—]: Whether the controller's torques drive the joints also while the harness holds a standing robot
     (``False``: the position servos and the standing feed-forward do, as without the controller)."""
@@ -175,6 +153,24 @@ class BalanceConfig:
     controller's share a = k Δt / T_h rising from 0 at the take-over to 1 after T_h, τ_servo the servos' own
     torque at that step (:mod:`~.torque_handover`). ``None``: the controller's torques at once (the H1's ankles,
     hips and knees then jump by up to 1.3 times their limits at a release)."""
+    com_glide: float | None = None
+    """T_g [s]: at each take-over of the joints by the controller (the harness's release) the centre-of-mass goal
+    c* starts at the measured centre of mass c₀ and glides onto the plan's goal g: c* = g + (c₀ − g₀)(1 + t/T_g)
+    e^{−t/T_g}, t the time since the take-over (:mod:`~.com_glide`). ``None``: the plan's goal at once (on the H1,
+    whose feet stand apart from the plan's, up to 16 cm from the centre of mass at a release, asking for a centre
+    of pressure far beyond the ankles' reach)."""
+    glide_rest: bool = False
+    """[—]: ``com_glide``: the glide starts at c₀ + k ċ₀, k = (2 ζ ω_c − ω₀) / ω_c² (ω₀ = √(g / h)), where the
+    feedback asks for the capture point as centre of pressure (a released robot brought to rest), instead of at the
+    measured centre of mass c₀ (which asks a moving robot to stop 2 ζ ω_c / ω₀ times harder, 3.8 on the H1)."""
+    glide_joints: bool = False
+    """[—]: ``com_glide``: the joints' reference glides too, from their measured positions at the take-over onto the
+    IK's, over the same T_g (:mod:`~.com_glide`; ``False``: the IK's at once, whose posture puts the body over the
+    plan's feet, not the physical ones)."""
+    release_speed: float | None = None
+    """v_r [m/s]: the harness lets go only while the centre of mass's horizontal speed is at most this (a caught
+    robot is led back onto the IK's base over ``catch_blend``, and released during it, at 0.17 m/s median, it is
+    let go while still moving; docs/benchmarks.md, "The H1's centre-of-mass goal glided …"). ``None``: any speed."""
 
     def __post_init__(self) -> None:
         for name in ("joint_bandwidth", "torso_bandwidth", "com_bandwidth"):
@@ -203,14 +199,6 @@ class BalanceConfig:
         if not (self.yield_damping > 0.0 and self.yield_return >= 0.0):
             raise ConfigError(f"BalanceConfig: expected yield_damping > 0 N·s/m and yield_return ≥ 0 s, found "
                               f"{self.yield_damping}, {self.yield_return}")
-        if self.hand_weight is not None and not (self.hand_weight >= 0.0 and self.hand_bandwidth > 0.0):
-            raise ConfigError(f"BalanceConfig: expected hand_weight None or ≥ 0 and hand_bandwidth > 0 rad/s, found "
-                              f"{self.hand_weight}, {self.hand_bandwidth}")
-        if not (0.0 <= self.hand_near < self.hand_far and self.hand_release > 0.0):
-            raise ConfigError(f"BalanceConfig: expected 0 ≤ hand_near < hand_far (m) and hand_release > 0 N, found "
-                              f"{self.hand_near}, {self.hand_far}, {self.hand_release}")
-        if self.hand_weight is not None and self.solver != "qp":
-            raise ConfigError(f"BalanceConfig.hand_weight: needs solver='qp', found {self.solver!r}")
         if self.flat_feet and self.solver != "qp":
             raise ConfigError(f"BalanceConfig.flat_feet: needs solver='qp' (hard constraints), found {self.solver!r}")
         if not 0.0 <= self.min_foot_load < 0.5:
@@ -222,12 +210,15 @@ class BalanceConfig:
         if self.com_reference not in COM_REFERENCES:
             raise ConfigError(f"BalanceConfig.com_reference: expected one of {', '.join(COM_REFERENCES)}, found "
                               f"{self.com_reference!r}")
-        if self.release_reach is not None and not 0.0 < self.release_reach <= 1.0:
-            raise ConfigError(f"BalanceConfig.release_reach: expected None or a fraction in (0, 1], found "
-                              f"{self.release_reach}")
         if self.torque_handover is not None and not self.torque_handover > 0.0:
             raise ConfigError(f"BalanceConfig.torque_handover: expected None or a ramp time > 0 s, found "
                               f"{self.torque_handover}")
+        if self.com_glide is not None and not self.com_glide > 0.0:
+            raise ConfigError(f"BalanceConfig.com_glide: expected None or a time constant > 0 s, found {self.com_glide}")
+        if self.release_speed is not None and not self.release_speed >= 0.0:
+            raise ConfigError(f"BalanceConfig.release_speed: expected None or a speed ≥ 0 m/s, found {self.release_speed}")
+        if (self.glide_rest or self.glide_joints) and self.com_glide is None:
+            raise ConfigError("BalanceConfig.glide_rest, glide_joints: need com_glide (a time constant in s)")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

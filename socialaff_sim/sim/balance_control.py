@@ -12,8 +12,7 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    physical feet (or the middle of the feet), optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
    with the floor, where they stand now) shrunk by a margin; with ``hand_yield`` the arms' references give way
-   to a person's force beyond what the feet carry (:mod:`~.hand_yield`); with ``hand_weight`` the wrists are also
-   drawn on the arms' hinges toward where the plan puts them in the world, near a contact (:mod:`~.hand_task`);
+   to a person's force beyond what the feet carry (:mod:`~.hand_yield`);
 2. floating-base inverse dynamics with the floor's contact forces: at the feet's contact points as MuJoCo found
    them, forces inside friction cones that balance the root's six unactuated rows, q̈ as close to the wanted one
    as the weights allow (the arms' and head's joints by ``upper_weight`` less); τ = M q̈ + h − Jᵀf on the hinges.
@@ -29,8 +28,7 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
 The harness weld lets go (``eq_active = 0``; its force is then zero by construction) once the feet have been
 planted ``release_delay`` and the robot is steady: torso within ``release_tilt`` and the capture point
 ξ = c + ċ/ω₀ inside the support box by ``release_margin`` (the support box: the soles of the feet in contact, and
-of a planted foot within ``sole_gap`` of the floor; with ``release_reach`` also the centre of mass, the capture
-point and the centre of pressure it would ask for within the ankles' reach, :mod:`~.ankle_reach`). It catches
+of a planted foot within ``sole_gap`` of the floor). It catches
 the robot again at once when the torso tilts past ``catch_tilt``, the capture point leaves the box by more than
 ``catch_margin``, or a foot steps; the caught robot is held where it is and led back onto the IK's base over ``catch_blend``, and the release
 waits its delay again. Everything is decided per physics step; the per-frame part is the IK's plan
@@ -49,14 +47,13 @@ import mujoco
 import numpy as np
 
 from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
-from .ankle_reach import AnkleReach, wanted_cop
 from .balance_config import BalanceConfig
+from .com_glide import ComGlide, rest_lead
 from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
 from .external_force import ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts
-from .hand_task import HandTask
 from .hand_yield import HandYield
 from .scene import Scene
 from .self_clearance import SelfClearance
@@ -106,19 +103,15 @@ class BalanceController:
         self._torso_up = d0.xmat[self._torso].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
         self._external = ExternalForces(scene)
         c = self.config
-        self.reach = None if c.release_reach is None else AnkleReach(m, self._feet, scene.act_ids, c.release_reach,
-                                                                      self._sole)
-        """``release_reach``: the ankles' reach that gates the release (:mod:`~.ankle_reach`), else ``None``."""
         self._clearance = None if c.self_clearance is None else SelfClearance.of_scene(
             scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
                                                                       c.yield_return, c.external_filter)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
-        self.hand_task = None if c.hand_weight is None else HandTask(scene, c.hand_bandwidth, c.hand_weight,
-                                                                      c.hand_near, c.hand_far, c.hand_release)
-        """``hand_weight``: the wrists' world-frame rows (:mod:`~.hand_task`), else ``None``."""
         self.handover = None if c.torque_handover is None else TorqueHandover(c.torque_handover, m.opt.timestep)
         """``torque_handover``: the servos' torques handed over to the controller's (:mod:`~.torque_handover`)."""
+        self.glide = None if c.com_glide is None else ComGlide(c.com_glide, m.opt.timestep)
+        """``com_glide``: the centre-of-mass goal glided from the measured centre of mass (:mod:`~.com_glide`)."""
         self._plan = mujoco.MjData(m)
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
@@ -155,12 +148,9 @@ class BalanceController:
         self._capture = np.zeros(2)
         if self.hand_yield is not None:
             self.hand_yield.reset()
-        if self.hand_task is not None:
-            self.hand_task.reset()
-        if self.reach is not None:
-            self.reach.reset()
-        if self.handover is not None:
-            self.handover.reset()
+        for part in (self.handover, self.glide):
+            if part is not None:
+                part.reset()
 
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
@@ -182,8 +172,6 @@ class BalanceController:
         mujoco.mj_step1(m, d)
         self.steps += 1
         c = self.config
-        if self.hand_task is not None:  # every step, so that the reference's velocity is known when the solve starts
-            self.hand_task.reference(m, self.steps, q_ref)
         pts, frames, which = self.feet.contacts(d)
         standing = self._planted[0] and self._planted[1] and len(pts) > 0
         self._engaged = self._engaged + m.opt.timestep if standing else 0.0
@@ -208,15 +196,15 @@ class BalanceController:
             self.released = tilt <= c.catch_tilt and box.inside(capture, -c.catch_margin)  # type: ignore[union-attr]
         else:
             self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and tilt <= c.release_tilt
-                             and box.inside(capture, c.release_margin)  # type: ignore[union-attr]
-                             and (self.reach is None or self._within_reach(m, d, fwd, box, com, comvel, height,  # type: ignore[arg-type]
-                                                                           pts, which)))
+                             and box.inside(capture, c.release_margin))  # type: ignore[union-attr]
         if was and not self.released:
             self.catches += 1
             self.catch_reasons["step" if not standing else "tilt" if tilt > c.catch_tilt else "capture"] += 1
             self._engaged = 0.0  # caught: the release waits its delay again
             root = self.scene.root_body
             self._caught = (d.xpos[root].copy(), d.xquat[root].copy(), 0.0)
+        if self.released and not was and c.release_speed is not None:  # not while the harness still moves the robot
+            self.released = bool(np.hypot(*comvel[:2]) <= c.release_speed)  # type: ignore[possibly-undefined]
         if self._weld >= 0 and c.release:
             d.eq_active[self._weld] = 0 if self.released else 1
         self.released_steps += int(self.released)
@@ -230,8 +218,10 @@ class BalanceController:
                 tau = self.handover.torque(servo_torque(m, self.scene.act_ids, d.ctrl[self.scene.act_ids],
                                                         self._gain, b, q, v), tau)
             d.ctrl[self.scene.act_ids] = (tau - b[:, 0] - b[:, 1] * q - b[:, 2] * v) / self._gain
-        elif self.handover is not None:
-            self.handover.idle()
+        else:
+            for part in (self.handover, self.glide):
+                if part is not None:
+                    part.idle()
         mujoco.mj_step2(m, d)
         if standing and self.hand_yield is not None:
             self.hand_yield.measure(m, d)
@@ -239,18 +229,6 @@ class BalanceController:
             self._measure_external(m, d)
         else:
             self._ext_gen[:], self._ext_force[:], self._ext_moment[:] = 0.0, 0.0, 0.0
-
-    def _within_reach(self, m: mujoco.MjModel, d: mujoco.MjData, fwd: np.ndarray, box: SupportBox, com: np.ndarray,
-                      comvel: np.ndarray, height: float, pts: np.ndarray, which: np.ndarray) -> bool:
-        """``release_reach``: the centre of mass, the capture point and the centre of pressure the controller would
-        ask for (toward its goal as :meth:`_torques` sets it, the external forces' lean left out) within the
-        ankles' reach (:mod:`~.ankle_reach`)."""
-        c = self.config
-        goal = box.clip(d.xpos[self._feet, :2].mean(axis=0) + self._com_offset if c.com_reference == "plan"
-                        else box.middle(), c.support_margin)
-        cop = wanted_cop(com[:2], comvel[:2], goal, c.com_bandwidth, c.com_damping, height, self._g)
-        return self.reach.holds(m, d, fwd, (com[:2], self._capture, cop), pts, which,  # type: ignore[union-attr]
-                                self.mass * self._g, c.min_foot_load)
 
     def _measure_external(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
         """Fold the external contact forces of the step just taken into their low-pass filtered estimate."""
@@ -318,11 +296,14 @@ class BalanceController:
             goal = mid + self._com_offset
         else:
             goal = box.middle()
+        wc, zc = c.com_bandwidth, c.com_damping
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
             p = np.array([goal[0], goal[1], float(pts[:, 2].mean())])
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
+        if self.glide is not None:  # from the measured centre of mass (or its rest goal) at a take-over onto the plan's
+            lead = rest_lead(wc, zc, math.sqrt(self._g / max(float(com[2] - pts[:, 2].mean()), 1e-3)))
+            goal = self.glide.goal(goal, com[:2] + (lead * comvel[:2] if c.glide_rest else 0.0))
         goal = box.clip(goal, c.support_margin)
-        wc, zc = c.com_bandwidth, c.com_damping
         tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], c.w_com))
         mujoco.mj_jacBody(m, d, self._jp, self._jr, self._torso)
         Jt = self._jr[:, va].copy()
@@ -335,13 +316,12 @@ class BalanceController:
         wq = c.joint_bandwidth
         dq, dv = (0.0, 0.0) if self.hand_yield is None else self.hand_yield.references(  # the arms give way to a
             m, d, box, self._capture, float(pts[:, 2].mean()), c.cop_margin, self.mass * self._g)  # force too large
+        if c.glide_joints:  # from the joints' positions at the take-over onto the plan's
+            gq, gv = self.glide.joints(q_ref[7:], hinge_q)  # type: ignore[union-attr]
+            dq, dv = dq + gq, dv + gv
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside one task
         tasks.append((np.eye(n)[6:] * scale[:, None], want * scale, c.w_joint))
-        if self.hand_task is not None:
-            give = self.hand_yield
-            tasks += self.hand_task.rows(m, d, None if give is None else give.offset, None if give is None else give.rate,
-                                         None if give is None else give.force)
         edges = cone_edges(frames, c.friction)
         if c.solver == "lsq":
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,

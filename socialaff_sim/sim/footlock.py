@@ -8,9 +8,8 @@ onto its harness, and one that moves sideways on the floor slides. :class:`FootL
 holds an ankle target at the place where its foot came down (on the floor, at
 the robot's home ankle height) while the target stays within ``radius`` of that
 place and below ``lift`` above home height (``hold_lift``, when set, for a foot already planted); a
-target that leaves that ball (a step) is followed again. With ``catch_up`` a planted foot that is not where
-it is planted steps there (:mod:`~.catch_up`); with ``touchdown`` a foot is put down only once it is over its
-target (:mod:`~.touchdown`).
+target that leaves that ball (a step) is followed again. With ``touchdown`` a foot is put down only once it is
+over its target (:mod:`~.touchdown`).
 """
 
 from __future__ import annotations
@@ -20,7 +19,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError, SimulationError
-from .catch_up import CatchUp
 from .touchdown import Touchdown
 
 __all__ = ["FootLock", "FootLockConfig"]
@@ -45,21 +43,6 @@ class FootLockConfig:
     helper of a pull-up steps back to keep the arms taut; a robot whose hands give way,
     ``BalanceConfig.hand_yield``, needs no step). ``False``: the targets decide as at any other time."""
 
-    catch_up: float | None = None
-    """d_c [m]: while both feet are planted (and no contact holds, with ``hold_in_contact``), a foot whose
-    physical ankle frame is farther than this (horizontally) from where it is planted steps there: lifted by
-    ``catch_up_height`` until within d_c / 2 (:mod:`~.catch_up`). ``None``: the feet stand wherever the physics
-    left them (the H1's stood 10–30 cm from where the IK planned them; docs/benchmarks.md, "The H1's outside
-    support in the contact phases, diagnosed …")."""
-    catch_up_height: float = 0.06
-    """h_c [m]: a catch-up step's target is the planted point raised by this."""
-    catch_up_frames: int = 3
-    """N_c [frames]: a foot lifted for a catch-up step is put down after at most this many frames."""
-    catch_up_quiet: int = 0
-    """N_q [frames]: no catch-up step begins (and a lifted foot is put down) within this many frames after a
-    sub-goal's contact held (a handshake's contact comes and goes; a step between its frames costs the harness
-    more than the foot's offset). 0: only while it holds (with ``hold_in_contact``)."""
-
     touchdown: float | None = None
     """d_t [m]: a foot the lock would put down at a new point q waits in the air (its target q raised by
     ``touchdown_height``, at most ``touchdown_stride`` from the physical foot toward q, counted as stepping)
@@ -82,11 +65,6 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig: expected touchdown None or > 0 m, touchdown_height > 0 m, "
                               f"touchdown_frames ≥ 1 and touchdown_stride None or > 0 m, found {self.touchdown}, "
                               f"{self.touchdown_height}, {self.touchdown_frames}, {self.touchdown_stride}")
-        if self.catch_up is not None and not (self.catch_up > 0.0 and self.catch_up_height > 0.0
-                                              and self.catch_up_frames >= 1 and self.catch_up_quiet >= 0):
-            raise ConfigError(f"FootLockConfig: expected catch_up None or > 0 m, catch_up_height > 0 m and "
-                              f"catch_up_frames ≥ 1, found {self.catch_up}, {self.catch_up_height}, "
-                              f"{self.catch_up_frames}, quiet {self.catch_up_quiet}")
         if not (self.lift >= 0.0 and self.radius >= 0.0):
             raise ConfigError(f"FootLockConfig: expected lift ≥ 0 and radius ≥ 0 in metres, found {self.lift}, {self.radius}")
         if self.hold_lift is not None and not self.hold_lift >= self.lift:
@@ -104,54 +82,34 @@ class FootLock:
         self.planted: list[np.ndarray | None] = [None, None]
         """Where each foot is planted (world, (3,) m), or ``None`` while it steps."""
         c = self.config
-        self.catch_up = None if c.catch_up is None else CatchUp(c.catch_up, c.catch_up_height, c.catch_up_frames)
-        """The catch-up steps (``catch_up``), else ``None``."""
         self.touchdown = None if c.touchdown is None else Touchdown(c.touchdown, c.touchdown_height,
                                                                      c.touchdown_frames, c.touchdown_stride)
         """The touchdown timing (``touchdown``), else ``None``."""
-        self._since = 1 << 30
 
     def reset(self) -> None:
         """No foot planted."""
         self.planted = [None, None]
-        self._since = 1 << 30
-        if self.catch_up is not None:
-            self.catch_up.reset()
         if self.touchdown is not None:
             self.touchdown.reset()
 
     @property
     def needs_physical(self) -> bool:
-        """Whether :meth:`apply` needs the physical ankle frames (``catch_up`` or ``touchdown``)."""
-        return self.catch_up is not None or self.touchdown is not None
+        """Whether :meth:`apply` needs the physical ankle frames (``touchdown``)."""
+        return self.touchdown is not None
 
     @property
     def standing(self) -> tuple[bool, bool]:
-        """(left, right): whether each foot stands (planted, and not lifted for a catch-up step)."""
-        up = (0, 0) if self.catch_up is None else self.catch_up.lifted
-        return (self.planted[0] is not None and not up[0], self.planted[1] is not None and not up[1])
+        """(left, right): whether each foot stands (is planted)."""
+        return (self.planted[0] is not None, self.planted[1] is not None)
 
     def apply(self, ankles: np.ndarray, touching: bool = False, physical: np.ndarray | None = None,
               new_frame: bool = True) -> np.ndarray:
         """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted;
         ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted);
-        ``physical`` (2, 3): the physical ankle frames (world, m), which ``catch_up`` needs; ``new_frame``:
-        ``False`` for a solve again within a data frame (the catch-up steps then keep the frame's decision)."""
+        ``physical`` (2, 3): the physical ankle frames (world, m), which ``touchdown`` needs; ``new_frame``:
+        ``False`` for a solve again within a data frame (the touchdown then keeps the frame's decision)."""
         if self.needs_physical and physical is None:
-            raise SimulationError("FootLock.apply: catch_up and touchdown need the physical ankle frames")
-        out = self._lock(ankles, touching, physical, new_frame)
-        if self.catch_up is None:
-            return out
-        c = self.config
-        if new_frame:
-            self._since = 0 if touching else self._since + 1  # frames since a contact last held
-            held = touching and c.hold_in_contact
-            self.catch_up.update(self.planted, physical,
-                                 not held and (c.catch_up_quiet == 0 or self._since > c.catch_up_quiet))
-        return self.catch_up.targets(self.planted, out)
-
-    def _lock(self, ankles: np.ndarray, touching: bool, physical: np.ndarray | None = None,
-              new_frame: bool = True) -> np.ndarray:
+            raise SimulationError("FootLock.apply: touchdown needs the physical ankle frames")
         out = np.array(ankles, dtype=np.float64)
         c = self.config
         held = touching and c.hold_in_contact

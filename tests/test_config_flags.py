@@ -1,0 +1,70 @@
+"""scripts/_config_flags.py: the FIELD=VALUE settings of bench_support.py's and bench_demo_modes.py's config flags;
+a field that does not exist (or was removed) is a one-line error naming the flag, exit 2."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from pathlib import Path
+
+import pytest
+from conftest import load_script
+
+from socialaff_sim.sim.balance_config import BalanceConfig
+from socialaff_sim.sim.footlock import FootLockConfig
+from socialaff_sim.sim.stance import StanceConfig
+
+flags = load_script("_config_flags")
+
+
+def _error(capsys: pytest.CaptureFixture[str], call) -> str:  # noqa: ANN001
+    """The one stderr line of ``call()``'s exit 2."""
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exc:
+        call()
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0].startswith("usage:") and [line for line in err if "error:" in line] == err[-1:]
+    return err[-1]  # argparse's usage, then the one error line
+
+
+def test_settings_are_python_literals_of_the_classes_fields() -> None:
+    p = argparse.ArgumentParser()
+    got = flags.field_settings(p, "--balance", BalanceConfig, ["hand_yield=0.5", "solver='qp'", "self_clearance=None"])
+    assert got == {"hand_yield": 0.5, "solver": "qp", "self_clearance": None}
+    assert dataclasses.replace(BalanceConfig(), **got).solver == "qp"
+    assert flags.field_settings(p, "--foot-lock", FootLockConfig, []) == {}
+
+
+@pytest.mark.parametrize(("cls", "item", "removed"), [
+    (BalanceConfig, "hand_weight=100.0", "61e3f3e"), (BalanceConfig, "release_reach=1.0", "61e3f3e"),
+    (FootLockConfig, "catch_up=0.05", "61e3f3e"), (StanceConfig, "approach_near=0.3", "1d1621b"),
+    (BalanceConfig, "no_such_field=1", None), (FootLockConfig, "hold_lift", None)])
+def test_an_unknown_or_removed_field_is_exit_2(cls, item, removed, capsys) -> None:  # noqa: ANN001
+    line = _error(capsys, lambda: flags.field_settings(argparse.ArgumentParser(), "--x", cls, [item]))
+    assert f"--x {item!r}" in line
+    assert (f"removed at {removed}" in line) if removed else ("removed" not in line)
+
+
+def test_a_value_that_is_not_a_literal_is_exit_2(capsys) -> None:  # noqa: ANN001
+    line = _error(capsys, lambda: flags.field_settings(argparse.ArgumentParser(), "--foot-lock", FootLockConfig,
+                                                       ["lift=four"]))
+    assert "--foot-lock 'lift=four'" in line and "literal" in line
+
+
+def test_the_removed_table_names_no_field_that_exists() -> None:
+    classes = {c.__name__: c for c in (BalanceConfig, FootLockConfig, StanceConfig)}
+    assert set(flags.REMOVED) == set(classes)
+    for name, removed in flags.REMOVED.items():
+        assert removed and not set(removed) & {f.name for f in dataclasses.fields(classes[name])}
+
+
+def test_bench_support_stops_on_a_removed_field_before_any_episode(tmp_path: Path, monkeypatch, capsys) -> None:  # noqa: ANN001
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "scripts"))
+    bench = load_script("bench_support")
+    out = tmp_path / "out.json"
+    monkeypatch.setattr("sys.argv", ["bench_support.py", "--modes", "standing", "--json", str(out),
+                                     "--foot-lock", "catch_up=0.05"])
+    line = _error(capsys, bench.main)
+    assert "--foot-lock 'catch_up=0.05'" in line and "61e3f3e" in line
+    assert not out.exists()
