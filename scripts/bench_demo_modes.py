@@ -8,7 +8,8 @@ phase (frames where a sub-goal's contact holds now) the outside support (mean an
 frames with the harness off, the feet's slide path and drift (cm), the torso's largest tilt and the CPU time
 (``--balance FIELD=VALUE ...``: the standing mode's controller changed; ``--completion FIELD=VALUE ...``: the
 contact completion's settings changed in every mode; ``--foot-lock FIELD=VALUE ...``: the standing mode's foot
-lock changed; ``--labels``: only these interactions)::
+lock changed; ``--labels``: only these interactions; ``--robot NAME --mjcf PATH``: a robot the project does not
+ship)::
 
     OMP_NUM_THREADS=1 python scripts/bench_demo_modes.py --demo demo_out --json modes.json
 """
@@ -28,6 +29,7 @@ from socialaff_sim.inference import SynthesisConfig
 from socialaff_sim.learning.estimator import SocialAffordanceModel
 from socialaff_sim.retarget.contact_completion import ContactCompletionConfig
 from socialaff_sim.retarget.model_source import ModelSource
+from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.footlock import FootLockConfig
@@ -44,6 +46,7 @@ def main() -> None:
     p.add_argument("--modes", nargs="+", default=list(PHYSICS_MODES), choices=PHYSICS_MODES)
     p.add_argument("--seed", type=int, default=DemoConfig().seed, help="the demo's seed (default: the demo's)")
     p.add_argument("--robot", default="ours")
+    p.add_argument("--mjcf", help="the robot's MJCF file, for a robot the project does not ship (e.g. unitree_h1)")
     p.add_argument("--json", help="write the figures here")
     p.add_argument("--balance", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="BalanceConfig fields for the standing mode (Python literals), e.g. hand_yield=0.5")
@@ -56,6 +59,7 @@ def main() -> None:
     over = field_settings(p, "--balance", BalanceConfig, args.balance)
     completion = field_settings(p, "--completion", ContactCompletionConfig, args.completion)
     lock = field_settings(p, "--foot-lock", FootLockConfig, args.foot_lock)
+    robot = load_robot(args.robot, mjcf=args.mjcf)
     data = generate_dataset(args.seed)
     rows = []
     for label in INTERACTIONS:
@@ -76,7 +80,7 @@ def main() -> None:
             if completion and physics.contact_completion is not None:
                 physics = dataclasses.replace(
                     physics, contact_completion=dataclasses.replace(physics.contact_completion, **completion))
-            m = run_episode(Simulator(args.robot, task_for_label(label), physics), source, shown)
+            m = run_episode(Simulator(robot, task_for_label(label), physics), source, shown)
             cp = m["support"]["contact_phase"]
             rows.append({"label": label, "instance": shown.instance_id, "mode": mode, "success": m["success"],
                          "subgoals": {g["name"]: g["success"] for g in m["subgoals"]},

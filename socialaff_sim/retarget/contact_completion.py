@@ -23,6 +23,14 @@ changing by at most Δt / ``ramp`` per frame (it ramps in and out smoothly). Eve
 earlier (the person's and the object's poses at t, the robot's own state), so a causal source stays causal.
 Of the person's hands one pair at most is completed (the one of smallest intended gap); both hands may
 close on an object.
+
+With ``catch_flight`` (an option, off by default), in a catch sub-goal's window (the object free, no hand gripping
+it, a ``catch`` sub-goal wanting it) the object's target for the hand its flight passes nearest is not where the
+object is at the frame's end but a point of its predicted free flight within the arm's reach, the hand in the
+ball's way (:func:`~socialaff_sim.retarget.flight_target.flight_targets`); the window captures it for that hand
+whatever the intended gap (as the model's intent captures a free object), and the reach gate and ramp apply as
+to any contact, from the frame the ball is within ``flight_lead`` of that point. The other hand is completed as
+without the option (two hands sent onto one path struck each other).
 """
 
 from __future__ import annotations
@@ -32,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError
+from .flight_target import FlightState, flight_targets
 from .scaling import smoothstep
 
 __all__ = ["ContactCompletionConfig", "CompletionInput", "ContactCompletion"]
@@ -47,7 +56,7 @@ class ContactCompletionConfig:
     Fields by concept
     -----------------
     - When: capture, engage, reach, reach_band, planned_shoulder, intent, keep, approach
-    - Where: press
+    - Where: press, catch_flight, catch_approach, flight_horizon, flight_lead, hand_speed
     - How fast: ramp
     """
 
@@ -87,7 +96,39 @@ class ContactCompletionConfig:
     """[—]: Whether, in such a frame or one before it, a person's hand held out beyond the robot's reach moves the
     robot in (:meth:`~socialaff_sim.retarget.scaling.KeyJointScaler.approach`; online placement only)."""
 
+    catch_flight: bool = False
+    """[—]: Whether, in a catch sub-goal's window (the object free, in the air and not gripped, a ``catch`` sub-goal
+    wanting it), the hand whose shoulder the object's predicted free flight (from its simulated state now) passes
+    nearest aims at a point of that flight within the arm's reach, in the ball's way
+    (:func:`~socialaff_sim.retarget.flight_target.flight_targets`), captured by the window whatever the intended
+    gap, rather than at the object where it will be at the frame's end; the other hand is completed as without it.
+    The hand is chosen afresh each frame. Off by default (docs/benchmarks.md, "A hand target on the ball's
+    predicted flight")."""
+    catch_approach: bool = False
+    """[—]: Whether, with ``catch_flight`` and the window open, a predicted flight that passes beyond the arm's
+    reach (``reach``) from both shoulders moves the robot in toward it (:meth:`~socialaff_sim.retarget.scaling.
+    KeyJointScaler.approach_nearest` with ``flight=True``: also when the robot was placed from the whole recording,
+    and not held back by the recording's trunk bound; at most ``ScalingConfig.approach_speed``). Off by default:
+    the recording's placement stands a broad robot back from where the ball flies (docs/benchmarks.md, "A hand
+    target on the ball's predicted flight")."""
+    flight_horizon: float = 1.0
+    """T_f [s]: with ``catch_flight``, how far past the end of the frame being planned the flight is searched (it
+    ends earlier where the ball lands)."""
+    flight_lead: float = 0.4
+    """T_w [s]: with ``catch_flight``, the hand goes onto the flight only once the ball is at most this long from the
+    point chosen for it; before, it is completed as without the option (a hand raised to the flight 0.7 s early
+    tipped a standing Stubby back: docs/benchmarks.md, "A hand target on the ball's predicted flight")."""
+    hand_speed: float = 1.5
+    """v_h [m/s]: with ``catch_flight``, how fast a hand is taken to move: the target is the earliest point of the
+    flight within reach that the hand, at this speed from its commanded wrist, reaches before the ball."""
+
     def __post_init__(self) -> None:
+        if not self.flight_lead >= 0.0:
+            raise ConfigError(f"ContactCompletionConfig.flight_lead: expected seconds ≥ 0, found {self.flight_lead}")
+        if not self.hand_speed > 0.0:
+            raise ConfigError(f"ContactCompletionConfig.hand_speed: expected a speed > 0 m/s, found {self.hand_speed}")
+        if not self.flight_horizon >= 0.0:
+            raise ConfigError(f"ContactCompletionConfig.flight_horizon: expected seconds ≥ 0, found {self.flight_horizon}")
         if not self.capture > self.engage >= 0.0:
             raise ConfigError(f"ContactCompletionConfig: expected capture > engage ≥ 0 m, found capture "
                               f"{self.capture}, engage {self.engage}")
@@ -133,6 +174,11 @@ class CompletionInput:
     """Whether the model's contact is a keyframe inside its sub-event (released before the end: a high five's
     strike): only then is a person's hand captured by intent (a contact at a sub-event's end, a handshake, is
     one the model's own end configuration reaches)."""
+    catch: bool = False
+    """Whether a catch sub-goal's window is open: the object free, no hand gripping it, a ``catch`` sub-goal
+    wanting it now (read with ``ContactCompletionConfig.catch_flight``)."""
+    flight: FlightState | None = None
+    """The free object's state now, for its predicted flight (``None``: unknown)."""
 
 
 class ContactCompletion:
@@ -164,7 +210,7 @@ class ContactCompletion:
         moved = x.nearest + (x.wrist_target - x.wrist_now)[:, None, :]
         return np.linalg.norm(x.centre[None] - moved, axis=-1) - x.radius[None]
 
-    def _assign(self, gaps: np.ndarray, x: CompletionInput, beyond: np.ndarray) -> np.ndarray:
+    def _assign(self, gaps: np.ndarray, x: CompletionInput, beyond: np.ndarray, flying: np.ndarray) -> np.ndarray:
         """(2,) the anchor each hand goes for (-1: none): its nearest allowed one within ``capture``. Of the
         person's hands (anchors not shared) one pair at most is completed, the one of smallest intended gap (a
         handshake or a high five is one contact: the robot's other hand does not reach for the person's other
@@ -173,7 +219,8 @@ class ContactCompletion:
         and of the person's hands a pair whose anchor lies within reach of the hand's shoulder comes before any
         out of it (a short robot meets a tall person's raised hand with whichever hand reaches it); the pair
         being completed stays first while ``beyond`` (2, A), its target's metres past the reach, stays below
-        ``reach_band``."""
+        ``reach_band``. ``flying`` (2,) bool: the hand whose object target is on the predicted flight (captured by
+        the catch's window)."""
         c = self.config
         rank = np.where(gaps < c.capture, gaps, np.inf)  # captured by the intended gap
         if c.keep:  # the person's hand being completed stays first while still captured (no swapping hands)
@@ -195,6 +242,8 @@ class ContactCompletion:
                         person[side, a] = -1.0
             # An object: both hands may close on it, each by its intended gap; captured by intent only while free.
             rank = np.where(x.shared[None, :], gaps if x.free else rank, person)
+        # The catch's window captures the object for the hand on the flight whatever the intended gap.
+        rank = np.where(x.shared[None, :] & flying[:, None], gaps, rank)
         g = np.where(x.allowed, rank, np.inf)
         person = np.where(~x.shared[None, :], g, np.inf)
         if np.isfinite(person).any():
@@ -206,6 +255,10 @@ class ContactCompletion:
     def _intent(self, x: CompletionInput) -> bool:
         """Whether this frame's capture is the model's intent (rather than the intended gap)."""
         return self.config.intent and x.intent
+
+    def _window(self, x: CompletionInput) -> bool:
+        """Whether the object's target is on its predicted flight this frame (``catch_flight``, the window open)."""
+        return self.config.catch_flight and x.catch and x.flight is not None
 
     def __call__(self, x: CompletionInput, frame: int, dt: float) -> np.ndarray:
         """(2, 3) the completed wrist targets of ``frame`` (data frames of ``dt`` seconds).
@@ -231,13 +284,23 @@ class ContactCompletion:
             targets = self.contact_targets(x)
             gaps = self.intended_gaps(x)
             beyond = np.linalg.norm(targets - x.shoulder[:, None, :], axis=-1) - c.reach * x.arm  # (2, A)
-            choice = self._assign(gaps, x, beyond)
+            flying = np.zeros(2, dtype=bool)
+            if self._window(x):  # one hand, the one whose shoulder the flight passes nearest, goes onto it
+                for a in np.flatnonzero(x.shared):
+                    ft, fb, when, closest = flight_targets(
+                        x.flight, float(x.radius[a]), c.press, x.nearest[:, a], x.wrist_now, x.shoulder,  # type: ignore[arg-type]
+                        c.reach * x.arm, c.flight_horizon, c.hand_speed)
+                    s = int(np.argmin(closest))
+                    if when[s] <= c.flight_lead:  # the ball near its point: the hand goes (earlier, it tips a trunk)
+                        targets[s, a], beyond[s, a], flying[s] = ft[s], fb[s], True
+            choice = self._assign(gaps, x, beyond, flying)
             for s in (0, 1):
                 a = choice[s]
                 if a < 0:
                     continue
                 gate = float(smoothstep((c.reach_band - beyond[s, a]) / c.reach_band))
-                if self._intent(x) and (x.free if x.shared[a] else x.inside):  # whatever the gap, where reachable
+                if (self._intent(x) and (x.free if x.shared[a] else x.inside)) or (flying[s] and x.shared[a]):
+                    # whatever the gap, where reachable
                     want[s] = gate
                 else:
                     want[s] = float(smoothstep((c.capture - gaps[s, a]) / (c.capture - c.engage))) * gate

@@ -222,7 +222,8 @@ class KeyJointScaler:
             spread = float(np.linalg.norm(keys[0, :2] - p0[:2])) if np.isfinite(keys[0]).all() else 0.0
             self.k = max(self._k_goal, self.k - self._k_step / max(spread, 1e-3))
 
-    def approach(self, points: np.ndarray, side: np.ndarray, keys: np.ndarray, partner: np.ndarray) -> bool:
+    def approach(self, points: np.ndarray, side: np.ndarray, keys: np.ndarray, partner: np.ndarray,
+                 flight: bool = False) -> bool:
         """Move in toward contacts the source means to make but the robot cannot reach from where it stands.
 
         ``points`` (N, 3): where the robot's ``side`` (N,) hands are to touch (the person's hand, the object; the
@@ -233,13 +234,16 @@ class KeyJointScaler:
         its trunk clear of the person and of the points): the cap on the base's distance from the partner
         (``stand_cap``) comes down by up to ``approach_speed`` toward that k's distance. The robot stops moving
         in when the calls stop, and where the model itself brings agent 1 closer the cap no longer acts (the
-        two approaches do not add up). Returns whether it lowered the cap (False: no online placement, or no k
-        reaches)."""
+        two approaches do not add up). ``flight``: the points are a ball's predicted flight, which the placement from
+        the recording did not see: the robot moves in also without online placement, and the floor the recording's
+        contact samples set (their wrists clear of the robot's trunk: a ball held at the chest) does not hold it
+        back (the points' own clearance of the trunk and the person's body still do). Returns whether it lowered the
+        cap (False: no online placement and not ``flight``, or no k reaches)."""
         keys = np.asarray(keys, dtype=np.float64)
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         side = np.asarray(side, dtype=np.int64).reshape(-1)
         p0 = np.asarray(partner, dtype=np.float64)[self._partner_base]
-        if not (self._online and len(points) and np.isfinite(keys[0]).all() and np.isfinite(points).all()
+        if not ((self._online or flight) and len(points) and np.isfinite(keys[0]).all() and np.isfinite(points).all()
                 and np.isfinite(p0).all()):
             return False
         n = len(points)
@@ -255,7 +259,7 @@ class KeyJointScaler:
         k = max(finite)
         front = k_clear_of_trunk(points, base1, p0s, self.robot.trunk_radius, self.config.wrist_clearance)
         body = np.asarray(partner, dtype=np.float64)[self._body]
-        goal = max(k, self._k_floor, -np.inf if front is None else front,
+        goal = max(k, self.config.k_min if flight else self._k_floor, -np.inf if front is None else front,
                    frame_clearance_k(body, keys[0], p0, self.k, self.robot, self.config))
         spread = float(np.linalg.norm(keys[0, :2] - p0[:2]))
         now = min(self.stand_cap, self.k * spread)
@@ -263,6 +267,27 @@ class KeyJointScaler:
             return False
         self.stand_cap = max(goal * spread, now - self._approach_step)
         return True
+
+    def approach_nearest(self, points: np.ndarray, keys: np.ndarray, partner: np.ndarray, flight: bool = False) -> bool:
+        """:meth:`approach` toward the one of ``points`` (N, 3) that needs the least moving in (the largest k that
+        brings it within ``max_extension`` of either hand's shoulder; a ball's predicted path, of which one point
+        is to be met). Returns whether the cap was lowered (False also when no k brings any point within reach)."""
+        keys = np.asarray(keys, dtype=np.float64)
+        p0 = np.asarray(partner, dtype=np.float64)[self._partner_base]
+        if not (np.isfinite(keys[0]).all() and np.isfinite(p0).all()):
+            return False
+        best: tuple[float, int, int] | None = None
+        reach = np.array([self.config.max_extension])
+        for side in (0, 1):
+            for i, point in enumerate(np.asarray(points, dtype=np.float64).reshape(-1, 3)):
+                k = k_within_reach(point[None], keys[None, 0], p0[None], np.array([side]), self.frame.rotation,
+                                   self.robot, self.human, self.s_leg, reach)
+                if k is not None and (best is None or k > best[0]):
+                    best = (k, i, side)
+        if best is None:
+            return False
+        return self.approach(np.asarray(points, dtype=np.float64).reshape(-1, 3)[best[1]], np.array([best[2]]), keys,
+                             partner, flight=flight)
 
     def scaled(self, keys: np.ndarray, partner_base: np.ndarray) -> np.ndarray:
         """(5, 3) robot-frame targets from agent 1's key joints ``keys`` (5, 3), world frame, by scaling alone.

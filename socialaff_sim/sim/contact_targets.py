@@ -5,7 +5,9 @@ The *anchors* are the spheres a task wants a robot hand on: the person's two han
 wrist gripped) and the object (for ``catch`` and ``object_in_hand`` sub-goals, until a robot hand grips
 it: then the contact is made and the model's motion carries it on). Each sub-goal allows the robot hands
 of its group (``hands``/``arms``: both) on the anchors of its group; a sub-goal listing sub-events allows
-them only during those. Positions are of frame t (the person's recorded pose at t, the object carried
+them only during those. A ``catch`` sub-goal's *window* is open while the object is free, no robot hand grips it
+and the sub-goal wants it (``ContactCompletionConfig.catch_flight`` then aims at the object's predicted flight,
+from its simulated state now: :meth:`ContactAnchors.flight`). Positions are of frame t (the person's recorded pose at t, the object carried
 along its recorded track, or in flight predicted from its state now), and the robot's hands as they are
 now: nothing from the future.
 """
@@ -16,6 +18,7 @@ import mujoco
 import numpy as np
 
 from ..retarget.contact_completion import CompletionInput
+from ..retarget.flight_target import FlightState
 from .human import HAND_SPHERE_RADIUS
 from .scene import Scene
 from .stage import key_frames
@@ -28,6 +31,8 @@ GRAVITY = 9.81
 _PERSON_SIDES = {"hands": (0, 1), "wrists": (0, 1), "left_hand": (0,), "left_wrist": (0,), "right_hand": (1,),
                  "right_wrist": (1,)}
 _ROBOT_SIDES = {"hands": (0, 1), "arms": (0, 1), "left_hand": (0,), "right_hand": (1,)}
+_LANDED = 0.01
+"""Metres: a free object whose centre is at most this far above one radius up lies on the floor (landed)."""
 _SEARCH = 100.0
 """Metres: farthest distance the nearest points are searched to (``mj_geomDistance`` fills in no points
 beyond it; people start some metres apart)."""
@@ -53,6 +58,7 @@ class ContactAnchors:
         self.radius = np.array(radius)
         self.shared = np.arange(len(geoms)) >= 2
         self._rules: list[tuple[tuple[str, ...], np.ndarray]] = []
+        self._catches = [sg.subevents for sg in task.subgoals if sg.kind == "catch"]
         for sg in task.subgoals:
             allowed = np.zeros((2, len(geoms)), dtype=bool)
             robot = _ROBOT_SIDES.get(sg.robot, ())
@@ -75,6 +81,29 @@ class ContactAnchors:
             out[:, 2:] = False
         return out
 
+    def gripped(self, data: mujoco.MjData) -> bool:
+        """Whether a robot hand grips the object now (its grip weld is on)."""
+        sc = self.scene
+        return bool(len(sc.grip_eq) and (sc.grip_eq >= 0).all() and data.eq_active[sc.grip_eq].any())
+
+    def catch_window(self, data: mujoco.MjData, subevent: str | None, free: bool) -> bool:
+        """Whether a ``catch`` sub-goal's window is open: the object ``free`` (thrown or let go), not down on the
+        floor (its centre more than ``_LANDED`` above a radius up), no robot hand gripping it, and a ``catch``
+        sub-goal wanting it during ``subevent`` (one listing no sub-events: always)."""
+        if not free or len(self.geoms) < 3 or self.gripped(data):
+            return False
+        if data.qpos[self.scene.object_qadr + 2] <= self.radius[2] + _LANDED:
+            return False  # landed: nothing left to catch (a robot would walk after a ball on the floor)
+        return any(not subevents or subevent in subevents for subevents in self._catches)
+
+    def flight(self, data: mujoco.MjData, lead: float) -> FlightState:
+        """The free object's state now (its simulated centre and velocity, the scene's gravity, the floor at z =
+        0), for a prediction ``lead`` s ahead and on (:func:`~socialaff_sim.retarget.flight_target.flight_targets`)."""
+        sc = self.scene
+        qa, va = sc.object_qadr, sc.object_vadr
+        return FlightState(position=np.array(data.qpos[qa:qa + 3]), velocity=np.array(data.qvel[va:va + 3]),
+                           lead=float(lead), gravity=float(-sc.model.opt.gravity[2]), floor=0.0)
+
     def nearest(self, data: mujoco.MjData) -> np.ndarray:
         """(2, A, 3) the point of each robot hand's collidable geoms nearest each anchor now (``mj_geomDistance``)."""
         m = self.scene.model
@@ -94,14 +123,16 @@ class ContactAnchors:
     def gather(self, data: mujoco.MjData, wrist_target: np.ndarray, wrist_commanded: np.ndarray,
                person_hands: np.ndarray, object_centre: np.ndarray | None, arm: float,
                subevent: str | None, intent: bool = False, offered: int | None = None,
-               free: bool = False, inside: bool = False, shoulder: np.ndarray | None = None) -> CompletionInput:
+               free: bool = False, inside: bool = False, shoulder: np.ndarray | None = None,
+               catch: bool = False, flight: FlightState | None = None) -> CompletionInput:
         """The stage's input: ``wrist_target`` (2, 3) from the model, ``wrist_commanded`` (2, 3) the wrists of
         the latest IK solution, the person's hand centres at frame t ``person_hands`` (2, 3), the object's
         centre at t (``None``: no object or it is parked), world frame; ``intent``: the source's model means to
         touch now; ``offered``: with ``intent`` and ``inside``, the person's hand held out (0 left, 1 right;
         :func:`offered_hand`), the only one of theirs the robot may meet (None: either); ``free``: the object moves freely (thrown or let go);
         ``inside``: the model's contact is a keyframe inside the sub-event; ``shoulder`` (2, 3): the shoulders the
-        reach is measured from (``None``: the physical ones now).
+        reach is measured from (``None``: the physical ones now); ``catch``: a catch sub-goal's window is open
+        (:meth:`catch_window`); ``flight``: the free object's state now (:meth:`flight`).
 
         The hands' nearest points are the physical ones: moved by as much as the commanded wrist moves, the
         physical hand keeps its offset from the IK's (a servo's tracking error, an arm sagging under its
@@ -112,18 +143,16 @@ class ContactAnchors:
             nearest=self.nearest(data), centre=centre, radius=self.radius, shared=self.shared, allowed=allowed,
             shoulder=np.array(data.xpos[self.scene.limb_body_ids[:2]] if shoulder is None else shoulder, dtype=np.float64),
             arm=float(arm), intent=bool(intent),
-            free=bool(free), inside=bool(inside),
+            free=bool(free), inside=bool(inside), catch=bool(catch), flight=flight,
         )
 
     def wanted(self, data: mujoco.MjData, person_hands: np.ndarray, object_centre: np.ndarray | None,
                subevent: str | None, offered: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The anchors' centres (A, 3), world frame, and the hand–anchor pairs the task wants now (2, A) bool
         (arguments as in :meth:`gather`; ``offered`` not None: of the person's hands only that one)."""
-        sc = self.scene
         centre = np.zeros((len(self.geoms), 3))
         centre[:2] = person_hands
-        gripped = bool(len(sc.grip_eq) and (sc.grip_eq >= 0).all() and data.eq_active[sc.grip_eq].any())
-        allowed = self.allowed(subevent, gripped)
+        allowed = self.allowed(subevent, self.gripped(data))
         if len(self.geoms) > 2:
             if object_centre is None:
                 allowed[:, 2] = False

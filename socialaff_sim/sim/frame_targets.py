@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..retarget.contact_completion import ContactCompletion, ContactCompletionConfig
+from ..retarget.flight_target import FlightState, ballistic, landing_time
 from ..retarget.ik import RobotIK
 from ..retarget.scaling import KeyJointScaler, object_anchors
 from .contact_targets import ContactAnchors, object_in_flight, offered_hand
@@ -108,11 +109,16 @@ class FrameTargets:
         offered = offered_hand(self.interaction.key_joints()[t, 0])
         if contact_inside_next and cc.approach and not self.completion.weight.any():
             self._approach(anchors, data, world_keys, hands, obj, subevent, pose.joints[t], offered)
+        catch = cc.catch_flight and obj is not None and anchors.catch_window(data, subevent, moving)
+        flight = anchors.flight(data, (t - now) / fps) if catch else None
+        if catch and cc.catch_approach:
+            self._approach_flight(flight, float(anchors.radius[2]), data, world_keys, pose.joints[t])  # type: ignore[arg-type]
         out = self.scaler(world_keys, pose.joints[t], self.object_anchors(t))
         world = place.frame.to_world(out)
         x = anchors.gather(data, world[1:3], self.ik.frame_positions()[1:3], hands, obj, self.arm, subevent,
                            intent=contact, offered=offered, free=moving, inside=contact_inside,
-                           shoulder=self.planned_shoulders() if cc.planned_shoulder else None)
+                           shoulder=self.planned_shoulders() if cc.planned_shoulder else None,
+                           catch=catch, flight=flight)
         world[1:3] = self.completion(x, t, 1.0 / fps)
         self._completed_frame = t
         return place.frame.to_robot(world)
@@ -124,6 +130,22 @@ class FrameTargets:
             raise SimulationError("ContactCompletionConfig.planned_shoulder: the IK model's shoulder bodies were "
                                   "not given to FrameTargets.reset (ik_shoulders)")
         return np.array(self.ik.configuration.data.xpos[self.ik_shoulders])
+
+    def _approach_flight(self, flight: FlightState, radius: float, data: mujoco.MjData, keys: np.ndarray,
+                         partner: np.ndarray) -> None:
+        """Move the robot in toward a ball whose predicted ``flight`` (object ``radius``) passes beyond the arm's
+        reach from both its physical shoulders (``ContactCompletionConfig.catch_approach``; world-frame ``keys``
+        of agent 1 and ``partner`` joints of the frame): toward the path's point that needs the least moving in
+        (:meth:`~socialaff_sim.retarget.scaling.KeyJointScaler.approach_nearest`)."""
+        cc = self.completion.config  # type: ignore[union-attr]
+        times = np.linspace(flight.lead, max(flight.lead, min(flight.lead + cc.flight_horizon,
+                                                              landing_time(flight, radius))), 64)
+        path, _ = ballistic(flight.position, flight.velocity, times, flight.gravity)
+        shoulders = data.xpos[self.scene.limb_body_ids[:2]]
+        d = np.linalg.norm(path[None] - shoulders[:, None, :], axis=-1)  # (2, K)
+        if d.min() <= cc.reach * self.arm:
+            return  # the ball passes within reach of a hand already
+        self.scaler.approach_nearest(path[::4], keys, partner, flight=True)
 
     def _approach(self, anchors: ContactAnchors, data: mujoco.MjData, keys: np.ndarray, hands: np.ndarray,
                   obj: np.ndarray | None, subevent: str | None, partner: np.ndarray, offered: int) -> None:
