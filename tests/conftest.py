@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import importlib.util
 import os
 import sys
@@ -37,6 +39,22 @@ def load_script(name: str) -> types.ModuleType:
     finally:
         sys.modules.pop(spec.name, None)
     return module
+
+
+def belief_track(rng: np.random.Generator, T: int) -> np.ndarray:
+    """(T, 11, 3) m: a random-walk skeleton track for the belief's tests; joint 10 (the object, which the model
+    lacks) is NaN throughout, as in the reactor's track."""
+    x = np.cumsum(rng.normal(scale=0.02, size=(T, 11, 3)), axis=0) + rng.normal(scale=0.3, size=(1, 11, 3))
+    x[:, 10] = np.nan
+    return x
+
+
+def model_with(base, **changes):  # noqa: ANN001, ANN201
+    """A shallow copy of a fitted model whose ``config`` has ``changes`` (``dataclasses.replace``)."""
+    m = copy.copy(base)
+    if changes:
+        m.config = dataclasses.replace(m.config, **changes)
+    return m
 
 
 def parsed_settings(script: types.ModuleType, monkeypatch: pytest.MonkeyPatch, argv: list[str]):  # noqa: ANN201

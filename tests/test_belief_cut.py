@@ -9,12 +9,11 @@ make."""
 
 from __future__ import annotations
 
-import copy
-import dataclasses
 
 import numpy as np
 import pytest
 
+from conftest import belief_track, model_with
 from socialaff_sim.inference.forward_belief import ForwardBelief
 
 
@@ -107,21 +106,9 @@ class _Replaced(ForwardBelief):
         return out
 
 
-def _track(rng: np.random.Generator, T: int) -> np.ndarray:
-    x = np.cumsum(rng.normal(scale=0.02, size=(T, 11, 3)), axis=0) + rng.normal(scale=0.3, size=(1, 11, 3))
-    x[:, 10] = np.nan  # the joint the model lacks (the object), NaN throughout as in the reactor's track
-    return x
-
-
-def _model(base, **changes):  # noqa: ANN001, ANN202
-    m = copy.copy(base)
-    if changes:
-        m.config = dataclasses.replace(m.config, **changes)
-    return m
-
 
 def _both(model, rng: np.random.Generator, T: int, stride: int, horizon: int, resets: tuple[int, ...] = ()) -> None:  # noqa: ANN001
-    track = _track(rng, T)
+    track = belief_track(rng, T)
     new, old = (cls(model, 30.0, stride=stride, horizon=horizon) for cls in (ForwardBelief, _Replaced))
     seen_long = seen_none = False
     for t in range(1, T):
@@ -143,11 +130,11 @@ def _both(model, rng: np.random.Generator, T: int, stride: int, horizon: int, re
 @pytest.mark.parametrize("unique", [True, False])
 @pytest.mark.parametrize(("stride", "horizon"), [(6, 60), (1, 9), (4, 30)])
 def test_cut_is_the_replaced_cuts(shake8_model, rng: np.random.Generator, unique: bool, stride: int, horizon: int) -> None:  # noqa: ANN001
-    _both(_model(shake8_model, unique_labels=unique), rng, 260, stride, horizon, resets=(150,))
+    _both(model_with(shake8_model, unique_labels=unique), rng, 260, stride, horizon, resets=(150,))
 
 
 def test_short_intervals_and_a_type_without_duration(shake8_model, rng: np.random.Generator) -> None:  # noqa: ANN001
-    model = _model(shake8_model, min_subevent_seconds=0.5)
+    model = model_with(shake8_model, min_subevent_seconds=0.5)
     model.duration_params_ = np.array(model.duration_params_, float)
     model.duration_params_[1] = np.nan  # that type's intervals: −inf
     _both(model, rng, 200, 3, 36)
@@ -155,12 +142,12 @@ def test_short_intervals_and_a_type_without_duration(shake8_model, rng: np.rando
 
 def test_nothing_possible(shake8_model, rng: np.random.Generator) -> None:  # noqa: ANN001
     """Every interval too short for the horizon: every row −inf at some cut (uniform posterior), as before."""
-    model = _model(shake8_model, min_subevent_seconds=5.0)
+    model = model_with(shake8_model, min_subevent_seconds=5.0)
     assert _both(model, rng, 120, 6, 30)
 
 
 def test_a_refit_reads_new_tables(shake8_model, rng: np.random.Generator) -> None:  # noqa: ANN001
-    model = _model(shake8_model)
+    model = model_with(shake8_model)
     _both(model, rng, 90, 6, 30)
     first = ForwardBelief(model, 30.0, stride=6, horizon=30)._dur
     model.duration_params_ = np.array(model.duration_params_, float) * 1.1  # a refit's new parameters

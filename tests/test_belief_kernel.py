@@ -10,13 +10,13 @@ tested by monkeypatching."""
 from __future__ import annotations
 
 import copy
-import dataclasses
 
 import numpy as np
 import pytest
 
 from socialaff_sim.errors import ConfigError, ModelError
 from socialaff_sim.inference import belief_kernel, belief_scores, compiled
+from conftest import belief_track, model_with
 from socialaff_sim.inference.forward_belief import ForwardBelief
 from socialaff_sim.inference.row_density import RowSet
 from socialaff_sim.inference.track_window import TrackWindow
@@ -24,18 +24,6 @@ from socialaff_sim.inference.track_window import TrackWindow
 needs_numba = pytest.mark.skipif(not compiled.available(), reason="numba (the [fast] extra) is not installed")
 REL = 1e-12
 
-
-def _track(rng: np.random.Generator, T: int) -> np.ndarray:
-    x = np.cumsum(rng.normal(scale=0.02, size=(T, 11, 3)), axis=0) + rng.normal(scale=0.3, size=(1, 11, 3))
-    x[:, 10] = np.nan  # the joint the model lacks (the object), NaN throughout as in the reactor's track
-    return x
-
-
-def _model(base, **changes):  # noqa: ANN001, ANN202
-    m = copy.copy(base)
-    if changes:
-        m.config = dataclasses.replace(m.config, **changes)
-    return m
 
 
 def _one_type(base):  # noqa: ANN001, ANN202
@@ -75,7 +63,7 @@ def _both(model, rng: np.random.Generator, T: int, stride: int, horizon: int, *,
           jumps: int = 1, fps: float = 30.0) -> dict[str, bool]:
     """Drive the NumPy and the compiled belief over one track, reading every ``jumps`` frames (so that several cuts are
     due at once); compare their state and posterior at each read. Returns which edge cases were met."""
-    track = _track(rng, T)
+    track = belief_track(rng, T)
     ref = ForwardBelief(model, fps, stride=stride, horizon=horizon)
     new = ForwardBelief(model, fps, stride=stride, horizon=horizon, kernel="numba")
     assert new._compiled is not None  # the compiled path is the one under test
@@ -109,7 +97,7 @@ def _both(model, rng: np.random.Generator, T: int, stride: int, horizon: int, *,
 @pytest.mark.parametrize(("stride", "horizon", "jumps"), [(6, 60, 1), (1, 9, 1), (4, 30, 1), (2, 40, 11)])
 def test_compiled_cuts_are_the_numpy_cuts(shake8_model, rng: np.random.Generator, unique: bool, stride: int,  # noqa: ANN001
                                           horizon: int, jumps: int) -> None:
-    seen = _both(_model(shake8_model, unique_labels=unique), rng, 260, stride, horizon, resets=(150,), jumps=jumps)
+    seen = _both(model_with(shake8_model, unique_labels=unique), rng, 260, stride, horizon, resets=(150,), jumps=jumps)
     assert seen["long"]
     if jumps > stride:
         assert seen["batch"]  # several cuts in one compiled call
@@ -131,7 +119,7 @@ def test_random_models(shake8_model, rng: np.random.Generator) -> None:  # noqa:
 
 @needs_numba
 def test_short_intervals_and_a_type_without_duration(shake8_model, rng: np.random.Generator) -> None:  # noqa: ANN001
-    model = _model(shake8_model, min_subevent_seconds=0.5)
+    model = model_with(shake8_model, min_subevent_seconds=0.5)
     model.duration_params_ = np.array(model.duration_params_, float)
     model.duration_params_[1] = np.nan  # that type's intervals: −inf
     assert _both(model, rng, 200, 3, 36)["long"]
@@ -139,14 +127,14 @@ def test_short_intervals_and_a_type_without_duration(shake8_model, rng: np.rando
 
 @needs_numba
 def test_nothing_possible_gives_the_uniform_fallback(shake8_model, rng: np.random.Generator) -> None:  # noqa: ANN001
-    model = _model(shake8_model, min_subevent_seconds=5.0)
+    model = model_with(shake8_model, min_subevent_seconds=5.0)
     assert _both(model, rng, 120, 6, 30)["none"]
 
 
 @needs_numba
 @pytest.mark.parametrize("unique", [True, False])
 def test_one_type(shake8_model, rng: np.random.Generator, unique: bool) -> None:  # noqa: ANN001
-    model = _one_type(_model(shake8_model, unique_labels=unique))
+    model = _one_type(model_with(shake8_model, unique_labels=unique))
     assert _both(model, rng, 150, 5, 25, jumps=3)["long"]
 
 
@@ -182,8 +170,8 @@ def test_polar_row_is_the_row_densities(rng: np.random.Generator, kind: str) -> 
 @needs_numba
 def test_closed_interval_scores_are_closing(shake8_model, rng: np.random.Generator) -> None:  # noqa: ANN001
     """Each cut's (K, S) closed-interval scores (the long bucket's row included) against ``_closing``."""
-    model = _model(shake8_model, min_subevent_seconds=0.3)
-    track = _track(rng, 200)
+    model = model_with(shake8_model, min_subevent_seconds=0.3)
+    track = belief_track(rng, 200)
     ref = ForwardBelief(model, 30.0, stride=4, horizon=40)
     new = ForwardBelief(model, 30.0, stride=4, horizon=40, kernel="numba")
     c = new._compiled
@@ -208,7 +196,7 @@ def test_closed_interval_scores_are_closing(shake8_model, rng: np.random.Generat
 def test_a_window_below_its_floor_is_an_error(shake8_model, rng: np.random.Generator) -> None:  # noqa: ANN001
     """Read from a TrackWindow whose floor passed a frame the cut reads: a ModelError naming the frame, the cuts before
     it applied, as the NumPy path's window raises."""
-    track = _track(rng, 120)
+    track = belief_track(rng, 120)
     w = TrackWindow.of(track)
     fb = ForwardBelief(shake8_model, 30.0, stride=6, horizon=30, kernel="numba")
     fb.advance(w, 60)

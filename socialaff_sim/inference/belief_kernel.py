@@ -212,14 +212,7 @@ def cuts(rows, floor, b0, n_cuts, stride, origin, horizon, starts, F, long, has_
             if M > 1:  # the long bucket forgets the labels used before it
                 merged = np.empty(S)
                 for s in range(S):
-                    top = -np.inf
-                    for m in range(M):
-                        top = _nanmax(top, long[m, s])
-                    safe = top if math.isfinite(top) else 0.0
-                    tot = 0.0
-                    for m in range(M):
-                        tot += _exp_term(long[m, s], safe)
-                    merged[s] = _finish_lse(top, tot)
+                    merged[s] = _lse_col(long, s, M)
                 long = np.full((M, S), -np.inf)
                 for s in range(S):
                     long[bits[s], s] = merged[s]
