@@ -14,7 +14,7 @@ from typing import Any
 
 from ..errors import ConfigError
 
-__all__ = ["KERNELS", "available", "njit"]
+__all__ = ["KERNELS", "available", "njit", "require"]
 
 KERNELS = ("numpy", "numba")
 """The values of ``SynthesisConfig.kernel``: ``"numpy"`` (the reference, the default) and ``"numba"``."""
@@ -25,14 +25,20 @@ def available() -> bool:
     return importlib.util.find_spec("numba") is not None
 
 
+def require(kernel: str) -> None:
+    """Raise :class:`~socialaff_sim.errors.ConfigError` naming the setting and the extra when ``kernel`` is
+    ``"numba"`` and numba is missing (a synthesizer checks it when it is made, not at its first re-planning)."""
+    if kernel == "numba" and not available():
+        raise ConfigError("kernel='numba': numba is not installed (pip install 'socialaff-sim[fast]'); "
+                          "use kernel='numpy'")
+
+
 def njit(function: Callable[..., Any]) -> Callable[..., Any]:
     """``function`` compiled by numba in no-Python mode, without fast-math (IEEE semantics: no reassociation, NaN
     and infinities kept) and with its machine code cached on disk where the package directory is writable.
 
     Raises :class:`~socialaff_sim.errors.ConfigError` naming the setting and the extra when numba is missing."""
-    if not available():
-        raise ConfigError("kernel='numba': numba is not installed (pip install 'socialaff-sim[fast]'); "
-                          "use kernel='numpy'")
+    require("numba")
     import numba  # the optional extra: imported here so that the package works without it
 
     return numba.njit(cache=True, fastmath=False, nogil=True)(function)

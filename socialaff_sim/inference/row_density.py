@@ -19,11 +19,10 @@ from types import ModuleType
 import numpy as np
 from scipy.special import i0e
 
-from ..errors import ConfigError
 from ..model.densities import LOG_2PI, weibull_terms
 from . import compiled
 
-__all__ = ["RowSet", "TABLE_COLUMNS", "compiled_kernels", "require_kernel"]
+__all__ = ["RowSet", "TABLE_COLUMNS", "compiled_kernels"]
 
 _WEIBULL, _EXPON, _MIXED = 0, 1, 2
 
@@ -34,20 +33,13 @@ TABLE_COLUMNS = ("expon", "k_h", "lam_h", "-log lam_h", "k_v", "lam_v", "-log la
 _KERNELS: ModuleType | None = None
 
 
-def require_kernel(kernel: str) -> None:
-    """Raise :class:`~socialaff_sim.errors.ConfigError` naming the extra when ``kernel`` is ``"numba"`` and numba is
-    missing (checked when a synthesizer is made, not at its first re-planning)."""
-    if kernel == "numba" and not compiled.available():
-        raise ConfigError("kernel='numba': numba is not installed (pip install 'socialaff-sim[fast]'); use kernel='numpy'")
-
-
 def compiled_kernels() -> ModuleType:
     """The compiled kernels (:mod:`~.score_kernel`), imported and loaded (:func:`~.score_kernel.warm`) at the first call:
-    that module needs numba, an optional extra, so the package imports and runs without it (:func:`require_kernel`'s
+    that module needs numba, an optional extra, so the package imports and runs without it (:func:`~.compiled.require`'s
     error when it is missing)."""
     global _KERNELS
     if _KERNELS is None:
-        require_kernel("numba")
+        compiled.require("numba")
         kernels = importlib.import_module(".score_kernel", __package__)
         kernels.warm()  # the JIT's cost (a compilation, or its cache's load) now, not at a stream's first re-planning
         _KERNELS = kernels

@@ -49,13 +49,13 @@ from ..data.interaction import Interaction
 from ..errors import ModelError
 from ..model.handedness import KEY_SWAP, relabel
 from ..model.transitions import order_ranks
+from . import compiled
 from .candidate_planner import CandidatePlanner
 from .canonical_stream import CanonicalStream
 from .candidates import AGENT1 as _AGENT1
 from .forward_belief import ForwardBelief
 from .hedging import branch_plans, shrink_factor
 from .model_cache import per_model
-from .row_density import require_kernel
 from .type_tables import TypeTables
 from .observed import ObservedInteraction
 from .observed_parse import parse_observed
@@ -89,7 +89,7 @@ class OnlineSynthesizer(CandidatePlanner, PathPlanner):
         # The potentials of every type stacked once per fitted model: the candidates' scores without per-call set-up.
         # kernel="numba" (issue 24, session 27): the tables' densities and the candidates' scores compiled; a missing
         # extra is named here, not at the first re-planning.
-        require_kernel(self.config.kernel)
+        compiled.require(self.config.kernel)
         self._tables = TypeTables.of(model, self.config.kernel) if model.config.vector_density == "polar" else None
 
     # -- episode -----------------------------------------------------------------------------------
