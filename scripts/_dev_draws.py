@@ -1,16 +1,14 @@
 """The inner CV's partition draws on the development split (issue 24; docs/design.md §8, "Repeated inner folds"),
-for scripts/dev_switching.py: its regression arguments (``--inner-repeats``, ``--inner-average``, ``--inner-folds``,
-``--penalties``) and ``--draws K``, which fits the ``default`` variant's switching regression once per partition
-draw k = 0 … K−1 (the k-th partition the generator seeded ``--seed`` gives; k = 0 is ``sw:default`` itself) and
-once with ``SwitchingConfig(inner_repeats=K, inner_average="blends")`` (the average of those K blends), on the same
-traces. Per validation instance it records ``sw:default@k``, ``sw:default@mean`` (the mean over the K draws: the
-default's error averaged over its own partition draw) and ``sw:default_bagK``. The library never imports this module.
+for scripts/dev_switching.py: its regression arguments (``--inner-folds``, ``--penalties``) and ``--draws K``, which
+fits the ``default`` variant's switching regression once per partition draw k = 0 … K−1 (the k-th partition the
+generator seeded ``--seed`` gives; k = 0 is ``sw:default`` itself) on the same traces. Per validation instance it
+records ``sw:default@k`` and ``sw:default@mean`` (the mean over the K draws: the default's error averaged over its own
+partition draw). The library never imports this module.
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import time
 from collections.abc import Callable, Sequence
 
@@ -24,26 +22,19 @@ from socialaff_sim.inference.switching import SwitchingConfig, SwitchingRegressi
 def add_regression_arguments(ap: argparse.ArgumentParser) -> None:
     """The switching regression's settings that apply to every variant (the traces and their cache unchanged)."""
     d = SwitchingConfig()
-    ap.add_argument("--inner-repeats", type=int, default=d.inner_repeats,
-                    help="partitions of every variant's inner CV (SwitchingConfig.inner_repeats, default %(default)s)")
-    ap.add_argument("--inner-average", choices=("errors", "blends"), default=d.inner_average,
-                    help="with --inner-repeats R > 1: one selection on errors averaged over the partitions, or the "
-                         "average of one blend per partition (SwitchingConfig.inner_average, default %(default)s)")
     ap.add_argument("--inner-folds", type=int, default=d.inner_folds,
                     help="folds of every variant's inner CV (SwitchingConfig.inner_folds, default %(default)s)")
     ap.add_argument("--penalties", default="", help="comma-separated ridge penalties of every variant "
                     "(SwitchingConfig.penalties; default: the library's)")
     ap.add_argument("--draws", type=int, default=1,
-                    help="K > 1: also the default variant per partition draw k < K and their average blend (_dev_draws.py)")
+                    help="K > 1: also the default variant per partition draw k < K (_dev_draws.py)")
 
 
 def regression_settings(args: argparse.Namespace) -> dict[str, object]:
     """The SwitchingConfig fields of :func:`add_regression_arguments`; SystemExit (exit 2) on a bad value."""
-    if args.inner_repeats < 1 or args.inner_folds < 2 or args.draws < 1:
-        raise SystemExit(f"--inner-repeats / --inner-folds / --draws: expected >= 1 / >= 2 / >= 1, found "
-                         f"{args.inner_repeats} / {args.inner_folds} / {args.draws}")
-    out: dict[str, object] = {"inner_repeats": args.inner_repeats, "inner_average": args.inner_average,
-                              "inner_folds": args.inner_folds}
+    if args.inner_folds < 2 or args.draws < 1:
+        raise SystemExit(f"--inner-folds / --draws: expected >= 2 / >= 1, found {args.inner_folds} / {args.draws}")
+    out: dict[str, object] = {"inner_folds": args.inner_folds}
     if args.penalties:
         try:
             out["penalties"] = tuple(float(x) for x in args.penalties.split(","))
@@ -57,9 +48,8 @@ def partition_draws(
     first: list[float], score: Callable[[SwitchingRegression], list[float]],
 ) -> tuple[dict[str, list[float]], str]:
     """The per-instance errors (``score``'s, m) of ``config``'s regression fitted once per partition draw k = 1 …
-    K−1 (draw 0 is the caller's own fit, whose errors are ``first``: ``sw:default@0``), their per-instance mean over
-    k = 0 … K−1 (``sw:default@mean``), and the average of the K blends (``sw:default_bagK``); and the seconds each
-    fit took, as text."""
+    K−1 (draw 0 is the caller's own fit, whose errors are ``first``: ``sw:default@0``) and their per-instance mean
+    over k = 0 … K−1 (``sw:default@mean``); and the seconds each fit took, as text."""
     usable = np.unique(stack_instances(
         train, config.n_observed,
         lambda i, inst: instance_rows(inst, traces[i], config.n_observed, config.features, stride=config.row_stride),
@@ -73,11 +63,6 @@ def partition_draws(
         t = time.perf_counter()
         per[f"sw:default@{k}"] = score(SwitchingRegression(config).fit(train, traces, n_subevents=n_subevents, rng=rng))
         times[f"@{k}"] = f"{time.perf_counter() - t:.1f}s"
-    t = time.perf_counter()
-    bag = dataclasses.replace(config, inner_repeats=draws, inner_average="blends")
-    per[f"sw:default_bag{draws}"] = score(SwitchingRegression(bag).fit(train, traces, n_subevents=n_subevents,
-                                                                       rng=np.random.default_rng(seed)))
-    times[f"bag{draws}"] = f"{time.perf_counter() - t:.1f}s"
     per["sw:default@0"] = [float(e) for e in first]
     per["sw:default@mean"] = [float(e) for e in np.mean([per[f"sw:default@{k}"] for k in range(draws)], axis=0)]
     return per, ", ".join(f"{k} {v}" for k, v in times.items())

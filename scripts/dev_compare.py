@@ -6,11 +6,11 @@ in both, and how many instances changed. Usage::
 
     python scripts/dev_compare.py BASE.json OTHER.json [--key sw:default] [--label NAME] [--per-class]
     python scripts/dev_compare.py BASE.json OTHER.json --second BASE2.json OTHER2.json [...]
-    python scripts/dev_compare.py RUN.json RUN.json --key sw:default@mean --other-key sw:default_bag5 [--second RUN2.json RUN2.json]
+    python scripts/dev_compare.py RUN.json RUN.json --key sw:default --other-key sw:default@mean [--second RUN2.json RUN2.json]
 
 ``--other-key`` (default: ``--key``) reads the other run's errors under another name, so two variants of one run
-compare (the same file as base and other; ``scripts/_dev_draws.py``: the default averaged over its partition draws
-against the average of their blends).
+compare (the same file as base and other; ``scripts/_dev_draws.py``: the default against itself averaged over its
+partition draws).
 
 With ``--second`` (the same split at a second seed; the evaluation's folds do not depend on ``--seed``, so both seeds
 validate on the same instances, in the same order) the figures are the means over the two seeds, and the difference is

@@ -32,8 +32,8 @@ traces are cached under their own name (suffix ``_srN``).
 (``SwitchingConfig.row_stride``; default: the library's, 2 since session 22; before it the runs passed 1) and the
 primitive's training traces are predicted at those frames only; the synthesizer's traces (and their cache) are the
 same; the validation rows keep every frame.
-``--inner-repeats``, ``--inner-average``, ``--inner-folds``, ``--penalties``, ``--draws K``: every variant's regression
-settings, and the default's regression per draw of its inner folds (scripts/_dev_draws.py).
+``--inner-folds``, ``--penalties``, ``--draws K``: every variant's regression settings, and the default's regression
+per draw of its inner folds (scripts/_dev_draws.py).
 ``--set FIELD=VALUE``: the default's causal synthesis changed; the fitted models shared (scripts/_dev_synthesis.py).
 ``--contiguous``: one pair's inner folds and cross-fitting parts as consecutive runs (``SwitchingConfig.contiguous``);
 ``--no-gated``: cheaper traces, no belief-gated variants. ``--clip-features on|off``, ``--clip-margin M``: every variant's
@@ -262,11 +262,11 @@ def main() -> None:
                                                       row_stride=args.row_stride, **settings)).fit(  # type: ignore[arg-type]
                 train, tr_traces, n_subevents=S, rng=np.random.default_rng(args.seed))
             row["sw:" + name] = _keep(per, "sw:" + name, [_err(reg.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
-            if name == "default" and args.draws > 1:  # the same regression per partition draw, and their average
+            if name == "default" and args.draws > 1:  # the same regression per partition draw
                 more, chosen["draws"] = partition_draws(reg.config, train, tr_traces, S, args.seed, args.draws, per["sw:default"],
                                                         lambda r: [_err(r.displacement(X, O, P)[:, kc], Y[:, kc]) for X, Y, O, P in va_rows])
                 per.update(more)
-                row.update({k: float(np.mean(v)) for k, v in more.items() if "_bag" in k or k.endswith("@mean")})
+                row.update({k: float(np.mean(v)) for k, v in more.items() if k.endswith("@mean")})
             chosen[name] = " + ".join(f"{m.weight:.1f}·[{'+'.join(m.groups)} λ={m.penalty:g}]" for m in reg.members_) or "hold"
         if args.v2:
             t2 = time.perf_counter()

@@ -148,15 +148,6 @@ class SwitchingConfig:
     """λ [—]: Ridge penalties the inner CV chooses among (unit-RMS features, rows weighing one per instance)."""
     inner_folds: int = 3
     """[—]: Folds of the inner cross-validation on the training instances."""
-    inner_repeats: int = 1
-    """R [—]: Partitions of the training instances into ``inner_folds`` folds, each drawn at random (pair-disjoint
-    where possible), combined as ``inner_average`` says. 1: one partition, as before; more damp the selection's
-    dependence on one draw of the folds on small classes (issue 24, docs/design.md §8, "Repeated inner folds").
-    With ``contiguous`` and one pair every partition is the same."""
-    inner_average: str = "errors"
-    """[—]: With ``inner_repeats`` R > 1: ``"errors"``, one selection on every candidate's held-out error averaged
-    over the R partitions (the blend's weights on the held-out predictions pooled over them); ``"blends"``, one
-    selection per partition and the average of the R blends (each member's weight α / R)."""
     contiguous: bool = False
     """[—]: With a single actor pair, the inner folds and the cross-fitting's parts are consecutive runs of the
     training instances in their order (time order for one recording: held-out blocks of the session) instead of
@@ -192,10 +183,6 @@ class SwitchingConfig:
             raise ConfigError(f"blend_steps: expected at least 1, found {self.blend_steps}")
         if self.inner_folds < 2:
             raise ConfigError(f"inner_folds: expected at least 2, found {self.inner_folds}")
-        if isinstance(self.inner_repeats, bool) or not isinstance(self.inner_repeats, int) or self.inner_repeats < 1:
-            raise ConfigError(f"inner_repeats: expected an integer >= 1, found {self.inner_repeats!r}")
-        if self.inner_average not in ("errors", "blends"):
-            raise ConfigError(f"inner_average: expected 'errors' or 'blends', found {self.inner_average!r}")
         if self.n_observed < 1:
             raise ConfigError(f"n_observed: expected at least 1, found {self.n_observed}")
 
@@ -248,44 +235,6 @@ def _prior_of(groups: Sequence[str]) -> str | None:
     return next((g for g in groups if g in PRIORS), None)
 
 
-def _choose(
-    cfg: SwitchingConfig, Xs: np.ndarray, Yk: np.ndarray, w: np.ndarray, row_ids: np.ndarray,
-    partitions: Sequence[Sequence[Sequence[int]]], priors: dict[str, np.ndarray], kc: np.ndarray, S: int,
-) -> tuple[list[tuple[str, tuple[str, ...], float, float]], float, dict[tuple[tuple[str, ...], float], float]]:
-    """Each family's best (groups, λ) by the inner CV's held-out error averaged over ``partitions`` (each a list of
-    folds of instance indices), and the blend's weights on the members' held-out predictions pooled over them:
-    the chosen (family, groups, λ, α > 0), the blend's held-out error (m) and every candidate's error (m).
-    Xs (N, F) scaled rows, Yk (N, 3·k) key-joint targets, w (N,) row weights, row_ids (N,) instances, ``priors``
-    the (N, J·3) priors by name (their key columns ``kc`` read), S sub-event types."""
-    winners, preds = [], []
-    errors: dict[tuple[tuple[str, ...], float], float] = {}
-    for family, _ in cfg.families:
-        candidates = {g: switching_columns(g, S) for g in cfg.candidates(family)}
-        runs: list[dict[tuple[tuple[str, ...], float], float]] = []
-        for folds in partitions:
-            cv: dict[tuple[tuple[str, ...], float], float] = {}
-            for prior in (None,) + PRIORS:  # one call per prior: cv_errors shifts by one offset
-                some = {g: c for g, c in candidates.items() if _prior_of(g) == prior}
-                if some:
-                    cv.update(cv_errors(Xs, Yk, w, row_ids, folds, some, cfg.penalties,
-                                        offset=priors[prior][:, kc] if prior else None, from_offset=some if prior else ()))
-            runs.append(cv)
-        cv = runs[0] if len(runs) == 1 else {k: float(np.mean([r[k] for r in runs])) for k in runs[0]}
-        errors.update(cv)
-        groups, lam = select({k: v for k, v in cv.items() if k[0] != HOLD})
-        winners.append((family, groups, lam))
-        prior = _prior_of(groups)
-        base = priors[prior][:, kc] if prior else np.zeros_like(Yk)
-        preds.append(np.concatenate([fold_predictions(Xs, Yk, w, row_ids, folds, candidates[groups], lam, base)
-                                     for folds in partitions]))
-    # Each partition's held-out rows count as instances of their own (ids shifted per partition), so the blend's
-    # error is the mean over the partitions of each one's mean over instances.
-    shift = int(row_ids.max()) + 1
-    ids = np.concatenate([row_ids + r * shift for r in range(len(partitions))])
-    alpha, blend_error = blend_weights(np.stack(preds), np.tile(Yk, (len(partitions), 1)), ids, cfg.blend_steps)
-    return [(f, g, lam, float(a)) for (f, g, lam), a in zip(winners, alpha, strict=True) if a > 0], blend_error, errors
-
-
 class SwitchingRegression:
     """The switching regression (module docstring). Learned attributes: ``n_subevents_`` (S), ``members_``
     (the families' fitted candidates with weight α > 0; empty: ``hold``), ``cv_errors_`` ({(groups, λ): mean
@@ -314,25 +263,30 @@ class SwitchingRegression:
         low, high = seen.min(axis=0), seen.max(axis=0)
         margin = cfg.clip_margin * (high - low)
         self.lower_, self.upper_ = low - margin, high + margin
-        usable = np.unique(row_ids)
-        partitions = [inner_folds(interactions, usable, cfg.inner_folds, rng, contiguous=cfg.contiguous)
-                      for _ in range(cfg.inner_repeats)]
+        folds = inner_folds(interactions, np.unique(row_ids), cfg.inner_folds, rng, contiguous=cfg.contiguous)
         priors = {"from_plan": plan_prior, "from_primitive": prim_prior}
         self.cv_errors_: dict[tuple[tuple[str, ...], float], float] = {}
         chosen: list[tuple[str, tuple[str, ...], float, float]] = []  # (family, groups, λ, α)
-        if len(partitions[0]) >= 2:
+        if len(folds) >= 2:
             kc = key_columns(interactions[0])
-            if cfg.inner_average == "errors":
-                chosen, self.blend_error_, self.cv_errors_ = _choose(cfg, Xs, Y[:, kc], w, row_ids, partitions, priors, kc, S)
-            else:  # one selection per partition, each member's weight α / R: the average of the R blends
-                runs = [_choose(cfg, Xs, Y[:, kc], w, row_ids, [folds], priors, kc, S) for folds in partitions]
-                merged: dict[tuple[str, tuple[str, ...], float], float] = {}  # one member per (family, groups, λ)
-                for run in runs:
-                    for f, g, lam, a in run[0]:
-                        merged[(f, g, lam)] = merged.get((f, g, lam), 0.0) + a / len(runs)
-                chosen = [(f, g, lam, a) for (f, g, lam), a in merged.items()]
-                self.blend_error_ = float(np.mean([run[1] for run in runs]))
-                self.cv_errors_ = {k: float(np.mean([run[2][k] for run in runs])) for k in runs[0][2]}
+            Yk = Y[:, kc]
+            winners, preds = [], []
+            for family, _ in cfg.families:
+                candidates = {g: switching_columns(g, S) for g in cfg.candidates(family)}
+                cv: dict[tuple[tuple[str, ...], float], float] = {}
+                for prior in (None,) + PRIORS:  # one call per prior: cv_errors shifts by one offset
+                    some = {g: c for g, c in candidates.items() if _prior_of(g) == prior}
+                    if some:
+                        cv.update(cv_errors(Xs, Yk, w, row_ids, folds, some, cfg.penalties,
+                                            offset=priors[prior][:, kc] if prior else None, from_offset=some if prior else ()))
+                self.cv_errors_.update(cv)
+                groups, lam = select({k: v for k, v in cv.items() if k[0] != HOLD})
+                winners.append((family, groups, lam))
+                prior = _prior_of(groups)
+                base = priors[prior][:, kc] if prior else np.zeros_like(Yk)
+                preds.append(fold_predictions(Xs, Yk, w, row_ids, folds, candidates[groups], lam, base))
+            alpha, self.blend_error_ = blend_weights(np.stack(preds), Yk, row_ids, cfg.blend_steps)
+            chosen = [(f, g, lam, float(a)) for (f, g, lam), a in zip(winners, alpha, strict=True) if a > 0]
         else:
             self.blend_error_ = math.nan
             chosen = [("fallback", tuple(cfg.fallback[0]), float(cfg.fallback[1]), 1.0)]
