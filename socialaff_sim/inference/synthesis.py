@@ -342,9 +342,6 @@ class OnlineSynthesizer(CandidatePlanner, PathPlanner):
             return max(int(self._row(t)[1]) - 1, t)
         inter = self._inter
         assert inter is not None  # internal invariant: set by reset
-        fb = self._filter
-        if self.config.horizon_overrun and fb is not None and t - start >= fb.horizon:
-            return t  # the long bucket: its true start is older than the belief knows, so it counts as overrun
         mu, sigma = self.model.duration_params_[s]
         total = sample_remaining_seconds(
             mu, sigma, (t - start) / inter.fps, self._rng, median=self.config.duration == "median"

@@ -28,7 +28,7 @@ class SynthesisConfig:
 
     Fields by concept
     -----------------
-    - Online schedule: n_observed, delta_t, replan_at_end, overrun_delta_t, horizon_overrun
+    - Online schedule: n_observed, delta_t, replan_at_end, overrun_delta_t
     - Running sub-event and its end: parse, belief, belief_step, belief_horizon, ordered, parse_window,
       observed_parse_step, open_interval, duration, lookahead
     - Candidate end configurations: n_samples, spatial_fraction, coherent_fraction, refine_sweeps, vertical_sign,
@@ -143,17 +143,11 @@ class SynthesisConfig:
     frames instead of one, so the next re-planning is ΔT frames later (on by :meth:`reactive`, the default preset's
     synthesis, since session 22: its declared rule held, docs/design.md §8). Whether a sub-event whose start is the
     ``"forward"`` belief's long bucket (treated as begun ``belief_horizon`` ago) has overrun is decided by its duration
-    model like any other's: with ``horizon_overrun`` off, only when that age lies more than about 7.03 σ above the
-    log-normal's median (the conditional median is taken at a quantile clamped to 1 − 10⁻¹²,
+    model like any other's: only when that age lies more than about 7.03 σ above the log-normal's median (the
+    conditional median is taken at a quantile clamped to 1 − 10⁻¹²,
     :func:`~socialaff_sim.inference.timing.sample_remaining_seconds`); otherwise its predicted end is a few frames
     ahead, at every re-planning. False (the field's default, and the paper's): re-plan after every predicted end, i.e.
     at every frame while the sub-event overruns (on a long handover stream 94 % of the frames re-plan)."""
-    horizon_overrun: bool = False
-    """[—]: With the ``"forward"`` belief: a running sub-event whose start lies ``belief_horizon`` or more before the
-    re-planning frame t (the belief's oldest, long bucket, whose true start is unknown) counts as overrun, its
-    predicted last frame t, whatever its duration model says; with ``replan_at_end`` and ``overrun_delta_t`` the plan
-    then runs ΔT frames. False (the default): its end is the duration model's conditional median (or draw) given the
-    age ``belief_horizon`` (docs/design.md §7, issue 24's re-planning cadence on streams)."""
     contact: str = "none"
     """[—]: Pull of agent 1's wrist toward its contact keyframes (the model's ``contact_keys_``): toward the
     touched joint plus the learned offset, with a Gaussian weight that is 1 at the keyframe.

@@ -1,6 +1,7 @@
-"""``SynthesisConfig.horizon_overrun``: a running sub-event whose start is the forward belief's long bucket counts as
-overrun (issue 24's re-planning cadence on streams; an option, off by default), and the 7.03-σ clamp that decides the
-overrun without it."""
+"""The end of a running sub-event whose start is the forward belief's long bucket (issue 24's re-planning cadence on
+streams): its duration model's conditional median given the age ``belief_horizon``, and the 7.03-σ clamp past which it
+overruns (``SynthesisConfig.overrun_delta_t``'s docstring). The option ``horizon_overrun``, which counted every such
+sub-event as overrun, was removed; these were its tests' "off" cases."""
 
 from __future__ import annotations
 
@@ -26,7 +27,7 @@ def _conditional_median(mu: float, sigma: float, elapsed: float) -> float:
 
 
 @pytest.mark.parametrize("z", [5.0, 6.5, 6.9, 7.2, 8.0])
-def test_the_long_bucket_overruns_without_the_option_only_past_the_clamp(z: float) -> None:
+def test_the_long_bucket_overruns_only_past_the_clamp(z: float) -> None:
     # What overrun_delta_t's docstring now says: an age z σ above the median overruns (the elapsed time comes back)
     # only past Φ⁻¹(1 − 10⁻¹²) ≈ 7.03 σ; below it the end is scipy's conditional median, after the elapsed time.
     mu, sigma = np.log(0.96), 0.22
@@ -41,29 +42,27 @@ def test_the_long_bucket_overruns_without_the_option_only_past_the_clamp(z: floa
         assert got == pytest.approx(_conditional_median(mu, sigma, elapsed), rel=1e-6)
 
 
-def _synthesizer(model: SocialAffordanceModel, shake8: Dataset, on: bool) -> OnlineSynthesizer:
-    cfg = SynthesisConfig.reactive(horizon_overrun=on)
+def _synthesizer(model: SocialAffordanceModel, shake8: Dataset) -> OnlineSynthesizer:
+    cfg = SynthesisConfig.reactive()
     syn = OnlineSynthesizer(model, None, cfg)
     syn.reset(observed_part(shake8[6], cfg.n_observed), rng=np.random.default_rng(0))
     return syn
 
 
-@pytest.mark.parametrize("on", [False, True], ids=["off", "on"])
-def test_end_frame_of_the_long_bucket(shake8_model: SocialAffordanceModel, shake8: Dataset, on: bool) -> None:
-    """The decision point: a start ``belief_horizon`` or more before t is overrun (last = t) with the option; one frame
-    younger, and without the option, the end is the duration model's conditional median (scipy), after t."""
+def test_end_frame_of_the_long_bucket(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
+    """A start ``belief_horizon`` or more before t, and one frame younger: the end is the duration model's conditional
+    median (scipy) given the age, after t."""
     model = copy.deepcopy(shake8_model)
     model.duration_params_ = model.duration_params_.copy()
     model.duration_params_[0] = (np.log(3.0), 0.5)  # 4 s is 0.58 σ above the median: the end is well after t
-    syn = _synthesizer(model, shake8, on)
+    syn = _synthesizer(model, shake8)
     fb, fps, t = syn._filter, shake8[6].fps, 200
     assert fb is not None and round(4.0 * fps) <= fb.horizon < t  # a whole number of cuts
     for age in (fb.horizon - 1, fb.horizon, fb.horizon + 7):
         start = t - age
         expected = start + int(round(_conditional_median(np.log(3.0), 0.5, age / fps) * fps)) - 1
         assert expected > t
-        want = t if (on and age >= fb.horizon) else expected
-        assert syn._end_frame(0, start, t) == want
+        assert syn._end_frame(0, start, t) == expected
 
 
 class _Plans(OnlineSynthesizer):
@@ -80,17 +79,15 @@ class _Plans(OnlineSynthesizer):
         return last
 
 
-@pytest.mark.parametrize("on", [False, True], ids=["off", "on"])
-def test_long_bucket_plans_run_delta_t_frames_with_the_option(shake8_model: SocialAffordanceModel, shake8: Dataset,
-                                                               on: bool) -> None:
-    """On a 48-s stream, each re-planning in the long bucket is followed by the next one ΔT frames later with the
-    option; a re-planning of a younger start keeps its predicted end either way."""
+def test_long_bucket_plans_end_at_the_predicted_end(shake8_model: SocialAffordanceModel, shake8: Dataset) -> None:
+    """On a 48-s stream, each re-planning in the long bucket predicts an end after t, and the next re-planning comes
+    at that end or ΔT frames later, whichever is first."""
     model = copy.deepcopy(shake8_model)
     model.duration_params_ = model.duration_params_.copy()
     model.duration_params_[:, 0] = np.log(3.0)  # every sub-event long enough to end after a 4-s age
     model.duration_params_[:, 1] = 0.5
     inter = _stream([shake8[6], shake8[7]])
-    cfg = SynthesisConfig.reactive(horizon_overrun=on)
+    cfg = SynthesisConfig.reactive()
     syn = _Plans(model, None, cfg)
     syn.reset(observed_part(inter, cfg.n_observed), rng=np.random.default_rng(0))
     while not syn.done:
@@ -101,7 +98,4 @@ def test_long_bucket_plans_run_delta_t_frames_with_the_option(shake8_model: Soci
     old = [(t, last, k) for (t, start, last), k in zip(syn.plans, nxt, strict=True) if t - start >= H]
     assert len(old) >= 10  # the stream runs far past the horizon
     for t, last, k in old:
-        if on:
-            assert last == t and k == min(t + cfg.delta_t, n)
-        else:
-            assert last > t and k == min(t + cfg.delta_t, last + 1, n)
+        assert last > t and k == min(t + cfg.delta_t, last + 1, n)
