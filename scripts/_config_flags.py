@@ -15,6 +15,8 @@ REMOVED = {
     "FootLockConfig": {name: "61e3f3e" for name in ("catch_up", "catch_up_height", "catch_up_frames",
                                                     "catch_up_quiet")},
     "StanceConfig": {name: "1d1621b" for name in ("approach_near", "approach_far")},
+    "ContactCompletionConfig": {"planned_shoulder": "3eee746"},
+    "SynthesisConfig": {"horizon_overrun": "7f03f2e"},
 }
 """Options removed after they failed their measurements (docs/design.md), by class and field: the removing commit."""
 

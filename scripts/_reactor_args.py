@@ -7,6 +7,8 @@ from __future__ import annotations
 import argparse
 import dataclasses
 
+from _config_flags import REMOVED  # scripts/ (sys.path[0]); it imports nothing of socialaff_sim either
+
 
 def add_reactor_source_arguments(p: argparse.ArgumentParser, *, seconds: float) -> None:
     """--model, --data, --interaction, --skip, --recordings and --seconds (default ``seconds``)."""
@@ -30,7 +32,9 @@ def _setting(config: object, text: str) -> tuple[str, object]:
     name, eq, value = text.partition("=")
     fields = {f.name for f in dataclasses.fields(config)}  # type: ignore[arg-type]
     if not eq or name not in fields:
-        raise ValueError(f"--set {text!r}: expected FIELD=VALUE with FIELD one of SynthesisConfig's fields")
+        gone = REMOVED.get(type(config).__name__, {}).get(name)
+        why = f"; {type(config).__name__}.{name} was removed at {gone}, see docs/design.md" if gone else ""
+        raise ValueError(f"--set {text!r}: expected FIELD=VALUE with FIELD one of SynthesisConfig's fields{why}")
     kind = type(getattr(config, name))
     try:
         return name, (value.lower() in ("1", "true", "yes") if kind is bool else kind(value))

@@ -16,7 +16,8 @@ from conftest import load_script
 from socialaff_sim.inference.methods import AffordanceMethod, trace
 from socialaff_sim.inference.synthesis_config import SynthesisConfig
 
-sys.modules.setdefault("_reactor_args", load_script("_reactor_args"))  # what the script imports from scripts/
+sys.modules.setdefault("_config_flags", load_script("_config_flags"))  # what the scripts import from scripts/
+sys.modules.setdefault("_reactor_args", load_script("_reactor_args"))
 dev_synthesis = load_script("_dev_synthesis")
 
 
@@ -39,6 +40,17 @@ def test_set_changes_the_reactive_synthesis_and_names_the_cache() -> None:
         with pytest.raises(SystemExit) as e:
             dev_synthesis.with_settings(AffordanceMethod.from_preset("full", "default", reaction=None), [bad], ap)
         assert e.value.code == 2
+
+
+def test_a_removed_synthesis_field_is_exit_2_naming_its_commit(capsys) -> None:  # noqa: ANN001
+    ap = _parser()
+    for bad, removed in (("horizon_overrun=true", "7f03f2e"), ("no_such_field=1", None)):
+        with pytest.raises(SystemExit) as e:
+            dev_synthesis.with_settings(AffordanceMethod.from_preset("full", "default", reaction=None), [bad], ap)
+        assert e.value.code == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err[-1].startswith(f"{ap.prog}: error: --set {bad!r}")
+        assert (f"removed at {removed}" in err[-1]) if removed else ("removed" not in err[-1])
 
 
 def test_cached_fit_restores_the_models_and_the_generator(shake8, tmp_path: Path) -> None:  # noqa: ANN001
