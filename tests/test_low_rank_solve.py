@@ -14,6 +14,7 @@ from socialaff_sim.errors import ModelError
 from socialaff_sim.inference import primitive_stream
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, ProMPConfig
 from socialaff_sim.inference.low_rank_solve import LowRankUpdatedSolver
+from socialaff_sim.inference.primitive_conditioning import add_blocks
 from socialaff_sim.inference.primitive_stream import PrimitiveStream
 from socialaff_sim.inference.protocol import protocol_view
 
@@ -76,7 +77,7 @@ def _a_block(stream: PrimitiveStream) -> tuple[np.ndarray, np.ndarray]:
     c = int(np.argmax(stream._cands))
     s_aa, _, _, p_u = stream._solver(c)
     d0 = stream._d0
-    lam = stream._add_blocks(s_aa.copy(), stream._hth[c, :d0])
+    lam = add_blocks(s_aa.copy(), stream._hth[c, :d0])
     rhs = (stream._hty[c, :d0] - np.einsum("dnm,dm->dn", stream._hth[c, :d0], stream._mean[:d0])).ravel() - p_u
     return lam, rhs
 

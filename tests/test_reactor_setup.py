@@ -27,7 +27,7 @@ from socialaff_sim.inference.observed import ObservedInteraction
 from socialaff_sim.inference.primitive_stream import PrimitiveStream
 from socialaff_sim.inference.primitive_sums import outer_sums
 from socialaff_sim.inference.protocol import protocol_view
-from socialaff_sim.inference import primitive_stream, primitive_sums
+from socialaff_sim.inference import primitive_conditioning, primitive_sums
 from socialaff_sim.inference.interaction_primitive import InteractionPrimitive, ProMPConfig
 from socialaff_sim.inference.reaction_features import Anchor, FeatureConfig, forward_fill, velocity_estimate
 from socialaff_sim.inference.synthesis import OnlineSynthesizer, SynthesisConfig
@@ -287,8 +287,8 @@ def test_warm_fixed_parts_are_the_ones_the_first_recording_made(rng: np.random.G
     insts = _instances(rng, 7)
     prim = InteractionPrimitive(ProMPConfig(n_basis=6, n_durations=5)).fit(insts[2:])
     factored: list[int] = []
-    cho = primitive_stream.cho_factor
-    monkeypatch.setattr(primitive_stream, "cho_factor", lambda *a, **k: factored.append(1) or cho(*a, **k))
+    cho = primitive_conditioning.cho_factor
+    monkeypatch.setattr(primitive_conditioning, "cho_factor", lambda *a, **k: factored.append(1) or cho(*a, **k))
 
     def run(p: InteractionPrimitive, inst: Interaction, warm: bool) -> list[np.ndarray]:
         stream = PrimitiveStream(p, T0)

@@ -1,7 +1,7 @@
 """The interaction primitive's per-frame shortcuts (issue 24, real-time speed) against the computations they replace,
 bitwise: the per-frame sums (basis table, candidate and DoF runs as slices) against the gathered sums of ``_add_rows``,
 the candidate choice by ``searchsorted`` against the scan of every candidate, the a-block built in a Fortran buffer
-against ``_add_blocks``; on instances with tracking gaps, a joint first tracked late, a joint never tracked (two runs of
+against ``add_blocks``; on instances with tracking gaps, a joint first tracked late, a joint never tracked (two runs of
 DoFs) and a stream past the longest training duration."""
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ def test_per_frame_shortcuts_equal_the_gathered_sums(monkeypatch: pytest.MonkeyP
 
     monkeypatch.setattr(primitive_stream, "dpotrf", spy)
     new = [_outputs(prim, inst) for inst in tests]
-    # The reference: every frame's sums by _add_rows (gathers), the old choice, the a-block by _add_blocks.
+    # The reference: every frame's sums by _add_rows (gathers), the old choice, the a-block by add_blocks.
     built: list[np.ndarray] = []
 
     def old_potrf(a: np.ndarray, **kw: int) -> tuple[np.ndarray, int]:

@@ -32,10 +32,8 @@ then grows by w·φ(1)φ(1)ᵀ per observed DoF and frame, a fixed low-rank term
 
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve
+from scipy.linalg import cho_solve
 from scipy.linalg.lapack import dpotrf, dpotrs
 
 from ..data.interaction import Interaction
@@ -45,8 +43,9 @@ from ..model.frame import CanonicalFrame, canonical_frame
 from .interaction_primitive import InteractionPrimitive, rbf_centres, rbf_rows
 from .compiled import KERNELS
 from .low_rank_solve import LowRankUpdatedSolver
+from .primitive_conditioning import SHARED_SOLVERS, add_blocks, fixed_parts, warm_fixed_parts
 from .primitive_kernel import UpdatedFactor
-from .primitive_sums import PrimitiveSums, diagonal_blocks, outer_sums
+from .primitive_sums import PrimitiveSums, diagonal_blocks
 from .protocol import observed_part
 
 __all__ = ["PHASE_ONE_REFACTOR", "PrimitiveStream", "SHARED_SOLVERS", "stream_key_joints"]
@@ -55,15 +54,6 @@ PHASE_ONE_REFACTOR = 256
 """[frames]: past T_max, the a-block S + B_a is factored anew after this many frames (the frames between solve
 against the last factor with the Woodbury identity; the refactoring bounds how far the low-rank term grows from
 the factored matrix). A frame that refactors costs what a frame within T_max does."""
-
-SHARED_SOLVERS = 32
-"""[—]: At most this many candidates' fixed conditioning parts (S, K and Λ_rr's factor, about 0.9 MB each on the
-handovers; one per candidate duration and agent-1 tracking pattern) are kept per fitted primitive, shared by its
-streams (oldest dropped first)."""
-
-_SHARED: weakref.WeakKeyDictionary[InteractionPrimitive, tuple[np.ndarray, dict[tuple[int, bytes], tuple[np.ndarray, ...]]]]
-_SHARED = weakref.WeakKeyDictionary()  # per primitive: its precision_ (a refit replaces it) and the fixed parts
-_WARM: weakref.WeakKeyDictionary[InteractionPrimitive, tuple[np.ndarray, set[int]]] = weakref.WeakKeyDictionary()
 
 
 class PrimitiveStream(PrimitiveSums):
@@ -132,14 +122,6 @@ class PrimitiveStream(PrimitiveSums):
     def _rbf(self, phase: np.ndarray) -> np.ndarray:
         """(G, N) :func:`~.interaction_primitive.rbf_basis` at phases (G,)."""
         return rbf_rows(phase, self._centres, self._sigma)
-
-    def _add_blocks(self, lam: np.ndarray, blocks: np.ndarray) -> np.ndarray:
-        """``lam`` (M·N, M·N) plus the block-diagonal of ``blocks`` (M, N, N), in place."""
-        m, n = len(blocks), self._n
-        view = lam.reshape(m, n, m, n)
-        diag = np.arange(m)
-        view[diag, :, diag, :] += blocks
-        return lam
 
     def _dofs(self, joints: np.ndarray, obj: np.ndarray | None) -> np.ndarray:
         """(G, D) canonical DoFs from world key joints (G, 2, k, 3) and the object (G, 3) or ``None``."""
@@ -251,46 +233,14 @@ class PrimitiveStream(PrimitiveSums):
 
     def _fixed(self, c: int, blocks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Λ_rr's Cholesky factor, K and S of candidate ``c`` given agent 1's information blocks B_r ``blocks``
-        (r-DoFs, N, N). They depend on the instance only through B_r, the same on every instance whose agent 1 is
-        tracked alike in its first T0 frames: shared between the streams of one primitive (made anew if it is
-        refitted), keyed by the candidate and B_r's bytes."""
-        entry = _SHARED.get(self.primitive)
-        if entry is None or entry[0] is not self.primitive.precision_:
-            entry = _SHARED[self.primitive] = (self.primitive.precision_, {})
-        shared = entry[1]
-        key = (int(self._cands[c]), blocks.tobytes())
-        if key not in shared:
-            a = self._a
-            prec = self.primitive.precision_
-            lam_rr = self._add_blocks(prec[a:, a:].copy(), blocks)
-            factor = cho_factor(0.5 * (lam_rr + lam_rr.T), lower=True, check_finite=False)
-            k = cho_solve(factor, prec[a:, :a], check_finite=False)
-            s = prec[:a, :a] - prec[:a, a:] @ k
-            if len(shared) >= SHARED_SOLVERS:
-                shared.pop(next(iter(shared)))  # the oldest
-            shared[key] = (factor[0], k, 0.5 * (s + s.T))
-        return shared[key]
+        (r-DoFs, N, N), shared between the streams of one primitive (:func:`~.primitive_conditioning.fixed_parts`)."""
+        return fixed_parts(self.primitive, self._a, int(self._cands[c]), blocks)
 
     def warm(self) -> None:
-        """Make every candidate's fixed part (:meth:`_fixed`) for an agent 1 tracked in all of its first T0 frames (the
-        usual recording) before the first frame, once per primitive and T0 (the reactor's constructor calls it): on
-        the first recording after a load they were made at the frames where the chosen duration first changed to
-        each candidate (a factorisation each, 1.5–3 ms). B_r is what the stream's first call adds, the view's T0 + 1
-        frames at once (:meth:`~.primitive_sums.PrimitiveSums._add_rows`, agent 1 seen before T0): the same
-        products and sums, so the same bytes, the same key; a recording tracked otherwise misses and makes its own."""
-        entry = _WARM.get(self.primitive)
-        if entry is None or entry[0] is not self.primitive.precision_:
-            entry = _WARM[self.primitive] = (self.primitive.precision_, set())
-        if self.n_observed in entry[1]:
-            return
-        frames = np.arange(self.n_observed + 1)
-        span = np.maximum(self._cands - 1, 1)  # every candidate is active at frame 0
-        phi = self._rbf(np.minimum(frames[:, None] / span[None], 1.0).ravel()).reshape(len(frames), len(self._cands), self._n)
-        w = np.where(frames[:, None] < self.n_observed, self._inv_var[None, self._d0 :], 0.0)  # seen × 1/σ², as _add_rows
-        blocks = 0.0 + 1.0 * outer_sums(phi, w)  # the sums start at zero; sign 1.0
-        for c in range(len(self._cands)):
-            self._fixed(c, np.ascontiguousarray(blocks[c]))
-        entry[1].add(self.n_observed)
+        """Make every candidate's fixed part for an agent 1 tracked in all of its first T0 frames before the first
+        frame, once per primitive and T0 (the reactor's constructor calls it;
+        :func:`~.primitive_conditioning.warm_fixed_parts`)."""
+        warm_fixed_parts(self.primitive, self.n_observed, self._a, self._cands, self._inv_var[self._d0 :], self._rbf)
 
     def keys(self, view: Interaction, start: int, stop: int) -> np.ndarray:
         """(stop − start, 5, 3) agent 1's key joints of frames [start, stop), metres, the view's canonical frame
@@ -371,7 +321,7 @@ class PrimitiveStream(PrimitiveSums):
         refactoring S + B_a (as within T_max) when there is none for candidate ``c`` or it is
         :data:`PHASE_ONE_REFACTOR` frames old; on a refactoring frame the solve is the direct one."""
         if self._phase_one is None or self._phase_one_c != c or self._phase_one_frames >= PHASE_ONE_REFACTOR:
-            self._phase_one = LowRankUpdatedSolver(self._add_blocks(s_aa.copy(), blocks), self._u_one)
+            self._phase_one = LowRankUpdatedSolver(add_blocks(s_aa.copy(), blocks), self._u_one)
             self._phase_one_c, self._phase_one_frames = c, 0
         return self._phase_one.solve(rhs)
 
