@@ -34,9 +34,7 @@ for every mode that has one, ``--labels`` picks
 interactions. After the per-interaction table, one line per robot and mode summarises the contact phases, and one
 more counts the episodes failing by each failure kind (self-collision, force on the person, a drop), and one
 more gives how far the feet stand from where the foot lock planted them (the larger foot, in the frames in which
-both stand; ``FootLockConfig.touchdown`` brings them there) and from the targets they were planted for (the same
-without ``FootLockConfig.plant_physical`` or ``replant``, which plant a foot where it stands) with the touchdown
-waits; with the balance controller,
+both stand; ``FootLockConfig.touchdown`` brings them there) with the touchdown waits; with the balance controller,
 one more counts the harness's releases and catches over the whole episodes (by cause) and the physics steps of
 ``BalanceConfig.torque_handover``'s ramps.
 
@@ -88,17 +86,15 @@ KEYS = ("released_frames", "outside_support_mean", "outside_support_peak", "foot
         "saturated_fraction", "at_joint_limit_fraction", "torso_tilt_deg_max")
 
 
-def _feet_offset(sim: Simulator, result: object, out: list[tuple[float, bool, float]]) -> None:
+def _feet_offset(sim: Simulator, result: object, out: list[tuple[float, bool]]) -> None:
     """After a frame in which both feet stand (the foot lock's): the larger foot's horizontal distance (m) from its
-    planted point, whether a sub-goal's contact holds, and the larger foot's distance (m) from the target it was
-    planted for (``FootLock.aim``; the planted point itself without ``plant_physical``) (appended to ``out``)."""
+    planted point, and whether a sub-goal's contact holds (appended to ``out``)."""
     lock = sim._footlock
     if result is None or lock is None or not all(lock.standing):
         return
     phys = key_frames(sim.scene, sim.data)[3:5]
     out.append((max(float(np.linalg.norm(phys[k, :2] - lock.planted[k][:2])) for k in (0, 1)),  # type: ignore[index]
-                any(result.subgoals_now.values()),  # type: ignore[attr-defined]
-                max(float(np.linalg.norm(phys[k, :2] - lock.aim[k][:2])) for k in (0, 1))))  # type: ignore[index]
+                any(result.subgoals_now.values())))  # type: ignore[attr-defined]
 
 
 def main() -> None:
@@ -159,12 +155,11 @@ def main() -> None:
                     source = GroundTruthSource() if args.model is None else model_source(args.model, offline=False)
                     tic = time.process_time()
                     sim = Simulator(spec, label, MODES[mode])
-                    offsets: list[tuple[float, bool, float]] = []
+                    offsets: list[tuple[float, bool]] = []
                     m = run_episode(sim, source, inter, on_frame=lambda s, r, _: _feet_offset(s, r, offsets))
                     cpu = time.process_time() - tic
-                    both = np.array([o for o, _, _ in offsets])
-                    touching = np.array([o for o, c, _ in offsets if c])
-                    aimed = np.array([a for _, _, a in offsets])
+                    both = np.array([o for o, _ in offsets])
+                    touching = np.array([o for o, c in offsets if c])
                     lock = sim._footlock
                     bal = sim._stage.stepper.balance
                     cp = m["support"]["contact_phase"]
@@ -175,7 +170,6 @@ def main() -> None:
                                  "episode_tilt_deg_max": m["support"]["episode"]["torso_tilt_deg_max"],
                                  "feet_offset_cm_median": 100 * float(np.median(both)) if both.size else None,
                                  "feet_offset_contact_cm_median": 100 * float(np.median(touching)) if touching.size else None,
-                                 "feet_aim_cm_median": 100 * float(np.median(aimed)) if aimed.size else None,
                                  "touchdown_waits": None if lock is None or lock.touchdown is None else lock.touchdown.waits,
                                  "catches": None if bal is None else bal.catches,
                                  "catch_reasons": None if bal is None else dict(bal.catch_reasons),
@@ -239,11 +233,9 @@ def main() -> None:
             sel = [r for r in rows if r["robot"] == robot and r["mode"] == mode]
             off = [r["feet_offset_cm_median"] for r in sel if r["feet_offset_cm_median"] is not None]
             offc = [r["feet_offset_contact_cm_median"] for r in sel if r["feet_offset_contact_cm_median"] is not None]
-            aim = [r["feet_aim_cm_median"] for r in sel if r["feet_aim_cm_median"] is not None]
             print(f"{robot:<12}{mode:<16}feet from their planted points while both stand (median over episodes of "
                   f"each episode's median): {np.median(off) if off else float('nan'):.1f} cm, in contact frames "
-                  f"{np.median(offc) if offc else float('nan'):.1f} cm; from the targets they were planted for "
-                  f"{np.median(aim) if aim else float('nan'):.1f} cm; touchdown waits "
+                  f"{np.median(offc) if offc else float('nan'):.1f} cm; touchdown waits "
                   f"{sum(r['touchdown_waits'] or 0 for r in sel)}")
     for robot in args.robots:
         for mode in args.modes:

@@ -9,9 +9,7 @@ holds an ankle target at the place where its foot came down (on the floor, at
 the robot's home ankle height) while the target stays within ``radius`` of that
 place and below ``lift`` above home height (``hold_lift``, when set, for a foot already planted); a
 target that leaves that ball (a step) is followed again. With ``touchdown`` a foot is put down only once it is
-over its target (:mod:`~.touchdown`). With ``plant_physical`` a foot is planted where its physical foot stands
-(the IK then plans the robot over its feet as they are), its step still judged by its target, and the base
-target moves with the planted feet's offset from their targets (:meth:`FootLock.shift_base`).
+over its target (:mod:`~.touchdown`).
 """
 
 from __future__ import annotations
@@ -60,34 +58,7 @@ class FootLockConfig:
     """s_t [m]: a waiting foot's target is at most this far (horizontally) from the physical foot, toward the
     foothold (lifted where it is before it is carried); ``None``: over the foothold."""
 
-    plant_physical: bool = False
-    """[—]: A foot put down is planted where its physical ankle frame stands (horizontally; at the home ankle
-    height), not at its target a_s: the IK pins the foot where it is and plans the robot over it, and the balance
-    controller's centre-of-mass goal (the plan's, relative to its feet) sits over the physical feet. Whether it
-    stays planted is still judged by its target against a_s (``radius``, ``hold_lift``). ``False``: planted at
-    the target (the H1's walk-up steps land 25–47 cm short of it and the IK plans the robot standing 22.6 cm ahead
-    of its physical feet; docs/benchmarks.md, "The H1's outside support in the contact phases, diagnosed …")."""
-    replant: float | None = None
-    """d_p [m]: at each new data frame, once both feet have stood ``replant_after`` frames in a row, a planted
-    foot whose physical ankle frame stands farther than this (horizontally) from its planted point is planted
-    again where it stands (at its home height; its target a_s kept); ``None``: never (with ``plant_physical``
-    alone, a foot is planted where it stands only when it is put down)."""
-    replant_after: int = 0
-    """n_r [frames]: ``replant`` waits until both feet have stood this many data frames in a row (the walk-up
-    over: with a foot re-planted short of its target during the walk-up the base, moved back with it, keeps the
-    next step short too, and the robot falls back from the person; docs/benchmarks.md)."""
-    plant_base: float = 1.0
-    """κ_b [—]: with ``plant_physical`` or ``replant``, the base target moves horizontally by κ_b times the mean,
-    over the planted feet, of their planted points' offsets from their targets a_s (the root re-planned over
-    the feet as they stand; 0: the base target as retargeted)."""
-
     def __post_init__(self) -> None:
-        if not (self.plant_base >= 0.0 and (self.replant is None or self.replant >= 0.0) and self.replant_after >= 0):
-            raise ConfigError(f"FootLockConfig: expected plant_base ≥ 0, replant None or ≥ 0 m and replant_after "
-                              f"≥ 0 frames, found {self.plant_base}, {self.replant}, {self.replant_after}")
-        if self.physical_plan and self.touchdown is not None:
-            raise ConfigError("FootLockConfig.plant_physical, replant: not with touchdown (a foot would wait to be "
-                              "put down on its target, then be planted where it stands)")
         if self.touchdown is not None and not (self.touchdown > 0.0 and self.touchdown_height > 0.0
                                                and self.touchdown_frames >= 1 and (self.touchdown_stride is None
                                                                                    or self.touchdown_stride > 0.0)):
@@ -100,11 +71,6 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig.hold_lift: expected None or a height ≥ lift ({self.lift} m), found "
                               f"{self.hold_lift}")
 
-    @property
-    def physical_plan(self) -> bool:
-        """Whether a foot may be planted where it physically stands (``plant_physical`` or ``replant``)."""
-        return self.plant_physical or self.replant is not None
-
 
 class FootLock:
     """Holds standing ankle targets still (see the module docstring); :meth:`reset` per episode."""
@@ -115,11 +81,6 @@ class FootLock:
         self.config = config or FootLockConfig()
         self.planted: list[np.ndarray | None] = [None, None]
         """Where each foot is planted (world, (3,) m), or ``None`` while it steps."""
-        self.aim: list[np.ndarray | None] = [None, None]
-        """The target a_s each planted foot came down for (world, (3,) m; its planted point without
-        ``plant_physical``), or ``None`` while it steps: its step is judged against this."""
-        self.stood = 0
-        """Data frames in a row begun with both feet planted (``replant_after`` counts them)."""
         c = self.config
         self.touchdown = None if c.touchdown is None else Touchdown(c.touchdown, c.touchdown_height,
                                                                      c.touchdown_frames, c.touchdown_stride)
@@ -128,15 +89,13 @@ class FootLock:
     def reset(self) -> None:
         """No foot planted."""
         self.planted = [None, None]
-        self.aim = [None, None]
-        self.stood = 0
         if self.touchdown is not None:
             self.touchdown.reset()
 
     @property
     def needs_physical(self) -> bool:
-        """Whether :meth:`apply` needs the physical ankle frames (``touchdown``, ``plant_physical``, ``replant``)."""
-        return self.touchdown is not None or self.config.physical_plan
+        """Whether :meth:`apply` needs the physical ankle frames (``touchdown``)."""
+        return self.touchdown is not None
 
     @property
     def standing(self) -> tuple[bool, bool]:
@@ -150,15 +109,9 @@ class FootLock:
         ``physical`` (2, 3): the physical ankle frames (world, m), which ``touchdown`` needs; ``new_frame``:
         ``False`` for a solve again within a data frame (the touchdown then keeps the frame's decision)."""
         if self.needs_physical and physical is None:
-            raise SimulationError("FootLock.apply: touchdown and plant_physical need the physical ankle frames")
+            raise SimulationError("FootLock.apply: touchdown needs the physical ankle frames")
         out = np.array(ankles, dtype=np.float64)
         c = self.config
-        if new_frame:  # data frames in a row that began with both feet standing
-            self.stood = self.stood + 1 if all(p is not None for p in self.planted) else 0
-        if c.replant is not None and new_frame and self.stood >= c.replant_after:
-            for s, p in enumerate(self.planted):
-                if p is not None and np.linalg.norm(physical[s, :2] - p[:2]) > c.replant:  # type: ignore[index]
-                    self.planted[s] = self._where(s, physical)
         held = touching and c.hold_in_contact
         td = self.touchdown
         if held and all(p is not None for p in self.planted):
@@ -171,39 +124,19 @@ class FootLock:
         for s in (0, 1):
             t = out[s]
             rise = t[2] - self.home_height[s]
-            p, a = self.planted[s], self.aim[s]
-            if p is not None and (rise <= hold and np.linalg.norm(t[:2] - a[:2]) <= c.radius or waiting[1 - s]):  # type: ignore[index]
+            p = self.planted[s]
+            if p is not None and (rise <= hold and np.linalg.norm(t[:2] - p[:2]) <= c.radius or waiting[1 - s]):
                 out[s] = p  # stands (and does not lift while the other foot waits to touch down)
             elif rise <= c.lift:
-                landing[s] = self.aim[s] = np.array([t[0], t[1], self.home_height[s]])
-                self.planted[s] = self._where(s, physical) if c.plant_physical else landing[s]
-                out[s] = self.planted[s]
+                landing[s] = np.array([t[0], t[1], self.home_height[s]])
+                self.planted[s] = landing[s]
+                out[s] = landing[s]
             else:
-                self.planted[s] = self.aim[s] = None
+                self.planted[s] = None
         if td is not None:
             standing = [p is not None for p in self.planted]
             for s, w in enumerate(td.decide(landing, standing, physical, not held, new_frame)):  # type: ignore[arg-type]
                 if w:
-                    self.planted[s] = self.aim[s] = None
+                    self.planted[s] = None
                     out[s] = td.lifted(landing[s], physical[s])  # type: ignore[arg-type,index]
         return out
-
-    def _where(self, s: int, physical: np.ndarray | None) -> np.ndarray:
-        """(3,) the point foot ``s`` stands on: its physical ankle frame (``physical`` (2, 3), world, m)
-        horizontally, at its home height."""
-        assert physical is not None
-        return np.array([physical[s, 0], physical[s, 1], self.home_height[s]])
-
-    def base_offset(self) -> np.ndarray:
-        """(2,) m: κ_b times the mean over the planted feet of their planted points' horizontal offsets from their
-        targets (``plant_physical``, ``replant``; zeros without them or with no foot planted)."""
-        off = [p[:2] - a[:2] for p, a in zip(self.planted, self.aim, strict=True) if p is not None and a is not None]
-        if not (self.config.physical_plan and off):
-            return np.zeros(2)
-        return self.config.plant_base * np.mean(off, axis=0)
-
-    def shift_base(self, base: np.ndarray) -> None:
-        """Move the base target ``base`` (3+,) (world, m; in place) horizontally by :meth:`base_offset` (with
-        ``plant_physical`` or ``replant``; untouched without them)."""
-        if self.config.physical_plan:
-            base[:2] += self.base_offset()

@@ -260,7 +260,6 @@ class Simulator:
             physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.needs_physical else None
             world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()),
                                               physical, new_frame=not self._in_frame)
-            self._footlock.shift_base(world[0])  # over the feet as they stand (``plant_physical``)
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
