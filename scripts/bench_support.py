@@ -121,7 +121,7 @@ def main() -> None:
                    help="FootLockConfig fields for every mode (Python literals), e.g. hold_lift=0.08")
     p.add_argument("--completion", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="ContactCompletionConfig fields for every mode with the contact completion (Python "
-                        "literals), e.g. reach=1.1")
+                        "literals), e.g. planned_shoulder=True")
     args = p.parse_args()
     if args.completion:
         over = field_settings(p, "--completion", ContactCompletionConfig, args.completion)

@@ -1,13 +1,10 @@
-"""The contact completion's reach gate in the simulator is measured from the robot's physical shoulders, not the
-plan's (the option ``ContactCompletionConfig.planned_shoulder``, which measured it from the IK's latest solution, was
-removed; this was its test's "off" case).
+"""The contact completion's reach gate measured from the plan's shoulders (``ContactCompletionConfig.planned_shoulder``).
 
-At a recorded high five's strike: the IK's latest solution is moved by a few centimetres along the line from the
-physical shoulder to the completed wrist target, so that the plan's shoulder and the physical one stand at different
-distances from that target. The arm's length is then set so that the target lies ε inside or ε beyond the gate's far
-edge (ρ·arm + b) as measured from the physical shoulder, and the completion's weight (``ramp`` 0: the weight is the
-gate) is checked against the gate computed by hand: open just inside, shut just beyond (measured from the plan's
-shoulder it would be open, or shut, on both sides).
+In the simulator, at a recorded high five's strike: the IK's latest solution is moved by a few centimetres along
+the line from the physical shoulder to the completed wrist target, so that the plan's shoulder and the physical one
+stand at different distances from that target. The arm's length is then set so that the target lies ε inside or ε
+beyond the gate's far edge (ρ·arm + b) as measured from the plan's shoulder, and the completion's weight (``ramp``
+0: the weight is the gate) is checked against the gate computed by hand from each shoulder.
 """
 
 from __future__ import annotations
@@ -19,6 +16,7 @@ import numpy as np
 import pytest
 
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
+from socialaff_sim.errors import SimulationError
 from socialaff_sim.retarget.contact_completion import ContactCompletionConfig
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.tasks import load_task
@@ -40,12 +38,12 @@ def strike():  # noqa: ANN201
     return inter, t
 
 
-def _at_strike(strike, sign: float):  # noqa: ANN001, ANN202
+def _at_strike(strike, planned: bool, sign: float):  # noqa: ANN001, ANN202
     """A harnessed Stubby replaying the recorded agent 1 to the frame before the strike, its IK solution then moved
     by ``sign`` × SHIFT along the physical shoulder → target line; returns the simulator, the frame, the hand side,
     the target (world), the plan's and the physical shoulder of that side."""
     inter, t = strike
-    cc = dataclasses.replace(ContactCompletionConfig(), ramp=0.0)
+    cc = dataclasses.replace(ContactCompletionConfig(), ramp=0.0, planned_shoulder=planned)
     # The robot's right hand only (the left one's shoulder stands elsewhere: a gate closing on the right hand would
     # hand the strike to the left one, another decision than the one tested here).
     task = load_task("high_five")
@@ -80,17 +78,34 @@ def _at_strike(strike, sign: float):  # noqa: ANN001, ANN202
 
 
 @pytest.mark.parametrize("sign", [1.0, -1.0])
-def test_the_gate_opens_and_closes_at_its_edge_measured_from_the_physical_shoulder(strike, sign: float) -> None:  # noqa: ANN001
+def test_the_gate_opens_and_closes_at_its_edge_measured_from_the_chosen_shoulder(strike, sign: float) -> None:  # noqa: ANN001
     band = ContactCompletionConfig().reach_band
-    sim, t, side, keys, target, plan, physical = _at_strike(strike, sign)
-    d_plan, d_phys = float(np.linalg.norm(target - plan)), float(np.linalg.norm(target - physical))
-    # Moved toward the target the plan's shoulder is nearer than the physical one, moved away farther.
-    assert sign * (d_phys - d_plan) > 2 * EPS
+    for planned in (True, False):
+        sim, t, side, keys, target, plan, physical = _at_strike(strike, planned, sign)
+        d_plan, d_phys = float(np.linalg.norm(target - plan)), float(np.linalg.norm(target - physical))
+        # Moved toward the target the plan's shoulder is nearer than the physical one, moved away farther.
+        assert sign * (d_phys - d_plan) > 2 * EPS
+        ft = sim._targets
+        for edge in (-EPS, EPS):  # the target ε inside, then ε beyond, the gate's far edge from the plan's shoulder
+            ft.arm = d_plan - band - edge  # ρ = 1
+            sim.retarget(keys, frame=t, contact=True, contact_inside=True)
+            d = d_plan if planned else d_phys
+            expected = _gate(d - ft.arm, band)
+            assert ft.completion.weight[side] == pytest.approx(expected, abs=1e-9)
+            if planned:
+                assert (expected > 0) == (edge < 0)  # open just inside the edge, shut just beyond it
+                assert expected == pytest.approx(_gate(band + edge, band), abs=1e-12)
+
+
+def test_the_planned_shoulders_are_the_ik_solutions_and_need_the_ik_bodies(strike) -> None:  # noqa: ANN001
+    sim, *_ = _at_strike(strike, True, 1.0)
     ft = sim._targets
-    for edge in (-EPS, EPS):  # the target ε inside, then ε beyond, the gate's far edge from the physical shoulder
-        ft.arm = d_phys - band - edge  # ρ = 1
-        sim.retarget(keys, frame=t, contact=True, contact_inside=True)
-        expected = _gate(band + edge, band)
-        assert (expected > 0) == (edge < 0)  # open just inside the edge, shut just beyond it
-        assert ft.completion.weight[side] == pytest.approx(expected, abs=1e-9)
-        assert (_gate(d_plan - ft.arm, band) > 0) == (sign > 0)  # from the plan's shoulder: one answer either side
+    ik_scene = sim._stage.ik_scene
+    m = ik_scene.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = sim._stage.ik.configuration.q
+    mujoco.mj_kinematics(m, d)
+    np.testing.assert_allclose(ft.planned_shoulders(), d.xpos[ik_scene.limb_body_ids[:2]], atol=1e-12)
+    ft.ik_shoulders = None
+    with pytest.raises(SimulationError, match="planned_shoulder"):
+        ft.planned_shoulders()
