@@ -41,7 +41,7 @@ def test_settings_are_python_literals_of_the_classes_fields() -> None:
 @pytest.mark.parametrize(("cls", "item", "removed"), [
     (BalanceConfig, "hand_weight=100.0", "61e3f3e"), (BalanceConfig, "release_reach=1.0", "61e3f3e"),
     (FootLockConfig, "catch_up=0.05", "61e3f3e"), (StanceConfig, "approach_near=0.3", "1d1621b"),
-    (ContactCompletionConfig, "planned_shoulder=True", "3eee746"), (ContactCompletionConfig, "reach=1.1x", None),
+    (FootLockConfig, "plant_physical=True", "e1cb74d"), (ContactCompletionConfig, "reach=1.1x", None),
     (BalanceConfig, "no_such_field=1", None), (FootLockConfig, "hold_lift", None)])
 def test_an_unknown_or_removed_field_is_exit_2(cls, item, removed, capsys) -> None:  # noqa: ANN001
     line = _error(capsys, lambda: flags.field_settings(argparse.ArgumentParser(), "--x", cls, [item]))
@@ -56,7 +56,7 @@ def test_a_value_that_is_not_a_literal_is_exit_2(capsys) -> None:  # noqa: ANN00
 
 
 def test_the_removed_table_names_no_field_that_exists() -> None:
-    classes = {c.__name__: c for c in (BalanceConfig, FootLockConfig, StanceConfig, ContactCompletionConfig, SynthesisConfig)}
+    classes = {c.__name__: c for c in (BalanceConfig, FootLockConfig, StanceConfig, SynthesisConfig)}
     assert set(flags.REMOVED) == set(classes)
     for name, removed in flags.REMOVED.items():
         assert removed and not set(removed) & {f.name for f in dataclasses.fields(classes[name])}
