@@ -198,11 +198,12 @@ def _settle(c: ContactCompletionConfig, x: CompletionInput, frames: int = 10) ->
     return out, stage.weight
 
 
-def test_off_by_default_and_off_it_is_todays_completion_bit_for_bit() -> None:
-    assert ContactCompletionConfig().catch_flight is False
+def test_on_by_default_and_off_it_is_the_completion_without_the_flight_bit_for_bit() -> None:
+    assert ContactCompletionConfig().catch_flight is True and ContactCompletionConfig().catch_approach is True
     x = _catch_input()
-    today = _settle(ContactCompletionConfig(), dataclasses.replace(x, catch=False, flight=None))
-    off = _settle(ContactCompletionConfig(), x)  # the window open, the option off
+    no = ContactCompletionConfig(catch_flight=False, catch_approach=False)
+    today = _settle(no, dataclasses.replace(x, catch=False, flight=None))
+    off = _settle(no, x)  # the window open, the option off
     np.testing.assert_array_equal(off[0], today[0])
     np.testing.assert_array_equal(off[1], today[1])
     assert not today[1].any()  # the ball's intended gap is beyond capture and the recording has no intent
@@ -314,7 +315,7 @@ def test_the_pace_holds_both_hands_within_the_hand_speed_of_their_wrists_only_wh
     closed = dataclasses.replace(x, catch=False)  # the window shut (a hand-over, the ball held): no pace
     np.testing.assert_array_equal(_settle(paced_on, closed, frames=1)[0], _settle(ON, closed, frames=1)[0])
     np.testing.assert_array_equal(_settle(paced_on, closed, frames=1)[0], closed.wrist_target)
-    assert ContactCompletionConfig().flight_pace == 3.0 and ContactCompletionConfig().catch_flight is False
+    assert ContactCompletionConfig().flight_pace == 3.0
 
 
 def test_the_pace_allows_the_hand_speed_over_every_frame_since_the_last_one() -> None:

@@ -24,7 +24,7 @@ earlier (the person's and the object's poses at t, the robot's own state), so a 
 Of the person's hands one pair at most is completed (the one of smallest intended gap); both hands may
 close on an object.
 
-With ``catch_flight`` (an option, off by default), in a catch sub-goal's window (the object free, no hand gripping
+With ``catch_flight`` (on by default), in a catch sub-goal's window (the object free, no hand gripping
 it, a ``catch`` sub-goal wanting it) the object's target for the hand its flight passes nearest is not where the
 object is at the frame's end but a point of its predicted free flight within the arm's reach, the hand in the
 ball's way (:func:`~socialaff_sim.retarget.flight_target.flight_targets`); the window captures it for that hand
@@ -98,21 +98,22 @@ class ContactCompletionConfig:
     """[—]: Whether, in such a frame or one before it, a person's hand held out beyond the robot's reach moves the
     robot in (:meth:`~socialaff_sim.retarget.scaling.KeyJointScaler.approach`; online placement only)."""
 
-    catch_flight: bool = False
+    catch_flight: bool = True
     """[—]: Whether, in a catch sub-goal's window (the object free, in the air and not gripped, a ``catch`` sub-goal
     wanting it), the hand whose shoulder the object's predicted free flight (from its simulated state now) passes
     nearest aims at a point of that flight within the arm's reach, in the ball's way
     (:func:`~socialaff_sim.retarget.flight_target.flight_targets`), captured by the window whatever the intended
     gap, rather than at the object where it will be at the frame's end; the other hand is completed as without it.
-    The hand is chosen afresh each frame. Off by default (docs/benchmarks.md, "A hand target on the ball's
-    predicted flight")."""
-    catch_approach: bool = False
+    The hand is chosen afresh each frame. On by default since the rule of docs/design.md §5 ("The catch options'
+    two failures traced and mended"), passed on fresh instances (docs/benchmarks.md, "The catch options' two
+    failures traced …")."""
+    catch_approach: bool = True
     """[—]: Whether, with ``catch_flight`` and the window open, a predicted flight that passes beyond the arm's
     reach (``reach``) from both shoulders moves the robot in toward it (:meth:`~socialaff_sim.retarget.scaling.
     KeyJointScaler.approach_nearest` with ``flight=True``: also when the robot was placed from the whole recording,
-    and not held back by the recording's trunk bound; at most ``ScalingConfig.approach_speed``). Off by default:
-    the recording's placement stands a broad robot back from where the ball flies (docs/benchmarks.md, "A hand
-    target on the ball's predicted flight")."""
+    and not held back by the recording's trunk bound; at most ``ScalingConfig.approach_speed``). The
+    recording's placement stands a broad robot back from where the ball flies (docs/benchmarks.md, "A hand target
+    on the ball's predicted flight"); on by default with ``catch_flight`` (the same rule)."""
     flight_horizon: float = 1.0
     """T_f [s]: with ``catch_flight``, how far past the end of the frame being planned the flight is searched (it
     ends earlier where the ball lands)."""
