@@ -210,6 +210,7 @@ def test_a_window_below_its_floor_is_an_error(shake8_model, rng: np.random.Gener
 
 def test_numba_kernel_without_numba_is_a_config_error(shake8_model, monkeypatch: pytest.MonkeyPatch) -> None:  # noqa: ANN001
     monkeypatch.setattr(compiled, "available", lambda: False)
+    monkeypatch.setattr(compiled, "_ONCE", {})  # as in a new process: nothing compiled yet
     with pytest.raises(ConfigError, match=r"socialaff-sim\[fast\]"):
         ForwardBelief(shake8_model, 30.0, stride=6, horizon=30, kernel="numba")
     with pytest.raises(ConfigError, match="kernel: expected"):

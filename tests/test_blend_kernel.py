@@ -62,6 +62,6 @@ def test_compiled_blend_equals_numpys(rng: np.random.Generator, clip: bool) -> N
 
 def test_compiled_blend_without_numba_is_a_config_error(rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(compiled, "available", lambda: False)
-    monkeypatch.setattr(blend_kernel, "_COMPILED", {})
+    monkeypatch.setattr(compiled, "_ONCE", {})  # as in a new process: nothing compiled yet
     with pytest.raises(ConfigError, match=r"socialaff-sim\[fast\]"):
         Blend(_regression(rng, True, []))

@@ -58,7 +58,7 @@ def test_kernel_rows_equal_numpys_rows(rng: np.random.Generator, holes: bool) ->
 
 def test_numba_features_without_numba_is_a_config_error(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(compiled, "available", lambda: False)
-    monkeypatch.setattr(feature_kernel, "_COMPILED", {})
+    monkeypatch.setattr(compiled, "_ONCE", {})  # as in a new process: nothing compiled yet
     with pytest.raises(ConfigError, match=r"socialaff-sim\[fast\]"):
         FeatureStream(T0, FeatureConfig(), "numba")
     with pytest.raises(ConfigError, match="kernel: expected"):

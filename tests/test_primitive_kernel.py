@@ -136,7 +136,7 @@ def test_factor_is_renewed_after_the_renewal_frames(rng: np.random.Generator, mo
 
 def test_numba_kernel_without_numba_is_a_config_error(rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(compiled, "available", lambda: False)
-    monkeypatch.setattr(primitive_kernel, "_COMPILED", {})
+    monkeypatch.setattr(compiled, "_ONCE", {})  # as in a new process: nothing compiled yet
     prim = InteractionPrimitive(ProMPConfig(n_basis=4, n_durations=2)).fit(_instances(rng, 4))
     with pytest.raises(ConfigError, match=r"socialaff-sim\[fast\]"):
         PrimitiveStream(prim, T0, "numba")

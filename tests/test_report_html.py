@@ -175,6 +175,12 @@ def test_demo_page_content(demo_run) -> None:
         assert ("met at" if goal["success"] else "missed") in text
     met = sum(g["success"] for g in r.simulation["subgoals"])
     assert f"<td>{met}/{len(r.simulation['subgoals'])}</td>" in text
+    if r.video is not None:  # the video's legend: every colour and all three caption lines explained
+        assert "blue spheres are the key-joint targets" in text and "yellow" in text
+        assert "now touching" in text and "judged at the end" in text and "outside support" in text
+        assert "tilt from the vertical" in text
+        # the sheet's captions are legible: the image links to its full size
+        assert f'<a href="{r.contact_sheet}"><img src="{r.contact_sheet}"' in text
 
 
 def _results(**extra: Any) -> dict[str, Any]:

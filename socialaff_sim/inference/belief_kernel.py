@@ -19,6 +19,7 @@ disk); :func:`load` raises the :class:`~socialaff_sim.errors.ConfigError` naming
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -292,23 +293,24 @@ def posterior(t, starts, G, surv, horizon, has_long, long_read):  # noqa: ANN001
 
 
 _COMPILED = ("_nanmax", "_logaddexp", "_exp_term", "_finish_lse", "_lse_col", "cuts", "posterior")
-_loaded = False
 
 
-def load() -> None:
-    """Compile the kernels (once per process; numba's on-disk cache makes later processes load them). Raises the
-    :class:`~socialaff_sim.errors.ConfigError` of :func:`~.compiled.njit` without numba."""
-    global _loaded
-    if _loaded and compiled.available():  # compiled once; the check keeps the error where numba is gone
-        return
-    # Every function, or none (numba missing). A compiled function resolves the functions it calls among its module's
-    # globals when it is first called, so each module's names are replaced by the compiled ones before any call: the
-    # scores' (also imported here by name), then this module's.
-    scores = vars(belief_scores)
-    jitted = {name: compiled.njit(scores[name]) for name in belief_scores._COMPILED}  # noqa: SLF001
-    mine = globals()
-    own = {name: compiled.njit(mine[name]) for name in _COMPILED}
+def _compile() -> dict[str, Any]:
+    """The compiled functions by name, put in place of the Python ones: every function, or none (numba missing). A
+    compiled function resolves the functions it calls among its module's globals when it is first called, so each
+    module's names are replaced by the compiled ones before any call: the scores' (also imported here by name), then
+    this module's. (``py_func``: the Python function again, should a compiled one be there already.)"""
+    scores, mine = vars(belief_scores), globals()
+    jitted = {name: compiled.njit(getattr(scores[name], "py_func", scores[name]))
+              for name in belief_scores._COMPILED}  # noqa: SLF001
+    own = {name: compiled.njit(getattr(mine[name], "py_func", mine[name])) for name in _COMPILED}
     scores.update(jitted)
     mine.update({name: f for name, f in jitted.items() if name in mine})
     mine.update(own)
-    _loaded = True
+    return {**jitted, **own}
+
+
+def load() -> None:
+    """Compile the kernels (once per process, :func:`~.compiled.once`; numba's on-disk cache makes later processes load
+    them). Raises the :class:`~socialaff_sim.errors.ConfigError` of :func:`~.compiled.require` without numba."""
+    compiled.once(__name__, _compile)

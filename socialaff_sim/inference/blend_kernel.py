@@ -50,18 +50,21 @@ def blend_row_python(out: np.ndarray, row: np.ndarray, offset: np.ndarray, prim_
             out[o] += weight[m] * part[o]
 
 
-_COMPILED: dict[str, Callable[..., None]] = {}
+def _build_blend() -> Callable[..., None]:
+    return compiled.njit(blend_row_python)
+
+
+def _warm_blend(row: Callable[..., None]) -> None:
+    """Compiled now for the types :class:`Blend` passes, on a one-member blend of one column."""
+    one, i = np.ones(1), np.zeros(2, np.int64)
+    row(np.zeros(1), one, one, one, np.zeros(1, np.int64), i, one, one, one, np.ones((1, 1)), one, np.zeros(1, np.int64),
+        True)
 
 
 def _kernel() -> Callable[..., None]:
-    """The compiled kernel (compiled on the first call in a process for the types :class:`Blend` passes)."""
-    if not _COMPILED:
-        row = compiled.njit(blend_row_python)
-        one, i = np.ones(1), np.zeros(2, np.int64)
-        row(np.zeros(1), one, one, one, np.zeros(1, np.int64), i, one, one, one, np.ones((1, 1)), one, np.zeros(1, np.int64),
-            True)
-        _COMPILED["blend_row"] = row
-    return _COMPILED["blend_row"]
+    """The compiled kernel (compiled on the first call in a process for the types :class:`Blend` passes:
+    :func:`~.compiled.once`)."""
+    return compiled.once(__name__, _build_blend, _warm_blend)
 
 
 class Blend:

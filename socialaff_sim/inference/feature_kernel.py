@@ -87,19 +87,22 @@ def feature_row_python(out: np.ndarray, win: np.ndarray, fps: float, rot: np.nda
         out[15 + c] *= ramp
 
 
-_COMPILED: dict[str, Callable[..., None]] = {}
+def _build_features() -> dict[str, Callable[..., None]]:
+    return {"feature_row": compiled.njit(feature_row_python)}
+
+
+def _warm_features(built: dict[str, Callable[..., None]]) -> None:
+    """Compiled now for the argument types the stream passes, on a two-frame window."""
+    win = np.zeros((2, 5, 3))
+    built["feature_row"](np.zeros(49), win, 1.0, np.eye(3), np.zeros((5, 3)), np.zeros(3), np.zeros(15), 1.0, 1.0, True,
+                         True, True)
 
 
 def kernels() -> dict[str, Callable[..., None]]:
     """The compiled kernels by name (``"feature_row"``), compiled on the first call in a process (or loaded from
-    numba's on-disk cache) for the argument types the stream passes; a ConfigError naming the ``[fast]`` extra when
-    numba is missing."""
-    if not _COMPILED:
-        row = compiled.njit(feature_row_python)
-        win = np.zeros((2, 5, 3))
-        row(np.zeros(49), win, 1.0, np.eye(3), np.zeros((5, 3)), np.zeros(3), np.zeros(15), 1.0, 1.0, True, True, True)
-        _COMPILED["feature_row"] = row
-    return _COMPILED
+    numba's on-disk cache) for the argument types the stream passes (:func:`~.compiled.once`); a ConfigError naming the
+    ``[fast]`` extra when numba is missing."""
+    return compiled.once(__name__, _build_features, _warm_features)
 
 
 def feature_row(out: np.ndarray, win: np.ndarray, fps: float, rot: np.ndarray, keys0: np.ndarray, base1: np.ndarray,

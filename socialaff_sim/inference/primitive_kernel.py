@@ -97,20 +97,21 @@ def cholesky_update_python(lower_t: np.ndarray, phi: np.ndarray, frame: np.ndarr
                 q += 1
 
 
-_COMPILED: dict[str, Callable[..., None]] = {}
+def _build_update() -> dict[str, Callable[..., None]]:
+    return {"cholesky_update": compiled.njit(cholesky_update_python)}
+
+
+def _warm_update(built: dict[str, Callable[..., None]]) -> None:
+    # Compiled now for the argument types the stream passes (a factor's transpose, C-ordered; int64 indices; an
+    # int), on a 2×2 factor: the first frame then costs what the others do (or numba's cache loads it).
+    one = np.ones(1)
+    built["cholesky_update"](np.eye(2), one[None], np.zeros(1, np.int64), np.zeros(1, np.int64), one, 1)
 
 
 def kernels() -> dict[str, Callable[..., None]]:
     """The compiled kernels by name (``"cholesky_update"``), compiled on the first call in a process (or loaded from
-    numba's on-disk cache); a ConfigError naming the ``[fast]`` extra when numba is missing."""
-    if not _COMPILED:
-        update = compiled.njit(cholesky_update_python)
-        # Compiled now for the argument types the stream passes (a factor's transpose, C-ordered; int64 indices; an
-        # int), on a 2×2 factor: the first frame then costs what the others do (or numba's cache loads it).
-        one = np.ones(1)
-        update(np.eye(2), one[None], np.zeros(1, np.int64), np.zeros(1, np.int64), one, 1)
-        _COMPILED["cholesky_update"] = update
-    return _COMPILED
+    numba's on-disk cache: :func:`~.compiled.once`); a ConfigError naming the ``[fast]`` extra when numba is missing."""
+    return compiled.once(__name__, _build_update, _warm_update)
 
 
 def cholesky_update(lower_t: np.ndarray, phi: np.ndarray, frame: np.ndarray, dof: np.ndarray, root_w: np.ndarray,

@@ -30,20 +30,22 @@ TABLE_COLUMNS = ("expon", "k_h", "lam_h", "-log lam_h", "k_v", "lam_v", "-log la
                  "k_h == 1", "log(k_v/lam_v)", "k_v - 1", "k_v == 1", "mu", "kappa", "log i0e(kappa)", "cos mu", "sin mu")
 """The columns of :attr:`RowSet.table`, one row per parameter row: what the compiled densities read."""
 
-_KERNELS: ModuleType | None = None
+_SCORE_KERNEL = f"{__package__}.score_kernel"
+
+
+def _import_score_kernel() -> ModuleType:
+    return importlib.import_module(_SCORE_KERNEL)
+
+
+def _warm_score_kernel(kernels: ModuleType) -> None:
+    kernels.warm()  # the JIT's cost (a compilation, or its cache's load) now, not at a stream's first re-planning
 
 
 def compiled_kernels() -> ModuleType:
-    """The compiled kernels (:mod:`~.score_kernel`), imported and loaded (:func:`~.score_kernel.warm`) at the first call:
-    that module needs numba, an optional extra, so the package imports and runs without it (:func:`~.compiled.require`'s
-    error when it is missing)."""
-    global _KERNELS
-    if _KERNELS is None:
-        compiled.require("numba")
-        kernels = importlib.import_module(".score_kernel", __package__)
-        kernels.warm()  # the JIT's cost (a compilation, or its cache's load) now, not at a stream's first re-planning
-        _KERNELS = kernels
-    return _KERNELS
+    """The compiled kernels (:mod:`~.score_kernel`), imported and loaded (:func:`~.score_kernel.warm`) at the first call
+    (:func:`~.compiled.once`): that module needs numba, an optional extra, so the package imports and runs without it
+    (:func:`~.compiled.require`'s error when it is missing)."""
+    return compiled.once(_SCORE_KERNEL, _import_score_kernel, _warm_score_kernel)
 
 
 def _weibull_parts(k: np.ndarray, lam: np.ndarray, terms: tuple | None = None) -> tuple:

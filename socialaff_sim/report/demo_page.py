@@ -78,8 +78,13 @@ def _interaction_section(r: InteractionResult, config: DemoConfig) -> str:
         parts.append(video(
             r.video, f"The {config.robot!r} robot (green) reacting to the replayed person (red) in {r.instance}, "
                      "held out of training, synthesized causally (at each frame the model reads the person's frames "
-                     "up to that one only); caption: time, running sub-event, each sub-goal's contact now and "
-                     "whether it was achieved.",
+                     "up to that one only); the object is yellow, the blue spheres are the key-joint targets sent "
+                     "to the inverse kinematics. Caption, line 1: time, running sub-event; line 2, per sub-goal: "
+                     "its contact now (\"now touching\", or \"now apart\" with the gap between the geoms) | "
+                     "whether it was achieved and when (\"judged at the end\" for a hand-over until the episode "
+                     "ends); line 3: the physics mode, this frame's outside support (% of the robot's weight), the "
+                     "feet's sliding so far, the largest servo torque (% of its limit) and the torso's tilt from "
+                     "the vertical.",
             poster=None, width=config.width,
         ))
     else:
@@ -96,7 +101,10 @@ def _interaction_section(r: InteractionResult, config: DemoConfig) -> str:
     parts.append(figure(r.groupings_png, "Joint groupings of each learned sub-event: joints of one colour share a "
                                          "functional group; grey joints are Null (not constrained)."))
     if r.contact_sheet:
-        parts.append(figure(r.contact_sheet, "Eight evenly spaced frames of the simulated reaction."))
+        parts.append(figure(r.contact_sheet, "Frames of the simulated reaction (the image links to its full size): "
+                                             "evenly spaced, with the first frame at which each sub-goal shows "
+                                             "\"now touching\" and the first at which it shows as achieved in "
+                                             "place of the nearest.", link=True))
     if r.seconds:
         parts.append("<p class=\"note\">Time: " + esc(", ".join(
             f"{k.replace('_', ' ')} {v:.1f} s" for k, v in r.seconds.items())) + ".</p>")

@@ -101,10 +101,12 @@ def table(
     return "\n".join(out)
 
 
-def figure(src: str, caption: str, *, alt: str = "") -> str:
-    """An image (path relative to the page) with its caption."""
-    return (f"<figure><img src=\"{esc(src)}\" alt=\"{esc(alt or caption)}\">"
-            f"<figcaption>{esc(caption)}</figcaption></figure>")
+def figure(src: str, caption: str, *, alt: str = "", link: bool = False) -> str:
+    """An image (path relative to the page) with its caption; ``link``: the image links to itself (its full size)."""
+    img = f"<img src=\"{esc(src)}\" alt=\"{esc(alt or caption)}\">"
+    if link:
+        img = f"<a href=\"{esc(src)}\">{img}</a>"
+    return f"<figure>{img}<figcaption>{esc(caption)}</figcaption></figure>"
 
 
 def video(src: str, caption: str, *, poster: str | None = None, width: int | None = None) -> str:

@@ -32,6 +32,7 @@ class BalanceConfig:
       cop_margin, min_foot_load, torque_fraction, flat_feet
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return
+    - Arms on a turned trunk: arm_compensation, compensation_release
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, catch_tilt,
       catch_margin, catch_blend, drive_harnessed, torque_handover, com_glide, glide_rest,
       glide_joints, release_speed
@@ -119,6 +120,15 @@ class BalanceConfig:
     person's hand that keeps coming at v is met with b·v over the allowance)."""
     yield_return: float = 1.0
     """τ [s]: while the force is within the allowance, a wrist's offset returns as ȯ = −o / τ."""
+    arm_compensation: float | None = None
+    """c [—]: the arms' hinge references move, at each driven step, by c times the damped least-squares step that
+    puts each wrist, on the trunk as it is, where the plan's wrist is in the world (:mod:`~.arm_compensation`: a
+    released trunk rolled or pitched 5–11° off the plan by an arm's swing moves the hand 10–30 cm from the plan's).
+    ``None``: the arms track their joint references on whatever the trunk does (Stubby's hand then stops short of
+    a high five, and the contact completion's reach gate shuts)."""
+    compensation_release: float = 20.0
+    """F_r [N]: ``arm_compensation`` fades out linearly as the person's force on that arm reaches F_r (in a grasp
+    the hand is where the person holds it; the hands' give, ``hand_yield``, decides there)."""
     sole_gap: float = 0.0
     """[m]: a planted foot without contacts whose sole is at most this high above the floor still counts for the
     support box of the harness's decisions (0: only feet in contact; a contact lost for a step then shrinks the
@@ -196,6 +206,12 @@ class BalanceConfig:
                               f"found {self.clearance_detection}, {self.clearance_bandwidth}")
         if self.hand_yield is not None and not self.hand_yield >= 0.0:
             raise ConfigError(f"BalanceConfig.hand_yield: expected None or a fraction ≥ 0, found {self.hand_yield}")
+        if self.arm_compensation is not None and not self.arm_compensation >= 0.0:
+            raise ConfigError(f"BalanceConfig.arm_compensation: expected None or a fraction ≥ 0, found "
+                              f"{self.arm_compensation}")
+        if not self.compensation_release > 0.0:
+            raise ConfigError(f"BalanceConfig.compensation_release: expected a force > 0 N, found "
+                              f"{self.compensation_release}")
         if not (self.yield_damping > 0.0 and self.yield_return >= 0.0):
             raise ConfigError(f"BalanceConfig: expected yield_damping > 0 N·s/m and yield_return ≥ 0 s, found "
                               f"{self.yield_damping}, {self.yield_return}")

@@ -47,6 +47,7 @@ import mujoco
 import numpy as np
 
 from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
+from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
 from .com_glide import ComGlide, rest_lead
 from .contact_dynamics import cone_edges, solve_contact_dynamics
@@ -108,6 +109,9 @@ class BalanceController:
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
                                                                       c.yield_return, c.external_filter)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
+        self.compensation = None if c.arm_compensation is None else ArmCompensation(
+            scene, c.arm_compensation, c.compensation_release, c.external_filter)
+        """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
         self.handover = None if c.torque_handover is None else TorqueHandover(c.torque_handover, m.opt.timestep)
         """``torque_handover``: the servos' torques handed over to the controller's (:mod:`~.torque_handover`)."""
         self.glide = None if c.com_glide is None else ComGlide(c.com_glide, m.opt.timestep)
@@ -148,7 +152,7 @@ class BalanceController:
         self._capture = np.zeros(2)
         if self.hand_yield is not None:
             self.hand_yield.reset()
-        for part in (self.handover, self.glide):
+        for part in (self.handover, self.glide, self.compensation):
             if part is not None:
                 part.reset()
 
@@ -225,6 +229,8 @@ class BalanceController:
         mujoco.mj_step2(m, d)
         if standing and self.hand_yield is not None:
             self.hand_yield.measure(m, d)
+        if standing and self.compensation is not None:
+            self.compensation.measure(m, d)
         if standing and c.external_forces:
             self._measure_external(m, d)
         else:
@@ -316,6 +322,8 @@ class BalanceController:
         wq = c.joint_bandwidth
         dq, dv = (0.0, 0.0) if self.hand_yield is None else self.hand_yield.references(  # the arms give way to a
             m, d, box, self._capture, float(pts[:, 2].mean()), c.cop_margin, self.mass * self._g)  # force too large
+        if self.compensation is not None:  # the arms' references on the trunk as it is
+            dq = dq + self.compensation.offsets(m, d, q_ref)
         if c.glide_joints:  # from the joints' positions at the take-over onto the plan's
             gq, gv = self.glide.joints(q_ref[7:], hinge_q)  # type: ignore[union-attr]
             dq, dv = dq + gq, dv + gv

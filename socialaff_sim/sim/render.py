@@ -18,9 +18,10 @@ import mujoco
 import numpy as np
 
 from ..errors import RenderingUnavailableError
+from .framing import fit_camera
 from .simulator import Simulator
 
-__all__ = ["SceneRenderer", "gl_context", "INSTALL_HINT", "draw_caption", "pillow"]
+__all__ = ["SceneRenderer", "gl_context", "INSTALL_HINT", "draw_caption", "caption_band", "pillow"]
 
 INSTALL_HINT = (
     "install the EGL libraries (Debian/Ubuntu: apt-get install libegl1 libegl-mesa0 libgl1) "
@@ -75,6 +76,11 @@ def _font(size: int) -> Any:
         return ImageFont.load_default()
 
 
+def caption_band(n_lines: int, size: int) -> int:
+    """Height (px) of the dark band :func:`draw_caption` draws for ``n_lines`` lines of ``size`` px text."""
+    return size // 3 + n_lines * (size + size // 3) if n_lines else 0
+
+
 def draw_caption(rgb: np.ndarray, lines: list[str], size: int = 18) -> np.ndarray:
     """``rgb`` (H, W, 3) uint8 with ``lines`` of text on a dark band at the top."""
     pil = pillow()
@@ -84,7 +90,7 @@ def draw_caption(rgb: np.ndarray, lines: list[str], size: int = 18) -> np.ndarra
     draw = ImageDraw.Draw(img, "RGBA")
     font = _font(size)
     pad = size // 3
-    band = pad + len(lines) * (size + pad)
+    band = caption_band(len(lines), size)
     draw.rectangle((0, 0, img.width, band), fill=(0, 0, 0, 150))
     for i, text in enumerate(lines):
         draw.text((pad * 2, pad + i * (size + pad)), text, fill=(255, 255, 255, 255), font=font)
@@ -140,22 +146,35 @@ class SceneRenderer:
         self._ctx.free()
         self._ctx = None
 
-    def _aim(self) -> None:
+    def _aim(self, band: float, targets: np.ndarray) -> None:
         """Side camera: looking across the robot-human axis at both of them, where they are now (the robot's
-        root as simulated, not where it was placed: it walks in)."""
+        root as simulated, not where it was placed: it walks in), from at least the distance that fits both
+        standing; nearer the look-at height and farther than that as needed to keep every visible body, the
+        object and the targets ``targets`` (K, 3) world inside the image below the caption band (the top
+        ``band`` fraction of its height)."""
         sim = self.sim
         robot = np.array(sim.data.qpos[sim.scene.robot_qadr[:3]])
         human = sim.pose.joints[min(sim.frame, sim.n_frames - 1)]
         human_xy = np.nanmean(human, axis=0)[:2] if np.isfinite(human).any() else robot[:2] + sim.frame_R.rotation[:2, 0]
         mid = 0.5 * (robot[:2] + human_xy)
         sep = float(np.linalg.norm(human_xy - robot[:2]))
+        model, data = sim.scene.model, sim.data
+        # Every body's geoms as their bounding spheres: the static world (floor, chair) is left to fall where it may.
+        shown = ((model.geom_bodyid != 0) & (model.geom_rgba[:, 3] > 0)
+                 & (np.asarray(self._opt.geomgroup)[np.clip(model.geom_group, 0, 5)] != 0)
+                 & (model.geom_rbound > 0) & (model.geom_rbound < 1.0))
+        targets = np.asarray(targets, dtype=np.float64).reshape(-1, 3)
+        targets = targets[np.isfinite(targets).all(axis=1)]
+        centres = np.concatenate([data.geom_xpos[shown], targets])
+        radii = np.concatenate([model.geom_rbound[shown], np.full(len(targets), TARGET_RADIUS)])
         cam = self._cam
         cam.type = mujoco.mjtCamera.mjCAMERA_FREE
-        # Far enough that both, 2 m tall, fit under the caption band (45° vertical field of view).
-        cam.lookat[:] = (mid[0], mid[1], 1.0)
-        cam.distance = max(3.4, 1.3 * sep + 1.5)
         cam.azimuth = float(np.degrees(sim.frame_R.yaw)) + 90.0
         cam.elevation = -12.0
+        # Far enough that both, 2 m tall, fit (45° vertical field of view); farther when a raised arm needs it.
+        lookat, cam.distance = fit_camera(centres, radii, mid, cam.azimuth, cam.elevation, float(model.vis.global_.fovy),
+                                          self.width / self.height, band, max(3.4, 1.3 * sep + 1.5))
+        cam.lookat[:] = lookat
 
     def render(self, caption: list[str] | None = None, targets: np.ndarray | None = None) -> np.ndarray:
         """(H, W, 3) uint8 image of the current state; ``targets`` (5, 3) robot frame (default: the last ones)."""
@@ -163,12 +182,13 @@ class SceneRenderer:
             raise RenderingUnavailableError("this renderer has been closed")
         sim = self.sim
         self._bind(sim.scene.model)
-        self._aim()
+        tg = sim.last_targets if targets is None else targets
+        world = sim.frame_R.to_world(np.asarray(tg))
+        size = max(12, self.height // 26)
+        self._aim(caption_band(len(caption or []), size) / self.height, world)
         self._ctx.make_current()
         mujoco.mjv_updateScene(self._model, sim.data, self._opt, self._pert, self._cam,
                                mujoco.mjtCatBit.mjCAT_ALL, self._scn)
-        tg = sim.last_targets if targets is None else targets
-        world = sim.frame_R.to_world(np.asarray(tg))
         scn = self._scn
         for p in world:
             if scn.ngeom >= scn.maxgeom or not np.isfinite(p).all():
@@ -180,5 +200,5 @@ class SceneRenderer:
         mujoco.mjr_readPixels(self._buf, None, self._rect, self._con)
         rgb = np.flipud(self._buf).copy()
         if caption:
-            rgb = draw_caption(rgb, caption, size=max(12, self.height // 26))
+            rgb = draw_caption(rgb, caption, size=size)
         return rgb

@@ -1,4 +1,5 @@
-"""Recording an episode: an MP4 (imageio-ffmpeg) and a PNG contact sheet of evenly spaced frames."""
+"""Recording an episode: an MP4 (imageio-ffmpeg) and a PNG contact sheet of evenly spaced frames and of the
+moments the sub-goals' flags change."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from .episode import support_caption
 from .render import SceneRenderer, pillow
 from .simulator import Simulator, StepResult
 
-__all__ = ["EpisodeRecorder", "contact_sheet", "caption_lines"]
+__all__ = ["EpisodeRecorder", "contact_sheet", "caption_lines", "sheet_frames"]
 
 
 def caption_lines(sim: Simulator, subevent: str | None) -> list[str]:
@@ -44,12 +45,31 @@ def contact_sheet(frames: list[np.ndarray], cols: int = 4) -> np.ndarray:
     return sheet
 
 
+def sheet_frames(n_frames: int, n_sheet: int, moments: list[int]) -> list[int]:
+    """Frame indices of a contact sheet: ``n_sheet`` evenly spaced over ``n_frames``, each frame of ``moments``
+    (the moments a sub-goal's flag changes) in place of the nearest evenly spaced one that is neither the first
+    nor the last frame nor another moment (added when none is left); sorted."""
+    chosen = set(np.linspace(0, n_frames - 1, min(n_sheet, n_frames)).round().astype(int).tolist())
+    fixed = {0, n_frames - 1}
+    for m in sorted(set(moments)):
+        if m in chosen:
+            fixed.add(m)
+            continue
+        free = [f for f in chosen if f not in fixed]
+        if free:
+            chosen.discard(min(free, key=lambda f: (abs(f - m), f)))
+        chosen.add(m)
+        fixed.add(m)
+    return sorted(chosen)
+
+
 class EpisodeRecorder:
     """An ``on_frame`` callback for :func:`~socialaff_sim.sim.episode.run_episode` that writes the video.
 
-    Frames stream into ``video`` (MP4 at the data's frame rate); ``n_sheet`` evenly
-    spaced frames are kept for the contact sheet written by :meth:`close`.
-    Both files are written atomically.
+    Frames stream into ``video`` (MP4 at the data's frame rate); the contact sheet written by :meth:`close`
+    holds ``n_sheet`` evenly spaced frames, with the first frame at which each sub-goal shows "now touching" and
+    the first at which it shows as achieved in place of the nearest (:func:`sheet_frames`), so that the moment a
+    flag claims is on the sheet. Both files are written atomically.
     """
 
     def __init__(self, sim: Simulator, video: str | Path | None, sheet: str | Path | None, *,
@@ -61,11 +81,16 @@ class EpisodeRecorder:
         self._stack = contextlib.ExitStack()
         self._writer: Any = None
         self._keep: set[int] = set()
+        self._kept: dict[int, np.ndarray] = {}
+        self._seen: set[tuple[str, str]] = set()
+        self.moments: list[int] = []
+        """Frames at which a sub-goal first showed "now touching" or first showed as achieved."""
         self.sheet_frames: list[np.ndarray] = []
         self.n_written = 0
+        self._n = 0
 
     def _open(self, sim: Simulator) -> None:
-        n = sim.n_frames
+        n = self._n = sim.n_frames
         self._keep = set(np.linspace(0, n - 1, min(self.n_sheet, n)).round().astype(int).tolist())
         if self.video_path is not None:
             try:
@@ -83,8 +108,16 @@ class EpisodeRecorder:
         if self._writer is not None:
             self._writer.append_data(rgb)
             self.n_written += 1
-        if sim.frame in self._keep:
-            self.sheet_frames.append(rgb)
+        moment = False
+        for goal in sim.scorer.subgoals:
+            for flag, on in (("now", goal.current), ("achieved", goal.success)):
+                if on and (goal.name, flag) not in self._seen:
+                    self._seen.add((goal.name, flag))
+                    moment = True
+        if moment and sim.frame not in self.moments:
+            self.moments.append(sim.frame)
+        if sim.frame in self._keep or moment:
+            self._kept[sim.frame] = rgb
 
     def __enter__(self) -> EpisodeRecorder:
         return self
@@ -108,6 +141,8 @@ class EpisodeRecorder:
                 self._writer.close()
                 self._writer = None
             self._stack.close()
+            self.sheet_frames = [self._kept[f] for f in sheet_frames(self._n, self.n_sheet, self.moments)
+                                 if f in self._kept]
             if self.sheet_path is not None and self.sheet_frames:
                 with atomic_path(self.sheet_path, suffix=".png") as tmp:
                     pillow().Image.fromarray(contact_sheet(self.sheet_frames)).save(tmp, format="PNG")

@@ -1,0 +1,123 @@
+"""Arm references that make up for the trunk's pose error (``BalanceConfig.arm_compensation``).
+
+The balance QP tracks the IK's joint angles, but a released robot's trunk (root and torso) is not where the plan
+puts it: only the feet hold it, and a fast arm swing rolls or pitches it 5–11° off the plan (Stubby's high fives,
+docs/benchmarks.md, "Why the standing robot's hand stops short of a high five …"). An arm that meets its joint
+references on a trunk so turned puts the hand 10–30 cm from the plan's in the world, and the contact completion,
+which moves the commanded wrist by the physical hand's offset, then aims beyond the arm's reach and its gate shuts.
+
+:class:`ArmCompensation` moves each arm's hinge references, at every physics step the controller drives, so that
+the wrist on the *physical* trunk goes where the plan's wrist is in the world. With x_p the wrist in the plan's
+forward kinematics (the step's reference q_ref, base included) and x̂ the wrist with the robot as it is but the
+arm's hinges at their references (both world, m), the arm's references move by
+
+    Δq = c · s · Jᵀ (J Jᵀ + λ² I)⁻¹ (x_p − x̂)
+
+over the arm's hinges (J the wrist's translational Jacobian there at x̂'s configuration, λ :data:`DAMPING_LAMBDA`,
+c ``arm_compensation``), s = max(0, 1 − |f| / F_r) fading it out as the person's force f on that arm (filtered
+over ``external_filter``) reaches F_r ``compensation_release`` (in a grasp the hand is where the person holds
+it, and the hands' give, :mod:`~.hand_yield`, decides). The offset is a reference, not a task: the joints' rows
+keep their weight, and nothing is done while the harness holds the robot (the servos then track the plan on a
+trunk the harness holds).
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from ..retarget.kinematic_tree import subtree_mask
+from .external_force import ExternalForces
+from .scene import Scene
+
+__all__ = ["ArmCompensation", "DAMPING_LAMBDA", "fade", "compensation_step"]
+
+DAMPING_LAMBDA = 0.05
+"""λ [m]: damping of the least-squares map of a wrist shift onto the arm's hinges."""
+
+
+def fade(force: np.ndarray, release: float) -> np.ndarray:
+    """(2,) s per arm: 1 − |f| / F_r clipped to [0, 1], ``force`` (2, 3) N per arm, ``release`` F_r (N)."""
+    return np.clip(1.0 - np.linalg.norm(np.asarray(force, dtype=np.float64), axis=1) / release, 0.0, 1.0)
+
+
+def compensation_step(jac: np.ndarray, shift: np.ndarray, lam: float = DAMPING_LAMBDA) -> np.ndarray:
+    """(k,) hinge offsets (rad) Jᵀ (J Jᵀ + λ² I)⁻¹ e moving a point with translational Jacobian ``jac`` (3, k) on k
+    hinges by ``shift`` e (3,) (m), damped by ``lam`` λ (m)."""
+    J = np.asarray(jac, dtype=np.float64)
+    return J.T @ np.linalg.solve(J @ J.T + lam * lam * np.eye(J.shape[0]), np.asarray(shift, dtype=np.float64))
+
+
+class ArmCompensation:
+    """The arms' trunk compensation of one physics scene (module docstring); :meth:`reset` per episode,
+    :meth:`measure` after each physics step the robot stands, :meth:`offsets` before each solve of the controller."""
+
+    def __init__(self, scene: Scene, fraction: float, release: float, filter_time: float) -> None:
+        m = scene.model
+        self.scene, self.fraction, self.release, self.filter_time = scene, fraction, release, filter_time
+        self.vadr = np.asarray(scene.robot_vadr)
+        self.qadr = np.asarray(scene.robot_qadr)
+        self._arm_geom = np.asarray(scene.arm_geom, dtype=bool)
+        self._person = np.zeros(m.ngeom, dtype=bool)
+        self._person[np.asarray(scene.human_geom_ids, dtype=np.int64)] = True
+        self._site = [scene.frame_kinds[1 + s] == "site" for s in (0, 1)]
+        self._frame = [int(scene.frame_ids[1 + s]) for s in (0, 1)]
+        self._wrist = [int(m.site_bodyid[f]) if site else f for f, site in zip(self._frame, self._site, strict=True)]
+        self._cols = []
+        for s in (0, 1):  # the arm's hinges: columns into the robot's dofs (≥ 6), and their qpos addresses
+            arm = subtree_mask(m, int(scene.limb_body_ids[s]))
+            self._cols.append(np.flatnonzero(arm[m.dof_bodyid[self.vadr]] & (np.arange(len(self.vadr)) >= 6)))
+        self._external = ExternalForces(scene)
+        self._scratch = mujoco.MjData(m)
+        self._jp = np.zeros((3, m.nv))
+        self.reset()
+
+    def reset(self) -> None:
+        """No forces measured."""
+        self.force = np.zeros((2, 3))
+        """(2, 3) the filtered contact force of the person on each arm (world, N)."""
+        self.shift = np.zeros((2, 3))
+        """(2, 3) x_p − x̂ of the last :meth:`offsets` (world, m)."""
+
+    def measure(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
+        """Fold the person's contact forces on each arm of the step just taken into their filtered estimate."""
+        _, forces, geoms, others = self._external.contacts(m, d)
+        mine = self._person[others]
+        forces, geoms = forces[mine], geoms[mine]
+        now = np.array([forces[self._arm_geom[s][geoms]].sum(axis=0) if len(geoms) else np.zeros(3) for s in (0, 1)])
+        a = math.exp(-m.opt.timestep / self.filter_time) if self.filter_time > 0 else 0.0
+        self.force = a * self.force + (1.0 - a) * now
+
+    def _wrists(self, d: mujoco.MjData) -> np.ndarray:
+        return np.array([d.site_xpos[f] if site else d.xpos[f] for f, site in zip(self._frame, self._site, strict=True)])
+
+    def offsets(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray) -> np.ndarray:
+        """(n − 6,) hinge reference offsets (rad) that put each wrist, on the trunk of ``d``, where the plan's
+        robot coordinates ``q_ref`` (nq_r,) put it (world), scaled by c and the force's fade."""
+        dq = np.zeros(len(self.vadr))
+        share = self.fraction * fade(self.force, self.release)
+        if not share.any():
+            self.shift[:] = 0.0
+            return dq[6:]
+        s_ = self._scratch
+        s_.qpos[:] = d.qpos
+        s_.qpos[self.qadr] = q_ref
+        mujoco.mj_kinematics(m, s_)
+        plan = self._wrists(s_)
+        s_.qpos[self.qadr] = d.qpos[self.qadr]
+        for s in (0, 1):  # the arms' hinges at their references, the rest (trunk, base) as it is
+            q_idx = self.qadr[self._cols[s] + 1]  # a hinge's qpos address: robot_qadr[7 + (dof − 6)]
+            s_.qpos[q_idx] = q_ref[self._cols[s] + 1]
+        mujoco.mj_kinematics(m, s_)
+        mujoco.mj_comPos(m, s_)
+        here = self._wrists(s_)
+        self.shift = plan - here
+        for s in (0, 1):
+            if share[s] <= 0.0:
+                continue
+            mujoco.mj_jac(m, s_, self._jp, None, here[s], self._wrist[s])
+            J = self._jp[:, self.vadr[self._cols[s]]]
+            dq[self._cols[s]] += share[s] * compensation_step(J, self.shift[s])
+        return dq[6:]
