@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from socialaff_sim.errors import ConfigError
-from socialaff_sim.retarget.contact_completion import CompletionInput, ContactCompletion, ContactCompletionConfig
+from socialaff_sim.retarget.contact_completion import (CompletionInput, ContactCompletion, ContactCompletionConfig,
+                                                       paced)
 from socialaff_sim.retarget.flight_target import FlightState, ballistic, flight_targets, landing_time
 
 G = 9.81
@@ -185,7 +186,8 @@ def _catch_input(catch: bool = True, state: FlightState | None = None, gap_far: 
     )
 
 
-ON = ContactCompletionConfig(catch_flight=True, flight_lead=10.0)  # the lead's own decision tested apart
+# The lead's and the pace's own decisions are tested apart.
+ON = ContactCompletionConfig(catch_flight=True, flight_lead=10.0, flight_pace=None)
 
 
 def _settle(c: ContactCompletionConfig, x: CompletionInput, frames: int = 10) -> tuple[np.ndarray, np.ndarray]:
@@ -196,11 +198,12 @@ def _settle(c: ContactCompletionConfig, x: CompletionInput, frames: int = 10) ->
     return out, stage.weight
 
 
-def test_off_by_default_and_off_it_is_todays_completion_bit_for_bit() -> None:
-    assert ContactCompletionConfig().catch_flight is False
+def test_on_by_default_and_off_it_is_the_completion_without_the_flight_bit_for_bit() -> None:
+    assert ContactCompletionConfig().catch_flight is True and ContactCompletionConfig().catch_approach is True
     x = _catch_input()
-    today = _settle(ContactCompletionConfig(), dataclasses.replace(x, catch=False, flight=None))
-    off = _settle(ContactCompletionConfig(), x)  # the window open, the option off
+    no = ContactCompletionConfig(catch_flight=False, catch_approach=False)
+    today = _settle(no, dataclasses.replace(x, catch=False, flight=None))
+    off = _settle(no, x)  # the window open, the option off
     np.testing.assert_array_equal(off[0], today[0])
     np.testing.assert_array_equal(off[1], today[1])
     assert not today[1].any()  # the ball's intended gap is beyond capture and the recording has no intent
@@ -259,6 +262,8 @@ def test_the_horizon_and_the_speed_are_checked() -> None:
         ContactCompletionConfig(flight_horizon=-0.1)
     with pytest.raises(ConfigError, match="hand_speed"):
         ContactCompletionConfig(hand_speed=0.0)
+    with pytest.raises(ConfigError, match="flight_pace"):
+        ContactCompletionConfig(flight_pace=0.0)
 
 
 def test_the_hand_goes_onto_the_flight_only_within_the_lead_of_the_balls_arrival() -> None:
@@ -275,3 +280,51 @@ def test_the_hand_goes_onto_the_flight_only_within_the_lead_of_the_balls_arrival
     near = ContactCompletionConfig(catch_flight=True, flight_lead=float(when[s]) + 0.01)
     _, beta = _settle(near, x)
     assert beta[s] == 1.0
+
+
+# -- the pace (``flight_pace``) ----------------------------------------------------------------------------------
+
+
+def test_paced_moves_a_far_target_back_along_its_line_to_the_step_and_leaves_a_near_one() -> None:
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        now = rng.normal(size=(2, 3))
+        target = now + rng.normal(size=(2, 3)) * rng.uniform(0.01, 1.0, size=(2, 1))
+        step = float(rng.uniform(0.05, 0.5))
+        out = paced(target, now, step)
+        for s in (0, 1):  # written out: the target if within the step, else the point at the step toward it
+            d = target[s] - now[s]
+            n = float(np.sqrt(d @ d))
+            expect = target[s] if n <= step else now[s] + step * d / n
+            np.testing.assert_allclose(out[s], expect, atol=1e-12)
+    same = paced(now, now, 0.1)  # a target on the wrist: no division by zero, left there
+    np.testing.assert_array_equal(same, now)
+
+
+def test_the_pace_holds_both_hands_within_the_hand_speed_of_their_wrists_only_while_the_window_is_open() -> None:
+    """Inverted (no pace in the window, or a pace outside it) one of the assertions fails."""
+    x = _catch_input()
+    x = dataclasses.replace(x, wrist_target=x.wrist_target + np.array([[0.0, 0.5, 0.0], [0.0, -0.5, 0.0]]))
+    paced_on = dataclasses.replace(ON, flight_pace=1.5)
+    free, _ = _settle(ON, x, frames=1)
+    assert (np.linalg.norm(free - x.wrist_now, axis=1) > 0.3).all()  # without the pace: far from the wrists
+    out, _ = _settle(paced_on, x, frames=1)
+    step = 1.5 * DT
+    np.testing.assert_allclose(out, paced(free, x.wrist_now, step), atol=1e-12)  # both hands, the flight's too
+    np.testing.assert_allclose(np.linalg.norm(out - x.wrist_now, axis=1), step, atol=1e-12)
+    closed = dataclasses.replace(x, catch=False)  # the window shut (a hand-over, the ball held): no pace
+    np.testing.assert_array_equal(_settle(paced_on, closed, frames=1)[0], _settle(ON, closed, frames=1)[0])
+    np.testing.assert_array_equal(_settle(paced_on, closed, frames=1)[0], closed.wrist_target)
+    assert ContactCompletionConfig().flight_pace == 3.0
+
+
+def test_the_pace_allows_the_hand_speed_over_every_frame_since_the_last_one() -> None:
+    x = _catch_input()
+    x = dataclasses.replace(x, wrist_target=x.wrist_target + np.array([[0.0, 0.5, 0.0], [0.0, -0.5, 0.0]]))
+    c = dataclasses.replace(ON, flight_pace=1.5, ramp=0.0)
+    stage = ContactCompletion(c)
+    stage(x, 0, DT)
+    out = stage(x, 3, DT)  # three frames on: three frames' travel allowed
+    free = ContactCompletion(dataclasses.replace(c, flight_pace=None))
+    free(x, 0, DT)
+    np.testing.assert_allclose(out, paced(free(x, 3, DT), x.wrist_now, 3 * 1.5 * DT), atol=1e-12)

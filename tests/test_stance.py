@@ -125,7 +125,13 @@ def test_box_centre_is_the_middle_of_the_feet_turned_with_the_robot(ours) -> Non
 
 def _catch(ours, stance: StanceConfig | None) -> tuple[dict, list]:
     inter = generate_dataset(seed=0).of_label("throw_catch")[0]
-    sim = Simulator(ours, "throw_catch", SimConfig.harness(stance=stance))
+    config = SimConfig.harness(stance=stance)
+    # The stance's release as it was measured: without the hand target on the ball's flight (on by default since
+    # issue 25's rule; with it this mode's contact phase here hangs 18 % of the weight on the harness,
+    # docs/benchmarks.md, "The catch options' two failures traced …").
+    config = dataclasses.replace(config, contact_completion=dataclasses.replace(
+        config.contact_completion, catch_flight=False, catch_approach=False))
+    sim = Simulator(ours, "throw_catch", config)
     metrics = run_episode(sim, GroundTruthSource(), inter)
     contact = [r.support for r in sim.results if any(r.subgoals_now.values())]
     return metrics, contact

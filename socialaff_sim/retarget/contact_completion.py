@@ -24,13 +24,15 @@ earlier (the person's and the object's poses at t, the robot's own state), so a 
 Of the person's hands one pair at most is completed (the one of smallest intended gap); both hands may
 close on an object.
 
-With ``catch_flight`` (an option, off by default), in a catch sub-goal's window (the object free, no hand gripping
+With ``catch_flight`` (on by default), in a catch sub-goal's window (the object free, no hand gripping
 it, a ``catch`` sub-goal wanting it) the object's target for the hand its flight passes nearest is not where the
 object is at the frame's end but a point of its predicted free flight within the arm's reach, the hand in the
 ball's way (:func:`~socialaff_sim.retarget.flight_target.flight_targets`); the window captures it for that hand
 whatever the intended gap (as the model's intent captures a free object), and the reach gate and ramp apply as
 to any contact, from the frame the ball is within ``flight_lead`` of that point. The other hand is completed as
-without the option (two hands sent onto one path struck each other).
+without the option (two hands sent onto one path struck each other). While the window is open, both hands' targets
+are paced (``flight_pace``): each lies at most v_p·Δt from its commanded wrist (a target that jumps is met by
+servos that overshoot).
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ from ..errors import ConfigError
 from .flight_target import FlightState, flight_targets
 from .scaling import smoothstep
 
-__all__ = ["ContactCompletionConfig", "CompletionInput", "ContactCompletion"]
+__all__ = ["ContactCompletionConfig", "CompletionInput", "ContactCompletion", "paced"]
 
 _OUT_OF_REACH = 1e3
 """Metres added to the intended gap of a pair out of reach when ranking pairs captured by intent."""
@@ -56,7 +58,7 @@ class ContactCompletionConfig:
     Fields by concept
     -----------------
     - When: capture, engage, reach, reach_band, planned_shoulder, intent, keep, approach
-    - Where: press, catch_flight, catch_approach, flight_horizon, flight_lead, hand_speed
+    - Where: press, catch_flight, catch_approach, flight_horizon, flight_lead, hand_speed, flight_pace
     - How fast: ramp
     """
 
@@ -96,21 +98,22 @@ class ContactCompletionConfig:
     """[—]: Whether, in such a frame or one before it, a person's hand held out beyond the robot's reach moves the
     robot in (:meth:`~socialaff_sim.retarget.scaling.KeyJointScaler.approach`; online placement only)."""
 
-    catch_flight: bool = False
+    catch_flight: bool = True
     """[—]: Whether, in a catch sub-goal's window (the object free, in the air and not gripped, a ``catch`` sub-goal
     wanting it), the hand whose shoulder the object's predicted free flight (from its simulated state now) passes
     nearest aims at a point of that flight within the arm's reach, in the ball's way
     (:func:`~socialaff_sim.retarget.flight_target.flight_targets`), captured by the window whatever the intended
     gap, rather than at the object where it will be at the frame's end; the other hand is completed as without it.
-    The hand is chosen afresh each frame. Off by default (docs/benchmarks.md, "A hand target on the ball's
-    predicted flight")."""
-    catch_approach: bool = False
+    The hand is chosen afresh each frame. On by default since the rule of docs/design.md §5 ("The catch options'
+    two failures traced and mended"), passed on fresh instances (docs/benchmarks.md, "The catch options' two
+    failures traced …")."""
+    catch_approach: bool = True
     """[—]: Whether, with ``catch_flight`` and the window open, a predicted flight that passes beyond the arm's
     reach (``reach``) from both shoulders moves the robot in toward it (:meth:`~socialaff_sim.retarget.scaling.
     KeyJointScaler.approach_nearest` with ``flight=True``: also when the robot was placed from the whole recording,
-    and not held back by the recording's trunk bound; at most ``ScalingConfig.approach_speed``). Off by default:
-    the recording's placement stands a broad robot back from where the ball flies (docs/benchmarks.md, "A hand
-    target on the ball's predicted flight")."""
+    and not held back by the recording's trunk bound; at most ``ScalingConfig.approach_speed``). The
+    recording's placement stands a broad robot back from where the ball flies (docs/benchmarks.md, "A hand target
+    on the ball's predicted flight"); on by default with ``catch_flight`` (the same rule)."""
     flight_horizon: float = 1.0
     """T_f [s]: with ``catch_flight``, how far past the end of the frame being planned the flight is searched (it
     ends earlier where the ball lands)."""
@@ -122,7 +125,19 @@ class ContactCompletionConfig:
     """v_h [m/s]: with ``catch_flight``, how fast a hand is taken to move: the target is the earliest point of the
     flight within reach that the hand, at this speed from its commanded wrist, reaches before the ball."""
 
+    flight_pace: float | None = 3.0
+    """v_p [m/s]: with ``catch_flight`` and the window open, each hand's completed wrist target lies at most v_p·Δt
+    (Δt the time since the last frame completed) from its commanded wrist, both hands (``None``: no pace). Without
+    it a target jumps up to 0.4 m in one frame (the recording's catch swing, the flight's point chosen afresh), the
+    servos overshoot, and the H1's forearms struck each other 2.5 cm deep with the plan 12 cm apart
+    (throw_catch_044) while a standing Stubby's hand flung up over its head and back down tipped its trunk back 17°
+    (throw_catch_045); paced at ``hand_speed`` (1.5 m/s) Stubby's hands, from its hips, came too late for balls
+    it caught without the pace (docs/benchmarks.md, "The catch options' two failures traced …")."""
+
     def __post_init__(self) -> None:
+        if self.flight_pace is not None and not self.flight_pace > 0.0:
+            raise ConfigError(f"ContactCompletionConfig.flight_pace: expected a speed > 0 m/s or None, found "
+                              f"{self.flight_pace}")
         if not self.flight_lead >= 0.0:
             raise ConfigError(f"ContactCompletionConfig.flight_lead: expected seconds ≥ 0, found {self.flight_lead}")
         if not self.hand_speed > 0.0:
@@ -315,4 +330,14 @@ class ContactCompletion:
             if anchor[s] >= 0:
                 out[s] = (1.0 - beta[s]) * out[s] + beta[s] * targets[s, anchor[s]]
         self.weight, self.anchor = beta, anchor.astype(np.int64)
+        if c.flight_pace is not None and self._window(x):
+            out = paced(out, x.wrist_now, c.flight_pace * frames * dt)
         return out
+
+
+def paced(target: np.ndarray, now: np.ndarray, step: float) -> np.ndarray:
+    """(2, 3) each of ``target`` (2, 3) moved back toward ``now`` (2, 3) until it lies at most ``step`` m from it
+    (along the line between them; a target within ``step`` is left as it is)."""
+    move = target - now
+    dist = np.linalg.norm(move, axis=1, keepdims=True)
+    return now + move * np.minimum(1.0, step / np.maximum(dist, 1e-12))
