@@ -7,6 +7,7 @@ contacts counted, the settings' checks, and a high five in physics that the stan
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import mujoco
 import numpy as np
@@ -16,7 +17,7 @@ from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
-from socialaff_sim.sim.arm_compensation import DAMPING_LAMBDA, ArmCompensation, compensation_step, fade
+from socialaff_sim.sim.arm_compensation import DAMPING_LAMBDA, ArmCompensation, approach_gate, compensation_step, fade
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.scene import build_scene
@@ -155,11 +156,89 @@ def test_only_the_persons_contacts_count(scene, monkeypatch) -> None:
     np.testing.assert_allclose(comp.force, [[0.0, 0.0, 0.0], [-40.0, 0.0, 5.0]], atol=1e-12)
 
 
+def test_the_approach_gate_against_brute_force() -> None:
+    rng = np.random.default_rng(7)
+    for _ in range(50):
+        w = rng.normal(scale=0.5, size=(2, 3))
+        t = rng.normal(scale=0.5, size=(int(rng.integers(1, 6)), 3))
+        touched = rng.random(2) < 0.3
+        r = float(rng.uniform(0.05, 0.8))
+        ref = [float(not touched[s] and min(math.dist(w[s], p) for p in t) <= r) for s in (0, 1)]
+        np.testing.assert_array_equal(approach_gate(w, t, touched, r), ref)
+    w = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    t = np.array([[0.3, 0.0, 0.0]])
+    np.testing.assert_array_equal(approach_gate(w, t, np.zeros(2, bool), 0.5), [1.0, 0.0])  # near opens, far shuts
+    np.testing.assert_array_equal(approach_gate(w, t, np.array([True, False]), 0.5), [0.0, 0.0])  # a touch shuts
+    np.testing.assert_array_equal(approach_gate(w, t, np.zeros(2, bool), 0.8), [1.0, 1.0])
+    np.testing.assert_array_equal(approach_gate(w, np.zeros((0, 3)), np.zeros(2, bool), 9.0), [0.0, 0.0])
+
+
+def test_the_gate_confines_the_offsets_to_an_untouched_arm_near_the_person(scene) -> None:
+    d, q_ref, comp = _state(scene, 6.0, 3.0)
+    free = comp.offsets(scene.model, d, q_ref)
+    cols = [comp._cols[s] - 6 for s in (0, 1)]
+    assert np.abs(free[cols[0]]).max() > 0.01 and np.abs(free[cols[1]]).max() > 0.01
+    comp.gate = 1e3  # everything is near: the same offsets as ungated
+    np.testing.assert_array_equal(comp.offsets(scene.model, d, q_ref), free)
+    comp.gate = 1e-4  # nothing is that near: none
+    assert not comp.offsets(scene.model, d, q_ref).any() and not comp.shift.any()
+    comp.gate = 1e3
+    comp.touched = np.array([False, True])  # the right arm has touched: only the left is compensated
+    gated = comp.offsets(scene.model, d, q_ref)
+    np.testing.assert_array_equal(gated[cols[0]], free[cols[0]])
+    assert not gated[cols[1]].any()
+    comp.touched[:] = True
+    assert not comp.offsets(scene.model, d, q_ref).any()
+    # the radius is measured from the plan's wrist to the person's nearest geom centre
+    plan = _plan_wrists(scene, d, q_ref, comp)
+    dist = np.linalg.norm(plan[:, None] - d.geom_xpos[scene.human_geom_ids][None], axis=2).min(axis=1)
+    comp.touched[:] = False
+    comp.gate = float(dist.min() + dist.max()) / 2.0
+    near = int(np.argmin(dist))
+    if dist.max() - dist.min() > 1e-3:
+        gated = comp.offsets(scene.model, d, q_ref)
+        np.testing.assert_array_equal(gated[cols[near]], free[cols[near]])
+        assert not gated[cols[1 - near]].any()
+
+
+def test_an_arms_first_touch_of_the_person_latches_its_gate(scene, monkeypatch) -> None:
+    m = scene.model
+    d = mujoco.MjData(m)
+    right = int(np.flatnonzero(scene.arm_geom[1])[0])
+    person = int(scene.human_geom_ids[-1])
+    other = int(next(g for g in range(m.ngeom) if g not in set(scene.human_geom_ids.tolist()) and not scene.robot_geom[g]
+                     and g != scene.object_geom))
+    none = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0, np.int64))
+    touch = (np.array([[0.3, -0.1, 1.0]]), np.array([[1.0, 0.0, 0.0]]), np.array([right]), np.array([person]))
+    stray = (touch[0], touch[1], np.array([right]), np.array([other]))
+    ungated = ArmCompensation(scene, 1.0, 20.0, 0.0)
+    monkeypatch.setattr(ungated._external, "contacts", lambda *_: touch)
+    ungated.measure(m, d)
+    assert not ungated.touched.any()  # ungated: no latch
+    comp = ArmCompensation(scene, 1.0, 20.0, 0.0, gate=0.5)
+    feed = [stray]
+    monkeypatch.setattr(comp._external, "contacts", lambda *_: feed[0])
+    comp.measure(m, d)
+    assert not comp.touched.any()  # not the person nor the object
+    feed[0] = touch
+    comp.measure(m, d)
+    np.testing.assert_array_equal(comp.touched, [False, True])  # the right arm, not the left
+    feed[0] = none
+    comp.measure(m, d)
+    np.testing.assert_array_equal(comp.touched, [False, True])  # it stays shut after the touch
+    comp.reset()
+    assert not comp.touched.any()  # until the next episode
+
+
 def test_settings_are_checked() -> None:
     with pytest.raises(ConfigError, match="arm_compensation"):
         BalanceConfig(arm_compensation=-0.5)
     with pytest.raises(ConfigError, match="compensation_release"):
         BalanceConfig(arm_compensation=1.0, compensation_release=0.0)
+    for bad in (0.0, -0.1, float("nan")):
+        with pytest.raises(ConfigError, match="compensation_gate"):
+            BalanceConfig(arm_compensation=1.0, compensation_gate=bad)
+    assert BalanceConfig().compensation_gate is None
     assert BalanceConfig().arm_compensation is None
     assert DAMPING_LAMBDA > 0.0
 

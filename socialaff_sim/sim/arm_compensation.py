@@ -19,6 +19,12 @@ over ``external_filter``) reaches F_r ``compensation_release`` (in a grasp the h
 it, and the hands' give, :mod:`~.hand_yield`, decides). The offset is a reference, not a task: the joints' rows
 keep their weight, and nothing is done while the harness holds the robot (the servos then track the plan on a
 trunk the harness holds).
+
+With ``compensation_gate`` d_g set, the compensation is confined to the *approach* of a contact: an arm is
+compensated only while its plan's wrist x_p is within d_g of the nearest thing it may touch (a geom of the person,
+or the interaction's free object, by its centre; :func:`approach_gate`) and until that arm first touches the person
+or the object in the episode (a latch, :attr:`ArmCompensation.touched`). A held contact (a pull-up, a handshake, a
+carried cup) then gets none, whatever force it carries.
 """
 
 from __future__ import annotations
@@ -32,7 +38,7 @@ from ..retarget.kinematic_tree import subtree_mask
 from .external_force import ExternalForces
 from .scene import Scene
 
-__all__ = ["ArmCompensation", "DAMPING_LAMBDA", "fade", "compensation_step"]
+__all__ = ["ArmCompensation", "DAMPING_LAMBDA", "approach_gate", "fade", "compensation_step"]
 
 DAMPING_LAMBDA = 0.05
 """λ [m]: damping of the least-squares map of a wrist shift onto the arm's hinges."""
@@ -41,6 +47,17 @@ DAMPING_LAMBDA = 0.05
 def fade(force: np.ndarray, release: float) -> np.ndarray:
     """(2,) s per arm: 1 − |f| / F_r clipped to [0, 1], ``force`` (2, 3) N per arm, ``release`` F_r (N)."""
     return np.clip(1.0 - np.linalg.norm(np.asarray(force, dtype=np.float64), axis=1) / release, 0.0, 1.0)
+
+
+def approach_gate(wrists: np.ndarray, targets: np.ndarray, touched: np.ndarray, radius: float) -> np.ndarray:
+    """(2,) 1.0 per arm whose wrist ``wrists`` (2, 3) (world, m) is within ``radius`` d_g (m) of one of ``targets``
+    (K, 3) (world, m) and that has not ``touched`` (2,) bool, else 0.0 (no targets: 0.0)."""
+    w = np.asarray(wrists, dtype=np.float64)
+    t = np.asarray(targets, dtype=np.float64).reshape(-1, 3)
+    if not len(t):
+        return np.zeros(len(w))
+    near = np.linalg.norm(w[:, None, :] - t[None, :, :], axis=2).min(axis=1) <= radius
+    return (near & ~np.asarray(touched, dtype=bool)).astype(np.float64)
 
 
 def compensation_step(jac: np.ndarray, shift: np.ndarray, lam: float = DAMPING_LAMBDA) -> np.ndarray:
@@ -54,14 +71,21 @@ class ArmCompensation:
     """The arms' trunk compensation of one physics scene (module docstring); :meth:`reset` per episode,
     :meth:`measure` after each physics step the robot stands, :meth:`offsets` before each solve of the controller."""
 
-    def __init__(self, scene: Scene, fraction: float, release: float, filter_time: float) -> None:
+    def __init__(self, scene: Scene, fraction: float, release: float, filter_time: float,
+                 gate: float | None = None) -> None:
         m = scene.model
         self.scene, self.fraction, self.release, self.filter_time = scene, fraction, release, filter_time
+        self.gate = gate
+        """d_g (m): the approach's radius (``compensation_gate``), ``None``: ungated."""
         self.vadr = np.asarray(scene.robot_vadr)
         self.qadr = np.asarray(scene.robot_qadr)
         self._arm_geom = np.asarray(scene.arm_geom, dtype=bool)
         self._person = np.zeros(m.ngeom, dtype=bool)
         self._person[np.asarray(scene.human_geom_ids, dtype=np.int64)] = True
+        self._target = self._person.copy()  # what a hand may reach for: the person and the free object
+        if scene.object_geom >= 0:
+            self._target[scene.object_geom] = True
+        self._target_ids = np.flatnonzero(self._target)
         self._site = [scene.frame_kinds[1 + s] == "site" for s in (0, 1)]
         self._frame = [int(scene.frame_ids[1 + s]) for s in (0, 1)]
         self._wrist = [int(m.site_bodyid[f]) if site else f for f, site in zip(self._frame, self._site, strict=True)]
@@ -80,10 +104,15 @@ class ArmCompensation:
         """(2, 3) the filtered contact force of the person on each arm (world, N)."""
         self.shift = np.zeros((2, 3))
         """(2, 3) x_p − x̂ of the last :meth:`offsets` (world, m)."""
+        self.touched = np.zeros(2, dtype=bool)
+        """(2,) whether each arm has touched the person or the object this episode (``gate`` only)."""
 
     def measure(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
         """Fold the person's contact forces on each arm of the step just taken into their filtered estimate."""
         _, forces, geoms, others = self._external.contacts(m, d)
+        if self.gate is not None and len(geoms):  # the approach ends at an arm's first touch
+            hit = self._target[others]
+            self.touched |= np.array([bool(self._arm_geom[s][geoms[hit]].any()) for s in (0, 1)])
         mine = self._person[others]
         forces, geoms = forces[mine], geoms[mine]
         now = np.array([forces[self._arm_geom[s][geoms]].sum(axis=0) if len(geoms) else np.zeros(3) for s in (0, 1)])
@@ -98,6 +127,8 @@ class ArmCompensation:
         robot coordinates ``q_ref`` (nq_r,) put it (world), scaled by c and the force's fade."""
         dq = np.zeros(len(self.vadr))
         share = self.fraction * fade(self.force, self.release)
+        if self.gate is not None and self.touched.all():
+            share = np.zeros(2)
         if not share.any():
             self.shift[:] = 0.0
             return dq[6:]
@@ -106,6 +137,11 @@ class ArmCompensation:
         s_.qpos[self.qadr] = q_ref
         mujoco.mj_kinematics(m, s_)
         plan = self._wrists(s_)
+        if self.gate is not None:  # only an arm on its way to a touch, near what it may touch
+            share = share * approach_gate(plan, d.geom_xpos[self._target_ids], self.touched, self.gate)
+            if not share.any():
+                self.shift[:] = 0.0
+                return dq[6:]
         s_.qpos[self.qadr] = d.qpos[self.qadr]
         for s in (0, 1):  # the arms' hinges at their references, the rest (trunk, base) as it is
             q_idx = self.qadr[self._cols[s] + 1]  # a hinge's qpos address: robot_qadr[7 + (dof − 6)]

@@ -32,7 +32,7 @@ class BalanceConfig:
       cop_margin, min_foot_load, torque_fraction, flat_feet
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return
-    - Arms on a turned trunk: arm_compensation, compensation_release
+    - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, catch_tilt,
       catch_margin, catch_blend, drive_harnessed, torque_handover, com_glide, glide_rest,
       glide_joints, release_speed
@@ -129,6 +129,11 @@ class BalanceConfig:
     compensation_release: float = 20.0
     """F_r [N]: ``arm_compensation`` fades out linearly as the person's force on that arm reaches F_r (in a grasp
     the hand is where the person holds it; the hands' give, ``hand_yield``, decides there)."""
+    compensation_gate: float | None = None
+    """d_g [m]: ``arm_compensation`` confined to the approach of a contact: an arm is compensated only while its
+    plan's wrist is within d_g of a geom of the person or of the free object (their centres) and until that arm
+    first touches the person or the object in the episode (``inf``: the touch alone ends it). ``None``: ungated (an
+    arm is compensated until the person's force on it reaches ``compensation_release``, a held pull-up too)."""
     sole_gap: float = 0.0
     """[m]: a planted foot without contacts whose sole is at most this high above the floor still counts for the
     support box of the harness's decisions (0: only feet in contact; a contact lost for a step then shrinks the
@@ -212,6 +217,9 @@ class BalanceConfig:
         if not self.compensation_release > 0.0:
             raise ConfigError(f"BalanceConfig.compensation_release: expected a force > 0 N, found "
                               f"{self.compensation_release}")
+        if self.compensation_gate is not None and not self.compensation_gate > 0.0:
+            raise ConfigError(f"BalanceConfig.compensation_gate: expected None or a distance > 0 m, found "
+                              f"{self.compensation_gate}")
         if not (self.yield_damping > 0.0 and self.yield_return >= 0.0):
             raise ConfigError(f"BalanceConfig: expected yield_damping > 0 N·s/m and yield_return ≥ 0 s, found "
                               f"{self.yield_damping}, {self.yield_return}")

@@ -110,7 +110,7 @@ class BalanceController:
                                                                       c.yield_return, c.external_filter)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
-            scene, c.arm_compensation, c.compensation_release, c.external_filter)
+            scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
         """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
         self.handover = None if c.torque_handover is None else TorqueHandover(c.torque_handover, m.opt.timestep)
         """``torque_handover``: the servos' torques handed over to the controller's (:mod:`~.torque_handover`)."""
