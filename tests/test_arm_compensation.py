@@ -251,11 +251,11 @@ def test_a_standing_robot_meets_the_high_five_its_turned_trunk_missed() -> None:
     robot's hand stops short of a high five …")."""
     inter = next(i for i in generate_dataset(seed=0) if i.instance_id == "high_five_004")
     met, beta = [], []
-    for c in (None, 1.0):
+    for c, gate in ((None, None), (1.0, None), (1.0, 0.4)):  # the last confined to the approach (d_g 0.4 m)
         cfg = SimConfig.standing()
         sim = Simulator("ours", "high_five", dataclasses.replace(
-            cfg, balance=dataclasses.replace(cfg.balance, arm_compensation=c)))
+            cfg, balance=dataclasses.replace(cfg.balance, arm_compensation=c, compensation_gate=gate)))
         met.append(run_episode(sim, GroundTruthSource(), inter)["success"])
         beta.append(max(float(np.max(r.completion)) for r in sim.results if r.completion is not None))
-    assert met == [False, True]
-    assert beta[0] == 0.0 and beta[1] > 0.05
+    assert met == [False, True, True]
+    assert beta[0] == 0.0 and beta[1] > 0.05 and beta[2] > 0.05
