@@ -230,6 +230,15 @@ def test_an_arms_first_touch_of_the_person_latches_its_gate(scene, monkeypatch) 
     assert not comp.touched.any()  # until the next episode
 
 
+def test_the_gate_reaches_the_controller() -> None:
+    cfg = SimConfig.standing()
+    inter = next(i for i in generate_dataset(seed=0) if i.instance_id == "high_five_004")
+    for gate in (None, 0.4):
+        sim = Simulator("ours", "high_five", dataclasses.replace(
+            cfg, balance=dataclasses.replace(cfg.balance, arm_compensation=1.0, compensation_gate=gate)))
+        assert sim._get_stage(inter).stepper.balance.compensation.gate == gate
+
+
 def test_settings_are_checked() -> None:
     with pytest.raises(ConfigError, match="arm_compensation"):
         BalanceConfig(arm_compensation=-0.5)
