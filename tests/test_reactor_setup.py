@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import copy
 import gc
+import weakref
 
 import numpy as np
 import pytest
@@ -82,10 +83,13 @@ def test_per_model_once_per_model_and_key_and_anew_after_a_refit(shake8_model) -
     assert again is not first and built[-1] == "e"
     model.config = copy.copy(model.config)  # a configuration replaced, too
     assert model_cache.per_model(model, "k", build("f")) is not again and built[-1] == "f"
+    gc.collect()  # the other model copy above is dropped now, not in the count below
     n = len(model_cache._CACHE)
+    assert model in model_cache._CACHE
+    ref = weakref.ref(model)
     del model
     gc.collect()
-    assert len(model_cache._CACHE) == n - 1  # held weakly: dropped with the model
+    assert ref() is None and len(model_cache._CACHE) == n - 1  # held weakly: dropped with the model
 
 
 def test_type_tables_of_the_model_are_the_tables_made_anew(shake8_model, rng: np.random.Generator) -> None:  # noqa: ANN001
