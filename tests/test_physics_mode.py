@@ -29,9 +29,11 @@ def test_the_default_is_the_harness_and_standing_is_a_named_preset() -> None:
     assert h.balance is None and h.stance is None and h.foot_lock == FootLockConfig() and not h.gravity_compensation
     d = SimConfig.standing()
     assert d == SimConfig.mode("standing")
-    # The combination the rule of docs/design.md §5 was run on, field by field.
+    # The combination the rule of docs/design.md §5 was run on, field by field, with the arms' compensation its
+    # session-28 rule added (confined to the approach: the touch latch alone).
     assert d.balance == BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0, flat_feet=True, self_clearance=0.01,
-                                      hand_yield=0.5, yield_damping=50.0)
+                                      hand_yield=0.5, yield_damping=50.0, arm_compensation=1.0,
+                                      compensation_gate=1e9)
     assert d.stance == StanceConfig(release=False)
     assert d.foot_lock == FootLockConfig(hold_lift=0.12, hold_in_contact=True)
     assert not d.gravity_compensation
