@@ -29,12 +29,10 @@ carried cup) then gets none, whatever force it carries.
 
 from __future__ import annotations
 
-import math
-
 import mujoco
 import numpy as np
 
-from ..retarget.kinematic_tree import subtree_mask
+from .arm_contacts import arm_hinges, filtered_arm_force
 from .external_force import ExternalForces
 from .scene import Scene
 
@@ -88,11 +86,7 @@ class ArmCompensation:
         self._target_ids = np.flatnonzero(self._target)
         self._site = [scene.frame_kinds[1 + s] == "site" for s in (0, 1)]
         self._frame = [int(scene.frame_ids[1 + s]) for s in (0, 1)]
-        self._wrist = [int(m.site_bodyid[f]) if site else f for f, site in zip(self._frame, self._site, strict=True)]
-        self._cols = []
-        for s in (0, 1):  # the arm's hinges: columns into the robot's dofs (≥ 6), and their qpos addresses
-            arm = subtree_mask(m, int(scene.limb_body_ids[s]))
-            self._cols.append(np.flatnonzero(arm[m.dof_bodyid[self.vadr]] & (np.arange(len(self.vadr)) >= 6)))
+        self._wrist, self._cols = arm_hinges(scene)
         self._external = ExternalForces(scene)
         self._scratch = mujoco.MjData(m)
         self._jp = np.zeros((3, m.nv))
@@ -115,9 +109,7 @@ class ArmCompensation:
             self.touched |= np.array([bool(self._arm_geom[s][geoms[hit]].any()) for s in (0, 1)])
         mine = self._person[others]
         forces, geoms = forces[mine], geoms[mine]
-        now = np.array([forces[self._arm_geom[s][geoms]].sum(axis=0) if len(geoms) else np.zeros(3) for s in (0, 1)])
-        a = math.exp(-m.opt.timestep / self.filter_time) if self.filter_time > 0 else 0.0
-        self.force = a * self.force + (1.0 - a) * now
+        self.force = filtered_arm_force(self.force, forces, geoms, self._arm_geom, m, self.filter_time)
 
     def _wrists(self, d: mujoco.MjData) -> np.ndarray:
         return np.array([d.site_xpos[f] if site else d.xpos[f] for f, site in zip(self._frame, self._site, strict=True)])

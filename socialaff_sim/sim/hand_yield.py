@@ -30,12 +30,10 @@ their reference velocities by the same map of ȯ. The forces are the contacts' o
 
 from __future__ import annotations
 
-import math
-
 import mujoco
 import numpy as np
 
-from ..retarget.kinematic_tree import subtree_mask
+from .arm_contacts import arm_hinges, filtered_arm_force
 from .external_force import ExternalForces
 from .scene import Scene
 from .support_box import SupportBox
@@ -89,13 +87,7 @@ class HandYield:
         self._arm_geom = np.asarray(scene.arm_geom, dtype=bool)
         self._person = np.zeros(m.ngeom, dtype=bool)
         self._person[np.asarray(scene.human_geom_ids, dtype=np.int64)] = True
-        self._wrist = []
-        self._cols = []
-        for s in (0, 1):
-            fid = int(scene.frame_ids[1 + s])
-            self._wrist.append(int(m.site_bodyid[fid]) if scene.frame_kinds[1 + s] == "site" else fid)
-            arm = subtree_mask(m, int(scene.limb_body_ids[s]))
-            self._cols.append(np.flatnonzero(arm[m.dof_bodyid[self.vadr]] & (np.arange(len(self.vadr)) >= 6)))
+        self._wrist, self._cols = arm_hinges(scene)
         self._external = ExternalForces(scene)
         self._jp = np.zeros((3, m.nv))
         self.reset()
@@ -118,9 +110,7 @@ class HandYield:
         pts, forces, geoms, others = self._external.contacts(m, d)
         mine = self._person[others]  # an object held by a grip weld presses on the hand it is welded to
         pts, forces, geoms = pts[mine], forces[mine], geoms[mine]
-        a = math.exp(-m.opt.timestep / self.filter_time) if self.filter_time > 0 else 0.0
-        now = np.array([forces[self._arm_geom[s][geoms]].sum(axis=0) if len(geoms) else np.zeros(3) for s in (0, 1)])
-        self.force = a * self.force + (1.0 - a) * now
+        self.force = filtered_arm_force(self.force, forces, geoms, self._arm_geom, m, self.filter_time)
         on = self._arm_geom[:, geoms].any(axis=0) if len(geoms) else np.zeros(0, dtype=bool)
         if on.any():  # where the forces act: their points' mean, weighted by the force
             w = np.linalg.norm(forces[on], axis=1) + 1e-9

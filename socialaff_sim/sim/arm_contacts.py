@@ -1,0 +1,41 @@
+"""The robot's arms as the balance controller's arm terms see them: their hinges, wrists and the person's force.
+
+:mod:`~.hand_yield` and :mod:`~.arm_compensation` both move an arm's hinge references from its wrist and both
+fade with the person's contact force on that arm, filtered the same way; this module is what they share.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from ..retarget.kinematic_tree import subtree_mask
+from .scene import Scene
+
+__all__ = ["arm_hinges", "filtered_arm_force"]
+
+
+def arm_hinges(scene: Scene) -> tuple[list[int], list[np.ndarray]]:
+    """Per arm (left, right): the body of its wrist frame, and its hinges as columns into the robot's dofs
+    (``scene.robot_vadr``; each ≥ 6, past the free root)."""
+    m = scene.model
+    vadr = np.asarray(scene.robot_vadr)
+    wrists, cols = [], []
+    for s in (0, 1):
+        fid = int(scene.frame_ids[1 + s])
+        wrists.append(int(m.site_bodyid[fid]) if scene.frame_kinds[1 + s] == "site" else fid)
+        arm = subtree_mask(m, int(scene.limb_body_ids[s]))
+        cols.append(np.flatnonzero(arm[m.dof_bodyid[vadr]] & (np.arange(len(vadr)) >= 6)))
+    return wrists, cols
+
+
+def filtered_arm_force(previous: np.ndarray, forces: np.ndarray, geoms: np.ndarray, arm_geom: np.ndarray,
+                       m: mujoco.MjModel, filter_time: float) -> np.ndarray:
+    """(2, 3) each arm's contact force (world, N) low-pass filtered over ``filter_time`` (s; 0: none) by one physics
+    step: ``previous`` (2, 3) the last estimate, ``forces`` (K, 3) the step's contact forces on the robot geoms
+    ``geoms`` (K,), ``arm_geom`` (2, ngeom) bool, which geoms belong to each arm."""
+    now = np.array([forces[arm_geom[s][geoms]].sum(axis=0) if len(geoms) else np.zeros(3) for s in (0, 1)])
+    a = math.exp(-m.opt.timestep / filter_time) if filter_time > 0 else 0.0
+    return a * previous + (1.0 - a) * now
