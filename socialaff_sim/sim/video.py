@@ -91,7 +91,7 @@ class EpisodeRecorder:
 
     def _open(self, sim: Simulator) -> None:
         n = self._n = sim.n_frames
-        self._keep = set(np.linspace(0, n - 1, min(self.n_sheet, n)).round().astype(int).tolist())
+        self._keep = set(sheet_frames(n, self.n_sheet, []))  # the evenly spaced frames; the moments come as seen
         if self.video_path is not None:
             try:
                 import imageio.v2 as imageio
