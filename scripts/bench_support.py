@@ -34,9 +34,8 @@ for every mode that has one, ``--labels`` picks
 interactions. After the per-interaction table, one line per robot and mode summarises the contact phases, and one
 more counts the episodes failing by each failure kind (self-collision, force on the person, a drop), and one
 more gives how far the feet stand from where the foot lock planted them (the larger foot, in the frames in which
-both stand; ``FootLockConfig.touchdown`` brings them there) with the touchdown waits; with the balance controller,
-one more counts the harness's releases and catches over the whole episodes (by cause) and the physics steps of
-``BalanceConfig.torque_handover``'s ramps.
+both stand) with the frames in which ``FootLockConfig.pace`` carried a foot's target behind the recording's; with
+the balance controller, one more counts the harness's releases and catches over the whole episodes (by cause).
 
 The targets of issue 25 for feet that stay planted: outside support ≤ 5 % of
 the weight, sliding ≤ 2 cm, torques within the limits. Example::
@@ -170,11 +169,10 @@ def main() -> None:
                                  "episode_tilt_deg_max": m["support"]["episode"]["torso_tilt_deg_max"],
                                  "feet_offset_cm_median": 100 * float(np.median(both)) if both.size else None,
                                  "feet_offset_contact_cm_median": 100 * float(np.median(touching)) if touching.size else None,
-                                 "touchdown_waits": None if lock is None or lock.touchdown is None else lock.touchdown.waits,
+                                 "paced_frames": None if lock is None or lock.pace is None else lock.pace.carried_frames,
                                  "catches": None if bal is None else bal.catches,
                                  "catch_reasons": None if bal is None else dict(bal.catch_reasons),
                                  "released_steps": None if bal is None else bal.released_steps,
-                                 "handover_ramp_steps": None if bal is None or bal.handover is None else bal.handover.ramp_steps,
                                  **{k: cp[k] for k in KEYS}})
     print(f"{'robot':<12}{'mode':<8}{'interaction':<16}{'ok':>6}{'support mean':>14}{'peak':>8}{'slide cm':>10}"
           f"{'pen cm':>8}{'torque':>8}{'sat':>7}{'limit':>7}{'released':>10}")
@@ -235,8 +233,8 @@ def main() -> None:
             offc = [r["feet_offset_contact_cm_median"] for r in sel if r["feet_offset_contact_cm_median"] is not None]
             print(f"{robot:<12}{mode:<16}feet from their planted points while both stand (median over episodes of "
                   f"each episode's median): {np.median(off) if off else float('nan'):.1f} cm, in contact frames "
-                  f"{np.median(offc) if offc else float('nan'):.1f} cm; touchdown waits "
-                  f"{sum(r['touchdown_waits'] or 0 for r in sel)}")
+                  f"{np.median(offc) if offc else float('nan'):.1f} cm; frames with a foot's target carried (pace) "
+                  f"{sum(r['paced_frames'] or 0 for r in sel)}")
     for robot in args.robots:
         for mode in args.modes:
             sel = [r for r in rows if r["robot"] == robot and r["mode"] == mode and r["catches"] is not None]
@@ -245,8 +243,7 @@ def main() -> None:
             why = {k: sum(r["catch_reasons"][k] for r in sel) for k in sel[0]["catch_reasons"]}
             print(f"{robot:<12}{mode:<16}the harness over the whole episodes: released {sum(r['released_steps'] for r in sel)} "
                   f"physics steps, caught again {sum(r['catches'] for r in sel)} times ("
-                  + ", ".join(f"{k} {v}" for k, v in why.items()) + f"); torque hand-over ramp steps "
-                  f"{sum(r['handover_ramp_steps'] or 0 for r in sel)}")
+                  + ", ".join(f"{k} {v}" for k, v in why.items()) + ")")
     if args.json:
         atomic_write_text(args.json, json.dumps({"config": vars(args), "rows": rows,
                                                  "sim_config": {k: repr(v) for k, v in dataclasses.asdict(SimConfig()).items()

@@ -34,8 +34,7 @@ class BalanceConfig:
     - Hands that give way: hand_yield, yield_damping, yield_return
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, catch_tilt,
-      catch_margin, catch_blend, drive_harnessed, torque_handover, com_glide, glide_rest,
-      glide_joints, release_speed
+      catch_margin, catch_blend, drive_harnessed
     """
 
     joint_bandwidth: float = 20.0
@@ -162,30 +161,6 @@ class BalanceConfig:
     drive_harnessed: bool = False
     """[—]: Whether the controller's torques drive the joints also while the harness holds a standing robot
     (``False``: the position servos and the standing feed-forward do, as without the controller)."""
-    torque_handover: float | None = None
-    """T_h [s]: each time the controller takes the joints over from the position servos (the harness's release;
-    with ``drive_harnessed``, the robot coming to stand), the actuators exert (1 − a) τ_servo + a τ_ctrl, the
-    controller's share a = k Δt / T_h rising from 0 at the take-over to 1 after T_h, τ_servo the servos' own
-    torque at that step (:mod:`~.torque_handover`). ``None``: the controller's torques at once (the H1's ankles,
-    hips and knees then jump by up to 1.3 times their limits at a release)."""
-    com_glide: float | None = None
-    """T_g [s]: at each take-over of the joints by the controller (the harness's release) the centre-of-mass goal
-    c* starts at the measured centre of mass c₀ and glides onto the plan's goal g: c* = g + (c₀ − g₀)(1 + t/T_g)
-    e^{−t/T_g}, t the time since the take-over (:mod:`~.com_glide`). ``None``: the plan's goal at once (on the H1,
-    whose feet stand apart from the plan's, up to 16 cm from the centre of mass at a release, asking for a centre
-    of pressure far beyond the ankles' reach)."""
-    glide_rest: bool = False
-    """[—]: ``com_glide``: the glide starts at c₀ + k ċ₀, k = (2 ζ ω_c − ω₀) / ω_c² (ω₀ = √(g / h)), where the
-    feedback asks for the capture point as centre of pressure (a released robot brought to rest), instead of at the
-    measured centre of mass c₀ (which asks a moving robot to stop 2 ζ ω_c / ω₀ times harder, 3.8 on the H1)."""
-    glide_joints: bool = False
-    """[—]: ``com_glide``: the joints' reference glides too, from their measured positions at the take-over onto the
-    IK's, over the same T_g (:mod:`~.com_glide`; ``False``: the IK's at once, whose posture puts the body over the
-    plan's feet, not the physical ones)."""
-    release_speed: float | None = None
-    """v_r [m/s]: the harness lets go only while the centre of mass's horizontal speed is at most this (a caught
-    robot is led back onto the IK's base over ``catch_blend``, and released during it, at 0.17 m/s median, it is
-    let go while still moving; docs/benchmarks.md, "The H1's centre-of-mass goal glided …"). ``None``: any speed."""
 
     def __post_init__(self) -> None:
         for name in ("joint_bandwidth", "torso_bandwidth", "com_bandwidth"):
@@ -234,15 +209,6 @@ class BalanceConfig:
         if self.com_reference not in COM_REFERENCES:
             raise ConfigError(f"BalanceConfig.com_reference: expected one of {', '.join(COM_REFERENCES)}, found "
                               f"{self.com_reference!r}")
-        if self.torque_handover is not None and not self.torque_handover > 0.0:
-            raise ConfigError(f"BalanceConfig.torque_handover: expected None or a ramp time > 0 s, found "
-                              f"{self.torque_handover}")
-        if self.com_glide is not None and not self.com_glide > 0.0:
-            raise ConfigError(f"BalanceConfig.com_glide: expected None or a time constant > 0 s, found {self.com_glide}")
-        if self.release_speed is not None and not self.release_speed >= 0.0:
-            raise ConfigError(f"BalanceConfig.release_speed: expected None or a speed ≥ 0 m/s, found {self.release_speed}")
-        if (self.glide_rest or self.glide_joints) and self.com_glide is None:
-            raise ConfigError("BalanceConfig.glide_rest, glide_joints: need com_glide (a time constant in s)")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

@@ -21,9 +21,7 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    ``torque_fraction``), each foot's centre of pressure ``cop_margin`` inside its sole and a minimum load per
    foot hold as constraints (with ``self_clearance`` also the arms' distances to the body, :mod:`~.self_clearance`);
 3. the servos are made to exert τ exactly: ctrl = (τ − b₀ − b₁ q − b₂ q̇) / g for force = g·ctrl + b₀ + b₁q +
-   b₂q̇ (MuJoCo clips it at the actuator's force limit, which the support meter reports as saturation); with
-   ``torque_handover`` the servos' own torques are handed over to τ over a ramp after each take-over
-   (:mod:`~.torque_handover`).
+   b₂q̇ (MuJoCo clips it at the actuator's force limit, which the support meter reports as saturation).
 
 The harness weld lets go (``eq_active = 0``; its force is then zero by construction) once the feet have been
 planted ``release_delay`` and the robot is steady: torso within ``release_tilt`` and the capture point
@@ -49,7 +47,6 @@ import numpy as np
 from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
 from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
-from .com_glide import ComGlide, rest_lead
 from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
 from .external_force import ExternalForces, lean_offset
@@ -59,7 +56,6 @@ from .hand_yield import HandYield
 from .scene import Scene
 from .self_clearance import SelfClearance
 from .support_box import SupportBox, cop_interval
-from .torque_handover import TorqueHandover, servo_torque
 
 __all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
 
@@ -112,10 +108,6 @@ class BalanceController:
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
         """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
-        self.handover = None if c.torque_handover is None else TorqueHandover(c.torque_handover, m.opt.timestep)
-        """``torque_handover``: the servos' torques handed over to the controller's (:mod:`~.torque_handover`)."""
-        self.glide = None if c.com_glide is None else ComGlide(c.com_glide, m.opt.timestep)
-        """``com_glide``: the centre-of-mass goal glided from the measured centre of mass (:mod:`~.com_glide`)."""
         self._plan = mujoco.MjData(m)
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
@@ -152,9 +144,8 @@ class BalanceController:
         self._capture = np.zeros(2)
         if self.hand_yield is not None:
             self.hand_yield.reset()
-        for part in (self.handover, self.glide, self.compensation):
-            if part is not None:
-                part.reset()
+        if self.compensation is not None:
+            self.compensation.reset()
 
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
@@ -207,8 +198,6 @@ class BalanceController:
             self._engaged = 0.0  # caught: the release waits its delay again
             root = self.scene.root_body
             self._caught = (d.xpos[root].copy(), d.xquat[root].copy(), 0.0)
-        if self.released and not was and c.release_speed is not None:  # not while the harness still moves the robot
-            self.released = bool(np.hypot(*comvel[:2]) <= c.release_speed)  # type: ignore[possibly-undefined]
         if self._weld >= 0 and c.release:
             d.eq_active[self._weld] = 0 if self.released else 1
         self.released_steps += int(self.released)
@@ -218,14 +207,7 @@ class BalanceController:
             tau = self._torques(m, d, q_ref, qd_ref, pts, frames, which, box, com, jcom, comvel)  # type: ignore[arg-type]
             q, v = d.qpos[self._act_q], d.qvel[self._act_v]
             b = self._bias
-            if self.handover is not None:  # d.ctrl holds the servos' commands the stepper set for this step
-                tau = self.handover.torque(servo_torque(m, self.scene.act_ids, d.ctrl[self.scene.act_ids],
-                                                        self._gain, b, q, v), tau)
             d.ctrl[self.scene.act_ids] = (tau - b[:, 0] - b[:, 1] * q - b[:, 2] * v) / self._gain
-        else:
-            for part in (self.handover, self.glide):
-                if part is not None:
-                    part.idle()
         mujoco.mj_step2(m, d)
         if standing and self.hand_yield is not None:
             self.hand_yield.measure(m, d)
@@ -306,9 +288,6 @@ class BalanceController:
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
             p = np.array([goal[0], goal[1], float(pts[:, 2].mean())])
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
-        if self.glide is not None:  # from the measured centre of mass (or its rest goal) at a take-over onto the plan's
-            lead = rest_lead(wc, zc, math.sqrt(self._g / max(float(com[2] - pts[:, 2].mean()), 1e-3)))
-            goal = self.glide.goal(goal, com[:2] + (lead * comvel[:2] if c.glide_rest else 0.0))
         goal = box.clip(goal, c.support_margin)
         tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], c.w_com))
         mujoco.mj_jacBody(m, d, self._jp, self._jr, self._torso)
@@ -324,9 +303,6 @@ class BalanceController:
             m, d, box, self._capture, float(pts[:, 2].mean()), c.cop_margin, self.mass * self._g)  # force too large
         if self.compensation is not None:  # the arms' references on the trunk as it is
             dq = dq + self.compensation.offsets(m, d, q_ref)
-        if c.glide_joints:  # from the joints' positions at the take-over onto the plan's
-            gq, gv = self.glide.joints(q_ref[7:], hinge_q)  # type: ignore[union-attr]
-            dq, dv = dq + gq, dv + gv
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside one task
         tasks.append((np.eye(n)[6:] * scale[:, None], want * scale, c.w_joint))

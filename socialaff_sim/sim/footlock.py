@@ -8,8 +8,8 @@ onto its harness, and one that moves sideways on the floor slides. :class:`FootL
 holds an ankle target at the place where its foot came down (on the floor, at
 the robot's home ankle height) while the target stays within ``radius`` of that
 place and below ``lift`` above home height (``hold_lift``, when set, for a foot already planted); a
-target that leaves that ball (a step) is followed again. With ``touchdown`` a foot is put down only once it is
-over its target (:mod:`~.touchdown`).
+target that leaves that ball (a step) is followed again. With ``pace`` the targets' walk-up steps are first slowed to a
+pace the swing leg follows (:mod:`~.step_pace`).
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConfigError, SimulationError
-from .touchdown import Touchdown
+from ..errors import ConfigError
+from .step_pace import StepPace
 
 __all__ = ["FootLock", "FootLockConfig"]
 
@@ -43,28 +43,20 @@ class FootLockConfig:
     helper of a pull-up steps back to keep the arms taut; a robot whose hands give way,
     ``BalanceConfig.hand_yield``, needs no step). ``False``: the targets decide as at any other time."""
 
-    touchdown: float | None = None
-    """d_t [m]: a foot the lock would put down at a new point q waits in the air (its target q raised by
-    ``touchdown_height``, at most ``touchdown_stride`` from the physical foot toward q, counted as stepping)
-    while its physical ankle frame is farther than this (horizontally) from q, for at most ``touchdown_frames``
-    frames; one foot at a time, while the other stands, which meanwhile does not lift (:mod:`~.touchdown`). ``None``: a foot is put down at its target wherever the
-    physical foot is (the H1's walk-up steps land 25–47 cm short; docs/benchmarks.md, "The H1's outside support
-    in the contact phases, diagnosed …")."""
-    touchdown_height: float = 0.08
-    """h_t [m]: a waiting foot's target is its foothold raised by this."""
-    touchdown_frames: int = 8
-    """N_t [frames]: a foot waits at most this many frames, then is put down on its foothold."""
-    touchdown_stride: float | None = 0.3
-    """s_t [m]: a waiting foot's target is at most this far (horizontally) from the physical foot, toward the
-    foothold (lifted where it is before it is carried); ``None``: over the foothold."""
+    pace: float | None = None
+    """v_s [m/s]: an ankle target moves at most v_s / fps (horizontally) per data frame; one that the recording
+    moves farther is carried at that pace, raised by at least ``pace_height``, one foot at a time, until it has
+    caught up (:mod:`~.step_pace`). ``None``: the recording's targets as they are (the H1's swing leg does not
+    keep up with a recorded walk-up: docs/benchmarks.md, "The H1's outside support in the contact phases,
+    diagnosed …")."""
+    pace_height: float = 0.08
+    """h_s [m]: a carried ankle target is at least this far above the ankle's home height (above ``lift``, so
+    that the foot counts as stepping)."""
 
     def __post_init__(self) -> None:
-        if self.touchdown is not None and not (self.touchdown > 0.0 and self.touchdown_height > 0.0
-                                               and self.touchdown_frames >= 1 and (self.touchdown_stride is None
-                                                                                   or self.touchdown_stride > 0.0)):
-            raise ConfigError(f"FootLockConfig: expected touchdown None or > 0 m, touchdown_height > 0 m, "
-                              f"touchdown_frames ≥ 1 and touchdown_stride None or > 0 m, found {self.touchdown}, "
-                              f"{self.touchdown_height}, {self.touchdown_frames}, {self.touchdown_stride}")
+        if self.pace is not None and not (self.pace > 0.0 and self.pace_height > self.lift):
+            raise ConfigError(f"FootLockConfig: expected pace None or > 0 m/s and pace_height > lift ({self.lift} m), "
+                              f"found {self.pace}, {self.pace_height}")
         if not (self.lift >= 0.0 and self.radius >= 0.0):
             raise ConfigError(f"FootLockConfig: expected lift ≥ 0 and radius ≥ 0 in metres, found {self.lift}, {self.radius}")
         if self.hold_lift is not None and not self.hold_lift >= self.lift:
@@ -75,68 +67,48 @@ class FootLockConfig:
 class FootLock:
     """Holds standing ankle targets still (see the module docstring); :meth:`reset` per episode."""
 
-    def __init__(self, home_height: tuple[float, float], config: FootLockConfig | None = None) -> None:
+    def __init__(self, home_height: tuple[float, float], config: FootLockConfig | None = None,
+                 fps: float | None = None) -> None:
         self.home_height = np.asarray(home_height, dtype=np.float64)
         """(2,) left, right ankle height at the robot's home posture, m."""
         self.config = config or FootLockConfig()
         self.planted: list[np.ndarray | None] = [None, None]
         """Where each foot is planted (world, (3,) m), or ``None`` while it steps."""
         c = self.config
-        self.touchdown = None if c.touchdown is None else Touchdown(c.touchdown, c.touchdown_height,
-                                                                     c.touchdown_frames, c.touchdown_stride)
-        """The touchdown timing (``touchdown``), else ``None``."""
+        if c.pace is not None and not (fps is not None and fps > 0.0):
+            raise ConfigError(f"FootLockConfig.pace: needs the data's frame rate (fps > 0), found {fps}")
+        self.pace = None if c.pace is None else StepPace(c.pace, c.pace_height, fps, self.home_height)  # type: ignore[arg-type]
+        """The walk-up's pace (``pace``), else ``None``."""
 
     def reset(self) -> None:
         """No foot planted."""
         self.planted = [None, None]
-        if self.touchdown is not None:
-            self.touchdown.reset()
-
-    @property
-    def needs_physical(self) -> bool:
-        """Whether :meth:`apply` needs the physical ankle frames (``touchdown``)."""
-        return self.touchdown is not None
+        if self.pace is not None:
+            self.pace.reset()
 
     @property
     def standing(self) -> tuple[bool, bool]:
         """(left, right): whether each foot stands (is planted)."""
         return (self.planted[0] is not None, self.planted[1] is not None)
 
-    def apply(self, ankles: np.ndarray, touching: bool = False, physical: np.ndarray | None = None,
-              new_frame: bool = True) -> np.ndarray:
+    def apply(self, ankles: np.ndarray, touching: bool = False, new_frame: bool = True) -> np.ndarray:
         """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted;
         ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted);
-        ``physical`` (2, 3): the physical ankle frames (world, m), which ``touchdown`` needs; ``new_frame``:
-        ``False`` for a solve again within a data frame (the touchdown then keeps the frame's decision)."""
-        if self.needs_physical and physical is None:
-            raise SimulationError("FootLock.apply: touchdown needs the physical ankle frames")
-        out = np.array(ankles, dtype=np.float64)
+        ``new_frame``: ``False`` for a solve again within a data frame (``pace`` then keeps the frame's decision)."""
+        out = np.array(ankles, dtype=np.float64) if self.pace is None else self.pace(ankles, new_frame)
         c = self.config
-        held = touching and c.hold_in_contact
-        td = self.touchdown
-        if held and all(p is not None for p in self.planted):
-            if td is not None:
-                td.decide([None, None], [True, True], physical, False, new_frame)  # type: ignore[arg-type]
+        if touching and c.hold_in_contact and all(p is not None for p in self.planted):
             return np.array([np.array(p) for p in self.planted])
         hold = c.lift if c.hold_lift is None else c.hold_lift
-        waiting = [False, False] if td is None else [bool(w) for w in td.waiting]
-        landing: list[np.ndarray | None] = [None, None]
         for s in (0, 1):
             t = out[s]
             rise = t[2] - self.home_height[s]
             p = self.planted[s]
-            if p is not None and (rise <= hold and np.linalg.norm(t[:2] - p[:2]) <= c.radius or waiting[1 - s]):
-                out[s] = p  # stands (and does not lift while the other foot waits to touch down)
+            if p is not None and rise <= hold and np.linalg.norm(t[:2] - p[:2]) <= c.radius:
+                out[s] = p  # stands
             elif rise <= c.lift:
-                landing[s] = np.array([t[0], t[1], self.home_height[s]])
-                self.planted[s] = landing[s]
-                out[s] = landing[s]
+                self.planted[s] = np.array([t[0], t[1], self.home_height[s]])
+                out[s] = self.planted[s]
             else:
                 self.planted[s] = None
-        if td is not None:
-            standing = [p is not None for p in self.planted]
-            for s, w in enumerate(td.decide(landing, standing, physical, not held, new_frame)):  # type: ignore[arg-type]
-                if w:
-                    self.planted[s] = None
-                    out[s] = td.lifted(landing[s], physical[s])  # type: ignore[arg-type,index]
         return out

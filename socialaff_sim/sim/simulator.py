@@ -170,7 +170,8 @@ class Simulator:
             stage.stance.reset()
             stage.stance.apply(data)
         self._footlock = None if self.config.foot_lock is None else FootLock(
-            (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), self.config.foot_lock)
+            (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), self.config.foot_lock,
+            fps=self.interaction.fps)
         if self.carry is not None and self.carry.release_frame == 0:
             self._release(0)
         self.last_targets = self.frame_R.to_robot(key_frames_at(stage.ik_scene, q0, stage.kinematics))
@@ -257,9 +258,8 @@ class Simulator:
         tg = fill_targets(np.asarray(targets, dtype=np.float64), self._home_keys)
         world = self.frame_R.to_world(tg)
         if self._footlock is not None:
-            physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.needs_physical else None
             world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()),
-                                              physical, new_frame=not self._in_frame)
+                                              new_frame=not self._in_frame)
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
