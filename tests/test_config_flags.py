@@ -42,6 +42,8 @@ def test_settings_are_python_literals_of_the_classes_fields() -> None:
     (BalanceConfig, "hand_weight=100.0", "61e3f3e"), (BalanceConfig, "release_reach=1.0", "61e3f3e"),
     (FootLockConfig, "catch_up=0.05", "61e3f3e"), (StanceConfig, "approach_near=0.3", "1d1621b"),
     (FootLockConfig, "plant_physical=True", "e1cb74d"), (ContactCompletionConfig, "reach=1.1x", None),
+    (BalanceConfig, "com_glide=0.5", "7c7e7ae"), (BalanceConfig, "torque_handover=0.4", "7c7e7ae"),
+    (BalanceConfig, "release_speed=0.1", "7c7e7ae"), (FootLockConfig, "touchdown=0.05", "7c7e7ae"),
     (BalanceConfig, "no_such_field=1", None), (FootLockConfig, "hold_lift", None)])
 def test_an_unknown_or_removed_field_is_exit_2(cls, item, removed, capsys) -> None:  # noqa: ANN001
     line = _error(capsys, lambda: flags.field_settings(argparse.ArgumentParser(), "--x", cls, [item]))
