@@ -15,8 +15,10 @@ from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
+from socialaff_sim.retarget.ik import RobotIK
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
+from socialaff_sim.sim.frame_targets import fill_targets
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.step_pace import StepPace
 
@@ -98,6 +100,16 @@ def test_a_foot_within_the_cap_passes_while_no_foot_is_carried() -> None:
     assert p.carried == [False, False]
 
 
+def test_the_lag_is_the_paced_feets_mean_offset_from_the_recordings() -> None:
+    p = _pace()
+    raw = STAND + np.array([[0.5, 0.0, 0.0], [0.3, 0.2, 0.0]])  # the left carried 0.1, the right waits
+    p(raw)
+    np.testing.assert_allclose(p.lag, [((0.1 - 0.5) + (0.0 - 0.3)) / 2, (0.0 - 0.2) / 2], atol=1e-12)
+    p = _pace()
+    p(STAND + 0.05)  # within the cap: nothing held back
+    np.testing.assert_array_equal(p.lag, [0.0, 0.0])
+
+
 def test_a_solve_again_within_a_frame_is_decided_from_the_frames_start() -> None:
     p = _pace()
     raw = STAND + np.array([[0.5, 0.0, 0.0], [0.0, 0.0, 0.0]])
@@ -159,3 +171,40 @@ def test_the_pace_reaches_the_simulators_foot_targets() -> None:
     assert max(moves) <= cap + 1e-9
     sim = Simulator(spec, "shake_hands", cfg)
     assert sim.config.foot_lock.pace is None  # the standing mode's default here: no pace
+
+
+@pytest.mark.parametrize("pace_base", [False, True])
+def test_pace_base_holds_the_iks_base_target_back_with_the_feet(pace_base: bool, monkeypatch) -> None:  # noqa: ANN001
+    data = generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=2))
+    inter = list(data.of_label("shake_hands"))[1]
+    sim = Simulator(load_robot("ours"), "shake_hands", SimConfig.standing(foot_lock=FootLockConfig(
+        hold_lift=0.12, hold_in_contact=True, pace=0.5, pace_base=pace_base)))
+    bases: list[np.ndarray] = []
+    solve = RobotIK.solve
+
+    def spy(self, world, *args, **kwargs):  # noqa: ANN001, ANN002, ANN003, ANN202
+        bases.append(np.array(world[0]))
+        return solve(self, world, *args, **kwargs)
+
+    monkeypatch.setattr(RobotIK, "solve", spy)
+    src = GroundTruthSource()
+    src.reset(inter)
+    first = src.targets(0)
+    sim.reset(inter)
+    sim.settle(sim.retarget(first.keys, frame=0, subevent=first.subevent))
+    held = 0
+    for _ in range(30):
+        f = src.targets(sim.frame + 1)
+        tg = sim.retarget(f.keys, frame=sim.frame + 1, subevent=f.subevent, contact=f.contact,
+                          contact_inside=f.contact_inside, contact_inside_next=f.contact_inside_next)
+        recorded = sim.frame_R.to_world(fill_targets(np.asarray(tg, dtype=np.float64), sim._home_keys))[0]
+        bases.clear()
+        sim.step(tg, subevent=f.subevent)
+        lock = sim._footlock
+        if all(lock.standing):  # type: ignore[union-attr]
+            continue  # the steadied base filters it then
+        lag = lock.pace.lag  # type: ignore[union-attr]
+        held += bool(np.any(lag != 0.0))
+        want = recorded[:2] + (lag if pace_base else 0.0)
+        np.testing.assert_allclose(bases[0][:2], want, atol=1e-9)
+    assert held > 0  # frames with feet held back were checked

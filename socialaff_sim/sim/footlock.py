@@ -49,6 +49,10 @@ class FootLockConfig:
     caught up (:mod:`~.step_pace`). ``None``: the recording's targets as they are (the H1's swing leg does not
     keep up with a recorded walk-up: docs/benchmarks.md, "The H1's outside support in the contact phases,
     diagnosed …")."""
+    pace_base: bool = False
+    """[—]: With ``pace``, the base's target is held back with the feet: moved by the paced feet's mean horizontal
+    offset from the recording's (``False``: the base follows the recording while the feet lag, and the IK reaches
+    for it over feet held back, up to a metre in a pull-up)."""
     pace_height: float = 0.08
     """h_s [m]: a carried ankle target is at least this far above the ankle's home height (above ``lift``, so
     that the foot counts as stepping)."""

@@ -260,6 +260,8 @@ class Simulator:
         if self._footlock is not None:
             world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()),
                                               new_frame=not self._in_frame)
+            if self._footlock.pace is not None and self.config.foot_lock.pace_base:  # type: ignore[union-attr]
+                world[0, :2] += self._footlock.pace.lag  # the base held back with the paced feet
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik

@@ -42,6 +42,8 @@ class StepPace:
         """(2, 3) the latest frame's ankle targets as given (world, m), or ``None`` before the first."""
         self.carried = [False, False]
         """(left, right): whether each foot's target is being carried behind the recording's."""
+        self.lag = np.zeros(2)
+        """(2,) m: the paced feet's mean horizontal offset from the recording's (zero while none is held back)."""
         self.carried_frames = 0
         """Frames in which a foot's target was carried (summed over the feet), for the figures."""
         self._base: tuple[np.ndarray | None, list[bool]] = (None, [False, False])
@@ -56,6 +58,7 @@ class StepPace:
         if prev is None:
             self.paced = raw.copy()
             self.carried = [False, False]
+            self.lag = np.zeros(2)
             return raw.copy()
         out = raw.copy()
         gap = np.linalg.norm(raw[:, :2] - prev[:, :2], axis=1)
@@ -79,4 +82,5 @@ class StepPace:
         if new_frame:
             self.carried_frames += sum(carried)
         self.paced, self.carried = out.copy(), carried
+        self.lag = (out[:, :2] - raw[:, :2]).mean(axis=0)
         return out
