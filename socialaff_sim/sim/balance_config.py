@@ -31,7 +31,7 @@ class BalanceConfig:
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, min_foot_load, torque_fraction, flat_feet, yaw_ratio
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
-    - Hands that give way: hand_yield, yield_damping, yield_return
+    - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, catch_tilt,
       catch_margin, catch_blend, drive_harnessed, torque_handover, com_glide, glide_rest,
@@ -127,6 +127,11 @@ class BalanceConfig:
     person's hand that keeps coming at v is met with b·v over the allowance)."""
     yield_return: float = 1.0
     """τ [s]: while the force is within the allowance, a wrist's offset returns as ȯ = −o / τ."""
+    yield_twist: float | None = None
+    """σ [m]: ``hand_yield``: the feet's allowance is also at most the force whose moment about the vertical through
+    the support box's middle is σ W (W the weight; :func:`~.hand_yield.twist_allowance`): the arms give way to a
+    person's push across the robot before it twists the feet on the floor (traced, a handshake's 20–60 N sideways at
+    the hand twisted Stubby by a median 14.5 N·m, and its planted feet turned 17°). ``None``: tipping alone."""
     arm_compensation: float | None = None
     """c [—]: the arms' hinge references move, at each driven step, by c times the damped least-squares step that
     puts each wrist, on the trunk as it is, where the plan's wrist is in the world (:mod:`~.arm_compensation`: a
@@ -218,6 +223,9 @@ class BalanceConfig:
                               f"found {self.clearance_detection}, {self.clearance_bandwidth}")
         if self.hand_yield is not None and not self.hand_yield >= 0.0:
             raise ConfigError(f"BalanceConfig.hand_yield: expected None or a fraction ≥ 0, found {self.hand_yield}")
+        if self.yield_twist is not None and (self.hand_yield is None or not self.yield_twist > 0.0):
+            raise ConfigError(f"BalanceConfig.yield_twist: needs hand_yield and a length > 0 m, found "
+                              f"{self.yield_twist!r} with hand_yield {self.hand_yield!r}")
         if self.arm_compensation is not None and not self.arm_compensation >= 0.0:
             raise ConfigError(f"BalanceConfig.arm_compensation: expected None or a fraction ≥ 0, found "
                               f"{self.arm_compensation}")
