@@ -209,6 +209,63 @@ def test_centre_of_mass_feedback_brings_the_centre_of_mass_over_the_middle_of_th
     assert ctl._tilt(d) <= 2.0
 
 
+def _com_shift(scene: Scene, config: BalanceConfig, dx: float, seconds: float = 2.0) -> tuple[np.ndarray, BalanceController]:
+    """Stubby standing at home under the controller while the plan is its home pose moved ``dx`` m along x (forward),
+    feet and all: the centre of mass's horizontal displacement (m) after ``seconds``, and the controller."""
+    m = scene.model
+    d, q, ctl, ctrl0 = standing_far(scene, config)
+    plan = q.copy()
+    plan[0] += dx
+    com0 = np.array(d.subtree_com[scene.root_body, :2])
+    for k in range(int(round(seconds / m.opt.timestep))):
+        if k % 25 == 0:
+            ctl.begin_frame(plan, (True, True))
+        d.ctrl[scene.act_ids] = ctrl0
+        ctl.step(m, d, q, np.zeros(len(scene.robot_vadr) - 6))
+    return np.array(d.subtree_com[scene.root_body, :2]) - com0, ctl
+
+
+@pytest.mark.parametrize("dx", [0.03, -0.03])
+def test_the_world_reference_holds_the_centre_of_mass_where_the_plan_has_it(scene: Scene, dx: float) -> None:
+    # The plan stands 3 cm ahead of (behind) the physical robot, feet and all. ``plan`` carries the plan's offset from
+    # its feet onto the physical feet: nothing to do, the centre of mass stays. ``world`` draws it to the plan's
+    # centre of mass in the world, along dx (inverted it would run the other way); the joints' rows, which track the
+    # home posture, hold it back unless ``w_com`` outweighs them (docs/design.md §5, "The standing body held where
+    # the plan has it").
+    plan, _ = _com_shift(scene, BalanceConfig(), dx)
+    assert np.linalg.norm(plan) <= 0.002
+    world, ctl = _com_shift(scene, BalanceConfig(com_reference="world"), dx)
+    heavy, ctl_h = _com_shift(scene, BalanceConfig(com_reference="world", w_com=1e4), dx)
+    for shift, c in ((world, ctl), (heavy, ctl_h)):
+        assert shift[0] * np.sign(dx) >= 0.5 * abs(dx)  # along dx, at least half of it
+        assert abs(shift[0]) <= abs(dx) + 0.003 and abs(shift[1]) <= 0.002  # not past the plan's
+        assert c.catches == 0 and c.released
+    assert abs(heavy[0]) - abs(world[0]) >= 0.004  # the heavier row wins more of it from the joints
+
+
+def test_each_reference_against_mujocos_centre_of_mass(scene: Scene) -> None:
+    # The plan: home moved 0.3 m forward and 0.1 m to the side, its left leg bent; the physical robot at home.
+    # ``plan`` = the physical feet's middle + the plan's centre of mass minus its feet's middle; ``world`` = the plan's
+    # centre of mass; both from MuJoCo's own subtree centre of mass of the plan's pose.
+    m = scene.model
+    d, q, ctl, _ = standing_far(scene, BalanceConfig(com_reference="world"))
+    plan = q.copy()
+    plan[:2] += [0.3, 0.1]
+    plan[7 + 2] += 0.4
+    p = mujoco.MjData(m)
+    p.qpos[scene.robot_qadr] = plan
+    mujoco.mj_forward(m, p)
+    com_plan = p.subtree_com[scene.root_body, :2]
+    feet = ctl._feet
+    ctl.begin_frame(plan, (True, True))
+    assert np.allclose(ctl.reference(d, None), com_plan, atol=1e-9)  # type: ignore[arg-type]
+    ctl_p = BalanceController(scene, BalanceConfig())
+    ctl_p.begin_frame(plan, (True, True))
+    want = d.xpos[feet, :2].mean(axis=0) + com_plan - p.xpos[feet, :2].mean(axis=0)
+    assert np.allclose(ctl_p.reference(d, None), want, atol=1e-9)  # type: ignore[arg-type]
+    assert np.linalg.norm(want - com_plan) >= 0.25  # the two differ by the plan's shift
+
+
 def test_a_pushed_robot_returns_to_its_stance_on_its_own_feet(scene: Scene) -> None:
     ctl, d, trace = _stand(scene, BalanceConfig(), 3.0, push=(0.5, 0.7, 80.0))
     com0 = trace[4][0][:2]  # standing, before the push
