@@ -4,12 +4,14 @@ determinism and the configuration's errors."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
 
 from socialaff_sim.data.skeletons import get_layout
-from socialaff_sim.data.synthetic import generate_dataset
+from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
@@ -264,6 +266,24 @@ def test_each_reference_against_mujocos_centre_of_mass(scene: Scene) -> None:
     want = d.xpos[feet, :2].mean(axis=0) + com_plan - p.xpos[feet, :2].mean(axis=0)
     assert np.allclose(ctl_p.reference(d, None), want, atol=1e-9)  # type: ignore[arg-type]
     assert np.linalg.norm(want - com_plan) >= 0.25  # the two differ by the plan's shift
+
+
+def test_a_standing_robot_held_where_the_plan_has_it_meets_the_high_five_it_missed() -> None:
+    """high_five_001 (synthetic, seed 0), Stubby in the standing mode as the rule of docs/design.md §5 ("The standing
+    body held where the plan has it") found it: its feet stand a few centimetres behind the plan's, the body is put
+    that much back and sags further behind its reference, and the raised hand stops 1.6 cm short (completion β at
+    most 0.34). With the centre of mass held where the plan has it (``world``, ``w_com`` 1e4) the root stands within
+    a few centimetres of the plan's and the hands meet (β reaches 1)."""
+    inter = next(i for i in generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=2))
+                 if i.instance_id == "high_five_001")
+    met, beta = [], []
+    for over in ({"com_reference": "plan", "w_com": 100.0}, {"com_reference": "world", "w_com": 1e4}):
+        cfg = SimConfig.standing()
+        sim = Simulator("ours", "high_five", dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, **over)))
+        met.append(run_episode(sim, GroundTruthSource(), inter)["success"])
+        beta.append(max(float(np.max(r.completion)) for r in sim.results if r.completion is not None))
+    assert met == [False, True]
+    assert beta[0] < 0.5 and beta[1] > 0.9
 
 
 def test_a_pushed_robot_returns_to_its_stance_on_its_own_feet(scene: Scene) -> None:
