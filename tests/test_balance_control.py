@@ -266,6 +266,14 @@ def test_each_reference_against_mujocos_centre_of_mass(scene: Scene) -> None:
     want = d.xpos[feet, :2].mean(axis=0) + com_plan - p.xpos[feet, :2].mean(axis=0)
     assert np.allclose(ctl_p.reference(d, None), want, atol=1e-9)  # type: ignore[arg-type]
     assert np.linalg.norm(want - com_plan) >= 0.25  # the two differ by the plan's shift
+    # ``approach``: the plan's own until an arm first touches (the compensation's latch), the plan's offset after.
+    ctl_a = BalanceController(scene, BalanceConfig(com_reference="approach", arm_compensation=1.0, compensation_gate=1e9))
+    ctl_a.begin_frame(plan, (True, True))
+    assert np.allclose(ctl_a.reference(d, None), com_plan, atol=1e-9)  # type: ignore[arg-type]
+    ctl_a.compensation.touched[1] = True
+    assert np.allclose(ctl_a.reference(d, None), want, atol=1e-9)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="approach"):
+        BalanceConfig(com_reference="approach", arm_compensation=1.0)  # no latch without the gate
 
 
 def test_a_standing_robot_held_where_the_plan_has_it_meets_the_high_five_it_missed() -> None:

@@ -267,9 +267,11 @@ class BalanceController:
 
     def reference(self, d: mujoco.MjData, box: SupportBox) -> np.ndarray:
         """(2,) the centre of mass's reference c* (world, m) before the lean, the glide and the box's clip, by
-        ``com_reference``: the plan's offset from its feet on the feet of ``d``, the plan's own (world), or the middle
-        of ``box``."""
+        ``com_reference``: the plan's offset from its feet on the feet of ``d``, the plan's own (world; with
+        ``approach`` until an arm's first touch), or the middle of ``box``."""
         ref = self.config.com_reference
+        if ref == "approach":  # held where the plan has it until an arm first touches, then as ``plan``
+            ref = "plan" if self.compensation.touched.any() else "world"  # type: ignore[union-attr]
         if ref == "plan":
             return d.xpos[self._feet, :2].mean(axis=0) + self._com_offset
         if ref == "world":  # where the plan has it, whatever the feet: the body stays where the plan puts it
