@@ -52,7 +52,7 @@ from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
 from .com_glide import ComGlide, rest_lead
 from .contact_dynamics import cone_edges, solve_contact_dynamics
-from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
+from .contact_qp import actuator_limits, cop_rows, solve_contact_qp, yaw_rows
 from .external_force import ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts
@@ -108,7 +108,8 @@ class BalanceController:
         self._clearance = None if c.self_clearance is None else SelfClearance.of_scene(
             scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
-                                                                      c.yield_return, c.external_filter)
+                                                                      c.yield_return, c.external_filter,
+                                                                      c.yield_twist)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
@@ -370,8 +371,11 @@ class BalanceController:
     def _cop(self, d: mujoco.MjData, pts: np.ndarray, edges: np.ndarray, which: np.ndarray,
              box: SupportBox) -> np.ndarray:
         """(R, 4P) the centre-of-pressure rows (:func:`~.contact_qp.cop_rows`): each foot's kept ``cop_margin``
-        inside its sole, along the support box's axes."""
+        inside its sole, along the support box's axes; with ``yaw_ratio``, each foot's moment about the vertical
+        through its sole's centre (the middle of its sole's box, or of its points) bounded too
+        (:func:`~.contact_qp.yaw_rows`)."""
         bounds = np.zeros((len(self._feet), 2, 2))
+        centres = np.zeros((len(self._feet), 3))
         for s, body in enumerate(self._feet):
             mine = pts[which == s, :2]
             if not len(mine):  # (−1 in ``which``: a point left unbounded)
@@ -379,7 +383,11 @@ class BalanceController:
             sole = self._sole[s]
             xy = mine if sole is None else (d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T)[:, :2]
             bounds[s] = cop_interval(box.R, xy, mine, self.config.cop_margin)
-        return cop_rows(pts, edges, which, box.R, bounds)
+            centres[s, :2] = 0.5 * (xy.min(axis=0) + xy.max(axis=0))
+        rows = cop_rows(pts, edges, which, box.R, bounds)
+        if self.config.yaw_ratio is None:
+            return rows
+        return np.vstack([rows, yaw_rows(pts, edges, which, centres, self.config.yaw_ratio)])
 
     # -- measurements ---------------------------------------------------------------------------------------
     def _tilt(self, d: mujoco.MjData) -> float:
