@@ -8,9 +8,11 @@ from ..errors import ConfigError
 
 __all__ = ["BalanceConfig", "COM_REFERENCES", "SOLVERS"]
 
-COM_REFERENCES = ("plan", "middle")
+COM_REFERENCES = ("plan", "middle", "world", "approach")
 """Where the centre of mass is held: ``plan``, the IK's centre of mass relative to its feet, carried over to the
-physical feet; ``middle``, the middle of the feet's contact points. Either is kept inside the support box."""
+physical feet; ``middle``, the middle of the feet's contact points; ``world``, the IK's centre of mass where the
+plan has it in the world; ``approach``, ``world`` until an arm first touches the person or the object, ``plan`` after.
+Each is kept inside the support box."""
 
 SOLVERS = ("lsq", "qp")
 """How the inverse dynamics is solved: ``lsq``, weighted least squares with non-negative contact forces
@@ -55,8 +57,12 @@ class BalanceConfig:
     com_damping: float = 1.0
     """ζ [—]: damping ratio of the centre-of-mass feedback."""
     com_reference: str = "plan"
-    """[—]: c*: ``plan`` (the IK's centre of mass relative to its feet, moved onto the physical feet) or
-    ``middle`` (the middle of the feet's contact points); either is kept ``support_margin`` inside the box."""
+    """[—]: c*: ``plan`` (the IK's centre of mass relative to its feet, moved onto the physical feet), ``middle``
+    (the middle of the feet's contact points) or ``world`` (the IK's centre of mass where the plan has it in the
+    world: the body stays where the plan puts it although the feet stand elsewhere, which the joints' rows
+    outweigh unless ``w_com`` is large: docs/design.md §5, "The standing body held where the plan has it") or
+    ``approach`` (``world`` until an arm first touches the person or the object in the episode, ``plan`` after: the
+    latch of ``compensation_gate``, which it needs); each is kept ``support_margin`` inside the box."""
     support_margin: float = 0.03
     """[m]: the centre-of-mass reference is kept this far inside the box of the feet's contact points
     (axes along the robot's heading)."""
@@ -242,6 +248,9 @@ class BalanceConfig:
         if self.com_reference not in COM_REFERENCES:
             raise ConfigError(f"BalanceConfig.com_reference: expected one of {', '.join(COM_REFERENCES)}, found "
                               f"{self.com_reference!r}")
+        if self.com_reference == "approach" and (self.arm_compensation is None or self.compensation_gate is None):
+            raise ConfigError("BalanceConfig.com_reference='approach': needs arm_compensation and compensation_gate "
+                              "(their touch latch ends the approach)")
         if self.torque_handover is not None and not self.torque_handover > 0.0:
             raise ConfigError(f"BalanceConfig.torque_handover: expected None or a ramp time > 0 s, found "
                               f"{self.torque_handover}")

@@ -9,7 +9,8 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    as reference), the torso's attitude toward the IK's (ω_o), the planted feet held where they stood when both
    came down (k_x, k_f: a creeping foot is drawn back), and the centre of mass's horizontal position toward a
    reference c* over the feet (ω_c, ζ): the IK's centre of mass relative to its feet carried over to the
-   physical feet (or the middle of the feet), optionally moved to lean against the measured external forces
+   physical feet (or the middle of the feet, or the IK's centre of mass where the plan has it in the world),
+   optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
    with the floor, where they stand now) shrunk by a margin; with ``hand_yield`` the arms' references give way
    to a person's force beyond what the feet carry (:mod:`~.hand_yield`);
@@ -140,6 +141,7 @@ class BalanceController:
         self._ext_force = np.zeros(3)
         self._ext_moment = np.zeros(3)
         self._com_offset = np.zeros(2)
+        self._com_plan = np.zeros(2)
         self._torso_goal = np.eye(3)
         self.steps = self.active_steps = self.released_steps = self.catches = 0
         """Physics steps run, driven by the controller, with the harness off; times a released robot was caught."""
@@ -167,6 +169,7 @@ class BalanceController:
         mujoco.mj_comPos(m, p)
         feet = p.xpos[self._feet, :2].mean(axis=0)
         self._com_offset = p.subtree_com[self.scene.root_body, :2] - feet
+        self._com_plan = p.subtree_com[self.scene.root_body, :2].copy()
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
 
     # -- the physics step -----------------------------------------------------------------------------------
@@ -263,6 +266,19 @@ class BalanceController:
         d.mocap_quat[k] = q / np.linalg.norm(q)
         self._caught = (pos, quat, t + m.opt.timestep)
 
+    def reference(self, d: mujoco.MjData, box: SupportBox) -> np.ndarray:
+        """(2,) the centre of mass's reference c* (world, m) before the lean, the glide and the box's clip, by
+        ``com_reference``: the plan's offset from its feet on the feet of ``d``, the plan's own (world; with
+        ``approach`` until an arm's first touch), or the middle of ``box``."""
+        ref = self.config.com_reference
+        if ref == "approach":  # held where the plan has it until an arm first touches, then as ``plan``
+            ref = "plan" if self.compensation.touched.any() else "world"  # type: ignore[union-attr]
+        if ref == "plan":
+            return d.xpos[self._feet, :2].mean(axis=0) + self._com_offset
+        if ref == "world":  # where the plan has it, whatever the feet: the body stays where the plan puts it
+            return self._com_plan.copy()
+        return box.middle()
+
     def _torques(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray, pts: np.ndarray,
                  frames: np.ndarray, which: np.ndarray, box: SupportBox, com: np.ndarray, jcom: np.ndarray,
                  comvel: np.ndarray) -> np.ndarray:
@@ -298,11 +314,7 @@ class BalanceController:
             mujoco.mju_quat2Vel(self._rot, self._quat, 1.0)
             off = np.concatenate([pos - d.xpos[body], self._rot])
             tasks.append((J, c.foot_stiffness * off - c.foot_damping * (J @ qv), c.w_feet))
-        if c.com_reference == "plan":
-            mid = d.xpos[self._feet, :2].mean(axis=0)
-            goal = mid + self._com_offset
-        else:
-            goal = box.middle()
+        goal = self.reference(d, box)
         wc, zc = c.com_bandwidth, c.com_damping
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
             p = np.array([goal[0], goal[1], float(pts[:, 2].mean())])
