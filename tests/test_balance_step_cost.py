@@ -1,7 +1,8 @@
 """The balance controller's per-step shortcuts (issue 25, the standing mode's CPU cost): each gives what it replaces,
 bit for bit, against an independent reference — the actuators' limit table against :func:`actuator_limits` and
 MuJoCo's own clipping, the centre-of-pressure rows against an entry-by-entry construction and against the centres of
-pressure themselves, and the step's contacts read once and handed to every part that folds them in."""
+pressure themselves, the step's contacts read once and handed to every part that folds them in, and the feet's
+rows built in reused room."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from socialaff_sim.sim import arm_compensation, balance_control, hand_yield
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.contact_qp import ActuatorLimits, actuator_limits, cop_rows
 from socialaff_sim.sim.external_force import ExternalForces
+from socialaff_sim.sim.flat_feet import foot_rows
 from socialaff_sim.sim.scene import Scene, build_scene
 from test_balance_control import LAYOUT, _stand
 from test_balance_qp import ACTUATED
@@ -145,3 +147,23 @@ def test_the_controller_reads_the_steps_contacts_once_and_hands_them_to_every_pa
     for name in got:  # every part got each step's one reading, the very same object
         assert len(got[name]) == len(reads), name
         assert all(a is b for a, b in zip(got[name], reads, strict=True)), name
+
+
+def test_foot_rows_in_reused_room_are_the_same_bits_whatever_the_room_held(rng, scene: Scene) -> None:
+    """The balance controller hands :func:`foot_rows` the same two arrays every step; MuJoCo overwrites them whole,
+    so rows built in room full of garbage equal those built in fresh room, bit for bit."""
+    m = scene.model
+    d = mujoco.MjData(m)
+    d.qpos[scene.robot_qadr] = scene.home_qpos
+    d.qvel[:] = rng.normal(scale=0.5, size=m.nv)
+    mujoco.mj_forward(m, d)
+    vadr = np.asarray(scene.robot_vadr)
+    room = (np.full((6, m.nv), np.nan), np.full((6, m.nv), 1e300))
+    for body in (int(m.site_bodyid[scene.frame_ids[3]]) if scene.frame_kinds[3] == "site" else int(scene.frame_ids[3]),
+                 int(scene.root_body)):
+        goal = d.xpos[body] + rng.normal(scale=0.01, size=3)
+        fresh = foot_rows(m, d, body, vadr, goal, np.eye(3), 100.0, 20.0)
+        reused = foot_rows(m, d, body, vadr, goal, np.eye(3), 100.0, 20.0, room)
+        np.testing.assert_array_equal(fresh[0], reused[0])
+        np.testing.assert_array_equal(fresh[1], reused[1])
+        assert np.isfinite(reused[0]).all() and np.isfinite(reused[1]).all()

@@ -122,6 +122,9 @@ class BalanceController:
         self._Mix = np.ix_(self.vadr, self.vadr)
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside the joints' task
         self._joint_scale, self._joint_rows = scale, np.eye(n)[6:] * scale[:, None]
+        self._foot_scratch = (np.zeros((6, m.nv)), np.zeros((6, m.nv)))
+        contiguous = n > 0 and np.array_equal(self.vadr, np.arange(self.vadr[0], self.vadr[0] + n))
+        self._Mslice = slice(int(self.vadr[0]), int(self.vadr[0]) + n) if contiguous else None
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
         self._jr = np.zeros((3, m.nv))
@@ -278,7 +281,8 @@ class BalanceController:
         c = self.config
         va = self.vadr
         mujoco.mj_fullM(m, d, self._M)
-        M = self._M[self._Mix]
+        # (a copy, laid out as the fancy index's would be: a slice where the robot's dofs are contiguous)
+        M = self._M[self._Mslice, self._Mslice].copy() if self._Mslice is not None else self._M[self._Mix]
         # The external forces as known loads on the root's rows only: the feet's forces then carry them, while the
         # joints stay as compliant as their PD (feeding them to the arms' rows stiffened the arms against the
         # person, who pushed back harder a step later).
@@ -294,7 +298,8 @@ class BalanceController:
         eq = None
         if c.flat_feet:
             pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
-                                                   which, c.sole_gap, c.foot_stiffness, c.foot_damping)
+                                                   which, c.sole_gap, c.foot_stiffness, c.foot_damping,
+                                                   self._foot_scratch)
         jac = np.empty((len(pts), 3, n))
         for i, (p, s) in enumerate(zip(pts, which, strict=True)):
             mujoco.mj_jac(m, d, self._jp, None, p, self._feet[int(s)])

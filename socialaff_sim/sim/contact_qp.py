@@ -172,9 +172,10 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     # Variables x = [β' (K), q̈ (n)], β' = β / m: every row is then in m/s².
     H = np.zeros((K + n, K + n))
     f = np.zeros(K + n)
-    H[:K, :K] = w_force * np.eye(K)
+    diag = np.arange(K + n)  # w_f I on β', ε I on q̈: set on the diagonal (the rest is zero as it was)
+    H[diag[:K], diag[:K]] = w_force
+    H[diag[K:], diag[K:]] = w_reg
     Hq = H[K:, K:]
-    Hq += w_reg * np.eye(n)
     for A, b, w in tasks:
         Hq += w * (A.T @ A)
         f[K:] -= w * (A.T @ b)
@@ -196,7 +197,7 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
         lower.append(np.asarray(b_eq, dtype=np.float64))
         sense.append(np.full(len(b_eq), 5))
     if foot is not None and min_load > 0.0 and P:
-        for s in np.unique(foot[foot >= 0]):
+        for s in sorted(set(foot[foot >= 0].tolist())):
             r = np.where((foot == s)[:, None], edges[:, 2, :], 0.0).ravel()
             rows.append(np.concatenate([r, np.zeros(n)])[None])
             upper.append(np.array([_INF]))

@@ -70,16 +70,19 @@ class ExternalForces:
         g = d.contact.geom[:nc]
         r0, r1 = self._robot[g[:, 0]], self._robot[g[:, 1]]
         floor = (g[:, 0] == self._floor) | (g[:, 1] == self._floor)
-        rows = np.flatnonzero((r0 ^ r1) & ~floor & (d.contact.efc_address[:nc] >= 0))
+        con = d.contact
+        rows = np.flatnonzero((r0 ^ r1) & ~floor & (con.efc_address[:nc] >= 0))
         pts, forces, geoms, others = [], [], [], []
+        if len(rows):
+            frames, where = con.frame, con.pos
         for i in rows.tolist():
             mujoco.mj_contactForce(m, d, i, self._f6)
-            frame = d.contact.frame[i].reshape(3, 3)
+            frame = frames[i].reshape(3, 3)
             f = frame.T @ self._f6[:3]  # on geom 1, world frame
             robot_geom, other = int(g[i, 1]), int(g[i, 0])
             if r0[i]:
                 f, robot_geom, other = -f, int(g[i, 0]), int(g[i, 1])
-            pts.append(d.contact.pos[i].copy())
+            pts.append(where[i].copy())
             forces.append(f)
             geoms.append(robot_geom)
             others.append(other)

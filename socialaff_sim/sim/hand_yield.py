@@ -44,6 +44,7 @@ MAX_OFFSET = 0.3
 """[m]: the longest a wrist reference gives way."""
 DAMPING_LAMBDA = 0.05
 """λ [m]: damping of the least-squares map of a wrist offset onto the arm's hinges."""
+_DAMPING = DAMPING_LAMBDA ** 2 * np.eye(2)  # λ² I, made once
 
 
 def feet_allowance(box: SupportBox, direction: np.ndarray, point: np.ndarray, margin: float, weight: float,
@@ -152,7 +153,7 @@ class HandYield:
                 continue
             mujoco.mj_jacBody(m, d, self._jp, None, self._wrist[s])
             J = self._jp[:2][:, self.vadr[self._cols[s]]]
-            inv = J.T @ np.linalg.inv(J @ J.T + DAMPING_LAMBDA ** 2 * np.eye(2))
+            inv = J.T @ np.linalg.inv(J @ J.T + _DAMPING)
             dq[self._cols[s]] += inv @ self.offset[s]
             dv[self._cols[s]] += inv @ self.rate[s]
         return dq[6:], dv[6:]
