@@ -9,7 +9,8 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    as reference), the torso's attitude toward the IK's (ω_o), the planted feet held where they stood when both
    came down (k_x, k_f: a creeping foot is drawn back), and the centre of mass's horizontal position toward a
    reference c* over the feet (ω_c, ζ): the IK's centre of mass relative to its feet carried over to the
-   physical feet (or the middle of the feet), optionally moved to lean against the measured external forces
+   physical feet (or the middle of the feet, or the IK's centre of mass where the plan has it in the world),
+   optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
    with the floor, where they stand now) shrunk by a margin; with ``hand_yield`` the arms' references give way
    to a person's force beyond what the feet carry (:mod:`~.hand_yield`);
@@ -51,7 +52,7 @@ from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
 from .com_glide import ComGlide, rest_lead
 from .contact_dynamics import cone_edges, solve_contact_dynamics
-from .contact_qp import ActuatorLimits, cop_rows, solve_contact_qp
+from .contact_qp import ActuatorLimits, cop_rows, solve_contact_qp, yaw_rows
 from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts
@@ -107,7 +108,8 @@ class BalanceController:
         self._clearance = None if c.self_clearance is None else SelfClearance.of_scene(
             scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
-                                                                      c.yield_return, c.external_filter)
+                                                                      c.yield_return, c.external_filter,
+                                                                      c.yield_twist)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
@@ -117,14 +119,10 @@ class BalanceController:
         self.glide = None if c.com_glide is None else ComGlide(c.com_glide, m.opt.timestep)
         """``com_glide``: the centre-of-mass goal glided from the measured centre of mass (:mod:`~.com_glide`)."""
         self._plan = mujoco.MjData(m)
-        # per-model constants of every driven step, gathered once
-        self._limits = ActuatorLimits(m, scene.act_ids)
-        self._Mix = np.ix_(self.vadr, self.vadr)
+        self._limits, self._Mix = ActuatorLimits(m, scene.act_ids), np.ix_(self.vadr, self.vadr)  # made once
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside the joints' task
         self._joint_scale, self._joint_rows = scale, np.eye(n)[6:] * scale[:, None]
         self._foot_scratch = (np.zeros((6, m.nv)), np.zeros((6, m.nv)))
-        contiguous = n > 0 and np.array_equal(self.vadr, np.arange(self.vadr[0], self.vadr[0] + n))
-        self._Mslice = slice(int(self.vadr[0]), int(self.vadr[0]) + n) if contiguous else None
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
         self._jr = np.zeros((3, m.nv))
@@ -147,6 +145,7 @@ class BalanceController:
         self._ext_force = np.zeros(3)
         self._ext_moment = np.zeros(3)
         self._com_offset = np.zeros(2)
+        self._com_plan = np.zeros(2)
         self._torso_goal = np.eye(3)
         self.steps = self.active_steps = self.released_steps = self.catches = 0
         """Physics steps run, driven by the controller, with the harness off; times a released robot was caught."""
@@ -174,6 +173,7 @@ class BalanceController:
         mujoco.mj_comPos(m, p)
         feet = p.xpos[self._feet, :2].mean(axis=0)
         self._com_offset = p.subtree_com[self.scene.root_body, :2] - feet
+        self._com_plan = p.subtree_com[self.scene.root_body, :2].copy()
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
 
     # -- the physics step -----------------------------------------------------------------------------------
@@ -248,8 +248,7 @@ class BalanceController:
             self._ext_gen[:], self._ext_force[:], self._ext_moment[:] = 0.0, 0.0, 0.0
 
     def _measure_external(self, m: mujoco.MjModel, d: mujoco.MjData, contacts: Contacts) -> None:
-        """Fold the external contact forces of the step just taken (``contacts``, read after it) into their
-        low-pass filtered estimate."""
+        """Fold the external contacts ``contacts`` of the step just taken into their low-pass filtered estimate."""
         gen, pts, forces = self._external.measure(m, d, contacts)
         a = math.exp(-m.opt.timestep / self.config.external_filter) if self.config.external_filter > 0 else 0.0
         self._ext_gen = a * self._ext_gen + (1.0 - a) * gen
@@ -274,6 +273,19 @@ class BalanceController:
         d.mocap_quat[k] = q / np.linalg.norm(q)
         self._caught = (pos, quat, t + m.opt.timestep)
 
+    def reference(self, d: mujoco.MjData, box: SupportBox) -> np.ndarray:
+        """(2,) the centre of mass's reference c* (world, m) before the lean, the glide and the box's clip, by
+        ``com_reference``: the plan's offset from its feet on the feet of ``d``, the plan's own (world; with
+        ``approach`` until an arm's first touch), or the middle of ``box``."""
+        ref = self.config.com_reference
+        if ref == "approach":  # held where the plan has it until an arm first touches, then as ``plan``
+            ref = "plan" if self.compensation.touched.any() else "world"  # type: ignore[union-attr]
+        if ref == "plan":
+            return d.xpos[self._feet, :2].mean(axis=0) + self._com_offset
+        if ref == "world":  # where the plan has it, whatever the feet: the body stays where the plan puts it
+            return self._com_plan.copy()
+        return box.middle()
+
     def _torques(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray, pts: np.ndarray,
                  frames: np.ndarray, which: np.ndarray, box: SupportBox, com: np.ndarray, jcom: np.ndarray,
                  comvel: np.ndarray) -> np.ndarray:
@@ -281,8 +293,7 @@ class BalanceController:
         c = self.config
         va = self.vadr
         mujoco.mj_fullM(m, d, self._M)
-        # (a copy, laid out as the fancy index's would be: a slice where the robot's dofs are contiguous)
-        M = self._M[self._Mslice, self._Mslice].copy() if self._Mslice is not None else self._M[self._Mix]
+        M = self._M[self._Mix]
         # The external forces as known loads on the root's rows only: the feet's forces then carry them, while the
         # joints stay as compliant as their PD (feeding them to the arms' rows stiffened the arms against the
         # person, who pushed back harder a step later).
@@ -311,11 +322,7 @@ class BalanceController:
             mujoco.mju_quat2Vel(self._rot, self._quat, 1.0)
             off = np.concatenate([pos - d.xpos[body], self._rot])
             tasks.append((J, c.foot_stiffness * off - c.foot_damping * (J @ qv), c.w_feet))
-        if c.com_reference == "plan":
-            mid = d.xpos[self._feet, :2].mean(axis=0)
-            goal = mid + self._com_offset
-        else:
-            goal = box.middle()
+        goal = self.reference(d, box)
         wc, zc = c.com_bandwidth, c.com_damping
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
             p = np.array([goal[0], goal[1], float(pts[:, 2].mean())])
@@ -370,8 +377,11 @@ class BalanceController:
     def _cop(self, d: mujoco.MjData, pts: np.ndarray, edges: np.ndarray, which: np.ndarray,
              box: SupportBox) -> np.ndarray:
         """(R, 4P) the centre-of-pressure rows (:func:`~.contact_qp.cop_rows`): each foot's kept ``cop_margin``
-        inside its sole, along the support box's axes."""
+        inside its sole, along the support box's axes; with ``yaw_ratio``, each foot's moment about the vertical
+        through its sole's centre (the middle of its sole's box, or of its points) bounded too
+        (:func:`~.contact_qp.yaw_rows`)."""
         bounds = np.zeros((len(self._feet), 2, 2))
+        centres = np.zeros((len(self._feet), 3))
         for s, body in enumerate(self._feet):
             mine = pts[which == s, :2]
             if not len(mine):  # (−1 in ``which``: a point left unbounded)
@@ -379,7 +389,11 @@ class BalanceController:
             sole = self._sole[s]
             xy = mine if sole is None else (d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T)[:, :2]
             bounds[s] = cop_interval(box.R, xy, mine, self.config.cop_margin)
-        return cop_rows(pts, edges, which, box.R, bounds)
+            centres[s, :2] = 0.5 * (xy.min(axis=0) + xy.max(axis=0))
+        rows = cop_rows(pts, edges, which, box.R, bounds)
+        if self.config.yaw_ratio is None:
+            return rows
+        return np.vstack([rows, yaw_rows(pts, edges, which, centres, self.config.yaw_ratio)])
 
     # -- measurements ---------------------------------------------------------------------------------------
     def _tilt(self, d: mujoco.MjData) -> float:
