@@ -52,8 +52,8 @@ from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
 from .com_glide import ComGlide, rest_lead
 from .contact_dynamics import cone_edges, solve_contact_dynamics
-from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
-from .external_force import ExternalForces, lean_offset
+from .contact_qp import ActuatorLimits, cop_rows, solve_contact_qp
+from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts
 from .hand_yield import HandYield
@@ -119,6 +119,10 @@ class BalanceController:
         self.glide = None if c.com_glide is None else ComGlide(c.com_glide, m.opt.timestep)
         """``com_glide``: the centre-of-mass goal glided from the measured centre of mass (:mod:`~.com_glide`)."""
         self._plan = mujoco.MjData(m)
+        self._limits, self._Mix = ActuatorLimits(m, scene.act_ids), np.ix_(self.vadr, self.vadr)  # made once
+        scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside the joints' task
+        self._joint_scale, self._joint_rows = scale, np.eye(n)[6:] * scale[:, None]
+        self._foot_scratch = (np.zeros((6, m.nv)), np.zeros((6, m.nv)))
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
         self._jr = np.zeros((3, m.nv))
@@ -231,18 +235,21 @@ class BalanceController:
                 if part is not None:
                     part.idle()
         mujoco.mj_step2(m, d)
+        # the step's contacts with anything but the floor, read once for every part that folds them in
+        contacts = self._external.contacts(m, d) if standing and (
+            self.hand_yield is not None or self.compensation is not None or c.external_forces) else None
         if standing and self.hand_yield is not None:
-            self.hand_yield.measure(m, d)
+            self.hand_yield.measure(m, contacts)  # type: ignore[arg-type]
         if standing and self.compensation is not None:
-            self.compensation.measure(m, d)
+            self.compensation.measure(m, contacts)  # type: ignore[arg-type]
         if standing and c.external_forces:
-            self._measure_external(m, d)
+            self._measure_external(m, d, contacts)  # type: ignore[arg-type]
         else:
             self._ext_gen[:], self._ext_force[:], self._ext_moment[:] = 0.0, 0.0, 0.0
 
-    def _measure_external(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
-        """Fold the external contact forces of the step just taken into their low-pass filtered estimate."""
-        gen, pts, forces = self._external.measure(m, d)
+    def _measure_external(self, m: mujoco.MjModel, d: mujoco.MjData, contacts: Contacts) -> None:
+        """Fold the external contacts ``contacts`` of the step just taken into their low-pass filtered estimate."""
+        gen, pts, forces = self._external.measure(m, d, contacts)
         a = math.exp(-m.opt.timestep / self.config.external_filter) if self.config.external_filter > 0 else 0.0
         self._ext_gen = a * self._ext_gen + (1.0 - a) * gen
         self._ext_force = a * self._ext_force + (1.0 - a) * forces.sum(axis=0)
@@ -286,7 +293,7 @@ class BalanceController:
         c = self.config
         va = self.vadr
         mujoco.mj_fullM(m, d, self._M)
-        M = self._M[np.ix_(va, va)]
+        M = self._M[self._Mix]
         # The external forces as known loads on the root's rows only: the feet's forces then carry them, while the
         # joints stay as compliant as their PD (feeding them to the arms' rows stiffened the arms against the
         # person, who pushed back harder a step later).
@@ -302,7 +309,8 @@ class BalanceController:
         eq = None
         if c.flat_feet:
             pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
-                                                   which, c.sole_gap, c.foot_stiffness, c.foot_damping)
+                                                   which, c.sole_gap, c.foot_stiffness, c.foot_damping,
+                                                   self._foot_scratch)
         jac = np.empty((len(pts), 3, n))
         for i, (p, s) in enumerate(zip(pts, which, strict=True)):
             mujoco.mj_jac(m, d, self._jp, None, p, self._feet[int(s)])
@@ -341,18 +349,16 @@ class BalanceController:
             gq, gv = self.glide.joints(q_ref[7:], hinge_q)  # type: ignore[union-attr]
             dq, dv = dq + gq, dv + gv
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
-        scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside one task
-        tasks.append((np.eye(n)[6:] * scale[:, None], want * scale, c.w_joint))
+        tasks.append((self._joint_rows, want * self._joint_scale, c.w_joint))  # per-row weights inside one task
         edges = cone_edges(frames, c.friction)
         if c.solver == "lsq":
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
                                           c.w_force).tau[self._act_rows]
         limits = np.full((n, 2), [-np.inf, np.inf])
-        limits[self._act_rows] = c.torque_fraction * actuator_limits(m, self.scene.act_ids, d.qpos[self._act_q],
-                                                                      d.qvel[self._act_v])
+        limits[self._act_rows] = c.torque_fraction * self._limits(d.qpos[self._act_q], d.qvel[self._act_v])
         # The loads and centre-of-pressure bounds only for feet on an area (three contacts or more): on fewer, β ≥ 0
         # already keeps the centre of pressure on them, and the bounds' box may miss their segment.
-        area = np.array([np.count_nonzero(which == s) >= 3 for s in range(len(self._feet))])
+        area = np.bincount(which, minlength=len(self._feet)) >= 3
         foot = np.where(area[which], which, -1)
         ineq = None if self._clearance is None else self._clearance.rows(m, d)
         res = solve_contact_qp(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_force, limits,
