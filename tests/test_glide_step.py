@@ -103,6 +103,19 @@ def test_solved_again_within_a_frame_the_glide_step_stands_and_reset_clears_it()
     assert lock.standing == (False, False) and lock.glide_steps == 0
 
 
+def test_with_glide_until_contact_glides_step_only_until_a_contact_first_holds() -> None:
+    moved = ANKLES + [[0.0, 0.0, 0.0], GLIDE]
+    for latch, steps in ((True, 0), (False, 1)):
+        lock = _planted(FootLockConfig(glide_step=H, glide_until_contact=latch))
+        lock.apply(ANKLES, touching=True)  # a contact held at the end of the last frame (the feet stay)
+        lock.apply(moved, touching=False)  # the contact has ended: the latch stays
+        assert lock.glide_steps == steps and lock.standing == ((True, False) if steps else (True, True))
+        lock.reset()  # a new episode: the latch is cleared
+        lock.apply(ANKLES)
+        lock.apply(moved)
+        assert lock.glide_steps == 1
+
+
 def test_glide_step_is_checked() -> None:
     for bad in (0.0, -0.01, float("nan")):
         with pytest.raises(ConfigError, match="glide_step"):

@@ -59,10 +59,13 @@ class FootLockConfig:
     glide_step: float | None = None
     """h_g [m]: a planted foot whose target leaves ``radius`` without rising above ``lift`` (a glide) steps for
     one frame, its target the new point raised by this, instead of being planted there at once; one foot at a
-    time and only while the other stands (the other is held where it stands that frame; of two gliding feet the
-    one farther from where it stands steps). ``None``: planted at the new point at once (in the standing mode the
-    physical foot then stays where it stood: the demo's pull-up ends 50–64 cm behind its plan; docs/design.md
-    §5). Not while a contact holds with ``hold_in_contact``."""
+    time and only while the other stands (of two gliding feet the one farther from where it stands steps; the
+    other is held where it stands until its partner has landed). ``None``: planted at the new point at once (in
+    the standing mode the balance controller then holds the physical foot where it stood: the demo's pull-up
+    stands 53–63 cm behind its plan; docs/design.md §5). Not while a contact holds with ``hold_in_contact``."""
+    glide_until_contact: bool = False
+    """[—]: With ``glide_step``, glides step only until a sub-goal's contact first holds in the episode (the walk-up);
+    afterwards they are planted at once as without ``glide_step``."""
     touchdown_height: float = 0.08
     """h_t [m]: a waiting foot's target is its foothold raised by this."""
     touchdown_frames: int = 8
@@ -109,6 +112,7 @@ class FootLock:
         """Glides turned into a step in the episode (``glide_step``)."""
         self._glide: tuple[int, np.ndarray] | None = None  # this frame's gliding foot and its raised target
         self._last: int | None = None  # the foot that glide-stepped in the last frame
+        self._touched = False  # a sub-goal's contact has held in the episode (``glide_until_contact``)
         self._wait = [False, False]  # this frame's gliding feet held where they stand
         if self.touchdown is not None:
             self.touchdown.reset()
@@ -135,6 +139,7 @@ class FootLock:
         c = self.config
         held = touching and c.hold_in_contact
         td = self.touchdown
+        self._touched = self._touched or bool(touching)
         if not new_frame and self._glide is not None:  # solved again within the frame: the foot still steps
             s, lifted = self._glide
             out[s] = lifted
@@ -150,7 +155,7 @@ class FootLock:
         waiting = [False, False] if td is None else [bool(w) for w in td.waiting]
         glide, wait = None, [False, False]
         if c.glide_step is not None:  # within a frame the frame's decision stands
-            if held:
+            if held or (c.glide_until_contact and self._touched):
                 self._last, self._wait = None, wait
             elif new_frame:
                 glide, wait = self._gliding(out, hold)
