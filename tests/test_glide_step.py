@@ -11,7 +11,7 @@ import pytest
 from conftest import planted_feet_error
 
 from socialaff_sim.data.synthetic import generate_dataset
-from socialaff_sim.errors import ConfigError
+from socialaff_sim.errors import ConfigError, SimulationError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
 from socialaff_sim.sim.sim_config import STANDING_FOOT_LOCK
@@ -116,10 +116,29 @@ def test_with_glide_until_contact_glides_step_only_until_a_contact_first_holds()
         assert lock.glide_steps == 1
 
 
+def test_with_glide_gap_a_glide_steps_only_when_the_physical_foot_stands_farther_than_d_g_from_its_target() -> None:
+    moved = ANKLES + [[0.0, 0.0, 0.0], GLIDE]  # the new point is 6 cm from where the foot was planted
+    for behind, steps in ((0.081, 1), (0.079, 0)):  # the physical right ankle 8.1 / 7.9 cm short of the new point
+        lock = FootLock(HOME, FootLockConfig(glide_step=H, glide_gap=0.08))
+        assert lock.needs_physical
+        lock.apply(ANKLES, physical=ANKLES)
+        physical = moved - [[0.0, 0.0, 0.0], [behind, 0.0, 0.0]]
+        out = lock.apply(moved, physical=physical)
+        assert lock.glide_steps == steps
+        if not steps:  # planted at the new point at once, as without glide_step
+            np.testing.assert_allclose(out, moved)
+            assert lock.standing == (True, True)
+    with pytest.raises(SimulationError, match="glide_gap"):
+        FootLock(HOME, FootLockConfig(glide_step=H, glide_gap=0.08)).apply(ANKLES)
+    assert not FootLock(HOME, FootLockConfig(glide_gap=0.08)).needs_physical  # without glide_step it does nothing
+
+
 def test_glide_step_is_checked() -> None:
     for bad in (0.0, -0.01, float("nan")):
         with pytest.raises(ConfigError, match="glide_step"):
             FootLockConfig(glide_step=bad)
+        with pytest.raises(ConfigError, match="glide_gap"):
+            FootLockConfig(glide_gap=bad)
 
 
 def _gliding(inter):  # noqa: ANN001, ANN202

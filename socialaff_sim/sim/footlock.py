@@ -63,6 +63,10 @@ class FootLockConfig:
     other is held where it stands until its partner has landed). ``None``: planted at the new point at once (in
     the standing mode the balance controller then holds the physical foot where it stood: the demo's pull-up
     stands 53–63 cm behind its plan; docs/design.md §5). Not while a contact holds with ``hold_in_contact``."""
+    glide_gap: float | None = None
+    """d_g [m]: with ``glide_step``, a glide steps only while its physical ankle frame stands farther than this
+    (horizontally) from the new point; nearer, it is planted at once (a standing foot's creep of a few centimetres
+    is left to the balance controller, which holds the foot where it stands). ``None``: wherever it stands."""
     glide_until_contact: bool = False
     """[—]: With ``glide_step``, glides step only until a sub-goal's contact first holds in the episode (the walk-up);
     afterwards they are planted at once as without ``glide_step``."""
@@ -83,6 +87,8 @@ class FootLockConfig:
                               f"{self.touchdown_height}, {self.touchdown_frames}, {self.touchdown_stride}")
         if not (self.lift >= 0.0 and self.radius >= 0.0):
             raise ConfigError(f"FootLockConfig: expected lift ≥ 0 and radius ≥ 0 in metres, found {self.lift}, {self.radius}")
+        if self.glide_gap is not None and not self.glide_gap > 0.0:
+            raise ConfigError(f"FootLockConfig.glide_gap: expected None or a distance > 0 m, found {self.glide_gap}")
         if self.glide_step is not None and not self.glide_step > 0.0:
             raise ConfigError(f"FootLockConfig.glide_step: expected None or a height > 0 m, found {self.glide_step}")
         if self.hold_lift is not None and not self.hold_lift >= self.lift:
@@ -119,8 +125,8 @@ class FootLock:
 
     @property
     def needs_physical(self) -> bool:
-        """Whether :meth:`apply` needs the physical ankle frames (``touchdown``)."""
-        return self.touchdown is not None
+        """Whether :meth:`apply` needs the physical ankle frames (``touchdown``, ``glide_gap``)."""
+        return self.touchdown is not None or (self.config.glide_step is not None and self.config.glide_gap is not None)
 
     @property
     def standing(self) -> tuple[bool, bool]:
@@ -134,7 +140,7 @@ class FootLock:
         ``physical`` (2, 3): the physical ankle frames (world, m), which ``touchdown`` needs; ``new_frame``:
         ``False`` for a solve again within a data frame (the touchdown then keeps the frame's decision)."""
         if self.needs_physical and physical is None:
-            raise SimulationError("FootLock.apply: touchdown needs the physical ankle frames")
+            raise SimulationError("FootLock.apply: touchdown and glide_gap need the physical ankle frames")
         out = np.array(ankles, dtype=np.float64)
         c = self.config
         held = touching and c.hold_in_contact
@@ -158,7 +164,7 @@ class FootLock:
             if held or (c.glide_until_contact and self._touched):
                 self._last, self._wait = None, wait
             elif new_frame:
-                glide, wait = self._gliding(out, hold)
+                glide, wait = self._gliding(out, hold, physical)
                 self._wait = wait
             else:
                 wait = self._wait
@@ -189,13 +195,16 @@ class FootLock:
                     out[s] = td.lifted(landing[s], physical[s])  # type: ignore[arg-type,index]
         return out
 
-    def _gliding(self, ankles: np.ndarray, hold: float) -> tuple[int | None, list[bool]]:
+    def _gliding(self, ankles: np.ndarray, hold: float, physical: np.ndarray | None
+                 ) -> tuple[int | None, list[bool]]:
         """For targets ``ankles`` (2, 3): the foot (0 left, 1 right) that glide-steps this frame (else ``None``)
         and which planted feet are held where they stand instead of being planted again at their gliding target.
         A foot glides when it is planted and its target left ``radius`` at most ``lift`` above home height. It may
         step while the other foot is planted and its target keeps it planted or glides too; of two such feet the
         one whose target is farther from where it stands steps, and the other is held; so is a gliding foot the
-        frame after the other foot's glide step (it lands). ``hold``: the planted feet's height bound."""
+        frame after the other foot's glide step (it lands). With ``glide_gap`` a foot glides only while its physical
+        ankle frame (``physical`` (2, 3), world, m) stands farther than d_g from its target. ``hold``: the planted
+        feet's height bound."""
         c = self.config
         last, self._last = self._last, None
         planted = [p is not None for p in self.planted]
@@ -203,6 +212,8 @@ class FootLock:
         off = np.array([np.linalg.norm(ankles[s, :2] - p[:2]) if p is not None else 0.0
                         for s, p in enumerate(self.planted)])
         glides = np.array(planted) & (off > c.radius) & (rise <= c.lift)
+        if c.glide_gap is not None:  # a creep the standing foot stays within d_g of is planted at once
+            glides &= np.linalg.norm(ankles[:, :2] - np.asarray(physical)[:, :2], axis=1) > c.glide_gap
         stays = np.array(planted) & (off <= c.radius) & (rise <= hold)
         ok = [s for s in (0, 1) if glides[s] and planted[1 - s] and (stays[1 - s] or glides[1 - s])]
         step = max(ok, key=lambda s: off[s]) if ok else None
