@@ -25,7 +25,8 @@ also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stan
 ``w_torso=3.0``); ``harness`` (``SimConfig.harness()``: the position servos on the compliant harness) and
 ``standing`` (``SimConfig.standing()``: ``qp_steady`` with ``flat_feet=True``, ``self_clearance=0.01``,
 ``hand_yield=0.5``, ``yield_damping=50.0`` and ``FootLockConfig(hold_lift=0.12, hold_in_contact=True)``);
-``--balance FIELD=VALUE ...`` changes the controller's settings for the modes with the controller being run (e.g.
+``--sim FIELD=VALUE ...`` changes :class:`~socialaff_sim.sim.simulator.SimConfig`'s own fields for every mode
+(e.g. ``noslip_iterations=10``), ``--balance FIELD=VALUE ...`` changes the controller's settings for the modes with the controller being run (e.g.
 ``flat_feet=True``, which needs the QP), ``--foot-lock FIELD=VALUE ...``
 the foot lock's (:class:`~socialaff_sim.sim.footlock.FootLockConfig`) for every mode, ``--stance FIELD=VALUE ...``
 the steadied base's (:class:`~socialaff_sim.sim.stance.StanceConfig`) for the modes that have one, ``--completion
@@ -119,10 +120,16 @@ def main() -> None:
                    help="StanceConfig fields for the modes that have one (Python literals), e.g. base_smoothing=0.0")
     p.add_argument("--foot-lock", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="FootLockConfig fields for every mode (Python literals), e.g. hold_lift=0.08")
+    p.add_argument("--sim", nargs="*", default=[], metavar="FIELD=VALUE",
+                   help="SimConfig fields for every mode (Python literals), e.g. noslip_iterations=10")
     p.add_argument("--completion", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="ContactCompletionConfig fields for every mode with the contact completion (Python "
                         "literals), e.g. planned_shoulder=True")
     args = p.parse_args()
+    if args.sim:
+        over = field_settings(p, "--sim", SimConfig, args.sim)
+        for mode, cfg in MODES.items():
+            MODES[mode] = dataclasses.replace(cfg, **over)
     if args.completion:
         over = field_settings(p, "--completion", ContactCompletionConfig, args.completion)
         for mode, cfg in MODES.items():

@@ -9,7 +9,8 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    as reference), the torso's attitude toward the IK's (ω_o), the planted feet held where they stood when both
    came down (k_x, k_f: a creeping foot is drawn back), and the centre of mass's horizontal position toward a
    reference c* over the feet (ω_c, ζ): the IK's centre of mass relative to its feet carried over to the
-   physical feet (or the middle of the feet), optionally moved to lean against the measured external forces
+   physical feet (or the middle of the feet, or the IK's centre of mass where the plan has it in the world),
+   optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
    with the floor, where they stand now) shrunk by a margin; with ``hand_yield`` the arms' references give way
    to a person's force beyond what the feet carry (:mod:`~.hand_yield`);
@@ -51,7 +52,7 @@ from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
 from .com_glide import ComGlide, rest_lead
 from .contact_dynamics import cone_edges, solve_contact_dynamics
-from .contact_qp import actuator_limits, cop_rows, solve_contact_qp
+from .contact_qp import actuator_limits, cop_rows, solve_contact_qp, yaw_rows
 from .external_force import ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts
@@ -107,7 +108,8 @@ class BalanceController:
         self._clearance = None if c.self_clearance is None else SelfClearance.of_scene(
             scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
-                                                                      c.yield_return, c.external_filter)
+                                                                      c.yield_return, c.external_filter,
+                                                                      c.yield_twist)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
@@ -139,6 +141,7 @@ class BalanceController:
         self._ext_force = np.zeros(3)
         self._ext_moment = np.zeros(3)
         self._com_offset = np.zeros(2)
+        self._com_plan = np.zeros(2)
         self._torso_goal = np.eye(3)
         self.steps = self.active_steps = self.released_steps = self.catches = 0
         """Physics steps run, driven by the controller, with the harness off; times a released robot was caught."""
@@ -166,6 +169,7 @@ class BalanceController:
         mujoco.mj_comPos(m, p)
         feet = p.xpos[self._feet, :2].mean(axis=0)
         self._com_offset = p.subtree_com[self.scene.root_body, :2] - feet
+        self._com_plan = p.subtree_com[self.scene.root_body, :2].copy()
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
 
     # -- the physics step -----------------------------------------------------------------------------------
@@ -262,6 +266,19 @@ class BalanceController:
         d.mocap_quat[k] = q / np.linalg.norm(q)
         self._caught = (pos, quat, t + m.opt.timestep)
 
+    def reference(self, d: mujoco.MjData, box: SupportBox) -> np.ndarray:
+        """(2,) the centre of mass's reference c* (world, m) before the lean, the glide and the box's clip, by
+        ``com_reference``: the plan's offset from its feet on the feet of ``d``, the plan's own (world; with
+        ``approach`` until an arm's first touch), or the middle of ``box``."""
+        ref = self.config.com_reference
+        if ref == "approach":  # held where the plan has it until an arm first touches, then as ``plan``
+            ref = "plan" if self.compensation.touched.any() else "world"  # type: ignore[union-attr]
+        if ref == "plan":
+            return d.xpos[self._feet, :2].mean(axis=0) + self._com_offset
+        if ref == "world":  # where the plan has it, whatever the feet: the body stays where the plan puts it
+            return self._com_plan.copy()
+        return box.middle()
+
     def _torques(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray, pts: np.ndarray,
                  frames: np.ndarray, which: np.ndarray, box: SupportBox, com: np.ndarray, jcom: np.ndarray,
                  comvel: np.ndarray) -> np.ndarray:
@@ -297,11 +314,7 @@ class BalanceController:
             mujoco.mju_quat2Vel(self._rot, self._quat, 1.0)
             off = np.concatenate([pos - d.xpos[body], self._rot])
             tasks.append((J, c.foot_stiffness * off - c.foot_damping * (J @ qv), c.w_feet))
-        if c.com_reference == "plan":
-            mid = d.xpos[self._feet, :2].mean(axis=0)
-            goal = mid + self._com_offset
-        else:
-            goal = box.middle()
+        goal = self.reference(d, box)
         wc, zc = c.com_bandwidth, c.com_damping
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
             p = np.array([goal[0], goal[1], float(pts[:, 2].mean())])
@@ -358,8 +371,11 @@ class BalanceController:
     def _cop(self, d: mujoco.MjData, pts: np.ndarray, edges: np.ndarray, which: np.ndarray,
              box: SupportBox) -> np.ndarray:
         """(R, 4P) the centre-of-pressure rows (:func:`~.contact_qp.cop_rows`): each foot's kept ``cop_margin``
-        inside its sole, along the support box's axes."""
+        inside its sole, along the support box's axes; with ``yaw_ratio``, each foot's moment about the vertical
+        through its sole's centre (the middle of its sole's box, or of its points) bounded too
+        (:func:`~.contact_qp.yaw_rows`)."""
         bounds = np.zeros((len(self._feet), 2, 2))
+        centres = np.zeros((len(self._feet), 3))
         for s, body in enumerate(self._feet):
             mine = pts[which == s, :2]
             if not len(mine):  # (−1 in ``which``: a point left unbounded)
@@ -367,7 +383,11 @@ class BalanceController:
             sole = self._sole[s]
             xy = mine if sole is None else (d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T)[:, :2]
             bounds[s] = cop_interval(box.R, xy, mine, self.config.cop_margin)
-        return cop_rows(pts, edges, which, box.R, bounds)
+            centres[s, :2] = 0.5 * (xy.min(axis=0) + xy.max(axis=0))
+        rows = cop_rows(pts, edges, which, box.R, bounds)
+        if self.config.yaw_ratio is None:
+            return rows
+        return np.vstack([rows, yaw_rows(pts, edges, which, centres, self.config.yaw_ratio)])
 
     # -- measurements ---------------------------------------------------------------------------------------
     def _tilt(self, d: mujoco.MjData) -> float:

@@ -34,7 +34,7 @@ import daqp
 import mujoco
 import numpy as np
 
-__all__ = ["ContactQPResult", "actuator_limits", "cop_rows", "solve_contact_qp"]
+__all__ = ["ContactQPResult", "actuator_limits", "cop_rows", "solve_contact_qp", "yaw_rows"]
 
 log = logging.getLogger(__name__)
 
@@ -106,6 +106,29 @@ def cop_rows(points: np.ndarray, edges: np.ndarray, foot: np.ndarray, axes: np.n
                 r = np.zeros((P, 4))
                 r[mine] = fz[mine] * arm[mine, None]
                 rows.append(r.ravel())
+    return np.array(rows) if rows else np.zeros((0, 4 * P))
+
+
+def yaw_rows(points: np.ndarray, edges: np.ndarray, foot: np.ndarray, centres: np.ndarray,
+             ratio: float) -> np.ndarray:
+    """(R, 4P) rows C with ``C β ≥ 0`` iff every foot's moment about the vertical through its centre is at most
+    ``ratio`` (γ, m) times its vertical force: |M_z| ≤ γ F_z, M_z = Σ_i ((r_i − c) × f_i)_z, F_z = Σ_i f_z,i over the
+    foot's points. ``points`` (P, 3), ``edges`` (P, 3, 4) (world-frame forces per unit edge weight), ``foot`` (P,)
+    each point's foot (−1: none), ``centres`` (F, 3) each foot's centre (world, m). Two rows per foot with points:
+    ``γ F_z − M_z ≥ 0`` and ``γ F_z + M_z ≥ 0``."""
+    P = len(points)
+    rel = points[:, :2] - np.where(foot[:, None] >= 0, centres[np.clip(foot, 0, None), :2], 0.0)
+    mz = rel[:, 0, None] * edges[:, 1, :] - rel[:, 1, None] * edges[:, 0, :]  # (P, 4): M_z per unit edge weight
+    fz = edges[:, 2, :]
+    rows = []
+    for s in range(len(centres)):
+        mine = foot == s
+        if not mine.any():
+            continue
+        for sign in (-1.0, 1.0):
+            r = np.zeros((P, 4))
+            r[mine] = ratio * fz[mine] + sign * mz[mine]
+            rows.append(r.ravel())
     return np.array(rows) if rows else np.zeros((0, 4 * P))
 
 

@@ -38,7 +38,7 @@ from .external_force import ExternalForces
 from .scene import Scene
 from .support_box import SupportBox
 
-__all__ = ["HandYield", "feet_allowance", "yield_rate", "MAX_OFFSET", "DAMPING_LAMBDA"]
+__all__ = ["HandYield", "feet_allowance", "twist_allowance", "yield_rate", "MAX_OFFSET", "DAMPING_LAMBDA"]
 
 MAX_OFFSET = 0.3
 """[m]: the longest a wrist reference gives way."""
@@ -62,6 +62,16 @@ def feet_allowance(box: SupportBox, direction: np.ndarray, point: np.ndarray, ma
     return max(moment / max(height, 1e-3), 0.0)
 
 
+def twist_allowance(middle: np.ndarray, direction: np.ndarray, at: np.ndarray, weight: float, twist: float) -> float:
+    """F_twist (N, > 0; inf on a line through ``middle``): the horizontal force along ``direction`` (2,) (unit, world)
+    at ``at`` (2,) (world, m) whose moment about the vertical through ``middle`` (2,) (the feet's support box's middle)
+    is ``twist`` (σ, m) times ``weight`` (N): F_twist = σ W / |((a − m) × u)_z|."""
+    rel = np.asarray(at, dtype=np.float64) - np.asarray(middle, dtype=np.float64)
+    u = np.asarray(direction, dtype=np.float64)
+    lever = abs(float(rel[0] * u[1] - rel[1] * u[0]))
+    return twist * weight / lever if lever > 1e-9 else float("inf")
+
+
 def yield_rate(forces: np.ndarray, allowance: float, fraction: float, damping: float) -> np.ndarray:
     """(2, 2) ȯ (m/s, world, horizontal) of each arm's wrist offset while the horizontal forces ``forces`` (2, 2)
     (N, on the left and right arm) exceed ``fraction`` × ``allowance``; zeros otherwise (the offsets then return,
@@ -79,9 +89,12 @@ class HandYield:
     after each physics step the robot stands, :meth:`references` (:meth:`update`, :meth:`offsets`) before each solve
     of the balance controller."""
 
-    def __init__(self, scene: Scene, fraction: float, damping: float, back: float, filter_time: float) -> None:
+    def __init__(self, scene: Scene, fraction: float, damping: float, back: float, filter_time: float,
+                 twist: float | None = None) -> None:
         m = scene.model
         self.scene = scene
+        self.twist = twist
+        """σ (m): the allowance is also at most :func:`twist_allowance` (``BalanceConfig.yield_twist``); ``None``: not."""
         self.fraction, self.damping, self.back, self.filter_time = fraction, damping, back, filter_time
         self.vadr = np.asarray(scene.robot_vadr)
         self._arm_geom = np.asarray(scene.arm_geom, dtype=bool)
@@ -120,12 +133,15 @@ class HandYield:
     def update(self, dt: float, box: SupportBox, capture: np.ndarray, floor: float, margin: float,
                weight: float) -> None:
         """Advance the offsets by ``dt`` (s): give way while the arms' horizontal force exceeds the feet's allowance
-        (:func:`feet_allowance` at ``capture`` (2,), the floor's height ``floor`` m), return otherwise."""
+        (:func:`feet_allowance` at ``capture`` (2,), the floor's height ``floor`` m; with ``twist`` also at most
+        :func:`twist_allowance`), return otherwise."""
         f = self.force[:, :2]
         total = f.sum(axis=0)
         nrm = float(np.linalg.norm(total))
         allow = feet_allowance(box, total / nrm, capture, margin, weight, self._height - floor,
                                float(self.force[:, 2].sum()), self._at) if nrm > 0 else 0.0
+        if self.twist is not None and nrm > 0:  # nor more twist about the vertical than the feet hold unturned
+            allow = min(allow, twist_allowance(box.middle(), total / nrm, self._at, weight, self.twist))
         rate = yield_rate(f, allow, self.fraction, self.damping)
         if rate.any():
             self.yield_steps += 1

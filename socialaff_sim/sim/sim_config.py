@@ -45,7 +45,7 @@ class SimConfig:
 
     Fields by concept
     -----------------
-    - Physics: timestep, servo_bandwidth, hand_force, grip, compliant_person, settle_iterations
+    - Physics: timestep, servo_bandwidth, hand_force, grip, compliant_person, settle_iterations, noslip_iterations
     - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth, stance,
       balance
     - Retargeting: ik, scaling, contact_completion
@@ -112,6 +112,12 @@ class SimConfig:
     step about twice as fast. See docs/environment.md, "Speed", for the measured effect."""
     settle_iterations: int = 20
     """[—]: IK solves spent at reset to reach the first frame's targets before physics starts."""
+    noslip_iterations: int = 0
+    """N_ns [iterations]: MuJoCo's no-slip post-solve (``opt.noslip_iterations``) on the physics scene: after the
+    main solver, friction forces are re-solved so that contacts inside their friction cones do not slip. MuJoCo's
+    soft contacts otherwise let a loaded contact creep in proportion to its friction force, well inside the cone
+    (a standing robot's planted feet turn about the vertical by up to 17° in a handshake; docs/benchmarks.md,
+    "The standing mode's feet in the contact phases …", issue 25). 0: MuJoCo's default (no post-solve)."""
 
     @classmethod
     def harness(cls, **changes: object) -> SimConfig:
@@ -141,6 +147,9 @@ class SimConfig:
                               "stance=StanceConfig(release=False) (a steadied base) or stance=None with balance")
         if self.balance is not None and self.foot_lock is None:
             raise ConfigError("SimConfig.balance: needs foot_lock (the controller acts while both feet are planted)")
+        if isinstance(self.noslip_iterations, bool) or not isinstance(self.noslip_iterations, int) \
+                or self.noslip_iterations < 0:
+            raise ConfigError(f"SimConfig.noslip_iterations: expected an integer ≥ 0, found {self.noslip_iterations!r}")
 
 
 @dataclass(frozen=True)

@@ -103,6 +103,7 @@ class Simulator:
         self.carry: CarryPlan | None = place.carry
         self.n_sub = place.n_sub
         scene.model.opt.timestep = place.timestep
+        scene.model.opt.noslip_iterations = self.config.noslip_iterations
         ik = stage.ik
         ik.collision_limit.restore(None)  # as newly built: the exemptions are the task's, set with the stage
         ik.set_human(self.pose.pos[0], self.pose.quat[0])
