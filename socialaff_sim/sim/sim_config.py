@@ -12,6 +12,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..retarget.contact_completion import ContactCompletionConfig
 from ..retarget.ik import IKConfig
+from ..retarget.robot import PHYSICS_MODES
 from ..retarget.scaling import ScalingConfig
 from .balance_config import BalanceConfig
 from .footlock import FootLockConfig
@@ -20,8 +21,8 @@ from .support import FrameSupport
 
 __all__ = ["SimConfig", "StepResult", "PHYSICS_MODES", "STANDING_BALANCE", "STANDING_FOOT_LOCK"]
 
-PHYSICS_MODES = ("harness", "standing")
-"""The named physics modes: :meth:`SimConfig.harness` (the default) and :meth:`SimConfig.standing`."""
+# PHYSICS_MODES, the named modes (:meth:`SimConfig.harness` and :meth:`SimConfig.standing`), is defined with the
+# robot mappings that name one as a robot's own (retarget/robot.py) and re-exported here.
 
 STANDING_BALANCE = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0, flat_feet=True, self_clearance=0.01,
                                  hand_yield=0.5, yield_damping=50.0, arm_compensation=1.0, compensation_gate=1e9)

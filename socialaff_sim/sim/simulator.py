@@ -49,7 +49,7 @@ class Simulator:
     def __init__(self, robot: str | Path | RobotSpec, task: str | Path | TaskSpec, config: SimConfig | None = None) -> None:
         self.robot = robot if isinstance(robot, RobotSpec) else load_robot(robot)
         self.task = task if isinstance(task, TaskSpec) else load_task(task)
-        self.config = config or SimConfig()
+        self.config = config or SimConfig.mode(self.robot.physics)
         self._stages: dict[str, Stage] = {}
         self._stage: Stage | None = None
         self._footlock: FootLock | None = None
