@@ -153,8 +153,8 @@ def _gliding(inter):  # noqa: ANN001, ANN202
 
 def test_a_gliding_walk_up_leaves_the_standing_robots_feet_behind_unless_they_glide_step() -> None:
     """Stubby in the standing mode replaying pull_up_001 (synthetic, seed 0) with its walk-up turned into a glide:
-    without the option the physical feet stand far from the points the lock planted them on (median 16 cm; the balance
-    controller holds them where they first stood); with it they follow."""
+    without the option the physical feet stand far from the points the lock planted them on (the balance controller
+    holds them where they first stood); with it they follow."""
     robot = load_robot("ours")
     inter = _gliding(next(i for i in generate_dataset(seed=0) if i.instance_id == "pull_up_001"))
     errors, steps = [], []
@@ -164,4 +164,5 @@ def test_a_gliding_walk_up_leaves_the_standing_robots_feet_behind_unless_they_gl
         errors.append(planted_feet_error(sim, inter))
         steps.append(sim._footlock.glide_steps)
     assert steps[0] == 0 and steps[1] > 0
-    assert errors[0] > 0.1 and errors[1] < 0.5 * errors[0], errors  # measured: 16.0 and 3.4 cm
+    # measured: 7.5 and 3.3 cm (16.0 and 3.4 cm before the standing mode's hands gave way against the twist)
+    assert errors[0] > 0.05 and errors[1] < 0.5 * errors[0], errors
