@@ -13,13 +13,15 @@ REMOVED = {
     "BalanceConfig": {**{name: "61e3f3e" for name in ("hand_weight", "hand_bandwidth", "hand_near", "hand_far",
                                                       "hand_release", "release_reach")},
                       **{name: "7c7e7ae" for name in ("torque_handover", "com_glide", "glide_rest", "glide_joints",
-                                                       "release_speed")}},
+                                                       "release_speed")},
+                      "yaw_ratio": "e4dd195"},
     "FootLockConfig": {**{name: "61e3f3e" for name in ("catch_up", "catch_up_height", "catch_up_frames",
                                                        "catch_up_quiet")},
                        **{name: "e1cb74d" for name in ("plant_physical", "replant", "replant_after", "plant_base")},
                        **{name: "7c7e7ae" for name in ("touchdown", "touchdown_height", "touchdown_frames",
                                                         "touchdown_stride")}},
     "StanceConfig": {name: "1d1621b" for name in ("approach_near", "approach_far")},
+    "SimConfig": {"noslip_iterations": "e4dd195"},
     "SynthesisConfig": {"horizon_overrun": "7f03f2e"},
 }
 """Options removed after they failed their measurements (docs/design.md), by class and field: the removing commit."""

@@ -33,7 +33,7 @@ from socialaff_sim._atomic import atomic_write_text
 from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.episode import ERROR_OK
-from socialaff_sim.sim.simulator import Simulator
+from socialaff_sim.sim.simulator import SimConfig, Simulator
 
 
 def run(sim: Simulator, inter) -> dict:
@@ -114,7 +114,7 @@ def main() -> None:
         every: list[dict] = []
         for label in labels:
             instances = ds.of_label(label).interactions[: args.per_label]
-            sim = Simulator(robot, label)
+            sim = Simulator(robot, label, SimConfig.harness())
             sim.reset(instances[0])  # compiles the scene of this layout: set-up, not part of the loop
             rows = [run(sim, inter) for inter in instances]
             every += rows

@@ -60,7 +60,7 @@ from socialaff_sim.learning import SocialAffordanceModel  # noqa: E402
 from socialaff_sim.retarget.model_source import model_source  # noqa: E402
 from socialaff_sim.retarget.sources import GroundTruthSource, KeyJointSource, SourceFrame  # noqa: E402
 from socialaff_sim.sim.episode import ERROR_OK, run_episode  # noqa: E402
-from socialaff_sim.sim.simulator import Simulator  # noqa: E402
+from socialaff_sim.sim.simulator import SimConfig, Simulator  # noqa: E402
 
 TARGET_RATIO = 0.90
 """Issue 5: synthesized sub-goal success ≥ 90 % of the ground-truth replay's."""
@@ -132,7 +132,7 @@ def run_fold(label: str, fold: int, train: list[Interaction], test: list[Interac
     model = SocialAffordanceModel(learning=LearningConfig(iterations=opts["iterations"])).fit(train, rng=rng)
     fit_wall, fit_cpu = time.perf_counter() - tic_wall, time.process_time() - tic_cpu
     n_obs = SynthesisConfig().n_observed  # what model_source's synthesizer uses
-    sim = Simulator(opts["robot"], label)
+    sim = Simulator(opts["robot"], label, SimConfig.harness())
     rows, errors = [], {s: [] for s in SOURCES}
     with tempfile.TemporaryDirectory(prefix="bench_sim_synth_") as tmp:
         path = model.save(Path(tmp) / f"{label}_fold{fold}.npz")

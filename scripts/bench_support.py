@@ -26,8 +26,8 @@ also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stan
 ``standing`` (``SimConfig.standing()``: ``qp_steady`` with ``flat_feet=True``, ``self_clearance=0.01``,
 ``hand_yield=0.5``, ``yield_damping=50.0`` and ``FootLockConfig(hold_lift=0.12, hold_in_contact=True)``);
 ``--sim FIELD=VALUE ...`` changes :class:`~socialaff_sim.sim.simulator.SimConfig`'s own fields for every mode
-(e.g. ``noslip_iterations=10``), ``--balance FIELD=VALUE ...`` changes the controller's settings for the modes with the controller being run (e.g.
-``flat_feet=True``, which needs the QP), ``--foot-lock FIELD=VALUE ...``
+(e.g. ``hand_force=40.0``), ``--balance FIELD=VALUE ...`` changes the controller's settings for the modes with the
+controller being run (e.g. ``flat_feet=True``, which needs the QP), ``--foot-lock FIELD=VALUE ...``
 the foot lock's (:class:`~socialaff_sim.sim.footlock.FootLockConfig`) for every mode, ``--stance FIELD=VALUE ...``
 the steadied base's (:class:`~socialaff_sim.sim.stance.StanceConfig`) for the modes that have one, ``--completion
 FIELD=VALUE ...`` the contact completion's (:class:`~socialaff_sim.retarget.contact_completion.ContactCompletionConfig`)
@@ -120,7 +120,7 @@ def main() -> None:
     p.add_argument("--foot-lock", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="FootLockConfig fields for every mode (Python literals), e.g. hold_lift=0.08")
     p.add_argument("--sim", nargs="*", default=[], metavar="FIELD=VALUE",
-                   help="SimConfig fields for every mode (Python literals), e.g. noslip_iterations=10")
+                   help="SimConfig fields for every mode (Python literals), e.g. hand_force=40.0")
     p.add_argument("--completion", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="ContactCompletionConfig fields for every mode with the contact completion (Python "
                         "literals), e.g. planned_shoulder=True")

@@ -9,7 +9,9 @@ termination reason. Run it on two code trees and compare the digests::
     PYTHONPATH=/path/to/reference python scripts/env_sha.py --steps 250
     PYTHONPATH=/path/to/candidate python scripts/env_sha.py --steps 250
 
-``--env-kwargs`` passes constructor arguments as JSON (e.g. ``'{"control_dt": null}'``). The library never
+``--env-kwargs`` passes constructor arguments as JSON (e.g. ``'{"control_dt": null}'``); ``--sim-mode harness``
+or ``standing`` runs the env with ``SimConfig.harness()``'s or ``SimConfig.standing()``'s foot lock, stance and
+balance fields (as ``scripts/bench_env.py --sim-mode`` does; ``preset``: the env's own). The library never
 imports this script.
 """
 
@@ -28,6 +30,8 @@ import numpy as np  # noqa: E402
 
 import socialaff_sim  # noqa: E402,F401  (registers the ids)
 from socialaff_sim.environment.observation import OBSERVATION_KEYS  # noqa: E402
+
+from bench_env import sim_options  # noqa: E402  (scripts/, sys.path[0])
 
 ENV_ID = "socialaff_sim/SocialAffordance-v0"
 
@@ -63,13 +67,20 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--modes", nargs="+", default=["targets", "residual", "zero"], choices=["targets", "residual", "zero"])
     ap.add_argument("--env-kwargs", default="{}", help="constructor arguments, JSON")
+    ap.add_argument("--sim-mode", default="preset", choices=["preset", "harness", "standing"],
+                    help="the env's physics mode: the preset's own, or SimConfig.harness()'s / .standing()'s foot "
+                         "lock, stance and balance fields")
     args = ap.parse_args()
     kwargs = json.loads(args.env_kwargs)
+    env_kwargs = dict(kwargs)
+    if args.sim_mode != "preset":
+        env_kwargs["sim_config"] = sim_options(str(kwargs.get("physics", "fast")), None, None, None, args.sim_mode)
     out = {}
     for mode in args.modes:
-        digest, episodes = stream_digest(mode, args.steps, args.seed, kwargs)
+        digest, episodes = stream_digest(mode, args.steps, args.seed, env_kwargs)
         out[mode] = {"sha256": digest, "episodes": episodes, "steps": args.steps}
-    print(json.dumps({"env_id": ENV_ID, "env_kwargs": kwargs, "seed": args.seed, **out}, indent=2))
+    print(json.dumps({"env_id": ENV_ID, "env_kwargs": kwargs, "sim_mode": args.sim_mode, "seed": args.seed, **out},
+                     indent=2))
 
 
 if __name__ == "__main__":

@@ -204,3 +204,22 @@ def swap_sides(inter, agents):  # noqa: ANN001, ANN201 (Interaction -> Interacti
         joints[:, a], valid[:, a] = inter.joints[:, a][:, order], np.asarray(inter.valid)[:, a][:, order]
     return inter.replace(joints=joints, valid=valid)
 
+
+def planted_feet_error(sim, inter) -> float:  # noqa: ANN001 (Simulator, Interaction)
+    """Median over the frames where both feet stand (foot lock) of the larger horizontal distance (m) between a
+    physical ankle frame and its foot's planted point, over a ground-truth episode of ``inter`` on ``sim``."""
+    from socialaff_sim.retarget.sources import GroundTruthSource
+    from socialaff_sim.sim.episode import run_episode
+    from socialaff_sim.sim.stage import key_frames
+
+    err: list[float] = []
+
+    def frame(s, r, _) -> None:  # noqa: ANN001
+        fl = s._footlock
+        if r is None or not all(fl.standing):
+            return
+        phys = key_frames(s.scene, s.data)[3:5]
+        err.append(max(float(np.linalg.norm(phys[k, :2] - fl.planted[k][:2])) for k in (0, 1)))
+
+    run_episode(sim, GroundTruthSource(), inter, on_frame=frame)
+    return float(np.median(err))

@@ -20,6 +20,7 @@ from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.arm_compensation import DAMPING_LAMBDA, ArmCompensation, approach_gate, compensation_step, fade
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.episode import run_episode
+from socialaff_sim.sim.external_force import Contacts
 from socialaff_sim.sim.scene import build_scene
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from test_balance_control import LAYOUT
@@ -141,18 +142,15 @@ def test_an_arm_the_person_holds_is_left_alone(scene) -> None:
     np.testing.assert_allclose(held[cols[1]], 0.5 * free[cols[1]], atol=1e-12)
 
 
-def test_only_the_persons_contacts_count(scene, monkeypatch) -> None:
+def test_only_the_persons_contacts_count(scene) -> None:
     m = scene.model
-    d = mujoco.MjData(m)
     comp = ArmCompensation(scene, 1.0, 20.0, 0.0)
     right = int(np.flatnonzero(scene.arm_geom[1])[0])
     person = int(scene.human_geom_ids[-1])
     other = int(next(g for g in range(m.ngeom) if g not in set(scene.human_geom_ids.tolist()) and not scene.robot_geom[g]))
     pts = np.array([[0.3, -0.1, 1.0], [0.3, -0.1, 0.9]])
     forces = np.array([[-40.0, 0.0, 5.0], [0.0, 70.0, 0.0]])
-    monkeypatch.setattr(comp._external, "contacts", lambda *_: (pts, forces, np.array([right, right]),
-                                                                np.array([person, other])))
-    comp.measure(m, d)
+    comp.measure(m, Contacts(pts, forces, np.array([right, right]), np.array([person, other])))
     np.testing.assert_allclose(comp.force, [[0.0, 0.0, 0.0], [-40.0, 0.0, 5.0]], atol=1e-12)
 
 
@@ -201,9 +199,8 @@ def test_the_gate_confines_the_offsets_to_an_untouched_arm_near_the_person(scene
         assert not gated[cols[1 - near]].any()
 
 
-def test_an_arms_first_touch_of_the_person_latches_its_gate(scene, monkeypatch) -> None:
+def test_an_arms_first_touch_of_the_person_latches_its_gate(scene) -> None:
     m = scene.model
-    d = mujoco.MjData(m)
     right = int(np.flatnonzero(scene.arm_geom[1])[0])
     person = int(scene.human_geom_ids[-1])
     other = int(next(g for g in range(m.ngeom) if g not in set(scene.human_geom_ids.tolist()) and not scene.robot_geom[g]
@@ -212,19 +209,14 @@ def test_an_arms_first_touch_of_the_person_latches_its_gate(scene, monkeypatch) 
     touch = (np.array([[0.3, -0.1, 1.0]]), np.array([[1.0, 0.0, 0.0]]), np.array([right]), np.array([person]))
     stray = (touch[0], touch[1], np.array([right]), np.array([other]))
     ungated = ArmCompensation(scene, 1.0, 20.0, 0.0)
-    monkeypatch.setattr(ungated._external, "contacts", lambda *_: touch)
-    ungated.measure(m, d)
+    ungated.measure(m, Contacts(*touch))
     assert not ungated.touched.any()  # ungated: no latch
     comp = ArmCompensation(scene, 1.0, 20.0, 0.0, gate=0.5)
-    feed = [stray]
-    monkeypatch.setattr(comp._external, "contacts", lambda *_: feed[0])
-    comp.measure(m, d)
+    comp.measure(m, Contacts(*stray))
     assert not comp.touched.any()  # not the person nor the object
-    feed[0] = touch
-    comp.measure(m, d)
+    comp.measure(m, Contacts(*touch))
     np.testing.assert_array_equal(comp.touched, [False, True])  # the right arm, not the left
-    feed[0] = none
-    comp.measure(m, d)
+    comp.measure(m, Contacts(*none))
     np.testing.assert_array_equal(comp.touched, [False, True])  # it stays shut after the touch
     comp.reset()
     assert not comp.touched.any()  # until the next episode

@@ -4,12 +4,14 @@ determinism and the configuration's errors."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
 
 from socialaff_sim.data.skeletons import get_layout
-from socialaff_sim.data.synthetic import generate_dataset
+from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
@@ -207,6 +209,89 @@ def test_centre_of_mass_feedback_brings_the_centre_of_mass_over_the_middle_of_th
     assert trace[-1][0][0] - trace[0][0][0] >= 0.008  # forward, toward the middle
     assert ctl.catches == 0 and ctl.released and trace[-1][1] == 0
     assert ctl._tilt(d) <= 2.0
+
+
+def _com_shift(scene: Scene, config: BalanceConfig, dx: float, seconds: float = 2.0) -> tuple[np.ndarray, BalanceController]:
+    """Stubby standing at home under the controller while the plan is its home pose moved ``dx`` m along x (forward),
+    feet and all: the centre of mass's horizontal displacement (m) after ``seconds``, and the controller."""
+    m = scene.model
+    d, q, ctl, ctrl0 = standing_far(scene, config)
+    plan = q.copy()
+    plan[0] += dx
+    com0 = np.array(d.subtree_com[scene.root_body, :2])
+    for k in range(int(round(seconds / m.opt.timestep))):
+        if k % 25 == 0:
+            ctl.begin_frame(plan, (True, True))
+        d.ctrl[scene.act_ids] = ctrl0
+        ctl.step(m, d, q, np.zeros(len(scene.robot_vadr) - 6))
+    return np.array(d.subtree_com[scene.root_body, :2]) - com0, ctl
+
+
+@pytest.mark.parametrize("dx", [0.03, -0.03])
+def test_the_world_reference_holds_the_centre_of_mass_where_the_plan_has_it(scene: Scene, dx: float) -> None:
+    # The plan stands 3 cm ahead of (behind) the physical robot, feet and all. ``plan`` carries the plan's offset from
+    # its feet onto the physical feet: nothing to do, the centre of mass stays. ``world`` draws it to the plan's
+    # centre of mass in the world, along dx (inverted it would run the other way); the joints' rows, which track the
+    # home posture, hold it back unless ``w_com`` outweighs them (docs/design.md §5, "The standing body held where
+    # the plan has it").
+    plan, _ = _com_shift(scene, BalanceConfig(), dx)
+    assert np.linalg.norm(plan) <= 0.002
+    world, ctl = _com_shift(scene, BalanceConfig(com_reference="world"), dx)
+    heavy, ctl_h = _com_shift(scene, BalanceConfig(com_reference="world", w_com=1e4), dx)
+    for shift, c in ((world, ctl), (heavy, ctl_h)):
+        assert shift[0] * np.sign(dx) >= 0.5 * abs(dx)  # along dx, at least half of it
+        assert abs(shift[0]) <= abs(dx) + 0.003 and abs(shift[1]) <= 0.002  # not past the plan's
+        assert c.catches == 0 and c.released
+    assert abs(heavy[0]) - abs(world[0]) >= 0.004  # the heavier row wins more of it from the joints
+
+
+def test_each_reference_against_mujocos_centre_of_mass(scene: Scene) -> None:
+    # The plan: home moved 0.3 m forward and 0.1 m to the side, its left leg bent; the physical robot at home.
+    # ``plan`` = the physical feet's middle + the plan's centre of mass minus its feet's middle; ``world`` = the plan's
+    # centre of mass; both from MuJoCo's own subtree centre of mass of the plan's pose.
+    m = scene.model
+    d, q, ctl, _ = standing_far(scene, BalanceConfig(com_reference="world"))
+    plan = q.copy()
+    plan[:2] += [0.3, 0.1]
+    plan[7 + 2] += 0.4
+    p = mujoco.MjData(m)
+    p.qpos[scene.robot_qadr] = plan
+    mujoco.mj_forward(m, p)
+    com_plan = p.subtree_com[scene.root_body, :2]
+    feet = ctl._feet
+    ctl.begin_frame(plan, (True, True))
+    assert np.allclose(ctl.reference(d, None), com_plan, atol=1e-9)  # type: ignore[arg-type]
+    ctl_p = BalanceController(scene, BalanceConfig())
+    ctl_p.begin_frame(plan, (True, True))
+    want = d.xpos[feet, :2].mean(axis=0) + com_plan - p.xpos[feet, :2].mean(axis=0)
+    assert np.allclose(ctl_p.reference(d, None), want, atol=1e-9)  # type: ignore[arg-type]
+    assert np.linalg.norm(want - com_plan) >= 0.25  # the two differ by the plan's shift
+    # ``approach``: the plan's own until an arm first touches (the compensation's latch), the plan's offset after.
+    ctl_a = BalanceController(scene, BalanceConfig(com_reference="approach", arm_compensation=1.0, compensation_gate=1e9))
+    ctl_a.begin_frame(plan, (True, True))
+    assert np.allclose(ctl_a.reference(d, None), com_plan, atol=1e-9)  # type: ignore[arg-type]
+    ctl_a.compensation.touched[1] = True
+    assert np.allclose(ctl_a.reference(d, None), want, atol=1e-9)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="approach"):
+        BalanceConfig(com_reference="approach", arm_compensation=1.0)  # no latch without the gate
+
+
+def test_a_standing_robot_held_where_the_plan_has_it_meets_the_high_five_it_missed() -> None:
+    """high_five_001 (synthetic, seed 0), Stubby in the standing mode as the rule of docs/design.md §5 ("The standing
+    body held where the plan has it") found it: its feet stand a few centimetres behind the plan's, the body is put
+    that much back and sags further behind its reference, and the raised hand stops 1.6 cm short (completion β at
+    most 0.34). With the centre of mass held where the plan has it (``world``, ``w_com`` 1e4) the root stands within
+    a few centimetres of the plan's and the hands meet (β reaches 1)."""
+    inter = next(i for i in generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=2))
+                 if i.instance_id == "high_five_001")
+    met, beta = [], []
+    for over in ({"com_reference": "plan", "w_com": 100.0}, {"com_reference": "world", "w_com": 1e4}):
+        cfg = SimConfig.standing()
+        sim = Simulator("ours", "high_five", dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, **over)))
+        met.append(run_episode(sim, GroundTruthSource(), inter)["success"])
+        beta.append(max(float(np.max(r.completion)) for r in sim.results if r.completion is not None))
+    assert met == [False, True]
+    assert beta[0] < 0.5 and beta[1] > 0.9
 
 
 def test_a_pushed_robot_returns_to_its_stance_on_its_own_feet(scene: Scene) -> None:

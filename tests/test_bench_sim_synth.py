@@ -66,7 +66,7 @@ def test_tiny_run_matches_an_independent_replay(bench, tmp_path: Path, capsys: p
     from socialaff_sim.retarget.model_source import key_joint_source
     from socialaff_sim.retarget.sources import GroundTruthSource
     from socialaff_sim.sim.episode import run_episode
-    from socialaff_sim.sim.simulator import Simulator
+    from socialaff_sim.sim.simulator import SimConfig, Simulator
 
     out, models = tmp_path / "out.json", tmp_path / "models"
     seed = 0
@@ -86,7 +86,7 @@ def test_tiny_run_matches_an_independent_replay(bench, tmp_path: Path, capsys: p
 
     # each source's record is what an independent replay of that instance gives
     inter = generate_dataset(seed).by_id(row["instance"])
-    sim = Simulator("ours", "shake_hands")
+    sim = Simulator("ours", "shake_hands", SimConfig.harness())
     for name, source in (("gt", GroundTruthSource()), ("synth", key_joint_source(models / "shake_hands_fold0.npz"))):
         ref = run_episode(sim, source, inter)
         rec = row[name]

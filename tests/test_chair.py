@@ -12,7 +12,7 @@ import pytest
 from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.sim.chair import SEAT_HALF
-from socialaff_sim.sim.simulator import Simulator
+from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.tasks import available_tasks, load_task
 
 TASK = """
@@ -57,7 +57,7 @@ def _thigh_bottom(sim: Simulator) -> tuple[float, np.ndarray]:
 
 def test_the_person_sits_on_the_chair_at_the_first_frame() -> None:
     inter = generate_dataset(seed=0).of_label("pull_up").interactions[0]
-    sim = Simulator("ours", "pull_up")
+    sim = Simulator("ours", "pull_up", SimConfig.harness())
     sim.reset(inter)
     m, d = sim.scene.model, sim.data
     mujoco.mj_forward(m, d)
@@ -75,6 +75,6 @@ def test_the_person_sits_on_the_chair_at_the_first_frame() -> None:
     chair_geoms = [g for g in range(m.ngeom) if (m.geom(g).name or "").startswith("chair_")]
     assert len(chair_geoms) == 6 and not (m.geom_contype[chair_geoms].any() or m.geom_conaffinity[chair_geoms].any())
     # A task without a chair has none in its scene.
-    other = Simulator("ours", "shake_hands")
+    other = Simulator("ours", "shake_hands", SimConfig.harness())
     other.reset(generate_dataset(seed=0).of_label("shake_hands").interactions[0])
     assert mujoco.mj_name2id(other.scene.model, mujoco.mjtObj.mjOBJ_GEOM, "chair_seat") < 0

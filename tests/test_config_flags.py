@@ -14,6 +14,7 @@ from socialaff_sim.inference.synthesis_config import SynthesisConfig
 from socialaff_sim.retarget.contact_completion import ContactCompletionConfig
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.footlock import FootLockConfig
+from socialaff_sim.sim.sim_config import SimConfig
 from socialaff_sim.sim.stance import StanceConfig
 
 flags = load_script("_config_flags")
@@ -36,12 +37,16 @@ def test_settings_are_python_literals_of_the_classes_fields() -> None:
     assert got == {"hand_yield": 0.5, "solver": "qp", "self_clearance": None}
     assert dataclasses.replace(BalanceConfig(), **got).solver == "qp"
     assert flags.field_settings(p, "--foot-lock", FootLockConfig, []) == {}
+    sim = flags.field_settings(p, "--sim", SimConfig, ["hand_force=40.0", "grip=False"])
+    assert sim == {"hand_force": 40.0, "grip": False}
+    assert dataclasses.replace(SimConfig.standing(), **sim).hand_force == 40.0
 
 
 @pytest.mark.parametrize(("cls", "item", "removed"), [
     (BalanceConfig, "hand_weight=100.0", "61e3f3e"), (BalanceConfig, "release_reach=1.0", "61e3f3e"),
     (FootLockConfig, "catch_up=0.05", "61e3f3e"), (StanceConfig, "approach_near=0.3", "1d1621b"),
-    (FootLockConfig, "plant_physical=True", "e1cb74d"), (ContactCompletionConfig, "reach=1.1x", None),
+    (FootLockConfig, "plant_physical=True", "e1cb74d"), (BalanceConfig, "yaw_ratio=0.02", "e4dd195"),
+    (SimConfig, "noslip_iterations=10", "e4dd195"), (ContactCompletionConfig, "reach=1.1x", None),
     (BalanceConfig, "com_glide=0.5", "7c7e7ae"), (BalanceConfig, "torque_handover=0.4", "7c7e7ae"),
     (BalanceConfig, "release_speed=0.1", "7c7e7ae"), (FootLockConfig, "touchdown=0.05", "7c7e7ae"),
     (BalanceConfig, "no_such_field=1", None), (FootLockConfig, "hold_lift", None)])
@@ -58,7 +63,7 @@ def test_a_value_that_is_not_a_literal_is_exit_2(capsys) -> None:  # noqa: ANN00
 
 
 def test_the_removed_table_names_no_field_that_exists() -> None:
-    classes = {c.__name__: c for c in (BalanceConfig, FootLockConfig, StanceConfig, SynthesisConfig)}
+    classes = {c.__name__: c for c in (BalanceConfig, FootLockConfig, StanceConfig, SynthesisConfig, SimConfig)}
     assert set(flags.REMOVED) == set(classes)
     for name, removed in flags.REMOVED.items():
         assert removed and not set(removed) & {f.name for f in dataclasses.fields(classes[name])}
@@ -72,4 +77,15 @@ def test_bench_support_stops_on_a_removed_field_before_any_episode(tmp_path: Pat
                                      "--foot-lock", "catch_up=0.05"])
     line = _error(capsys, bench.main)
     assert "--foot-lock 'catch_up=0.05'" in line and "61e3f3e" in line
+    assert not out.exists()
+
+
+def test_bench_support_sim_flag_names_a_removed_field_before_any_episode(tmp_path: Path, monkeypatch, capsys) -> None:  # noqa: ANN001
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "scripts"))
+    bench = load_script("bench_support")
+    out = tmp_path / "out.json"
+    monkeypatch.setattr("sys.argv", ["bench_support.py", "--modes", "standing", "--json", str(out),
+                                     "--sim", "noslip_iterations=10"])
+    line = _error(capsys, bench.main)
+    assert "--sim 'noslip_iterations=10'" in line and "SimConfig.noslip_iterations was removed at e4dd195" in line
     assert not out.exists()

@@ -33,7 +33,7 @@ def test_completion_reads_nothing_after_frame_t_and_can_be_switched_off(shake8) 
     t = _shake_frame(inter)
     keys = inter.key_joints()[t, 1]
     recorded = inter.key_joints()[:, 1]
-    sim = Simulator("ours", "shake_hands")
+    sim = Simulator("ours", "shake_hands", SimConfig.harness())
     sim.reset(inter)
     sim.settle(sim.retarget(recorded[0], frame=0))
     while sim.frame < t - 1:  # the recorded agent 1 up to the frame before
@@ -56,7 +56,7 @@ def test_completion_reads_nothing_after_frame_t_and_can_be_switched_off(shake8) 
 
 
 def test_anchors_follow_the_task_groups() -> None:
-    shake = Simulator("ours", "shake_hands")
+    shake = Simulator("ours", "shake_hands", SimConfig.harness())
     inter = generate_dataset(0, SyntheticConfig(interactions=("shake_hands",), instances_per_interaction=1))[0]
     shake.reset(inter)
     anchors = ContactAnchors(shake.scene, shake.task)
@@ -69,7 +69,7 @@ def test_anchors_follow_the_task_groups() -> None:
     assert object_radius("cylinder", (0.045, 0.06)) == 0.045 and object_radius("box", (0.1, 0.02, 0.3)) == 0.02
     catch = load_task("throw_catch")
     ball = generate_dataset(0, SyntheticConfig(interactions=("throw_catch",), instances_per_interaction=1))[0]
-    sim = Simulator("ours", catch)
+    sim = Simulator("ours", catch, SimConfig.harness())
     sim.reset(ball)
     objects = ContactAnchors(sim.scene, catch)
     assert objects.allowed(None, gripped=False).tolist() == [[False, False, True], [False, False, True]]
@@ -87,7 +87,7 @@ def _contact_span_gap(metrics: dict) -> tuple[int, float]:
 def test_a_synthesized_handshake_on_ours_holds_the_hands_together(shake8, shake8_model) -> None:  # noqa: ANN001
     inter = list(shake8)[7]  # actors a03 and a01: the pair is not among the six fitted
     source = ModelSource(shake8_model, config=SynthesisConfig.reactive())
-    on = run_episode(Simulator("ours", "shake_hands"), source, inter)
+    on = run_episode(Simulator("ours", "shake_hands", SimConfig.harness()), source, inter)
     assert on["success"]
     frames_on, gap_on = _contact_span_gap(on)
     # From the first touch to the last, the geoms stay within 2 cm (the hands never visibly part).
@@ -96,7 +96,7 @@ def test_a_synthesized_handshake_on_ours_holds_the_hands_together(shake8, shake8
     # default's plan (which follows the sub-events' learned order) keeps the hands together even without the
     # completion, the plan without ``ordered`` does not.
     unordered = ModelSource(shake8_model, config=SynthesisConfig.reactive(ordered=False))
-    with_completion = run_episode(Simulator("ours", "shake_hands"), unordered, inter)
+    with_completion = run_episode(Simulator("ours", "shake_hands", SimConfig.harness()), unordered, inter)
     without = run_episode(Simulator("ours", "shake_hands", OFF), unordered, inter)
     frames_with, gap_with = _contact_span_gap(with_completion)
     frames_without, gap_without = _contact_span_gap(without)
@@ -114,7 +114,7 @@ def high_five():  # noqa: ANN201
 
 def test_a_synthesized_high_five_on_ours_meets_palms_above_the_shoulders(high_five) -> None:  # noqa: ANN001
     model, inter = high_five
-    sim = Simulator("ours", "high_five")
+    sim = Simulator("ours", "high_five", SimConfig.harness())
     heights: list[tuple[float, float, float]] = []
 
     def watch(s: Simulator, result, subevent) -> None:  # noqa: ANN001
@@ -138,7 +138,7 @@ def _far_robot_at_the_strike(inside_next: bool) -> Simulator:
     inter = list(generate_dataset(0, SyntheticConfig(interactions=("high_five",), instances_per_interaction=8)))[6]
     strike = int(np.flatnonzero(np.asarray(inter.subevents) == inter.subevent_names.index("strike"))[0])
     keys = inter.key_joints()[0, 1]
-    sim = Simulator("ours", "high_five")
+    sim = Simulator("ours", "high_five", SimConfig.harness())
     sim.reset(inter, placement_frames=10)
     sim.settle(sim.retarget(keys, frame=0))
     while sim.frame < strike:

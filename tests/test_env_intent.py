@@ -71,7 +71,7 @@ def test_env_and_simulate_pass_the_same_intent_and_reach_the_same_contacts(high_
     model, inter = high_five
     log, now, env = _env_episode(inter, ModelAdapter({"high_five": model}))
     # simulate's loop: the model's synthesis as a source, seeded as the env seeded its adapter.
-    sim = Simulator("ours", "high_five")
+    sim = Simulator("ours", "high_five", SimConfig.harness())
     sim_log: list[tuple] = []
     _spy(sim, sim_log)
     metrics = run_episode(sim, ModelSource(model, seed=env._adapter_seed), inter)

@@ -193,15 +193,15 @@ def test_simulator_reset_reuse_with_causal_placement(data):
     """With ``placement_frames`` the scaler's placement moves online during an episode: a second episode
     of the instance on the same simulator must start from the placement of a fresh one."""
     from socialaff_sim.environment.instances import gap_filled
-    from socialaff_sim.sim.simulator import Simulator
+    from socialaff_sim.sim.simulator import SimConfig, Simulator
     from socialaff_sim.sim.tasks import load_task
 
     inters = [gap_filled(i.slice(0, 14)) for i in data if i.label == "shake_hands"]
-    sim = Simulator("ours", load_task("shake_hands"))
+    sim = Simulator("ours", load_task("shake_hands"), SimConfig.harness())
     first = _episode(sim, inters[0], 10)
     _episode(sim, inters[1], 10)
     again = _episode(sim, inters[0], 10)
-    fresh = _episode(Simulator("ours", load_task("shake_hands")), inters[0], 10)
+    fresh = _episode(Simulator("ours", load_task("shake_hands"), SimConfig.harness()), inters[0], 10)
     for a, b, c in zip(first, again, fresh, strict=True):
         np.testing.assert_array_equal(a, c)
         np.testing.assert_array_equal(b, c)

@@ -46,7 +46,7 @@ def test_the_window_is_a_catch_subgoals_free_ungripped_object_only(catch_sim: Si
     finally:
         sim.data.eq_active[eq] = 0
     # a hand over's cup, let go, is no catch: the option leaves every other interaction alone
-    hand_over = Simulator("ours", "hand_over")
+    hand_over = Simulator("ours", "hand_over", SimConfig.harness())
     hand_over.reset(_first("hand_over"))
     hand_over.data.qpos[hand_over.scene.object_qadr + 2] = 1.2  # in the air, let go
     assert not ContactAnchors(hand_over.scene, hand_over.task).catch_window(hand_over.data, None, free=True)

@@ -11,7 +11,7 @@ from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import RenderingUnavailableError
 from socialaff_sim.sim.framing import MARGIN, fit_camera, project
 from socialaff_sim.sim.render import SceneRenderer, caption_band
-from socialaff_sim.sim.simulator import Simulator
+from socialaff_sim.sim.simulator import SimConfig, Simulator
 
 
 def test_projection_matches_mujocos_camera() -> None:
@@ -65,7 +65,7 @@ def test_a_raised_robot_shows_below_the_caption_band() -> None:
     pixels stay below the three caption lines and off the image's edges."""
     inter = generate_dataset(seed=0, config=SyntheticConfig(interactions=("shake_hands",),
                                                             instances_per_interaction=1))[0].slice(0, 4)
-    sim = Simulator("ours", "shake_hands")
+    sim = Simulator("ours", "shake_hands", SimConfig.harness())
     sim.reset(inter)
     sim.data.qpos[sim.scene.robot_qadr[2]] += 1.1
     mujoco.mj_forward(sim.scene.model, sim.data)

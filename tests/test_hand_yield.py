@@ -17,6 +17,7 @@ from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.episode import run_episode
+from socialaff_sim.sim.external_force import Contacts
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
 from socialaff_sim.sim.hand_yield import MAX_OFFSET, HandYield, feet_allowance, yield_rate
 from socialaff_sim.sim.scene import build_scene
@@ -167,19 +168,16 @@ def test_a_pulled_robot_whose_hands_give_way_stays_upright_and_free_longer() -> 
     assert tilt[1] < tilt[0] - 2.0 and released[1] > released[0]
 
 
-def test_only_the_persons_contacts_set_the_arms_giving_way(scene, monkeypatch) -> None:
+def test_only_the_persons_contacts_set_the_arms_giving_way(scene) -> None:
     """An object a grip weld holds presses on the hand it is welded to (forces internal to robot and object): those
     contacts do not count, the person's do."""
     m = scene.model
-    d = mujoco.MjData(m)
     hy = _yield(scene)
     left = int(np.flatnonzero(scene.arm_geom[0])[0])
     person = int(scene.human_geom_ids[-1])
     other = int(next(g for g in range(m.ngeom) if g not in set(scene.human_geom_ids.tolist()) and not scene.robot_geom[g]))
     pts = np.array([[0.3, 0.1, 1.0], [0.3, 0.1, 0.9]])
     forces = np.array([[-40.0, 0.0, 5.0], [0.0, 70.0, 0.0]])
-    monkeypatch.setattr(hy._external, "contacts", lambda *_: (pts, forces, np.array([left, left]),
-                                                              np.array([person, other])))
-    hy.measure(m, d)
+    hy.measure(m, Contacts(pts, forces, np.array([left, left]), np.array([person, other])))
     np.testing.assert_allclose(hy.force, [[-40.0, 0.0, 5.0], [0.0, 0.0, 0.0]], atol=1e-12)
     assert hy._height == pytest.approx(1.0)

@@ -12,7 +12,7 @@ from socialaff_sim.errors import RenderingUnavailableError
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.render import SceneRenderer, draw_caption, gl_context
-from socialaff_sim.sim.simulator import Simulator
+from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.video import EpisodeRecorder, contact_sheet
 
 pytestmark = pytest.mark.render
@@ -42,7 +42,7 @@ def test_missing_backend_says_what_to_install(monkeypatch: pytest.MonkeyPatch) -
 
 
 def test_frame_shows_red_human_green_robot_blue_targets(inter) -> None:
-    sim = Simulator("ours", "shake_hands")
+    sim = Simulator("ours", "shake_hands", SimConfig.harness())
     sim.reset(inter)
     r = renderer_or_skip(sim, 320, 240)
     try:
@@ -76,7 +76,7 @@ def test_caption_and_contact_sheet_layout() -> None:
 
 def test_video_and_contact_sheet_files(inter, tmp_path: Path) -> None:
     imageio = pytest.importorskip("imageio.v2")
-    sim = Simulator("ours", "shake_hands")
+    sim = Simulator("ours", "shake_hands", SimConfig.harness())
     try:
         rec = EpisodeRecorder(sim, tmp_path / "v.mp4", tmp_path / "s.png", width=160, height=128, n_sheet=4)
     except RenderingUnavailableError as exc:

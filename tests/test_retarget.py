@@ -98,6 +98,7 @@ def test_a_mapping_file_anywhere_works(tmp_path: Path) -> None:
         ("max_joint_velocity = 20.0", "max_joint_velocity = -1.0", r"limits\.max_joint_velocity'.*\[0\.001, 1000\.0\]"),
         ('keyframe = "home"', 'keyframe = "rest"', r"posture\.keyframe 'rest' is not in the model; keyframes: 'home'"),
         ('base = "site:base"', 'base = "site:pelvis_site"', r"frame 'site:pelvis_site' is not in the robot model; sites present: 'base'"),
+        ('name = "ours"', 'name = "ours"\nphysics = "floating"', r"key 'physics'.*'floating'; valid choices: 'harness' or 'standing'"),
     ],
 )
 def test_mapping_errors(tmp_path: Path, old: str, new: str, pattern: str) -> None:

@@ -15,7 +15,7 @@ from socialaff_sim.sim.human import FOOT_CLEARANCE, bone_quaternions, human_body
 from socialaff_sim.sim.scene import ObjectSpec, Scene, build_scene, pose_compliant, set_human_sizes
 from socialaff_sim.sim.reach import ReachModel, point_segment_distance, reachable_targets
 from socialaff_sim.sim.robot_mjcf import limit_hand_force
-from socialaff_sim.sim.simulator import Simulator
+from socialaff_sim.sim.simulator import SimConfig, Simulator
 
 LAYOUT = get_layout("kinect_v2")
 
@@ -252,7 +252,7 @@ def test_human_body_groups_for_every_layout() -> None:
 
 def test_simulators_share_nothing(data) -> None:
     inter = data.of_label("shake_hands")[0]
-    a, b = Simulator("ours", "shake_hands"), Simulator("ours", "shake_hands")
+    a, b = (Simulator("ours", "shake_hands", SimConfig.harness()) for _ in range(2))
     a.reset(inter)
     b.reset(inter)
     assert a.scene.model is not b.scene.model and a.data is not b.data
@@ -265,7 +265,7 @@ def test_simulators_share_nothing(data) -> None:
 
 def test_simulator_api_contract(data) -> None:
     inter = data.of_label("hand_over")[0]
-    sim = Simulator("ours", "hand_over")
+    sim = Simulator("ours", "hand_over", SimConfig.harness())
     with pytest.raises(SimulationError, match="reset"):
         sim.step(np.zeros((5, 3)))
     sim.reset(inter)
@@ -293,7 +293,7 @@ def test_causal_placement_ignores_agent1_future(data) -> None:
     joints = inter.joints.copy()
     joints[12:, 1, :, :2] += 0.6  # agent 1's future moves far away
     moved = inter.replace(joints=joints)
-    sim = Simulator("ours", "shake_hands")
+    sim = Simulator("ours", "shake_hands", SimConfig.harness())
     frames = {}
     for name, x, n in (("orig", inter, 10), ("moved", moved, 10), ("orig_all", inter, None), ("moved_all", moved, None)):
         sim.reset(x, placement_frames=n)
@@ -315,7 +315,7 @@ def test_run_episode_places_a_causal_source_from_its_frames(data, monkeypatch: p
         placement_frames = 7
 
     inter = data.of_label("shake_hands")[0]
-    sim = Simulator("ours", "shake_hands")
+    sim = Simulator("ours", "shake_hands", SimConfig.harness())
     seen: list[int | None] = []
     reset = Simulator.reset
 

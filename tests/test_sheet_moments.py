@@ -12,7 +12,7 @@ from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import RenderingUnavailableError
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.episode import run_episode
-from socialaff_sim.sim.simulator import Simulator
+from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.video import EpisodeRecorder, sheet_frames
 
 
@@ -63,7 +63,7 @@ def test_against_brute_force() -> None:
 def test_recorded_sheet_holds_the_first_touching_frame(tmp_path: Path) -> None:
     inter = generate_dataset(seed=0, config=SyntheticConfig(interactions=("shake_hands",),
                                                             instances_per_interaction=1))[0]
-    sim = Simulator("ours", "shake_hands")
+    sim = Simulator("ours", "shake_hands", SimConfig.harness())
     try:
         rec = EpisodeRecorder(sim, None, tmp_path / "s.png", width=96, height=72, n_sheet=4)
     except RenderingUnavailableError as exc:

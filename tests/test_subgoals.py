@@ -199,7 +199,7 @@ def test_quiet_steps_score_like_full_ones(data) -> None:
     inter = data.of_label("hand_over")[0]
     results = []
     for shortcut in (True, False):
-        sim = Simulator("ours", "hand_over")
+        sim = Simulator("ours", "hand_over", SimConfig.harness())
         sim.reset(inter)
         if not shortcut:
             sim.scorer._interesting[:] = True
@@ -283,7 +283,7 @@ def test_real_handover_recording_replays() -> None:
     from socialaff_sim.data.handover import load_handover
 
     inter = load_handover(shared_path("handover_h2h", "motion_normal_1.pkl"))[0]
-    sim = Simulator("ours", "hand_over")
+    sim = Simulator("ours", "hand_over", SimConfig.harness())
     metrics = run_episode(sim, GroundTruthSource(), inter)
     assert sim.carry is not None and 0 < sim.carry.release_frame < inter.n_frames  # given, then taken
     assert metrics["frames"] == inter.n_frames and metrics["object_released_at"] is not None

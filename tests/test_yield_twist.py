@@ -11,6 +11,7 @@ from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.hand_yield import HandYield, feet_allowance, twist_allowance
 from socialaff_sim.sim.scene import build_scene
+from socialaff_sim.sim.sim_config import SimConfig
 from socialaff_sim.sim.support_box import SupportBox
 from test_balance_control import LAYOUT
 
@@ -63,3 +64,9 @@ def test_yield_twist_needs_the_hands_give_and_a_length() -> None:
         BalanceConfig(yield_twist=0.02)
     with pytest.raises(ConfigError, match="yield_twist"):
         BalanceConfig(hand_yield=0.5, yield_twist=0.0)
+
+
+def test_the_standing_mode_carries_the_twist_give_and_the_harness_none() -> None:
+    # Adopted by the rule of docs/design.md §5 (run on instances 120-127); the harness has no balance controller.
+    assert SimConfig.standing().balance.yield_twist == 0.02
+    assert SimConfig.harness().balance is None and SimConfig().balance is None

@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     dataset = load_dataset(args.data, policy=args.policy, units=args.units)
     inter = dataset.by_id(args.instance)
     task = load_task(args.task) if args.task else task_for_label(inter.label)
-    physics = SimConfig.mode(args.physics)
+    physics = SimConfig.mode(args.physics or robot.physics)
     if args.no_contact_completion:
         physics = dataclasses.replace(physics, contact_completion=None)
     sim = Simulator(robot, task, physics)

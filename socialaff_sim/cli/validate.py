@@ -66,11 +66,12 @@ command line does not import the simulator (a test keeps the two equal)."""
 
 
 def add_physics_option(parser: argparse.ArgumentParser) -> None:
-    """``--physics harness|standing``: the simulator's physics mode (``SimConfig.mode``)."""
-    parser.add_argument("--physics", choices=PHYSICS_CHOICES, default="harness",
-                        help="physics mode: harness (the default: position servos, the robot hanging from a compliant "
-                             "harness) or standing (a balance controller stands it on its own feet while they are "
-                             "planted; docs/design.md §5)")
+    """``--physics harness|standing``: the simulator's physics mode (``SimConfig.mode``); absent: the robot's own."""
+    parser.add_argument("--physics", choices=PHYSICS_CHOICES, default=None,
+                        help="physics mode: harness (position servos, the robot hanging from a compliant harness) or "
+                             "standing (a balance controller stands it on its own feet while they are planted; "
+                             "docs/design.md §5); default: the robot's own, its mapping's 'physics' key "
+                             "(docs/robots.md)")
 
 
 def declare_outputs(parser: argparse.ArgumentParser, **outputs: str) -> None:

@@ -64,13 +64,15 @@ class DemoConfig:
     """[—]: Whether the simulator completes the contacts the synthesized reaction is making
     (``SimConfig.contact_completion``, :mod:`~socialaff_sim.retarget.contact_completion`); off: the scaled
     key-joint targets go to the IK as they are."""
-    physics: str = "harness"
-    """[—]: The physics mode simulated (:data:`~socialaff_sim.sim.sim_config.PHYSICS_MODES`): ``harness`` (the
-    simulator's default: position servos, the robot's root hanging from a compliant harness) or ``standing``
-    (the balance controller stands the robot on its own feet while they are planted; docs/design.md §5)."""
+    physics: str | None = None
+    """[—]: The physics mode simulated (:data:`~socialaff_sim.sim.sim_config.PHYSICS_MODES`): ``harness``
+    (position servos, the robot's root hanging from a compliant harness) or ``standing`` (the balance controller
+    stands the robot on its own feet while they are planted; docs/design.md §5); ``None``: the robot's own
+    (:attr:`~socialaff_sim.retarget.robot.RobotSpec.physics`)."""
 
     def __post_init__(self) -> None:
-        SimConfig.mode(self.physics)  # an unknown mode: a ConfigError naming the choices
+        if self.physics is not None:
+            SimConfig.mode(self.physics)  # an unknown mode: a ConfigError naming the choices
 
 
 @dataclass
@@ -180,7 +182,7 @@ def run_interaction(
     tic = time.perf_counter()
     task = task_for_label(label)
     robot = load_robot(config.robot, mjcf=config.mjcf)
-    physics = SimConfig.mode(config.physics)
+    physics = SimConfig.mode(config.physics or robot.physics)
     if not config.contact_completion:
         physics = dataclasses.replace(physics, contact_completion=None)
     reference = run_episode(Simulator(robot, task, physics), GroundTruthSource(), shown)

@@ -22,11 +22,14 @@ from ..resources import assets_dir
 from ._toml import Table, read_toml
 from .model_prep import FRAME_SITE_PREFIX, FrameRef, keyframe_angles, prepare_model
 
-__all__ = ["FrameRef", "RobotSpec", "load_robot", "available_robots", "BUILTIN_MODELS"]
+__all__ = ["FrameRef", "RobotSpec", "load_robot", "available_robots", "BUILTIN_MODELS", "PHYSICS_MODES"]
 
 ROBOTS_SUBDIR = "robots"
 LIMB_FRAMES = ("left_shoulder", "right_shoulder", "left_hip", "right_hip")
 FRAME_KINDS = ("site", "body")
+PHYSICS_MODES = ("harness", "standing")
+"""The simulator's named physics modes (``SimConfig.harness``, the robot's root hanging from a compliant harness,
+and ``SimConfig.standing``, on its own feet): what a mapping's ``physics`` key may name."""
 
 
 def _cmu_humanoid() -> mjcf.RootElement:
@@ -74,6 +77,10 @@ class RobotSpec:
     with the joints, actuators, sensors and equalities that refer to them."""
     mjcf_source: str = ""
     """Where a user gets the model when the mapping does not point at a file (shown in errors)."""
+    physics: str = "harness"
+    """The physics mode the simulator runs this robot in when it is given none (one of :data:`PHYSICS_MODES`;
+    the mapping's ``physics`` key): each robot's own, because a mode is adopted per robot by its measured
+    figures (docs/design.md §5)."""
 
     def build_mjcf(self) -> mjcf.RootElement:
         """A fresh dm_control MJCF model of the robot (safe to modify and attach); see :meth:`build_model`."""
@@ -173,7 +180,7 @@ def load_robot(robot: str | Path, mjcf: str | Path | None = None) -> RobotSpec:
         path = shipped
     top = Table(read_toml(path), path)
     top.check_keys(["name", "description", "mjcf", "mjcf_source", "builtin", "ignore_bodies", "frames", "limbs",
-                    "hands", "posture", "limits"])
+                    "hands", "posture", "limits", "physics"])
     name = top.get_str("name", path.stem)
     source = top.get_str("mjcf_source", "")
     has_file, has_builtin = "mjcf" in top, "builtin" in top
@@ -202,6 +209,7 @@ def load_robot(robot: str | Path, mjcf: str | Path | None = None) -> RobotSpec:
             f"(--mjcf PATH, or load_robot({name!r}, mjcf=PATH)); the model: {source}"
         )
     ignore = tuple(top.get_str_list("ignore_bodies", []))
+    physics = top.get_str("physics", "harness", valid=PHYSICS_MODES)
 
     frames_t = top.get_table("frames")
     frames_t.check_keys(KEY_JOINTS)
@@ -243,4 +251,5 @@ def load_robot(robot: str | Path, mjcf: str | Path | None = None) -> RobotSpec:
         max_joint_velocity=vmax,
         ignore_bodies=ignore,
         mjcf_source=source,
+        physics=physics,
     )

@@ -33,7 +33,7 @@ import mujoco
 import numpy as np
 
 from .arm_contacts import arm_hinges, filtered_arm_force
-from .external_force import ExternalForces
+from .external_force import Contacts
 from .scene import Scene
 
 __all__ = ["ArmCompensation", "DAMPING_LAMBDA", "approach_gate", "fade", "compensation_step"]
@@ -87,7 +87,6 @@ class ArmCompensation:
         self._site = [scene.frame_kinds[1 + s] == "site" for s in (0, 1)]
         self._frame = [int(scene.frame_ids[1 + s]) for s in (0, 1)]
         self._wrist, self._cols = arm_hinges(scene)
-        self._external = ExternalForces(scene)
         self._scratch = mujoco.MjData(m)
         self._jp = np.zeros((3, m.nv))
         self.reset()
@@ -101,9 +100,10 @@ class ArmCompensation:
         self.touched = np.zeros(2, dtype=bool)
         """(2,) whether each arm has touched the person or the object this episode (``gate`` only)."""
 
-    def measure(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
-        """Fold the person's contact forces on each arm of the step just taken into their filtered estimate."""
-        _, forces, geoms, others = self._external.contacts(m, d)
+    def measure(self, m: mujoco.MjModel, contacts: Contacts) -> None:
+        """Fold the person's contact forces on each arm of the step just taken (``contacts``, the robot's contacts
+        of that step) into their filtered estimate."""
+        _, forces, geoms, others = contacts
         if self.gate is not None and len(geoms):  # the approach ends at an arm's first touch
             hit = self._target[others]
             self.touched |= np.array([bool(self._arm_geom[s][geoms[hit]].any()) for s in (0, 1)])

@@ -8,9 +8,11 @@ from ..errors import ConfigError
 
 __all__ = ["BalanceConfig", "COM_REFERENCES", "SOLVERS"]
 
-COM_REFERENCES = ("plan", "middle")
+COM_REFERENCES = ("plan", "middle", "world", "approach")
 """Where the centre of mass is held: ``plan``, the IK's centre of mass relative to its feet, carried over to the
-physical feet; ``middle``, the middle of the feet's contact points. Either is kept inside the support box."""
+physical feet; ``middle``, the middle of the feet's contact points; ``world``, the IK's centre of mass where the
+plan has it in the world; ``approach``, ``world`` until an arm first touches the person or the object, ``plan`` after.
+Each is kept inside the support box."""
 
 SOLVERS = ("lsq", "qp")
 """How the inverse dynamics is solved: ``lsq``, weighted least squares with non-negative contact forces
@@ -29,7 +31,7 @@ class BalanceConfig:
     - Tracking: joint_bandwidth, torso_bandwidth, foot_damping, foot_stiffness
     - Balance: com_bandwidth, com_damping, com_reference, support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
-      cop_margin, min_foot_load, torque_fraction, flat_feet, yaw_ratio
+      cop_margin, min_foot_load, torque_fraction, flat_feet
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
@@ -54,8 +56,12 @@ class BalanceConfig:
     com_damping: float = 1.0
     """ζ [—]: damping ratio of the centre-of-mass feedback."""
     com_reference: str = "plan"
-    """[—]: c*: ``plan`` (the IK's centre of mass relative to its feet, moved onto the physical feet) or
-    ``middle`` (the middle of the feet's contact points); either is kept ``support_margin`` inside the box."""
+    """[—]: c*: ``plan`` (the IK's centre of mass relative to its feet, moved onto the physical feet), ``middle``
+    (the middle of the feet's contact points) or ``world`` (the IK's centre of mass where the plan has it in the
+    world: the body stays where the plan puts it although the feet stand elsewhere, which the joints' rows
+    outweigh unless ``w_com`` is large: docs/design.md §5, "The standing body held where the plan has it") or
+    ``approach`` (``world`` until an arm first touches the person or the object in the episode, ``plan`` after: the
+    latch of ``compensation_gate``, which it needs); each is kept ``support_margin`` inside the box."""
     support_margin: float = 0.03
     """[m]: the centre-of-mass reference is kept this far inside the box of the feet's contact points
     (axes along the robot's heading)."""
@@ -98,13 +104,6 @@ class BalanceConfig:
     contact points are the sole's four corners (the centre-of-pressure bounds then span the whole sole) and the
     foot's acceleration toward where it stood, level, is a hard constraint (``False``: the live contact points, and
     the feet's task in the objective toward the attitude they came down in)."""
-    yaw_ratio: float | None = None
-    """γ [m]: ``qp``: each foot on an area (three contact points or more) is asked at most γ times its vertical force
-    as moment about the vertical through its sole's centre, |M_z| ≤ γ F_z (:func:`~.contact_qp.yaw_rows`; dropped
-    with the centre-of-pressure bounds): the trunk's and arms' tracking then gives before the feet are twisted
-    (traced, a handshake asked up to 25 N·m of a foot carrying 380 N, γ = 0.066 m, and both feet turned 17° on the
-    floor; docs/benchmarks.md, "The standing mode's feet in the contact phases …"). ``None``: only the friction
-    cones bound it."""
     self_clearance: float | None = None
     """d_min [m]: ``qp``: the forearms and hands are kept this far from the rest of the robot (and from each other)
     by hard rows of the QP (:mod:`~.self_clearance`: a critically damped barrier on each close pair's distance);
@@ -215,9 +214,6 @@ class BalanceConfig:
                               f"{self.yield_damping}, {self.yield_return}")
         if self.flat_feet and self.solver != "qp":
             raise ConfigError(f"BalanceConfig.flat_feet: needs solver='qp' (hard constraints), found {self.solver!r}")
-        if self.yaw_ratio is not None and (self.solver != "qp" or not self.yaw_ratio >= 0.0):
-            raise ConfigError(f"BalanceConfig.yaw_ratio: needs solver='qp' and a length ≥ 0 m, found {self.yaw_ratio!r} "
-                              f"with solver {self.solver!r}")
         if not 0.0 <= self.min_foot_load < 0.5:
             raise ConfigError(f"BalanceConfig.min_foot_load: expected a fraction in [0, 0.5), found "
                               f"{self.min_foot_load}")
@@ -227,6 +223,9 @@ class BalanceConfig:
         if self.com_reference not in COM_REFERENCES:
             raise ConfigError(f"BalanceConfig.com_reference: expected one of {', '.join(COM_REFERENCES)}, found "
                               f"{self.com_reference!r}")
+        if self.com_reference == "approach" and (self.arm_compensation is None or self.compensation_gate is None):
+            raise ConfigError("BalanceConfig.com_reference='approach': needs arm_compensation and compensation_gate "
+                              "(their touch latch ends the approach)")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

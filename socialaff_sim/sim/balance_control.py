@@ -9,7 +9,8 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    as reference), the torso's attitude toward the IK's (ω_o), the planted feet held where they stood when both
    came down (k_x, k_f: a creeping foot is drawn back), and the centre of mass's horizontal position toward a
    reference c* over the feet (ω_c, ζ): the IK's centre of mass relative to its feet carried over to the
-   physical feet (or the middle of the feet), optionally moved to lean against the measured external forces
+   physical feet (or the middle of the feet, or the IK's centre of mass where the plan has it in the world),
+   optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
    with the floor, where they stand now) shrunk by a margin; with ``hand_yield`` the arms' references give way
    to a person's force beyond what the feet carry (:mod:`~.hand_yield`);
@@ -48,8 +49,8 @@ from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
 from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
 from .contact_dynamics import cone_edges, solve_contact_dynamics
-from .contact_qp import actuator_limits, cop_rows, solve_contact_qp, yaw_rows
-from .external_force import ExternalForces, lean_offset
+from .contact_qp import ActuatorLimits, cop_rows, solve_contact_qp
+from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts
 from .hand_yield import HandYield
@@ -110,6 +111,10 @@ class BalanceController:
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
         """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
         self._plan = mujoco.MjData(m)
+        self._limits, self._Mix = ActuatorLimits(m, scene.act_ids), np.ix_(self.vadr, self.vadr)  # made once
+        scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside the joints' task
+        self._joint_scale, self._joint_rows = scale, np.eye(n)[6:] * scale[:, None]
+        self._foot_scratch = (np.zeros((6, m.nv)), np.zeros((6, m.nv)))
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
         self._jr = np.zeros((3, m.nv))
@@ -132,6 +137,7 @@ class BalanceController:
         self._ext_force = np.zeros(3)
         self._ext_moment = np.zeros(3)
         self._com_offset = np.zeros(2)
+        self._com_plan = np.zeros(2)
         self._torso_goal = np.eye(3)
         self.steps = self.active_steps = self.released_steps = self.catches = 0
         """Physics steps run, driven by the controller, with the harness off; times a released robot was caught."""
@@ -158,6 +164,7 @@ class BalanceController:
         mujoco.mj_comPos(m, p)
         feet = p.xpos[self._feet, :2].mean(axis=0)
         self._com_offset = p.subtree_com[self.scene.root_body, :2] - feet
+        self._com_plan = p.subtree_com[self.scene.root_body, :2].copy()
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
 
     # -- the physics step -----------------------------------------------------------------------------------
@@ -210,18 +217,21 @@ class BalanceController:
             b = self._bias
             d.ctrl[self.scene.act_ids] = (tau - b[:, 0] - b[:, 1] * q - b[:, 2] * v) / self._gain
         mujoco.mj_step2(m, d)
+        # the step's contacts with anything but the floor, read once for every part that folds them in
+        contacts = self._external.contacts(m, d) if standing and (
+            self.hand_yield is not None or self.compensation is not None or c.external_forces) else None
         if standing and self.hand_yield is not None:
-            self.hand_yield.measure(m, d)
+            self.hand_yield.measure(m, contacts)  # type: ignore[arg-type]
         if standing and self.compensation is not None:
-            self.compensation.measure(m, d)
+            self.compensation.measure(m, contacts)  # type: ignore[arg-type]
         if standing and c.external_forces:
-            self._measure_external(m, d)
+            self._measure_external(m, d, contacts)  # type: ignore[arg-type]
         else:
             self._ext_gen[:], self._ext_force[:], self._ext_moment[:] = 0.0, 0.0, 0.0
 
-    def _measure_external(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
-        """Fold the external contact forces of the step just taken into their low-pass filtered estimate."""
-        gen, pts, forces = self._external.measure(m, d)
+    def _measure_external(self, m: mujoco.MjModel, d: mujoco.MjData, contacts: Contacts) -> None:
+        """Fold the external contacts ``contacts`` of the step just taken into their low-pass filtered estimate."""
+        gen, pts, forces = self._external.measure(m, d, contacts)
         a = math.exp(-m.opt.timestep / self.config.external_filter) if self.config.external_filter > 0 else 0.0
         self._ext_gen = a * self._ext_gen + (1.0 - a) * gen
         self._ext_force = a * self._ext_force + (1.0 - a) * forces.sum(axis=0)
@@ -245,6 +255,19 @@ class BalanceController:
         d.mocap_quat[k] = q / np.linalg.norm(q)
         self._caught = (pos, quat, t + m.opt.timestep)
 
+    def reference(self, d: mujoco.MjData, box: SupportBox) -> np.ndarray:
+        """(2,) the centre of mass's reference c* (world, m) before the lean, the glide and the box's clip, by
+        ``com_reference``: the plan's offset from its feet on the feet of ``d``, the plan's own (world; with
+        ``approach`` until an arm's first touch), or the middle of ``box``."""
+        ref = self.config.com_reference
+        if ref == "approach":  # held where the plan has it until an arm first touches, then as ``plan``
+            ref = "plan" if self.compensation.touched.any() else "world"  # type: ignore[union-attr]
+        if ref == "plan":
+            return d.xpos[self._feet, :2].mean(axis=0) + self._com_offset
+        if ref == "world":  # where the plan has it, whatever the feet: the body stays where the plan puts it
+            return self._com_plan.copy()
+        return box.middle()
+
     def _torques(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray, pts: np.ndarray,
                  frames: np.ndarray, which: np.ndarray, box: SupportBox, com: np.ndarray, jcom: np.ndarray,
                  comvel: np.ndarray) -> np.ndarray:
@@ -252,7 +275,7 @@ class BalanceController:
         c = self.config
         va = self.vadr
         mujoco.mj_fullM(m, d, self._M)
-        M = self._M[np.ix_(va, va)]
+        M = self._M[self._Mix]
         # The external forces as known loads on the root's rows only: the feet's forces then carry them, while the
         # joints stay as compliant as their PD (feeding them to the arms' rows stiffened the arms against the
         # person, who pushed back harder a step later).
@@ -268,7 +291,8 @@ class BalanceController:
         eq = None
         if c.flat_feet:
             pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
-                                                   which, c.sole_gap, c.foot_stiffness, c.foot_damping)
+                                                   which, c.sole_gap, c.foot_stiffness, c.foot_damping,
+                                                   self._foot_scratch)
         jac = np.empty((len(pts), 3, n))
         for i, (p, s) in enumerate(zip(pts, which, strict=True)):
             mujoco.mj_jac(m, d, self._jp, None, p, self._feet[int(s)])
@@ -280,11 +304,7 @@ class BalanceController:
             mujoco.mju_quat2Vel(self._rot, self._quat, 1.0)
             off = np.concatenate([pos - d.xpos[body], self._rot])
             tasks.append((J, c.foot_stiffness * off - c.foot_damping * (J @ qv), c.w_feet))
-        if c.com_reference == "plan":
-            mid = d.xpos[self._feet, :2].mean(axis=0)
-            goal = mid + self._com_offset
-        else:
-            goal = box.middle()
+        goal = self.reference(d, box)
         wc, zc = c.com_bandwidth, c.com_damping
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
             p = np.array([goal[0], goal[1], float(pts[:, 2].mean())])
@@ -305,18 +325,16 @@ class BalanceController:
         if self.compensation is not None:  # the arms' references on the trunk as it is
             dq = dq + self.compensation.offsets(m, d, q_ref)
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
-        scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside one task
-        tasks.append((np.eye(n)[6:] * scale[:, None], want * scale, c.w_joint))
+        tasks.append((self._joint_rows, want * self._joint_scale, c.w_joint))  # per-row weights inside one task
         edges = cone_edges(frames, c.friction)
         if c.solver == "lsq":
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
                                           c.w_force).tau[self._act_rows]
         limits = np.full((n, 2), [-np.inf, np.inf])
-        limits[self._act_rows] = c.torque_fraction * actuator_limits(m, self.scene.act_ids, d.qpos[self._act_q],
-                                                                      d.qvel[self._act_v])
+        limits[self._act_rows] = c.torque_fraction * self._limits(d.qpos[self._act_q], d.qvel[self._act_v])
         # The loads and centre-of-pressure bounds only for feet on an area (three contacts or more): on fewer, β ≥ 0
         # already keeps the centre of pressure on them, and the bounds' box may miss their segment.
-        area = np.array([np.count_nonzero(which == s) >= 3 for s in range(len(self._feet))])
+        area = np.bincount(which, minlength=len(self._feet)) >= 3
         foot = np.where(area[which], which, -1)
         ineq = None if self._clearance is None else self._clearance.rows(m, d)
         res = solve_contact_qp(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_force, limits,
@@ -335,11 +353,8 @@ class BalanceController:
     def _cop(self, d: mujoco.MjData, pts: np.ndarray, edges: np.ndarray, which: np.ndarray,
              box: SupportBox) -> np.ndarray:
         """(R, 4P) the centre-of-pressure rows (:func:`~.contact_qp.cop_rows`): each foot's kept ``cop_margin``
-        inside its sole, along the support box's axes; with ``yaw_ratio``, each foot's moment about the vertical
-        through its sole's centre (the middle of its sole's box, or of its points) bounded too
-        (:func:`~.contact_qp.yaw_rows`)."""
+        inside its sole, along the support box's axes."""
         bounds = np.zeros((len(self._feet), 2, 2))
-        centres = np.zeros((len(self._feet), 3))
         for s, body in enumerate(self._feet):
             mine = pts[which == s, :2]
             if not len(mine):  # (−1 in ``which``: a point left unbounded)
@@ -347,11 +362,7 @@ class BalanceController:
             sole = self._sole[s]
             xy = mine if sole is None else (d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T)[:, :2]
             bounds[s] = cop_interval(box.R, xy, mine, self.config.cop_margin)
-            centres[s, :2] = 0.5 * (xy.min(axis=0) + xy.max(axis=0))
-        rows = cop_rows(pts, edges, which, box.R, bounds)
-        if self.config.yaw_ratio is None:
-            return rows
-        return np.vstack([rows, yaw_rows(pts, edges, which, centres, self.config.yaw_ratio)])
+        return cop_rows(pts, edges, which, box.R, bounds)
 
     # -- measurements ---------------------------------------------------------------------------------------
     def _tilt(self, d: mujoco.MjData) -> float:

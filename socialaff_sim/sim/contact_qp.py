@@ -34,7 +34,7 @@ import daqp
 import mujoco
 import numpy as np
 
-__all__ = ["ContactQPResult", "actuator_limits", "cop_rows", "solve_contact_qp", "yaw_rows"]
+__all__ = ["ActuatorLimits", "ContactQPResult", "actuator_limits", "cop_rows", "solve_contact_qp"]
 
 log = logging.getLogger(__name__)
 
@@ -85,6 +85,39 @@ def actuator_limits(m: mujoco.MjModel, act_ids: np.ndarray, qpos: np.ndarray, qv
     return out
 
 
+class ActuatorLimits:
+    """:func:`actuator_limits` of the actuators ``act_ids`` (A,) of one model, its constants (gains, biases, ranges,
+    which limits apply) gathered once: called at every physics step the balance controller drives, it gives the
+    same figures, bit for bit, with none of the per-call indexing."""
+
+    def __init__(self, m: mujoco.MjModel, act_ids: np.ndarray) -> None:
+        ids = np.asarray(act_ids, dtype=np.int64)
+        self._n = len(ids)
+        self._cl = m.actuator_ctrllimited[ids].astype(bool)
+        self._any_cl = bool(self._cl.any())
+        self._gain = m.actuator_gainprm[ids, 0][:, None].copy()
+        b = m.actuator_biasprm[ids, :3]
+        self._b0, self._b1, self._b2 = b[:, 0].copy(), b[:, 1].copy(), b[:, 2].copy()
+        self._ctrlrange = m.actuator_ctrlrange[ids].copy()
+        self._clips = []
+        for limited, rng in ((m.actuator_forcelimited[ids].astype(bool), m.actuator_forcerange[ids]),
+                             (m.jnt_actfrclimited[m.actuator_trnid[ids, 0]].astype(bool),
+                              m.jnt_actfrcrange[m.actuator_trnid[ids, 0]])):
+            if limited.any():  # (an empty mask changes nothing)
+                self._clips.append((limited, rng[limited, :1].copy(), rng[limited, 1:].copy()))
+
+    def __call__(self, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
+        """(A, 2) :func:`actuator_limits` at the joints' state ``qpos``, ``qvel`` (A,)."""
+        out = np.empty((self._n, 2))
+        out[:, 0], out[:, 1] = -np.inf, np.inf
+        if self._any_cl:
+            ends = self._gain * self._ctrlrange + (self._b0 + self._b1 * qpos + self._b2 * qvel)[:, None]
+            out[self._cl] = np.sort(ends, axis=1)[self._cl]
+        for limited, lo, hi in self._clips:
+            out[limited] = np.clip(out[limited], lo, hi)
+        return out
+
+
 def cop_rows(points: np.ndarray, edges: np.ndarray, foot: np.ndarray, axes: np.ndarray,
              bounds: np.ndarray) -> np.ndarray:
     """(R, 4P) rows C with ``C β ≥ 0`` iff every foot's centre of pressure lies inside its bounds (or it carries
@@ -100,36 +133,14 @@ def cop_rows(points: np.ndarray, edges: np.ndarray, foot: np.ndarray, axes: np.n
         mine = foot == s
         if not mine.any():
             continue
-        for a in range(2):
-            lo, hi = bounds[s, a]
-            for arm in (coord[:, a] - lo, hi - coord[:, a]):
-                r = np.zeros((P, 4))
-                r[mine] = fz[mine] * arm[mine, None]
-                rows.append(r.ravel())
-    return np.array(rows) if rows else np.zeros((0, 4 * P))
-
-
-def yaw_rows(points: np.ndarray, edges: np.ndarray, foot: np.ndarray, centres: np.ndarray,
-             ratio: float) -> np.ndarray:
-    """(R, 4P) rows C with ``C β ≥ 0`` iff every foot's moment about the vertical through its centre is at most
-    ``ratio`` (γ, m) times its vertical force: |M_z| ≤ γ F_z, M_z = Σ_i ((r_i − c) × f_i)_z, F_z = Σ_i f_z,i over the
-    foot's points. ``points`` (P, 3), ``edges`` (P, 3, 4) (world-frame forces per unit edge weight), ``foot`` (P,)
-    each point's foot (−1: none), ``centres`` (F, 3) each foot's centre (world, m). Two rows per foot with points:
-    ``γ F_z − M_z ≥ 0`` and ``γ F_z + M_z ≥ 0``."""
-    P = len(points)
-    rel = points[:, :2] - np.where(foot[:, None] >= 0, centres[np.clip(foot, 0, None), :2], 0.0)
-    mz = rel[:, 0, None] * edges[:, 1, :] - rel[:, 1, None] * edges[:, 0, :]  # (P, 4): M_z per unit edge weight
-    fz = edges[:, 2, :]
-    rows = []
-    for s in range(len(centres)):
-        mine = foot == s
-        if not mine.any():
-            continue
-        for sign in (-1.0, 1.0):
-            r = np.zeros((P, 4))
-            r[mine] = ratio * fz[mine] + sign * mz[mine]
-            rows.append(r.ravel())
-    return np.array(rows) if rows else np.zeros((0, 4 * P))
+        c = coord[mine]
+        # the foot's four lever arms per point, in row order: axis 0 (r − lo, hi − r), then axis 1
+        arms = np.stack([c[:, 0] - bounds[s, 0, 0], bounds[s, 0, 1] - c[:, 0],
+                         c[:, 1] - bounds[s, 1, 0], bounds[s, 1, 1] - c[:, 1]])  # (4, |mine|)
+        r = np.zeros((4, P, 4))
+        r[:, mine] = fz[mine][None] * arms[:, :, None]
+        rows.append(r.reshape(4, 4 * P))
+    return np.vstack(rows) if rows else np.zeros((0, 4 * P))
 
 
 def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point_jac: np.ndarray,
@@ -161,9 +172,10 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     # Variables x = [β' (K), q̈ (n)], β' = β / m: every row is then in m/s².
     H = np.zeros((K + n, K + n))
     f = np.zeros(K + n)
-    H[:K, :K] = w_force * np.eye(K)
+    diag = np.arange(K + n)  # w_f I on β', ε I on q̈: set on the diagonal (the rest is zero as it was)
+    H[diag[:K], diag[:K]] = w_force
+    H[diag[K:], diag[K:]] = w_reg
     Hq = H[K:, K:]
-    Hq += w_reg * np.eye(n)
     for A, b, w in tasks:
         Hq += w * (A.T @ A)
         f[K:] -= w * (A.T @ b)
@@ -185,7 +197,7 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
         lower.append(np.asarray(b_eq, dtype=np.float64))
         sense.append(np.full(len(b_eq), 5))
     if foot is not None and min_load > 0.0 and P:
-        for s in np.unique(foot[foot >= 0]):
+        for s in sorted(set(foot[foot >= 0].tolist())):
             r = np.where((foot == s)[:, None], edges[:, 2, :], 0.0).ravel()
             rows.append(np.concatenate([r, np.zeros(n)])[None])
             upper.append(np.array([_INF]))

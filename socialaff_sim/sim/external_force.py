@@ -10,12 +10,28 @@ wrist force sensor's reading, one step old), low-pass filtered.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import mujoco
 import numpy as np
 
 from .scene import Scene
 
-__all__ = ["ExternalForces", "lean_offset"]
+__all__ = ["Contacts", "ExternalForces", "lean_offset"]
+
+
+class Contacts(NamedTuple):
+    """The robot's contacts with anything but the floor after one physics step (:meth:`ExternalForces.contacts`),
+    read once per step and handed to every part of the balance controller that folds them in."""
+
+    points: np.ndarray
+    """(K, 3) contact points, world frame, m."""
+    forces: np.ndarray
+    """(K, 3) their forces on the robot, world frame, N."""
+    geoms: np.ndarray
+    """(K,) the robot geom each acts on."""
+    others: np.ndarray
+    """(K,) the geom that pushes it."""
 
 
 class ExternalForces:
@@ -32,44 +48,48 @@ class ExternalForces:
         self._jp = np.zeros((3, m.nv))
         self._f6 = np.zeros(6)
 
-    def measure(self, m: mujoco.MjModel, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def measure(self, m: mujoco.MjModel, d: mujoco.MjData,
+                contacts: Contacts | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """At ``d``'s state after a step (contacts and constraint forces of that step): the generalised force
         (nv_r,) on the robot's coordinates (N, N·m), the contact points (K, 3) and their forces on the robot
-        (K, 3), world frame."""
+        (K, 3), world frame. ``contacts``: this step's :meth:`contacts`, when already read (``None``: read here)."""
         gen = np.zeros(len(self.vadr))
-        pts, forces, geoms, _ = self.contacts(m, d)
+        pts, forces, geoms, _ = self.contacts(m, d) if contacts is None else contacts
         for p, f, g in zip(pts, forces, geoms, strict=True):
             mujoco.mj_jac(m, d, self._jp, None, p, int(m.geom_bodyid[g]))
             gen += self._jp[:, self.vadr].T @ f
         return gen, pts, forces
 
-    def contacts(self, m: mujoco.MjModel,
-                 d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def contacts(self, m: mujoco.MjModel, d: mujoco.MjData) -> Contacts:
         """The contacts of :meth:`measure`: points (K, 3), forces on the robot (K, 3), world frame, the robot geom
         (K,) each acts on and the geom (K,) that pushes it."""
         none = np.zeros(0, dtype=np.int64)
         nc = d.ncon
         if not nc:
-            return np.zeros((0, 3)), np.zeros((0, 3)), none, none
+            return Contacts(np.zeros((0, 3)), np.zeros((0, 3)), none, none)
         g = d.contact.geom[:nc]
         r0, r1 = self._robot[g[:, 0]], self._robot[g[:, 1]]
         floor = (g[:, 0] == self._floor) | (g[:, 1] == self._floor)
-        rows = np.flatnonzero((r0 ^ r1) & ~floor & (d.contact.efc_address[:nc] >= 0))
+        con = d.contact
+        rows = np.flatnonzero((r0 ^ r1) & ~floor & (con.efc_address[:nc] >= 0))
         pts, forces, geoms, others = [], [], [], []
+        if len(rows):
+            frames, where = con.frame, con.pos
         for i in rows.tolist():
             mujoco.mj_contactForce(m, d, i, self._f6)
-            frame = d.contact.frame[i].reshape(3, 3)
+            frame = frames[i].reshape(3, 3)
             f = frame.T @ self._f6[:3]  # on geom 1, world frame
             robot_geom, other = int(g[i, 1]), int(g[i, 0])
             if r0[i]:
                 f, robot_geom, other = -f, int(g[i, 0]), int(g[i, 1])
-            pts.append(d.contact.pos[i].copy())
+            pts.append(where[i].copy())
             forces.append(f)
             geoms.append(robot_geom)
             others.append(other)
         if not pts:
-            return np.zeros((0, 3)), np.zeros((0, 3)), none, none
-        return np.array(pts), np.array(forces), np.array(geoms, dtype=np.int64), np.array(others, dtype=np.int64)
+            return Contacts(np.zeros((0, 3)), np.zeros((0, 3)), none, none)
+        return Contacts(np.array(pts), np.array(forces), np.array(geoms, dtype=np.int64),
+                        np.array(others, dtype=np.int64))
 
 
 def lean_offset(moment: np.ndarray, force: np.ndarray, point: np.ndarray, weight: float) -> np.ndarray:

@@ -28,6 +28,9 @@ import numpy as np
 
 __all__ = ["flat_attitude", "flat_contacts", "foot_rows", "sole_corners", "sole_points"]
 
+_LEVEL_FRAME = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+"""A level floor's contact frame: the normal (+z), then the world's x and y as tangents."""
+
 
 def sole_corners(sole: np.ndarray) -> np.ndarray:
     """(4, 3) the bottom corners of a sole box ``sole`` (8, 3) (foot body frame, m; as the controller finds it
@@ -41,7 +44,7 @@ def sole_points(pos: np.ndarray, rot: np.ndarray, corners: np.ndarray) -> tuple[
     ``rot`` (3, 3), and their contact frames (4, 3, 3): the floor's normal (+z) first, then the world's x and y
     as tangents (the rows of MuJoCo's ``contact.frame`` for a level floor)."""
     pts = pos + corners @ rot.T
-    frames = np.tile(np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]), (len(corners), 1, 1))
+    frames = np.tile(_LEVEL_FRAME, (len(corners), 1, 1))
     return pts, frames
 
 
@@ -56,18 +59,18 @@ def flat_attitude(rot: np.ndarray, home_rot: np.ndarray, forward: np.ndarray) ->
 
 
 def foot_rows(m: mujoco.MjModel, d: mujoco.MjData, body: int, vadr: np.ndarray, goal_pos: np.ndarray,
-              goal_rot: np.ndarray, stiffness: float, damping: float) -> tuple[np.ndarray, np.ndarray]:
+              goal_rot: np.ndarray, stiffness: float, damping: float,
+              scratch: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(A (6, n), b (6,)) rows ``A q̈ = b`` of a foot's wanted acceleration, on the robot's coordinates ``vadr``
     (n,): linear and angular (world), ``k_x`` (``stiffness``, 1/s²) times the displacement to ``goal_pos`` (3,)
     and the rotation vector to ``goal_rot`` (3, 3), minus ``k_f`` (``damping``, 1/s) times the foot's velocity,
-    minus the drift ``J̇q̇`` (so that ``J q̈ + J̇ q̇`` is what is asked)."""
-    nv = m.nv
-    jp, jr = np.zeros((3, nv)), np.zeros((3, nv))
-    mujoco.mj_jacBody(m, d, jp, jr, body)
-    J = np.vstack([jp[:, vadr], jr[:, vadr]])
-    dp, dr = np.zeros((3, nv)), np.zeros((3, nv))
-    mujoco.mj_jacDot(m, d, dp, dr, d.xpos[body], body)
-    drift = np.vstack([dp, dr]) @ d.qvel
+    minus the drift ``J̇q̇`` (so that ``J q̈ + J̇ q̇`` is what is asked). ``scratch``: two (6, nv) arrays, room for
+    the Jacobian and its derivative (MuJoCo overwrites them whole; ``None``: allocated here)."""
+    jac, dot = (np.empty((6, m.nv)), np.empty((6, m.nv))) if scratch is None else scratch  # rows: linear, angular
+    mujoco.mj_jacBody(m, d, jac[:3], jac[3:], body)
+    J = jac[:, vadr]
+    mujoco.mj_jacDot(m, d, dot[:3], dot[3:], d.xpos[body], body)
+    drift = dot @ d.qvel
     quat, vel = np.zeros(4), np.zeros(3)
     mujoco.mju_mat2Quat(quat, (goal_rot @ d.xmat[body].reshape(3, 3).T).ravel())
     mujoco.mju_quat2Vel(vel, quat, 1.0)
@@ -77,7 +80,8 @@ def foot_rows(m: mujoco.MjModel, d: mujoco.MjData, body: int, vadr: np.ndarray, 
 
 def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners: list[np.ndarray | None],
                   anchors: list[tuple[np.ndarray, np.ndarray]], vadr: np.ndarray, pts: np.ndarray, frames: np.ndarray,
-                  which: np.ndarray, sole_gap: float, stiffness: float, damping: float
+                  which: np.ndarray, sole_gap: float, stiffness: float, damping: float,
+                  scratch: tuple[np.ndarray, np.ndarray] | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
     """The contacts of a standing robot with its feet held flat (the module docstring).
 
@@ -86,7 +90,8 @@ def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners:
     coordinates; ``pts`` (P, 3), ``frames`` (P, 3, 3), ``which`` (P,): the live contacts with the floor and their
     foot (not empty); a foot with live contacts, or whose lowest corner is within ``sole_gap`` (+ 2 mm) of the
     lowest live contact, has them replaced by its sole's corners and gets the hard rows of :func:`foot_rows`.
-    Returns the contact points, frames and feet, and the stacked rows (``None``: no such foot)."""
+    Returns the contact points, frames and feet, and the stacked rows (``None``: no such foot). ``scratch``: as
+    :func:`foot_rows`'."""
     floor = float(pts[:, 2].min())
     keep = np.ones(len(pts), dtype=bool)
     add_p, add_f, add_w, rows = [], [], [], []
@@ -101,7 +106,7 @@ def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners:
         add_p.append(p)
         add_f.append(f)
         add_w.append(np.full(len(p), s, dtype=np.int64))
-        rows.append(foot_rows(m, d, body, vadr, anchors[s][0], anchors[s][1], stiffness, damping))
+        rows.append(foot_rows(m, d, body, vadr, anchors[s][0], anchors[s][1], stiffness, damping, scratch))
     if not rows:
         return pts, frames, which, None
     return (np.vstack([pts[keep], *add_p]), np.concatenate([frames[keep], *add_f]),

@@ -10,6 +10,12 @@ the robot's home ankle height) while the target stays within ``radius`` of that
 place and below ``lift`` above home height (``hold_lift``, when set, for a foot already planted); a
 target that leaves that ball (a step) is followed again. With ``pace`` the targets' walk-up steps are first slowed to a
 pace the swing leg follows (:mod:`~.step_pace`).
+
+A target that leaves the ball along the floor, never rising above ``lift`` (a glide: a synthesized walk-up may
+slide its feet), is planted again at once at its new point: the foot counts as planted throughout, so a balance
+controller that holds planted feet where they stood (:mod:`~.balance_control`) never lets the physical foot
+follow, and the robot stays behind its plan. With ``glide_step`` such a foot steps instead: for one frame it is
+not planted and its target is the new point raised by ``glide_step``; then it is put down as any other.
 """
 
 from __future__ import annotations
@@ -18,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, SimulationError
 from .step_pace import StepPace
 
 __all__ = ["FootLock", "FootLockConfig"]
@@ -56,6 +62,20 @@ class FootLockConfig:
     pace_height: float = 0.08
     """h_s [m]: a carried ankle target is at least this far above the ankle's home height (above ``lift``, so
     that the foot counts as stepping)."""
+    glide_step: float | None = None
+    """h_g [m]: a planted foot whose target leaves ``radius`` without rising above ``lift`` (a glide) steps for
+    one frame, its target the new point raised by this, instead of being planted there at once; one foot at a
+    time and only while the other stands (of two gliding feet the one farther from where it stands steps; the
+    other is held where it stands until its partner has landed). ``None``: planted at the new point at once (in
+    the standing mode the balance controller then holds the physical foot where it stood: the demo's pull-up
+    stands 53–63 cm behind its plan; docs/design.md §5). Not while a contact holds with ``hold_in_contact``."""
+    glide_gap: float | None = None
+    """d_g [m]: with ``glide_step``, a glide steps only while its physical ankle frame stands farther than this
+    (horizontally) from the new point; nearer, it is planted at once (a standing foot's creep of a few centimetres
+    is left to the balance controller, which holds the foot where it stands). ``None``: wherever it stands."""
+    glide_until_contact: bool = False
+    """[—]: With ``glide_step``, glides step only until a sub-goal's contact first holds in the episode (the walk-up);
+    afterwards they are planted at once as without ``glide_step``."""
 
     def __post_init__(self) -> None:
         if self.pace is not None and not (self.pace > 0.0 and self.pace_height > self.lift):
@@ -63,6 +83,10 @@ class FootLockConfig:
                               f"found {self.pace}, {self.pace_height}")
         if not (self.lift >= 0.0 and self.radius >= 0.0):
             raise ConfigError(f"FootLockConfig: expected lift ≥ 0 and radius ≥ 0 in metres, found {self.lift}, {self.radius}")
+        if self.glide_gap is not None and not self.glide_gap > 0.0:
+            raise ConfigError(f"FootLockConfig.glide_gap: expected None or a distance > 0 m, found {self.glide_gap}")
+        if self.glide_step is not None and not self.glide_step > 0.0:
+            raise ConfigError(f"FootLockConfig.glide_step: expected None or a height > 0 m, found {self.glide_step}")
         if self.hold_lift is not None and not self.hold_lift >= self.lift:
             raise ConfigError(f"FootLockConfig.hold_lift: expected None or a height ≥ lift ({self.lift} m), found "
                               f"{self.hold_lift}")
@@ -83,36 +107,101 @@ class FootLock:
             raise ConfigError(f"FootLockConfig.pace: needs the data's frame rate (fps > 0), found {fps}")
         self.pace = None if c.pace is None else StepPace(c.pace, c.pace_height, fps, self.home_height)  # type: ignore[arg-type]
         """The walk-up's pace (``pace``), else ``None``."""
+        self.reset()
 
     def reset(self) -> None:
         """No foot planted."""
         self.planted = [None, None]
+        self.glide_steps = 0
+        """Glides turned into a step in the episode (``glide_step``)."""
+        self._glide: tuple[int, np.ndarray] | None = None  # this frame's gliding foot and its raised target
+        self._last: int | None = None  # the foot that glide-stepped in the last frame
+        self._touched = False  # a sub-goal's contact has held in the episode (``glide_until_contact``)
+        self._wait = [False, False]  # this frame's gliding feet held where they stand
         if self.pace is not None:
             self.pace.reset()
+
+    @property
+    def needs_physical(self) -> bool:
+        """Whether :meth:`apply` needs the physical ankle frames (``glide_gap``)."""
+        return self.config.glide_step is not None and self.config.glide_gap is not None
 
     @property
     def standing(self) -> tuple[bool, bool]:
         """(left, right): whether each foot stands (is planted)."""
         return (self.planted[0] is not None, self.planted[1] is not None)
 
-    def apply(self, ankles: np.ndarray, touching: bool = False, new_frame: bool = True) -> np.ndarray:
+    def apply(self, ankles: np.ndarray, touching: bool = False, physical: np.ndarray | None = None,
+              new_frame: bool = True) -> np.ndarray:
         """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted;
         ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted);
-        ``new_frame``: ``False`` for a solve again within a data frame (``pace`` then keeps the frame's decision)."""
+        ``physical`` (2, 3): the physical ankle frames (world, m), which ``glide_gap`` needs; ``new_frame``:
+        ``False`` for a solve again within a data frame (``pace`` and ``glide_step`` then keep the frame's decision)."""
+        if self.needs_physical and physical is None:
+            raise SimulationError("FootLock.apply: glide_gap needs the physical ankle frames")
         out = np.array(ankles, dtype=np.float64) if self.pace is None else self.pace(ankles, new_frame)
         c = self.config
-        if touching and c.hold_in_contact and all(p is not None for p in self.planted):
+        held = touching and c.hold_in_contact
+        self._touched = self._touched or bool(touching)
+        if not new_frame and self._glide is not None:  # solved again within the frame: the foot still steps
+            s, lifted = self._glide
+            out[s] = lifted
+            if self.planted[1 - s] is not None:
+                out[1 - s] = self.planted[1 - s]
+            return out
+        self._glide = None
+        if held and all(p is not None for p in self.planted):
             return np.array([np.array(p) for p in self.planted])
         hold = c.lift if c.hold_lift is None else c.hold_lift
+        glide, wait = None, [False, False]
+        if c.glide_step is not None:  # within a frame the frame's decision stands
+            if held or (c.glide_until_contact and self._touched):
+                self._last, self._wait = None, wait
+            elif new_frame:
+                glide, wait = self._gliding(out, hold, physical)
+                self._wait = wait
+            else:
+                wait = self._wait
         for s in (0, 1):
             t = out[s]
             rise = t[2] - self.home_height[s]
             p = self.planted[s]
-            if p is not None and rise <= hold and np.linalg.norm(t[:2] - p[:2]) <= c.radius:
-                out[s] = p  # stands
+            if p is not None and (rise <= hold and np.linalg.norm(t[:2] - p[:2]) <= c.radius or wait[s]):
+                out[s] = p  # stands (and does not lift while the other foot glide-steps)
+            elif glide == s:
+                self.planted[s] = None
+                out[s] = np.array([t[0], t[1], self.home_height[s] + c.glide_step])
+                self._glide = (s, out[s].copy())
+                self.glide_steps += 1
             elif rise <= c.lift:
                 self.planted[s] = np.array([t[0], t[1], self.home_height[s]])
                 out[s] = self.planted[s]
             else:
                 self.planted[s] = None
         return out
+
+    def _gliding(self, ankles: np.ndarray, hold: float, physical: np.ndarray | None
+                 ) -> tuple[int | None, list[bool]]:
+        """For targets ``ankles`` (2, 3): the foot (0 left, 1 right) that glide-steps this frame (else ``None``)
+        and which planted feet are held where they stand instead of being planted again at their gliding target.
+        A foot glides when it is planted and its target left ``radius`` at most ``lift`` above home height. It may
+        step while the other foot is planted and its target keeps it planted or glides too; of two such feet the
+        one whose target is farther from where it stands steps, and the other is held; so is a gliding foot the
+        frame after the other foot's glide step (it lands). With ``glide_gap`` a foot glides only while its physical
+        ankle frame (``physical`` (2, 3), world, m) stands farther than d_g from its target. ``hold``: the planted
+        feet's height bound."""
+        c = self.config
+        last, self._last = self._last, None
+        planted = [p is not None for p in self.planted]
+        rise = ankles[:, 2] - self.home_height
+        off = np.array([np.linalg.norm(ankles[s, :2] - p[:2]) if p is not None else 0.0
+                        for s, p in enumerate(self.planted)])
+        glides = np.array(planted) & (off > c.radius) & (rise <= c.lift)
+        if c.glide_gap is not None:  # a creep the standing foot stays within d_g of is planted at once
+            glides &= np.linalg.norm(ankles[:, :2] - np.asarray(physical)[:, :2], axis=1) > c.glide_gap
+        stays = np.array(planted) & (off <= c.radius) & (rise <= hold)
+        ok = [s for s in (0, 1) if glides[s] and planted[1 - s] and (stays[1 - s] or glides[1 - s])]
+        step = max(ok, key=lambda s: off[s]) if ok else None
+        self._last = step
+        held = [bool(glides[s] and s != step and (step is not None or last == 1 - s)) for s in (0, 1)]
+        return step, held

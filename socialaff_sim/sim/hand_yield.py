@@ -25,7 +25,7 @@ internal to robot and object; counted, they set the hand overs' arms giving way 
 horizontal, m, at most :data:`MAX_OFFSET`) moves the arm's hinge references by the damped least-squares
 Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ o over the arm's hinges (J the wrist's horizontal translational Jacobian there), and
 their reference velocities by the same map of ȯ. The forces are the contacts' of the last step
-(:class:`~.external_force.ExternalForces`), low-pass filtered over ``external_filter``.
+(:class:`~.external_force.ExternalForces`, read once per step by the controller), low-pass filtered over ``external_filter``.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ import mujoco
 import numpy as np
 
 from .arm_contacts import arm_hinges, filtered_arm_force
-from .external_force import ExternalForces
+from .external_force import Contacts
 from .scene import Scene
 from .support_box import SupportBox
 
@@ -44,6 +44,7 @@ MAX_OFFSET = 0.3
 """[m]: the longest a wrist reference gives way."""
 DAMPING_LAMBDA = 0.05
 """λ [m]: damping of the least-squares map of a wrist offset onto the arm's hinges."""
+_DAMPING = DAMPING_LAMBDA ** 2 * np.eye(2)  # λ² I, made once
 
 
 def feet_allowance(box: SupportBox, direction: np.ndarray, point: np.ndarray, margin: float, weight: float,
@@ -101,7 +102,6 @@ class HandYield:
         self._person = np.zeros(m.ngeom, dtype=bool)
         self._person[np.asarray(scene.human_geom_ids, dtype=np.int64)] = True
         self._wrist, self._cols = arm_hinges(scene)
-        self._external = ExternalForces(scene)
         self._jp = np.zeros((3, m.nv))
         self.reset()
 
@@ -118,9 +118,10 @@ class HandYield:
         self.yield_steps = 0
         """Updates in which the arms gave way."""
 
-    def measure(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
-        """Fold the person's contact forces on each arm of the step just taken into their filtered estimate."""
-        pts, forces, geoms, others = self._external.contacts(m, d)
+    def measure(self, m: mujoco.MjModel, contacts: Contacts) -> None:
+        """Fold the person's contact forces on each arm of the step just taken (``contacts``, the robot's contacts
+        of that step) into their filtered estimate."""
+        pts, forces, geoms, others = contacts
         mine = self._person[others]  # an object held by a grip weld presses on the hand it is welded to
         pts, forces, geoms = pts[mine], forces[mine], geoms[mine]
         self.force = filtered_arm_force(self.force, forces, geoms, self._arm_geom, m, self.filter_time)
@@ -168,7 +169,7 @@ class HandYield:
                 continue
             mujoco.mj_jacBody(m, d, self._jp, None, self._wrist[s])
             J = self._jp[:2][:, self.vadr[self._cols[s]]]
-            inv = J.T @ np.linalg.inv(J @ J.T + DAMPING_LAMBDA ** 2 * np.eye(2))
+            inv = J.T @ np.linalg.inv(J @ J.T + _DAMPING)
             dq[self._cols[s]] += inv @ self.offset[s]
             dv[self._cols[s]] += inv @ self.rate[s]
         return dq[6:], dv[6:]

@@ -54,6 +54,9 @@ class SelfClearance:
         self.vadr = np.asarray(vadr, dtype=np.int64)
         self.clearance, self.detection, self.bandwidth = float(clearance), float(detection), float(bandwidth)
         self._reach = model.geom_rbound[pairs[:, 0]] + model.geom_rbound[pairs[:, 1]] + self.detection
+        self._first, self._second = pairs[:, 0].copy(), pairs[:, 1].copy()  # contiguous index columns
+        self._pair_list = [(int(a), int(b)) for a, b in pairs]
+        self._body_of = model.geom_bodyid.tolist()
         self._fromto = np.zeros(6)
         nv = model.nv
         self._jac = np.zeros((2, 3, nv))
@@ -75,13 +78,14 @@ class SelfClearance:
         pairs = self.pairs
         if not len(pairs):
             return None
-        centre = np.linalg.norm(d.geom_xpos[pairs[:, 0]] - d.geom_xpos[pairs[:, 1]], axis=1)
-        near = np.flatnonzero(centre < self._reach)  # bounding spheres: only these can be that close
+        xpos = d.geom_xpos
+        centre = np.linalg.norm(xpos[self._first] - xpos[self._second], axis=1)
+        near = np.flatnonzero(centre < self._reach).tolist()  # bounding spheres: only these can be that close
         A, lo, dist = [], [], []
         w = self.bandwidth
         qv = d.qvel
         for i in near:
-            g1, g2 = int(pairs[i, 0]), int(pairs[i, 1])
+            g1, g2 = self._pair_list[i]
             dd = mujoco.mj_geomDistance(m, d, g1, g2, self.detection, self._fromto)
             if dd >= self.detection:
                 continue
@@ -94,7 +98,7 @@ class SelfClearance:
             # still the one along which d grows.
             n = gap / length * (1.0 if dd >= 0 else -1.0)
             for k, (g, p) in enumerate(((g1, p1), (g2, p2))):
-                body = int(m.geom_bodyid[g])
+                body = self._body_of[g]
                 mujoco.mj_jac(m, d, self._jac[k], None, p, body)
                 mujoco.mj_jacDot(m, d, self._jdot[k], None, p, body)
             row = n @ (self._jac[1] - self._jac[0])

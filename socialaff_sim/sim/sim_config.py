@@ -12,6 +12,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..retarget.contact_completion import ContactCompletionConfig
 from ..retarget.ik import IKConfig
+from ..retarget.robot import PHYSICS_MODES
 from ..retarget.scaling import ScalingConfig
 from .balance_config import BalanceConfig
 from .footlock import FootLockConfig
@@ -20,14 +21,16 @@ from .support import FrameSupport
 
 __all__ = ["SimConfig", "StepResult", "PHYSICS_MODES", "STANDING_BALANCE", "STANDING_FOOT_LOCK"]
 
-PHYSICS_MODES = ("harness", "standing")
-"""The named physics modes: :meth:`SimConfig.harness` (the default) and :meth:`SimConfig.standing`."""
+# PHYSICS_MODES, the named modes (:meth:`SimConfig.harness` and :meth:`SimConfig.standing`), is defined with the
+# robot mappings that name one as a robot's own (retarget/robot.py) and re-exported here.
 
 STANDING_BALANCE = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0, flat_feet=True, self_clearance=0.01,
-                                 hand_yield=0.5, yield_damping=50.0, arm_compensation=1.0, compensation_gate=1e9)
+                                 hand_yield=0.5, yield_damping=50.0, yield_twist=0.02, arm_compensation=1.0,
+                                 compensation_gate=1e9)
 """The balance controller of :meth:`SimConfig.standing`: the quadratic program with the feet flat on their soles,
-the arms kept 1 cm clear of the body, hands that give way, and each arm's references made up for the trunk's pose
-error until that arm first touches the person or the object (docs/design.md §5, issue 25)."""
+the arms kept 1 cm clear of the body, hands that give way (before a push tips the robot or twists its feet), and
+each arm's references made up for the trunk's pose error until that arm first touches the person or the object
+(docs/design.md §5, issue 25)."""
 STANDING_FOOT_LOCK = FootLockConfig(hold_lift=0.12, hold_in_contact=True)
 """The foot lock of :meth:`SimConfig.standing`: a planted foot stays planted up to 12 cm of recorded rise, and
 whatever the recording's feet do while a sub-goal's contact holds."""
@@ -45,7 +48,7 @@ class SimConfig:
 
     Fields by concept
     -----------------
-    - Physics: timestep, servo_bandwidth, hand_force, grip, compliant_person, settle_iterations, noslip_iterations
+    - Physics: timestep, servo_bandwidth, hand_force, grip, compliant_person, settle_iterations
     - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth, stance,
       balance
     - Retargeting: ik, scaling, contact_completion
@@ -112,12 +115,6 @@ class SimConfig:
     step about twice as fast. See docs/environment.md, "Speed", for the measured effect."""
     settle_iterations: int = 20
     """[—]: IK solves spent at reset to reach the first frame's targets before physics starts."""
-    noslip_iterations: int = 0
-    """N_ns [iterations]: MuJoCo's no-slip post-solve (``opt.noslip_iterations``) on the physics scene: after the
-    main solver, friction forces are re-solved so that contacts inside their friction cones do not slip. MuJoCo's
-    soft contacts otherwise let a loaded contact creep in proportion to its friction force, well inside the cone
-    (a standing robot's planted feet turn about the vertical by up to 17° in a handshake; docs/benchmarks.md,
-    "The standing mode's feet in the contact phases …", issue 25). 0: MuJoCo's default (no post-solve)."""
 
     @classmethod
     def harness(cls, **changes: object) -> SimConfig:
@@ -147,9 +144,6 @@ class SimConfig:
                               "stance=StanceConfig(release=False) (a steadied base) or stance=None with balance")
         if self.balance is not None and self.foot_lock is None:
             raise ConfigError("SimConfig.balance: needs foot_lock (the controller acts while both feet are planted)")
-        if isinstance(self.noslip_iterations, bool) or not isinstance(self.noslip_iterations, int) \
-                or self.noslip_iterations < 0:
-            raise ConfigError(f"SimConfig.noslip_iterations: expected an integer ≥ 0, found {self.noslip_iterations!r}")
 
 
 @dataclass(frozen=True)

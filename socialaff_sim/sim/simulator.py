@@ -49,7 +49,7 @@ class Simulator:
     def __init__(self, robot: str | Path | RobotSpec, task: str | Path | TaskSpec, config: SimConfig | None = None) -> None:
         self.robot = robot if isinstance(robot, RobotSpec) else load_robot(robot)
         self.task = task if isinstance(task, TaskSpec) else load_task(task)
-        self.config = config or SimConfig()
+        self.config = config or SimConfig.mode(self.robot.physics)
         self._stages: dict[str, Stage] = {}
         self._stage: Stage | None = None
         self._footlock: FootLock | None = None
@@ -103,7 +103,6 @@ class Simulator:
         self.carry: CarryPlan | None = place.carry
         self.n_sub = place.n_sub
         scene.model.opt.timestep = place.timestep
-        scene.model.opt.noslip_iterations = self.config.noslip_iterations
         ik = stage.ik
         ik.collision_limit.restore(None)  # as newly built: the exemptions are the task's, set with the stage
         ik.set_human(self.pose.pos[0], self.pose.quat[0])
@@ -259,8 +258,9 @@ class Simulator:
         tg = fill_targets(np.asarray(targets, dtype=np.float64), self._home_keys)
         world = self.frame_R.to_world(tg)
         if self._footlock is not None:
+            physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.needs_physical else None
             world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()),
-                                              new_frame=not self._in_frame)
+                                              physical, new_frame=not self._in_frame)
             if self._footlock.pace is not None and self.config.foot_lock.pace_base:  # type: ignore[union-attr]
                 world[0, :2] += self._footlock.pace.lag  # the base held back with the paced feet
         seg_a, seg_b, radius = self._segments
