@@ -69,23 +69,16 @@ def test_the_removed_table_names_no_field_that_exists() -> None:
         assert removed and not set(removed) & {f.name for f in dataclasses.fields(classes[name])}
 
 
-def test_bench_support_stops_on_a_removed_field_before_any_episode(tmp_path: Path, monkeypatch, capsys) -> None:  # noqa: ANN001
+@pytest.mark.parametrize(("flag", "value", "expected"), [
+    ("--foot-lock", "catch_up=0.05", "61e3f3e"),
+    ("--sim", "noslip_iterations=10", "SimConfig.noslip_iterations was removed at e4dd195"),
+])
+def test_bench_support_stops_on_a_removed_field_before_any_episode(tmp_path: Path, monkeypatch, capsys,  # noqa: ANN001
+                                                                    flag: str, value: str, expected: str) -> None:
     monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "scripts"))
     bench = load_script("bench_support")
     out = tmp_path / "out.json"
-    monkeypatch.setattr("sys.argv", ["bench_support.py", "--modes", "standing", "--json", str(out),
-                                     "--foot-lock", "catch_up=0.05"])
+    monkeypatch.setattr("sys.argv", ["bench_support.py", "--modes", "standing", "--json", str(out), flag, value])
     line = _error(capsys, bench.main)
-    assert "--foot-lock 'catch_up=0.05'" in line and "61e3f3e" in line
-    assert not out.exists()
-
-
-def test_bench_support_sim_flag_names_a_removed_field_before_any_episode(tmp_path: Path, monkeypatch, capsys) -> None:  # noqa: ANN001
-    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "scripts"))
-    bench = load_script("bench_support")
-    out = tmp_path / "out.json"
-    monkeypatch.setattr("sys.argv", ["bench_support.py", "--modes", "standing", "--json", str(out),
-                                     "--sim", "noslip_iterations=10"])
-    line = _error(capsys, bench.main)
-    assert "--sim 'noslip_iterations=10'" in line and "SimConfig.noslip_iterations was removed at e4dd195" in line
+    assert f"{flag} '{value}'" in line and expected in line
     assert not out.exists()
