@@ -1,6 +1,5 @@
 """The balance controller's per-step shortcuts (issue 25, the standing mode's CPU cost): each gives what it replaces,
-bit for bit, against an independent reference — the actuators' limit table against :func:`actuator_limits` and
-MuJoCo's own clipping, the centre-of-pressure rows against an entry-by-entry construction and against the centres of
+bit for bit, against an independent reference — the actuators' limit table against MuJoCo's own clipping, the centre-of-pressure rows against an entry-by-entry construction and against the centres of
 pressure themselves, the step's contacts read once and handed to every part that folds them in, and the feet's
 rows built in reused room."""
 
@@ -13,7 +12,7 @@ import pytest
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim import arm_compensation, balance_control, hand_yield
 from socialaff_sim.sim.balance_config import BalanceConfig
-from socialaff_sim.sim.contact_qp import ActuatorLimits, actuator_limits, cop_rows
+from socialaff_sim.sim.contact_qp import ActuatorLimits, cop_rows
 from socialaff_sim.sim.external_force import ExternalForces
 from socialaff_sim.sim.flat_feet import foot_rows
 from socialaff_sim.sim.scene import Scene, build_scene
@@ -36,7 +35,19 @@ UNLIMITED = """
 """
 
 
-def test_the_actuator_limit_table_is_actuator_limits_bit_for_bit_and_mujocos_clipping(rng, scene: Scene) -> None:
+def _clipped(m: mujoco.MjModel, d: mujoco.MjData, act_ids: np.ndarray) -> np.ndarray:
+    """(A, 2) what MuJoCo delivers to each actuated joint (one actuator, gear 1, per joint) at ``d``'s state with
+    the actuators' controls far past each end."""
+    dofs = m.jnt_dofadr[m.actuator_trnid[act_ids, 0]]
+    out = np.empty((len(act_ids), 2))
+    for end, col in ((-1e6, 0), (1e6, 1)):
+        d.ctrl[act_ids] = end
+        mujoco.mj_forward(m, d)
+        out[:, col] = d.qfrc_actuator[dofs]
+    return out
+
+
+def test_the_actuator_limit_table_is_mujocos_clipping(rng, scene: Scene) -> None:
     m = mujoco.MjModel.from_xml_string(ACTUATED)
     d = mujoco.MjData(m)
     table = ActuatorLimits(m, np.arange(3))
@@ -44,20 +55,21 @@ def test_the_actuator_limit_table_is_actuator_limits_bit_for_bit_and_mujocos_cli
         d.qpos[:] = rng.uniform(-1.0, 1.0, size=3)
         d.qvel[:] = rng.normal(size=3)
         lim = table(d.qpos.copy(), d.qvel.copy())
-        np.testing.assert_array_equal(lim, actuator_limits(m, np.arange(3), d.qpos.copy(), d.qvel.copy()))
-        for end, col in ((-1e6, 0), (1e6, 1)):  # independent: what MuJoCo delivers with the control far past each end
-            d.ctrl[:] = end
-            mujoco.mj_forward(m, d)
-            np.testing.assert_allclose(d.qfrc_actuator, lim[:, col], atol=1e-9)
+        np.testing.assert_allclose(_clipped(m, d, np.arange(3)), lim, atol=1e-9)  # independent: MuJoCo's own
     free = mujoco.MjModel.from_xml_string(UNLIMITED)  # nothing limits it: ±inf
     np.testing.assert_array_equal(ActuatorLimits(free, np.arange(1))(np.zeros(1), np.ones(1)), [[-np.inf, np.inf]])
-    # Stubby's servos (control ranges and force ranges) at random states: the same figures, bit for bit
+    # Stubby's servos (control ranges and force ranges) at random states of their joints: MuJoCo's own figures
     sm = scene.model
-    table = ActuatorLimits(sm, scene.act_ids)
+    ids = np.asarray(scene.act_ids, dtype=np.int64)
+    joints = sm.actuator_trnid[ids, 0]
+    table = ActuatorLimits(sm, ids)
+    sd = mujoco.MjData(sm)
     for _ in range(20):
-        q = rng.uniform(-1.0, 1.0, size=len(scene.act_ids))
-        v = rng.normal(size=len(scene.act_ids))
-        np.testing.assert_array_equal(table(q, v), actuator_limits(sm, scene.act_ids, q, v))
+        q = rng.uniform(-1.0, 1.0, size=len(ids))
+        v = rng.normal(size=len(ids))
+        sd.qpos[sm.jnt_qposadr[joints]] = q
+        sd.qvel[sm.jnt_dofadr[joints]] = v
+        np.testing.assert_allclose(_clipped(sm, sd, ids), table(q, v), atol=1e-9)
 
 
 def _cop_rows_reference(points, edges, foot, axes, bounds) -> np.ndarray:

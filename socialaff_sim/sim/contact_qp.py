@@ -69,26 +69,15 @@ def actuator_limits(m: mujoco.MjModel, act_ids: np.ndarray, qpos: np.ndarray, qv
     state ``qpos`` and ``qvel`` (A,) of the joint, clipped as MuJoCo clips: where the control is limited, the
     force ``gain·ctrl + b₀ + b₁q + b₂q̇`` at the ends of ``ctrlrange`` (a position servo's reach at this state),
     then clipped to its ``forcerange`` (where force-limited), then to its joint's ``actuatorfrcrange`` (where
-    limited; one actuator per joint, gear 1, as the scenes' robots have). ±inf where nothing limits it."""
-    ids = np.asarray(act_ids, dtype=np.int64)
-    out = np.tile([-np.inf, np.inf], (len(ids), 1))
-    cl = m.actuator_ctrllimited[ids].astype(bool)
-    if cl.any():
-        g = m.actuator_gainprm[ids, 0]
-        b = m.actuator_biasprm[ids, :3]
-        ends = g[:, None] * m.actuator_ctrlrange[ids] + (b[:, 0] + b[:, 1] * qpos + b[:, 2] * qvel)[:, None]
-        out[cl] = np.sort(ends, axis=1)[cl]
-    for limited, rng in ((m.actuator_forcelimited[ids].astype(bool), m.actuator_forcerange[ids]),
-                         (m.jnt_actfrclimited[m.actuator_trnid[ids, 0]].astype(bool),
-                          m.jnt_actfrcrange[m.actuator_trnid[ids, 0]])):
-        out[limited] = np.clip(out[limited], rng[limited, :1], rng[limited, 1:])
-    return out
+    limited; one actuator per joint, gear 1, as the scenes' robots have). ±inf where nothing limits it. One call of
+    :class:`ActuatorLimits`, which gathers the model's constants for repeated calls."""
+    return ActuatorLimits(m, act_ids)(qpos, qvel)
 
 
 class ActuatorLimits:
     """:func:`actuator_limits` of the actuators ``act_ids`` (A,) of one model, its constants (gains, biases, ranges,
-    which limits apply) gathered once: called at every physics step the balance controller drives, it gives the
-    same figures, bit for bit, with none of the per-call indexing."""
+    which limits apply) gathered once: called at every physics step the balance controller drives, with none of
+    the per-call indexing."""
 
     def __init__(self, m: mujoco.MjModel, act_ids: np.ndarray) -> None:
         ids = np.asarray(act_ids, dtype=np.int64)
