@@ -52,7 +52,7 @@ from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .contact_qp import ActuatorLimits, cop_rows, solve_contact_qp
 from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
-from .flat_feet import flat_attitude, flat_contacts
+from .flat_feet import flat_attitude, flat_contacts, foot_feedback
 from .hand_yield import HandYield
 from .scene import Scene
 from .self_clearance import SelfClearance
@@ -114,6 +114,7 @@ class BalanceController:
         self._limits, self._Mix = ActuatorLimits(m, scene.act_ids), np.ix_(self.vadr, self.vadr)  # made once
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside the joints' task
         self._joint_scale, self._joint_rows = scale, np.eye(n)[6:] * scale[:, None]
+        self._joint_diag = np.concatenate([np.zeros(6), scale])  # the same rows as the QP's diagonal task
         self._foot_scratch = (np.zeros((6, m.nv)), np.zeros((6, m.nv)))
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
@@ -288,22 +289,19 @@ class BalanceController:
             if c.flat_feet:
                 self._anchor = [(np.array([p[0], p[1], self._home_z[s]]), flat_attitude(r, self._home_rot[s],
                                  self._foot_fwd[s])) for s, (p, r) in enumerate(self._anchor)]
+        # planted feet held where they stand; with flat_feet the same rows, less their drift, hold as equalities
+        feet = [foot_feedback(m, d, body, va, pos, rot, c.foot_stiffness, c.foot_damping, self._foot_scratch[0])
+                for body, (pos, rot) in zip(self._feet, self._anchor, strict=True)]
+        tasks.extend((J, b, c.w_feet) for J, b in feet)
         eq = None
         if c.flat_feet:
             pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
                                                    which, c.sole_gap, c.foot_stiffness, c.foot_damping,
-                                                   self._foot_scratch)
+                                                   self._foot_scratch, feet)
         jac = np.empty((len(pts), 3, n))
         for i, (p, s) in enumerate(zip(pts, which, strict=True)):
             mujoco.mj_jac(m, d, self._jp, None, p, self._feet[int(s)])
             jac[i] = self._jp[:, va]
-        for body, (pos, rot) in zip(self._feet, self._anchor, strict=True):  # planted feet held where they stand
-            mujoco.mj_jacBody(m, d, self._jp, self._jr, body)
-            J = np.vstack([self._jp[:, va], self._jr[:, va]])
-            mujoco.mju_mat2Quat(self._quat, (rot @ d.xmat[body].reshape(3, 3).T).ravel())
-            mujoco.mju_quat2Vel(self._rot, self._quat, 1.0)
-            off = np.concatenate([pos - d.xpos[body], self._rot])
-            tasks.append((J, c.foot_stiffness * off - c.foot_damping * (J @ qv), c.w_feet))
         goal = self.reference(d, box)
         wc, zc = c.com_bandwidth, c.com_damping
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
@@ -325,7 +323,8 @@ class BalanceController:
         if self.compensation is not None:  # the arms' references on the trunk as it is
             dq = dq + self.compensation.offsets(m, d, q_ref)
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
-        tasks.append((self._joint_rows, want * self._joint_scale, c.w_joint))  # per-row weights inside one task
+        joints = want * self._joint_scale  # per-row weights inside one task
+        tasks.append((self._joint_rows, joints, c.w_joint))
         edges = cone_edges(frames, c.friction)
         if c.solver == "lsq":
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
@@ -337,7 +336,9 @@ class BalanceController:
         area = np.bincount(which, minlength=len(self._feet)) >= 3
         foot = np.where(area[which], which, -1)
         ineq = None if self._clearance is None else self._clearance.rows(m, d)
-        res = solve_contact_qp(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_force, limits,
+        # the joints' rows as the QP's diagonal task: no (n − 6) × n products of zeros
+        qp_tasks = [*tasks[:-1], (self._joint_diag, np.concatenate([np.zeros(6), joints]), c.w_joint)]
+        res = solve_contact_qp(M, h, self.unactuated, jac, edges, qp_tasks, self.mass, c.w_force, limits,
                                self._cop(d, pts, edges, foot, box), foot, c.min_foot_load * self.mass * self._g,
                                equalities=eq, inequalities=ineq)
         self.limit_steps += int(res.at_limit.any())

@@ -143,7 +143,7 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     ``M`` (n, n), ``h`` (n,): mass matrix and bias forces (N, N·m); ``unactuated`` (n,) bool: coordinates
     without an actuator (their rows are equalities); ``point_jac`` (P, 3, n), ``edges`` (P, 3, 4): the contact
     points' translational Jacobians and cone edges; ``tasks``: (A (r, n), b (r,), w) rows ``A q̈ = b`` with their
-    weights; ``mass`` (kg); ``w_force``: weight of ‖β / m‖²; ``tau_limits`` (n, 2): [lo, hi] per row (N, N·m;
+    weights (A (n,), b (n,): the diagonal rows ``A_i q̈_i = b_i``, one per coordinate, a zero A_i none); ``mass`` (kg); ``w_force``: weight of ‖β / m‖²; ``tau_limits`` (n, 2): [lo, hi] per row (N, N·m;
     ±inf: none; the unactuated rows' are ignored); ``cop`` (R, 4P): rows with ``cop β ≥ 0`` (:func:`cop_rows`);
     ``foot`` (P,) each point's foot (−1: none) and ``min_load`` (N): every foot with points pushes on the floor
     with at least this vertical force (a foot left without load lifts off the floor and loses its contacts);
@@ -166,6 +166,10 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     H[diag[K:], diag[K:]] = w_reg
     Hq = H[K:, K:]
     for A, b, w in tasks:
+        if A.ndim == 1:  # a diagonal task: AᵀA and Aᵀb without the products of zeros (the same sums)
+            Hq[diag[:n], diag[:n]] += w * (A * A)
+            f[K:] -= w * (A * b)
+            continue
         Hq += w * (A.T @ A)
         f[K:] -= w * (A.T @ b)
     act = ~np.asarray(unactuated, dtype=bool)
