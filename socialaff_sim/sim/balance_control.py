@@ -56,7 +56,7 @@ from .flat_feet import flat_attitude, flat_contacts, foot_feedback
 from .hand_yield import HandYield
 from .scene import Scene
 from .self_clearance import SelfClearance
-from .support_box import SupportBox, cop_interval
+from .support_box import SupportBox, cop_intervals
 
 __all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
 
@@ -116,6 +116,8 @@ class BalanceController:
         self._joint_scale, self._joint_rows = scale, np.eye(n)[6:] * scale[:, None]
         self._joint_diag = np.concatenate([np.zeros(6), scale])  # the same rows as the QP's diagonal task
         self._foot_scratch = (np.zeros((6, m.nv)), np.zeros((6, m.nv)))
+        self._edges: tuple[bytes, np.ndarray] = (b"", np.zeros((0, 3, 4)))  # the last frames' cone edges
+        self._soles_now: list[np.ndarray | None] = [None] * len(self._feet)  # the step's soles, world (soles_at)
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
         self._jr = np.zeros((3, m.nv))
@@ -185,7 +187,8 @@ class BalanceController:
         box = None
         if standing:
             fwd = self.feet.heading(d)
-            box = SupportBox(self.feet.footprint(d, pts, which), fwd)
+            self._soles_now = self.feet.soles_at(d)  # the soles in the world, for the box and the _cop's bounds
+            box = SupportBox(self.feet.footprint(d, pts, which, self._soles_now), fwd)
             com = d.subtree_com[self.scene.root_body]
             self._jp[:] = 0.0
             mujoco.mj_jacSubtreeCom(m, d, self._jp, self.scene.root_body)
@@ -325,7 +328,11 @@ class BalanceController:
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
         joints = want * self._joint_scale  # per-row weights inside one task
         tasks.append((self._joint_rows, joints, c.w_joint))
-        edges = cone_edges(frames, c.friction)
+        key = frames.tobytes()  # with flat_feet the same level frames step after step: their edges made once
+        if key != self._edges[0]:
+            self._edges = (key, cone_edges(frames, c.friction))
+            self._edges[1].flags.writeable = False
+        edges = self._edges[1]
         if c.solver == "lsq":
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
                                           c.w_force).tau[self._act_rows]
@@ -356,13 +363,11 @@ class BalanceController:
         """(R, 4P) the centre-of-pressure rows (:func:`~.contact_qp.cop_rows`): each foot's kept ``cop_margin``
         inside its sole, along the support box's axes."""
         bounds = np.zeros((len(self._feet), 2, 2))
-        for s, body in enumerate(self._feet):
-            mine = pts[which == s, :2]
-            if not len(mine):  # (−1 in ``which``: a point left unbounded)
-                continue
-            sole = self._sole[s]
-            xy = mine if sole is None else (d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T)[:, :2]
-            bounds[s] = cop_interval(box.R, xy, mine, self.config.cop_margin)
+        feet = [s for s in range(len(self._feet)) if (which == s).any()]  # (−1 in ``which``: a point left unbounded)
+        if feet:
+            mine = [pts[which == s, :2] for s in feet]
+            soles = [xy if self._sole[s] is None else self._soles_now[s][:, :2] for s, xy in zip(feet, mine, strict=True)]
+            bounds[feet] = cop_intervals(box.R, soles, mine, self.config.cop_margin)
         return cop_rows(pts, edges, which, box.R, bounds)
 
     # -- measurements ---------------------------------------------------------------------------------------
