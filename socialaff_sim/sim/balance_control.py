@@ -301,6 +301,7 @@ class BalanceController:
             pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
                                                    which, c.sole_gap, c.foot_stiffness, c.foot_damping,
                                                    self._foot_scratch, feet)
+        floor = float(pts[:, 2].mean())  # the contacts' mean height (m), for the lean and the hands' give
         jac = np.empty((len(pts), 3, n))
         for i, (p, s) in enumerate(zip(pts, which, strict=True)):
             mujoco.mj_jac(m, d, self._jp, None, p, self._feet[int(s)])
@@ -308,7 +309,7 @@ class BalanceController:
         goal = self.reference(d, box)
         wc, zc = c.com_bandwidth, c.com_damping
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
-            p = np.array([goal[0], goal[1], float(pts[:, 2].mean())])
+            p = np.array([goal[0], goal[1], floor])
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
         goal = box.clip(goal, c.support_margin)
         tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], c.w_com))
@@ -322,7 +323,7 @@ class BalanceController:
         hinge_q = d.qpos[self.qadr[7:]]
         wq = c.joint_bandwidth
         dq, dv = (0.0, 0.0) if self.hand_yield is None else self.hand_yield.references(  # the arms give way to a
-            m, d, box, self._capture, float(pts[:, 2].mean()), c.cop_margin, self.mass * self._g)  # force too large
+            m, d, box, self._capture, floor, c.cop_margin, self.mass * self._g)  # force too large
         if self.compensation is not None:  # the arms' references on the trunk as it is
             dq = dq + self.compensation.offsets(m, d, q_ref)
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])

@@ -44,7 +44,7 @@ def sole_points(pos: np.ndarray, rot: np.ndarray, corners: np.ndarray) -> tuple[
     ``rot`` (3, 3), and their contact frames (4, 3, 3): the floor's normal (+z) first, then the world's x and y
     as tangents (the rows of MuJoCo's ``contact.frame`` for a level floor)."""
     pts = pos + corners @ rot.T
-    frames = np.tile(_LEVEL_FRAME, (len(corners), 1, 1))
+    frames = _LEVEL_FRAME[None].repeat(len(corners), axis=0)
     return pts, frames
 
 
