@@ -30,6 +30,7 @@ import json
 import sys
 import time
 import types
+from pathlib import Path
 from typing import Any
 
 import daqp
@@ -122,6 +123,9 @@ def main() -> None:
         paths = dict(item.split("=", 1) for item in args.mjcf)
     except ValueError:
         ap.error("--mjcf: expected NAME=PATH")
+    for name, path in paths.items():
+        if not Path(path).is_file():
+            ap.error(f"--mjcf {name}: no file {path}")
     data = generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=args.instances))
     for robot in ["ours", *paths]:
         for label in LABELS:
