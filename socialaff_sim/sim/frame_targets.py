@@ -17,6 +17,7 @@ import mujoco
 import numpy as np
 
 from ..errors import SimulationError
+from ..retarget.base_approach import BaseApproach
 from ..retarget.contact_completion import ContactCompletion, ContactCompletionConfig
 from ..retarget.flight_target import FlightState, ballistic, landing_time
 from ..retarget.ik import RobotIK
@@ -54,6 +55,8 @@ class FrameTargets:
         self.task = task
         self.lookahead = float(lookahead)
         self.completion = None if completion is None else ContactCompletion(completion)
+        self.base_approach = (None if completion is None or completion.base_approach is None
+                              else BaseApproach(completion.base_approach, completion.base_approach_ramp))
         self._anchors: dict[str, ContactAnchors] = {}
         self._completed_frame = -1
 
@@ -69,6 +72,8 @@ class FrameTargets:
         if self.completion is not None:
             self.completion.reset()
             self._completed_frame = -1
+            if self.base_approach is not None:
+                self.base_approach.reset()
             name = place.interaction.layout.name
             if name not in self._anchors:
                 self._anchors[name] = ContactAnchors(scene, self.task)
@@ -120,6 +125,9 @@ class FrameTargets:
                            shoulder=self.planned_shoulders() if cc.planned_shoulder else None,
                            catch=catch, flight=flight)
         world[1:3] = self.completion(x, t, 1.0 / fps)
+        if self.base_approach is not None:  # the base moved in toward a captured contact beyond the plan's reach
+            shoulders = place.frame.to_world(out[0] + self.scaler.robot.shoulders)
+            world[0, :2] += self.base_approach(world[1:3], shoulders, self.arm, self.completion.weight > 0, t, 1.0 / fps)
         self._completed_frame = t
         return place.frame.to_robot(world)
 
