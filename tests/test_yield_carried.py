@@ -19,10 +19,9 @@ from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.external_force import Contacts
-from socialaff_sim.sim.hand_yield import HandYield, feet_allowance, weld_force
+from socialaff_sim.sim.hand_yield import HandYield, weld_force
 from socialaff_sim.sim.scene import ObjectSpec, build_scene
 from socialaff_sim.sim.simulator import SimConfig, Simulator
-from socialaff_sim.sim.support_box import SupportBox
 from test_balance_control import LAYOUT
 
 CUP = ObjectSpec("cylinder", (0.045, 0.06), 0.25)
@@ -146,31 +145,3 @@ def test_a_hand_over_gives_to_the_persons_pull_through_the_cup_and_its_feet_slid
     s0, s1 = m0["support"]["contact_phase"], m1["support"]["contact_phase"]
     assert m0["success"] and m1["success"]
     assert s1["foot_slide_cm"] < s0["foot_slide_cm"] - 1.0  # traced: 5.8 -> 4.2 cm
-
-
-def test_the_carried_allowance_caps_the_feet_allowance_only_while_the_carried_object_presses(hanging) -> None:
-    sc = hanging[0]
-    box = SupportBox(np.array([[-0.1, -0.15], [0.1, -0.15], [-0.1, 0.15], [0.1, 0.15]]), np.array([1.0, 0.0]))
-    weight = 446.0
-    tip = feet_allowance(box, np.array([1.0, 0.0]), np.zeros(2), 0.01, weight, 1.0)
-    assert 18.0 < 0.5 * tip  # an 18 N pull forward at 1 m does not tip the robot (half of 40.1 N)
-
-    def pulled(cap: float | None, holding: bool) -> np.ndarray:
-        hy = HandYield(sc, 0.5, 50.0, 1.0, 0.0, None, carried=True, carried_cap=cap)
-        hy.force = np.array([[0.0, 0.0, 0.0], [18.0, 0.0, 0.0]])
-        hy._height, hy._at, hy._holding = 1.0, np.array([0.35, 0.0]), holding
-        hy.update(0.004, box, np.zeros(2), 0.0, 0.01, weight)
-        return hy.offset
-    # F_c = 10 N while the cup presses: it gives at (18 − 0.5·10) / 50 m/s along the pull
-    np.testing.assert_allclose(pulled(10.0, True)[1], [0.004 * (18.0 - 5.0) / 50.0, 0.0], atol=1e-12)
-    assert not pulled(10.0, False).any()  # the cup not pressing (released): the feet's allowance decides, it holds
-    assert not pulled(None, True).any()  # no cap: the feet's allowance decides
-    assert not pulled(40.0, True).any()  # a cap above what the feet carry changes nothing
-
-
-def test_the_carried_allowance_needs_yield_carried_and_a_force() -> None:
-    assert BalanceConfig(hand_yield=0.5, yield_carried=True, carried_allowance=10.0).carried_allowance == 10.0
-    with pytest.raises(ConfigError, match="carried_allowance"):
-        BalanceConfig(hand_yield=0.5, carried_allowance=10.0)
-    with pytest.raises(ConfigError, match="carried_allowance"):
-        BalanceConfig(hand_yield=0.5, yield_carried=True, carried_allowance=-1.0)

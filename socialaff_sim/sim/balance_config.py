@@ -33,8 +33,7 @@ class BalanceConfig:
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, min_foot_load, torque_fraction, flat_feet
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
-    - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried,
-      carried_allowance
+    - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, catch_tilt,
       catch_margin, catch_blend, drive_harnessed
@@ -138,10 +137,6 @@ class BalanceConfig:
     over's cup gripped while the person's track still moved it pulled Stubby's hand by 15–77 N and twisted it
     about its feet by up to 46 N·m, and 85–92 % of the contact phase's foot slide fell before the release).
     ``False``: the person's own contacts only."""
-    carried_allowance: float | None = None
-    """F_c [N]: ``yield_carried``: while the person carries the object and it presses on an arm, the feet's allowance
-    is also at most F_c (the arm follows the giver's hand beyond κ F_c whatever the feet could carry; a receiving hand
-    is led by the giving one). ``None``: the feet's allowance alone."""
     arm_compensation: float | None = None
     """c [—]: the arms' hinge references move, at each driven step, by c times the damped least-squares step that
     puts each wrist, on the trunk as it is, where the plan's wrist is in the world (:mod:`~.arm_compensation`: a
@@ -215,9 +210,6 @@ class BalanceConfig:
         if self.yield_carried and self.hand_yield is None:
             raise ConfigError("BalanceConfig.yield_carried: needs hand_yield (the carried object's forces are counted "
                               "by the hands' give)")
-        if self.carried_allowance is not None and not (self.yield_carried and self.carried_allowance >= 0.0):
-            raise ConfigError(f"BalanceConfig.carried_allowance: needs yield_carried and a force ≥ 0 N, found "
-                              f"{self.carried_allowance!r} with yield_carried {self.yield_carried!r}")
         if self.arm_compensation is not None and not self.arm_compensation >= 0.0:
             raise ConfigError(f"BalanceConfig.arm_compensation: expected None or a fraction ≥ 0, found "
                               f"{self.arm_compensation}")

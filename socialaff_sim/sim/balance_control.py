@@ -105,8 +105,7 @@ class BalanceController:
             scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
                                                                       c.yield_return, c.external_filter,
-                                                                      c.yield_twist, c.yield_carried,
-                                                                      c.carried_allowance)
+                                                                      c.yield_twist, c.yield_carried)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)

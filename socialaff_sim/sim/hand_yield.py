@@ -107,15 +107,13 @@ class HandYield:
     of the balance controller."""
 
     def __init__(self, scene: Scene, fraction: float, damping: float, back: float, filter_time: float,
-                 twist: float | None = None, carried: bool = False, carried_cap: float | None = None) -> None:
+                 twist: float | None = None, carried: bool = False) -> None:
         m = scene.model
         self.scene = scene
         self.twist = twist
         """σ (m): the allowance is also at most :func:`twist_allowance` (``BalanceConfig.yield_twist``); ``None``: not."""
         self.carried = bool(carried) and scene.object_geom >= 0
         """Whether the object's forces count as the person's while the person carries it (``yield_carried``)."""
-        self.carried_cap = carried_cap
-        """F_c (N): while they count and press on an arm, the allowance is at most this (``carried_allowance``)."""
         self._grip = [(int(e), int(b), int(np.flatnonzero(scene.arm_geom[s])[0]))  # weld, its hand body, an arm geom
                       for s, (e, b) in enumerate(zip(scene.grip_eq, scene.grip_body, strict=True)) if e >= 0]
         self._root_lin = np.asarray(scene.robot_vadr[:3])
@@ -139,7 +137,6 @@ class HandYield:
         """(2, 3) the filtered contact force on each arm (world, N)."""
         self._height = 1.0
         self._at = np.zeros(2)
-        self._holding = False  # whether the carried object's forces counted at the last measure
         self.yield_steps = 0
         """Updates in which the arms gave way."""
 
@@ -153,7 +150,6 @@ class HandYield:
         held = self.carried and carried and d is not None
         if held:  # ... but the person's track holds the object: it is the person's hand
             mine = mine | (others == self.scene.object_geom)
-        self._holding = held and bool((others == self.scene.object_geom).any())
         pts, forces, geoms = pts[mine], forces[mine], geoms[mine]
         if held:
             welds = [(weld_force(m, d, e, self._root_lin, self._gen), d.xpos[b], g)
@@ -162,7 +158,6 @@ class HandYield:
                 pts = np.vstack([pts] + [p[None] for _, p, _ in welds])
                 forces = np.vstack([forces] + [f[None] for f, _, _ in welds])
                 geoms = np.concatenate([geoms, np.array([g for _, _, g in welds], dtype=np.int64)])
-                self._holding = True
         self.force = filtered_arm_force(self.force, forces, geoms, self._arm_geom, m, self.filter_time)
         on = self._arm_geom[:, geoms].any(axis=0) if len(geoms) else np.zeros(0, dtype=bool)
         if on.any():  # where the forces act: their points' mean, weighted by the force
@@ -182,8 +177,6 @@ class HandYield:
                                float(self.force[:, 2].sum()), self._at) if nrm > 0 else 0.0
         if self.twist is not None and nrm > 0:  # nor more twist about the vertical than the feet hold unturned
             allow = min(allow, twist_allowance(box.middle(), total / nrm, self._at, weight, self.twist))
-        if self.carried_cap is not None and self._holding:  # the giver's hand leads the receiving one
-            allow = min(allow, self.carried_cap)
         rate = yield_rate(f, allow, self.fraction, self.damping)
         if rate.any():
             self.yield_steps += 1
