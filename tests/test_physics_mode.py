@@ -33,8 +33,8 @@ def test_the_default_is_the_harness_and_standing_is_a_named_preset() -> None:
     # session-28 rule added (confined to the approach: the touch latch alone) and the hands' give against the twist
     # its session-29 rule added.
     assert d.balance == BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0, flat_feet=True, self_clearance=0.01,
-                                      hand_yield=0.5, yield_damping=50.0, yield_twist=0.02, arm_compensation=1.0,
-                                      compensation_gate=1e9)
+                                      hand_yield=0.5, yield_damping=50.0, yield_twist=0.02, yield_carried=True,
+                                      arm_compensation=1.0, compensation_gate=1e9)
     assert d.stance == StanceConfig(release=False)
     assert d.foot_lock == FootLockConfig(hold_lift=0.12, hold_in_contact=True)
     assert not d.gravity_compensation

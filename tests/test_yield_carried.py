@@ -112,7 +112,13 @@ def test_yield_carried_needs_the_hands_give() -> None:
     assert BalanceConfig(hand_yield=0.5, yield_carried=True).yield_carried
     with pytest.raises(ConfigError, match="yield_carried"):
         BalanceConfig(yield_carried=True)
-    assert not SimConfig.standing().balance.yield_carried  # an option, off
+
+
+def test_the_standing_mode_gives_to_the_cups_pull_and_the_harness_has_no_controller() -> None:
+    # Adopted by the rule of docs/design.md §5 (run on instances 136-143); the harness has no balance controller.
+    assert SimConfig.standing().balance.yield_carried is True
+    assert SimConfig.harness().balance is None and SimConfig().balance is None
+    assert BalanceConfig().yield_carried is False  # the controller's own default: off
 
 
 @pytest.fixture(scope="module")
@@ -122,8 +128,7 @@ def hand_over_002():
 
 def _run(inter, option: bool) -> tuple[Simulator, dict, list[bool]]:
     cfg = SimConfig.standing()
-    if option:
-        cfg = dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, yield_carried=True))
+    cfg = dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, yield_carried=option))
     sim = Simulator(load_robot("ours"), "hand_over", cfg)
     carried: list[bool] = []  # the controller's flag as the frame stepper set it for each frame's last step
 
