@@ -4,16 +4,23 @@ controller's use of both, and a standing Stubby whose plan stands ahead of, behi
 
 from __future__ import annotations
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
 
+from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError
+from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.balance_control import BalanceController
 from socialaff_sim.sim.com_shift import forward_shortfall, shift_weight
+from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.scene import Scene, build_scene
+from socialaff_sim.sim.sim_config import STANDING_BALANCE
+from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.support_box import SupportBox
 
 from test_balance_control import LAYOUT, standing_far
@@ -147,3 +154,26 @@ def test_the_shift_until_touch_ends_at_an_arms_first_touch(scene: Scene) -> None
             assert np.all(s == 0.0) and w == 100.0
         else:
             assert np.allclose(s, 0.04 * box.R[0], atol=1e-6) and w > 5000.0
+
+
+def test_the_standing_mode_carries_the_shift_until_the_first_touch_and_the_harness_none() -> None:
+    # Adopted by the rule of docs/design.md §5 ("The standing mode's centre of mass moved forward by the feet's
+    # shortfall", run on instances 128-135); the harness has no balance controller.
+    b = SimConfig.standing().balance
+    assert b is STANDING_BALANCE
+    assert b.com_shift == 0.1 and b.shift_until_touch and b.shift_weight == 1e4 and b.com_reference == "plan"
+    assert SimConfig.harness().balance is None and SimConfig().balance is None
+
+
+def test_the_standing_mode_meets_a_high_five_it_missed_without_the_shift() -> None:
+    """high_five_001 (synthetic, seed 0), Stubby in the standing mode: its feet stand a few centimetres behind the
+    plan's and its raised hand stopped short (docs/design.md §5, "The standing body held where the plan has it").
+    With the shift until the first touch (today's standing mode) it is met; without it, missed."""
+    inter = next(i for i in generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=2))
+                 if i.instance_id == "high_five_001")
+    met = []
+    for over in ({}, {"com_shift": None, "shift_until_touch": False}):
+        cfg = SimConfig.standing()
+        sim = Simulator("ours", "high_five", dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, **over)))
+        met.append(run_episode(sim, GroundTruthSource(), inter)["success"])
+    assert met == [True, False]
