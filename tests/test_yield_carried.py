@@ -127,8 +127,9 @@ def hand_over_002():
 
 
 def _run(inter, option: bool) -> tuple[Simulator, dict, list[bool]]:
-    cfg = SimConfig.standing()
-    cfg = dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, yield_carried=option))
+    cfg = SimConfig.standing()  # as traced (before the centre of mass's forward shift joined the standing mode)
+    cfg = dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, yield_carried=option, com_shift=None,
+                                                               shift_until_touch=False))
     sim = Simulator(load_robot("ours"), "hand_over", cfg)
     carried: list[bool] = []  # the controller's flag as the frame stepper set it for each frame's last step
 
