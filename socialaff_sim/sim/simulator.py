@@ -97,7 +97,7 @@ class Simulator:
         set_human_sizes(stage.ik_scene, self.pose.half_lengths)
         self._segments = place.segments
         self.scaler = copy.copy(place.scaler)  # its online placement moves during the episode
-        self._targets.reset(place, self.scaler, scene, stage.ik, self.measurements.arm, stage.ik_scene.limb_body_ids)
+        self._targets.reset(place, self.scaler, scene, stage.ik, self.measurements.arm)
         self.frame_R: RobotFrame = place.frame
         self._yaw = self.frame_R.yaw
         self.carry: CarryPlan | None = place.carry
@@ -170,8 +170,7 @@ class Simulator:
             stage.stance.reset()
             stage.stance.apply(data)
         self._footlock = None if self.config.foot_lock is None else FootLock(
-            (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), self.config.foot_lock,
-            fps=self.interaction.fps)
+            (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), self.config.foot_lock)
         if self.carry is not None and self.carry.release_frame == 0:
             self._release(0)
         self.last_targets = self.frame_R.to_robot(key_frames_at(stage.ik_scene, q0, stage.kinematics))
@@ -261,8 +260,6 @@ class Simulator:
             physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.needs_physical else None
             world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()),
                                               physical, new_frame=not self._in_frame)
-            if self._footlock.pace is not None and self.config.foot_lock.pace_base:  # type: ignore[union-attr]
-                world[0, :2] += self._footlock.pace.lag  # the base held back with the paced feet
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
