@@ -36,7 +36,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from .arm_contacts import arm_hinges, filtered_arm_force
+from .arm_contacts import arm_hinges, filtered_arm_force, person_geoms
 from .external_force import Contacts
 from .scene import Scene
 from .support_box import SupportBox
@@ -121,8 +121,7 @@ class HandYield:
         self.fraction, self.damping, self.back, self.filter_time = fraction, damping, back, filter_time
         self.vadr = np.asarray(scene.robot_vadr)
         self._arm_geom = np.asarray(scene.arm_geom, dtype=bool)
-        self._person = np.zeros(m.ngeom, dtype=bool)
-        self._person[np.asarray(scene.human_geom_ids, dtype=np.int64)] = True
+        self._person = person_geoms(scene)
         self._wrist, self._cols = arm_hinges(scene)
         self._jp = np.zeros((3, m.nv))
         self.reset()
