@@ -29,11 +29,12 @@ class BalanceConfig:
     Fields by concept
     -----------------
     - Tracking: joint_bandwidth, torso_bandwidth, foot_damping, foot_stiffness
-    - Balance: com_bandwidth, com_damping, com_reference, support_margin, external_forces, external_filter
+    - Balance: com_bandwidth, com_damping, com_reference, com_shift, shift_weight, shift_until_touch,
+      support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, min_foot_load, torque_fraction, flat_feet
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
-    - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist
+    - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_level, catch_tilt,
       catch_margin, catch_blend, drive_harnessed
@@ -62,6 +63,17 @@ class BalanceConfig:
     outweigh unless ``w_com`` is large: docs/design.md §5, "The standing body held where the plan has it") or
     ``approach`` (``world`` until an arm first touches the person or the object in the episode, ``plan`` after: the
     latch of ``compensation_gate``, which it needs); each is kept ``support_margin`` inside the box."""
+    com_shift: float | None = None
+    """s_max [m]: with ``com_reference="plan"``, the reference is moved forward by the feet's shortfall along their
+    heading (the plan's feet's middle ahead of the physical feet's), at most s_max, and the centre of mass's rows are
+    weighted from ``w_com`` up to ``shift_weight`` in proportion (:mod:`~.com_shift`: the body stands where the plan
+    has it along the approach, without following feet that land off to the side, and without stiffening the centre
+    of mass against the arms where the feet stand where planned). ``None``: no shift."""
+    shift_weight: float = 1e4
+    """w_s [—]: ``com_shift``: the centre of mass's rows' weight at a shift of s_max."""
+    shift_until_touch: bool = False
+    """[—]: ``com_shift`` only until an arm first touches the person or the object in the episode (the latch of
+    ``compensation_gate``, which it needs): the approach of a contact, not a grasp a person pulls on."""
     support_margin: float = 0.03
     """[m]: the centre-of-mass reference is kept this far inside the box of the feet's contact points
     (axes along the robot's heading)."""
@@ -130,6 +142,13 @@ class BalanceConfig:
     the support box's middle is σ W (W the weight; :func:`~.hand_yield.twist_allowance`): the arms give way to a
     person's push across the robot before it twists the feet on the floor (traced, a handshake's 20–60 N sideways at
     the hand twisted Stubby by a median 14.5 N·m, and its planted feet turned 17°). ``None``: tipping alone."""
+    yield_carried: bool = False
+    """[—]: ``hand_yield``: while the person still carries the object (before its release the recorded track holds
+    it), the object's forces on the robot, its grip welds' and its contacts', count as the person's
+    (:meth:`~.hand_yield.HandYield.measure`): the person holds the robot's hand through the object (traced, a hand
+    over's cup gripped while the person's track still moved it pulled Stubby's hand by 15–77 N and twisted it
+    about its feet by up to 46 N·m, and 85–92 % of the contact phase's foot slide fell before the release).
+    ``False``: the person's own contacts only."""
     arm_compensation: float | None = None
     """c [—]: the arms' hinge references move, at each driven step, by c times the damped least-squares step that
     puts each wrist, on the trunk as it is, where the plan's wrist is in the world (:mod:`~.arm_compensation`: a
@@ -208,6 +227,9 @@ class BalanceConfig:
         if self.yield_twist is not None and (self.hand_yield is None or not self.yield_twist > 0.0):
             raise ConfigError(f"BalanceConfig.yield_twist: needs hand_yield and a length > 0 m, found "
                               f"{self.yield_twist!r} with hand_yield {self.hand_yield!r}")
+        if self.yield_carried and self.hand_yield is None:
+            raise ConfigError("BalanceConfig.yield_carried: needs hand_yield (the carried object's forces are counted "
+                              "by the hands' give)")
         if self.arm_compensation is not None and not self.arm_compensation >= 0.0:
             raise ConfigError(f"BalanceConfig.arm_compensation: expected None or a fraction ≥ 0, found "
                               f"{self.arm_compensation}")
@@ -231,6 +253,15 @@ class BalanceConfig:
         if self.com_reference not in COM_REFERENCES:
             raise ConfigError(f"BalanceConfig.com_reference: expected one of {', '.join(COM_REFERENCES)}, found "
                               f"{self.com_reference!r}")
+        if self.com_shift is not None and (self.com_reference != "plan" or not self.com_shift > 0.0):
+            raise ConfigError(f"BalanceConfig.com_shift: needs com_reference='plan' and a distance > 0 m, found "
+                              f"{self.com_shift!r} with com_reference {self.com_reference!r}")
+        if self.shift_until_touch and (self.com_shift is None or self.arm_compensation is None
+                                       or self.compensation_gate is None):
+            raise ConfigError("BalanceConfig.shift_until_touch: needs com_shift, arm_compensation and compensation_gate "
+                              "(their touch latch ends the approach)")
+        if not self.shift_weight >= 0.0:
+            raise ConfigError(f"BalanceConfig.shift_weight: expected a value ≥ 0, found {self.shift_weight}")
         if self.com_reference == "approach" and (self.arm_compensation is None or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.com_reference='approach': needs arm_compensation and compensation_gate "
                               "(their touch latch ends the approach)")

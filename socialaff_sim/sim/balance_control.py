@@ -9,7 +9,8 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    as reference), the torso's attitude toward the IK's (ω_o), the planted feet held where they stood when both
    came down (k_x, k_f: a creeping foot is drawn back), and the centre of mass's horizontal position toward a
    reference c* over the feet (ω_c, ζ): the IK's centre of mass relative to its feet carried over to the
-   physical feet (or the middle of the feet, or the IK's centre of mass where the plan has it in the world),
+   physical feet (or the middle of the feet, or the IK's centre of mass where the plan has it in the world;
+   with ``com_shift`` moved forward by the feet's shortfall behind the plan's, :mod:`~.com_shift`),
    optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
    with the floor, where they stand now) shrunk by a margin; with ``hand_yield`` the arms' references give way
@@ -50,6 +51,7 @@ from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
 from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
 from .contact_dynamics import cone_edges, solve_contact_dynamics
+from .com_shift import forward_shortfall, shift_weight
 from .contact_qp import ActuatorLimits, cop_rows, solve_contact_qp
 from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
@@ -106,7 +108,7 @@ class BalanceController:
             scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
                                                                       c.yield_return, c.external_filter,
-                                                                      c.yield_twist)
+                                                                      c.yield_twist, c.yield_carried)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
@@ -131,6 +133,9 @@ class BalanceController:
         """A new episode: harnessed, nothing planted, counters at zero."""
         self.released = False
         """Whether the harness is off (as of the last step)."""
+        self.carried = False
+        """Whether the person carries the object at this step (set by the frame stepper before each step; read by
+        ``yield_carried``)."""
         self.active = False
         """Whether the controller's torques drove the last step."""
         self._engaged = 0.0
@@ -142,6 +147,7 @@ class BalanceController:
         self._ext_moment = np.zeros(3)
         self._com_offset = np.zeros(2)
         self._com_plan = np.zeros(2)
+        self._plan_feet = np.zeros(2)
         self._torso_goal = np.eye(3)
         self.steps = self.active_steps = self.released_steps = self.catches = 0
         """Physics steps run, driven by the controller, with the harness off; times a released robot was caught."""
@@ -166,7 +172,7 @@ class BalanceController:
         p.qpos[self.qadr] = q_target
         mujoco.mj_kinematics(m, p)
         mujoco.mj_comPos(m, p)
-        feet = p.xpos[self._feet, :2].mean(axis=0)
+        feet = self._plan_feet = p.xpos[self._feet, :2].mean(axis=0)
         self._com_offset = p.subtree_com[self.scene.root_body, :2] - feet
         self._com_plan = p.subtree_com[self.scene.root_body, :2].copy()
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
@@ -228,7 +234,7 @@ class BalanceController:
         contacts = self._external.contacts(m, d) if standing and (
             self.hand_yield is not None or self.compensation is not None or c.external_forces) else None
         if standing and self.hand_yield is not None:
-            self.hand_yield.measure(m, contacts)  # type: ignore[arg-type]
+            self.hand_yield.measure(m, contacts, d, self.carried)  # type: ignore[arg-type]
         if standing and self.compensation is not None:
             self.compensation.measure(m, contacts)  # type: ignore[arg-type]
         if standing and c.external_forces:
@@ -275,6 +281,16 @@ class BalanceController:
             return self._com_plan.copy()
         return box.middle()
 
+    def shift(self, d: mujoco.MjData, box: SupportBox) -> tuple[np.ndarray, float]:
+        """``com_shift``: the reference's forward shift (2,) (world, m) by the feet's shortfall behind the plan's
+        along ``box``'s heading, and the centre of mass's rows' weight (:mod:`~.com_shift`); else (and with
+        ``shift_until_touch`` after an arm's first touch) none and ``w_com``."""
+        c = self.config
+        if c.com_shift is None or (c.shift_until_touch and self.compensation.touched.any()):  # type: ignore[union-attr]
+            return np.zeros(2), c.w_com
+        s, share = forward_shortfall(self._plan_feet, d.xpos[self._feet, :2].mean(axis=0), box.R[0], c.com_shift)
+        return s, shift_weight(c.w_com, c.shift_weight, share)
+
     def _torques(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray, pts: np.ndarray,
                  frames: np.ndarray, which: np.ndarray, box: SupportBox, com: np.ndarray, jcom: np.ndarray,
                  comvel: np.ndarray) -> np.ndarray:
@@ -309,13 +325,14 @@ class BalanceController:
         for i, (p, s) in enumerate(zip(pts, which, strict=True)):
             mujoco.mj_jac(m, d, self._jp, None, p, self._feet[int(s)])
             jac[i] = self._jp[:, va]
-        goal = self.reference(d, box)
+        shift, w_com = self.shift(d, box)
+        goal = self.reference(d, box) + shift
         wc, zc = c.com_bandwidth, c.com_damping
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
             p = np.array([goal[0], goal[1], floor])
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
         goal = box.clip(goal, c.support_margin)
-        tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], c.w_com))
+        tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], w_com))
         mujoco.mj_jacBody(m, d, self._jp, self._jr, self._torso)
         Jt = self._jr[:, va].copy()
         err = self._torso_goal @ d.xmat[self._torso].reshape(3, 3).T  # world rotation from now to the goal
