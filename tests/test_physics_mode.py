@@ -36,7 +36,8 @@ def test_the_default_is_the_harness_and_standing_is_a_named_preset() -> None:
                                       hand_yield=0.5, yield_damping=50.0, yield_twist=0.02, arm_compensation=1.0,
                                       compensation_gate=1e9)
     assert d.stance == StanceConfig(release=False)
-    assert d.foot_lock == FootLockConfig(hold_lift=0.12, hold_in_contact=True)
+    assert d.foot_lock == FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05,
+                                         glide_until_contact=True, glide_gap=0.12)  # session 30's rule
     assert not d.gravity_compensation
     assert h != d
     assert PHYSICS_CHOICES == PHYSICS_MODES  # the command line's --physics, written out to keep start-up light
