@@ -227,7 +227,8 @@ def test_the_gate_reaches_the_controller() -> None:
     inter = next(i for i in generate_dataset(seed=0) if i.instance_id == "high_five_004")
     for gate in (None, 0.4):
         sim = Simulator("ours", "high_five", dataclasses.replace(
-            cfg, balance=dataclasses.replace(cfg.balance, arm_compensation=1.0, compensation_gate=gate)))
+            cfg, balance=dataclasses.replace(cfg.balance, arm_compensation=1.0, compensation_gate=gate,
+                                             com_shift=None, shift_until_touch=False)))
         assert sim._get_stage(inter).stepper.balance.compensation.gate == gate
 
 
@@ -255,7 +256,8 @@ def test_a_standing_robot_meets_the_high_five_its_turned_trunk_missed() -> None:
     for c, gate in ((None, None), (1.0, None), (1.0, 0.4)):  # the last confined to the approach (d_g 0.4 m)
         cfg = SimConfig.standing()
         sim = Simulator("ours", "high_five", dataclasses.replace(
-            cfg, balance=dataclasses.replace(cfg.balance, arm_compensation=c, compensation_gate=gate)))
+            cfg, balance=dataclasses.replace(cfg.balance, arm_compensation=c, compensation_gate=gate,
+                                             com_shift=None, shift_until_touch=False)))  # as the rule found it
         met.append(run_episode(sim, GroundTruthSource(), inter)["success"])
         beta.append(max(float(np.max(r.completion)) for r in sim.results if r.completion is not None))
     assert met == [False, True, True]

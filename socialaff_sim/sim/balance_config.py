@@ -29,13 +29,14 @@ class BalanceConfig:
     Fields by concept
     -----------------
     - Tracking: joint_bandwidth, torso_bandwidth, foot_damping, foot_stiffness
-    - Balance: com_bandwidth, com_damping, com_reference, support_margin, external_forces, external_filter
+    - Balance: com_bandwidth, com_damping, com_reference, com_shift, shift_weight, shift_until_touch,
+      support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, min_foot_load, torque_fraction, flat_feet
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
-    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, catch_tilt,
+    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_level, catch_tilt,
       catch_margin, catch_blend, drive_harnessed
     """
 
@@ -62,6 +63,17 @@ class BalanceConfig:
     outweigh unless ``w_com`` is large: docs/design.md §5, "The standing body held where the plan has it") or
     ``approach`` (``world`` until an arm first touches the person or the object in the episode, ``plan`` after: the
     latch of ``compensation_gate``, which it needs); each is kept ``support_margin`` inside the box."""
+    com_shift: float | None = None
+    """s_max [m]: with ``com_reference="plan"``, the reference is moved forward by the feet's shortfall along their
+    heading (the plan's feet's middle ahead of the physical feet's), at most s_max, and the centre of mass's rows are
+    weighted from ``w_com`` up to ``shift_weight`` in proportion (:mod:`~.com_shift`: the body stands where the plan
+    has it along the approach, without following feet that land off to the side, and without stiffening the centre
+    of mass against the arms where the feet stand where planned). ``None``: no shift."""
+    shift_weight: float = 1e4
+    """w_s [—]: ``com_shift``: the centre of mass's rows' weight at a shift of s_max."""
+    shift_until_touch: bool = False
+    """[—]: ``com_shift`` only until an arm first touches the person or the object in the episode (the latch of
+    ``compensation_gate``, which it needs): the approach of a contact, not a grasp a person pulls on."""
     support_margin: float = 0.03
     """[m]: the centre-of-mass reference is kept this far inside the box of the feet's contact points
     (axes along the robot's heading)."""
@@ -161,6 +173,14 @@ class BalanceConfig:
     release_margin: float = 0.01
     """[m]: ... and while the capture point c + ċ/ω₀ (ω₀ = √(g / c_z)) lies this far inside the box of the
     feet's contact points."""
+    release_level: float | None = None
+    """θ_l [deg]: ... and only once both feet have stood within θ_l of level (:meth:`~.feet_on_floor.FeetOnFloor.
+    tilts`: each foot's tilt from its home attitude) for ``release_delay`` (a foot off level restarts the delay).
+    ``None``: the feet's attitude is not read. A foot planted behind the body
+    stands on its toe, and the flat feet's rows (``flat_feet``) then level it at once: the H1 released so (its
+    trailing foot 10.7° from level, 3.4 cm up) pitched its trunk 2.5 → 10° in 64 ms and was caught again
+    (docs/benchmarks.md, "The H1 on its own feet traced …"). An option, off by default: on the H1's development
+    instances it cut the catches 279 → 116 and the contact phases' tilt, but not the outside support."""
     catch_tilt: float = 12.0
     """[deg]: a released robot whose torso tilts more than this is caught by the harness again at once."""
     catch_margin: float = 0.03
@@ -223,9 +243,21 @@ class BalanceConfig:
         if self.com_reference not in COM_REFERENCES:
             raise ConfigError(f"BalanceConfig.com_reference: expected one of {', '.join(COM_REFERENCES)}, found "
                               f"{self.com_reference!r}")
+        if self.com_shift is not None and (self.com_reference != "plan" or not self.com_shift > 0.0):
+            raise ConfigError(f"BalanceConfig.com_shift: needs com_reference='plan' and a distance > 0 m, found "
+                              f"{self.com_shift!r} with com_reference {self.com_reference!r}")
+        if self.shift_until_touch and (self.com_shift is None or self.arm_compensation is None
+                                       or self.compensation_gate is None):
+            raise ConfigError("BalanceConfig.shift_until_touch: needs com_shift, arm_compensation and compensation_gate "
+                              "(their touch latch ends the approach)")
+        if not self.shift_weight >= 0.0:
+            raise ConfigError(f"BalanceConfig.shift_weight: expected a value ≥ 0, found {self.shift_weight}")
         if self.com_reference == "approach" and (self.arm_compensation is None or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.com_reference='approach': needs arm_compensation and compensation_gate "
                               "(their touch latch ends the approach)")
+        if self.release_level is not None and not 0.0 <= self.release_level < 90.0:
+            raise ConfigError(f"BalanceConfig.release_level: expected None or an angle in [0, 90) degrees, found "
+                              f"{self.release_level}")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

@@ -9,7 +9,8 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    as reference), the torso's attitude toward the IK's (ω_o), the planted feet held where they stood when both
    came down (k_x, k_f: a creeping foot is drawn back), and the centre of mass's horizontal position toward a
    reference c* over the feet (ω_c, ζ): the IK's centre of mass relative to its feet carried over to the
-   physical feet (or the middle of the feet, or the IK's centre of mass where the plan has it in the world),
+   physical feet (or the middle of the feet, or the IK's centre of mass where the plan has it in the world;
+   with ``com_shift`` moved forward by the feet's shortfall behind the plan's, :mod:`~.com_shift`),
    optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
    with the floor, where they stand now) shrunk by a margin; with ``hand_yield`` the arms' references give way
@@ -25,8 +26,9 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    b₂q̇ (MuJoCo clips it at the actuator's force limit, which the support meter reports as saturation).
 
 The harness weld lets go (``eq_active = 0``; its force is then zero by construction) once the feet have been
-planted ``release_delay`` and the robot is steady: torso within ``release_tilt`` and the capture point
-ξ = c + ċ/ω₀ inside the support box by ``release_margin`` (the support box: the soles of the feet in contact, and
+planted ``release_delay`` and the robot is steady: torso within ``release_tilt``, the capture point
+ξ = c + ċ/ω₀ inside the support box by ``release_margin`` (and, with ``release_level``, both feet level
+for the whole delay) (the support box: the soles of the feet in contact, and
 of a planted foot within ``sole_gap`` of the floor). It catches
 the robot again at once when the torso tilts past ``catch_tilt``, the capture point leaves the box by more than
 ``catch_margin``, or a foot steps; the caught robot is held where it is and led back onto the IK's base over ``catch_blend``, and the release
@@ -49,14 +51,15 @@ from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
 from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
 from .contact_dynamics import cone_edges, solve_contact_dynamics
+from .com_shift import forward_shortfall, shift_weight
 from .contact_qp import ActuatorLimits, cop_rows, solve_contact_qp
 from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
-from .flat_feet import flat_attitude, flat_contacts
+from .flat_feet import flat_attitude, flat_contacts, foot_feedback
 from .hand_yield import HandYield
 from .scene import Scene
 from .self_clearance import SelfClearance
-from .support_box import SupportBox, cop_interval
+from .support_box import SupportBox, cop_intervals
 
 __all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
 
@@ -114,7 +117,10 @@ class BalanceController:
         self._limits, self._Mix = ActuatorLimits(m, scene.act_ids), np.ix_(self.vadr, self.vadr)  # made once
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside the joints' task
         self._joint_scale, self._joint_rows = scale, np.eye(n)[6:] * scale[:, None]
+        self._joint_diag = np.concatenate([np.zeros(6), scale])  # the same rows as the QP's diagonal task
         self._foot_scratch = (np.zeros((6, m.nv)), np.zeros((6, m.nv)))
+        self._edges: tuple[bytes, np.ndarray] = (b"", np.zeros((0, 3, 4)))  # the last frames' cone edges
+        self._soles_now: list[np.ndarray | None] = [None] * len(self._feet)  # the step's soles, world (soles_at)
         self._M = np.zeros((m.nv, m.nv))
         self._jp = np.zeros((3, m.nv))
         self._jr = np.zeros((3, m.nv))
@@ -138,6 +144,7 @@ class BalanceController:
         self._ext_moment = np.zeros(3)
         self._com_offset = np.zeros(2)
         self._com_plan = np.zeros(2)
+        self._plan_feet = np.zeros(2)
         self._torso_goal = np.eye(3)
         self.steps = self.active_steps = self.released_steps = self.catches = 0
         """Physics steps run, driven by the controller, with the harness off; times a released robot was caught."""
@@ -162,7 +169,7 @@ class BalanceController:
         p.qpos[self.qadr] = q_target
         mujoco.mj_kinematics(m, p)
         mujoco.mj_comPos(m, p)
-        feet = p.xpos[self._feet, :2].mean(axis=0)
+        feet = self._plan_feet = p.xpos[self._feet, :2].mean(axis=0)
         self._com_offset = p.subtree_com[self.scene.root_body, :2] - feet
         self._com_plan = p.subtree_com[self.scene.root_body, :2].copy()
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
@@ -178,13 +185,16 @@ class BalanceController:
         pts, frames, which = self.feet.contacts(d)
         standing = self._planted[0] and self._planted[1] and len(pts) > 0
         self._engaged = self._engaged + m.opt.timestep if standing else 0.0
+        if standing and not self.released and not self.feet_level(d):
+            self._engaged = 0.0  # a foot off level: the release waits its delay once both stand level
         if not (self._planted[0] and self._planted[1]):
             self._anchor = None  # a step: the feet are held where they next stand
         tilt = self._tilt(d)
         box = None
         if standing:
             fwd = self.feet.heading(d)
-            box = SupportBox(self.feet.footprint(d, pts, which), fwd)
+            self._soles_now = self.feet.soles_at(d)  # the soles in the world, for the box and the _cop's bounds
+            box = SupportBox(self.feet.footprint(d, pts, which, self._soles_now), fwd)
             com = d.subtree_com[self.scene.root_body]
             self._jp[:] = 0.0
             mujoco.mj_jacSubtreeCom(m, d, self._jp, self.scene.root_body)
@@ -268,6 +278,16 @@ class BalanceController:
             return self._com_plan.copy()
         return box.middle()
 
+    def shift(self, d: mujoco.MjData, box: SupportBox) -> tuple[np.ndarray, float]:
+        """``com_shift``: the reference's forward shift (2,) (world, m) by the feet's shortfall behind the plan's
+        along ``box``'s heading, and the centre of mass's rows' weight (:mod:`~.com_shift`); else (and with
+        ``shift_until_touch`` after an arm's first touch) none and ``w_com``."""
+        c = self.config
+        if c.com_shift is None or (c.shift_until_touch and self.compensation.touched.any()):  # type: ignore[union-attr]
+            return np.zeros(2), c.w_com
+        s, share = forward_shortfall(self._plan_feet, d.xpos[self._feet, :2].mean(axis=0), box.R[0], c.com_shift)
+        return s, shift_weight(c.w_com, c.shift_weight, share)
+
     def _torques(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray, pts: np.ndarray,
                  frames: np.ndarray, which: np.ndarray, box: SupportBox, com: np.ndarray, jcom: np.ndarray,
                  comvel: np.ndarray) -> np.ndarray:
@@ -288,29 +308,28 @@ class BalanceController:
             if c.flat_feet:
                 self._anchor = [(np.array([p[0], p[1], self._home_z[s]]), flat_attitude(r, self._home_rot[s],
                                  self._foot_fwd[s])) for s, (p, r) in enumerate(self._anchor)]
+        # planted feet held where they stand; with flat_feet the same rows, less their drift, hold as equalities
+        feet = [foot_feedback(m, d, body, va, pos, rot, c.foot_stiffness, c.foot_damping, self._foot_scratch[0])
+                for body, (pos, rot) in zip(self._feet, self._anchor, strict=True)]
+        tasks.extend((J, b, c.w_feet) for J, b in feet)
         eq = None
         if c.flat_feet:
             pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
                                                    which, c.sole_gap, c.foot_stiffness, c.foot_damping,
-                                                   self._foot_scratch)
+                                                   self._foot_scratch, feet)
+        floor = float(pts[:, 2].mean())  # the contacts' mean height (m), for the lean and the hands' give
         jac = np.empty((len(pts), 3, n))
         for i, (p, s) in enumerate(zip(pts, which, strict=True)):
             mujoco.mj_jac(m, d, self._jp, None, p, self._feet[int(s)])
             jac[i] = self._jp[:, va]
-        for body, (pos, rot) in zip(self._feet, self._anchor, strict=True):  # planted feet held where they stand
-            mujoco.mj_jacBody(m, d, self._jp, self._jr, body)
-            J = np.vstack([self._jp[:, va], self._jr[:, va]])
-            mujoco.mju_mat2Quat(self._quat, (rot @ d.xmat[body].reshape(3, 3).T).ravel())
-            mujoco.mju_quat2Vel(self._rot, self._quat, 1.0)
-            off = np.concatenate([pos - d.xpos[body], self._rot])
-            tasks.append((J, c.foot_stiffness * off - c.foot_damping * (J @ qv), c.w_feet))
-        goal = self.reference(d, box)
+        shift, w_com = self.shift(d, box)
+        goal = self.reference(d, box) + shift
         wc, zc = c.com_bandwidth, c.com_damping
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
-            p = np.array([goal[0], goal[1], float(pts[:, 2].mean())])
+            p = np.array([goal[0], goal[1], floor])
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
         goal = box.clip(goal, c.support_margin)
-        tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], c.w_com))
+        tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], w_com))
         mujoco.mj_jacBody(m, d, self._jp, self._jr, self._torso)
         Jt = self._jr[:, va].copy()
         err = self._torso_goal @ d.xmat[self._torso].reshape(3, 3).T  # world rotation from now to the goal
@@ -321,12 +340,17 @@ class BalanceController:
         hinge_q = d.qpos[self.qadr[7:]]
         wq = c.joint_bandwidth
         dq, dv = (0.0, 0.0) if self.hand_yield is None else self.hand_yield.references(  # the arms give way to a
-            m, d, box, self._capture, float(pts[:, 2].mean()), c.cop_margin, self.mass * self._g)  # force too large
+            m, d, box, self._capture, floor, c.cop_margin, self.mass * self._g)  # force too large
         if self.compensation is not None:  # the arms' references on the trunk as it is
             dq = dq + self.compensation.offsets(m, d, q_ref)
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
-        tasks.append((self._joint_rows, want * self._joint_scale, c.w_joint))  # per-row weights inside one task
-        edges = cone_edges(frames, c.friction)
+        joints = want * self._joint_scale  # per-row weights inside one task
+        tasks.append((self._joint_rows, joints, c.w_joint))
+        key = frames.tobytes()  # with flat_feet the same level frames step after step: their edges made once
+        if key != self._edges[0]:
+            self._edges = (key, cone_edges(frames, c.friction))
+            self._edges[1].flags.writeable = False
+        edges = self._edges[1]
         if c.solver == "lsq":
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
                                           c.w_force).tau[self._act_rows]
@@ -337,7 +361,9 @@ class BalanceController:
         area = np.bincount(which, minlength=len(self._feet)) >= 3
         foot = np.where(area[which], which, -1)
         ineq = None if self._clearance is None else self._clearance.rows(m, d)
-        res = solve_contact_qp(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_force, limits,
+        # the joints' rows as the QP's diagonal task: no (n − 6) × n products of zeros
+        qp_tasks = [*tasks[:-1], (self._joint_diag, np.concatenate([np.zeros(6), joints]), c.w_joint)]
+        res = solve_contact_qp(M, h, self.unactuated, jac, edges, qp_tasks, self.mass, c.w_force, limits,
                                self._cop(d, pts, edges, foot, box), foot, c.min_foot_load * self.mass * self._g,
                                equalities=eq, inequalities=ineq)
         self.limit_steps += int(res.at_limit.any())
@@ -355,16 +381,19 @@ class BalanceController:
         """(R, 4P) the centre-of-pressure rows (:func:`~.contact_qp.cop_rows`): each foot's kept ``cop_margin``
         inside its sole, along the support box's axes."""
         bounds = np.zeros((len(self._feet), 2, 2))
-        for s, body in enumerate(self._feet):
-            mine = pts[which == s, :2]
-            if not len(mine):  # (−1 in ``which``: a point left unbounded)
-                continue
-            sole = self._sole[s]
-            xy = mine if sole is None else (d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T)[:, :2]
-            bounds[s] = cop_interval(box.R, xy, mine, self.config.cop_margin)
+        feet = [s for s in range(len(self._feet)) if (which == s).any()]  # (−1 in ``which``: a point left unbounded)
+        if feet:
+            mine = [pts[which == s, :2] for s in feet]
+            soles = [xy if self._sole[s] is None else self._soles_now[s][:, :2] for s, xy in zip(feet, mine, strict=True)]
+            bounds[feet] = cop_intervals(box.R, soles, mine, self.config.cop_margin)
         return cop_rows(pts, edges, which, box.R, bounds)
 
     # -- measurements ---------------------------------------------------------------------------------------
+    def feet_level(self, d: mujoco.MjData) -> bool:
+        """Whether both feet stand within ``release_level`` of level (always, without it)."""
+        limit = self.config.release_level
+        return limit is None or bool(self.feet.tilts(d).max() <= limit)
+
     def _tilt(self, d: mujoco.MjData) -> float:
         """The torso's angle from upright, degrees."""
         up = d.xmat[self._torso].reshape(3, 3)[2] @ self._torso_up

@@ -117,19 +117,18 @@ def cop_rows(points: np.ndarray, edges: np.ndarray, foot: np.ndarray, axes: np.n
     P = len(points)
     fz = edges[:, 2, :]  # (P, 4): the vertical force of each edge per unit weight
     coord = points[:, :2] @ np.asarray(axes).T  # (P, 2)
-    rows = []
-    for s in range(len(bounds)):
-        mine = foot == s
-        if not mine.any():
-            continue
-        c = coord[mine]
-        # the foot's four lever arms per point, in row order: axis 0 (r − lo, hi − r), then axis 1
-        arms = np.stack([c[:, 0] - bounds[s, 0, 0], bounds[s, 0, 1] - c[:, 0],
-                         c[:, 1] - bounds[s, 1, 0], bounds[s, 1, 1] - c[:, 1]])  # (4, |mine|)
-        r = np.zeros((4, P, 4))
-        r[:, mine] = fz[mine][None] * arms[:, :, None]
-        rows.append(r.reshape(4, 4 * P))
-    return np.vstack(rows) if rows else np.zeros((0, 4 * P))
+    foot = np.asarray(foot)
+    feet = np.flatnonzero(np.bincount(foot[foot >= 0], minlength=len(bounds)))  # the feet with points, in order
+    if not len(feet):
+        return np.zeros((0, 4 * P))
+    b = np.asarray(bounds)[np.where(foot >= 0, foot, 0)]  # (P, 2, 2) each point's own foot's bounds
+    # each point's four lever arms, in row order: axis 0 (r − lo, hi − r), then axis 1
+    arms = np.stack([coord[:, 0] - b[:, 0, 0], b[:, 0, 1] - coord[:, 0],
+                     coord[:, 1] - b[:, 1, 0], b[:, 1, 1] - coord[:, 1]])  # (4, P)
+    r = np.zeros((len(feet), P, 4, 4))  # (foot, point, row, edge); a foot's rows are zero off its own points
+    k, p = np.nonzero(foot[None, :] == feet[:, None])
+    r[k, p] = arms[:, p].T[:, :, None] * fz[p][:, None, :]
+    return r.transpose(0, 2, 1, 3).reshape(4 * len(feet), 4 * P)
 
 
 def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point_jac: np.ndarray,
@@ -143,7 +142,7 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     ``M`` (n, n), ``h`` (n,): mass matrix and bias forces (N, N·m); ``unactuated`` (n,) bool: coordinates
     without an actuator (their rows are equalities); ``point_jac`` (P, 3, n), ``edges`` (P, 3, 4): the contact
     points' translational Jacobians and cone edges; ``tasks``: (A (r, n), b (r,), w) rows ``A q̈ = b`` with their
-    weights; ``mass`` (kg); ``w_force``: weight of ‖β / m‖²; ``tau_limits`` (n, 2): [lo, hi] per row (N, N·m;
+    weights (A (n,), b (n,): the diagonal rows ``A_i q̈_i = b_i``, one per coordinate, a zero A_i none); ``mass`` (kg); ``w_force``: weight of ‖β / m‖²; ``tau_limits`` (n, 2): [lo, hi] per row (N, N·m;
     ±inf: none; the unactuated rows' are ignored); ``cop`` (R, 4P): rows with ``cop β ≥ 0`` (:func:`cop_rows`);
     ``foot`` (P,) each point's foot (−1: none) and ``min_load`` (N): every foot with points pushes on the floor
     with at least this vertical force (a foot left without load lifts off the floor and loses its contacts);
@@ -166,63 +165,72 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     H[diag[K:], diag[K:]] = w_reg
     Hq = H[K:, K:]
     for A, b, w in tasks:
+        if A.ndim == 1:  # a diagonal task: AᵀA and Aᵀb without the products of zeros (the same sums)
+            Hq[diag[:n], diag[:n]] += w * (A * A)
+            f[K:] -= w * (A * b)
+            continue
         Hq += w * (A.T @ A)
         f[K:] -= w * (A.T @ b)
     act = ~np.asarray(unactuated, dtype=bool)
-    Mm, Gm, hm = M / mass, G, h / mass  # rows of the equation of motion divided by m: M/m q̈ − G β' + h/m = τ/m
-    dyn = np.hstack([-Gm, Mm])  # (n, K + n)
     lim = np.asarray(tau_limits, dtype=np.float64)
-    rows, upper, lower, sense = [dyn[~act]], [-hm[~act]], [-hm[~act]], [np.full(int((~act).sum()), 5)]
-    rows.append(dyn[act])
-    upper.append(np.where(np.isfinite(lim[act, 1]), lim[act, 1] / mass - hm[act], _INF))
-    lower.append(np.where(np.isfinite(lim[act, 0]), lim[act, 0] / mass - hm[act], -_INF))
-    sense.append(np.zeros(int(act.sum())))
-    base = len(rows)
+    # The rows of the constraints, in one array: the equation of motion divided by m (M/m q̈ − G β' + h/m = τ/m), its
+    # unactuated rows (equalities), then its actuated ones (the torque limits), [the inequality rows], the base;
+    # then the optional ones, which the relaxations below drop: [the hard task rows], [the foot loads], [the
+    # centre-of-pressure rows].
     has_eq = equalities is not None and len(equalities[1]) > 0
-    if equalities is not None and has_eq:
-        A_eq, b_eq = equalities
-        rows.append(np.hstack([np.zeros((len(b_eq), K)), A_eq]))
-        upper.append(np.asarray(b_eq, dtype=np.float64))
-        lower.append(np.asarray(b_eq, dtype=np.float64))
-        sense.append(np.full(len(b_eq), 5))
-    if foot is not None and min_load > 0.0 and P:
-        for s in sorted(set(foot[foot >= 0].tolist())):
-            r = np.where((foot == s)[:, None], edges[:, 2, :], 0.0).ravel()
-            rows.append(np.concatenate([r, np.zeros(n)])[None])
-            upper.append(np.array([_INF]))
-            lower.append(np.array([min_load / mass]))
-            sense.append(np.zeros(1))
-    if cop is not None and len(cop):
-        rows.append(np.hstack([cop, np.zeros((len(cop), n))]))
-        upper.append(np.full(len(cop), _INF))
-        lower.append(np.zeros(len(cop)))
-        sense.append(np.zeros(len(cop)))
-    # The inequality rows go first among the optional ones: the relaxations below drop what follows them.
     has_ineq = inequalities is not None and len(inequalities[1]) > 0
+    n_in = len(inequalities[1]) if inequalities is not None and has_ineq else 0
+    n_eq = len(equalities[1]) if equalities is not None and has_eq else 0
+    loaded = (np.flatnonzero(np.bincount(foot[foot >= 0], minlength=1)) if foot is not None and min_load > 0.0 and P
+              else np.zeros(0, dtype=np.int64))  # the feet with points, in order
+    n_cop = len(cop) if cop is not None else 0
+    base = n + n_in
+    R = base + n_eq + len(loaded) + n_cop
+    A_all, up, lo, sn = np.zeros((R, K + n)), np.empty(R), np.empty(R), np.zeros(R, dtype=np.intc)
+    order = np.concatenate([np.flatnonzero(~act), np.flatnonzero(act)])
+    nu = n - int(act.sum())
+    A_all[:n, :K] = -G[order]
+    A_all[:n, K:] = M[order] / mass
+    hm = h[order] / mass
+    up[:nu] = lo[:nu] = -hm[:nu]
+    sn[:nu] = 5
+    la = lim[order[nu:]]
+    up[nu:n] = np.where(np.isfinite(la[:, 1]), la[:, 1] / mass - hm[nu:], _INF)
+    lo[nu:n] = np.where(np.isfinite(la[:, 0]), la[:, 0] / mass - hm[nu:], -_INF)
     if inequalities is not None and has_ineq:
-        A_in, lo_in = inequalities
-        rows.insert(base, np.hstack([np.zeros((len(lo_in), K)), A_in]))
-        upper.insert(base, np.full(len(lo_in), _INF))
-        lower.insert(base, np.asarray(lo_in, dtype=np.float64))
-        sense.insert(base, np.zeros(len(lo_in)))
-        base += 1
+        A_all[n:base, K:] = inequalities[0]
+        up[n:base], lo[n:base] = _INF, inequalities[1]
+    r = base
+    if equalities is not None and has_eq:
+        A_all[r:r + n_eq, K:] = equalities[0]
+        up[r:r + n_eq] = lo[r:r + n_eq] = equalities[1]
+        sn[r:r + n_eq] = 5
+        r += n_eq
+    if len(loaded):
+        A_all[r:r + len(loaded), :K] = np.where(foot[None, :, None] == loaded[:, None, None], edges[None, :, 2, :],
+                                                0.0).reshape(len(loaded), K)
+        up[r:r + len(loaded)], lo[r:r + len(loaded)] = _INF, min_load / mass
+        r += len(loaded)
+    if n_cop:
+        A_all[r:, :K] = cop
+        up[r:], lo[r:] = _INF, 0.0
     H = np.ascontiguousarray(H)
-    x, flag = _daqp(H, f, K, rows, upper, lower, sense)
-    relaxed = flag <= 0 and len(rows) > base
-    if relaxed and has_eq and len(rows) > base + 1:  # first without the hard task rows only
+    x, flag = _daqp(H, f, K, A_all, up, lo, sn)
+    relaxed = flag <= 0 and R > base
+    if relaxed and has_eq and R > base + n_eq:  # first without the hard task rows only
         log.debug("balance QP: exit flag %d; solved again without the hard task rows", flag)
-        keep = [i for i in range(len(rows)) if i != base]
-        x, flag = _daqp(H, f, K, [rows[i] for i in keep], [upper[i] for i in keep], [lower[i] for i in keep],
-                        [sense[i] for i in keep])
+        keep = np.ones(R, dtype=bool)
+        keep[base:base + n_eq] = False
+        x, flag = _daqp(H, f, K, A_all[keep], up[keep], lo[keep], sn[keep])
     if relaxed and flag <= 0:  # the equalities, minimum loads and centre-of-pressure bounds cannot hold together
         log.debug("balance QP: exit flag %d; solved again without the hard task rows, foot loads and "
                   "centre-of-pressure bounds", flag)
-        x, flag = _daqp(H, f, K, rows[:base], upper[:base], lower[:base], sense[:base])
+        x, flag = _daqp(H, f, K, A_all[:base], up[:base], lo[:base], sn[:base])
     dropped = False
     if flag <= 0 and has_ineq:  # the inequality rows cannot hold with the torque limits: the root's rows alone
         log.debug("balance QP: exit flag %d; solved again without the inequality rows", flag)
         dropped = True
-        x, flag = _daqp(H, f, K, rows[:base - 1], upper[:base - 1], lower[:base - 1], sense[:base - 1])
+        x, flag = _daqp(H, f, K, A_all[:n], up[:n], lo[:n], sn[:n])
     found = flag > 0
     if not found:
         log.warning("balance QP: DAQP exit flag %d; free fall returned", flag)
@@ -240,11 +248,11 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
                            relaxed=relaxed, inequalities_dropped=dropped)
 
 
-def _daqp(H: np.ndarray, f: np.ndarray, K: int, rows: list[np.ndarray], upper: list[np.ndarray],
-          lower: list[np.ndarray], sense: list[np.ndarray]) -> tuple[np.ndarray, int]:
-    """DAQP on ``½xᵀHx + fᵀx`` with ``0 ≤ x[:K]`` and ``lower ≤ rows x ≤ upper`` (sense 5: equality); the
-    rows are scaled to unit norm and empty ones dropped (with them DAQP declared feasible problems infeasible)."""
-    A_all, up, lo, sn = np.vstack(rows), np.concatenate(upper), np.concatenate(lower), np.concatenate(sense)
+def _daqp(H: np.ndarray, f: np.ndarray, K: int, A_all: np.ndarray, up: np.ndarray, lo: np.ndarray,
+          sn: np.ndarray) -> tuple[np.ndarray, int]:
+    """DAQP on ``½xᵀHx + fᵀx`` with ``0 ≤ x[:K]`` and ``lo ≤ A_all x ≤ up`` (``A_all`` C-ordered; sense ``sn`` 5:
+    equality); the rows are scaled to unit norm and empty ones dropped (with them DAQP declared feasible problems
+    infeasible)."""
     norm = np.linalg.norm(A_all, axis=1)
     keep = norm > 1e-9
     k = 1.0 / norm[keep]
@@ -253,6 +261,6 @@ def _daqp(H: np.ndarray, f: np.ndarray, K: int, rows: list[np.ndarray], upper: l
     lo = np.where(lo[keep] > -_INF, lo[keep] * k, -_INF)
     bu = np.concatenate([np.full(K, _INF), up])  # the first K entries: simple bounds 0 ≤ β'
     bl = np.concatenate([np.zeros(K), lo])
-    sn = np.concatenate([np.zeros(K), sn[keep]]).astype(np.intc)
+    sn = np.concatenate([np.zeros(K, dtype=np.intc), sn[keep]])
     x, _, flag, _ = daqp.solve(H, f, A_all, bu, bl, sn)
     return np.asarray(x), int(flag)

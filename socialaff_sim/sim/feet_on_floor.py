@@ -67,21 +67,24 @@ class FeetOnFloor:
             out.append(np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]))
         return out
 
-    def footprint(self, d: mujoco.MjData, pts: np.ndarray, which: np.ndarray) -> np.ndarray:
+    def soles_at(self, d: mujoco.MjData) -> list[np.ndarray | None]:
+        """Each foot's sole box's corners (8, 3), world (m), at the state of ``d`` (``None``: sole unknown)."""
+        return [None if sole is None else d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T
+                for body, sole in zip(self._feet, self._sole, strict=True)]
+
+    def footprint(self, d: mujoco.MjData, pts: np.ndarray, which: np.ndarray,
+                  soles: list[np.ndarray | None] | None = None) -> np.ndarray:
         """(K, 2) world points whose box is the feet's support: the soles of the feet on the floor now (the live
         contact points of a foot whose sole is unknown), and of a foot whose sole is within ``sole_gap`` of it
-        (the soles' boxes were found pressed 2 mm into the floor)."""
+        (the soles' boxes were found pressed 2 mm into the floor). ``soles``: :meth:`soles_at` of ``d``, when
+        the caller has it."""
         out = []
         floor = float(pts[:, 2].min())
-        for s, body in enumerate(self._feet):
-            sole = self._sole[s]
-            if not (which == s).any() and (sole is None or float((d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T)[
-                    :, 2].min()) > floor + self.sole_gap + 0.002 or self.sole_gap <= 0.0):
+        for s, sole in enumerate(self.soles_at(d) if soles is None else soles):
+            if not (which == s).any() and (sole is None or float(sole[:, 2].min()) > floor + self.sole_gap + 0.002
+                                           or self.sole_gap <= 0.0):
                 continue
-            if sole is None:
-                out.append(pts[which == s, :2])
-            else:
-                out.append((d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T)[:, :2])
+            out.append(pts[which == s, :2] if sole is None else sole[:, :2])
         return np.vstack(out)
 
     def contacts(self, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -101,6 +104,13 @@ class FeetOnFloor:
         flip = ~floor0[keep]
         frames[flip] *= -1.0
         return con.pos[:nc][keep].copy(), frames, side[keep]
+
+    def tilts(self, d: mujoco.MjData) -> np.ndarray:
+        """(2,) each foot's tilt from its home attitude, degrees (left, right): the angle between the foot's home
+        vertical and the world's vertical (a turn about the vertical is no tilt; a foot on its toe or heel is)."""
+        # the world's vertical in the foot's frame, now (row 2 of its attitude) against at home
+        up = np.array([d.xmat[b].reshape(3, 3)[2] @ r[2] for b, r in zip(self._feet, self.home_rot, strict=True)])
+        return np.degrees(np.arccos(np.clip(up, -1.0, 1.0)))
 
     def heading(self, d: mujoco.MjData) -> np.ndarray:
         """(2,) unit: the feet's forward direction on the floor."""

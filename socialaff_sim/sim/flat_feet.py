@@ -26,7 +26,7 @@ import math
 import mujoco
 import numpy as np
 
-__all__ = ["flat_attitude", "flat_contacts", "foot_rows", "sole_corners", "sole_points"]
+__all__ = ["flat_attitude", "flat_contacts", "foot_drift", "foot_feedback", "foot_rows", "sole_corners", "sole_points"]
 
 _LEVEL_FRAME = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 """A level floor's contact frame: the normal (+z), then the world's x and y as tangents."""
@@ -44,7 +44,7 @@ def sole_points(pos: np.ndarray, rot: np.ndarray, corners: np.ndarray) -> tuple[
     ``rot`` (3, 3), and their contact frames (4, 3, 3): the floor's normal (+z) first, then the world's x and y
     as tangents (the rows of MuJoCo's ``contact.frame`` for a level floor)."""
     pts = pos + corners @ rot.T
-    frames = np.tile(_LEVEL_FRAME, (len(corners), 1, 1))
+    frames = _LEVEL_FRAME[None].repeat(len(corners), axis=0)
     return pts, frames
 
 
@@ -58,30 +58,51 @@ def flat_attitude(rot: np.ndarray, home_rot: np.ndarray, forward: np.ndarray) ->
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ home_rot
 
 
+def foot_feedback(m: mujoco.MjModel, d: mujoco.MjData, body: int, vadr: np.ndarray, goal_pos: np.ndarray,
+                  goal_rot: np.ndarray, stiffness: float, damping: float,
+                  scratch: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(J (6, n), b (6,)): a foot's Jacobian on the robot's coordinates ``vadr`` (n,), rows linear then angular
+    (world), and its feedback ``k_x`` (``stiffness``, 1/s²) times the displacement to ``goal_pos`` (3,) and the
+    rotation vector to ``goal_rot`` (3, 3) minus ``k_f`` (``damping``, 1/s) times the foot's velocity: the planted
+    foot's task of the balance controller, and :func:`foot_rows` without the drift. ``scratch``: a (6, nv) array,
+    room for the Jacobian (MuJoCo overwrites it whole; ``None``: allocated here)."""
+    jac = np.empty((6, m.nv)) if scratch is None else scratch
+    mujoco.mj_jacBody(m, d, jac[:3], jac[3:], body)
+    J = jac[:, vadr]
+    quat, vel = np.zeros(4), np.zeros(3)
+    mujoco.mju_mat2Quat(quat, (goal_rot @ d.xmat[body].reshape(3, 3).T).ravel())
+    mujoco.mju_quat2Vel(vel, quat, 1.0)
+    off = np.concatenate([goal_pos - d.xpos[body], vel])
+    return J, stiffness * off - damping * (J @ d.qvel[vadr])
+
+
+def foot_drift(m: mujoco.MjModel, d: mujoco.MjData, body: int, scratch: np.ndarray | None = None) -> np.ndarray:
+    """(6,) the drift ``J̇q̇`` of a foot's Jacobian (rows linear then angular, world; m/s², rad/s²); ``scratch``: a
+    (6, nv) array, room for ``J̇`` (``None``: allocated here)."""
+    dot = np.empty((6, m.nv)) if scratch is None else scratch
+    mujoco.mj_jacDot(m, d, dot[:3], dot[3:], d.xpos[body], body)
+    return dot @ d.qvel
+
+
 def foot_rows(m: mujoco.MjModel, d: mujoco.MjData, body: int, vadr: np.ndarray, goal_pos: np.ndarray,
               goal_rot: np.ndarray, stiffness: float, damping: float,
               scratch: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(A (6, n), b (6,)) rows ``A q̈ = b`` of a foot's wanted acceleration, on the robot's coordinates ``vadr``
     (n,): linear and angular (world), ``k_x`` (``stiffness``, 1/s²) times the displacement to ``goal_pos`` (3,)
     and the rotation vector to ``goal_rot`` (3, 3), minus ``k_f`` (``damping``, 1/s) times the foot's velocity,
-    minus the drift ``J̇q̇`` (so that ``J q̈ + J̇ q̇`` is what is asked). ``scratch``: two (6, nv) arrays, room for
-    the Jacobian and its derivative (MuJoCo overwrites them whole; ``None``: allocated here)."""
-    jac, dot = (np.empty((6, m.nv)), np.empty((6, m.nv))) if scratch is None else scratch  # rows: linear, angular
-    mujoco.mj_jacBody(m, d, jac[:3], jac[3:], body)
-    J = jac[:, vadr]
-    mujoco.mj_jacDot(m, d, dot[:3], dot[3:], d.xpos[body], body)
-    drift = dot @ d.qvel
-    quat, vel = np.zeros(4), np.zeros(3)
-    mujoco.mju_mat2Quat(quat, (goal_rot @ d.xmat[body].reshape(3, 3).T).ravel())
-    mujoco.mju_quat2Vel(vel, quat, 1.0)
-    off = np.concatenate([goal_pos - d.xpos[body], vel])
-    return J, stiffness * off - damping * (J @ d.qvel[vadr]) - drift
+    minus the drift ``J̇q̇`` (so that ``J q̈ + J̇ q̇`` is what is asked): :func:`foot_feedback` minus
+    :func:`foot_drift`. ``scratch``: two (6, nv) arrays, room for the Jacobian and its derivative (MuJoCo
+    overwrites them whole; ``None``: allocated here)."""
+    jac, dot = (None, None) if scratch is None else scratch
+    J, b = foot_feedback(m, d, body, vadr, goal_pos, goal_rot, stiffness, damping, jac)
+    return J, b - foot_drift(m, d, body, dot)
 
 
 def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners: list[np.ndarray | None],
                   anchors: list[tuple[np.ndarray, np.ndarray]], vadr: np.ndarray, pts: np.ndarray, frames: np.ndarray,
                   which: np.ndarray, sole_gap: float, stiffness: float, damping: float,
-                  scratch: tuple[np.ndarray, np.ndarray] | None = None
+                  scratch: tuple[np.ndarray, np.ndarray] | None = None,
+                  feedback: list[tuple[np.ndarray, np.ndarray]] | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
     """The contacts of a standing robot with its feet held flat (the module docstring).
 
@@ -91,7 +112,8 @@ def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners:
     foot (not empty); a foot with live contacts, or whose lowest corner is within ``sole_gap`` (+ 2 mm) of the
     lowest live contact, has them replaced by its sole's corners and gets the hard rows of :func:`foot_rows`.
     Returns the contact points, frames and feet, and the stacked rows (``None``: no such foot). ``scratch``: as
-    :func:`foot_rows`'."""
+    :func:`foot_rows`'; ``feedback``: each foot's :func:`foot_feedback` toward its anchor with these gains, when
+    the caller has it already (the balance controller's feet's tasks): only the drift is then computed here."""
     floor = float(pts[:, 2].min())
     keep = np.ones(len(pts), dtype=bool)
     add_p, add_f, add_w, rows = [], [], [], []
@@ -106,7 +128,11 @@ def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners:
         add_p.append(p)
         add_f.append(f)
         add_w.append(np.full(len(p), s, dtype=np.int64))
-        rows.append(foot_rows(m, d, body, vadr, anchors[s][0], anchors[s][1], stiffness, damping, scratch))
+        if feedback is None:
+            rows.append(foot_rows(m, d, body, vadr, anchors[s][0], anchors[s][1], stiffness, damping, scratch))
+        else:
+            J, b = feedback[s]
+            rows.append((J, b - foot_drift(m, d, body, None if scratch is None else scratch[1])))
     if not rows:
         return pts, frames, which, None
     return (np.vstack([pts[keep], *add_p]), np.concatenate([frames[keep], *add_f]),

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["SupportBox"]
+__all__ = ["SupportBox", "cop_interval", "cop_intervals"]
 
 
 class SupportBox:
@@ -37,15 +37,23 @@ def cop_interval(axes: np.ndarray, sole_xy: np.ndarray, point_xy: np.ndarray, ma
     axis) a foot's centre of pressure is kept in: the extent of its sole ``sole_xy`` (S, 2) shrunk by ``margin``
     (m; its middle where narrower than twice the margin), within the extent of its contact points ``point_xy``
     (K, 2) (the centre of pressure cannot leave them; where the two do not overlap, the contact points' end
-    nearest to the shrunk sole)."""
-    sole = sole_xy @ axes.T
-    pts = point_xy @ axes.T
-    s_lo, s_hi = sole.min(axis=0) + margin, sole.max(axis=0) - margin
-    mid = 0.5 * (sole.min(axis=0) + sole.max(axis=0))
+    nearest to the shrunk sole). One foot of :func:`cop_intervals`."""
+    return cop_intervals(axes, [sole_xy], [point_xy], margin)[0]
+
+
+def cop_intervals(axes: np.ndarray, soles_xy: list[np.ndarray], points_xy: list[np.ndarray],
+                  margin: float) -> np.ndarray:
+    """(F, 2, 2) :func:`cop_interval` of F feet at once, foot f's sole ``soles_xy[f]`` (S_f, 2) and contact points
+    ``points_xy[f]`` (K_f, 2) (world, m): the projections foot by foot, the rest element-wise over the feet."""
+    sole = [xy @ axes.T for xy in soles_xy]
+    pts = [xy @ axes.T for xy in points_xy]
+    sole_lo, sole_hi = np.array([a.min(axis=0) for a in sole]), np.array([a.max(axis=0) for a in sole])  # (F, 2)
+    s_lo, s_hi = sole_lo + margin, sole_hi - margin
+    mid = 0.5 * (sole_lo + sole_hi)
     s_lo, s_hi = np.minimum(s_lo, mid), np.maximum(s_hi, mid)
-    p_lo, p_hi = pts.min(axis=0), pts.max(axis=0)
+    p_lo, p_hi = np.array([a.min(axis=0) for a in pts]), np.array([a.max(axis=0) for a in pts])
     lo, hi = np.maximum(s_lo, p_lo), np.minimum(s_hi, p_hi)
     empty = lo > hi
     near = np.clip(0.5 * (s_lo + s_hi), p_lo, p_hi)
     lo, hi = np.where(empty, near, lo), np.where(empty, near, hi)
-    return np.stack([lo, hi], axis=1)
+    return np.stack([lo, hi], axis=2)
