@@ -19,12 +19,15 @@ REMOVED = {
                                                        "catch_up_quiet")},
                        **{name: "e1cb74d" for name in ("plant_physical", "replant", "replant_after", "plant_base")},
                        **{name: "7c7e7ae" for name in ("touchdown", "touchdown_height", "touchdown_frames",
-                                                        "touchdown_stride")}},
+                                                        "touchdown_stride")},
+                       **{name: "cce7ce7" for name in ("pace", "pace_height", "pace_base")}},
+    "ContactCompletionConfig": {"planned_shoulder": "cce7ce7"},
     "StanceConfig": {name: "1d1621b" for name in ("approach_near", "approach_far")},
     "SimConfig": {"noslip_iterations": "e4dd195"},
     "SynthesisConfig": {"horizon_overrun": "7f03f2e"},
 }
-"""Options removed after they failed their measurements (docs/design.md), by class and field: the removing commit."""
+"""Options removed after they failed their measurements or nothing adopted them (docs/design.md), by class and field:
+the removing commit."""
 
 
 def field_settings(p: argparse.ArgumentParser, flag: str, cls: type, items: list[str]) -> dict[str, object]:

@@ -51,7 +51,7 @@ def main() -> None:
     p.add_argument("--balance", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="BalanceConfig fields for the standing mode (Python literals), e.g. hand_yield=0.5")
     p.add_argument("--completion", nargs="*", default=[], metavar="FIELD=VALUE",
-                   help="ContactCompletionConfig fields for every mode (Python literals), e.g. planned_shoulder=True")
+                   help="ContactCompletionConfig fields for every mode (Python literals), e.g. reach_band=0.15")
     p.add_argument("--foot-lock", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="FootLockConfig fields for the standing mode (Python literals), e.g. hold_lift=0.08")
     p.add_argument("--labels", nargs="*", help="only these interactions")

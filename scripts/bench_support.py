@@ -36,7 +36,7 @@ for every mode that has one, ``--labels`` picks
 interactions. After the per-interaction table, one line per robot and mode summarises the contact phases, and one
 more counts the episodes failing by each failure kind (self-collision, force on the person, a drop), and one
 more gives how far the feet stand from where the foot lock planted them (the larger foot, in the frames in which
-both stand) with the frames in which ``FootLockConfig.pace`` carried a foot's target behind the recording's; with
+both stand); with
 the balance controller, one more counts the harness's releases and catches over the whole episodes (by cause).
 
 The targets of issue 25 for feet that stay planted: outside support ≤ 5 % of
@@ -124,7 +124,7 @@ def main() -> None:
                    help="SimConfig fields for every mode (Python literals), e.g. hand_force=40.0")
     p.add_argument("--completion", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="ContactCompletionConfig fields for every mode with the contact completion (Python "
-                        "literals), e.g. planned_shoulder=True")
+                        "literals), e.g. reach_band=0.15")
     args = p.parse_args()
     if args.sim:
         over = field_settings(p, "--sim", SimConfig, args.sim)
@@ -167,7 +167,6 @@ def main() -> None:
                     cpu = time.process_time() - tic
                     both = np.array([o for o, _ in offsets])
                     touching = np.array([o for o, c in offsets if c])
-                    lock = sim._footlock
                     bal = sim._stage.stepper.balance
                     cp = m["support"]["contact_phase"]
                     rows.append({"robot": robot, "mode": mode, "label": label, "instance": inter.instance_id,
@@ -177,7 +176,6 @@ def main() -> None:
                                  "episode_tilt_deg_max": m["support"]["episode"]["torso_tilt_deg_max"],
                                  "feet_offset_cm_median": 100 * float(np.median(both)) if both.size else None,
                                  "feet_offset_contact_cm_median": 100 * float(np.median(touching)) if touching.size else None,
-                                 "paced_frames": None if lock is None or lock.pace is None else lock.pace.carried_frames,
                                  "catches": None if bal is None else bal.catches,
                                  "catch_reasons": None if bal is None else dict(bal.catch_reasons),
                                  "released_steps": None if bal is None else bal.released_steps,
@@ -241,8 +239,7 @@ def main() -> None:
             offc = [r["feet_offset_contact_cm_median"] for r in sel if r["feet_offset_contact_cm_median"] is not None]
             print(f"{robot:<12}{mode:<16}feet from their planted points while both stand (median over episodes of "
                   f"each episode's median): {np.median(off) if off else float('nan'):.1f} cm, in contact frames "
-                  f"{np.median(offc) if offc else float('nan'):.1f} cm; frames with a foot's target carried (pace) "
-                  f"{sum(r['paced_frames'] or 0 for r in sel)}")
+                  f"{np.median(offc) if offc else float('nan'):.1f} cm")
     for robot in args.robots:
         for mode in args.modes:
             sel = [r for r in rows if r["robot"] == robot and r["mode"] == mode and r["catches"] is not None]

@@ -140,9 +140,9 @@ def test_the_controller_reads_the_steps_contacts_once_and_hands_them_to_every_pa
                             ("compensation", arm_compensation.ArmCompensation, "measure")):
         orig = getattr(cls, attr)
 
-        def spy(self, m, contacts, _orig=orig, _name=name):
+        def spy(self, m, contacts, *args, _orig=orig, _name=name):  # (the hands' give also takes d, carried)
             got[_name].append(contacts)
-            return _orig(self, m, contacts)
+            return _orig(self, m, contacts, *args)
 
         monkeypatch.setattr(cls, attr, spy)
     orig_ext = balance_control.BalanceController._measure_external

@@ -49,6 +49,8 @@ def test_settings_are_python_literals_of_the_classes_fields() -> None:
     (SimConfig, "noslip_iterations=10", "e4dd195"), (ContactCompletionConfig, "reach=1.1x", None),
     (BalanceConfig, "com_glide=0.5", "7c7e7ae"), (BalanceConfig, "torque_handover=0.4", "7c7e7ae"),
     (BalanceConfig, "release_speed=0.1", "7c7e7ae"), (FootLockConfig, "touchdown=0.05", "7c7e7ae"),
+    (FootLockConfig, "pace=1.5", "cce7ce7"), (FootLockConfig, "pace_height=0.08", "cce7ce7"),
+    (FootLockConfig, "pace_base=True", "cce7ce7"), (ContactCompletionConfig, "planned_shoulder=True", "cce7ce7"),
     (BalanceConfig, "no_such_field=1", None), (FootLockConfig, "hold_lift", None)])
 def test_an_unknown_or_removed_field_is_exit_2(cls, item, removed, capsys) -> None:  # noqa: ANN001
     line = _error(capsys, lambda: flags.field_settings(argparse.ArgumentParser(), "--x", cls, [item]))
@@ -63,7 +65,8 @@ def test_a_value_that_is_not_a_literal_is_exit_2(capsys) -> None:  # noqa: ANN00
 
 
 def test_the_removed_table_names_no_field_that_exists() -> None:
-    classes = {c.__name__: c for c in (BalanceConfig, FootLockConfig, StanceConfig, SynthesisConfig, SimConfig)}
+    classes = {c.__name__: c for c in (BalanceConfig, FootLockConfig, StanceConfig, SynthesisConfig, SimConfig,
+                                       ContactCompletionConfig)}
     assert set(flags.REMOVED) == set(classes)
     for name, removed in flags.REMOVED.items():
         assert removed and not set(removed) & {f.name for f in dataclasses.fields(classes[name])}
@@ -72,6 +75,7 @@ def test_the_removed_table_names_no_field_that_exists() -> None:
 @pytest.mark.parametrize(("flag", "value", "expected"), [
     ("--foot-lock", "catch_up=0.05", "61e3f3e"),
     ("--sim", "noslip_iterations=10", "SimConfig.noslip_iterations was removed at e4dd195"),
+    ("--completion", "planned_shoulder=True", "ContactCompletionConfig.planned_shoulder was removed at cce7ce7"),
 ])
 def test_bench_support_stops_on_a_removed_field_before_any_episode(tmp_path: Path, monkeypatch, capsys,  # noqa: ANN001
                                                                     flag: str, value: str, expected: str) -> None:

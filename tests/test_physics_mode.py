@@ -31,10 +31,12 @@ def test_the_default_is_the_harness_and_standing_is_a_named_preset() -> None:
     assert d == SimConfig.mode("standing")
     # The combination the rule of docs/design.md §5 was run on, field by field, with the arms' compensation its
     # session-28 rule added (confined to the approach: the touch latch alone) and the hands' give against the twist
-    # its session-29 rule added, and the centre of mass's forward shift until the first touch its session-30 rule added.
+    # its session-29 rule added, the centre of mass's forward shift until the first touch and the give to the person's
+    # pull through a held object its session-30 rules added.
     assert d.balance == BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0, flat_feet=True, self_clearance=0.01,
-                                      hand_yield=0.5, yield_damping=50.0, yield_twist=0.02, arm_compensation=1.0,
-                                      compensation_gate=1e9, com_shift=0.1, shift_until_touch=True)
+                                      hand_yield=0.5, yield_damping=50.0, yield_twist=0.02, yield_carried=True,
+                                      arm_compensation=1.0, compensation_gate=1e9, com_shift=0.1,
+                                      shift_until_touch=True)
     assert d.stance == StanceConfig(release=False)
     assert d.foot_lock == FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05,
                                          glide_until_contact=True, glide_gap=0.12)  # session 30's rule

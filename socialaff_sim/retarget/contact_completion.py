@@ -57,7 +57,7 @@ class ContactCompletionConfig:
 
     Fields by concept
     -----------------
-    - When: capture, engage, reach, reach_band, planned_shoulder, intent, keep, approach
+    - When: capture, engage, reach, reach_band, intent, keep, approach
     - Where: press, catch_flight, catch_approach, flight_horizon, flight_lead, hand_speed, flight_pace
     - How fast: ramp
     """
@@ -75,13 +75,6 @@ class ContactCompletionConfig:
     reach_band: float = 0.1
     """b [m]: the reach gate falls smoothly from 1 at ρ·arm to 0 at ρ·arm + b (a hand reaches about this far
     past its wrist, so a wrist target a little beyond the arm's length still brings the hand to the contact)."""
-    planned_shoulder: bool = False
-    """[—]: Whether the reach (``reach``, ``reach_band``) is measured from the shoulders of the IK's latest
-    solution (the plan, whose wrists are the ones the completed target moves) rather than the robot's physical
-    shoulders. Off by default (the physical ones). A trunk that sways back under its own arm's swing (the standing
-    mode) puts the physical shoulder a few centimetres farther from the person than the plan's, and the gate then
-    closes on a contact the plan reaches (docs/benchmarks.md, "The contact completion's reach gate measured from
-    the planned shoulder")."""
     ramp: float = 0.2
     """τ_r [s]: β changes by at most Δt / τ_r per frame (0: at once)."""
     intent: bool = True
@@ -176,8 +169,7 @@ class CompletionInput:
     allowed: np.ndarray
     """(2, A) bool: which robot hand may touch which anchor (the task's robot and human groups)."""
     shoulder: np.ndarray
-    """(2, 3) the robot's shoulders the reach is measured from: the physical ones now, or the IK's latest
-    solution's (``ContactCompletionConfig.planned_shoulder``)."""
+    """(2, 3) the robot's physical shoulders now, the reach is measured from (world, m)."""
     arm: float
     """The robot's arm length, shoulder to wrist frame."""
     intent: bool = False

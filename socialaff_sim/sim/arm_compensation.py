@@ -32,7 +32,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from .arm_contacts import arm_hinges, filtered_arm_force
+from .arm_contacts import arm_hinges, filtered_arm_force, person_geoms, wrist_frames
 from .external_force import Contacts
 from .scene import Scene
 
@@ -78,14 +78,12 @@ class ArmCompensation:
         self.vadr = np.asarray(scene.robot_vadr)
         self.qadr = np.asarray(scene.robot_qadr)
         self._arm_geom = np.asarray(scene.arm_geom, dtype=bool)
-        self._person = np.zeros(m.ngeom, dtype=bool)
-        self._person[np.asarray(scene.human_geom_ids, dtype=np.int64)] = True
+        self._person = person_geoms(scene)
         self._target = self._person.copy()  # what a hand may reach for: the person and the free object
         if scene.object_geom >= 0:
             self._target[scene.object_geom] = True
         self._target_ids = np.flatnonzero(self._target)
-        self._site = [scene.frame_kinds[1 + s] == "site" for s in (0, 1)]
-        self._frame = [int(scene.frame_ids[1 + s]) for s in (0, 1)]
+        self._frames = wrist_frames(scene)
         self._wrist, self._cols = arm_hinges(scene)
         self._scratch = mujoco.MjData(m)
         self._jp = np.zeros((3, m.nv))
@@ -112,7 +110,7 @@ class ArmCompensation:
         self.force = filtered_arm_force(self.force, forces, geoms, self._arm_geom, m, self.filter_time)
 
     def _wrists(self, d: mujoco.MjData) -> np.ndarray:
-        return np.array([d.site_xpos[f] if site else d.xpos[f] for f, site in zip(self._frame, self._site, strict=True)])
+        return np.array([d.site_xpos[f] if site else d.xpos[f] for f, site in self._frames])
 
     def offsets(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray) -> np.ndarray:
         """(n − 6,) hinge reference offsets (rad) that put each wrist, on the trunk of ``d``, where the plan's
@@ -121,19 +119,17 @@ class ArmCompensation:
         share = self.fraction * fade(self.force, self.release)
         if self.gate is not None and self.touched.all():
             share = np.zeros(2)
+        s_ = self._scratch
+        if share.any():
+            s_.qpos[:] = d.qpos
+            s_.qpos[self.qadr] = q_ref
+            mujoco.mj_kinematics(m, s_)
+            plan = self._wrists(s_)
+            if self.gate is not None:  # only an arm on its way to a touch, near what it may touch
+                share = share * approach_gate(plan, d.geom_xpos[self._target_ids], self.touched, self.gate)
         if not share.any():
             self.shift[:] = 0.0
             return dq[6:]
-        s_ = self._scratch
-        s_.qpos[:] = d.qpos
-        s_.qpos[self.qadr] = q_ref
-        mujoco.mj_kinematics(m, s_)
-        plan = self._wrists(s_)
-        if self.gate is not None:  # only an arm on its way to a touch, near what it may touch
-            share = share * approach_gate(plan, d.geom_xpos[self._target_ids], self.touched, self.gate)
-            if not share.any():
-                self.shift[:] = 0.0
-                return dq[6:]
         s_.qpos[self.qadr] = d.qpos[self.qadr]
         for s in (0, 1):  # the arms' hinges at their references, the rest (trunk, base) as it is
             q_idx = self.qadr[self._cols[s] + 1]  # a hinge's qpos address: robot_qadr[7 + (dof − 6)]

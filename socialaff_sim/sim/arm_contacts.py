@@ -1,7 +1,8 @@
 """The robot's arms as the balance controller's arm terms see them: their hinges, wrists and the person's force.
 
 :mod:`~.hand_yield` and :mod:`~.arm_compensation` both move an arm's hinge references from its wrist and both
-fade with the person's contact force on that arm, filtered the same way; this module is what they share.
+fade with the person's contact force on that arm (the contacts with the person's geoms only), filtered the same
+way; this module is what they share.
 """
 
 from __future__ import annotations
@@ -14,18 +15,30 @@ import numpy as np
 from ..retarget.kinematic_tree import subtree_mask
 from .scene import Scene
 
-__all__ = ["arm_hinges", "filtered_arm_force"]
+__all__ = ["arm_hinges", "filtered_arm_force", "person_geoms", "wrist_frames"]
+
+
+def wrist_frames(scene: Scene) -> list[tuple[int, bool]]:
+    """Per arm (left, right): its wrist frame's id (key frame 1 + side) and whether that frame is a site (else a
+    body)."""
+    return [(int(scene.frame_ids[1 + s]), scene.frame_kinds[1 + s] == "site") for s in (0, 1)]
+
+
+def person_geoms(scene: Scene) -> np.ndarray:
+    """(ngeom,) bool: the person's geoms (``scene.human_geom_ids``), whose contacts on an arm count."""
+    mask = np.zeros(scene.model.ngeom, dtype=bool)
+    mask[np.asarray(scene.human_geom_ids, dtype=np.int64)] = True
+    return mask
 
 
 def arm_hinges(scene: Scene) -> tuple[list[int], list[np.ndarray]]:
-    """Per arm (left, right): the body of its wrist frame, and its hinges as columns into the robot's dofs
-    (``scene.robot_vadr``; each ≥ 6, past the free root)."""
+    """Per arm (left, right): the body of its wrist frame (:func:`wrist_frames`), and its hinges as columns into
+    the robot's dofs (``scene.robot_vadr``; each ≥ 6, past the free root)."""
     m = scene.model
     vadr = np.asarray(scene.robot_vadr)
     wrists, cols = [], []
-    for s in (0, 1):
-        fid = int(scene.frame_ids[1 + s])
-        wrists.append(int(m.site_bodyid[fid]) if scene.frame_kinds[1 + s] == "site" else fid)
+    for s, (fid, site) in enumerate(wrist_frames(scene)):
+        wrists.append(int(m.site_bodyid[fid]) if site else fid)
         arm = subtree_mask(m, int(scene.limb_body_ids[s]))
         cols.append(np.flatnonzero(arm[m.dof_bodyid[vadr]] & (np.arange(len(vadr)) >= 6)))
     return wrists, cols

@@ -34,7 +34,7 @@ class BalanceConfig:
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, min_foot_load, torque_fraction, flat_feet
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
-    - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist
+    - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_level, catch_tilt,
       catch_margin, catch_blend, drive_harnessed
@@ -142,6 +142,13 @@ class BalanceConfig:
     the support box's middle is σ W (W the weight; :func:`~.hand_yield.twist_allowance`): the arms give way to a
     person's push across the robot before it twists the feet on the floor (traced, a handshake's 20–60 N sideways at
     the hand twisted Stubby by a median 14.5 N·m, and its planted feet turned 17°). ``None``: tipping alone."""
+    yield_carried: bool = False
+    """[—]: ``hand_yield``: while the person still carries the object (before its release the recorded track holds
+    it), the object's forces on the robot, its grip welds' and its contacts', count as the person's
+    (:meth:`~.hand_yield.HandYield.measure`): the person holds the robot's hand through the object (traced, a hand
+    over's cup gripped while the person's track still moved it pulled Stubby's hand by 15–77 N and twisted it
+    about its feet by up to 46 N·m, and 85–92 % of the contact phase's foot slide fell before the release).
+    ``False``: the person's own contacts only."""
     arm_compensation: float | None = None
     """c [—]: the arms' hinge references move, at each driven step, by c times the damped least-squares step that
     puts each wrist, on the trunk as it is, where the plan's wrist is in the world (:mod:`~.arm_compensation`: a
@@ -220,6 +227,9 @@ class BalanceConfig:
         if self.yield_twist is not None and (self.hand_yield is None or not self.yield_twist > 0.0):
             raise ConfigError(f"BalanceConfig.yield_twist: needs hand_yield and a length > 0 m, found "
                               f"{self.yield_twist!r} with hand_yield {self.hand_yield!r}")
+        if self.yield_carried and self.hand_yield is None:
+            raise ConfigError("BalanceConfig.yield_carried: needs hand_yield (the carried object's forces are counted "
+                              "by the hands' give)")
         if self.arm_compensation is not None and not self.arm_compensation >= 0.0:
             raise ConfigError(f"BalanceConfig.arm_compensation: expected None or a fraction ≥ 0, found "
                               f"{self.arm_compensation}")

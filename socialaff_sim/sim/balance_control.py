@@ -108,7 +108,7 @@ class BalanceController:
             scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
                                                                       c.yield_return, c.external_filter,
-                                                                      c.yield_twist)
+                                                                      c.yield_twist, c.yield_carried)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
@@ -133,6 +133,9 @@ class BalanceController:
         """A new episode: harnessed, nothing planted, counters at zero."""
         self.released = False
         """Whether the harness is off (as of the last step)."""
+        self.carried = False
+        """Whether the person carries the object at this step (set by the frame stepper before each step; read by
+        ``yield_carried``)."""
         self.active = False
         """Whether the controller's torques drove the last step."""
         self._engaged = 0.0
@@ -231,7 +234,7 @@ class BalanceController:
         contacts = self._external.contacts(m, d) if standing and (
             self.hand_yield is not None or self.compensation is not None or c.external_forces) else None
         if standing and self.hand_yield is not None:
-            self.hand_yield.measure(m, contacts)  # type: ignore[arg-type]
+            self.hand_yield.measure(m, contacts, d, self.carried)  # type: ignore[arg-type]
         if standing and self.compensation is not None:
             self.compensation.measure(m, contacts)  # type: ignore[arg-type]
         if standing and c.external_forces:

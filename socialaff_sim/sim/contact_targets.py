@@ -123,15 +123,13 @@ class ContactAnchors:
     def gather(self, data: mujoco.MjData, wrist_target: np.ndarray, wrist_commanded: np.ndarray,
                person_hands: np.ndarray, object_centre: np.ndarray | None, arm: float,
                subevent: str | None, intent: bool = False, offered: int | None = None,
-               free: bool = False, inside: bool = False, shoulder: np.ndarray | None = None,
-               catch: bool = False, flight: FlightState | None = None) -> CompletionInput:
+               free: bool = False, inside: bool = False, catch: bool = False, flight: FlightState | None = None) -> CompletionInput:
         """The stage's input: ``wrist_target`` (2, 3) from the model, ``wrist_commanded`` (2, 3) the wrists of
         the latest IK solution, the person's hand centres at frame t ``person_hands`` (2, 3), the object's
         centre at t (``None``: no object or it is parked), world frame; ``intent``: the source's model means to
         touch now; ``offered``: with ``intent`` and ``inside``, the person's hand held out (0 left, 1 right;
         :func:`offered_hand`), the only one of theirs the robot may meet (None: either); ``free``: the object moves freely (thrown or let go);
-        ``inside``: the model's contact is a keyframe inside the sub-event; ``shoulder`` (2, 3): the shoulders the
-        reach is measured from (``None``: the physical ones now); ``catch``: a catch sub-goal's window is open
+        ``inside``: the model's contact is a keyframe inside the sub-event; ``catch``: a catch sub-goal's window is open
         (:meth:`catch_window`); ``flight``: the free object's state now (:meth:`flight`).
 
         The hands' nearest points are the physical ones: moved by as much as the commanded wrist moves, the
@@ -141,7 +139,7 @@ class ContactAnchors:
         return CompletionInput(
             wrist_target=np.asarray(wrist_target, dtype=np.float64), wrist_now=np.asarray(wrist_commanded, dtype=np.float64),
             nearest=self.nearest(data), centre=centre, radius=self.radius, shared=self.shared, allowed=allowed,
-            shoulder=np.array(data.xpos[self.scene.limb_body_ids[:2]] if shoulder is None else shoulder, dtype=np.float64),
+            shoulder=np.array(data.xpos[self.scene.limb_body_ids[:2]], dtype=np.float64),
             arm=float(arm), intent=bool(intent),
             free=bool(free), inside=bool(inside), catch=bool(catch), flight=flight,
         )

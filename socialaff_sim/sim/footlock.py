@@ -8,8 +8,7 @@ onto its harness, and one that moves sideways on the floor slides. :class:`FootL
 holds an ankle target at the place where its foot came down (on the floor, at
 the robot's home ankle height) while the target stays within ``radius`` of that
 place and below ``lift`` above home height (``hold_lift``, when set, for a foot already planted); a
-target that leaves that ball (a step) is followed again. With ``pace`` the targets' walk-up steps are first slowed to a
-pace the swing leg follows (:mod:`~.step_pace`).
+target that leaves that ball (a step) is followed again.
 
 A target that leaves the ball along the floor, never rising above ``lift`` (a glide: a synthesized walk-up may
 slide its feet), is planted again at once at its new point: the foot counts as planted throughout, so a balance
@@ -25,7 +24,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError, SimulationError
-from .step_pace import StepPace
 
 __all__ = ["FootLock", "FootLockConfig"]
 
@@ -49,19 +47,6 @@ class FootLockConfig:
     helper of a pull-up steps back to keep the arms taut; a robot whose hands give way,
     ``BalanceConfig.hand_yield``, needs no step). ``False``: the targets decide as at any other time."""
 
-    pace: float | None = None
-    """v_s [m/s]: an ankle target moves at most v_s / fps (horizontally) per data frame; one that the recording
-    moves farther is carried at that pace, raised by at least ``pace_height``, one foot at a time, until it has
-    caught up (:mod:`~.step_pace`). ``None``: the recording's targets as they are (the H1's swing leg does not
-    keep up with a recorded walk-up: docs/benchmarks.md, "The H1's outside support in the contact phases,
-    diagnosed …")."""
-    pace_base: bool = False
-    """[—]: With ``pace``, the base's target is held back with the feet: moved by the paced feet's mean horizontal
-    offset from the recording's (``False``: the base follows the recording while the feet lag, and the IK reaches
-    for it over feet held back, up to a metre in a pull-up)."""
-    pace_height: float = 0.08
-    """h_s [m]: a carried ankle target is at least this far above the ankle's home height (above ``lift``, so
-    that the foot counts as stepping)."""
     glide_step: float | None = None
     """h_g [m]: a planted foot whose target leaves ``radius`` without rising above ``lift`` (a glide) steps for
     one frame, its target the new point raised by this, instead of being planted there at once; one foot at a
@@ -79,9 +64,6 @@ class FootLockConfig:
     afterwards they are planted at once as without ``glide_step``."""
 
     def __post_init__(self) -> None:
-        if self.pace is not None and not (self.pace > 0.0 and self.pace_height > self.lift):
-            raise ConfigError(f"FootLockConfig: expected pace None or > 0 m/s and pace_height > lift ({self.lift} m), "
-                              f"found {self.pace}, {self.pace_height}")
         if not (self.lift >= 0.0 and self.radius >= 0.0):
             raise ConfigError(f"FootLockConfig: expected lift ≥ 0 and radius ≥ 0 in metres, found {self.lift}, {self.radius}")
         if self.glide_gap is not None and not self.glide_gap > 0.0:
@@ -96,18 +78,12 @@ class FootLockConfig:
 class FootLock:
     """Holds standing ankle targets still (see the module docstring); :meth:`reset` per episode."""
 
-    def __init__(self, home_height: tuple[float, float], config: FootLockConfig | None = None,
-                 fps: float | None = None) -> None:
+    def __init__(self, home_height: tuple[float, float], config: FootLockConfig | None = None) -> None:
         self.home_height = np.asarray(home_height, dtype=np.float64)
         """(2,) left, right ankle height at the robot's home posture, m."""
         self.config = config or FootLockConfig()
         self.planted: list[np.ndarray | None] = [None, None]
         """Where each foot is planted (world, (3,) m), or ``None`` while it steps."""
-        c = self.config
-        if c.pace is not None and not (fps is not None and fps > 0.0):
-            raise ConfigError(f"FootLockConfig.pace: needs the data's frame rate (fps > 0), found {fps}")
-        self.pace = None if c.pace is None else StepPace(c.pace, c.pace_height, fps, self.home_height)  # type: ignore[arg-type]
-        """The walk-up's pace (``pace``), else ``None``."""
         self.reset()
 
     def reset(self) -> None:
@@ -119,8 +95,6 @@ class FootLock:
         self._last: int | None = None  # the foot that glide-stepped in the last frame
         self._touched = False  # a sub-goal's contact has held in the episode (``glide_until_contact``)
         self._wait = [False, False]  # this frame's gliding feet held where they stand
-        if self.pace is not None:
-            self.pace.reset()
 
     @property
     def needs_physical(self) -> bool:
@@ -137,10 +111,10 @@ class FootLock:
         """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted;
         ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted);
         ``physical`` (2, 3): the physical ankle frames (world, m), which ``glide_gap`` needs; ``new_frame``:
-        ``False`` for a solve again within a data frame (``pace`` and ``glide_step`` then keep the frame's decision)."""
+        ``False`` for a solve again within a data frame (``glide_step`` then keeps the frame's decision)."""
         if self.needs_physical and physical is None:
             raise SimulationError("FootLock.apply: glide_gap needs the physical ankle frames")
-        out = np.array(ankles, dtype=np.float64) if self.pace is None else self.pace(ankles, new_frame)
+        out = np.array(ankles, dtype=np.float64)
         c = self.config
         held = touching and c.hold_in_contact
         self._touched = self._touched or bool(touching)

@@ -57,14 +57,11 @@ class FrameTargets:
         self._anchors: dict[str, ContactAnchors] = {}
         self._completed_frame = -1
 
-    def reset(self, place: Placement, scaler: KeyJointScaler, scene: Scene, ik: RobotIK, arm: float,
-              ik_shoulders: np.ndarray | None = None) -> None:
+    def reset(self, place: Placement, scaler: KeyJointScaler, scene: Scene, ik: RobotIK, arm: float) -> None:
         """Start an episode on ``place``'s instance with the episode's ``scaler`` (moved by the online placement),
-        the physics ``scene`` of its layout, the ``ik`` whose latest solution is the robot's commanded pose, the
-        robot's arm length ``arm`` (m) and ``ik_shoulders`` (2,): the IK model's bodies where the left and right arm
-        start (needed with ``ContactCompletionConfig.planned_shoulder``)."""
+        the physics ``scene`` of its layout, the ``ik`` whose latest solution is the robot's commanded pose and the
+        robot's arm length ``arm`` (m)."""
         self.place, self.scaler, self.scene, self.ik, self.arm = place, scaler, scene, ik, float(arm)
-        self.ik_shoulders = None if ik_shoulders is None else np.asarray(ik_shoulders, dtype=np.int64)[:2]
         self.interaction = place.interaction
         if self.completion is not None:
             self.completion.reset()
@@ -117,19 +114,10 @@ class FrameTargets:
         world = place.frame.to_world(out)
         x = anchors.gather(data, world[1:3], self.ik.frame_positions()[1:3], hands, obj, self.arm, subevent,
                            intent=contact, offered=offered, free=moving, inside=contact_inside,
-                           shoulder=self.planned_shoulders() if cc.planned_shoulder else None,
                            catch=catch, flight=flight)
         world[1:3] = self.completion(x, t, 1.0 / fps)
         self._completed_frame = t
         return place.frame.to_robot(world)
-
-    def planned_shoulders(self) -> np.ndarray:
-        """(2, 3) the left and right shoulders of the IK's latest solution (the plan the commanded wrists belong
-        to), world frame, metres."""
-        if self.ik_shoulders is None:
-            raise SimulationError("ContactCompletionConfig.planned_shoulder: the IK model's shoulder bodies were "
-                                  "not given to FrameTargets.reset (ik_shoulders)")
-        return np.array(self.ik.configuration.data.xpos[self.ik_shoulders])
 
     def _approach_flight(self, flight: FlightState, radius: float, data: mujoco.MjData, keys: np.ndarray,
                          partner: np.ndarray) -> None:

@@ -21,7 +21,10 @@ middle of the feet, so the robot tips over its heels (torso 10–15°) until the
 wrist reference gives way along the horizontal force on that arm, as a damper of ``yield_damping`` b:
 ȯ_s = (|f| − κ F_feet) / b · f_s / |f|; otherwise the offset returns over ``yield_return`` τ: ȯ_s = −o_s / τ.
 Only the person's contacts count: an object a grip weld holds presses on the hand it is welded to (forces
-internal to robot and object; counted, they set the hand overs' arms giving way for seconds). The offset (world,
+internal to robot and object; counted, they set the hand overs' arms giving way for seconds). With ``carried``
+(``BalanceConfig.yield_carried``) the object counts as the person's while the person still carries it (before its
+release the recorded track moves it and nothing moves back): its contacts and its grip welds' forces on the
+robot then count too (:func:`weld_force`), the weld's at its hand body's origin. The offset (world,
 horizontal, m, at most :data:`MAX_OFFSET`) moves the arm's hinge references by the damped least-squares
 Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ o over the arm's hinges (J the wrist's horizontal translational Jacobian there), and
 their reference velocities by the same map of ȯ. The forces are the contacts' of the last step
@@ -33,12 +36,12 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from .arm_contacts import arm_hinges, filtered_arm_force
+from .arm_contacts import arm_hinges, filtered_arm_force, person_geoms
 from .external_force import Contacts
 from .scene import Scene
 from .support_box import SupportBox
 
-__all__ = ["HandYield", "feet_allowance", "twist_allowance", "yield_rate", "MAX_OFFSET", "DAMPING_LAMBDA"]
+__all__ = ["HandYield", "feet_allowance", "twist_allowance", "yield_rate", "weld_force", "MAX_OFFSET", "DAMPING_LAMBDA"]
 
 MAX_OFFSET = 0.3
 """[m]: the longest a wrist reference gives way."""
@@ -73,6 +76,19 @@ def twist_allowance(middle: np.ndarray, direction: np.ndarray, at: np.ndarray, w
     return twist * weight / lever if lever > 1e-9 else float("inf")
 
 
+def weld_force(m: mujoco.MjModel, d: mujoco.MjData, eq: int, dofs: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """(3,) the force (N, world) the active equality ``eq`` exerts on the robot at ``d``'s last step: ``Jᵀλ`` of its
+    constraint rows on the robot's root translation ``dofs`` (3,) (a free joint's: the resultant of every force on
+    the robot; an equality between a robot body and the object has no other share in it). Zeros when inactive.
+    ``out`` (nv,) is scratch."""
+    rows = (d.efc_type[: d.nefc] == int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)) & (d.efc_id[: d.nefc] == eq)
+    if not rows.any():
+        return np.zeros(3)
+    lam = np.where(rows, d.efc_force[: d.nefc], 0.0)
+    mujoco.mj_mulJacTVec(m, d, out, lam)
+    return out[dofs].copy()
+
+
 def yield_rate(forces: np.ndarray, allowance: float, fraction: float, damping: float) -> np.ndarray:
     """(2, 2) ȯ (m/s, world, horizontal) of each arm's wrist offset while the horizontal forces ``forces`` (2, 2)
     (N, on the left and right arm) exceed ``fraction`` × ``allowance``; zeros otherwise (the offsets then return,
@@ -91,16 +107,21 @@ class HandYield:
     of the balance controller."""
 
     def __init__(self, scene: Scene, fraction: float, damping: float, back: float, filter_time: float,
-                 twist: float | None = None) -> None:
+                 twist: float | None = None, carried: bool = False) -> None:
         m = scene.model
         self.scene = scene
         self.twist = twist
         """σ (m): the allowance is also at most :func:`twist_allowance` (``BalanceConfig.yield_twist``); ``None``: not."""
+        self.carried = bool(carried) and scene.object_geom >= 0
+        """Whether the object's forces count as the person's while the person carries it (``yield_carried``)."""
+        self._grip = [(int(e), int(b), int(np.flatnonzero(scene.arm_geom[s])[0]))  # weld, its hand body, an arm geom
+                      for s, (e, b) in enumerate(zip(scene.grip_eq, scene.grip_body, strict=True)) if e >= 0]
+        self._root_lin = np.asarray(scene.robot_vadr[:3])
+        self._gen = np.zeros(m.nv)
         self.fraction, self.damping, self.back, self.filter_time = fraction, damping, back, filter_time
         self.vadr = np.asarray(scene.robot_vadr)
         self._arm_geom = np.asarray(scene.arm_geom, dtype=bool)
-        self._person = np.zeros(m.ngeom, dtype=bool)
-        self._person[np.asarray(scene.human_geom_ids, dtype=np.int64)] = True
+        self._person = person_geoms(scene)
         self._wrist, self._cols = arm_hinges(scene)
         self._jp = np.zeros((3, m.nv))
         self.reset()
@@ -118,12 +139,24 @@ class HandYield:
         self.yield_steps = 0
         """Updates in which the arms gave way."""
 
-    def measure(self, m: mujoco.MjModel, contacts: Contacts) -> None:
+    def measure(self, m: mujoco.MjModel, contacts: Contacts, d: mujoco.MjData | None = None,
+                carried: bool = False) -> None:
         """Fold the person's contact forces on each arm of the step just taken (``contacts``, the robot's contacts
-        of that step) into their filtered estimate."""
+        of that step) into their filtered estimate; with :attr:`carried` and ``carried`` (the person carries the
+        object at this step) the object's contacts and its active grip welds' forces at ``d`` too."""
         pts, forces, geoms, others = contacts
         mine = self._person[others]  # an object held by a grip weld presses on the hand it is welded to
+        held = self.carried and carried and d is not None
+        if held:  # ... but the person's track holds the object: it is the person's hand
+            mine = mine | (others == self.scene.object_geom)
         pts, forces, geoms = pts[mine], forces[mine], geoms[mine]
+        if held:
+            welds = [(weld_force(m, d, e, self._root_lin, self._gen), d.xpos[b], g)
+                     for e, b, g in self._grip if d.eq_active[e]]
+            if welds:
+                pts = np.vstack([pts] + [p[None] for _, p, _ in welds])
+                forces = np.vstack([forces] + [f[None] for f, _, _ in welds])
+                geoms = np.concatenate([geoms, np.array([g for _, _, g in welds], dtype=np.int64)])
         self.force = filtered_arm_force(self.force, forces, geoms, self._arm_geom, m, self.filter_time)
         on = self._arm_geom[:, geoms].any(axis=0) if len(geoms) else np.zeros(0, dtype=bool)
         if on.any():  # where the forces act: their points' mean, weighted by the force

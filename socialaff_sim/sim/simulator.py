@@ -25,12 +25,11 @@ from ..data.interaction import Interaction
 from ..errors import SimulationError
 from ..retarget.robot import RobotSpec, load_robot
 from ..retarget.scaling import RobotFrame
-from .chair import chair_pose, place_chair
-from .carry import CarryPlan, hold_object, park_object, release_object
+from .carry import CarryPlan, release_object
 from .frame_targets import FrameTargets, fill_targets
 from .human import HumanPose
 from .reach import reachable_targets
-from .scene import Scene, pose_compliant, set_human_sizes
+from .scene import Scene, set_human_sizes
 from .reset_cache import ResetCache, Settled, build_placement
 from .scoring import SubgoalScorer
 from .stage import Stage, contact_exemptions, key_frames, key_frames_at
@@ -58,6 +57,7 @@ class Simulator:
         self._settled = False
         self._targets = FrameTargets(self.task, self.config.contact_completion, self.config.scaling.object_lookahead)
         self._in_frame = False
+        self._park_radius = 0.0 if self.task.object is None else float(self.task.object.spec.size[0])
 
     # -- set-up -----------------------------------------------------------------------
     def _get_stage(self, inter: Interaction) -> Stage:
@@ -97,7 +97,7 @@ class Simulator:
         set_human_sizes(stage.ik_scene, self.pose.half_lengths)
         self._segments = place.segments
         self.scaler = copy.copy(place.scaler)  # its online placement moves during the episode
-        self._targets.reset(place, self.scaler, scene, stage.ik, self.measurements.arm, stage.ik_scene.limb_body_ids)
+        self._targets.reset(place, self.scaler, scene, stage.ik, self.measurements.arm)
         self.frame_R: RobotFrame = place.frame
         self._yaw = self.frame_R.yaw
         self.carry: CarryPlan | None = place.carry
@@ -144,47 +144,16 @@ class Simulator:
     def _start(self, q0: np.ndarray) -> None:
         stage = self._stage
         assert stage is not None
-        scene, data = stage.scene, stage.data
-        mujoco.mj_resetData(scene.model, data)
-        data.mocap_pos[scene.human_mocap] = self.pose.pos[0]
-        data.mocap_quat[scene.human_mocap] = self.pose.quat[0]
-        pose_compliant(scene, data, self.pose.pos[0], self.pose.quat[0])
-        if self.task.chair:  # the person faces the robot, which faces them
-            place_chair(scene.model, data, *chair_pose(scene.body, self.pose.joints[0], scene.body.radii,
-                                                       self._yaw + np.pi))
         self._q = q0.copy()
-        data.qpos[scene.robot_qadr] = stage.to_physics(q0)
-        data.mocap_pos[scene.anchor_mocap] = q0[:3]
-        data.mocap_quat[scene.anchor_mocap] = q0[3:7]
-        data.ctrl[scene.act_ids] = scene.ctrl_for(data.qpos)
         self._released = False
-        if scene.object_geom >= 0:
-            self._place_object(0.0, moving=False)
-        mujoco.mj_forward(scene.model, data)
-        stage.scorer.reset()
-        stage.scorer.measure_gaps(data)
-        stage.stepper.support.reset()
-        if stage.stepper.balance is not None:
-            stage.stepper.balance.reset()
-        if stage.stance is not None:
-            stage.stance.reset()
-            stage.stance.apply(data)
+        stage.start(q0, self.pose, self._yaw, self.task.chair, self.carry, self._park_radius)
         self._footlock = None if self.config.foot_lock is None else FootLock(
-            (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), self.config.foot_lock,
-            fps=self.interaction.fps)
+            (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), self.config.foot_lock)
         if self.carry is not None and self.carry.release_frame == 0:
             self._release(0)
         self.last_targets = self.frame_R.to_robot(key_frames_at(stage.ik_scene, q0, stage.kinematics))
 
     # -- object -----------------------------------------------------------------------
-    def _place_object(self, s: float, moving: bool) -> None:
-        stage = self._stage
-        assert stage is not None
-        if self.carry is None:
-            park_object(stage.scene, stage.data, float(self.task.object.spec.size[0]))  # type: ignore[union-attr]
-        else:
-            hold_object(stage.scene, stage.data, self.carry, s, moving)
-
     def _release(self, s: float) -> None:
         stage = self._stage
         assert stage is not None and self.carry is not None
@@ -261,8 +230,6 @@ class Simulator:
             physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.needs_physical else None
             world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()),
                                               physical, new_frame=not self._in_frame)
-            if self._footlock.pace is not None and self.config.foot_lock.pace_base:  # type: ignore[union-attr]
-                world[0, :2] += self._footlock.pace.lag  # the base held back with the paced feet
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
@@ -296,7 +263,7 @@ class Simulator:
                 self.time = now
                 self._release(s0)
                 return False
-            self._place_object(s0, moving=True)
+            stage.place_object(plan, s0, True, self._park_radius)
             return True
 
         stage.stepper.plan(

@@ -4,7 +4,8 @@ A :class:`Stage` holds the physics scene with its MjData, the IK scene (robot an
 human only, :func:`~socialaff_sim.sim.scene.build_scene` with ``physics=False``)
 with the mink IK on it, the sub-goal scorer, the frame stepper and the reach
 model. The simulator builds one the first time it resets an instance of a layout
-(:func:`compile_scenes` does the compiling) and reuses it for every later one.
+(:func:`compile_scenes` does the compiling) and reuses it for every later one; :meth:`Stage.start` puts its
+physics, and all that measures or controls it, at the first frame of an instance.
 """
 
 from __future__ import annotations
@@ -21,9 +22,12 @@ from ..errors import SimulationError
 from ..retarget.ik import IKModel, RobotIK
 from ..retarget.kinematic_tree import ancestry, shared_ancestor, subtree_mask
 from ..retarget.robot import RobotSpec
+from .carry import CarryPlan, hold_object, park_object
+from .chair import chair_pose, place_chair
+from .human import HumanPose
 from .reach import ReachModel
 from .robot_mjcf import limit_hand_force
-from .scene import ObjectSpec, Scene, build_scene
+from .scene import ObjectSpec, Scene, build_scene, pose_compliant
 from .scoring import SubgoalScorer
 from .substeps import FrameStepper
 from .stance import StanceControl
@@ -63,6 +67,44 @@ class Stage:
         out = np.broadcast_to(self.scene.home_qpos, (*q_ik.shape[:-1], len(self.scene.home_qpos))).copy()
         out[..., self.ik_map] = q_ik
         return out
+
+    def start(self, q0: np.ndarray, pose: HumanPose, yaw: float, chair: bool, carry: CarryPlan | None,
+              park_radius: float) -> None:
+        """Reset the physics to an instance's first frame: the person posed at ``pose``'s first frame (and, with
+        ``chair``, seated on the chair, facing the robot, whose facing is ``yaw`` rad), the robot at IK coordinates
+        ``q0`` (nq_ik,) with its anchor and servo references there, the object (if the scene has one) placed by
+        :meth:`place_object`; then the scorer, the support meter, the balance controller and the stance start
+        from that state."""
+        scene, data = self.scene, self.data
+        mujoco.mj_resetData(scene.model, data)
+        data.mocap_pos[scene.human_mocap] = pose.pos[0]
+        data.mocap_quat[scene.human_mocap] = pose.quat[0]
+        pose_compliant(scene, data, pose.pos[0], pose.quat[0])
+        if chair:  # the person faces the robot, which faces them
+            place_chair(scene.model, data, *chair_pose(scene.body, pose.joints[0], scene.body.radii, yaw + np.pi))
+        data.qpos[scene.robot_qadr] = self.to_physics(q0)
+        data.mocap_pos[scene.anchor_mocap] = q0[:3]
+        data.mocap_quat[scene.anchor_mocap] = q0[3:7]
+        data.ctrl[scene.act_ids] = scene.ctrl_for(data.qpos)
+        if scene.object_geom >= 0:
+            self.place_object(carry, 0.0, False, park_radius)
+        mujoco.mj_forward(scene.model, data)
+        self.scorer.reset()
+        self.scorer.measure_gaps(data)
+        self.stepper.support.reset()
+        if self.stepper.balance is not None:
+            self.stepper.balance.reset()
+        if self.stance is not None:
+            self.stance.reset()
+            self.stance.apply(data)
+
+    def place_object(self, carry: CarryPlan | None, s: float, moving: bool, park_radius: float) -> None:
+        """Put the object on ``carry``'s track at fractional frame ``s`` (with the track's velocity if ``moving``),
+        or, without a plan (the instance does not use it), park it out of the way (its radius ``park_radius``, m)."""
+        if carry is None:
+            park_object(self.scene, self.data, park_radius)
+        else:
+            hold_object(self.scene, self.data, carry, s, moving)
 
 
 def compile_scenes(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None, *, timestep: float,

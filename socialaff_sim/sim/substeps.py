@@ -147,6 +147,7 @@ class FrameStepper:
             if bal is None:
                 mujoco.mj_step(m, d)
             else:
+                bal.carried = carry is not None  # the person still carries the object (its track holds it)
                 bal.step(m, d, qs[k], hinge_vel)
             time += dt
             scorer.update(d, dt, time, subevent)
