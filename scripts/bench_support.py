@@ -24,7 +24,8 @@ also the harness let go of a steady standing robot, :mod:`socialaff_sim.sim.stan
 ``qp_steady``: the same with the quadratic program (:data:`QP`: ``solver="qp"``, ``sole_gap=0.01``,
 ``w_torso=3.0``); ``harness`` (``SimConfig.harness()``: the position servos on the compliant harness) and
 ``standing`` (``SimConfig.standing()``: ``qp_steady`` with ``flat_feet=True``, ``self_clearance=0.01``,
-``hand_yield=0.5``, ``yield_damping=50.0`` and ``FootLockConfig(hold_lift=0.12, hold_in_contact=True)``);
+``hand_yield=0.5``, ``yield_damping=50.0`` and ``FootLockConfig(hold_lift=0.12, hold_in_contact=True,
+glide_step=0.05, glide_until_contact=True, glide_gap=0.12)``, with the later rules' settings: ``SimConfig.standing()``);
 ``--sim FIELD=VALUE ...`` changes :class:`~socialaff_sim.sim.simulator.SimConfig`'s own fields for every mode
 (e.g. ``hand_force=40.0``), ``--balance FIELD=VALUE ...`` changes the controller's settings for the modes with the
 controller being run (e.g. ``flat_feet=True``, which needs the QP), ``--foot-lock FIELD=VALUE ...``

@@ -158,11 +158,33 @@ def test_a_gliding_walk_up_leaves_the_standing_robots_feet_behind_unless_they_gl
     robot = load_robot("ours")
     inter = _gliding(next(i for i in generate_dataset(seed=0) if i.instance_id == "pull_up_001"))
     errors, steps = [], []
-    for glide in (None, H):
-        sim = Simulator(robot, "pull_up", SimConfig.standing(
-            foot_lock=dataclasses.replace(STANDING_FOOT_LOCK, glide_step=glide)))
+    bare = dataclasses.replace(STANDING_FOOT_LOCK, glide_until_contact=False, glide_gap=None)
+    # without the option; h_g alone; the standing mode's (h_g, the latch and d_g = 12 cm)
+    for lock in (dataclasses.replace(bare, glide_step=None), dataclasses.replace(bare, glide_step=H), STANDING_FOOT_LOCK):
+        sim = Simulator(robot, "pull_up", SimConfig.standing(foot_lock=lock))
         errors.append(planted_feet_error(sim, inter))
         steps.append(sim._footlock.glide_steps)
-    assert steps[0] == 0 and steps[1] > 0
-    # measured: 7.5 and 3.3 cm (16.0 and 3.4 cm before the standing mode's hands gave way against the twist)
-    assert errors[0] > 0.05 and errors[1] < 0.5 * errors[0], errors
+    assert steps[0] == 0 and steps[1] > 0 and steps[2] > 0
+    # measured: 7.5, 3.3 and 3.9 cm (16.0 and 3.4 cm before the standing mode's hands gave way against the twist)
+    assert errors[0] > 0.05 and errors[1] < 0.5 * errors[0] and errors[2] < 0.6 * errors[0], errors
+
+
+def test_the_standing_mode_glide_steps_in_the_walk_up_only_a_foot_left_more_than_12_cm_behind() -> None:
+    """The rule of docs/design.md §5 ("… the glide step confined to a walk-up far behind its plan") put h_g = 5 cm,
+    the latch at the first contact and d_g = 12 cm into the standing mode; the harness has no glide step."""
+    lock = SimConfig.standing().foot_lock
+    assert (lock.glide_step, lock.glide_until_contact, lock.glide_gap) == (0.05, True, 0.12)
+    assert (lock.hold_lift, lock.hold_in_contact) == (0.12, True)  # the earlier rule's settings kept
+    assert SimConfig.harness().foot_lock.glide_step is None
+    moved = ANKLES + [[0.0, 0.0, 0.0], GLIDE]
+    for behind, steps in ((0.121, 1), (0.119, 0)):  # the physical right ankle 12.1 / 11.9 cm short of the new point
+        fl = FootLock(HOME, lock)
+        fl.apply(ANKLES, physical=ANKLES)
+        out = fl.apply(moved, physical=moved - [[0.0, 0.0, 0.0], [behind, 0.0, 0.0]])
+        assert fl.glide_steps == steps
+        np.testing.assert_allclose(out[1], moved[1] + [0.0, 0.0, 0.05 * steps])  # raised by h_g, or planted at once
+    fl = FootLock(HOME, lock)  # after the first contact a glide far behind is planted at once (the walk-up is over)
+    fl.apply(ANKLES, touching=True, physical=ANKLES)
+    out = fl.apply(moved, physical=moved - [[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]])
+    assert fl.glide_steps == 0
+    np.testing.assert_allclose(out, moved)

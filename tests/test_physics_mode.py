@@ -38,7 +38,8 @@ def test_the_default_is_the_harness_and_standing_is_a_named_preset() -> None:
                                       arm_compensation=1.0, compensation_gate=1e9, com_shift=0.1,
                                       shift_until_touch=True)
     assert d.stance == StanceConfig(release=False)
-    assert d.foot_lock == FootLockConfig(hold_lift=0.12, hold_in_contact=True)
+    assert d.foot_lock == FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05,
+                                         glide_until_contact=True, glide_gap=0.12)  # session 30's rule
     assert not d.gravity_compensation
     assert h != d
     assert PHYSICS_CHOICES == PHYSICS_MODES  # the command line's --physics, written out to keep start-up light

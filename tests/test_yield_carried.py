@@ -127,9 +127,12 @@ def hand_over_002():
 
 
 def _run(inter, option: bool) -> tuple[Simulator, dict, list[bool]]:
-    cfg = SimConfig.standing()  # as traced (before the centre of mass's forward shift joined the standing mode)
+    # as traced (before the centre of mass's forward shift and the walk-up's glide step joined the standing mode; with
+    # the glide step this episode's slide goes 6.1 -> 6.5 cm: the walk-up puts the robot elsewhere)
+    cfg = SimConfig.standing()
     cfg = dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, yield_carried=option, com_shift=None,
-                                                               shift_until_touch=False))
+                                                               shift_until_touch=False),
+                              foot_lock=dataclasses.replace(cfg.foot_lock, glide_step=None))
     sim = Simulator(load_robot("ours"), "hand_over", cfg)
     carried: list[bool] = []  # the controller's flag as the frame stepper set it for each frame's last step
 

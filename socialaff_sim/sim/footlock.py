@@ -51,9 +51,10 @@ class FootLockConfig:
     """h_g [m]: a planted foot whose target leaves ``radius`` without rising above ``lift`` (a glide) steps for
     one frame, its target the new point raised by this, instead of being planted there at once; one foot at a
     time and only while the other stands (of two gliding feet the one farther from where it stands steps; the
-    other is held where it stands until its partner has landed). ``None``: planted at the new point at once (in
-    the standing mode the balance controller then holds the physical foot where it stood: the demo's pull-up
-    stands 53–63 cm behind its plan; docs/design.md §5). Not while a contact holds with ``hold_in_contact``."""
+    other is held where it stands until its partner has landed). ``None``: planted at the new point at once (a
+    balance controller then holds the physical foot where it stood: the demo's pull-up stood 53–63 cm behind its
+    plan; docs/design.md §5). Not while a contact holds with ``hold_in_contact``. ``SimConfig.standing()``: 0.05,
+    with ``glide_until_contact`` and ``glide_gap`` 0.12 m."""
     glide_gap: float | None = None
     """d_g [m]: with ``glide_step``, a glide steps only while its physical ankle frame stands farther than this
     (horizontally) from the new point; nearer, it is planted at once (a standing foot's creep of a few centimetres

@@ -33,9 +33,12 @@ the person's pull through an object both still hold), each arm's references made
 until that arm first touches the person or the object, and the centre of mass moved forward by up to 10 cm of the
 feet's shortfall behind the plan's until then
 (docs/design.md §5, issue 25)."""
-STANDING_FOOT_LOCK = FootLockConfig(hold_lift=0.12, hold_in_contact=True)
+STANDING_FOOT_LOCK = FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05, glide_until_contact=True,
+                                    glide_gap=0.12)
 """The foot lock of :meth:`SimConfig.standing`: a planted foot stays planted up to 12 cm of recorded rise, and
-whatever the recording's feet do while a sub-goal's contact holds."""
+whatever the recording's feet do while a sub-goal's contact holds; in the walk-up (before the first contact) a
+foot whose target glides along the floor while the physical foot stands more than 12 cm behind it steps (raised
+5 cm for a frame), so that the robot does not stay behind its plan (docs/design.md §5, issue 25)."""
 
 
 @dataclass(frozen=True)
