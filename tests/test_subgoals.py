@@ -345,3 +345,65 @@ def test_contact_now_and_achieved_are_separate_and_a_lost_contact_shows(scene: S
     assert not res.pending  # a contact sub-goal is judged as it happens
     assert res.state_text() == f"clasp: now apart ({100 * lost[-1][2]:.1f} cm) | achieved at {res.time:.2f} s"
     assert res.time == pytest.approx(35 * dt)
+
+
+def _raise_right_arm(scene: Scene, d: mujoco.MjData) -> None:
+    """Turn the right arm's root joints (kinematics only) to the angle that lifts the right palm highest."""
+    m = scene.model
+    b = int(scene.limb_body_ids[1])
+    palm = np.flatnonzero(scene.hand_geom[1])[0]
+    best = (-np.inf, None, 0.0)
+    for j in range(int(m.body_jntadr[b]), int(m.body_jntadr[b]) + int(m.body_jntnum[b])):
+        q = int(m.jnt_qposadr[j])
+        home = float(d.qpos[q])
+        for angle in np.linspace(-np.pi, np.pi, 25):
+            d.qpos[q] = home + angle
+            mujoco.mj_kinematics(m, d)
+            if d.geom_xpos[palm, 2] > best[0]:
+                best = (float(d.geom_xpos[palm, 2]), q, home + angle)
+        d.qpos[q] = home
+    assert best[1] is not None
+    d.qpos[best[1]] = best[2]
+
+
+@pytest.mark.parametrize("robot", ["ours", "cmu"])
+def test_a_high_five_counts_only_at_or_above_the_shoulders(robot: str) -> None:
+    scene = build_scene(load_robot(robot), LAYOUT, None)
+    m = scene.model
+    spec = load_robot(robot)
+    # Independent reference: the shoulder bodies by the robot file's names, their xpos straight from MuJoCo.
+    shoulder_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"robot/{f.name}") if f.kind == "body" else
+                    int(m.site_bodyid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"robot/{f.name}")])
+                    for f in spec.limb_roots[:2]]
+    assert min(shoulder_ids) >= 0
+    palm = np.flatnonzero(scene.hand_geom[1])[0]
+    sphere = scene.human_geom_ids[scene.n_bones + 1]
+    high = SubgoalSpec("meet", "contact", "right_hand", "hands", 0.0, (), above="robot_shoulders")
+    anywhere = SubgoalSpec("any", "contact", "right_hand", "hands", 0.0, ())
+    outcomes = {}
+    for raised in (False, True):
+        d, pos = robot_home_human_away(scene)
+        if raised:
+            _raise_right_arm(scene, d)
+        mujoco.mj_forward(m, d)
+        pos[scene.n_bones + 1] = d.geom_xpos[palm]  # the person's hand sphere pressed onto the robot's palm
+        d.mocap_pos[scene.human_mocap] = pos
+        pose_compliant(scene, d, pos, np.array(d.mocap_quat[scene.human_mocap]))
+        mujoco.mj_forward(m, d)
+        # Reference: the palm–hand-sphere contacts and the shoulders' mean height, read from MuJoCo directly.
+        shoulder_z = float(np.mean([d.xpos[i, 2] for i in shoulder_ids]))
+        hand = set(np.flatnonzero(scene.hand_geom[1]).tolist())
+        zs = [float(d.contact.pos[i, 2]) for i in range(d.ncon)
+              if d.contact.dist[i] <= 0 and {int(d.contact.geom[i, 0]), int(d.contact.geom[i, 1])} & hand
+              and sphere in (int(d.contact.geom[i, 0]), int(d.contact.geom[i, 1]))]
+        assert zs, "the hand sphere must touch the palm"
+        assert (min(zs) >= shoulder_z) if raised else (max(zs) < shoulder_z - 0.1)
+        scorer = SubgoalScorer(scene, task_with([high, anywhere], []))
+        scorer.update(d, 0.01, 0.01, None)
+        meet, any_ = scorer.subgoals
+        assert any_.current and any_.success  # without the condition the touch counts at either height
+        outcomes[raised] = (meet.current, meet.success, meet.contact_time, meet.low)
+        if not raised:
+            assert meet.state_text() == "meet: now touching below the robot's shoulders | not achieved"
+    assert outcomes[False] == (False, False, 0.0, True)  # a waist-height touch is no high five
+    assert outcomes[True] == (True, True, 0.01, False)  # palms meeting above the shoulders are

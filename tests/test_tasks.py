@@ -79,6 +79,11 @@ def test_values_are_read(tmp_path: Path) -> None:
     assert (sg.name, sg.robot, sg.human, sg.min_duration) == ("touch", "right_hand", "hands", 0.25)
     assert task.failures[0].threshold == 123.0
     assert task.object is None
+    assert sg.above == "none"  # the default: a contact counts at any height
+    high = load_task(write(tmp_path, GOOD.replace('min_duration = 0.25', 'min_duration = 0.25\nabove = "robot_shoulders"'), "high.toml"))
+    assert high.subgoals[0].above == "robot_shoulders"
+    assert load_task("high_five").subgoals[0].above == "robot_shoulders"
+    assert all(sg.above == "none" for name in available_tasks() if name != "high_five" for sg in load_task(name).subgoals)
 
 
 @pytest.mark.parametrize(
@@ -90,6 +95,9 @@ def test_values_are_read(tmp_path: Path) -> None:
         ("min_duration = 0.25", "min_duration = -1", r"min_duration'.*expected a number in \[0.0, 60.0\]"),
         ('name = "touch"', 'name = "Touch Me"', r"subgoal\[0\]\.name'.*snake_case"),
         ('kind = "contact_force"', 'kind = "object_dropped"', r"'object_dropped' needs an \[object\] table"),
+        ("min_duration = 0.25", 'above = "head"',
+         r"subgoal\[0\]\.above'.*'head'.*valid choices: 'none' or 'robot_shoulders'"),
+        ("min_duration = 0.25", "above = 1.5", r"subgoal\[0\]\.above'.*expected a string"),
         ("threshold = 123.0", "thresold = 123.0", r"unknown key 'failure\[0\]\.thresold'; valid keys here: 'kind' or 'threshold'"),
     ],
 )
@@ -123,3 +131,22 @@ def test_not_toml_and_unknown_name(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="available: .*'shake_hands'"):
         load_task("no_such_task")
     assert set(HUMAN_GROUPS) >= {"hands", "wrists", "body"}
+
+
+def test_above_applies_to_contact_sub_goals_only(tmp_path: Path) -> None:
+    text = """
+    interaction = "catch_it"
+    [object]
+    shape = "sphere"
+    size = [0.04]
+    mass = 0.1
+    [[subgoal]]
+    name = "caught"
+    kind = "catch"
+    above = "robot_shoulders"
+    """
+    path = write(tmp_path, text)
+    with pytest.raises(ConfigError, match=r"key 'subgoal\[0\]\.above' only applies to kind 'contact', not 'catch'") as info:
+        load_task(path)
+    assert str(path) in str(info.value) and "\n" not in str(info.value)
+    assert load_task(write(tmp_path, text.replace('    above = "robot_shoulders"\n', ""), "ok.toml")).subgoals[0].above == "none"

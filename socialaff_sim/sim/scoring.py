@@ -4,7 +4,9 @@
 
 * ``contact`` sub-goals accumulate the time during which any geom of the robot
   group touches any geom of the human group (contact distance ≤ 0); success when
-  the total reaches ``min_duration``;
+  the total reaches ``min_duration``; with ``above = "robot_shoulders"`` only
+  contacts whose point is at or above the mean height of the robot's two
+  shoulder bodies at that step count (toward the total and toward ``current``);
 * ``catch``: after the release, a robot-hand contact with the object that comes
   before any object-floor contact;
 * for both object sub-goals, a hand of the group whose grip weld holds the
@@ -58,6 +60,9 @@ class SubgoalResult:
     pending: bool = False
     """Whether the sub-goal is judged only at the episode's end and has not been judged yet (``object_in_hand``
     before :meth:`SubgoalScorer.finish`): its :attr:`success` is then not yet known, not false."""
+    low: bool = False
+    """Whether, at the last physics step, the groups touch but only below the sub-goal's height condition
+    (``above``): such a touch is not :attr:`current` and does not count."""
     gap: float | None = None
     """Distance (m) between the robot group's and the other group's geoms at the last
     :meth:`SubgoalScorer.measure_gaps` (negative: penetration; ``None`` before the first, or farther
@@ -72,6 +77,8 @@ class SubgoalResult:
         """``"hands_clasped: now touching | achieved at 2.80 s"``: the contact now and whether it was ever met."""
         if self.current:
             now = "now touching"
+        elif self.low:
+            now = "now touching below the robot's shoulders"
         elif self.gap is not None:
             now = f"now apart ({100 * max(self.gap, 0.0):.1f} cm)"
         else:
@@ -143,6 +150,9 @@ class SubgoalScorer:
             sides = [s for s in (0, 1) if sg.kind != "contact" and scene.grip_eq[s] >= 0 and (a & scene.hand_geom[s]).any()]
             self._grips.append(np.array([scene.grip_eq[s] for s in sides], dtype=np.int64))
         self._any_grip = any(len(g) for g in self._grips)
+        # Sub-goals whose contacts count only at or above the robot's shoulders (mean z of the arm roots).
+        self._above = [sg.kind == "contact" and sg.above == "robot_shoulders" for sg in task.subgoals]
+        self._shoulders = np.asarray(scene.limb_body_ids[:2], dtype=np.int64)
         self._force = np.zeros(6)
         # Contacts that can matter: the robot with the person or with itself, the object with the
         # robot or the floor. The rest (the robot's feet on the floor, the person holding the
@@ -202,10 +212,10 @@ class SubgoalScorer:
         if not n or not keep.any():
             self.robot_on_object = False
             for res in self.subgoals:
-                res.current = False
+                res.current = res.low = False
             if gripped is not None and any(gripped):
                 none = np.zeros(0, dtype=np.int64)
-                self._score_subgoals(none, none, np.zeros(0, dtype=bool), dt, t, subevent, gripped)
+                self._score_subgoals(data, none, none, np.zeros(0, dtype=bool), dt, t, subevent, gripped)
             self._quiet_step(t)
             return
         con = data.contact
@@ -213,7 +223,7 @@ class SubgoalScorer:
         self.robot_on_object = bool(((cls == 8) | (cls == 16)).any())  # robot–object, either order
         dist = con.dist[:n]
         touching = (dist <= 0.0) & keep
-        self._score_subgoals(g1, g2, touching, dt, t, subevent, gripped)
+        self._score_subgoals(data, g1, g2, touching, dt, t, subevent, gripped)
         self._score_failures(data, g1, g2, np.where(keep, dist, 0.0), touching, t)
 
     def _quiet_step(self, t: float) -> None:
@@ -228,13 +238,23 @@ class SubgoalScorer:
             if bad and not f.triggered:
                 f.triggered, f.time = True, t
 
-    def _pair_active(self, k: int, g1: np.ndarray, g2: np.ndarray, touching: np.ndarray) -> bool:
+    def _pair_active(self, k: int, data: mujoco.MjData, g1: np.ndarray, g2: np.ndarray,
+                     touching: np.ndarray) -> tuple[bool, bool]:
+        """(counts, low): whether sub-goal ``k``'s groups touch in a contact that counts, and whether they
+        touch only in contacts below its height condition."""
         a, b = self._pairs[k]
         hit = ((a[g1] & b[g2]) | (a[g2] & b[g1])) & touching
-        return bool(hit.any())
+        if not hit.any():
+            return False, False
+        if not self._above[k]:
+            return True, False
+        # Contacts and body positions of one step come from the same kinematics (mj_step's forward pass).
+        shoulder_z = float(data.xpos[self._shoulders, 2].mean())
+        high = bool((data.contact.pos[:len(g1), 2][hit] >= shoulder_z).any())
+        return high, not high
 
-    def _score_subgoals(self, g1: np.ndarray, g2: np.ndarray, touching: np.ndarray, dt: float, t: float,
-                        subevent: str | None, gripped: list[bool] | None = None) -> None:
+    def _score_subgoals(self, data: mujoco.MjData, g1: np.ndarray, g2: np.ndarray, touching: np.ndarray, dt: float,
+                        t: float, subevent: str | None, gripped: list[bool] | None = None) -> None:
         tr = self.tracks
         obj = self.scene.object_geom
         if obj >= 0 and tr.released and tr.floor_time is None and len(g1):
@@ -243,8 +263,9 @@ class SubgoalScorer:
             if on_floor.any():
                 tr.floor_time = t
         for k, (sg, res) in enumerate(zip(self.task.subgoals, self.subgoals, strict=True)):
-            active = (len(g1) > 0 and self._pair_active(k, g1, g2, touching)) or bool(gripped and gripped[k])
-            res.current = active
+            counts, low = self._pair_active(k, data, g1, g2, touching) if len(g1) else (False, False)
+            active = counts or bool(gripped and gripped[k])
+            res.current, res.low = active, low and not active
             if sg.kind == "contact":
                 if active and (not sg.subevents or subevent in sg.subevents):
                     res.contact_time += dt

@@ -20,6 +20,7 @@ __all__ = [
     "ROBOT_GROUPS",
     "HUMAN_GROUPS",
     "SUBGOAL_KINDS",
+    "ABOVE_CHOICES",
     "FAILURE_KINDS",
     "ObjectTask",
     "SubgoalSpec",
@@ -36,6 +37,8 @@ HUMAN_GROUPS = ("left_hand", "right_hand", "hands", "left_wrist", "right_wrist",
 """Contact groups of the replayed human (agent 0); see :func:`socialaff_sim.sim.human.human_body`."""
 SUBGOAL_KINDS = ("contact", "object_in_hand", "catch")
 FAILURE_KINDS = ("self_collision", "contact_force", "object_dropped")
+ABOVE_CHOICES = ("none", "robot_shoulders")
+"""Height conditions of a ``contact`` sub-goal's contacts (``above``)."""
 OBJECT_SHAPES = {"sphere": 1, "cylinder": 2, "box": 3}
 CARRIERS = ("auto", "left_hand", "right_hand")
 
@@ -70,6 +73,10 @@ class SubgoalSpec:
     """Seconds."""
     subevents: tuple[str, ...]
     """Count contact only during these sub-events (empty: always)."""
+    above: str = "none"
+    """``contact`` only: ``robot_shoulders`` counts a contact only when its point (MuJoCo contact ``pos``)
+    is at or above the mean height z (m) of the robot's two shoulder bodies at that physics step;
+    ``none``: at any height."""
 
 
 @dataclass(frozen=True)
@@ -124,13 +131,15 @@ def _object(t: Table) -> ObjectTask:
 
 
 def _subgoal(t: Table, has_object: bool) -> SubgoalSpec:
-    t.check_keys(["name", "kind", "robot", "human", "min_duration", "subevents"])
+    t.check_keys(["name", "kind", "robot", "human", "min_duration", "subevents", "above"])
     name = t.get_str("name")
     if not LABEL_PATTERN.match(name):
         raise t.error("name", "a snake_case name like 'hands_touch'", name)
     kind = t.get_str("kind", valid=SUBGOAL_KINDS)
     robot = t.get_str("robot", "hands", valid=ROBOT_GROUPS)
     human = None
+    if kind != "contact" and "above" in t:
+        raise ConfigError(f"{t.path}: key {t.key('above')!r} only applies to kind 'contact', not {kind!r}")
     if kind == "contact":
         human = t.get_str("human", valid=HUMAN_GROUPS)
     elif "human" in t:
@@ -142,6 +151,7 @@ def _subgoal(t: Table, has_object: bool) -> SubgoalSpec:
         name=name, kind=kind, robot=robot, human=human,
         min_duration=t.get_float("min_duration", default, lo=0.0, hi=60.0),
         subevents=tuple(t.get_str_list("subevents", [])),
+        above=t.get_str("above", "none", valid=ABOVE_CHOICES),
     )
 
 
