@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from conftest import shared_robot
 from socialaff_sim.data.skeletons import get_layout
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.retarget.robot import load_robot
@@ -366,11 +367,14 @@ def _raise_right_arm(scene: Scene, d: mujoco.MjData) -> None:
     d.qpos[best[1]] = best[2]
 
 
-@pytest.mark.parametrize("robot", ["ours", "cmu"])
+_MJCF = {"unitree_h1": ("unitree_h1", "h1.xml"), "unitree_g1": ("unitree_g1", "g1_29dof.xml")}
+
+
+@pytest.mark.parametrize("robot", ["ours", "cmu", "unitree_h1", "unitree_g1"])
 def test_a_high_five_counts_only_at_or_above_the_shoulders(robot: str) -> None:
-    scene = build_scene(load_robot(robot), LAYOUT, None)
+    spec = load_robot(robot, mjcf=shared_robot(*_MJCF[robot])) if robot in _MJCF else load_robot(robot)
+    scene = build_scene(spec, LAYOUT, None)
     m = scene.model
-    spec = load_robot(robot)
     # Independent reference: the shoulder bodies by the robot file's names, their xpos straight from MuJoCo.
     shoulder_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"robot/{f.name}") if f.kind == "body" else
                     int(m.site_bodyid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"robot/{f.name}")])
@@ -386,10 +390,22 @@ def test_a_high_five_counts_only_at_or_above_the_shoulders(robot: str) -> None:
         if raised:
             _raise_right_arm(scene, d)
         mujoco.mj_forward(m, d)
-        pos[scene.n_bones + 1] = d.geom_xpos[palm]  # the person's hand sphere pressed onto the robot's palm
-        d.mocap_pos[scene.human_mocap] = pos
-        pose_compliant(scene, d, pos, np.array(d.mocap_quat[scene.human_mocap]))
-        mujoco.mj_forward(m, d)
+        # The person's hand sphere pressed 1 cm into the robot's hand geom from in front (bisection along +x from
+        # the geom's centre: a sphere buried in a mesh's middle reads no contact).
+        centre = np.array(d.geom_xpos[palm])
+
+        def place(offset: float) -> float:
+            pos[scene.n_bones + 1] = centre + (offset, 0.0, 0.0)
+            d.mocap_pos[scene.human_mocap] = pos
+            pose_compliant(scene, d, pos, np.array(d.mocap_quat[scene.human_mocap]))
+            mujoco.mj_forward(m, d)
+            return float(mujoco.mj_geomDistance(m, d, int(palm), int(sphere), 1.0, None))
+
+        lo, hi = 0.0, 0.6
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if place(mid) < -0.01 else (lo, mid)
+        place(lo)
         # Reference: the palm–hand-sphere contacts and the shoulders' mean height, read from MuJoCo directly.
         shoulder_z = float(np.mean([d.xpos[i, 2] for i in shoulder_ids]))
         hand = set(np.flatnonzero(scene.hand_geom[1]).tolist())
