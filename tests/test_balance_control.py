@@ -211,13 +211,14 @@ def test_centre_of_mass_feedback_brings_the_centre_of_mass_over_the_middle_of_th
     assert ctl._tilt(d) <= 2.0
 
 
-def _com_shift(scene: Scene, config: BalanceConfig, dx: float, seconds: float = 2.0) -> tuple[np.ndarray, BalanceController]:
-    """Stubby standing at home under the controller while the plan is its home pose moved ``dx`` m along x (forward),
-    feet and all: the centre of mass's horizontal displacement (m) after ``seconds``, and the controller."""
+def com_moved(scene: Scene, config: BalanceConfig, offset: np.ndarray | float, seconds: float = 2.0) -> tuple[np.ndarray, BalanceController]:
+    """Stubby standing at home under the controller while the plan is its home pose moved by ``offset`` ((2,) m, or a
+    float: m along x, forward), feet and all: the centre of mass's horizontal displacement (m) after ``seconds``, and
+    the controller."""
     m = scene.model
     d, q, ctl, ctrl0 = standing_far(scene, config)
     plan = q.copy()
-    plan[0] += dx
+    plan[:2] += np.array([offset, 0.0]) if np.isscalar(offset) else np.asarray(offset)
     com0 = np.array(d.subtree_com[scene.root_body, :2])
     for k in range(int(round(seconds / m.opt.timestep))):
         if k % 25 == 0:
@@ -234,10 +235,10 @@ def test_the_world_reference_holds_the_centre_of_mass_where_the_plan_has_it(scen
     # centre of mass in the world, along dx (inverted it would run the other way); the joints' rows, which track the
     # home posture, hold it back unless ``w_com`` outweighs them (docs/design.md §5, "The standing body held where
     # the plan has it").
-    plan, _ = _com_shift(scene, BalanceConfig(), dx)
+    plan, _ = com_moved(scene, BalanceConfig(), dx)
     assert np.linalg.norm(plan) <= 0.002
-    world, ctl = _com_shift(scene, BalanceConfig(com_reference="world"), dx)
-    heavy, ctl_h = _com_shift(scene, BalanceConfig(com_reference="world", w_com=1e4), dx)
+    world, ctl = com_moved(scene, BalanceConfig(com_reference="world"), dx)
+    heavy, ctl_h = com_moved(scene, BalanceConfig(com_reference="world", w_com=1e4), dx)
     for shift, c in ((world, ctl), (heavy, ctl_h)):
         assert shift[0] * np.sign(dx) >= 0.5 * abs(dx)  # along dx, at least half of it
         assert abs(shift[0]) <= abs(dx) + 0.003 and abs(shift[1]) <= 0.002  # not past the plan's

@@ -168,18 +168,24 @@ def test_a_diagonal_task_gives_the_bits_of_its_rows(rng) -> None:
         assert not np.array_equal(full.qacc, other.qacc)
 
 
+def moving_home(rng: np.random.Generator, scene: Scene) -> tuple[mujoco.MjModel, mujoco.MjData, np.ndarray]:
+    """Stubby at its home pose with random joint velocities (rad/s, m/s; σ 0.5), forward-computed: (model, data, the
+    robot's velocity addresses)."""
+    m = scene.model
+    d = mujoco.MjData(m)
+    d.qpos[scene.robot_qadr] = scene.home_qpos
+    d.qvel[:] = rng.normal(scale=0.5, size=m.nv)
+    mujoco.mj_forward(m, d)
+    return m, d, np.asarray(scene.robot_vadr)
+
+
 def _foot(scene: Scene) -> int:
     m, k = scene.model, 3
     return int(m.site_bodyid[scene.frame_ids[k]]) if scene.frame_kinds[k] == "site" else int(scene.frame_ids[k])
 
 
 def test_a_foots_feedback_and_drift_against_mujocos_jacobians_and_foot_rows(rng, scene: Scene) -> None:
-    m = scene.model
-    d = mujoco.MjData(m)
-    d.qpos[scene.robot_qadr] = scene.home_qpos
-    d.qvel[:] = rng.normal(scale=0.5, size=m.nv)
-    mujoco.mj_forward(m, d)
-    vadr = np.asarray(scene.robot_vadr)
+    m, d, vadr = moving_home(rng, scene)
     body = _foot(scene)
     goal = d.xpos[body] + rng.normal(scale=0.01, size=3)
     rot = np.array([[np.cos(0.1), -np.sin(0.1), 0.0], [np.sin(0.1), np.cos(0.1), 0.0], [0.0, 0.0, 1.0]])

@@ -17,6 +17,7 @@ from socialaff_sim.sim.external_force import ExternalForces
 from socialaff_sim.sim.flat_feet import foot_rows
 from socialaff_sim.sim.scene import Scene, build_scene
 from test_balance_control import LAYOUT, _stand
+from test_balance_qp_rows import moving_home
 from test_balance_qp import ACTUATED
 
 
@@ -164,12 +165,7 @@ def test_the_controller_reads_the_steps_contacts_once_and_hands_them_to_every_pa
 def test_foot_rows_in_reused_room_are_the_same_bits_whatever_the_room_held(rng, scene: Scene) -> None:
     """The balance controller hands :func:`foot_rows` the same two arrays every step; MuJoCo overwrites them whole,
     so rows built in room full of garbage equal those built in fresh room, bit for bit."""
-    m = scene.model
-    d = mujoco.MjData(m)
-    d.qpos[scene.robot_qadr] = scene.home_qpos
-    d.qvel[:] = rng.normal(scale=0.5, size=m.nv)
-    mujoco.mj_forward(m, d)
-    vadr = np.asarray(scene.robot_vadr)
+    m, d, vadr = moving_home(rng, scene)
     room = (np.full((6, m.nv), np.nan), np.full((6, m.nv), 1e300))
     for body in (int(m.site_bodyid[scene.frame_ids[3]]) if scene.frame_kinds[3] == "site" else int(scene.frame_ids[3]),
                  int(scene.root_body)):

@@ -23,7 +23,7 @@ from socialaff_sim.sim.sim_config import STANDING_BALANCE
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.support_box import SupportBox
 
-from test_balance_control import LAYOUT, standing_far
+from test_balance_control import LAYOUT, com_moved, standing_far
 
 
 @pytest.mark.parametrize("angle", [0.0, 0.7, -2.5])
@@ -105,34 +105,18 @@ def test_the_controller_shifts_its_reference_by_the_plans_feet_ahead(scene: Scen
     assert np.allclose(s, 0.0) and w == 100.0
 
 
-def _com_moved(scene: Scene, config: BalanceConfig, offset: np.ndarray, seconds: float = 2.0) -> tuple[np.ndarray, BalanceController]:
-    """Stubby standing at home under the controller while the plan is its home pose moved by ``offset`` (2,) m, feet and
-    all: the centre of mass's horizontal displacement (m) after ``seconds``, and the controller."""
-    m = scene.model
-    d, q, ctl, ctrl0 = standing_far(scene, config)
-    plan = q.copy()
-    plan[:2] += offset
-    com0 = np.array(d.subtree_com[scene.root_body, :2])
-    for k in range(int(round(seconds / m.opt.timestep))):
-        if k % 25 == 0:
-            ctl.begin_frame(plan, (True, True))
-        d.ctrl[scene.act_ids] = ctrl0
-        ctl.step(m, d, q, np.zeros(len(scene.robot_vadr) - 6))
-    return np.array(d.subtree_com[scene.root_body, :2]) - com0, ctl
-
-
 def test_a_standing_robot_leans_toward_a_plan_ahead_only(scene: Scene) -> None:
     # The plan 3 cm ahead: the centre of mass comes most of the way forward (the heavy rows outweigh the joints);
     # 3 cm behind or 3 cm to the side: it stays (the ``plan`` reference, unshifted).
     cfg = BalanceConfig(com_shift=0.08, shift_weight=1e4)
-    ahead, ctl = _com_moved(scene, cfg, np.array([0.03, 0.0]))
+    ahead, ctl = com_moved(scene, cfg, np.array([0.03, 0.0]))
     assert ahead[0] >= 0.02 and abs(ahead[1]) <= 0.003
     assert ctl.catches == 0 and ctl.released
     for off in (np.array([-0.03, 0.0]), np.array([0.0, 0.03])):
-        moved, ctl = _com_moved(scene, cfg, off)
+        moved, ctl = com_moved(scene, cfg, off)
         assert np.linalg.norm(moved) <= 0.003
         assert ctl.catches == 0 and ctl.released
-    plain, _ = _com_moved(scene, BalanceConfig(), np.array([0.03, 0.0]))
+    plain, _ = com_moved(scene, BalanceConfig(), np.array([0.03, 0.0]))
     assert ahead[0] - plain[0] >= 0.015
 
 

@@ -14,9 +14,10 @@ from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.balance_control import BalanceController
-from socialaff_sim.sim.feedforward import StandingFeedforward
 from socialaff_sim.sim.feet_on_floor import FeetOnFloor
-from socialaff_sim.sim.scene import Scene, build_scene, pose_compliant
+from socialaff_sim.sim.scene import Scene, build_scene
+
+from test_balance_control import standing_far
 
 EZ = np.array([0.0, 0.0, 1.0])
 
@@ -66,16 +67,7 @@ def _first_release(scene: Scene, config: BalanceConfig, tilts, seconds: float = 
     ``tilts(t)`` (degrees at simulated time t; ``None``: the tilts must not be read at all): the time of the first
     physics step after which the harness is off (``None``: never)."""
     m = scene.model
-    d = mujoco.MjData(m)
-    q = scene.home_qpos.copy()
-    d.qpos[scene.robot_qadr] = q
-    far = np.array([10.0, 10.0, 1.0]) + np.arange(len(scene.human_mocap))[:, None] * [0.0, 0.3, 0.0]
-    d.mocap_pos[scene.human_mocap] = far
-    pose_compliant(scene, d, far, np.array(d.mocap_quat[scene.human_mocap]))
-    d.mocap_pos[scene.anchor_mocap], d.mocap_quat[scene.anchor_mocap] = q[:3], q[3:7]
-    mujoco.mj_forward(m, d)
-    ctl = BalanceController(scene, config)
-    ctrl0 = scene.ctrl_for(d.qpos.copy()) + StandingFeedforward(scene).ctrl_offset(d.qpos.copy())
+    d, q, ctl, ctrl0 = standing_far(scene, config)
     clock = {"t": 0.0}
 
     def scripted(_data: mujoco.MjData) -> np.ndarray:
