@@ -19,7 +19,8 @@ from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.external_force import Contacts
-from socialaff_sim.sim.hand_yield import HandYield, weld_force
+from socialaff_sim.sim.external_force import weld_force
+from socialaff_sim.sim.hand_yield import HandYield
 from socialaff_sim.sim.scene import ObjectSpec, build_scene
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from test_balance_control import LAYOUT

@@ -17,7 +17,7 @@ import numpy as np
 
 from .scene import Scene
 
-__all__ = ["Contacts", "ExternalForces", "lean_offset"]
+__all__ = ["Contacts", "ExternalForces", "lean_offset", "weld_force"]
 
 
 class Contacts(NamedTuple):
@@ -99,3 +99,16 @@ def lean_offset(moment: np.ndarray, force: np.ndarray, point: np.ndarray, weight
     M_x − W (c_y − p_y) = 0 (a forward pull above the floor leans the robot back)."""
     mom = np.asarray(moment, dtype=np.float64) - np.cross(point, force)
     return np.array([-mom[1], mom[0]]) / weight
+
+
+def weld_force(m: mujoco.MjModel, d: mujoco.MjData, eq: int, dofs: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """(3,) the force (N, world) the active equality ``eq`` exerts on the robot at ``d``'s last step: ``Jᵀλ`` of its
+    constraint rows on the robot's root translation ``dofs`` (3,) (a free joint's: the resultant of every force on
+    the robot; an equality between a robot body and the object has no other share in it). Zeros when inactive.
+    ``out`` (nv,) is scratch."""
+    rows = (d.efc_type[: d.nefc] == int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)) & (d.efc_id[: d.nefc] == eq)
+    if not rows.any():
+        return np.zeros(3)
+    lam = np.where(rows, d.efc_force[: d.nefc], 0.0)
+    mujoco.mj_mulJacTVec(m, d, out, lam)
+    return out[dofs].copy()

@@ -24,7 +24,7 @@ Only the person's contacts count: an object a grip weld holds presses on the han
 internal to robot and object; counted, they set the hand overs' arms giving way for seconds). With ``carried``
 (``BalanceConfig.yield_carried``) the object counts as the person's while the person still carries it (before its
 release the recorded track moves it and nothing moves back): its contacts and its grip welds' forces on the
-robot then count too (:func:`weld_force`), the weld's at its hand body's origin. The offset (world,
+robot then count too (:func:`~socialaff_sim.sim.external_force.weld_force`), the weld's at its hand body's origin. The offset (world,
 horizontal, m, at most :data:`MAX_OFFSET`) moves the arm's hinge references by the damped least-squares
 Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ o over the arm's hinges (J the wrist's horizontal translational Jacobian there), and
 their reference velocities by the same map of ȯ. The forces are the contacts' of the last step
@@ -37,11 +37,11 @@ import mujoco
 import numpy as np
 
 from .arm_contacts import arm_hinges, filtered_arm_force, person_geoms
-from .external_force import Contacts
+from .external_force import Contacts, weld_force
 from .scene import Scene
 from .support_box import SupportBox
 
-__all__ = ["HandYield", "feet_allowance", "twist_allowance", "yield_rate", "weld_force", "MAX_OFFSET", "DAMPING_LAMBDA"]
+__all__ = ["HandYield", "feet_allowance", "twist_allowance", "yield_rate", "MAX_OFFSET", "DAMPING_LAMBDA"]
 
 MAX_OFFSET = 0.3
 """[m]: the longest a wrist reference gives way."""
@@ -74,19 +74,6 @@ def twist_allowance(middle: np.ndarray, direction: np.ndarray, at: np.ndarray, w
     u = np.asarray(direction, dtype=np.float64)
     lever = abs(float(rel[0] * u[1] - rel[1] * u[0]))
     return twist * weight / lever if lever > 1e-9 else float("inf")
-
-
-def weld_force(m: mujoco.MjModel, d: mujoco.MjData, eq: int, dofs: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """(3,) the force (N, world) the active equality ``eq`` exerts on the robot at ``d``'s last step: ``Jᵀλ`` of its
-    constraint rows on the robot's root translation ``dofs`` (3,) (a free joint's: the resultant of every force on
-    the robot; an equality between a robot body and the object has no other share in it). Zeros when inactive.
-    ``out`` (nv,) is scratch."""
-    rows = (d.efc_type[: d.nefc] == int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)) & (d.efc_id[: d.nefc] == eq)
-    if not rows.any():
-        return np.zeros(3)
-    lam = np.where(rows, d.efc_force[: d.nefc], 0.0)
-    mujoco.mj_mulJacTVec(m, d, out, lam)
-    return out[dofs].copy()
 
 
 def yield_rate(forces: np.ndarray, allowance: float, fraction: float, damping: float) -> np.ndarray:

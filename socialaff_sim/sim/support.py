@@ -30,6 +30,7 @@ import mujoco
 import numpy as np
 
 from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
+from .external_force import weld_force
 from .scene import Scene
 
 __all__ = ["SupportMeter", "FrameSupport", "SATURATED", "AT_LIMIT"]
@@ -116,7 +117,6 @@ class SupportMeter:
         limited = m.jnt_limited[joints].astype(bool)
         self._lim_qadr = m.jnt_qposadr[joints[limited]]
         self._lim_range = m.jnt_range[joints[limited]]
-        self._vec = np.zeros(0)
         self._res = np.zeros(m.nv)
         self.frames: list[FrameSupport] = []
         self.reset()
@@ -156,18 +156,9 @@ class SupportMeter:
 
     def harness_force(self, data: mujoco.MjData) -> np.ndarray:
         """(3,) force (N, world frame) the harness weld exerts on the robot's root at the current state."""
-        m = self.scene.model
-        if self._weld < 0 or data.nefc == 0:
+        if self._weld < 0:
             return np.zeros(3)
-        rows = (data.efc_type[: data.nefc] == int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)) & (data.efc_id[: data.nefc] == self._weld)
-        if not rows.any():
-            return np.zeros(3)
-        if self._vec.shape[0] != data.nefc:
-            self._vec = np.zeros(data.nefc)
-        self._vec[:] = 0.0
-        self._vec[rows] = data.efc_force[: data.nefc][rows]
-        mujoco.mj_mulJacTVec(m, data, self._res, self._vec)
-        return np.array(self._res[self._root_lin])
+        return weld_force(self.scene.model, data, self._weld, self._root_lin, self._res)
 
     def _harness_norm(self, data: mujoco.MjData) -> float:
         """‖:meth:`harness_force`‖ (N), read straight off the weld's constraint rows.
