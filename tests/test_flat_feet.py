@@ -17,7 +17,8 @@ from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.contact_qp import cop_rows, solve_contact_qp
 from socialaff_sim.sim.episode import foot_drift
-from socialaff_sim.sim.flat_feet import flat_attitude, flat_contacts, foot_rows, sole_corners, sole_points
+from socialaff_sim.sim.feet_on_floor import FeetOnFloor
+from socialaff_sim.sim.flat_feet import flat_attitude, flat_contacts, foot_rows, sole_corners, sole_points, yaw_rows
 from socialaff_sim.sim.scene import build_scene
 from socialaff_sim.sim.support import FrameSupport, SupportMeter
 import test_balance_control
@@ -262,3 +263,54 @@ def test_a_foot_gets_its_corners_and_rows_in_contact_or_within_the_gap_only(scen
     p, f, w, eq = flat_contacts(*args, low, frames[left], which[left], 0.01, 100.0, 20.0)
     assert w.tolist() == [0] * 4 and eq is not None and eq[0].shape == (6, len(va))
     assert np.allclose(p, sole_points(d.xpos[ctl._feet[0]], d.xmat[ctl._feet[0]].reshape(3, 3), ctl._corners[0])[0])
+
+
+def test_optional_rows_go_first_and_the_others_stay_hard() -> None:
+    # Hard rows x = 0.5, x = −0.5 (contradicting) and y = 0.2: marking the second optional drops it alone (the first and
+    # third hold exactly, nothing relaxed); marking the first instead holds x = −0.5 (the decision inverted); without
+    # optional rows all are dropped together (the objective's own solution).
+    m, d, tasks = _lean_forward()
+    pr = _problem(m, d, tasks)
+    n = pr["M"].shape[0]
+    A = np.vstack([np.eye(m.nv)[:1], np.eye(m.nv)[:1], np.eye(m.nv)[1:2]])
+    b = np.array([0.5, -0.5, 0.2])
+
+    def solve(optional):  # noqa: ANN001, ANN202
+        return solve_contact_qp(pr["M"], pr["h"], pr["unactuated"], pr["point_jac"], pr["edges"], pr["tasks"],
+                                pr["mass"], pr["w_force"], np.tile([-np.inf, np.inf], (n, 1)), None, pr["foot"],
+                                equalities=(A, b), optional=optional)
+
+    second = solve(np.array([False, True, False]))
+    assert second.found and second.optional_dropped and not second.relaxed
+    np.testing.assert_allclose(second.qacc[:2], [0.5, 0.2], atol=1e-6)
+    first = solve(np.array([True, False, False]))
+    assert first.optional_dropped and not first.relaxed
+    np.testing.assert_allclose(first.qacc[:2], [-0.5, 0.2], atol=1e-6)
+    none = solve(None)
+    assert none.relaxed and not none.optional_dropped
+    np.testing.assert_allclose(none.qacc, _qp(pr).qacc, atol=1e-6)
+    # Rows that hold together: nothing is dropped, optional or not.
+    ok = solve_contact_qp(pr["M"], pr["h"], pr["unactuated"], pr["point_jac"], pr["edges"], pr["tasks"], pr["mass"],
+                          pr["w_force"], np.tile([-np.inf, np.inf], (n, 1)), None, pr["foot"],
+                          equalities=(A[[0, 2]], b[[0, 2]]), optional=np.array([True, False]))
+    assert not ok.optional_dropped and not ok.relaxed
+    np.testing.assert_allclose(ok.qacc[:2], [0.5, 0.2], atol=1e-6)
+
+
+def test_the_yaw_rows_are_each_foots_angular_vertical_row(scene) -> None:
+    # Against MuJoCo's rotational Jacobian of each foot: the rows yaw_rows marks are its world-z row, for two feet.
+    m = scene.model
+    d = mujoco.MjData(m)
+    d.qpos[scene.robot_qadr] = scene.home_qpos
+    mujoco.mj_forward(m, d)
+    va = np.asarray(scene.robot_vadr)
+    feet = [int(b) for b in FeetOnFloor(scene, 0.0).bodies]
+    rows = np.vstack([foot_rows(m, d, b, va, d.xpos[b].copy(), d.xmat[b].reshape(3, 3).copy(), 100.0, 20.0)[0]
+                      for b in feet])
+    mask = yaw_rows(len(rows))
+    assert mask.tolist() == [False] * 5 + [True] + [False] * 5 + [True]
+    for k, b in enumerate(feet):
+        jr = np.zeros((3, m.nv))
+        mujoco.mj_jacBody(m, d, None, jr, b)
+        np.testing.assert_allclose(rows[mask][k], jr[2, va], atol=1e-12)
+        np.testing.assert_allclose(rows[6 * k + 3:6 * k + 5], jr[:2, va], atol=1e-12)  # the other two turns: not marked

@@ -106,3 +106,20 @@ def test_a_foot_off_level_restarts_the_releases_delay(scene: Scene) -> None:
 def test_release_level_rejects_bad_values(value: float) -> None:
     with pytest.raises(ConfigError, match="release_level"):
         BalanceConfig(release_level=value)
+
+
+@pytest.mark.parametrize("plan_deg, now_deg", [(8.0, 8.0), (8.0, 0.0), (0.0, 6.0), (-5.0, 7.0)])
+def test_tilt_from_plan_reads_the_torsos_angle_from_the_plans_attitude(scene: Scene, plan_deg: float,
+                                                                       now_deg: float) -> None:
+    # The plan's and the robot's whole bodies pitched about y (the robot about x too, for the 3D angle); the
+    # reference: scipy's angle between the two turns' verticals, and from upright without the option.
+    plan_turn = Rotation.from_euler("Y", plan_deg, degrees=True)
+    now_turn = Rotation.from_euler("YX", [now_deg, 2.0], degrees=True)
+    plan = _turned(scene, plan_turn)
+    now = _turned(scene, now_turn)
+    for from_plan in (True, False):
+        ctrl = BalanceController(scene, BalanceConfig(tilt_from_plan=from_plan))
+        ctrl.begin_frame(plan.qpos[scene.robot_qadr].copy(), (True, True))
+        want = (np.degrees(np.arccos(np.clip(now_turn.apply(EZ) @ plan_turn.apply(EZ), -1.0, 1.0))) if from_plan
+                else _reference_tilt(now_turn))
+        assert ctrl._tilt(now) == pytest.approx(want, abs=1e-4)

@@ -7,16 +7,21 @@ few centimetres too far from a handshake: docs/design.md §5, "The H1 on its own
 ``ContactCompletionConfig.base_approach`` = c_a this stage moves the base target horizontally toward such a target.
 
 For each hand s whose completion weight β_s is above zero (a contact the completion has captured, ramping in or out),
-with completed wrist target w_s and the plan's shoulder p_s (the base target plus the robot's home shoulder offset,
-both turned by the robot frame; world frame), the horizontal shift that brings w_s back to the arm's length ℓ is
+with completed wrist target w_s and the shoulder p_s where the IK's last solution put it (world frame: the IK
+solved the frame before with the base target moved by the shift a_{t−1}; its spine's yaw and its hips' give are in
+that shoulder, which the robot's home shoulder offset from the base target is not), the horizontal move of that
+shoulder that brings w_s back to the arm's length ℓ is
 
     h_s = r_s − sqrt(ℓ² − z_s²)   (|z_s| < ℓ),   h_s = r_s   otherwise,
 
-r_s the horizontal and z_s the vertical distance from p_s to w_s; it is zero when w_s lies within ℓ (h_s ≤ 0). The
-wanted shift is the largest h_s, capped at c_a, along the horizontal unit vector from p_s to w_s; the applied shift
-moves toward it by at most c_a·Δt / τ_a per frame (``base_approach_ramp`` = τ_a), so it ramps in over the frames a
-contact is captured and back out to zero after. Only the base target moves: the wrists stay on the contact and the
-feet stay where the foot lock planted them. Every input is of frame t or earlier (causal).
+r_s the horizontal and z_s the vertical distance from p_s to w_s; negative where w_s lies within ℓ (the shoulder
+could move back by −h_s). The wanted shift is the last one plus the residual of the captured hand that needs the
+most, along the horizontal unit vector u_s from p_s to w_s: a* = a_{t−1} + h_s u_s, its length capped at c_a, and
+zero where a residual moving back would carry it past zero (a*·a_{t−1} ≤ 0) or no hand is captured. The applied
+shift moves toward it by at most c_a·Δt / τ_a per frame (``base_approach_ramp`` = τ_a), so it ramps in over the
+frames a contact is captured and back out to zero after. Only the base target moves: the wrists stay on the contact
+and the feet stay where the foot lock planted them. Every input is of frame t or earlier (causal: the IK's solution
+is the frame before's).
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["BaseApproach", "horizontal_excess", "wanted_shift"]
+__all__ = ["BaseApproach", "horizontal_excess", "residual_shift"]
 
 
 def horizontal_excess(wrist: np.ndarray, shoulder: np.ndarray, arm: float) -> np.ndarray:
@@ -38,22 +43,30 @@ def horizontal_excess(wrist: np.ndarray, shoulder: np.ndarray, arm: float) -> np
     return r - np.sqrt(np.maximum(arm * arm - z2, 0.0))
 
 
-def wanted_shift(wrist: np.ndarray, shoulder: np.ndarray, arm: float, captured: np.ndarray, cap: float) -> np.ndarray:
-    """(2,) the horizontal shift (world frame, metres) of the base target toward the captured hands' wrist targets
-    beyond reach: ``wrist`` (2, 3) the completed wrist targets, ``shoulder`` (2, 3) the plan's shoulders, ``captured``
-    (2,) bool; the largest excess (:func:`horizontal_excess`) of a captured hand, at most ``cap``, along that hand's
-    horizontal direction from its shoulder; zero when no captured hand is beyond reach."""
+def residual_shift(wrist: np.ndarray, solved: np.ndarray, arm: float, captured: np.ndarray, before: np.ndarray,
+                   cap: float) -> np.ndarray:
+    """(2,) the horizontal shift (world frame, metres) of the base target wanted now: ``before`` (2,), the shift the IK
+    last solved with, plus the residual :func:`horizontal_excess` h of the captured hand (``captured`` (2,) bool) that
+    needs the most, measured from ``solved`` (2, 3), the shoulders of that solution, to ``wrist`` (2, 3), the
+    completed wrist targets, along that hand's horizontal direction from its shoulder; its length at most ``cap``;
+    zero without a captured hand, or where a residual moving back (h < 0) would carry it past zero."""
     wrist = np.asarray(wrist, dtype=np.float64)
-    shoulder = np.asarray(shoulder, dtype=np.float64)
-    excess = np.where(np.asarray(captured, dtype=bool), horizontal_excess(wrist, shoulder, arm), -np.inf)
-    s = int(np.argmax(excess))
-    if not excess[s] > 0.0:
+    solved = np.asarray(solved, dtype=np.float64)
+    before = np.asarray(before, dtype=np.float64)
+    captured = np.asarray(captured, dtype=bool)
+    if not captured.any():
         return np.zeros(2)
-    toward = wrist[s, :2] - shoulder[s, :2]
+    excess = np.where(captured, horizontal_excess(wrist, solved, arm), -np.inf)
+    s = int(np.argmax(excess))
+    toward = wrist[s, :2] - solved[s, :2]
     n = float(np.linalg.norm(toward))
     if n < 1e-9:
+        return before.copy()
+    want = before + toward / n * float(excess[s])
+    if excess[s] < 0.0 and not float(want @ before) > 0.0:
         return np.zeros(2)
-    return toward / n * min(float(excess[s]), cap)
+    length = float(np.linalg.norm(want))
+    return want if length <= cap else want * (cap / length)
 
 
 class BaseApproach:
@@ -75,10 +88,11 @@ class BaseApproach:
         self.shift = np.zeros(2)
         """(2,) the horizontal shift of the last frame, world frame, metres."""
 
-    def __call__(self, wrist: np.ndarray, shoulder: np.ndarray, arm: float, captured: np.ndarray, frame: int,
+    def __call__(self, wrist: np.ndarray, solved: np.ndarray, arm: float, captured: np.ndarray, frame: int,
                  dt: float) -> np.ndarray:
-        """(2,) the shift of ``frame`` (data frames of ``dt`` s): toward :func:`wanted_shift` by at most
-        c_a·Δt/τ_a per frame (a frame asked again is recomputed from the same shift before it)."""
+        """(2,) the shift of ``frame`` (data frames of ``dt`` s): toward :func:`residual_shift` (``solved`` (2, 3): the
+        shoulders of the IK's last solution, world) by at most c_a·Δt/τ_a per frame (a frame asked again is
+        recomputed from the same shift before it)."""
         if self._frame is not None and frame == self._frame:
             base, frames = self._before, 1
         elif self._frame is not None and frame > self._frame:
@@ -87,7 +101,7 @@ class BaseApproach:
             base, frames = np.zeros(2), 1
         self._before = base.copy()
         self._frame = frame
-        want = wanted_shift(wrist, shoulder, arm, captured, self.cap)
+        want = residual_shift(wrist, solved, arm, captured, base, self.cap)
         move = want - base
         step = np.inf if self.ramp == 0 else self.cap * frames * dt / self.ramp
         n = float(np.linalg.norm(move))

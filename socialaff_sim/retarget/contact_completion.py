@@ -93,8 +93,8 @@ class ContactCompletionConfig:
 
     base_approach: float | None = None
     """c_a [m]: the most the base's target is moved horizontally toward a captured contact's wrist target that lies
-    beyond the arm's length from the plan's shoulder (the base target plus the robot's home shoulder offset), by
-    that excess (:mod:`~socialaff_sim.retarget.base_approach`;
+    beyond the arm's length from the shoulder of the IK's last solution, by that excess added to the shift the IK
+    solved with (:mod:`~socialaff_sim.retarget.base_approach`;
     for a hand whose β is above zero, in any source, also a ground-truth replay). ``None`` (the default): the base
     stays on the placement's target (docs/design.md §5, "The H1 on its own feet …": the H1's IK leaves its wrists
     5.7–6.9 cm short of a handshake's targets)."""

@@ -116,6 +116,12 @@ class BalanceConfig:
     contact points are the sole's four corners (the centre-of-pressure bounds then span the whole sole) and the
     foot's acceleration toward where it stood, level, is a hard constraint (``False``: the live contact points, and
     the feet's task in the objective toward the attitude they came down in)."""
+    yaw_first: bool = False
+    """[—]: ``flat_feet``: where the QP cannot hold the feet's hard rows together with the torque limits, the two rows
+    of the feet's turn about the vertical are dropped first (the soles' friction and the feet's task in the
+    objective then hold it) and the other rows stay hard; only if that fails too are all of them dropped
+    (``False``: all at once). On the H1 (legs of five joints: no ankle roll) the first QP failed in a third of the
+    driven steps, each solvable without those two rows (docs/design.md §5, "The H1's first balance QP …")."""
     self_clearance: float | None = None
     """d_min [m]: ``qp``: the forearms and hands are kept this far from the rest of the robot (and from each other)
     by hard rows of the QP (:mod:`~.self_clearance`: a critically damped barrier on each close pair's distance);
@@ -188,6 +194,10 @@ class BalanceConfig:
     trailing foot 10.7° from level, 3.4 cm up) pitched its trunk 2.5 → 10° in 64 ms and was caught again
     (docs/benchmarks.md, "The H1 on its own feet traced …"). An option, off by default: on the H1's development
     instances it cut the catches 279 → 116 and the contact phases' tilt, but not the outside support."""
+    tilt_from_plan: bool = False
+    """[—]: Whether ``release_tilt`` and ``catch_tilt`` read the torso's angle from the plan's torso attitude (the
+    IK's, the controller's goal) rather than from upright: a lean the plan asks for (the H1 reaching with a spine
+    that turns about the vertical only) neither keeps the harness on nor makes it catch."""
     catch_tilt: float = 12.0
     """[deg]: a released robot whose torso tilts more than this is caught by the harness again at once."""
     catch_margin: float = 0.03
@@ -242,6 +252,8 @@ class BalanceConfig:
         if not (self.yield_damping > 0.0 and self.yield_return >= 0.0):
             raise ConfigError(f"BalanceConfig: expected yield_damping > 0 N·s/m and yield_return ≥ 0 s, found "
                               f"{self.yield_damping}, {self.yield_return}")
+        if self.yaw_first and not self.flat_feet:
+            raise ConfigError("BalanceConfig.yaw_first: needs flat_feet (the feet's hard rows)")
         if self.flat_feet and self.solver != "qp":
             raise ConfigError(f"BalanceConfig.flat_feet: needs solver='qp' (hard constraints), found {self.solver!r}")
         if not 0.0 <= self.min_foot_load < 0.5:

@@ -55,7 +55,7 @@ from .com_shift import forward_shortfall, shift_weight
 from .contact_qp import ActuatorLimits, cop_rows, solve_contact_qp
 from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
-from .flat_feet import flat_attitude, flat_contacts, foot_feedback
+from .flat_feet import flat_attitude, flat_contacts, foot_feedback, yaw_rows
 from .hand_yield import HandYield
 from .scene import Scene
 from .self_clearance import SelfClearance
@@ -153,9 +153,10 @@ class BalanceController:
         """Physics steps run, driven by the controller, with the harness off; times a released robot was caught."""
         self.catch_reasons = {"tilt": 0, "capture": 0, "step": 0}
         """Catches by cause: the torso's tilt, the capture point off the soles, a foot no longer planted."""
-        self.limit_steps = self.relaxed_steps = self.qp_failures = 0
+        self.limit_steps = self.relaxed_steps = self.qp_failures = self.yaw_dropped_steps = 0
         """``qp``: driven steps with a torque on its limit's bound; solved again without the foot loads and
-        centre-of-pressure bounds; whose QP DAQP did not solve (the least-squares torques were used)."""
+        centre-of-pressure bounds; whose QP DAQP did not solve (the least-squares torques were used); (``yaw_first``)
+        solved without the feet's rows about the vertical alone."""
         self.clearance_steps = self.clearance_dropped_steps = 0
         """``self_clearance``: driven steps with a clearance row in the QP; of them, those whose rows were dropped."""
         self._capture = np.zeros(2)
@@ -368,7 +369,9 @@ class BalanceController:
         qp_tasks = [*tasks[:-1], (self._joint_diag, np.concatenate([np.zeros(6), joints]), c.w_joint)]
         res = solve_contact_qp(M, h, self.unactuated, jac, edges, qp_tasks, self.mass, c.w_force, limits,
                                self._cop(d, pts, edges, foot, box), foot, c.min_foot_load * self.mass * self._g,
-                               equalities=eq, inequalities=ineq)
+                               equalities=eq, inequalities=ineq,
+                               optional=None if eq is None or not c.yaw_first else yaw_rows(len(eq[1])))
+        self.yaw_dropped_steps += int(res.optional_dropped)
         self.limit_steps += int(res.at_limit.any())
         self.relaxed_steps += int(res.relaxed)
         self.clearance_steps += int(ineq is not None)
@@ -398,6 +401,10 @@ class BalanceController:
         return limit is None or bool(self.feet.tilts(d).max() <= limit)
 
     def _tilt(self, d: mujoco.MjData) -> float:
-        """The torso's angle from upright, degrees."""
-        up = d.xmat[self._torso].reshape(3, 3)[2] @ self._torso_up
+        """The torso's angle from upright (with ``tilt_from_plan``: from the plan's torso attitude), degrees."""
+        rot = d.xmat[self._torso].reshape(3, 3)
+        if self.config.tilt_from_plan:  # the angle between the torso's up axis now and in the plan (world)
+            up = (rot @ self._torso_up) @ (self._torso_goal @ self._torso_up)
+        else:
+            up = rot[2] @ self._torso_up
         return float(np.degrees(np.arccos(np.clip(up, -1.0, 1.0))))

@@ -62,6 +62,9 @@ class ContactQPResult:
     hold together."""
     inequalities_dropped: bool = False
     """Whether the hard inequality rows were dropped too (they could not hold with the torque limits alone)."""
+    optional_dropped: bool = False
+    """Whether the first solve failed and the hard task rows marked optional were dropped (the rest held; with
+    ``relaxed`` False)."""
 
 
 def actuator_limits(m: mujoco.MjModel, act_ids: np.ndarray, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
@@ -136,7 +139,8 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
                      w_force: float, tau_limits: np.ndarray, cop: np.ndarray | None = None,
                      foot: np.ndarray | None = None, min_load: float = 0.0, w_reg: float = 1e-6,
                      equalities: tuple[np.ndarray, np.ndarray] | None = None,
-                     inequalities: tuple[np.ndarray, np.ndarray] | None = None) -> ContactQPResult:
+                     inequalities: tuple[np.ndarray, np.ndarray] | None = None,
+                     optional: np.ndarray | None = None) -> ContactQPResult:
     """Accelerations, contact forces and torques of a standing robot under hard constraints (module docstring).
 
     ``M`` (n, n), ``h`` (n,): mass matrix and bias forces (N, N·m); ``unactuated`` (n,) bool: coordinates
@@ -148,7 +152,9 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     with at least this vertical force (a foot left without load lifts off the floor and loses its contacts);
     ``equalities``: (A (r, n), b (r,)) rows ``A q̈ = b`` that must hold exactly (m/s², rad/s²); should the
     equalities, the loads and the centre-of-pressure rows not hold together, the problem is solved again without
-    the equalities, then without all three (``relaxed``); ``inequalities``: (A (r, n), lo (r,)) rows ``A q̈ ≥ lo``
+    the equalities, then without all three (``relaxed``); ``optional`` (r,) bool: equality rows that go first, before
+    those relaxations: the problem is solved again without them (``optional_dropped``), and only if that fails too
+    the relaxations follow; ``inequalities``: (A (r, n), lo (r,)) rows ``A q̈ ≥ lo``
     that must hold (m/s²), kept through both of those relaxations and dropped last, when they cannot hold with the
     root's rows and the torque limits alone (``inequalities_dropped``); ``w_reg``: ε, the regularisation of q̈. Should DAQP fail (it should not: free fall is
     feasible), the result is free fall (β = 0, τ = 0, ``found=False``) and a warning is logged.
@@ -216,6 +222,13 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
         up[r:], lo[r:] = _INF, 0.0
     H = np.ascontiguousarray(H)
     x, flag = _daqp(H, f, K, A_all, up, lo, sn)
+    optional_dropped = False
+    if flag <= 0 and has_eq and optional is not None and np.any(optional):  # without the optional hard rows only
+        log.debug("balance QP: exit flag %d; solved again without the optional hard task rows", flag)
+        keep = np.ones(R, dtype=bool)
+        keep[base:base + n_eq] = ~np.asarray(optional, dtype=bool)
+        x, flag = _daqp(H, f, K, A_all[keep], up[keep], lo[keep], sn[keep])
+        optional_dropped = flag > 0
     relaxed = flag <= 0 and R > base
     if relaxed and has_eq and R > base + n_eq:  # first without the hard task rows only
         log.debug("balance QP: exit flag %d; solved again without the hard task rows", flag)
@@ -245,7 +258,7 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     at_limit = act & ((tau >= lim[:, 1] - tol) | (tau <= lim[:, 0] + tol))
     forces = np.einsum("pik,pk->pi", edges, beta.reshape(P, 4)) if P else np.zeros((0, 3))
     return ContactQPResult(qacc=qacc, forces=forces, beta=beta, tau=tau, at_limit=at_limit, found=found,
-                           relaxed=relaxed, inequalities_dropped=dropped)
+                           relaxed=relaxed, inequalities_dropped=dropped, optional_dropped=optional_dropped)
 
 
 def _daqp(H: np.ndarray, f: np.ndarray, K: int, A_all: np.ndarray, up: np.ndarray, lo: np.ndarray,

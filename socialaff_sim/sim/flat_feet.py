@@ -26,7 +26,8 @@ import math
 import mujoco
 import numpy as np
 
-__all__ = ["flat_attitude", "flat_contacts", "foot_drift", "foot_feedback", "foot_rows", "sole_corners", "sole_points"]
+__all__ = ["flat_attitude", "flat_contacts", "foot_drift", "foot_feedback", "foot_rows", "sole_corners", "sole_points",
+           "yaw_rows"]
 
 _LEVEL_FRAME = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 """A level floor's contact frame: the normal (+z), then the world's x and y as tangents."""
@@ -137,3 +138,9 @@ def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners:
         return pts, frames, which, None
     return (np.vstack([pts[keep], *add_p]), np.concatenate([frames[keep], *add_f]),
             np.concatenate([which[keep], *add_w]), (np.vstack([r[0] for r in rows]), np.concatenate([r[1] for r in rows])))
+
+
+def yaw_rows(rows: int) -> np.ndarray:
+    """(rows,) bool: the rows of the turn about the vertical among :func:`flat_contacts`' stacked hard rows (six per
+    foot, linear then angular, world: each foot's sixth)."""
+    return np.arange(rows) % 6 == 5
