@@ -32,12 +32,12 @@ class BalanceConfig:
     - Balance: com_bandwidth, com_damping, com_reference, com_shift, shift_weight, shift_until_touch,
       support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
-      cop_margin, min_foot_load, torque_fraction, flat_feet
+      cop_margin, min_foot_load, torque_fraction, flat_feet, yaw_first
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
-    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_level, catch_tilt,
-      catch_margin, catch_blend, drive_harnessed
+    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_level, tilt_from_plan,
+      catch_tilt, catch_margin, catch_blend, drive_harnessed
     """
 
     joint_bandwidth: float = 20.0
