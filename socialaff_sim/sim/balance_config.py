@@ -36,7 +36,7 @@ class BalanceConfig:
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
-    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_level, tilt_from_plan,
+    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, tilt_from_plan,
       catch_tilt, catch_margin, catch_blend, drive_harnessed
     """
 
@@ -186,14 +186,6 @@ class BalanceConfig:
     release_margin: float = 0.01
     """[m]: ... and while the capture point c + ċ/ω₀ (ω₀ = √(g / c_z)) lies this far inside the box of the
     feet's contact points."""
-    release_level: float | None = None
-    """θ_l [deg]: ... and only once both feet have stood within θ_l of level (:meth:`~.feet_on_floor.FeetOnFloor.
-    tilts`: each foot's tilt from its home attitude) for ``release_delay`` (a foot off level restarts the delay).
-    ``None``: the feet's attitude is not read. A foot planted behind the body
-    stands on its toe, and the flat feet's rows (``flat_feet``) then level it at once: the H1 released so (its
-    trailing foot 10.7° from level, 3.4 cm up) pitched its trunk 2.5 → 10° in 64 ms and was caught again
-    (docs/benchmarks.md, "The H1 on its own feet traced …"). An option, off by default: on the H1's development
-    instances it cut the catches 279 → 116 and the contact phases' tilt, but not the outside support."""
     tilt_from_plan: bool = False
     """[—]: Whether ``release_tilt`` and ``catch_tilt`` read the torso's angle from the plan's torso attitude (the
     IK's, the controller's goal) rather than from upright: a lean the plan asks for (the H1 reaching with a spine
@@ -277,9 +269,6 @@ class BalanceConfig:
         if self.com_reference == "approach" and (self.arm_compensation is None or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.com_reference='approach': needs arm_compensation and compensation_gate "
                               "(their touch latch ends the approach)")
-        if self.release_level is not None and not 0.0 <= self.release_level < 90.0:
-            raise ConfigError(f"BalanceConfig.release_level: expected None or an angle in [0, 90) degrees, found "
-                              f"{self.release_level}")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

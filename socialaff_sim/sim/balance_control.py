@@ -26,9 +26,9 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    b₂q̇ (MuJoCo clips it at the actuator's force limit, which the support meter reports as saturation).
 
 The harness weld lets go (``eq_active = 0``; its force is then zero by construction) once the feet have been
-planted ``release_delay`` and the robot is steady: torso within ``release_tilt``, the capture point
-ξ = c + ċ/ω₀ inside the support box by ``release_margin`` (and, with ``release_level``, both feet level
-for the whole delay) (the support box: the soles of the feet in contact, and
+planted ``release_delay`` and the robot is steady: torso within ``release_tilt`` (of upright, or with
+``tilt_from_plan`` of the plan's torso attitude), the capture point
+ξ = c + ċ/ω₀ inside the support box by ``release_margin`` (the support box: the soles of the feet in contact, and
 of a planted foot within ``sole_gap`` of the floor). It catches
 the robot again at once when the torso tilts past ``catch_tilt``, the capture point leaves the box by more than
 ``catch_margin``, or a foot steps; the caught robot is held where it is and led back onto the IK's base over ``catch_blend``, and the release
@@ -189,8 +189,6 @@ class BalanceController:
         pts, frames, which = self.feet.contacts(d)
         standing = self._planted[0] and self._planted[1] and len(pts) > 0
         self._engaged = self._engaged + m.opt.timestep if standing else 0.0
-        if standing and not self.released and not self.feet_level(d):
-            self._engaged = 0.0  # a foot off level: the release waits its delay once both stand level
         if not (self._planted[0] and self._planted[1]):
             self._anchor = None  # a step: the feet are held where they next stand
         tilt = self._tilt(d)
@@ -395,11 +393,6 @@ class BalanceController:
         return cop_rows(pts, edges, which, box.R, bounds)
 
     # -- measurements ---------------------------------------------------------------------------------------
-    def feet_level(self, d: mujoco.MjData) -> bool:
-        """Whether both feet stand within ``release_level`` of level (always, without it)."""
-        limit = self.config.release_level
-        return limit is None or bool(self.feet.tilts(d).max() <= limit)
-
     def _tilt(self, d: mujoco.MjData) -> float:
         """The torso's angle from upright (with ``tilt_from_plan``: from the plan's torso attitude), degrees."""
         rot = d.xmat[self._torso].reshape(3, 3)

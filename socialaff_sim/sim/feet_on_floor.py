@@ -105,13 +105,6 @@ class FeetOnFloor:
         frames[flip] *= -1.0
         return con.pos[:nc][keep].copy(), frames, side[keep]
 
-    def tilts(self, d: mujoco.MjData) -> np.ndarray:
-        """(2,) each foot's tilt from its home attitude, degrees (left, right): the angle between the foot's home
-        vertical and the world's vertical (a turn about the vertical is no tilt; a foot on its toe or heel is)."""
-        # the world's vertical in the foot's frame, now (row 2 of its attitude) against at home
-        up = np.array([d.xmat[b].reshape(3, 3)[2] @ r[2] for b, r in zip(self._feet, self.home_rot, strict=True)])
-        return np.degrees(np.arccos(np.clip(up, -1.0, 1.0)))
-
     def heading(self, d: mujoco.MjData) -> np.ndarray:
         """(2,) unit: the feet's forward direction on the floor."""
         f = sum(d.xmat[b].reshape(3, 3) @ a for b, a in zip(self._feet, self._foot_fwd, strict=True))[:2]
