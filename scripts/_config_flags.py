@@ -14,7 +14,7 @@ REMOVED = {
                                                       "hand_release", "release_reach")},
                       **{name: "7c7e7ae" for name in ("torque_handover", "com_glide", "glide_rest", "glide_joints",
                                                        "release_speed")},
-                      "yaw_ratio": "e4dd195"},
+                      "yaw_ratio": "e4dd195", "release_level": "f948b65"},
     "FootLockConfig": {**{name: "61e3f3e" for name in ("catch_up", "catch_up_height", "catch_up_frames",
                                                        "catch_up_quiet")},
                        **{name: "e1cb74d" for name in ("plant_physical", "replant", "replant_after", "plant_base")},
