@@ -9,8 +9,8 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
    as reference), the torso's attitude toward the IK's (ω_o), the planted feet held where they stood when both
    came down (k_x, k_f: a creeping foot is drawn back), and the centre of mass's horizontal position toward a
    reference c* over the feet (ω_c, ζ): the IK's centre of mass relative to its feet carried over to the
-   physical feet (or the middle of the feet, or the IK's centre of mass where the plan has it in the world;
-   with ``com_shift`` moved forward by the feet's shortfall behind the plan's, :mod:`~.com_shift`),
+   physical feet (or the middle of the feet; with ``com_shift`` moved forward by the feet's shortfall behind the
+   plan's, :mod:`~.com_shift`),
    optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
    with the floor, where they stand now) shrunk by a margin; with ``hand_yield`` the arms' references give way
@@ -146,7 +146,6 @@ class BalanceController:
         self._ext_force = np.zeros(3)
         self._ext_moment = np.zeros(3)
         self._com_offset = np.zeros(2)
-        self._com_plan = np.zeros(2)
         self._plan_feet = np.zeros(2)
         self._torso_goal = np.eye(3)
         self.steps = self.active_steps = self.released_steps = self.catches = 0
@@ -174,7 +173,6 @@ class BalanceController:
         mujoco.mj_comPos(m, p)
         feet = self._plan_feet = p.xpos[self._feet, :2].mean(axis=0)
         self._com_offset = p.subtree_com[self.scene.root_body, :2] - feet
-        self._com_plan = p.subtree_com[self.scene.root_body, :2].copy()
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
 
     # -- the physics step -----------------------------------------------------------------------------------
@@ -269,16 +267,10 @@ class BalanceController:
         self._caught = (pos, quat, t + m.opt.timestep)
 
     def reference(self, d: mujoco.MjData, box: SupportBox) -> np.ndarray:
-        """(2,) the centre of mass's reference c* (world, m) before the lean, the glide and the box's clip, by
-        ``com_reference``: the plan's offset from its feet on the feet of ``d``, the plan's own (world; with
-        ``approach`` until an arm's first touch), or the middle of ``box``."""
-        ref = self.config.com_reference
-        if ref == "approach":  # held where the plan has it until an arm first touches, then as ``plan``
-            ref = "plan" if self.compensation.touched.any() else "world"  # type: ignore[union-attr]
-        if ref == "plan":
+        """(2,) the centre of mass's reference c* (world, m) before the shift, the lean and the box's clip, by
+        ``com_reference``: the plan's offset from its feet on the feet of ``d``, or the middle of ``box``."""
+        if self.config.com_reference == "plan":
             return d.xpos[self._feet, :2].mean(axis=0) + self._com_offset
-        if ref == "world":  # where the plan has it, whatever the feet: the body stays where the plan puts it
-            return self._com_plan.copy()
         return box.middle()
 
     def shift(self, d: mujoco.MjData, box: SupportBox) -> tuple[np.ndarray, float]:
