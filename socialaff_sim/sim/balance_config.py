@@ -202,7 +202,7 @@ class BalanceConfig:
                 raise ConfigError(f"BalanceConfig.{name}: expected a frequency > 0 rad/s, found {getattr(self, name)}")
         for name in ("foot_damping", "foot_stiffness", "com_damping", "support_margin", "release_delay", "release_margin",
                      "catch_margin", "catch_blend", "external_filter", "w_feet", "w_com", "w_torso", "w_joint",
-                     "upper_weight", "cop_margin", "sole_gap"):
+                     "upper_weight", "cop_margin", "sole_gap", "shift_weight"):
             if not getattr(self, name) >= 0.0:
                 raise ConfigError(f"BalanceConfig.{name}: expected a value ≥ 0, found {getattr(self, name)}")
         if not (self.w_dynamics > 0.0 and self.w_force > 0.0):
@@ -256,8 +256,6 @@ class BalanceConfig:
                                        or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.shift_until_touch: needs com_shift, arm_compensation and compensation_gate "
                               "(their touch latch ends the approach)")
-        if not self.shift_weight >= 0.0:
-            raise ConfigError(f"BalanceConfig.shift_weight: expected a value ≥ 0, found {self.shift_weight}")
         if self.release_level is not None and not 0.0 <= self.release_level < 90.0:
             raise ConfigError(f"BalanceConfig.release_level: expected None or an angle in [0, 90) degrees, found "
                               f"{self.release_level}")

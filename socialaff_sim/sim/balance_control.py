@@ -96,11 +96,8 @@ class BalanceController:
         self._gain = m.actuator_gainprm[ids, 0].copy()
         self._bias = m.actuator_biasprm[ids, :3].copy()
         self._act_q, self._act_v = np.asarray(scene.act_qadr), np.asarray(scene.act_vadr)
-        d0 = mujoco.MjData(m)
-        d0.qpos[self.qadr] = scene.home_qpos
-        mujoco.mj_kinematics(m, d0)
         # the torso's up axis at home
-        self._torso_up = d0.xmat[self._torso].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
+        self._torso_up = scene.home_data().xmat[self._torso].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
         self._external = ExternalForces(scene)
         c = self.config
         self._clearance = None if c.self_clearance is None else SelfClearance.of_scene(
