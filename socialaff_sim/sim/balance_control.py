@@ -283,12 +283,15 @@ class BalanceController:
 
     def shift(self, d: mujoco.MjData, box: SupportBox) -> tuple[np.ndarray, float]:
         """``com_shift``: the reference's forward shift (2,) (world, m) by the feet's shortfall behind the plan's
-        along ``box``'s heading, and the centre of mass's rows' weight (:mod:`~.com_shift`); else (and with
-        ``shift_until_touch`` after an arm's first touch) none and ``w_com``."""
+        along ``box``'s heading, and the centre of mass's rows' weight (:mod:`~.com_shift`; ``w_com`` while a plan's
+        wrist is within ``shift_strike``); else (and with ``shift_until_touch`` after an arm's first touch) none and
+        ``w_com``."""
         c = self.config
         if c.com_shift is None or (c.shift_until_touch and self.compensation.touched.any()):  # type: ignore[union-attr]
             return np.zeros(2), c.w_com
         s, share = forward_shortfall(self._plan_feet, d.xpos[self._feet, :2].mean(axis=0), box.R[0], c.com_shift)
+        if c.shift_strike is not None and self.compensation.near(self._plan, d, c.shift_strike):  # type: ignore[union-attr]
+            return s, c.w_com  # a strike: the shifted reference at the plain weight
         return s, shift_weight(c.w_com, c.shift_weight, share)
 
     def _torques(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray, pts: np.ndarray,
