@@ -79,9 +79,9 @@ def test_the_heavy_weight_holds_until_a_plans_wrist_nears_the_person(scene: Scen
 
 def test_a_high_five_lost_to_the_heavy_rows_is_met_with_the_strike_weight() -> None:
     """high_five_100 (synthetic, seed 0), Stubby standing: the feet 5–7 cm behind the plan's keep the shift at 56–67 %
-    of its cap; held at that weight through the strike the trunk leans back 9° and the capture point leaves the feet
-    (caught), the wrist 30–37 cm behind the plan's: missed. With ``shift_strike`` 0.3 m the rows are at w_com once
-    the plan's wrist nears the palm: met (docs/design.md §5)."""
+    of its cap; held at that weight through the strike the trunk leans back 9° and is caught, the wrist 30–37 cm
+    behind the plan's: missed. With ``shift_strike`` 0.3 m the rows are at w_com once the plan's wrist nears the palm:
+    met (docs/design.md §5)."""
     inter = next(i for i in generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=101))
                  if i.instance_id == "high_five_100")
     met = []

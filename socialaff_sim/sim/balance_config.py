@@ -80,7 +80,8 @@ class BalanceConfig:
     strike of a contact the centre of mass's rows are weighted ``w_com`` again, the shifted reference kept (traced,
     Stubby's high fives: held at w ≈ 4000–6000 against the striking arm's swing, the trunk pitched 9° in a frame and
     was caught, or leaned back and the hand stopped short; docs/design.md §5). Needs ``shift_until_touch``.
-    ``None``: the weight follows the shift throughout the approach."""
+    ``None`` (the default): the weight follows the shift throughout the approach. An option, off: on development it
+    recovered 2 of 9 lost high fives, and its rule (instances 144–151) did not hold: high fives 5 → 5 of 8."""
     support_margin: float = 0.03
     """[m]: the centre-of-mass reference is kept this far inside the box of the feet's contact points
     (axes along the robot's heading)."""
