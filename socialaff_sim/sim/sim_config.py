@@ -55,7 +55,7 @@ class SimConfig:
     -----------------
     - Physics: timestep, servo_bandwidth, hand_force, grip, compliant_person, settle_iterations
     - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth, stance,
-      balance
+      balance, plan_feet_causal_only
     - Retargeting: ik, scaling, contact_completion
     """
 
@@ -95,6 +95,10 @@ class SimConfig:
     standing feed-forward, on the harness. Needs ``foot_lock``; not with ``stance.release`` (both would switch the
     harness). Not used with gravity compensation. :meth:`standing` uses :data:`STANDING_BALANCE`; the rule for
     making it the default failed on successes (docs/design.md §5, issue 25)."""
+    plan_feet_causal_only: bool = False
+    """[—]: ``FootLockConfig.restep_gap`` and ``StanceConfig.base_over_feet`` act only in episodes whose source is
+    causal (declares ``placement_frames``, as the model's synthesis does: its ankles glide along the floor with its
+    base), not on a recording's replay, whose feet step (docs/design.md §5). ``False``: on every source."""
     hand_force: float | None = 60.0
     """F_max [N]: the arm servos' torque limits are set so that a hand pushes with at most about
     this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,
