@@ -32,9 +32,7 @@ class FeetOnFloor:
         self._floor = int(scene.floor_geom)
         self.bodies = self._feet
         """The feet's body ids (left, right)."""
-        d0 = mujoco.MjData(m)
-        d0.qpos[self.qadr] = scene.home_qpos
-        mujoco.mj_kinematics(m, d0)
+        d0 = scene.home_data()
         # Each foot's own axis that points forward at home (the robot faces +x there).
         self.forward = np.array([d0.xmat[b].reshape(3, 3).T @ np.array([1.0, 0.0, 0.0]) for b in self._feet])
         """(2, 3) each foot's forward axis at home, in its own frame."""
