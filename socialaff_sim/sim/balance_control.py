@@ -197,7 +197,7 @@ class BalanceController:
             mujoco.mj_jacSubtreeCom(m, d, self._jp, self.scene.root_body)
             jcom = self._jp[:, self.vadr].copy()
             comvel = jcom @ d.qvel[self.vadr]
-            height = max(float(com[2] - pts[:, 2].mean()), 1e-3)
+            height = max(float(com[2] - pts[:, 2].sum() / len(pts)), 1e-3)  # (the mean's arithmetic)
             capture = self._capture = com[:2] + comvel[:2] / math.sqrt(self._g / height)
         was = self.released
         if not standing:
@@ -299,11 +299,11 @@ class BalanceController:
             pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
                                                    which, c.sole_gap, c.foot_stiffness, c.foot_damping,
                                                    self._foot_scratch, feet)
-        floor = float(pts[:, 2].mean())  # the contacts' mean height (m), for the lean and the hands' give
-        jac = np.empty((len(pts), 3, n))
-        for i, (p, s) in enumerate(zip(pts, which, strict=True)):
-            mujoco.mj_jac(m, d, self._jp, None, p, self._feet[int(s)])
-            jac[i] = self._jp[:, va]
+        floor = float(pts[:, 2].sum() / len(pts))  # the contacts' mean height (m), for the lean and the hands' give
+        full = np.empty((len(pts), 3, m.nv))  # each point's Jacobian written in place, the robot's columns taken once
+        for i, (p, s) in enumerate(zip(pts, which.tolist(), strict=True)):
+            mujoco.mj_jac(m, d, full[i], None, p, self._feet[s])
+        jac = full[:, :, va]
         shift, w_com = self.com.shift(d, box)
         goal = self.com.reference(d, box) + shift
         wc, zc = c.com_bandwidth, c.com_damping
@@ -378,5 +378,5 @@ class BalanceController:
 
     def _tilt(self, d: mujoco.MjData) -> float:
         """The torso's angle from upright, degrees."""
-        up = d.xmat[self._torso].reshape(3, 3)[2] @ self._torso_up
-        return float(np.degrees(np.arccos(np.clip(up, -1.0, 1.0))))
+        up = float(d.xmat[self._torso].reshape(3, 3)[2] @ self._torso_up)
+        return float(np.degrees(np.arccos(min(max(up, -1.0), 1.0))))  # (np.clip's values, without its overhead)
