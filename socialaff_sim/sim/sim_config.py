@@ -53,7 +53,7 @@ class SimConfig:
 
     Fields by concept
     -----------------
-    - Physics: timestep, servo_bandwidth, hand_force, grip, compliant_person, settle_iterations
+    - Physics: timestep, servo_bandwidth, hand_force, grip, compliant_person, floor_time_constant, settle_iterations
     - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth, stance,
       balance
     - Retargeting: ik, scaling, contact_completion
@@ -118,6 +118,14 @@ class SimConfig:
     pushes (the robot's contacts with it, its contact forces and the sub-goals are still scored); the physics
     then has the robot's and the object's degrees of freedom only (Stubby: 111 → 39), which makes a physics
     step about twice as fast. See docs/environment.md, "Speed", for the measured effect."""
+    floor_time_constant: float | None = None
+    """τ_f [s]: the floor's contacts get this MuJoCo time constant (``solref``, damping ratio 1; the floor's weight in
+    the mix 1000 to 1, :data:`~socialaff_sim.sim.scene.FLOOR_SOLMIX`): a stiffer floor. MuJoCo's default, 0.02 s, is
+    a spring of 50 rad/s under the feet; a standing robot's planted feet rock and slide back and forth on it at
+    about that frequency (traced: 80 % of the ankle's contact-phase path is the sole's own motion at ~8 Hz, its
+    friction ratio at the median 0.06–0.16, the net drift under a fifth of the path; docs/design.md §5, "The
+    feet's slide in the standing mode …"). At least twice the physics step (MuJoCo's bound for a stable contact).
+    ``None``: MuJoCo's default."""
     settle_iterations: int = 20
     """[—]: IK solves spent at reset to reach the first frame's targets before physics starts."""
 
@@ -149,6 +157,10 @@ class SimConfig:
                               "stance=StanceConfig(release=False) (a steadied base) or stance=None with balance")
         if self.balance is not None and self.foot_lock is None:
             raise ConfigError("SimConfig.balance: needs foot_lock (the controller acts while both feet are planted)")
+        tf = self.floor_time_constant
+        if tf is not None and not tf >= 2.0 * self.timestep:
+            raise ConfigError(f"SimConfig.floor_time_constant: expected None or a time ≥ 2 timestep "
+                              f"({2.0 * self.timestep} s), found {tf}")
 
 
 @dataclass(frozen=True)
