@@ -48,8 +48,7 @@ HARNESS_IMPEDANCE = 0.9
 Standing still on its feet, the H1 took 2.5 % of its weight from it at τ = 0.02 s (1.7 % at 0.05 s), and
 hanging sagged by 3.5 cm (4.4 cm); the rigid weld (0.008 s, d = 0.99): 11.5 % standing."""
 FLOOR_SOLMIX = 1000.0
-"""[—]: with ``floor_time_constant``, the floor's weight in MuJoCo's mix of a contact's ``solref`` (the other geom's
-is 1): its time constant holds to 0.1 %."""
+"""[—]: ``floor_time_constant``: the floor's weight (the other geom's 1) in MuJoCo's mix of a contact's ``solref``."""
 OBJECT_RGBA = (0.95, 0.8, 0.2, 1.0)
 OBJECT_AFFINITY = 3
 """``conaffinity`` of the object: bit 1 (the robot, and the floor through its own affinity) and bit 2
@@ -177,9 +176,8 @@ def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None
     ``chair``: the physics scene gets a chair (:func:`~socialaff_sim.sim.chair.add_chair`).
     ``compliant_person``: the person's forearms and hands are free bodies on soft welds in the physics scene;
     ``False``: every part of the person is a mocap body (a pure replay; see ``SimConfig.compliant_person``).
-    ``floor_time_constant`` (s): the floor's contacts get this MuJoCo time constant (``solref``, damping ratio 1),
-    weighted :data:`FLOOR_SOLMIX` to 1 against the other geom's (see ``SimConfig.floor_time_constant``); ``None``:
-    MuJoCo's default (0.02 s).
+    ``floor_time_constant`` (s): the floor's contacts' MuJoCo time constant (``solref``, weighted :data:`FLOOR_SOLMIX`
+    in the mix; ``SimConfig.floor_time_constant``); ``None``: MuJoCo's default (0.02 s).
     """
     root = mjcf.RootElement(model="socialaff_scene")
     root.compiler.angle = "radian"
