@@ -1,7 +1,7 @@
 """``FIELD=VALUE`` settings of a config dataclass on a script's command line (``--balance``, ``--foot-lock``,
 ``--stance``, ``--completion`` of scripts/bench_support.py and scripts/bench_demo_modes.py). A field that does not
-exist, or was removed, is a one-line error naming the flag (exit 2), not a traceback. The library never imports
-this module."""
+exist or was removed, and a removed value of a field that stays, are a one-line error naming the flag (exit 2), not a
+traceback. The library never imports this module."""
 
 from __future__ import annotations
 
@@ -29,6 +29,11 @@ REMOVED = {
 """Options removed after they failed their measurements or nothing adopted them (docs/design.md), by class and field:
 the removing commit."""
 
+REMOVED_VALUES = {
+    "BalanceConfig": {"com_reference": {"world": "e923256", "approach": "e923256"}},
+}
+"""Values removed from a field that stays (docs/design.md), by class, field and value: the removing commit."""
+
 
 def field_settings(p: argparse.ArgumentParser, flag: str, cls: type, items: list[str]) -> dict[str, object]:
     """``FIELD=VALUE`` items (VALUE a Python literal) → {field: value} for fields of the dataclass ``cls``; an item
@@ -45,4 +50,7 @@ def field_settings(p: argparse.ArgumentParser, flag: str, cls: type, items: list
             out[name] = ast.literal_eval(text)
         except (ValueError, SyntaxError):
             p.error(f"{flag} {item!r}: expected a Python literal after '='")
+        gone = next((c for v, c in REMOVED_VALUES.get(cls.__name__, {}).get(name, {}).items() if v == out[name]), None)
+        if gone:
+            p.error(f"{flag} {item!r}: {cls.__name__}.{name}={out[name]!r} was removed at {gone}, see docs/design.md")
     return out

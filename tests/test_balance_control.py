@@ -4,14 +4,13 @@ determinism and the configuration's errors."""
 
 from __future__ import annotations
 
-import dataclasses
 
 import mujoco
 import numpy as np
 import pytest
 
 from socialaff_sim.data.skeletons import get_layout
-from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
+from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
@@ -24,6 +23,7 @@ from socialaff_sim.sim.feedforward import StandingFeedforward
 from socialaff_sim.sim.scene import Scene, build_scene, pose_compliant
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.stance import StanceConfig
+from socialaff_sim.sim.support_box import SupportBox
 
 LAYOUT = get_layout("kinect_v2")
 
@@ -229,29 +229,21 @@ def com_moved(scene: Scene, config: BalanceConfig, offset: np.ndarray | float, s
 
 
 @pytest.mark.parametrize("dx", [0.03, -0.03])
-def test_the_world_reference_holds_the_centre_of_mass_where_the_plan_has_it(scene: Scene, dx: float) -> None:
+def test_the_plan_reference_carries_the_plans_offset_onto_the_physical_feet(scene: Scene, dx: float) -> None:
     # The plan stands 3 cm ahead of (behind) the physical robot, feet and all. ``plan`` carries the plan's offset from
-    # its feet onto the physical feet: nothing to do, the centre of mass stays. ``world`` draws it to the plan's
-    # centre of mass in the world, along dx (inverted it would run the other way); the joints' rows, which track the
-    # home posture, hold it back unless ``w_com`` outweighs them (docs/design.md §5, "The standing body held where
-    # the plan has it").
-    plan, _ = com_moved(scene, BalanceConfig(), dx)
+    # its feet onto the physical feet: nothing to do, the centre of mass stays (held where the plan has it in the
+    # world, it would follow the plan along dx: the removed ``world`` reference, docs/design.md §5).
+    plan, ctl = com_moved(scene, BalanceConfig(), dx)
     assert np.linalg.norm(plan) <= 0.002
-    world, ctl = com_moved(scene, BalanceConfig(com_reference="world"), dx)
-    heavy, ctl_h = com_moved(scene, BalanceConfig(com_reference="world", w_com=1e4), dx)
-    for shift, c in ((world, ctl), (heavy, ctl_h)):
-        assert shift[0] * np.sign(dx) >= 0.5 * abs(dx)  # along dx, at least half of it
-        assert abs(shift[0]) <= abs(dx) + 0.003 and abs(shift[1]) <= 0.002  # not past the plan's
-        assert c.catches == 0 and c.released
-    assert abs(heavy[0]) - abs(world[0]) >= 0.004  # the heavier row wins more of it from the joints
+    assert ctl.catches == 0 and ctl.released
 
 
 def test_each_reference_against_mujocos_centre_of_mass(scene: Scene) -> None:
     # The plan: home moved 0.3 m forward and 0.1 m to the side, its left leg bent; the physical robot at home.
-    # ``plan`` = the physical feet's middle + the plan's centre of mass minus its feet's middle; ``world`` = the plan's
-    # centre of mass; both from MuJoCo's own subtree centre of mass of the plan's pose.
+    # ``plan`` = the physical feet's middle + the plan's centre of mass minus its feet's middle, from MuJoCo's own
+    # subtree centre of mass of the plan's pose; ``middle`` = the support box's middle, whatever the plan.
     m = scene.model
-    d, q, ctl, _ = standing_far(scene, BalanceConfig(com_reference="world"))
+    d, q, ctl, _ = standing_far(scene, BalanceConfig())
     plan = q.copy()
     plan[:2] += [0.3, 0.1]
     plan[7 + 2] += 0.4
@@ -261,39 +253,14 @@ def test_each_reference_against_mujocos_centre_of_mass(scene: Scene) -> None:
     com_plan = p.subtree_com[scene.root_body, :2]
     feet = ctl._feet
     ctl.begin_frame(plan, (True, True))
-    assert np.allclose(ctl.reference(d, None), com_plan, atol=1e-9)  # type: ignore[arg-type]
-    ctl_p = BalanceController(scene, BalanceConfig())
-    ctl_p.begin_frame(plan, (True, True))
     want = d.xpos[feet, :2].mean(axis=0) + com_plan - p.xpos[feet, :2].mean(axis=0)
-    assert np.allclose(ctl_p.reference(d, None), want, atol=1e-9)  # type: ignore[arg-type]
-    assert np.linalg.norm(want - com_plan) >= 0.25  # the two differ by the plan's shift
-    # ``approach``: the plan's own until an arm first touches (the compensation's latch), the plan's offset after.
-    ctl_a = BalanceController(scene, BalanceConfig(com_reference="approach", arm_compensation=1.0, compensation_gate=1e9))
-    ctl_a.begin_frame(plan, (True, True))
-    assert np.allclose(ctl_a.reference(d, None), com_plan, atol=1e-9)  # type: ignore[arg-type]
-    ctl_a.compensation.touched[1] = True
-    assert np.allclose(ctl_a.reference(d, None), want, atol=1e-9)  # type: ignore[arg-type]
-    with pytest.raises(ConfigError, match="approach"):
-        BalanceConfig(com_reference="approach", arm_compensation=1.0)  # no latch without the gate
-
-
-def test_a_standing_robot_held_where_the_plan_has_it_meets_the_high_five_it_missed() -> None:
-    """high_five_001 (synthetic, seed 0), Stubby in the standing mode as the rule of docs/design.md §5 ("The standing
-    body held where the plan has it") found it: its feet stand a few centimetres behind the plan's, the body is put
-    that much back and sags further behind its reference, and the raised hand stops 1.6 cm short (completion β at
-    most 0.34). With the centre of mass held where the plan has it (``world``, ``w_com`` 1e4) the root stands within
-    a few centimetres of the plan's and the hands meet (β reaches 1)."""
-    inter = next(i for i in generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=2))
-                 if i.instance_id == "high_five_001")
-    met, beta = [], []
-    off = {"com_shift": None, "shift_until_touch": False}  # the standing mode as the rule found it (before its shift)
-    for over in ({"com_reference": "plan", "w_com": 100.0, **off}, {"com_reference": "world", "w_com": 1e4, **off}):
-        cfg = SimConfig.standing(floor_time_constant=None)  # on MuJoCo's floor, as the rule found it
-        sim = Simulator("ours", "high_five", dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, **over)))
-        met.append(run_episode(sim, GroundTruthSource(), inter)["success"])
-        beta.append(max(float(np.max(r.completion)) for r in sim.results if r.completion is not None))
-    assert met == [False, True]
-    assert beta[0] < 0.5 and beta[1] > 0.9
+    assert np.allclose(ctl.reference(d, None), want, atol=1e-9)  # type: ignore[arg-type]
+    assert np.linalg.norm(want - com_plan) >= 0.25  # not the plan's own centre of mass: they differ by its shift
+    box = SupportBox(np.array([[0.1, -0.2], [0.3, 0.0], [0.2, -0.05]]), np.array([0.6, 0.8]))
+    ctl_m = BalanceController(scene, BalanceConfig(com_reference="middle"))
+    ctl_m.begin_frame(plan, (True, True))
+    local = np.array([[0.1, -0.2], [0.3, 0.0], [0.2, -0.05]]) @ box.R.T  # brute force: the box in its own axes
+    assert np.allclose(ctl_m.reference(d, box), 0.5 * (local.min(axis=0) + local.max(axis=0)) @ box.R, atol=1e-12)
 
 
 def test_a_pushed_robot_returns_to_its_stance_on_its_own_feet(scene: Scene) -> None:
@@ -342,6 +309,7 @@ def test_an_episode_under_the_controller_is_deterministic(ours) -> None:
 
 
 @pytest.mark.parametrize("kw", [{"com_bandwidth": 0.0}, {"joint_bandwidth": -1.0}, {"com_reference": "hips"},
+                                {"com_reference": "world"}, {"com_reference": "approach"},  # removed (design.md §5)
                                 {"release_tilt": 20.0, "catch_tilt": 10.0}, {"friction": 0.0}, {"w_force": 0.0},
                                 {"support_margin": -0.01}])
 def test_balance_config_rejects_bad_values(kw) -> None:

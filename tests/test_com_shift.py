@@ -58,8 +58,8 @@ def test_the_weight_ramps_from_w_com_to_the_shift_weight() -> None:
     assert shift_weight(100.0, 1e4, 0.25) == pytest.approx(100.0 + 0.25 * 9900.0)
 
 
-@pytest.mark.parametrize("kw", [{"com_shift": 0.0}, {"com_shift": -0.1}, {"com_shift": 0.1, "com_reference": "world"},
-                                {"com_shift": 0.1, "com_reference": "middle"}, {"shift_weight": -1.0},
+@pytest.mark.parametrize("kw", [{"com_shift": 0.0}, {"com_shift": -0.1}, {"com_shift": 0.1, "com_reference": "middle"},
+                                {"shift_weight": -1.0},
                                 {"shift_until_touch": True, "arm_compensation": 1.0, "compensation_gate": 1e9},
                                 {"com_shift": 0.1, "shift_until_touch": True, "arm_compensation": 1.0},
                                 {"com_shift": 0.1, "shift_until_touch": True, "compensation_gate": 1e9}])

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 from conftest import load_script
 
+from socialaff_sim.errors import ConfigError
 from socialaff_sim.inference.synthesis_config import SynthesisConfig
 from socialaff_sim.retarget.contact_completion import ContactCompletionConfig
 from socialaff_sim.sim.balance_config import BalanceConfig
@@ -33,8 +34,9 @@ def _error(capsys: pytest.CaptureFixture[str], call) -> str:  # noqa: ANN001
 
 def test_settings_are_python_literals_of_the_classes_fields() -> None:
     p = argparse.ArgumentParser()
-    got = flags.field_settings(p, "--balance", BalanceConfig, ["hand_yield=0.5", "solver='qp'", "self_clearance=None"])
-    assert got == {"hand_yield": 0.5, "solver": "qp", "self_clearance": None}
+    got = flags.field_settings(p, "--balance", BalanceConfig, ["hand_yield=0.5", "solver='qp'", "self_clearance=None",
+                                                                "com_reference='middle'"])  # a value that stays
+    assert got == {"hand_yield": 0.5, "solver": "qp", "self_clearance": None, "com_reference": "middle"}
     assert dataclasses.replace(BalanceConfig(), **got).solver == "qp"
     assert flags.field_settings(p, "--foot-lock", FootLockConfig, []) == {}
     sim = flags.field_settings(p, "--sim", SimConfig, ["hand_force=40.0", "grip=False"])
@@ -51,6 +53,7 @@ def test_settings_are_python_literals_of_the_classes_fields() -> None:
     (BalanceConfig, "release_speed=0.1", "7c7e7ae"), (FootLockConfig, "touchdown=0.05", "7c7e7ae"),
     (FootLockConfig, "pace=1.5", "cce7ce7"), (FootLockConfig, "pace_height=0.08", "cce7ce7"),
     (FootLockConfig, "pace_base=True", "cce7ce7"), (ContactCompletionConfig, "planned_shoulder=True", "cce7ce7"),
+    (BalanceConfig, "com_reference='world'", "e923256"), (BalanceConfig, "com_reference='approach'", "e923256"),
     (BalanceConfig, "no_such_field=1", None), (FootLockConfig, "hold_lift", None)])
 def test_an_unknown_or_removed_field_is_exit_2(cls, item, removed, capsys) -> None:  # noqa: ANN001
     line = _error(capsys, lambda: flags.field_settings(argparse.ArgumentParser(), "--x", cls, [item]))
@@ -70,12 +73,19 @@ def test_the_removed_table_names_no_field_that_exists() -> None:
     assert set(flags.REMOVED) == set(classes)
     for name, removed in flags.REMOVED.items():
         assert removed and not set(removed) & {f.name for f in dataclasses.fields(classes[name])}
+    for name, fields in flags.REMOVED_VALUES.items():  # fields that stay, values they refuse
+        for field, values in fields.items():
+            assert values and field in {f.name for f in dataclasses.fields(classes[name])}
+            for value in values:
+                with pytest.raises(ConfigError, match=field):
+                    classes[name](**{field: value})
 
 
 @pytest.mark.parametrize(("flag", "value", "expected"), [
     ("--foot-lock", "catch_up=0.05", "61e3f3e"),
     ("--sim", "noslip_iterations=10", "SimConfig.noslip_iterations was removed at e4dd195"),
     ("--completion", "planned_shoulder=True", "ContactCompletionConfig.planned_shoulder was removed at cce7ce7"),
+    ("--balance", 'com_reference="world"', "BalanceConfig.com_reference='world' was removed at e923256"),
 ])
 def test_bench_support_stops_on_a_removed_field_before_any_episode(tmp_path: Path, monkeypatch, capsys,  # noqa: ANN001
                                                                     flag: str, value: str, expected: str) -> None:

@@ -44,7 +44,8 @@ DAMPING_LAMBDA = 0.05
 
 def fade(force: np.ndarray, release: float) -> np.ndarray:
     """(2,) s per arm: 1 − |f| / F_r clipped to [0, 1], ``force`` (2, 3) N per arm, ``release`` F_r (N)."""
-    return np.clip(1.0 - np.linalg.norm(np.asarray(force, dtype=np.float64), axis=1) / release, 0.0, 1.0)
+    f = np.asarray(force, dtype=np.float64)
+    return np.clip(1.0 - np.sqrt(np.add.reduce(f * f, axis=1)) / release, 0.0, 1.0)  # (np.linalg.norm's arithmetic)
 
 
 def approach_gate(wrists: np.ndarray, targets: np.ndarray, touched: np.ndarray, radius: float) -> np.ndarray:
@@ -54,7 +55,8 @@ def approach_gate(wrists: np.ndarray, targets: np.ndarray, touched: np.ndarray, 
     t = np.asarray(targets, dtype=np.float64).reshape(-1, 3)
     if not len(t):
         return np.zeros(len(w))
-    near = np.linalg.norm(w[:, None, :] - t[None, :, :], axis=2).min(axis=1) <= radius
+    gap = w[:, None, :] - t[None, :, :]
+    near = np.sqrt(np.add.reduce(gap * gap, axis=2)).min(axis=1) <= radius  # (np.linalg.norm's arithmetic)
     return (near & ~np.asarray(touched, dtype=bool)).astype(np.float64)
 
 
@@ -85,6 +87,8 @@ class ArmCompensation:
         self._target_ids = np.flatnonzero(self._target)
         self._frames = wrist_frames(scene)
         self._wrist, self._cols = arm_hinges(scene)
+        # per arm, made once: its hinges' qpos addresses (robot_qadr[7 + (dof − 6)]), their entries of q_ref and dofs
+        self._arm_q = [(self.qadr[c + 1], c + 1, self.vadr[c]) for c in self._cols]
         self._scratch = mujoco.MjData(m)
         self._jp = np.zeros((3, m.nv))
         self.reset()
@@ -131,9 +135,8 @@ class ArmCompensation:
             self.shift[:] = 0.0
             return dq[6:]
         s_.qpos[self.qadr] = d.qpos[self.qadr]
-        for s in (0, 1):  # the arms' hinges at their references, the rest (trunk, base) as it is
-            q_idx = self.qadr[self._cols[s] + 1]  # a hinge's qpos address: robot_qadr[7 + (dof − 6)]
-            s_.qpos[q_idx] = q_ref[self._cols[s] + 1]
+        for q_idx, ref, _ in self._arm_q:  # the arms' hinges at their references, the rest (trunk, base) as it is
+            s_.qpos[q_idx] = q_ref[ref]
         mujoco.mj_kinematics(m, s_)
         mujoco.mj_comPos(m, s_)
         here = self._wrists(s_)
@@ -142,6 +145,6 @@ class ArmCompensation:
             if share[s] <= 0.0:
                 continue
             mujoco.mj_jac(m, s_, self._jp, None, here[s], self._wrist[s])
-            J = self._jp[:, self.vadr[self._cols[s]]]
+            J = self._jp[:, self._arm_q[s][2]]
             dq[self._cols[s]] += share[s] * compensation_step(J, self.shift[s])
         return dq[6:]

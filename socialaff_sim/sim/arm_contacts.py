@@ -49,6 +49,7 @@ def filtered_arm_force(previous: np.ndarray, forces: np.ndarray, geoms: np.ndarr
     """(2, 3) each arm's contact force (world, N) low-pass filtered over ``filter_time`` (s; 0: none) by one physics
     step: ``previous`` (2, 3) the last estimate, ``forces`` (K, 3) the step's contact forces on the robot geoms
     ``geoms`` (K,), ``arm_geom`` (2, ngeom) bool, which geoms belong to each arm."""
-    now = np.array([forces[arm_geom[s][geoms]].sum(axis=0) if len(geoms) else np.zeros(3) for s in (0, 1)])
+    now = (np.array([forces[arm_geom[s][geoms]].sum(axis=0) for s in (0, 1)]) if len(geoms)
+           else np.zeros((2, 3)))  # (no contact, most steps: the zeros at once)
     a = math.exp(-m.opt.timestep / filter_time) if filter_time > 0 else 0.0
     return a * previous + (1.0 - a) * now

@@ -8,11 +8,11 @@ from ..errors import ConfigError
 
 __all__ = ["BalanceConfig", "COM_REFERENCES", "SOLVERS"]
 
-COM_REFERENCES = ("plan", "middle", "world", "approach")
+COM_REFERENCES = ("plan", "middle")
 """Where the centre of mass is held: ``plan``, the IK's centre of mass relative to its feet, carried over to the
-physical feet; ``middle``, the middle of the feet's contact points; ``world``, the IK's centre of mass where the
-plan has it in the world; ``approach``, ``world`` until an arm first touches the person or the object, ``plan`` after.
-Each is kept inside the support box."""
+physical feet; ``middle``, the middle of the feet's contact points. Each is kept inside the support box. (``world``
+and ``approach``, the IK's centre of mass where the plan has it in the world, were measured and removed:
+docs/design.md §5.)"""
 
 SOLVERS = ("lsq", "qp")
 """How the inverse dynamics is solved: ``lsq``, weighted least squares with non-negative contact forces
@@ -57,12 +57,8 @@ class BalanceConfig:
     com_damping: float = 1.0
     """ζ [—]: damping ratio of the centre-of-mass feedback."""
     com_reference: str = "plan"
-    """[—]: c*: ``plan`` (the IK's centre of mass relative to its feet, moved onto the physical feet), ``middle``
-    (the middle of the feet's contact points) or ``world`` (the IK's centre of mass where the plan has it in the
-    world: the body stays where the plan puts it although the feet stand elsewhere, which the joints' rows
-    outweigh unless ``w_com`` is large: docs/design.md §5, "The standing body held where the plan has it") or
-    ``approach`` (``world`` until an arm first touches the person or the object in the episode, ``plan`` after: the
-    latch of ``compensation_gate``, which it needs); each is kept ``support_margin`` inside the box."""
+    """[—]: c*: ``plan`` (the IK's centre of mass relative to its feet, moved onto the physical feet) or ``middle``
+    (the middle of the feet's contact points); each is kept ``support_margin`` inside the box."""
     com_shift: float | None = None
     """s_max [m]: with ``com_reference="plan"``, the reference is moved forward by the feet's shortfall along their
     heading (the plan's feet's middle ahead of the physical feet's), at most s_max, and the centre of mass's rows are
@@ -206,7 +202,7 @@ class BalanceConfig:
                 raise ConfigError(f"BalanceConfig.{name}: expected a frequency > 0 rad/s, found {getattr(self, name)}")
         for name in ("foot_damping", "foot_stiffness", "com_damping", "support_margin", "release_delay", "release_margin",
                      "catch_margin", "catch_blend", "external_filter", "w_feet", "w_com", "w_torso", "w_joint",
-                     "upper_weight", "cop_margin", "sole_gap"):
+                     "upper_weight", "cop_margin", "sole_gap", "shift_weight"):
             if not getattr(self, name) >= 0.0:
                 raise ConfigError(f"BalanceConfig.{name}: expected a value ≥ 0, found {getattr(self, name)}")
         if not (self.w_dynamics > 0.0 and self.w_force > 0.0):
@@ -259,11 +255,6 @@ class BalanceConfig:
         if self.shift_until_touch and (self.com_shift is None or self.arm_compensation is None
                                        or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.shift_until_touch: needs com_shift, arm_compensation and compensation_gate "
-                              "(their touch latch ends the approach)")
-        if not self.shift_weight >= 0.0:
-            raise ConfigError(f"BalanceConfig.shift_weight: expected a value ≥ 0, found {self.shift_weight}")
-        if self.com_reference == "approach" and (self.arm_compensation is None or self.compensation_gate is None):
-            raise ConfigError("BalanceConfig.com_reference='approach': needs arm_compensation and compensation_gate "
                               "(their touch latch ends the approach)")
         if self.release_level is not None and not 0.0 <= self.release_level < 90.0:
             raise ConfigError(f"BalanceConfig.release_level: expected None or an angle in [0, 90) degrees, found "

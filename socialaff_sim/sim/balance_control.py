@@ -8,10 +8,9 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
 1. wanted accelerations: every joint toward the IK's target (PD of bandwidth ω_q, the frame's joint velocity
    as reference), the torso's attitude toward the IK's (ω_o), the planted feet held where they stood when both
    came down (k_x, k_f: a creeping foot is drawn back), and the centre of mass's horizontal position toward a
-   reference c* over the feet (ω_c, ζ): the IK's centre of mass relative to its feet carried over to the
-   physical feet (or the middle of the feet, or the IK's centre of mass where the plan has it in the world;
-   with ``com_shift`` moved forward by the feet's shortfall behind the plan's, :mod:`~.com_shift`),
-   optionally moved to lean against the measured external forces
+   reference c* over the feet (ω_c, ζ; :mod:`~.com_reference`): the IK's centre of mass relative to its feet carried
+   over to the physical feet (or the middle of the feet; with ``com_shift`` moved forward by the feet's shortfall
+   behind the plan's, :mod:`~.com_shift`), optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
    with the floor, where they stand now) shrunk by a margin; with ``hand_yield`` the arms' references give way
    to a person's force beyond what the feet carry (:mod:`~.hand_yield`);
@@ -51,7 +50,7 @@ from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
 from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
 from .contact_dynamics import cone_edges, solve_contact_dynamics
-from .com_shift import forward_shortfall, shift_weight
+from .com_reference import ComReference
 from .contact_qp import ActuatorLimits, cop_rows, solve_contact_qp
 from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
@@ -97,11 +96,8 @@ class BalanceController:
         self._gain = m.actuator_gainprm[ids, 0].copy()
         self._bias = m.actuator_biasprm[ids, :3].copy()
         self._act_q, self._act_v = np.asarray(scene.act_qadr), np.asarray(scene.act_vadr)
-        d0 = mujoco.MjData(m)
-        d0.qpos[self.qadr] = scene.home_qpos
-        mujoco.mj_kinematics(m, d0)
         # the torso's up axis at home
-        self._torso_up = d0.xmat[self._torso].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
+        self._torso_up = scene.home_data().xmat[self._torso].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
         self._external = ExternalForces(scene)
         c = self.config
         self._clearance = None if c.self_clearance is None else SelfClearance.of_scene(
@@ -113,6 +109,8 @@ class BalanceController:
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
         """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
+        self.com = ComReference(c, self._feet, scene.root_body, self.compensation)
+        """The centre of mass's reference c* (:mod:`~.com_reference`)."""
         self._plan = mujoco.MjData(m)
         self._limits, self._Mix = ActuatorLimits(m, scene.act_ids), np.ix_(self.vadr, self.vadr)  # made once
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside the joints' task
@@ -145,10 +143,8 @@ class BalanceController:
         self._ext_gen = np.zeros(len(self.vadr))
         self._ext_force = np.zeros(3)
         self._ext_moment = np.zeros(3)
-        self._com_offset = np.zeros(2)
-        self._com_plan = np.zeros(2)
-        self._plan_feet = np.zeros(2)
         self._torso_goal = np.eye(3)
+        self.com.reset()
         self.steps = self.active_steps = self.released_steps = self.catches = 0
         """Physics steps run, driven by the controller, with the harness off; times a released robot was caught."""
         self.catch_reasons = {"tilt": 0, "capture": 0, "step": 0}
@@ -172,9 +168,7 @@ class BalanceController:
         p.qpos[self.qadr] = q_target
         mujoco.mj_kinematics(m, p)
         mujoco.mj_comPos(m, p)
-        feet = self._plan_feet = p.xpos[self._feet, :2].mean(axis=0)
-        self._com_offset = p.subtree_com[self.scene.root_body, :2] - feet
-        self._com_plan = p.subtree_com[self.scene.root_body, :2].copy()
+        self.com.begin_frame(p)
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
 
     # -- the physics step -----------------------------------------------------------------------------------
@@ -203,7 +197,7 @@ class BalanceController:
             mujoco.mj_jacSubtreeCom(m, d, self._jp, self.scene.root_body)
             jcom = self._jp[:, self.vadr].copy()
             comvel = jcom @ d.qvel[self.vadr]
-            height = max(float(com[2] - pts[:, 2].mean()), 1e-3)
+            height = max(float(com[2] - pts[:, 2].sum() / len(pts)), 1e-3)  # (the mean's arithmetic)
             capture = self._capture = com[:2] + comvel[:2] / math.sqrt(self._g / height)
         was = self.released
         if not standing:
@@ -269,27 +263,12 @@ class BalanceController:
         self._caught = (pos, quat, t + m.opt.timestep)
 
     def reference(self, d: mujoco.MjData, box: SupportBox) -> np.ndarray:
-        """(2,) the centre of mass's reference c* (world, m) before the lean, the glide and the box's clip, by
-        ``com_reference``: the plan's offset from its feet on the feet of ``d``, the plan's own (world; with
-        ``approach`` until an arm's first touch), or the middle of ``box``."""
-        ref = self.config.com_reference
-        if ref == "approach":  # held where the plan has it until an arm first touches, then as ``plan``
-            ref = "plan" if self.compensation.touched.any() else "world"  # type: ignore[union-attr]
-        if ref == "plan":
-            return d.xpos[self._feet, :2].mean(axis=0) + self._com_offset
-        if ref == "world":  # where the plan has it, whatever the feet: the body stays where the plan puts it
-            return self._com_plan.copy()
-        return box.middle()
+        """:meth:`~.com_reference.ComReference.reference` of :attr:`com`."""
+        return self.com.reference(d, box)
 
     def shift(self, d: mujoco.MjData, box: SupportBox) -> tuple[np.ndarray, float]:
-        """``com_shift``: the reference's forward shift (2,) (world, m) by the feet's shortfall behind the plan's
-        along ``box``'s heading, and the centre of mass's rows' weight (:mod:`~.com_shift`); else (and with
-        ``shift_until_touch`` after an arm's first touch) none and ``w_com``."""
-        c = self.config
-        if c.com_shift is None or (c.shift_until_touch and self.compensation.touched.any()):  # type: ignore[union-attr]
-            return np.zeros(2), c.w_com
-        s, share = forward_shortfall(self._plan_feet, d.xpos[self._feet, :2].mean(axis=0), box.R[0], c.com_shift)
-        return s, shift_weight(c.w_com, c.shift_weight, share)
+        """:meth:`~.com_reference.ComReference.shift` of :attr:`com`."""
+        return self.com.shift(d, box)
 
     def _torques(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray, pts: np.ndarray,
                  frames: np.ndarray, which: np.ndarray, box: SupportBox, com: np.ndarray, jcom: np.ndarray,
@@ -320,13 +299,13 @@ class BalanceController:
             pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
                                                    which, c.sole_gap, c.foot_stiffness, c.foot_damping,
                                                    self._foot_scratch, feet)
-        floor = float(pts[:, 2].mean())  # the contacts' mean height (m), for the lean and the hands' give
-        jac = np.empty((len(pts), 3, n))
-        for i, (p, s) in enumerate(zip(pts, which, strict=True)):
-            mujoco.mj_jac(m, d, self._jp, None, p, self._feet[int(s)])
-            jac[i] = self._jp[:, va]
-        shift, w_com = self.shift(d, box)
-        goal = self.reference(d, box) + shift
+        floor = float(pts[:, 2].sum() / len(pts))  # the contacts' mean height (m), for the lean and the hands' give
+        full = np.empty((len(pts), 3, m.nv))  # each point's Jacobian written in place, the robot's columns taken once
+        for i, (p, s) in enumerate(zip(pts, which.tolist(), strict=True)):
+            mujoco.mj_jac(m, d, full[i], None, p, self._feet[s])
+        jac = full[:, :, va]
+        shift, w_com = self.com.shift(d, box)
+        goal = self.com.reference(d, box) + shift
         wc, zc = c.com_bandwidth, c.com_damping
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
             p = np.array([goal[0], goal[1], floor])
@@ -399,5 +378,5 @@ class BalanceController:
 
     def _tilt(self, d: mujoco.MjData) -> float:
         """The torso's angle from upright, degrees."""
-        up = d.xmat[self._torso].reshape(3, 3)[2] @ self._torso_up
-        return float(np.degrees(np.arccos(np.clip(up, -1.0, 1.0))))
+        up = float(d.xmat[self._torso].reshape(3, 3)[2] @ self._torso_up)
+        return float(np.degrees(np.arccos(min(max(up, -1.0), 1.0))))  # (np.clip's values, without its overhead)

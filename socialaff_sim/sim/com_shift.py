@@ -5,10 +5,10 @@ their targets, the physical ones stand 3–10 cm behind them along the heading (
 mode's high fives traced …"). The controller's ``plan`` reference carries the plan's centre of mass relative to *its*
 feet onto the physical feet, so the whole body stands that much behind the plan and a raised hand stops short of the
 person's. Holding the centre of mass where the plan has it in the world (``com_reference="world"`` with a heavy
-``w_com``) mends that, but it also pulls the body sideways after feet that land off to the side (a pull-up's 20 cm)
-and, with nothing to mend, stiffens the centre of mass against every arm's swing, which the trunk then takes up
-(tilt, and the harness's catch). Here only the shortfall along the feet's heading is made up, at most s_max, and the
-centre of mass's rows are weighted up in proportion to it:
+``w_com``, measured and removed: docs/design.md §5) mended that, but it also pulled the body sideways after feet that
+land off to the side (a pull-up's 20 cm) and, with nothing to mend, stiffened the centre of mass against every arm's
+swing, which the trunk then took up (tilt, and the harness's catch). Here only the shortfall along the feet's
+heading is made up, at most s_max, and the centre of mass's rows are weighted up in proportion to it:
 
     d = (p̄_plan − p̄) · f,   s = clip(d, 0, s_max),   c* = c*_plan + s f,   w = w_com + (w_s − w_com) s / s_max,
 

@@ -28,7 +28,8 @@ carries it on each foot with its centre of pressure in bounds). It is solved by 
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import daqp
 import mujoco
@@ -47,8 +48,6 @@ class ContactQPResult:
 
     qacc: np.ndarray
     """(n,) the chosen generalised acceleration (root: m/s², rad/s²; hinges rad/s²)."""
-    forces: np.ndarray
-    """(P, 3) the contact force at each point, world frame, N."""
     beta: np.ndarray
     """(4P,) the cone edges' weights, N (f_p = E_p β_p)."""
     tau: np.ndarray
@@ -62,6 +61,15 @@ class ContactQPResult:
     hold together."""
     inequalities_dropped: bool = False
     """Whether the hard inequality rows were dropped too (they could not hold with the torque limits alone)."""
+    edges: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 4)), repr=False)
+    """(P, 3, 4) the cone edges β weighs (the solve's ``edges``)."""
+
+    @cached_property
+    def forces(self) -> np.ndarray:
+        """(P, 3) the contact force at each point, world frame, N: ``f_p = E_p β_p`` (worked out when first read: the
+        balance controller, called at every physics step, needs only the torques)."""
+        P = len(self.edges)
+        return np.einsum("pik,pk->pi", self.edges, self.beta.reshape(P, 4)) if P else np.zeros((0, 3))
 
 
 def actuator_limits(m: mujoco.MjModel, act_ids: np.ndarray, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
@@ -243,9 +251,8 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
         tau = M @ qacc + h - G @ beta
     tol = 1e-6 * max(1.0, mass)
     at_limit = act & ((tau >= lim[:, 1] - tol) | (tau <= lim[:, 0] + tol))
-    forces = np.einsum("pik,pk->pi", edges, beta.reshape(P, 4)) if P else np.zeros((0, 3))
-    return ContactQPResult(qacc=qacc, forces=forces, beta=beta, tau=tau, at_limit=at_limit, found=found,
-                           relaxed=relaxed, inequalities_dropped=dropped)
+    return ContactQPResult(qacc=qacc, beta=beta, tau=tau, at_limit=at_limit, found=found, relaxed=relaxed,
+                           inequalities_dropped=dropped, edges=edges)
 
 
 def _daqp(H: np.ndarray, f: np.ndarray, K: int, A_all: np.ndarray, up: np.ndarray, lo: np.ndarray,
@@ -253,7 +260,7 @@ def _daqp(H: np.ndarray, f: np.ndarray, K: int, A_all: np.ndarray, up: np.ndarra
     """DAQP on ``½xᵀHx + fᵀx`` with ``0 ≤ x[:K]`` and ``lo ≤ A_all x ≤ up`` (``A_all`` C-ordered; sense ``sn`` 5:
     equality); the rows are scaled to unit norm and empty ones dropped (with them DAQP declared feasible problems
     infeasible)."""
-    norm = np.linalg.norm(A_all, axis=1)
+    norm = np.sqrt(np.add.reduce(A_all * A_all, axis=1))  # np.linalg.norm(A_all, axis=1)'s arithmetic
     keep = norm > 1e-9
     k = 1.0 / norm[keep]
     A_all = np.ascontiguousarray(A_all[keep] * k[:, None])

@@ -67,10 +67,10 @@ class ExternalForces:
         nc = d.ncon
         if not nc:
             return Contacts(np.zeros((0, 3)), np.zeros((0, 3)), none, none)
-        g = d.contact.geom[:nc]
+        con = d.contact  # (each read of MjData.contact and of its fields makes new views: read once)
+        g = con.geom[:nc]
         r0, r1 = self._robot[g[:, 0]], self._robot[g[:, 1]]
         floor = (g[:, 0] == self._floor) | (g[:, 1] == self._floor)
-        con = d.contact
         rows = np.flatnonzero((r0 ^ r1) & ~floor & (con.efc_address[:nc] >= 0))
         pts, forces, geoms, others = [], [], [], []
         if len(rows):

@@ -4,6 +4,8 @@ with the floor, the support's footprint and the feet's heading."""
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -32,9 +34,7 @@ class FeetOnFloor:
         self._floor = int(scene.floor_geom)
         self.bodies = self._feet
         """The feet's body ids (left, right)."""
-        d0 = mujoco.MjData(m)
-        d0.qpos[self.qadr] = scene.home_qpos
-        mujoco.mj_kinematics(m, d0)
+        d0 = scene.home_data()
         # Each foot's own axis that points forward at home (the robot faces +x there).
         self.forward = np.array([d0.xmat[b].reshape(3, 3).T @ np.array([1.0, 0.0, 0.0]) for b in self._feet])
         """(2, 3) each foot's forward axis at home, in its own frame."""
@@ -115,5 +115,5 @@ class FeetOnFloor:
     def heading(self, d: mujoco.MjData) -> np.ndarray:
         """(2,) unit: the feet's forward direction on the floor."""
         f = sum(d.xmat[b].reshape(3, 3) @ a for b, a in zip(self._feet, self._foot_fwd, strict=True))[:2]
-        nrm = float(np.linalg.norm(f))
+        nrm = math.sqrt(f.dot(f))  # np.linalg.norm's arithmetic, less overhead
         return f / nrm if nrm > 1e-9 else np.array([1.0, 0.0])

@@ -33,6 +33,8 @@ their reference velocities by the same map of ȯ. The forces are the contacts' o
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -81,7 +83,8 @@ def yield_rate(forces: np.ndarray, allowance: float, fraction: float, damping: f
     (N, on the left and right arm) exceed ``fraction`` × ``allowance``; zeros otherwise (the offsets then return,
     :meth:`HandYield.update`)."""
     f = np.asarray(forces, dtype=np.float64)
-    total = float(np.linalg.norm(f.sum(axis=0)))
+    s = f.sum(axis=0)
+    total = math.sqrt(s.dot(s))  # np.linalg.norm's arithmetic, less overhead
     excess = total - fraction * allowance
     if excess <= 0.0 or total <= 0.0:
         return np.zeros((2, 2))
@@ -110,6 +113,7 @@ class HandYield:
         self._arm_geom = np.asarray(scene.arm_geom, dtype=bool)
         self._person = person_geoms(scene)
         self._wrist, self._cols = arm_hinges(scene)
+        self._arm_v = [self.vadr[c] for c in self._cols]  # each arm's dofs, made once
         self._jp = np.zeros((3, m.nv))
         self.reset()
 
@@ -147,7 +151,8 @@ class HandYield:
         self.force = filtered_arm_force(self.force, forces, geoms, self._arm_geom, m, self.filter_time)
         on = self._arm_geom[:, geoms].any(axis=0) if len(geoms) else np.zeros(0, dtype=bool)
         if on.any():  # where the forces act: their points' mean, weighted by the force
-            w = np.linalg.norm(forces[on], axis=1) + 1e-9
+            fo = forces[on]
+            w = np.sqrt(np.add.reduce(fo * fo, axis=1)) + 1e-9  # np.linalg.norm(fo, axis=1)'s arithmetic
             self._height = float(pts[on, 2] @ w / w.sum())
             self._at = (w @ pts[on, :2]) / w.sum()
 
@@ -158,7 +163,7 @@ class HandYield:
         :func:`twist_allowance`), return otherwise."""
         f = self.force[:, :2]
         total = f.sum(axis=0)
-        nrm = float(np.linalg.norm(total))
+        nrm = math.sqrt(total.dot(total))  # np.linalg.norm's arithmetic, less overhead
         allow = feet_allowance(box, total / nrm, capture, margin, weight, self._height - floor,
                                float(self.force[:, 2].sum()), self._at) if nrm > 0 else 0.0
         if self.twist is not None and nrm > 0:  # nor more twist about the vertical than the feet hold unturned
@@ -169,7 +174,7 @@ class HandYield:
         else:
             rate = -self.offset / self.back if self.back > 0 else -self.offset / dt
         self.offset = self.offset + dt * rate
-        n = np.linalg.norm(self.offset, axis=1, keepdims=True)
+        n = np.sqrt(np.add.reduce(self.offset * self.offset, axis=1, keepdims=True))  # np.linalg.norm's arithmetic
         self.offset *= np.minimum(1.0, MAX_OFFSET / np.maximum(n, 1e-12))
         self.rate = rate
 
@@ -188,7 +193,7 @@ class HandYield:
             if not (self.offset[s].any() or self.rate[s].any()):
                 continue
             mujoco.mj_jacBody(m, d, self._jp, None, self._wrist[s])
-            J = self._jp[:2][:, self.vadr[self._cols[s]]]
+            J = self._jp[:2][:, self._arm_v[s]]
             inv = J.T @ np.linalg.inv(J @ J.T + _DAMPING)
             dq[self._cols[s]] += inv @ self.offset[s]
             dv[self._cols[s]] += inv @ self.rate[s]

@@ -39,6 +39,7 @@ import mujoco
 import numpy as np
 
 from ..retarget.collision import collision_pairs
+from .geom_extent import primitive_extent
 from .human import HAND_SPHERE_RADIUS, HumanPose
 from ..retarget.kinematic_tree import subtree_mask
 from .scene import Scene
@@ -112,17 +113,7 @@ def _support(model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray, u: n
     """
     axes = data.geom_xmat[geoms].reshape(-1, 3, 3)  # columns: the geom's axes in world coordinates
     cu = np.einsum("gji,j->gi", axes, u)  # u in each geom's frame
-    size = model.geom_size[geoms]
-    kind = model.geom_type[geoms]
-    T = mujoco.mjtGeom
-    reach = np.where(
-        kind == int(T.mjGEOM_SPHERE), size[:, 0],
-        np.where(kind == int(T.mjGEOM_CAPSULE), np.abs(cu[:, 2]) * size[:, 1] + size[:, 0],
-        np.where(kind == int(T.mjGEOM_BOX), np.einsum("gi,gi->g", np.abs(cu), size),
-        np.where(kind == int(T.mjGEOM_ELLIPSOID), np.sqrt(np.einsum("gi,gi->g", cu**2, size**2)),
-        np.where(kind == int(T.mjGEOM_CYLINDER),
-                 np.abs(cu[:, 2]) * size[:, 1] + size[:, 0] * np.sqrt(np.clip(1 - cu[:, 2] ** 2, 0, 1)),
-                 model.geom_rbound[geoms])))))
+    reach = primitive_extent(model.geom_type[geoms], model.geom_size[geoms], cu, model.geom_rbound[geoms])
     return data.geom_xpos[geoms] @ u + reach
 
 
@@ -183,9 +174,7 @@ def reach_model(scene: Scene, arm: float, leg: float, shoulders: np.ndarray, hip
     """The :class:`ReachModel` of ``scene``'s robot at its home posture (measurements from
     :func:`~socialaff_sim.retarget.scaling.measure_robot`)."""
     m = scene.model
-    d = mujoco.MjData(m)
-    d.qpos[scene.robot_qadr] = scene.home_qpos
-    mujoco.mj_kinematics(m, d)
+    d = scene.home_data()
     mujoco.mj_comPos(m, d)
 
     def frame_pos(k: int) -> np.ndarray:

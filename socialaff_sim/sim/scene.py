@@ -35,6 +35,7 @@ from ..data.skeletons import SkeletonLayout
 from ..errors import SimulationError
 from ..retarget.robot import RobotSpec
 from .chair import add_chair
+from .geom_extent import primitive_extent
 from .human import HumanBody, human_body
 from .robot_mjcf import robot_mjcf, tune_servos
 from .scene_human import HUMAN_RGBA, PERSON_CONTYPE, add_human, part_names, pose_compliant, set_human_sizes
@@ -133,6 +134,13 @@ class Scene:
     @property
     def n_bones(self) -> int:
         return self.body.n_bones
+
+    def home_data(self) -> mujoco.MjData:
+        """A new data of the scene, the robot at its home posture (the rest at ``qpos0``), its kinematics computed."""
+        d = mujoco.MjData(self.model)
+        d.qpos[self.robot_qadr] = self.home_qpos
+        mujoco.mj_kinematics(self.model, d)
+        return d
 
     def ctrl_for(self, qpos: np.ndarray, qvel: np.ndarray | None = None) -> np.ndarray:
         """Controls (..., n_act) making the servos track scene ``qpos`` (..., nq) and, if given, ``qvel`` (..., nv).
@@ -379,19 +387,10 @@ def _lowest_point(model: mujoco.MjModel, qadr: np.ndarray, robot_q: np.ndarray, 
     mujoco.mj_kinematics(model, data)
     g = np.flatnonzero(robot_geom & ((model.geom_contype != 0) | (model.geom_conaffinity != 0)))
     rz = data.geom_xmat[g].reshape(-1, 3, 3)[:, 2, :]  # each geom's axes' z components
-    size = model.geom_size[g]
     kind = model.geom_type[g]
     z = data.geom_xpos[g, 2]
-    T = mujoco.mjtGeom
-    reach = np.where(
-        kind == int(T.mjGEOM_SPHERE), size[:, 0],
-        np.where(kind == int(T.mjGEOM_CAPSULE), np.abs(rz[:, 2]) * size[:, 1] + size[:, 0],
-        np.where(kind == int(T.mjGEOM_BOX), np.einsum("gi,gi->g", np.abs(rz), size),
-        np.where(kind == int(T.mjGEOM_ELLIPSOID), np.sqrt(np.einsum("gi,gi->g", rz**2, size**2)),
-        np.where(kind == int(T.mjGEOM_CYLINDER),
-                 np.abs(rz[:, 2]) * size[:, 1] + size[:, 0] * np.sqrt(np.clip(1 - rz[:, 2] ** 2, 0, 1)),
-                 np.nan)))))
-    for i in np.flatnonzero(kind == int(T.mjGEOM_MESH)):  # meshes: their lowest vertex, exactly
+    reach = primitive_extent(kind, model.geom_size[g], rz, np.full(len(g), np.nan))  # as far down as up
+    for i in np.flatnonzero(kind == int(mujoco.mjtGeom.mjGEOM_MESH)):  # meshes: their lowest vertex, exactly
         mid = int(model.geom_dataid[g[i]])
         verts = model.mesh_vert[model.mesh_vertadr[mid]:model.mesh_vertadr[mid] + model.mesh_vertnum[mid]]
         reach[i] = -float((verts @ rz[i]).min())

@@ -24,6 +24,8 @@ dropped only when the torque limits cannot meet them.
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -79,7 +81,8 @@ class SelfClearance:
         if not len(pairs):
             return None
         xpos = d.geom_xpos
-        centre = np.linalg.norm(xpos[self._first] - xpos[self._second], axis=1)
+        gap = xpos[self._first] - xpos[self._second]
+        centre = np.sqrt(np.add.reduce(gap * gap, axis=1))  # np.linalg.norm(gap, axis=1)'s arithmetic
         near = np.flatnonzero(centre < self._reach).tolist()  # bounding spheres: only these can be that close
         A, lo, dist = [], [], []
         w = self.bandwidth
@@ -91,7 +94,7 @@ class SelfClearance:
                 continue
             p1, p2 = self._fromto[:3].copy(), self._fromto[3:].copy()
             gap = p2 - p1
-            length = float(np.linalg.norm(gap))
+            length = math.sqrt(gap.dot(gap))  # np.linalg.norm's arithmetic, less overhead
             if length < 1e-9:
                 continue  # touching at a point: no direction to push along (the next step has one)
             # For geoms that overlap (dd < 0) the segment runs the other way: the normal that separates them is

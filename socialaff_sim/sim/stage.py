@@ -158,10 +158,7 @@ def torso_dofs(scene: Scene) -> np.ndarray:
     to vertical (pitch and roll; a yaw joint twists the torso without tilting it, and the H1's only torso
     joint is one: holding it lost 3 of 4 handshakes)."""
     m = scene.model
-    d = mujoco.MjData(m)
-    d.qpos[scene.robot_qadr] = scene.home_qpos
-    mujoco.mj_kinematics(m, d)
-
+    d = scene.home_data()
     torso = shared_ancestor(m, int(scene.limb_body_ids[0]), int(scene.limb_body_ids[1]), scene.root_body)
     spine = []
     for b in ancestry(m, torso):

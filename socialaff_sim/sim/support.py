@@ -105,11 +105,8 @@ class SupportMeter:
             code[scene.floor_geom] = 8
         self._code = code.astype(np.int64)
         self._torso = shared_ancestor(m, int(scene.limb_body_ids[0]), int(scene.limb_body_ids[1]), scene.root_body)
-        d0 = mujoco.MjData(m)
-        d0.qpos[scene.robot_qadr] = scene.home_qpos
-        mujoco.mj_kinematics(m, d0)
         # The torso's own axis that points up at home (models differ in how their bodies' frames sit).
-        self._torso_up = d0.xmat[self._torso].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
+        self._torso_up = scene.home_data().xmat[self._torso].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
         lim = np.where(m.actuator_forcelimited[scene.act_ids].astype(bool),
                        np.abs(m.actuator_forcerange[scene.act_ids]).max(axis=1), np.inf)
         self._act_limit = lim
@@ -180,7 +177,8 @@ class SupportMeter:
         if off + 3 <= nefc and data.efc_id[off] == self._weld and data.efc_type[off] == self._eq_type:
             x, y, z = data.efc_force[off: off + 3].tolist()
             return math.sqrt(x * x + y * y + z * z)
-        return float(np.linalg.norm(self.harness_force(data)))
+        f = self.harness_force(data)
+        return math.sqrt(f.dot(f))  # np.linalg.norm's arithmetic, less overhead
 
     def update(self, data: mujoco.MjData) -> None:
         """Account for the physics step just taken.

@@ -29,7 +29,7 @@ class SupportBox:
     def inside(self, p: np.ndarray, margin: float) -> bool:
         """Whether ``p`` (2,) world lies inside the box shrunk by ``margin`` (grown where negative)."""
         x = self.R @ p
-        return bool(np.all(x >= self.lo + margin) and np.all(x <= self.hi - margin))
+        return bool((x >= self.lo + margin).all() and (x <= self.hi - margin).all())
 
 
 def cop_interval(axes: np.ndarray, sole_xy: np.ndarray, point_xy: np.ndarray, margin: float) -> np.ndarray:
