@@ -155,14 +155,15 @@ class Runner:
 def sim_options(physics: str, compliant_person: int | None, timestep: float | None,
                 ik_iterations: int | None, sim_mode: str = "preset") -> SimConfig | None:
     """The preset's simulator settings with the given fields replaced (``None``: the preset as it is);
-    ``sim_mode`` ``harness`` or ``standing``: the foot lock, stance and balance fields of
+    ``sim_mode`` ``harness`` or ``standing``: the foot lock, stance, balance and floor time constant fields of
     ``SimConfig.harness()`` or ``SimConfig.standing()`` instead of the preset's."""
     if compliant_person is None and timestep is None and ik_iterations is None and sim_mode == "preset":
         return None
     cfg = physics_config(physics)
     if sim_mode != "preset":
         named = SimConfig.harness() if sim_mode == "harness" else SimConfig.standing()
-        cfg = dataclasses.replace(cfg, foot_lock=named.foot_lock, stance=named.stance, balance=named.balance)
+        cfg = dataclasses.replace(cfg, foot_lock=named.foot_lock, stance=named.stance, balance=named.balance,
+                                  floor_time_constant=named.floor_time_constant)
     if compliant_person is not None:
         cfg = dataclasses.replace(cfg, compliant_person=bool(compliant_person))
     if timestep is not None:
@@ -278,7 +279,7 @@ def main() -> None:
                     help="our env's control period: default (the env's), none (one step per data frame) or seconds")
     ap.add_argument("--sim-mode", default="preset", choices=["preset", "harness", "standing"],
                     help="the physics mode of our env: the preset's own, or SimConfig.harness()'s / .standing()'s "
-                         "foot lock, stance and balance fields (issue 25)")
+                         "foot lock, stance, balance and floor time constant fields (issue 25)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--profile", action="store_true", help="print a cProfile of one ours_zero pass")
     ap.add_argument("--json", default=None, help="also write the result here")

@@ -98,6 +98,18 @@ def _feet_offset(sim: Simulator, result: object, out: list[tuple[float, bool]]) 
                 any(result.subgoals_now.values())))  # type: ignore[attr-defined]
 
 
+def _models(p: argparse.ArgumentParser, items: list[str] | None) -> dict[str, str] | None:
+    """``--model``'s paths by interaction ("" for one model for every interaction); ``None`` without ``--model``."""
+    if items is None:
+        return None
+    if len(items) == 1 and "=" not in items[0]:
+        return {"": items[0]}
+    bad = [i for i in items if "=" not in i]
+    if bad:
+        p.error(f"--model: expected LABEL=MODEL pairs (or one MODEL), got {bad[0]!r}")
+    return dict(i.split("=", 1) for i in items)
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--robots", nargs="+", default=["ours"])
@@ -111,7 +123,10 @@ def main() -> None:
                    help="instances generated per interaction (default: the synthetic set's 24); each instance is drawn "
                         "from its own seeded stream, so instances 000-023 are the same whatever this says and "
                         "--instances 40 adds 024-039")
-    p.add_argument("--model", help="an affordance model (model.npz): simulate its causal synthesis instead of the recording")
+    p.add_argument("--model", nargs="+", metavar="[LABEL=]MODEL",
+                   help="an affordance model (model.npz): simulate its causal synthesis instead of the recording; "
+                        "LABEL=MODEL pairs give each interaction its own model (the demo's <interaction>_model.npz; "
+                        "an interaction without one is skipped)")
     p.add_argument("--json", help="write the per-instance figures here")
     p.add_argument("--balance", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="BalanceConfig fields for the balance modes (Python literals), e.g. com_bandwidth=3.0")
@@ -150,16 +165,17 @@ def main() -> None:
             if cfg.stance is not None:
                 MODES[mode] = dataclasses.replace(cfg, stance=dataclasses.replace(cfg.stance, **over))
     paths = dict(item.split("=", 1) for item in args.mjcf)
+    models = _models(p, args.model)
     data = generate_dataset(seed=args.seed, config=SyntheticConfig(instances_per_interaction=args.instances))
     rows = []
     for robot in args.robots:
         spec = load_robot(robot, mjcf=paths.get(robot))
         for mode in args.modes:
             for label in data.labels:
-                if args.labels and label not in args.labels:
+                if (args.labels and label not in args.labels) or (models is not None and not models.get(label, models.get(""))):
                     continue
                 for inter in list(data.of_label(label))[args.offset: args.offset + args.per_label]:
-                    source = GroundTruthSource() if args.model is None else model_source(args.model, offline=False)
+                    source = GroundTruthSource() if models is None else model_source(models.get(label, models.get("")), offline=False)
                     tic = time.process_time()
                     sim = Simulator(spec, label, MODES[mode])
                     offsets: list[tuple[float, bool]] = []

@@ -10,9 +10,9 @@ termination reason. Run it on two code trees and compare the digests::
     PYTHONPATH=/path/to/candidate python scripts/env_sha.py --steps 250
 
 ``--env-kwargs`` passes constructor arguments as JSON (e.g. ``'{"control_dt": null}'``); ``--sim-mode harness``
-or ``standing`` runs the env with ``SimConfig.harness()``'s or ``SimConfig.standing()``'s foot lock, stance and
-balance fields (as ``scripts/bench_env.py --sim-mode`` does; ``preset``: the env's own). The library never
-imports this script.
+or ``standing`` runs the env with ``SimConfig.harness()``'s or ``SimConfig.standing()``'s foot lock, stance,
+balance and floor time constant fields (as ``scripts/bench_env.py --sim-mode`` does; ``preset``: the env's own).
+The library never imports this script.
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ def main() -> None:
     ap.add_argument("--env-kwargs", default="{}", help="constructor arguments, JSON")
     ap.add_argument("--sim-mode", default="preset", choices=["preset", "harness", "standing"],
                     help="the env's physics mode: the preset's own, or SimConfig.harness()'s / .standing()'s foot "
-                         "lock, stance and balance fields")
+                         "lock, stance, balance and floor time constant fields")
     args = ap.parse_args()
     kwargs = json.loads(args.env_kwargs)
     env_kwargs = dict(kwargs)

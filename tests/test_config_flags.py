@@ -96,3 +96,14 @@ def test_bench_support_stops_on_a_removed_field_before_any_episode(tmp_path: Pat
     line = _error(capsys, bench.main)
     assert f"{flag} '{value}'" in line and expected in line
     assert not out.exists()
+
+
+def test_bench_support_models_one_for_all_or_one_per_interaction(monkeypatch, capsys) -> None:  # noqa: ANN001
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "scripts"))
+    bench = load_script("bench_support")
+    p = argparse.ArgumentParser()
+    assert bench._models(p, None) is None
+    assert bench._models(p, ["m.npz"]) == {"": "m.npz"}
+    assert bench._models(p, ["high_five=a.npz", "pull_up=b=c.npz"]) == {"high_five": "a.npz", "pull_up": "b=c.npz"}
+    line = _error(capsys, lambda: bench._models(p, ["high_five=a.npz", "b.npz"]))
+    assert "--model" in line and "'b.npz'" in line

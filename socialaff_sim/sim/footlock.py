@@ -59,6 +59,13 @@ class FootLockConfig:
     """d_g [m]: with ``glide_step``, a glide steps only while its physical ankle frame stands farther than this
     (horizontally) from the new point; nearer, it is planted at once (a standing foot's creep of a few centimetres
     is left to the balance controller, which holds the foot where it stands). ``None``: wherever it stands."""
+    restep_gap: float | None = None
+    """d_r [m]: with ``glide_step``, a planted foot whose physical ankle frame stands farther than this
+    (horizontally) from the point it is planted at (a glide step that landed short: the balance controller then
+    holds it where it stands, behind its plan) steps again, as a glide does, toward its target; under the same
+    conditions (one foot at a time, the other standing; with ``glide_until_contact`` only until the first
+    contact). ``None``: it stays where it landed (a synthesized walk-up's feet end 15–30 cm behind the plan's,
+    docs/design.md §5)."""
     glide_until_contact: bool = False
     """[—]: With ``glide_step``, glides step only until a sub-goal's contact first holds in the episode (the walk-up);
     afterwards they are planted at once as without ``glide_step``."""
@@ -68,6 +75,8 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig: expected lift ≥ 0 and radius ≥ 0 in metres, found {self.lift}, {self.radius}")
         if self.glide_gap is not None and not self.glide_gap > 0.0:
             raise ConfigError(f"FootLockConfig.glide_gap: expected None or a distance > 0 m, found {self.glide_gap}")
+        if self.restep_gap is not None and not self.restep_gap > 0.0:
+            raise ConfigError(f"FootLockConfig.restep_gap: expected None or a distance > 0 m, found {self.restep_gap}")
         if self.glide_step is not None and not self.glide_step > 0.0:
             raise ConfigError(f"FootLockConfig.glide_step: expected None or a height > 0 m, found {self.glide_step}")
         if self.hold_lift is not None and not self.hold_lift >= self.lift:
@@ -98,8 +107,9 @@ class FootLock:
 
     @property
     def needs_physical(self) -> bool:
-        """Whether :meth:`apply` needs the physical ankle frames (``glide_gap``)."""
-        return self.config.glide_step is not None and self.config.glide_gap is not None
+        """Whether :meth:`apply` needs the physical ankle frames (``glide_gap`` or ``restep_gap``)."""
+        c = self.config
+        return c.glide_step is not None and (c.glide_gap is not None or c.restep_gap is not None)
 
     @property
     def standing(self) -> tuple[bool, bool]:
@@ -113,7 +123,7 @@ class FootLock:
         ``physical`` (2, 3): the physical ankle frames (world, m), which ``glide_gap`` needs; ``new_frame``:
         ``False`` for a solve again within a data frame (``glide_step`` then keeps the frame's decision)."""
         if self.needs_physical and physical is None:
-            raise SimulationError("FootLock.apply: glide_gap needs the physical ankle frames")
+            raise SimulationError("FootLock.apply: glide_gap and restep_gap need the physical ankle frames")
         out = np.array(ankles, dtype=np.float64)
         c = self.config
         held = touching and c.hold_in_contact
@@ -141,7 +151,7 @@ class FootLock:
             t = out[s]
             rise = t[2] - self.home_height[s]
             p = self.planted[s]
-            if p is not None and (rise <= hold and np.linalg.norm(t[:2] - p[:2]) <= c.radius or wait[s]):
+            if p is not None and glide != s and (rise <= hold and np.linalg.norm(t[:2] - p[:2]) <= c.radius or wait[s]):
                 out[s] = p  # stands (and does not lift while the other foot glide-steps)
             elif glide == s:
                 self.planted[s] = None
@@ -163,8 +173,10 @@ class FootLock:
         step while the other foot is planted and its target keeps it planted or glides too; of two such feet the
         one whose target is farther from where it stands steps, and the other is held; so is a gliding foot the
         frame after the other foot's glide step (it lands). With ``glide_gap`` a foot glides only while its physical
-        ankle frame (``physical`` (2, 3), world, m) stands farther than d_g from its target. ``hold``: the planted
-        feet's height bound."""
+        ankle frame (``physical`` (2, 3), world, m) stands farther than d_g from its target; with ``restep_gap`` a
+        planted foot also glides (its distance the larger of the two) while its physical ankle frame stands farther
+        than d_r from where it is planted, and such a foot does not count as standing for the other's step.
+        ``hold``: the planted feet's height bound."""
         c = self.config
         last, self._last = self._last, None
         planted = [p is not None for p in self.planted]
@@ -175,6 +187,12 @@ class FootLock:
         if c.glide_gap is not None:  # a creep the standing foot stays within d_g of is planted at once
             glides &= np.linalg.norm(ankles[:, :2] - np.asarray(physical)[:, :2], axis=1) > c.glide_gap
         stays = np.array(planted) & (off <= c.radius) & (rise <= hold)
+        if c.restep_gap is not None:  # a foot that landed short of where it is planted steps again
+            short = np.array([np.linalg.norm(np.asarray(physical)[s, :2] - p[:2]) if p is not None else 0.0
+                              for s, p in enumerate(self.planted)])
+            glides |= (short > c.restep_gap) & (rise <= c.lift)
+            stays &= short <= c.restep_gap
+            off = np.maximum(off, short)
         ok = [s for s in (0, 1) if glides[s] and planted[1 - s] and (stays[1 - s] or glides[1 - s])]
         step = max(ok, key=lambda s: off[s]) if ok else None
         self._last = step

@@ -41,13 +41,15 @@ from .robot_mjcf import robot_mjcf, tune_servos
 from .scene_human import HUMAN_RGBA, PERSON_CONTYPE, add_human, part_names, pose_compliant, set_human_sizes
 
 __all__ = ["ObjectSpec", "Scene", "build_scene", "set_human_sizes", "pose_compliant", "HUMAN_RGBA", "ROBOT_RGBA", "OBJECT_RGBA",
-           "OBJECT_AFFINITY", "PERSON_CONTYPE"]
+           "OBJECT_AFFINITY", "PERSON_CONTYPE", "FLOOR_SOLMIX"]
 
 ROBOT_RGBA = (0.25, 0.75, 0.3, 1.0)
 HARNESS_IMPEDANCE = 0.9
 """d of the compliant harness's soft weld (MuJoCo solimp): the share of the constraint's correction applied.
 Standing still on its feet, the H1 took 2.5 % of its weight from it at τ = 0.02 s (1.7 % at 0.05 s), and
 hanging sagged by 3.5 cm (4.4 cm); the rigid weld (0.008 s, d = 0.99): 11.5 % standing."""
+FLOOR_SOLMIX = 1000.0
+"""[—]: ``floor_time_constant``: the floor's weight (the other geom's 1) in MuJoCo's mix of a contact's ``solref``."""
 OBJECT_RGBA = (0.95, 0.8, 0.2, 1.0)
 OBJECT_AFFINITY = 3
 """``conaffinity`` of the object: bit 1 (the robot, and the floor through its own affinity) and bit 2
@@ -168,7 +170,8 @@ class Scene:
 def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None = None,
                 *, physics: bool = True, timestep: float = 0.004, servo_bandwidth: float | None = 25.0,
                 gravity_compensation: bool = False, harness_time_constant: float | None = None,
-                stance_bandwidth: float | None = None, chair: bool = False, compliant_person: bool = True) -> Scene:
+                stance_bandwidth: float | None = None, chair: bool = False, compliant_person: bool = True,
+                floor_time_constant: float | None = None) -> Scene:
     """Compile the scene for one robot, one skeleton layout and an optional object.
 
     ``physics=False`` gives the IK scene: robot and human only (no floor, object,
@@ -181,6 +184,8 @@ def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None
     ``chair``: the physics scene gets a chair (:func:`~socialaff_sim.sim.chair.add_chair`).
     ``compliant_person``: the person's forearms and hands are free bodies on soft welds in the physics scene;
     ``False``: every part of the person is a mocap body (a pure replay; see ``SimConfig.compliant_person``).
+    ``floor_time_constant`` (s): the floor's contacts' MuJoCo time constant (``solref``, weighted :data:`FLOOR_SOLMIX`
+    in the mix; ``SimConfig.floor_time_constant``); ``None``: MuJoCo's default (0.02 s).
     """
     root = mjcf.RootElement(model="socialaff_scene")
     root.compiler.angle = "radian"
@@ -197,8 +202,10 @@ def build_scene(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | None
                    rgb1=(0.55, 0.68, 0.85), rgb2=(0.95, 0.96, 0.98))
     root.visual.quality.shadowsize = 1024  # software EGL renders 4096² shadow maps slowly
     if physics:
-        root.worldbody.add("geom", name="floor", type="plane", size=(6, 6, 0.1), material="grid",
-                           contype=4, conaffinity=1)
+        floor = root.worldbody.add("geom", name="floor", type="plane", size=(6, 6, 0.1), material="grid",
+                                   contype=4, conaffinity=1)
+        if floor_time_constant is not None:  # the floor's own stiffness; friction and condim mix as before
+            floor.solref, floor.solmix = (floor_time_constant, 1.0), FLOOR_SOLMIX
         root.worldbody.add("light", pos=(0, 0, 4), dir=(0, 0, -1), diffuse=(0.5, 0.5, 0.5))
 
     rob, home = robot_mjcf(robot, physics, gravity_compensation)

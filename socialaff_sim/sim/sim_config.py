@@ -19,7 +19,7 @@ from .footlock import FootLockConfig
 from .stance import StanceConfig
 from .support import FrameSupport
 
-__all__ = ["SimConfig", "StepResult", "PHYSICS_MODES", "STANDING_BALANCE", "STANDING_FOOT_LOCK"]
+__all__ = ["SimConfig", "StepResult", "PHYSICS_MODES", "STANDING_BALANCE", "STANDING_FOOT_LOCK", "STANDING_FLOOR"]
 
 # PHYSICS_MODES, the named modes (:meth:`SimConfig.harness` and :meth:`SimConfig.standing`), is defined with the
 # robot mappings that name one as a robot's own (retarget/robot.py) and re-exported here.
@@ -41,6 +41,11 @@ foot whose target glides along the floor while the physical foot stands more tha
 5 cm for a frame), so that the robot does not stay behind its plan (docs/design.md §5, issue 25)."""
 
 
+STANDING_FLOOR = 0.01
+"""τ_f [s] of :meth:`SimConfig.standing`: the floor's contacts with a time constant of 0.01 s instead of MuJoCo's
+0.02 s (``SimConfig.floor_time_constant``): the planted feet slide back and forth less on it (adopted by the rule of
+docs/design.md §5, "The feet's slide in the standing mode …", issue 25)."""
+
 @dataclass(frozen=True)
 class SimConfig:
     """Settings of the physics loop.
@@ -53,9 +58,9 @@ class SimConfig:
 
     Fields by concept
     -----------------
-    - Physics: timestep, servo_bandwidth, hand_force, grip, compliant_person, settle_iterations
+    - Physics: timestep, servo_bandwidth, hand_force, grip, compliant_person, floor_time_constant, settle_iterations
     - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth, stance,
-      balance
+      balance, plan_feet_causal_only
     - Retargeting: ik, scaling, contact_completion
     """
 
@@ -95,6 +100,10 @@ class SimConfig:
     standing feed-forward, on the harness. Needs ``foot_lock``; not with ``stance.release`` (both would switch the
     harness). Not used with gravity compensation. :meth:`standing` uses :data:`STANDING_BALANCE`; the rule for
     making it the default failed on successes (docs/design.md §5, issue 25)."""
+    plan_feet_causal_only: bool = False
+    """[—]: ``FootLockConfig.restep_gap`` and ``StanceConfig.base_over_feet`` act only in episodes whose source is
+    causal (declares ``placement_frames``, as the model's synthesis does: its ankles glide along the floor with its
+    base), not on a recording's replay, whose feet step (docs/design.md §5). ``False``: on every source."""
     hand_force: float | None = 60.0
     """F_max [N]: the arm servos' torque limits are set so that a hand pushes with at most about
     this force (each arm joint's limit is F_max times its lever arm to the hand's far end at home,
@@ -118,6 +127,15 @@ class SimConfig:
     pushes (the robot's contacts with it, its contact forces and the sub-goals are still scored); the physics
     then has the robot's and the object's degrees of freedom only (Stubby: 111 → 39), which makes a physics
     step about twice as fast. See docs/environment.md, "Speed", for the measured effect."""
+    floor_time_constant: float | None = None
+    """τ_f [s]: the floor's contacts get this MuJoCo time constant (``solref``, damping ratio 1; the floor's weight in
+    the mix 1000 to 1, :data:`~socialaff_sim.sim.scene.FLOOR_SOLMIX`): a stiffer floor. MuJoCo's default, 0.02 s, is
+    a spring of 50 rad/s under the feet; a standing robot's planted feet rock and slide back and forth on it at
+    about that frequency (traced: 80 % of the ankle's contact-phase path is the sole's own motion at ~8 Hz, its
+    friction ratio at the median 0.06–0.16, the net drift under a fifth of the path; docs/design.md §5, "The
+    feet's slide in the standing mode …"). MuJoCo raises a time constant under two physics steps to two (its
+    ``refsafe``: the environment's ``fast`` preset, 8 ms, gets 0.016 s).
+    ``None``: MuJoCo's default; :meth:`standing`: :data:`STANDING_FLOOR`."""
     settle_iterations: int = 20
     """[—]: IK solves spent at reset to reach the first frame's targets before physics starts."""
 
@@ -131,10 +149,10 @@ class SimConfig:
     @classmethod
     def standing(cls, **changes: object) -> SimConfig:
         """The robot standing on its own feet while they are planted: the balance QP (:data:`STANDING_BALANCE`)
-        on a steadied base, the harness let go of a steady robot, the foot lock :data:`STANDING_FOOT_LOCK`
-        (``changes``: other fields)."""
+        on a steadied base, the harness let go of a steady robot, the foot lock :data:`STANDING_FOOT_LOCK`, the
+        stiffer floor :data:`STANDING_FLOOR` (``changes``: other fields)."""
         return cls(**{"foot_lock": STANDING_FOOT_LOCK, "stance": StanceConfig(release=False),  # type: ignore[arg-type]
-                      "balance": STANDING_BALANCE, **changes})
+                      "balance": STANDING_BALANCE, "floor_time_constant": STANDING_FLOOR, **changes})
 
     @classmethod
     def mode(cls, name: str, **changes: object) -> SimConfig:
@@ -149,6 +167,9 @@ class SimConfig:
                               "stance=StanceConfig(release=False) (a steadied base) or stance=None with balance")
         if self.balance is not None and self.foot_lock is None:
             raise ConfigError("SimConfig.balance: needs foot_lock (the controller acts while both feet are planted)")
+        if self.floor_time_constant is not None and not self.floor_time_constant > 0.0:
+            raise ConfigError(f"SimConfig.floor_time_constant: expected None or a time > 0 s, found "
+                              f"{self.floor_time_constant}")
 
 
 @dataclass(frozen=True)

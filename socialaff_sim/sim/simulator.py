@@ -15,6 +15,7 @@ become a frame's targets through :meth:`Simulator.retarget` (:mod:`~.frame_targe
 from __future__ import annotations
 
 import copy
+import dataclasses
 import time
 from pathlib import Path
 
@@ -84,6 +85,8 @@ class Simulator:
             stage.ik.set_contact_exemptions(contact_exemptions(self.task.subgoals, stage.ik_scene))
             stage.exemptions_set = True
         self.interaction = inter = interaction
+        # Plans of a causal source (the model's synthesis) glide their feet (SimConfig.plan_feet_causal_only).
+        self._plan_feet = not self.config.plan_feet_causal_only or placement_frames is not None
         place = self._reset_cache.get(inter, placement_frames)
         if place is None:
             place = build_placement(inter, placement_frames, stage.scene, stage.ik_scene.home_qpos, self.measurements,
@@ -147,8 +150,11 @@ class Simulator:
         self._q = q0.copy()
         self._released = False
         stage.start(q0, self.pose, self._yaw, self.task.chair, self.carry, self._park_radius)
-        self._footlock = None if self.config.foot_lock is None else FootLock(
-            (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), self.config.foot_lock)
+        lock = self.config.foot_lock
+        if lock is not None and not self._plan_feet:
+            lock = dataclasses.replace(lock, restep_gap=None)
+        self._footlock = None if lock is None else FootLock(
+            (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), lock)
         if self.carry is not None and self.carry.release_frame == 0:
             self._release(0)
         self.last_targets = self.frame_R.to_robot(key_frames_at(stage.ik_scene, q0, stage.kinematics))
@@ -226,6 +232,7 @@ class Simulator:
         k, n = self.substep, self.n_sub
         tg = fill_targets(np.asarray(targets, dtype=np.float64), self._home_keys)
         world = self.frame_R.to_world(tg)
+        plan_feet = world[3:5].copy()  # the plan's ankles, before the foot lock holds them
         if self._footlock is not None:
             physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.needs_physical else None
             world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()),
@@ -241,7 +248,9 @@ class Simulator:
             centre = ik.balance.box_centre(key_frames(stage.scene, stage.data)[3:5], self._yaw)
             frames = stage.stepper.support.frames
             world[0], com_target = stage.stance.frame(stage.data, world[0], planted[0] and planted[1], centre,
-                                                      frames[-1].tilt_deg if frames else 0.0)
+                                                      frames[-1].tilt_deg if frames else 0.0,
+                                                      ik.balance.box_centre(plan_feet, self._yaw) if self._plan_feet
+                                                      else None, self._yaw)
         res = ik.solve(world, self._yaw, dt=1.0 / fps if k == 0 else (n - k) / (n * fps), care=reachable, planted=planted,
                        com_target=com_target, iterations=iterations,
                        com_cost=None if com_target is None else stage.stance.config.com_cost)  # type: ignore[union-attr]

@@ -111,18 +111,20 @@ def compile_scenes(robot: RobotSpec, layout: SkeletonLayout, obj: ObjectSpec | N
                    servo_bandwidth: float | None, hand_force: float | None,
                    gravity_compensation: bool = False, harness_time_constant: float | None = None,
                    stance_bandwidth: float | None = None, chair: bool = False,
-                   compliant_person: bool = True) -> tuple[Scene, Scene, IKModel, np.ndarray]:
+                   compliant_person: bool = True,
+                   floor_time_constant: float | None = None) -> tuple[Scene, Scene, IKModel, np.ndarray]:
     """The physics scene, the IK scene, the IK model on the latter and ``ik_map`` (see :class:`Stage`).
 
     ``timestep`` (s) and ``servo_bandwidth`` (rad/s) go to :func:`build_scene`;
     ``hand_force`` (N, ``None``: the model's limits) to :func:`~socialaff_sim.sim.robot_mjcf.limit_hand_force`;
     ``gravity_compensation``, ``harness_time_constant``, ``stance_bandwidth``: see
     :class:`~socialaff_sim.sim.simulator.SimConfig`; ``chair``: the physics scene has one (the task's);
-    ``compliant_person``: see :func:`build_scene`.
+    ``compliant_person``, ``floor_time_constant``: see :func:`build_scene`.
     """
     scene = build_scene(robot, layout, obj, timestep=timestep, servo_bandwidth=servo_bandwidth,
                         gravity_compensation=gravity_compensation, harness_time_constant=harness_time_constant,
-                        stance_bandwidth=stance_bandwidth, chair=chair, compliant_person=compliant_person)
+                        stance_bandwidth=stance_bandwidth, chair=chair, compliant_person=compliant_person,
+                        floor_time_constant=floor_time_constant)
     if hand_force is not None:
         limit_hand_force(scene, hand_force, weight=not gravity_compensation)
     ik_scene = build_scene(robot, layout, None, physics=False)

@@ -56,7 +56,7 @@ def build_stage(
         gravity_compensation=puppet,
         harness_time_constant=None if puppet else config.harness_time_constant,
         stance_bandwidth=None if puppet else leg_bandwidth(config),
-        chair=task.chair, compliant_person=config.compliant_person,
+        chair=task.chair, compliant_person=config.compliant_person, floor_time_constant=config.floor_time_constant,
     )
     home_keys = None
     if measurements is None:

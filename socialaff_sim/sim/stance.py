@@ -11,6 +11,12 @@ stands (both feet planted by the foot lock, :mod:`~socialaff_sim.sim.footlock`):
    acceleration that moves the zero-moment point by ~20 cm, farther than a foot is
    long). While standing, the base target is low-pass filtered:
    b̂ₜ = α b̂ₜ₋₁ + (1 − α) bₜ (``base_smoothing`` α); a step resets the filter.
+   With ``base_over_feet`` the base target is first carried back onto the feet the robot stands on: where the
+   plan's ankles stand more than d_f ahead of the physical feet, the base target moves back by the excess, so that
+   the plan's base stands over the physical feet as it stands over its own. A synthesized reaction glides its ankles along
+   the floor with its base (a linear path between re-planned configurations never lifts a foot); the foot lock
+   steps or holds the physical feet behind such a plan, and without this the IK put the base where the plan has
+   it, 10–30 cm ahead of the feet, and the harness held the robot up (docs/design.md §5).
 2. **Letting go.** The harness weld is switched off (its force is then zero by
    construction) once the robot has stood ``release_after`` frames and is steady:
    the torso within ``release_tilt`` of upright and the measured centre of mass
@@ -45,7 +51,7 @@ class StanceConfig:
 
     Fields by concept
     -----------------
-    - Steady base: base_smoothing
+    - Steady base: base_smoothing, base_over_feet
     - Letting go: release, release_after, release_tilt, release_com, catch_tilt, leg_bandwidth
     - Balance while released: com_cost, com_gain
     """
@@ -54,6 +60,15 @@ class StanceConfig:
     """α [—]: while both feet are planted, the base target is b̂ₜ = α b̂ₜ₋₁ + (1 − α) bₜ (0: the target as
     retargeted). Stubby with the harness, 4 synthetic instances per interaction: outside support in the contact
     phases 25 % instead of 33 %, foot sliding median 3.9 cm instead of 9.3 (docs/benchmarks.md)."""
+    base_over_feet: float | None = None
+    """d_f [m]: while both feet are planted, the plan's ankles' middle (the retargeted ankle targets before the
+    foot lock) standing more than this ahead of the physical feet's middle along the robot's heading h moves the
+    base target back along h by the excess (e = max(0, (p − f)·h − d_f), p and f the plan's and the physical feet's
+    middles; before ``base_smoothing``): the base stands over the feet the robot stands on as the plan's stands over
+    its own, instead of ahead of them where the plan has it in the world. Plans whose feet are behind or beside the
+    physical ones are left alone (a pull-up's helper stepping back while the robot's feet are held leans back
+    against the pull). ``None``: the base target as retargeted (docs/design.md §5: a synthesized reaction's ankles
+    glide ahead of feet that stand behind them)."""
     release: bool = True
     """[—]: Whether the harness lets go of a steady standing robot (``False``: only the base is steadied)."""
     release_after: int = 2
@@ -94,6 +109,22 @@ class StanceControl:
         self.released = False
         """Whether the harness is off for the frame being run."""
 
+    def over_feet(self, base: np.ndarray, standing: bool, feet: np.ndarray, plan_feet: np.ndarray | None,
+                  heading: np.ndarray) -> np.ndarray:
+        """(3,) the base target (world, m) ``base`` (3,) moved back along the robot's ``heading`` (2,) unit vector,
+        world, by how far the plan's feet's middle ``plan_feet`` (2,) stands ahead of the physical feet's ``feet`` (2,)
+        beyond ``base_over_feet``, while ``standing`` (both feet planted); as given otherwise (off, not standing, no
+        plan feet, or the plan's feet not that far ahead)."""
+        base = np.array(base, dtype=np.float64)
+        d = self.config.base_over_feet
+        if d is None or not standing or plan_feet is None:
+            return base
+        h = np.asarray(heading, dtype=np.float64)
+        ahead = float((np.asarray(plan_feet, dtype=np.float64)[:2] - np.asarray(feet, dtype=np.float64)[:2]) @ h)
+        if ahead > d:
+            base[:2] -= (ahead - d) * h
+        return base
+
     def steady_base(self, base: np.ndarray, standing: bool) -> np.ndarray:
         """(3,) the base target (world, m) to use for the retargeted one ``base`` (3,): filtered while
         ``standing`` (both feet planted), as given otherwise (and the filter starts afresh)."""
@@ -126,12 +157,15 @@ class StanceControl:
         return np.array(data.subtree_com[self.scene.root_body])
 
     def frame(self, data: mujoco.MjData, base: np.ndarray, standing: bool, centre: np.ndarray,
-              tilt_deg: float) -> tuple[np.ndarray, np.ndarray | None]:
-        """One frame of the standing robot: the base target (:meth:`steady_base`), the harness let go of or
-        caught (:meth:`decide`, :meth:`apply` to ``data``), and the IK's centre-of-mass target ((2,) world, m)
-        while released, else ``None``; ``centre`` (2,) the support rectangle's middle (world, m), ``tilt_deg``
-        the torso's largest tilt in the last frame."""
-        base = self.steady_base(base, standing)
+              tilt_deg: float, plan_centre: np.ndarray | None = None, yaw: float = 0.0
+              ) -> tuple[np.ndarray, np.ndarray | None]:
+        """One frame of the standing robot: the base target (:meth:`over_feet`, :meth:`steady_base`), the harness
+        let go of or caught (:meth:`decide`, :meth:`apply` to ``data``), and the IK's centre-of-mass target ((2,)
+        world, m) while released, else ``None``; ``centre`` (2,) the support rectangle's middle (world, m) with the
+        physical feet, ``plan_centre`` (2,) the same with the plan's ankle targets (``None``: not known), ``yaw``
+        (rad) the robot's heading, ``tilt_deg`` the torso's largest tilt in the last frame."""
+        heading = np.array([np.cos(yaw), np.sin(yaw)])
+        base = self.steady_base(self.over_feet(base, standing, centre, plan_centre, heading), standing)
         com = self.measured_com(data)
         released = self.decide(standing, tilt_deg, float(np.linalg.norm(com[:2] - centre)))
         self.apply(data)
