@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 from gymnasium import spaces
 
+from .._norms import norms
 from ..data.skeletons import N_KEY
 from ..errors import SimulationError
 from .action_limits import FeasibleTargets
@@ -98,6 +99,6 @@ class ActionDecoder:
         wanted = proposal + sent if self.residual else a
         targets = self.feasible.project(wanted, previous_base, fps)
         d = targets - wanted
-        self.adjustment = np.sqrt(np.add.reduce(d * d, axis=1))  # np.linalg.norm(d, axis=1), without its checks
+        self.adjustment = norms(d, axis=1)
         self._projected = (np.array(sent), targets, self.adjustment)
         return targets

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._norms import norms
 from ..data.skeletons import N_KEY, SkeletonLayout
 from ..errors import ModelError, NotFittedError
 from ..model.frame import CanonicalFrame, canonical_frame
@@ -120,10 +121,6 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.stack(np.broadcast_arrays(a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
 
 
-def _norm(v: np.ndarray, keepdims: bool = False) -> np.ndarray:
-    """Euclidean norm over the last axis: ``np.linalg.norm(v, axis=-1)``'s sum of squares, without its set-up."""
-    return np.sqrt(np.add.reduce(v * v, axis=-1, keepdims=keepdims))
-
 
 def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(T, 3, 3): the smallest rotation taking unit vectors a (T, 3) onto b (T, 3)."""
@@ -138,15 +135,15 @@ def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     rot = _EYE3 + vx + (vx @ vx) * scale[..., None, None]
     if any_anti:  # half turn about an axis perpendicular to a
         ax = _cross(a[anti], np.array([1.0, 0.0, 0.0]))
-        small = _norm(ax) < 1e-6
+        small = norms(ax) < 1e-6
         ax[small] = _cross(a[anti][small], np.array([0.0, 1.0, 0.0]))
-        ax /= _norm(ax, keepdims=True)
+        ax /= norms(ax, keepdims=True)
         rot[anti] = 2.0 * ax[:, :, None] * ax[:, None, :] - np.eye(3)
     return rot
 
 
 def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    n = _norm(v, keepdims=True)
+    n = norms(v, keepdims=True)
     return v / np.maximum(n, _EPS), n[..., 0]
 
 
@@ -167,17 +164,17 @@ def two_bone_ik(
     in the limb's plane keeps that bend plane). Out of reach, the limb is fully
     stretched (or fully folded) along the root→target line. Returns (mid', end').
     """
-    a = _norm(mid - root)
-    b = _norm(end - mid)
+    a = norms(mid - root)
+    b = norms(end - mid)
     u, d = _unit(target - root)
     pole = mid - root
     v = pole - np.einsum("td,td->t", pole, u)[:, None] * u
-    weak = _norm(v) < 1e-9 * np.maximum(a, 1.0)
+    weak = norms(v) < 1e-9 * np.maximum(a, 1.0)
     if weak.any():  # old mid on the root→target line: bend toward the old end, else downward
         alt = end[weak] - root[weak]
         alt = alt - np.einsum("td,td->t", alt, u[weak])[:, None] * u[weak]
         for fallback in (np.array([0.0, 0.0, -1.0]), np.array([1.0, 0.0, 0.0])):
-            bad = _norm(alt) < 1e-9
+            bad = norms(alt) < 1e-9
             f = fallback - (u[weak] @ fallback)[:, None] * u[weak]
             alt[bad] = f[bad]
         v[weak] = alt

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._norms import norms
 from ..data.interaction import Interaction
 from ..data.skeletons import N_KEY
 from ..errors import ModelError
@@ -232,8 +233,7 @@ class CanonicalStream:
                 paths[floor, j - 1] = self._carried(j, last, xp, fp, floor, float(paths[floor, j - 1]))
             changed = floor + 1
         seg = track[changed - 1 : n, 1:3]
-        d = seg[1:] - seg[:-1]  # np.diff's subtraction; np.linalg.norm's sum of squares (the same values, fewer calls)
-        steps = nan_to_zero(np.sqrt(np.add.reduce(d * d, axis=-1)))
+        steps = nan_to_zero(norms(seg[1:] - seg[:-1]))  # np.diff's subtraction and np.linalg.norm's values, fewer calls
         paths[changed - 1 : n] = np.cumsum(np.concatenate([paths[changed - 1 : changed], steps]), axis=0)
 
     def _carried(self, j: int, last: int, xp: np.ndarray, fp: np.ndarray, stop: int, total: float) -> float:

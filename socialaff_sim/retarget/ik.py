@@ -47,6 +47,7 @@ import mink
 import mujoco
 import numpy as np
 
+from .._norms import norms
 from ..errors import SimulationError
 from .collision import GeomPairLimit
 from .ik_config import IKConfig
@@ -299,7 +300,7 @@ class RobotIK:
             # mass back over the feet when the arms reach out.
             self.key_task.cost[:2] = c.planted_base_cost * (weight[0] / c.base_position_cost)
         self._box.begin_frame(cfg.q)
-        errors = _row_norms(self.frame_positions() - targets)
+        errors = norms(self.frame_positions() - targets, axis=1)
         it = 0
         self._set_targets(targets, yaw)
         # The first step is always taken (the limits hold even when the targets are already met: a person
@@ -314,7 +315,7 @@ class RobotIK:
         while it < cap and (it == 0 or errors[watch].max(initial=0.0) > c.tolerance):
             start, start_errors = cfg.q.copy(), errors
             self._take_step(dt)
-            errors = _row_norms(self.frame_positions() - targets)
+            errors = norms(self.frame_positions() - targets, axis=1)
             it += 1
             # Not the first step: that one must stand (it may push the robot out of a person moving into it).
             if (it > 1 and c.max_worsening is not None
@@ -334,11 +335,6 @@ class RobotIK:
                     break
         return IKResult(qpos=cfg.q, errors=errors, iterations=it, undone=undone)
 
-
-def _row_norms(d: np.ndarray) -> np.ndarray:
-    """(N,) Euclidean norms of the rows of ``d`` (N, 3): ``np.linalg.norm(d, axis=1)``'s own arithmetic (the square
-    root of ``np.add.reduce`` of the squares), without its argument handling (it runs every IK step)."""
-    return np.sqrt(np.add.reduce(d * d, axis=1))
 
 
 def _rms(errors: np.ndarray, weight: np.ndarray) -> float:

@@ -32,6 +32,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from .._norms import norms
 from .arm_contacts import arm_hinges, filtered_arm_force, person_geoms, wrist_frames
 from .external_force import Contacts
 from .scene import Scene
@@ -44,8 +45,7 @@ DAMPING_LAMBDA = 0.05
 
 def fade(force: np.ndarray, release: float) -> np.ndarray:
     """(2,) s per arm: 1 − |f| / F_r clipped to [0, 1], ``force`` (2, 3) N per arm, ``release`` F_r (N)."""
-    f = np.asarray(force, dtype=np.float64)
-    return np.clip(1.0 - np.sqrt(np.add.reduce(f * f, axis=1)) / release, 0.0, 1.0)  # (np.linalg.norm's arithmetic)
+    return np.clip(1.0 - norms(np.asarray(force, dtype=np.float64), axis=1) / release, 0.0, 1.0)
 
 
 def approach_gate(wrists: np.ndarray, targets: np.ndarray, touched: np.ndarray, radius: float) -> np.ndarray:
@@ -55,8 +55,7 @@ def approach_gate(wrists: np.ndarray, targets: np.ndarray, touched: np.ndarray, 
     t = np.asarray(targets, dtype=np.float64).reshape(-1, 3)
     if not len(t):
         return np.zeros(len(w))
-    gap = w[:, None, :] - t[None, :, :]
-    near = np.sqrt(np.add.reduce(gap * gap, axis=2)).min(axis=1) <= radius  # (np.linalg.norm's arithmetic)
+    near = norms(w[:, None, :] - t[None, :, :], axis=2).min(axis=1) <= radius
     return (near & ~np.asarray(touched, dtype=bool)).astype(np.float64)
 
 

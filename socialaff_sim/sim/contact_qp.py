@@ -35,6 +35,8 @@ import daqp
 import mujoco
 import numpy as np
 
+from .._norms import norms
+
 __all__ = ["ActuatorLimits", "ContactQPResult", "actuator_limits", "cop_rows", "solve_contact_qp"]
 
 log = logging.getLogger(__name__)
@@ -273,7 +275,7 @@ def _daqp(H: np.ndarray, f: np.ndarray, K: int, A_all: np.ndarray, up: np.ndarra
     """DAQP on ``½xᵀHx + fᵀx`` with ``0 ≤ x[:K]`` and ``lo ≤ A_all x ≤ up`` (``A_all`` C-ordered; sense ``sn`` 5:
     equality); the rows are scaled to unit norm and empty ones dropped (with them DAQP declared feasible problems
     infeasible)."""
-    norm = np.sqrt(np.add.reduce(A_all * A_all, axis=1))  # np.linalg.norm(A_all, axis=1)'s arithmetic
+    norm = norms(A_all, axis=1)
     keep = norm > 1e-9
     k = 1.0 / norm[keep]
     A_all = np.ascontiguousarray(A_all[keep] * k[:, None])

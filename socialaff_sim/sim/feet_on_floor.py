@@ -4,11 +4,10 @@ with the floor, the support's footprint and the feet's heading."""
 
 from __future__ import annotations
 
-import math
-
 import mujoco
 import numpy as np
 
+from .._norms import norm
 from ..retarget.kinematic_tree import subtree_mask
 from .flat_feet import sole_corners
 from .scene import Scene
@@ -108,5 +107,5 @@ class FeetOnFloor:
     def heading(self, d: mujoco.MjData) -> np.ndarray:
         """(2,) unit: the feet's forward direction on the floor."""
         f = sum(d.xmat[b].reshape(3, 3) @ a for b, a in zip(self._feet, self._foot_fwd, strict=True))[:2]
-        nrm = math.sqrt(f.dot(f))  # np.linalg.norm's arithmetic, less overhead
+        nrm = norm(f)
         return f / nrm if nrm > 1e-9 else np.array([1.0, 0.0])

@@ -33,11 +33,10 @@ their reference velocities by the same map of ȯ. The forces are the contacts' o
 
 from __future__ import annotations
 
-import math
-
 import mujoco
 import numpy as np
 
+from .._norms import norm, norms
 from .arm_contacts import arm_hinges, filtered_arm_force, person_geoms
 from .external_force import Contacts, weld_force
 from .scene import Scene
@@ -83,8 +82,7 @@ def yield_rate(forces: np.ndarray, allowance: float, fraction: float, damping: f
     (N, on the left and right arm) exceed ``fraction`` × ``allowance``; zeros otherwise (the offsets then return,
     :meth:`HandYield.update`)."""
     f = np.asarray(forces, dtype=np.float64)
-    s = f.sum(axis=0)
-    total = math.sqrt(s.dot(s))  # np.linalg.norm's arithmetic, less overhead
+    total = norm(f.sum(axis=0))
     excess = total - fraction * allowance
     if excess <= 0.0 or total <= 0.0:
         return np.zeros((2, 2))
@@ -151,8 +149,7 @@ class HandYield:
         self.force = filtered_arm_force(self.force, forces, geoms, self._arm_geom, m, self.filter_time)
         on = self._arm_geom[:, geoms].any(axis=0) if len(geoms) else np.zeros(0, dtype=bool)
         if on.any():  # where the forces act: their points' mean, weighted by the force
-            fo = forces[on]
-            w = np.sqrt(np.add.reduce(fo * fo, axis=1)) + 1e-9  # np.linalg.norm(fo, axis=1)'s arithmetic
+            w = norms(forces[on], axis=1) + 1e-9
             self._height = float(pts[on, 2] @ w / w.sum())
             self._at = (w @ pts[on, :2]) / w.sum()
 
@@ -163,7 +160,7 @@ class HandYield:
         :func:`twist_allowance`), return otherwise."""
         f = self.force[:, :2]
         total = f.sum(axis=0)
-        nrm = math.sqrt(total.dot(total))  # np.linalg.norm's arithmetic, less overhead
+        nrm = norm(total)
         allow = feet_allowance(box, total / nrm, capture, margin, weight, self._height - floor,
                                float(self.force[:, 2].sum()), self._at) if nrm > 0 else 0.0
         if self.twist is not None and nrm > 0:  # nor more twist about the vertical than the feet hold unturned
@@ -174,7 +171,7 @@ class HandYield:
         else:
             rate = -self.offset / self.back if self.back > 0 else -self.offset / dt
         self.offset = self.offset + dt * rate
-        n = np.sqrt(np.add.reduce(self.offset * self.offset, axis=1, keepdims=True))  # np.linalg.norm's arithmetic
+        n = norms(self.offset, axis=1, keepdims=True)
         self.offset *= np.minimum(1.0, MAX_OFFSET / np.maximum(n, 1e-12))
         self.rate = rate
 

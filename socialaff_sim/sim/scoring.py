@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from .._norms import norms
 from .scene import Scene
 from .tasks import TaskSpec
 
@@ -296,7 +297,7 @@ class SubgoalScorer:
                 # Nearest candidates first (by centre distance), so that distmax shrinks fast.
                 ca, cb = data.geom_xpos[ga], data.geom_xpos[gb]
                 diff = ca[:, None, :] - cb[None, :, :]
-                centre = np.sqrt(np.add.reduce(diff * diff, axis=2))  # np.linalg.norm(diff, axis=2)'s arithmetic
+                centre = norms(diff, axis=2)
                 for i in np.argsort(centre, axis=None):
                     ia, ib = divmod(int(i), len(gb))
                     reach = self.scene.model.geom_rbound[ga[ia]] + self.scene.model.geom_rbound[gb[ib]]

@@ -24,11 +24,10 @@ dropped only when the torque limits cannot meet them.
 
 from __future__ import annotations
 
-import math
-
 import mujoco
 import numpy as np
 
+from .._norms import norm, norms
 from ..retarget.collision import collision_pairs
 from .scene import Scene
 
@@ -81,8 +80,7 @@ class SelfClearance:
         if not len(pairs):
             return None
         xpos = d.geom_xpos
-        gap = xpos[self._first] - xpos[self._second]
-        centre = np.sqrt(np.add.reduce(gap * gap, axis=1))  # np.linalg.norm(gap, axis=1)'s arithmetic
+        centre = norms(xpos[self._first] - xpos[self._second], axis=1)
         near = np.flatnonzero(centre < self._reach).tolist()  # bounding spheres: only these can be that close
         A, lo, dist = [], [], []
         w = self.bandwidth
@@ -94,7 +92,7 @@ class SelfClearance:
                 continue
             p1, p2 = self._fromto[:3].copy(), self._fromto[3:].copy()
             gap = p2 - p1
-            length = math.sqrt(gap.dot(gap))  # np.linalg.norm's arithmetic, less overhead
+            length = norm(gap)
             if length < 1e-9:
                 continue  # touching at a point: no direction to push along (the next step has one)
             # For geoms that overlap (dd < 0) the segment runs the other way: the normal that separates them is

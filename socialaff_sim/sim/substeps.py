@@ -27,6 +27,7 @@ from collections.abc import Callable
 import mujoco
 import numpy as np
 
+from .._norms import norms
 from .carry import grip_on_contact
 from .scene import Scene
 from .scoring import SubgoalScorer
@@ -41,7 +42,7 @@ def nlerp(q0: np.ndarray, q1: np.ndarray, a: float | np.ndarray) -> np.ndarray:
     """Normalised linear interpolation of quaternions (..., 4), shortest way round."""
     sign = np.where(np.add.reduce(q0 * q1, axis=-1, keepdims=True) < 0, -1.0, 1.0)
     q = (1.0 - a) * q0 + a * sign * q1
-    return q / np.sqrt(np.add.reduce(q * q, axis=-1, keepdims=True))  # np.linalg.norm's arithmetic, less overhead
+    return q / norms(q, keepdims=True)
 
 
 class FrameStepper:

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from .._norms import norm
 from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
 from .external_force import weld_force
 from .scene import Scene
@@ -177,8 +178,7 @@ class SupportMeter:
         if off + 3 <= nefc and data.efc_id[off] == self._weld and data.efc_type[off] == self._eq_type:
             x, y, z = data.efc_force[off: off + 3].tolist()
             return math.sqrt(x * x + y * y + z * z)
-        f = self.harness_force(data)
-        return math.sqrt(f.dot(f))  # np.linalg.norm's arithmetic, less overhead
+        return norm(self.harness_force(data))
 
     def update(self, data: mujoco.MjData) -> None:
         """Account for the physics step just taken.
