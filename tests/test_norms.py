@@ -29,3 +29,14 @@ def test_norm_equals_numpy_bit_for_bit(n: int) -> None:
     for v in np.random.default_rng(n).normal(scale=50.0, size=(25, n)):
         assert norm(v) == float(np.linalg.norm(v))
     assert norm(np.array([3.0, 4.0])) == 5.0
+
+
+def test_rows_of_every_scale_equal_numpy_and_the_sum_of_squares() -> None:
+    """The IK's and measure_gaps' uses (moved here from test_env_step_cuts with the IK's private copy)."""
+    rng = np.random.default_rng(5)
+    for shape in [(5, 3), (2, 3), (7, 3)]:
+        d = rng.normal(scale=10.0 ** rng.integers(-4, 3), size=shape)
+        np.testing.assert_array_equal(norms(d, axis=1), np.linalg.norm(d, axis=1))
+        assert np.allclose(norms(d, axis=1), [np.sqrt(sum(v * v for v in row)) for row in d.tolist()], rtol=1e-15)
+    diff = rng.normal(size=(4, 6, 3))  # measure_gaps' centre distances
+    np.testing.assert_array_equal(norms(diff, axis=2), np.linalg.norm(diff, axis=2))
