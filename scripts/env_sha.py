@@ -12,6 +12,9 @@ termination reason. Run it on two code trees and compare the digests::
 ``--env-kwargs`` passes constructor arguments as JSON (e.g. ``'{"control_dt": null}'``); ``--sim-mode harness``
 or ``standing`` runs the env with ``SimConfig.harness()``'s or ``SimConfig.standing()``'s foot lock, stance,
 balance and floor time constant fields (as ``scripts/bench_env.py --sim-mode`` does; ``preset``: the env's own).
+Compare digests made on one machine only: floating point differs between CPUs, so the same tree gives other
+digests elsewhere (the ones quoted in docs/ up to session 31 came from one machine; an AMD EPYC machine gives
+639b1165…, 45a73587…, 5a52bb87… for the harness at 715b032 with mujoco 3.17.0 and numpy 2.4.6).
 The library never imports this script.
 """
 
