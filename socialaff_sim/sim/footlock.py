@@ -77,7 +77,10 @@ class FootLockConfig:
     which carries it along its plan as in the harness mode, instead of stepping against it, and is let go again
     once steady. ``False``: glides step whatever holds the robot (traced, the standing demo's synthesized high five:
     caught in the walk-up, it glide-stepped every other frame, so the release's delay never elapsed, and the last
-    step's landing swung the held body 17 cm past its plan and back 20 cm in the strike; docs/design.md §5)."""
+    step's landing swung the held body 17 cm past its plan and back 20 cm in the strike; docs/design.md §5). An option,
+    off: it mends that high five, but its rule (instances 200–207, synthesized) did not hold: support +3.4 points
+    [−7.7, +12.3], slide +1.3 cm [−0.5, +3.2], successes 37 → 35 (the pull-ups' glides after a catch bring their feet
+    under the plan)."""
 
     def __post_init__(self) -> None:
         if not (self.lift >= 0.0 and self.radius >= 0.0):
