@@ -161,6 +161,12 @@ class BalanceController:
         if self.compensation is not None:
             self.compensation.reset()
 
+    @property
+    def holds_caught(self) -> bool:
+        """Whether the harness holds a robot it has caught (a catch in this episode, for any cause, and not let go
+        since; as of the last step)."""
+        return self.catches > 0 and not self.released
+
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
         right): the foot lock's planted feet (``None``: no foot lock, the controller stays off)."""

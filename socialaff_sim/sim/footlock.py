@@ -69,6 +69,18 @@ class FootLockConfig:
     glide_until_contact: bool = False
     """[—]: With ``glide_step``, glides step only until a sub-goal's contact first holds in the episode (the walk-up);
     afterwards they are planted at once as without ``glide_step``."""
+    plant_caught: bool = False
+    """[—]: With ``glide_step``, while the harness holds a robot it has caught (any of the balance controller's
+    catches: a step, the torso's tilt, the capture point off the soles; until it lets the robot go again,
+    :attr:`~socialaff_sim.sim.balance_control.BalanceController.holds_caught`) a glide is planted at once as without
+    ``glide_step`` (and a short foot of ``restep_gap`` is not stepped again): the caught robot stands in the harness,
+    which carries it along its plan as in the harness mode, instead of stepping against it, and is let go again
+    once steady. ``False``: glides step whatever holds the robot (traced, the standing demo's synthesized high five:
+    caught in the walk-up, it glide-stepped every other frame, so the release's delay never elapsed, and the last
+    step's landing swung the held body 17 cm past its plan and back 20 cm in the strike; docs/design.md §5). An option,
+    off: it mends that high five, but its rule (instances 200–207, synthesized) did not hold: support +3.4 points
+    [−7.7, +12.3], slide +1.3 cm [−0.5, +3.2], successes 37 → 35 (the pull-ups' glides after a catch bring their feet
+    under the plan)."""
 
     def __post_init__(self) -> None:
         if not (self.lift >= 0.0 and self.radius >= 0.0):
@@ -117,11 +129,12 @@ class FootLock:
         return (self.planted[0] is not None, self.planted[1] is not None)
 
     def apply(self, ankles: np.ndarray, touching: bool = False, physical: np.ndarray | None = None,
-              new_frame: bool = True) -> np.ndarray:
+              new_frame: bool = True, caught: bool = False) -> np.ndarray:
         """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted;
         ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted);
         ``physical`` (2, 3): the physical ankle frames (world, m), which ``glide_gap`` needs; ``new_frame``:
-        ``False`` for a solve again within a data frame (``glide_step`` then keeps the frame's decision)."""
+        ``False`` for a solve again within a data frame (``glide_step`` then keeps the frame's decision);
+        ``caught``: the harness holds a robot it has caught (with ``plant_caught``, glides are then planted at once)."""
         if self.needs_physical and physical is None:
             raise SimulationError("FootLock.apply: glide_gap and restep_gap need the physical ankle frames")
         out = np.array(ankles, dtype=np.float64)
@@ -140,7 +153,7 @@ class FootLock:
         hold = c.lift if c.hold_lift is None else c.hold_lift
         glide, wait = None, [False, False]
         if c.glide_step is not None:  # within a frame the frame's decision stands
-            if held or (c.glide_until_contact and self._touched):
+            if held or (c.glide_until_contact and self._touched) or (c.plant_caught and caught):
                 self._last, self._wait = None, wait
             elif new_frame:
                 glide, wait = self._gliding(out, hold, physical)

@@ -235,8 +235,10 @@ class Simulator:
         plan_feet = world[3:5].copy()  # the plan's ankles, before the foot lock holds them
         if self._footlock is not None:
             physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.needs_physical else None
+            bal = stage.stepper.balance
             world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()),
-                                              physical, new_frame=not self._in_frame)
+                                              physical, new_frame=not self._in_frame,
+                                              caught=bal is not None and bal.holds_caught)
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
