@@ -35,8 +35,8 @@ from ..data.skeletons import SkeletonLayout
 from ..errors import SimulationError
 from ..retarget.robot import RobotSpec
 from .chair import add_chair
-from .geom_extent import primitive_extent
 from .human import HumanBody, human_body
+from .lowest_point import lowest_point
 from .robot_mjcf import robot_mjcf, tune_servos
 from .scene_human import HUMAN_RGBA, PERSON_CONTYPE, add_human, part_names, pose_compliant, set_human_sizes
 
@@ -351,7 +351,7 @@ def _index(model: mujoco.MjModel, robot: RobotSpec, body: HumanBody, rob: mjcf.R
         j = jnt_ids[k - 6]
         if model.jnt_limited[j]:
             home_q[k] = np.clip(home_q[k], *model.jnt_range[j])
-    home_q[2] = -_lowest_point(model, qadr, home_q, robot_geom)
+    home_q[2] = -lowest_point(model, qadr, home_q, robot_geom)
     scene = Scene(
         model=model, robot=robot, body=body, has_object=has_object, robot_qadr=qadr, robot_vadr=vadr,
         robot_joint_names=names, robot_joint_ids=np.array(jnt_ids), frame_kinds=frame_kinds, frame_ids=frame_ids, limb_body_ids=limb_body_ids,
@@ -372,31 +372,3 @@ def _is_descendant(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
         if body == ancestor:
             return True
     return False
-
-
-def _lowest_point(model: mujoco.MjModel, qadr: np.ndarray, robot_q: np.ndarray, robot_geom: np.ndarray) -> float:
-    """Lowest z of the robot's collidable geoms with its free joint at z = 0.
-
-    Exact for spheres, capsules, boxes, ellipsoids, cylinders (support
-    function along −z) and meshes (their lowest vertex); other shapes use their
-    bounding box.
-    """
-    data = mujoco.MjData(model)
-    data.qpos[qadr] = robot_q
-    data.qpos[qadr[2]] = 0.0
-    mujoco.mj_kinematics(model, data)
-    g = np.flatnonzero(robot_geom & ((model.geom_contype != 0) | (model.geom_conaffinity != 0)))
-    rz = data.geom_xmat[g].reshape(-1, 3, 3)[:, 2, :]  # each geom's axes' z components
-    kind = model.geom_type[g]
-    z = data.geom_xpos[g, 2]
-    reach = primitive_extent(kind, model.geom_size[g], rz, np.full(len(g), np.nan))  # as far down as up
-    for i in np.flatnonzero(kind == int(mujoco.mjtGeom.mjGEOM_MESH)):  # meshes: their lowest vertex, exactly
-        mid = int(model.geom_dataid[g[i]])
-        verts = model.mesh_vert[model.mesh_vertadr[mid]:model.mesh_vertadr[mid] + model.mesh_vertnum[mid]]
-        reach[i] = -float((verts @ rz[i]).min())
-    box = np.isnan(reach)
-    if box.any():  # the rest: the geom's bounding box
-        aabb = model.geom_aabb[g[box]]
-        z[box] = z[box] + np.einsum("gj,gj->g", rz[box], aabb[:, :3])
-        reach[box] = np.einsum("gj,gj->g", np.abs(rz[box]), aabb[:, 3:])
-    return float((z - reach).min())
