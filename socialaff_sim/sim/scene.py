@@ -33,6 +33,7 @@ from dm_control import mjcf
 
 from ..data.skeletons import SkeletonLayout
 from ..errors import SimulationError
+from ..retarget.kinematic_tree import subtree_mask
 from ..retarget.robot import RobotSpec
 from .chair import add_chair
 from .human import HumanBody, human_body
@@ -258,8 +259,8 @@ def _index(model: mujoco.MjModel, robot: RobotSpec, body: HumanBody, rob: mjcf.R
            home: dict[str, float], has_object: bool, physics: bool) -> Scene:
     root_body = _mj_id(model, "body", "robot/")
     free = _mj_id(model, "joint", "robot/root/")
-    jnt_ids = [free] + [j for j in range(model.njnt) if model.jnt_bodyid[j] != root_body
-                        and _is_descendant(model, int(model.jnt_bodyid[j]), root_body)]
+    rbodies = subtree_mask(model, root_body)
+    jnt_ids = [free] + [j for j in range(model.njnt) if model.jnt_bodyid[j] != root_body and rbodies[model.jnt_bodyid[j]]]
     for j in jnt_ids[1:]:
         if int(model.jnt_type[j]) not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
             raise SimulationError(f"robot {robot.name!r}: only hinge and slide joints are supported below the root, "
@@ -268,7 +269,6 @@ def _index(model: mujoco.MjModel, robot: RobotSpec, body: HumanBody, rob: mjcf.R
     vadr = np.concatenate([np.arange(6) + model.jnt_dofadr[free], model.jnt_dofadr[jnt_ids[1:]]])
     names = tuple(model.joint(j).name for j in jnt_ids)
 
-    rbodies = np.array([b == root_body or _is_descendant(model, b, root_body) for b in range(model.nbody)])
     robot_geom = rbodies[model.geom_bodyid]
     collide = robot_geom & ((model.geom_contype != 0) | (model.geom_conaffinity != 0))
     model.geom_contype[collide] = 1
@@ -284,8 +284,7 @@ def _index(model: mujoco.MjModel, robot: RobotSpec, body: HumanBody, rob: mjcf.R
     for s, names_s in enumerate(robot.hands):
         for bname in names_s:
             hb = _mj_id(model, "body", f"robot/{bname}")
-            sub = np.array([b == hb or _is_descendant(model, b, hb) for b in range(model.nbody)])
-            hand_geom[s] |= sub[model.geom_bodyid] & collide
+            hand_geom[s] |= subtree_mask(model, hb)[model.geom_bodyid] & collide
 
     limb_kinds = tuple(f.kind for f in robot.limb_roots)
     limb_ids = np.array([_mj_id(model, f.kind, f"robot/{f.name}") for f in robot.limb_roots])
@@ -297,8 +296,7 @@ def _index(model: mujoco.MjModel, robot: RobotSpec, body: HumanBody, rob: mjcf.R
         kind, fid = frame_kinds[1 + s], int(frame_ids[1 + s])
         wrist_body = int(model.site_bodyid[fid]) if kind == "site" else fid
         top = int(model.body_parentid[wrist_body])
-        sub = np.array([b == top or _is_descendant(model, b, top) for b in range(model.nbody)])
-        arm_geom[s] = sub[model.geom_bodyid] & collide
+        arm_geom[s] = subtree_mask(model, top)[model.geom_bodyid] & collide
 
     hnames = part_names(body)
     human_geom_ids = np.array([_mj_id(model, "geom", n) for n in hnames])
@@ -365,10 +363,3 @@ def _index(model: mujoco.MjModel, robot: RobotSpec, body: HumanBody, rob: mjcf.R
     )
     return scene
 
-
-def _is_descendant(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
-    while body > 0:
-        body = int(model.body_parentid[body])
-        if body == ancestor:
-            return True
-    return False
