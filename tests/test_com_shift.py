@@ -13,17 +13,16 @@ import pytest
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.sources import GroundTruthSource
-from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.balance_control import BalanceController
 from socialaff_sim.sim.com_shift import forward_shortfall, shift_weight
 from socialaff_sim.sim.episode import run_episode
-from socialaff_sim.sim.scene import Scene, build_scene
+from socialaff_sim.sim.scene import Scene
 from socialaff_sim.sim.sim_config import STANDING_BALANCE
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.support_box import SupportBox
 
-from test_balance_control import LAYOUT, com_moved, standing_far
+from test_balance_control import com_moved, standing_far
 
 
 @pytest.mark.parametrize("angle", [0.0, 0.7, -2.5])
@@ -66,11 +65,6 @@ def test_the_weight_ramps_from_w_com_to_the_shift_weight() -> None:
 def test_bad_shift_settings_are_refused(kw: dict) -> None:
     with pytest.raises(ConfigError, match="com_shift|shift_weight|shift_until_touch"):
         BalanceConfig(**kw)
-
-
-@pytest.fixture(scope="module")
-def scene() -> Scene:
-    return build_scene(load_robot("ours"), LAYOUT, harness_time_constant=0.02)
 
 
 def _box(scene: Scene, d: mujoco.MjData, ctl: BalanceController) -> SupportBox:
