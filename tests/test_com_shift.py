@@ -99,6 +99,26 @@ def test_the_controller_shifts_its_reference_by_the_plans_feet_ahead(scene: Scen
     assert np.allclose(s, 0.0) and w == 100.0
 
 
+@pytest.mark.parametrize(("kw", "touched"), [({}, False), ({"com_reference": "middle"}, False),
+                                             ({"com_shift": 0.08}, False),
+                                             ({"com_shift": 0.08, "shift_until_touch": True, "arm_compensation": 1.0,
+                                               "compensation_gate": 1e9}, True)])
+def test_the_steps_goal_is_the_reference_plus_the_shift_bit_for_bit(scene: Scene, kw: dict, touched: bool) -> None:
+    # ComReference.goal reads the feet once for both: its c* and weight are the two methods' to the bit, the plan
+    # 5 cm ahead and 2 cm aside (with com_shift a shift is made, unless the touch latch ended it).
+    d, q, ctl, _ = standing_far(scene, BalanceConfig(**kw))
+    box = _box(scene, d, ctl)
+    plan = q.copy()
+    plan[:2] += 0.05 * box.R[0] + 0.02 * box.R[1]
+    ctl.begin_frame(plan, (True, True))
+    if touched:
+        ctl.compensation.touched[0] = True
+    s, w = ctl.shift(d, box)
+    goal, w_goal = ctl.com.goal(d, box)
+    assert np.array_equal(goal, ctl.reference(d, box) + s) and w_goal == w
+    assert bool(np.any(s != 0.0)) == ("com_shift" in kw and not touched)
+
+
 def test_a_standing_robot_leans_toward_a_plan_ahead_only(scene: Scene) -> None:
     # The plan 3 cm ahead: the centre of mass comes most of the way forward (the heavy rows outweigh the joints);
     # 3 cm behind or 3 cm to the side: it stays (the ``plan`` reference, unshifted).

@@ -39,22 +39,41 @@ class ComReference:
 
     def begin_frame(self, plan: mujoco.MjData) -> None:
         """The IK's plan for the frame: ``plan`` posed at its end, after ``mj_kinematics`` and ``mj_comPos``."""
-        feet = self._plan_feet = plan.xpos[self._feet, :2].mean(axis=0)
+        feet = self._plan_feet = self._middle(plan)
         self._offset = plan.subtree_com[self._root, :2] - feet
+
+    def goal(self, d: mujoco.MjData, box: SupportBox) -> tuple[np.ndarray, float]:
+        """A physics step's (2,) c* (world, m) before the lean and the box's clip, :meth:`reference` plus
+        :meth:`shift`'s shift, and the centre of mass's rows' weight; the feet of ``d`` read once for both."""
+        feet = self._middle(d)
+        s, w = self._shift(feet, box)
+        return self._reference(feet, box) + s, w
 
     def reference(self, d: mujoco.MjData, box: SupportBox) -> np.ndarray:
         """(2,) c* (world, m) before the shift, the lean and the box's clip, by ``com_reference``: the plan's offset
         from its feet on the feet of ``d``, or the middle of ``box``."""
-        if self.config.com_reference == "plan":
-            return d.xpos[self._feet, :2].mean(axis=0) + self._offset
-        return box.middle()
+        return self._reference(self._middle(d), box)
 
     def shift(self, d: mujoco.MjData, box: SupportBox) -> tuple[np.ndarray, float]:
         """``com_shift``: the reference's forward shift (2,) (world, m) by the feet's shortfall behind the plan's
         along ``box``'s heading, and the centre of mass's rows' weight (:mod:`~.com_shift`); else (and with
         ``shift_until_touch`` after an arm's first touch) none and ``w_com``."""
+        return self._shift(self._middle(d), box)
+
+    def _middle(self, d: mujoco.MjData) -> np.ndarray:
+        """(2,) the middle of the feet of ``d`` (world, m)."""
+        return d.xpos[self._feet, :2].mean(axis=0)
+
+    def _reference(self, feet: np.ndarray, box: SupportBox) -> np.ndarray:
+        """:meth:`reference` with the feet's middle ``feet`` (2,)."""
+        if self.config.com_reference == "plan":
+            return feet + self._offset
+        return box.middle()
+
+    def _shift(self, feet: np.ndarray, box: SupportBox) -> tuple[np.ndarray, float]:
+        """:meth:`shift` with the feet's middle ``feet`` (2,)."""
         c = self.config
         if c.com_shift is None or (c.shift_until_touch and self._compensation.touched.any()):  # type: ignore[union-attr]
             return np.zeros(2), c.w_com
-        s, share = forward_shortfall(self._plan_feet, d.xpos[self._feet, :2].mean(axis=0), box.R[0], c.com_shift)
+        s, share = forward_shortfall(self._plan_feet, feet, box.R[0], c.com_shift)
         return s, shift_weight(c.w_com, c.shift_weight, share)
