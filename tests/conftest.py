@@ -156,6 +156,37 @@ def primitive_method(shake8):  # noqa: ANN001, ANN201 (AffordanceMethod, importe
     return AffordanceMethod("full", learning=LearningConfig(iterations=1), reaction=cfg).fit(list(shake8)[:4], rng=np.random.default_rng(0))
 
 
+def _scene_digest(scene) -> str:  # noqa: ANN001 (Scene)
+    """SHA-256 of a scene's compiled model (``mj_saveModel``'s bytes) and of every array of the Scene."""
+    import hashlib
+
+    import mujoco
+
+    blob = np.zeros(mujoco.mj_sizeModel(scene.model), dtype=np.uint8)
+    mujoco.mj_saveModel(scene.model, None, blob)
+    h = hashlib.sha256(blob.tobytes())
+    for f in dataclasses.fields(scene):
+        value = getattr(scene, f.name)
+        if isinstance(value, np.ndarray):
+            h.update(f.name.encode() + value.tobytes())
+    return h.hexdigest()
+
+
+@pytest.fixture(scope="session")
+def scene():  # noqa: ANN201 (Scene, imported lazily)
+    """Stubby's physics scene (``ours``, the kinect_v2 layout, the compliant harness at τ = 0.02 s, no object), shared
+    read-only by the balance, stance and arm tests (a module that needs another scene defines its own ``scene``).
+    At the end of the session it must be as built: a test that changed its model or arrays fails here."""
+    from socialaff_sim.data.skeletons import get_layout
+    from socialaff_sim.retarget.robot import load_robot
+    from socialaff_sim.sim.scene import build_scene
+
+    built = build_scene(load_robot("ours"), get_layout("kinect_v2"), harness_time_constant=0.02)
+    digest = _scene_digest(built)
+    yield built
+    assert _scene_digest(built) == digest, "a test changed the shared scene (tests/conftest.py: scene is read-only)"
+
+
 def labelled_partitions(B: int, S: int, *, distinct: bool, unique: bool):  # noqa: ANN201 (Iterator)
     """Every parse of B cut-point intervals: (points, labels) with points 0 = p_0 < … < p_K = B, for brute force."""
     import itertools

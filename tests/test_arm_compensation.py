@@ -15,20 +15,12 @@ import pytest
 
 from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.errors import ConfigError
-from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.arm_compensation import DAMPING_LAMBDA, ArmCompensation, approach_gate, compensation_step, fade
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.external_force import Contacts
-from socialaff_sim.sim.scene import build_scene
 from socialaff_sim.sim.simulator import SimConfig, Simulator
-from test_balance_control import LAYOUT
-
-
-@pytest.fixture(scope="module")
-def scene():
-    return build_scene(load_robot("ours"), LAYOUT, harness_time_constant=0.02)
 
 
 @pytest.mark.parametrize("k", [3, 5, 7])

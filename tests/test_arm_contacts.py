@@ -6,18 +6,10 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
-import pytest
 
-from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.arm_contacts import arm_hinges, person_geoms, wrist_frames
-from socialaff_sim.sim.scene import PERSON_CONTYPE, build_scene
+from socialaff_sim.sim.scene import PERSON_CONTYPE
 from socialaff_sim.sim.stage import key_frames
-from test_balance_control import LAYOUT
-
-
-@pytest.fixture(scope="module")
-def scene():
-    return build_scene(load_robot("ours"), LAYOUT, harness_time_constant=0.02)
 
 
 def test_the_person_mask_is_the_persons_geoms_and_nothing_else(scene) -> None:

@@ -20,7 +20,7 @@ from socialaff_sim.sim.contact_dynamics import cone_edges, solve_contact_dynamic
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.external_force import ExternalForces
 from socialaff_sim.sim.feedforward import StandingFeedforward
-from socialaff_sim.sim.scene import Scene, build_scene, pose_compliant
+from socialaff_sim.sim.scene import Scene, pose_compliant
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.stance import StanceConfig
 from socialaff_sim.sim.support_box import SupportBox
@@ -142,11 +142,6 @@ def test_cone_edges_are_unit_and_at_the_friction_angle() -> None:
 @pytest.fixture(scope="module")
 def ours():
     return load_robot("ours")
-
-
-@pytest.fixture(scope="module")
-def scene(ours) -> Scene:
-    return build_scene(ours, LAYOUT, harness_time_constant=0.02)
 
 
 def standing_far(scene: Scene, config: BalanceConfig) -> tuple[mujoco.MjData, np.ndarray, BalanceController, np.ndarray]:

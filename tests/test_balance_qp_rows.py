@@ -11,22 +11,16 @@ import mujoco
 import numpy as np
 import pytest
 
-from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim import balance_control, contact_qp
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.contact_dynamics import cone_edges
 from socialaff_sim.sim.contact_qp import cop_rows, solve_contact_qp
 from socialaff_sim.sim.flat_feet import flat_contacts, foot_drift, foot_feedback, foot_rows
-from socialaff_sim.sim.scene import Scene, build_scene
+from socialaff_sim.sim.scene import Scene
 from socialaff_sim.sim.support_box import cop_interval, cop_intervals
-from test_balance_control import LAYOUT, _stand
+from test_balance_control import _stand
 
 INF = 1e30
-
-
-@pytest.fixture(scope="module")
-def scene() -> Scene:
-    return build_scene(load_robot("ours"), LAYOUT, harness_time_constant=0.02)
 
 
 def _random_qp(rng, n: int = 9, P: int = 6, unbounded: bool = True) -> dict:

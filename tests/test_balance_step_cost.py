@@ -7,23 +7,16 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
-import pytest
 
-from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim import arm_compensation, balance_control, hand_yield
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.contact_qp import ActuatorLimits, cop_rows
 from socialaff_sim.sim.external_force import ExternalForces
 from socialaff_sim.sim.flat_feet import foot_rows
-from socialaff_sim.sim.scene import Scene, build_scene
-from test_balance_control import LAYOUT, _stand
+from socialaff_sim.sim.scene import Scene
+from test_balance_control import _stand
 from test_balance_qp_rows import moving_home
 from test_balance_qp import ACTUATED
-
-
-@pytest.fixture(scope="module")
-def scene() -> Scene:
-    return build_scene(load_robot("ours"), LAYOUT, harness_time_constant=0.02)
 
 
 UNLIMITED = """

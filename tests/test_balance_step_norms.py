@@ -6,23 +6,16 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
-import pytest
 
-from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim import balance_control
 from socialaff_sim.sim.arm_compensation import approach_gate, fade
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.contact_qp import solve_contact_qp
 from socialaff_sim.sim.feet_on_floor import FeetOnFloor
 from socialaff_sim.sim.hand_yield import yield_rate
-from socialaff_sim.sim.scene import Scene, build_scene
-from test_balance_control import LAYOUT, _stand
+from socialaff_sim.sim.scene import Scene
+from test_balance_control import _stand
 from test_balance_qp_rows import _random_qp
-
-
-@pytest.fixture(scope="module")
-def scene() -> Scene:
-    return build_scene(load_robot("ours"), LAYOUT, harness_time_constant=0.02)
 
 
 def test_the_qps_forces_read_when_wanted_are_each_points_edges_times_its_weights(rng) -> None:

@@ -10,10 +10,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from socialaff_sim.data.skeletons import get_layout
 from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.retarget.robot import load_robot
-from socialaff_sim.sim.scene import Scene, build_scene
+from socialaff_sim.sim.scene import Scene
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.stance import StanceConfig, StanceControl
 
@@ -21,11 +20,6 @@ from socialaff_sim.sim.stance import StanceConfig, StanceControl
 @pytest.fixture(scope="module")
 def ours():
     return load_robot("ours")
-
-
-@pytest.fixture(scope="module")
-def scene(ours) -> Scene:
-    return build_scene(ours, get_layout("kinect_v2"), harness_time_constant=0.02)
 
 
 X = np.array([1.0, 0.0])  # the robot's heading

@@ -13,17 +13,16 @@ import pytest
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.sources import GroundTruthSource
-from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.balance_control import BalanceController
 from socialaff_sim.sim.com_shift import forward_shortfall, shift_weight
 from socialaff_sim.sim.episode import run_episode
-from socialaff_sim.sim.scene import Scene, build_scene
+from socialaff_sim.sim.scene import Scene
 from socialaff_sim.sim.sim_config import STANDING_BALANCE
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.support_box import SupportBox
 
-from test_balance_control import LAYOUT, com_moved, standing_far
+from test_balance_control import com_moved, standing_far
 
 
 @pytest.mark.parametrize("angle", [0.0, 0.7, -2.5])
@@ -68,11 +67,6 @@ def test_bad_shift_settings_are_refused(kw: dict) -> None:
         BalanceConfig(**kw)
 
 
-@pytest.fixture(scope="module")
-def scene() -> Scene:
-    return build_scene(load_robot("ours"), LAYOUT, harness_time_constant=0.02)
-
-
 def _box(scene: Scene, d: mujoco.MjData, ctl: BalanceController) -> SupportBox:
     """A box along the feet's heading (the shift reads only its axes)."""
     feet = d.xpos[ctl._feet, :2]
@@ -103,6 +97,26 @@ def test_the_controller_shifts_its_reference_by_the_plans_feet_ahead(scene: Scen
     ctl.begin_frame(back, (True, True))
     s, w = ctl.shift(d, box)
     assert np.allclose(s, 0.0) and w == 100.0
+
+
+@pytest.mark.parametrize(("kw", "touched"), [({}, False), ({"com_reference": "middle"}, False),
+                                             ({"com_shift": 0.08}, False),
+                                             ({"com_shift": 0.08, "shift_until_touch": True, "arm_compensation": 1.0,
+                                               "compensation_gate": 1e9}, True)])
+def test_the_steps_goal_is_the_reference_plus_the_shift_bit_for_bit(scene: Scene, kw: dict, touched: bool) -> None:
+    # ComReference.goal reads the feet once for both: its c* and weight are the two methods' to the bit, the plan
+    # 5 cm ahead and 2 cm aside (with com_shift a shift is made, unless the touch latch ended it).
+    d, q, ctl, _ = standing_far(scene, BalanceConfig(**kw))
+    box = _box(scene, d, ctl)
+    plan = q.copy()
+    plan[:2] += 0.05 * box.R[0] + 0.02 * box.R[1]
+    ctl.begin_frame(plan, (True, True))
+    if touched:
+        ctl.compensation.touched[0] = True
+    s, w = ctl.shift(d, box)
+    goal, w_goal = ctl.com.goal(d, box)
+    assert np.array_equal(goal, ctl.reference(d, box) + s) and w_goal == w
+    assert bool(np.any(s != 0.0)) == ("com_shift" in kw and not touched)
 
 
 def test_a_standing_robot_leans_toward_a_plan_ahead_only(scene: Scene) -> None:

@@ -13,22 +13,15 @@ import numpy as np
 import pytest
 
 from socialaff_sim.errors import ConfigError
-from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.contact_qp import cop_rows, solve_contact_qp
 from socialaff_sim.sim.episode import foot_drift
 from socialaff_sim.sim.feet_on_floor import FeetOnFloor
 from socialaff_sim.sim.flat_feet import flat_attitude, flat_contacts, foot_rows, sole_corners, sole_points, yaw_rows
-from socialaff_sim.sim.scene import build_scene
 from socialaff_sim.sim.support import FrameSupport, SupportMeter
 import test_balance_control
-from test_balance_control import LAYOUT, _biped, _stand
+from test_balance_control import _biped, _stand
 from test_balance_qp import _cop, _lean_forward, _problem, _qp
-
-
-@pytest.fixture(scope="module")
-def scene():
-    return build_scene(load_robot("ours"), LAYOUT, harness_time_constant=0.02)
 
 
 def _rot(axis: np.ndarray, angle: float) -> np.ndarray:

@@ -13,23 +13,15 @@ import pytest
 
 from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.errors import ConfigError
-from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.external_force import Contacts
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
 from socialaff_sim.sim.hand_yield import MAX_OFFSET, HandYield, feet_allowance, yield_rate
-from socialaff_sim.sim.scene import build_scene
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.stance import StanceConfig
 from socialaff_sim.sim.support_box import SupportBox
-from test_balance_control import LAYOUT
-
-
-@pytest.fixture(scope="module")
-def scene():
-    return build_scene(load_robot("ours"), LAYOUT, harness_time_constant=0.02)
 
 
 def _cop_along(u: np.ndarray, c: np.ndarray, weight: float, f_h: float, h: float, f_z: float, x: np.ndarray) -> float:

@@ -12,23 +12,16 @@ import numpy as np
 import pytest
 
 from socialaff_sim.errors import ConfigError
-from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.balance_control import BalanceController
 from socialaff_sim.sim.contact_qp import solve_contact_qp
-from socialaff_sim.sim.scene import build_scene
 from socialaff_sim.sim.self_clearance import SelfClearance
-from test_balance_control import LAYOUT, standing_far
+from test_balance_control import standing_far
 from test_balance_qp import _lean_forward, _problem
 
 ROLL_IN = 0.2
 """Stubby's right shoulder roll (rad) that puts its right forearm 4.6 cm deep into its pelvis (home: −0.15, 11 cm
 clear)."""
-
-
-@pytest.fixture(scope="module")
-def scene():
-    return build_scene(load_robot("ours"), LAYOUT, harness_time_constant=0.02)
 
 
 def _geom(m: mujoco.MjModel, name: str) -> int:

@@ -15,7 +15,7 @@ from socialaff_sim.retarget.ik import IKConfig
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.episode import run_episode, support_caption, support_summary
-from socialaff_sim.sim.scene import Scene, build_scene
+from socialaff_sim.sim.scene import Scene
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.stage_build import leg_bandwidth
 from socialaff_sim.sim.stance import StanceConfig, StanceControl
@@ -26,11 +26,6 @@ LAYOUT = get_layout("kinect_v2")
 @pytest.fixture(scope="module")
 def ours():
     return load_robot("ours")
-
-
-@pytest.fixture(scope="module")
-def scene(ours) -> Scene:
-    return build_scene(ours, LAYOUT, harness_time_constant=0.02)
 
 
 def _control(scene: Scene, **kw: object) -> StanceControl:

@@ -8,18 +8,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from socialaff_sim.data.skeletons import get_layout
-from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.balance_control import BalanceController
-from socialaff_sim.sim.scene import Scene, build_scene
+from socialaff_sim.sim.scene import Scene
 
 EZ = np.array([0.0, 0.0, 1.0])
-
-
-@pytest.fixture(scope="module")
-def scene() -> Scene:
-    return build_scene(load_robot("ours"), get_layout("kinect_v2"), harness_time_constant=0.02)
 
 
 def _turned(scene: Scene, turn: Rotation) -> mujoco.MjData:

@@ -7,20 +7,14 @@ import numpy as np
 import pytest
 
 from socialaff_sim.errors import ConfigError
-from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.hand_yield import HandYield, feet_allowance, twist_allowance
-from socialaff_sim.sim.scene import build_scene
 from socialaff_sim.sim.sim_config import SimConfig
 from socialaff_sim.sim.support_box import SupportBox
-from test_balance_control import LAYOUT
 
 W = 446.0
 
 
-@pytest.fixture(scope="module")
-def scene():
-    return build_scene(load_robot("ours"), LAYOUT, harness_time_constant=0.02)
 BOX = SupportBox(np.array([[-0.1, -0.15], [0.1, -0.15], [-0.1, 0.15], [0.1, 0.15]]), np.array([1.0, 0.0]))
 
 

@@ -57,7 +57,7 @@ class ContactCompletionConfig:
 
     Fields by concept
     -----------------
-    - When: capture, engage, reach, reach_band, intent, keep, approach, base_approach, base_approach_ramp
+    - When: capture, engage, reach, reach_band, intent, keep, approach
     - Where: press, catch_flight, catch_approach, flight_horizon, flight_lead, hand_speed, flight_pace
     - How fast: ramp
     """
@@ -90,17 +90,6 @@ class ContactCompletionConfig:
     approach: bool = True
     """[—]: Whether, in such a frame or one before it, a person's hand held out beyond the robot's reach moves the
     robot in (:meth:`~socialaff_sim.retarget.scaling.KeyJointScaler.approach`; online placement only)."""
-
-    base_approach: float | None = None
-    """c_a [m]: the most the base's target is moved horizontally toward a captured contact's wrist target that lies
-    beyond the arm's length from the shoulder of the IK's last solution, by that excess added to the shift the IK
-    solved with (:mod:`~socialaff_sim.retarget.base_approach`;
-    for a hand whose β is above zero, in any source, also a ground-truth replay). ``None`` (the default): the base
-    stays on the placement's target (docs/design.md §5, "The H1 on its own feet …": the H1's IK leaves its wrists
-    5.7–6.9 cm short of a handshake's targets)."""
-    base_approach_ramp: float = 0.3
-    """τ_a [s]: with ``base_approach``, the shift moves toward the one wanted by at most c_a·Δt/τ_a per frame (in as
-    out; 0: at once)."""
 
     catch_flight: bool = True
     """[—]: Whether, in a catch sub-goal's window (the object free, in the air and not gripped, a ``catch`` sub-goal
@@ -156,12 +145,6 @@ class ContactCompletionConfig:
         if not self.reach > 0.0 or not self.reach_band > 0.0:
             raise ConfigError(f"ContactCompletionConfig: expected reach > 0 and reach_band > 0, found "
                               f"{self.reach}, {self.reach_band}")
-        if self.base_approach is not None and not self.base_approach > 0.0:
-            raise ConfigError(f"ContactCompletionConfig.base_approach: expected metres > 0 or None, found "
-                              f"{self.base_approach}")
-        if not self.base_approach_ramp >= 0.0:
-            raise ConfigError(f"ContactCompletionConfig.base_approach_ramp: expected seconds ≥ 0, found "
-                              f"{self.base_approach_ramp}")
         if not self.ramp >= 0.0:
             raise ConfigError(f"ContactCompletionConfig.ramp: expected seconds ≥ 0, found {self.ramp}")
 

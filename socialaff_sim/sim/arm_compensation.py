@@ -112,12 +112,6 @@ class ArmCompensation:
         forces, geoms = forces[mine], geoms[mine]
         self.force = filtered_arm_force(self.force, forces, geoms, self._arm_geom, m, self.filter_time)
 
-    def near(self, plan: mujoco.MjData, d: mujoco.MjData, radius: float) -> bool:
-        """Whether a wrist of ``plan`` (kinematics run) is within ``radius`` (m) of a geom centre of ``d``'s person or
-        free object (the gate's targets; :func:`approach_gate` without the touch latch)."""
-        return bool(approach_gate(self._wrists(plan), d.geom_xpos[self._target_ids], np.zeros(2, dtype=bool),
-                                  radius).any())
-
     def _wrists(self, d: mujoco.MjData) -> np.ndarray:
         return np.array([d.site_xpos[f] if site else d.xpos[f] for f, site in self._frames])
 

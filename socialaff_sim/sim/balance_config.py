@@ -30,7 +30,7 @@ class BalanceConfig:
     -----------------
     - Tracking: joint_bandwidth, torso_bandwidth, foot_damping, foot_stiffness
     - Balance: com_bandwidth, com_damping, com_reference, com_shift, shift_weight, shift_until_touch,
-      shift_strike, support_margin, external_forces, external_filter
+      support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, min_foot_load, torque_fraction, flat_feet, yaw_first
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
@@ -70,14 +70,6 @@ class BalanceConfig:
     shift_until_touch: bool = False
     """[—]: ``com_shift`` only until an arm first touches the person or the object in the episode (the latch of
     ``compensation_gate``, which it needs): the approach of a contact, not a grasp a person pulls on."""
-    shift_strike: float | None = None
-    """d_k [m]: ``com_shift``'s heavier weight only while neither of the plan's wrists (the frame's IK target) is
-    within d_k of a geom of the person or of the free object (their centres; ``compensation_gate``'s targets): in the
-    strike of a contact the centre of mass's rows are weighted ``w_com`` again, the shifted reference kept (traced,
-    Stubby's high fives: held at w ≈ 4000–6000 against the striking arm's swing, the trunk pitched 9° in a frame and
-    was caught, or leaned back and the hand stopped short; docs/design.md §5). Needs ``shift_until_touch``.
-    ``None`` (the default): the weight follows the shift throughout the approach. An option, off: on development it
-    recovered 2 of 9 lost high fives, and its rule (instances 144–151) did not hold: high fives 5 → 5 of 8."""
     support_margin: float = 0.03
     """[m]: the centre-of-mass reference is kept this far inside the box of the feet's contact points
     (axes along the robot's heading)."""
@@ -268,9 +260,6 @@ class BalanceConfig:
                                        or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.shift_until_touch: needs com_shift, arm_compensation and compensation_gate "
                               "(their touch latch ends the approach)")
-        if self.shift_strike is not None and (not self.shift_until_touch or not self.shift_strike > 0.0):
-            raise ConfigError(f"BalanceConfig.shift_strike: needs shift_until_touch and a distance > 0 m, found "
-                              f"{self.shift_strike!r} with shift_until_touch {self.shift_until_touch!r}")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

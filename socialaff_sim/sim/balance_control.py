@@ -309,8 +309,7 @@ class BalanceController:
         for i, (p, s) in enumerate(zip(pts, which.tolist(), strict=True)):
             mujoco.mj_jac(m, d, full[i], None, p, self._feet[s])
         jac = full[:, :, va]
-        shift, w_com = self.com.shift(d, box)
-        goal = self.com.reference(d, box) + shift
+        goal, w_com = self.com.goal(d, box)  # the shifted reference, the feet read once
         wc, zc = c.com_bandwidth, c.com_damping
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
             p = np.array([goal[0], goal[1], floor])

@@ -4,7 +4,7 @@ Per data frame the IK's plan gives the middle of its feet p̄_plan and its centr
 (:meth:`ComReference.begin_frame`). Per physics step c* is, by ``com_reference``, that offset carried onto the
 physical feet, p̄ + (c_plan − p̄_plan) (``plan``), or the middle of the support box (``middle``); with ``com_shift``
 it is moved forward by the feet's shortfall behind the plan's, which also weights the centre of mass's rows
-(:mod:`~.com_shift`; with ``shift_strike`` not while a plan's wrist is near the person or the object). The controller then leans it against the measured external forces
+(:mod:`~.com_shift`). The controller then leans it against the measured external forces
 (:func:`~.external_force.lean_offset`) and clips it into the support box
 (:class:`~socialaff_sim.sim.balance_control.BalanceController`).
 """
@@ -34,32 +34,46 @@ class ComReference:
 
     def reset(self) -> None:
         """A new episode: no plan yet."""
-        self._plan: mujoco.MjData | None = None
         self._offset = np.zeros(2)
         self._plan_feet = np.zeros(2)
 
     def begin_frame(self, plan: mujoco.MjData) -> None:
         """The IK's plan for the frame: ``plan`` posed at its end, after ``mj_kinematics`` and ``mj_comPos``."""
-        self._plan = plan  # its wrists for ``shift_strike``
-        feet = self._plan_feet = plan.xpos[self._feet, :2].mean(axis=0)
+        feet = self._plan_feet = self._middle(plan)
         self._offset = plan.subtree_com[self._root, :2] - feet
+
+    def goal(self, d: mujoco.MjData, box: SupportBox) -> tuple[np.ndarray, float]:
+        """A physics step's (2,) c* (world, m) before the lean and the box's clip, :meth:`reference` plus
+        :meth:`shift`'s shift, and the centre of mass's rows' weight; the feet of ``d`` read once for both."""
+        feet = self._middle(d)
+        s, w = self._shift(feet, box)
+        return self._reference(feet, box) + s, w
 
     def reference(self, d: mujoco.MjData, box: SupportBox) -> np.ndarray:
         """(2,) c* (world, m) before the shift, the lean and the box's clip, by ``com_reference``: the plan's offset
         from its feet on the feet of ``d``, or the middle of ``box``."""
-        if self.config.com_reference == "plan":
-            return d.xpos[self._feet, :2].mean(axis=0) + self._offset
-        return box.middle()
+        return self._reference(self._middle(d), box)
 
     def shift(self, d: mujoco.MjData, box: SupportBox) -> tuple[np.ndarray, float]:
         """``com_shift``: the reference's forward shift (2,) (world, m) by the feet's shortfall behind the plan's
-        along ``box``'s heading, and the centre of mass's rows' weight (:mod:`~.com_shift`; ``w_com`` while a plan's
-        wrist is within ``shift_strike`` of the person or the object); else (and with ``shift_until_touch`` after an
-        arm's first touch) none and ``w_com``."""
+        along ``box``'s heading, and the centre of mass's rows' weight (:mod:`~.com_shift`); else (and with
+        ``shift_until_touch`` after an arm's first touch) none and ``w_com``."""
+        return self._shift(self._middle(d), box)
+
+    def _middle(self, d: mujoco.MjData) -> np.ndarray:
+        """(2,) the middle of the feet of ``d`` (world, m)."""
+        return d.xpos[self._feet, :2].mean(axis=0)
+
+    def _reference(self, feet: np.ndarray, box: SupportBox) -> np.ndarray:
+        """:meth:`reference` with the feet's middle ``feet`` (2,)."""
+        if self.config.com_reference == "plan":
+            return feet + self._offset
+        return box.middle()
+
+    def _shift(self, feet: np.ndarray, box: SupportBox) -> tuple[np.ndarray, float]:
+        """:meth:`shift` with the feet's middle ``feet`` (2,)."""
         c = self.config
         if c.com_shift is None or (c.shift_until_touch and self._compensation.touched.any()):  # type: ignore[union-attr]
             return np.zeros(2), c.w_com
-        s, share = forward_shortfall(self._plan_feet, d.xpos[self._feet, :2].mean(axis=0), box.R[0], c.com_shift)
-        if c.shift_strike is not None and self._compensation.near(self._plan, d, c.shift_strike):  # type: ignore[union-attr]
-            return s, c.w_com  # a strike: the shifted reference at the plain weight
+        s, share = forward_shortfall(self._plan_feet, feet, box.R[0], c.com_shift)
         return s, shift_weight(c.w_com, c.shift_weight, share)

@@ -17,7 +17,6 @@ import mujoco
 import numpy as np
 
 from ..errors import SimulationError
-from ..retarget.base_approach import BaseApproach
 from ..retarget.contact_completion import ContactCompletion, ContactCompletionConfig
 from ..retarget.flight_target import FlightState, ballistic, landing_time
 from ..retarget.ik import RobotIK
@@ -55,25 +54,18 @@ class FrameTargets:
         self.task = task
         self.lookahead = float(lookahead)
         self.completion = None if completion is None else ContactCompletion(completion)
-        self.base_approach = (None if completion is None or completion.base_approach is None
-                              else BaseApproach(completion.base_approach, completion.base_approach_ramp))
         self._anchors: dict[str, ContactAnchors] = {}
         self._completed_frame = -1
 
-    def reset(self, place: Placement, scaler: KeyJointScaler, scene: Scene, ik: RobotIK, arm: float,
-              ik_shoulders: np.ndarray) -> None:
+    def reset(self, place: Placement, scaler: KeyJointScaler, scene: Scene, ik: RobotIK, arm: float) -> None:
         """Start an episode on ``place``'s instance with the episode's ``scaler`` (moved by the online placement),
-        the physics ``scene`` of its layout, the ``ik`` whose latest solution is the robot's commanded pose, the
-        robot's arm length ``arm`` (m) and ``ik_shoulders`` (2,), the body ids of the shoulders (the arms' limb
-        roots) in the IK's model."""
+        the physics ``scene`` of its layout, the ``ik`` whose latest solution is the robot's commanded pose and the
+        robot's arm length ``arm`` (m)."""
         self.place, self.scaler, self.scene, self.ik, self.arm = place, scaler, scene, ik, float(arm)
-        self._ik_shoulders = np.asarray(ik_shoulders, dtype=np.int64)
         self.interaction = place.interaction
         if self.completion is not None:
             self.completion.reset()
             self._completed_frame = -1
-            if self.base_approach is not None:
-                self.base_approach.reset()
             name = place.interaction.layout.name
             if name not in self._anchors:
                 self._anchors[name] = ContactAnchors(scene, self.task)
@@ -124,9 +116,6 @@ class FrameTargets:
                            intent=contact, offered=offered, free=moving, inside=contact_inside,
                            catch=catch, flight=flight)
         world[1:3] = self.completion(x, t, 1.0 / fps)
-        if self.base_approach is not None:  # the base moved in toward a captured contact beyond the IK's reach
-            solved = self.ik.configuration.data.xpos[self._ik_shoulders]  # the last solution's shoulders (world)
-            world[0, :2] += self.base_approach(world[1:3], solved, self.arm, self.completion.weight > 0, t, 1.0 / fps)
         self._completed_frame = t
         return place.frame.to_robot(world)
 

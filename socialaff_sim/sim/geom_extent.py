@@ -3,7 +3,7 @@
 For a unit direction given in each geom's own frame, u (G, 3), the half-extent r(u) = max over the geom's points x of
 (x − x_g)·u: a sphere's radius; a capsule's |u_z| h + r; a box's Σ |u_i| s_i; an ellipsoid's √(Σ u_i² s_i²); a
 cylinder's |u_z| h + r √(1 − u_z²) (``geom_size``'s half-lengths). The robot's lowest point at home
-(:mod:`~.scene`) and the hands' reach (:mod:`~.reach`) read it.
+(:mod:`~.lowest_point`) and the hands' reach (:mod:`~.reach`) read it.
 """
 
 from __future__ import annotations

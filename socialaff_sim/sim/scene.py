@@ -33,10 +33,11 @@ from dm_control import mjcf
 
 from ..data.skeletons import SkeletonLayout
 from ..errors import SimulationError
+from ..retarget.kinematic_tree import subtree_mask
 from ..retarget.robot import RobotSpec
 from .chair import add_chair
-from .geom_extent import primitive_extent
 from .human import HumanBody, human_body
+from .lowest_point import lowest_point
 from .robot_mjcf import robot_mjcf, tune_servos
 from .scene_human import HUMAN_RGBA, PERSON_CONTYPE, add_human, part_names, pose_compliant, set_human_sizes
 
@@ -258,8 +259,8 @@ def _index(model: mujoco.MjModel, robot: RobotSpec, body: HumanBody, rob: mjcf.R
            home: dict[str, float], has_object: bool, physics: bool) -> Scene:
     root_body = _mj_id(model, "body", "robot/")
     free = _mj_id(model, "joint", "robot/root/")
-    jnt_ids = [free] + [j for j in range(model.njnt) if model.jnt_bodyid[j] != root_body
-                        and _is_descendant(model, int(model.jnt_bodyid[j]), root_body)]
+    rbodies = subtree_mask(model, root_body)
+    jnt_ids = [free] + [j for j in range(model.njnt) if model.jnt_bodyid[j] != root_body and rbodies[model.jnt_bodyid[j]]]
     for j in jnt_ids[1:]:
         if int(model.jnt_type[j]) not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
             raise SimulationError(f"robot {robot.name!r}: only hinge and slide joints are supported below the root, "
@@ -268,7 +269,6 @@ def _index(model: mujoco.MjModel, robot: RobotSpec, body: HumanBody, rob: mjcf.R
     vadr = np.concatenate([np.arange(6) + model.jnt_dofadr[free], model.jnt_dofadr[jnt_ids[1:]]])
     names = tuple(model.joint(j).name for j in jnt_ids)
 
-    rbodies = np.array([b == root_body or _is_descendant(model, b, root_body) for b in range(model.nbody)])
     robot_geom = rbodies[model.geom_bodyid]
     collide = robot_geom & ((model.geom_contype != 0) | (model.geom_conaffinity != 0))
     model.geom_contype[collide] = 1
@@ -284,8 +284,7 @@ def _index(model: mujoco.MjModel, robot: RobotSpec, body: HumanBody, rob: mjcf.R
     for s, names_s in enumerate(robot.hands):
         for bname in names_s:
             hb = _mj_id(model, "body", f"robot/{bname}")
-            sub = np.array([b == hb or _is_descendant(model, b, hb) for b in range(model.nbody)])
-            hand_geom[s] |= sub[model.geom_bodyid] & collide
+            hand_geom[s] |= subtree_mask(model, hb)[model.geom_bodyid] & collide
 
     limb_kinds = tuple(f.kind for f in robot.limb_roots)
     limb_ids = np.array([_mj_id(model, f.kind, f"robot/{f.name}") for f in robot.limb_roots])
@@ -297,8 +296,7 @@ def _index(model: mujoco.MjModel, robot: RobotSpec, body: HumanBody, rob: mjcf.R
         kind, fid = frame_kinds[1 + s], int(frame_ids[1 + s])
         wrist_body = int(model.site_bodyid[fid]) if kind == "site" else fid
         top = int(model.body_parentid[wrist_body])
-        sub = np.array([b == top or _is_descendant(model, b, top) for b in range(model.nbody)])
-        arm_geom[s] = sub[model.geom_bodyid] & collide
+        arm_geom[s] = subtree_mask(model, top)[model.geom_bodyid] & collide
 
     hnames = part_names(body)
     human_geom_ids = np.array([_mj_id(model, "geom", n) for n in hnames])
@@ -351,7 +349,7 @@ def _index(model: mujoco.MjModel, robot: RobotSpec, body: HumanBody, rob: mjcf.R
         j = jnt_ids[k - 6]
         if model.jnt_limited[j]:
             home_q[k] = np.clip(home_q[k], *model.jnt_range[j])
-    home_q[2] = -_lowest_point(model, qadr, home_q, robot_geom)
+    home_q[2] = -lowest_point(model, qadr, home_q, robot_geom)
     scene = Scene(
         model=model, robot=robot, body=body, has_object=has_object, robot_qadr=qadr, robot_vadr=vadr,
         robot_joint_names=names, robot_joint_ids=np.array(jnt_ids), frame_kinds=frame_kinds, frame_ids=frame_ids, limb_body_ids=limb_body_ids,
@@ -365,38 +363,3 @@ def _index(model: mujoco.MjModel, robot: RobotSpec, body: HumanBody, rob: mjcf.R
     )
     return scene
 
-
-def _is_descendant(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
-    while body > 0:
-        body = int(model.body_parentid[body])
-        if body == ancestor:
-            return True
-    return False
-
-
-def _lowest_point(model: mujoco.MjModel, qadr: np.ndarray, robot_q: np.ndarray, robot_geom: np.ndarray) -> float:
-    """Lowest z of the robot's collidable geoms with its free joint at z = 0.
-
-    Exact for spheres, capsules, boxes, ellipsoids, cylinders (support
-    function along −z) and meshes (their lowest vertex); other shapes use their
-    bounding box.
-    """
-    data = mujoco.MjData(model)
-    data.qpos[qadr] = robot_q
-    data.qpos[qadr[2]] = 0.0
-    mujoco.mj_kinematics(model, data)
-    g = np.flatnonzero(robot_geom & ((model.geom_contype != 0) | (model.geom_conaffinity != 0)))
-    rz = data.geom_xmat[g].reshape(-1, 3, 3)[:, 2, :]  # each geom's axes' z components
-    kind = model.geom_type[g]
-    z = data.geom_xpos[g, 2]
-    reach = primitive_extent(kind, model.geom_size[g], rz, np.full(len(g), np.nan))  # as far down as up
-    for i in np.flatnonzero(kind == int(mujoco.mjtGeom.mjGEOM_MESH)):  # meshes: their lowest vertex, exactly
-        mid = int(model.geom_dataid[g[i]])
-        verts = model.mesh_vert[model.mesh_vertadr[mid]:model.mesh_vertadr[mid] + model.mesh_vertnum[mid]]
-        reach[i] = -float((verts @ rz[i]).min())
-    box = np.isnan(reach)
-    if box.any():  # the rest: the geom's bounding box
-        aabb = model.geom_aabb[g[box]]
-        z[box] = z[box] + np.einsum("gj,gj->g", rz[box], aabb[:, :3])
-        reach[box] = np.einsum("gj,gj->g", np.abs(rz[box]), aabb[:, 3:])
-    return float((z - reach).min())

@@ -100,7 +100,7 @@ class Simulator:
         set_human_sizes(stage.ik_scene, self.pose.half_lengths)
         self._segments = place.segments
         self.scaler = copy.copy(place.scaler)  # its online placement moves during the episode
-        self._targets.reset(place, self.scaler, scene, stage.ik, self.measurements.arm, stage.ik_scene.limb_body_ids[:2])
+        self._targets.reset(place, self.scaler, scene, stage.ik, self.measurements.arm)
         self.frame_R: RobotFrame = place.frame
         self._yaw = self.frame_R.yaw
         self.carry: CarryPlan | None = place.carry
