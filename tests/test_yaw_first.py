@@ -1,7 +1,9 @@
 """``BalanceConfig.yaw_first`` on the Unitree H1 (skipped without ../shared/robots): in a standing handshake the H1's
 first balance QP fails in a share of its driven steps (the feet's twelve hard rows, legs of five joints, the arms'
-torque limits); with the option every such step is solved with the ten rows that do not turn the feet about the
-vertical, and none falls back to dropping all of them; without it they all do. Stubby's configuration error too."""
+torque limits); with the option such steps are solved with the ten rows that do not turn the feet about the
+vertical, and at most 1 % of the driven steps (none on the machine that measured it in session 31; one of 541 on an
+AMD EPYC, whose floating point differs) still falls back to dropping all of them; without it they all do. Stubby's
+configuration error too."""
 
 from __future__ import annotations
 
@@ -38,10 +40,11 @@ def _counts(spec, inter, yaw_first: bool) -> tuple[int, int, int]:  # noqa: ANN0
 
 def test_the_h1s_infeasible_steps_keep_every_row_but_the_feets_turn(h1_handshake) -> None:  # noqa: ANN001
     spec, inter = h1_handshake
-    active, relaxed, dropped = _counts(spec, inter, False)
-    assert active > 0 and relaxed > 0.1 * active and dropped == 0
+    active, relaxed_without, dropped = _counts(spec, inter, False)
+    assert active > 0 and relaxed_without > 0.1 * active and dropped == 0
     active, relaxed, dropped = _counts(spec, inter, True)
-    assert active > 0 and dropped > 0.1 * active and relaxed == 0
+    # Not "== 0": which of these near-infeasible steps the solver settles differs in the last bits between CPUs.
+    assert active > 0 and dropped > 0.1 * active and relaxed <= 0.01 * active and relaxed < 0.1 * relaxed_without
 
 
 def test_yaw_first_needs_flat_feet() -> None:
