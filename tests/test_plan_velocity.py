@@ -4,6 +4,7 @@ references (a mass-weighted centre of mass, an analytic rotation), and each deci
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import mujoco
@@ -162,3 +163,25 @@ def test_until_touch_the_plans_velocities_hold_only_before_an_arms_first_touch(
 def test_until_touch_without_its_parts_is_refused(kw: dict) -> None:
     with pytest.raises(ConfigError, match="plan_velocity_until_touch"):
         BalanceConfig(**kw)
+
+
+def test_a_standing_high_five_lost_to_the_braked_trunk_is_met_with_the_plans_velocities() -> None:
+    """high_five_089 (synthetic, seed 0; a spent instance), Stubby in the standing mode: the trunk braked toward rest
+    while the plan turns it into the strike, the hand stops short (docs/design.md §5, "The standing mode's high fives:
+    the plan's velocities"). With the plan's velocities until the touch and ``shift_strike`` 0.3 it is met; with the
+    velocities off (``shift_strike`` kept), missed."""
+    from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
+    from socialaff_sim.retarget.sources import GroundTruthSource
+    from socialaff_sim.sim.episode import run_episode
+    from socialaff_sim.sim.simulator import SimConfig, Simulator
+
+    inter = next(i for i in generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=90))
+                 if i.instance_id == "high_five_089")
+    robot = load_robot("ours")
+    met = []
+    for on in (True, False):
+        cfg = SimConfig.standing()
+        cfg = dataclasses.replace(cfg, balance=dataclasses.replace(
+            cfg.balance, shift_strike=0.3, com_plan_velocity=on, torso_plan_velocity=on, plan_velocity_until_touch=on))
+        met.append(bool(run_episode(Simulator(robot, "high_five", cfg), GroundTruthSource(), inter)["success"]))
+    assert met == [True, False]
