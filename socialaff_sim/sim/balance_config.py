@@ -30,6 +30,7 @@ class BalanceConfig:
     -----------------
     - Tracking: joint_bandwidth, torso_bandwidth, foot_damping, foot_stiffness
     - Balance: com_bandwidth, com_damping, com_reference, com_shift, shift_weight, shift_until_touch,
+      com_plan_velocity, torso_plan_velocity, plan_velocity_until_touch,
       support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, min_foot_load, torque_fraction, flat_feet, yaw_first
@@ -70,6 +71,20 @@ class BalanceConfig:
     shift_until_touch: bool = False
     """[—]: ``com_shift`` only until an arm first touches the person or the object in the episode (the latch of
     ``compensation_gate``, which it needs): the approach of a contact, not a grasp a person pulls on."""
+    com_plan_velocity: bool = False
+    """[—]: the centre of mass's damping tracks the plan's velocity over the frame: its wanted acceleration is
+    ω_c² (c* − c) + 2 ζ ω_c (v_c − ċ), v_c the change of the plan's centre of mass's offset from its feet over the
+    frame divided by its duration (:mod:`~.plan_velocity`). ``False`` (the default): toward rest, − 2 ζ ω_c ċ,
+    which brakes a centre of mass the plan moves (traced: Stubby's high fives' strikes, docs/design.md §5)."""
+    torso_plan_velocity: bool = False
+    """[—]: the torso's damping tracks the plan's angular velocity over the frame: its wanted angular acceleration is
+    ω_o² e + 2 ω_o (ω_t − ω), ω_t the plan's torso rotation from the frame's start to its end divided by its
+    duration (:mod:`~.plan_velocity`). ``False`` (the default): toward rest, − 2 ω_o ω."""
+    plan_velocity_until_touch: bool = False
+    """[—]: ``com_plan_velocity`` and ``torso_plan_velocity`` only until an arm first touches the person or the object
+    in the episode (the touch latch of ``compensation_gate``, which it needs): the reach toward a contact follows the
+    plan's swing; once in contact the damping is toward rest again (traced: the plan's velocities in the contact
+    phases of hand overs and catches lengthened the planted feet's slide, docs/design.md §5)."""
     support_margin: float = 0.03
     """[m]: the centre-of-mass reference is kept this far inside the box of the feet's contact points
     (axes along the robot's heading)."""
@@ -260,6 +275,10 @@ class BalanceConfig:
                                        or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.shift_until_touch: needs com_shift, arm_compensation and compensation_gate "
                               "(their touch latch ends the approach)")
+        if self.plan_velocity_until_touch and (not (self.com_plan_velocity or self.torso_plan_velocity)
+                                               or self.arm_compensation is None or self.compensation_gate is None):
+            raise ConfigError("BalanceConfig.plan_velocity_until_touch: needs com_plan_velocity or torso_plan_velocity, "
+                              "and arm_compensation and compensation_gate (their touch latch)")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

@@ -56,6 +56,7 @@ from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts, foot_feedback, yaw_rows
 from .hand_yield import HandYield
+from .plan_velocity import PlanVelocity
 from .scene import Scene
 from .self_clearance import SelfClearance
 from .support_box import SupportBox, cop_intervals
@@ -112,6 +113,10 @@ class BalanceController:
         self.com = ComReference(c, self._feet, scene.root_body, self.compensation)
         """The centre of mass's reference c* (:mod:`~.com_reference`)."""
         self._plan = mujoco.MjData(m)
+        self.plan_velocity = PlanVelocity(m, self._feet, scene.root_body, self._torso, self.qadr) if (
+            c.com_plan_velocity or c.torso_plan_velocity) else None
+        """``com_plan_velocity`` / ``torso_plan_velocity``: the plan's velocities over the frame (:mod:`~.plan_velocity`),
+        else ``None``."""
         self._limits, self._Mix = ActuatorLimits(m, scene.act_ids), np.ix_(self.vadr, self.vadr)  # made once
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside the joints' task
         self._joint_scale, self._joint_rows = scale, np.eye(n)[6:] * scale[:, None]
@@ -160,6 +165,8 @@ class BalanceController:
             self.hand_yield.reset()
         if self.compensation is not None:
             self.compensation.reset()
+        if self.plan_velocity is not None:
+            self.plan_velocity.clear()
 
     @property
     def holds_caught(self) -> bool:
@@ -167,9 +174,12 @@ class BalanceController:
         since; as of the last step)."""
         return self.catches > 0 and not self.released
 
-    def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None) -> None:
+    def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None, q_start: np.ndarray | None = None,
+                    duration: float = 0.0) -> None:
         """The IK's plan for the frame: robot coordinates ``q_target`` (nq_r,) at its end; ``planted`` (left,
-        right): the foot lock's planted feet (``None``: no foot lock, the controller stays off)."""
+        right): the foot lock's planted feet (``None``: no foot lock, the controller stays off); ``q_start`` (nq_r,):
+        the references' start, ``duration`` (s) the time they take to ``q_target`` (the plan's velocities, read by
+        ``com_plan_velocity`` and ``torso_plan_velocity``; ``None`` or 0 s: none)."""
         self._planted = (False, False) if planted is None else (bool(planted[0]), bool(planted[1]))
         m, p = self.scene.model, self._plan
         p.qpos[self.qadr] = q_target
@@ -177,6 +187,11 @@ class BalanceController:
         mujoco.mj_comPos(m, p)
         self.com.begin_frame(p)
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
+        if self.plan_velocity is not None:
+            if q_start is not None and duration > 0.0:
+                self.plan_velocity.measure(q_start, p, duration)
+            else:
+                self.plan_velocity.clear()
 
     # -- the physics step -----------------------------------------------------------------------------------
     def step(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray) -> None:
@@ -315,14 +330,23 @@ class BalanceController:
             p = np.array([goal[0], goal[1], floor])
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
         goal = box.clip(goal, c.support_margin)
-        tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], w_com))
+        moving = self.plan_velocity is not None and not (c.plan_velocity_until_touch and
+                                                          self.compensation.touched.any())  # type: ignore[union-attr]
+        if c.com_plan_velocity and moving:  # the damping toward the plan's velocity (relative to the feet), not rest
+            tasks.append((jcom[:2], wc * wc * (goal - com[:2]) + 2.0 * zc * wc * (self.plan_velocity.com - comvel[:2]),  # type: ignore[union-attr]
+                          w_com))
+        else:
+            tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], w_com))
         mujoco.mj_jacBody(m, d, self._jp, self._jr, self._torso)
         Jt = self._jr[:, va].copy()
         err = self._torso_goal @ d.xmat[self._torso].reshape(3, 3).T  # world rotation from now to the goal
         mujoco.mju_mat2Quat(self._quat, err.ravel())
         mujoco.mju_quat2Vel(self._rot, self._quat, 1.0)
         wo = c.torso_bandwidth
-        tasks.append((Jt, wo * wo * self._rot - 2.0 * wo * (Jt @ qv), c.w_torso))
+        if c.torso_plan_velocity and moving:  # toward the plan's angular velocity, not toward rest
+            tasks.append((Jt, wo * wo * self._rot + 2.0 * wo * (self.plan_velocity.torso - Jt @ qv), c.w_torso))  # type: ignore[union-attr]
+        else:
+            tasks.append((Jt, wo * wo * self._rot - 2.0 * wo * (Jt @ qv), c.w_torso))
         hinge_q = d.qpos[self.qadr[7:]]
         wq = c.joint_bandwidth
         dq, dv = (0.0, 0.0) if self.hand_yield is None else self.hand_yield.references(  # the arms give way to a

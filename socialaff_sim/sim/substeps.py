@@ -122,7 +122,7 @@ class FrameStepper:
         self._qs[k:], self._ctrls[k:] = qs, ctrls
         self._hinge_vel = vel[sc.robot_vadr[6:]]
         if self.balance is not None:  # the balance controller's plan: the frame's (new) target
-            self.balance.begin_frame(q_new, feet)
+            self.balance.begin_frame(q_new, feet, q_from, (n - k) * m.opt.timestep)
         if sc.anchor_mocap >= 0:
             self._mp[k:, sc.anchor_mocap] = qs[:, :3]
             self._mq[k:, sc.anchor_mocap] = qs[:, 3:7]
