@@ -2,8 +2,9 @@
 pressure kept away from its sole's edges. ``BalanceConfig.cop_kern`` (an option, off): the intervals against a
 construction by hand, the choice κ = 0.5 against a rigid sole on four equal corner springs solved as a linear system
 (all four corners pressed at the corners of the κ = 0.5 box, a corner lifting beyond it and at the 1 cm margin's
-box), the setting's error. ``BalanceConfig.cop_margin`` 2.5 cm instead of 1 cm: a standing handshake whose planted
-feet slide less with it (docs/design.md §5, "The standing mode's feet tipping onto their edges …")."""
+box), the setting's error. ``BalanceConfig.cop_margin`` 2.5 cm instead of 1 cm (the rule's candidate; it failed, the
+standing mode keeps 1 cm): a standing handshake whose planted feet slide less with it (docs/design.md §5, "The
+standing mode's feet tipping onto their edges …")."""
 
 from __future__ import annotations
 
