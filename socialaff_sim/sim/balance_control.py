@@ -397,7 +397,7 @@ class BalanceController:
         if feet:
             mine = [pts[which == s, :2] for s in feet]
             soles = [xy if self._sole[s] is None else self._soles_now[s][:, :2] for s, xy in zip(feet, mine, strict=True)]
-            bounds[feet] = cop_intervals(box.R, soles, mine, self.config.cop_margin)
+            bounds[feet] = cop_intervals(box.R, soles, mine, self.config.cop_margin, self.config.cop_kern)
         return cop_rows(pts, edges, which, box.R, bounds)
 
     # -- measurements ---------------------------------------------------------------------------------------
