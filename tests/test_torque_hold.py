@@ -1,4 +1,5 @@
-"""The balance controller's torques solved at one driven step in k (``BalanceConfig.qp_every``, ``hold_gain``;
+"""The balance controller's torques solved at one driven step in k (``BalanceConfig.qp_every``, ``hold_gain``,
+``hold_near``, ``hold_touch``;
 sim/torque_hold.py): the held torques against the formula written out, which steps solve and which hold (the
 count, a switch of the harness, a step not driven), the controller's calls of its solve, and the option off."""
 
@@ -11,6 +12,7 @@ from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim import balance_control
 from socialaff_sim.sim.balance_config import BalanceConfig
+from socialaff_sim.sim.external_force import Contacts, ExternalForces
 from socialaff_sim.sim.scene import Scene, build_scene
 from socialaff_sim.sim.torque_hold import TorqueHold
 from test_balance_control import LAYOUT, _stand
@@ -128,3 +130,15 @@ def test_nothing_is_held_after_a_solve_with_an_arm_near_the_body(scene) -> None:
     # The same rows, none within hold_near = 0: the hold works as without them.
     ctl, _, _ = _stand(scene, BalanceConfig(**base, hold_near=0.0), 0.3)
     assert ctl.clearance_steps > 0 and ctl.held_steps >= ctl.active_steps // 2 - 2
+
+
+def test_with_hold_touch_nothing_is_held_while_anything_but_the_floor_touches_the_robot(scene, monkeypatch) -> None:
+    touched = Contacts(np.zeros((1, 3)), np.zeros((1, 3)), np.array([0]), np.array([1]))
+    monkeypatch.setattr(ExternalForces, "contacts", lambda self, m, d: touched)  # one contact at every step
+    ctl, _, _ = _stand(scene, BalanceConfig(solver="qp", qp_every=3, hold_touch=True), 0.3)
+    assert ctl.active_steps > 10 and ctl.held_steps == 0
+    ctl, _, _ = _stand(scene, BalanceConfig(solver="qp", qp_every=3), 0.3)  # the same contact, hold_touch off
+    assert ctl.held_steps >= 2 * (ctl.active_steps // 3) - 4
+    monkeypatch.undo()  # nothing touches: the hold as without hold_touch
+    ctl, _, _ = _stand(scene, BalanceConfig(solver="qp", qp_every=3, hold_touch=True), 0.3)
+    assert ctl.held_steps >= 2 * (ctl.active_steps // 3) - 4

@@ -38,7 +38,7 @@ class BalanceConfig:
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, tilt_from_plan,
       catch_tilt, catch_margin, catch_blend, drive_harnessed
-    - Rate: qp_every, hold_gain, hold_near
+    - Rate: qp_every, hold_gain, hold_near, hold_touch
     """
 
     joint_bandwidth: float = 20.0
@@ -216,6 +216,9 @@ class BalanceConfig:
     hold_near: float = 0.06
     """d_h [m]: with ``qp_every`` > 1 and ``self_clearance``, nothing is held after a solve in which an arm is
     within d_h of the body (a self-clearance pair's distance), which only a solve keeps clear."""
+    hold_touch: bool = False
+    """[—]: with ``qp_every`` > 1, nothing is held after a physics step in which anything but the floor touches the
+    robot (the person, the object): the torques are then solved at every driven step."""
 
     def __post_init__(self) -> None:
         if not (isinstance(self.qp_every, int) and self.qp_every >= 1):

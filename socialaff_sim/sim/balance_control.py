@@ -246,6 +246,9 @@ class BalanceController:
         # the step's contacts with anything but the floor, read once for every part that folds them in
         contacts = self._external.contacts(m, d) if standing and (
             self.hand_yield is not None or self.compensation is not None or c.external_forces) else None
+        if self.hold is not None and c.hold_touch and standing and len(
+                (contacts if contacts is not None else self._external.contacts(m, d)).geoms):
+            self.hold.drop()  # touched by anything but the floor: the next driven step solves
         if standing and self.hand_yield is not None:
             self.hand_yield.measure(m, contacts, d, self.carried)  # type: ignore[arg-type]
         if standing and self.compensation is not None:
