@@ -31,7 +31,11 @@ data frame; or seconds).
 ``--profile`` prints a cProfile of the ``ours_zero`` pass (cProfile inflates the Python parts).
 ``--compliant-person 0``, ``--timestep S`` and ``--ik-iterations N`` replace those fields of the preset's
 ``SimConfig`` for ``ours_zero`` and ``ours_random`` (the speed options of docs/environment.md; their cost in
-fidelity is measured by scripts/bench_env_fidelity.py).
+fidelity is measured by scripts/bench_env_fidelity.py). ``--balance FIELD=VALUE ...`` changes the balance
+controller's settings (with ``--sim-mode standing``) of ``ours_zero`` and ``ours_random``, and adds a fourth
+environment, ``ours_zero_off``, the zero-residual env without them, stepped in the same interleaved rounds:
+``option_speedup`` is the median over rounds of ``ours_zero``'s rate over ``ours_zero_off``'s (a paired measure of
+the option's gain, the load falling on both alike).
 """
 
 from __future__ import annotations
@@ -66,6 +70,8 @@ _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:  # run as `python scripts/bench_env.py` it is sys.path[0]; the tests load this file by path
     sys.path.append(_HERE)
 from _env_stages import STAGES, StageTimer, instrument  # noqa: E402
+from _config_flags import field_settings  # noqa: E402
+from socialaff_sim.sim.balance_config import BalanceConfig  # noqa: E402
 
 ENV_ID = "socialaff_sim/SocialAffordance-v0"
 REFERENCE_ID = "Humanoid-v5"
@@ -89,6 +95,7 @@ class Runner:
     successes: int = 0
     sim_seconds: float = 0.0  # simulated time the timed steps covered
     rounds: list[float] = field(default_factory=list)  # steps/s (wall, resets included) per round
+    rounds_cpu: list[float] = field(default_factory=list)  # steps per CPU s (resets included) per round
     _rng: np.random.Generator = field(init=False)
     _zero: np.ndarray = field(init=False)
     _live: bool = False
@@ -111,6 +118,7 @@ class Runner:
     def run(self, n: int) -> None:
         """``n`` steps, resetting whenever an episode ends (the resets are timed apart)."""
         wall0 = self.step_wall + sum(self.reset_wall)
+        cpu0 = self.step_cpu + sum(self.reset_cpu)
         sample = self.env.action_space.sample
         for _ in range(n):
             if not self._live:
@@ -131,6 +139,7 @@ class Runner:
                 self.finished += 1
                 self.successes += bool(info.get("success", False))
         self.rounds.append(n / (self.step_wall + sum(self.reset_wall) - wall0))
+        self.rounds_cpu.append(n / (self.step_cpu + sum(self.reset_cpu) - cpu0))
 
     def summary(self) -> dict[str, Any]:
         rw = np.array(self.reset_wall) * 1e3
@@ -209,6 +218,7 @@ def stage_pass(runner: Runner, n: int) -> dict[str, Any]:
     finally:
         timer.restore()
     runner.rounds.pop()  # this pass is not a timing round
+    runner.rounds_cpu.pop()
     ms = {s: 1e3 * timer.seconds.get(s, 0.0) / n for s in STAGES}
     return {"steps": n, "ms_per_step": ms, "ms_per_step_total": 1e3 * wall / n,
             "share": {s: 1e-3 * v * n / wall for s, v in ms.items()}}
@@ -280,6 +290,8 @@ def main() -> None:
     ap.add_argument("--sim-mode", default="preset", choices=["preset", "harness", "standing"],
                     help="the physics mode of our env: the preset's own, or SimConfig.harness()'s / .standing()'s "
                          "foot lock, stance, balance and floor time constant fields (issue 25)")
+    ap.add_argument("--balance", nargs="+", default=[], metavar="FIELD=VALUE",
+                    help="BalanceConfig fields for ours_zero/ours_random (needs --sim-mode standing); adds ours_zero_off")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--profile", action="store_true", help="print a cProfile of one ours_zero pass")
     ap.add_argument("--json", default=None, help="also write the result here")
@@ -289,25 +301,36 @@ def main() -> None:
     t0 = time.perf_counter()
     options = sim_options(args.physics, args.compliant_person, args.timestep, args.ik_iterations, args.sim_mode)
     control = control_kwargs(args.control_dt)
+    changes = field_settings(ap, "--balance", BalanceConfig, args.balance)
+    off = options
+    if changes:
+        if options is None or options.balance is None:
+            ap.error("--balance: needs --sim-mode standing (a balance controller)")
+        options = dataclasses.replace(options, balance=dataclasses.replace(options.balance, **changes))
     runners = [
         Runner("ours_zero", make_ours("zero", args.robot, args.physics, options, control), "zero", args.seed),
         Runner("ours_random", make_ours("random", args.robot, args.physics, options, control), "random",
                args.seed + 1),
         Runner("humanoid", gym.make(REFERENCE_ID), "random", args.seed + 2),
     ]
-    cold = {r.name: warm_up(r.env) for r in runners[:2]}
+    if changes:  # the same zero-residual env without the changes, in the same rounds
+        runners.append(Runner("ours_zero_off", make_ours("zero", args.robot, args.physics, off, control), "zero",
+                              args.seed))
+    ours = [r for r in runners if r.name != "humanoid"]
+    cold = {r.name: warm_up(r.env) for r in ours}
     for r in runners:  # a few steps each, outside the timing
         r.run(20)
         r.rounds.clear()
+        r.rounds_cpu.clear()
     for k in range(args.rounds):
-        order = runners[k % 3:] + runners[: k % 3]
+        order = runners[k % len(runners):] + runners[: k % len(runners)]
         for r in order:
             r.run(args.steps)
     ref = runners[2]
     res: dict[str, Any] = {"env_id": ENV_ID, "reference_id": REFERENCE_ID, "robot": args.robot,
                            "physics": args.physics, "sim_options": {"compliant_person": args.compliant_person,
                            "timestep": args.timestep, "ik_iterations": args.ik_iterations,
-                           "sim_mode": args.sim_mode},
+                           "sim_mode": args.sim_mode, "balance": changes},
                            "control_dt": runners[0].env.unwrapped.config.control_dt,
                            "rounds": args.rounds, "steps_per_round": args.steps,
                            "omp_num_threads": os.environ.get("OMP_NUM_THREADS"), "cpus": os.cpu_count(),
@@ -315,10 +338,12 @@ def main() -> None:
                            "instances": len(runners[0].env.unwrapped.pool.instances)}
     for r in runners:
         res[r.name] = r.summary()
-    for r in runners[:2]:
+    for r in ours:
         per_round = [a / b for a, b in zip(r.rounds, ref.rounds, strict=True)]
         res[r.name]["ratio_per_round"] = per_round
         res[r.name]["ratio_median"] = float(np.median(per_round))
+        res[r.name]["ratio_cpu_median"] = float(np.median([a / b for a, b in zip(r.rounds_cpu, ref.rounds_cpu,
+                                                                                  strict=True)]))
         res[r.name]["ratio_of_totals"] = (res[r.name]["steps_per_s_wall_with_resets"]
                                           / res["humanoid"]["steps_per_s_wall_with_resets"])
         res[r.name]["ratio_of_totals_without_resets"] = (res[r.name]["steps_per_s_wall"]
@@ -329,6 +354,12 @@ def main() -> None:
                                                 / res["humanoid"]["sim_s_per_cpu_s_with_resets"])
         res[r.name]["cold_reset_ms"] = {"first_per_task_max": max(cold[r.name]),
                                         "median": float(np.median(cold[r.name]))}
+    if changes:
+        res["option_speedup_per_round"] = [a / b for a, b in zip(runners[0].rounds, runners[3].rounds, strict=True)]
+        res["option_speedup"] = float(np.median(res["option_speedup_per_round"]))
+        res["option_speedup_cpu_per_round"] = [a / b for a, b in zip(runners[0].rounds_cpu, runners[3].rounds_cpu,
+                                                                      strict=True)]
+        res["option_speedup_cpu"] = float(np.median(res["option_speedup_cpu_per_round"]))
     if args.stage_steps:
         res["stages"] = {r.name: stage_pass(r, args.stage_steps) for r in runners[:2]}
     if args.profile:

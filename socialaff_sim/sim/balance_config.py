@@ -39,6 +39,7 @@ class BalanceConfig:
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, tilt_from_plan,
       catch_tilt, catch_margin, catch_blend, drive_harnessed
+    - Rate: qp_every, hold_gain, hold_near, hold_touch
     """
 
     joint_bandwidth: float = 20.0
@@ -221,7 +222,25 @@ class BalanceConfig:
     """[—]: Whether the controller's torques drive the joints also while the harness holds a standing robot
     (``False``: the position servos and the standing feed-forward do, as without the controller)."""
 
+    qp_every: int = 1
+    """k [steps]: the torques are solved at one driven physics step in k and held on the k − 1 after it
+    (:mod:`~socialaff_sim.sim.torque_hold`; a switch of the harness solves again at once). 1: every driven step."""
+    hold_gain: float = 1.0
+    """g_h [—]: with ``qp_every`` > 1, a held torque is corrected by g_h times the joints' PD (ω_q, the diagonal
+    inertias of the solve) on their errors' change since the solve; 0: held as solved."""
+    hold_near: float = 0.06
+    """d_h [m]: with ``qp_every`` > 1 and ``self_clearance``, nothing is held after a solve in which an arm is
+    within d_h of the body (a self-clearance pair's distance), which only a solve keeps clear."""
+    hold_touch: bool = False
+    """[—]: with ``qp_every`` > 1, nothing is held after a physics step in which anything but the floor touches the
+    robot (the person, the object): the torques are then solved at every driven step."""
+
     def __post_init__(self) -> None:
+        if not (isinstance(self.qp_every, int) and self.qp_every >= 1):
+            raise ConfigError(f"BalanceConfig.qp_every: expected an integer ≥ 1, found {self.qp_every!r}")
+        if not (self.hold_gain >= 0.0 and self.hold_near >= 0.0):
+            raise ConfigError(f"BalanceConfig: expected hold_gain ≥ 0 and hold_near ≥ 0 m, found {self.hold_gain}, "
+                              f"{self.hold_near}")
         for name in ("joint_bandwidth", "torso_bandwidth", "com_bandwidth"):
             if not getattr(self, name) > 0.0:
                 raise ConfigError(f"BalanceConfig.{name}: expected a frequency > 0 rad/s, found {getattr(self, name)}")

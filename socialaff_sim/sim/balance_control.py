@@ -60,6 +60,7 @@ from .plan_velocity import PlanVelocity
 from .scene import Scene
 from .self_clearance import SelfClearance
 from .support_box import SupportBox, cop_intervals
+from .torque_hold import TorqueHold
 
 __all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
 
@@ -110,6 +111,9 @@ class BalanceController:
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
         """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
+        self.hold = None if c.qp_every == 1 else TorqueHold(c.qp_every, c.hold_gain, c.joint_bandwidth)
+        """``qp_every`` > 1: the torques held between solves (:mod:`~.torque_hold`), else ``None``."""
+        self._hinge_ref = self._act_rows + 1  # each actuator's entry in the robot coordinates (free joint's 7 first)
         self.com = ComReference(c, self._feet, scene.root_body, self.compensation)
         """The centre of mass's reference c* (:mod:`~.com_reference`)."""
         self._plan = mujoco.MjData(m)
@@ -160,6 +164,10 @@ class BalanceController:
         solved without the feet's rows about the vertical alone."""
         self.clearance_steps = self.clearance_dropped_steps = 0
         """``self_clearance``: driven steps with a clearance row in the QP; of them, those whose rows were dropped."""
+        self.held_steps = 0
+        """``qp_every`` > 1: driven steps whose torques were held (not solved)."""
+        if self.hold is not None:
+            self.hold.reset()
         self._capture = np.zeros(2)
         if self.hand_yield is not None:
             self.hand_yield.reset()
@@ -239,14 +247,29 @@ class BalanceController:
         self.active = standing and (self.released or c.drive_harnessed)
         if self.active:
             self.active_steps += 1
-            tau = self._torques(m, d, q_ref, qd_ref, pts, frames, which, box, com, jcom, comvel)  # type: ignore[arg-type]
             q, v = d.qpos[self._act_q], d.qvel[self._act_v]
+            hold = self.hold
+            if hold is not None and not hold.due(self.released):
+                self.held_steps += 1
+                tau = hold.torques(q_ref[self._hinge_ref] - q, qd_ref[self._act_rows - 6] - v)
+            else:
+                tau = self._torques(m, d, q_ref, qd_ref, pts, frames, which, box, com, jcom, comvel)  # type: ignore[arg-type]
+                if hold is not None and self._near_body:  # an arm close to the body: the next step solves too
+                    hold.drop()
+                elif hold is not None:
+                    hold.store(tau, self._M[self._act_v, self._act_v], q_ref[self._hinge_ref] - q,
+                               qd_ref[self._act_rows - 6] - v, self.released)
             b = self._bias
             d.ctrl[self.scene.act_ids] = (tau - b[:, 0] - b[:, 1] * q - b[:, 2] * v) / self._gain
+        elif self.hold is not None:
+            self.hold.drop()
         mujoco.mj_step2(m, d)
         # the step's contacts with anything but the floor, read once for every part that folds them in
         contacts = self._external.contacts(m, d) if standing and (
             self.hand_yield is not None or self.compensation is not None or c.external_forces) else None
+        if self.hold is not None and c.hold_touch and standing and len(
+                (contacts if contacts is not None else self._external.contacts(m, d)).geoms):
+            self.hold.drop()  # touched by anything but the floor: the next driven step solves
         if standing and self.hand_yield is not None:
             self.hand_yield.measure(m, contacts, d, self.carried)  # type: ignore[arg-type]
         if standing and self.compensation is not None:
@@ -296,6 +319,7 @@ class BalanceController:
         """(n_act,) actuator torques (N·m) of the whole-body balance at the state after ``mj_step1``."""
         c = self.config
         va = self.vadr
+        self._near_body = False  # (set below: an arm within hold_near of the body in this solve)
         mujoco.mj_fullM(m, d, self._M)
         M = self._M[self._Mix]
         # The external forces as known loads on the root's rows only: the feet's forces then carry them, while the
@@ -371,6 +395,8 @@ class BalanceController:
         area = np.bincount(which, minlength=len(self._feet)) >= 3
         foot = np.where(area[which], which, -1)
         ineq = None if self._clearance is None else self._clearance.rows(m, d)
+        near = None if ineq is None else self._clearance.last_distance  # type: ignore[union-attr]
+        self._near_body = near is not None and bool((near < c.hold_near).any())
         # the joints' rows as the QP's diagonal task: no (n − 6) × n products of zeros
         qp_tasks = [*tasks[:-1], (self._joint_diag, np.concatenate([np.zeros(6), joints]), c.w_joint)]
         res = solve_contact_qp(M, h, self.unactuated, jac, edges, qp_tasks, self.mass, c.w_force, limits,
