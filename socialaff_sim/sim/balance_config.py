@@ -84,7 +84,7 @@ class BalanceConfig:
     box shrunk by m_z and a* is the acceleration of the moved point (:mod:`~.zmp_limit`; the trunk then does not pitch
     to buy an acceleration past the toes). ``None``: a* as the feedback asks (traced on the H1: a median 6 cm behind
     the centre of mass at the harness's release, the trunk pitched 4 → 12° in 0.1 s and was caught; docs/design.md §5,
-    "The H1's released trunk …")."""
+    "The H1's weight on the harness …")."""
     support_margin: float = 0.03
     """[m]: the centre-of-mass reference is kept this far inside the box of the feet's contact points
     (axes along the robot's heading)."""

@@ -4,7 +4,7 @@ A point mass m at height h above the floor accelerating horizontally by a needs 
 at the zero-moment point p = c − a h / g (c the centre of mass's horizontal position): the feet can push only from
 inside their support box, so the largest acceleration the soles alone can give is the one whose p lies in the box.
 The balance controller's centre-of-mass feedback a* = ω_c² (c* − c) − 2 ζ ω_c ċ knows nothing of this: traced on
-the H1 released by the harness (docs/design.md §5, "The H1's released trunk …"), the centre of mass stood a median
+the H1 released by the harness (docs/design.md §5, "The H1's weight on the harness …"), the centre of mass stood a median
 6 cm (a quarter over 13 cm) ahead of its reference at the release, a* asked for 2 m/s² and more, i.e. a zero-moment
 point 20 cm ahead of the centre of mass, past the toes, and the QP bought it by pitching the trunk (the hip
 strategy) 4 → 12° within 0.1 s, where the harness caught it.
