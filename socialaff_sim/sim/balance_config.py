@@ -30,7 +30,7 @@ class BalanceConfig:
     -----------------
     - Tracking: joint_bandwidth, torso_bandwidth, foot_damping, foot_stiffness
     - Balance: com_bandwidth, com_damping, com_reference, com_shift, shift_weight, shift_until_touch,
-      shift_strike, zmp_limit, support_margin, external_forces, external_filter
+      shift_strike, support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, min_foot_load, torque_fraction, flat_feet, yaw_first
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
@@ -78,13 +78,6 @@ class BalanceConfig:
     was caught, or leaned back and the hand stopped short; docs/design.md §5). Needs ``shift_until_touch``.
     ``None`` (the default): the weight follows the shift throughout the approach. An option, off: on development it
     recovered 2 of 9 lost high fives, and its rule (instances 144–151) did not hold: high fives 5 → 5 of 8."""
-    zmp_limit: float | None = None
-    """m_z [m]: the centre of mass's wanted horizontal acceleration a* is limited to what the soles can give: its
-    zero-moment point c − a* h / g (h the centre of mass's height over the feet's contacts) is moved into the support
-    box shrunk by m_z and a* is the acceleration of the moved point (:mod:`~.zmp_limit`; the trunk then does not pitch
-    to buy an acceleration past the toes). ``None``: a* as the feedback asks (traced on the H1: a median 6 cm behind
-    the centre of mass at the harness's release, the trunk pitched 4 → 12° in 0.1 s and was caught; docs/design.md §5,
-    "The H1's weight on the harness …")."""
     support_margin: float = 0.03
     """[m]: the centre-of-mass reference is kept this far inside the box of the feet's contact points
     (axes along the robot's heading)."""
@@ -235,8 +228,6 @@ class BalanceConfig:
         if not (self.clearance_detection > 0.0 and self.clearance_bandwidth > 0.0):
             raise ConfigError(f"BalanceConfig: expected clearance_detection > 0 m and clearance_bandwidth > 0 rad/s, "
                               f"found {self.clearance_detection}, {self.clearance_bandwidth}")
-        if self.zmp_limit is not None and not self.zmp_limit >= 0.0:
-            raise ConfigError(f"BalanceConfig.zmp_limit: expected None or a margin ≥ 0 m, found {self.zmp_limit}")
         if self.hand_yield is not None and not self.hand_yield >= 0.0:
             raise ConfigError(f"BalanceConfig.hand_yield: expected None or a fraction ≥ 0, found {self.hand_yield}")
         if self.yield_twist is not None and (self.hand_yield is None or not self.yield_twist > 0.0):

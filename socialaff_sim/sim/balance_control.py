@@ -8,8 +8,7 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
 1. wanted accelerations: every joint toward the IK's target (PD of bandwidth ω_q, the frame's joint velocity
    as reference), the torso's attitude toward the IK's (ω_o), the planted feet held where they stood when both
    came down (k_x, k_f: a creeping foot is drawn back), and the centre of mass's horizontal position toward a
-   reference c* over the feet (ω_c, ζ; :mod:`~.com_reference`; with ``zmp_limit`` no faster than the soles can
-   push it, :mod:`~.zmp_limit`): the IK's centre of mass relative to its feet carried
+   reference c* over the feet (ω_c, ζ; :mod:`~.com_reference`): the IK's centre of mass relative to its feet carried
    over to the physical feet (or the middle of the feet; with ``com_shift`` moved forward by the feet's shortfall
    behind the plan's, :mod:`~.com_shift`), optionally moved to lean against the measured external forces
    (:mod:`~.external_force`), kept inside the support box (the feet's soles, found at home from their contacts
@@ -60,7 +59,6 @@ from .hand_yield import HandYield
 from .scene import Scene
 from .self_clearance import SelfClearance
 from .support_box import SupportBox, cop_intervals
-from .zmp_limit import zmp_limited
 
 __all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
 
@@ -312,10 +310,7 @@ class BalanceController:
             p = np.array([goal[0], goal[1], floor])
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
         goal = box.clip(goal, c.support_margin)
-        acc = wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2]
-        if c.zmp_limit is not None:  # no acceleration the soles cannot push (the trunk's pitch would buy it)
-            acc = zmp_limited(box, com, acc, max(float(com[2]) - floor, 1e-3), self._g, c.zmp_limit)
-        tasks.append((jcom[:2], acc, w_com))
+        tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], w_com))
         mujoco.mj_jacBody(m, d, self._jp, self._jr, self._torso)
         Jt = self._jr[:, va].copy()
         err = self._torso_goal @ d.xmat[self._torso].reshape(3, 3).T  # world rotation from now to the goal
