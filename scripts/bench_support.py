@@ -192,9 +192,9 @@ def main() -> None:
                                  "episode_tilt_deg_max": m["support"]["episode"]["torso_tilt_deg_max"],
                                  "feet_offset_cm_median": 100 * float(np.median(both)) if both.size else None,
                                  "feet_offset_contact_cm_median": 100 * float(np.median(touching)) if touching.size else None,
-                                 "catches": None if bal is None else bal.catches,
-                                 "catch_reasons": None if bal is None else dict(bal.catch_reasons),
-                                 "released_steps": None if bal is None else bal.released_steps,
+                                 "catches": None if bal is None else bal.harness.catches,
+                                 "catch_reasons": None if bal is None else dict(bal.harness.catch_reasons),
+                                 "released_steps": None if bal is None else bal.harness.released_steps,
                                  **{k: cp[k] for k in KEYS}})
     print(f"{'robot':<12}{'mode':<8}{'interaction':<16}{'ok':>6}{'support mean':>14}{'peak':>8}{'slide cm':>10}"
           f"{'pen cm':>8}{'torque':>8}{'sat':>7}{'limit':>7}{'released':>10}")

@@ -101,7 +101,7 @@ def _half(robot: str, path: str | None, label: str, inter: Any, every: int) -> d
             balance_control.BalanceController._torques = real  # type: ignore[method-assign]
         sup = met["support"]
         out[f"every_{k}"] = {"cpu_s": cpu, "success": met["success"],
-                             "catches": sim._stage.stepper.balance.catches,  # type: ignore[union-attr]
+                             "catches": sim._stage.stepper.balance.harness.catches,  # type: ignore[union-attr]
                              "outside": sup["episode"]["outside_support_mean"],
                              "outside_contact": (sup.get("contact_phase") or {}).get("outside_support_mean"),
                              "failed": [f["kind"] for f in met["failures"] if f["triggered"]]}

@@ -202,7 +202,7 @@ def test_centre_of_mass_feedback_brings_the_centre_of_mass_over_the_middle_of_th
     assert np.linalg.norm(trace[-1][0][:2] - mid) <= 0.5 * start
     assert abs(np.linalg.norm(trace[-1][0][:2] - mid) - np.linalg.norm(trace[-5][0][:2] - mid)) <= 0.002
     assert trace[-1][0][0] - trace[0][0][0] >= 0.008  # forward, toward the middle
-    assert ctl.catches == 0 and ctl.released and trace[-1][1] == 0
+    assert ctl.harness.catches == 0 and ctl.harness.released and trace[-1][1] == 0
     assert ctl._tilt(d) <= 2.0
 
 
@@ -230,7 +230,7 @@ def test_the_plan_reference_carries_the_plans_offset_onto_the_physical_feet(scen
     # world, it would follow the plan along dx: the removed ``world`` reference, docs/design.md §5).
     plan, ctl = com_moved(scene, BalanceConfig(), dx)
     assert np.linalg.norm(plan) <= 0.002
-    assert ctl.catches == 0 and ctl.released
+    assert ctl.harness.catches == 0 and ctl.harness.released
 
 
 def test_each_reference_against_mujocos_centre_of_mass(scene: Scene) -> None:
@@ -249,13 +249,13 @@ def test_each_reference_against_mujocos_centre_of_mass(scene: Scene) -> None:
     feet = ctl._feet
     ctl.begin_frame(plan, (True, True))
     want = d.xpos[feet, :2].mean(axis=0) + com_plan - p.xpos[feet, :2].mean(axis=0)
-    assert np.allclose(ctl.reference(d, None), want, atol=1e-9)  # type: ignore[arg-type]
+    assert np.allclose(ctl.com.reference(d, None), want, atol=1e-9)  # type: ignore[arg-type]
     assert np.linalg.norm(want - com_plan) >= 0.25  # not the plan's own centre of mass: they differ by its shift
     box = SupportBox(np.array([[0.1, -0.2], [0.3, 0.0], [0.2, -0.05]]), np.array([0.6, 0.8]))
     ctl_m = BalanceController(scene, BalanceConfig(com_reference="middle"))
     ctl_m.begin_frame(plan, (True, True))
     local = np.array([[0.1, -0.2], [0.3, 0.0], [0.2, -0.05]]) @ box.R.T  # brute force: the box in its own axes
-    assert np.allclose(ctl_m.reference(d, box), 0.5 * (local.min(axis=0) + local.max(axis=0)) @ box.R, atol=1e-12)
+    assert np.allclose(ctl_m.com.reference(d, box), 0.5 * (local.min(axis=0) + local.max(axis=0)) @ box.R, atol=1e-12)
 
 
 def test_a_pushed_robot_returns_to_its_stance_on_its_own_feet(scene: Scene) -> None:
@@ -264,7 +264,7 @@ def test_a_pushed_robot_returns_to_its_stance_on_its_own_feet(scene: Scene) -> N
     dev = [float(np.linalg.norm(c[:2] - com0)) for c, _ in trace]
     assert max(dev) >= 0.015  # the push (16 N·s at the chest) moved it
     assert dev[-1] <= 0.005  # and it came back
-    assert ctl.catches == 0 and all(on == 0 for _, on in trace[2:])  # without the harness
+    assert ctl.harness.catches == 0 and all(on == 0 for _, on in trace[2:])  # without the harness
     assert ctl._tilt(d) <= 2.0
 
 
@@ -272,19 +272,19 @@ def test_harness_lets_go_of_a_steady_robot_after_the_delay_and_catches_a_falling
     cfg = BalanceConfig(release_delay=0.15)
     ctl, _, trace = _stand(scene, cfg, 0.5)
     assert trace[1][1] == 1 and all(on == 0 for _, on in trace[3:])  # on until 0.15 s, off after
-    assert ctl.released_steps == ctl.active_steps > 0
+    assert ctl.harness.released_steps == ctl.active_steps > 0
     # A shove that carries the capture point off the feet: caught.
     ctl, _, trace = _stand(scene, cfg, 1.5, push=(0.5, 0.8, 400.0))
-    assert ctl.catches >= 1 and any(on == 1 for _, on in trace[7:])
+    assert ctl.harness.catches >= 1 and any(on == 1 for _, on in trace[7:])
 
 
 def test_no_release_without_both_feet_planted_or_when_switched_off(scene: Scene) -> None:
     for planted, cfg in (((True, False), BalanceConfig()), ((True, True), BalanceConfig(release=False))):
         ctl, _, trace = _stand(scene, cfg, 0.4, planted=planted)
-        assert ctl.released_steps == 0 and ctl.active_steps == 0
+        assert ctl.harness.released_steps == 0 and ctl.active_steps == 0
         assert all(on == 1 for _, on in trace)
     ctl, _, trace = _stand(scene, BalanceConfig(release=False, drive_harnessed=True), 0.4)
-    assert ctl.released_steps == 0 and ctl.active_steps > 0 and all(on == 1 for _, on in trace)
+    assert ctl.harness.released_steps == 0 and ctl.active_steps > 0 and all(on == 1 for _, on in trace)
 
 
 def _episode(ours, config: SimConfig) -> list:
@@ -328,7 +328,7 @@ def test_external_contact_forces_are_the_constraint_forces_they_come_from(scene:
     # Standing released on its feet, the floor's contacts are the only constraint on the robot: counted as
     # external forces, their generalised force must be MuJoCo's own qfrc_constraint on the robot's coordinates.
     ctl, d, _ = _stand(scene, BalanceConfig(), 0.4)
-    assert ctl.released
+    assert ctl.harness.released
     gen, pts, forces = ExternalForces(scene, exclude_floor=False).measure(scene.model, d)
     np.testing.assert_allclose(gen, d.qfrc_constraint[scene.robot_vadr], atol=1e-6 * ctl.mass * 9.81)
     np.testing.assert_allclose(forces.sum(axis=0)[2], ctl.mass * 9.81, rtol=0.02)  # the feet carry the weight

@@ -85,17 +85,17 @@ def test_the_controller_shifts_its_reference_by_the_plans_feet_ahead(scene: Scen
     plan = q.copy()
     plan[:2] += 0.05 * f + 0.2 * left
     ctl.begin_frame(plan, (True, True))
-    s, w = ctl.shift(d, box)
+    s, w = ctl.com.shift(d, box)
     assert np.allclose(s, 0.05 * f, atol=1e-6)
     assert w == pytest.approx(100.0 + (2000.0 - 100.0) * 0.05 / 0.08, rel=1e-5)
     off = BalanceController(scene, BalanceConfig())
     off.begin_frame(plan, (True, True))
-    s0, w0 = off.shift(d, box)
+    s0, w0 = off.com.shift(d, box)
     assert np.all(s0 == 0.0) and w0 == 100.0
     back = q.copy()
     back[:2] -= 0.05 * f
     ctl.begin_frame(back, (True, True))
-    s, w = ctl.shift(d, box)
+    s, w = ctl.com.shift(d, box)
     assert np.allclose(s, 0.0) and w == 100.0
 
 
@@ -113,9 +113,9 @@ def test_the_steps_goal_is_the_reference_plus_the_shift_bit_for_bit(scene: Scene
     ctl.begin_frame(plan, (True, True))
     if touched:
         ctl.compensation.touched[0] = True
-    s, w = ctl.shift(d, box)
+    s, w = ctl.com.shift(d, box)
     goal, w_goal = ctl.com.goal(d, box)
-    assert np.array_equal(goal, ctl.reference(d, box) + s) and w_goal == w
+    assert np.array_equal(goal, ctl.com.reference(d, box) + s) and w_goal == w
     assert bool(np.any(s != 0.0)) == ("com_shift" in kw and not touched)
 
 
@@ -125,11 +125,11 @@ def test_a_standing_robot_leans_toward_a_plan_ahead_only(scene: Scene) -> None:
     cfg = BalanceConfig(com_shift=0.08, shift_weight=1e4)
     ahead, ctl = com_moved(scene, cfg, np.array([0.03, 0.0]))
     assert ahead[0] >= 0.02 and abs(ahead[1]) <= 0.003
-    assert ctl.catches == 0 and ctl.released
+    assert ctl.harness.catches == 0 and ctl.harness.released
     for off in (np.array([-0.03, 0.0]), np.array([0.0, 0.03])):
         moved, ctl = com_moved(scene, cfg, off)
         assert np.linalg.norm(moved) <= 0.003
-        assert ctl.catches == 0 and ctl.released
+        assert ctl.harness.catches == 0 and ctl.harness.released
     plain, _ = com_moved(scene, BalanceConfig(), np.array([0.03, 0.0]))
     assert ahead[0] - plain[0] >= 0.015
 
@@ -144,10 +144,10 @@ def test_the_shift_until_touch_ends_at_an_arms_first_touch(scene: Scene) -> None
         plan = q.copy()
         plan[:2] += 0.04 * box.R[0]
         ctl.begin_frame(plan, (True, True))
-        s, w = ctl.shift(d, box)
+        s, w = ctl.com.shift(d, box)
         assert np.allclose(s, 0.04 * box.R[0], atol=1e-6) and w == pytest.approx(100.0 + 9900.0 * 0.5, rel=1e-5)
         ctl.compensation.touched[1] = True
-        s, w = ctl.shift(d, box)
+        s, w = ctl.com.shift(d, box)
         if until:
             assert np.all(s == 0.0) and w == 100.0
         else:

@@ -187,7 +187,7 @@ def test_pushed_stubby_keeps_its_feet_level_and_its_pressure_inside_the_soles(sc
 
     monkeypatch.setattr(test_balance_control, "BalanceController", Probe)
     ctl, _, _ = _stand(scene, BalanceConfig(solver="qp", flat_feet=flat), 1.5, push=(0.4, 0.6, 100.0))
-    assert ctl.active_steps > 300 and ctl.catches == 0 and ctl.qp_failures == 0
+    assert ctl.active_steps > 300 and ctl.harness.catches == 0 and ctl.qp_failures == 0
     t = np.array(tilts)
     if flat:
         assert t.max() <= 1.7 and t.mean() <= 0.4

@@ -1,5 +1,5 @@
 """No glide step against the harness (``FootLockConfig.plant_caught``, :mod:`socialaff_sim.sim.footlock`): while the
-harness holds a robot it has caught (``BalanceController.holds_caught``), a gliding foot is planted at once instead
+harness holds a robot it has caught (``HarnessRelease.holds_caught``), a gliding foot is planted at once instead
 of stepping for a frame."""
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim import simulator as simulator_module
-from socialaff_sim.sim.balance_control import BalanceController
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
+from socialaff_sim.sim.harness_release import HarnessRelease
 from socialaff_sim.sim.sim_config import STANDING_FOOT_LOCK
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 
@@ -70,11 +70,11 @@ def test_the_decision_is_per_frame_and_a_foot_that_landed_short_is_not_restepped
 
 
 def test_holds_caught_is_a_catch_not_yet_let_go() -> None:
-    ctl = object.__new__(BalanceController)  # the property reads the two counters only
+    harness = object.__new__(HarnessRelease)  # the property reads the two counters only
     for catches, released, holds in ((0, False, False), (0, True, False), (1, True, False), (1, False, True),
                                      (3, False, True)):
-        ctl.catches, ctl.released = catches, released
-        assert ctl.holds_caught is holds
+        harness.catches, harness.released = catches, released
+        assert harness.holds_caught is holds
 
 
 def _gliding(inter):  # noqa: ANN001, ANN202
@@ -97,7 +97,7 @@ def test_the_simulator_tells_the_foot_lock_whether_the_harness_holds_a_caught_ro
             before = self.glide_steps
             out = super().apply(ankles, touching, physical, new_frame, caught)
             if new_frame:
-                calls.append((caught, sims[0]._stage.stepper.balance.holds_caught, before, self.glide_steps))
+                calls.append((caught, sims[0]._stage.stepper.balance.harness.holds_caught, before, self.glide_steps))
             return out
 
     monkeypatch.setattr(simulator_module, "FootLock", Recording)

@@ -211,7 +211,7 @@ def _swing_in(scene, config: BalanceConfig) -> tuple[float, BalanceController]:
 @pytest.mark.parametrize("clearance", [None, 0.01])
 def test_controller_keeps_a_forearm_swung_at_the_pelvis_out_of_it(scene, clearance) -> None:
     closest, ctl = _swing_in(scene, BalanceConfig(solver="qp", flat_feet=True, self_clearance=clearance))
-    assert ctl.released and ctl.catches == 0 and ctl.qp_failures == 0
+    assert ctl.harness.released and ctl.harness.catches == 0 and ctl.qp_failures == 0
     if clearance is None:
         assert closest <= -0.005  # driven into the pelvis (its contact with the forearm holds it 7 mm deep)
     else:

@@ -169,5 +169,5 @@ def test_hold_lift_keeps_a_pulling_robot_planted_and_released_longer() -> None:
         run_episode(sim, GroundTruthSource(), inter,
                     on_frame=lambda s, r, _: frames.append(all(p is not None for p in s._footlock.planted)))
         planted.append(sum(frames))
-        released.append(sim._stage.stepper.balance.released_steps)
+        released.append(sim._stage.stepper.balance.harness.released_steps)
     assert planted[1] > planted[0] and released[1] > released[0]

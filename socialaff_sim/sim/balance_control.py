@@ -24,15 +24,11 @@ while both feet are planted (by the foot lock) and on the floor, by torques comp
 3. the servos are made to exert τ exactly: ctrl = (τ − b₀ − b₁ q − b₂ q̇) / g for force = g·ctrl + b₀ + b₁q +
    b₂q̇ (MuJoCo clips it at the actuator's force limit, which the support meter reports as saturation).
 
-The harness weld lets go (``eq_active = 0``; its force is then zero by construction) once the feet have been
-planted ``release_delay`` and the robot is steady: torso within ``release_tilt`` (of upright, or with
-``tilt_from_plan`` of the plan's torso attitude), the capture point
-ξ = c + ċ/ω₀ inside the support box by ``release_margin`` (the support box: the soles of the feet in contact, and
-of a planted foot within ``sole_gap`` of the floor). It catches
-the robot again at once when the torso tilts past ``catch_tilt``, the capture point leaves the box by more than
-``catch_margin``, or a foot steps; the caught robot is held where it is and led back onto the IK's base over ``catch_blend``, and the release
-waits its delay again. Everything is decided per physics step; the per-frame part is the IK's plan
-(:meth:`begin_frame`).
+The harness weld lets go (``eq_active = 0``; its force is then zero by construction) of a steady standing robot
+and catches it again (:mod:`~.harness_release`, which the controller feeds the torso's tilt from upright, or with
+``tilt_from_plan`` from the plan's torso attitude, and the capture point ξ = c + ċ/ω₀ against the support box: the
+soles of the feet in contact, and of a planted foot within ``sole_gap`` of the floor). Everything is decided per
+physics step; the per-frame part is the IK's plan (:meth:`begin_frame`).
 
 The step is split (:func:`mujoco.mj_step1`, the controller, :func:`mujoco.mj_step2`) so that the controller
 reads the mass matrix, bias forces and contacts of the state it acts on; a weld switched after ``mj_step1``
@@ -56,6 +52,7 @@ from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts, foot_feedback, yaw_rows
 from .hand_yield import HandYield
+from .harness_release import HarnessRelease
 from .plan_velocity import PlanVelocity
 from .scene import Scene
 from .self_clearance import SelfClearance
@@ -93,7 +90,6 @@ class BalanceController:
         upper = subtree_mask(m, self._torso)
         upper[self._torso] = False
         self._upper = upper[m.dof_bodyid[self.vadr[6:]]]  # (n − 6,) the hinges above the torso (arms, head)
-        self._weld = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, "robot_anchor")
         ids = scene.act_ids
         self._gain = m.actuator_gainprm[ids, 0].copy()
         self._bias = m.actuator_biasprm[ids, :3].copy()
@@ -133,31 +129,28 @@ class BalanceController:
         self._jr = np.zeros((3, m.nv))
         self._quat = np.zeros(4)
         self._rot = np.zeros(3)
+        self.harness = HarnessRelease(scene, self.config)
+        """The harness: when it lets go and catches, the counts of both (:mod:`~.harness_release`)."""
         self.reset()
 
     # -- episode and frame ----------------------------------------------------------------------------------
     def reset(self) -> None:
         """A new episode: harnessed, nothing planted, counters at zero."""
-        self.released = False
-        """Whether the harness is off (as of the last step)."""
+        self.harness.reset()
         self.carried = False
         """Whether the person carries the object at this step (set by the frame stepper before each step; read by
         ``yield_carried``)."""
         self.active = False
         """Whether the controller's torques drove the last step."""
-        self._engaged = 0.0
         self._planted = (False, False)
         self._anchor: list[tuple[np.ndarray, np.ndarray]] | None = None
-        self._caught: tuple[np.ndarray, np.ndarray, float] | None = None
         self._ext_gen = np.zeros(len(self.vadr))
         self._ext_force = np.zeros(3)
         self._ext_moment = np.zeros(3)
         self._torso_goal = np.eye(3)
         self.com.reset()
-        self.steps = self.active_steps = self.released_steps = self.catches = 0
-        """Physics steps run, driven by the controller, with the harness off; times a released robot was caught."""
-        self.catch_reasons = {"tilt": 0, "capture": 0, "step": 0}
-        """Catches by cause: the torso's tilt, the capture point off the soles, a foot no longer planted."""
+        self.steps = self.active_steps = 0
+        """Physics steps run; driven by the controller."""
         self.limit_steps = self.relaxed_steps = self.qp_failures = self.yaw_dropped_steps = 0
         """``qp``: driven steps with a torque on its limit's bound; solved again without the foot loads and
         centre-of-pressure bounds; whose QP DAQP did not solve (the least-squares torques were used); (``yaw_first``)
@@ -175,12 +168,6 @@ class BalanceController:
             self.compensation.reset()
         if self.plan_velocity is not None:
             self.plan_velocity.clear()
-
-    @property
-    def holds_caught(self) -> bool:
-        """Whether the harness holds a robot it has caught (a catch in this episode, for any cause, and not let go
-        since; as of the last step)."""
-        return self.catches > 0 and not self.released
 
     def begin_frame(self, q_target: np.ndarray, planted: tuple[bool, bool] | None, q_start: np.ndarray | None = None,
                     duration: float = 0.0) -> None:
@@ -205,17 +192,16 @@ class BalanceController:
     def step(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray) -> None:
         """One physics step of ``d``: ``mj_step1``, the harness decision and (while standing) the torques toward
         the robot coordinates ``q_ref`` (nq_r,) with hinge velocities ``qd_ref`` (nv_r − 6,), ``mj_step2``."""
-        self._hold_caught(m, d)
+        self.harness.blend_anchor(m, d)
         mujoco.mj_step1(m, d)
         self.steps += 1
         c = self.config
         pts, frames, which = self.feet.contacts(d)
         standing = self._planted[0] and self._planted[1] and len(pts) > 0
-        self._engaged = self._engaged + m.opt.timestep if standing else 0.0
         if not (self._planted[0] and self._planted[1]):
             self._anchor = None  # a step: the feet are held where they next stand
         tilt = self._tilt(d)
-        box = None
+        box, capture = None, self._capture
         if standing:
             fwd = self.feet.heading(d)
             self._soles_now = self.feet.soles_at(d)  # the soles in the world, for the box and the _cop's bounds
@@ -227,29 +213,14 @@ class BalanceController:
             comvel = jcom @ d.qvel[self.vadr]
             height = max(float(com[2] - pts[:, 2].sum() / len(pts)), 1e-3)  # (the mean's arithmetic)
             capture = self._capture = com[:2] + comvel[:2] / math.sqrt(self._g / height)
-        was = self.released
-        if not standing:
-            self.released = False
-        elif self.released:
-            self.released = tilt <= c.catch_tilt and box.inside(capture, -c.catch_margin)  # type: ignore[union-attr]
-        else:
-            self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and tilt <= c.release_tilt
-                             and box.inside(capture, c.release_margin))  # type: ignore[union-attr]
-        if was and not self.released:
-            self.catches += 1
-            self.catch_reasons["step" if not standing else "tilt" if tilt > c.catch_tilt else "capture"] += 1
-            self._engaged = 0.0  # caught: the release waits its delay again
-            root = self.scene.root_body
-            self._caught = (d.xpos[root].copy(), d.xquat[root].copy(), 0.0)
-        if self._weld >= 0 and c.release:
-            d.eq_active[self._weld] = 0 if self.released else 1
-        self.released_steps += int(self.released)
-        self.active = standing and (self.released or c.drive_harnessed)
+        self.harness.decide(d, m.opt.timestep, standing, tilt, box, capture)
+        released = self.harness.released
+        self.active = standing and (released or c.drive_harnessed)
         if self.active:
             self.active_steps += 1
             q, v = d.qpos[self._act_q], d.qvel[self._act_v]
             hold = self.hold
-            if hold is not None and not hold.due(self.released):
+            if hold is not None and not hold.due(released):
                 self.held_steps += 1
                 tau = hold.torques(q_ref[self._hinge_ref] - q, qd_ref[self._act_rows - 6] - v)
             else:
@@ -258,7 +229,7 @@ class BalanceController:
                     hold.drop()
                 elif hold is not None:
                     hold.store(tau, self._M[self._act_v, self._act_v], q_ref[self._hinge_ref] - q,
-                               qd_ref[self._act_rows - 6] - v, self.released)
+                               qd_ref[self._act_rows - 6] - v, released)
             b = self._bias
             d.ctrl[self.scene.act_ids] = (tau - b[:, 0] - b[:, 1] * q - b[:, 2] * v) / self._gain
         elif self.hold is not None:
@@ -286,32 +257,6 @@ class BalanceController:
         self._ext_gen = a * self._ext_gen + (1.0 - a) * gen
         self._ext_force = a * self._ext_force + (1.0 - a) * forces.sum(axis=0)
         self._ext_moment = a * self._ext_moment + (1.0 - a) * np.cross(pts, forces).sum(axis=0)
-
-    def _hold_caught(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
-        """After a catch: the harness's anchor (which the stepper has set to the IK's base for this step) moved
-        from the root's pose at the catch onto it over ``catch_blend``."""
-        if self._caught is None or self.released or self.scene.anchor_mocap < 0:
-            self._caught = None
-            return
-        pos, quat, t = self._caught
-        a = min(t / self.config.catch_blend, 1.0) if self.config.catch_blend > 0 else 1.0
-        if a >= 1.0:
-            self._caught = None
-            return
-        k = self.scene.anchor_mocap
-        d.mocap_pos[k] = (1.0 - a) * pos + a * d.mocap_pos[k]
-        q = d.mocap_quat[k]
-        q = (1.0 - a) * quat + a * (q if float(q @ quat) >= 0 else -q)
-        d.mocap_quat[k] = q / np.linalg.norm(q)
-        self._caught = (pos, quat, t + m.opt.timestep)
-
-    def reference(self, d: mujoco.MjData, box: SupportBox) -> np.ndarray:
-        """:meth:`~.com_reference.ComReference.reference` of :attr:`com`."""
-        return self.com.reference(d, box)
-
-    def shift(self, d: mujoco.MjData, box: SupportBox) -> tuple[np.ndarray, float]:
-        """:meth:`~.com_reference.ComReference.shift` of :attr:`com`."""
-        return self.com.shift(d, box)
 
     def _torques(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray, pts: np.ndarray,
                  frames: np.ndarray, which: np.ndarray, box: SupportBox, com: np.ndarray, jcom: np.ndarray,

@@ -72,7 +72,7 @@ class FootLockConfig:
     plant_caught: bool = False
     """[—]: With ``glide_step``, while the harness holds a robot it has caught (any of the balance controller's
     catches: a step, the torso's tilt, the capture point off the soles; until it lets the robot go again,
-    :attr:`~socialaff_sim.sim.balance_control.BalanceController.holds_caught`) a glide is planted at once as without
+    :attr:`~socialaff_sim.sim.harness_release.HarnessRelease.holds_caught`) a glide is planted at once as without
     ``glide_step`` (and a short foot of ``restep_gap`` is not stepped again): the caught robot stands in the harness,
     which carries it along its plan as in the harness mode, instead of stepping against it, and is let go again
     once steady. ``False``: glides step whatever holds the robot (traced, the standing demo's synthesized high five:

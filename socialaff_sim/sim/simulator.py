@@ -238,7 +238,7 @@ class Simulator:
             bal = stage.stepper.balance
             world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()),
                                               physical, new_frame=not self._in_frame,
-                                              caught=bal is not None and bal.holds_caught)
+                                              caught=bal is not None and bal.harness.holds_caught)
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik

@@ -1,0 +1,89 @@
+"""The harness of the physics-rate balance controller: when it lets go of the robot, when it catches it, and how a
+caught robot is led back onto the IK's base.
+
+Decided per physics step (:class:`HarnessRelease`, owned by :class:`~.balance_control.BalanceController`): the weld
+lets go once both feet have been planted ``release_delay`` and the robot is steady (the torso within
+``release_tilt``, the capture point inside the support box by ``release_margin``); it catches the robot again at
+once when the torso tilts past ``catch_tilt``, the capture point leaves the box by more than ``catch_margin``, or a
+foot steps. A caught robot is held where it was caught and led onto the IK's base over ``catch_blend``, and the
+release waits its delay again.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from .balance_config import BalanceConfig
+from .scene import Scene
+from .support_box import SupportBox
+
+
+class HarnessRelease:
+    """The harness's state and decision of one physics scene; :meth:`reset` per episode, :meth:`blend_anchor`
+    before ``mj_step1`` and :meth:`decide` after it, each physics step."""
+
+    def __init__(self, scene: Scene, config: BalanceConfig) -> None:
+        self.config = config
+        self._root, self._mocap = scene.root_body, scene.anchor_mocap
+        self._weld = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_EQUALITY, "robot_anchor")
+        self.reset()
+
+    def reset(self) -> None:
+        """A new episode: harnessed, nothing planted, counters at zero."""
+        self.released = False
+        """Whether the harness is off (as of the last step)."""
+        self.catches = self.released_steps = 0
+        """Times a released robot was caught; physics steps with the harness off."""
+        self.catch_reasons = {"tilt": 0, "capture": 0, "step": 0}
+        """Catches by cause: the torso's tilt, the capture point off the soles, a foot no longer planted."""
+        self._engaged = 0.0  # (s) both feet planted for this long
+        self._caught: tuple[np.ndarray, np.ndarray, float] | None = None  # the root's pose at the catch, time since
+
+    @property
+    def holds_caught(self) -> bool:
+        """Whether the harness holds a robot it has caught (a catch in this episode, for any cause, and not let go
+        since; as of the last step)."""
+        return self.catches > 0 and not self.released
+
+    def blend_anchor(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
+        """After a catch: the harness's anchor (which the stepper has set to the IK's base for this step) moved
+        from the root's pose at the catch onto it over ``catch_blend``."""
+        if self._caught is None or self.released or self._mocap < 0:
+            self._caught = None
+            return
+        pos, quat, t = self._caught
+        a = min(t / self.config.catch_blend, 1.0) if self.config.catch_blend > 0 else 1.0
+        if a >= 1.0:
+            self._caught = None
+            return
+        k = self._mocap
+        d.mocap_pos[k] = (1.0 - a) * pos + a * d.mocap_pos[k]
+        q = d.mocap_quat[k]
+        q = (1.0 - a) * quat + a * (q if float(q @ quat) >= 0 else -q)
+        d.mocap_quat[k] = q / np.linalg.norm(q)
+        self._caught = (pos, quat, t + m.opt.timestep)
+
+    def decide(self, d: mujoco.MjData, dt: float, standing: bool, tilt: float, box: SupportBox | None,
+               capture: np.ndarray) -> None:
+        """The step's decision after ``mj_step1``: ``standing`` (both feet planted and on the floor), the torso's
+        ``tilt`` (degrees), the support ``box`` (``None`` unless standing) and the ``capture`` point (2,) (world, m);
+        ``dt`` (s) the physics step. Switches the weld in ``d`` (with ``release``) and counts."""
+        c = self.config
+        self._engaged = self._engaged + dt if standing else 0.0
+        was = self.released
+        if not standing:
+            self.released = False
+        elif self.released:
+            self.released = tilt <= c.catch_tilt and box.inside(capture, -c.catch_margin)  # type: ignore[union-attr]
+        else:
+            self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and tilt <= c.release_tilt
+                             and box.inside(capture, c.release_margin))  # type: ignore[union-attr]
+        if was and not self.released:
+            self.catches += 1
+            self.catch_reasons["step" if not standing else "tilt" if tilt > c.catch_tilt else "capture"] += 1
+            self._engaged = 0.0  # caught: the release waits its delay again
+            self._caught = (d.xpos[self._root].copy(), d.xquat[self._root].copy(), 0.0)
+        if self._weld >= 0 and c.release:
+            d.eq_active[self._weld] = 0 if self.released else 1
+        self.released_steps += int(self.released)
