@@ -33,7 +33,7 @@ class BalanceConfig:
       com_plan_velocity, torso_plan_velocity, plan_velocity_until_touch,
       support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
-      cop_margin, cop_kern, min_foot_load, torque_fraction, flat_feet, yaw_first
+      cop_margin, cop_kern, min_foot_load, torque_fraction, flat_feet, touch_gap, roll_bound, yaw_first
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
@@ -136,6 +136,16 @@ class BalanceConfig:
     contact points are the sole's four corners (the centre-of-pressure bounds then span the whole sole) and the
     foot's acceleration toward where it stood, level, is a hard constraint (``False``: the live contact points, and
     the feet's task in the objective toward the attitude they came down in)."""
+    touch_gap: float | None = None
+    """g [m]: ``flat_feet``: the QP's contact points of a planted foot in contact are only its sole's corners at most g
+    above its highest live contact with the floor, the corners the floor touches (:mod:`~.touching_corners`; the
+    hard rows toward level stay); ``None``: all four corners whatever touches (a foot rolled onto an edge is then
+    planned with forces at corners the floor does not push)."""
+    roll_bound: float | None = None
+    """m_r [m]: ``qp``: each foot's ankle roll torque is limited to what puts the floor's centre of pressure at most
+    b − m_r from its sole's middle across it (b half the sole's width), with the floor's force on the foot as
+    measured at the last physics step (:mod:`~.ankle_roll_bound`): no more than the floor can hold with the foot
+    flat (``None``: the actuators' limits only)."""
     yaw_first: bool = False
     """[—]: ``flat_feet``: where the QP cannot hold the feet's hard rows together with the torque limits, the two rows
     of the feet's turn about the vertical are dropped first (the soles' friction and the feet's task in the
@@ -282,6 +292,11 @@ class BalanceConfig:
         if not (self.yield_damping > 0.0 and self.yield_return >= 0.0):
             raise ConfigError(f"BalanceConfig: expected yield_damping > 0 N·s/m and yield_return ≥ 0 s, found "
                               f"{self.yield_damping}, {self.yield_return}")
+        if self.roll_bound is not None and not (self.solver == "qp" and self.roll_bound >= 0.0):
+            raise ConfigError(f"BalanceConfig.roll_bound: needs solver='qp' (torque limits) and m_r ≥ 0 m, found "
+                              f"{self.solver!r}, {self.roll_bound}")
+        if self.touch_gap is not None and not (self.flat_feet and self.touch_gap >= 0.0):
+            raise ConfigError(f"BalanceConfig.touch_gap: needs flat_feet and a gap ≥ 0 m, found {self.touch_gap}")
         if self.yaw_first and not self.flat_feet:
             raise ConfigError("BalanceConfig.yaw_first: needs flat_feet (the feet's hard rows)")
         if self.flat_feet and self.solver != "qp":

@@ -43,6 +43,7 @@ import mujoco
 import numpy as np
 
 from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
+from .ankle_roll_bound import AnkleRollBound
 from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
 from .contact_dynamics import cone_edges, solve_contact_dynamics
@@ -83,6 +84,7 @@ class BalanceController:
         self.feet = FeetOnFloor(scene, self.config.sole_gap)
         """The feet, their soles and their contacts with the floor (:mod:`~.feet_on_floor`)."""
         f = self.feet
+        self.roll_bound = AnkleRollBound.of(m, f, self.vadr, self.config.roll_bound)  # None: not bounded
         self._feet, self._foot_fwd, self._sole, self._corners = f.bodies, f.forward, f.soles, f.corners
         self._home_rot, self._home_z = f.home_rot, f.home_z
         # the body both shoulders hang from (as SupportMeter measures tilt)
@@ -235,6 +237,8 @@ class BalanceController:
         elif self.hold is not None:
             self.hold.drop()
         mujoco.mj_step2(m, d)
+        if self.roll_bound is not None:  # the feet's loads, for the next step's ankle roll limits
+            self.roll_bound.measure(m, d)
         # the step's contacts with anything but the floor, read once for every part that folds them in
         contacts = self._external.contacts(m, d) if standing and (
             self.hand_yield is not None or self.compensation is not None or c.external_forces) else None
@@ -287,7 +291,7 @@ class BalanceController:
         if c.flat_feet:
             pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
                                                    which, c.sole_gap, c.foot_stiffness, c.foot_damping,
-                                                   self._foot_scratch, feet)
+                                                   self._foot_scratch, feet, c.touch_gap)
         floor = float(pts[:, 2].sum() / len(pts))  # the contacts' mean height (m), for the lean and the hands' give
         full = np.empty((len(pts), 3, m.nv))  # each point's Jacobian written in place, the robot's columns taken once
         for i, (p, s) in enumerate(zip(pts, which.tolist(), strict=True)):
@@ -335,6 +339,8 @@ class BalanceController:
                                           c.w_force).tau[self._act_rows]
         limits = np.full((n, 2), [-np.inf, np.inf])
         limits[self._act_rows] = c.torque_fraction * self._limits(d.qpos[self._act_q], d.qvel[self._act_v])
+        if self.roll_bound is not None:
+            self.roll_bound.clip(limits)
         # The loads and centre-of-pressure bounds only for feet on an area (three contacts or more): on fewer, β ≥ 0
         # already keeps the centre of pressure on them, and the bounds' box may miss their segment.
         area = np.bincount(which, minlength=len(self._feet)) >= 3

@@ -26,6 +26,8 @@ import math
 import mujoco
 import numpy as np
 
+from .touching_corners import touching_corners
+
 __all__ = ["flat_attitude", "flat_contacts", "foot_drift", "foot_feedback", "foot_rows", "sole_corners", "sole_points",
            "yaw_rows"]
 
@@ -103,7 +105,7 @@ def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners:
                   anchors: list[tuple[np.ndarray, np.ndarray]], vadr: np.ndarray, pts: np.ndarray, frames: np.ndarray,
                   which: np.ndarray, sole_gap: float, stiffness: float, damping: float,
                   scratch: tuple[np.ndarray, np.ndarray] | None = None,
-                  feedback: list[tuple[np.ndarray, np.ndarray]] | None = None
+                  feedback: list[tuple[np.ndarray, np.ndarray]] | None = None, touch_gap: float | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
     """The contacts of a standing robot with its feet held flat (the module docstring).
 
@@ -114,7 +116,9 @@ def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners:
     lowest live contact, has them replaced by its sole's corners and gets the hard rows of :func:`foot_rows`.
     Returns the contact points, frames and feet, and the stacked rows (``None``: no such foot). ``scratch``: as
     :func:`foot_rows`'; ``feedback``: each foot's :func:`foot_feedback` toward its anchor with these gains, when
-    the caller has it already (the balance controller's feet's tasks): only the drift is then computed here."""
+    the caller has it already (the balance controller's feet's tasks): only the drift is then computed here.
+    ``touch_gap`` (g, m; ``BalanceConfig.touch_gap``): a foot with live contacts keeps only its sole's corners at
+    most g above its highest live contact (:func:`~.touching_corners.touching_corners`); ``None``: all four."""
     floor = float(pts[:, 2].min())
     keep = np.ones(len(pts), dtype=bool)
     add_p, add_f, add_w, rows = [], [], [], []
@@ -125,7 +129,11 @@ def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners:
         p, f = sole_points(d.xpos[body], d.xmat[body].reshape(3, 3), c)
         if not (which == s).any() and float(p[:, 2].min()) > floor + sole_gap + 0.002:
             continue
-        keep &= which != s
+        mine = which == s
+        if touch_gap is not None and mine.any():  # only the corners the floor touches
+            on = touching_corners(p[:, 2], pts[mine, 2], touch_gap)
+            p, f = p[on], f[on]
+        keep &= ~mine
         add_p.append(p)
         add_f.append(f)
         add_w.append(np.full(len(p), s, dtype=np.int64))
