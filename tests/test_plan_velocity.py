@@ -181,8 +181,9 @@ def test_a_standing_high_five_lost_to_the_braked_trunk_is_met_with_the_plans_vel
     met = []
     for on in (True, False):
         cfg = SimConfig.standing()
-        cfg = dataclasses.replace(cfg, balance=dataclasses.replace(
-            cfg.balance, com_plan_velocity=on, torso_plan_velocity=on))
+        cfg = dataclasses.replace(cfg, balance=dataclasses.replace(  # ungated and unlatched, as developed
+            cfg.balance, com_plan_velocity=on, torso_plan_velocity=on, plan_velocity_until_touch=False,
+            plan_velocity_raised=None, plan_velocity_tilt=None))
         met.append(bool(run_episode(Simulator(robot, "high_five", cfg), GroundTruthSource(), inter)["success"]))
     assert met == [True, False]
 
@@ -299,3 +300,12 @@ def test_the_tilt_bound_gives_the_rows_toward_rest_bit_for_bit_beyond_it(
 def test_the_tilt_bound_without_a_velocity_or_outside_0_90_is_refused(kw: dict) -> None:
     with pytest.raises(ConfigError, match="plan_velocity_tilt"):
         BalanceConfig(**kw)
+
+
+def test_the_standing_mode_follows_the_plans_velocities_in_a_raised_strike_and_the_harness_not() -> None:
+    # Adopted by the rule of docs/design.md §5 ("… the plan's velocities confined to a raised wrist", run on
+    # instances 240-247); the harness has no balance controller.
+    b = SimConfig.standing().balance
+    assert b.com_plan_velocity and b.torso_plan_velocity and b.plan_velocity_until_touch
+    assert b.plan_velocity_raised == 0.0 and b.plan_velocity_tilt == 4.0
+    assert SimConfig.harness().balance is None and SimConfig().balance is None
