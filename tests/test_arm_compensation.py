@@ -220,7 +220,9 @@ def test_the_gate_reaches_the_controller() -> None:
     for gate in (None, 0.4):
         sim = Simulator("ours", "high_five", dataclasses.replace(
             cfg, balance=dataclasses.replace(cfg.balance, arm_compensation=1.0, compensation_gate=gate,
-                                             com_shift=None, shift_until_touch=False)))
+                                             com_plan_velocity=False, torso_plan_velocity=False,
+                                             plan_velocity_until_touch=False, plan_velocity_raised=None,
+                                             plan_velocity_tilt=None, com_shift=None, shift_until_touch=False)))
         assert sim._get_stage(inter).stepper.balance.compensation.gate == gate
 
 
@@ -249,7 +251,9 @@ def test_a_standing_robot_meets_the_high_five_its_turned_trunk_missed() -> None:
         cfg = SimConfig.standing(floor_time_constant=None)  # on MuJoCo's floor, as traced
         sim = Simulator("ours", "high_five", dataclasses.replace(
             cfg, balance=dataclasses.replace(cfg.balance, arm_compensation=c, compensation_gate=gate,
-                                             com_shift=None, shift_until_touch=False)))  # as the rule found it
+                                             com_plan_velocity=False, torso_plan_velocity=False,
+                                             plan_velocity_until_touch=False, plan_velocity_raised=None,
+                                             plan_velocity_tilt=None, com_shift=None, shift_until_touch=False)))  # as the rule found it
         met.append(run_episode(sim, GroundTruthSource(), inter)["success"])
         beta.append(max(float(np.max(r.completion)) for r in sim.results if r.completion is not None))
     assert met == [False, True, True]

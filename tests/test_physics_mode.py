@@ -36,7 +36,9 @@ def test_the_default_is_the_harness_and_standing_is_a_named_preset() -> None:
     assert d.balance == BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0, flat_feet=True, self_clearance=0.01,
                                       hand_yield=0.5, yield_damping=50.0, yield_twist=0.02, yield_carried=True,
                                       arm_compensation=1.0, compensation_gate=1e9, com_shift=0.1,
-                                      shift_until_touch=True)
+                                      shift_until_touch=True, com_plan_velocity=True, torso_plan_velocity=True,
+                                      plan_velocity_until_touch=True, plan_velocity_raised=0.0,
+                                      plan_velocity_tilt=4.0)  # and session 32's plan velocities in a raised strike
     assert d.stance == StanceConfig(release=False)
     assert d.foot_lock == FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05,
                                          glide_until_contact=True, glide_gap=0.12)  # session 30's rule

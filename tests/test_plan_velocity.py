@@ -181,7 +181,131 @@ def test_a_standing_high_five_lost_to_the_braked_trunk_is_met_with_the_plans_vel
     met = []
     for on in (True, False):
         cfg = SimConfig.standing()
-        cfg = dataclasses.replace(cfg, balance=dataclasses.replace(
-            cfg.balance, com_plan_velocity=on, torso_plan_velocity=on))
+        cfg = dataclasses.replace(cfg, balance=dataclasses.replace(  # ungated and unlatched, as developed
+            cfg.balance, com_plan_velocity=on, torso_plan_velocity=on, plan_velocity_until_touch=False,
+            plan_velocity_raised=None, plan_velocity_tilt=None))
         met.append(bool(run_episode(Simulator(robot, "high_five", cfg), GroundTruthSource(), inter)["success"]))
     assert met == [True, False]
+
+
+def _lift_by_hand(scene: Scene, d: mujoco.MjData) -> np.ndarray:
+    """(2,) each wrist frame's height above its shoulder body, read by the robot's frame and limb names."""
+    m, robot = scene.model, load_robot("ours")
+    out = []
+    for s in (0, 1):
+        f, limb = robot.frames[1 + s], robot.limb_roots[s]
+        z = (d.site_xpos[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"robot/{f.name}")] if f.kind == "site" else
+             d.xpos[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"robot/{f.name}")])[2]
+        assert limb.kind == "body"
+        out.append(z - d.xpos[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"robot/{limb.name}"), 2])
+    return np.array(out)
+
+
+def _raised_plan(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """A plan from home that swings the left arm up (the hinge's sign that raises the wrist)."""
+    q = scene.home_qpos.copy()
+    lifts = {}
+    for sign in (1.0, -1.0):
+        end = q.copy()
+        end[_arm_hinge(scene)] += sign * 1.5
+        lifts[sign] = _lift_by_hand(scene, _posed(scene, end))[0]
+    end = q.copy()
+    end[_arm_hinge(scene)] += 1.5 if lifts[1.0] > lifts[-1.0] else -1.5
+    return q, end
+
+
+@pytest.mark.parametrize("above", [False, True])
+def test_raised_measures_only_a_plan_whose_wrist_stands_h_r_above_its_shoulder(scene: Scene, above: bool) -> None:
+    # h_r 1 cm under the plan's highest wrist-over-shoulder: the velocities as without the gate; 1 cm over: none.
+    q, end_q = _raised_plan(scene)
+    end = _posed(scene, end_q)
+    lift = _lift_by_hand(scene, end)
+    assert lift.max() - _lift_by_hand(scene, _posed(scene, q)).max() > 0.1  # the swing raised a wrist
+    _, _, ctl, _ = standing_far(scene, BalanceConfig(**QP, com_plan_velocity=True))
+    free = ctl.plan_velocity
+    free.measure(q, end, 0.0875)
+    assert np.linalg.norm(free.com) > 0.05
+    gated = PlanVelocity.of_scene(scene, ctl._feet, ctl._torso, float(lift.max()) + (-0.01 if above else 0.01))
+    assert np.allclose(gated.lift(end), lift, atol=1e-12)
+    gated.com[:] = 1.0  # a previous frame's velocities, cleared when the gate is shut
+    gated.measure(q, end, 0.0875)
+    assert gated.raised(end) == above
+    if above:
+        assert np.array_equal(gated.com, free.com) and np.array_equal(gated.torso, free.torso)
+    else:
+        assert not gated.com.any() and not gated.torso.any()
+
+
+@pytest.mark.parametrize("above", [False, True])
+def test_raised_rows_are_the_rows_toward_rest_bit_for_bit_when_no_wrist_is_raised(
+        scene: Scene, above: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    q, end = _raised_plan(scene)
+    lift = float(_lift_by_hand(scene, _posed(scene, end)).max())
+    cfg = BalanceConfig(**QP, com_plan_velocity=True, torso_plan_velocity=True,
+                        plan_velocity_raised=lift + (-0.01 if above else 0.01))
+    tasks, ctl, _ = _rows(scene, cfg, q, end, monkeypatch)
+    rest, _, _ = _rows(scene, BalanceConfig(**QP), q, end, monkeypatch)
+    same = np.array_equal(tasks[-3][1], rest[-3][1]) and np.array_equal(tasks[-2][1], rest[-2][1])
+    assert same != above
+    assert (np.linalg.norm(ctl.plan_velocity.com) > 0.05) == above
+
+
+@pytest.mark.parametrize("kw", [{"plan_velocity_raised": 0.0}, {"plan_velocity_raised": math.nan,
+                                                                  "com_plan_velocity": True}])
+def test_raised_without_a_velocity_or_with_a_bad_height_is_refused(kw: dict) -> None:
+    with pytest.raises(ConfigError, match="plan_velocity_raised"):
+        BalanceConfig(**kw)
+    BalanceConfig(torso_plan_velocity=True, plan_velocity_raised=-0.1)  # a finite height with a velocity: accepted
+
+
+@pytest.mark.parametrize("touched, tilt, until, bound, want", [
+    (False, 3.0, False, None, True), (False, 3.0, False, 4.0, True), (False, 5.0, False, 4.0, False),
+    (True, 3.0, True, 4.0, False), (True, 3.0, False, 4.0, True), (False, 4.0, True, 4.0, True)])
+def test_follows_the_touch_latch_and_the_tilt_bound(scene: Scene, touched: bool, tilt: float, until: bool,
+                                                    bound: float | None, want: bool) -> None:
+    pv = PlanVelocity.of_scene(scene, np.asarray(scene.limb_body_ids[2:4]), int(scene.limb_body_ids[0]), None,
+                               until, bound)
+    assert pv.follows(touched, tilt) == want
+
+
+@pytest.mark.parametrize("leaning", [False, True])
+def test_the_tilt_bound_gives_the_rows_toward_rest_bit_for_bit_beyond_it(
+        scene: Scene, leaning: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A bound under the robot's tilt at the step: the rows toward rest, exactly; above it: the plan's velocities.
+    q = scene.home_qpos.copy()
+    end = q.copy()
+    end[_arm_hinge(scene)] += 0.8
+    seen: list[float] = []
+    real = PlanVelocity.follows
+
+    def spy(self, touched, tilt):  # noqa: ANN001, ANN202
+        seen.append(tilt)
+        return real(self, touched, tilt)
+
+    monkeypatch.setattr(PlanVelocity, "follows", spy)
+    _rows(scene, BalanceConfig(**QP, com_plan_velocity=True, torso_plan_velocity=True), q, end, monkeypatch)
+    tilt = seen[-1]  # the tilt the spied step decided on (the steps before it are the same under any bound: no
+    assert tilt > 1e-6  # velocities measured before the plan's frame)
+    bound = 0.5 * tilt if leaning else tilt + 5.0
+    cfg = BalanceConfig(**QP, com_plan_velocity=True, torso_plan_velocity=True, plan_velocity_tilt=bound)
+    tasks, ctl, _ = _rows(scene, cfg, q, end, monkeypatch)
+    rest, _, _ = _rows(scene, BalanceConfig(**QP), q, end, monkeypatch)
+    assert np.linalg.norm(ctl.plan_velocity.com) > 0.05  # measured: the bound acts at the step, not on the plan
+    same = np.array_equal(tasks[-3][1], rest[-3][1]) and np.array_equal(tasks[-2][1], rest[-2][1])
+    assert same == leaning
+
+
+@pytest.mark.parametrize("kw", [{"plan_velocity_tilt": 5.0}, {"plan_velocity_tilt": 0.0, "com_plan_velocity": True},
+                                {"plan_velocity_tilt": 90.0, "torso_plan_velocity": True}])
+def test_the_tilt_bound_without_a_velocity_or_outside_0_90_is_refused(kw: dict) -> None:
+    with pytest.raises(ConfigError, match="plan_velocity_tilt"):
+        BalanceConfig(**kw)
+
+
+def test_the_standing_mode_follows_the_plans_velocities_in_a_raised_strike_and_the_harness_not() -> None:
+    # Adopted by the rule of docs/design.md §5 ("… the plan's velocities confined to a raised wrist", run on
+    # instances 240-247); the harness has no balance controller.
+    b = SimConfig.standing().balance
+    assert b.com_plan_velocity and b.torso_plan_velocity and b.plan_velocity_until_touch
+    assert b.plan_velocity_raised == 0.0 and b.plan_velocity_tilt == 4.0
+    assert SimConfig.harness().balance is None and SimConfig().balance is None

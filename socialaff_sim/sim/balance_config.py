@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ..errors import ConfigError
@@ -30,7 +31,8 @@ class BalanceConfig:
     -----------------
     - Tracking: joint_bandwidth, torso_bandwidth, foot_damping, foot_stiffness
     - Balance: com_bandwidth, com_damping, com_reference, com_shift, shift_weight, shift_until_touch,
-      com_plan_velocity, torso_plan_velocity, plan_velocity_until_touch,
+      com_plan_velocity, torso_plan_velocity, plan_velocity_until_touch, plan_velocity_raised,
+      plan_velocity_tilt,
       support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, cop_kern, min_foot_load, torque_fraction, flat_feet, touch_gap, roll_bound, yaw_first
@@ -86,6 +88,17 @@ class BalanceConfig:
     in the episode (the touch latch of ``compensation_gate``, which it needs): the reach toward a contact follows the
     plan's swing; once in contact the damping is toward rest again (traced: the plan's velocities in the contact
     phases of hand overs and catches lengthened the planted feet's slide, docs/design.md §5)."""
+    plan_velocity_raised: float | None = None
+    """h_r [m]: ``com_plan_velocity`` and ``torso_plan_velocity`` only in a frame whose plan (at the frame's end)
+    holds a wrist at least h_r above that arm's shoulder (world heights; may be negative): the strike of a reach above
+    the shoulder, not the approach's walk or a reach at the chest's height, whose following of the plan's trunk left
+    the robot leaning at the touch and its feet sliding after it (docs/design.md §5). ``None``: in every frame."""
+    plan_velocity_tilt: float | None = None
+    """θ_v [deg]: ``com_plan_velocity`` and ``torso_plan_velocity`` only at a physics step whose torso tilts at most
+    θ_v (from upright, or with ``tilt_from_plan`` from the plan's torso, as ``catch_tilt``); beyond, the damping is
+    toward rest: the lean the plan's trunk may bring in a strike is bounded below the harness's catch (traced: strikes
+    caught for tilt at the touch, their contact phases then held by the harness, docs/design.md §5). ``None``: no
+    bound."""
     support_margin: float = 0.03
     """[m]: the centre-of-mass reference is kept this far inside the box of the feet's contact points
     (axes along the robot's heading)."""
@@ -327,6 +340,14 @@ class BalanceConfig:
                                                or self.arm_compensation is None or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.plan_velocity_until_touch: needs com_plan_velocity or torso_plan_velocity, "
                               "and arm_compensation and compensation_gate (their touch latch)")
+        if self.plan_velocity_raised is not None and (not (self.com_plan_velocity or self.torso_plan_velocity)
+                                                      or not math.isfinite(self.plan_velocity_raised)):
+            raise ConfigError(f"BalanceConfig.plan_velocity_raised: needs com_plan_velocity or torso_plan_velocity and "
+                              f"a finite height (m), found {self.plan_velocity_raised!r}")
+        if self.plan_velocity_tilt is not None and (not (self.com_plan_velocity or self.torso_plan_velocity)
+                                                    or not 0.0 < self.plan_velocity_tilt < 90.0):
+            raise ConfigError(f"BalanceConfig.plan_velocity_tilt: needs com_plan_velocity or torso_plan_velocity and "
+                              f"an angle in (0, 90) degrees, found {self.plan_velocity_tilt!r}")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

@@ -115,8 +115,8 @@ class BalanceController:
         self.com = ComReference(c, self._feet, scene.root_body, self.compensation)
         """The centre of mass's reference c* (:mod:`~.com_reference`)."""
         self._plan = mujoco.MjData(m)
-        self.plan_velocity = PlanVelocity(m, self._feet, scene.root_body, self._torso, self.qadr) if (
-            c.com_plan_velocity or c.torso_plan_velocity) else None
+        self.plan_velocity = PlanVelocity.of_scene(scene, self._feet, self._torso, c.plan_velocity_raised,
+            c.plan_velocity_until_touch, c.plan_velocity_tilt) if c.com_plan_velocity or c.torso_plan_velocity else None
         """``com_plan_velocity`` / ``torso_plan_velocity``: the plan's velocities over the frame (:mod:`~.plan_velocity`),
         else ``None``."""
         self._limits, self._Mix = ActuatorLimits(m, scene.act_ids), np.ix_(self.vadr, self.vadr)  # made once
@@ -303,8 +303,8 @@ class BalanceController:
             p = np.array([goal[0], goal[1], floor])
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
         goal = box.clip(goal, c.support_margin)
-        moving = self.plan_velocity is not None and not (c.plan_velocity_until_touch and
-                                                          self.compensation.touched.any())  # type: ignore[union-attr]
+        moving = self.plan_velocity is not None and self.plan_velocity.follows(  # the touch latch, the tilt bound
+            self.compensation is not None and bool(self.compensation.touched.any()), self._tilt(d))
         if c.com_plan_velocity and moving:  # the damping toward the plan's velocity (relative to the feet), not rest
             tasks.append((jcom[:2], wc * wc * (goal - com[:2]) + 2.0 * zc * wc * (self.plan_velocity.com - comvel[:2]),  # type: ignore[union-attr]
                           w_com))
