@@ -202,7 +202,7 @@ class BalanceController:
         standing = self._planted[0] and self._planted[1] and len(pts) > 0
         if not (self._planted[0] and self._planted[1]):
             self._anchor = None  # a step: the feet are held where they next stand
-        tilt = self._tilt(d)
+        tilt = self._step_tilt = self._tilt(d)  # (the plan's velocities' tilt bound reads it in _torques)
         box, capture = None, self._capture
         if standing:
             fwd = self.feet.heading(d)
@@ -304,7 +304,7 @@ class BalanceController:
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
         goal = box.clip(goal, c.support_margin)
         moving = self.plan_velocity is not None and self.plan_velocity.follows(  # the touch latch, the tilt bound
-            self.compensation is not None and bool(self.compensation.touched.any()), self._tilt(d))
+            self.compensation is not None and bool(self.compensation.touched.any()), self._step_tilt)
         if c.com_plan_velocity and moving:  # the damping toward the plan's velocity (relative to the feet), not rest
             tasks.append((jcom[:2], wc * wc * (goal - com[:2]) + 2.0 * zc * wc * (self.plan_velocity.com - comvel[:2]),  # type: ignore[union-attr]
                           w_com))
