@@ -35,7 +35,7 @@ class BalanceConfig:
       plan_velocity_tilt,
       support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
-      cop_margin, cop_kern, min_foot_load, torque_fraction, flat_feet, touch_gap, roll_bound, yaw_first
+      cop_margin, cop_kern, cop_foot_axes, min_foot_load, torque_fraction, flat_feet, touch_gap, roll_bound, yaw_first
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
@@ -141,6 +141,11 @@ class BalanceConfig:
     κ = 0.5 is the largest box inside that rhombus; pressed at an edge instead, the foot rolls onto two corners and its
     ankle rocks. Off: in development it cost more balance than the absolute ``cop_margin`` and slid no less
     (docs/design.md §5, "The standing mode's feet tipping onto their edges …")."""
+    cop_foot_axes: bool = False
+    """[—]: ``qp``: each foot's centre-of-pressure interval (``cop_margin``, ``cop_kern``) is taken along that foot's
+    own forward and left axes (:mod:`~.foot_cop`) instead of the support box's (the feet's mean heading): a foot
+    turned by ψ from the heading projects wider than its sole, and near the sole's ends the box's interval reaches its
+    long edges (``False``: the box's axes)."""
     min_foot_load: float = 0.05
     """[—]: ``qp``: each planted foot in contact pushes on the floor with at least this fraction of the robot's
     weight (an unloaded foot lifts off by a hair and its contacts flicker)."""

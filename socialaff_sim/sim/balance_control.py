@@ -52,6 +52,7 @@ from .contact_qp import ActuatorLimits, cop_rows, solve_contact_qp
 from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts, foot_feedback, yaw_rows
+from .foot_cop import foot_cop_rows
 from .hand_yield import HandYield
 from .harness_release import HarnessRelease
 from .plan_velocity import PlanVelocity
@@ -374,6 +375,10 @@ class BalanceController:
         if feet:
             mine = [pts[which == s, :2] for s in feet]
             soles = [xy if self._sole[s] is None else self._soles_now[s][:, :2] for s, xy in zip(feet, mine, strict=True)]
+            if self.config.cop_foot_axes:  # each foot along its own axes, not the box's (:mod:`~.foot_cop`)
+                fwd = np.array([(d.xmat[b].reshape(3, 3) @ a)[:2] for b, a in zip(self._feet, self._foot_fwd, strict=True)])
+                return foot_cop_rows(pts, edges, which, [None if so is None else so[:, :2] for so in self._soles_now],
+                                     fwd, self.config.cop_margin, self.config.cop_kern)
             bounds[feet] = cop_intervals(box.R, soles, mine, self.config.cop_margin, self.config.cop_kern)
         return cop_rows(pts, edges, which, box.R, bounds)
 
