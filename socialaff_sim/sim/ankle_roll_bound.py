@@ -73,9 +73,7 @@ class AnkleRollBound:
         self.moments = np.zeros(len(self._bodies))
         """(2,) the moment (N·m) about each foot's roll axis of the floor's force on it at the last :meth:`measure`,
         the force moved to its sole's middle."""
-        self._foot_geom = feet._foot_geom
-        self._floor = feet._floor
-        self._f6 = np.zeros(6)
+        self._feet_on_floor = feet
 
     @classmethod
     def of(cls, m: mujoco.MjModel, feet: FeetOnFloor, vadr: np.ndarray, margin: float | None) -> AnkleRollBound | None:
@@ -85,17 +83,7 @@ class AnkleRollBound:
     def measure(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
         """Each foot's :attr:`loads` and :attr:`moments` from its contacts with the floor after ``mj_step2`` (MuJoCo's
         contact frame: the normal, then two tangents; the force on the foot, whichever geom comes first)."""
-        force = np.zeros((len(self._bodies), 3))
-        for i in range(d.ncon):
-            con = d.contact[i]
-            g1, g2 = int(con.geom1), int(con.geom2)
-            other = g2 if g1 == self._floor else g1 if g2 == self._floor else -1
-            s = int(self._foot_geom[other]) if other >= 0 else -1
-            if s < 0:
-                continue
-            mujoco.mj_contactForce(m, d, i, self._f6)
-            f = con.frame.reshape(3, 3).T @ self._f6[:3]  # world, on geom2
-            force[s] += f if other == g2 else -f
+        force = self._feet_on_floor.forces(m, d)
         self.loads = force[:, 2].copy()
         for s, j in enumerate(self._joints):
             if j is None or self._middle[s] is None:

@@ -86,6 +86,14 @@ class FeetOnFloor:
             out.append(pts[which == s, :2] if sole is None else sole[:, :2])
         return np.vstack(out)
 
+    def _on_floor(self, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Of ``d``'s contacts: which are a foot's with the floor (ncon,) bool, whose foot (ncon,) (−1: none), and
+        whether the floor is the contact's first geom (ncon,) bool."""
+        g = d.contact.geom[: d.ncon]
+        floor0, floor1 = g[:, 0] == self._floor, g[:, 1] == self._floor
+        side = self._foot_geom[np.where(floor0, g[:, 1], g[:, 0])]
+        return (floor0 | floor1) & (side >= 0), side, floor0
+
     def contacts(self, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The feet's contacts with the floor: points (P, 3), frames (P, 3, 3) (normal first, pointing from the
         floor into the foot) and the foot (P,) of each (0 left, 1 right)."""
@@ -93,16 +101,26 @@ class FeetOnFloor:
         if not nc:
             return np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(0, dtype=np.int64)
         con = d.contact
-        g = con.geom[:nc]
-        floor0, floor1 = g[:, 0] == self._floor, g[:, 1] == self._floor
-        other = np.where(floor0, g[:, 1], g[:, 0])
-        side = self._foot_geom[other]
-        keep = (floor0 | floor1) & (side >= 0)
+        keep, side, floor0 = self._on_floor(d)
         frames = con.frame[:nc][keep].reshape(-1, 3, 3).copy()
         # MuJoCo's normal points from geom 0 to geom 1: from the floor into the foot when the floor is geom 0.
         flip = ~floor0[keep]
         frames[flip] *= -1.0
         return con.pos[:nc][keep].copy(), frames, side[keep]
+
+    def forces(self, m: mujoco.MjModel, d: mujoco.MjData) -> np.ndarray:
+        """(2, 3) the floor's force on each foot (world, N): the sum of :func:`mujoco.mj_contactForce` over the
+        foot's contacts with the floor (after ``mj_step2``, or ``mj_forward``)."""
+        out = np.zeros((len(self._feet), 3))
+        if not d.ncon:
+            return out
+        keep, side, floor0 = self._on_floor(d)
+        f6 = np.zeros(6)
+        for i in np.flatnonzero(keep).tolist():
+            mujoco.mj_contactForce(m, d, i, f6)
+            f = d.contact.frame[i].reshape(3, 3).T @ f6[:3]  # world, on the second geom
+            out[side[i]] += f if floor0[i] else -f
+        return out
 
     def heading(self, d: mujoco.MjData) -> np.ndarray:
         """(2,) unit: the feet's forward direction on the floor."""
