@@ -35,7 +35,8 @@ class BalanceConfig:
       plan_velocity_tilt,
       support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
-      cop_margin, cop_kern, cop_foot_axes, min_foot_load, torque_fraction, flat_feet, touch_gap, roll_bound, yaw_first
+      cop_margin, cop_kern, cop_foot_axes, min_foot_load, torque_fraction, flat_feet, touch_gap, roll_bound, yaw_first,
+      flat_roll_free
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
@@ -170,6 +171,12 @@ class BalanceConfig:
     objective then hold it) and the other rows stay hard; only if that fails too are all of them dropped
     (``False``: all at once). On the H1 (legs of five joints: no ankle roll) the first QP failed in a third of the
     driven steps, each solvable without those two rows (docs/design.md §5, "The H1's first balance QP …")."""
+    flat_roll_free: bool = False
+    """[—]: ``flat_feet``: a foot whose leg has fewer than six joint degrees of freedom from the root (the H1's five:
+    no ankle roll) is held by its hard rows except its roll about its own forward axis, which its feet's task in the
+    objective (``w_feet``) then holds: all six over-constrain such a leg, and the QP met them by pitching the H1's
+    trunk at 100–190 rad/s² against its torso task in the 0.1 s after a release (docs/design.md §5, "The H1's trunk
+    pitched by its feet's hard rows …"). Legs of six or more: unchanged. ``False``: all six rows for every foot."""
     self_clearance: float | None = None
     """d_min [m]: ``qp``: the forearms and hands are kept this far from the rest of the robot (and from each other)
     by hard rows of the QP (:mod:`~.self_clearance`: a critically damped barrier on each close pair's distance);
@@ -315,6 +322,8 @@ class BalanceConfig:
                               f"{self.solver!r}, {self.roll_bound}")
         if self.touch_gap is not None and not (self.flat_feet and self.touch_gap >= 0.0):
             raise ConfigError(f"BalanceConfig.touch_gap: needs flat_feet and a gap ≥ 0 m, found {self.touch_gap}")
+        if self.flat_roll_free and not self.flat_feet:
+            raise ConfigError("BalanceConfig.flat_roll_free: needs flat_feet (the feet's hard rows)")
         if self.yaw_first and not self.flat_feet:
             raise ConfigError("BalanceConfig.yaw_first: needs flat_feet (the feet's hard rows)")
         if self.flat_feet and self.solver != "qp":

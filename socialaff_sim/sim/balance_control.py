@@ -51,7 +51,7 @@ from .com_reference import ComReference
 from .contact_qp import ActuatorLimits, cop_rows, solve_contact_qp
 from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
-from .flat_feet import flat_attitude, flat_contacts, foot_feedback, yaw_rows
+from .flat_feet import flat_attitude, flat_contacts, foot_feedback, roll_free_axes, yaw_rows
 from .foot_cop import foot_cop_rows
 from .hand_yield import HandYield
 from .harness_release import HarnessRelease
@@ -88,6 +88,8 @@ class BalanceController:
         self.roll_bound = AnkleRollBound.of(m, f, self.vadr, self.config.roll_bound)  # None: not bounded
         self._feet, self._foot_fwd, self._sole, self._corners = f.bodies, f.forward, f.soles, f.corners
         self._home_rot, self._home_z = f.home_rot, f.home_z
+        # flat_roll_free: the forward axis (body frame) of each foot whose leg cannot roll it, else None
+        self._roll_free = roll_free_axes(m, f.bodies, f.forward, scene.root_body) if self.config.flat_roll_free else None
         # the body both shoulders hang from (as SupportMeter measures tilt)
         self._torso = shared_ancestor(m, int(scene.limb_body_ids[0]), int(scene.limb_body_ids[1]), scene.root_body)
         upper = subtree_mask(m, self._torso)
@@ -292,7 +294,7 @@ class BalanceController:
         if c.flat_feet:
             pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
                                                    which, c.sole_gap, c.foot_stiffness, c.foot_damping,
-                                                   self._foot_scratch, feet, c.touch_gap)
+                                                   self._foot_scratch, feet, c.touch_gap, self._roll_free)
         floor = float(pts[:, 2].sum() / len(pts))  # the contacts' mean height (m), for the lean and the hands' give
         full = np.empty((len(pts), 3, m.nv))  # each point's Jacobian written in place, the robot's columns taken once
         for i, (p, s) in enumerate(zip(pts, which.tolist(), strict=True)):

@@ -28,8 +28,8 @@ import numpy as np
 
 from .touching_corners import touching_corners
 
-__all__ = ["flat_attitude", "flat_contacts", "foot_drift", "foot_feedback", "foot_rows", "sole_corners", "sole_points",
-           "yaw_rows"]
+__all__ = ["flat_attitude", "flat_contacts", "foot_drift", "foot_feedback", "foot_rows", "free_roll", "leg_dofs", "roll_free_axes",
+           "sole_corners", "sole_points", "yaw_rows"]
 
 _LEVEL_FRAME = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 """A level floor's contact frame: the normal (+z), then the world's x and y as tangents."""
@@ -105,8 +105,8 @@ def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners:
                   anchors: list[tuple[np.ndarray, np.ndarray]], vadr: np.ndarray, pts: np.ndarray, frames: np.ndarray,
                   which: np.ndarray, sole_gap: float, stiffness: float, damping: float,
                   scratch: tuple[np.ndarray, np.ndarray] | None = None,
-                  feedback: list[tuple[np.ndarray, np.ndarray]] | None = None, touch_gap: float | None = None
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+                  feedback: list[tuple[np.ndarray, np.ndarray]] | None = None, touch_gap: float | None = None,
+                  roll_free: list[np.ndarray | None] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
     """The contacts of a standing robot with its feet held flat (the module docstring).
 
     ``feet``: the feet's bodies; ``corners``: each one's :func:`sole_corners` (``None``: sole unknown, its live
@@ -118,7 +118,9 @@ def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners:
     :func:`foot_rows`'; ``feedback``: each foot's :func:`foot_feedback` toward its anchor with these gains, when
     the caller has it already (the balance controller's feet's tasks): only the drift is then computed here.
     ``touch_gap`` (g, m; ``BalanceConfig.touch_gap``): a foot with live contacts keeps only its sole's corners at
-    most g above its highest live contact (:func:`~.touching_corners.touching_corners`); ``None``: all four."""
+    most g above its highest live contact (:func:`~.touching_corners.touching_corners`); ``None``: all four.
+    ``roll_free`` (``BalanceConfig.flat_roll_free``): per foot its forward axis (3,, body frame) where its rows leave
+    out the roll about it (:func:`free_roll`), ``None`` where all six hold; ``None``: all six for every foot."""
     floor = float(pts[:, 2].min())
     keep = np.ones(len(pts), dtype=bool)
     add_p, add_f, add_w, rows = [], [], [], []
@@ -138,14 +140,49 @@ def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners:
         add_f.append(f)
         add_w.append(np.full(len(p), s, dtype=np.int64))
         if feedback is None:
-            rows.append(foot_rows(m, d, body, vadr, anchors[s][0], anchors[s][1], stiffness, damping, scratch))
+            J, b = foot_rows(m, d, body, vadr, anchors[s][0], anchors[s][1], stiffness, damping, scratch)
         else:
             J, b = feedback[s]
-            rows.append((J, b - foot_drift(m, d, body, None if scratch is None else scratch[1])))
+            b = b - foot_drift(m, d, body, None if scratch is None else scratch[1])
+        axis = None if roll_free is None else roll_free[s]
+        rows.append((J, b) if axis is None else free_roll(J, b, d.xmat[body].reshape(3, 3) @ axis))
     if not rows:
         return pts, frames, which, None
     return (np.vstack([pts[keep], *add_p]), np.concatenate([frames[keep], *add_f]),
             np.concatenate([which[keep], *add_w]), (np.vstack([r[0] for r in rows]), np.concatenate([r[1] for r in rows])))
+
+
+def leg_dofs(m: mujoco.MjModel, foot: int, root: int) -> int:
+    """The joint degrees of freedom between the body ``root`` (exclusive: its own joints, the free joint, not
+    counted) and the body ``foot`` (inclusive): six or more let a leg put its foot in any pose relative to the root;
+    the H1's legs have five (no ankle roll)."""
+    n, body = 0, int(foot)
+    while body != root and body > 0:
+        n += int(m.body_dofnum[body])
+        body = int(m.body_parentid[body])
+    return n
+
+
+def roll_free_axes(m: mujoco.MjModel, feet: list[int], forward: np.ndarray, root: int) -> list[np.ndarray | None]:
+    """``BalanceConfig.flat_roll_free``'s feet: per foot of ``feet`` its forward axis ``forward[i]`` (3,, body frame)
+    where its leg has fewer than six degrees of freedom from ``root`` (:func:`leg_dofs`: it cannot roll the foot on
+    its own), else ``None`` (its six hard rows stay)."""
+    return [np.asarray(fw, dtype=np.float64) if leg_dofs(m, int(b), root) < 6 else None
+            for b, fw in zip(feet, forward, strict=True)]
+
+
+def free_roll(J: np.ndarray, b: np.ndarray, forward: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A foot's six hard rows (``J`` (6, n), ``b`` (6,): linear then angular, world, as :func:`foot_rows`) with the
+    roll about the foot's horizontal forward axis left out: the angular rows turned onto the axes (forward,
+    lateral, vertical) of ``forward`` (3,) (the foot's forward axis in the world, projected on the floor), the roll's
+    row and value made zero (the QP's solve drops an empty row), the vertical (yaw) row kept sixth. New arrays."""
+    f = np.array([forward[0], forward[1], 0.0])
+    f /= max(float(np.linalg.norm(f)), 1e-12)
+    lat = np.array([-f[1], f[0], 0.0])
+    A, v = J.copy(), b.copy()
+    A[3], A[4] = 0.0, lat @ J[3:6]
+    v[3], v[4] = 0.0, float(lat @ b[3:6])
+    return A, v
 
 
 def yaw_rows(rows: int) -> np.ndarray:
