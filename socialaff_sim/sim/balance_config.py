@@ -35,7 +35,7 @@ class BalanceConfig:
       plan_velocity_tilt,
       support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
-      cop_margin, cop_kern, cop_foot_axes, min_foot_load, torque_fraction, flat_feet, touch_gap, roll_bound, yaw_first,
+      cop_margin, cop_kern, cop_foot_axes, min_foot_load, torque_fraction, flat_feet, roll_bound, yaw_first,
       flat_roll_free
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
@@ -155,11 +155,6 @@ class BalanceConfig:
     contact points are the sole's four corners (the centre-of-pressure bounds then span the whole sole) and the
     foot's acceleration toward where it stood, level, is a hard constraint (``False``: the live contact points, and
     the feet's task in the objective toward the attitude they came down in)."""
-    touch_gap: float | None = None
-    """g [m]: ``flat_feet``: the QP's contact points of a planted foot in contact are only its sole's corners at most g
-    above its highest live contact with the floor, the corners the floor touches (:mod:`~.touching_corners`; the
-    hard rows toward level stay); ``None``: all four corners whatever touches (a foot rolled onto an edge is then
-    planned with forces at corners the floor does not push)."""
     roll_bound: float | None = None
     """m_r [m]: ``qp``: each foot's ankle roll torque is limited to what puts the floor's centre of pressure at most
     b − m_r from its sole's middle across it (b half the sole's width), with the floor's force on the foot as
@@ -320,8 +315,6 @@ class BalanceConfig:
         if self.roll_bound is not None and not (self.solver == "qp" and self.roll_bound >= 0.0):
             raise ConfigError(f"BalanceConfig.roll_bound: needs solver='qp' (torque limits) and m_r ≥ 0 m, found "
                               f"{self.solver!r}, {self.roll_bound}")
-        if self.touch_gap is not None and not (self.flat_feet and self.touch_gap >= 0.0):
-            raise ConfigError(f"BalanceConfig.touch_gap: needs flat_feet and a gap ≥ 0 m, found {self.touch_gap}")
         if self.flat_roll_free and not self.flat_feet:
             raise ConfigError("BalanceConfig.flat_roll_free: needs flat_feet (the feet's hard rows)")
         if self.yaw_first and not self.flat_feet:

@@ -294,7 +294,7 @@ class BalanceController:
         if c.flat_feet:
             pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
                                                    which, c.sole_gap, c.foot_stiffness, c.foot_damping,
-                                                   self._foot_scratch, feet, c.touch_gap, self._roll_free)
+                                                   self._foot_scratch, feet, self._roll_free)
         floor = float(pts[:, 2].sum() / len(pts))  # the contacts' mean height (m), for the lean and the hands' give
         full = np.empty((len(pts), 3, m.nv))  # each point's Jacobian written in place, the robot's columns taken once
         for i, (p, s) in enumerate(zip(pts, which.tolist(), strict=True)):

@@ -26,7 +26,6 @@ import math
 import mujoco
 import numpy as np
 
-from .touching_corners import touching_corners
 
 __all__ = ["flat_attitude", "flat_contacts", "foot_drift", "foot_feedback", "foot_rows", "free_roll", "leg_dofs", "roll_free_axes",
            "sole_corners", "sole_points", "yaw_rows"]
@@ -105,7 +104,7 @@ def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners:
                   anchors: list[tuple[np.ndarray, np.ndarray]], vadr: np.ndarray, pts: np.ndarray, frames: np.ndarray,
                   which: np.ndarray, sole_gap: float, stiffness: float, damping: float,
                   scratch: tuple[np.ndarray, np.ndarray] | None = None,
-                  feedback: list[tuple[np.ndarray, np.ndarray]] | None = None, touch_gap: float | None = None,
+                  feedback: list[tuple[np.ndarray, np.ndarray]] | None = None,
                   roll_free: list[np.ndarray | None] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
     """The contacts of a standing robot with its feet held flat (the module docstring).
 
@@ -117,8 +116,6 @@ def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners:
     Returns the contact points, frames and feet, and the stacked rows (``None``: no such foot). ``scratch``: as
     :func:`foot_rows`'; ``feedback``: each foot's :func:`foot_feedback` toward its anchor with these gains, when
     the caller has it already (the balance controller's feet's tasks): only the drift is then computed here.
-    ``touch_gap`` (g, m; ``BalanceConfig.touch_gap``): a foot with live contacts keeps only its sole's corners at
-    most g above its highest live contact (:func:`~.touching_corners.touching_corners`); ``None``: all four.
     ``roll_free`` (``BalanceConfig.flat_roll_free``): per foot its forward axis (3,, body frame) where its rows leave
     out the roll about it (:func:`free_roll`), ``None`` where all six hold; ``None``: all six for every foot."""
     floor = float(pts[:, 2].min())
@@ -132,9 +129,6 @@ def flat_contacts(m: mujoco.MjModel, d: mujoco.MjData, feet: list[int], corners:
         if not (which == s).any() and float(p[:, 2].min()) > floor + sole_gap + 0.002:
             continue
         mine = which == s
-        if touch_gap is not None and mine.any():  # only the corners the floor touches
-            on = touching_corners(p[:, 2], pts[mine, 2], touch_gap)
-            p, f = p[on], f[on]
         keep &= ~mine
         add_p.append(p)
         add_f.append(f)
