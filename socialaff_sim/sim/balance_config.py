@@ -35,7 +35,7 @@ class BalanceConfig:
       plan_velocity_tilt,
       support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
-      cop_margin, cop_kern, cop_foot_axes, min_foot_load, torque_fraction, flat_feet, roll_bound, yaw_first,
+      cop_margin, cop_foot_axes, min_foot_load, torque_fraction, flat_feet, roll_bound, yaw_first,
       flat_roll_free
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
@@ -134,16 +134,8 @@ class BalanceConfig:
     cop_margin: float = 0.01
     """[m]: ``qp``: each foot's centre of pressure is kept this far inside its sole (along the heading's axes;
     within the foot's contact points in any case)."""
-    cop_kern: float | tuple[float, float] | None = None
-    """κ [—]: ``qp``: each foot's centre of pressure is also kept within κ times its sole's half-extent of the sole's
-    middle along each of the heading's axes, or (κ_forward, κ_left) axis by axis (``None``: ``cop_margin`` only). On
-    MuJoCo's soft floor a sole box touches at its four corners; a rigid sole on four equal corner springs keeps all
-    four pressed while its centre of pressure e (from the middle, half-extents a, b) has |e_x|/a + |e_y|/b ≤ 1, and
-    κ = 0.5 is the largest box inside that rhombus; pressed at an edge instead, the foot rolls onto two corners and its
-    ankle rocks. Off: in development it cost more balance than the absolute ``cop_margin`` and slid no less
-    (docs/design.md §5, "The standing mode's feet tipping onto their edges …")."""
     cop_foot_axes: bool = False
-    """[—]: ``qp``: each foot's centre-of-pressure interval (``cop_margin``, ``cop_kern``) is taken along that foot's
+    """[—]: ``qp``: each foot's centre-of-pressure interval (``cop_margin``) is taken along that foot's
     own forward and left axes (:mod:`~.foot_cop`) instead of the support box's (the feet's mean heading): a foot
     turned by ψ from the heading projects wider than its sole, and near the sole's ends the box's interval reaches its
     long edges (``False``: the box's axes)."""
@@ -321,12 +313,6 @@ class BalanceConfig:
             raise ConfigError("BalanceConfig.yaw_first: needs flat_feet (the feet's hard rows)")
         if self.flat_feet and self.solver != "qp":
             raise ConfigError(f"BalanceConfig.flat_feet: needs solver='qp' (hard constraints), found {self.solver!r}")
-        kern = self.cop_kern
-        kern = (() if kern is None else (kern,) if isinstance(kern, (int, float))  # type: ignore[assignment]
-                else tuple(kern))
-        if kern and not (len(kern) in (1, 2) and all(0.0 < k <= 1.0 for k in kern)):
-            raise ConfigError(f"BalanceConfig.cop_kern: expected None, a fraction in (0, 1] or a pair of them, found "
-                              f"{self.cop_kern}")
         if not 0.0 <= self.min_foot_load < 0.5:
             raise ConfigError(f"BalanceConfig.min_foot_load: expected a fraction in [0, 0.5), found "
                               f"{self.min_foot_load}")

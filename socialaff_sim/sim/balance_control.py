@@ -380,8 +380,8 @@ class BalanceController:
             if self.config.cop_foot_axes:  # each foot along its own axes, not the box's (:mod:`~.foot_cop`)
                 fwd = np.array([(d.xmat[b].reshape(3, 3) @ a)[:2] for b, a in zip(self._feet, self._foot_fwd, strict=True)])
                 return foot_cop_rows(pts, edges, which, [None if so is None else so[:, :2] for so in self._soles_now],
-                                     fwd, self.config.cop_margin, self.config.cop_kern)
-            bounds[feet] = cop_intervals(box.R, soles, mine, self.config.cop_margin, self.config.cop_kern)
+                                     fwd, self.config.cop_margin)
+            bounds[feet] = cop_intervals(box.R, soles, mine, self.config.cop_margin)
         return cop_rows(pts, edges, which, box.R, bounds)
 
     # -- measurements ---------------------------------------------------------------------------------------

@@ -28,10 +28,9 @@ def foot_axes(forward_xy: np.ndarray) -> np.ndarray:
 
 
 def foot_cop_rows(points: np.ndarray, edges: np.ndarray, which: np.ndarray, soles_xy: list[np.ndarray | None],
-                  forward_xy: np.ndarray, margin: float,
-                  kern: float | tuple[float, float] | None = None) -> np.ndarray:
+                  forward_xy: np.ndarray, margin: float) -> np.ndarray:
     """(R, 4P) rows C with ``C β ≥ 0`` iff every foot's centre of pressure lies inside its sole, shrunk by ``margin``
-    (m) (and ``kern``, :func:`~.support_box.cop_intervals`), along that foot's own axes: ``points`` (P, 3) the contact
+    (m) (:func:`~.support_box.cop_intervals`), along that foot's own axes: ``points`` (P, 3) the contact
     points, ``edges`` (P, 3, 4) their cones' edges, ``which`` (P,) each point's foot (−1: none, left unbounded),
     ``soles_xy`` per foot its sole's corners (S, 2) on the floor (``None``: its contact points instead),
     ``forward_xy`` (F, 2) each foot's forward direction on the floor. Four rows per foot with points, in foot order
@@ -45,6 +44,6 @@ def foot_cop_rows(points: np.ndarray, edges: np.ndarray, which: np.ndarray, sole
         axes = foot_axes(forward_xy[s])
         sole = points[mine, :2] if soles_xy[s] is None else soles_xy[s]
         bounds = np.zeros((s + 1, 2, 2))
-        bounds[s] = cop_intervals(axes, [sole], [points[mine, :2]], margin, kern)[0]
+        bounds[s] = cop_intervals(axes, [sole], [points[mine, :2]], margin)[0]
         out.append(cop_rows(points, edges, np.where(mine, s, -1), axes, bounds))
     return np.concatenate(out) if out else np.zeros((0, 4 * len(points)))

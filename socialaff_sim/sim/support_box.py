@@ -32,33 +32,24 @@ class SupportBox:
         return bool((x >= self.lo + margin).all() and (x <= self.hi - margin).all())
 
 
-def cop_interval(axes: np.ndarray, sole_xy: np.ndarray, point_xy: np.ndarray, margin: float,
-                 fraction: float | tuple[float, float] | None = None) -> np.ndarray:
+def cop_interval(axes: np.ndarray, sole_xy: np.ndarray, point_xy: np.ndarray, margin: float) -> np.ndarray:
     """(2, 2) per axis of ``axes`` (2, 2) (rows: unit horizontal axes, world) the interval [lo, hi] (m, along the
     axis) a foot's centre of pressure is kept in: the extent of its sole ``sole_xy`` (S, 2) shrunk by ``margin``
     (m; its middle where narrower than twice the margin), within the extent of its contact points ``point_xy``
     (K, 2) (the centre of pressure cannot leave them; where the two do not overlap, the contact points' end
-    nearest to the shrunk sole). ``fraction`` (κ, ``None``: none): the interval also within κ times the sole's
-    half-extent of its middle. One foot of :func:`cop_intervals`."""
-    return cop_intervals(axes, [sole_xy], [point_xy], margin, fraction)[0]
+    nearest to the shrunk sole). One foot of :func:`cop_intervals`."""
+    return cop_intervals(axes, [sole_xy], [point_xy], margin)[0]
 
 
 def cop_intervals(axes: np.ndarray, soles_xy: list[np.ndarray], points_xy: list[np.ndarray],
-                  margin: float, fraction: float | tuple[float, float] | None = None) -> np.ndarray:
+                  margin: float) -> np.ndarray:
     """(F, 2, 2) :func:`cop_interval` of F feet at once, foot f's sole ``soles_xy[f]`` (S_f, 2) and contact points
-    ``points_xy[f]`` (K_f, 2) (world, m): the projections foot by foot, the rest element-wise over the feet.
-
-    ``fraction`` κ (``BalanceConfig.cop_kern``): each sole's interval is also kept within κ times its half-extent
-    of its middle, axis by axis (κ = 0.5: the largest such box inside the rhombus |e_x|/a + |e_y|/b ≤ 1 where a rigid
-    sole on four equal corner springs keeps all four corners pressed)."""
+    ``points_xy[f]`` (K_f, 2) (world, m): the projections foot by foot, the rest element-wise over the feet."""
     sole = [xy @ axes.T for xy in soles_xy]
     pts = [xy @ axes.T for xy in points_xy]
     sole_lo, sole_hi = np.array([a.min(axis=0) for a in sole]), np.array([a.max(axis=0) for a in sole])  # (F, 2)
     s_lo, s_hi = sole_lo + margin, sole_hi - margin
     mid = 0.5 * (sole_lo + sole_hi)
-    if fraction is not None:  # the middle κ of each half-extent (within the margin's box in any case)
-        half = np.asarray(fraction, dtype=float) * 0.5 * (sole_hi - sole_lo)  # κ, or (κ_forward, κ_left)
-        s_lo, s_hi = np.maximum(s_lo, mid - half), np.minimum(s_hi, mid + half)
     s_lo, s_hi = np.minimum(s_lo, mid), np.maximum(s_hi, mid)
     p_lo, p_hi = np.array([a.min(axis=0) for a in pts]), np.array([a.max(axis=0) for a in pts])
     lo, hi = np.maximum(s_lo, p_lo), np.minimum(s_hi, p_hi)
