@@ -56,6 +56,7 @@ def test_settings_are_python_literals_of_the_classes_fields() -> None:
     (BalanceConfig, "com_reference='world'", "e923256"), (BalanceConfig, "com_reference='approach'", "e923256"),
     (BalanceConfig, "shift_strike=0.3", "7eedbfc"), (ContactCompletionConfig, "base_approach=0.1", "d8e4b73"),
     (ContactCompletionConfig, "base_approach_ramp=0.0", "d8e4b73"),
+    (BalanceConfig, "touch_gap=0.001", "b830275"), (BalanceConfig, "cop_kern=0.5", "7ad41ee"),
     (BalanceConfig, "no_such_field=1", None), (FootLockConfig, "hold_lift", None)])
 def test_an_unknown_or_removed_field_is_exit_2(cls, item, removed, capsys) -> None:  # noqa: ANN001
     line = _error(capsys, lambda: flags.field_settings(argparse.ArgumentParser(), "--x", cls, [item]))
