@@ -234,11 +234,9 @@ def test_a_foot_shaken_in_place_slides_a_long_path_but_drifts_its_amplitude(scen
     assert foot_drift([fs]) == pytest.approx(0.01, abs=1e-9)
 
 
-def test_a_foot_gets_its_corners_and_rows_in_contact_or_within_the_gap_only(scene) -> None:
-    # Stubby at home pressed 1 mm into the floor; the right foot's contacts "lost for a step" (only the left's
-    # passed). Within sole_gap the right foot stands on its corners too (8 points, 12 rows); with the floor 5 cm
-    # lower than its sole (the left's contacts moved down) it is left out (4 points, 6 rows), its live contacts
-    # (none) kept.
+def _pressed_at_home(scene):  # noqa: ANN001, ANN202
+    """Stubby at home pressed 1 mm into the floor: the model, its data, a flat-feet QP controller (sole_gap 1 cm),
+    the live floor contacts (points, frames, feet), each foot's pose as its anchor, the robot's coordinates."""
     m = scene.model
     d = mujoco.MjData(m)
     d.qpos[scene.robot_qadr] = scene.home_qpos
@@ -246,9 +244,17 @@ def test_a_foot_gets_its_corners_and_rows_in_contact_or_within_the_gap_only(scen
     mujoco.mj_forward(m, d)
     ctl = test_balance_control.BalanceController(scene, BalanceConfig(solver="qp", flat_feet=True, sole_gap=0.01))
     pts, frames, which = ctl.feet.contacts(d)
-    left = which == 0
     anchors = [(d.xpos[b].copy(), d.xmat[b].reshape(3, 3).copy()) for b in ctl._feet]
-    va = np.asarray(scene.robot_vadr)
+    return m, d, ctl, pts, frames, which, anchors, np.asarray(scene.robot_vadr)
+
+
+def test_a_foot_gets_its_corners_and_rows_in_contact_or_within_the_gap_only(scene) -> None:
+    # Stubby at home pressed 1 mm into the floor; the right foot's contacts "lost for a step" (only the left's
+    # passed). Within sole_gap the right foot stands on its corners too (8 points, 12 rows); with the floor 5 cm
+    # lower than its sole (the left's contacts moved down) it is left out (4 points, 6 rows), its live contacts
+    # (none) kept.
+    m, d, ctl, pts, frames, which, anchors, va = _pressed_at_home(scene)
+    left = which == 0
     args = (m, d, ctl._feet, ctl._corners, anchors, va)
     p, f, w, eq = flat_contacts(*args, pts[left], frames[left], which[left], 0.01, 100.0, 20.0)
     assert sorted(w.tolist()) == [0] * 4 + [1] * 4 and eq is not None and eq[0].shape == (12, len(va))

@@ -14,7 +14,7 @@ from socialaff_sim.errors import ConfigError
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.feet_on_floor import FeetOnFloor
 from socialaff_sim.sim.flat_feet import flat_contacts, free_roll, leg_dofs, roll_free_axes, yaw_rows
-import test_balance_control
+from test_flat_feet import _pressed_at_home
 
 _LEGS = """
 <mujoco><worldbody><body name="pelvis" pos="0 0 1"><freejoint/>
@@ -91,16 +91,8 @@ def test_free_roll_leaves_out_the_turn_about_the_feet_forward_axis_only(rng) -> 
 
 
 def test_flat_contacts_frees_the_roll_of_the_marked_foot_only(scene) -> None:
-    m = scene.model
-    d = mujoco.MjData(m)
-    d.qpos[scene.robot_qadr] = scene.home_qpos
-    d.qpos[scene.robot_qadr[2]] -= 0.001
-    mujoco.mj_forward(m, d)
-    ctl = test_balance_control.BalanceController(scene, BalanceConfig(solver="qp", flat_feet=True, sole_gap=0.01))
-    pts, frames, which = ctl.feet.contacts(d)
-    anchors = [(d.xpos[b].copy(), d.xmat[b].reshape(3, 3).copy()) for b in ctl._feet]
+    m, d, ctl, pts, frames, which, anchors, va = _pressed_at_home(scene)
     anchors = [(p + [0.01, -0.02, 0.0], r) for p, r in anchors]  # feedback on every row
-    va = np.asarray(scene.robot_vadr)
     args = (m, d, ctl._feet, ctl._corners, anchors, va, pts, frames, which, 0.01, 100.0, 20.0)
     *_, all6 = flat_contacts(*args)
     *_, freed = flat_contacts(*args, roll_free=[ctl.feet.forward[0], None])
