@@ -36,19 +36,20 @@ class PlanVelocity:
     """The plan's velocities of one model (see the module docstring): ``feet`` (F,) the foot bodies, ``root`` the
     robot's root body (its subtree's centre of mass), ``torso`` the torso body, ``qadr`` (nq_r,) the robot's
     coordinates in ``qpos``; ``raised`` h_r (m) or ``None`` (no gate), ``wrists`` the two wrist frames as
-    (id, is_site) and ``shoulders`` (2,) the two shoulder bodies (left, right; needed with ``raised``)."""
+    (id, is_site) and ``shoulders`` (2,) the two shoulder bodies (left, right; needed with ``raised``);
+    ``until_touch`` and ``tilt`` θ_v (degrees or ``None``): :meth:`follows`'s latch and bound."""
 
     def __init__(self, m: mujoco.MjModel, feet: np.ndarray, root: int, torso: int, qadr: np.ndarray,
                  raised: float | None = None, wrists: tuple[tuple[int, bool], ...] = (),
-                 shoulders: np.ndarray | None = None) -> None:
+                 shoulders: np.ndarray | None = None, until_touch: bool = False, tilt: float | None = None) -> None:
         self._m, self._feet, self._root, self._torso, self._qadr = m, np.asarray(feet), int(root), int(torso), qadr
         self._raised, self._wrists = raised, tuple((int(f), bool(site)) for f, site in wrists)
         self._shoulders = None if shoulders is None else np.asarray(shoulders, dtype=np.int64)
         if raised is not None and (len(self._wrists) != 2 or self._shoulders is None or len(self._shoulders) != 2):
             raise ConfigError("PlanVelocity: raised needs the two wrist frames and the two shoulder bodies")
-        self.until_touch = False
+        self.until_touch = until_touch
         """``BalanceConfig.plan_velocity_until_touch``: :meth:`follows` only until an arm's first touch."""
-        self.tilt: float | None = None
+        self.tilt = tilt
         """θ_v (degrees; ``BalanceConfig.plan_velocity_tilt``): :meth:`follows` only while the torso tilts at most
         θ_v, else ``None``."""
         self._start = mujoco.MjData(m)
@@ -63,10 +64,8 @@ class PlanVelocity:
                  until_touch: bool = False, tilt: float | None = None) -> PlanVelocity:
         """The plan's velocities of ``scene``'s robot: its wrist frames and shoulder bodies for ``raised``."""
         wrists = tuple((int(f), k == "site") for f, k in zip(scene.frame_ids[1:3], scene.frame_kinds[1:3], strict=True))
-        pv = cls(scene.model, feet, scene.root_body, torso, np.asarray(scene.robot_qadr), raised, wrists,
-                 scene.limb_body_ids[:2])
-        pv.until_touch, pv.tilt = until_touch, tilt
-        return pv
+        return cls(scene.model, feet, scene.root_body, torso, np.asarray(scene.robot_qadr), raised, wrists,
+                   scene.limb_body_ids[:2], until_touch, tilt)
 
     def follows(self, touched: bool, tilt: float) -> bool:
         """Whether the damping tracks the velocities at a physics step (else toward rest): not after an arm's first
