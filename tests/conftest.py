@@ -20,6 +20,7 @@ import pytest  # noqa: E402
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
 from socialaff_sim.errors import ConfigError  # noqa: E402
+from socialaff_sim.sim.footlock import FootLock, FootLockConfig  # noqa: E402
 
 SHARED_DATA = Path(os.environ.get("SOCIALAFF_SHARED_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
 
@@ -254,3 +255,18 @@ def planted_feet_error(sim, inter) -> float:  # noqa: ANN001 (Simulator, Interac
 
     run_episode(sim, GroundTruthSource(), inter, on_frame=frame)
     return float(np.median(err))
+
+
+FOOT_HOME = (0.08, 0.08)
+"""The foot lock's unit tests: the two ankles' heights at home (m)."""
+FOOT_ANKLES = np.array([[0.0, 0.1, 0.08], [0.0, -0.1, 0.08]])
+"""The foot lock's unit tests: the two ankle targets (2, 3) (world, m) the feet are planted at."""
+
+
+def planted_lock(config: FootLockConfig, physical: bool = True) -> FootLock:
+    """A foot lock of ``config`` with both feet planted at :data:`FOOT_ANKLES` (the physical ankles there too,
+    unless ``physical`` is ``False``)."""
+    lock = FootLock(FOOT_HOME, config)
+    lock.apply(FOOT_ANKLES, physical=FOOT_ANKLES if physical else None)
+    assert lock.standing == (True, True)
+    return lock

@@ -8,23 +8,15 @@ import dataclasses
 
 import numpy as np
 import pytest
+from conftest import FOOT_ANKLES as ANKLES, FOOT_HOME as HOME, planted_lock
 
 from socialaff_sim.errors import SimulationError
 from socialaff_sim.sim.caught_feet import follow_physical
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
 from socialaff_sim.sim.sim_config import STANDING_FOOT_LOCK, SimConfig
 
-HOME = (0.08, 0.08)
-ANKLES = np.array([[0.0, 0.1, 0.08], [0.0, -0.1, 0.08]])
 # The physical ankles 4 cm behind and 1.5 cm outward of where they were planted, the right one 0.6 cm rolled up.
 PHYSICAL = ANKLES + [[-0.04, 0.015, 0.0], [-0.04, -0.015, 0.006]]
-
-
-def _planted(config: FootLockConfig) -> FootLock:
-    lock = FootLock(HOME, config)
-    lock.apply(ANKLES, physical=ANKLES)
-    assert lock.standing == (True, True)
-    return lock
 
 
 def test_follow_physical_moves_each_planted_point_onto_its_ankle_horizontally_and_keeps_its_height() -> None:
@@ -45,18 +37,18 @@ def test_follow_physical_moves_each_planted_point_onto_its_ankle_horizontally_an
 
 def test_a_caught_robots_feet_are_planted_where_they_stand_and_not_otherwise() -> None:
     on = dataclasses.replace(STANDING_FOOT_LOCK, follow_caught=True)
-    lock = _planted(on)
+    lock = planted_lock(on)
     out = lock.apply(ANKLES, touching=True, physical=PHYSICAL, caught=True)
     expect = np.array([[-0.04, 0.115, 0.08], [-0.04, -0.115, 0.08]])
     np.testing.assert_allclose(out, expect)
     assert lock.standing == (True, True)
     np.testing.assert_allclose(np.array(lock.planted), expect)
     # Not caught (released, or held before any catch): the points stay where the feet came down.
-    lock = _planted(on)
+    lock = planted_lock(on)
     out = lock.apply(ANKLES, touching=True, physical=PHYSICAL, caught=False)
     np.testing.assert_allclose(out, ANKLES)
     # Caught before any contact held (the walk-up): the harness carries the feet along the plan as before.
-    lock = _planted(on)
+    lock = planted_lock(on)
     out = lock.apply(ANKLES, touching=False, physical=PHYSICAL, caught=True)
     np.testing.assert_allclose(out, ANKLES)
     # ... and once a contact has held, also in a frame whose contact lapsed.
@@ -64,14 +56,14 @@ def test_a_caught_robots_feet_are_planted_where_they_stand_and_not_otherwise() -
     out = lock.apply(ANKLES, touching=False, physical=PHYSICAL, caught=True)
     np.testing.assert_allclose(out, [[-0.04, 0.115, 0.08], [-0.04, -0.115, 0.08]])
     # Without the option a caught robot's feet stay planted where they came down too.
-    lock = _planted(STANDING_FOOT_LOCK)
+    lock = planted_lock(STANDING_FOOT_LOCK)
     out = lock.apply(ANKLES, touching=True, physical=PHYSICAL, caught=True)
     np.testing.assert_allclose(out, ANKLES)
 
 
 def test_a_stepping_foot_is_not_planted_by_it_and_the_other_follows() -> None:
     on = FootLockConfig(follow_caught=True)
-    lock = _planted(on)
+    lock = planted_lock(on)
     raised = ANKLES + [[0.0, 0.0, 0.0], [0.0, 0.0, 0.2]]  # the right foot's target 20 cm up: a step
     out = lock.apply(raised, touching=True, physical=PHYSICAL, caught=True)
     assert lock.standing == (True, False)

@@ -8,7 +8,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from conftest import planted_feet_error
+from conftest import FOOT_ANKLES as ANKLES, FOOT_HOME as HOME, planted_feet_error, planted_lock
 
 from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.errors import ConfigError, SimulationError
@@ -17,22 +17,13 @@ from socialaff_sim.sim.footlock import FootLock, FootLockConfig
 from socialaff_sim.sim.sim_config import STANDING_FOOT_LOCK
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 
-HOME = (0.08, 0.08)
-ANKLES = np.array([[0.0, 0.1, 0.08], [0.0, -0.1, 0.08]])
 GLIDE = np.array([0.06, 0.0, 0.0])  # 6 cm along the floor: beyond the lock's 5 cm radius
 H = 0.05
 
 
-def _planted(config: FootLockConfig) -> FootLock:
-    lock = FootLock(HOME, config)
-    lock.apply(ANKLES)
-    assert lock.standing == (True, True)
-    return lock
-
-
 def test_a_gliding_foot_steps_for_one_frame_then_is_put_down_and_without_the_option_is_planted_at_once() -> None:
     moved = ANKLES + [[0.0, 0.0, 0.0], GLIDE]
-    lock = _planted(FootLockConfig(glide_step=H))
+    lock = planted_lock(FootLockConfig(glide_step=H), physical=False)
     out = lock.apply(moved)
     assert lock.standing == (True, False) and lock.glide_steps == 1
     np.testing.assert_allclose(out[1], ANKLES[1] + GLIDE + [0.0, 0.0, H])  # over its new point, raised by h_g
@@ -41,13 +32,13 @@ def test_a_gliding_foot_steps_for_one_frame_then_is_put_down_and_without_the_opt
     assert lock.standing == (True, True)
     np.testing.assert_allclose(out, moved)
     # Without the option the foot is planted at the new point at once and never counts as stepping.
-    lock = _planted(FootLockConfig())
+    lock = planted_lock(FootLockConfig(), physical=False)
     np.testing.assert_allclose(lock.apply(moved), moved)
     assert lock.standing == (True, True) and lock.glide_steps == 0
 
 
 def test_a_slide_within_the_radius_or_a_lifted_step_is_not_a_glide() -> None:
-    lock = _planted(FootLockConfig(glide_step=H))
+    lock = planted_lock(FootLockConfig(glide_step=H), physical=False)
     out = lock.apply(ANKLES + [[0.0, 0.0, 0.0], [0.049, 0.0, 0.0]])  # within r: stands where planted
     np.testing.assert_allclose(out, ANKLES)
     assert lock.standing == (True, True) and lock.glide_steps == 0
@@ -56,13 +47,13 @@ def test_a_slide_within_the_radius_or_a_lifted_step_is_not_a_glide() -> None:
     out = lock.apply(np.array([ANKLES[0], up]))
     np.testing.assert_allclose(out[1], up)
     assert lock.standing == (True, False) and lock.glide_steps == 0
-    lock = _planted(FootLockConfig(glide_step=H))  # 1 mm below h_lift: a glide
+    lock = planted_lock(FootLockConfig(glide_step=H), physical=False)  # 1 mm below h_lift: a glide
     out = lock.apply(np.array([ANKLES[0], up - [0.0, 0.0, 0.002]]))
     assert lock.glide_steps == 1 and out[1, 2] == pytest.approx(0.08 + H)
 
 
 def test_one_foot_at_a_time_the_farther_first_and_the_other_held_until_the_first_has_landed() -> None:
-    lock = _planted(FootLockConfig(glide_step=H))
+    lock = planted_lock(FootLockConfig(glide_step=H), physical=False)
     both = ANKLES + [GLIDE, 1.5 * GLIDE]  # both glide, the right farther
     out = lock.apply(both)
     assert lock.standing == (True, False)
@@ -74,26 +65,26 @@ def test_one_foot_at_a_time_the_farther_first_and_the_other_held_until_the_first
     assert lock.standing == (False, True) and lock.glide_steps == 2
     np.testing.assert_allclose(out[0], both[0] + [0.0, 0.0, H])
     # Mirrored: the farther foot steps first whichever side it is.
-    lock = _planted(FootLockConfig(glide_step=H))
+    lock = planted_lock(FootLockConfig(glide_step=H), physical=False)
     lock.apply(ANKLES + [1.5 * GLIDE, GLIDE])
     assert lock.standing == (False, True)
 
 
 def test_no_glide_step_while_the_other_foot_steps_or_a_contact_holds_with_hold_in_contact() -> None:
-    lock = _planted(FootLockConfig(glide_step=H))
+    lock = planted_lock(FootLockConfig(glide_step=H), physical=False)
     lock.apply(np.array([ANKLES[0] + [0.0, 0.0, 0.2], ANKLES[1]]))  # the left foot steps (in the air)
     assert lock.standing == (False, True)
     out = lock.apply(np.array([ANKLES[0] + [0.0, 0.0, 0.2], ANKLES[1] + GLIDE]))
     assert lock.standing == (False, True) and lock.glide_steps == 0  # planted at once: the robot keeps a foot
     np.testing.assert_allclose(out[1], ANKLES[1] + GLIDE)
     for hold, steps in ((True, 0), (False, 1)):
-        lock = _planted(FootLockConfig(glide_step=H, hold_in_contact=hold))
+        lock = planted_lock(FootLockConfig(glide_step=H, hold_in_contact=hold), physical=False)
         lock.apply(ANKLES + [[0.0, 0.0, 0.0], GLIDE], touching=True)
         assert lock.glide_steps == steps
 
 
 def test_solved_again_within_a_frame_the_glide_step_stands_and_reset_clears_it() -> None:
-    lock = _planted(FootLockConfig(glide_step=H))
+    lock = planted_lock(FootLockConfig(glide_step=H), physical=False)
     moved = ANKLES + [[0.0, 0.0, 0.0], GLIDE]
     first = lock.apply(moved)
     for _ in range(3):
@@ -106,7 +97,7 @@ def test_solved_again_within_a_frame_the_glide_step_stands_and_reset_clears_it()
 def test_with_glide_until_contact_glides_step_only_until_a_contact_first_holds() -> None:
     moved = ANKLES + [[0.0, 0.0, 0.0], GLIDE]
     for latch, steps in ((True, 0), (False, 1)):
-        lock = _planted(FootLockConfig(glide_step=H, glide_until_contact=latch))
+        lock = planted_lock(FootLockConfig(glide_step=H, glide_until_contact=latch), physical=False)
         lock.apply(ANKLES, touching=True)  # a contact held at the end of the last frame (the feet stay)
         lock.apply(moved, touching=False)  # the contact has ended: the latch stays
         assert lock.glide_steps == steps and lock.standing == ((True, False) if steps else (True, True))

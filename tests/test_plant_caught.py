@@ -8,6 +8,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from conftest import FOOT_ANKLES as ANKLES, planted_lock
 
 from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.retarget.robot import load_robot
@@ -19,34 +20,25 @@ from socialaff_sim.sim.harness_release import HarnessRelease
 from socialaff_sim.sim.sim_config import STANDING_FOOT_LOCK
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 
-HOME = (0.08, 0.08)
-ANKLES = np.array([[0.0, 0.1, 0.08], [0.0, -0.1, 0.08]])
 GLIDE = np.array([0.06, 0.0, 0.0])  # 6 cm along the floor: beyond the lock's 5 cm radius
 H = 0.05
-
-
-def _planted(config: FootLockConfig) -> FootLock:
-    lock = FootLock(HOME, config)
-    lock.apply(ANKLES, physical=ANKLES)
-    assert lock.standing == (True, True)
-    return lock
 
 
 def test_a_glide_is_planted_at_once_while_caught_and_steps_otherwise() -> None:
     moved = ANKLES + [[0.0, 0.0, 0.0], GLIDE]
     behind = moved - [[0.0, 0.0, 0.0], [0.2, 0.0, 0.0]]  # the physical foot 20 cm short (beyond any glide_gap)
     on = dataclasses.replace(STANDING_FOOT_LOCK, plant_caught=True)
-    lock = _planted(on)
+    lock = planted_lock(on)
     out = lock.apply(moved, physical=behind, caught=True)
     assert lock.standing == (True, True) and lock.glide_steps == 0
     np.testing.assert_allclose(out, moved)  # planted at the new point, not raised
     # Not caught: the same glide steps (raised by h_g for a frame).
-    lock = _planted(on)
+    lock = planted_lock(on)
     out = lock.apply(moved, physical=behind, caught=False)
     assert lock.standing == (True, False) and lock.glide_steps == 1
     np.testing.assert_allclose(out[1], moved[1] + [0.0, 0.0, H])
     # Without the option a caught robot's glide steps too.
-    lock = _planted(STANDING_FOOT_LOCK)
+    lock = planted_lock(STANDING_FOOT_LOCK)
     lock.apply(moved, physical=behind, caught=True)
     assert lock.standing == (True, False) and lock.glide_steps == 1
 
@@ -55,14 +47,14 @@ def test_the_decision_is_per_frame_and_a_foot_that_landed_short_is_not_restepped
     moved = ANKLES + [[0.0, 0.0, 0.0], GLIDE]
     far = moved + [[0.0, 0.0, 0.0], GLIDE]
     on = FootLockConfig(glide_step=H, glide_gap=0.12, plant_caught=True)
-    lock = _planted(on)
+    lock = planted_lock(on)
     lock.apply(moved, physical=moved - [[0.0, 0.0, 0.0], [0.2, 0.0, 0.0]], caught=True)
     assert lock.glide_steps == 0
     lock.apply(far, physical=far - [[0.0, 0.0, 0.0], [0.2, 0.0, 0.0]], caught=False)  # let go: the next glide steps
     assert lock.standing == (True, False) and lock.glide_steps == 1
     short = ANKLES - [[0.0, 0.0, 0.0], [0.10, 0.0, 0.0]]  # the right foot 10 cm behind where it is planted
     restep = FootLockConfig(glide_step=H, restep_gap=0.08, plant_caught=True)
-    lock = _planted(restep)
+    lock = planted_lock(restep)
     lock.apply(ANKLES, physical=short, caught=True)
     assert lock.standing == (True, True) and lock.glide_steps == 0
     lock.apply(ANKLES, physical=short, caught=False)
