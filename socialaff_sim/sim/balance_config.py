@@ -39,7 +39,8 @@ class BalanceConfig:
       flat_roll_free
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
-    - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate
+    - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate,
+      compensation_after_touch
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, tilt_from_plan,
       catch_tilt, catch_margin, catch_blend, drive_harnessed
     - Rate: qp_every, hold_gain, hold_near, hold_touch
@@ -211,6 +212,11 @@ class BalanceConfig:
     plan's wrist is within d_g of a geom of the person or of the free object (their centres) and until that arm
     first touches the person or the object in the episode (``inf``: the touch alone ends it). ``None``: ungated (an
     arm is compensated until the person's force on it reaches ``compensation_release``, a held pull-up too)."""
+    compensation_after_touch: bool = False
+    """[—]: with ``compensation_gate``, an arm stays compensated after its first touch (only the force's fade,
+    ``compensation_release``, and the approach radius d_g shut it); the touch latch is still kept for
+    ``shift_until_touch`` and ``plan_velocity_until_touch``. ``False``: a touched arm gets none (traced, session 32:
+    the released H1's handshake hand then trails its plan by 10–30 cm after the first touch and the clasp is lost)."""
     sole_gap: float = 0.0
     """[m]: a planted foot without contacts whose sole is at most this high above the floor still counts for the
     support box of the harness's decisions (0: only feet in contact; a contact lost for a step then shrinks the
@@ -325,6 +331,9 @@ class BalanceConfig:
         if self.com_shift is not None and (self.com_reference != "plan" or not self.com_shift > 0.0):
             raise ConfigError(f"BalanceConfig.com_shift: needs com_reference='plan' and a distance > 0 m, found "
                               f"{self.com_shift!r} with com_reference {self.com_reference!r}")
+        if self.compensation_after_touch and (self.arm_compensation is None or self.compensation_gate is None):
+            raise ConfigError("BalanceConfig.compensation_after_touch: needs arm_compensation and compensation_gate "
+                              "(the gate whose touch latch it lifts)")
         if self.shift_until_touch and (self.com_shift is None or self.arm_compensation is None
                                        or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.shift_until_touch: needs com_shift, arm_compensation and compensation_gate "

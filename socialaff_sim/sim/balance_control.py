@@ -110,7 +110,8 @@ class BalanceController:
                                                                       c.yield_twist, c.yield_carried)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
-            scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
+            scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate,
+            c.compensation_after_touch)
         """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
         self.hold = None if c.qp_every == 1 else TorqueHold(c.qp_every, c.hold_gain, c.joint_bandwidth)
         """``qp_every`` > 1: the torques held between solves (:mod:`~.torque_hold`), else ``None``."""
