@@ -40,7 +40,7 @@ class BalanceConfig:
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate,
-      compensation_after_touch
+      compensation_after_touch, hand_task, hand_bandwidth, hand_task_touched
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, tilt_from_plan,
       catch_tilt, catch_margin, catch_blend, drive_harnessed
     - Rate: qp_every, hold_gain, hold_near, hold_touch
@@ -217,6 +217,15 @@ class BalanceConfig:
     ``compensation_release``, and the approach radius d_g shut it); the touch latch is still kept for
     ``shift_until_touch`` and ``plan_velocity_until_touch``. ``False``: a touched arm gets none (traced, session 32:
     the released H1's handshake hand then trails its plan by 10–30 cm after the first touch and the clasp is lost)."""
+    hand_task: float | None = None
+    """w_h [—]: each wrist's world position as a task of this weight in the balance QP, toward the plan's wrist at
+    the frame's end (:mod:`~.hand_task`: the QP otherwise tracks joint angles, and a released trunk carries the hand
+    10–30 cm off the plan's). ``None``: no such task."""
+    hand_bandwidth: float = 10.0
+    """ω_h [rad/s]: ``hand_task``'s bandwidth: the wanted wrist acceleration ω_h² (x* − x) − 2 ω_h ẋ."""
+    hand_task_touched: bool = False
+    """[—]: ``hand_task`` only for an arm that has touched the person or the object (the compensation's touch latch;
+    needs ``arm_compensation`` and ``compensation_gate``). ``False``: both arms throughout."""
     sole_gap: float = 0.0
     """[m]: a planted foot without contacts whose sole is at most this high above the floor still counts for the
     support box of the harness's decisions (0: only feet in contact; a contact lost for a step then shrinks the
@@ -334,6 +343,13 @@ class BalanceConfig:
         if self.compensation_after_touch and (self.arm_compensation is None or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.compensation_after_touch: needs arm_compensation and compensation_gate "
                               "(the gate whose touch latch it lifts)")
+        if self.hand_task is not None and not (self.hand_task > 0.0 and self.hand_bandwidth > 0.0):
+            raise ConfigError(f"BalanceConfig: expected hand_task None or > 0 and hand_bandwidth > 0 rad/s, found "
+                              f"{self.hand_task!r}, {self.hand_bandwidth}")
+        if self.hand_task_touched and (self.hand_task is None or self.arm_compensation is None
+                                       or self.compensation_gate is None):
+            raise ConfigError("BalanceConfig.hand_task_touched: needs hand_task, arm_compensation and compensation_gate "
+                              "(their touch latch)")
         if self.shift_until_touch and (self.com_shift is None or self.arm_compensation is None
                                        or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.shift_until_touch: needs com_shift, arm_compensation and compensation_gate "

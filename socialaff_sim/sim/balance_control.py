@@ -53,6 +53,7 @@ from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts, foot_feedback, roll_free_axes, yaw_rows
 from .foot_cop import foot_cop_rows
+from .hand_task import HandTask
 from .hand_yield import HandYield
 from .harness_release import HarnessRelease
 from .plan_velocity import PlanVelocity
@@ -116,6 +117,7 @@ class BalanceController:
         self.hold = None if c.qp_every == 1 else TorqueHold(c.qp_every, c.hold_gain, c.joint_bandwidth)
         """``qp_every`` > 1: the torques held between solves (:mod:`~.torque_hold`), else ``None``."""
         self._hinge_ref = self._act_rows + 1  # each actuator's entry in the robot coordinates (free joint's 7 first)
+        self.hands = None if c.hand_task is None else HandTask(scene, c.hand_task, c.hand_bandwidth, c.hand_task_touched)
         self.com = ComReference(c, self._feet, scene.root_body, self.compensation)
         """The centre of mass's reference c* (:mod:`~.com_reference`)."""
         self._plan = mujoco.MjData(m)
@@ -188,6 +190,8 @@ class BalanceController:
         mujoco.mj_comPos(m, p)
         self.com.begin_frame(p)
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
+        if self.hands is not None:  # hand_task: the plan's wrists at the frame's end
+            self.hands.begin_frame(p)
         if self.plan_velocity is not None:
             if q_start is not None and duration > 0.0:
                 self.plan_velocity.measure(q_start, p, duration)
@@ -332,6 +336,8 @@ class BalanceController:
             dq = dq + self.compensation.offsets(m, d, q_ref)
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
         joints = want * self._joint_scale  # per-row weights inside one task
+        if self.hands is not None:  # (before the joints' task, which the QP takes last)
+            tasks.extend(self.hands.tasks(m, d, va, None if self.compensation is None else self.compensation.touched))
         tasks.append((self._joint_rows, joints, c.w_joint))
         key = frames.tobytes()  # with flat_feet the same level frames step after step: their edges made once
         if key != self._edges[0]:

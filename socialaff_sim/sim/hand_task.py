@@ -1,0 +1,77 @@
+"""A task on each hand's position in the balance QP (``BalanceConfig.hand_task``).
+
+The balance QP tracks the IK's joint angles (a PD per hinge, the arms' rows weighted by ``upper_weight``), not where
+the hands are: a released trunk that rolls or pitches a few degrees carries a hand that meets its joint references
+10–30 cm away from the plan's wrist in the world (the released H1's handshakes lose the clasp's duration after the
+first touch, docs/design.md §5, "The released H1's handshake lost after its first touch …").
+
+:class:`HandTask` adds, per arm, three rows on the wrist frame's world position x (the IK's wrist key frame, a site
+or a body's origin):
+
+    J q̈ = ω² (x* − x) − 2 ω ẋ − J̇ q̇
+
+with J the frame's translational Jacobian over the robot's dofs (the whole body: the QP decides what moves), x* the
+plan's wrist at the frame's end (the posed plan of :meth:`~.balance_control.BalanceController.begin_frame`), ω
+``hand_bandwidth`` and the task's weight ``hand_task``; the J̇ q̇ term makes the rows the frame's acceleration
+ẍ = J q̈ + J̇ q̇. With ``hand_task_touched`` an arm gets its rows only once it has touched the person or the object
+(the arms' compensation's touch latch, :attr:`~.arm_compensation.ArmCompensation.touched`): before the touch
+``arm_compensation`` steers the approach.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from .arm_contacts import wrist_frames
+from .scene import Scene
+
+__all__ = ["HandTask", "hand_rows"]
+
+
+def hand_rows(jac: np.ndarray, jac_dot: np.ndarray, qvel: np.ndarray, x: np.ndarray, target: np.ndarray,
+              bandwidth: float) -> tuple[np.ndarray, np.ndarray]:
+    """(J, b): the rows J q̈ = b of a point's acceleration ω² (x* − x) − 2 ω ẋ, with ``jac`` J (3, n) and
+    ``jac_dot`` J̇ (3, n) its translational Jacobian and its time derivative, ``qvel`` q̇ (n,), ``x`` and ``target``
+    x* (3,) world (m), ``bandwidth`` ω (rad/s); ẋ = J q̇ and b = ω² (x* − x) − 2 ω ẋ − J̇ q̇."""
+    xd = jac @ qvel
+    return jac, bandwidth * bandwidth * (target - x) - 2.0 * bandwidth * xd - jac_dot @ qvel
+
+
+class HandTask:
+    """The hands' position rows of one physics scene (module docstring); :meth:`begin_frame` per data frame,
+    :meth:`tasks` per solve."""
+
+    def __init__(self, scene: Scene, weight: float, bandwidth: float, touched_only: bool = False) -> None:
+        m = scene.model
+        self.weight, self.bandwidth, self.touched_only = weight, bandwidth, touched_only
+        self._frames = wrist_frames(scene)
+        self._bodies = [int(m.site_bodyid[f]) if site else f for f, site in self._frames]
+        self.targets = np.full((2, 3), np.nan)
+        """(2, 3) each wrist's planned position at the frame's end (world, m); NaN before the first frame."""
+        self._jp, self._jd = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+
+    def position(self, d: mujoco.MjData, s: int) -> np.ndarray:
+        """(3,) arm ``s``'s wrist frame in ``d`` (world, m)."""
+        f, site = self._frames[s]
+        return d.site_xpos[f] if site else d.xpos[f]
+
+    def begin_frame(self, plan: mujoco.MjData) -> None:
+        """Read the targets from ``plan``, the posed (kinematics run) plan of the frame's end."""
+        self.targets = np.array([self.position(plan, s) for s in (0, 1)])
+
+    def tasks(self, m: mujoco.MjModel, d: mujoco.MjData, vadr: np.ndarray,
+              touched: np.ndarray | None) -> list[tuple[np.ndarray, np.ndarray, float]]:
+        """The (J (3, n), b (3,), weight) tasks of the arms that get one at the state ``d`` after ``mj_step1``
+        (velocities and ``cdof_dot`` computed), over the robot's dofs ``vadr`` (n,); ``touched`` (2,) bool: the touch
+        latch (``None``: no arm has touched)."""
+        out = []
+        for s in (0, 1):
+            if self.touched_only and (touched is None or not touched[s]):
+                continue
+            x = self.position(d, s).copy()
+            mujoco.mj_jac(m, d, self._jp, None, x, self._bodies[s])
+            mujoco.mj_jacDot(m, d, self._jd, None, x, self._bodies[s])
+            J, b = hand_rows(self._jp[:, vadr], self._jd[:, vadr], d.qvel[vadr], x, self.targets[s], self.bandwidth)
+            out.append((J.copy(), b, self.weight))
+        return out
