@@ -97,7 +97,7 @@ def test_touched_only_gives_rows_to_touched_arms_only(scene) -> None:
 
 
 def test_settings_are_checked_and_reach_the_controller() -> None:
-    for bad in (dict(hand_task=0.0), dict(hand_task=1.0, hand_bandwidth=0.0), dict(hand_task_touched=True),
+    for bad in (dict(hand_task=0.0), dict(hand_task=1.0, hand_task_bandwidth=0.0), dict(hand_task_touched=True),
                 dict(hand_task=1.0, hand_task_touched=True)):
         with pytest.raises(ConfigError, match="hand_"):
             BalanceConfig(**bad)

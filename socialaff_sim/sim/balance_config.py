@@ -40,7 +40,7 @@ class BalanceConfig:
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate,
-      compensation_after_touch, hand_task, hand_bandwidth, hand_task_touched
+      compensation_after_touch, hand_task, hand_task_bandwidth, hand_task_touched
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, tilt_from_plan,
       catch_tilt, catch_margin, catch_blend, drive_harnessed
     - Rate: qp_every, hold_gain, hold_near, hold_touch
@@ -221,7 +221,7 @@ class BalanceConfig:
     """w_h [—]: each wrist's world position as a task of this weight in the balance QP, toward the plan's wrist at
     the frame's end (:mod:`~.hand_task`: the QP otherwise tracks joint angles, and a released trunk carries the hand
     10–30 cm off the plan's). ``None``: no such task."""
-    hand_bandwidth: float = 10.0
+    hand_task_bandwidth: float = 10.0
     """ω_h [rad/s]: ``hand_task``'s bandwidth: the wanted wrist acceleration ω_h² (x* − x) − 2 ω_h ẋ."""
     hand_task_touched: bool = False
     """[—]: ``hand_task`` only for an arm that has touched the person or the object (the compensation's touch latch;
@@ -343,9 +343,9 @@ class BalanceConfig:
         if self.compensation_after_touch and (self.arm_compensation is None or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.compensation_after_touch: needs arm_compensation and compensation_gate "
                               "(the gate whose touch latch it lifts)")
-        if self.hand_task is not None and not (self.hand_task > 0.0 and self.hand_bandwidth > 0.0):
-            raise ConfigError(f"BalanceConfig: expected hand_task None or > 0 and hand_bandwidth > 0 rad/s, found "
-                              f"{self.hand_task!r}, {self.hand_bandwidth}")
+        if self.hand_task is not None and not (self.hand_task > 0.0 and self.hand_task_bandwidth > 0.0):
+            raise ConfigError(f"BalanceConfig: expected hand_task None or > 0 and hand_task_bandwidth > 0 rad/s, found "
+                              f"{self.hand_task!r}, {self.hand_task_bandwidth}")
         if self.hand_task_touched and (self.hand_task is None or self.arm_compensation is None
                                        or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.hand_task_touched: needs hand_task, arm_compensation and compensation_gate "

@@ -117,7 +117,7 @@ class BalanceController:
         self.hold = None if c.qp_every == 1 else TorqueHold(c.qp_every, c.hold_gain, c.joint_bandwidth)
         """``qp_every`` > 1: the torques held between solves (:mod:`~.torque_hold`), else ``None``."""
         self._hinge_ref = self._act_rows + 1  # each actuator's entry in the robot coordinates (free joint's 7 first)
-        self.hands = None if c.hand_task is None else HandTask(scene, c.hand_task, c.hand_bandwidth, c.hand_task_touched)
+        self.hands = None if c.hand_task is None else HandTask(scene, c.hand_task, c.hand_task_bandwidth, c.hand_task_touched)
         self.com = ComReference(c, self._feet, scene.root_body, self.compensation)
         """The centre of mass's reference c* (:mod:`~.com_reference`)."""
         self._plan = mujoco.MjData(m)

@@ -12,7 +12,7 @@ or a body's origin):
 
 with J the frame's translational Jacobian over the robot's dofs (the whole body: the QP decides what moves), x* the
 plan's wrist at the frame's end (the posed plan of :meth:`~.balance_control.BalanceController.begin_frame`), ω
-``hand_bandwidth`` and the task's weight ``hand_task``; the J̇ q̇ term makes the rows the frame's acceleration
+``hand_task_bandwidth`` and the task's weight ``hand_task``; the J̇ q̇ term makes the rows the frame's acceleration
 ẍ = J q̈ + J̇ q̇. With ``hand_task_touched`` an arm gets its rows only once it has touched the person or the object
 (the arms' compensation's touch latch, :attr:`~.arm_compensation.ArmCompensation.touched`): before the touch
 ``arm_compensation`` steers the approach.
