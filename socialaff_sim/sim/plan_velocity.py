@@ -27,6 +27,7 @@ import mujoco
 import numpy as np
 
 from ..errors import ConfigError
+from .arm_contacts import wrist_frames
 from .scene import Scene
 
 __all__ = ["PlanVelocity"]
@@ -63,9 +64,8 @@ class PlanVelocity:
     def of_scene(cls, scene: Scene, feet: np.ndarray, torso: int, raised: float | None = None,
                  until_touch: bool = False, tilt: float | None = None) -> PlanVelocity:
         """The plan's velocities of ``scene``'s robot: its wrist frames and shoulder bodies for ``raised``."""
-        wrists = tuple((int(f), k == "site") for f, k in zip(scene.frame_ids[1:3], scene.frame_kinds[1:3], strict=True))
-        return cls(scene.model, feet, scene.root_body, torso, np.asarray(scene.robot_qadr), raised, wrists,
-                   scene.limb_body_ids[:2], until_touch, tilt)
+        return cls(scene.model, feet, scene.root_body, torso, np.asarray(scene.robot_qadr), raised,
+                   tuple(wrist_frames(scene)), scene.limb_body_ids[:2], until_touch, tilt)
 
     def follows(self, touched: bool, tilt: float) -> bool:
         """Whether the damping tracks the velocities at a physics step (else toward rest): not after an arm's first
