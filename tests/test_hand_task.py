@@ -35,7 +35,7 @@ def _wrist_at(scene, task: HandTask, qpos: np.ndarray, s: int) -> np.ndarray:
     d = mujoco.MjData(m)
     d.qpos[:] = qpos
     mujoco.mj_kinematics(m, d)
-    return task.position(d, s).copy()
+    return task.positions(d)[s].copy()
 
 
 def test_the_rows_solved_give_the_wanted_wrist_acceleration(scene) -> None:
@@ -44,7 +44,7 @@ def test_the_rows_solved_give_the_wanted_wrist_acceleration(scene) -> None:
     d = _moving(scene, rng)
     va = np.asarray(scene.robot_vadr)
     task = HandTask(scene, 10.0, 8.0)
-    task.targets = np.array([task.position(d, s) for s in (0, 1)]) + np.array([[0.05, -0.02, 0.1], [-0.04, 0.03, 0.02]])
+    task.targets = np.array([task.positions(d)[s] for s in (0, 1)]) + np.array([[0.05, -0.02, 0.1], [-0.04, 0.03, 0.02]])
     rows = task.tasks(m, d, va, None)
     assert len(rows) == 2
     h = 1e-4
@@ -63,7 +63,7 @@ def test_the_rows_solved_give_the_wanted_wrist_acceleration(scene) -> None:
         np.testing.assert_allclose(xdd, want, atol=2e-3 * max(1.0, np.abs(want).max()))
         # without J̇ q̇ the same rows miss it: the term is not negligible here (so the check above can fail)
         Jd = np.zeros((3, m.nv))
-        mujoco.mj_jacDot(m, d, Jd, None, task.position(d, s).copy(), task._bodies[s])
+        mujoco.mj_jacDot(m, d, Jd, None, task.positions(d)[s].copy(), task._bodies[s])
         assert np.abs(Jd[:, va] @ d.qvel[va]).max() > 0.05
 
 
@@ -75,7 +75,7 @@ def test_targets_are_the_plans_wrists(scene) -> None:
     task = HandTask(scene, 1.0, 10.0)
     task.begin_frame(plan)
     for s in (0, 1):
-        np.testing.assert_array_equal(task.targets[s], task.position(plan, s))
+        np.testing.assert_array_equal(task.targets[s], task.positions(plan)[s])
     assert np.linalg.norm(task.targets[0] - task.targets[1]) > 0.1  # left and right, not one wrist twice
 
 

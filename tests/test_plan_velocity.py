@@ -57,15 +57,22 @@ def _arm_hinge(scene: Scene) -> int:
     return int(m.jnt_qposadr[j])
 
 
+def _swung(scene: Scene, q: np.ndarray | None = None, angle: float = 0.8) -> tuple[np.ndarray, np.ndarray]:
+    """(start, end) robot coordinates: ``q`` (home if ``None``) and the same with a shoulder's first hinge turned
+    by ``angle`` (rad), the plan of a raised arm."""
+    q = scene.home_qpos.copy() if q is None else q
+    end = q.copy()
+    end[_arm_hinge(scene)] += angle
+    return q, end
+
+
 def test_the_plans_velocities_against_a_hand_made_centre_of_mass_and_rotation(scene: Scene) -> None:
     _, q, ctl, _ = standing_far(scene, BalanceConfig(**QP, com_plan_velocity=True))
     pv = ctl.plan_velocity
     assert isinstance(pv, PlanVelocity)
     feet, T = ctl._feet, 0.0875
     # an arm raised: the offset changes by the arm's share of the centre of mass
-    end_q = q.copy()
-    end_q[_arm_hinge(scene)] += 0.8
-    end = _posed(scene, end_q)
+    end = _posed(scene, _swung(scene, q)[1])
     pv.measure(q, end, T)
     want = (_offset_by_hand(scene, end, feet) - _offset_by_hand(scene, _posed(scene, q), feet)) / T
     assert np.linalg.norm(want) > 0.05  # the arm moved the centre of mass (not a vacuous comparison)
@@ -120,9 +127,7 @@ BalanceController = balance_control.BalanceController
 @pytest.mark.parametrize("on", [False, True])
 def test_the_com_rows_damp_toward_the_plans_velocity_only_when_asked(scene: Scene, on: bool,
                                                                     monkeypatch: pytest.MonkeyPatch) -> None:
-    q = scene.home_qpos.copy()
-    end = q.copy()
-    end[_arm_hinge(scene)] += 0.8
+    q, end = _swung(scene)
     cfg = BalanceConfig(**QP, com_plan_velocity=on, torso_plan_velocity=on)
     tasks, ctl, _ = _rows(scene, cfg, q, end, monkeypatch)
     com_row, torso_row = tasks[-3], tasks[-2]  # (the joints' rows are last)
@@ -149,9 +154,7 @@ def test_until_touch_the_plans_velocities_hold_only_before_an_arms_first_touch(
         scene: Scene, touched: bool, monkeypatch: pytest.MonkeyPatch) -> None:
     # With ``plan_velocity_until_touch``: before a touch the rows carry the plan's velocities (as without the latch);
     # after one they are the rows toward rest of the default, exactly.
-    q = scene.home_qpos.copy()
-    end = q.copy()
-    end[_arm_hinge(scene)] += 0.8
+    q, end = _swung(scene)
     tasks, ctl, _ = _rows(scene, BalanceConfig(**QP, **UNTIL), q, end, monkeypatch, touched)
     rest, _, _ = _rows(scene, BalanceConfig(**QP, arm_compensation=1.0, compensation_gate=1e9), q, end, monkeypatch,
                        touched)
@@ -272,9 +275,7 @@ def test_follows_the_touch_latch_and_the_tilt_bound(scene: Scene, touched: bool,
 def test_the_tilt_bound_gives_the_rows_toward_rest_bit_for_bit_beyond_it(
         scene: Scene, leaning: bool, monkeypatch: pytest.MonkeyPatch) -> None:
     # A bound under the robot's tilt at the step: the rows toward rest, exactly; above it: the plan's velocities.
-    q = scene.home_qpos.copy()
-    end = q.copy()
-    end[_arm_hinge(scene)] += 0.8
+    q, end = _swung(scene)
     seen: list[float] = []
     real = PlanVelocity.follows
 

@@ -34,7 +34,7 @@ import mujoco
 import numpy as np
 
 from .._norms import norms
-from .arm_contacts import arm_hinges, filtered_arm_force, person_geoms, wrist_frames
+from .arm_contacts import arm_hinges, filtered_arm_force, person_geoms, wrist_frames, wrist_positions
 from .external_force import Contacts
 from .scene import Scene
 
@@ -116,7 +116,7 @@ class ArmCompensation:
         self.force = filtered_arm_force(self.force, forces, geoms, self._arm_geom, m, self.filter_time)
 
     def _wrists(self, d: mujoco.MjData) -> np.ndarray:
-        return np.array([d.site_xpos[f] if site else d.xpos[f] for f, site in self._frames])
+        return wrist_positions(d, self._frames)
 
     def offsets(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray) -> np.ndarray:
         """(n − 6,) hinge reference offsets (rad) that put each wrist, on the trunk of ``d``, where the plan's

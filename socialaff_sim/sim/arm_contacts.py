@@ -8,6 +8,7 @@ way; this module is what they share.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import mujoco
 import numpy as np
@@ -22,6 +23,11 @@ def wrist_frames(scene: Scene) -> list[tuple[int, bool]]:
     """Per arm (left, right): its wrist frame's id (key frame 1 + side) and whether that frame is a site (else a
     body)."""
     return [(int(scene.frame_ids[1 + s]), scene.frame_kinds[1 + s] == "site") for s in (0, 1)]
+
+
+def wrist_positions(d: mujoco.MjData, frames: Sequence[tuple[int, bool]]) -> np.ndarray:
+    """(2, 3) the wrist frames ``frames`` (:func:`wrist_frames`) in ``d`` (world, m; after its kinematics)."""
+    return np.array([d.site_xpos[f] if site else d.xpos[f] for f, site in frames])
 
 
 def person_geoms(scene: Scene) -> np.ndarray:

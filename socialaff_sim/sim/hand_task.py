@@ -23,7 +23,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from .arm_contacts import wrist_frames
+from .arm_contacts import wrist_frames, wrist_positions
 from .scene import Scene
 
 __all__ = ["HandTask", "hand_rows"]
@@ -51,25 +51,24 @@ class HandTask:
         """(2, 3) each wrist's planned position at the frame's end (world, m); NaN before the first frame."""
         self._jp, self._jd = np.zeros((3, m.nv)), np.zeros((3, m.nv))
 
-    def position(self, d: mujoco.MjData, s: int) -> np.ndarray:
-        """(3,) arm ``s``'s wrist frame in ``d`` (world, m)."""
-        f, site = self._frames[s]
-        return d.site_xpos[f] if site else d.xpos[f]
+    def positions(self, d: mujoco.MjData) -> np.ndarray:
+        """(2, 3) the two wrist frames in ``d`` (world, m)."""
+        return wrist_positions(d, self._frames)
 
     def begin_frame(self, plan: mujoco.MjData) -> None:
         """Read the targets from ``plan``, the posed (kinematics run) plan of the frame's end."""
-        self.targets = np.array([self.position(plan, s) for s in (0, 1)])
+        self.targets = self.positions(plan)
 
     def tasks(self, m: mujoco.MjModel, d: mujoco.MjData, vadr: np.ndarray,
               touched: np.ndarray | None) -> list[tuple[np.ndarray, np.ndarray, float]]:
         """The (J (3, n), b (3,), weight) tasks of the arms that get one at the state ``d`` after ``mj_step1``
         (velocities and ``cdof_dot`` computed), over the robot's dofs ``vadr`` (n,); ``touched`` (2,) bool: the touch
         latch (``None``: no arm has touched)."""
-        out = []
+        out, xs = [], self.positions(d)
         for s in (0, 1):
             if self.touched_only and (touched is None or not touched[s]):
                 continue
-            x = self.position(d, s).copy()
+            x = xs[s]
             mujoco.mj_jac(m, d, self._jp, None, x, self._bodies[s])
             mujoco.mj_jacDot(m, d, self._jd, None, x, self._bodies[s])
             J, b = hand_rows(self._jp[:, vadr], self._jd[:, vadr], d.qvel[vadr], x, self.targets[s], self.bandwidth)

@@ -27,7 +27,7 @@ import mujoco
 import numpy as np
 
 from ..errors import ConfigError
-from .arm_contacts import wrist_frames
+from .arm_contacts import wrist_frames, wrist_positions
 from .scene import Scene
 
 __all__ = ["PlanVelocity"]
@@ -74,8 +74,7 @@ class PlanVelocity:
 
     def lift(self, d: mujoco.MjData) -> np.ndarray:
         """(2,) each wrist's height above its shoulder in ``d`` (m, after ``mj_kinematics``; left, right)."""
-        z = np.array([d.site_xpos[f, 2] if site else d.xpos[f, 2] for f, site in self._wrists])
-        return z - d.xpos[self._shoulders, 2]  # type: ignore[index]
+        return wrist_positions(d, self._wrists)[:, 2] - d.xpos[self._shoulders, 2]  # type: ignore[index]
 
     def raised(self, end: mujoco.MjData) -> bool:
         """Whether the plan ``end`` holds a wrist at least h_r above its shoulder (always, without ``raised``)."""
