@@ -53,7 +53,7 @@ from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts, foot_feedback, roll_free_axes, yaw_rows
 from .foot_cop import foot_cop_rows
-from .hand_task import HandTask
+from .hand_task import HandTask, hand_task_wanted
 from .hand_yield import HandYield
 from .harness_release import HarnessRelease
 from .plan_velocity import PlanVelocity
@@ -117,7 +117,10 @@ class BalanceController:
         self.hold = None if c.qp_every == 1 else TorqueHold(c.qp_every, c.hold_gain, c.joint_bandwidth)
         """``qp_every`` > 1: the torques held between solves (:mod:`~.torque_hold`), else ``None``."""
         self._hinge_ref = self._act_rows + 1  # each actuator's entry in the robot coordinates (free joint's 7 first)
-        self.hands = None if c.hand_task is None else HandTask(scene, c.hand_task, c.hand_task_bandwidth, c.hand_task_touched)
+        self.hands = HandTask(scene, c.hand_task, c.hand_task_bandwidth, c.hand_task_touched) if hand_task_wanted(
+            c.hand_task, c.hand_task_roll_free, self._roll_free) else None
+        """``hand_task`` (with ``hand_task_roll_free``: on a robot whose feet's roll is freed): the hands' rows
+        (:mod:`~.hand_task`), else ``None``."""
         self.com = ComReference(c, self._feet, scene.root_body, self.compensation)
         """The centre of mass's reference c* (:mod:`~.com_reference`)."""
         self._plan = mujoco.MjData(m)

@@ -15,7 +15,8 @@ plan's wrist at the frame's end (the posed plan of :meth:`~.balance_control.Bala
 ``hand_task_bandwidth`` and the task's weight ``hand_task``; the J̇ q̇ term makes the rows the frame's acceleration
 ẍ = J q̈ + J̇ q̇. With ``hand_task_touched`` an arm gets its rows only once it has touched the person or the object
 (the arms' compensation's touch latch, :attr:`~.arm_compensation.ArmCompensation.touched`): before the touch
-``arm_compensation`` steers the approach.
+``arm_compensation`` steers the approach. With ``hand_task_roll_free`` only a robot whose feet ``flat_roll_free``
+frees gets the task (:func:`hand_task_wanted`).
 """
 
 from __future__ import annotations
@@ -26,7 +27,16 @@ import numpy as np
 from .arm_contacts import wrist_frames, wrist_positions
 from .scene import Scene
 
-__all__ = ["HandTask", "hand_rows"]
+__all__ = ["HandTask", "hand_rows", "hand_task_wanted"]
+
+
+def hand_task_wanted(weight: float | None, roll_free_only: bool, roll_free: list[np.ndarray | None] | None) -> bool:
+    """Whether a robot gets the hands' rows: ``weight`` ``hand_task`` (``None``: never); ``roll_free_only``
+    ``hand_task_roll_free``: only if some foot of ``roll_free`` (the controller's
+    :func:`~.flat_feet.roll_free_axes`, ``None`` without ``flat_roll_free``) has its roll freed."""
+    if weight is None:
+        return False
+    return not roll_free_only or (roll_free is not None and any(a is not None for a in roll_free))
 
 
 def hand_rows(jac: np.ndarray, jac_dot: np.ndarray, qvel: np.ndarray, x: np.ndarray, target: np.ndarray,
