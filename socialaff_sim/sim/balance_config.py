@@ -40,7 +40,8 @@ class BalanceConfig:
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate,
-      compensation_after_touch, hand_task, hand_task_bandwidth, hand_task_touched, hand_task_roll_free
+      compensation_after_touch, hand_task, hand_task_bandwidth, hand_task_touched, hand_task_roll_free,
+      hand_task_yield
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, tilt_from_plan,
       catch_tilt, catch_margin, catch_blend, drive_harnessed
     - Rate: qp_every, hold_gain, hold_near, hold_touch
@@ -231,6 +232,10 @@ class BalanceConfig:
     degrees of freedom, :func:`~.hand_task.hand_task_wanted`; the H1): the task mends the handshakes the freed roll
     loses, and a robot whose six-joint legs keep all six rows (Stubby) runs as without either (needs ``hand_task`` and
     ``flat_roll_free``). ``False``: ``hand_task`` for every robot."""
+    hand_task_yield: bool = False
+    """[—]: ``hand_task``'s target, each wrist, moved with the hands' give (``hand_yield``'s horizontal offset o and its
+    rate ȯ, :mod:`~.hand_yield`): the wanted acceleration ω_h² (x* + o − x) + 2 ω_h (ȯ − ẋ) (needs ``hand_task`` and
+    ``hand_yield``). ``False``: the plan's wrist, which pulls the hand back against the give."""
     sole_gap: float = 0.0
     """[m]: a planted foot without contacts whose sole is at most this high above the floor still counts for the
     support box of the harness's decisions (0: only feet in contact; a contact lost for a step then shrinks the
@@ -358,6 +363,8 @@ class BalanceConfig:
         if self.hand_task_roll_free and (self.hand_task is None or not self.flat_roll_free):
             raise ConfigError("BalanceConfig.hand_task_roll_free: needs hand_task and flat_roll_free (the robots it "
                               "picks)")
+        if self.hand_task_yield and (self.hand_task is None or self.hand_yield is None):
+            raise ConfigError("BalanceConfig.hand_task_yield: needs hand_task and hand_yield (the give it follows)")
         if self.shift_until_touch and (self.com_shift is None or self.arm_compensation is None
                                        or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.shift_until_touch: needs com_shift, arm_compensation and compensation_gate "

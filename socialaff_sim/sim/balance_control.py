@@ -340,7 +340,9 @@ class BalanceController:
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
         joints = want * self._joint_scale  # per-row weights inside one task
         if self.hands is not None:  # (before the joints' task, which the QP takes last)
-            tasks.extend(self.hands.tasks(m, d, va, None if self.compensation is None else self.compensation.touched))
+            give = (self.hand_yield.offset, self.hand_yield.rate) if c.hand_task_yield else None  # type: ignore[union-attr]
+            tasks.extend(self.hands.tasks(m, d, va, None if self.compensation is None else self.compensation.touched,
+                                          give))
         tasks.append((self._joint_rows, joints, c.w_joint))
         key = frames.tobytes()  # with flat_feet the same level frames step after step: their edges made once
         if key != self._edges[0]:

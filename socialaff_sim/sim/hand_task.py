@@ -16,7 +16,8 @@ plan's wrist at the frame's end (the posed plan of :meth:`~.balance_control.Bala
 ẍ = J q̈ + J̇ q̇. With ``hand_task_touched`` an arm gets its rows only once it has touched the person or the object
 (the arms' compensation's touch latch, :attr:`~.arm_compensation.ArmCompensation.touched`): before the touch
 ``arm_compensation`` steers the approach. With ``hand_task_roll_free`` only a robot whose feet ``flat_roll_free``
-frees gets the task (:func:`hand_task_wanted`).
+frees gets the task (:func:`hand_task_wanted`); with ``hand_task_yield`` the target moves with the hands' give
+(``hand_yield``: a wrist's reference moved along the person's pull), which the task would otherwise pull back.
 """
 
 from __future__ import annotations
@@ -40,11 +41,14 @@ def hand_task_wanted(weight: float | None, roll_free_only: bool, roll_free: list
 
 
 def hand_rows(jac: np.ndarray, jac_dot: np.ndarray, qvel: np.ndarray, x: np.ndarray, target: np.ndarray,
-              bandwidth: float) -> tuple[np.ndarray, np.ndarray]:
-    """(J, b): the rows J q̈ = b of a point's acceleration ω² (x* − x) − 2 ω ẋ, with ``jac`` J (3, n) and
+              bandwidth: float, target_velocity: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(J, b): the rows J q̈ = b of a point's acceleration ω² (x* − x) + 2 ω (ẋ* − ẋ), with ``jac`` J (3, n) and
     ``jac_dot`` J̇ (3, n) its translational Jacobian and its time derivative, ``qvel`` q̇ (n,), ``x`` and ``target``
-    x* (3,) world (m), ``bandwidth`` ω (rad/s); ẋ = J q̇ and b = ω² (x* − x) − 2 ω ẋ − J̇ q̇."""
+    x* (3,) world (m), ``bandwidth`` ω (rad/s), ``target_velocity`` ẋ* (3,) (m/s; ``None``: 0); ẋ = J q̇ and
+    b = ω² (x* − x) + 2 ω (ẋ* − ẋ) − J̇ q̇."""
     xd = jac @ qvel
+    if target_velocity is not None:
+        xd = xd - target_velocity
     return jac, bandwidth * bandwidth * (target - x) - 2.0 * bandwidth * xd - jac_dot @ qvel
 
 
@@ -69,11 +73,13 @@ class HandTask:
         """Read the targets from ``plan``, the posed (kinematics run) plan of the frame's end."""
         self.targets = self.positions(plan)
 
-    def tasks(self, m: mujoco.MjModel, d: mujoco.MjData, vadr: np.ndarray,
-              touched: np.ndarray | None) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    def tasks(self, m: mujoco.MjModel, d: mujoco.MjData, vadr: np.ndarray, touched: np.ndarray | None,
+              give: tuple[np.ndarray, np.ndarray] | None = None) -> list[tuple[np.ndarray, np.ndarray, float]]:
         """The (J (3, n), b (3,), weight) tasks of the arms that get one at the state ``d`` after ``mj_step1``
         (velocities and ``cdof_dot`` computed), over the robot's dofs ``vadr`` (n,); ``touched`` (2,) bool: the touch
-        latch (``None``: no arm has touched)."""
+        latch (``None``: no arm has touched); ``give`` (``hand_task_yield``): the hands' give, each wrist's
+        horizontal offset (2, 2) (m) and its rate (2, 2) (m/s) (:attr:`~.hand_yield.HandYield.offset`, ``rate``),
+        added to the target and its velocity (``None``: the plan's wrist, at rest)."""
         out, xs = [], self.positions(d)
         for s in (0, 1):
             if self.touched_only and (touched is None or not touched[s]):
@@ -81,6 +87,10 @@ class HandTask:
             x = xs[s]
             mujoco.mj_jac(m, d, self._jp, None, x, self._bodies[s])
             mujoco.mj_jacDot(m, d, self._jd, None, x, self._bodies[s])
-            J, b = hand_rows(self._jp[:, vadr], self._jd[:, vadr], d.qvel[vadr], x, self.targets[s], self.bandwidth)
+            target, velocity = self.targets[s], None
+            if give is not None:
+                target = target + np.r_[give[0][s], 0.0]
+                velocity = np.r_[give[1][s], 0.0]
+            J, b = hand_rows(self._jp[:, vadr], self._jd[:, vadr], d.qvel[vadr], x, target, self.bandwidth, velocity)
             out.append((J.copy(), b, self.weight))
         return out
