@@ -18,7 +18,7 @@ from socialaff_sim.sim.carry import fit_flight, plan_carry
 from socialaff_sim.sim.human import human_body
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.scene import ObjectSpec, Scene, build_scene, pose_compliant
-from socialaff_sim.sim.scoring import FORCE_TIME_CONSTANT, SubgoalScorer
+from socialaff_sim.sim.scoring import FORCE_TIME_CONSTANT, SubgoalResult, SubgoalScorer
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.tasks import FailureSpec, SubgoalSpec, load_task
 
@@ -368,6 +368,15 @@ def _raise_right_arm(scene: Scene, d: mujoco.MjData) -> None:
 
 
 _MJCF = {"unitree_h1": ("unitree_h1", "h1.xml"), "unitree_g1": ("unitree_g1", "g1_29dof.xml")}
+
+
+@pytest.mark.parametrize(("gap", "text"), [(0.0004, "now apart (< 1 mm)"), (-0.002, "now apart (< 1 mm)"),
+                                           (0.001, "now apart (0.1 cm)"), (0.0234, "now apart (2.3 cm)")])
+def test_a_gap_under_a_millimetre_does_not_read_as_zero(gap: float, text: str) -> None:
+    # "0.0 cm" beside "apart" reads as a touch the contact test did not see; a sheet says "< 1 mm" instead.
+    res = SubgoalResult(name="slap", kind="contact", gap=gap)
+    assert res.state_text() == f"slap: {text} | not achieved"
+    assert SubgoalResult(name="slap", kind="contact", gap=gap, current=True).state_text().startswith("slap: now touching")
 
 
 @pytest.mark.parametrize("robot", ["ours", "cmu", "unitree_h1", "unitree_g1"])

@@ -81,7 +81,8 @@ class SubgoalResult:
         elif self.low:
             now = "now touching below the robot's shoulders"
         elif self.gap is not None:
-            now = f"now apart ({100 * max(self.gap, 0.0):.1f} cm)"
+            # Under 1 mm, "0.0 cm" reads as a touch; the contact test (distance ≤ 0 at the last step) said no.
+            now = "now apart (< 1 mm)" if self.gap < 0.001 else f"now apart ({100 * self.gap:.1f} cm)"
         else:
             now = "now apart"
         if self.pending:
