@@ -32,7 +32,7 @@ class BalanceConfig:
     - Tracking: joint_bandwidth, torso_bandwidth, foot_damping, foot_stiffness
     - Balance: com_bandwidth, com_damping, com_reference, com_shift, shift_weight, shift_until_touch,
       com_plan_velocity, torso_plan_velocity, plan_velocity_until_touch, plan_velocity_raised,
-      plan_velocity_tilt, plan_velocity_yaw,
+      plan_velocity_tilt,
       support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, cop_foot_axes, min_foot_load, torque_fraction, flat_feet, roll_bound, yaw_first,
@@ -101,13 +101,6 @@ class BalanceConfig:
     toward rest: the lean the plan's trunk may bring in a strike is bounded below the harness's catch (traced: strikes
     caught for tilt at the touch, their contact phases then held by the harness, docs/design.md §5). ``None``: no
     bound."""
-    plan_velocity_yaw: bool = False
-    """[—]: past ``plan_velocity_tilt`` (and only there; before the touch latch of ``plan_velocity_until_touch``
-    and in a frame ``plan_velocity_raised`` lets through), the torso's damping still tracks the plan's angular
-    velocity about the vertical, 2 ω_o ((ω_t · z) z − ω), the horizontal part toward rest: the bound is on the
-    lean, and the trunk's turn into a strike leans nothing (traced: the standing high fives' trunks lagging the
-    plan's turn by 15–33° in the strike once their tilt passed θ_v, docs/design.md §5, session 33). Needs
-    ``torso_plan_velocity`` and ``plan_velocity_tilt``. ``False``: toward rest past the bound, as before."""
     support_margin: float = 0.03
     """[m]: the centre-of-mass reference is kept this far inside the box of the feet's contact points
     (axes along the robot's heading)."""
@@ -373,9 +366,6 @@ class BalanceConfig:
                                                     or not 0.0 < self.plan_velocity_tilt < 90.0):
             raise ConfigError(f"BalanceConfig.plan_velocity_tilt: needs com_plan_velocity or torso_plan_velocity and "
                               f"an angle in (0, 90) degrees, found {self.plan_velocity_tilt!r}")
-        if self.plan_velocity_yaw and (not self.torso_plan_velocity or self.plan_velocity_tilt is None):
-            raise ConfigError("BalanceConfig.plan_velocity_yaw: needs torso_plan_velocity and plan_velocity_tilt (the "
-                              "bound past which it keeps the turn)")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

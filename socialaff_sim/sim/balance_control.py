@@ -122,8 +122,7 @@ class BalanceController:
         """The centre of mass's reference c* (:mod:`~.com_reference`)."""
         self._plan = mujoco.MjData(m)
         self.plan_velocity = PlanVelocity.of_scene(scene, self._feet, self._torso, c.plan_velocity_raised,
-            c.plan_velocity_until_touch, c.plan_velocity_tilt, c.plan_velocity_yaw) if (
-            c.com_plan_velocity or c.torso_plan_velocity) else None
+            c.plan_velocity_until_touch, c.plan_velocity_tilt) if c.com_plan_velocity or c.torso_plan_velocity else None
         """``com_plan_velocity`` / ``torso_plan_velocity``: the plan's velocities over the frame (:mod:`~.plan_velocity`),
         else ``None``."""
         self._limits, self._Mix = ActuatorLimits(m, scene.act_ids), np.ix_(self.vadr, self.vadr)  # made once
@@ -312,9 +311,8 @@ class BalanceController:
             p = np.array([goal[0], goal[1], floor])
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
         goal = box.clip(goal, c.support_margin)
-        touched = self.compensation is not None and bool(self.compensation.touched.any())
         moving = self.plan_velocity is not None and self.plan_velocity.follows(  # the touch latch, the tilt bound
-            touched, self._step_tilt)
+            self.compensation is not None and bool(self.compensation.touched.any()), self._step_tilt)
         if c.com_plan_velocity and moving:  # the damping toward the plan's velocity (relative to the feet), not rest
             tasks.append((jcom[:2], wc * wc * (goal - com[:2]) + 2.0 * zc * wc * (self.plan_velocity.com - comvel[:2]),  # type: ignore[union-attr]
                           w_com))
@@ -328,8 +326,6 @@ class BalanceController:
         wo = c.torso_bandwidth
         if c.torso_plan_velocity and moving:  # toward the plan's angular velocity, not toward rest
             tasks.append((Jt, wo * wo * self._rot + 2.0 * wo * (self.plan_velocity.torso - Jt @ qv), c.w_torso))  # type: ignore[union-attr]
-        elif c.plan_velocity_yaw and self.plan_velocity.turns(touched, self._step_tilt):  # type: ignore[union-attr]
-            tasks.append((Jt, wo * wo * self._rot + 2.0 * wo * (self.plan_velocity.yaw() - Jt @ qv), c.w_torso))  # type: ignore[union-attr]
         else:
             tasks.append((Jt, wo * wo * self._rot - 2.0 * wo * (Jt @ qv), c.w_torso))
         hinge_q = d.qpos[self.qadr[7:]]

@@ -18,11 +18,7 @@ high five), not the approach or a reach at the chest's height; in any other fram
 is toward rest there, bit for bit. With ``tilt`` = θ_v (``BalanceConfig.plan_velocity_tilt``) the damping tracks
 them only at a physics step whose torso tilts at most θ_v (as the harness's catch measures it), toward rest beyond:
 the lean the plan's trunk may bring is bounded below the harness's ``catch_tilt`` (docs/design.md §5, "The standing
-mode's high fives: the plan's velocities confined to a raised wrist"). With ``yaw``
-(``BalanceConfig.plan_velocity_yaw``) the torso's damping past that bound (:meth:`turns`) still tracks the plan's
-turn about the vertical, (ω_t · z) z (:meth:`yaw`), its horizontal part toward rest: the bound is on the lean, and
-the trunk's turn into a strike leans nothing (docs/design.md §5, "The standing mode's high fives: the trunk's turn
-past the tilt bound").
+mode's high fives: the plan's velocities confined to a raised wrist").
 """
 
 from __future__ import annotations
@@ -42,13 +38,11 @@ class PlanVelocity:
     robot's root body (its subtree's centre of mass), ``torso`` the torso body, ``qadr`` (nq_r,) the robot's
     coordinates in ``qpos``; ``raised`` h_r (m) or ``None`` (no gate), ``wrists`` the two wrist frames as
     (id, is_site) and ``shoulders`` (2,) the two shoulder bodies (left, right; needed with ``raised``);
-    ``until_touch`` and ``tilt`` θ_v (degrees or ``None``): :meth:`follows`'s latch and bound; ``yaw``: :meth:`turns`
-    past that bound (needs ``tilt``)."""
+    ``until_touch`` and ``tilt`` θ_v (degrees or ``None``): :meth:`follows`'s latch and bound."""
 
     def __init__(self, m: mujoco.MjModel, feet: np.ndarray, root: int, torso: int, qadr: np.ndarray,
                  raised: float | None = None, wrists: tuple[tuple[int, bool], ...] = (),
-                 shoulders: np.ndarray | None = None, until_touch: bool = False, tilt: float | None = None,
-                 yaw: bool = False) -> None:
+                 shoulders: np.ndarray | None = None, until_touch: bool = False, tilt: float | None = None) -> None:
         self._m, self._feet, self._root, self._torso, self._qadr = m, np.asarray(feet), int(root), int(torso), qadr
         self._raised, self._wrists = raised, tuple((int(f), bool(site)) for f, site in wrists)
         self._shoulders = None if shoulders is None else np.asarray(shoulders, dtype=np.int64)
@@ -59,10 +53,6 @@ class PlanVelocity:
         self.tilt = tilt
         """θ_v (degrees; ``BalanceConfig.plan_velocity_tilt``): :meth:`follows` only while the torso tilts at most
         θ_v, else ``None``."""
-        if yaw and tilt is None:
-            raise ConfigError("PlanVelocity: yaw needs the tilt bound")
-        self.yaw_past_tilt = yaw
-        """``BalanceConfig.plan_velocity_yaw``: :meth:`turns` past the tilt bound."""
         self._start = mujoco.MjData(m)
         self._quat = np.zeros(4)
         self.com = np.zeros(2)
@@ -72,26 +62,15 @@ class PlanVelocity:
 
     @classmethod
     def of_scene(cls, scene: Scene, feet: np.ndarray, torso: int, raised: float | None = None,
-                 until_touch: bool = False, tilt: float | None = None, yaw: bool = False) -> PlanVelocity:
+                 until_touch: bool = False, tilt: float | None = None) -> PlanVelocity:
         """The plan's velocities of ``scene``'s robot: its wrist frames and shoulder bodies for ``raised``."""
         return cls(scene.model, feet, scene.root_body, torso, np.asarray(scene.robot_qadr), raised,
-                   tuple(wrist_frames(scene)), scene.limb_body_ids[:2], until_touch, tilt, yaw)
+                   tuple(wrist_frames(scene)), scene.limb_body_ids[:2], until_touch, tilt)
 
     def follows(self, touched: bool, tilt: float) -> bool:
         """Whether the damping tracks the velocities at a physics step (else toward rest): not after an arm's first
         touch (``touched``) with ``until_touch``, nor while the torso tilts (``tilt``, degrees) past ``tilt``."""
         return not (self.until_touch and touched) and (self.tilt is None or tilt <= self.tilt)
-
-    def turns(self, touched: bool, tilt: float) -> bool:
-        """With ``yaw``: whether the torso's damping tracks the plan's turn alone (:meth:`yaw`) at a physics step,
-        where :meth:`follows` is false for the tilt bound alone (the torso tilts, ``tilt`` degrees, past θ_v, and
-        not after an arm's first touch, ``touched``, with ``until_touch``)."""
-        return (self.yaw_past_tilt and not (self.until_touch and touched)
-                and self.tilt is not None and tilt > self.tilt)
-
-    def yaw(self) -> np.ndarray:
-        """(3,) the plan's turn about the vertical, (ω_t · z) z (rad/s, world)."""
-        return np.array([0.0, 0.0, self.torso[2]])
 
     def lift(self, d: mujoco.MjData) -> np.ndarray:
         """(2,) each wrist's height above its shoulder in ``d`` (m, after ``mj_kinematics``; left, right)."""
