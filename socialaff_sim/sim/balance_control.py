@@ -132,11 +132,9 @@ class BalanceController:
         self._foot_scratch = (np.zeros((6, m.nv)), np.zeros((6, m.nv)))
         self._edges: tuple[bytes, np.ndarray] = (b"", np.zeros((0, 3, 4)))  # the last frames' cone edges
         self._soles_now: list[np.ndarray | None] = [None] * len(self._feet)  # the step's soles, world (soles_at)
-        self._M = np.zeros((m.nv, m.nv))
-        self._jp = np.zeros((3, m.nv))
-        self._jr = np.zeros((3, m.nv))
-        self._quat = np.zeros(4)
-        self._rot = np.zeros(3)
+        self._M, self._open = np.zeros((m.nv, m.nv)), np.full((n, 2), [-np.inf, np.inf])
+        self._jp, self._jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+        self._quat, self._rot = np.zeros(4), np.zeros(3)
         self.harness = HarnessRelease(scene, self.config)
         """The harness: when it lets go and catches, the counts of both (:mod:`~.harness_release`)."""
         self.reset()
@@ -219,7 +217,7 @@ class BalanceController:
             com = d.subtree_com[self.scene.root_body]
             self._jp[:] = 0.0
             mujoco.mj_jacSubtreeCom(m, d, self._jp, self.scene.root_body)
-            jcom = self._jp[:, self.vadr].copy()
+            jcom = self._jp[:, self.vadr].copy()  # (C order: the BLAS products round as before)
             comvel = jcom @ d.qvel[self.vadr]
             height = max(float(com[2] - pts[:, 2].sum() / len(pts)), 1e-3)  # (the mean's arithmetic)
             capture = self._capture = com[:2] + comvel[:2] / math.sqrt(self._g / height)
@@ -319,7 +317,7 @@ class BalanceController:
         else:
             tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], w_com))
         mujoco.mj_jacBody(m, d, self._jp, self._jr, self._torso)
-        Jt = self._jr[:, va].copy()
+        Jt = self._jr[:, va].copy()  # (C order, as jcom's)
         err = self._torso_goal @ d.xmat[self._torso].reshape(3, 3).T  # world rotation from now to the goal
         mujoco.mju_mat2Quat(self._quat, err.ravel())
         mujoco.mju_quat2Vel(self._rot, self._quat, 1.0)
@@ -347,7 +345,7 @@ class BalanceController:
         if c.solver == "lsq":
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
                                           c.w_force).tau[self._act_rows]
-        limits = np.full((n, 2), [-np.inf, np.inf])
+        limits = self._open.copy()  # (n, 2) [−inf, inf]
         limits[self._act_rows] = c.torque_fraction * self._limits(d.qpos[self._act_q], d.qvel[self._act_v])
         if self.roll_bound is not None:
             self.roll_bound.clip(limits)

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import daqp
 import mujoco
@@ -174,20 +174,20 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     K = 4 * P
     G = np.einsum("pin,pik->npk", point_jac, edges).reshape(n, K)  # (n, 4P): generalised force per edge
     # Variables x = [β' (K), q̈ (n)], β' = β / m: every row is then in m/s².
-    H = np.zeros((K + n, K + n))
-    f = np.zeros(K + n)
-    diag = np.arange(K + n)  # w_f I on β', ε I on q̈: set on the diagonal (the rest is zero as it was)
-    H[diag[:K], diag[:K]] = w_force
-    H[diag[K:], diag[K:]] = w_reg
+    N = K + n
+    H = np.zeros((N, N))
+    f = np.zeros(N)
+    H.flat[:K * (N + 1):N + 1] = w_force  # w_f I on β', ε I on q̈: set on the diagonal (the rest is zero as it was)
+    H.flat[K * (N + 1)::N + 1] = w_reg
     Hq = H[K:, K:]
     for A, b, w in tasks:
         if A.ndim == 1:  # a diagonal task: AᵀA and Aᵀb without the products of zeros (the same sums)
-            Hq[diag[:n], diag[:n]] += w * (A * A)
+            H.flat[K * (N + 1)::N + 1] += w * (A * A)  # (q̈'s diagonal)
             f[K:] -= w * (A * b)
             continue
         Hq += w * (A.T @ A)
         f[K:] -= w * (A.T @ b)
-    act = ~np.asarray(unactuated, dtype=bool)
+    act, order, nu = _rows_order(np.asarray(unactuated, dtype=bool).tobytes())
     lim = np.asarray(tau_limits, dtype=np.float64)
     # The rows of the constraints, in one array: the equation of motion divided by m (M/m q̈ − G β' + h/m = τ/m), its
     # unactuated rows (equalities), then its actuated ones (the torque limits), [the inequality rows], the base;
@@ -203,8 +203,6 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     base = n + n_in
     R = base + n_eq + len(loaded) + n_cop
     A_all, up, lo, sn = np.zeros((R, K + n)), np.empty(R), np.empty(R), np.zeros(R, dtype=np.intc)
-    order = np.concatenate([np.flatnonzero(~act), np.flatnonzero(act)])
-    nu = n - int(act.sum())
     A_all[:n, :K] = -G[order]
     A_all[:n, K:] = M[order] / mass
     hm = h[order] / mass
@@ -270,6 +268,16 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
                            inequalities_dropped=dropped, edges=edges, optional_dropped=optional_dropped)
 
 
+@lru_cache(maxsize=8)
+def _rows_order(unactuated: bytes) -> tuple[np.ndarray, np.ndarray, int]:
+    """Of the bool mask ``unactuated`` (its bytes): the actuated rows (n,) bool, the rows' order (unactuated first,
+    then actuated, each ascending) and the unactuated rows' count; read-only arrays, made once per mask."""
+    act = ~np.frombuffer(unactuated, dtype=bool)
+    order = np.concatenate([np.flatnonzero(~act), np.flatnonzero(act)])
+    act.flags.writeable = order.flags.writeable = False
+    return act, order, len(act) - int(act.sum())
+
+
 def _daqp(H: np.ndarray, f: np.ndarray, K: int, A_all: np.ndarray, up: np.ndarray, lo: np.ndarray,
           sn: np.ndarray) -> tuple[np.ndarray, int]:
     """DAQP on ``½xᵀHx + fᵀx`` with ``0 ≤ x[:K]`` and ``lo ≤ A_all x ≤ up`` (``A_all`` C-ordered; sense ``sn`` 5:
@@ -277,12 +285,15 @@ def _daqp(H: np.ndarray, f: np.ndarray, K: int, A_all: np.ndarray, up: np.ndarra
     infeasible)."""
     norm = norms(A_all, axis=1)
     keep = norm > 1e-9
-    k = 1.0 / norm[keep]
-    A_all = np.ascontiguousarray(A_all[keep] * k[:, None])
-    up = np.where(up[keep] < _INF, up[keep] * k, _INF)
-    lo = np.where(lo[keep] > -_INF, lo[keep] * k, -_INF)
-    bu = np.concatenate([np.full(K, _INF), up])  # the first K entries: simple bounds 0 ≤ β'
-    bl = np.concatenate([np.zeros(K), lo])
-    sn = np.concatenate([np.zeros(K, dtype=np.intc), sn[keep]])
-    x, _, flag, _ = daqp.solve(H, f, A_all, bu, bl, sn)
+    if not keep.all():  # (most solves keep every row: no copies then)
+        norm, A_all, up, lo, sn = norm[keep], A_all[keep], up[keep], lo[keep], sn[keep]
+    k = 1.0 / norm
+    A_all = A_all * k[:, None]  # (C-ordered, as its product)
+    r = len(k)
+    bu, bl, s = np.empty(K + r), np.zeros(K + r), np.zeros(K + r, dtype=np.intc)
+    bu[:K] = _INF  # the first K entries: simple bounds 0 ≤ β'
+    bu[K:] = np.where(up < _INF, up * k, _INF)
+    bl[K:] = np.where(lo > -_INF, lo * k, -_INF)
+    s[K:] = sn
+    x, _, flag, _ = daqp.solve(H, f, A_all, bu, bl, s)
     return np.asarray(x), int(flag)
