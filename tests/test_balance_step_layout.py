@@ -1,6 +1,7 @@
 """The standing step's fourth pass of bit-for-bit cuts (issue 25, session 33): the QP's row order made once per
-mask, its diagonal set through the flat index, the rows' scaling without copies when every row is kept, and the
-cop intervals' extents stacked when the feet have as many points — each against the computation it replaces."""
+mask, its diagonal set through the flat index, the rows' scaling without copies when every row is kept, the cop
+intervals' extents stacked when the feet have as many points, the box's clip, the arms' damping made once and
+the feet's middle without NumPy's wrappers — each against the computation it replaces."""
 
 from __future__ import annotations
 
@@ -8,8 +9,10 @@ import daqp
 import numpy as np
 
 from socialaff_sim.sim import contact_qp
+from socialaff_sim.sim.arm_compensation import DAMPING_LAMBDA, compensation_step
+from socialaff_sim.sim.com_reference import ComReference
 from socialaff_sim.sim.contact_qp import _daqp, _rows_order, solve_contact_qp
-from socialaff_sim.sim.support_box import _extents, cop_intervals
+from socialaff_sim.sim.support_box import SupportBox, _extents, cop_intervals
 from test_balance_qp_rows import _random_qp
 
 
@@ -104,3 +107,38 @@ def test_the_extents_stacked_are_the_extents_foot_by_foot(rng) -> None:
         near = np.clip(0.5 * (s_lo + s_hi), p.min(axis=0), p.max(axis=0))
         np.testing.assert_array_equal(got[f, :, 0], np.where(lo > hi, near, lo))
         np.testing.assert_array_equal(got[f, :, 1], np.where(lo > hi, near, hi))
+
+
+def test_the_box_clip_is_numpys_clip_bit_for_bit(rng) -> None:
+    """``SupportBox.clip``: np.clip of the point's box coordinates, back in the world, bit for bit (also for a
+    margin wider than the box, where the interval is its middle)."""
+    for margin in (0.0, 0.02, 0.5):
+        for _ in range(50):
+            ang = rng.uniform(-np.pi, np.pi)
+            box = SupportBox(rng.normal(size=(8, 2)) * 0.2, np.array([np.cos(ang), np.sin(ang)]))
+            p = rng.normal(size=2) * 0.3
+            lo, hi = box.lo + margin, box.hi - margin
+            mid = 0.5 * (box.lo + box.hi)
+            lo, hi = np.minimum(lo, mid), np.maximum(hi, mid)
+            np.testing.assert_array_equal(box.clip(p, margin), np.clip(box.R @ p, lo, hi) @ box.R)
+
+
+def test_the_compensation_step_with_its_damping_made_once_is_the_formula_bit_for_bit(rng) -> None:
+    """``compensation_step``: Jᵀ (J Jᵀ + λ² I)⁻¹ e with the default λ (its λ² I made once) and another λ (made per
+    call), bit for bit as the formula written out; a larger λ moves less."""
+    for _ in range(20):
+        J, e = rng.normal(size=(3, 7)), rng.normal(size=3) * 0.1
+        for lam in (DAMPING_LAMBDA, 0.2):
+            want = J.T @ np.linalg.solve(J @ J.T + lam * lam * np.eye(3), e)
+            np.testing.assert_array_equal(compensation_step(J, e, lam), want)
+        assert np.linalg.norm(compensation_step(J, e, 0.5)) < np.linalg.norm(compensation_step(J, e))
+
+
+def test_the_feet_middle_is_numpys_mean_bit_for_bit(rng) -> None:
+    """``ComReference._middle``: the mean of the feet's horizontal positions as ``np.mean`` computes it."""
+    class _D:
+        xpos = rng.normal(size=(12, 3))
+    ref = ComReference.__new__(ComReference)
+    for feet in ([3, 7], [0, 11], [5, 5]):
+        ref._feet = feet
+        np.testing.assert_array_equal(ref._middle(_D), _D.xpos[feet, :2].mean(axis=0))

@@ -282,7 +282,6 @@ class BalanceController:
         # person, who pushed back harder a step later).
         h = d.qfrc_bias[va] - d.qfrc_passive[va] - np.where(self.unactuated, self._ext_gen, 0.0)
         qv = d.qvel[va]
-        n = len(va)
         tasks: list[tuple[np.ndarray, np.ndarray, float]] = []
         if self._anchor is None:  # where the feet stand (level, at the home ankle height, with flat_feet)
             self._anchor = [(d.xpos[b].copy(), d.xmat[b].reshape(3, 3).copy()) for b in self._feet]

@@ -24,7 +24,7 @@ class SupportBox:
         lo, hi = self.lo + margin, self.hi - margin
         mid = 0.5 * (self.lo + self.hi)
         lo, hi = np.minimum(lo, mid), np.maximum(hi, mid)
-        return np.clip(self.R @ p, lo, hi) @ self.R
+        return np.minimum(np.maximum(self.R @ p, lo), hi) @ self.R  # (np.clip's min(max(x, lo), hi))
 
     def inside(self, p: np.ndarray, margin: float) -> bool:
         """Whether ``p`` (2,) world lies inside the box shrunk by ``margin`` (grown where negative)."""
