@@ -359,7 +359,7 @@ class BalanceController:
         qp_tasks = [*tasks[:-1], (self._joint_diag, np.concatenate([np.zeros(6), joints]), c.w_joint)]
         res = solve_contact_qp(M, h, self.unactuated, jac, edges, qp_tasks, self.mass, c.w_force, limits,
                                self._cop(d, pts, edges, foot, box), foot, c.min_foot_load * self.mass * self._g,
-                               equalities=eq, inequalities=ineq,
+                               equalities=eq, inequalities=ineq, kernel=c.qp_kernel,
                                optional=None if eq is None or not c.yaw_first else yaw_rows(len(eq[1])))
         self.yaw_dropped_steps += int(res.optional_dropped)
         self.limit_steps += int(res.at_limit.any())
