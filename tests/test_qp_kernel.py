@@ -97,3 +97,29 @@ def test_the_setting_is_checked() -> None:
         BalanceConfig(solver="qp", qp_kernel="cuda")
     with pytest.raises(ConfigError):
         BalanceConfig(solver="lsq", qp_kernel="numba")
+
+
+def test_the_controller_makes_the_kernel_when_made_and_solves_through_it(scene) -> None:
+    """A controller with ``qp_kernel="numba"`` holds the compiled kernel from its construction (the JIT is not paid
+    at the first driven step) and its QP's torques at a standing state are the NumPy controller's to the solver's
+    tolerance; with ``"numpy"`` it holds none."""
+    import mujoco
+
+    from socialaff_sim.sim.balance_control import BalanceController
+
+    cfgs = {k: BalanceConfig(solver="qp", flat_feet=True, qp_kernel=k) for k in ("numpy", "numba")}
+    ctls = {k: BalanceController(scene, c) for k, c in cfgs.items()}
+    assert ctls["numpy"]._kernel is None and ctls["numba"]._kernel is not None
+    m = scene.model
+    taus = {}
+    for k, ctl in ctls.items():
+        d = mujoco.MjData(m)
+        d.qpos[scene.robot_qadr] = scene.home_qpos
+        d.qpos[scene.robot_qadr[2]] -= 0.001  # pressed 1 mm into the floor: both feet in contact
+        mujoco.mj_forward(m, d)
+        ctl.begin_frame(np.asarray(scene.home_qpos), (True, True))
+        ctl.harness.released = True  # (as if let go: the controller drives)
+        ctl.step(m, d, np.asarray(scene.home_qpos), np.zeros(len(ctl.vadr) - 6))
+        assert ctl.active
+        taus[k] = d.ctrl[scene.act_ids].copy()
+    np.testing.assert_allclose(taus["numba"], taus["numpy"], rtol=1e-6, atol=1e-6)

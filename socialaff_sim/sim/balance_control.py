@@ -57,6 +57,7 @@ from .hand_task import HandTask
 from .hand_yield import HandYield
 from .harness_release import HarnessRelease
 from .plan_velocity import PlanVelocity
+from .qp_kernel import kernels
 from .scene import Scene
 from .self_clearance import SelfClearance
 from .support_box import SupportBox, cop_intervals
@@ -114,6 +115,7 @@ class BalanceController:
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate,
             c.compensation_after_touch)
         """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
+        self._kernel = kernels() if c.qp_kernel == "numba" else None  # the JIT paid here, not at the first solve
         self.hold = None if c.qp_every == 1 else TorqueHold(c.qp_every, c.hold_gain, c.joint_bandwidth)
         """``qp_every`` > 1: the torques held between solves (:mod:`~.torque_hold`), else ``None``."""
         self._hinge_ref = self._act_rows + 1  # each actuator's entry in the robot coordinates (free joint's 7 first)
@@ -133,8 +135,7 @@ class BalanceController:
         self._edges: tuple[bytes, np.ndarray] = (b"", np.zeros((0, 3, 4)))  # the last frames' cone edges
         self._soles_now: list[np.ndarray | None] = [None] * len(self._feet)  # the step's soles, world (soles_at)
         self._M, self._open = np.zeros((m.nv, m.nv)), np.full((n, 2), [-np.inf, np.inf])
-        self._jp, self._jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-        self._quat, self._rot = np.zeros(4), np.zeros(3)
+        self._jp, self._jr, self._quat, self._rot = np.zeros((3, m.nv)), np.zeros((3, m.nv)), np.zeros(4), np.zeros(3)
         self.harness = HarnessRelease(scene, self.config)
         """The harness: when it lets go and catches, the counts of both (:mod:`~.harness_release`)."""
         self.reset()

@@ -132,9 +132,12 @@ def kernels() -> Any:
 
 
 def _warm(fn: Any) -> None:
+    """One call of the argument types the controller passes (its row order and cone edges are read-only arrays)."""
     n, P = 7, 2
     z = np.zeros
-    fn(np.eye(n), z(n), np.arange(n), 1, z((P, 3, n)), np.ones((P, 3, 4)), z((1, n)), z(1), z(1), z(n), z(n), 1.0,
+    order, edges = np.arange(n), np.ones((P, 3, 4))
+    order.flags.writeable = edges.flags.writeable = False
+    fn(np.eye(n), z(n), order, 1, z((P, 3, n)), edges, z((1, n)), z(1), z(1), z(n), z(n), 1.0,
        1e-3, 1e-6, 1.0, np.ones((n, 2)), z((0, n)), z(0), z((0, n)), z(0), np.arange(1), np.zeros(P, dtype=np.int64),
        0.0, z((0, 4 * P)))
 
