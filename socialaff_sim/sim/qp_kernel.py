@@ -5,8 +5,8 @@ constraint rows (the equation of motion's rows in their order, the inequality, h
 pressure rows) with a few dozen NumPy calls per solve, and scales the rows to unit norm for DAQP. :func:`assemble`
 does the same arithmetic in one no-Python loop (:func:`~socialaff_sim.inference.compiled.njit`, fast-math off). It
 is not bit for bit the NumPy path (BLAS and einsum sum in their own order; the rows' weights multiply each product
-here, the sums there): an alternative evaluation, adopted only by a rule (docs/design.md §5). NumPy stays the
-reference and the default (``qp_kernel = "numpy"``).
+here, the sums there): an alternative evaluation, declared equivalent for the standing mode by its rule on fresh
+instances (docs/design.md §5, session 33). NumPy stays the reference and the default (``qp_kernel = "numpy"``).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ _INF = 1e30  # (contact_qp's "no bound")
 
 
 def _assemble(M, h, order, nu, point_jac, edges, TA, Tb, Tw, da, db, dw, w_force, w_reg, mass, lim, IA, Ilo, EA,
-              Eb, loaded, foot, min_load, cop):  # pragma: no cover - compiled (its Python twin is tested)
+              Eb, loaded, foot, min_load, cop):  # pragma: no cover - compiled; tested through compiled_rows
     n = M.shape[0]
     P = point_jac.shape[0]
     K = 4 * P
