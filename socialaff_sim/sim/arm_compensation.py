@@ -41,6 +41,8 @@ from .scene import Scene
 __all__ = ["ArmCompensation", "DAMPING_LAMBDA", "approach_gate", "fade", "compensation_step"]
 
 DAMPING_LAMBDA = 0.05
+_DAMP3 = DAMPING_LAMBDA * DAMPING_LAMBDA * np.eye(3)  # λ² I of a wrist's three rows, made once
+_DAMP3.flags.writeable = False
 """λ [m]: damping of the least-squares map of a wrist shift onto the arm's hinges."""
 
 
@@ -64,7 +66,8 @@ def compensation_step(jac: np.ndarray, shift: np.ndarray, lam: float = DAMPING_L
     """(k,) hinge offsets (rad) Jᵀ (J Jᵀ + λ² I)⁻¹ e moving a point with translational Jacobian ``jac`` (3, k) on k
     hinges by ``shift`` e (3,) (m), damped by ``lam`` λ (m)."""
     J = np.asarray(jac, dtype=np.float64)
-    return J.T @ np.linalg.solve(J @ J.T + lam * lam * np.eye(J.shape[0]), np.asarray(shift, dtype=np.float64))
+    damp = _DAMP3 if lam == DAMPING_LAMBDA and J.shape[0] == 3 else lam * lam * np.eye(J.shape[0])
+    return J.T @ np.linalg.solve(J @ J.T + damp, np.asarray(shift, dtype=np.float64))
 
 
 class ArmCompensation:

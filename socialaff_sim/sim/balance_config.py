@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass
 
 from ..errors import ConfigError
+from ..inference.compiled import KERNELS
 
 __all__ = ["BalanceConfig", "COM_REFERENCES", "SOLVERS"]
 
@@ -44,7 +45,7 @@ class BalanceConfig:
       hand_task_yield
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, tilt_from_plan,
       catch_tilt, catch_margin, catch_blend, drive_harnessed
-    - Rate: qp_every, hold_gain, hold_near, hold_touch
+    - Rate: qp_every, hold_gain, hold_near, hold_touch, qp_kernel
     """
 
     joint_bandwidth: float = 20.0
@@ -281,6 +282,9 @@ class BalanceConfig:
     hold_touch: bool = False
     """[—]: with ``qp_every`` > 1, nothing is held after a physics step in which anything but the floor touches the
     robot (the person, the object): the torques are then solved at every driven step."""
+    qp_kernel: str = "numpy"
+    """[—]: how ``solver="qp"`` assembles its cost and rows: ``"numpy"`` (the reference) or ``"numba"``, one compiled
+    loop (:mod:`~socialaff_sim.sim.qp_kernel`, the extra ``[fast]``; not bit for bit: its sums run in its own order)."""
 
     def __post_init__(self) -> None:
         if not (isinstance(self.qp_every, int) and self.qp_every >= 1):
@@ -301,6 +305,9 @@ class BalanceConfig:
                               f"{self.w_force}")
         if not self.friction > 0.0:
             raise ConfigError(f"BalanceConfig.friction: expected μ > 0, found {self.friction}")
+        if self.qp_kernel not in KERNELS or (self.qp_kernel != "numpy" and self.solver != "qp"):
+            raise ConfigError(f"BalanceConfig.qp_kernel: expected one of {', '.join(KERNELS)} (numba with solver='qp'), "
+                              f"found {self.qp_kernel!r} with solver {self.solver!r}")
         if self.solver not in SOLVERS:
             raise ConfigError(f"BalanceConfig.solver: expected one of {', '.join(SOLVERS)}, found {self.solver!r}")
         if self.self_clearance is not None and (self.solver != "qp" or not self.self_clearance >= 0.0):

@@ -57,6 +57,7 @@ from .hand_task import HandTask, hand_task_wanted
 from .hand_yield import HandYield
 from .harness_release import HarnessRelease
 from .plan_velocity import PlanVelocity
+from .qp_kernel import kernels
 from .scene import Scene
 from .self_clearance import SelfClearance
 from .support_box import SupportBox, cop_intervals
@@ -114,6 +115,7 @@ class BalanceController:
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate,
             c.compensation_after_touch)
         """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
+        self._kernel = kernels() if c.qp_kernel == "numba" else None  # the JIT paid here, not at the first solve
         self.hold = None if c.qp_every == 1 else TorqueHold(c.qp_every, c.hold_gain, c.joint_bandwidth)
         """``qp_every`` > 1: the torques held between solves (:mod:`~.torque_hold`), else ``None``."""
         self._hinge_ref = self._act_rows + 1  # each actuator's entry in the robot coordinates (free joint's 7 first)
@@ -135,11 +137,8 @@ class BalanceController:
         self._foot_scratch = (np.zeros((6, m.nv)), np.zeros((6, m.nv)))
         self._edges: tuple[bytes, np.ndarray] = (b"", np.zeros((0, 3, 4)))  # the last frames' cone edges
         self._soles_now: list[np.ndarray | None] = [None] * len(self._feet)  # the step's soles, world (soles_at)
-        self._M = np.zeros((m.nv, m.nv))
-        self._jp = np.zeros((3, m.nv))
-        self._jr = np.zeros((3, m.nv))
-        self._quat = np.zeros(4)
-        self._rot = np.zeros(3)
+        self._M, self._open = np.zeros((m.nv, m.nv)), np.full((n, 2), [-np.inf, np.inf])
+        self._jp, self._jr, self._quat, self._rot = np.zeros((3, m.nv)), np.zeros((3, m.nv)), np.zeros(4), np.zeros(3)
         self.harness = HarnessRelease(scene, self.config)
         """The harness: when it lets go and catches, the counts of both (:mod:`~.harness_release`)."""
         self.reset()
@@ -222,7 +221,7 @@ class BalanceController:
             com = d.subtree_com[self.scene.root_body]
             self._jp[:] = 0.0
             mujoco.mj_jacSubtreeCom(m, d, self._jp, self.scene.root_body)
-            jcom = self._jp[:, self.vadr].copy()
+            jcom = self._jp[:, self.vadr].copy()  # (C order: the BLAS products round as before)
             comvel = jcom @ d.qvel[self.vadr]
             height = max(float(com[2] - pts[:, 2].sum() / len(pts)), 1e-3)  # (the mean's arithmetic)
             capture = self._capture = com[:2] + comvel[:2] / math.sqrt(self._g / height)
@@ -287,7 +286,6 @@ class BalanceController:
         # person, who pushed back harder a step later).
         h = d.qfrc_bias[va] - d.qfrc_passive[va] - np.where(self.unactuated, self._ext_gen, 0.0)
         qv = d.qvel[va]
-        n = len(va)
         tasks: list[tuple[np.ndarray, np.ndarray, float]] = []
         if self._anchor is None:  # where the feet stand (level, at the home ankle height, with flat_feet)
             self._anchor = [(d.xpos[b].copy(), d.xmat[b].reshape(3, 3).copy()) for b in self._feet]
@@ -322,7 +320,7 @@ class BalanceController:
         else:
             tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], w_com))
         mujoco.mj_jacBody(m, d, self._jp, self._jr, self._torso)
-        Jt = self._jr[:, va].copy()
+        Jt = self._jr[:, va].copy()  # (C order, as jcom's)
         err = self._torso_goal @ d.xmat[self._torso].reshape(3, 3).T  # world rotation from now to the goal
         mujoco.mju_mat2Quat(self._quat, err.ravel())
         mujoco.mju_quat2Vel(self._rot, self._quat, 1.0)
@@ -352,7 +350,7 @@ class BalanceController:
         if c.solver == "lsq":
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
                                           c.w_force).tau[self._act_rows]
-        limits = np.full((n, 2), [-np.inf, np.inf])
+        limits = self._open.copy()  # (n, 2) [−inf, inf]
         limits[self._act_rows] = c.torque_fraction * self._limits(d.qpos[self._act_q], d.qvel[self._act_v])
         if self.roll_bound is not None:
             self.roll_bound.clip(limits)
@@ -367,7 +365,7 @@ class BalanceController:
         qp_tasks = [*tasks[:-1], (self._joint_diag, np.concatenate([np.zeros(6), joints]), c.w_joint)]
         res = solve_contact_qp(M, h, self.unactuated, jac, edges, qp_tasks, self.mass, c.w_force, limits,
                                self._cop(d, pts, edges, foot, box), foot, c.min_foot_load * self.mass * self._g,
-                               equalities=eq, inequalities=ineq,
+                               equalities=eq, inequalities=ineq, kernel=c.qp_kernel,
                                optional=None if eq is None or not c.yaw_first else yaw_rows(len(eq[1])))
         self.yaw_dropped_steps += int(res.optional_dropped)
         self.limit_steps += int(res.at_limit.any())

@@ -29,13 +29,14 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import daqp
 import mujoco
 import numpy as np
 
 from .._norms import norms
+from .qp_kernel import compiled_rows
 
 __all__ = ["ActuatorLimits", "ContactQPResult", "actuator_limits", "cop_rows", "solve_contact_qp"]
 
@@ -150,7 +151,7 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
                      foot: np.ndarray | None = None, min_load: float = 0.0, w_reg: float = 1e-6,
                      equalities: tuple[np.ndarray, np.ndarray] | None = None,
                      inequalities: tuple[np.ndarray, np.ndarray] | None = None,
-                     optional: np.ndarray | None = None) -> ContactQPResult:
+                     optional: np.ndarray | None = None, kernel: str = "numpy") -> ContactQPResult:
     """Accelerations, contact forces and torques of a standing robot under hard constraints (module docstring).
 
     ``M`` (n, n), ``h`` (n,): mass matrix and bias forces (N, N·m); ``unactuated`` (n,) bool: coordinates
@@ -172,22 +173,7 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     n = M.shape[0]
     P = point_jac.shape[0]
     K = 4 * P
-    G = np.einsum("pin,pik->npk", point_jac, edges).reshape(n, K)  # (n, 4P): generalised force per edge
-    # Variables x = [β' (K), q̈ (n)], β' = β / m: every row is then in m/s².
-    H = np.zeros((K + n, K + n))
-    f = np.zeros(K + n)
-    diag = np.arange(K + n)  # w_f I on β', ε I on q̈: set on the diagonal (the rest is zero as it was)
-    H[diag[:K], diag[:K]] = w_force
-    H[diag[K:], diag[K:]] = w_reg
-    Hq = H[K:, K:]
-    for A, b, w in tasks:
-        if A.ndim == 1:  # a diagonal task: AᵀA and Aᵀb without the products of zeros (the same sums)
-            Hq[diag[:n], diag[:n]] += w * (A * A)
-            f[K:] -= w * (A * b)
-            continue
-        Hq += w * (A.T @ A)
-        f[K:] -= w * (A.T @ b)
-    act = ~np.asarray(unactuated, dtype=bool)
+    act, order, nu = _rows_order(np.asarray(unactuated, dtype=bool).tobytes())
     lim = np.asarray(tau_limits, dtype=np.float64)
     # The rows of the constraints, in one array: the equation of motion divided by m (M/m q̈ − G β' + h/m = τ/m), its
     # unactuated rows (equalities), then its actuated ones (the torque limits), [the inequality rows], the base;
@@ -202,36 +188,14 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     n_cop = len(cop) if cop is not None else 0
     base = n + n_in
     R = base + n_eq + len(loaded) + n_cop
-    A_all, up, lo, sn = np.zeros((R, K + n)), np.empty(R), np.empty(R), np.zeros(R, dtype=np.intc)
-    order = np.concatenate([np.flatnonzero(~act), np.flatnonzero(act)])
-    nu = n - int(act.sum())
-    A_all[:n, :K] = -G[order]
-    A_all[:n, K:] = M[order] / mass
-    hm = h[order] / mass
-    up[:nu] = lo[:nu] = -hm[:nu]
-    sn[:nu] = 5
-    la = lim[order[nu:]]
-    up[nu:n] = np.where(np.isfinite(la[:, 1]), la[:, 1] / mass - hm[nu:], _INF)
-    lo[nu:n] = np.where(np.isfinite(la[:, 0]), la[:, 0] / mass - hm[nu:], -_INF)
-    if inequalities is not None and has_ineq:
-        A_all[n:base, K:] = inequalities[0]
-        up[n:base], lo[n:base] = _INF, inequalities[1]
-    r = base
-    if equalities is not None and has_eq:
-        A_all[r:r + n_eq, K:] = equalities[0]
-        up[r:r + n_eq] = lo[r:r + n_eq] = equalities[1]
-        sn[r:r + n_eq] = 5
-        r += n_eq
-    if len(loaded):
-        A_all[r:r + len(loaded), :K] = np.where(foot[None, :, None] == loaded[:, None, None], edges[None, :, 2, :],
-                                                0.0).reshape(len(loaded), K)
-        up[r:r + len(loaded)], lo[r:r + len(loaded)] = _INF, min_load / mass
-        r += len(loaded)
-    if n_cop:
-        A_all[r:, :K] = cop
-        up[r:], lo[r:] = _INF, 0.0
-    H = np.ascontiguousarray(H)
-    x, flag = _daqp(H, f, K, A_all, up, lo, sn)
+    rows = (M, h, order, nu, point_jac, edges, tasks, w_force, w_reg, mass, lim, inequalities if has_ineq else None,
+            equalities if has_eq else None, loaded, foot, min_load, cop)
+    if kernel == "numba":  # one compiled loop (:mod:`~.qp_kernel`), and DAQP on its scaled rows
+        H, f, G, A_all, up, lo, sn, first = compiled_rows(*rows)
+        x, flag = first if first is not None else _daqp(H, f, K, A_all, up, lo, sn)
+    else:
+        H, f, G, A_all, up, lo, sn = _numpy_rows(*rows, R)
+        x, flag = _daqp(H, f, K, A_all, up, lo, sn)
     optional_dropped = False
     if flag <= 0 and has_eq and optional is not None and np.any(optional):  # without the optional hard rows only
         log.debug("balance QP: exit flag %d; solved again without the optional hard task rows", flag)
@@ -270,6 +234,71 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
                            inequalities_dropped=dropped, edges=edges, optional_dropped=optional_dropped)
 
 
+def _numpy_rows(M: np.ndarray, h: np.ndarray, order: np.ndarray, nu: int, point_jac: np.ndarray, edges: np.ndarray,
+                tasks: list[tuple[np.ndarray, np.ndarray, float]], w_force: float, w_reg: float, mass: float,
+                lim: np.ndarray, inequalities: tuple[np.ndarray, np.ndarray] | None,
+                equalities: tuple[np.ndarray, np.ndarray] | None, loaded: np.ndarray, foot: np.ndarray | None,
+                min_load: float, cop: np.ndarray | None, R: int) -> tuple[np.ndarray, ...]:
+    """:func:`solve_contact_qp`'s cost H (N, N), f (N,), G (n, 4P) and constraint rows A (R, N), up, lo (R,) and
+    senses (R,), unscaled, with NumPy (the reference; ``qp_kernel="numba"``: :mod:`~.qp_kernel`)."""
+    n = M.shape[0]
+    K = 4 * point_jac.shape[0]
+    G = np.einsum("pin,pik->npk", point_jac, edges).reshape(n, K)  # (n, 4P): generalised force per edge
+    # Variables x = [β' (K), q̈ (n)], β' = β / m: every row is then in m/s².
+    N = K + n
+    H = np.zeros((N, N))
+    f = np.zeros(N)
+    H.flat[:K * (N + 1):N + 1] = w_force  # w_f I on β', ε I on q̈: set on the diagonal (the rest is zero as it was)
+    H.flat[K * (N + 1)::N + 1] = w_reg
+    Hq = H[K:, K:]
+    for A, b, w in tasks:
+        if A.ndim == 1:  # a diagonal task: AᵀA and Aᵀb without the products of zeros (the same sums)
+            H.flat[K * (N + 1)::N + 1] += w * (A * A)  # (q̈'s diagonal)
+            f[K:] -= w * (A * b)
+            continue
+        Hq += w * (A.T @ A)
+        f[K:] -= w * (A.T @ b)
+    base = n + (len(inequalities[1]) if inequalities is not None else 0)
+    A_all, up, lo, sn = np.zeros((R, K + n)), np.empty(R), np.empty(R), np.zeros(R, dtype=np.intc)
+    A_all[:n, :K] = -G[order]
+    A_all[:n, K:] = M[order] / mass
+    hm = h[order] / mass
+    up[:nu] = lo[:nu] = -hm[:nu]
+    sn[:nu] = 5
+    la = lim[order[nu:]]
+    up[nu:n] = np.where(np.isfinite(la[:, 1]), la[:, 1] / mass - hm[nu:], _INF)
+    lo[nu:n] = np.where(np.isfinite(la[:, 0]), la[:, 0] / mass - hm[nu:], -_INF)
+    if inequalities is not None:
+        A_all[n:base, K:] = inequalities[0]
+        up[n:base], lo[n:base] = _INF, inequalities[1]
+    r = base
+    if equalities is not None:
+        n_eq = len(equalities[1])
+        A_all[r:r + n_eq, K:] = equalities[0]
+        up[r:r + n_eq] = lo[r:r + n_eq] = equalities[1]
+        sn[r:r + n_eq] = 5
+        r += n_eq
+    if len(loaded):
+        A_all[r:r + len(loaded), :K] = np.where(foot[None, :, None] == loaded[:, None, None],  # type: ignore[index]
+                                                edges[None, :, 2, :], 0.0).reshape(len(loaded), K)
+        up[r:r + len(loaded)], lo[r:r + len(loaded)] = _INF, min_load / mass
+        r += len(loaded)
+    if cop is not None and len(cop):
+        A_all[r:, :K] = cop
+        up[r:], lo[r:] = _INF, 0.0
+    return np.ascontiguousarray(H), f, G, A_all, up, lo, sn
+
+
+@lru_cache(maxsize=8)
+def _rows_order(unactuated: bytes) -> tuple[np.ndarray, np.ndarray, int]:
+    """Of the bool mask ``unactuated`` (its bytes): the actuated rows (n,) bool, the rows' order (unactuated first,
+    then actuated, each ascending) and the unactuated rows' count; read-only arrays, made once per mask."""
+    act = ~np.frombuffer(unactuated, dtype=bool)
+    order = np.concatenate([np.flatnonzero(~act), np.flatnonzero(act)])
+    act.flags.writeable = order.flags.writeable = False
+    return act, order, len(act) - int(act.sum())
+
+
 def _daqp(H: np.ndarray, f: np.ndarray, K: int, A_all: np.ndarray, up: np.ndarray, lo: np.ndarray,
           sn: np.ndarray) -> tuple[np.ndarray, int]:
     """DAQP on ``½xᵀHx + fᵀx`` with ``0 ≤ x[:K]`` and ``lo ≤ A_all x ≤ up`` (``A_all`` C-ordered; sense ``sn`` 5:
@@ -277,12 +306,15 @@ def _daqp(H: np.ndarray, f: np.ndarray, K: int, A_all: np.ndarray, up: np.ndarra
     infeasible)."""
     norm = norms(A_all, axis=1)
     keep = norm > 1e-9
-    k = 1.0 / norm[keep]
-    A_all = np.ascontiguousarray(A_all[keep] * k[:, None])
-    up = np.where(up[keep] < _INF, up[keep] * k, _INF)
-    lo = np.where(lo[keep] > -_INF, lo[keep] * k, -_INF)
-    bu = np.concatenate([np.full(K, _INF), up])  # the first K entries: simple bounds 0 ≤ β'
-    bl = np.concatenate([np.zeros(K), lo])
-    sn = np.concatenate([np.zeros(K, dtype=np.intc), sn[keep]])
-    x, _, flag, _ = daqp.solve(H, f, A_all, bu, bl, sn)
+    if not keep.all():  # (most solves keep every row: no copies then)
+        norm, A_all, up, lo, sn = norm[keep], A_all[keep], up[keep], lo[keep], sn[keep]
+    k = 1.0 / norm
+    A_all = A_all * k[:, None]  # (C-ordered, as its product)
+    r = len(k)
+    bu, bl, s = np.empty(K + r), np.zeros(K + r), np.zeros(K + r, dtype=np.intc)
+    bu[:K] = _INF  # the first K entries: simple bounds 0 ≤ β'
+    bu[K:] = np.where(up < _INF, up * k, _INF)
+    bl[K:] = np.where(lo > -_INF, lo * k, -_INF)
+    s[K:] = sn
+    x, _, flag, _ = daqp.solve(H, f, A_all, bu, bl, s)
     return np.asarray(x), int(flag)

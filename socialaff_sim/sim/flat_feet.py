@@ -71,7 +71,7 @@ def foot_feedback(m: mujoco.MjModel, d: mujoco.MjData, body: int, vadr: np.ndarr
     jac = np.empty((6, m.nv)) if scratch is None else scratch
     mujoco.mj_jacBody(m, d, jac[:3], jac[3:], body)
     J = jac[:, vadr]
-    quat, vel = np.zeros(4), np.zeros(3)
+    quat, vel = np.empty(4), np.empty(3)  # (MuJoCo writes them whole)
     mujoco.mju_mat2Quat(quat, (goal_rot @ d.xmat[body].reshape(3, 3).T).ravel())
     mujoco.mju_quat2Vel(vel, quat, 1.0)
     off = np.concatenate([goal_pos - d.xpos[body], vel])

@@ -24,7 +24,7 @@ class SupportBox:
         lo, hi = self.lo + margin, self.hi - margin
         mid = 0.5 * (self.lo + self.hi)
         lo, hi = np.minimum(lo, mid), np.maximum(hi, mid)
-        return np.clip(self.R @ p, lo, hi) @ self.R
+        return np.minimum(np.maximum(self.R @ p, lo), hi) @ self.R  # (np.clip's min(max(x, lo), hi))
 
     def inside(self, p: np.ndarray, margin: float) -> bool:
         """Whether ``p`` (2,) world lies inside the box shrunk by ``margin`` (grown where negative)."""
@@ -45,15 +45,22 @@ def cop_intervals(axes: np.ndarray, soles_xy: list[np.ndarray], points_xy: list[
                   margin: float) -> np.ndarray:
     """(F, 2, 2) :func:`cop_interval` of F feet at once, foot f's sole ``soles_xy[f]`` (S_f, 2) and contact points
     ``points_xy[f]`` (K_f, 2) (world, m): the projections foot by foot, the rest element-wise over the feet."""
-    sole = [xy @ axes.T for xy in soles_xy]
-    pts = [xy @ axes.T for xy in points_xy]
-    sole_lo, sole_hi = np.array([a.min(axis=0) for a in sole]), np.array([a.max(axis=0) for a in sole])  # (F, 2)
+    sole_lo, sole_hi = _extents([xy @ axes.T for xy in soles_xy])  # (F, 2)
     s_lo, s_hi = sole_lo + margin, sole_hi - margin
     mid = 0.5 * (sole_lo + sole_hi)
     s_lo, s_hi = np.minimum(s_lo, mid), np.maximum(s_hi, mid)
-    p_lo, p_hi = np.array([a.min(axis=0) for a in pts]), np.array([a.max(axis=0) for a in pts])
+    p_lo, p_hi = _extents([xy @ axes.T for xy in points_xy])
     lo, hi = np.maximum(s_lo, p_lo), np.minimum(s_hi, p_hi)
     empty = lo > hi
     near = np.clip(0.5 * (s_lo + s_hi), p_lo, p_hi)
     lo, hi = np.where(empty, near, lo), np.where(empty, near, hi)
     return np.stack([lo, hi], axis=2)
+
+
+def _extents(coords: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(F, 2) the least and (F, 2) the greatest of each array (K_f, 2) of ``coords`` along its first axis: stacked
+    when all have the same length (two flat feet's corners), else foot by foot (minima and maxima are exact)."""
+    if len({len(c) for c in coords}) == 1:
+        both = np.stack(coords)
+        return both.min(axis=1), both.max(axis=1)
+    return np.array([c.min(axis=0) for c in coords]), np.array([c.max(axis=0) for c in coords])

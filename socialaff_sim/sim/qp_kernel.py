@@ -1,0 +1,181 @@
+"""The balance QP's arrays assembled in one compiled loop (``BalanceConfig.qp_kernel = "numba"``, the extra ``[fast]``).
+
+:func:`~.contact_qp.solve_contact_qp` builds its cost (H, f), the generalised forces of the cone edges G and its
+constraint rows (the equation of motion's rows in their order, the inequality, hard task, foot load and centre of
+pressure rows) with a few dozen NumPy calls per solve, and scales the rows to unit norm for DAQP. :func:`assemble`
+does the same arithmetic in one no-Python loop (:func:`~socialaff_sim.inference.compiled.njit`, fast-math off). It
+is not bit for bit the NumPy path (BLAS and einsum sum in their own order; the rows' weights multiply each product
+here, the sums there): an alternative evaluation, declared equivalent for the standing mode by its rule on fresh
+instances (docs/design.md §5, session 33). NumPy stays the reference and the default (``qp_kernel = "numpy"``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import daqp
+import numpy as np
+
+from ..inference.compiled import njit, once
+
+__all__ = ["assemble", "compiled_rows", "kernels"]
+
+_INF = 1e30  # (contact_qp's "no bound")
+
+
+def _assemble(M, h, order, nu, point_jac, edges, TA, Tb, Tw, da, db, dw, w_force, w_reg, mass, lim, IA, Ilo, EA,
+              Eb, loaded, foot, min_load, cop):  # pragma: no cover - compiled; tested through compiled_rows
+    n = M.shape[0]
+    P = point_jac.shape[0]
+    K = 4 * P
+    N = K + n
+    G = np.zeros((n, K))
+    for p in range(P):
+        for j in range(n):
+            for k in range(4):
+                s = 0.0
+                for i in range(3):
+                    s += point_jac[p, i, j] * edges[p, i, k]
+                G[j, 4 * p + k] = s
+    H = np.zeros((N, N))
+    f = np.zeros(N)
+    for i in range(K):
+        H[i, i] = w_force
+    for j in range(n):
+        H[K + j, K + j] = w_reg
+    for r in range(TA.shape[0]):  # the full tasks' rows: w aᵀa and w aᵀb, row by row
+        w = Tw[r]
+        for a in range(n):
+            x = TA[r, a]
+            if x == 0.0:
+                continue
+            wx = w * x
+            f[K + a] -= wx * Tb[r]
+            for b in range(n):
+                H[K + a, K + b] += wx * TA[r, b]
+    for j in range(n):  # the diagonal task
+        H[K + j, K + j] += dw * (da[j] * da[j])
+        f[K + j] -= dw * (da[j] * db[j])
+    n_in, n_eq, n_ld, n_cop = IA.shape[0], EA.shape[0], loaded.shape[0], cop.shape[0]
+    R = n + n_in + n_eq + n_ld + n_cop
+    A = np.zeros((R, N))
+    up = np.empty(R)
+    lo = np.empty(R)
+    sn = np.zeros(R, dtype=np.int32)
+    for r in range(n):
+        o = order[r]
+        for c in range(K):
+            A[r, c] = -G[o, c]
+        for c in range(n):
+            A[r, K + c] = M[o, c] / mass
+        hm = h[o] / mass
+        if r < nu:
+            up[r] = -hm
+            lo[r] = -hm
+            sn[r] = 5
+        else:
+            hi_, lo_ = lim[o, 1], lim[o, 0]
+            up[r] = hi_ / mass - hm if np.isfinite(hi_) else _INF
+            lo[r] = lo_ / mass - hm if np.isfinite(lo_) else -_INF
+    r = n
+    for i in range(n_in):
+        for c in range(n):
+            A[r, K + c] = IA[i, c]
+        up[r], lo[r] = _INF, Ilo[i]
+        r += 1
+    for i in range(n_eq):
+        for c in range(n):
+            A[r, K + c] = EA[i, c]
+        up[r], lo[r] = Eb[i], Eb[i]
+        sn[r] = 5
+        r += 1
+    for i in range(n_ld):
+        for p in range(P):
+            if foot[p] == loaded[i]:
+                for k in range(4):
+                    A[r, 4 * p + k] = edges[p, 2, k]
+        up[r], lo[r] = _INF, min_load / mass
+        r += 1
+    for i in range(n_cop):
+        for c in range(K):
+            A[r, c] = cop[i, c]
+        up[r], lo[r] = _INF, 0.0
+        r += 1
+    # the rows scaled to unit norm for DAQP, the simple bounds 0 ≤ β' first (an empty row: not scaled, ok False)
+    As = np.empty((R, N))
+    bu = np.empty(K + R)
+    bl = np.zeros(K + R)
+    s5 = np.zeros(K + R, dtype=np.int32)
+    ok = True
+    for i in range(K):
+        bu[i] = _INF
+    for r in range(R):
+        q = 0.0
+        for c in range(N):
+            q += A[r, c] * A[r, c]
+        nrm = np.sqrt(q)
+        if not nrm > 1e-9:
+            ok = False
+            nrm = 1.0
+        k_ = 1.0 / nrm
+        for c in range(N):
+            As[r, c] = A[r, c] * k_
+        bu[K + r] = up[r] * k_ if up[r] < _INF else _INF
+        bl[K + r] = lo[r] * k_ if lo[r] > -_INF else -_INF
+        s5[K + r] = sn[r]
+    return H, f, G, A, up, lo, sn, As, bu, bl, s5, ok
+
+
+def kernels() -> Any:
+    """The compiled :func:`assemble` (made and warmed up once per process; numba missing: a ConfigError)."""
+    return once(__name__, lambda: njit(_assemble), _warm)
+
+
+def _warm(fn: Any) -> None:
+    """One call of the argument types the controller passes (its row order and cone edges are read-only arrays)."""
+    n, P = 7, 2
+    z = np.zeros
+    order, edges = np.arange(n), np.ones((P, 3, 4))
+    order.flags.writeable = edges.flags.writeable = False
+    fn(np.eye(n), z(n), order, 1, z((P, 3, n)), edges, z((1, n)), z(1), z(1), z(n), z(n), 1.0,
+       1e-3, 1e-6, 1.0, np.ones((n, 2)), z((0, n)), z(0), z((0, n)), z(0), np.arange(1), np.zeros(P, dtype=np.int64),
+       0.0, z((0, 4 * P)))
+
+
+def compiled_rows(M: np.ndarray, h: np.ndarray, order: np.ndarray, nu: int, point_jac: np.ndarray, edges: np.ndarray,
+                  tasks: list[tuple[np.ndarray, np.ndarray, float]], w_force: float, w_reg: float, mass: float,
+                  lim: np.ndarray, inequalities: tuple[np.ndarray, np.ndarray] | None,
+                  equalities: tuple[np.ndarray, np.ndarray] | None, loaded: np.ndarray, foot: np.ndarray | None,
+                  min_load: float, cop: np.ndarray | None) -> tuple[Any, ...]:
+    """:func:`~.contact_qp.solve_contact_qp`'s H, f, G and unscaled rows A, up, lo, senses (as its NumPy assembly
+    returns them), and DAQP's ``(x, flag)`` on the rows scaled here (``None`` when a row is empty: the caller
+    scales and drops it as with NumPy)."""
+    n = M.shape[0]
+    full = [(A, b, w) for A, b, w in tasks if A.ndim == 2]
+    diag = [(A, b, w) for A, b, w in tasks if A.ndim == 1]
+    if len(diag) > 1:
+        raise ValueError("qp_kernel='numba': at most one diagonal task")
+    TA = np.vstack([A for A, _, _ in full]) if full else np.zeros((0, n))
+    Tb = np.concatenate([b for _, b, _ in full]) if full else np.zeros(0)
+    Tw = np.concatenate([np.full(len(b), float(w)) for _, b, w in full]) if full else np.zeros(0)
+    da, db, dw = diag[0] if diag else (np.zeros(n), np.zeros(n), 0.0)
+    P = point_jac.shape[0]
+    empty = np.zeros((0, n))
+    IA, Ilo = inequalities if inequalities is not None else (empty, np.zeros(0))
+    EA, Eb = equalities if equalities is not None else (empty, np.zeros(0))
+    H, f, G, A, up, lo, sn, As, bu, bl, s5, ok = assemble(
+        M, h, order, nu, np.ascontiguousarray(point_jac), edges, TA, Tb, Tw, da, db, float(dw), float(w_force),
+        float(w_reg), float(mass), lim, np.ascontiguousarray(IA, dtype=np.float64), np.asarray(Ilo, dtype=np.float64),
+        np.ascontiguousarray(EA, dtype=np.float64), np.asarray(Eb, dtype=np.float64), loaded,
+        np.zeros(P, dtype=np.int64) if foot is None else np.asarray(foot, dtype=np.int64), float(min_load),
+        np.zeros((0, 4 * P)) if cop is None else np.ascontiguousarray(cop, dtype=np.float64))
+    first = None
+    if ok:
+        x, _, flag, _ = daqp.solve(H, f, As, bu, bl, s5)
+        first = (np.asarray(x), int(flag))
+    return H, f, G, A, up, lo, sn.astype(np.intc), first
+
+
+def assemble(*args: Any) -> tuple:
+    """:func:`_assemble` compiled (the arguments as :func:`compiled_rows` prepares them)."""
+    return kernels()(*args)
