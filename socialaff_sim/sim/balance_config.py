@@ -36,7 +36,7 @@ class BalanceConfig:
       plan_velocity_tilt,
       support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
-      cop_margin, cop_foot_axes, min_foot_load, torque_fraction, flat_feet, roll_bound, yaw_first,
+      cop_margin, cop_foot_axes, cop_corner_share, min_foot_load, torque_fraction, flat_feet, roll_bound, yaw_first,
       flat_roll_free
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
@@ -142,6 +142,11 @@ class BalanceConfig:
     own forward and left axes (:mod:`~.foot_cop`) instead of the support box's (the feet's mean heading): a foot
     turned by ψ from the heading projects wider than its sole, and near the sole's ends the box's interval reaches its
     long edges (``False``: the box's axes)."""
+    cop_corner_share: float | None = None
+    """λ [—]: ``qp``: each planted foot's centre of pressure is also kept where a rigid sole on four equal corner
+    springs loads every corner with at least this share of the foot's load (a diamond |X| + |Y| ≤ 1 − 4λ in
+    half-extents along the foot's own axes, :mod:`~.sole_corners_load`): inside the box's corners the far corner
+    unloads and the foot rocks on one (``None``: the box's rows only)."""
     min_foot_load: float = 0.05
     """[—]: ``qp``: each planted foot in contact pushes on the floor with at least this fraction of the robot's
     weight (an unloaded foot lifts off by a hair and its contacts flicker)."""
@@ -339,6 +344,9 @@ class BalanceConfig:
         if self.roll_bound is not None and not (self.solver == "qp" and self.roll_bound >= 0.0):
             raise ConfigError(f"BalanceConfig.roll_bound: needs solver='qp' (torque limits) and m_r ≥ 0 m, found "
                               f"{self.solver!r}, {self.roll_bound}")
+        if self.cop_corner_share is not None and not (self.solver == "qp" and 0.0 <= self.cop_corner_share < 0.25):
+            raise ConfigError(f"BalanceConfig.cop_corner_share: needs solver='qp' and a share in [0, 0.25), found "
+                              f"{self.solver!r}, {self.cop_corner_share!r}")
         if self.flat_roll_free and not self.flat_feet:
             raise ConfigError("BalanceConfig.flat_roll_free: needs flat_feet (the feet's hard rows)")
         if self.yaw_first and not self.flat_feet:

@@ -60,6 +60,7 @@ from .plan_velocity import PlanVelocity
 from .qp_kernel import kernels
 from .scene import Scene
 from .self_clearance import SelfClearance
+from .sole_corners_load import corner_share_rows
 from .support_box import SupportBox, cop_intervals
 from .torque_hold import TorqueHold
 
@@ -387,11 +388,17 @@ class BalanceController:
         if feet:
             mine = [pts[which == s, :2] for s in feet]
             soles = [xy if self._sole[s] is None else self._soles_now[s][:, :2] for s, xy in zip(feet, mine, strict=True)]
-            if self.config.cop_foot_axes:  # each foot along its own axes, not the box's (:mod:`~.foot_cop`)
+            c = self.config
+            if c.cop_foot_axes or c.cop_corner_share is not None:  # each foot's own axes (:mod:`~.foot_cop`)
                 fwd = np.array([(d.xmat[b].reshape(3, 3) @ a)[:2] for b, a in zip(self._feet, self._foot_fwd, strict=True)])
-                return foot_cop_rows(pts, edges, which, [None if so is None else so[:, :2] for so in self._soles_now],
-                                     fwd, self.config.cop_margin)
-            bounds[feet] = cop_intervals(box.R, soles, mine, self.config.cop_margin)
+                soles_xy = [None if so is None else so[:, :2] for so in self._soles_now]
+            if not c.cop_foot_axes:  # along the box's axes
+                bounds[feet] = cop_intervals(box.R, soles, mine, c.cop_margin)
+            rows = foot_cop_rows(pts, edges, which, soles_xy, fwd, c.cop_margin) if c.cop_foot_axes else cop_rows(
+                pts, edges, which, box.R, bounds)
+            if c.cop_corner_share is None:
+                return rows  # (with it every corner of the sole kept loaded too: :mod:`~.sole_corners_load`)
+            return np.concatenate([rows, corner_share_rows(pts, edges, which, soles_xy, fwd, c.cop_corner_share)])
         return cop_rows(pts, edges, which, box.R, bounds)
 
     # -- measurements ---------------------------------------------------------------------------------------
