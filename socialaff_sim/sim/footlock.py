@@ -86,7 +86,10 @@ class FootLockConfig:
     """[—]: With ``plant_caught``, only in a task with a contact sub-goal counted above the robot's shoulders
     (``SubgoalSpec.above``: the high five); elsewhere glides step whether caught or not, as without ``plant_caught``
     (the simulator drops the option for such a task: a caught pull-up's walk-up glides, which bring its feet under
-    its plan, and a throw's catch are left as they are; docs/design.md §5). ``False``: in every task."""
+    its plan, and a throw's catch are left as they are; docs/design.md §5). ``False``: in every task. An option,
+    off: the standing demo's high five is met with it, but its rule (instances 336–343) did not hold: high fives won
+    (synthesized 35 → 37 successes) by holding the caught robot, support +2.3 points [−1.6, +8.5], slide +0.38 cm
+    [+0.00, +0.92]."""
     follow_caught: bool = False
     """[—]: While the harness holds a robot it has caught (``caught`` of :meth:`FootLock.apply`: until it lets the
     robot go again) once a sub-goal's contact has held in the episode (``touching`` of this or an earlier call: not in
