@@ -82,6 +82,14 @@ class FootLockConfig:
     off: it mends that high five, but its rule (instances 200–207, synthesized) did not hold: support +3.4 points
     [−7.7, +12.3], slide +1.3 cm [−0.5, +3.2], successes 37 → 35 (the pull-ups' glides after a catch bring their feet
     under the plan)."""
+    plant_caught_above: bool = False
+    """[—]: With ``plant_caught``, only in a task with a contact sub-goal counted above the robot's shoulders
+    (``SubgoalSpec.above``: the high five); elsewhere glides step whether caught or not, as without ``plant_caught``
+    (the simulator drops the option for such a task: a caught pull-up's walk-up glides, which bring its feet under
+    its plan, and a throw's catch are left as they are; docs/design.md §5). ``False``: in every task. An option,
+    off: the standing demo's high five is met with it, but its rule (instances 336–343) did not hold: high fives won
+    (synthesized 35 → 37 successes) by holding the caught robot, support +2.3 points [−1.6, +8.5], slide +0.38 cm
+    [+0.00, +0.92]."""
     follow_caught: bool = False
     """[—]: While the harness holds a robot it has caught (``caught`` of :meth:`FootLock.apply`: until it lets the
     robot go again) once a sub-goal's contact has held in the episode (``touching`` of this or an earlier call: not in
@@ -103,6 +111,8 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig.restep_gap: expected None or a distance > 0 m, found {self.restep_gap}")
         if self.glide_step is not None and not self.glide_step > 0.0:
             raise ConfigError(f"FootLockConfig.glide_step: expected None or a height > 0 m, found {self.glide_step}")
+        if self.plant_caught_above and not self.plant_caught:
+            raise ConfigError("FootLockConfig.plant_caught_above: needs plant_caught")
         if self.hold_lift is not None and not self.hold_lift >= self.lift:
             raise ConfigError(f"FootLockConfig.hold_lift: expected None or a height ≥ lift ({self.lift} m), found "
                               f"{self.hold_lift}")

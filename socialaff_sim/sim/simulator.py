@@ -153,6 +153,8 @@ class Simulator:
         lock = self.config.foot_lock
         if lock is not None and not self._plan_feet:
             lock = dataclasses.replace(lock, restep_gap=None)
+        if lock is not None and lock.plant_caught_above and all(sg.above == "none" for sg in self.task.subgoals):
+            lock = dataclasses.replace(lock, plant_caught=False, plant_caught_above=False)
         self._footlock = None if lock is None else FootLock(
             (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), lock)
         if self.carry is not None and self.carry.release_frame == 0:
