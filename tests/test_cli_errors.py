@@ -202,3 +202,16 @@ def test_console_process_has_no_traceback(argv: list[str], expected: str, places
                           capture_output=True, text=True, env=env, check=False)
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and expected in proc.stderr.strip().splitlines()[-1]
+
+
+@pytest.mark.parametrize(("argv", "code", "stream", "expected"), [
+    (["--version"], 0, "stdout", "socialaff-sim "),
+    (["data", "convert", "synthetic", "--out", "{file}"], 2, "stderr", "expected a folder"),
+])
+def test_python_dash_m_runs_the_command(argv: list[str], code: int, stream: str, expected: str, places) -> None:
+    # `python -m socialaff_sim` is the command without its console script: same output, same exit status.
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"} | {"PYTHONPATH": str(ROOT)}
+    proc = subprocess.run([sys.executable, "-m", "socialaff_sim", *[a.format(**places) for a in argv]],
+                          capture_output=True, text=True, env=env, check=False)
+    assert proc.returncode == code
+    assert expected in getattr(proc, stream) and "Traceback" not in proc.stderr
