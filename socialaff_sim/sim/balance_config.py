@@ -36,7 +36,7 @@ class BalanceConfig:
       plan_velocity_tilt,
       support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
-      cop_margin, cop_foot_axes, cop_corner_share, min_foot_load, torque_fraction, flat_feet, roll_bound, yaw_first,
+      cop_margin, cop_foot_axes, cop_corner_share, min_foot_load, torque_fraction, flat_feet, yaw_first,
       flat_roll_free
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
@@ -155,11 +155,6 @@ class BalanceConfig:
     contact points are the sole's four corners (the centre-of-pressure bounds then span the whole sole) and the
     foot's acceleration toward where it stood, level, is a hard constraint (``False``: the live contact points, and
     the feet's task in the objective toward the attitude they came down in)."""
-    roll_bound: float | None = None
-    """m_r [m]: ``qp``: each foot's ankle roll torque is limited to what puts the floor's centre of pressure at most
-    b − m_r from its sole's middle across it (b half the sole's width), with the floor's force on the foot as
-    measured at the last physics step (:mod:`~.ankle_roll_bound`): no more than the floor can hold with the foot
-    flat (``None``: the actuators' limits only)."""
     yaw_first: bool = False
     """[—]: ``flat_feet``: where the QP cannot hold the feet's hard rows together with the torque limits, the two rows
     of the feet's turn about the vertical are dropped first (the soles' friction and the feet's task in the
@@ -341,9 +336,6 @@ class BalanceConfig:
         if not (self.yield_damping > 0.0 and self.yield_return >= 0.0):
             raise ConfigError(f"BalanceConfig: expected yield_damping > 0 N·s/m and yield_return ≥ 0 s, found "
                               f"{self.yield_damping}, {self.yield_return}")
-        if self.roll_bound is not None and not (self.solver == "qp" and self.roll_bound >= 0.0):
-            raise ConfigError(f"BalanceConfig.roll_bound: needs solver='qp' (torque limits) and m_r ≥ 0 m, found "
-                              f"{self.solver!r}, {self.roll_bound}")
         if self.cop_corner_share is not None and not (self.solver == "qp" and 0.0 <= self.cop_corner_share < 0.25):
             raise ConfigError(f"BalanceConfig.cop_corner_share: needs solver='qp' and a share in [0, 0.25), found "
                               f"{self.solver!r}, {self.cop_corner_share!r}")

@@ -43,7 +43,6 @@ import mujoco
 import numpy as np
 
 from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
-from .ankle_roll_bound import AnkleRollBound
 from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
 from .contact_dynamics import cone_edges, solve_contact_dynamics
@@ -88,7 +87,6 @@ class BalanceController:
         self.feet = FeetOnFloor(scene, self.config.sole_gap)
         """The feet, their soles and their contacts with the floor (:mod:`~.feet_on_floor`)."""
         f = self.feet
-        self.roll_bound = AnkleRollBound.of(m, f, self.vadr, self.config.roll_bound)  # None: not bounded
         self._feet, self._foot_fwd, self._sole, self._corners = f.bodies, f.forward, f.soles, f.corners
         self._home_rot, self._home_z = f.home_rot, f.home_z
         # flat_roll_free: the forward axis (body frame) of each foot whose leg cannot roll it, else None
@@ -248,8 +246,6 @@ class BalanceController:
         elif self.hold is not None:
             self.hold.drop()
         mujoco.mj_step2(m, d)
-        if self.roll_bound is not None:  # the feet's loads, for the next step's ankle roll limits
-            self.roll_bound.measure(m, d)
         # the step's contacts with anything but the floor, read once for every part that folds them in
         contacts = self._external.contacts(m, d) if standing and (
             self.hand_yield is not None or self.compensation is not None or c.external_forces) else None
@@ -353,8 +349,6 @@ class BalanceController:
                                           c.w_force).tau[self._act_rows]
         limits = self._open.copy()  # (n, 2) [−inf, inf]
         limits[self._act_rows] = c.torque_fraction * self._limits(d.qpos[self._act_q], d.qvel[self._act_v])
-        if self.roll_bound is not None:
-            self.roll_bound.clip(limits)
         # The loads and centre-of-pressure bounds only for feet on an area (three contacts or more): on fewer, β ≥ 0
         # already keeps the centre of pressure on them, and the bounds' box may miss their segment.
         area = np.bincount(which, minlength=len(self._feet)) >= 3

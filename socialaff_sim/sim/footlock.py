@@ -24,7 +24,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError, SimulationError
-from .caught_feet import follow_physical
 
 __all__ = ["FootLock", "FootLockConfig"]
 
@@ -90,17 +89,6 @@ class FootLockConfig:
     off: the standing demo's high five is met with it, but its rule (instances 336–343) did not hold: high fives won
     (synthesized 35 → 37 successes) by holding the caught robot, support +2.3 points [−1.6, +8.5], slide +0.38 cm
     [+0.00, +0.92]."""
-    follow_caught: bool = False
-    """[—]: While the harness holds a robot it has caught (``caught`` of :meth:`FootLock.apply`: until it lets the
-    robot go again) once a sub-goal's contact has held in the episode (``touching`` of this or an earlier call: not in
-    the walk-up, where the harness carries a caught robot's feet along its plan; without this condition four high
-    fives of 120–127 stopped short), each
-    planted foot is planted again where its physical ankle frame stands (horizontally; its height stays the home
-    height), at every solve (:func:`~socialaff_sim.sim.caught_feet.follow_physical`): the
-    position servos that drive the held robot's legs then hold the feet where they stand instead of dragging them
-    back to where they were first planted. ``False``: planted where they came down (traced, Stubby's pull-ups:
-    the held feet stand 2–9 cm from those points and about half their held path runs toward them; docs/design.md
-    §5)."""
 
     def __post_init__(self) -> None:
         if not (self.lift >= 0.0 and self.radius >= 0.0):
@@ -141,9 +129,9 @@ class FootLock:
 
     @property
     def needs_physical(self) -> bool:
-        """Whether :meth:`apply` needs the physical ankle frames (``glide_gap``, ``restep_gap`` or ``follow_caught``)."""
+        """Whether :meth:`apply` needs the physical ankle frames (``glide_gap`` or ``restep_gap``)."""
         c = self.config
-        return c.follow_caught or (c.glide_step is not None and (c.glide_gap is not None or c.restep_gap is not None))
+        return c.glide_step is not None and (c.glide_gap is not None or c.restep_gap is not None)
 
     @property
     def standing(self) -> tuple[bool, bool]:
@@ -158,13 +146,11 @@ class FootLock:
         ``False`` for a solve again within a data frame (``glide_step`` then keeps the frame's decision);
         ``caught``: the harness holds a robot it has caught (with ``plant_caught``, glides are then planted at once)."""
         if self.needs_physical and physical is None:
-            raise SimulationError("FootLock.apply: glide_gap, restep_gap and follow_caught need the physical ankle frames")
+            raise SimulationError("FootLock.apply: glide_gap and restep_gap need the physical ankle frames")
         out = np.array(ankles, dtype=np.float64)
         c = self.config
         held = touching and c.hold_in_contact
         self._touched = self._touched or bool(touching)
-        if c.follow_caught and caught and self._touched:  # the servos hold the feet where they stand
-            self.planted = follow_physical(self.planted, physical)  # type: ignore[arg-type]
         if not new_frame and self._glide is not None:  # solved again within the frame: the foot still steps
             s, lifted = self._glide
             out[s] = lifted
