@@ -1,12 +1,6 @@
 """The robot's feet on the floor, as the balance controller (:mod:`~.balance_control`) reads them: which geoms
 belong to which foot, each foot's sole (found at home from its contacts with the floor), the feet's live contacts
-with the floor, the support's footprint and the feet's heading.
-
-A foot is the body that carries its sole (:func:`sole_body`): the lowest body of the ankle key frame's subtree
-that every one of the foot's floor contacts at home hangs from. It is the key frame's own body on Stubby and the
-H1; on the G1 the ankle frame is ``ankle_pitch_link`` and the sole's four spheres hang below it from
-``ankle_roll_link``, past the ankle's roll hinge: a sole kept level on the pitch link would leave that hinge out of
-the feet's hard rows and of the contacts' Jacobians (docs/design.md §5, session 33, wip/g1stand)."""
+with the floor, the support's footprint and the feet's heading."""
 
 from __future__ import annotations
 
@@ -14,11 +8,11 @@ import mujoco
 import numpy as np
 
 from .._norms import norm
-from ..retarget.kinematic_tree import ancestry, subtree_mask
+from ..retarget.kinematic_tree import subtree_mask
 from .flat_feet import sole_corners
 from .scene import Scene
 
-__all__ = ["FeetOnFloor", "sole_body"]
+__all__ = ["FeetOnFloor"]
 
 
 class FeetOnFloor:
@@ -37,17 +31,14 @@ class FeetOnFloor:
             foot_geom[subtree_mask(m, body)[m.geom_bodyid] & scene.robot_geom] = s
         self._foot_geom = foot_geom
         self._floor = int(scene.floor_geom)
-        self._model_geom_body = np.asarray(m.geom_bodyid)
-        pressed = self._pressed_home(m, scene)
-        self._feet = [sole_body(m, body, self._home_geoms(pressed, s)) for s, body in enumerate(self._feet)]
         self.bodies = self._feet
-        """The feet's body ids (left, right): each the body that carries its sole (:func:`sole_body`)."""
+        """The feet's body ids (left, right)."""
         d0 = scene.home_data()
         # Each foot's own axis that points forward at home (the robot faces +x there).
         self.forward = np.array([d0.xmat[b].reshape(3, 3).T @ np.array([1.0, 0.0, 0.0]) for b in self._feet])
         """(2, 3) each foot's forward axis at home, in its own frame."""
         self._foot_fwd = self.forward
-        self.soles = self._sole = self._soles(pressed)
+        self.soles = self._sole = self._soles(m, scene)
         """Each foot's sole box (8, 3) in its frame (``None``: not found; the live contacts are used)."""
         self.corners = [None if sole is None else sole_corners(sole) for sole in self._sole]
         """Each sole's four bottom corners (:func:`~.flat_feet.sole_corners`), or ``None``."""
@@ -56,25 +47,13 @@ class FeetOnFloor:
         self.home_z = [float(d0.xpos[b][2]) for b in self._feet]
         """Each foot body's height at home, m."""
 
-    def _pressed_home(self, m: mujoco.MjModel, scene: Scene) -> mujoco.MjData:
-        """The robot at home pressed 2 mm into the floor, its contacts found (``mj_forward``)."""
+    def _soles(self, m: mujoco.MjModel, scene: Scene) -> list[np.ndarray | None]:
+        """Each foot's sole: the corners (8, 3) of the box, in the foot body's frame, of its contact points with
+        the floor at home pressed 2 mm into it (``None``: no contact found; the live contacts are used)."""
         d = mujoco.MjData(m)
         d.qpos[self.qadr] = scene.home_qpos
         d.qpos[self.qadr[2]] -= 0.002
         mujoco.mj_forward(m, d)
-        return d
-
-    def _home_geoms(self, d: mujoco.MjData, s: int) -> np.ndarray:
-        """The bodies (K,) of foot ``s``'s geoms in contact with the floor in ``d`` (:meth:`_pressed_home`)."""
-        keep, side, floor0 = self._on_floor(d)
-        g = d.contact.geom[: d.ncon]
-        mine = keep & (side == s)
-        return self._model_geom_body[np.where(floor0, g[:, 1], g[:, 0])[mine]]
-
-    def _soles(self, d: mujoco.MjData) -> list[np.ndarray | None]:
-        """Each foot's sole: the corners (8, 3) of the box, in the foot body's frame, of its contact points with
-        the floor at home pressed 2 mm into it (``d``: :meth:`_pressed_home`; ``None``: no contact found; the live
-        contacts are used)."""
         pts, _, which = self.contacts(d)
         out: list[np.ndarray | None] = []
         for s, body in enumerate(self._feet):
@@ -148,14 +127,3 @@ class FeetOnFloor:
         f = sum(d.xmat[b].reshape(3, 3) @ a for b, a in zip(self._feet, self._foot_fwd, strict=True))[:2]
         nrm = norm(f)
         return f / nrm if nrm > 1e-9 else np.array([1.0, 0.0])
-
-
-def sole_body(m: mujoco.MjModel, frame_body: int, contact_bodies: np.ndarray) -> int:
-    """The body that carries a foot's sole: the lowest body that every body of ``contact_bodies`` (K,) (those of the
-    foot's geoms touching the floor at home, all in the subtree of ``frame_body``, the ankle key frame's body) is or
-    hangs from; ``frame_body`` itself when the foot has no contact there."""
-    if len(contact_bodies) == 0:
-        return int(frame_body)
-    chains = [ancestry(m, int(b)) for b in np.unique(contact_bodies)]
-    common = set(chains[0]).intersection(*chains[1:])
-    return next(b for b in chains[0] if b in common)
