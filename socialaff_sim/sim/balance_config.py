@@ -33,7 +33,8 @@ class BalanceConfig:
     - Tracking: joint_bandwidth, torso_bandwidth, foot_damping, foot_stiffness
     - Balance: com_bandwidth, com_damping, com_reference, com_shift, shift_weight, shift_until_touch,
       com_plan_velocity, torso_plan_velocity, plan_velocity_until_touch, plan_velocity_raised,
-      plan_velocity_tilt,
+      plan_velocity_tilt, angmom_weight, angmom_bandwidth,
+      angmom_root_still, angmom_about_feet,
       support_margin, external_forces, external_filter
     - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, cop_foot_axes, cop_corner_share, min_foot_load, torque_fraction, flat_feet, yaw_first,
@@ -103,6 +104,19 @@ class BalanceConfig:
     toward rest: the lean the plan's trunk may bring in a strike is bounded below the harness's catch (traced: strikes
     caught for tilt at the touch, their contact phases then held by the harness, docs/design.md §5). ``None``: no
     bound."""
+    angmom_weight: float | None = None
+    """w_k [—]: rows for the whole body's angular momentum about its centre of mass in the balance's solve, of this
+    weight: its rate toward ω_k (k_ref − k), k_ref the momentum of the plan's velocity over the frame at the posture now
+    (:mod:`~.centroidal_momentum`): the floor's moment about the centre of mass takes a swinging arm's reaction,
+    not the trunk. ``None``: no such rows."""
+    angmom_bandwidth: float = 10.0
+    """ω_k [1/s]: ``angmom_weight``: the rate of the momentum's approach to the plan's."""
+    angmom_about_feet: bool = False
+    """[—]: ``angmom_weight``: the momentum about the feet's contact points' mean (fixed over the step; the whole
+    body's tipping over its feet, the centre of mass's motion included) instead of about the centre of mass."""
+    angmom_root_still: bool = False
+    """[—]: ``angmom_weight``: k_ref of the plan's joint velocities with the root still (the trunk's own turn in the
+    plan not asked for); ``False``: of the plan's whole velocity over the frame, the root's included."""
     support_margin: float = 0.03
     """[m]: the centre-of-mass reference is kept this far inside the box of the feet's contact points
     (axes along the robot's heading)."""
@@ -388,6 +402,11 @@ class BalanceConfig:
                                                     or not 0.0 < self.plan_velocity_tilt < 90.0):
             raise ConfigError(f"BalanceConfig.plan_velocity_tilt: needs com_plan_velocity or torso_plan_velocity and "
                               f"an angle in (0, 90) degrees, found {self.plan_velocity_tilt!r}")
+        if self.angmom_weight is not None and not (self.angmom_weight > 0.0 and self.angmom_bandwidth >= 0.0):
+            raise ConfigError(f"BalanceConfig: expected angmom_weight None or > 0 and angmom_bandwidth ≥ 0 1/s, found "
+                              f"{self.angmom_weight!r}, {self.angmom_bandwidth}")
+        if (self.angmom_root_still or self.angmom_about_feet) and self.angmom_weight is None:
+            raise ConfigError("BalanceConfig.angmom_root_still / angmom_about_feet: need angmom_weight (the rows)")
         if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
             raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                               f"{self.release_tilt}, {self.catch_tilt}")

@@ -45,6 +45,7 @@ import numpy as np
 from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
 from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
+from .centroidal_momentum import CentroidalMomentum, plan_velocity
 from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .com_reference import ComReference
 from .contact_qp import ActuatorLimits, cop_rows, solve_contact_qp
@@ -129,6 +130,10 @@ class BalanceController:
             c.plan_velocity_until_touch, c.plan_velocity_tilt) if c.com_plan_velocity or c.torso_plan_velocity else None
         """``com_plan_velocity`` / ``torso_plan_velocity``: the plan's velocities over the frame (:mod:`~.plan_velocity`),
         else ``None``."""
+        self.angmom = None if c.angmom_weight is None else CentroidalMomentum(m, scene.root_body, self.vadr,
+                                                                           c.angmom_bandwidth)
+        """``angmom_weight``: the centroidal angular momentum's rows (:mod:`~.centroidal_momentum`), else ``None``."""
+        self._plan_qvel = np.zeros(len(self.vadr))  # angmom_weight: the plan's velocity over the frame
         self._limits, self._Mix = ActuatorLimits(m, scene.act_ids), np.ix_(self.vadr, self.vadr)  # made once
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside the joints' task
         self._joint_scale, self._joint_rows = scale, np.eye(n)[6:] * scale[:, None]
@@ -193,6 +198,11 @@ class BalanceController:
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
         if self.hands is not None:  # hand_task: the plan's wrists at the frame's end
             self.hands.begin_frame(p)
+        if self.angmom is not None:  # the plan's velocity over the frame (none without a start)
+            self._plan_qvel = (np.zeros(len(self.vadr)) if q_start is None or duration <= 0.0 else
+                               plan_velocity(q_start, q_target, duration))
+            if self.config.angmom_root_still:
+                self._plan_qvel[:6] = 0.0
         if self.plan_velocity is not None:
             if q_start is not None and duration > 0.0:
                 self.plan_velocity.measure(q_start, p, duration)
@@ -326,6 +336,9 @@ class BalanceController:
             tasks.append((Jt, wo * wo * self._rot + 2.0 * wo * (self.plan_velocity.torso - Jt @ qv), c.w_torso))  # type: ignore[union-attr]
         else:
             tasks.append((Jt, wo * wo * self._rot - 2.0 * wo * (Jt @ qv), c.w_torso))
+        if self.angmom is not None:  # the floor's moment, not the trunk, takes the swing's reaction
+            tasks.append((*self.angmom.rows(m, d, self._plan_qvel, pts.mean(axis=0) if c.angmom_about_feet else None),
+                          c.angmom_weight))
         hinge_q = d.qpos[self.qadr[7:]]
         wq = c.joint_bandwidth
         dq, dv = (0.0, 0.0) if self.hand_yield is None else self.hand_yield.references(  # the arms give way to a
