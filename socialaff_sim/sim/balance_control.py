@@ -48,11 +48,11 @@ from .balance_config import BalanceConfig
 from .centroidal_momentum import CentroidalMomentum, plan_velocity
 from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .com_reference import ComReference
-from .contact_qp import ActuatorLimits, cop_rows, solve_contact_qp
+from .contact_qp import ActuatorLimits, solve_contact_qp
+from .cop_constraints import cop_constraint_rows
 from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts, foot_feedback, roll_free_axes, yaw_rows
-from .foot_cop import foot_cop_rows
 from .hand_task import HandTask, hand_task_wanted
 from .hand_yield import HandYield
 from .harness_release import HarnessRelease
@@ -60,8 +60,7 @@ from .plan_velocity import PlanVelocity
 from .qp_kernel import kernels
 from .scene import Scene
 from .self_clearance import SelfClearance
-from .sole_corners_load import corner_share_rows
-from .support_box import SupportBox, cop_intervals
+from .support_box import SupportBox
 from .torque_hold import TorqueHold
 
 __all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
@@ -88,7 +87,7 @@ class BalanceController:
         self.feet = FeetOnFloor(scene, self.config.sole_gap)
         """The feet, their soles and their contacts with the floor (:mod:`~.feet_on_floor`)."""
         f = self.feet
-        self._feet, self._foot_fwd, self._sole, self._corners = f.bodies, f.forward, f.soles, f.corners
+        self._feet, self._foot_fwd, self._corners = f.bodies, f.forward, f.corners
         self._home_rot, self._home_z = f.home_rot, f.home_z
         # flat_roll_free: the forward axis (body frame) of each foot whose leg cannot roll it, else None
         self._roll_free = roll_free_axes(m, f.bodies, f.forward, scene.root_body) if self.config.flat_roll_free else None
@@ -372,7 +371,8 @@ class BalanceController:
         # the joints' rows as the QP's diagonal task: no (n − 6) × n products of zeros
         qp_tasks = [*tasks[:-1], (self._joint_diag, np.concatenate([np.zeros(6), joints]), c.w_joint)]
         res = solve_contact_qp(M, h, self.unactuated, jac, edges, qp_tasks, self.mass, c.w_force, limits,
-                               self._cop(d, pts, edges, foot, box), foot, c.min_foot_load * self.mass * self._g,
+                               cop_constraint_rows(c, pts, edges, foot, box.R, self._soles_now, d.xmat, self._feet,
+                                                   self._foot_fwd), foot, c.min_foot_load * self.mass * self._g,
                                equalities=eq, inequalities=ineq, kernel=c.qp_kernel,
                                optional=None if eq is None or not c.yaw_first else yaw_rows(len(eq[1])))
         self.yaw_dropped_steps += int(res.optional_dropped)
@@ -385,28 +385,6 @@ class BalanceController:
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
                                           c.w_force).tau[self._act_rows]
         return res.tau[self._act_rows]
-
-    def _cop(self, d: mujoco.MjData, pts: np.ndarray, edges: np.ndarray, which: np.ndarray,
-             box: SupportBox) -> np.ndarray:
-        """(R, 4P) the centre-of-pressure rows (:func:`~.contact_qp.cop_rows`): each foot's kept ``cop_margin``
-        inside its sole, along the support box's axes."""
-        bounds = np.zeros((len(self._feet), 2, 2))
-        feet = [s for s in range(len(self._feet)) if (which == s).any()]  # (−1 in ``which``: a point left unbounded)
-        if feet:
-            mine = [pts[which == s, :2] for s in feet]
-            soles = [xy if self._sole[s] is None else self._soles_now[s][:, :2] for s, xy in zip(feet, mine, strict=True)]
-            c = self.config
-            if c.cop_foot_axes or c.cop_corner_share is not None:  # each foot's own axes (:mod:`~.foot_cop`)
-                fwd = np.array([(d.xmat[b].reshape(3, 3) @ a)[:2] for b, a in zip(self._feet, self._foot_fwd, strict=True)])
-                soles_xy = [None if so is None else so[:, :2] for so in self._soles_now]
-            if not c.cop_foot_axes:  # along the box's axes
-                bounds[feet] = cop_intervals(box.R, soles, mine, c.cop_margin)
-            rows = foot_cop_rows(pts, edges, which, soles_xy, fwd, c.cop_margin) if c.cop_foot_axes else cop_rows(
-                pts, edges, which, box.R, bounds)
-            if c.cop_corner_share is None:
-                return rows  # (with it every corner of the sole kept loaded too: :mod:`~.sole_corners_load`)
-            return np.concatenate([rows, corner_share_rows(pts, edges, which, soles_xy, fwd, c.cop_corner_share)])
-        return cop_rows(pts, edges, which, box.R, bounds)
 
     # -- measurements ---------------------------------------------------------------------------------------
     def _tilt(self, d: mujoco.MjData) -> float:
