@@ -53,7 +53,7 @@ from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts, foot_feedback, roll_free_axes, yaw_rows
 from .foot_cop import foot_cop_rows
-from .hand_task import HandTask, hand_task_wanted
+from .hand_task import HandTask, arm_row_scale, hand_task_wanted
 from .hand_yield import HandYield
 from .harness_release import HarnessRelease
 from .plan_velocity import PlanVelocity
@@ -130,6 +130,8 @@ class BalanceController:
         else ``None``."""
         self._limits, self._Mix = ActuatorLimits(m, scene.act_ids), np.ix_(self.vadr, self.vadr)  # made once
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside the joints' task
+        if self.hands is not None and c.hand_task_arm_weight is not None:  # the hands' arms' rows lighter
+            scale = arm_row_scale(scale, self.hands.arm_columns(m, self._torso, self.vadr), c.hand_task_arm_weight)
         self._joint_scale, self._joint_rows = scale, np.eye(n)[6:] * scale[:, None]
         self._joint_diag = np.concatenate([np.zeros(6), scale])  # the same rows as the QP's diagonal task
         self._foot_scratch = (np.zeros((6, m.nv)), np.zeros((6, m.nv)))

@@ -25,10 +25,11 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from ..errors import SimulationError
 from .arm_contacts import wrist_frames, wrist_positions
 from .scene import Scene
 
-__all__ = ["HandTask", "hand_rows", "hand_task_wanted"]
+__all__ = ["HandTask", "arm_row_scale", "chain_columns", "hand_rows", "hand_task_wanted"]
 
 
 def hand_task_wanted(weight: float | None, roll_free_only: bool, roll_free: list[np.ndarray | None] | None) -> bool:
@@ -38,6 +39,33 @@ def hand_task_wanted(weight: float | None, roll_free_only: bool, roll_free: list
     if weight is None:
         return False
     return not roll_free_only or (roll_free is not None and any(a is not None for a in roll_free))
+
+
+def chain_columns(m: mujoco.MjModel, body: int, top: int, vadr: np.ndarray) -> np.ndarray:
+    """The columns into the robot's dofs ``vadr`` (each ≥ 6, past the free root) of the hinges on the chain from the
+    body ``top`` (its own joints not included) down to ``body`` (included): an arm's joints, shoulder to wrist, with
+    ``top`` the trunk the shoulders hang from."""
+    path = np.zeros(m.nbody, dtype=bool)
+    b = body
+    while b != top:
+        if b <= 0:
+            raise SimulationError(f"body {body} does not hang from body {top}")
+        path[b] = True
+        b = int(m.body_parentid[b])
+    return np.flatnonzero(path[m.dof_bodyid[vadr]] & (np.arange(len(vadr)) >= 6))
+
+
+def arm_row_scale(scale: np.ndarray, arm_cols: list[np.ndarray], weight: float | None) -> np.ndarray:
+    """(n − 6,) the joints' task's per-row scale (the square root of each row's weight) with the rows of the arms'
+    hinges ``arm_cols`` (per arm, columns into the robot's dofs, each ≥ 6) weighted by ``weight`` w_a more
+    (``hand_task_arm_weight``; the scale times √w_a; ``None``: ``scale`` itself). ``scale`` (n − 6,) is not
+    changed."""
+    if weight is None:
+        return scale
+    out = scale.copy()
+    for cols in arm_cols:
+        out[cols - 6] *= np.sqrt(weight)
+    return out
 
 
 def hand_rows(jac: np.ndarray, jac_dot: np.ndarray, qvel: np.ndarray, x: np.ndarray, target: np.ndarray,
@@ -64,6 +92,11 @@ class HandTask:
         self.targets = np.full((2, 3), np.nan)
         """(2, 3) each wrist's planned position at the frame's end (world, m); NaN before the first frame."""
         self._jp, self._jd = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+
+    def arm_columns(self, m: mujoco.MjModel, top: int, vadr: np.ndarray) -> list[np.ndarray]:
+        """Per arm (left, right): the columns into ``vadr`` of its hinges from the trunk ``top`` to its wrist frame's
+        body (:func:`chain_columns`)."""
+        return [chain_columns(m, b, top, vadr) for b in self._bodies]
 
     def positions(self, d: mujoco.MjData) -> np.ndarray:
         """(2, 3) the two wrist frames in ``d`` (world, m)."""
