@@ -1,7 +1,9 @@
 """``BalanceConfig.hand_task_arm_weight`` (sim/hand_task.py: arm_row_scale): the joint rows of the arms the hands'
 task drives weighted by w_a (the rows' scale times √w_a), every other row as before: the numerics against weights
 written out by hand, the decision (only a controller with the hands' task gets it: Stubby under the roll-free gate
-does not, and runs bit for bit as without the options), the arms' chains (shoulder to wrist, on Stubby and the H1), the settings checked."""
+does not, and runs bit for bit as without the options), the arms' chains (shoulder to wrist, on Stubby and the H1), the settings checked. And ``hand_task_plan_velocity``: the
+rows' target velocity the planned wrist's over the frame (against the two poses written out here), only with the
+option, and with ``hand_task_velocity_until_touch`` only for an arm that has not touched."""
 
 from __future__ import annotations
 
@@ -19,7 +21,7 @@ from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.episode import run_episode
-from socialaff_sim.sim.hand_task import arm_row_scale, chain_columns
+from socialaff_sim.sim.hand_task import HandTask, arm_row_scale, chain_columns
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 
 
@@ -118,3 +120,55 @@ def test_the_arms_chains_run_from_the_shoulder_to_the_wrist() -> None:
     bal = Simulator(spec, "shake_hands", _cfg(hand_task=10.0))._get_stage(inter).stepper.balance
     for side, names in zip(("left", "right"), _chain_names(bal), strict=True):
         assert names == [f"{side}_{j}_joint" for j in ("shoulder_pitch", "shoulder_roll", "shoulder_yaw", "elbow")]
+
+
+# -- hand_task_plan_velocity: the planned wrist's velocity over the frame as the rows' target velocity ----------------
+
+def _posed(scene, q: np.ndarray) -> mujoco.MjData:  # noqa: ANN001
+    d = mujoco.MjData(scene.model)
+    d.qpos[np.asarray(scene.robot_qadr)] = q
+    mujoco.mj_kinematics(scene.model, d)
+    return d
+
+
+def test_the_plans_wrist_velocity_moves_the_rows_only_with_the_option(scene) -> None:
+    m = scene.model
+    rng = np.random.default_rng(5)
+    q0 = np.array(scene.home_qpos, dtype=np.float64)
+    q1 = q0.copy()
+    q1[7:] += rng.uniform(-0.3, 0.3, len(q1) - 7)
+    end, start = _posed(scene, q1), _posed(scene, q0)
+    d = mujoco.MjData(m)
+    d.qpos[np.asarray(scene.robot_qadr)] = q0
+    d.qvel[np.asarray(scene.robot_vadr)] = rng.uniform(-1.0, 1.0, len(scene.robot_vadr))
+    mujoco.mj_step1(m, d)
+    va = np.asarray(scene.robot_vadr)
+    on, off = HandTask(scene, 10.0, 8.0, plan_velocity=True), HandTask(scene, 10.0, 8.0)
+    T = 0.04
+    on.begin_frame(end, q0, T)
+    off.begin_frame(end, q0, T)
+    assert off.velocities is None  # off: the target at rest whatever the frame's start
+    x_end = np.array([end.site_xpos[f] if site else end.xpos[f] for f, site in on._frames])
+    x_start = np.array([start.site_xpos[f] if site else start.xpos[f] for f, site in on._frames])
+    np.testing.assert_allclose(on.velocities, (x_end - x_start) / T, rtol=1e-12, atol=1e-12)
+    assert np.abs(on.velocities).max() > 0.1
+    for (J1, b1, _), (J0, b0, _), v in zip(on.tasks(m, d, va, None), off.tasks(m, d, va, None), on.velocities,
+                                           strict=True):
+        np.testing.assert_array_equal(J1, J0)
+        np.testing.assert_allclose(b1 - b0, 2.0 * 8.0 * v, rtol=1e-9, atol=1e-9)  # + 2 ω ẋ*
+    # hand_task_velocity_until_touch: a touched arm's rows at rest, the untouched arm's with the velocity
+    gated = HandTask(scene, 10.0, 8.0, plan_velocity=True, velocity_until_touch=True)
+    gated.begin_frame(end, q0, T)
+    touched = np.array([True, False])
+    rows_g, rows_on, rows_off = (t.tasks(m, d, va, touched) for t in (gated, on, off))
+    np.testing.assert_array_equal(rows_g[0][1], rows_off[0][1])
+    np.testing.assert_array_equal(rows_g[1][1], rows_on[1][1])
+    assert not np.array_equal(rows_g[0][1], rows_on[0][1])
+    np.testing.assert_array_equal(gated.tasks(m, d, va, None)[0][1], rows_on[0][1])  # no latch yet: both move
+    with pytest.raises(ConfigError, match="hand_task_velocity_until_touch"):
+        BalanceConfig(hand_task=10.0, hand_task_velocity_until_touch=True)
+    on.begin_frame(end)  # no start (the first frame): at rest
+    assert on.velocities is None
+    with pytest.raises(ConfigError, match="hand_task_plan_velocity"):
+        BalanceConfig(hand_task_plan_velocity=True)
+    assert not SimConfig.standing().balance.hand_task_plan_velocity

@@ -117,7 +117,8 @@ class BalanceController:
         self.hold = None if c.qp_every == 1 else TorqueHold(c.qp_every, c.hold_gain, c.joint_bandwidth)
         """``qp_every`` > 1: the torques held between solves (:mod:`~.torque_hold`), else ``None``."""
         self._hinge_ref = self._act_rows + 1  # each actuator's entry in the robot coordinates (free joint's 7 first)
-        self.hands = HandTask(scene, c.hand_task, c.hand_task_bandwidth, c.hand_task_touched) if hand_task_wanted(
+        self.hands = HandTask(scene, c.hand_task, c.hand_task_bandwidth, c.hand_task_touched,
+                              c.hand_task_plan_velocity, c.hand_task_velocity_until_touch) if hand_task_wanted(
             c.hand_task, c.hand_task_roll_free, self._roll_free) else None
         """``hand_task`` (with ``hand_task_roll_free``: on a robot whose feet's roll is freed): the hands' rows
         (:mod:`~.hand_task`), else ``None``."""
@@ -196,7 +197,7 @@ class BalanceController:
         self.com.begin_frame(p)
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
         if self.hands is not None:  # hand_task: the plan's wrists at the frame's end
-            self.hands.begin_frame(p)
+            self.hands.begin_frame(p, q_start, duration)
         if self.plan_velocity is not None:
             if q_start is not None and duration > 0.0:
                 self.plan_velocity.measure(q_start, p, duration)

@@ -84,9 +84,16 @@ class HandTask:
     """The hands' position rows of one physics scene (module docstring); :meth:`begin_frame` per data frame,
     :meth:`tasks` per solve."""
 
-    def __init__(self, scene: Scene, weight: float, bandwidth: float, touched_only: bool = False) -> None:
+    def __init__(self, scene: Scene, weight: float, bandwidth: float, touched_only: bool = False,
+                 plan_velocity: bool = False, velocity_until_touch: bool = False) -> None:
         m = scene.model
         self.weight, self.bandwidth, self.touched_only = weight, bandwidth, touched_only
+        self._start = mujoco.MjData(m) if plan_velocity else None  # hand_task_plan_velocity: the frame's start posed
+        self._m, self._qadr = m, np.asarray(scene.robot_qadr)
+        self.velocity_until_touch = velocity_until_touch
+        self.velocities: np.ndarray | None = None
+        """(2, 3) ``hand_task_plan_velocity``: each planned wrist's mean velocity over the frame (world, m/s), the rows'
+        ẋ*; ``None``: at rest."""
         self._frames = wrist_frames(scene)
         self._bodies = [int(m.site_bodyid[f]) if site else f for f, site in self._frames]
         self.targets = np.full((2, 3), np.nan)
@@ -102,9 +109,16 @@ class HandTask:
         """(2, 3) the two wrist frames in ``d`` (world, m)."""
         return wrist_positions(d, self._frames)
 
-    def begin_frame(self, plan: mujoco.MjData) -> None:
-        """Read the targets from ``plan``, the posed (kinematics run) plan of the frame's end."""
+    def begin_frame(self, plan: mujoco.MjData, q_start: np.ndarray | None = None, duration: float = 0.0) -> None:
+        """Read the targets from ``plan``, the posed (kinematics run) plan of the frame's end; with
+        ``hand_task_plan_velocity``, ``q_start`` (nq_r,) the references' start and ``duration`` (s) their time to
+        the end: the velocities (x*(end) − x*(start)) / duration (none without a start or a duration)."""
         self.targets = self.positions(plan)
+        self.velocities = None
+        if self._start is not None and q_start is not None and duration > 0.0:
+            self._start.qpos[self._qadr] = q_start
+            mujoco.mj_kinematics(self._m, self._start)
+            self.velocities = (self.targets - self.positions(self._start)) / duration
 
     def tasks(self, m: mujoco.MjModel, d: mujoco.MjData, vadr: np.ndarray, touched: np.ndarray | None,
               give: tuple[np.ndarray, np.ndarray] | None = None) -> list[tuple[np.ndarray, np.ndarray, float]]:
@@ -120,10 +134,13 @@ class HandTask:
             x = xs[s]
             mujoco.mj_jac(m, d, self._jp, None, x, self._bodies[s])
             mujoco.mj_jacDot(m, d, self._jd, None, x, self._bodies[s])
-            target, velocity = self.targets[s], None
+            target = self.targets[s]
+            velocity = None if self.velocities is None or (  # hand_task_velocity_until_touch: a touched arm at rest
+                self.velocity_until_touch and touched is not None and touched[s]) else self.velocities[s]
             if give is not None:
                 target = target + np.r_[give[0][s], 0.0]
-                velocity = np.r_[give[1][s], 0.0]
+                rate = np.r_[give[1][s], 0.0]
+                velocity = rate if velocity is None else rate + velocity
             J, b = hand_rows(self._jp[:, vadr], self._jd[:, vadr], d.qvel[vadr], x, target, self.bandwidth, velocity)
             out.append((J.copy(), b, self.weight))
         return out
