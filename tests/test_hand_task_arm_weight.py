@@ -41,14 +41,19 @@ def _interaction(label: str, k: int = 1):  # noqa: ANN202
     return list(generate_dataset(0, SyntheticConfig(interactions=(label,), instances_per_interaction=k + 1)))[k]
 
 
+_OFF = dict(flat_roll_free=False, hand_task=None, hand_task_roll_free=False, hand_task_arm_weight=None,
+            hand_task_plan_velocity=False, hand_task_velocity_until_touch=False)
+
+
 def _cfg(**over) -> SimConfig:  # noqa: ANN003
+    """``SimConfig.standing()`` without the hand task's adopted fields (``_OFF``), then ``over``."""
     cfg = SimConfig.standing()
-    return dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, **over))
+    return dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, **{**_OFF, **over}))
 
 
 def test_only_a_controller_with_the_hands_task_weights_its_arms_down() -> None:
     inter = _interaction("shake_hands")
-    base = Simulator("ours", "shake_hands", SimConfig.standing())._get_stage(inter).stepper.balance
+    base = Simulator("ours", "shake_hands", _cfg())._get_stage(inter).stepper.balance
     # Stubby with the task (no gate): the arms' rows scaled by √0.1, the legs' and head's as before
     bal = Simulator("ours", "shake_hands", _cfg(hand_task=10.0, hand_task_arm_weight=0.1))._get_stage(
         inter).stepper.balance
@@ -75,7 +80,7 @@ def test_settings_are_checked() -> None:
     with pytest.raises(ConfigError, match="hand_task_arm_weight"):
         BalanceConfig(hand_task=10.0, hand_task_touched=True, arm_compensation=1.0, compensation_gate=1e9,
                       hand_task_arm_weight=0.1)
-    assert BalanceConfig().hand_task_arm_weight is None and SimConfig.standing().balance.hand_task_arm_weight is None
+    assert BalanceConfig().hand_task_arm_weight is None and SimConfig.standing().balance.hand_task_arm_weight == 0.1
     assert BalanceConfig(hand_task=10.0, hand_task_arm_weight=1.0).hand_task_arm_weight == 1.0
 
 
@@ -89,7 +94,7 @@ def _episode(cfg: SimConfig, inter) -> list[np.ndarray]:  # noqa: ANN001
 
 def test_stubby_under_the_gate_runs_bit_for_bit_as_without_the_options() -> None:
     inter = _interaction("shake_hands")
-    base = _episode(SimConfig.standing(), inter)
+    base = _episode(_cfg(), inter)
     opt = _episode(_cfg(flat_roll_free=True, hand_task=10.0, hand_task_roll_free=True, hand_task_arm_weight=0.1),
                    inter)
     assert len(base) == len(opt) > 10
@@ -171,4 +176,6 @@ def test_the_plans_wrist_velocity_moves_the_rows_only_with_the_option(scene) -> 
     assert on.velocities is None
     with pytest.raises(ConfigError, match="hand_task_plan_velocity"):
         BalanceConfig(hand_task_plan_velocity=True)
-    assert not SimConfig.standing().balance.hand_task_plan_velocity
+    assert not BalanceConfig().hand_task_plan_velocity
+    b = SimConfig.standing().balance  # adopted (rule on the H1's 392–423)
+    assert b.hand_task_plan_velocity and b.hand_task_velocity_until_touch and b.flat_roll_free and b.hand_task_roll_free
