@@ -101,12 +101,14 @@ def test_settings_are_checked_and_reach_the_controller() -> None:
                 dict(hand_task=1.0, hand_task_touched=True)):
         with pytest.raises(ConfigError, match="hand_"):
             BalanceConfig(**bad)
-    assert BalanceConfig().hand_task is None and SimConfig.standing().balance.hand_task is None
+    assert BalanceConfig().hand_task is None and SimConfig.standing().balance.hand_task == 10.0  # (gated: the H1's)
     cfg = SimConfig.standing()
     inter = next(i for i in generate_dataset(seed=0) if i.instance_id == "shake_hands_004")
     for w in (None, 5.0):
         sim = Simulator("ours", "shake_hands", dataclasses.replace(
-            cfg, balance=dataclasses.replace(cfg.balance, hand_task=w)))
+            cfg, balance=dataclasses.replace(cfg.balance, hand_task=w, hand_task_roll_free=False, flat_roll_free=False,
+                                             hand_task_arm_weight=None, hand_task_plan_velocity=False,
+                                             hand_task_velocity_until_touch=False)))
         bal = sim._get_stage(inter).stepper.balance
         assert (bal.hands is None) is (w is None)
         if w is not None:

@@ -132,7 +132,8 @@ def test_hand_task_yield_needs_the_task_and_the_give() -> None:
 @pytest.mark.parametrize("follow", [False, True])
 def test_the_controller_passes_the_give_only_with_the_option(follow: bool) -> None:
     cfg = SimConfig.standing()  # (hand_yield on)
-    cfg = dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, hand_task=10.0, hand_task_yield=follow))
+    cfg = dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, hand_task=10.0, hand_task_yield=follow,
+                                                                     hand_task_roll_free=False))  # (Stubby: ungated)
     inter = _interaction("pull_up")
     sim = Simulator("ours", "pull_up", cfg)
     bal = sim._get_stage(inter).stepper.balance

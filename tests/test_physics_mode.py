@@ -38,7 +38,11 @@ def test_the_default_is_the_harness_and_standing_is_a_named_preset() -> None:
                                       arm_compensation=1.0, compensation_gate=1e9, com_shift=0.1,
                                       shift_until_touch=True, com_plan_velocity=True, torso_plan_velocity=True,
                                       plan_velocity_until_touch=True, plan_velocity_raised=0.0,
-                                      plan_velocity_tilt=4.0)  # and session 32's plan velocities in a raised strike
+                                      plan_velocity_tilt=4.0,  # and session 32's plan velocities in a raised strike
+                                      # session 33's hand rows for robots whose feet's roll is freed (the H1's rule)
+                                      flat_roll_free=True, hand_task=10.0, hand_task_roll_free=True,
+                                      hand_task_arm_weight=0.1, hand_task_plan_velocity=True,
+                                      hand_task_velocity_until_touch=True)
     assert d.stance == StanceConfig(release=False)
     assert d.foot_lock == FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05,
                                          glide_until_contact=True, glide_gap=0.12)  # session 30's rule

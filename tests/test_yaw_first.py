@@ -30,8 +30,10 @@ def h1_handshake():  # noqa: ANN201
 
 
 def _counts(spec, inter, yaw_first: bool) -> tuple[int, int, int]:  # noqa: ANN001
-    cfg = SimConfig.standing()
-    cfg = dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, yaw_first=yaw_first))
+    cfg = SimConfig.standing()  # without the H1's freed roll (adopted in session 33), which removes the infeasibility
+    cfg = dataclasses.replace(cfg, balance=dataclasses.replace(
+        cfg.balance, yaw_first=yaw_first, flat_roll_free=False, hand_task=None, hand_task_roll_free=False,
+        hand_task_arm_weight=None, hand_task_plan_velocity=False, hand_task_velocity_until_touch=False))
     sim = Simulator(spec, "shake_hands", cfg)
     run_episode(sim, GroundTruthSource(), inter)
     bal = sim._stage.stepper.balance

@@ -43,7 +43,7 @@ class BalanceConfig:
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate,
       compensation_after_touch, hand_task, hand_task_bandwidth, hand_task_touched, hand_task_roll_free,
-      hand_task_yield
+      hand_task_yield, hand_task_arm_weight, hand_task_plan_velocity, hand_task_velocity_until_touch
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, tilt_from_plan,
       catch_tilt, catch_margin, catch_blend, drive_harnessed
     - Rate: qp_every, hold_gain, hold_near, hold_touch, qp_kernel
@@ -251,6 +251,22 @@ class BalanceConfig:
     """[—]: ``hand_task``'s target, each wrist, moved with the hands' give (``hand_yield``'s horizontal offset o and its
     rate ȯ, :mod:`~.hand_yield`): the wanted acceleration ω_h² (x* + o − x) + 2 ω_h (ȯ − ẋ) (needs ``hand_task`` and
     ``hand_yield``). ``False``: the plan's wrist, which pulls the hand back against the give."""
+    hand_task_arm_weight: float | None = None
+    """w_a [—]: the joint rows of the arms ``hand_task`` drives weighted by this factor (on top of ``upper_weight``;
+    :func:`~.hand_task.arm_row_scale`): a released trunk off the plan's base makes the arm's joint references and
+    its wrist's target disagree, and the arm's joint rows (bandwidth ``joint_bandwidth``) outvote the hand's three
+    rows, leaving the wrist 5–10 cm short of its target through a clasp (traced, session 33). Only where the hand
+    task runs (with ``hand_task_roll_free``: the H1, not Stubby); needs ``hand_task``, not ``hand_task_touched``.
+    ``None``: the arm's rows as the other joints'."""
+    hand_task_plan_velocity: bool = False
+    """[—]: ``hand_task``'s target velocity ẋ* the planned wrist's mean velocity over the frame, (x*(end) −
+    x*(start)) / T (the references' start and their time T to the end): ω_h² (x* − x) + 2 ω_h (ẋ* − ẋ); a strike
+    keeps its speed where the wrist's rows (with ``hand_task_arm_weight``) outvote the joints' velocity references
+    (needs ``hand_task``). ``False``: the target at rest, ẋ* = 0."""
+    hand_task_velocity_until_touch: bool = False
+    """[—]: ``hand_task_plan_velocity`` only for an arm that has not yet touched the person or the object (the
+    compensation's touch latch; needs ``hand_task_plan_velocity``, ``arm_compensation`` and ``compensation_gate``): a
+    clasp or a grasp then holds the plan's wrist at rest. ``False``: the velocity throughout."""
     sole_gap: float = 0.0
     """[m]: a planted foot without contacts whose sole is at most this high above the floor still counts for the
     support box of the harness's decisions (0: only feet in contact; a contact lost for a step then shrinks the
@@ -384,6 +400,16 @@ class BalanceConfig:
         if self.hand_task_roll_free and (self.hand_task is None or not self.flat_roll_free):
             raise ConfigError("BalanceConfig.hand_task_roll_free: needs hand_task and flat_roll_free (the robots it "
                               "picks)")
+        if self.hand_task_arm_weight is not None and (self.hand_task is None or self.hand_task_touched
+                                                      or not 0.0 < self.hand_task_arm_weight <= 1.0):
+            raise ConfigError(f"BalanceConfig.hand_task_arm_weight: needs hand_task (not hand_task_touched) and a "
+                              f"factor in (0, 1], found {self.hand_task_arm_weight!r}")
+        if self.hand_task_plan_velocity and self.hand_task is None:
+            raise ConfigError("BalanceConfig.hand_task_plan_velocity: needs hand_task (the rows it moves)")
+        if self.hand_task_velocity_until_touch and (not self.hand_task_plan_velocity or self.arm_compensation is None
+                                                    or self.compensation_gate is None):
+            raise ConfigError("BalanceConfig.hand_task_velocity_until_touch: needs hand_task_plan_velocity, "
+                              "arm_compensation and compensation_gate (their touch latch)")
         if self.hand_task_yield and (self.hand_task is None or self.hand_yield is None):
             raise ConfigError("BalanceConfig.hand_task_yield: needs hand_task and hand_yield (the give it follows)")
         if self.shift_until_touch and (self.com_shift is None or self.arm_compensation is None

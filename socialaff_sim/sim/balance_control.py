@@ -53,7 +53,7 @@ from .cop_constraints import cop_constraint_rows
 from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts, foot_feedback, roll_free_axes, yaw_rows
-from .hand_task import HandTask, hand_task_wanted
+from .hand_task import HandTask, arm_row_scale, hand_task_wanted
 from .hand_yield import HandYield
 from .harness_release import HarnessRelease
 from .plan_velocity import PlanVelocity
@@ -118,7 +118,8 @@ class BalanceController:
         self.hold = None if c.qp_every == 1 else TorqueHold(c.qp_every, c.hold_gain, c.joint_bandwidth)
         """``qp_every`` > 1: the torques held between solves (:mod:`~.torque_hold`), else ``None``."""
         self._hinge_ref = self._act_rows + 1  # each actuator's entry in the robot coordinates (free joint's 7 first)
-        self.hands = HandTask(scene, c.hand_task, c.hand_task_bandwidth, c.hand_task_touched) if hand_task_wanted(
+        self.hands = HandTask(scene, c.hand_task, c.hand_task_bandwidth, c.hand_task_touched,
+                              c.hand_task_plan_velocity, c.hand_task_velocity_until_touch) if hand_task_wanted(
             c.hand_task, c.hand_task_roll_free, self._roll_free) else None
         """``hand_task`` (with ``hand_task_roll_free``: on a robot whose feet's roll is freed): the hands' rows
         (:mod:`~.hand_task`), else ``None``."""
@@ -135,6 +136,8 @@ class BalanceController:
         self._plan_qvel = np.zeros(len(self.vadr))  # angmom_weight: the plan's velocity over the frame
         self._limits, self._Mix = ActuatorLimits(m, scene.act_ids), np.ix_(self.vadr, self.vadr)  # made once
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside the joints' task
+        if self.hands is not None and c.hand_task_arm_weight is not None:  # the hands' arms' rows lighter
+            scale = arm_row_scale(scale, self.hands.arm_columns(m, self._torso, self.vadr), c.hand_task_arm_weight)
         self._joint_scale, self._joint_rows = scale, np.eye(n)[6:] * scale[:, None]
         self._joint_diag = np.concatenate([np.zeros(6), scale])  # the same rows as the QP's diagonal task
         self._foot_scratch = (np.zeros((6, m.nv)), np.zeros((6, m.nv)))
@@ -196,7 +199,7 @@ class BalanceController:
         self.com.begin_frame(p)
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
         if self.hands is not None:  # hand_task: the plan's wrists at the frame's end
-            self.hands.begin_frame(p)
+            self.hands.begin_frame(p, q_start, duration)
         if self.angmom is not None:  # the plan's velocity over the frame (none without a start)
             self._plan_qvel = (np.zeros(len(self.vadr)) if q_start is None or duration <= 0.0 else
                                plan_velocity(q_start, q_target, duration))

@@ -25,10 +25,11 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from ..errors import SimulationError
 from .arm_contacts import wrist_frames, wrist_positions
 from .scene import Scene
 
-__all__ = ["HandTask", "hand_rows", "hand_task_wanted"]
+__all__ = ["HandTask", "arm_row_scale", "chain_columns", "hand_rows", "hand_task_wanted"]
 
 
 def hand_task_wanted(weight: float | None, roll_free_only: bool, roll_free: list[np.ndarray | None] | None) -> bool:
@@ -38,6 +39,33 @@ def hand_task_wanted(weight: float | None, roll_free_only: bool, roll_free: list
     if weight is None:
         return False
     return not roll_free_only or (roll_free is not None and any(a is not None for a in roll_free))
+
+
+def chain_columns(m: mujoco.MjModel, body: int, top: int, vadr: np.ndarray) -> np.ndarray:
+    """The columns into the robot's dofs ``vadr`` (each ≥ 6, past the free root) of the hinges on the chain from the
+    body ``top`` (its own joints not included) down to ``body`` (included): an arm's joints, shoulder to wrist, with
+    ``top`` the trunk the shoulders hang from."""
+    path = np.zeros(m.nbody, dtype=bool)
+    b = body
+    while b != top:
+        if b <= 0:
+            raise SimulationError(f"body {body} does not hang from body {top}")
+        path[b] = True
+        b = int(m.body_parentid[b])
+    return np.flatnonzero(path[m.dof_bodyid[vadr]] & (np.arange(len(vadr)) >= 6))
+
+
+def arm_row_scale(scale: np.ndarray, arm_cols: list[np.ndarray], weight: float | None) -> np.ndarray:
+    """(n − 6,) the joints' task's per-row scale (the square root of each row's weight) with the rows of the arms'
+    hinges ``arm_cols`` (per arm, columns into the robot's dofs, each ≥ 6) weighted by ``weight`` w_a more
+    (``hand_task_arm_weight``; the scale times √w_a; ``None``: ``scale`` itself). ``scale`` (n − 6,) is not
+    changed."""
+    if weight is None:
+        return scale
+    out = scale.copy()
+    for cols in arm_cols:
+        out[cols - 6] *= np.sqrt(weight)
+    return out
 
 
 def hand_rows(jac: np.ndarray, jac_dot: np.ndarray, qvel: np.ndarray, x: np.ndarray, target: np.ndarray,
@@ -56,22 +84,41 @@ class HandTask:
     """The hands' position rows of one physics scene (module docstring); :meth:`begin_frame` per data frame,
     :meth:`tasks` per solve."""
 
-    def __init__(self, scene: Scene, weight: float, bandwidth: float, touched_only: bool = False) -> None:
+    def __init__(self, scene: Scene, weight: float, bandwidth: float, touched_only: bool = False,
+                 plan_velocity: bool = False, velocity_until_touch: bool = False) -> None:
         m = scene.model
         self.weight, self.bandwidth, self.touched_only = weight, bandwidth, touched_only
+        self._start = mujoco.MjData(m) if plan_velocity else None  # hand_task_plan_velocity: the frame's start posed
+        self._m, self._qadr = m, np.asarray(scene.robot_qadr)
+        self.velocity_until_touch = velocity_until_touch
+        self.velocities: np.ndarray | None = None
+        """(2, 3) ``hand_task_plan_velocity``: each planned wrist's mean velocity over the frame (world, m/s), the rows'
+        ẋ*; ``None``: at rest."""
         self._frames = wrist_frames(scene)
         self._bodies = [int(m.site_bodyid[f]) if site else f for f, site in self._frames]
         self.targets = np.full((2, 3), np.nan)
         """(2, 3) each wrist's planned position at the frame's end (world, m); NaN before the first frame."""
         self._jp, self._jd = np.zeros((3, m.nv)), np.zeros((3, m.nv))
 
+    def arm_columns(self, m: mujoco.MjModel, top: int, vadr: np.ndarray) -> list[np.ndarray]:
+        """Per arm (left, right): the columns into ``vadr`` of its hinges from the trunk ``top`` to its wrist frame's
+        body (:func:`chain_columns`)."""
+        return [chain_columns(m, b, top, vadr) for b in self._bodies]
+
     def positions(self, d: mujoco.MjData) -> np.ndarray:
         """(2, 3) the two wrist frames in ``d`` (world, m)."""
         return wrist_positions(d, self._frames)
 
-    def begin_frame(self, plan: mujoco.MjData) -> None:
-        """Read the targets from ``plan``, the posed (kinematics run) plan of the frame's end."""
+    def begin_frame(self, plan: mujoco.MjData, q_start: np.ndarray | None = None, duration: float = 0.0) -> None:
+        """Read the targets from ``plan``, the posed (kinematics run) plan of the frame's end; with
+        ``hand_task_plan_velocity``, ``q_start`` (nq_r,) the references' start and ``duration`` (s) their time to
+        the end: the velocities (x*(end) − x*(start)) / duration (none without a start or a duration)."""
         self.targets = self.positions(plan)
+        self.velocities = None
+        if self._start is not None and q_start is not None and duration > 0.0:
+            self._start.qpos[self._qadr] = q_start
+            mujoco.mj_kinematics(self._m, self._start)
+            self.velocities = (self.targets - self.positions(self._start)) / duration
 
     def tasks(self, m: mujoco.MjModel, d: mujoco.MjData, vadr: np.ndarray, touched: np.ndarray | None,
               give: tuple[np.ndarray, np.ndarray] | None = None) -> list[tuple[np.ndarray, np.ndarray, float]]:
@@ -87,10 +134,13 @@ class HandTask:
             x = xs[s]
             mujoco.mj_jac(m, d, self._jp, None, x, self._bodies[s])
             mujoco.mj_jacDot(m, d, self._jd, None, x, self._bodies[s])
-            target, velocity = self.targets[s], None
+            target = self.targets[s]
+            velocity = None if self.velocities is None or (  # hand_task_velocity_until_touch: a touched arm at rest
+                self.velocity_until_touch and touched is not None and touched[s]) else self.velocities[s]
             if give is not None:
                 target = target + np.r_[give[0][s], 0.0]
-                velocity = np.r_[give[1][s], 0.0]
+                rate = np.r_[give[1][s], 0.0]
+                velocity = rate if velocity is None else rate + velocity
             J, b = hand_rows(self._jp[:, vadr], self._jd[:, vadr], d.qvel[vadr], x, target, self.bandwidth, velocity)
             out.append((J.copy(), b, self.weight))
         return out

@@ -28,14 +28,19 @@ STANDING_BALANCE = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0, flat_f
                                  hand_yield=0.5, yield_damping=50.0, yield_twist=0.02, yield_carried=True,
                                  arm_compensation=1.0, compensation_gate=1e9, com_shift=0.1, shift_until_touch=True,
                                  com_plan_velocity=True, torso_plan_velocity=True, plan_velocity_until_touch=True,
-                                 plan_velocity_raised=0.0, plan_velocity_tilt=4.0)
+                                 plan_velocity_raised=0.0, plan_velocity_tilt=4.0, flat_roll_free=True, hand_task=10.0,
+                                 hand_task_roll_free=True, hand_task_arm_weight=0.1, hand_task_plan_velocity=True,
+                                 hand_task_velocity_until_touch=True)
 """The balance controller of :meth:`SimConfig.standing`: the quadratic program with the feet flat on their soles,
 the arms kept 1 cm clear of the body, hands that give way (before a push tips the robot or twists its feet, also to
 the person's pull through an object both still hold), each arm's references made up for the trunk's pose error
 until that arm first touches the person or the object, and the centre of mass moved forward by up to 10 cm of the
 feet's shortfall behind the plan's until then; the centre of mass's and the torso's damping toward the plan's
 velocities in a frame whose plan lifts a wrist above its shoulder, until the first touch and while the torso tilts
-at most 4° (the strike of a high five; docs/design.md §5, issue 25)."""
+at most 4° (the strike of a high five; docs/design.md §5, issue 25). For a robot whose legs cannot roll a flat foot
+(fewer than six joints, the H1): that roll row left free, and each wrist held at the plan's by a position task whose
+arm's joint rows weigh a tenth, its target moving with the plan's wrist until the arm's first touch (rule on the
+H1's 392–423, session 33); Stubby's six-joint legs get none of it."""
 STANDING_FOOT_LOCK = FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05, glide_until_contact=True,
                                     glide_gap=0.12)
 """The foot lock of :meth:`SimConfig.standing`: a planted foot stays planted up to 12 cm of recorded rise, and
