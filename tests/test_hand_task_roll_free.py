@@ -2,9 +2,7 @@
 feet ``flat_roll_free`` frees (a leg of fewer than six joints): the decision on a model written out here (one
 five-joint leg) and on Stubby (six and six), the settings checked, the controllers built with it (Stubby: no task;
 the H1, skipped without ../shared/robots: the task), and a standing Stubby episode with it identical step by step to
-one without ``flat_roll_free`` and ``hand_task``, while the same settings without the gate change it. And
-``hand_task_yield``: the give's offset and rate added to the rows' target and velocity terms (by hand), passed by the
-controller only with the option."""
+one without ``flat_roll_free`` and ``hand_task``, while the same settings without the gate change it."""
 
 from __future__ import annotations
 
@@ -94,56 +92,3 @@ def test_stubby_runs_bit_for_bit_as_without_either_option() -> None:
     # the same settings without the gate give Stubby the hands' rows, which change its motion (so the check can fail)
     ungated = _episode(_paired(False), inter)
     assert any(not np.array_equal(a, b) for a, b in zip(base, ungated))
-
-
-# -- hand_task_yield: the task's target moved with the hands' give ---------------------------------------------------
-
-def test_the_give_moves_the_target_and_its_velocity(scene) -> None:
-    from socialaff_sim.sim.hand_task import HandTask
-    from test_hand_task import _moving
-
-    m = scene.model
-    d = _moving(scene, np.random.default_rng(5))
-    va = np.asarray(scene.robot_vadr)
-    task = HandTask(scene, 1.0, 8.0)
-    task.targets = task.positions(d) + np.array([[0.05, -0.02, 0.1], [-0.04, 0.03, 0.02]])
-    offset = np.array([[0.03, -0.01], [0.0, 0.02]])
-    rate = np.array([[0.2, 0.1], [-0.3, 0.0]])
-    plain = task.tasks(m, d, va, None)
-    given = task.tasks(m, d, va, None, (offset, rate))
-    zero = task.tasks(m, d, va, None, (np.zeros((2, 2)), np.zeros((2, 2))))
-    for s in (0, 1):
-        np.testing.assert_array_equal(given[s][0], plain[s][0])
-        # b = ω² (x* + o − x) + 2 ω (ȯ − ẋ) − J̇ q̇: by the offset's and rate's terms alone, vertical row untouched
-        want = np.r_[64.0 * offset[s] + 16.0 * rate[s], 0.0]
-        np.testing.assert_allclose(given[s][1] - plain[s][1], want, atol=1e-12)
-        np.testing.assert_array_equal(zero[s][1], plain[s][1])  # no give: the plan's wrist, bit for bit
-
-
-def test_hand_task_yield_needs_the_task_and_the_give() -> None:
-    for bad in (dict(hand_task_yield=True), dict(hand_task=10.0, hand_task_yield=True),
-                dict(hand_yield=0.5, hand_task_yield=True)):
-        with pytest.raises(ConfigError, match="hand_task_yield"):
-            BalanceConfig(solver="qp", flat_feet=True, **bad)
-    assert BalanceConfig(hand_task=10.0, hand_yield=0.5, hand_task_yield=True).hand_task_yield
-    assert not BalanceConfig().hand_task_yield and not SimConfig.standing().balance.hand_task_yield
-
-
-@pytest.mark.parametrize("follow", [False, True])
-def test_the_controller_passes_the_give_only_with_the_option(follow: bool) -> None:
-    cfg = SimConfig.standing()  # (hand_yield on)
-    cfg = dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, hand_task=10.0, hand_task_yield=follow,
-                                                                     hand_task_roll_free=False))  # (Stubby: ungated)
-    inter = _interaction("pull_up")
-    sim = Simulator("ours", "pull_up", cfg)
-    bal = sim._get_stage(inter).stepper.balance
-    seen: list[bool] = []
-    tasks = bal.hands.tasks
-
-    def spy(m, d, va, touched, give=None):  # noqa: ANN001, ANN202
-        seen.append(give is not None and give[0] is bal.hand_yield.offset and give[1] is bal.hand_yield.rate)
-        return tasks(m, d, va, touched, give)
-
-    bal.hands.tasks = spy
-    run_episode(sim, GroundTruthSource(), inter)
-    assert len(seen) > 100 and all(x is follow for x in seen)

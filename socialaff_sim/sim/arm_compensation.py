@@ -24,8 +24,7 @@ With ``compensation_gate`` d_g set, the compensation is confined to the *approac
 compensated only while its plan's wrist x_p is within d_g of the nearest thing it may touch (a geom of the person,
 or the interaction's free object, by its centre; :func:`approach_gate`) and until that arm first touches the person
 or the object in the episode (a latch, :attr:`ArmCompensation.touched`). A held contact (a pull-up, a handshake, a
-carried cup) then gets none, whatever force it carries. With ``compensation_after_touch`` the latch is kept (other
-options read it) but not applied: a touched arm is compensated on, faded by the person's force alone.
+carried cup) then gets none, whatever force it carries.
 """
 
 from __future__ import annotations
@@ -75,13 +74,11 @@ class ArmCompensation:
     :meth:`measure` after each physics step the robot stands, :meth:`offsets` before each solve of the controller."""
 
     def __init__(self, scene: Scene, fraction: float, release: float, filter_time: float,
-                 gate: float | None = None, after_touch: bool = False) -> None:
+                 gate: float | None = None) -> None:
         m = scene.model
         self.scene, self.fraction, self.release, self.filter_time = scene, fraction, release, filter_time
         self.gate = gate
         """d_g (m): the approach's radius (``compensation_gate``), ``None``: ungated."""
-        self.after_touch = after_touch
-        """``compensation_after_touch``: a touched arm stays compensated (the latch is kept, not applied)."""
         self.vadr = np.asarray(scene.robot_vadr)
         self.qadr = np.asarray(scene.robot_qadr)
         self._arm_geom = np.asarray(scene.arm_geom, dtype=bool)
@@ -126,8 +123,7 @@ class ArmCompensation:
         robot coordinates ``q_ref`` (nq_r,) put it (world), scaled by c and the force's fade."""
         dq = np.zeros(len(self.vadr))
         share = self.fraction * fade(self.force, self.release)
-        latch = np.zeros(2, dtype=bool) if self.after_touch else self.touched  # the touches that end compensation
-        if self.gate is not None and latch.all():
+        if self.gate is not None and self.touched.all():  # the touches end compensation
             share = np.zeros(2)
         s_ = self._scratch
         if share.any():
@@ -136,7 +132,7 @@ class ArmCompensation:
             mujoco.mj_kinematics(m, s_)
             plan = self._wrists(s_)
             if self.gate is not None:  # only an arm on its way to a touch, near what it may touch
-                share = share * approach_gate(plan, d.geom_xpos[self._target_ids], latch, self.gate)
+                share = share * approach_gate(plan, d.geom_xpos[self._target_ids], self.touched, self.gate)
         if not share.any():
             self.shift[:] = 0.0
             return dq[6:]

@@ -42,8 +42,8 @@ class BalanceConfig:
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
     - Hands that give way: hand_yield, yield_damping, yield_return, yield_twist, yield_carried
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate,
-      compensation_after_touch, hand_task, hand_task_bandwidth, hand_task_touched, hand_task_roll_free,
-      hand_task_yield, hand_task_arm_weight, hand_task_plan_velocity, hand_task_velocity_until_touch
+      hand_task, hand_task_bandwidth, hand_task_touched, hand_task_roll_free,
+      hand_task_arm_weight, hand_task_plan_velocity, hand_task_velocity_until_touch
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, tilt_from_plan,
       catch_tilt, catch_margin, catch_blend, drive_harnessed
     - Rate: qp_every, hold_gain, hold_near, hold_touch, qp_kernel
@@ -228,11 +228,6 @@ class BalanceConfig:
     plan's wrist is within d_g of a geom of the person or of the free object (their centres) and until that arm
     first touches the person or the object in the episode (``inf``: the touch alone ends it). ``None``: ungated (an
     arm is compensated until the person's force on it reaches ``compensation_release``, a held pull-up too)."""
-    compensation_after_touch: bool = False
-    """[—]: with ``compensation_gate``, an arm stays compensated after its first touch (only the force's fade,
-    ``compensation_release``, and the approach radius d_g shut it); the touch latch is still kept for
-    ``shift_until_touch`` and ``plan_velocity_until_touch``. ``False``: a touched arm gets none (traced, session 32:
-    the released H1's handshake hand then trails its plan by 10–30 cm after the first touch and the clasp is lost)."""
     hand_task: float | None = None
     """w_h [—]: each wrist's world position as a task of this weight in the balance QP, toward the plan's wrist at
     the frame's end (:mod:`~.hand_task`: the QP otherwise tracks joint angles, and a released trunk carries the hand
@@ -247,10 +242,6 @@ class BalanceConfig:
     degrees of freedom, :func:`~.hand_task.hand_task_wanted`; the H1): the task mends the handshakes the freed roll
     loses, and a robot whose six-joint legs keep all six rows (Stubby) runs as without either (needs ``hand_task`` and
     ``flat_roll_free``). ``False``: ``hand_task`` for every robot."""
-    hand_task_yield: bool = False
-    """[—]: ``hand_task``'s target, each wrist, moved with the hands' give (``hand_yield``'s horizontal offset o and its
-    rate ȯ, :mod:`~.hand_yield`): the wanted acceleration ω_h² (x* + o − x) + 2 ω_h (ȯ − ẋ) (needs ``hand_task`` and
-    ``hand_yield``). ``False``: the plan's wrist, which pulls the hand back against the give."""
     hand_task_arm_weight: float | None = None
     """w_a [—]: the joint rows of the arms ``hand_task`` drives weighted by this factor (on top of ``upper_weight``;
     :func:`~.hand_task.arm_row_scale`): a released trunk off the plan's base makes the arm's joint references and
@@ -387,9 +378,6 @@ class BalanceConfig:
         if self.com_shift is not None and (self.com_reference != "plan" or not self.com_shift > 0.0):
             raise ConfigError(f"BalanceConfig.com_shift: needs com_reference='plan' and a distance > 0 m, found "
                               f"{self.com_shift!r} with com_reference {self.com_reference!r}")
-        if self.compensation_after_touch and (self.arm_compensation is None or self.compensation_gate is None):
-            raise ConfigError("BalanceConfig.compensation_after_touch: needs arm_compensation and compensation_gate "
-                              "(the gate whose touch latch it lifts)")
         if self.hand_task is not None and not (self.hand_task > 0.0 and self.hand_task_bandwidth > 0.0):
             raise ConfigError(f"BalanceConfig: expected hand_task None or > 0 and hand_task_bandwidth > 0 rad/s, found "
                               f"{self.hand_task!r}, {self.hand_task_bandwidth}")
@@ -410,8 +398,6 @@ class BalanceConfig:
                                                     or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.hand_task_velocity_until_touch: needs hand_task_plan_velocity, "
                               "arm_compensation and compensation_gate (their touch latch)")
-        if self.hand_task_yield and (self.hand_task is None or self.hand_yield is None):
-            raise ConfigError("BalanceConfig.hand_task_yield: needs hand_task and hand_yield (the give it follows)")
         if self.shift_until_touch and (self.com_shift is None or self.arm_compensation is None
                                        or self.compensation_gate is None):
             raise ConfigError("BalanceConfig.shift_until_touch: needs com_shift, arm_compensation and compensation_gate "

@@ -111,8 +111,7 @@ class BalanceController:
                                                                       c.yield_twist, c.yield_carried)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
-            scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate,
-            c.compensation_after_touch)
+            scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
         """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
         self._kernel = kernels() if c.qp_kernel == "numba" else None  # the JIT paid here, not at the first solve
         self.hold = None if c.qp_every == 1 else TorqueHold(c.qp_every, c.hold_gain, c.joint_bandwidth)
@@ -350,9 +349,7 @@ class BalanceController:
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
         joints = want * self._joint_scale  # per-row weights inside one task
         if self.hands is not None:  # (before the joints' task, which the QP takes last)
-            give = (self.hand_yield.offset, self.hand_yield.rate) if c.hand_task_yield else None  # type: ignore[union-attr]
-            tasks.extend(self.hands.tasks(m, d, va, None if self.compensation is None else self.compensation.touched,
-                                          give))
+            tasks.extend(self.hands.tasks(m, d, va, None if self.compensation is None else self.compensation.touched))
         tasks.append((self._joint_rows, joints, c.w_joint))
         key = frames.tobytes()  # with flat_feet the same level frames step after step: their edges made once
         if key != self._edges[0]:

@@ -16,8 +16,7 @@ plan's wrist at the frame's end (the posed plan of :meth:`~.balance_control.Bala
 ẍ = J q̈ + J̇ q̇. With ``hand_task_touched`` an arm gets its rows only once it has touched the person or the object
 (the arms' compensation's touch latch, :attr:`~.arm_compensation.ArmCompensation.touched`): before the touch
 ``arm_compensation`` steers the approach. With ``hand_task_roll_free`` only a robot whose feet ``flat_roll_free``
-frees gets the task (:func:`hand_task_wanted`); with ``hand_task_yield`` the target moves with the hands' give
-(``hand_yield``: a wrist's reference moved along the person's pull), which the task would otherwise pull back.
+frees gets the task (:func:`hand_task_wanted`).
 """
 
 from __future__ import annotations
@@ -120,13 +119,11 @@ class HandTask:
             mujoco.mj_kinematics(self._m, self._start)
             self.velocities = (self.targets - self.positions(self._start)) / duration
 
-    def tasks(self, m: mujoco.MjModel, d: mujoco.MjData, vadr: np.ndarray, touched: np.ndarray | None,
-              give: tuple[np.ndarray, np.ndarray] | None = None) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    def tasks(self, m: mujoco.MjModel, d: mujoco.MjData, vadr: np.ndarray, touched: np.ndarray | None
+              ) -> list[tuple[np.ndarray, np.ndarray, float]]:
         """The (J (3, n), b (3,), weight) tasks of the arms that get one at the state ``d`` after ``mj_step1``
         (velocities and ``cdof_dot`` computed), over the robot's dofs ``vadr`` (n,); ``touched`` (2,) bool: the touch
-        latch (``None``: no arm has touched); ``give`` (``hand_task_yield``): the hands' give, each wrist's
-        horizontal offset (2, 2) (m) and its rate (2, 2) (m/s) (:attr:`~.hand_yield.HandYield.offset`, ``rate``),
-        added to the target and its velocity (``None``: the plan's wrist, at rest)."""
+        latch (``None``: no arm has touched)."""
         out, xs = [], self.positions(d)
         for s in (0, 1):
             if self.touched_only and (touched is None or not touched[s]):
@@ -137,10 +134,6 @@ class HandTask:
             target = self.targets[s]
             velocity = None if self.velocities is None or (  # hand_task_velocity_until_touch: a touched arm at rest
                 self.velocity_until_touch and touched is not None and touched[s]) else self.velocities[s]
-            if give is not None:
-                target = target + np.r_[give[0][s], 0.0]
-                rate = np.r_[give[1][s], 0.0]
-                velocity = rate if velocity is None else rate + velocity
             J, b = hand_rows(self._jp[:, vadr], self._jd[:, vadr], d.qvel[vadr], x, target, self.bandwidth, velocity)
             out.append((J.copy(), b, self.weight))
         return out
