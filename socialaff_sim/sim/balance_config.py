@@ -2,25 +2,11 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
-from ..errors import ConfigError
-from ..inference.compiled import KERNELS
+from .balance_checks import COM_REFERENCES, SOLVERS, check_balance_config
 
 __all__ = ["BalanceConfig", "COM_REFERENCES", "SOLVERS"]
-
-COM_REFERENCES = ("plan", "middle")
-"""Where the centre of mass is held: ``plan``, the IK's centre of mass relative to its feet, carried over to the
-physical feet; ``middle``, the middle of the feet's contact points. Each is kept inside the support box. (``world``
-and ``approach``, the IK's centre of mass where the plan has it in the world, were measured and removed:
-docs/design.md §5.)"""
-
-SOLVERS = ("lsq", "qp")
-"""How the inverse dynamics is solved: ``lsq``, weighted least squares with non-negative contact forces
-(:mod:`~socialaff_sim.sim.contact_dynamics`; the torques are clipped by MuJoCo afterwards); ``qp``, a quadratic
-program with the equation of motion, the actuators' torque limits and the feet's centres of pressure as hard
-constraints (:mod:`~socialaff_sim.sim.contact_qp`)."""
 
 
 @dataclass(frozen=True)
@@ -308,117 +294,4 @@ class BalanceConfig:
     loop (:mod:`~socialaff_sim.sim.qp_kernel`, the extra ``[fast]``; not bit for bit: its sums run in its own order)."""
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.qp_every, int) and self.qp_every >= 1):
-            raise ConfigError(f"BalanceConfig.qp_every: expected an integer ≥ 1, found {self.qp_every!r}")
-        if not (self.hold_gain >= 0.0 and self.hold_near >= 0.0):
-            raise ConfigError(f"BalanceConfig: expected hold_gain ≥ 0 and hold_near ≥ 0 m, found {self.hold_gain}, "
-                              f"{self.hold_near}")
-        for name in ("joint_bandwidth", "torso_bandwidth", "com_bandwidth"):
-            if not getattr(self, name) > 0.0:
-                raise ConfigError(f"BalanceConfig.{name}: expected a frequency > 0 rad/s, found {getattr(self, name)}")
-        for name in ("foot_damping", "foot_stiffness", "com_damping", "support_margin", "release_delay", "release_margin",
-                     "catch_margin", "catch_blend", "external_filter", "w_feet", "w_com", "w_torso", "w_joint",
-                     "upper_weight", "cop_margin", "sole_gap", "shift_weight"):
-            if not getattr(self, name) >= 0.0:
-                raise ConfigError(f"BalanceConfig.{name}: expected a value ≥ 0, found {getattr(self, name)}")
-        if not (self.w_dynamics > 0.0 and self.w_force > 0.0):
-            raise ConfigError(f"BalanceConfig: expected w_dynamics > 0 and w_force > 0, found {self.w_dynamics}, "
-                              f"{self.w_force}")
-        if not self.friction > 0.0:
-            raise ConfigError(f"BalanceConfig.friction: expected μ > 0, found {self.friction}")
-        if self.qp_kernel not in KERNELS or (self.qp_kernel != "numpy" and self.solver != "qp"):
-            raise ConfigError(f"BalanceConfig.qp_kernel: expected one of {', '.join(KERNELS)} (numba with solver='qp'), "
-                              f"found {self.qp_kernel!r} with solver {self.solver!r}")
-        if self.solver not in SOLVERS:
-            raise ConfigError(f"BalanceConfig.solver: expected one of {', '.join(SOLVERS)}, found {self.solver!r}")
-        if self.self_clearance is not None and (self.solver != "qp" or not self.self_clearance >= 0.0):
-            raise ConfigError(f"BalanceConfig.self_clearance: needs solver='qp' and a distance ≥ 0 m, found "
-                              f"{self.self_clearance!r} with solver {self.solver!r}")
-        if not (self.clearance_detection > 0.0 and self.clearance_bandwidth > 0.0):
-            raise ConfigError(f"BalanceConfig: expected clearance_detection > 0 m and clearance_bandwidth > 0 rad/s, "
-                              f"found {self.clearance_detection}, {self.clearance_bandwidth}")
-        if self.hand_yield is not None and not self.hand_yield >= 0.0:
-            raise ConfigError(f"BalanceConfig.hand_yield: expected None or a fraction ≥ 0, found {self.hand_yield}")
-        if self.yield_twist is not None and (self.hand_yield is None or not self.yield_twist > 0.0):
-            raise ConfigError(f"BalanceConfig.yield_twist: needs hand_yield and a length > 0 m, found "
-                              f"{self.yield_twist!r} with hand_yield {self.hand_yield!r}")
-        if self.yield_carried and self.hand_yield is None:
-            raise ConfigError("BalanceConfig.yield_carried: needs hand_yield (the carried object's forces are counted "
-                              "by the hands' give)")
-        if self.arm_compensation is not None and not self.arm_compensation >= 0.0:
-            raise ConfigError(f"BalanceConfig.arm_compensation: expected None or a fraction ≥ 0, found "
-                              f"{self.arm_compensation}")
-        if not self.compensation_release > 0.0:
-            raise ConfigError(f"BalanceConfig.compensation_release: expected a force > 0 N, found "
-                              f"{self.compensation_release}")
-        if self.compensation_gate is not None and not self.compensation_gate > 0.0:
-            raise ConfigError(f"BalanceConfig.compensation_gate: expected None or a distance > 0 m, found "
-                              f"{self.compensation_gate}")
-        if not (self.yield_damping > 0.0 and self.yield_return >= 0.0):
-            raise ConfigError(f"BalanceConfig: expected yield_damping > 0 N·s/m and yield_return ≥ 0 s, found "
-                              f"{self.yield_damping}, {self.yield_return}")
-        if self.cop_corner_share is not None and not (self.solver == "qp" and 0.0 <= self.cop_corner_share < 0.25):
-            raise ConfigError(f"BalanceConfig.cop_corner_share: needs solver='qp' and a share in [0, 0.25), found "
-                              f"{self.solver!r}, {self.cop_corner_share!r}")
-        if self.flat_roll_free and not self.flat_feet:
-            raise ConfigError("BalanceConfig.flat_roll_free: needs flat_feet (the feet's hard rows)")
-        if self.yaw_first and not self.flat_feet:
-            raise ConfigError("BalanceConfig.yaw_first: needs flat_feet (the feet's hard rows)")
-        if self.flat_feet and self.solver != "qp":
-            raise ConfigError(f"BalanceConfig.flat_feet: needs solver='qp' (hard constraints), found {self.solver!r}")
-        if not 0.0 <= self.min_foot_load < 0.5:
-            raise ConfigError(f"BalanceConfig.min_foot_load: expected a fraction in [0, 0.5), found "
-                              f"{self.min_foot_load}")
-        if not 0.0 < self.torque_fraction <= 1.0:
-            raise ConfigError(f"BalanceConfig.torque_fraction: expected a fraction in (0, 1], found "
-                              f"{self.torque_fraction}")
-        if self.com_reference not in COM_REFERENCES:
-            raise ConfigError(f"BalanceConfig.com_reference: expected one of {', '.join(COM_REFERENCES)}, found "
-                              f"{self.com_reference!r}")
-        if self.com_shift is not None and (self.com_reference != "plan" or not self.com_shift > 0.0):
-            raise ConfigError(f"BalanceConfig.com_shift: needs com_reference='plan' and a distance > 0 m, found "
-                              f"{self.com_shift!r} with com_reference {self.com_reference!r}")
-        if self.hand_task is not None and not (self.hand_task > 0.0 and self.hand_task_bandwidth > 0.0):
-            raise ConfigError(f"BalanceConfig: expected hand_task None or > 0 and hand_task_bandwidth > 0 rad/s, found "
-                              f"{self.hand_task!r}, {self.hand_task_bandwidth}")
-        if self.hand_task_touched and (self.hand_task is None or self.arm_compensation is None
-                                       or self.compensation_gate is None):
-            raise ConfigError("BalanceConfig.hand_task_touched: needs hand_task, arm_compensation and compensation_gate "
-                              "(their touch latch)")
-        if self.hand_task_roll_free and (self.hand_task is None or not self.flat_roll_free):
-            raise ConfigError("BalanceConfig.hand_task_roll_free: needs hand_task and flat_roll_free (the robots it "
-                              "picks)")
-        if self.hand_task_arm_weight is not None and (self.hand_task is None or self.hand_task_touched
-                                                      or not 0.0 < self.hand_task_arm_weight <= 1.0):
-            raise ConfigError(f"BalanceConfig.hand_task_arm_weight: needs hand_task (not hand_task_touched) and a "
-                              f"factor in (0, 1], found {self.hand_task_arm_weight!r}")
-        if self.hand_task_plan_velocity and self.hand_task is None:
-            raise ConfigError("BalanceConfig.hand_task_plan_velocity: needs hand_task (the rows it moves)")
-        if self.hand_task_velocity_until_touch and (not self.hand_task_plan_velocity or self.arm_compensation is None
-                                                    or self.compensation_gate is None):
-            raise ConfigError("BalanceConfig.hand_task_velocity_until_touch: needs hand_task_plan_velocity, "
-                              "arm_compensation and compensation_gate (their touch latch)")
-        if self.shift_until_touch and (self.com_shift is None or self.arm_compensation is None
-                                       or self.compensation_gate is None):
-            raise ConfigError("BalanceConfig.shift_until_touch: needs com_shift, arm_compensation and compensation_gate "
-                              "(their touch latch ends the approach)")
-        if self.plan_velocity_until_touch and (not (self.com_plan_velocity or self.torso_plan_velocity)
-                                               or self.arm_compensation is None or self.compensation_gate is None):
-            raise ConfigError("BalanceConfig.plan_velocity_until_touch: needs com_plan_velocity or torso_plan_velocity, "
-                              "and arm_compensation and compensation_gate (their touch latch)")
-        if self.plan_velocity_raised is not None and (not (self.com_plan_velocity or self.torso_plan_velocity)
-                                                      or not math.isfinite(self.plan_velocity_raised)):
-            raise ConfigError(f"BalanceConfig.plan_velocity_raised: needs com_plan_velocity or torso_plan_velocity and "
-                              f"a finite height (m), found {self.plan_velocity_raised!r}")
-        if self.plan_velocity_tilt is not None and (not (self.com_plan_velocity or self.torso_plan_velocity)
-                                                    or not 0.0 < self.plan_velocity_tilt < 90.0):
-            raise ConfigError(f"BalanceConfig.plan_velocity_tilt: needs com_plan_velocity or torso_plan_velocity and "
-                              f"an angle in (0, 90) degrees, found {self.plan_velocity_tilt!r}")
-        if self.angmom_weight is not None and not (self.angmom_weight > 0.0 and self.angmom_bandwidth >= 0.0):
-            raise ConfigError(f"BalanceConfig: expected angmom_weight None or > 0 and angmom_bandwidth ≥ 0 1/s, found "
-                              f"{self.angmom_weight!r}, {self.angmom_bandwidth}")
-        if (self.angmom_root_still or self.angmom_about_feet) and self.angmom_weight is None:
-            raise ConfigError("BalanceConfig.angmom_root_still / angmom_about_feet: need angmom_weight (the rows)")
-        if not 0.0 <= self.release_tilt <= self.catch_tilt < 90.0:
-            raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
-                              f"{self.release_tilt}, {self.catch_tilt}")
+        check_balance_config(self)
