@@ -211,6 +211,12 @@ class BalanceController:
             else:
                 self.plan_velocity.clear()
 
+    @property
+    def roll_freed(self) -> bool:
+        """Whether the flat feet's roll rows are freed for some foot of this robot (``flat_roll_free`` on a leg that
+        cannot roll its foot: the H1, not Stubby)."""
+        return self._roll_free is not None and any(a is not None for a in self._roll_free)
+
     # -- the physics step -----------------------------------------------------------------------------------
     def step(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray) -> None:
         """One physics step of ``d``: ``mj_step1``, the harness decision and (while standing) the torques toward
