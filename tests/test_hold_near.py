@@ -99,8 +99,9 @@ def test_the_simulator_passes_the_last_frames_gaps() -> None:
     inter = generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=121)).by_id("pull_up_120")
     base = SimConfig.standing()
     calls: dict[str, list[bool]] = {}
-    for name, lock in (("off", base.foot_lock), ("on", dataclasses.replace(base.foot_lock, hold_near=0.5)),
-                       ("gated", dataclasses.replace(base.foot_lock, hold_near=0.5, hold_near_roll_free=True))):
+    off = dataclasses.replace(base.foot_lock, hold_near=None, hold_near_roll_free=False)
+    for name, lock in (("off", off), ("on", dataclasses.replace(off, hold_near=0.5)),
+                       ("gated", dataclasses.replace(off, hold_near=0.5, hold_near_roll_free=True))):
         sim = Simulator("ours", "pull_up", dataclasses.replace(base, foot_lock=lock))
         seen: list[bool] = []
         calls[name] = seen
