@@ -45,7 +45,8 @@ def test_the_default_is_the_harness_and_standing_is_a_named_preset() -> None:
                                       hand_task_velocity_until_touch=True)
     assert d.stance == StanceConfig(release=False)
     assert d.foot_lock == FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05,
-                                         glide_until_contact=True, glide_gap=0.12)  # session 30's rule
+                                         glide_until_contact=True, glide_gap=0.12,  # session 30's rule
+                                         hold_near=0.1, hold_near_roll_free=True)  # session 33's (wip/h1pull)
     assert not d.gravity_compensation
     assert h != d
     assert PHYSICS_CHOICES == PHYSICS_MODES  # the command line's --physics, written out to keep start-up light

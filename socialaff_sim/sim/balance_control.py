@@ -120,15 +120,13 @@ class BalanceController:
         self.hands = HandTask(scene, c.hand_task, c.hand_task_bandwidth, c.hand_task_touched,
                               c.hand_task_plan_velocity, c.hand_task_velocity_until_touch) if hand_task_wanted(
             c.hand_task, c.hand_task_roll_free, self._roll_free) else None
-        """``hand_task`` (with ``hand_task_roll_free``: on a robot whose feet's roll is freed): the hands' rows
-        (:mod:`~.hand_task`), else ``None``."""
+        """``hand_task`` (``hand_task_roll_free``: where the feet's roll is freed): :mod:`~.hand_task`'s rows, or ``None``."""
         self.com = ComReference(c, self._feet, scene.root_body, self.compensation)
         """The centre of mass's reference c* (:mod:`~.com_reference`)."""
         self._plan = mujoco.MjData(m)
         self.plan_velocity = PlanVelocity.of_scene(scene, self._feet, self._torso, c.plan_velocity_raised,
             c.plan_velocity_until_touch, c.plan_velocity_tilt) if c.com_plan_velocity or c.torso_plan_velocity else None
-        """``com_plan_velocity`` / ``torso_plan_velocity``: the plan's velocities over the frame (:mod:`~.plan_velocity`),
-        else ``None``."""
+        """``com_plan_velocity`` / ``torso_plan_velocity``: :mod:`~.plan_velocity` over the frame, or ``None``."""
         self.angmom = None if c.angmom_weight is None else CentroidalMomentum(m, scene.root_body, self.vadr,
                                                                            c.angmom_bandwidth)
         """``angmom_weight``: the centroidal angular momentum's rows (:mod:`~.centroidal_momentum`), else ``None``."""
@@ -209,6 +207,11 @@ class BalanceController:
                 self.plan_velocity.measure(q_start, p, duration)
             else:
                 self.plan_velocity.clear()
+
+    @property
+    def roll_freed(self) -> bool:
+        """Whether ``flat_roll_free`` frees some foot's roll rows on this robot (a leg that cannot roll it: the H1)."""
+        return self._roll_free is not None and any(a is not None for a in self._roll_free)
 
     # -- the physics step -----------------------------------------------------------------------------------
     def step(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray) -> None:

@@ -19,6 +19,7 @@ not planted and its target is the new point raised by ``glide_step``; then it is
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,6 +47,18 @@ class FootLockConfig:
     foot planted stays planted wherever its target goes: the robot does not step while it holds on (the recorded
     helper of a pull-up steps back to keep the arms taut; a robot whose hands give way,
     ``BalanceConfig.hand_yield``, needs no step). ``False``: the targets decide as at any other time."""
+    hold_near: float | None = None
+    """d_n [m]: with ``hold_in_contact``, while a sub-goal's gap at the end of the last frame is at most this (the
+    hands about to meet, or just parted in a contact that flickers), a planted foot whose target moves away from the
+    person (its horizontal displacement from where it stands points away from the person's key joints' mean) stays
+    planted; a step toward the person is taken as without the option. The recorded helper of a pull-up steps back
+    around the grip "to keep the arms taut", and a step is a catch of the harness (docs/design.md §5, issue 25,
+    session 33, wip/h1pull). ``None``: only a contact that holds keeps the feet planted. Nothing without
+    ``hold_in_contact``."""
+    hold_near_roll_free: bool = False
+    """[—]: ``hold_near`` only on a robot whose flat feet's roll the balance controller frees
+    (``BalanceConfig.flat_roll_free`` on legs that cannot roll a foot: the H1, not Stubby; as
+    ``hand_task_roll_free``). ``False``: on every robot."""
 
     glide_step: float | None = None
     """h_g [m]: a planted foot whose target leaves ``radius`` without rising above ``lift`` (a glide) steps for
@@ -114,6 +127,8 @@ class FootLockConfig:
         if self.hold_lift is not None and not self.hold_lift >= self.lift:
             raise ConfigError(f"FootLockConfig.hold_lift: expected None or a height ≥ lift ({self.lift} m), found "
                               f"{self.hold_lift}")
+        if self.hold_near is not None and not self.hold_near >= 0.0:
+            raise ConfigError(f"FootLockConfig.hold_near: expected None or a distance ≥ 0 m, found {self.hold_near}")
 
 
 class FootLock:
@@ -138,6 +153,23 @@ class FootLock:
         self._touched = False  # a sub-goal's contact has held in the episode (``glide_until_contact``)
         self._wait = [False, False]  # this frame's gliding feet held where they stand
 
+    def near(self, gaps: Iterable[float | None]) -> bool:
+        """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``hold_near``; ``False``
+        without it."""
+        d = self.config.hold_near
+        return d is not None and any(g is not None and g <= d for g in gaps)
+
+    def backing(self, ankles: np.ndarray, person: np.ndarray) -> tuple[bool, bool]:
+        """For targets ``ankles`` (2, 3) (world, m) and the person at ``person`` (2,): whether each planted foot's
+        target moves away from the person (its horizontal displacement from the planted point has a negative
+        component along the direction from that point to the person); ``False`` for a foot not planted."""
+        out = [False, False]
+        for s in (0, 1):
+            p = self.planted[s]
+            if p is not None:
+                out[s] = float((ankles[s][:2] - p[:2]) @ (np.asarray(person)[:2] - p[:2])) < 0.0
+        return out[0], out[1]
+
     @property
     def needs_physical(self) -> bool:
         """Whether :meth:`apply` needs the physical ankle frames (``glide_gap`` or ``restep_gap``)."""
@@ -150,17 +182,23 @@ class FootLock:
         return (self.planted[0] is not None, self.planted[1] is not None)
 
     def apply(self, ankles: np.ndarray, touching: bool = False, physical: np.ndarray | None = None,
-              new_frame: bool = True, caught: bool = False) -> np.ndarray:
+              new_frame: bool = True, caught: bool = False, near: bool = False,
+              person: np.ndarray | None = None) -> np.ndarray:
         """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted;
         ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted);
         ``physical`` (2, 3): the physical ankle frames (world, m), which ``glide_gap`` needs; ``new_frame``:
         ``False`` for a solve again within a data frame (``glide_step`` then keeps the frame's decision);
-        ``caught``: the harness holds a robot it has caught (with ``plant_caught``, glides are then planted at once)."""
+        ``caught``: the harness holds a robot it has caught (with ``plant_caught``, glides are then planted at once);
+        ``near``: a sub-goal's gap at the end of the last frame is within ``hold_near`` (the caller decides it,
+        :meth:`near`), and ``person`` (2,) the person's horizontal position (world, m): with ``hold_in_contact``,
+        planted feet whose targets step away from the person then stay planted (:meth:`backing`)."""
         if self.needs_physical and physical is None:
             raise SimulationError("FootLock.apply: glide_gap and restep_gap need the physical ankle frames")
         out = np.array(ankles, dtype=np.float64)
         c = self.config
         held = touching and c.hold_in_contact
+        back = (self.backing(out, person) if near and person is not None and c.hold_in_contact and not held
+                else (False, False))
         self._touched = self._touched or bool(touching)
         if self._glide is not None and new_frame and self._glide_left > 0:  # a longer step: still lifted
             self._glide_left -= 1
@@ -192,7 +230,8 @@ class FootLock:
             t = out[s]
             rise = t[2] - self.home_height[s]
             p = self.planted[s]
-            if p is not None and glide != s and (rise <= hold and np.linalg.norm(t[:2] - p[:2]) <= c.radius or wait[s]):
+            if p is not None and (back[s] or glide != s and (rise <= hold and np.linalg.norm(t[:2] - p[:2]) <= c.radius
+                                                            or wait[s])):
                 out[s] = p  # stands (and does not lift while the other foot glide-steps)
             elif glide == s:
                 self.planted[s] = None

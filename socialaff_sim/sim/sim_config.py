@@ -42,11 +42,13 @@ at most 4° (the strike of a high five; docs/design.md §5, issue 25). For a rob
 arm's joint rows weigh a tenth, its target moving with the plan's wrist until the arm's first touch (rule on the
 H1's 392–423, session 33); Stubby's six-joint legs get none of it."""
 STANDING_FOOT_LOCK = FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05, glide_until_contact=True,
-                                    glide_gap=0.12)
+                                    glide_gap=0.12, hold_near=0.1, hold_near_roll_free=True)
 """The foot lock of :meth:`SimConfig.standing`: a planted foot stays planted up to 12 cm of recorded rise, and
 whatever the recording's feet do while a sub-goal's contact holds; in the walk-up (before the first contact) a
 foot whose target glides along the floor while the physical foot stands more than 12 cm behind it steps (raised
-5 cm for a frame), so that the robot does not stay behind its plan (docs/design.md §5, issue 25)."""
+5 cm for a frame), so that the robot does not stay behind its plan; on a robot whose feet's roll is freed (the H1),
+a planted foot does not step away from the person while a sub-goal's gap is within 10 cm (docs/design.md §5,
+issue 25)."""
 
 
 STANDING_FLOOR = 0.01

@@ -238,9 +238,14 @@ class Simulator:
         if self._footlock is not None:
             physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.needs_physical else None
             bal = stage.stepper.balance
-            world[3:5] = self._footlock.apply(world[3:5], bool(self.results) and any(self.results[-1].subgoals_now.values()),
+            last = self.results[-1] if self.results else None
+            world[3:5] = self._footlock.apply(world[3:5], last is not None and any(last.subgoals_now.values()),
                                               physical, new_frame=not self._in_frame,
-                                              caught=bal is not None and bal.harness.holds_caught)
+                                              caught=bal is not None and bal.harness.holds_caught,
+                                              near=last is not None and self._footlock.near(last.subgoal_gaps.values())
+                                              and (not self._footlock.config.hold_near_roll_free
+                                                   or bal is not None and bal.roll_freed),
+                                              person=self._person_xy(t1) if self._footlock.config.hold_near is not None else None)
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
@@ -346,6 +351,11 @@ class Simulator:
     def scorer(self) -> SubgoalScorer:
         self._require()
         return self._stage.scorer  # type: ignore[union-attr]
+
+    def _person_xy(self, frame: int) -> np.ndarray:
+        """(2,) the mean of agent 0's present key joints at ``frame``, horizontal, world, metres."""
+        keys = self.interaction.key_joints()[frame, 0] + self.offset  # type: ignore[union-attr]
+        return np.nanmean(keys[:, :2], axis=0)
 
     def human_key_joints(self, frame: int | None = None) -> np.ndarray:
         """(5, 3) agent 0's key joints at ``frame`` (default: the current one), robot frame, metres (NaN if absent)."""
