@@ -45,7 +45,7 @@ def test_sole_corners_are_the_bottom_corners_of_stubbys_box_feet(scene) -> None:
         g = [i for i in range(m.ngeom) if m.geom_bodyid[i] == body and m.geom_type[i] == mujoco.mjtGeom.mjGEOM_BOX][0]
         R, c, half = d.geom_xmat[g].reshape(3, 3), d.geom_xpos[g], m.geom_size[g]
         box = np.array([c + R @ (half * [sx, sy, -1.0]) for sx in (-1, 1) for sy in (-1, 1)])
-        pts, frames = sole_points(d.xpos[body], d.xmat[body].reshape(3, 3), sole_corners(ctl._sole[s]))
+        pts, frames = sole_points(d.xpos[body], d.xmat[body].reshape(3, 3), sole_corners(ctl.feet.soles[s]))
         # the same four points (in any order), to the 2 mm the sole was found pressed into the floor
         dist = np.linalg.norm(pts[:, None] - box[None], axis=2)
         assert dist.min(axis=1).max() <= 0.0025 and sorted(dist.argmin(axis=1).tolist()) == [0, 1, 2, 3]
