@@ -92,6 +92,20 @@ def shared_path(*parts: str) -> Path:
 SHARED_ROBOTS = Path(os.environ.get("SOCIALAFF_SHARED_ROBOTS", Path(__file__).resolve().parents[2] / "shared" / "robots"))
 
 
+def frame_states(cfg, inter) -> list[np.ndarray]:  # noqa: ANN001 (SimConfig, Interaction: imported lazily)
+    """The robot's and the scene's state (qpos, qvel, ctrl concatenated) after every frame of a ground-truth episode
+    of ``inter`` on Stubby under ``cfg``: for checks that an option leaves a robot bit for bit as it was."""
+    from socialaff_sim.retarget.sources import GroundTruthSource
+    from socialaff_sim.sim.episode import run_episode
+    from socialaff_sim.sim.simulator import Simulator
+
+    sim = Simulator("ours", inter.label, cfg)
+    states: list[np.ndarray] = []
+    run_episode(sim, GroundTruthSource(), inter,
+                on_frame=lambda s, r, e: states.append(np.concatenate([s.data.qpos, s.data.qvel, s.data.ctrl])))
+    return states
+
+
 def shared_robot(*parts: str) -> Path:
     """Path under ../shared/robots (the Unitree MJCF models); skips the test with a reason when it is absent."""
     path = SHARED_ROBOTS.joinpath(*parts)

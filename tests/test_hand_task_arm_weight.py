@@ -13,14 +13,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from conftest import shared_robot
+from conftest import frame_states, shared_robot
 
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError, SimulationError
 from socialaff_sim.retarget.robot import load_robot
-from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.balance_config import BalanceConfig
-from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.hand_task import HandTask, arm_row_scale, chain_columns
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 
@@ -84,24 +82,16 @@ def test_settings_are_checked() -> None:
     assert BalanceConfig(hand_task=10.0, hand_task_arm_weight=1.0).hand_task_arm_weight == 1.0
 
 
-def _episode(cfg: SimConfig, inter) -> list[np.ndarray]:  # noqa: ANN001
-    sim = Simulator("ours", inter.label, cfg)
-    states: list[np.ndarray] = []
-    run_episode(sim, GroundTruthSource(), inter,
-                on_frame=lambda s, r, e: states.append(np.concatenate([s.data.qpos, s.data.qvel, s.data.ctrl])))
-    return states
-
-
 def test_stubby_under_the_gate_runs_bit_for_bit_as_without_the_options() -> None:
     inter = _interaction("shake_hands")
-    base = _episode(_cfg(), inter)
-    opt = _episode(_cfg(flat_roll_free=True, hand_task=10.0, hand_task_roll_free=True, hand_task_arm_weight=0.1),
+    base = frame_states(_cfg(), inter)
+    opt = frame_states(_cfg(flat_roll_free=True, hand_task=10.0, hand_task_roll_free=True, hand_task_arm_weight=0.1),
                    inter)
     assert len(base) == len(opt) > 10
     for a, b in zip(base, opt, strict=True):
         np.testing.assert_array_equal(a, b)
     # ungated, Stubby's arms get the task and the lighter rows: its motion changes (so the check can fail)
-    ungated = _episode(_cfg(hand_task=10.0, hand_task_arm_weight=0.1), inter)
+    ungated = frame_states(_cfg(hand_task=10.0, hand_task_arm_weight=0.1), inter)
     assert any(not np.array_equal(a, b) for a, b in zip(base, ungated))
 
 

@@ -11,13 +11,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from conftest import shared_robot
+from conftest import frame_states, shared_robot
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.robot import load_robot
-from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.balance_config import BalanceConfig
-from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.feet_on_floor import FeetOnFloor
 from socialaff_sim.sim.flat_feet import roll_free_axes
 from socialaff_sim.sim.hand_task import hand_task_wanted
@@ -73,22 +71,13 @@ def test_the_controllers_built_with_it_stubby_none_the_h1_the_task() -> None:
     assert any(a is not None for a in bal._roll_free)
 
 
-def _episode(cfg: SimConfig, inter) -> list[np.ndarray]:  # noqa: ANN001
-    """The robot's and the scene's state after every frame of a standing Stubby episode."""
-    sim = Simulator("ours", inter.label, cfg)
-    states: list[np.ndarray] = []
-    run_episode(sim, GroundTruthSource(), inter,
-                on_frame=lambda s, r, e: states.append(np.concatenate([s.data.qpos, s.data.qvel, s.data.ctrl])))
-    return states
-
-
 def test_stubby_runs_bit_for_bit_as_without_either_option() -> None:
     inter = _interaction("high_five")
-    base = _episode(SimConfig.standing(), inter)
-    gated = _episode(_paired(True), inter)
+    base = frame_states(SimConfig.standing(), inter)
+    gated = frame_states(_paired(True), inter)
     assert len(base) == len(gated) > 10
     for a, b in zip(base, gated, strict=True):
         np.testing.assert_array_equal(a, b)
     # the same settings without the gate give Stubby the hands' rows, which change its motion (so the check can fail)
-    ungated = _episode(_paired(False), inter)
+    ungated = frame_states(_paired(False), inter)
     assert any(not np.array_equal(a, b) for a, b in zip(base, ungated))

@@ -11,12 +11,14 @@ along its own forward and left axes instead, so the margin holds across its own 
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 
 from .contact_qp import cop_rows
 from .support_box import cop_intervals
 
-__all__ = ["foot_axes", "foot_cop_rows"]
+__all__ = ["each_foot", "foot_axes", "foot_cop_rows"]
 
 
 def foot_axes(forward_xy: np.ndarray) -> np.ndarray:
@@ -27,6 +29,18 @@ def foot_axes(forward_xy: np.ndarray) -> np.ndarray:
     return np.array([f, [-f[1], f[0]]])
 
 
+def each_foot(points: np.ndarray, which: np.ndarray, soles_xy: list[np.ndarray | None], forward_xy: np.ndarray
+              ) -> Iterator[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
+    """Per foot with contact points, in foot order: (s, mine (P,) bool: its points among ``points`` (P, 3),
+    axes (2, 2): :func:`foot_axes` of ``forward_xy[s]``, sole (S, 2): ``soles_xy[s]``, or its points on the floor
+    where that is ``None``); ``which`` (P,) each point's foot (−1: none)."""
+    which = np.asarray(which)
+    for s in range(len(soles_xy)):
+        mine = which == s
+        if mine.any():
+            yield s, mine, foot_axes(forward_xy[s]), points[mine, :2] if soles_xy[s] is None else soles_xy[s]
+
+
 def foot_cop_rows(points: np.ndarray, edges: np.ndarray, which: np.ndarray, soles_xy: list[np.ndarray | None],
                   forward_xy: np.ndarray, margin: float) -> np.ndarray:
     """(R, 4P) rows C with ``C β ≥ 0`` iff every foot's centre of pressure lies inside its sole, shrunk by ``margin``
@@ -35,14 +49,8 @@ def foot_cop_rows(points: np.ndarray, edges: np.ndarray, which: np.ndarray, sole
     ``soles_xy`` per foot its sole's corners (S, 2) on the floor (``None``: its contact points instead),
     ``forward_xy`` (F, 2) each foot's forward direction on the floor. Four rows per foot with points, in foot order
     (:func:`~.contact_qp.cop_rows` of each foot alone, along its axes)."""
-    which = np.asarray(which)
     out = []
-    for s in range(len(soles_xy)):
-        mine = which == s
-        if not mine.any():
-            continue
-        axes = foot_axes(forward_xy[s])
-        sole = points[mine, :2] if soles_xy[s] is None else soles_xy[s]
+    for s, mine, axes, sole in each_foot(points, which, soles_xy, forward_xy):
         bounds = np.zeros((s + 1, 2, 2))
         bounds[s] = cop_intervals(axes, [sole], [points[mine, :2]], margin)[0]
         out.append(cop_rows(points, edges, np.where(mine, s, -1), axes, bounds))

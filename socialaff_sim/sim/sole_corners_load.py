@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .foot_cop import foot_axes
+from .foot_cop import each_foot
 
 __all__ = ["SIGNS", "corner_shares", "corner_share_rows"]
 
@@ -45,17 +45,11 @@ def corner_share_rows(points: np.ndarray, edges: np.ndarray, which: np.ndarray, 
     (``None``: its contact points instead), ``forward_xy`` (F, 2) each foot's forward direction on the floor. The
     sole's middle and half-extents are those of its corners' extent along the foot's own axes. Four rows per foot
     with points, in foot order."""
-    which = np.asarray(which)
     P = len(points)
     fz = edges[:, 2, :]  # (P, 4) each edge's vertical force per unit weight
     out = []
-    for s in range(len(soles_xy)):
-        mine = which == s
-        if not mine.any():
-            continue
-        axes = foot_axes(forward_xy[s])
-        sole = points[mine, :2] if soles_xy[s] is None else np.asarray(soles_xy[s])
-        coord = sole @ axes.T  # (S, 2) the sole's corners along the foot's axes
+    for _, mine, axes, sole in each_foot(points, which, soles_xy, forward_xy):
+        coord = np.asarray(sole) @ axes.T  # (S, 2) the sole's corners along the foot's axes
         lo, hi = coord.min(axis=0), coord.max(axis=0)
         mid, half = (lo + hi) / 2.0, np.maximum((hi - lo) / 2.0, 1e-9)
         xy = (points[mine, :2] @ axes.T - mid) / half  # (p, 2) the foot's points, in half-extents
