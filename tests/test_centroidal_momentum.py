@@ -39,6 +39,17 @@ def _angmom(m: mujoco.MjModel, d: mujoco.MjData, root: int) -> np.ndarray:
     return d.subtree_angmom[root].copy()
 
 
+def _advanced(m: mujoco.MjModel, d: mujoco.MjData, qacc: np.ndarray, t: float) -> mujoco.MjData:
+    """A copy of ``d``'s state moved on by t (s) at constant joint acceleration ``qacc`` (nv,), forward-computed: the
+    central differences' two sides."""
+    e = mujoco.MjData(m)
+    e.qpos[:] = d.qpos
+    mujoco.mj_integratePos(m, e.qpos, d.qvel + 0.5 * t * qacc, t)
+    e.qvel[:] = d.qvel + t * qacc
+    mujoco.mj_forward(m, e)
+    return e
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_the_momentum_is_mujocos_subtree_angular_momentum(scene: Scene, seed: int) -> None:
     d, va = _moving(scene, seed)
@@ -60,12 +71,7 @@ def test_the_rate_is_the_finite_difference_of_mujocos_momentum(scene: Scene, see
     got = A @ qacc[va] + cm.bias(d, d.qvel[va])
 
     def at(t: float) -> np.ndarray:
-        e = mujoco.MjData(m)
-        e.qpos[:] = d.qpos
-        mujoco.mj_integratePos(m, e.qpos, d.qvel + 0.5 * t * qacc, t)
-        e.qvel[:] = d.qvel + t * qacc
-        mujoco.mj_forward(m, e)
-        return _angmom(m, e, scene.root_body)
+        return _angmom(m, _advanced(m, d, qacc, t), scene.root_body)
 
     h = 1e-6
     want = (at(h) - at(-h)) / (2 * h)
@@ -92,12 +98,7 @@ def test_about_a_point_the_momentum_and_its_rate_add_the_centre_of_masss_moment(
     assert not np.allclose(A @ d.qvel[va], _angmom(m, d, root), atol=1e-3)  # the point matters
 
     def at(t: float) -> np.ndarray:
-        e = mujoco.MjData(m)
-        e.qpos[:] = d.qpos
-        mujoco.mj_integratePos(m, e.qpos, d.qvel + 0.5 * t * qacc, t)
-        e.qvel[:] = d.qvel + t * qacc
-        mujoco.mj_forward(m, e)
-        return about(e)
+        return about(_advanced(m, d, qacc, t))
 
     h = 1e-6
     got = A @ qacc[va] + cm.bias(d, d.qvel[va], p)

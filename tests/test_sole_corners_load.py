@@ -17,15 +17,12 @@ from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.balance_config import BalanceConfig
-from socialaff_sim.sim.contact_dynamics import cone_edges
 from socialaff_sim.sim.contact_qp import cop_rows
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.sole_corners_load import SIGNS, corner_share_rows, corner_shares
 from socialaff_sim.sim.support_box import cop_intervals
-
-HALF = np.array([0.11, 0.055])
-"""Stubby's sole's half-extents (its foot box's 0.22 × 0.11 m bottom face, ``assets/robots/ours.xml``), m."""
+from test_foot_cop import HALF, _setup, _sole  # (Stubby's sole, 0.22 × 0.11 m, as there)
 
 _BOX = """
 <mujoco>
@@ -81,18 +78,6 @@ def test_all_corners_loaded_exactly_inside_the_diamond() -> None:
     for x, y in rng.uniform(-1.0, 1.0, size=(500, 2)):
         assert (corner_shares(x, y).min() >= 0.0) == (abs(x) + abs(y) <= 1.0)
     np.testing.assert_allclose(corner_shares(0.3, -0.2).sum(), 1.0)
-
-
-def _sole(mid: np.ndarray, yaw: float) -> np.ndarray:
-    c, s = np.cos(yaw), np.sin(yaw)
-    local = np.array([[x, y] for x in (-HALF[0], HALF[0]) for y in (-HALF[1], HALF[1])])
-    return mid + local @ np.array([[c, s], [-s, c]])
-
-
-def _setup(soles: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    pts = np.concatenate([np.column_stack([s, np.zeros(4)]) for s in soles])
-    frames = np.tile(np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]), (len(pts), 1, 1))
-    return pts, cone_edges(frames, 0.8), np.repeat(np.arange(len(soles)), 4)
 
 
 @pytest.mark.parametrize("share", [0.0, 0.05])
