@@ -85,9 +85,9 @@ def test_the_simulator_tells_the_foot_lock_whether_the_harness_holds_a_caught_ro
     sims: list[Simulator] = []
 
     class Recording(FootLock):
-        def apply(self, ankles, touching=False, physical=None, new_frame=True, caught=False):  # noqa: ANN001, ANN202
+        def apply(self, ankles, touching=False, physical=None, new_frame=True, caught=False, **more):  # noqa: ANN001, ANN202
             before = self.glide_steps
-            out = super().apply(ankles, touching, physical, new_frame, caught)
+            out = super().apply(ankles, touching, physical, new_frame, caught, **more)
             if new_frame:
                 calls.append((caught, sims[0]._stage.stepper.balance.harness.holds_caught, before, self.glide_steps))
             return out
