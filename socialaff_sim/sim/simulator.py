@@ -95,6 +95,7 @@ class Simulator:
         self._placement = place
         scene = stage.scene
         self.offset = place.offset
+        self._person_keys = inter.key_joints()[:, 0] + self.offset  # (T, 5, 3) agent 0's key joints, world, m
         self.pose: HumanPose = place.pose
         set_human_sizes(scene, self.pose.half_lengths)
         set_human_sizes(stage.ik_scene, self.pose.half_lengths)
@@ -155,6 +156,9 @@ class Simulator:
             lock = dataclasses.replace(lock, restep_gap=None)
         if lock is not None and lock.plant_caught_above and all(sg.above == "none" for sg in self.task.subgoals):
             lock = dataclasses.replace(lock, plant_caught=False, plant_caught_above=False)
+        bal = stage.stepper.balance
+        if lock is not None and lock.hold_near_roll_free and not (bal is not None and bal.roll_freed):
+            lock = dataclasses.replace(lock, hold_near=None, hold_near_roll_free=False)  # (Stubby: the gate's "no")
         self._footlock = None if lock is None else FootLock(
             (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), lock)
         if self.carry is not None and self.carry.release_frame == 0:
@@ -242,9 +246,7 @@ class Simulator:
             world[3:5] = self._footlock.apply(world[3:5], last is not None and any(last.subgoals_now.values()),
                                               physical, new_frame=not self._in_frame,
                                               caught=bal is not None and bal.harness.holds_caught,
-                                              near=last is not None and self._footlock.near(last.subgoal_gaps.values())
-                                              and (not self._footlock.config.hold_near_roll_free
-                                                   or bal is not None and bal.roll_freed),
+                                              near=last is not None and self._footlock.near(last.subgoal_gaps.values()),
                                               person=self._person_xy(t1) if self._footlock.config.hold_near is not None else None)
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
@@ -354,15 +356,13 @@ class Simulator:
 
     def _person_xy(self, frame: int) -> np.ndarray:
         """(2,) the mean of agent 0's present key joints at ``frame``, horizontal, world, metres."""
-        keys = self.interaction.key_joints()[frame, 0] + self.offset  # type: ignore[union-attr]
-        return np.nanmean(keys[:, :2], axis=0)
+        return np.nanmean(self._person_keys[frame, :, :2], axis=0)
 
     def human_key_joints(self, frame: int | None = None) -> np.ndarray:
         """(5, 3) agent 0's key joints at ``frame`` (default: the current one), robot frame, metres (NaN if absent)."""
         self._require()
         t = self.frame if frame is None else frame
-        keys = self.interaction.key_joints()[t, 0] + self.offset  # type: ignore[union-attr]
-        return self.frame_R.to_robot(keys)
+        return self.frame_R.to_robot(self._person_keys[t])
 
     def object_position(self) -> np.ndarray | None:
         """(3,) the simulated object's centre, robot frame, metres; ``None`` without an object track."""
