@@ -52,7 +52,7 @@ from .contact_qp import ActuatorLimits, solve_contact_qp
 from .cop_constraints import cop_constraint_rows
 from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
-from .flat_feet import flat_attitude, flat_contacts, foot_feedback, roll_free_axes, yaw_rows
+from .flat_feet import flat_attitude, flat_contacts, foot_feedback, roll_free_axes, roll_freed, yaw_rows
 from .hand_task import HandTask, arm_row_scale, hand_task_wanted
 from .hand_yield import HandYield
 from .harness_release import HarnessRelease
@@ -91,6 +91,8 @@ class BalanceController:
         self._home_rot, self._home_z = f.home_rot, f.home_z
         # flat_roll_free: the forward axis (body frame) of each foot whose leg cannot roll it, else None
         self._roll_free = roll_free_axes(m, f.bodies, f.forward, scene.root_body) if self.config.flat_roll_free else None
+        self.roll_freed = roll_freed(self._roll_free)
+        """Whether ``flat_roll_free`` frees some foot's roll rows on this robot (a leg that cannot roll it: the H1)."""
         # the body both shoulders hang from (as SupportMeter measures tilt)
         self._torso = shared_ancestor(m, int(scene.limb_body_ids[0]), int(scene.limb_body_ids[1]), scene.root_body)
         upper = subtree_mask(m, self._torso)
@@ -207,11 +209,6 @@ class BalanceController:
                 self.plan_velocity.measure(q_start, p, duration)
             else:
                 self.plan_velocity.clear()
-
-    @property
-    def roll_freed(self) -> bool:
-        """Whether ``flat_roll_free`` frees some foot's roll rows on this robot (a leg that cannot roll it: the H1)."""
-        return self._roll_free is not None and any(a is not None for a in self._roll_free)
 
     # -- the physics step -----------------------------------------------------------------------------------
     def step(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray) -> None:

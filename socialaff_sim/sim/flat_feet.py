@@ -21,14 +21,16 @@ The functions here are geometry only; :class:`~.balance_control.BalanceControlle
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import mujoco
 import numpy as np
 
+from ..retarget.kinematic_tree import ancestry
 
 __all__ = ["flat_attitude", "flat_contacts", "foot_drift", "foot_feedback", "foot_rows", "free_roll", "leg_dofs", "roll_free_axes",
-           "sole_corners", "sole_points", "yaw_rows"]
+           "roll_freed", "sole_corners", "sole_points", "yaw_rows"]
 
 _LEVEL_FRAME = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 """A level floor's contact frame: the normal (+z), then the world's x and y as tangents."""
@@ -150,11 +152,7 @@ def leg_dofs(m: mujoco.MjModel, foot: int, root: int) -> int:
     """The joint degrees of freedom between the body ``root`` (exclusive: its own joints, the free joint, not
     counted) and the body ``foot`` (inclusive): six or more let a leg put its foot in any pose relative to the root;
     the H1's legs have five (no ankle roll)."""
-    n, body = 0, int(foot)
-    while body != root and body > 0:
-        n += int(m.body_dofnum[body])
-        body = int(m.body_parentid[body])
-    return n
+    return sum(int(m.body_dofnum[b]) for b in itertools.takewhile(lambda b: b != root, ancestry(m, int(foot))))
 
 
 def roll_free_axes(m: mujoco.MjModel, feet: list[int], forward: np.ndarray, root: int) -> list[np.ndarray | None]:
@@ -163,6 +161,12 @@ def roll_free_axes(m: mujoco.MjModel, feet: list[int], forward: np.ndarray, root
     its own), else ``None`` (its six hard rows stay)."""
     return [np.asarray(fw, dtype=np.float64) if leg_dofs(m, int(b), root) < 6 else None
             for b, fw in zip(feet, forward, strict=True)]
+
+
+def roll_freed(roll_free: list[np.ndarray | None] | None) -> bool:
+    """Whether :func:`roll_free_axes`'s ``roll_free`` (``None``: ``flat_roll_free`` off) frees some foot's roll: the
+    robots (the H1, not Stubby) that the ``*_roll_free`` gates pick."""
+    return roll_free is not None and any(a is not None for a in roll_free)
 
 
 def free_roll(J: np.ndarray, b: np.ndarray, forward: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..errors import SimulationError
 from .arm_contacts import wrist_frames, wrist_positions
+from .flat_feet import roll_freed
 from .scene import Scene
 
 __all__ = ["HandTask", "arm_row_scale", "chain_columns", "hand_rows", "hand_task_wanted"]
@@ -35,9 +36,7 @@ def hand_task_wanted(weight: float | None, roll_free_only: bool, roll_free: list
     """Whether a robot gets the hands' rows: ``weight`` ``hand_task`` (``None``: never); ``roll_free_only``
     ``hand_task_roll_free``: only if some foot of ``roll_free`` (the controller's
     :func:`~.flat_feet.roll_free_axes`, ``None`` without ``flat_roll_free``) has its roll freed."""
-    if weight is None:
-        return False
-    return not roll_free_only or (roll_free is not None and any(a is not None for a in roll_free))
+    return weight is not None and (not roll_free_only or roll_freed(roll_free))
 
 
 def chain_columns(m: mujoco.MjModel, body: int, top: int, vadr: np.ndarray) -> np.ndarray:
