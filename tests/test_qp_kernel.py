@@ -13,7 +13,7 @@ from socialaff_sim.sim.contact_qp import _numpy_rows, _rows_order, solve_contact
 from socialaff_sim.sim.qp_kernel import compiled_rows
 from test_balance_qp_rows import _random_qp
 
-pytest.importorskip("numba")
+pytest.importorskip("numba", reason="qp_kernel=\"numba\" needs numba (the [fast] extra)")
 
 
 def _rows_args(pr: dict, diag: tuple | None = None) -> tuple:
