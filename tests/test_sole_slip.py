@@ -277,3 +277,100 @@ def test_the_demo_page_names_the_ankles_path_and_the_soles_slip_apart(tmp_path) 
     page = write_demo_page(tmp_path, [_result({"mode": "m", "contact_phase": new})], config).read_text()
     assert ("slipped 0.4 cm on the floor (not the ankle&#x27;s path) besides 2 steps (7.0 cm) and 3 skims (0.9 cm, "
             "off the floor within 5 mm)") in page
+
+
+class _PlainSlip:
+    """The slip, steps and skims computed the plain way, contact by contact at every physics step (the module
+    docstring's definitions, without the batching over a frame's steps)."""
+
+    def __init__(self, meter: SupportMeter) -> None:
+        self.m = meter.scene.model
+        self.floor = meter.scene.floor_geom
+        self.feet = [g for _, g in meter._feet]
+        self.ankles = [b for b, _ in meter._feet]
+        self.prev: list[list] = [[], []]  # per foot: its touching contacts at the last step (geom, point, x, R)
+        self.gap: list = [None, None]  # per foot off the floor: [contacts, ankle xy, rise]
+        self.frames: list[tuple] = []
+        self._clear()
+
+    def _clear(self) -> None:
+        self.slip, self.steps, self.step_len, self.skims, self.skim_len = [0.0, 0.0], 0, 0.0, 0, 0.0
+
+    @staticmethod
+    def _carry(c, d) -> np.ndarray:  # noqa: ANN001
+        g, p, x, R = c
+        return d.xpos[g[1]] + d.xmat[g[1]].reshape(3, 3) @ (R.T @ (p - x))
+
+    def update(self, d) -> None:  # noqa: ANN001
+        now: list[list] = [[], []]
+        for i in range(d.ncon):
+            g1, g2 = (int(v) for v in d.contact.geom[i])
+            other = g2 if g1 == self.floor else g1 if g2 == self.floor else -1
+            for s in (0, 1):
+                if other >= 0 and self.feet[s][other] and d.contact.dist[i] <= 0:
+                    b = int(self.m.geom_bodyid[other])
+                    now[s].append(((other, b), d.contact.pos[i].copy(), d.xpos[b].copy(), d.xmat[b].reshape(3, 3).copy()))
+        for s in (0, 1):
+            touching = {c[0][0] for c in now[s]}
+            kept = [c for c in self.prev[s] if c[0][0] in touching]
+            if kept:
+                self.slip[s] += float(np.mean([np.hypot(*(self._carry(c, d) - c[1])[:2]) for c in kept]))
+            if now[s] and self.gap[s] is not None:  # back on the floor
+                contacts, xy, rise = self.gap[s]
+                if rise > 0.005:
+                    self.steps += 1
+                    self.step_len += float(np.hypot(*(d.xpos[self.ankles[s], :2] - xy)))
+                else:
+                    self.skims += 1
+                    self.skim_len += float(np.mean([np.hypot(*(self._carry(c, d) - c[1])[:2]) for c in contacts]))
+                self.gap[s] = None
+            elif not now[s]:
+                if self.prev[s]:  # just left the floor
+                    self.gap[s] = [self.prev[s], self.ankle_xy[s], 0.0]
+                if self.gap[s] is not None:
+                    low = min(self._carry(c, d)[2] - c[1][2] for c in self.gap[s][0])
+                    self.gap[s][2] = max(self.gap[s][2], low)
+            self.prev[s] = now[s]
+        self.ankle_xy = [d.xpos[b, :2].copy() for b in self.ankles]
+
+    def end_frame(self) -> None:
+        self.frames.append((max(self.slip), self.steps, self.step_len, self.skims, self.skim_len))
+        self._clear()
+
+
+def test_the_batched_meter_matches_the_plain_one_over_a_standing_episode(monkeypatch) -> None:  # noqa: ANN001
+    # A standing hand-over replay (ground truth, Stubby): its walk-up steps and skims, its contact phase's slip,
+    # contacts that come and go within frames and across them.
+    from socialaff_sim.data.synthetic import generate_dataset
+    from socialaff_sim.retarget.sources import GroundTruthSource
+    from socialaff_sim.sim.episode import run_episode
+    from socialaff_sim.sim.simulator import SimConfig, Simulator
+
+    refs: dict[int, _PlainSlip] = {}
+    reset, update, end_frame = SupportMeter.reset, SupportMeter.update, SupportMeter.end_frame
+
+    def both_reset(self) -> None:  # noqa: ANN001
+        reset(self)
+        if hasattr(self, "_sole_slip"):
+            refs[id(self)] = _PlainSlip(self)
+
+    def both_update(self, d) -> None:  # noqa: ANN001
+        update(self, d)
+        refs[id(self)].update(d)
+
+    def both_end(self):  # noqa: ANN001, ANN202
+        refs[id(self)].end_frame()
+        return end_frame(self)
+
+    monkeypatch.setattr(SupportMeter, "reset", both_reset)
+    monkeypatch.setattr(SupportMeter, "update", both_update)
+    monkeypatch.setattr(SupportMeter, "end_frame", both_end)
+    inter = generate_dataset(seed=0).of_label("hand_over")[3]
+    sim = Simulator("ours", "hand_over", SimConfig.standing())
+    run_episode(sim, GroundTruthSource(), inter)
+    ref = refs[id(sim.support)]
+    frames = [(f.slip, f.steps, f.step_length, f.skims, f.skim_length) for f in sim.support.frames]
+    assert len(ref.frames) == len(frames) >= 30
+    np.testing.assert_allclose(np.array(frames), np.array(ref.frames), rtol=1e-9, atol=1e-12)
+    got = np.array(frames)
+    assert got[:, 0].sum() > 0.01 and got[:, 1].sum() >= 1 and got[:, 3].sum() >= 1  # slip, steps and skims seen
