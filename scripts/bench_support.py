@@ -9,7 +9,12 @@ sub-goal's contact holds now; ``metrics.json``'s ``support.contact_phase``):
   robot's weight: mean over frames, and the peak;
 * foot sliding (cm, summed over the phase's frames, the larger foot: the path of the ankle body), the foot's
   drift (cm, the diagonal of the box of the ankle body's positions on the floor over the phase, the larger foot:
-  how far it got from where it stood, which a foot rocking in place does not add to), the
+  how far it got from where it stood, which a foot rocking in place does not add to), the soles' slip on the
+  floor (cm, ``foot_slip_cm``, not the slide: each sole's floor contacts carried with the sole while they persist,
+  summed over the phase's frames, the larger foot; a sole rocking on an edge that stays put adds ≈ 0; steps, a foot
+  leaving the floor, rising above 5 mm and landing again, are not slip: their number ``foot_steps`` and summed
+  length ``foot_step_cm`` apart, and so are skims, a foot off the floor within 5 mm of it, ``foot_skims`` and
+  ``foot_skim_cm``, :mod:`socialaff_sim.sim.sole_slip`), the
   deepest robot–floor penetration (cm), the largest actuator force against its
   limit, the fraction of physics steps with a saturated servo or a joint at its
   limit;
@@ -84,7 +89,8 @@ MODES = {"weight": SimConfig(), "puppet": H(gravity_compensation=True),
          # Named presets: their meaning does not move with SimConfig's defaults (issue 25).
          "harness": SimConfig.harness(), "standing": SimConfig.standing()}
 KEYS = ("released_frames", "outside_support_mean", "outside_support_peak", "foot_slide_cm", "foot_drift_cm", "penetration_cm", "torque_ratio_max",
-        "saturated_fraction", "at_joint_limit_fraction", "torso_tilt_deg_max")
+        "saturated_fraction", "at_joint_limit_fraction", "torso_tilt_deg_max", "foot_slip_cm", "foot_steps", "foot_step_cm",
+        "foot_skims", "foot_skim_cm")
 
 
 def _feet_offset(sim: Simulator, result: object, out: list[tuple[float, bool]]) -> None:
@@ -197,7 +203,7 @@ def main() -> None:
                                  "released_steps": None if bal is None else bal.harness.released_steps,
                                  **{k: cp[k] for k in KEYS}})
     print(f"{'robot':<12}{'mode':<8}{'interaction':<16}{'ok':>6}{'support mean':>14}{'peak':>8}{'slide cm':>10}"
-          f"{'pen cm':>8}{'torque':>8}{'sat':>7}{'limit':>7}{'released':>10}")
+          f"{'pen cm':>8}{'torque':>8}{'sat':>7}{'limit':>7}{'released':>10}{'sole slip cm':>14}{'steps':>7}")
     for robot in args.robots:
         for mode in args.modes:
             for label in data.labels:
@@ -217,9 +223,10 @@ def main() -> None:
                 print(f"{robot:<12}{mode:<8}{label:<16}{ok:>6}{100 * mean('outside_support_mean'):>13.0f}%"
                       f"{100 * top('outside_support_peak'):>7.0f}%{mean('foot_slide_cm'):>10.1f}{top('penetration_cm'):>8.1f}"
                       f"{top('torque_ratio_max'):>8.2f}{100 * mean('saturated_fraction'):>6.0f}%{100 * mean('at_joint_limit_fraction'):>6.0f}%"
-                      f"{100 * released:>9.0f}%")
+                      f"{100 * released:>9.0f}%{mean('foot_slip_cm'):>14.1f}{mean('foot_steps'):>7.1f}")
     print(f"{'robot':<12}{'mode':<16}{'ok':>7}{'support mean':>14}{'range':>12}{'<=5%':>7}{'peak':>7}{'slide med':>10}"
-          f"{'<=2cm':>7}{'drift med':>10}{'<=2cm':>7}{'torque':>8}{'sat':>6}{'limit':>7}{'tilt med/max':>14}{'released':>9}")
+          f"{'<=2cm':>7}{'drift med':>10}{'<=2cm':>7}{'torque':>8}{'sat':>6}{'limit':>7}{'tilt med/max':>14}{'released':>9}"
+          f"{'sole slip med':>14}{'<=2cm':>7}{'steps':>7}{'step cm':>9}{'skims':>7}{'skim cm':>9}")
     for robot in args.robots:
         for mode in args.modes:
             sel = [r for r in rows if r["robot"] == robot and r["mode"] == mode]
@@ -231,6 +238,7 @@ def main() -> None:
             drift = np.array([r["foot_drift_cm"] for r in have])
             tilt = np.array([r["torso_tilt_deg_max"] for r in have])
             rel = np.mean([r["released_frames"] / r["contact_frames"] for r in have])
+            slip = np.array([r["foot_slip_cm"] for r in have])  # the soles' contacts on the floor, not the slide
             print(f"{robot:<12}{mode:<16}{sum(r['success'] for r in sel):>3}/{len(sel):<3}{100 * sup.mean():>13.1f}%"
                   f"{100 * sup.min():>6.0f}-{100 * sup.max():<4.0f}%{int((sup <= 0.05).sum()):>3}/{len(have):<3}"
                   f"{100 * max(r['outside_support_peak'] for r in have):>6.0f}%{np.median(slide):>9.1f}"
@@ -238,7 +246,10 @@ def main() -> None:
                   f"{max(r['torque_ratio_max'] for r in have):>8.2f}"
                   f"{100 * np.mean([r['saturated_fraction'] for r in have]):>5.0f}%"
                   f"{100 * np.mean([r['at_joint_limit_fraction'] for r in have]):>6.0f}%"
-                  f"{np.median(tilt):>8.1f}/{tilt.max():<5.1f}{100 * rel:>8.0f}%")
+                  f"{np.median(tilt):>8.1f}/{tilt.max():<5.1f}{100 * rel:>8.0f}%"
+                  f"{np.median(slip):>14.1f}{int((slip <= 2.0).sum()):>3}/{len(have):<3}"
+                  f"{sum(r['foot_steps'] for r in have):>7}{sum(r['foot_step_cm'] for r in have):>9.1f}"
+                  f"{sum(r['foot_skims'] for r in have):>7}{sum(r['foot_skim_cm'] for r in have):>9.1f}")
     for robot in args.robots:
         for mode in args.modes:
             sel = [r for r in rows if r["robot"] == robot and r["mode"] == mode]

@@ -55,6 +55,15 @@ def _subgoal_table(r: InteractionResult) -> str:
     return text
 
 
+def _slip_note(cp: Mapping[str, Any]) -> str:
+    """The soles' slip on the floor, the steps and the skims (not the ankle's path), when the metrics have them."""
+    if cp.get("foot_slip_cm") is None:
+        return ""
+    return (f", the soles' contacts slipped {cp['foot_slip_cm']:.1f} cm on the floor (not the ankle's path) "
+            f"besides {cp['foot_steps']} steps ({cp['foot_step_cm']:.1f} cm) and {cp.get('foot_skims', 0)} skims "
+            f"({cp.get('foot_skim_cm', 0.0):.1f} cm, off the floor within 5 mm)")
+
+
 def _physics_note(metrics: Mapping[str, Any]) -> str:
     """The physics mode the synthesized reaction ran in, and its honesty figures over the contact phase."""
     sup = metrics.get("support") or {}
@@ -64,7 +73,8 @@ def _physics_note(metrics: Mapping[str, Any]) -> str:
         text += (f" Over the contact phase ({cp['frames']} frames with a sub-goal's contact held): outside support "
                  f"{100 * cp['outside_support_mean']:.1f} % of the robot's weight on average (peak "
                  f"{100 * cp['outside_support_peak']:.0f} %), harness off in {cp['released_frames']} frames, feet slid "
-                 f"{cp['foot_slide_cm']:.1f} cm (path) and drifted {cp['foot_drift_cm']:.1f} cm, servos at up to "
+                 f"{cp['foot_slide_cm']:.1f} cm (the ankle's path) and drifted {cp['foot_drift_cm']:.1f} cm"
+                 + _slip_note(cp) + ", servos at up to "
                  f"{100 * cp['torque_ratio_max']:.0f} % of their torque limits, torso tilted up to "
                  f"{cp['torso_tilt_deg_max']:.0f}°.")
     elif sup:
@@ -83,7 +93,7 @@ def _interaction_section(r: InteractionResult, config: DemoConfig) -> str:
                      "its contact now (\"now touching\", or \"now apart\" with the gap between the geoms) | "
                      "whether it was achieved and when (\"judged at the end\" for a hand-over until the episode "
                      "ends); line 3: the physics mode, this frame's outside support (% of the robot's weight), the "
-                     "feet's sliding so far, the largest servo torque (% of its limit) and the torso's tilt from "
+                     "feet's sliding so far (the ankle's path, not the soles' slip on the floor), the largest servo torque (% of its limit) and the torso's tilt from "
                      "the vertical.",
             poster=None, width=config.width,
         ))

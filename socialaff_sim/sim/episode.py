@@ -78,6 +78,7 @@ def foot_drift(frames: list[FrameSupport]) -> float:
 def _support_stats(frames: list[FrameSupport]) -> dict[str, float | None]:
     if not frames:
         return {k: None for k in ("outside_support_mean", "outside_support_peak", "foot_slide_cm", "foot_drift_cm",
+                                  "foot_slip_cm", "foot_steps", "foot_step_cm", "foot_skims", "foot_skim_cm",
                                   "penetration_cm", "torque_ratio_max", "saturated_fraction",
                                   "at_joint_limit_fraction", "torso_tilt_deg_max")}
     return {
@@ -85,6 +86,14 @@ def _support_stats(frames: list[FrameSupport]) -> dict[str, float | None]:
         "outside_support_peak": float(max(f.outside_peak for f in frames)),
         "foot_slide_cm": 100.0 * float(sum(f.slide for f in frames)),
         "foot_drift_cm": 100.0 * foot_drift(frames),
+        # Not the slide above (the ankle body's path): the soles' floor contacts' slip along the floor, and apart
+        # from it the steps (a foot leaving the floor, rising above the clearance, landing again) and the skims (a
+        # foot off the floor within the clearance) (sim/sole_slip.py).
+        "foot_slip_cm": 100.0 * float(sum(f.slip for f in frames)),
+        "foot_steps": int(sum(f.steps for f in frames)),
+        "foot_step_cm": 100.0 * float(sum(f.step_length for f in frames)),
+        "foot_skims": int(sum(f.skims for f in frames)),
+        "foot_skim_cm": 100.0 * float(sum(f.skim_length for f in frames)),
         "penetration_cm": 100.0 * float(max(f.penetration for f in frames)),
         "torque_ratio_max": float(max(f.torque_ratio for f in frames)),
         "saturated_fraction": float(np.mean([f.saturated for f in frames])),
@@ -126,8 +135,11 @@ def _short_mode(sim: Simulator) -> str:
 
 
 def support_summary(sim: Simulator) -> dict[str, Any]:
-    """Outside support (fraction of the robot's weight), foot sliding, penetration and effort of the episode
-    just run: over all frames, and over the *contact phase* (the frames where a sub-goal's contact holds now)."""
+    """Outside support (fraction of the robot's weight), foot sliding (``foot_slide_cm``: the ankle body's path
+    while its foot touches the floor), the soles' slip on the floor (``foot_slip_cm``, a different figure), the steps
+    and skims apart from it (``foot_steps``, ``foot_step_cm``, ``foot_skims``, ``foot_skim_cm``), penetration and
+    effort of the episode just run: over all frames, and over the *contact phase* (the frames where a sub-goal's
+    contact holds now)."""
     frames = [r.support for r in sim.results if r.support is not None]
     contact = [r.support for r in sim.results if r.support is not None and any(r.subgoals_now.values())]
     meter = sim.support

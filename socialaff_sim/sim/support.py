@@ -15,6 +15,11 @@ data frame:
   path: a foot rocking or shaking in place adds to it as one dragged along does),
   and the box of the foot's horizontal positions while it touches the floor (its
   diagonal over a phase bounds how far the foot got from where it stood);
+* **sole slip** (:mod:`~socialaff_sim.sim.sole_slip`, a different figure from the sliding path): how far the
+  feet's floor contacts slip along the floor, each contact carried with its sole while it persists (a sole
+  rocking on an edge that stays put adds ≈ 0), the feet's **steps** (a foot leaving the floor, rising above
+  a clearance and landing again: their number and summed length, not slip) and **skims** (a foot off the floor
+  that stays within the clearance: neither slip nor step);
 * **penetration**: the deepest robot–floor contact, m;
 * **effort**: the largest ratio of an actuator's force to its force limit, and
   whether any servo is saturated (≥ :data:`SATURATED` of its limit) or any robot
@@ -33,6 +38,7 @@ from .._norms import norm
 from ..retarget.kinematic_tree import shared_ancestor, subtree_mask
 from .external_force import weld_force
 from .scene import Scene
+from .sole_slip import SoleSlip
 
 __all__ = ["SupportMeter", "FrameSupport", "SATURATED", "AT_LIMIT"]
 
@@ -68,6 +74,17 @@ class FrameSupport:
     frame's physics steps in which it touches the floor (inf: it did not)."""
     feet_hi: tuple[float, float, float, float] = (-math.inf,) * 4
     """... and the highest (−inf: it did not touch)."""
+    slip: float = 0.0
+    """How far the soles' floor contacts slipped along the floor in the frame (largest of the feet), m: not the
+    sliding path (:attr:`slide`, the ankle body's), see :mod:`~socialaff_sim.sim.sole_slip`."""
+    steps: int = 0
+    """Steps that landed in the frame (a foot that left the floor touching it again), both feet."""
+    step_length: float = 0.0
+    """Their summed horizontal length (the ankle body's origin from its last touch to its new one), m."""
+    skims: int = 0
+    """Skims that ended in the frame (a foot off the floor within the clearance touching it again), both feet."""
+    skim_length: float = 0.0
+    """Their summed length (the foot's last contacts carried with it, their mean horizontal move), m."""
 
 
 class SupportMeter:
@@ -100,6 +117,7 @@ class SupportMeter:
             self._feet.append((body, inside[m.geom_bodyid] & scene.robot_geom))
         self._robot_geom = scene.robot_geom
         self._foot_bodies = np.array([b for b, _ in self._feet], dtype=np.int64)
+        self._sole_slip = SoleSlip(m, scene.floor_geom, [g for _, g in self._feet], self._foot_bodies)
         # Geom classes for the contact pass (see _flush): robot 1, left foot +2, right foot +4, floor 8.
         code = np.where(scene.robot_geom, 1, 0) + 2 * self._feet[0][1] + 4 * self._feet[1][1]
         if scene.floor_geom >= 0:
@@ -124,6 +142,7 @@ class SupportMeter:
         self.frames = []
         self._foot_prev: list[np.ndarray | None] = [None, None]
         self._feet_down = (True, True)
+        self._sole_slip.reset()
         self._clear_frame()
 
     @property
@@ -203,6 +222,7 @@ class SupportMeter:
         if len(self._lim_qadr):
             self._p_q.append(data.qpos[self._lim_qadr])
         self._p_up.append(data.xmat[self._torso, 6:9].copy())
+        self._sole_slip.record(data)
         self._n += 1
 
     def _flush(self) -> None:
@@ -261,10 +281,13 @@ class SupportMeter:
         """Close the data frame: its figures (also appended to :attr:`frames`)."""
         self._flush()
         n = max(self._n, 1)
+        soles = self._sole_slip.end_frame()
         fs = FrameSupport(outside_mean=self._out_sum / n, outside_peak=self._out_peak, slide=max(self._slide),
                           penetration=self._pen, torque_ratio=self._ratio, saturated=self._sat / n, at_limit=self._lim / n,
                           tilt_deg=self._tilt, feet_lo=tuple(self._lo.tolist()),  # type: ignore[arg-type]
-                          feet_hi=tuple(self._hi.tolist()))  # type: ignore[arg-type]
+                          feet_hi=tuple(self._hi.tolist()),  # type: ignore[arg-type]
+                          slip=max(soles.slip), steps=soles.steps, step_length=soles.step_length, skims=soles.skims,
+                          skim_length=soles.skim_length)
         self.frames.append(fs)
         self._clear_frame()
         return fs
