@@ -50,6 +50,7 @@ from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .com_reference import ComReference
 from .contact_qp import ActuatorLimits, solve_contact_qp
 from .cop_constraints import cop_constraint_rows
+from .cop_kernel import cop_kernel
 from .external_force import Contacts, ExternalForces, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts, foot_feedback, roll_free_axes, roll_freed, yaw_rows
@@ -115,7 +116,7 @@ class BalanceController:
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
         """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
-        self._kernel = kernels() if c.qp_kernel == "numba" else None  # the JIT paid here, not at the first solve
+        self._kernel = (kernels(), cop_kernel()) if c.qp_kernel == "numba" else None  # the JIT paid here, not at the first solve
         self.hold = None if c.qp_every == 1 else TorqueHold(c.qp_every, c.hold_gain, c.joint_bandwidth)
         """``qp_every`` > 1: the torques held between solves (:mod:`~.torque_hold`), else ``None``."""
         self._hinge_ref = self._act_rows + 1  # each actuator's entry in the robot coordinates (free joint's 7 first)
@@ -372,7 +373,7 @@ class BalanceController:
         qp_tasks = [*tasks[:-1], (self._joint_diag, np.concatenate([np.zeros(6), joints]), c.w_joint)]
         res = solve_contact_qp(M, h, self.unactuated, jac, edges, qp_tasks, self.mass, c.w_force, limits,
                                cop_constraint_rows(c, pts, edges, foot, box.R, self._soles_now, d.xmat, self._feet,
-                                                   self._foot_fwd), foot, c.min_foot_load * self.mass * self._g,
+                                                   self._foot_fwd, c.qp_kernel), foot, c.min_foot_load * self.mass * self._g,
                                equalities=eq, inequalities=ineq, kernel=c.qp_kernel,
                                optional=None if eq is None or not c.yaw_first else yaw_rows(len(eq[1])))
         self.yaw_dropped_steps += int(res.optional_dropped)
