@@ -33,6 +33,7 @@ import mujoco
 import numpy as np
 
 from .._norms import norms
+from .arm_kernel import arm_kernel, damped_step
 from .arm_contacts import arm_hinges, filtered_arm_force, person_geoms, wrist_frames, wrist_positions
 from .external_force import Contacts
 from .scene import Scene
@@ -74,7 +75,7 @@ class ArmCompensation:
     :meth:`measure` after each physics step the robot stands, :meth:`offsets` before each solve of the controller."""
 
     def __init__(self, scene: Scene, fraction: float, release: float, filter_time: float,
-                 gate: float | None = None) -> None:
+                 gate: float | None = None, kernel: str = "numpy") -> None:
         m = scene.model
         self.scene, self.fraction, self.release, self.filter_time = scene, fraction, release, filter_time
         self.gate = gate
@@ -93,6 +94,8 @@ class ArmCompensation:
         self._arm_q = [(self.qadr[c + 1], c + 1, self.vadr[c]) for c in self._cols]
         self._scratch = mujoco.MjData(m)
         self._jp = np.zeros((3, m.nv))
+        self._compiled = kernel == "numba" and arm_kernel() is not None  # (``qp_kernel``: the step compiled, made now)
+        self._dofs = [np.asarray(v, dtype=np.int64) for _, _, v in self._arm_q]
         self.reset()
 
     def reset(self) -> None:
@@ -147,6 +150,9 @@ class ArmCompensation:
             if share[s] <= 0.0:
                 continue
             mujoco.mj_jac(m, s_, self._jp, None, here[s], self._wrist[s])
+            if self._compiled:  # (:mod:`~.arm_kernel`)
+                dq[self._cols[s]] += share[s] * damped_step(self._jp, self._dofs[s], DAMPING_LAMBDA, self.shift[s])[0]
+                continue
             J = self._jp[:, self._arm_q[s][2]]
             dq[self._cols[s]] += share[s] * compensation_step(J, self.shift[s])
         return dq[6:]

@@ -52,6 +52,7 @@ from .contact_qp import ActuatorLimits, solve_contact_qp
 from .cop_constraints import cop_constraint_rows
 from .cop_kernel import cop_kernel
 from .external_force import Contacts, ExternalForces, lean_offset
+from .feet_kernel import CompiledFeet
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts, foot_feedback, roll_free_axes, roll_freed, yaw_rows
 from .hand_task import HandTask, arm_row_scale, hand_task_wanted
@@ -62,6 +63,7 @@ from .qp_kernel import kernels
 from .scene import Scene
 from .self_clearance import SelfClearance
 from .support_box import SupportBox
+from .support_kernel import CompiledSupport
 from .torque_hold import TorqueHold
 
 __all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
@@ -111,12 +113,16 @@ class BalanceController:
             scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
                                                                       c.yield_return, c.external_filter,
-                                                                      c.yield_twist, c.yield_carried)
+                                                                      c.yield_twist, c.yield_carried, c.qp_kernel)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
-            scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
+            scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate, c.qp_kernel)
         """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
         self._kernel = (kernels(), cop_kernel()) if c.qp_kernel == "numba" else None  # the JIT paid here, not at the first solve
+        self._support = CompiledSupport(self.feet) if c.qp_kernel == "numba" else None
+        self._flat = CompiledFeet(m, self._feet, self._corners, self.vadr, c.sole_gap, c.foot_stiffness, c.foot_damping
+                                  ) if c.qp_kernel == "numba" and c.flat_feet and not self.roll_freed and all(
+            k is not None for k in self._corners) else None  # (the H1's freed roll: NumPy's rows)
         self.hold = None if c.qp_every == 1 else TorqueHold(c.qp_every, c.hold_gain, c.joint_bandwidth)
         """``qp_every`` > 1: the torques held between solves (:mod:`~.torque_hold`), else ``None``."""
         self._hinge_ref = self._act_rows + 1  # each actuator's entry in the robot coordinates (free joint's 7 first)
@@ -226,9 +232,12 @@ class BalanceController:
         tilt = self._step_tilt = self._tilt(d)  # (the plan's velocities' tilt bound reads it in _torques)
         box, capture = None, self._capture
         if standing:
-            fwd = self.feet.heading(d)
-            self._soles_now = self.feet.soles_at(d)  # the soles in the world, for the box and the _cop's bounds
-            box = SupportBox(self.feet.footprint(d, pts, which, self._soles_now), fwd)
+            if self._support is not None:  # qp_kernel="numba": the same, compiled (:mod:`~.support_kernel`)
+                self._soles_now, box = self._support(d, pts, which)
+            else:
+                fwd = self.feet.heading(d)
+                self._soles_now = self.feet.soles_at(d)  # the soles in the world, for the box and the _cop's bounds
+                box = SupportBox(self.feet.footprint(d, pts, which, self._soles_now), fwd)
             com = d.subtree_com[self.scene.root_body]
             self._jp[:] = 0.0
             mujoco.mj_jacSubtreeCom(m, d, self._jp, self.scene.root_body)
@@ -302,11 +311,14 @@ class BalanceController:
                 self._anchor = [(np.array([p[0], p[1], self._home_z[s]]), flat_attitude(r, self._home_rot[s],
                                  self._foot_fwd[s])) for s, (p, r) in enumerate(self._anchor)]
         # planted feet held where they stand; with flat_feet the same rows, less their drift, hold as equalities
-        feet = [foot_feedback(m, d, body, va, pos, rot, c.foot_stiffness, c.foot_damping, self._foot_scratch[0])
-                for body, (pos, rot) in zip(self._feet, self._anchor, strict=True)]
+        if self._flat is not None:  # qp_kernel="numba": both, compiled (:mod:`~.feet_kernel`)
+            feet, pts, frames, which, eq = self._flat(m, d, self._anchor, pts, frames, which)
+        else:
+            feet = [foot_feedback(m, d, body, va, pos, rot, c.foot_stiffness, c.foot_damping, self._foot_scratch[0])
+                    for body, (pos, rot) in zip(self._feet, self._anchor, strict=True)]
+            eq = None
         tasks.extend((J, b, c.w_feet) for J, b in feet)
-        eq = None
-        if c.flat_feet:
+        if c.flat_feet and self._flat is None:
             pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
                                                    which, c.sole_gap, c.foot_stiffness, c.foot_damping,
                                                    self._foot_scratch, feet, self._roll_free)
