@@ -33,7 +33,7 @@ import mujoco
 import numpy as np
 
 from .._norms import norms
-from .arm_kernel import arm_kernel, damped_step
+from .arm_kernel import arm_kernel, compensation_share, damped_step
 from .arm_contacts import arm_hinges, filtered_arm_force, person_geoms, wrist_frames, wrist_positions
 from .external_force import Contacts
 from .scene import Scene
@@ -96,6 +96,7 @@ class ArmCompensation:
         self._jp = np.zeros((3, m.nv))
         self._compiled = kernel == "numba" and arm_kernel() is not None  # (``qp_kernel``: the step compiled, made now)
         self._dofs = [np.asarray(v, dtype=np.int64) for _, _, v in self._arm_q]
+        self._none3 = np.zeros((0, 3))
         self.reset()
 
     def reset(self) -> None:
@@ -125,7 +126,8 @@ class ArmCompensation:
         """(n − 6,) hinge reference offsets (rad) that put each wrist, on the trunk of ``d``, where the plan's
         robot coordinates ``q_ref`` (nq_r,) put it (world), scaled by c and the force's fade."""
         dq = np.zeros(len(self.vadr))
-        share = self.fraction * fade(self.force, self.release)
+        share = self.fraction * fade(self.force, self.release) if not self._compiled else compensation_share(
+            self.force, self.release, self.fraction, False, self._none3, self._none3, self.touched, 0.0)
         if self.gate is not None and self.touched.all():  # the touches end compensation
             share = np.zeros(2)
         s_ = self._scratch
@@ -135,7 +137,9 @@ class ArmCompensation:
             mujoco.mj_kinematics(m, s_)
             plan = self._wrists(s_)
             if self.gate is not None:  # only an arm on its way to a touch, near what it may touch
-                share = share * approach_gate(plan, d.geom_xpos[self._target_ids], self.touched, self.gate)
+                share = share * approach_gate(plan, d.geom_xpos[self._target_ids], self.touched, self.gate) if (
+                    not self._compiled) else compensation_share(self.force, self.release, self.fraction, True, plan,
+                                                                d.geom_xpos[self._target_ids], self.touched, self.gate)
         if not share.any():
             self.shift[:] = 0.0
             return dq[6:]

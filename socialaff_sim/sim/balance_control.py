@@ -47,6 +47,7 @@ from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
 from .centroidal_momentum import CentroidalMomentum, plan_velocity
 from .contact_dynamics import cone_edges, solve_contact_dynamics
+from .clearance_kernel import CompiledClearance
 from .com_reference import ComReference
 from .contact_qp import ActuatorLimits, solve_contact_qp
 from .cop_constraints import cop_constraint_rows
@@ -111,6 +112,8 @@ class BalanceController:
         c = self.config
         self._clearance = None if c.self_clearance is None else SelfClearance.of_scene(
             scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
+        self._clear_rows = None if self._clearance is None else (CompiledClearance(m, self._clearance).rows if (
+            c.qp_kernel == "numba") else self._clearance.rows)  # (qp_kernel="numba": :mod:`~.clearance_kernel`)
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
                                                                       c.yield_return, c.external_filter,
                                                                       c.yield_twist, c.yield_carried, c.qp_kernel)
@@ -378,7 +381,7 @@ class BalanceController:
         # already keeps the centre of pressure on them, and the bounds' box may miss their segment.
         area = np.bincount(which, minlength=len(self._feet)) >= 3
         foot = np.where(area[which], which, -1)
-        ineq = None if self._clearance is None else self._clearance.rows(m, d)
+        ineq = None if self._clearance is None else self._clear_rows(m, d)  # type: ignore[misc]
         near = None if ineq is None else self._clearance.last_distance  # type: ignore[union-attr]
         self._near_body = near is not None and bool((near < c.hold_near).any())
         # the joints' rows as the QP's diagonal task: no (n − 6) × n products of zeros

@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 
 from .._norms import norm, norms
-from .arm_kernel import arm_kernel, damped_step
+from .arm_kernel import arm_kernel, damped_step, yield_update
 from .arm_contacts import arm_hinges, filtered_arm_force, person_geoms
 from .external_force import Contacts, weld_force
 from .scene import Scene
@@ -161,6 +161,13 @@ class HandYield:
         """Advance the offsets by ``dt`` (s): give way while the arms' horizontal force exceeds the feet's allowance
         (:func:`feet_allowance` at ``capture`` (2,), the floor's height ``floor`` m; with ``twist`` also at most
         :func:`twist_allowance`), return otherwise."""
+        if self._compiled:  # (:mod:`~.arm_kernel`)
+            self.offset, self.rate, gave = yield_update(
+                self.force, self.offset, box.R, box.lo, box.hi, np.asarray(capture, dtype=np.float64), margin, weight,
+                self._height - floor, self._at, np.nan if self.twist is None else self.twist, self.fraction,
+                self.damping, self.back, dt, MAX_OFFSET)
+            self.yield_steps += int(gave)
+            return
         f = self.force[:, :2]
         total = f.sum(axis=0)
         nrm = norm(total)
