@@ -60,7 +60,7 @@ from .hand_task import HandTask, arm_row_scale, hand_task_wanted
 from .hand_yield import HandYield
 from .harness_release import HarnessRelease
 from .plan_velocity import PlanVelocity
-from .qp_kernel import kernels
+from .qp_kernel import CompiledLimits, kernels
 from .scene import Scene
 from .self_clearance import SelfClearance
 from .support_box import SupportBox
@@ -121,7 +121,9 @@ class BalanceController:
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate, c.qp_kernel)
         """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
-        self._kernel = (kernels(), cop_kernel()) if c.qp_kernel == "numba" else None  # the JIT paid here, not at the first solve
+        self._limits = ActuatorLimits(m, scene.act_ids)
+        self._kernel = (kernels(), cop_kernel(), CompiledLimits(self._limits, self._act_rows, n, c.torque_fraction)
+                        ) if c.qp_kernel == "numba" else None  # the JIT paid here, not at the first solve
         self._support = CompiledSupport(self.feet) if c.qp_kernel == "numba" else None
         self._flat = CompiledFeet(m, self._feet, self._corners, self.vadr, c.sole_gap, c.foot_stiffness, c.foot_damping
                                   ) if c.qp_kernel == "numba" and c.flat_feet and not self.roll_freed and all(
@@ -143,7 +145,7 @@ class BalanceController:
                                                                            c.angmom_bandwidth)
         """``angmom_weight``: the centroidal angular momentum's rows (:mod:`~.centroidal_momentum`), else ``None``."""
         self._plan_qvel = np.zeros(len(self.vadr))  # angmom_weight: the plan's velocity over the frame
-        self._limits, self._Mix = ActuatorLimits(m, scene.act_ids), np.ix_(self.vadr, self.vadr)  # made once
+        self._Mix = np.ix_(self.vadr, self.vadr)  # made once
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside the joints' task
         if self.hands is not None and c.hand_task_arm_weight is not None:  # the hands' arms' rows lighter
             scale = arm_row_scale(scale, self.hands.arm_columns(m, self._torso, self.vadr), c.hand_task_arm_weight)
@@ -228,7 +230,7 @@ class BalanceController:
         mujoco.mj_step1(m, d)
         self.steps += 1
         c = self.config
-        pts, frames, which = self.feet.contacts(d)
+        pts, frames, which = self.feet.contacts(d) if self._support is None else self._support.contacts(d)
         standing = self._planted[0] and self._planted[1] and len(pts) > 0
         if not (self._planted[0] and self._planted[1]):
             self._anchor = None  # a step: the feet are held where they next stand
@@ -375,8 +377,11 @@ class BalanceController:
         if c.solver == "lsq":
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
                                           c.w_force).tau[self._act_rows]
-        limits = self._open.copy()  # (n, 2) [−inf, inf]
-        limits[self._act_rows] = c.torque_fraction * self._limits(d.qpos[self._act_q], d.qvel[self._act_v])
+        if self._kernel is not None:  # qp_kernel="numba": the same, compiled (:mod:`~.qp_kernel`)
+            limits = self._kernel[2](d.qpos[self._act_q], d.qvel[self._act_v])
+        else:
+            limits = self._open.copy()  # (n, 2) [−inf, inf]
+            limits[self._act_rows] = c.torque_fraction * self._limits(d.qpos[self._act_q], d.qvel[self._act_v])
         # The loads and centre-of-pressure bounds only for feet on an area (three contacts or more): on fewer, β ≥ 0
         # already keeps the centre of pressure on them, and the bounds' box may miss their segment.
         area = np.bincount(which, minlength=len(self._feet)) >= 3

@@ -5,9 +5,10 @@ feet's heading (:meth:`~.feet_on_floor.FeetOnFloor.heading`), their soles in the
 (:meth:`~.feet_on_floor.FeetOnFloor.soles_at`), the footprint of the feet on the floor
 (:meth:`~.feet_on_floor.FeetOnFloor.footprint`) and the box of that footprint along the heading
 (:class:`~.support_box.SupportBox`): some thirty NumPy calls. :class:`CompiledSupport` does the same arithmetic in
-one no-Python loop (:func:`~socialaff_sim.inference.compiled.njit`, fast-math off). The rotations and projections
-are sums of products written out here, not BLAS's (which fuses them), so the soles, the heading and the box differ
-from NumPy's in their last digits: an alternative evaluation, judged with ``qp_kernel="numba"`` by its rule
+one no-Python loop (:func:`~socialaff_sim.inference.compiled.njit`, fast-math off), and the feet's contacts with the
+floor (:meth:`~.feet_on_floor.FeetOnFloor.contacts`, bit for bit: a selection and sign flips). The rotations and
+projections are sums of products written out here, not BLAS's (which fuses them), so the soles, the heading and the
+box differ from NumPy's in their last digits: an alternative evaluation, judged with ``qp_kernel="numba"`` by its rule
 (docs/design.md §5, session 34). NumPy stays the reference.
 """
 
@@ -88,16 +89,50 @@ def _support(xpos, xmat, bodies, soles, has_sole, fwd, pts, which, sole_gap):  #
     return world, R, lo, hi
 
 
+def _contacts(geom, frame, pos, foot_geom, floor):  # pragma: no cover - compiled; tested through CompiledSupport
+    """:meth:`~.feet_on_floor.FeetOnFloor.contacts` of the ``ncon`` contacts' ``geom`` (ncon, 2), ``frame`` (ncon, 9)
+    and ``pos`` (ncon, 3): the feet's contacts with the floor, their frames (normal from the floor into the foot)
+    and feet."""
+    nc = geom.shape[0]
+    keep = np.empty(nc, dtype=np.int64)
+    k = 0
+    for i in range(nc):
+        f0, f1 = geom[i, 0] == floor, geom[i, 1] == floor
+        side = foot_geom[geom[i, 1] if f0 else geom[i, 0]]
+        if (f0 or f1) and side >= 0:
+            keep[k] = i
+            k += 1
+    pts = np.empty((k, 3))
+    frames = np.empty((k, 3, 3))
+    which = np.empty(k, dtype=np.int64)
+    for j in range(k):
+        i = keep[j]
+        f0 = geom[i, 0] == floor
+        which[j] = foot_geom[geom[i, 1] if f0 else geom[i, 0]]
+        sign = 1.0 if f0 else -1.0  # MuJoCo's normal points from geom 0 to geom 1
+        for a in range(3):
+            pts[j, a] = pos[i, a]
+            for b in range(3):
+                frames[j, a, b] = frame[i, 3 * a + b] * sign
+    return pts, frames, which
+
+
 def support_kernel() -> Any:
-    """The compiled :func:`_support` (made and warmed up once per process; numba missing: a ConfigError)."""
-    return once(__name__, lambda: njit(_support), _warm)
+    """The compiled :func:`_support` and :func:`_contacts` (made and warmed up once per process; numba missing: a
+    ConfigError)."""
+    return once(__name__, lambda: {"support": njit(_support), "contacts": njit(_contacts)}, _warm)
 
 
-def _warm(fn: Any) -> None:
-    """One call of the argument types :class:`CompiledSupport` passes."""
+def _warm(fns: Any) -> None:
+    """One call of each of the argument types :class:`CompiledSupport` passes."""
     xmat = np.tile(np.eye(3).ravel(), (3, 1))
-    fn(np.zeros((3, 3)), xmat, np.array([1, 2], dtype=np.int64), np.zeros((2, 8, 3)), np.ones(2, dtype=np.bool_),
-       np.array([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), np.zeros((2, 3)), np.zeros(2, dtype=np.int64), 0.01)
+    fns["support"](np.zeros((3, 3)), xmat, np.array([1, 2], dtype=np.int64), np.zeros((2, 8, 3)),
+                   np.ones(2, dtype=np.bool_), np.array([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), np.zeros((2, 3)),
+                   np.zeros(2, dtype=np.int64), 0.01)
+    rows = np.zeros((2, 16))  # MjData.contact's fields: strided views of its records (two: not flagged contiguous)
+    for k in (1, 2):  # (one contact's views are flagged contiguous)
+        fns["contacts"](np.zeros((2, 8), dtype=np.int32)[:k, :2], rows[:k, :9], rows[:k, 9:12],
+                        np.zeros(2, dtype=np.int64), 0)
 
 
 class CompiledSupport:
@@ -105,7 +140,9 @@ class CompiledSupport:
     (the module docstring), for the feet ``feet``."""
 
     def __init__(self, feet: FeetOnFloor) -> None:
-        self._kernel = support_kernel()
+        fns = support_kernel()
+        self._kernel, self._contacts = fns["support"], fns["contacts"]
+        self._foot_geom, self._floor = np.asarray(feet._foot_geom, dtype=np.int64), int(feet._floor)
         F = len(feet.bodies)
         S = max((len(s) for s in feet.soles if s is not None), default=1)
         if any(s is not None and len(s) != S for s in feet.soles):
@@ -126,3 +163,11 @@ class CompiledSupport:
         world, R, lo, hi = self._kernel(d.xpos, d.xmat, self._bodies, self._soles, self._has, self._fwd, pts,
                                         which, self._gap)
         return [world[s] if self._has[s] else None for s in range(len(self._has))], SupportBox.of(R, lo, hi)
+
+    def contacts(self, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`~.feet_on_floor.FeetOnFloor.contacts` of ``d``: points (P, 3), frames (P, 3, 3), feet (P,)."""
+        nc = d.ncon
+        if not nc:
+            return np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(0, dtype=np.int64)
+        con = d.contact  # (each read of MjData.contact makes new views: read once)
+        return self._contacts(con.geom[:nc], con.frame[:nc], con.pos[:nc], self._foot_geom, self._floor)
