@@ -56,7 +56,7 @@ def test_the_compiled_support_is_numpys_to_rounding(scene, rng) -> None:
             keep = which == 0
             pts, which = pts[keep], which[keep]
             d.xpos[feet.bodies[1], 2] += 0.005 if case % 3 == 1 else 0.03
-        soles, box = cs(d, pts, which)
+        soles, box = cs.support(d, pts, which)
         want = feet.soles_at(d)
         ref = SupportBox(feet.footprint(d, pts, which, want), feet.heading(d))
         for a, b in zip(soles, want, strict=True):
@@ -211,40 +211,11 @@ def test_the_controller_holds_the_compiled_pieces_only_with_numba(scene) -> None
     ``"numpy"``: none of them; without ``flat_feet`` no compiled feet."""
     base = dict(solver="qp", flat_feet=True, self_clearance=0.01, hand_yield=0.5, arm_compensation=1.0)
     ctl = BalanceController(scene, BalanceConfig(**base, qp_kernel="numba"))
-    assert ctl._support is not None and ctl._flat is not None
-    assert isinstance(ctl._clear_rows.__self__, CompiledClearance)
+    k = ctl._kernel
+    assert k.support is not None and k.flat is not None and isinstance(k.clearance_rows.__self__, CompiledClearance)
     assert ctl.hand_yield._compiled and ctl.compensation._compiled
     ref = BalanceController(scene, BalanceConfig(**base))
-    assert ref._support is None and ref._flat is None and isinstance(ref._clear_rows.__self__, SelfClearance)
-    assert not ref.hand_yield._compiled and not ref.compensation._compiled
-    bare = BalanceController(scene, BalanceConfig(**{**base, "flat_feet": False}, qp_kernel="numba"))
-    assert bare._flat is None and bare._support is not None
-
-
-_SERVOS = """<mujoco><worldbody><body><joint name="a" type="hinge" actuatorfrclimited="true" actuatorfrcrange="-5 4"/>
-<geom size="0.1"/><body><joint name="b" type="hinge"/><geom size="0.1"/><body><joint name="c" type="hinge"/>
-<geom size="0.1"/></body></body></body></worldbody><actuator>
-<position joint="a" kp="50" kv="2" ctrlrange="-1 1" ctrllimited="true"/>
-<position joint="b" kp="30" ctrlrange="-0.5 2" ctrllimited="true" forcerange="-3 6" forcelimited="true"/>
-<position joint="c" kp="20" ctrllimited="false"/></actuator></mujoco>"""
-
-
-def test_the_compiled_limits_are_actuator_limits_bit_for_bit(rng) -> None:
-    """:class:`CompiledLimits` against ``fraction`` × :class:`ActuatorLimits` on the rows, ±inf elsewhere, exactly:
-    servos with and without a control range, a force range and a joint's actuator force range."""
-    from socialaff_sim.sim.contact_qp import ActuatorLimits
-    from socialaff_sim.sim.qp_kernel import CompiledLimits
-
-    m = mujoco.MjModel.from_xml_string(_SERVOS)
-    L = ActuatorLimits(m, np.arange(3))
-    rows = np.array([4, 1, 2])
-    C = CompiledLimits(L, rows, 6, 0.9)
-    finite = set()
-    for _ in range(200):
-        q, v = rng.normal(size=3), rng.normal(scale=3.0, size=3)
-        want = np.full((6, 2), [-np.inf, np.inf])
-        want[rows] = 0.9 * L(q, v)
-        got = C(q, v)
-        np.testing.assert_array_equal(got, want)
-        finite.update(np.flatnonzero(np.isfinite(got).all(axis=1)).tolist())
-    assert finite == {1, 4}  # the clipped and the control-limited rows bounded, the free servo and the rest not
+    assert ref._kernel is None and not ref.hand_yield._compiled and not ref.compensation._compiled
+    bare = BalanceController(scene, BalanceConfig(**{**base, "flat_feet": False, "self_clearance": None},
+                                                  qp_kernel="numba"))
+    assert bare._kernel.flat is None and bare._kernel.clearance_rows is None and bare._kernel.support is not None

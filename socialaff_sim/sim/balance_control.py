@@ -38,6 +38,7 @@ takes effect at the next step (4 ms).
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import mujoco
 import numpy as np
@@ -47,24 +48,20 @@ from .arm_compensation import ArmCompensation
 from .balance_config import BalanceConfig
 from .centroidal_momentum import CentroidalMomentum, plan_velocity
 from .contact_dynamics import cone_edges, solve_contact_dynamics
-from .clearance_kernel import CompiledClearance
 from .com_reference import ComReference
+from .compiled_pieces import CompiledPieces
 from .contact_qp import ActuatorLimits, solve_contact_qp
 from .cop_constraints import cop_constraint_rows
-from .cop_kernel import cop_kernel
 from .external_force import Contacts, ExternalForces, lean_offset
-from .feet_kernel import CompiledFeet
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts, foot_feedback, roll_free_axes, roll_freed, yaw_rows
 from .hand_task import HandTask, arm_row_scale, hand_task_wanted
 from .hand_yield import HandYield
 from .harness_release import HarnessRelease
 from .plan_velocity import PlanVelocity
-from .qp_kernel import CompiledLimits, kernels
 from .scene import Scene
 from .self_clearance import SelfClearance
 from .support_box import SupportBox
-from .support_kernel import CompiledSupport
 from .torque_hold import TorqueHold
 
 __all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
@@ -112,8 +109,6 @@ class BalanceController:
         c = self.config
         self._clearance = None if c.self_clearance is None else SelfClearance.of_scene(
             scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
-        self._clear_rows = None if self._clearance is None else (CompiledClearance(m, self._clearance).rows if (
-            c.qp_kernel == "numba") else self._clearance.rows)  # (qp_kernel="numba": :mod:`~.clearance_kernel`)
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
                                                                       c.yield_return, c.external_filter,
                                                                       c.yield_twist, c.yield_carried, c.qp_kernel)
@@ -121,13 +116,11 @@ class BalanceController:
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
             scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate, c.qp_kernel)
         """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
-        self._limits = ActuatorLimits(m, scene.act_ids)
-        self._kernel = (kernels(), cop_kernel(), CompiledLimits(self._limits, self._act_rows, n, c.torque_fraction)
-                        ) if c.qp_kernel == "numba" else None  # the JIT paid here, not at the first solve
-        self._support = CompiledSupport(self.feet) if c.qp_kernel == "numba" else None
-        self._flat = CompiledFeet(m, self._feet, self._corners, self.vadr, c.sole_gap, c.foot_stiffness, c.foot_damping
-                                  ) if c.qp_kernel == "numba" and c.flat_feet and not self.roll_freed and all(
-            k is not None for k in self._corners) else None  # (the H1's freed roll: NumPy's rows)
+        limits = ActuatorLimits(m, scene.act_ids)
+        self._kernel = CompiledPieces(m, c, self.feet, self.vadr, self._act_rows, limits, self._clearance,
+                                      self.roll_freed) if c.qp_kernel == "numba" else None  # (:mod:`~.compiled_pieces`)
+        self._bounds = partial(limits.bounds, rows=self._act_rows, n=n, fraction=c.torque_fraction) if (
+            self._kernel is None) else self._kernel.limits  # the QP's torque bounds at a state
         self.hold = None if c.qp_every == 1 else TorqueHold(c.qp_every, c.hold_gain, c.joint_bandwidth)
         """``qp_every`` > 1: the torques held between solves (:mod:`~.torque_hold`), else ``None``."""
         self._hinge_ref = self._act_rows + 1  # each actuator's entry in the robot coordinates (free joint's 7 first)
@@ -154,7 +147,7 @@ class BalanceController:
         self._foot_scratch = (np.zeros((6, m.nv)), np.zeros((6, m.nv)))
         self._edges: tuple[bytes, np.ndarray] = (b"", np.zeros((0, 3, 4)))  # the last frames' cone edges
         self._soles_now: list[np.ndarray | None] = [None] * len(self._feet)  # the step's soles, world (soles_at)
-        self._M, self._open = np.zeros((m.nv, m.nv)), np.full((n, 2), [-np.inf, np.inf])
+        self._M = np.zeros((m.nv, m.nv))
         self._jp, self._jr, self._quat, self._rot = np.zeros((3, m.nv)), np.zeros((3, m.nv)), np.zeros(4), np.zeros(3)
         self.harness = HarnessRelease(scene, self.config)
         """The harness: when it lets go and catches, the counts of both (:mod:`~.harness_release`)."""
@@ -230,19 +223,15 @@ class BalanceController:
         mujoco.mj_step1(m, d)
         self.steps += 1
         c = self.config
-        pts, frames, which = self.feet.contacts(d) if self._support is None else self._support.contacts(d)
+        feet = self.feet if self._kernel is None else self._kernel.support  # (qp_kernel="numba": compiled)
+        pts, frames, which = feet.contacts(d)
         standing = self._planted[0] and self._planted[1] and len(pts) > 0
         if not (self._planted[0] and self._planted[1]):
             self._anchor = None  # a step: the feet are held where they next stand
         tilt = self._step_tilt = self._tilt(d)  # (the plan's velocities' tilt bound reads it in _torques)
         box, capture = None, self._capture
         if standing:
-            if self._support is not None:  # qp_kernel="numba": the same, compiled (:mod:`~.support_kernel`)
-                self._soles_now, box = self._support(d, pts, which)
-            else:
-                fwd = self.feet.heading(d)
-                self._soles_now = self.feet.soles_at(d)  # the soles in the world, for the box and the _cop's bounds
-                box = SupportBox(self.feet.footprint(d, pts, which, self._soles_now), fwd)
+            self._soles_now, box = feet.support(d, pts, which)  # the soles in the world (the _cop's bounds), the box
             com = d.subtree_com[self.scene.root_body]
             self._jp[:] = 0.0
             mujoco.mj_jacSubtreeCom(m, d, self._jp, self.scene.root_body)
@@ -316,14 +305,15 @@ class BalanceController:
                 self._anchor = [(np.array([p[0], p[1], self._home_z[s]]), flat_attitude(r, self._home_rot[s],
                                  self._foot_fwd[s])) for s, (p, r) in enumerate(self._anchor)]
         # planted feet held where they stand; with flat_feet the same rows, less their drift, hold as equalities
-        if self._flat is not None:  # qp_kernel="numba": both, compiled (:mod:`~.feet_kernel`)
-            feet, pts, frames, which, eq = self._flat(m, d, self._anchor, pts, frames, which)
+        flat = None if self._kernel is None else self._kernel.flat
+        if flat is not None:  # qp_kernel="numba": both, compiled (:mod:`~.feet_kernel`)
+            feet, pts, frames, which, eq = flat(m, d, self._anchor, pts, frames, which)
         else:
             feet = [foot_feedback(m, d, body, va, pos, rot, c.foot_stiffness, c.foot_damping, self._foot_scratch[0])
                     for body, (pos, rot) in zip(self._feet, self._anchor, strict=True)]
             eq = None
         tasks.extend((J, b, c.w_feet) for J, b in feet)
-        if c.flat_feet and self._flat is None:
+        if c.flat_feet and flat is None:
             pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
                                                    which, c.sole_gap, c.foot_stiffness, c.foot_damping,
                                                    self._foot_scratch, feet, self._roll_free)
@@ -377,16 +367,13 @@ class BalanceController:
         if c.solver == "lsq":
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
                                           c.w_force).tau[self._act_rows]
-        if self._kernel is not None:  # qp_kernel="numba": the same, compiled (:mod:`~.qp_kernel`)
-            limits = self._kernel[2](d.qpos[self._act_q], d.qvel[self._act_v])
-        else:
-            limits = self._open.copy()  # (n, 2) [−inf, inf]
-            limits[self._act_rows] = c.torque_fraction * self._limits(d.qpos[self._act_q], d.qvel[self._act_v])
+        limits = self._bounds(d.qpos[self._act_q], d.qvel[self._act_v])  # (n, 2): the actuators' limits, ±inf
         # The loads and centre-of-pressure bounds only for feet on an area (three contacts or more): on fewer, β ≥ 0
         # already keeps the centre of pressure on them, and the bounds' box may miss their segment.
         area = np.bincount(which, minlength=len(self._feet)) >= 3
         foot = np.where(area[which], which, -1)
-        ineq = None if self._clearance is None else self._clear_rows(m, d)  # type: ignore[misc]
+        ineq = None if self._clearance is None else (self._clearance.rows(m, d) if self._kernel is None else
+                                                     self._kernel.clearance_rows(m, d))  # type: ignore[misc]
         near = None if ineq is None else self._clearance.last_distance  # type: ignore[union-attr]
         self._near_body = near is not None and bool((near < c.hold_near).any())
         # the joints' rows as the QP's diagonal task: no (n − 6) × n products of zeros

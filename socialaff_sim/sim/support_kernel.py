@@ -156,8 +156,8 @@ class CompiledSupport:
         self._fwd = np.ascontiguousarray(feet.forward, dtype=np.float64)
         self._gap = float(feet.sole_gap)
 
-    def __call__(self, d: mujoco.MjData, pts: np.ndarray, which: np.ndarray) -> tuple[list[np.ndarray | None],
-                                                                                       SupportBox]:
+    def support(self, d: mujoco.MjData, pts: np.ndarray, which: np.ndarray) -> tuple[list[np.ndarray | None],
+                                                                                      SupportBox]:
         """The soles in the world at ``d`` (per foot (S, 3), ``None``: unknown) and the support box of the feet's
         contacts ``pts`` (P, 3) with the floor, foot ``which`` (P,) of each (P ≥ 1)."""
         world, R, lo, hi = self._kernel(d.xpos, d.xmat, self._bodies, self._soles, self._has, self._fwd, pts,
