@@ -4,7 +4,8 @@ For each case (robot, interaction, instance of the synthetic set, seed 0) a Simu
 replays the ground truth up to ``--at`` of the episode's frames (then on to the first frame the controller drives),
 its ``MjData`` is saved, and ``BalanceController.step`` is called ``--calls`` times, the state restored before each
 call; printed per case: the frame, the share of calls the controller drove, and the process CPU per call (ms:
-minimum, 10th percentile, median). Alternate runs of two code trees and compare their minima::
+minimum, 10th percentile, median). ``--balance FIELD=VALUE ...`` replaces fields of the standing mode's
+``BalanceConfig`` (e.g. ``"qp_kernel='numba'"``). Alternate runs of two code trees and compare their minima::
 
     OMP_NUM_THREADS=1 PYTHONPATH=/path/to/tree python scripts/bench_balance_step.py --calls 400 \\
         --mjcf unitree_h1=../shared/robots/unitree_h1/h1.xml
@@ -15,6 +16,7 @@ The library never imports this script.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import time
 
@@ -25,7 +27,10 @@ from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.episode import run_episode
+from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.simulator import SimConfig, Simulator
+
+from _config_flags import field_settings  # (scripts/, sys.path[0])
 
 CASES = [("ours", "shake_hands", 1), ("ours", "pull_up", 0), ("unitree_h1", "hand_over", 0)]
 
@@ -39,7 +44,13 @@ def main() -> None:
     ap.add_argument("--calls", type=int, default=400, help="controller steps timed per case")
     ap.add_argument("--at", type=float, default=0.6, help="fraction of the episode's frames before the state is saved")
     ap.add_argument("--mjcf", nargs="*", default=[], help="NAME=PATH: the MJCF of a robot the project does not ship")
+    ap.add_argument("--balance", nargs="+", default=[], metavar="FIELD=VALUE",
+                    help="BalanceConfig fields replaced in SimConfig.standing() (e.g. \"qp_kernel='numba'\")")
     args = ap.parse_args()
+    cfg = SimConfig.standing()
+    changes = field_settings(ap, "--balance", BalanceConfig, args.balance)
+    if changes:
+        cfg = dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, **changes))
     paths = dict(item.split("=", 1) for item in args.mjcf)
     data = generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=8))
     out = {}
@@ -47,7 +58,7 @@ def main() -> None:
         if robot != "ours" and robot not in paths:
             continue
         inter = list(data.of_label(label))[k]
-        sim = Simulator(load_robot(robot, mjcf=paths.get(robot)), label, SimConfig.standing())
+        sim = Simulator(load_robot(robot, mjcf=paths.get(robot)), label, cfg)
         stop = int(args.at * inter.n_frames)
 
         def on_frame(s: Simulator, _r: object, _x: object, stop: int = stop) -> None:

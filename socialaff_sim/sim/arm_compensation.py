@@ -33,6 +33,7 @@ import mujoco
 import numpy as np
 
 from .._norms import norms
+from .arm_kernel import arm_kernel, compensation_share, damped_step
 from .arm_contacts import arm_hinges, filtered_arm_force, person_geoms, wrist_frames, wrist_positions
 from .external_force import Contacts
 from .scene import Scene
@@ -74,7 +75,7 @@ class ArmCompensation:
     :meth:`measure` after each physics step the robot stands, :meth:`offsets` before each solve of the controller."""
 
     def __init__(self, scene: Scene, fraction: float, release: float, filter_time: float,
-                 gate: float | None = None) -> None:
+                 gate: float | None = None, kernel: str = "numpy") -> None:
         m = scene.model
         self.scene, self.fraction, self.release, self.filter_time = scene, fraction, release, filter_time
         self.gate = gate
@@ -93,6 +94,9 @@ class ArmCompensation:
         self._arm_q = [(self.qadr[c + 1], c + 1, self.vadr[c]) for c in self._cols]
         self._scratch = mujoco.MjData(m)
         self._jp = np.zeros((3, m.nv))
+        self._compiled = kernel == "numba" and arm_kernel() is not None  # (``qp_kernel``: the step compiled, made now)
+        self._dofs = [np.asarray(v, dtype=np.int64) for _, _, v in self._arm_q]
+        self._none3 = np.zeros((0, 3))
         self.reset()
 
     def reset(self) -> None:
@@ -122,7 +126,8 @@ class ArmCompensation:
         """(n − 6,) hinge reference offsets (rad) that put each wrist, on the trunk of ``d``, where the plan's
         robot coordinates ``q_ref`` (nq_r,) put it (world), scaled by c and the force's fade."""
         dq = np.zeros(len(self.vadr))
-        share = self.fraction * fade(self.force, self.release)
+        share = self.fraction * fade(self.force, self.release) if not self._compiled else compensation_share(
+            self.force, self.release, self.fraction, False, self._none3, self._none3, self.touched, 0.0)
         if self.gate is not None and self.touched.all():  # the touches end compensation
             share = np.zeros(2)
         s_ = self._scratch
@@ -132,7 +137,9 @@ class ArmCompensation:
             mujoco.mj_kinematics(m, s_)
             plan = self._wrists(s_)
             if self.gate is not None:  # only an arm on its way to a touch, near what it may touch
-                share = share * approach_gate(plan, d.geom_xpos[self._target_ids], self.touched, self.gate)
+                share = share * approach_gate(plan, d.geom_xpos[self._target_ids], self.touched, self.gate) if (
+                    not self._compiled) else compensation_share(self.force, self.release, self.fraction, True, plan,
+                                                                d.geom_xpos[self._target_ids], self.touched, self.gate)
         if not share.any():
             self.shift[:] = 0.0
             return dq[6:]
@@ -147,6 +154,9 @@ class ArmCompensation:
             if share[s] <= 0.0:
                 continue
             mujoco.mj_jac(m, s_, self._jp, None, here[s], self._wrist[s])
+            if self._compiled:  # (:mod:`~.arm_kernel`)
+                dq[self._cols[s]] += share[s] * damped_step(self._jp, self._dofs[s], DAMPING_LAMBDA, self.shift[s])[0]
+                continue
             J = self._jp[:, self._arm_q[s][2]]
             dq[self._cols[s]] += share[s] * compensation_step(J, self.shift[s])
         return dq[6:]

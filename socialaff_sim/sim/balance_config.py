@@ -290,8 +290,11 @@ class BalanceConfig:
     """[—]: with ``qp_every`` > 1, nothing is held after a physics step in which anything but the floor touches the
     robot (the person, the object): the torques are then solved at every driven step."""
     qp_kernel: str = "numpy"
-    """[—]: how ``solver="qp"`` assembles its cost and rows: ``"numpy"`` (the reference) or ``"numba"``, one compiled
-    loop (:mod:`~socialaff_sim.sim.qp_kernel`, the extra ``[fast]``; not bit for bit: its sums run in its own order)."""
+    """[—]: how the controller's arithmetic runs with ``solver="qp"``: ``"numpy"`` (the reference) or ``"numba"``
+    (the extra ``[fast]``; not bit for bit: its sums run in their own order): the QP's cost and rows in one compiled
+    loop (:mod:`~socialaff_sim.sim.qp_kernel`) and, since session 34, the feet's contacts and support box, their tasks
+    and flat contacts, the centre-of-pressure rows, the torque bounds, the self-clearance rows and the arms' steps
+    (:mod:`~socialaff_sim.sim.compiled_pieces`)."""
 
     def __post_init__(self) -> None:
         check_balance_config(self)

@@ -38,6 +38,7 @@ takes effect at the next step (4 ms).
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import mujoco
 import numpy as np
@@ -48,6 +49,7 @@ from .balance_config import BalanceConfig
 from .centroidal_momentum import CentroidalMomentum, plan_velocity
 from .contact_dynamics import cone_edges, solve_contact_dynamics
 from .com_reference import ComReference
+from .compiled_pieces import CompiledPieces
 from .contact_qp import ActuatorLimits, solve_contact_qp
 from .cop_constraints import cop_constraint_rows
 from .external_force import Contacts, ExternalForces, lean_offset
@@ -57,7 +59,6 @@ from .hand_task import HandTask, arm_row_scale, hand_task_wanted
 from .hand_yield import HandYield
 from .harness_release import HarnessRelease
 from .plan_velocity import PlanVelocity
-from .qp_kernel import kernels
 from .scene import Scene
 from .self_clearance import SelfClearance
 from .support_box import SupportBox
@@ -110,12 +111,16 @@ class BalanceController:
             scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
         self.hand_yield = None if c.hand_yield is None else HandYield(scene, c.hand_yield, c.yield_damping,
                                                                       c.yield_return, c.external_filter,
-                                                                      c.yield_twist, c.yield_carried)
+                                                                      c.yield_twist, c.yield_carried, c.qp_kernel)
         """``hand_yield``: the arms' give (:mod:`~.hand_yield`), else ``None``."""
         self.compensation = None if c.arm_compensation is None else ArmCompensation(
-            scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate)
+            scene, c.arm_compensation, c.compensation_release, c.external_filter, c.compensation_gate, c.qp_kernel)
         """``arm_compensation``: the arms' references on the trunk as it is (:mod:`~.arm_compensation`), else ``None``."""
-        self._kernel = kernels() if c.qp_kernel == "numba" else None  # the JIT paid here, not at the first solve
+        limits = ActuatorLimits(m, scene.act_ids)
+        self._kernel = CompiledPieces(m, c, self.feet, self.vadr, self._act_rows, limits, self._clearance,
+                                      self.roll_freed) if c.qp_kernel == "numba" else None  # (:mod:`~.compiled_pieces`)
+        self._bounds = partial(limits.bounds, rows=self._act_rows, n=n, fraction=c.torque_fraction) if (
+            self._kernel is None) else self._kernel.limits  # the QP's torque bounds at a state
         self.hold = None if c.qp_every == 1 else TorqueHold(c.qp_every, c.hold_gain, c.joint_bandwidth)
         """``qp_every`` > 1: the torques held between solves (:mod:`~.torque_hold`), else ``None``."""
         self._hinge_ref = self._act_rows + 1  # each actuator's entry in the robot coordinates (free joint's 7 first)
@@ -133,7 +138,7 @@ class BalanceController:
                                                                            c.angmom_bandwidth)
         """``angmom_weight``: the centroidal angular momentum's rows (:mod:`~.centroidal_momentum`), else ``None``."""
         self._plan_qvel = np.zeros(len(self.vadr))  # angmom_weight: the plan's velocity over the frame
-        self._limits, self._Mix = ActuatorLimits(m, scene.act_ids), np.ix_(self.vadr, self.vadr)  # made once
+        self._Mix = np.ix_(self.vadr, self.vadr)  # made once
         scale = np.sqrt(np.where(self._upper, c.upper_weight, 1.0))  # per-row weights inside the joints' task
         if self.hands is not None and c.hand_task_arm_weight is not None:  # the hands' arms' rows lighter
             scale = arm_row_scale(scale, self.hands.arm_columns(m, self._torso, self.vadr), c.hand_task_arm_weight)
@@ -142,7 +147,7 @@ class BalanceController:
         self._foot_scratch = (np.zeros((6, m.nv)), np.zeros((6, m.nv)))
         self._edges: tuple[bytes, np.ndarray] = (b"", np.zeros((0, 3, 4)))  # the last frames' cone edges
         self._soles_now: list[np.ndarray | None] = [None] * len(self._feet)  # the step's soles, world (soles_at)
-        self._M, self._open = np.zeros((m.nv, m.nv)), np.full((n, 2), [-np.inf, np.inf])
+        self._M = np.zeros((m.nv, m.nv))
         self._jp, self._jr, self._quat, self._rot = np.zeros((3, m.nv)), np.zeros((3, m.nv)), np.zeros(4), np.zeros(3)
         self.harness = HarnessRelease(scene, self.config)
         """The harness: when it lets go and catches, the counts of both (:mod:`~.harness_release`)."""
@@ -218,16 +223,15 @@ class BalanceController:
         mujoco.mj_step1(m, d)
         self.steps += 1
         c = self.config
-        pts, frames, which = self.feet.contacts(d)
+        feet = self.feet if self._kernel is None else self._kernel.support  # (qp_kernel="numba": compiled)
+        pts, frames, which = feet.contacts(d)
         standing = self._planted[0] and self._planted[1] and len(pts) > 0
         if not (self._planted[0] and self._planted[1]):
             self._anchor = None  # a step: the feet are held where they next stand
         tilt = self._step_tilt = self._tilt(d)  # (the plan's velocities' tilt bound reads it in _torques)
         box, capture = None, self._capture
         if standing:
-            fwd = self.feet.heading(d)
-            self._soles_now = self.feet.soles_at(d)  # the soles in the world, for the box and the _cop's bounds
-            box = SupportBox(self.feet.footprint(d, pts, which, self._soles_now), fwd)
+            self._soles_now, box = feet.support(d, pts, which)  # the soles in the world (the _cop's bounds), the box
             com = d.subtree_com[self.scene.root_body]
             self._jp[:] = 0.0
             mujoco.mj_jacSubtreeCom(m, d, self._jp, self.scene.root_body)
@@ -301,11 +305,15 @@ class BalanceController:
                 self._anchor = [(np.array([p[0], p[1], self._home_z[s]]), flat_attitude(r, self._home_rot[s],
                                  self._foot_fwd[s])) for s, (p, r) in enumerate(self._anchor)]
         # planted feet held where they stand; with flat_feet the same rows, less their drift, hold as equalities
-        feet = [foot_feedback(m, d, body, va, pos, rot, c.foot_stiffness, c.foot_damping, self._foot_scratch[0])
-                for body, (pos, rot) in zip(self._feet, self._anchor, strict=True)]
+        flat = None if self._kernel is None else self._kernel.flat
+        if flat is not None:  # qp_kernel="numba": both, compiled (:mod:`~.feet_kernel`)
+            feet, pts, frames, which, eq = flat(m, d, self._anchor, pts, frames, which)
+        else:
+            feet = [foot_feedback(m, d, body, va, pos, rot, c.foot_stiffness, c.foot_damping, self._foot_scratch[0])
+                    for body, (pos, rot) in zip(self._feet, self._anchor, strict=True)]
+            eq = None
         tasks.extend((J, b, c.w_feet) for J, b in feet)
-        eq = None
-        if c.flat_feet:
+        if c.flat_feet and flat is None:
             pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
                                                    which, c.sole_gap, c.foot_stiffness, c.foot_damping,
                                                    self._foot_scratch, feet, self._roll_free)
@@ -359,20 +367,20 @@ class BalanceController:
         if c.solver == "lsq":
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
                                           c.w_force).tau[self._act_rows]
-        limits = self._open.copy()  # (n, 2) [−inf, inf]
-        limits[self._act_rows] = c.torque_fraction * self._limits(d.qpos[self._act_q], d.qvel[self._act_v])
+        limits = self._bounds(d.qpos[self._act_q], d.qvel[self._act_v])  # (n, 2): the actuators' limits, ±inf
         # The loads and centre-of-pressure bounds only for feet on an area (three contacts or more): on fewer, β ≥ 0
         # already keeps the centre of pressure on them, and the bounds' box may miss their segment.
         area = np.bincount(which, minlength=len(self._feet)) >= 3
         foot = np.where(area[which], which, -1)
-        ineq = None if self._clearance is None else self._clearance.rows(m, d)
+        ineq = None if self._clearance is None else (self._clearance.rows(m, d) if self._kernel is None else
+                                                     self._kernel.clearance_rows(m, d))  # type: ignore[misc]
         near = None if ineq is None else self._clearance.last_distance  # type: ignore[union-attr]
         self._near_body = near is not None and bool((near < c.hold_near).any())
         # the joints' rows as the QP's diagonal task: no (n − 6) × n products of zeros
         qp_tasks = [*tasks[:-1], (self._joint_diag, np.concatenate([np.zeros(6), joints]), c.w_joint)]
         res = solve_contact_qp(M, h, self.unactuated, jac, edges, qp_tasks, self.mass, c.w_force, limits,
                                cop_constraint_rows(c, pts, edges, foot, box.R, self._soles_now, d.xmat, self._feet,
-                                                   self._foot_fwd), foot, c.min_foot_load * self.mass * self._g,
+                                                   self._foot_fwd, c.qp_kernel), foot, c.min_foot_load * self.mass * self._g,
                                equalities=eq, inequalities=ineq, kernel=c.qp_kernel,
                                optional=None if eq is None or not c.yaw_first else yaw_rows(len(eq[1])))
         self.yaw_dropped_steps += int(res.optional_dropped)

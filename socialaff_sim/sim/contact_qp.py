@@ -109,6 +109,13 @@ class ActuatorLimits:
             if limited.any():  # (an empty mask changes nothing)
                 self._clips.append((limited, rng[limited, :1].copy(), rng[limited, 1:].copy()))
 
+    def bounds(self, qpos: np.ndarray, qvel: np.ndarray, rows: np.ndarray, n: int, fraction: float) -> np.ndarray:
+        """(n, 2) a QP's torque bounds: ``fraction`` times :meth:`__call__` at ``qpos``, ``qvel`` on the actuators'
+        ``rows`` (A,) of ``n``, ±inf on the others."""
+        out = np.full((n, 2), [-np.inf, np.inf])
+        out[rows] = fraction * self(qpos, qvel)
+        return out
+
     def __call__(self, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
         """(A, 2) :func:`actuator_limits` at the joints' state ``qpos``, ``qvel`` (A,)."""
         out = np.empty((self._n, 2))

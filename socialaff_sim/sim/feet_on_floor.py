@@ -10,6 +10,7 @@ import numpy as np
 from .._norms import norm
 from ..retarget.kinematic_tree import subtree_mask
 from .flat_feet import sole_corners
+from .support_box import SupportBox
 from .scene import Scene
 
 __all__ = ["FeetOnFloor"]
@@ -70,6 +71,14 @@ class FeetOnFloor:
         """Each foot's sole box's corners (8, 3), world (m), at the state of ``d`` (``None``: sole unknown)."""
         return [None if sole is None else d.xpos[body] + sole @ d.xmat[body].reshape(3, 3).T
                 for body, sole in zip(self._feet, self._sole, strict=True)]
+
+    def support(self, d: mujoco.MjData, pts: np.ndarray, which: np.ndarray) -> tuple[list[np.ndarray | None],
+                                                                                      SupportBox]:
+        """:meth:`soles_at` of ``d`` and the :class:`~.support_box.SupportBox` of :meth:`footprint` along
+        :meth:`heading`: the feet's support at a step they stand, their contacts ``pts`` (P, 3), ``which`` (P,)."""
+        fwd = self.heading(d)
+        soles = self.soles_at(d)
+        return soles, SupportBox(self.footprint(d, pts, which, soles), fwd)
 
     def footprint(self, d: mujoco.MjData, pts: np.ndarray, which: np.ndarray,
                   soles: list[np.ndarray | None] | None = None) -> np.ndarray:

@@ -37,6 +37,7 @@ import mujoco
 import numpy as np
 
 from .._norms import norm, norms
+from .arm_kernel import arm_kernel, damped_step, yield_update
 from .arm_contacts import arm_hinges, filtered_arm_force, person_geoms
 from .external_force import Contacts, weld_force
 from .scene import Scene
@@ -95,7 +96,7 @@ class HandYield:
     of the balance controller."""
 
     def __init__(self, scene: Scene, fraction: float, damping: float, back: float, filter_time: float,
-                 twist: float | None = None, carried: bool = False) -> None:
+                 twist: float | None = None, carried: bool = False, kernel: str = "numpy") -> None:
         m = scene.model
         self.scene = scene
         self.twist = twist
@@ -112,6 +113,8 @@ class HandYield:
         self._person = person_geoms(scene)
         self._wrist, self._cols = arm_hinges(scene)
         self._arm_v = [self.vadr[c] for c in self._cols]  # each arm's dofs, made once
+        self._compiled = kernel == "numba" and arm_kernel() is not None  # (``qp_kernel``: the step compiled, made now)
+        self._arm_v64 = [np.asarray(v, dtype=np.int64) for v in self._arm_v]
         self._jp = np.zeros((3, m.nv))
         self.reset()
 
@@ -158,6 +161,13 @@ class HandYield:
         """Advance the offsets by ``dt`` (s): give way while the arms' horizontal force exceeds the feet's allowance
         (:func:`feet_allowance` at ``capture`` (2,), the floor's height ``floor`` m; with ``twist`` also at most
         :func:`twist_allowance`), return otherwise."""
+        if self._compiled:  # (:mod:`~.arm_kernel`)
+            self.offset, self.rate, gave = yield_update(
+                self.force, self.offset, box.R, box.lo, box.hi, np.asarray(capture, dtype=np.float64), margin, weight,
+                self._height - floor, self._at, np.nan if self.twist is None else self.twist, self.fraction,
+                self.damping, self.back, dt, MAX_OFFSET)
+            self.yield_steps += int(gave)
+            return
         f = self.force[:, :2]
         total = f.sum(axis=0)
         nrm = norm(total)
@@ -190,6 +200,11 @@ class HandYield:
             if not (self.offset[s].any() or self.rate[s].any()):
                 continue
             mujoco.mj_jacBody(m, d, self._jp, None, self._wrist[s])
+            if self._compiled:  # (:mod:`~.arm_kernel`: the horizontal rows, offset and rate at once)
+                step = damped_step(self._jp, self._arm_v64[s], DAMPING_LAMBDA, self.offset[s], self.rate[s])
+                dq[self._cols[s]] += step[0]
+                dv[self._cols[s]] += step[1]
+                continue
             J = self._jp[:2][:, self._arm_v[s]]
             inv = J.T @ np.linalg.inv(J @ J.T + _DAMPING)
             dq[self._cols[s]] += inv @ self.offset[s]

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..inference.compiled import njit, once
 
-__all__ = ["assemble", "compiled_rows", "kernels"]
+__all__ = ["CompiledLimits", "assemble", "compiled_rows", "kernels"]
 
 _INF = 1e30  # (contact_qp's "no bound")
 
@@ -126,13 +126,57 @@ def _assemble(M, h, order, nu, point_jac, edges, TA, Tb, Tw, da, db, dw, w_force
     return H, f, G, A, up, lo, sn, As, bu, bl, s5, ok
 
 
+def _limits(q, v, gain, ctrlrange, b0, b1, b2, cl, clip_on, clip_lo, clip_hi, rows, n, fraction):  # pragma: no cover - compiled; tested through CompiledLimits
+    """(n, 2) the QP's torque bounds: ±inf, and on the actuators' ``rows`` ``fraction`` times
+    :class:`~.contact_qp.ActuatorLimits` at ``q``, ``v`` (A,): the servo's force at its control range's ends (where
+    control-limited, in order), then clipped by each of ``clip_on`` (C, A) with ``clip_lo``, ``clip_hi`` (C, A)."""
+    out = np.empty((n, 2))
+    for r in range(n):
+        out[r, 0], out[r, 1] = -np.inf, np.inf
+    for a in range(q.shape[0]):
+        lo, hi = -np.inf, np.inf
+        if cl[a]:
+            bias = b0[a] + b1[a] * q[a] + b2[a] * v[a]
+            e0, e1 = gain[a] * ctrlrange[a, 0] + bias, gain[a] * ctrlrange[a, 1] + bias
+            lo, hi = min(e0, e1), max(e0, e1)
+        for c in range(clip_on.shape[0]):
+            if clip_on[c, a]:
+                lo = min(max(lo, clip_lo[c, a]), clip_hi[c, a])
+                hi = min(max(hi, clip_lo[c, a]), clip_hi[c, a])
+        out[rows[a], 0], out[rows[a], 1] = fraction * lo, fraction * hi
+    return out
+
+
+class CompiledLimits:
+    """:class:`~.contact_qp.ActuatorLimits` of ``limits`` times ``fraction`` on the robot's ``rows`` (A,) of ``n``,
+    ±inf elsewhere, compiled (:func:`_limits`; the same operations, bit for bit)."""
+
+    def __init__(self, limits: Any, rows: np.ndarray, n: int, fraction: float) -> None:
+        self._fn = kernels()["limits"]
+        L = limits
+        A = L._n
+        on, lo, hi = np.zeros((len(L._clips), A), dtype=np.bool_), np.zeros((len(L._clips), A)), np.zeros((len(L._clips), A))
+        for c, (mask, lo_c, hi_c) in enumerate(L._clips):
+            on[c], lo[c, mask], hi[c, mask] = mask, lo_c[:, 0], hi_c[:, 0]
+        self._args = (np.ascontiguousarray(L._gain[:, 0]), np.ascontiguousarray(L._ctrlrange, dtype=np.float64),
+                      L._b0, L._b1, L._b2, np.asarray(L._cl, dtype=np.bool_), on, lo, hi,
+                      np.asarray(rows, dtype=np.int64), int(n), float(fraction))
+
+    def __call__(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """(n, 2) the bounds at the actuators' joint positions ``q`` and velocities ``v`` (A,)."""
+        return self._fn(q, v, *self._args)
+
+
 def kernels() -> Any:
-    """The compiled :func:`assemble` (made and warmed up once per process; numba missing: a ConfigError)."""
-    return once(__name__, lambda: njit(_assemble), _warm)
+    """The compiled :func:`_assemble` and :func:`_limits` (made and warmed up once per process; numba missing: a
+    ConfigError)."""
+    return once(__name__, lambda: {"assemble": njit(_assemble), "limits": njit(_limits)}, _warm)
 
 
-def _warm(fn: Any) -> None:
-    """One call of the argument types the controller passes (its row order and cone edges are read-only arrays)."""
+def _warm(fns: Any) -> None:
+    """One call of each of the argument types the controller passes (its row order and cone edges are read-only
+    arrays)."""
+    fn = fns["assemble"]
     n, P = 7, 2
     z = np.zeros
     order, edges = np.arange(n), np.ones((P, 3, 4))
@@ -140,6 +184,9 @@ def _warm(fn: Any) -> None:
     fn(np.eye(n), z(n), order, 1, z((P, 3, n)), edges, z((1, n)), z(1), z(1), z(n), z(n), 1.0,
        1e-3, 1e-6, 1.0, np.ones((n, 2)), z((0, n)), z(0), z((0, n)), z(0), np.arange(1), np.zeros(P, dtype=np.int64),
        0.0, z((0, 4 * P)))
+    o = np.ones(2)
+    fns["limits"](o, o, o, np.ones((2, 2)), o, o, o, np.ones(2, dtype=np.bool_), np.ones((1, 2), dtype=np.bool_),
+                  np.ones((1, 2)), np.ones((1, 2)), np.arange(2, dtype=np.int64), 3, 0.9)
 
 
 def compiled_rows(M: np.ndarray, h: np.ndarray, order: np.ndarray, nu: int, point_jac: np.ndarray, edges: np.ndarray,
@@ -178,4 +225,4 @@ def compiled_rows(M: np.ndarray, h: np.ndarray, order: np.ndarray, nu: int, poin
 
 def assemble(*args: Any) -> tuple:
     """:func:`_assemble` compiled (the arguments as :func:`compiled_rows` prepares them)."""
-    return kernels()(*args)
+    return kernels()["assemble"](*args)

@@ -15,6 +15,14 @@ class SupportBox:
         local = xy @ self.R.T
         self.lo, self.hi = local.min(axis=0), local.max(axis=0)
 
+    @classmethod
+    def of(cls, R: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> SupportBox:
+        """The box with rows ``R`` (2, 2) (forward, left; world) and extents ``lo``, ``hi`` (2,) along them (m), as
+        found elsewhere (:mod:`~.support_kernel`)."""
+        box = cls.__new__(cls)
+        box.R, box.lo, box.hi = R, lo, hi
+        return box
+
     def middle(self) -> np.ndarray:
         """(2,) the box's middle, world."""
         return (0.5 * (self.lo + self.hi)) @ self.R
