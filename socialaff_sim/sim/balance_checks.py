@@ -104,6 +104,12 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
                                    or c.compensation_gate is None):
         raise ConfigError("BalanceConfig.hand_task_touched: needs hand_task, arm_compensation and compensation_gate "
                           "(their touch latch)")
+    if c.release_tilt_touched is not None and not (
+            c.flat_roll_free and c.arm_compensation is not None and c.compensation_gate is not None
+            and c.release_tilt <= c.release_tilt_touched < c.catch_tilt):
+        raise ConfigError(f"BalanceConfig.release_tilt_touched: needs flat_roll_free (the robots it picks), "
+                          f"arm_compensation and compensation_gate (their touch latch) and a tilt in [release_tilt, "
+                          f"catch_tilt) degrees, found {c.release_tilt_touched!r}")
     if c.hand_task_roll_free and (c.hand_task is None or not c.flat_roll_free):
         raise ConfigError("BalanceConfig.hand_task_roll_free: needs hand_task and flat_roll_free (the robots it "
                           "picks)")

@@ -30,7 +30,8 @@ class BalanceConfig:
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate,
       hand_task, hand_task_bandwidth, hand_task_touched, hand_task_roll_free,
       hand_task_arm_weight, hand_task_plan_velocity, hand_task_velocity_until_touch
-    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, tilt_from_plan,
+    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_tilt_touched,
+      tilt_from_plan,
       catch_tilt, catch_margin, catch_blend, drive_harnessed
     - Rate: qp_every, hold_gain, hold_near, hold_touch, qp_kernel
     """
@@ -261,6 +262,15 @@ class BalanceConfig:
     release_margin: float = 0.01
     """[m]: ... and while the capture point c + ċ/ω₀ (ω₀ = √(g / c_z)) lies this far inside the box of the
     feet's contact points."""
+    release_tilt_touched: float | None = None
+    """θ_t [deg]: in a task with a ``catch`` sub-goal (an object thrown to the robot), on a robot whose flat feet's
+    roll ``flat_roll_free`` frees (legs that cannot roll a foot: the H1), after an arm's first touch of the person or
+    the object (the compensation's touch latch) the harness lets go while the torso tilts at most θ_t, in place of
+    ``release_tilt`` (the harness's ``catch_tilt`` unchanged): the H1, caught by the step it takes toward the ball in
+    its flight, leans 5–7° in the harness through the catch, and ``release_tilt`` alone then keeps it held for a third
+    of its throws' contact-phase support (traced; docs/design.md §5, issue 25, session 34, wip/h1throw). ``None``:
+    ``release_tilt`` throughout. Needs ``flat_roll_free``, ``arm_compensation`` and ``compensation_gate``; at least
+    ``release_tilt``, below ``catch_tilt``."""
     tilt_from_plan: bool = False
     """[—]: Whether ``release_tilt`` and ``catch_tilt`` read the torso's angle from the plan's torso attitude (the
     IK's, the controller's goal) rather than from upright: a lean the plan asks for (the H1 reaching with a spine

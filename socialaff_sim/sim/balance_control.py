@@ -149,7 +149,7 @@ class BalanceController:
         self._soles_now: list[np.ndarray | None] = [None] * len(self._feet)  # the step's soles, world (soles_at)
         self._M = np.zeros((m.nv, m.nv))
         self._jp, self._jr, self._quat, self._rot = np.zeros((3, m.nv)), np.zeros((3, m.nv)), np.zeros(4), np.zeros(3)
-        self.harness = HarnessRelease(scene, self.config)
+        self.harness = HarnessRelease(scene, self.config, self.roll_freed)
         """The harness: when it lets go and catches, the counts of both (:mod:`~.harness_release`)."""
         self.reset()
 
@@ -239,7 +239,8 @@ class BalanceController:
             comvel = jcom @ d.qvel[self.vadr]
             height = max(float(com[2] - pts[:, 2].sum() / len(pts)), 1e-3)  # (the mean's arithmetic)
             capture = self._capture = com[:2] + comvel[:2] / math.sqrt(self._g / height)
-        self.harness.decide(d, m.opt.timestep, standing, tilt, box, capture)
+        self.harness.decide(d, m.opt.timestep, standing, tilt, box, capture, self.harness.tilt_touched is not None
+                            and self.compensation is not None and bool(self.compensation.touched.any()))
         released = self.harness.released
         self.active = standing and (released or c.drive_harnessed)
         if self.active:

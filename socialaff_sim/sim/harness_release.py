@@ -3,7 +3,8 @@ caught robot is led back onto the IK's base.
 
 Decided per physics step (:class:`HarnessRelease`, owned by :class:`~.balance_control.BalanceController`): the weld
 lets go once both feet have been planted ``release_delay`` and the robot is steady (the torso within
-``release_tilt``, the capture point inside the support box by ``release_margin``); it catches the robot again at
+``release_tilt``, or ``release_tilt_touched`` after a touch on a robot whose feet's roll the controller frees, the
+capture point inside the support box by ``release_margin``); it catches the robot again at
 once when the torso tilts past ``catch_tilt``, the capture point leaves the box by more than ``catch_margin``, or a
 foot steps. A caught robot is held where it was caught and led onto the IK's base over ``catch_blend``, and the
 release waits its delay again.
@@ -23,8 +24,13 @@ class HarnessRelease:
     """The harness's state and decision of one physics scene; :meth:`reset` per episode, :meth:`blend_anchor`
     before ``mj_step1`` and :meth:`decide` after it, each physics step."""
 
-    def __init__(self, scene: Scene, config: BalanceConfig) -> None:
+    def __init__(self, scene: Scene, config: BalanceConfig, roll_freed: bool = False) -> None:
         self.config = config
+        self._tilt_touched = config.release_tilt_touched if roll_freed else None
+        self.tilt_touched = self._tilt_touched
+        """[deg] ``release_tilt_touched`` where it acts (a robot whose feet's roll the controller frees, in a task
+        with a catch sub-goal: :meth:`gate_touched`), else ``None``: the release's tilt bound after a touch
+        (:meth:`release_tilt`)."""
         self._root, self._mocap = scene.root_body, scene.anchor_mocap
         self._weld = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_EQUALITY, "robot_anchor")
         self.reset()
@@ -64,11 +70,22 @@ class HarnessRelease:
         d.mocap_quat[k] = q / np.linalg.norm(q)
         self._caught = (pos, quat, t + m.opt.timestep)
 
+    def gate_touched(self, catch: bool) -> None:
+        """``release_tilt_touched`` only in a task with a ``catch`` sub-goal (``catch``: an object thrown to the
+        robot); elsewhere :attr:`tilt_touched` is ``None``. Called by the simulator at each episode's start."""
+        self.tilt_touched = self._tilt_touched if catch else None
+
+    def release_tilt(self, touched: bool) -> float:
+        """[deg] The torso's tilt up to which the harness lets go: ``release_tilt``, or after an arm's first
+        touch (``touched``) :attr:`tilt_touched` where set."""
+        return self.tilt_touched if touched and self.tilt_touched is not None else self.config.release_tilt
+
     def decide(self, d: mujoco.MjData, dt: float, standing: bool, tilt: float, box: SupportBox | None,
-               capture: np.ndarray) -> None:
+               capture: np.ndarray, touched: bool = False) -> None:
         """The step's decision after ``mj_step1``: ``standing`` (both feet planted and on the floor), the torso's
         ``tilt`` (degrees), the support ``box`` (``None`` unless standing) and the ``capture`` point (2,) (world, m);
-        ``dt`` (s) the physics step. Switches the weld in ``d`` (with ``release``) and counts."""
+        ``dt`` (s) the physics step; ``touched``: an arm has touched the person or the object (:meth:`release_tilt`).
+        Switches the weld in ``d`` (with ``release``) and counts."""
         c = self.config
         self._engaged = self._engaged + dt if standing else 0.0
         was = self.released
@@ -77,7 +94,7 @@ class HarnessRelease:
         elif self.released:
             self.released = tilt <= c.catch_tilt and box.inside(capture, -c.catch_margin)  # type: ignore[union-attr]
         else:
-            self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and tilt <= c.release_tilt
+            self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and tilt <= self.release_tilt(touched)
                              and box.inside(capture, c.release_margin))  # type: ignore[union-attr]
         if was and not self.released:
             self.catches += 1

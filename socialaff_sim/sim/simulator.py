@@ -157,6 +157,8 @@ class Simulator:
         if lock is not None and lock.plant_caught_above and all(sg.above == "none" for sg in self.task.subgoals):
             lock = dataclasses.replace(lock, plant_caught=False, plant_caught_above=False)
         bal = stage.stepper.balance
+        if bal is not None:  # release_tilt_touched: in a throw's catch only
+            bal.harness.gate_touched(any(sg.kind == "catch" for sg in self.task.subgoals))
         if lock is not None and lock.hold_near_roll_free and not (bal is not None and bal.roll_freed):
             lock = dataclasses.replace(lock, hold_near=None, hold_near_roll_free=False)  # (Stubby: the gate's "no")
         self._footlock = None if lock is None else FootLock(
