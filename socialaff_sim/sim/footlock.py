@@ -60,6 +60,14 @@ class FootLockConfig:
     (``BalanceConfig.flat_roll_free`` on legs that cannot roll a foot: the H1, not Stubby; as
     ``hand_task_roll_free``). ``False``: on every robot."""
 
+    land_gap: float | None = None
+    """d_l [m]: while a sub-goal's gap at the end of the last frame is at most this (the hands about to meet, in
+    contact, or just parted), a foot that is not planted at a frame's start is put down at its target's horizontal
+    point (on the floor, at the home ankle height) whatever its target's height: a step near the grip lasts one
+    frame. The recorded helper of a pull-up lifts a foot 4–10 cm for 4–7 frames just before and in the grip, and the
+    harness holds the robot throughout a step and its release's delay after it, into the contact phase
+    (docs/design.md §5, issue 25, session 34, wip/h1pull2). ``None``: a foot is put down only once its target is
+    within ``lift``. ``hold_near_roll_free`` drops it with ``hold_near`` (on Stubby)."""
     glide_step: float | None = None
     """h_g [m]: a planted foot whose target leaves ``radius`` without rising above ``lift`` (a glide) steps for
     one frame, its target the new point raised by this, instead of being planted there at once; one foot at a
@@ -127,6 +135,8 @@ class FootLockConfig:
         if self.hold_lift is not None and not self.hold_lift >= self.lift:
             raise ConfigError(f"FootLockConfig.hold_lift: expected None or a height ≥ lift ({self.lift} m), found "
                               f"{self.hold_lift}")
+        if self.land_gap is not None and not self.land_gap >= 0.0:
+            raise ConfigError(f"FootLockConfig.land_gap: expected None or a distance ≥ 0 m, found {self.land_gap}")
         if self.hold_near is not None and not self.hold_near >= 0.0:
             raise ConfigError(f"FootLockConfig.hold_near: expected None or a distance ≥ 0 m, found {self.hold_near}")
 
@@ -159,6 +169,12 @@ class FootLock:
         d = self.config.hold_near
         return d is not None and any(g is not None and g <= d for g in gaps)
 
+    def landing(self, gaps: Iterable[float | None]) -> bool:
+        """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``land_gap``; ``False``
+        without it."""
+        d = self.config.land_gap
+        return d is not None and any(g is not None and g <= d for g in gaps)
+
     def backing(self, ankles: np.ndarray, person: np.ndarray) -> tuple[bool, bool]:
         """For targets ``ankles`` (2, 3) (world, m) and the person at ``person`` (2,): whether each planted foot's
         target moves away from the person (its horizontal displacement from the planted point has a negative
@@ -183,7 +199,7 @@ class FootLock:
 
     def apply(self, ankles: np.ndarray, touching: bool = False, physical: np.ndarray | None = None,
               new_frame: bool = True, caught: bool = False, near: bool = False,
-              person: np.ndarray | None = None) -> np.ndarray:
+              person: np.ndarray | None = None, land: bool = False) -> np.ndarray:
         """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted;
         ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted);
         ``physical`` (2, 3): the physical ankle frames (world, m), which ``glide_gap`` needs; ``new_frame``:
@@ -191,7 +207,9 @@ class FootLock:
         ``caught``: the harness holds a robot it has caught (with ``plant_caught``, glides are then planted at once);
         ``near``: a sub-goal's gap at the end of the last frame is within ``hold_near`` (the caller decides it,
         :meth:`near`), and ``person`` (2,) the person's horizontal position (world, m): with ``hold_in_contact``,
-        planted feet whose targets step away from the person then stay planted (:meth:`backing`)."""
+        planted feet whose targets step away from the person then stay planted (:meth:`backing`); ``land``: a
+        sub-goal's gap at the end of the last frame is within ``land_gap`` (:meth:`landing`): in a new frame, a foot
+        not planted is then put down at its target's point."""
         if self.needs_physical and physical is None:
             raise SimulationError("FootLock.apply: glide_gap and restep_gap need the physical ankle frames")
         out = np.array(ankles, dtype=np.float64)
@@ -239,7 +257,7 @@ class FootLock:
                 self._glide = (s, out[s].copy())
                 self._glide_left = c.glide_step_frames - 1
                 self.glide_steps += 1
-            elif rise <= c.lift:
+            elif rise <= c.lift or (land and new_frame and p is None):  # (land: lifted in an earlier frame)
                 self.planted[s] = np.array([t[0], t[1], self.home_height[s]])
                 out[s] = self.planted[s]
             else:

@@ -160,7 +160,8 @@ class Simulator:
         if bal is not None:  # release_tilt_touched: in a throw's catch only
             bal.harness.gate_touched(any(sg.kind == "catch" for sg in self.task.subgoals))
         if lock is not None and lock.hold_near_roll_free and not (bal is not None and bal.roll_freed):
-            lock = dataclasses.replace(lock, hold_near=None, hold_near_roll_free=False)  # (Stubby: the gate's "no")
+            lock = dataclasses.replace(lock, hold_near=None, hold_near_roll_free=False,
+                                       land_gap=None)  # (Stubby: the gate's "no")
         self._footlock = None if lock is None else FootLock(
             (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), lock)
         if self.carry is not None and self.carry.release_frame == 0:
@@ -249,7 +250,8 @@ class Simulator:
                                               physical, new_frame=not self._in_frame,
                                               caught=bal is not None and bal.harness.holds_caught,
                                               near=last is not None and self._footlock.near(last.subgoal_gaps.values()),
-                                              person=self._person_xy(t1) if self._footlock.config.hold_near is not None else None)
+                                              person=self._person_xy(t1) if self._footlock.config.hold_near is not None else None,
+                                              land=last is not None and self._footlock.landing(last.subgoal_gaps.values()))
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
