@@ -150,7 +150,7 @@ class RobotIK:
                                        ik_model.frame_ids, robot, c)
         self._oriented = list(self.key_task.oriented)
         self._tasks: list[mink.Task] = [self.key_task, self.posture_task]
-        self._fixed_yaw: float | None = None
+        self._fixed_yaw: tuple[float, float] | None = None
         self._damping = c.damping
 
     # -- set-up ---------------------------------------------------------------------
@@ -201,16 +201,22 @@ class RobotIK:
         """(5, 3) current key-frame positions, world frame."""
         return self.key_task.positions(self.configuration.data)
 
-    def _set_targets(self, targets: np.ndarray, yaw: float) -> None:
+    def _set_targets(self, targets: np.ndarray, yaw: float, lean: float = 0.0) -> None:
         """Point the key-frame task at ``targets`` (5, 3): base and feet at their home orientation
-        turned by ``yaw`` (the wrists' orientation is free)."""
-        if self._fixed_yaw != yaw:
+        turned by ``yaw`` (the wrists' orientation is free); the base's also pitched forward by ``lean`` (rad)
+        about the heading's lateral axis (before the turn: about the home frame's y axis)."""
+        if self._fixed_yaw != (yaw, lean):
             turn = np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)])
             quats = np.zeros((5, 4))
             for k in range(5):
                 mujoco.mju_mulQuat(quats[k], turn, self._home_quat[k])
+            if lean != 0.0:
+                pitch = np.array([np.cos(lean / 2), 0.0, np.sin(lean / 2), 0.0])
+                leaned = np.zeros(4)
+                mujoco.mju_mulQuat(leaned, pitch, self._home_quat[0])
+                mujoco.mju_mulQuat(quats[0], turn, leaned)
             self._target_quats = quats
-            self._fixed_yaw = yaw
+            self._fixed_yaw = (yaw, lean)
         self.key_task.set_targets(targets, self._target_quats)
 
     def _step(self, dt: float) -> np.ndarray:
@@ -261,7 +267,7 @@ class RobotIK:
 
     def solve(self, targets: np.ndarray, yaw: float, dt: float, care: np.ndarray | None = None,
               planted: tuple[bool, bool] = (False, False), com_target: np.ndarray | None = None,
-              com_cost: float | None = None, iterations: int | None = None) -> IKResult:
+              com_cost: float | None = None, iterations: int | None = None, lean: float = 0.0) -> IKResult:
         """Move toward world-frame ``targets`` (5, 3) over one frame of ``dt`` seconds.
 
         ``yaw`` (rad) turns the base's and the feet's home orientations to face the partner.
@@ -274,7 +280,9 @@ class RobotIK:
         and with both the centre of mass is kept over their support rectangle (and, with ``com_cost``,
         drawn to its centre, or to ``com_target`` (2,) world m when given; ``com_cost``, when given, replaces
         ``IKConfig.com_cost`` for this frame). ``iterations``, when given, caps the QP steps below
-        ``IKConfig.iterations`` (e.g. one step for a correction within a frame already solved).
+        ``IKConfig.iterations`` (e.g. one step for a correction within a frame already solved). ``lean`` (rad):
+        the base's orientation target pitched forward by this much about the heading's lateral axis
+        (``StanceConfig.strike_lean``; 0: upright).
         """
         targets = np.asarray(targets, dtype=np.float64)
         if targets.shape != (5, 3) or not np.isfinite(targets).all():
@@ -302,7 +310,7 @@ class RobotIK:
         self._box.begin_frame(cfg.q)
         errors = norms(self.frame_positions() - targets, axis=1)
         it = 0
-        self._set_targets(targets, yaw)
+        self._set_targets(targets, yaw, lean)
         # The first step is always taken (the limits hold even when the targets are already met: a person
         # moving into the robot pushes it out); more only while a target worth it is off by > tolerance.
         # A step may make matters worse before the next ones converge (a long move linearised in one step

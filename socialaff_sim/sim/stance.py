@@ -52,6 +52,7 @@ class StanceConfig:
     Fields by concept
     -----------------
     - Steady base: base_smoothing, base_over_feet
+    - The plan's lean: strike_lean, strike_lean_max, strike_lean_raised, strike_lean_above
     - Letting go: release, release_after, release_tilt, release_com, catch_tilt, leg_bandwidth
     - Balance while released: com_cost, com_gain
     """
@@ -69,6 +70,21 @@ class StanceConfig:
     physical ones are left alone (a pull-up's helper stepping back while the robot's feet are held leans back
     against the pull). ``None``: the base target as retargeted (docs/design.md §5: a synthesized reaction's ankles
     glide ahead of feet that stand behind them)."""
+    strike_lean: float | None = None
+    """k_l [deg/m]: the IK's base target pitched forward (about the heading's lateral axis) by k_l degrees per metre
+    that a wrist target raised at least ``strike_lean_raised`` above its shoulder stands ahead of it along the
+    heading, at most ``strike_lean_max`` (:mod:`~.strike_lean`): the plan's trunk leans into an upward reach as a
+    person's does into a high five, and the balance controller's torso rows hold that lean against the striking
+    arm's reaction instead of holding the trunk upright (traced, docs/design.md §5). ``None``: the base target
+    upright."""
+    strike_lean_max: float = 10.0
+    """θ_max [deg]: ``strike_lean``'s largest lean."""
+    strike_lean_raised: float = 0.0
+    """h_l [m]: ``strike_lean`` only for a wrist target at least this high above its shoulder (world heights)."""
+    strike_lean_above: bool = False
+    """[—]: ``strike_lean`` only in a task with a contact sub-goal counted above the robot's shoulders
+    (``SubgoalSpec.above``: the high five; the simulator drops the lean elsewhere): a handshake's or a catch's wrist
+    target raised above the shoulder for a frame leans nothing. ``False``: in every task."""
     release: bool = True
     """[—]: Whether the harness lets go of a steady standing robot (``False``: only the base is steadied)."""
     release_after: int = 2
