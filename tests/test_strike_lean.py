@@ -132,7 +132,8 @@ def test_the_simulator_leans_only_with_the_option(monkeypatch: pytest.MonkeyPatc
 
     monkeypatch.setattr(RobotIK, "solve", spy)
     base = SimConfig.standing()
-    for stance, leaning in ((base.stance, False), (dataclasses.replace(base.stance, strike_lean=40.0), True)):
+    for stance, leaning in ((dataclasses.replace(base.stance, strike_lean=None), False),
+                           (dataclasses.replace(base.stance, strike_lean=40.0), True)):
         calls.clear()
         leans.clear()
         run_episode(Simulator("ours", "high_five", dataclasses.replace(base, stance=stance)), GroundTruthSource(), inter)

@@ -19,7 +19,8 @@ from .footlock import FootLockConfig
 from .stance import StanceConfig
 from .support import FrameSupport
 
-__all__ = ["SimConfig", "StepResult", "PHYSICS_MODES", "STANDING_BALANCE", "STANDING_FOOT_LOCK", "STANDING_FLOOR"]
+__all__ = ["SimConfig", "StepResult", "PHYSICS_MODES", "STANDING_BALANCE", "STANDING_FOOT_LOCK", "STANDING_FLOOR",
+           "STANDING_STANCE"]
 
 # PHYSICS_MODES, the named modes (:meth:`SimConfig.harness` and :meth:`SimConfig.standing`), is defined with the
 # robot mappings that name one as a robot's own (retarget/robot.py) and re-exported here.
@@ -30,7 +31,7 @@ STANDING_BALANCE = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0, flat_f
                                  com_plan_velocity=True, torso_plan_velocity=True, plan_velocity_until_touch=True,
                                  plan_velocity_raised=0.0, plan_velocity_tilt=4.0, flat_roll_free=True, hand_task=10.0,
                                  hand_task_roll_free=True, hand_task_arm_weight=0.1, hand_task_plan_velocity=True,
-                                 hand_task_velocity_until_touch=True)
+                                 hand_task_velocity_until_touch=True, tilt_from_plan=True)
 """The balance controller of :meth:`SimConfig.standing`: the quadratic program with the feet flat on their soles,
 the arms kept 1 cm clear of the body, hands that give way (before a push tips the robot or twists its feet, also to
 the person's pull through an object both still hold), each arm's references made up for the trunk's pose error
@@ -40,7 +41,9 @@ velocities in a frame whose plan lifts a wrist above its shoulder, until the fir
 at most 4° (the strike of a high five; docs/design.md §5, issue 25). For a robot whose legs cannot roll a flat foot
 (fewer than six joints, the H1): that roll row left free, and each wrist held at the plan's by a position task whose
 arm's joint rows weigh a tenth, its target moving with the plan's wrist until the arm's first touch (rule on the
-H1's 392–423, session 33); Stubby's six-joint legs get none of it."""
+H1's 392–423, session 33); Stubby's six-joint legs get none of it. The harness's release and catch read the torso's
+tilt from the plan's torso (``tilt_from_plan``), so that :data:`STANDING_STANCE`'s planned lean neither keeps the
+harness on nor makes it catch (rule on Stubby's 528–535, session 34)."""
 STANDING_FOOT_LOCK = FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05, glide_until_contact=True,
                                     glide_gap=0.12, hold_near=0.1, hold_near_roll_free=True)
 """The foot lock of :meth:`SimConfig.standing`: a planted foot stays planted up to 12 cm of recorded rise, and
@@ -49,6 +52,13 @@ foot whose target glides along the floor while the physical foot stands more tha
 5 cm for a frame), so that the robot does not stay behind its plan; on a robot whose feet's roll is freed (the H1),
 a planted foot does not step away from the person while a sub-goal's gap is within 10 cm (docs/design.md §5,
 issue 25)."""
+
+
+STANDING_STANCE = StanceConfig(release=False, strike_lean=30.0, strike_lean_above=True)
+"""The stance of :meth:`SimConfig.standing`: a steadied base (the balance controller, not the stance, lets the harness
+go), whose plan leans the trunk forward into a high five's upward reach by 30° per metre that a raised wrist target
+stands ahead of its shoulder, at most 10°, in a task whose contact counts above the shoulders only (the high five;
+rule on Stubby's 528–535, docs/design.md §5, issue 25, session 34, wip/hf8)."""
 
 
 STANDING_FLOOR = 0.01
@@ -159,9 +169,10 @@ class SimConfig:
     @classmethod
     def standing(cls, **changes: object) -> SimConfig:
         """The robot standing on its own feet while they are planted: the balance QP (:data:`STANDING_BALANCE`)
-        on a steadied base, the harness let go of a steady robot, the foot lock :data:`STANDING_FOOT_LOCK`, the
-        stiffer floor :data:`STANDING_FLOOR` (``changes``: other fields)."""
-        return cls(**{"foot_lock": STANDING_FOOT_LOCK, "stance": StanceConfig(release=False),  # type: ignore[arg-type]
+        on a steadied base that leans into a high five (:data:`STANDING_STANCE`), the harness let go of a steady
+        robot, the foot lock :data:`STANDING_FOOT_LOCK`, the stiffer floor :data:`STANDING_FLOOR` (``changes``:
+        other fields)."""
+        return cls(**{"foot_lock": STANDING_FOOT_LOCK, "stance": STANDING_STANCE,  # type: ignore[arg-type]
                       "balance": STANDING_BALANCE, "floor_time_constant": STANDING_FLOOR, **changes})
 
     @classmethod
