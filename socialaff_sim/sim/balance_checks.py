@@ -45,6 +45,10 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
                           f"{c.w_force}")
     if not c.friction > 0.0:
         raise ConfigError(f"BalanceConfig.friction: expected μ > 0, found {c.friction}")
+    if c.touch_friction is not None and not (c.touch_friction > 0.0 and c.arm_compensation is not None
+                                             and c.compensation_gate is not None):
+        raise ConfigError(f"BalanceConfig.touch_friction: expected None or μ_t > 0 with arm_compensation and "
+                          f"compensation_gate (the touch latch), found {c.touch_friction}")
     if c.qp_kernel not in KERNELS or (c.qp_kernel != "numpy" and c.solver != "qp"):
         raise ConfigError(f"BalanceConfig.qp_kernel: expected one of {', '.join(KERNELS)} (numba with solver='qp'), "
                           f"found {c.qp_kernel!r} with solver {c.solver!r}")

@@ -22,7 +22,7 @@ class BalanceConfig:
       plan_velocity_tilt, angmom_weight, angmom_bandwidth,
       angmom_root_still, angmom_about_feet,
       support_margin, external_forces, external_filter
-    - Contact forces: solver, friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
+    - Contact forces: solver, friction, touch_friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, cop_foot_axes, cop_corner_share, min_foot_load, torque_fraction, flat_feet, yaw_first,
       flat_roll_free
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
@@ -120,6 +120,13 @@ class BalanceConfig:
     constraints; ``w_dynamics`` is then unused)."""
     friction: float = 0.7
     """μ [—]: friction coefficient of the contact forces' linearised cones (the floor's is 1)."""
+    touch_friction: float | None = None
+    """μ_t [—]: the cones' friction coefficient once an arm has touched the person or the object in the episode
+    (the latch :attr:`~socialaff_sim.sim.arm_compensation.ArmCompensation.touched`; needs ``arm_compensation`` and
+    ``compensation_gate``); before the first touch ``friction``. A lower bound on each planned contact's
+    tangential-to-normal ratio keeps the shear off the lightly loaded corners of a sole that rocks in a pull
+    (traced: a sole on one corner carried 0.5–0.7 of its load as shear and slipped; docs/design.md §5, issue 25,
+    session 34, wip/pullslip). ``None``: ``friction`` throughout."""
     w_dynamics: float = 1000.0
     """[—]: weight of the equation of motion's unactuated rows (root) in the least squares (nearly hard)."""
     w_feet: float = 30.0

@@ -361,8 +361,11 @@ class BalanceController:
             tasks.extend(self.hands.tasks(m, d, va, None if self.compensation is None else self.compensation.touched))
         tasks.append((self._joint_rows, joints, c.w_joint))
         key = frames.tobytes()  # with flat_feet the same level frames step after step: their edges made once
+        mu = c.friction
+        if c.touch_friction is not None and bool(self.compensation.touched.any()):  # type: ignore[union-attr]
+            mu, key = c.touch_friction, key + b"t"  # after the first touch: the touch's cones
         if key != self._edges[0]:
-            self._edges = (key, cone_edges(frames, c.friction))
+            self._edges = (key, cone_edges(frames, mu))
             self._edges[1].flags.writeable = False
         edges = self._edges[1]
         if c.solver == "lsq":
