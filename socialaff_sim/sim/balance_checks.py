@@ -114,6 +114,12 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
         raise ConfigError(f"BalanceConfig.release_tilt_touched: needs flat_roll_free (the robots it picks), "
                           f"arm_compensation and compensation_gate (their touch latch) and a tilt in [release_tilt, "
                           f"catch_tilt) degrees, found {c.release_tilt_touched!r}")
+    if c.release_settled_tilt is not None and not (
+            c.flat_roll_free and c.release_tilt_touched is None and c.release_settled_rate > 0.0
+            and c.release_tilt <= c.release_settled_tilt < c.catch_tilt):
+        raise ConfigError(f"BalanceConfig.release_settled_tilt: needs flat_roll_free (the robots it picks), no "
+                          f"release_tilt_touched, release_settled_rate > 0 deg/s and a tilt in [release_tilt, "
+                          f"catch_tilt) degrees, found {c.release_settled_tilt!r} (rate {c.release_settled_rate!r})")
     if c.hand_task_roll_free and (c.hand_task is None or not c.flat_roll_free):
         raise ConfigError("BalanceConfig.hand_task_roll_free: needs hand_task and flat_roll_free (the robots it "
                           "picks)")

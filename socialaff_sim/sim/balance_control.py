@@ -239,8 +239,10 @@ class BalanceController:
             comvel = jcom @ d.qvel[self.vadr]
             height = max(float(com[2] - pts[:, 2].sum() / len(pts)), 1e-3)  # (the mean's arithmetic)
             capture = self._capture = com[:2] + comvel[:2] / math.sqrt(self._g / height)
+        w = d.cvel[self._torso]  # (rotation first, world axes) release_settled_tilt's settle: the swing's speed
+        rate = math.degrees(math.hypot(w[0], w[1])) if self.harness.settled_tilt is not None else 0.0
         self.harness.decide(d, m.opt.timestep, standing, tilt, box, capture, self.harness.tilt_touched is not None
-                            and self.compensation is not None and bool(self.compensation.touched.any()))
+                            and self.compensation is not None and bool(self.compensation.touched.any()), rate)
         released = self.harness.released
         self.active = standing and (released or c.drive_harnessed)
         if self.active:
