@@ -223,7 +223,8 @@ def test_the_gate_reaches_the_controller() -> None:
                                              com_plan_velocity=False, torso_plan_velocity=False,
                                              plan_velocity_until_touch=False, plan_velocity_raised=None,
                                              plan_velocity_tilt=None, com_shift=None, shift_until_touch=False,
-                                             hand_task_velocity_until_touch=False)))  # (reads the gate's latch)
+                                             hand_task_velocity_until_touch=False,
+                                             touch_friction=None)))  # (reads the gate's latch)
         assert sim._get_stage(inter).stepper.balance.compensation.gate == gate
 
 
@@ -255,7 +256,8 @@ def test_a_standing_robot_meets_the_high_five_its_turned_trunk_missed() -> None:
                                              com_plan_velocity=False, torso_plan_velocity=False,
                                              plan_velocity_until_touch=False, plan_velocity_raised=None,
                                              plan_velocity_tilt=None, com_shift=None, shift_until_touch=False,
-                                             hand_task_velocity_until_touch=False)))  # as the rule found it
+                                             hand_task_velocity_until_touch=False,
+                                             touch_friction=None)))  # as the rule found it
         met.append(run_episode(sim, GroundTruthSource(), inter)["success"])
         beta.append(max(float(np.max(r.completion)) for r in sim.results if r.completion is not None))
     assert met == [False, True, True]

@@ -50,7 +50,7 @@ def _edge_ratio(edges: np.ndarray) -> np.ndarray:
 
 def test_touch_friction_is_off_by_default_and_checked() -> None:
     assert BalanceConfig().touch_friction is None
-    assert SimConfig.standing().balance.touch_friction is None
+    assert SimConfig.standing().balance.touch_friction == 0.35  # rule #47 (docs/design.md §5)
     base = SimConfig.standing().balance
     dataclasses.replace(base, touch_friction=0.35)  # valid: the standing mode has the touch latch
     for bad in (0.0, -0.2):

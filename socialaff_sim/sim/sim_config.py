@@ -31,7 +31,8 @@ STANDING_BALANCE = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0, flat_f
                                  com_plan_velocity=True, torso_plan_velocity=True, plan_velocity_until_touch=True,
                                  plan_velocity_raised=0.0, plan_velocity_tilt=4.0, flat_roll_free=True, hand_task=10.0,
                                  hand_task_roll_free=True, hand_task_arm_weight=0.1, hand_task_plan_velocity=True,
-                                 hand_task_velocity_until_touch=True, tilt_from_plan=True)
+                                 hand_task_velocity_until_touch=True, tilt_from_plan=True,
+                                 touch_friction=0.35)
 """The balance controller of :meth:`SimConfig.standing`: the quadratic program with the feet flat on their soles,
 the arms kept 1 cm clear of the body, hands that give way (before a push tips the robot or twists its feet, also to
 the person's pull through an object both still hold), each arm's references made up for the trunk's pose error
@@ -43,7 +44,9 @@ at most 4° (the strike of a high five; docs/design.md §5, issue 25). For a rob
 arm's joint rows weigh a tenth, its target moving with the plan's wrist until the arm's first touch (rule on the
 H1's 392–423, session 33); Stubby's six-joint legs get none of it. The harness's release and catch read the torso's
 tilt from the plan's torso (``tilt_from_plan``), so that :data:`STANDING_STANCE`'s planned lean neither keeps the
-harness on nor makes it catch (rule on Stubby's 528–535, session 34)."""
+harness on nor makes it catch (rule on Stubby's 528–535, session 34). Once an arm has touched the person or the
+object, the floor forces the controller plans stay within a friction cone of 0.35 instead of 0.7, so a sole rocked
+onto an edge is not asked for the sideways force that slides it (rule on Stubby's and the H1's 560–575, session 34)."""
 STANDING_FOOT_LOCK = FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05, glide_until_contact=True,
                                     glide_gap=0.12, hold_near=0.1, hold_near_roll_free=True)
 """The foot lock of :meth:`SimConfig.standing`: a planted foot stays planted up to 12 cm of recorded rise, and
