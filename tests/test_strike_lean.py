@@ -12,11 +12,17 @@ import mujoco
 import numpy as np
 import pytest
 
+from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
+from socialaff_sim.retarget.ik import RobotIK
 from socialaff_sim.retarget.robot import load_robot
+from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim import simulator as simmod
+from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.scene import Scene, build_scene
+from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.stance import StanceConfig
 from socialaff_sim.sim.strike_lean import strike_lean
+
 from test_retarget_ik import LAYOUT, STICK_TOML, STICK_XML, ik_for
 
 
@@ -112,17 +118,8 @@ def test_the_config_defaults_lean_nothing() -> None:
     assert dataclasses.replace(c, strike_lean=30.0).strike_lean_max == 10.0
 
 
-def test_the_simulator_leans_only_with_the_option(monkeypatch: pytest.MonkeyPatch) -> None:
-    from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
-    from socialaff_sim.retarget.ik import RobotIK
-    from socialaff_sim.retarget.sources import GroundTruthSource
-    from socialaff_sim.sim.episode import run_episode
-    from socialaff_sim.sim.simulator import SimConfig, Simulator
-
-    inter = list(generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=1)).of_label("high_five"))[0]
-    calls: list[float] = []
-    orig = simmod.strike_lean
-    monkeypatch.setattr(simmod, "strike_lean", lambda *a: calls.append(orig(*a)) or calls[-1])
+def _spy_leans(monkeypatch: pytest.MonkeyPatch) -> list[float]:
+    """Record the ``lean`` every :meth:`RobotIK.solve` call gets (0 where none is passed), in order."""
     leans: list[float] = []
     orig_solve = RobotIK.solve
 
@@ -131,6 +128,15 @@ def test_the_simulator_leans_only_with_the_option(monkeypatch: pytest.MonkeyPatc
         return orig_solve(self, *a, **kw)
 
     monkeypatch.setattr(RobotIK, "solve", spy)
+    return leans
+
+
+def test_the_simulator_leans_only_with_the_option(monkeypatch: pytest.MonkeyPatch) -> None:
+    inter = list(generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=1)).of_label("high_five"))[0]
+    calls: list[float] = []
+    orig = simmod.strike_lean
+    monkeypatch.setattr(simmod, "strike_lean", lambda *a: calls.append(orig(*a)) or calls[-1])
+    leans = _spy_leans(monkeypatch)
     base = SimConfig.standing()
     for stance, leaning in ((dataclasses.replace(base.stance, strike_lean=None), False),
                            (dataclasses.replace(base.stance, strike_lean=40.0), True)):
@@ -149,22 +155,9 @@ def test_the_simulator_leans_only_with_the_option(monkeypatch: pytest.MonkeyPatc
 ])
 def test_the_lean_only_in_a_task_above_the_shoulders(monkeypatch: pytest.MonkeyPatch, label: str, above: bool,
                                                       leaning: bool) -> None:
-    from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
-    from socialaff_sim.retarget.ik import RobotIK
-    from socialaff_sim.retarget.sources import GroundTruthSource
-    from socialaff_sim.sim.episode import run_episode
-    from socialaff_sim.sim.simulator import SimConfig, Simulator
-
     data = generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=146))
     inter = list(data.of_label(label))[145]  # shake_hands_145: its wrist target above the shoulder at frame 25
-    leans: list[float] = []
-    orig_solve = RobotIK.solve
-
-    def spy(self, *a, **kw):  # noqa: ANN001, ANN002, ANN003
-        leans.append(kw.get("lean", 0.0))
-        return orig_solve(self, *a, **kw)
-
-    monkeypatch.setattr(RobotIK, "solve", spy)
+    leans = _spy_leans(monkeypatch)
     base = SimConfig.standing()
     stance = dataclasses.replace(base.stance, strike_lean=40.0, strike_lean_above=above)
     run_episode(Simulator("ours", label, dataclasses.replace(base, stance=stance)), GroundTruthSource(), inter)

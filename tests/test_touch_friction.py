@@ -12,25 +12,10 @@ import pytest
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.balance_control import BalanceController
-from socialaff_sim.sim.feedforward import StandingFeedforward
-from socialaff_sim.sim.scene import Scene, pose_compliant
+from socialaff_sim.sim.scene import Scene
 from socialaff_sim.sim.simulator import SimConfig
 
-
-def _standing(scene: Scene, config: BalanceConfig) -> tuple[mujoco.MjData, np.ndarray, BalanceController, np.ndarray]:
-    """Stubby at home on its feet, the person far away, a fresh controller: (data, home qpos, controller, ctrl)."""
-    m = scene.model
-    d = mujoco.MjData(m)
-    q = scene.home_qpos.copy()
-    d.qpos[scene.robot_qadr] = q
-    far = np.array([10.0, 10.0, 1.0]) + np.arange(len(scene.human_mocap))[:, None] * [0.0, 0.3, 0.0]
-    d.mocap_pos[scene.human_mocap] = far
-    pose_compliant(scene, d, far, np.array(d.mocap_quat[scene.human_mocap]))
-    d.mocap_pos[scene.anchor_mocap], d.mocap_quat[scene.anchor_mocap] = q[:3], q[3:7]
-    mujoco.mj_forward(m, d)
-    ctl = BalanceController(scene, config)
-    ctrl0 = scene.ctrl_for(d.qpos.copy()) + StandingFeedforward(scene).ctrl_offset(d.qpos.copy())
-    return d, q, ctl, ctrl0
+from test_balance_control import standing_far
 
 
 def _run(scene: Scene, ctl: BalanceController, d: mujoco.MjData, q: np.ndarray, ctrl0: np.ndarray, steps: int) -> None:
@@ -68,7 +53,7 @@ def test_the_cones_narrow_to_touch_friction_only_after_a_touch(scene: Scene, opt
     # (0.3), and they stay so; without the option the touch changes nothing. Inverting the decision (the touch's
     # cones before the touch, or friction's after it) fails the first or the second check.
     config = dataclasses.replace(SimConfig.standing().balance, touch_friction=option)
-    d, q, ctl, ctrl0 = _standing(scene, config)
+    d, q, ctl, ctrl0 = standing_far(scene, config)
     _run(scene, ctl, d, q, ctrl0, 75)  # released after 0.1 s: the QP solves
     assert ctl.active_steps > 0
     before = _edge_ratio(ctl._edges[1])
