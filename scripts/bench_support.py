@@ -37,7 +37,8 @@ controller being run (e.g. ``flat_feet=True``, which needs the QP), ``--foot-loc
 the foot lock's (:class:`~socialaff_sim.sim.footlock.FootLockConfig`) for every mode, ``--stance FIELD=VALUE ...``
 the steadied base's (:class:`~socialaff_sim.sim.stance.StanceConfig`) for the modes that have one, ``--completion
 FIELD=VALUE ...`` the contact completion's (:class:`~socialaff_sim.retarget.contact_completion.ContactCompletionConfig`)
-for every mode that has one, ``--labels`` picks
+for every mode that has one, ``--scaling FIELD=VALUE ...`` the key-joint scaler's
+(:class:`~socialaff_sim.retarget.scaling_config.ScalingConfig`) for every mode, ``--labels`` picks
 interactions. After the per-interaction table, one line per robot and mode summarises the contact phases, and one
 more counts the episodes failing by each failure kind (self-collision, force on the person, a drop), and one
 more gives how far the feet stand from where the foot lock planted them (the larger foot, in the frames in which
@@ -64,6 +65,7 @@ from socialaff_sim._atomic import atomic_write_text
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.contact_completion import ContactCompletionConfig
+from socialaff_sim.retarget.scaling_config import ScalingConfig
 from socialaff_sim.retarget.model_source import model_source
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.episode import run_episode
@@ -146,7 +148,13 @@ def main() -> None:
     p.add_argument("--completion", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="ContactCompletionConfig fields for every mode with the contact completion (Python "
                         "literals), e.g. reach_band=0.15")
+    p.add_argument("--scaling", nargs="*", default=[], metavar="FIELD=VALUE",
+                   help="ScalingConfig fields for every mode (Python literals), e.g. approach_extension=1.0")
     args = p.parse_args()
+    if args.scaling:
+        over = field_settings(p, "--scaling", ScalingConfig, args.scaling)
+        for mode, cfg in MODES.items():
+            MODES[mode] = dataclasses.replace(cfg, scaling=dataclasses.replace(cfg.scaling, **over))
     if args.sim:
         over = field_settings(p, "--sim", SimConfig, args.sim)
         for mode, cfg in MODES.items():

@@ -250,10 +250,9 @@ class KeyJointScaler:
         base1 = np.repeat(keys[None, 0], n, axis=0)
         p0s = np.repeat(p0[None], n, axis=0)
         # Either of the robot's hands may make the contact: the robot moves in only as far as the nearer needs.
-        reach = np.full(n, self.config.max_extension)
-        ks = [k_within_reach(points, base1, p0s, s, self.frame.rotation, self.robot, self.human, self.s_leg, reach)
-              for s in (side, 1 - side)]
-        finite = [v for v in ks if v is not None]
+        finite = self._reaching(points, side, base1, p0s, self.config.max_extension)
+        if not finite and self.config.approach_extension is not None:  # too high (or low) for max_extension
+            finite = self._reaching(points, side, base1, p0s, self.config.approach_extension)
         if not finite:
             return False
         k = max(finite)
@@ -267,6 +266,15 @@ class KeyJointScaler:
             return False
         self.stand_cap = max(goal * spread, now - self._approach_step)
         return True
+
+    def _reaching(self, points: np.ndarray, side: np.ndarray, base1: np.ndarray, p0s: np.ndarray,
+                  extension: float) -> list[float]:
+        """The placement factors (those not ``None``) that bring ``points`` (N, 3) within ``extension`` of the arm
+        of the robot's ``side`` (N,) hands, and of its other hands (agent 1's base ``base1``, agent 0's ``p0s``)."""
+        reach = np.full(len(points), float(extension))
+        ks = [k_within_reach(points, base1, p0s, s, self.frame.rotation, self.robot, self.human, self.s_leg, reach)
+              for s in (side, 1 - side)]
+        return [v for v in ks if v is not None]
 
     def approach_nearest(self, points: np.ndarray, keys: np.ndarray, partner: np.ndarray, flight: bool = False) -> bool:
         """:meth:`approach` toward the one of ``points`` (N, 3) that needs the least moving in (the largest k that

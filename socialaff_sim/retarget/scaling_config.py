@@ -17,7 +17,7 @@ class ScalingConfig:
     -----------------
     - Wrist targets near contact: contact_near, contact_far, contact_push, object_lookahead, push_to_object
     - Placement of the robot: scale_placement, contact_placement, contact_radius, sample_band, max_extension,
-      online_placement, placement_speed, approach_speed, k_min, k_max
+      online_placement, placement_speed, approach_speed, approach_extension, k_min, k_max
     - Clearances: body_clearance, wrist_clearance
     """
 
@@ -61,6 +61,13 @@ class ScalingConfig:
     """v_a [m/s]: the most the online placement moves the base toward the partner in a frame where the source's
     model means to touch and the contact is beyond the robot's reach (:meth:`KeyJointScaler.approach`; a
     person's brisk walk)."""
+    approach_extension: float | None = None
+    """e_a [—]: with online placement, when no placement brings the contact the model means to make within
+    ``max_extension`` of either arm (:meth:`KeyJointScaler.approach`; a raised palm higher above a short robot's
+    shoulders than ``max_extension`` of its arm), the approach asks again with e_a times the arm's length and moves
+    in toward that placement (the contact completion's reach is ``ContactCompletionConfig.reach``, 1.0 by default).
+    ``None``: it stops there (the default; docs/design.md §5, issue 25, session 34, wip/demohf4). At least
+    ``max_extension``."""
     k_min: float = 0.5
     """[—]: Smallest placement factor k."""
     k_max: float = 2.0
@@ -79,5 +86,8 @@ class ScalingConfig:
             raise ConfigError(f"ScalingConfig.placement_speed: expected a speed ≥ 0 m/s, found {self.placement_speed}")
         if not self.approach_speed >= 0:
             raise ConfigError(f"ScalingConfig.approach_speed: expected a speed ≥ 0 m/s, found {self.approach_speed}")
+        if self.approach_extension is not None and not self.approach_extension >= self.max_extension:
+            raise ConfigError(f"ScalingConfig.approach_extension: expected None or a fraction ≥ max_extension "
+                              f"({self.max_extension}), found {self.approach_extension}")
         if not self.wrist_clearance >= 0:
             raise ConfigError(f"ScalingConfig.wrist_clearance: expected a distance ≥ 0 m, found {self.wrist_clearance}")
