@@ -32,7 +32,7 @@ class BalanceConfig:
       hand_task_arm_weight, hand_task_plan_velocity, hand_task_velocity_until_touch
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_tilt_touched,
       release_settled_tilt, release_settled_rate, tilt_from_plan,
-      catch_tilt, catch_margin, catch_blend, drive_harnessed
+      catch_tilt, catch_margin, catch_blend, drive_harnessed, single_support
     - Rate: qp_every, hold_gain, hold_near, hold_touch, qp_kernel
     """
 
@@ -303,6 +303,16 @@ class BalanceConfig:
     drive_harnessed: bool = False
     """[—]: Whether the controller's torques drive the joints also while the harness holds a standing robot
     (``False``: the position servos and the standing feed-forward do, as without the controller)."""
+    single_support: str | None = None
+    """[—]: On a robot whose flat feet's roll ``flat_roll_free`` frees (the H1; Stubby's controller is unchanged), a
+    foot lock's step that begins while the harness is off is taken by the controller instead of being caught
+    (:mod:`~socialaff_sim.sim.single_support`): ``"swing"``: first the centre of mass's reference is clipped into the
+    stance sole until the capture point is inside it by ``release_margin`` (the swing foot still stands), then the
+    swing foot leaves the problem (support box, centres of pressure, friction cones: the stance foot's alone) and its
+    leg follows the IK's joints; ``"stand"``: the step is stood through (the foot stays where it stands, both feet in
+    the problem, the lifting leg's joint rows left out) until the foot lock plants the foot again. The harness catches
+    only on ``catch_tilt`` and ``catch_margin`` and does not let go during a step. ``None``: the controller stops for
+    a step and the harness catches the robot (reason "step"). Needs ``qp_kernel="numpy"``."""
 
     qp_every: int = 1
     """k [steps]: the torques are solved at one driven physics step in k and held on the k − 1 after it

@@ -93,19 +93,23 @@ class HarnessRelease:
         return self.settled_tilt is not None and tilt <= self.settled_tilt and rate <= self.config.release_settled_rate
 
     def decide(self, d: mujoco.MjData, dt: float, standing: bool, tilt: float, box: SupportBox | None,
-               capture: np.ndarray, touched: bool = False, rate: float = 0.0) -> None:
+               capture: np.ndarray, touched: bool = False, rate: float = 0.0, stepping: bool = False) -> None:
         """The step's decision after ``mj_step1``: ``standing`` (both feet planted and on the floor), the torso's
         ``tilt`` (degrees), the support ``box`` (``None`` unless standing) and the ``capture`` point (2,) (world, m);
         ``dt`` (s) the physics step; ``touched``: an arm has touched the person or the object (:meth:`release_tilt`);
-        ``rate``: the torso's horizontal angular speed, deg/s (:meth:`tilt_allows`).
-        Switches the weld in ``d`` (with ``release``) and counts."""
+        ``rate``: the torso's horizontal angular speed, deg/s (:meth:`tilt_allows`); ``stepping``: the controller
+        takes a step on the stance foot (``BalanceConfig.single_support``; ``standing``: that foot on the floor, ``box``
+        its support): a released robot stays released as a standing one does, a held one stays held and the delay
+        waits. Switches the weld in ``d`` (with ``release``) and counts."""
         c = self.config
-        self._engaged = self._engaged + dt if standing else 0.0
+        self._engaged = self._engaged + dt if standing and not stepping else 0.0
         was = self.released
         if not standing:
             self.released = False
         elif self.released:
             self.released = tilt <= c.catch_tilt and box.inside(capture, -c.catch_margin)  # type: ignore[union-attr]
+        elif stepping:
+            pass  # not let go during a step
         else:
             self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and self.tilt_allows(tilt, touched, rate)
                              and box.inside(capture, c.release_margin))  # type: ignore[union-attr]
