@@ -10,16 +10,13 @@ from typing import Any
 from ..errors import ConfigError
 from ..inference.compiled import KERNELS
 
-__all__ = ["COM_REFERENCES", "SOLVERS", "STEP_MODES", "check_balance_config"]
+__all__ = ["COM_REFERENCES", "SOLVERS", "check_balance_config"]
 
 COM_REFERENCES = ("plan", "middle")
 """Where the centre of mass is held: ``plan``, the IK's centre of mass relative to its feet, carried over to the
 physical feet; ``middle``, the middle of the feet's contact points. Each is kept inside the support box. (``world``
 and ``approach``, the IK's centre of mass where the plan has it in the world, were measured and removed:
 docs/design.md §5.)"""
-
-STEP_MODES = ("swing", "stand")
-"""How ``single_support`` takes a foot lock's step (:mod:`~socialaff_sim.sim.single_support`)."""
 
 SOLVERS = ("lsq", "qp")
 """How the inverse dynamics is solved: ``lsq``, weighted least squares with non-negative contact forces
@@ -117,16 +114,6 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
         raise ConfigError(f"BalanceConfig.release_tilt_touched: needs flat_roll_free (the robots it picks), "
                           f"arm_compensation and compensation_gate (their touch latch) and a tilt in [release_tilt, "
                           f"catch_tilt) degrees, found {c.release_tilt_touched!r}")
-    if c.release_settled_tilt is not None and not (
-            c.flat_roll_free and c.release_tilt_touched is None and c.release_settled_rate > 0.0
-            and c.release_tilt <= c.release_settled_tilt < c.catch_tilt):
-        raise ConfigError(f"BalanceConfig.release_settled_tilt: needs flat_roll_free (the robots it picks), no "
-                          f"release_tilt_touched, release_settled_rate > 0 deg/s and a tilt in [release_tilt, "
-                          f"catch_tilt) degrees, found {c.release_settled_tilt!r} (rate {c.release_settled_rate!r})")
-    if c.single_support is not None and (c.single_support not in STEP_MODES or not c.flat_roll_free
-                                         or c.qp_kernel != "numpy"):
-        raise ConfigError(f"BalanceConfig.single_support: expected None or one of {', '.join(STEP_MODES)}, with "
-                          f"flat_roll_free (the robots it picks) and qp_kernel='numpy', found {c.single_support!r}")
     if c.hand_task_roll_free and (c.hand_task is None or not c.flat_roll_free):
         raise ConfigError("BalanceConfig.hand_task_roll_free: needs hand_task and flat_roll_free (the robots it "
                           "picks)")

@@ -31,8 +31,8 @@ class BalanceConfig:
       hand_task, hand_task_bandwidth, hand_task_touched, hand_task_roll_free,
       hand_task_arm_weight, hand_task_plan_velocity, hand_task_velocity_until_touch
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_tilt_touched,
-      release_settled_tilt, release_settled_rate, tilt_from_plan,
-      catch_tilt, catch_margin, catch_blend, drive_harnessed, single_support
+      tilt_from_plan,
+      catch_tilt, catch_margin, catch_blend, drive_harnessed
     - Rate: qp_every, hold_gain, hold_near, hold_touch, qp_kernel
     """
 
@@ -278,16 +278,6 @@ class BalanceConfig:
     of its throws' contact-phase support (traced; docs/design.md §5, issue 25, session 34, wip/h1throw). ``None``:
     ``release_tilt`` throughout. Needs ``flat_roll_free``, ``arm_compensation`` and ``compensation_gate``; at least
     ``release_tilt``, below ``catch_tilt``."""
-    release_settled_tilt: float | None = None
-    """θ_s [deg]: on a robot whose flat feet's roll ``flat_roll_free`` frees (legs that cannot roll a foot: the H1),
-    in every task, the harness also lets go of a torso tilting more than ``release_tilt`` (at most θ_s) once its swing
-    has settled: the torso's horizontal angular speed at most ``release_settled_rate`` (the delay and the capture
-    point's margin as ever; ``catch_tilt`` unchanged). The H1 swings in the harness through a step's landing and a
-    catch (−5° → +6°) and ``release_tilt`` alone keeps it held; let go mid-swing it rocks on its soles (docs/design.md
-    §5, issue 25, session 34, wip/h1throw and wip/h1settle). ``None``: ``release_tilt`` only. Needs ``flat_roll_free``;
-    in [``release_tilt``, ``catch_tilt``); not with ``release_tilt_touched``."""
-    release_settled_rate: float = 10.0
-    """ω_s [deg/s]: ``release_settled_tilt``'s bound on the torso's horizontal angular speed ‖(ω_x, ω_y)‖ (world)."""
     tilt_from_plan: bool = False
     """[—]: Whether ``release_tilt`` and ``catch_tilt`` read the torso's angle from the plan's torso attitude (the
     IK's, the controller's goal) rather than from upright: a lean the plan asks for (the H1 reaching with a spine
@@ -303,16 +293,6 @@ class BalanceConfig:
     drive_harnessed: bool = False
     """[—]: Whether the controller's torques drive the joints also while the harness holds a standing robot
     (``False``: the position servos and the standing feed-forward do, as without the controller)."""
-    single_support: str | None = None
-    """[—]: On a robot whose flat feet's roll ``flat_roll_free`` frees (the H1; Stubby's controller is unchanged), a
-    foot lock's step that begins while the harness is off is taken by the controller instead of being caught
-    (:mod:`~socialaff_sim.sim.single_support`): ``"swing"``: first the centre of mass's reference is clipped into the
-    stance sole until the capture point is inside it by ``release_margin`` (the swing foot still stands), then the
-    swing foot leaves the problem (support box, centres of pressure, friction cones: the stance foot's alone) and its
-    leg follows the IK's joints; ``"stand"``: the step is stood through (the foot stays where it stands, both feet in
-    the problem, the lifting leg's joint rows left out) until the foot lock plants the foot again. The harness catches
-    only on ``catch_tilt`` and ``catch_margin`` and does not let go during a step. ``None``: the controller stops for
-    a step and the harness catches the robot (reason "step"). Needs ``qp_kernel="numpy"``."""
 
     qp_every: int = 1
     """k [steps]: the torques are solved at one driven physics step in k and held on the k − 1 after it

@@ -61,7 +61,6 @@ from .harness_release import HarnessRelease
 from .plan_velocity import PlanVelocity
 from .scene import Scene
 from .self_clearance import SelfClearance
-from .single_support import SingleSupport, stance_box
 from .support_box import SupportBox
 from .torque_hold import TorqueHold
 
@@ -152,20 +151,12 @@ class BalanceController:
         self._jp, self._jr, self._quat, self._rot = np.zeros((3, m.nv)), np.zeros((3, m.nv)), np.zeros(4), np.zeros(3)
         self.harness = HarnessRelease(scene, self.config, self.roll_freed)
         """The harness: when it lets go and catches, the counts of both (:mod:`~.harness_release`)."""
-        self.single = SingleSupport(c.single_support == "swing") if c.single_support and self.roll_freed else None
-        """``single_support`` (where the feet's roll is freed): the step's phase (:mod:`~.single_support`), else ``None``."""
-        # single_support: per foot, False on the hinges above it (its leg's rows, left out of the joints' task in a shift)
-        self._legs = None if self.single is None else [~np.array([subtree_mask(m, int(b))[foot] for b in
-                                                                  m.dof_bodyid[self.vadr[6:]]]) for foot in self._feet]
         self.reset()
 
     # -- episode and frame ----------------------------------------------------------------------------------
     def reset(self) -> None:
         """A new episode: harnessed, nothing planted, counters at zero."""
         self.harness.reset()
-        if self.single is not None:
-            self.single.reset()
-        self._swing, self._stance_box = -1, None  # single_support: the swing foot (−1: none), the stance sole's box
         self.carried = False
         """Whether the person carries the object at this step (set by the frame stepper before each step; read by
         ``yield_carried``)."""
@@ -234,25 +225,13 @@ class BalanceController:
         c = self.config
         feet = self.feet if self._kernel is None else self._kernel.support  # (qp_kernel="numba": compiled)
         pts, frames, which = feet.contacts(d)
-        single, stepping = self.single, False
-        if single is not None:  # single_support: a step taken on the stance foot (its phase, the stance's contacts)
-            if single.advance(self._planted, self.harness.released):
-                self._anchor = None  # the step ended: the feet are held where they now stand
-            stepping = single.stepping
-            self._swing = 1 - single.stance if single.phase == "swing" else -1
-            if self._swing >= 0:
-                keep = which == single.stance
-                pts, frames, which = pts[keep], frames[keep], which[keep]
-        standing = (self._planted[0] and self._planted[1] or stepping) and len(pts) > 0
-        if not (self._planted[0] and self._planted[1]) and not stepping:
+        standing = self._planted[0] and self._planted[1] and len(pts) > 0
+        if not (self._planted[0] and self._planted[1]):
             self._anchor = None  # a step: the feet are held where they next stand
         tilt = self._step_tilt = self._tilt(d)  # (the plan's velocities' tilt bound reads it in _torques)
         box, capture = None, self._capture
         if standing:
             self._soles_now, box = feet.support(d, pts, which)  # the soles in the world (the _cop's bounds), the box
-            if stepping:  # the stance sole's box (the support itself while the other foot swings)
-                self._stance_box = stance_box(feet, d, pts, which, single.stance, self._soles_now)  # type: ignore[union-attr]
-                box = self._stance_box if self._swing >= 0 and self._stance_box is not None else box
             com = d.subtree_com[self.scene.root_body]
             self._jp[:] = 0.0
             mujoco.mj_jacSubtreeCom(m, d, self._jp, self.scene.root_body)
@@ -260,16 +239,8 @@ class BalanceController:
             comvel = jcom @ d.qvel[self.vadr]
             height = max(float(com[2] - pts[:, 2].sum() / len(pts)), 1e-3)  # (the mean's arithmetic)
             capture = self._capture = com[:2] + comvel[:2] / math.sqrt(self._g / height)
-            if stepping and single.lifting and self._stance_box is not None and self._stance_box.inside(  # type: ignore[union-attr]
-                    capture, c.release_margin):
-                single.lift()  # type: ignore[union-attr]  # (the swing foot leaves the problem from the next step)
-        if not stepping:
-            self._stance_box = None
-        w = d.cvel[self._torso]  # (rotation first, world axes) release_settled_tilt's settle: the swing's speed
-        rate = math.degrees(math.hypot(w[0], w[1])) if self.harness.settled_tilt is not None else 0.0
         self.harness.decide(d, m.opt.timestep, standing, tilt, box, capture, self.harness.tilt_touched is not None
-                            and self.compensation is not None and bool(self.compensation.touched.any()), rate,
-                            stepping)
+                            and self.compensation is not None and bool(self.compensation.touched.any()))
         released = self.harness.released
         self.active = standing and (released or c.drive_harnessed)
         if self.active:
@@ -342,11 +313,9 @@ class BalanceController:
             feet = [foot_feedback(m, d, body, va, pos, rot, c.foot_stiffness, c.foot_damping, self._foot_scratch[0])
                     for body, (pos, rot) in zip(self._feet, self._anchor, strict=True)]
             eq = None
-        tasks.extend((J, b, c.w_feet) for s, (J, b) in enumerate(feet) if s != self._swing)  # (a swing foot: none)
+        tasks.extend((J, b, c.w_feet) for J, b in feet)
         if c.flat_feet and flat is None:
-            corners = self._corners if self._swing < 0 else [None if s == self._swing else k
-                                                              for s, k in enumerate(self._corners)]
-            pts, frames, which, eq = flat_contacts(m, d, self._feet, corners, self._anchor, va, pts, frames,
+            pts, frames, which, eq = flat_contacts(m, d, self._feet, self._corners, self._anchor, va, pts, frames,
                                                    which, c.sole_gap, c.foot_stiffness, c.foot_damping,
                                                    self._foot_scratch, feet, self._roll_free)
         floor = float(pts[:, 2].sum() / len(pts))  # the contacts' mean height (m), for the lean and the hands' give
@@ -360,8 +329,6 @@ class BalanceController:
             p = np.array([goal[0], goal[1], floor])
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
         goal = box.clip(goal, c.support_margin)
-        if self._stance_box is not None and self.single.lifting:  # type: ignore[union-attr]  # "swing": over the stance foot
-            goal = self._stance_box.clip(goal, c.support_margin)
         moving = self.plan_velocity is not None and self.plan_velocity.follows(  # the touch latch, the tilt bound
             self.compensation is not None and bool(self.compensation.touched.any()), self._step_tilt)
         if c.com_plan_velocity and moving:  # the damping toward the plan's velocity (relative to the feet), not rest
@@ -389,15 +356,10 @@ class BalanceController:
         if self.compensation is not None:  # the arms' references on the trunk as it is
             dq = dq + self.compensation.offsets(m, d, q_ref)
         want = wq * wq * (q_ref[7:] + dq - hinge_q) + 2.0 * wq * (qd_ref + dv - qv[6:])
-        scale, rows, diag = self._joint_scale, self._joint_rows, self._joint_diag
-        if self._legs is not None and self.single.phase == "shift":  # type: ignore[union-attr]
-            keep = self._legs[1 - self.single.stance]  # type: ignore[union-attr]  # the lifting leg follows its foot
-            scale = scale * keep
-            rows, diag = rows * keep[:, None], np.concatenate([np.zeros(6), scale])
-        joints = want * scale  # per-row weights inside one task
+        joints = want * self._joint_scale  # per-row weights inside one task
         if self.hands is not None:  # (before the joints' task, which the QP takes last)
             tasks.extend(self.hands.tasks(m, d, va, None if self.compensation is None else self.compensation.touched))
-        tasks.append((rows, joints, c.w_joint))
+        tasks.append((self._joint_rows, joints, c.w_joint))
         key = frames.tobytes()  # with flat_feet the same level frames step after step: their edges made once
         mu = c.friction
         if c.touch_friction is not None and bool(self.compensation.touched.any()):  # type: ignore[union-attr]
@@ -419,7 +381,7 @@ class BalanceController:
         near = None if ineq is None else self._clearance.last_distance  # type: ignore[union-attr]
         self._near_body = near is not None and bool((near < c.hold_near).any())
         # the joints' rows as the QP's diagonal task: no (n − 6) × n products of zeros
-        qp_tasks = [*tasks[:-1], (diag, np.concatenate([np.zeros(6), joints]), c.w_joint)]
+        qp_tasks = [*tasks[:-1], (self._joint_diag, np.concatenate([np.zeros(6), joints]), c.w_joint)]
         res = solve_contact_qp(M, h, self.unactuated, jac, edges, qp_tasks, self.mass, c.w_force, limits,
                                cop_constraint_rows(c, pts, edges, foot, box.R, self._soles_now, d.xmat, self._feet,
                                                    self._foot_fwd, c.qp_kernel), foot, c.min_foot_load * self.mass * self._g,

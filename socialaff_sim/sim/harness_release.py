@@ -3,9 +3,8 @@ caught robot is led back onto the IK's base.
 
 Decided per physics step (:class:`HarnessRelease`, owned by :class:`~.balance_control.BalanceController`): the weld
 lets go once both feet have been planted ``release_delay`` and the robot is steady (the torso within
-``release_tilt``, or ``release_tilt_touched`` after a touch on a robot whose feet's roll the controller frees, or
-on such a robot ``release_settled_tilt`` once the torso's swing has settled; the capture point inside the support
-box by ``release_margin``); it catches the robot again at
+``release_tilt``, or ``release_tilt_touched`` after a touch on a robot whose feet's roll the controller frees, the
+capture point inside the support box by ``release_margin``); it catches the robot again at
 once when the torso tilts past ``catch_tilt``, the capture point leaves the box by more than ``catch_margin``, or a
 foot steps. A caught robot is held where it was caught and led onto the IK's base over ``catch_blend``, and the
 release waits its delay again.
@@ -32,9 +31,6 @@ class HarnessRelease:
         """[deg] ``release_tilt_touched`` where it acts (a robot whose feet's roll the controller frees, in a task
         with a catch sub-goal: :meth:`gate_touched`), else ``None``: the release's tilt bound after a touch
         (:meth:`release_tilt`)."""
-        self.settled_tilt = config.release_settled_tilt if roll_freed else None
-        """[deg] ``release_settled_tilt`` where it acts (a robot whose feet's roll the controller frees), else
-        ``None`` (:meth:`tilt_allows`)."""
         self._root, self._mocap = scene.root_body, scene.anchor_mocap
         self._weld = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_EQUALITY, "robot_anchor")
         self.reset()
@@ -84,34 +80,21 @@ class HarnessRelease:
         touch (``touched``) :attr:`tilt_touched` where set."""
         return self.tilt_touched if touched and self.tilt_touched is not None else self.config.release_tilt
 
-    def tilt_allows(self, tilt: float, touched: bool, rate: float) -> bool:
-        """Whether the torso's ``tilt`` (deg) lets the harness go: within :meth:`release_tilt`, or with
-        :attr:`settled_tilt` set within it while the torso's horizontal angular speed ``rate`` (deg/s) is at most
-        ``release_settled_rate`` (the swing has settled)."""
-        if tilt <= self.release_tilt(touched):
-            return True
-        return self.settled_tilt is not None and tilt <= self.settled_tilt and rate <= self.config.release_settled_rate
-
     def decide(self, d: mujoco.MjData, dt: float, standing: bool, tilt: float, box: SupportBox | None,
-               capture: np.ndarray, touched: bool = False, rate: float = 0.0, stepping: bool = False) -> None:
+               capture: np.ndarray, touched: bool = False) -> None:
         """The step's decision after ``mj_step1``: ``standing`` (both feet planted and on the floor), the torso's
         ``tilt`` (degrees), the support ``box`` (``None`` unless standing) and the ``capture`` point (2,) (world, m);
-        ``dt`` (s) the physics step; ``touched``: an arm has touched the person or the object (:meth:`release_tilt`);
-        ``rate``: the torso's horizontal angular speed, deg/s (:meth:`tilt_allows`); ``stepping``: the controller
-        takes a step on the stance foot (``BalanceConfig.single_support``; ``standing``: that foot on the floor, ``box``
-        its support): a released robot stays released as a standing one does, a held one stays held and the delay
-        waits. Switches the weld in ``d`` (with ``release``) and counts."""
+        ``dt`` (s) the physics step; ``touched``: an arm has touched the person or the object (:meth:`release_tilt`).
+        Switches the weld in ``d`` (with ``release``) and counts."""
         c = self.config
-        self._engaged = self._engaged + dt if standing and not stepping else 0.0
+        self._engaged = self._engaged + dt if standing else 0.0
         was = self.released
         if not standing:
             self.released = False
         elif self.released:
             self.released = tilt <= c.catch_tilt and box.inside(capture, -c.catch_margin)  # type: ignore[union-attr]
-        elif stepping:
-            pass  # not let go during a step
         else:
-            self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and self.tilt_allows(tilt, touched, rate)
+            self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and tilt <= self.release_tilt(touched)
                              and box.inside(capture, c.release_margin))  # type: ignore[union-attr]
         if was and not self.released:
             self.catches += 1
