@@ -21,7 +21,7 @@ from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.scene import Scene, build_scene
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.stance import StanceConfig
-from socialaff_sim.sim.strike_lean import strike_lean
+from socialaff_sim.sim.strike_lean import lean_out, strike_lean
 
 from test_retarget_ik import LAYOUT, STICK_TOML, STICK_XML, ik_for
 
@@ -162,3 +162,82 @@ def test_the_lean_only_in_a_task_above_the_shoulders(monkeypatch: pytest.MonkeyP
     stance = dataclasses.replace(base.stance, strike_lean=40.0, strike_lean_above=above)
     run_episode(Simulator("ours", label, dataclasses.replace(base, stance=stance)), GroundTruthSource(), inter)
     assert (max(leans) > 0.0) is leaning
+
+
+@pytest.mark.parametrize("since, frames, expected", [
+    (None, 4, 0.2),  # not met yet: the lean as given
+    (0, None, 0.2),  # the option off
+    (0, 4, 0.2),  # the meeting's own frame: 1 − 0/4
+    (1, 4, 0.15),  # a frame after: 0.2 · (1 − 1/4)
+    (2, 4, 0.1),
+    (4, 4, 0.0),  # ramped out
+    (9, 4, 0.0),  # and stays out (not negative)
+    (1, 0, 0.0),  # N = 0: dropped at the meeting
+])
+def test_the_lean_ramped_out_after_the_meeting(since: int | None, frames: int | None, expected: float) -> None:
+    assert lean_out(0.2, since, frames) == pytest.approx(expected, abs=1e-12)
+
+
+def test_the_simulator_ramps_the_lean_out_once_the_hands_have_met(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With ``strike_lean_out`` the IK gets no lean from the frame after the sub-goal's success on (N = 0), while
+    without it the plan still leans after the meeting (high_five_000, ground truth: fails if the decision is
+    inverted or the meeting's frame is not read)."""
+    inter = list(generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=1)).of_label("high_five"))[0]
+    base = SimConfig.standing()
+    after: dict[object, list[float]] = {}
+    for out in (None, 0):
+        leans = _spy_leans(monkeypatch)
+        sim = Simulator("ours", "high_five", dataclasses.replace(
+            base, stance=dataclasses.replace(base.stance, strike_lean=30.0, strike_lean_out=out)))
+        met: list[int] = []
+
+        def on_frame(s, r, sub, met=met):  # noqa: ANN001
+            if r is not None and not met and all(r.subgoals.values()):
+                met.append(len(leans))  # solves made up to the meeting's frame's end
+
+        run_episode(sim, GroundTruthSource(), inter, on_frame=on_frame)
+        monkeypatch.undo()
+        assert met, "the high five is met in both arms up to the meeting"
+        assert max(leans[:met[0]]) > 0.0  # leaned into the strike before the meeting
+        after[out] = leans[met[0]:]
+    assert max(after[None]) > 0.0  # without the option the lean runs on after the meeting
+    assert max(after[0]) == 0.0  # with it (N = 0) none after
+
+
+def _leans_of(monkeypatch: pytest.MonkeyPatch, instance: int, **stance: object) -> tuple[list[float], int]:
+    """The leans the IK got in standing high_five_<instance> (ground truth) with ``stance``'s fields, and how many
+    solves were made up to the end of the frame that met the sub-goal (-1: never met)."""
+    inter = list(generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=instance + 1))
+                 .of_label("high_five"))[instance]
+    base = SimConfig.standing()
+    leans = _spy_leans(monkeypatch)
+    met: list[int] = []
+
+    def on_frame(s, r, sub):  # noqa: ANN001
+        if r is not None and not met and all(r.subgoals.values()):
+            met.append(len(leans))
+
+    run_episode(Simulator("ours", "high_five", dataclasses.replace(
+        base, stance=dataclasses.replace(base.stance, **stance))), GroundTruthSource(), inter, on_frame=on_frame)
+    monkeypatch.undo()
+    return list(leans), (met[0] if met else -1)
+
+
+def test_the_lean_ends_when_caught_after_the_meeting(monkeypatch: pytest.MonkeyPatch) -> None:
+    """high_five_007 (ground truth, standing) meets its sub-goal while the harness holds it caught: with
+    ``strike_lean_caught`` the plan leans no more from then on; without it the lean runs on (to 10°)."""
+    off, met_off = _leans_of(monkeypatch, 7)
+    on, met_on = _leans_of(monkeypatch, 7, strike_lean_caught=True)
+    assert met_off > 0 and met_on == met_off
+    assert on[:met_on] == off[:met_off]  # the same until the meeting
+    assert max(off[met_off:]) > 0.0
+    assert max(on[met_on:]) == 0.0
+
+
+def test_the_lean_runs_on_when_met_released(monkeypatch: pytest.MonkeyPatch) -> None:
+    """high_five_001 meets its sub-goal released and is not caught after: ``strike_lean_caught`` changes none of
+    its leans (fails if the decision is inverted: dropping the lean of a robot not caught)."""
+    off, met_off = _leans_of(monkeypatch, 1)
+    on, met_on = _leans_of(monkeypatch, 1, strike_lean_caught=True)
+    assert met_off > 0 and max(off[met_off:]) > 0.0
+    assert on == off

@@ -52,7 +52,8 @@ class StanceConfig:
     Fields by concept
     -----------------
     - Steady base: base_smoothing, base_over_feet
-    - The plan's lean: strike_lean, strike_lean_max, strike_lean_raised, strike_lean_above
+    - The plan's lean: strike_lean, strike_lean_max, strike_lean_raised, strike_lean_above, strike_lean_out,
+      strike_lean_caught
     - Letting go: release, release_after, release_tilt, release_com, catch_tilt, leg_bandwidth
     - Balance while released: com_cost, com_gain
     """
@@ -85,6 +86,15 @@ class StanceConfig:
     """[—]: ``strike_lean`` only in a task with a contact sub-goal counted above the robot's shoulders
     (``SubgoalSpec.above``: the high five; the simulator drops the lean elsewhere): a handshake's or a catch's wrist
     target raised above the shoulder for a frame leans nothing. ``False``: in every task."""
+    strike_lean_out: int | None = None
+    """N [frames]: once every contact sub-goal of the task has been met (the hands have met), ``strike_lean``'s lean
+    is ramped out over N data frames, θ · max(0, 1 − n/N) n frames after the meeting (:func:`~.strike_lean.lean_out`):
+    a robot whose trunk is caught leaned stops pressing the person after the meeting (high_five_007, docs/design.md
+    §5). ``None``: the lean as planned to the episode's end."""
+    strike_lean_caught: bool = False
+    """[—]: once every contact sub-goal of the task has been met, the first solve in which the harness holds a caught
+    robot ends ``strike_lean``'s lean for the rest of the episode (a robot caught leaned after the meeting stops
+    pressing the person; one that meets released keeps its lean). ``False``: not."""
     release: bool = True
     """[—]: Whether the harness lets go of a steady standing robot (``False``: only the base is steadied)."""
     release_after: int = 2

@@ -13,13 +13,17 @@ w_i the wrist target and s_i the shoulder at its home offset from the base targe
 heading toward the partner, z up): the farther the raised wrist reaches ahead of its shoulder, the more the trunk
 leans, at most θ_max (the issue's rule: the torso within 10° of upright unless the motion calls for a lean). A reach
 at or below the shoulder (a handshake, a hand over, a pull-up's grasp) or behind it leans nothing.
+
+With ``StanceConfig.strike_lean_out`` N the lean is ramped out once every contact sub-goal of the task has been met
+(the hands have met): n frames after the meeting the plan leans θ · max(0, 1 − n/N) (:func:`lean_out`), so that the
+leaned plan stops pressing the person after the meeting instead of holding the lean to the episode's end.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["strike_lean"]
+__all__ = ["strike_lean", "lean_out"]
 
 
 def strike_lean(targets: np.ndarray, shoulders: np.ndarray, gain: float, most: float, raised: float) -> float:
@@ -36,3 +40,14 @@ def strike_lean(targets: np.ndarray, shoulders: np.ndarray, gain: float, most: f
         return 0.0
     ahead = float(np.max(np.where(ok, d[:, 0], 0.0)))
     return float(np.radians(min(most, gain * max(0.0, ahead))))
+
+
+def lean_out(lean: float, since: int | None, frames: int | None) -> float:
+    """The lean ``lean`` (radians) ramped out ``since`` frames (≥ 0) after the task's sub-goals were all met, over
+    ``frames`` N frames: θ · max(0, 1 − since/N); ``since`` ``None`` (not met yet) or ``frames`` ``None`` (the option
+    off): the lean as given; N ≤ 0 drops it at the meeting."""
+    if since is None or frames is None:
+        return float(lean)
+    if frames <= 0:
+        return 0.0
+    return float(lean) * max(0.0, 1.0 - max(0, since) / frames)
