@@ -16,7 +16,7 @@ from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.retarget.ik import RobotIK
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
-from socialaff_sim.sim import simulator as simmod
+from socialaff_sim.sim import strike_lean as lean_module
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.scene import Scene, build_scene
 from socialaff_sim.sim.simulator import SimConfig, Simulator
@@ -134,8 +134,8 @@ def _spy_leans(monkeypatch: pytest.MonkeyPatch) -> list[float]:
 def test_the_simulator_leans_only_with_the_option(monkeypatch: pytest.MonkeyPatch) -> None:
     inter = list(generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=1)).of_label("high_five"))[0]
     calls: list[float] = []
-    orig = simmod.strike_lean
-    monkeypatch.setattr(simmod, "strike_lean", lambda *a: calls.append(orig(*a)) or calls[-1])
+    orig = lean_module.strike_lean
+    monkeypatch.setattr(lean_module, "strike_lean", lambda *a: calls.append(orig(*a)) or calls[-1])
     leans = _spy_leans(monkeypatch)
     base = SimConfig.standing()
     for stance, leaning in ((dataclasses.replace(base.stance, strike_lean=None), False),

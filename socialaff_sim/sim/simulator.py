@@ -37,7 +37,7 @@ from .stage import Stage, contact_exemptions, key_frames, key_frames_at
 from .stage_build import build_stage
 from .footlock import FootLock
 from .sim_config import SimConfig, StepResult
-from .strike_lean import lean_out, strike_lean
+from .strike_lean import PlanLean
 from .support import SupportMeter
 from .tasks import TaskSpec, load_task
 
@@ -157,11 +157,7 @@ class Simulator:
             lock = dataclasses.replace(lock, restep_gap=None)
         if lock is not None and lock.plant_caught_above and all(sg.above == "none" for sg in self.task.subgoals):
             lock = dataclasses.replace(lock, plant_caught=False, plant_caught_above=False)
-        sc = None if stage.stance is None else stage.stance.config
-        self._lean = sc is not None and sc.strike_lean is not None and (
-            not sc.strike_lean_above or any(sg.above != "none" for sg in self.task.subgoals))
-        self._met: int | None = None  # the frame by which every sub-goal was met (``strike_lean_out``)
-        self._dropped = False  # ``strike_lean_caught``: the lean ended (caught after the meeting)
+        self._lean = PlanLean(None if stage.stance is None else stage.stance.config, self.task.subgoals)
         bal = stage.stepper.balance
         if bal is not None:  # release_tilt_touched: in a throw's catch only
             bal.harness.gate_touched(any(sg.kind == "catch" for sg in self.task.subgoals))
@@ -272,18 +268,9 @@ class Simulator:
                                                       frames[-1].tilt_deg if frames else 0.0,
                                                       ik.balance.box_centre(plan_feet, self._yaw) if self._plan_feet
                                                       else None, self._yaw)
-        sc = None if stage.stance is None else stage.stance.config
-        lean = 0.0 if sc is None or not self._lean else strike_lean(
-            tg, stage.reach.shoulders, sc.strike_lean, sc.strike_lean_max, sc.strike_lean_raised)  # type: ignore[arg-type]
-        if self._lean and sc is not None and (sc.strike_lean_out is not None or sc.strike_lean_caught):
-            last = self.results[-1] if self.results else None
-            if self._met is None and last is not None and last.subgoals and all(last.subgoals.values()):
-                self._met = last.frame
-            bal = stage.stepper.balance
-            self._dropped = self._dropped or (sc.strike_lean_caught and self._met is not None and bal is not None
-                                              and bal.harness.holds_caught)
-            lean = 0.0 if self._dropped else lean_out(lean, None if self._met is None else t1 - self._met,
-                                                      sc.strike_lean_out)
+        bal = stage.stepper.balance
+        lean = self._lean.frame(tg, stage.reach.shoulders, self.results[-1] if self.results else None,
+                                bal is not None and bal.harness.holds_caught, t1)
         res = ik.solve(world, self._yaw, dt=1.0 / fps if k == 0 else (n - k) / (n * fps), care=reachable, planted=planted,
                        com_target=com_target, iterations=iterations, lean=lean,
                        com_cost=None if com_target is None else stage.stance.config.com_cost)  # type: ignore[union-attr]

@@ -21,9 +21,15 @@ leaned plan stops pressing the person after the meeting instead of holding the l
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
-__all__ = ["strike_lean", "lean_out"]
+from .sim_config import StepResult
+from .stance import StanceConfig
+from .tasks import SubgoalSpec
+
+__all__ = ["PlanLean", "lean_out", "strike_lean"]
 
 
 def strike_lean(targets: np.ndarray, shoulders: np.ndarray, gain: float, most: float, raised: float) -> float:
@@ -51,3 +57,36 @@ def lean_out(lean: float, since: int | None, frames: int | None) -> float:
     if frames <= 0:
         return 0.0
     return float(lean) * max(0.0, 1.0 - max(0, since) / frames)
+
+
+class PlanLean:
+    """The plan's lean through one episode (``StanceConfig.strike_lean`` and its options): :func:`strike_lean` of each
+    frame's targets, only in a task with a contact counted above the shoulders when ``strike_lean_above`` says so,
+    ramped out after the task's sub-goals are all met (``strike_lean_out``, :func:`lean_out`) or ended for the rest of
+    the episode once the harness holds the robot caught after that meeting (``strike_lean_caught``)."""
+
+    def __init__(self, config: StanceConfig | None, subgoals: Sequence[SubgoalSpec]) -> None:
+        self.config = config
+        self.active = config is not None and config.strike_lean is not None and (
+            not config.strike_lean_above or any(sg.above != "none" for sg in subgoals))
+        """Whether this episode leans at all."""
+        self.met: int | None = None
+        """The frame by which every sub-goal was met (``None``: not yet)."""
+        self.dropped = False
+        """Whether ``strike_lean_caught`` has ended the lean."""
+
+    def frame(self, targets: np.ndarray, shoulders: np.ndarray, last: StepResult | None, caught: bool,
+              t: int) -> float:
+        """The lean θ (radians, ≥ 0) for frame ``t``'s robot-frame key-frame ``targets`` (5, 3) m and the shoulders'
+        home offsets ``shoulders`` (2, 3) m, given the last frame's result ``last`` and whether the harness holds the
+        robot caught (``caught``)."""
+        c = self.config
+        if not self.active or c is None:
+            return 0.0
+        lean = strike_lean(targets, shoulders, c.strike_lean, c.strike_lean_max, c.strike_lean_raised)  # type: ignore[arg-type]
+        if c.strike_lean_out is None and not c.strike_lean_caught:
+            return lean
+        if self.met is None and last is not None and last.subgoals and all(last.subgoals.values()):
+            self.met = last.frame
+        self.dropped = self.dropped or (c.strike_lean_caught and self.met is not None and caught)
+        return 0.0 if self.dropped else lean_out(lean, None if self.met is None else t - self.met, c.strike_lean_out)
