@@ -56,6 +56,7 @@ class _Gap:
     xy: np.ndarray
     rise: float = 0.0
 
+
 @dataclass(frozen=True)
 class FrameSlip:
     """One data frame's slip and steps (see the module docstring)."""
