@@ -150,3 +150,16 @@ def test_above_applies_to_contact_sub_goals_only(tmp_path: Path) -> None:
         load_task(path)
     assert str(path) in str(info.value) and "\n" not in str(info.value)
     assert load_task(write(tmp_path, text.replace('    above = "robot_shoulders"\n', ""), "ok.toml")).subgoals[0].above == "none"
+
+
+@pytest.mark.parametrize("name, above, catch", [
+    ("high_five", True, False),  # its palms count only above the robot's shoulders
+    ("shake_hands", False, False),
+    ("throw_catch", False, True),  # the thrown object's catch
+    ("hand_over", False, False),
+])
+def test_a_task_says_whether_it_counts_above_a_height_and_whether_it_has_a_catch(name: str, above: bool,
+                                                                                 catch: bool) -> None:
+    task = load_task(name)
+    assert task.counts_above is above
+    assert task.has_catch is catch

@@ -155,12 +155,12 @@ class Simulator:
         lock = self.config.foot_lock
         if lock is not None and not self._plan_feet:
             lock = dataclasses.replace(lock, restep_gap=None)
-        if lock is not None and lock.plant_caught_above and all(sg.above == "none" for sg in self.task.subgoals):
+        if lock is not None and lock.plant_caught_above and not self.task.counts_above:
             lock = dataclasses.replace(lock, plant_caught=False, plant_caught_above=False)
-        self._lean = PlanLean(None if stage.stance is None else stage.stance.config, self.task.subgoals)
+        self._lean = PlanLean(None if stage.stance is None else stage.stance.config, self.task.counts_above)
         bal = stage.stepper.balance
         if bal is not None:  # release_tilt_touched: in a throw's catch only
-            bal.harness.gate_touched(any(sg.kind == "catch" for sg in self.task.subgoals))
+            bal.harness.gate_touched(self.task.has_catch)
         if lock is not None and lock.hold_near_roll_free and not (bal is not None and bal.roll_freed):
             lock = dataclasses.replace(lock, hold_near=None, hold_near_roll_free=False,
                                        land_gap=None)  # (Stubby: the gate's "no")

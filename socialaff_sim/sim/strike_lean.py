@@ -21,13 +21,10 @@ leaned plan stops pressing the person after the meeting instead of holding the l
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 
 from .sim_config import StepResult
 from .stance import StanceConfig
-from .tasks import SubgoalSpec
 
 __all__ = ["PlanLean", "lean_out", "strike_lean"]
 
@@ -61,14 +58,15 @@ def lean_out(lean: float, since: int | None, frames: int | None) -> float:
 
 class PlanLean:
     """The plan's lean through one episode (``StanceConfig.strike_lean`` and its options): :func:`strike_lean` of each
-    frame's targets, only in a task with a contact counted above the shoulders when ``strike_lean_above`` says so,
+    frame's targets, only in a task with a contact counted above the shoulders (``counts_above``,
+    ``TaskSpec.counts_above``) when ``strike_lean_above`` says so,
     ramped out after the task's sub-goals are all met (``strike_lean_out``, :func:`lean_out`) or ended for the rest of
     the episode once the harness holds the robot caught after that meeting (``strike_lean_caught``)."""
 
-    def __init__(self, config: StanceConfig | None, subgoals: Sequence[SubgoalSpec]) -> None:
+    def __init__(self, config: StanceConfig | None, counts_above: bool) -> None:
         self.config = config
         self.active = config is not None and config.strike_lean is not None and (
-            not config.strike_lean_above or any(sg.above != "none" for sg in subgoals))
+            not config.strike_lean_above or counts_above)
         """Whether this episode leans at all."""
         self.met: int | None = None
         """The frame by which every sub-goal was met (``None``: not yet)."""

@@ -109,6 +109,17 @@ class TaskSpec:
         """The interaction name and its aliases."""
         return (self.interaction, *self.aliases)
 
+    @property
+    def counts_above(self) -> bool:
+        """Whether a sub-goal counts its contact only above a height (``SubgoalSpec.above`` not ``none``: the high
+        five's palms above the robot's shoulders)."""
+        return any(sg.above != "none" for sg in self.subgoals)
+
+    @property
+    def has_catch(self) -> bool:
+        """Whether a sub-goal is a ``catch`` (an object thrown to the robot)."""
+        return any(sg.kind == "catch" for sg in self.subgoals)
+
 
 def available_tasks() -> tuple[str, ...]:
     """Names of the shipped task files."""
