@@ -106,6 +106,32 @@ def frame_states(cfg, inter) -> list[np.ndarray]:  # noqa: ANN001 (SimConfig, In
     return states
 
 
+def foot_lock_keyword(cfg, inter, keyword: str):  # noqa: ANN001, ANN201 (SimConfig, Interaction, FootLockConfig)
+    """Run a ground-truth episode of ``inter`` on Stubby under ``cfg`` and record, per :meth:`FootLock.apply` call, the
+    truth of its keyword argument ``keyword`` (``False`` when not passed): (the calls' values, the foot lock's config
+    as the simulator ran it, after its gates)."""
+    from socialaff_sim.retarget.sources import GroundTruthSource
+    from socialaff_sim.sim.episode import run_episode
+    from socialaff_sim.sim.simulator import Simulator
+
+    seen: list[bool] = []
+    config = []
+
+    def hook(s, r, e) -> None:  # noqa: ANN001
+        fl = s._footlock
+        if getattr(fl, "_probe", False):
+            return
+        config.append(fl.config)
+        orig = fl.apply
+
+        def apply(*a, **k):  # noqa: ANN002, ANN003, ANN202
+            seen.append(bool(k.get(keyword, False)))
+            return orig(*a, **k)
+        fl.apply, fl._probe = apply, True
+    run_episode(Simulator("ours", inter.label, cfg), GroundTruthSource(), inter, on_frame=hook)
+    return seen, config[0]
+
+
 def shared_robot(*parts: str) -> Path:
     """Path under ../shared/robots (the Unitree MJCF models); skips the test with a reason when it is absent."""
     path = SHARED_ROBOTS.joinpath(*parts)

@@ -11,8 +11,12 @@ import dataclasses
 import numpy as np
 import pytest
 
+from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
+from socialaff_sim.sim.simulator import SimConfig
+
+from conftest import foot_lock_keyword
 
 HOME = (0.08, 0.08)
 ANKLES = np.array([[0.0, 0.1, 0.08], [0.0, -0.1, 0.08]])
@@ -91,32 +95,12 @@ def test_hold_near_is_checked() -> None:
 def test_the_simulator_passes_the_last_frames_gaps() -> None:
     """On a standing Stubby pull-up (spent instance pull_up_120) the foot lock gets ``near=True`` in some call only
     with the option on and not gated by ``hold_near_roll_free`` (Stubby's feet's roll is not freed)."""
-    from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
-    from socialaff_sim.retarget.sources import GroundTruthSource
-    from socialaff_sim.sim.episode import run_episode
-    from socialaff_sim.sim.simulator import SimConfig, Simulator
-
     inter = generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=121)).by_id("pull_up_120")
     base = SimConfig.standing()
-    calls: dict[str, list[bool]] = {}
     off = dataclasses.replace(base.foot_lock, hold_near=None, hold_near_roll_free=False)
-    for name, lock in (("off", off), ("on", dataclasses.replace(off, hold_near=0.5)),
-                       ("gated", dataclasses.replace(off, hold_near=0.5, hold_near_roll_free=True))):
-        sim = Simulator("ours", "pull_up", dataclasses.replace(base, foot_lock=lock))
-        seen: list[bool] = []
-        calls[name] = seen
-
-        def hook(s, r, sub, seen=seen):
-            fl = s._footlock
-            if getattr(fl, "_probe", False):
-                return
-            orig = fl.apply
-
-            def apply(*a, **k):
-                seen.append(bool(k.get("near", False)))
-                return orig(*a, **k)
-            fl.apply, fl._probe = apply, True
-        run_episode(sim, GroundTruthSource(), inter, on_frame=hook)
+    calls = {name: foot_lock_keyword(dataclasses.replace(base, foot_lock=lock), inter, "near")[0] for name, lock in (
+        ("off", off), ("on", dataclasses.replace(off, hold_near=0.5)),
+        ("gated", dataclasses.replace(off, hold_near=0.5, hold_near_roll_free=True)))}
     assert calls["off"] and not any(calls["off"])
     assert any(calls["on"])
     assert calls["gated"] and not any(calls["gated"])  # Stubby's feet's roll is not freed: the gate keeps it off

@@ -12,8 +12,12 @@ import dataclasses
 import numpy as np
 import pytest
 
+from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
+from socialaff_sim.sim.simulator import SimConfig
+
+from conftest import foot_lock_keyword
 
 HOME = (0.08, 0.08)
 ANKLES = np.array([[0.0, 0.1, 0.08], [0.0, -0.1, 0.08]])
@@ -64,35 +68,14 @@ def test_land_gap_is_checked() -> None:
 def test_the_simulator_passes_the_last_frames_gaps_and_the_gate_drops_it_on_stubby() -> None:
     """On a standing Stubby pull-up (spent instance pull_up_120) the foot lock gets ``land=True`` in some call only
     with the option on; under ``hold_near_roll_free`` (Stubby's feet's roll is not freed) the option is dropped."""
-    from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
-    from socialaff_sim.retarget.sources import GroundTruthSource
-    from socialaff_sim.sim.episode import run_episode
-    from socialaff_sim.sim.simulator import SimConfig, Simulator
-
     inter = generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=121)).by_id("pull_up_120")
     base = SimConfig.standing()
-    calls: dict[str, list[bool]] = {}
-    configs: dict[str, FootLockConfig] = {}
     off = dataclasses.replace(base.foot_lock, hold_near_roll_free=False, hold_near=None)
-    for name, lock in (("off", off), ("on", dataclasses.replace(off, land_gap=0.3)),
-                       ("gated", dataclasses.replace(off, land_gap=0.3, hold_near=0.1, hold_near_roll_free=True))):
-        sim = Simulator("ours", "pull_up", dataclasses.replace(base, foot_lock=lock))
-        seen: list[bool] = []
-        calls[name] = seen
-
-        def hook(s, r, sub, seen=seen, name=name):
-            fl = s._footlock
-            configs[name] = fl.config
-            if getattr(fl, "_probe", False):
-                return
-            orig = fl.apply
-
-            def apply(*a, **k):
-                seen.append(bool(k.get("land", False)))
-                return orig(*a, **k)
-            fl.apply, fl._probe = apply, True
-        run_episode(sim, GroundTruthSource(), inter, on_frame=hook)
+    runs = {name: foot_lock_keyword(dataclasses.replace(base, foot_lock=lock), inter, "land") for name, lock in (
+        ("off", off), ("on", dataclasses.replace(off, land_gap=0.3)),
+        ("gated", dataclasses.replace(off, land_gap=0.3, hold_near=0.1, hold_near_roll_free=True)))}
+    calls = {name: seen for name, (seen, _) in runs.items()}
     assert calls["off"] and not any(calls["off"])
     assert any(calls["on"])
     assert calls["gated"] and not any(calls["gated"])
-    assert configs["gated"].land_gap is None
+    assert runs["gated"][1].land_gap is None
