@@ -87,7 +87,7 @@ def test_every_figure_names_the_mode_that_ran() -> None:
 def test_the_support_caption_fits_a_video_frame() -> None:
     # Measured with the captions' own font (18 px) against the demo's 640 px frames: a longer line loses its last
     # figures off the frame's edge (the full mode name did: the torque and the tilt were cut off the sheets).
-    pytest.importorskip("PIL")
+    pytest.importorskip("PIL", reason="the captions' font is measured with Pillow (the [render] extra)")
     font = _font(18)
     for config in (SimConfig(), SimConfig.standing(), SimConfig.harness(stance=StanceConfig()),
                    SimConfig.harness(stance=StanceConfig(release=False), balance=BalanceConfig(release=False))):
