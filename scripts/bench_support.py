@@ -202,6 +202,7 @@ def main() -> None:
                     rows.append({"robot": robot, "mode": mode, "label": label, "instance": inter.instance_id,
                                  "success": m["success"], "contact_frames": cp["frames"],
                                  "failures": [f["kind"] for f in m["failures"] if f["triggered"]],
+                                 "outcome": m["outcome"],
                                  "cpu_seconds": cpu, "frames": m["frames"],
                                  "episode_tilt_deg_max": m["support"]["episode"]["torso_tilt_deg_max"],
                                  "feet_offset_cm_median": 100 * float(np.median(both)) if both.size else None,

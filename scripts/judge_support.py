@@ -73,7 +73,10 @@ def report(a: dict[Key, dict], b: dict[Key, dict], keys: list[Key], seed: int) -
         f"tilt max (deg) A {max(a[k]['episode_tilt_deg_max'] for k in keys):.1f} "
         f"B {max(b[k]['episode_tilt_deg_max'] for k in keys):.1f}",
         "per interaction (A/B of n): " + ", ".join(f"{lab} {x}/{y} of {n}" for lab, (x, y, n) in sorted(per.items())),
-    ]
+    ] + ([  # runs before the outcome codes (sim/outcome.py) have none
+        f"outcomes A {dict(collections.Counter(a[k]['outcome'] for k in keys))}  "
+        f"B {dict(collections.Counter(b[k]['outcome'] for k in keys))}"]
+        if all("outcome" in a[k] and "outcome" in b[k] for k in keys) else [])
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -69,3 +69,15 @@ def test_a_file_without_rows_is_refused_with_its_name(tmp_path: Path, capsys) ->
         judge.load_rows(str(bad))
     err = capsys.readouterr().err
     assert exc.value.code == 2 and err.count("\n") == 1 and "bad.json: expected a bench_support.py --json file" in err
+
+
+def test_outcome_codes_are_counted_only_when_both_runs_have_them(tmp_path: Path, capsys) -> None:  # noqa: ANN001
+    a = [_row("high_five", 1, True, 0.0, 1.0) | {"outcome": "success"},
+         _row("high_five", 2, False, 0.0, 1.0) | {"outcome": "no_contact"}]
+    b = [_row("high_five", 1, False, 0.0, 1.0) | {"outcome": "timeout"},
+         _row("high_five", 2, False, 0.0, 1.0) | {"outcome": "no_contact"}]
+    judge.main([_write(tmp_path / "a.json", a), _write(tmp_path / "b.json", b)])
+    assert "outcomes A {'success': 1, 'no_contact': 1}  B {'timeout': 1, 'no_contact': 1}" in capsys.readouterr().out
+    old = [{k: v for k, v in r.items() if k != "outcome"} for r in a]  # a run from before the codes
+    judge.main([_write(tmp_path / "a.json", old), _write(tmp_path / "b.json", b)])
+    assert "outcomes" not in capsys.readouterr().out

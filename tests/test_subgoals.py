@@ -346,6 +346,8 @@ def test_contact_now_and_achieved_are_separate_and_a_lost_contact_shows(scene: S
     assert not res.pending  # a contact sub-goal is judged as it happens
     assert res.state_text() == f"clasp: now apart ({100 * lost[-1][2]:.1f} cm) | achieved at {res.time:.2f} s"
     assert res.time == pytest.approx(35 * dt)
+    # Touched first on the 11th step and last on the 45th (the outcome code's "contact lost" reads these).
+    assert res.first_touch == pytest.approx(11 * dt) and res.last_touch == pytest.approx(45 * dt)
 
 
 def _raise_right_arm(scene: Scene, d: mujoco.MjData) -> None:

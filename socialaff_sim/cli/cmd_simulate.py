@@ -88,6 +88,8 @@ def run(args: argparse.Namespace) -> int:
     for f in metrics["failures"]:
         if f["triggered"]:
             print(f"  failure  {f['kind']:<16s} at {f['time']:.2f} s (worst {f['worst']:.3g}, threshold {f['threshold']:g})")
+    when = "" if metrics["outcome_time"] is None else f" at {metrics['outcome_time']:.2f} s"
+    print(f"  outcome  {metrics['outcome']}{when}")
     within = metrics["ik_error_reachable_within_2cm"]
     ik = metrics["ik_ms_per_frame"]
     print(f"  IK: {ik['mean']:.2f} ms/frame; reachable key-frame targets within 2 cm: "

@@ -16,7 +16,10 @@ def _success(metrics: dict) -> str:
     met = sum(bool(g["success"]) for g in goals)
     failed = [f["kind"] for f in metrics.get("failures", []) if f.get("triggered")]
     text = f"{met}/{len(goals)}"
-    return text + (f" (failure: {', '.join(failed)})" if failed else "")
+    if failed:
+        return text + f" (failure: {', '.join(failed)})"
+    outcome = metrics.get("outcome")  # sim/outcome.py: why an episode without a failure still missed
+    return text + (f" (outcome: {outcome})" if outcome not in (None, "success") else "")
 
 
 def _support(r: InteractionResult) -> str:

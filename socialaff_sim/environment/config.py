@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from ..errors import ConfigError, choices
+from ..sim.fall import FALL_HEIGHT, FALL_TILT
 from ..sim.simulator import SimConfig
 from .residual import group_matrix
 
@@ -85,10 +86,10 @@ class EnvConfig:
     terminate_on_failure: bool = True
     """[—]: Whether a failure condition of the task file (self-collision, force on the person, a drop)
     ends the episode (``terminated``); otherwise it is only penalised once."""
-    fall_height: float = 0.5
+    fall_height: float = FALL_HEIGHT
     """[—]: The robot has fallen (termination reason ``fell``) when its base is lower than this fraction
     of its height at home (the action envelope keeps base targets above 1 − 0.35·leg/height of it)."""
-    fall_tilt: float = 60.0
+    fall_tilt: float = FALL_TILT
     """[deg]: The robot has also fallen when its trunk tilts more than this from its upright posture at home."""
     max_frames: int | None = None
     """[frames]: Cut every instance to its first this many frames (short episodes, e.g. in tests); ``None``: whole instances."""

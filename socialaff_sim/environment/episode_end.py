@@ -36,6 +36,7 @@ from collections.abc import Mapping
 import mujoco
 import numpy as np
 
+from ..sim.fall import body_up, tilt_angle, tilt_cosine
 from ..sim.simulator import Simulator
 
 __all__ = ["TERMINATION_REASONS", "FAILURE_REASONS", "WARNING_NAMES", "UNSTABLE_WARNINGS", "WarningMonitor",
@@ -98,32 +99,6 @@ class WarningMonitor:
         for name, n in out.items():
             self.totals[name] += n
         return out
-
-
-def body_up(home_quat: np.ndarray) -> np.ndarray:
-    """(3,) the world vertical in the body's own axes at its home orientation ``home_quat`` (w, x, y, z)."""
-    h = np.empty(9)
-    mujoco.mju_quat2Mat(h, np.asarray(home_quat, dtype=np.float64))
-    return h.reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
-
-
-def tilt_cosine(quat: np.ndarray, up: np.ndarray) -> float:
-    """cos of the angle between the vertical and the body's axis ``up`` (:func:`body_up`) carried by the body's
-    orientation ``quat`` (4,) (w, x, y, z): the z row of the rotation matrix of a unit quaternion, times ``up``."""
-    w, x, y, z = np.asarray(quat, dtype=np.float64).tolist()  # Python floats: scalar arithmetic without NumPy's
-    ux, uy, uz = np.asarray(up, dtype=np.float64).tolist()
-    n = w * w + x * x + y * y + z * z
-    row = (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z)
-    return (row[0] * ux + row[1] * uy + row[2] * uz) / max(n, 1e-12)
-
-
-def tilt_angle(quat: np.ndarray, home_quat: np.ndarray) -> float:
-    """Angle (rad) between the vertical and the body's home vertical carried by its rotation now.
-
-    ``quat`` / ``home_quat`` (4,) (w, x, y, z): the body's orientation now and at home; a turn
-    about the vertical axis alone gives 0.
-    """
-    return float(np.arccos(min(1.0, max(-1.0, tilt_cosine(quat, body_up(home_quat))))))
 
 
 class EpisodeEnd:

@@ -52,6 +52,8 @@ def _subgoal_table(r: InteractionResult) -> str:
     failed_ref = _failures(r.reference)
     text += (f"<p class=\"note\">Failure conditions triggered — synthesized: {esc(', '.join(failed) or 'none')}; "
              f"ground-truth replay: {esc(', '.join(failed_ref) or 'none')}.</p>")
+    text += (f"<p class=\"note\">Outcome (sim/outcome.py) — synthesized: {esc(str(r.simulation.get('outcome', '–')))}; "
+             f"ground-truth replay: {esc(str(r.reference.get('outcome', '–')))}.</p>")
     return text
 
 

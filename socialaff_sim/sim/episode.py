@@ -11,6 +11,8 @@ import numpy as np
 from ..data.interaction import Interaction
 from ..data.skeletons import KEY_JOINTS
 from ..retarget.sources import KeyJointSource
+from .fall import FallWatch
+from .outcome import episode_outcome
 from .simulator import Simulator, StepResult
 from .support import FrameSupport
 
@@ -27,7 +29,8 @@ def run_episode(
     *,
     on_frame: Callable[[Simulator, StepResult | None, str | None], None] | None = None,
 ) -> dict[str, Any]:
-    """Replay ``interaction`` with the robot driven by ``source``; returns :func:`summarize`'s metrics.
+    """Replay ``interaction`` with the robot driven by ``source``; returns :func:`summarize`'s metrics, with a fall
+    (:class:`~socialaff_sim.sim.fall.FallWatch`'s defaults) watched for at every frame.
 
     ``on_frame(sim, result, subevent)`` is called after the reset (``result`` None)
     and after every step, e.g. to render frames; its time is excluded from the
@@ -42,6 +45,8 @@ def run_episode(
     sim.settle(sim.retarget(first.keys, frame=0, subevent=first.subevent, contact=first.contact,
                            contact_inside=first.contact_inside, contact_inside_next=first.contact_inside_next))
     wall += time.perf_counter() - tic
+    fall = FallWatch()
+    fall.reset(sim)
     if on_frame is not None:
         on_frame(sim, None, first.subevent)
     while not sim.done:
@@ -52,9 +57,10 @@ def run_episode(
                                contact_inside_next=frame.contact_inside_next)
         result = sim.step(targets, subevent=frame.subevent)
         wall += time.perf_counter() - tic
+        fall.update(sim, result.time)
         if on_frame is not None:
             on_frame(sim, result, frame.subevent)
-    return summarize(sim, wall)
+    return summarize(sim, wall, fall_time=fall.time)
 
 
 def _stats(x: np.ndarray) -> dict[str, float | None]:
@@ -167,8 +173,9 @@ def support_caption(sim: Simulator) -> str:
             f"tilt {last.tilt_deg:.0f} deg")
 
 
-def summarize(sim: Simulator, wall_seconds: float) -> dict[str, Any]:
-    """Metrics of the episode just run by ``sim`` (JSON-serialisable)."""
+def summarize(sim: Simulator, wall_seconds: float, *, fall_time: float | None = None) -> dict[str, Any]:
+    """Metrics of the episode just run by ``sim`` (JSON-serialisable). ``fall_time``: the simulated time (s) the
+    robot was first seen fallen (``None``: never; :class:`~socialaff_sim.sim.fall.FallWatch`)."""
     res = sim.results
     inter = sim.interaction
     assert inter is not None
@@ -184,6 +191,7 @@ def summarize(sim: Simulator, wall_seconds: float) -> dict[str, Any]:
         for k, name in enumerate(KEY_JOINTS)
     }
     ok = err[reach & avail]
+    outcome, outcome_time = episode_outcome(scorer.subgoals, scorer.failures, fall_time, sim_time)
     return {
         "instance": inter.instance_id,
         "interaction": inter.label,
@@ -196,12 +204,17 @@ def summarize(sim: Simulator, wall_seconds: float) -> dict[str, Any]:
         "subgoals": [
             {"name": s.name, "kind": s.kind, "success": s.success, "achieved": s.success, "time": s.time,
              "contact_seconds": s.contact_time, "current_at_end": s.current,
+             "first_touch": s.first_touch, "last_touch": s.last_touch,
              "in_contact_per_frame": [r.subgoals_now.get(s.name, False) for r in res],
              "gap_m_per_frame": [None if r.subgoal_gaps.get(s.name) is None else round(float(r.subgoal_gaps[s.name]), 4)
                                  for r in res]}
             for s in scorer.subgoals
         ],
-        "success": all(s.success for s in scorer.subgoals) and not scorer.failed,
+        "success": outcome == "success",
+        # One code per episode (sim/outcome.py): success, or the first reason it was not one.
+        "outcome": outcome,
+        "outcome_time": outcome_time,
+        "fell_at": fall_time,
         "failures": [
             {"kind": f.kind, "threshold": f.threshold, "triggered": f.triggered, "time": f.time, "worst": f.worst}
             for f in scorer.failures

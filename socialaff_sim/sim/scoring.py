@@ -64,6 +64,11 @@ class SubgoalResult:
     low: bool = False
     """Whether, at the last physics step, the groups touch but only below the sub-goal's height condition
     (``above``): such a touch is not :attr:`current` and does not count."""
+    first_touch: float | None = None
+    """Simulated time (s) of the first physics step at which the sub-goal's groups touched (at any height and in
+    any sub-event; for object sub-goals a grip counts), ``None``: never. For the episode's outcome code."""
+    last_touch: float | None = None
+    """Simulated time (s) of the last such physics step so far (``None``: never)."""
     gap: float | None = None
     """Distance (m) between the robot group's and the other group's geoms at the last
     :meth:`SubgoalScorer.measure_gaps` (negative: penetration; ``None`` before the first, or farther
@@ -268,6 +273,10 @@ class SubgoalScorer:
             counts, low = self._pair_active(k, data, g1, g2, touching) if len(g1) else (False, False)
             active = counts or bool(gripped and gripped[k])
             res.current, res.low = active, low and not active
+            if active or low:
+                if res.first_touch is None:
+                    res.first_touch = t
+                res.last_touch = t
             if sg.kind == "contact":
                 if active and (not sg.subevents or subevent in sg.subevents):
                     res.contact_time += dt
