@@ -125,6 +125,7 @@ def episode_row(metrics: dict[str, Any]) -> dict[str, Any]:
         "success": bool(metrics["success"]),
         "outcome": metrics.get("outcome"),
         "outcome_time": metrics.get("outcome_time"),
+        "fell_at": metrics.get("fell_at"),
         "subgoals": {s["name"]: bool(s["achieved"]) for s in metrics["subgoals"]},
         "subgoal_time_s": {s["name"]: s["time"] for s in metrics["subgoals"]},
         "failures": [f["kind"] for f in metrics["failures"] if f["triggered"]],
