@@ -23,6 +23,8 @@ __all__ = ["CONFIDENCE", "RESAMPLES", "format_tables", "paired_gap", "table_rows
 CONFIDENCE = 0.95
 RESAMPLES = 10_000
 CELL = ("dataset", "label", "robot", "physics")
+SUPPORT = ("outside_support_mean", "contact_outside_support_mean", "foot_slide_cm", "torso_tilt_deg_max")
+"""The episodes' support figures the third table averages over a cell's paired instances (per source)."""
 
 
 def paired_gap(gt: np.ndarray, synth: np.ndarray, *, rng: np.random.Generator, confidence: float = CONFIDENCE,
@@ -61,8 +63,18 @@ def table_rows(rows: list[dict[str, Any]], *, seed: int = 0) -> list[dict[str, A
             summary.update(gap=None, low=None, high=None)
         for s in ("gt", "synth"):
             summary[f"{s}_outcomes"] = dict(Counter(str(v[s].get("outcome")) for v in paired).most_common())
+            summary[f"{s}_support"] = {k: _mean([v[s].get("support", {}).get(k) for v in paired]) for k in SUPPORT}
         out.append(summary)
     return out
+
+
+def _mean(xs: list[float | None]) -> float | None:
+    x = [v for v in xs if v is not None]
+    return float(np.mean(x)) if x else None
+
+
+def _fmt(x: float | None, scale: float = 1.0) -> str:
+    return "–" if x is None else f"{scale * x:.1f}"
 
 
 def _pct(k: int, n: int) -> str:
@@ -74,7 +86,8 @@ def _codes(c: dict[str, int]) -> str:
 
 
 def format_tables(cells: list[dict[str, Any]]) -> str:
-    """Markdown: the success table, then the outcome codes per source."""
+    """Markdown: the success table, the outcome codes per source, the support figures (means over the paired
+    instances) per source."""
     lines = ["| robot | physics | data set | label | split | n | ground truth | synthesized | gap synth − GT "
              f"[{100 * CONFIDENCE:.0f} % paired] | lost / gained |", "|" + "---|" * 10]
     for c in cells:
@@ -87,6 +100,16 @@ def format_tables(cells: list[dict[str, Any]]) -> str:
     for c in cells:
         lines.append(f"| {c['robot']} | {c['physics']} | {c['dataset']} | {c['label']} | {_codes(c['gt_outcomes'])} | "
                      f"{_codes(c['synth_outcomes'])} |")
+    lines += ["", "| robot | physics | data set | label | outside support, episode (GT / synth, % of weight) | "
+              "in contact (GT / synth, %) | foot slide (GT / synth, cm) | largest tilt (GT / synth, °) |",
+              "|" + "---|" * 8]
+    for c in cells:
+        g, y = c["gt_support"], c["synth_support"]
+        lines.append(f"| {c['robot']} | {c['physics']} | {c['dataset']} | {c['label']} | "
+                     f"{_fmt(g['outside_support_mean'], 100)} / {_fmt(y['outside_support_mean'], 100)} | "
+                     f"{_fmt(g['contact_outside_support_mean'], 100)} / {_fmt(y['contact_outside_support_mean'], 100)} | "
+                     f"{_fmt(g['foot_slide_cm'])} / {_fmt(y['foot_slide_cm'])} | "
+                     f"{_fmt(g['torso_tilt_deg_max'])} / {_fmt(y['torso_tilt_deg_max'])} |")
     unpaired = sum(c["unpaired"] for c in cells)
     if unpaired:
         lines += ["", f"{unpaired} instance(s) with only one source left out."]
