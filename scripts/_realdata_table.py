@@ -40,12 +40,17 @@ def cell_rng(seed: int, cell: tuple[str, ...]) -> np.random.Generator:
     return np.random.default_rng([seed, zlib.crc32("/".join(cell).encode())])
 
 
-def table_rows(rows: list[dict[str, Any]], *, seed: int = 0) -> list[dict[str, Any]]:
-    """One summary per cell (data set, label, robot, physics) of episode rows, in first-seen order."""
+def table_rows(rows: list[dict[str, Any]], *, seed: int = 0, pooled: bool = False) -> list[dict[str, Any]]:
+    """One summary per cell (data set, label, robot, physics) of episode rows, in first-seen order; ``pooled``
+    adds, after them, one cell per robot and physics over all its instances (data set and label ``all``)."""
     cells: dict[tuple[str, ...], dict[str, dict[str, dict[str, Any]]]] = {}
     for r in rows:
         cell = tuple(str(r[k]) for k in CELL)
         cells.setdefault(cell, {}).setdefault(r["instance"], {})[r["source"]] = r
+    if pooled:  # every instance of a robot and physics, whatever its class: one more cell each
+        for cell, by_inst in list(cells.items()):
+            into = cells.setdefault(("all", "all", *cell[2:]), {})
+            into.update({f"{cell[0]}/{cell[1]}/{k}": v for k, v in by_inst.items()})
     out = []
     for cell, by_inst in cells.items():
         paired = [v for v in by_inst.values() if "gt" in v and "synth" in v]
@@ -55,7 +60,8 @@ def table_rows(rows: list[dict[str, Any]], *, seed: int = 0) -> list[dict[str, A
         summary.update(n=len(paired), unpaired=len(by_inst) - len(paired), gt=int(gt.sum()), synth=int(sy.sum()),
                        both=int((gt & sy).sum()), lost=int((gt & ~sy).sum()), gained=int((~gt & sy).sum()),
                        folds=sorted({v["gt"]["fold"] for v in paired}),
-                       split=paired[0]["gt"]["split"] if paired else None)
+                       split=(" / ".join(sorted({v["gt"]["split"] for v in paired})) if cell[0] != "all"
+                              else "each class's"))
         if paired:
             gap, lo, hi = paired_gap(gt, sy, rng=cell_rng(seed, cell))
             summary.update(gap=gap, low=lo, high=hi)

@@ -233,7 +233,7 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.table:
         rows = [r for path in args.table for r in json.loads(Path(path).read_text())["rows"]]
-        print(format_tables(table_rows(rows, seed=args.interval_seed)))
+        print(format_tables(table_rows(rows, seed=args.interval_seed, pooled=True)))
         return 0
     if not args.json:
         p.error("--json is required to run episodes")

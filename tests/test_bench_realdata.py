@@ -152,6 +152,12 @@ def test_table_counts_by_hand(table) -> None:  # noqa: ANN001
     assert c["gap"] == 0.0
     assert c["gt_outcomes"] == {"success": 2, "contact_force": 1, "no_contact": 1}
     assert c["synth_outcomes"] == {"success": 2, "no_contact": 2}
+    pooled = table.table_rows(rows, seed=0, pooled=True)
+    assert pooled[:2] == cells
+    (everything,) = pooled[2:]
+    assert (everything["label"], everything["n"], everything["gt"], everything["synth"], everything["lost"]) == (
+        "all", 5, 2, 2, 1)
+    assert everything["synth_outcomes"] == {"success": 2, "no_contact": 2, "fell": 1}
     text = table.format_tables(cells)
     assert "| ours | harness | sbu | shaking_hands | pair-disjoint | 4 | 2/4 (50 %) | 2/4 (50 %) |" in text
     assert "contact_force 1, no_contact 1 | no_contact 2 |" in text and "1 instance(s) with only one source" in text
