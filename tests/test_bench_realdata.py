@@ -193,3 +193,21 @@ def test_sbu_pushing_roles_alternate(roles) -> None:  # noqa: ANN001
     assert (counts["agent0"], counts["agent1"], counts["ambiguous"]) == (14, 16, 3)  # docs/task_format.md
     two = [v for v in sets.values() if len(v) == 2 and "ambiguous" not in v]
     assert len(two) == 11 and all(v[0] != v[1] for v in two)
+
+
+def test_an_episode_row_carries_the_metrics(bench) -> None:  # noqa: ANN001
+    support = {"outside_support_mean": 0.2, "foot_slide_cm": 3.0, "foot_slip_cm": 1.0, "torso_tilt_deg_max": 7.0}
+    metrics = {
+        "success": False, "outcome": "contact_force", "outcome_time": 1.25, "fell_at": None, "frames": 30,
+        "simulated_seconds": 2.0,
+        "subgoals": [{"name": "hands_clasped", "achieved": True, "time": 0.8}],
+        "failures": [{"kind": "self_collision", "triggered": False}, {"kind": "contact_force", "triggered": True}],
+        "contact_force_on_human_n": {"max": 312.5},
+        "support": {"mode": "harness", "episode": support, "contact_phase": {"frames": 4, "outside_support_mean": 0.3}},
+    }
+    row = bench.episode_row(metrics)
+    assert (row["success"], row["outcome"], row["outcome_time"]) == (False, "contact_force", 1.25)
+    assert row["failures"] == ["contact_force"]  # only what triggered
+    assert row["subgoals"] == {"hands_clasped": True} and row["subgoal_time_s"] == {"hands_clasped": 0.8}
+    assert row["support"]["contact_outside_support_mean"] == 0.3 and row["support"]["outside_support_mean"] == 0.2
+    assert row["max_force_on_human_n"] == 312.5
