@@ -21,7 +21,8 @@ One JSON row per episode (robot, physics, data set, label, instance, fold, sourc
 time, sub-goals, failures, support figures, CPU and wall seconds). The JSON is rewritten after every instance
 and a rerun with the same ``--json`` skips the episodes it holds (restartable); ``--datasets``, ``--labels``,
 ``--robots``, ``--offset``, ``--limit`` and ``--every`` cut a run into chunks. ``--table A.json [B.json ...]``
-prints the per data set × label × robot table (scripts/_realdata_table.py). Examples::
+prints the per data set × label × robot table (scripts/_realdata_table.py); ``--fit-only`` fits and caches the
+models without running an episode (so that runs on two robots in parallel share them). Examples::
 
     OMP_NUM_THREADS=1 python scripts/bench_realdata.py --robots ours --json rd_ours.json
     OMP_NUM_THREADS=1 python scripts/bench_realdata.py --robots unitree_h1 \\
