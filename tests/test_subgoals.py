@@ -20,7 +20,8 @@ from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.scene import ObjectSpec, Scene, build_scene, pose_compliant
 from socialaff_sim.sim.scoring import FORCE_TIME_CONSTANT, SubgoalResult, SubgoalScorer
 from socialaff_sim.sim.simulator import SimConfig, Simulator
-from socialaff_sim.sim.tasks import FailureSpec, SubgoalSpec, load_task
+from socialaff_sim.sim.stage import contact_exemptions
+from socialaff_sim.sim.tasks import ROBOT_GROUPS, FailureSpec, SubgoalSpec, load_task
 
 LAYOUT = get_layout("kinect_v2")
 
@@ -434,3 +435,14 @@ def test_a_high_five_counts_only_at_or_above_the_shoulders(robot: str) -> None:
             assert meet.state_text() == "meet: now touching below the robot's shoulders | not achieved"
     assert outcomes[False] == (False, False, 0.0, True)  # a waist-height touch is no high five
     assert outcomes[True] == (True, True, 0.01, False)  # palms meeting above the shoulders are
+
+
+@pytest.mark.parametrize(("group", "sides"), [("left_hand", [0]), ("right_hand", [1]), ("hands", [0, 1]),
+                                              ("arms", [0, 1]), ("body", [0, 1])])
+def test_every_robot_group_of_a_contact_sub_goal_has_its_hands_exempted(scene: Scene, group: str,
+                                                                        sides: list[int]) -> None:
+    assert group in ROBOT_GROUPS
+    pairs = contact_exemptions([SubgoalSpec("g", "contact", group, "left_hand", 0.1, ())], scene)
+    assert [s for s, _ in pairs] == sides
+    expected = sorted(int(g) for g in scene.human_geom_ids[list(scene.body.groups["left_hand"])])
+    assert all(sorted(geoms) == expected for _, geoms in pairs)

@@ -201,7 +201,7 @@ def key_frames_at(scene: Scene, qpos: np.ndarray, data: mujoco.MjData | None = N
 def contact_exemptions(subgoals: Sequence[SubgoalSpec], ik_scene: Scene) -> list[tuple[int, list[int]]]:
     """Hand/human geom pairs the ``contact`` sub-goals need (left out of the IK's collision avoidance):
     (hand side 0 left / 1 right, human geom ids of ``ik_scene``) per robot hand of each such sub-goal."""
-    sides = {"left_hand": (0,), "right_hand": (1,), "hands": (0, 1), "body": (0, 1)}
+    sides = {"left_hand": (0,), "right_hand": (1,), "hands": (0, 1), "arms": (0, 1), "body": (0, 1)}
     out = []
     for sg in subgoals:
         if sg.kind != "contact" or sg.human is None:
