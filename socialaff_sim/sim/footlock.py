@@ -60,6 +60,17 @@ class FootLockConfig:
     (``BalanceConfig.flat_roll_free`` on legs that cannot roll a foot: the H1, not Stubby; as
     ``hand_task_roll_free``). ``False``: on every robot."""
 
+    hold_step_gap: float | None = None
+    """d_s [m]: while a sub-goal's gap at the end of the last frame is at most this (the hands or the object about to
+    meet, in a contact, or just parted), a planted foot does not step: a target that leaves ``radius`` or rises above
+    the planted bound plants the foot at once at the target's horizontal point (at the home ankle height), as a glide
+    is planted without ``glide_step``, and no glide steps. The plan steps, the foot stays planted: the balance
+    controller holds the physical foot where it stands and carries the centre of mass toward the plan's (its
+    reference, with ``com_shift`` the feet's shortfall), and the harness catches no step. A robot on a 3 cm sole
+    cannot take a quick step without the harness catching it: on the H1 the catch of a recorded step at the meeting
+    held 8.5 of the high fives' 16.3 points (docs/design.md §5, issue 25, session 35, wip/h1hold). ``hold_near``'s
+    backing steps are held where they stand as without it. ``None``: the targets decide. ``hold_near_roll_free``
+    drops it with ``hold_near`` (on Stubby)."""
     land_gap: float | None = None
     """d_l [m]: while a sub-goal's gap at the end of the last frame is at most this (the hands about to meet, in
     contact, or just parted), a foot that is not planted at a frame's start is put down at its target's horizontal
@@ -137,6 +148,8 @@ class FootLockConfig:
                               f"{self.hold_lift}")
         if self.land_gap is not None and not self.land_gap >= 0.0:
             raise ConfigError(f"FootLockConfig.land_gap: expected None or a distance ≥ 0 m, found {self.land_gap}")
+        if self.hold_step_gap is not None and not self.hold_step_gap >= 0.0:
+            raise ConfigError(f"FootLockConfig.hold_step_gap: expected None or a distance ≥ 0 m, found {self.hold_step_gap}")
         if self.hold_near is not None and not self.hold_near >= 0.0:
             raise ConfigError(f"FootLockConfig.hold_near: expected None or a distance ≥ 0 m, found {self.hold_near}")
 
@@ -169,6 +182,12 @@ class FootLock:
         d = self.config.hold_near
         return d is not None and any(g is not None and g <= d for g in gaps)
 
+    def stepless(self, gaps: Iterable[float | None]) -> bool:
+        """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``hold_step_gap``; ``False``
+        without it."""
+        d = self.config.hold_step_gap
+        return d is not None and any(g is not None and g <= d for g in gaps)
+
     def landing(self, gaps: Iterable[float | None]) -> bool:
         """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``land_gap``; ``False``
         without it."""
@@ -199,7 +218,7 @@ class FootLock:
 
     def apply(self, ankles: np.ndarray, touching: bool = False, physical: np.ndarray | None = None,
               new_frame: bool = True, caught: bool = False, near: bool = False,
-              person: np.ndarray | None = None, land: bool = False) -> np.ndarray:
+              person: np.ndarray | None = None, land: bool = False, still: bool = False) -> np.ndarray:
         """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted;
         ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted);
         ``physical`` (2, 3): the physical ankle frames (world, m), which ``glide_gap`` needs; ``new_frame``:
@@ -209,7 +228,9 @@ class FootLock:
         :meth:`near`), and ``person`` (2,) the person's horizontal position (world, m): with ``hold_in_contact``,
         planted feet whose targets step away from the person then stay planted (:meth:`backing`); ``land``: a
         sub-goal's gap at the end of the last frame is within ``land_gap`` (:meth:`landing`): in a new frame, a foot
-        not planted is then put down at its target's point."""
+        not planted is then put down at its target's point; ``still``: a sub-goal's gap at the end of the last frame
+        is within ``hold_step_gap`` (:meth:`stepless`): a planted foot's step then plants it at once at its target's
+        horizontal point (no foot is lifted, no glide steps)."""
         if self.needs_physical and physical is None:
             raise SimulationError("FootLock.apply: glide_gap and restep_gap need the physical ankle frames")
         out = np.array(ankles, dtype=np.float64)
@@ -237,7 +258,7 @@ class FootLock:
         hold = c.lift if c.hold_lift is None else c.hold_lift
         glide, wait = None, [False, False]
         if c.glide_step is not None:  # within a frame the frame's decision stands
-            if held or (c.glide_until_contact and self._touched) or (c.plant_caught and caught):
+            if held or still or (c.glide_until_contact and self._touched) or (c.plant_caught and caught):
                 self._last, self._wait = None, wait
             elif new_frame:
                 glide, wait = self._gliding(out, hold, physical)
@@ -257,7 +278,8 @@ class FootLock:
                 self._glide = (s, out[s].copy())
                 self._glide_left = c.glide_step_frames - 1
                 self.glide_steps += 1
-            elif rise <= c.lift or (land and new_frame and p is None):  # (land: lifted in an earlier frame)
+            elif rise <= c.lift or (land and new_frame and p is None) or (still and p is not None):
+                # (land: lifted in an earlier frame; still: a step of a planted foot planted at once where it goes)
                 self.planted[s] = np.array([t[0], t[1], self.home_height[s]])
                 out[s] = self.planted[s]
             else:

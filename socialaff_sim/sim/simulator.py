@@ -163,7 +163,7 @@ class Simulator:
             bal.harness.gate_touched(self.task.has_catch)
         if lock is not None and lock.hold_near_roll_free and not (bal is not None and bal.roll_freed):
             lock = dataclasses.replace(lock, hold_near=None, hold_near_roll_free=False,
-                                       land_gap=None)  # (Stubby: the gate's "no")
+                                       land_gap=None, hold_step_gap=None)  # (Stubby: the gate's "no")
         self._footlock = None if lock is None else FootLock(
             (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), lock)
         if self.carry is not None and self.carry.release_frame == 0:
@@ -253,7 +253,8 @@ class Simulator:
                                               caught=bal is not None and bal.harness.holds_caught,
                                               near=last is not None and self._footlock.near(last.subgoal_gaps.values()),
                                               person=self._person_xy(t1) if self._footlock.config.hold_near is not None else None,
-                                              land=last is not None and self._footlock.landing(last.subgoal_gaps.values()))
+                                              land=last is not None and self._footlock.landing(last.subgoal_gaps.values()),
+                                              still=last is not None and self._footlock.stepless(last.subgoal_gaps.values()))
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
