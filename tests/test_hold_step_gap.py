@@ -109,7 +109,7 @@ def test_the_simulator_passes_the_last_frames_gaps_and_the_gate_drops_it_on_stub
     with the option on; under ``hold_near_roll_free`` (Stubby's feet's roll is not freed) the option is dropped."""
     inter = generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=121)).by_id("pull_up_120")
     base = SimConfig.standing()
-    off = dataclasses.replace(base.foot_lock, hold_near_roll_free=False, hold_near=None)
+    off = dataclasses.replace(base.foot_lock, hold_near_roll_free=False, hold_near=None, hold_step_gap=None)
     runs = {name: foot_lock_keyword(dataclasses.replace(base, foot_lock=lock), inter, "still") for name, lock in (
         ("off", off), ("on", dataclasses.replace(off, hold_step_gap=0.3)),
         ("gated", dataclasses.replace(off, hold_step_gap=0.3, hold_near=0.1, hold_near_roll_free=True)))}

@@ -48,13 +48,14 @@ harness on nor makes it catch (rule on Stubby's 528–535, session 34). Once an 
 object, the floor forces the controller plans stay within a friction cone of 0.35 instead of 0.7, so a sole rocked
 onto an edge is not asked for the sideways force that slides it (rule on Stubby's and the H1's 560–575, session 34)."""
 STANDING_FOOT_LOCK = FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05, glide_until_contact=True,
-                                    glide_gap=0.12, hold_near=0.1, hold_near_roll_free=True)
+                                    glide_gap=0.12, hold_near=0.1, hold_near_roll_free=True, hold_step_gap=0.3)
 """The foot lock of :meth:`SimConfig.standing`: a planted foot stays planted up to 12 cm of recorded rise, and
 whatever the recording's feet do while a sub-goal's contact holds; in the walk-up (before the first contact) a
 foot whose target glides along the floor while the physical foot stands more than 12 cm behind it steps (raised
 5 cm for a frame), so that the robot does not stay behind its plan; on a robot whose feet's roll is freed (the H1),
-a planted foot does not step away from the person while a sub-goal's gap is within 10 cm (docs/design.md §5,
-issue 25)."""
+a planted foot does not step away from the person while a sub-goal's gap is within 10 cm, and while a gap is
+within 30 cm a recorded step is planted in the plan at once while the physical foot stays (rule #51, session 35;
+docs/design.md §5, issue 25)."""
 
 
 STANDING_STANCE = StanceConfig(release=False, strike_lean=30.0, strike_lean_above=True)
