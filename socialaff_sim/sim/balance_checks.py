@@ -49,6 +49,12 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
                                              and c.compensation_gate is not None):
         raise ConfigError(f"BalanceConfig.touch_friction: expected None or μ_t > 0 with arm_compensation and "
                           f"compensation_gate (the touch latch), found {c.touch_friction}")
+    if c.shear_spread is not None and not (c.shear_spread > 0.0 and c.solver == "qp"):
+        raise ConfigError(f"BalanceConfig.shear_spread: expected None or w_s > 0 with solver='qp', found "
+                          f"{c.shear_spread} with solver {c.solver!r}")
+    if c.shear_spread_touched and (c.shear_spread is None or c.arm_compensation is None or c.compensation_gate is None):
+        raise ConfigError("BalanceConfig.shear_spread_touched: needs shear_spread and the touch latch (arm_compensation "
+                          "and compensation_gate)")
     if c.qp_kernel not in KERNELS or (c.qp_kernel != "numpy" and c.solver != "qp"):
         raise ConfigError(f"BalanceConfig.qp_kernel: expected one of {', '.join(KERNELS)} (numba with solver='qp'), "
                           f"found {c.qp_kernel!r} with solver {c.solver!r}")

@@ -22,7 +22,7 @@ class BalanceConfig:
       plan_velocity_tilt, angmom_weight, angmom_bandwidth,
       angmom_root_still, angmom_about_feet,
       support_margin, external_forces, external_filter
-    - Contact forces: solver, friction, touch_friction, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
+    - Contact forces: solver, friction, touch_friction, shear_spread, shear_spread_touched, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, cop_foot_axes, cop_corner_share, min_foot_load, torque_fraction, flat_feet, yaw_first,
       flat_roll_free
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
@@ -127,6 +127,16 @@ class BalanceConfig:
     tangential-to-normal ratio keeps the shear off the lightly loaded corners of a sole that rocks in a pull
     (traced: a sole on one corner carried 0.5–0.7 of its load as shear and slipped; docs/design.md §5, issue 25,
     session 34, wip/pullslip). ``None``: ``friction`` throughout."""
+    shear_spread: float | None = None
+    """w_s [—]: ``qp``: a cost ½ w_s Σ_p ‖t_p − t̄‖² on the planned contact forces' horizontal components t_p about
+    their mean t̄ over the feet's contact points (forces divided by the robot's mass, m/s², as ``w_force``'s;
+    :mod:`~.shear_spread`): the feet's opposed shears (a sideways squeeze, a turn about the vertical) cost w_s, the
+    net horizontal force nothing more (traced: Stubby's pull-ups' soles slip on an edge under the QP's own opposed
+    shears, docs/design.md §5, issue 25, session 35, wip/pullslip2). ``None``: no such cost."""
+    shear_spread_touched: bool = False
+    """[—]: ``shear_spread``'s cost only once an arm has touched the person or the object in the episode (the latch
+    ``touch_friction`` reads; needs ``arm_compensation`` and ``compensation_gate``): a high five's strike, before the
+    touch, as without it. ``False``: at every solve."""
     w_dynamics: float = 1000.0
     """[—]: weight of the equation of motion's unactuated rows (root) in the least squares (nearly hard)."""
     w_feet: float = 30.0

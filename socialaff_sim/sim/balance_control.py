@@ -61,6 +61,7 @@ from .harness_release import HarnessRelease
 from .plan_velocity import PlanVelocity
 from .scene import Scene
 from .self_clearance import SelfClearance
+from .shear_spread import shear_spread_cost
 from .support_box import SupportBox
 from .torque_hold import TorqueHold
 
@@ -146,6 +147,7 @@ class BalanceController:
         self._joint_diag = np.concatenate([np.zeros(6), scale])  # the same rows as the QP's diagonal task
         self._foot_scratch = (np.zeros((6, m.nv)), np.zeros((6, m.nv)))
         self._edges: tuple[bytes, np.ndarray] = (b"", np.zeros((0, 3, 4)))  # the last frames' cone edges
+        self._spread: np.ndarray | None = None  # shear_spread: their cost on the shear's spread (:mod:`~.shear_spread`)
         self._soles_now: list[np.ndarray | None] = [None] * len(self._feet)  # the step's soles, world (soles_at)
         self._M = np.zeros((m.nv, m.nv))
         self._jp, self._jr, self._quat, self._rot = np.zeros((3, m.nv)), np.zeros((3, m.nv)), np.zeros(4), np.zeros(3)
@@ -362,11 +364,13 @@ class BalanceController:
         tasks.append((self._joint_rows, joints, c.w_joint))
         key = frames.tobytes()  # with flat_feet the same level frames step after step: their edges made once
         mu = c.friction
-        if c.touch_friction is not None and bool(self.compensation.touched.any()):  # type: ignore[union-attr]
+        touched = self.compensation is not None and bool(self.compensation.touched.any())  # the episode's latch
+        if c.touch_friction is not None and touched:
             mu, key = c.touch_friction, key + b"t"  # after the first touch: the touch's cones
         if key != self._edges[0]:
             self._edges = (key, cone_edges(frames, mu))
             self._edges[1].flags.writeable = False
+            self._spread = None if c.shear_spread is None else shear_spread_cost(self._edges[1], c.shear_spread)
         edges = self._edges[1]
         if c.solver == "lsq":
             return solve_contact_dynamics(M, h, self.unactuated, jac, edges, tasks, self.mass, c.w_dynamics,
@@ -386,6 +390,7 @@ class BalanceController:
                                cop_constraint_rows(c, pts, edges, foot, box.R, self._soles_now, d.xmat, self._feet,
                                                    self._foot_fwd, c.qp_kernel), foot, c.min_foot_load * self.mass * self._g,
                                equalities=eq, inequalities=ineq, kernel=c.qp_kernel,
+                               force_cost=self._spread if touched or not c.shear_spread_touched else None,
                                optional=None if eq is None or not c.yaw_first else yaw_rows(len(eq[1])))
         self.yaw_dropped_steps += int(res.optional_dropped)
         self.limit_steps += int(res.at_limit.any())

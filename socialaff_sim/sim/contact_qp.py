@@ -8,7 +8,8 @@ minimises
 
     Σ_k w_k ‖A_k q̈ − b_k‖² + w_f ‖β'‖² + ε ‖q̈‖²
 
-(the tasks as in the least-squares solve, a small regularisation of the forces and of q̈) subject to
+(the tasks as in the least-squares solve, a small regularisation of the forces and of q̈; optionally a further cost
+on the forces, ``force_cost``: the feet's shear beyond the net, :mod:`~.shear_spread`) subject to
 
 * the unactuated rows of ``M q̈ + h = Sᵀτ + Gβ`` (the root's six; equalities);
 * β ≥ 0: every contact force pushes and stays inside its friction pyramid;
@@ -158,7 +159,8 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
                      foot: np.ndarray | None = None, min_load: float = 0.0, w_reg: float = 1e-6,
                      equalities: tuple[np.ndarray, np.ndarray] | None = None,
                      inequalities: tuple[np.ndarray, np.ndarray] | None = None,
-                     optional: np.ndarray | None = None, kernel: str = "numpy") -> ContactQPResult:
+                     optional: np.ndarray | None = None, kernel: str = "numpy",
+                     force_cost: np.ndarray | None = None) -> ContactQPResult:
     """Accelerations, contact forces and torques of a standing robot under hard constraints (module docstring).
 
     ``M`` (n, n), ``h`` (n,): mass matrix and bias forces (N, N·m); ``unactuated`` (n,) bool: coordinates
@@ -174,7 +176,9 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     those relaxations: the problem is solved again without them (``optional_dropped``), and only if that fails too
     the relaxations follow; ``inequalities``: (A (r, n), lo (r,)) rows ``A q̈ ≥ lo``
     that must hold (m/s²), kept through both of those relaxations and dropped last, when they cannot hold with the
-    root's rows and the torque limits alone (``inequalities_dropped``); ``w_reg``: ε, the regularisation of q̈. Should DAQP fail (it should not: free fall is
+    root's rows and the torque limits alone (``inequalities_dropped``); ``w_reg``: ε, the regularisation of q̈;
+    ``force_cost`` (4P, 4P): a further quadratic cost ½ β'ᵀ W β' on the scaled cone weights, added to the cost's
+    force block (symmetric, positive semidefinite; :mod:`~.shear_spread`). Should DAQP fail (it should not: free fall is
     feasible), the result is free fall (β = 0, τ = 0, ``found=False``) and a warning is logged.
     """
     n = M.shape[0]
@@ -198,10 +202,12 @@ def solve_contact_qp(M: np.ndarray, h: np.ndarray, unactuated: np.ndarray, point
     rows = (M, h, order, nu, point_jac, edges, tasks, w_force, w_reg, mass, lim, inequalities if has_ineq else None,
             equalities if has_eq else None, loaded, foot, min_load, cop)
     if kernel == "numba":  # one compiled loop (:mod:`~.qp_kernel`), and DAQP on its scaled rows
-        H, f, G, A_all, up, lo, sn, first = compiled_rows(*rows)
+        H, f, G, A_all, up, lo, sn, first = compiled_rows(*rows, force_cost)
         x, flag = first if first is not None else _daqp(H, f, K, A_all, up, lo, sn)
     else:
         H, f, G, A_all, up, lo, sn = _numpy_rows(*rows, R)
+        if force_cost is not None:
+            H[:K, :K] += force_cost
         x, flag = _daqp(H, f, K, A_all, up, lo, sn)
     optional_dropped = False
     if flag <= 0 and has_eq and optional is not None and np.any(optional):  # without the optional hard rows only

@@ -193,10 +193,10 @@ def compiled_rows(M: np.ndarray, h: np.ndarray, order: np.ndarray, nu: int, poin
                   tasks: list[tuple[np.ndarray, np.ndarray, float]], w_force: float, w_reg: float, mass: float,
                   lim: np.ndarray, inequalities: tuple[np.ndarray, np.ndarray] | None,
                   equalities: tuple[np.ndarray, np.ndarray] | None, loaded: np.ndarray, foot: np.ndarray | None,
-                  min_load: float, cop: np.ndarray | None) -> tuple[Any, ...]:
+                  min_load: float, cop: np.ndarray | None, force_cost: np.ndarray | None = None) -> tuple[Any, ...]:
     """:func:`~.contact_qp.solve_contact_qp`'s H, f, G and unscaled rows A, up, lo, senses (as its NumPy assembly
     returns them), and DAQP's ``(x, flag)`` on the rows scaled here (``None`` when a row is empty: the caller
-    scales and drops it as with NumPy)."""
+    scales and drops it as with NumPy); ``force_cost`` (4P, 4P) added to H's force block, as the NumPy path adds it."""
     n = M.shape[0]
     full = [(A, b, w) for A, b, w in tasks if A.ndim == 2]
     diag = [(A, b, w) for A, b, w in tasks if A.ndim == 1]
@@ -216,6 +216,8 @@ def compiled_rows(M: np.ndarray, h: np.ndarray, order: np.ndarray, nu: int, poin
         np.ascontiguousarray(EA, dtype=np.float64), np.asarray(Eb, dtype=np.float64), loaded,
         np.zeros(P, dtype=np.int64) if foot is None else np.asarray(foot, dtype=np.int64), float(min_load),
         np.zeros((0, 4 * P)) if cop is None else np.ascontiguousarray(cop, dtype=np.float64))
+    if force_cost is not None:
+        H[:4 * P, :4 * P] += force_cost
     first = None
     if ok:
         x, _, flag, _ = daqp.solve(H, f, As, bu, bl, s5)
