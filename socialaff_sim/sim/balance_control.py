@@ -331,8 +331,8 @@ class BalanceController:
             p = np.array([goal[0], goal[1], floor])
             goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
         goal = box.clip(goal, c.support_margin)
-        moving = self.plan_velocity is not None and self.plan_velocity.follows(  # the touch latch, the tilt bound
-            self.compensation is not None and bool(self.compensation.touched.any()), self._step_tilt)
+        touched = self.compensation is not None and bool(self.compensation.touched.any())  # the episode's latch
+        moving = self.plan_velocity is not None and self.plan_velocity.follows(touched, self._step_tilt)
         if c.com_plan_velocity and moving:  # the damping toward the plan's velocity (relative to the feet), not rest
             tasks.append((jcom[:2], wc * wc * (goal - com[:2]) + 2.0 * zc * wc * (self.plan_velocity.com - comvel[:2]),  # type: ignore[union-attr]
                           w_com))
@@ -364,7 +364,6 @@ class BalanceController:
         tasks.append((self._joint_rows, joints, c.w_joint))
         key = frames.tobytes()  # with flat_feet the same level frames step after step: their edges made once
         mu = c.friction
-        touched = self.compensation is not None and bool(self.compensation.touched.any())  # the episode's latch
         if c.touch_friction is not None and touched:
             mu, key = c.touch_friction, key + b"t"  # after the first touch: the touch's cones
         if key != self._edges[0]:
