@@ -20,7 +20,8 @@ Physics: ``--physics harness`` (``SimConfig()``, the default) or ``standing`` (`
 One JSON row per episode (robot, physics, data set, label, instance, fold, source, success, outcome code and
 time, sub-goals, failures, support figures, CPU and wall seconds). The JSON is rewritten after every instance
 and a rerun with the same ``--json`` skips the episodes it holds (restartable); ``--datasets``, ``--labels``,
-``--robots``, ``--offset``, ``--limit`` and ``--every`` cut a run into chunks. ``--table A.json [B.json ...]``
+``--robots``, ``--offset``, ``--limit`` and ``--every`` cut a run into chunks; ``--completion FIELD=VALUE``
+sets fields of the contact completion (``ContactCompletionConfig``) for a development or rule run. ``--table A.json [B.json ...]``
 prints the per data set × label × robot table (scripts/_realdata_table.py); ``--fit-only`` fits and caches the
 models without running an episode (so that runs on two robots in parallel share them). Examples::
 
@@ -40,6 +41,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import argparse  # noqa: E402
+import dataclasses  # noqa: E402
 import json  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
@@ -49,6 +51,7 @@ from typing import Any  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _config_flags import field_settings  # noqa: E402
 from _realdata_table import format_tables, table_rows  # noqa: E402
 
 from socialaff_sim._atomic import atomic_write_text  # noqa: E402
@@ -59,6 +62,7 @@ from socialaff_sim.evaluation.splits import make_folds, recording_of  # noqa: E4
 from socialaff_sim.inference.presets import preset  # noqa: E402
 from socialaff_sim.inference.protocol import DEFAULT_N_OBSERVED  # noqa: E402
 from socialaff_sim.learning.estimator import SocialAffordanceModel  # noqa: E402
+from socialaff_sim.retarget.contact_completion import ContactCompletionConfig  # noqa: E402
 from socialaff_sim.retarget.model_source import model_source  # noqa: E402
 from socialaff_sim.retarget.robot import load_robot  # noqa: E402
 from socialaff_sim.retarget.sources import GroundTruthSource  # noqa: E402
@@ -156,6 +160,9 @@ def run(args: argparse.Namespace) -> int:
     cache.mkdir(parents=True, exist_ok=True)
     mjcf = dict(item.split("=", 1) for item in args.mjcf)
     config = SimConfig.mode(args.physics)
+    if args.completion_fields and config.contact_completion is not None:
+        config = dataclasses.replace(config, contact_completion=dataclasses.replace(
+            config.contact_completion, **args.completion_fields))
     run_info = {"argv": sys.argv[1:], "seed": args.seed, "physics": args.physics, "n_folds": N_FOLDS,
                 "n_observed": DEFAULT_N_OBSERVED, "started": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())}
     tic_wall, tic_cpu = time.perf_counter(), time.process_time()
@@ -230,8 +237,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--table", nargs="+", metavar="JSON", help="print the table of these JSONs instead of running")
     p.add_argument("--interval-seed", type=int, default=0, help="seed of the paired bootstrap (default 0)")
     p.add_argument("--fit-only", action="store_true", help="fit (and cache) every fold's model, run no episode")
+    p.add_argument("--completion", nargs="*", default=[], metavar="FIELD=VALUE",
+                   help="ContactCompletionConfig fields (Python literals), e.g. reach_carried=True")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
+    args.completion_fields = field_settings(p, "--completion", ContactCompletionConfig, args.completion)
     if args.table:
         rows = [r for path in args.table for r in json.loads(Path(path).read_text())["rows"]]
         print(format_tables(table_rows(rows, seed=args.interval_seed, pooled=True)))

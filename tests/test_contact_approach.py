@@ -10,7 +10,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from test_contact_completion import scene, settle
+from test_contact_completion import R, scene, settle
 from test_retarget import ROBOT, pair
 
 from socialaff_sim.errors import ConfigError
@@ -210,3 +210,51 @@ def test_keep_holds_the_person_hand_being_completed(keep: bool) -> None:
     assert gaps[1] < gaps[0] < c.capture
     stage(drift, 3, 0.1)
     assert stage.anchor[1] == (0 if keep else 1)
+
+
+def test_reach_carried_captures_a_carried_object_for_the_nearer_hand_only_when_on() -> None:
+    c = ContactCompletionConfig()
+    assert not c.reach_carried
+    cup = scene(c.capture + 0.2, shared=True)  # carried (free=False), within reach, beyond the capture distance
+    # Off (the default): a carried object beyond the capture distance is met where the model meets it.
+    np.testing.assert_array_equal(settle(ContactCompletion(c), cup), cup.wrist_target)
+    on = dataclasses.replace(c, reach_carried=True)
+    stage = ContactCompletion(on)
+    out = settle(stage, cup)
+    np.testing.assert_allclose(out[1], ContactCompletion(on).contact_targets(cup)[1, 0], atol=1e-12)
+    # Only the hand of smallest intended gap (the right; the left is 2 m away): the left keeps the model's target.
+    assert stage.anchor.tolist() == [-1, 0] and stage.weight.tolist() == [0.0, 1.0]
+    np.testing.assert_array_equal(out[0], cup.wrist_target[0])
+
+
+def test_reach_carried_leaves_a_free_object_a_disallowed_one_and_one_beyond_reach_alone() -> None:
+    on = ContactCompletionConfig(reach_carried=True)
+    cup = scene(on.capture + 0.2, shared=True)
+    for x in (dataclasses.replace(cup, free=True),  # let go: only the intended gap (or intent) captures it
+              dataclasses.replace(cup, allowed=np.zeros((2, 1), dtype=bool)),  # the task does not want it now
+              scene(on.capture + 0.2, shared=True, shoulder_x=-1.5)):  # beyond the arm's reach
+        np.testing.assert_array_equal(settle(ContactCompletion(on), x), x.wrist_target)
+
+
+def test_reach_carried_picks_the_hand_of_smallest_intended_gap() -> None:
+    on = ContactCompletionConfig(reach_carried=True)
+    cup = scene(on.capture + 0.2, shared=True)
+    # Bring the left hand nearer than the right (intended gap 0.4 vs the right's 0.5 m), its shoulder within reach.
+    nearest, wrist_now = cup.nearest.copy(), cup.wrist_now.copy()
+    nearest[0, 0] = (1.0 - R - 0.4, 0.05, 1.2)
+    wrist_now[0] = nearest[0, 0] - (0.1, 0.0, 0.0)
+    target = cup.wrist_target.copy()
+    target[0] = wrist_now[0]
+    shoulder = cup.shoulder.copy()
+    shoulder[0] = (0.3, 0.05, 1.2)
+    x = dataclasses.replace(cup, nearest=nearest, wrist_now=wrist_now, wrist_target=target, shoulder=shoulder)
+    gaps = ContactCompletion(on).intended_gaps(x)[:, 0]
+    assert gaps[0] < gaps[1]
+    stage = ContactCompletion(on)
+    settle(stage, x)
+    assert stage.anchor.tolist() == [0, -1] and stage.weight[0] == 1.0
+    # The nearer hand not allowed on it: the other, allowed hand reaches for it.
+    only_right = dataclasses.replace(x, allowed=np.array([[False], [True]]))
+    stage = ContactCompletion(on)
+    settle(stage, only_right)
+    assert stage.anchor.tolist() == [-1, 0] and stage.weight[1] == 1.0
