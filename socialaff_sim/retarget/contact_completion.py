@@ -37,7 +37,7 @@ servos that overshoot).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -57,7 +57,7 @@ class ContactCompletionConfig:
 
     Fields by concept
     -----------------
-    - When: capture, engage, reach, reach_band, intent, keep, approach, reach_carried
+    - When: capture, engage, reach, reach_band, intent, keep, approach, release_met, reach_carried
     - Where: press, catch_flight, catch_approach, flight_horizon, flight_lead, hand_speed, flight_pace
     - How fast: ramp
     """
@@ -90,6 +90,14 @@ class ContactCompletionConfig:
     approach: bool = True
     """[—]: Whether, in such a frame or one before it, a person's hand held out beyond the robot's reach moves the
     robot in (:meth:`~socialaff_sim.retarget.scaling.KeyJointScaler.approach`; online placement only)."""
+    release_met: bool = False
+    """[—]: Whether a person's hand is no longer captured once the task's touches are met (``CompletionInput.met``:
+    every contact sub-goal with the person met by a touch, its ``min_duration`` shorter than a data frame, has been
+    met: a high five's strike is over): the hand then ramps out (``ramp``) to the model's target, as a hand whose
+    anchor is no longer wanted. Objects are captured as without it. Off (``False``): a met touch is chased on, and
+    the standing high_five_007's hand, held on the person's palm after the meeting, followed it down onto the
+    person's head and upper arm (311–332 N a frame; docs/design.md §5, "The ground-truth high five's press after
+    the meeting released")."""
 
     reach_carried: bool = False
     """[—]: Whether an object the person still carries (not free) that the task wants a robot hand on is captured,
@@ -194,6 +202,9 @@ class CompletionInput:
     wanting it now (read with ``ContactCompletionConfig.catch_flight``)."""
     flight: FlightState | None = None
     """The free object's state now, for its predicted flight (``None``: unknown)."""
+    met: bool = False
+    """Whether the task's touches have all been met by now (contact sub-goals with the person met by a touch; read
+    with ``ContactCompletionConfig.release_met``; ``False`` in a task with none)."""
 
 
 class ContactCompletion:
@@ -320,6 +331,8 @@ class ContactCompletion:
                     s = int(np.argmin(closest))
                     if when[s] <= c.flight_lead:  # the ball near its point: the hand goes (earlier, it tips a trunk)
                         targets[s, a], beyond[s, a], flying[s] = ft[s], fb[s], True
+            if c.release_met and x.met:  # the touch is over: the person's hands are no longer wanted
+                x = replace(x, allowed=x.allowed & x.shared[None, :])
             reaching = self._reaching(x, gaps)
             choice = self._assign(gaps, x, beyond, flying | reaching)
             for s in (0, 1):

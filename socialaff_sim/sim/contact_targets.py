@@ -123,14 +123,16 @@ class ContactAnchors:
     def gather(self, data: mujoco.MjData, wrist_target: np.ndarray, wrist_commanded: np.ndarray,
                person_hands: np.ndarray, object_centre: np.ndarray | None, arm: float,
                subevent: str | None, intent: bool = False, offered: int | None = None,
-               free: bool = False, inside: bool = False, catch: bool = False, flight: FlightState | None = None) -> CompletionInput:
+               free: bool = False, inside: bool = False, catch: bool = False, flight: FlightState | None = None,
+               met: bool = False) -> CompletionInput:
         """The stage's input: ``wrist_target`` (2, 3) from the model, ``wrist_commanded`` (2, 3) the wrists of
         the latest IK solution, the person's hand centres at frame t ``person_hands`` (2, 3), the object's
         centre at t (``None``: no object or it is parked), world frame; ``intent``: the source's model means to
         touch now; ``offered``: with ``intent`` and ``inside``, the person's hand held out (0 left, 1 right;
         :func:`offered_hand`), the only one of theirs the robot may meet (None: either); ``free``: the object moves freely (thrown or let go);
         ``inside``: the model's contact is a keyframe inside the sub-event; ``catch``: a catch sub-goal's window is open
-        (:meth:`catch_window`); ``flight``: the free object's state now (:meth:`flight`).
+        (:meth:`catch_window`); ``flight``: the free object's state now (:meth:`flight`); ``met``: the task's touches are
+        met (``CompletionInput.met``).
 
         The hands' nearest points are the physical ones: moved by as much as the commanded wrist moves, the
         physical hand keeps its offset from the IK's (a servo's tracking error, an arm sagging under its
@@ -141,7 +143,7 @@ class ContactAnchors:
             nearest=self.nearest(data), centre=centre, radius=self.radius, shared=self.shared, allowed=allowed,
             shoulder=np.array(data.xpos[self.scene.limb_body_ids[:2]], dtype=np.float64),
             arm=float(arm), intent=bool(intent),
-            free=bool(free), inside=bool(inside), catch=bool(catch), flight=flight,
+            free=bool(free), inside=bool(inside), catch=bool(catch), flight=flight, met=bool(met),
         )
 
     def wanted(self, data: mujoco.MjData, person_hands: np.ndarray, object_centre: np.ndarray | None,

@@ -83,11 +83,21 @@ class FrameTargets:
             return None
         return self.completion.weight.copy()
 
+    def touches_met(self, subgoals: dict[str, bool] | None) -> bool:
+        """Whether the task's touches are all met by ``subgoals`` (each sub-goal's success so far; ``None``: none
+        yet): its contact sub-goals with the person met by a touch (``min_duration`` shorter than one data frame: a
+        high five's or a fist bump's, not a handshake's or a grip's); ``False`` in a task with none."""
+        dt = 1.0 / self.interaction.fps
+        touches = [sg.name for sg in self.task.subgoals if sg.kind == "contact" and sg.min_duration < dt]
+        return bool(touches) and subgoals is not None and all(subgoals.get(n, False) for n in touches)
+
     def __call__(self, keys: np.ndarray, t: int, pose: HumanPose, now: int, data: mujoco.MjData, released: bool,
-                 subevent: str | None, contact: bool, contact_inside: bool, contact_inside_next: bool) -> np.ndarray:
+                 subevent: str | None, contact: bool, contact_inside: bool, contact_inside_next: bool,
+                 subgoals: dict[str, bool] | None = None) -> np.ndarray:
         """(5, 3) robot-frame targets for frame ``t`` from agent 1's ``keys`` (5, 3) in the data frame, the person
         posed by ``pose``, the simulator at frame ``now`` with physics ``data``, the carried object ``released``
-        or not; the flags as in :meth:`~socialaff_sim.sim.simulator.Simulator.retarget`."""
+        or not, each sub-goal's success so far ``subgoals`` (the last frame's; ``None``: no frame yet); the flags as
+        in :meth:`~socialaff_sim.sim.simulator.Simulator.retarget`."""
         place = self.place
         world_keys = np.asarray(keys, dtype=np.float64) + place.offset
         if self.completion is None:
@@ -114,7 +124,7 @@ class FrameTargets:
         world = place.frame.to_world(out)
         x = anchors.gather(data, world[1:3], self.ik.frame_positions()[1:3], hands, obj, self.arm, subevent,
                            intent=contact, offered=offered, free=moving, inside=contact_inside,
-                           catch=catch, flight=flight)
+                           catch=catch, flight=flight, met=cc.release_met and self.touches_met(subgoals))
         world[1:3] = self.completion(x, t, 1.0 / fps)
         self._completed_frame = t
         return place.frame.to_robot(world)

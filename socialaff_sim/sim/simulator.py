@@ -201,7 +201,7 @@ class Simulator:
         t = self.frame + 1 if frame is None else frame
         t = min(max(t, 0), self.n_frames - 1)
         return self._targets(keys, t, self.pose, self.frame, self.data, self._released, subevent, contact,
-                             contact_inside, contact_inside_next)
+                             contact_inside, contact_inside_next, self.results[-1].subgoals if self.results else None)
 
     def object_anchors(self, frame: int) -> np.ndarray | None:
         """(K, 3) world frame: the recorded object at ``frame`` and its path over the next
