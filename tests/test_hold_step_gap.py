@@ -104,17 +104,20 @@ def test_hold_step_gap_is_checked() -> None:
     assert FootLockConfig().hold_step_gap is None and FootLockConfig(hold_step_gap=0.0).hold_step_gap == 0.0
 
 
-def test_the_simulator_passes_the_last_frames_gaps_and_the_gate_drops_it_on_stubby() -> None:
-    """On a standing Stubby pull-up (spent instance pull_up_120) the foot lock gets ``still=True`` in some call only
-    with the option on; under ``hold_near_roll_free`` (Stubby's feet's roll is not freed) the option is dropped."""
+@pytest.mark.parametrize(("option", "keyword"), [("hold_step_gap", "still"), ("land_gap", "land")])
+def test_the_simulator_passes_the_last_frames_gaps_and_the_gate_drops_it_on_stubby(option: str, keyword: str) -> None:
+    """On a standing Stubby pull-up (spent instance pull_up_120) the foot lock gets ``still=True`` (``hold_step_gap``)
+    or ``land=True`` (``land_gap``) in some call only with the option on; under ``hold_near_roll_free`` (Stubby's
+    feet's roll is not freed) the option is dropped."""
     inter = generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=121)).by_id("pull_up_120")
     base = SimConfig.standing()
-    off = dataclasses.replace(base.foot_lock, hold_near_roll_free=False, hold_near=None, hold_step_gap=None)
-    runs = {name: foot_lock_keyword(dataclasses.replace(base, foot_lock=lock), inter, "still") for name, lock in (
-        ("off", off), ("on", dataclasses.replace(off, hold_step_gap=0.3)),
-        ("gated", dataclasses.replace(off, hold_step_gap=0.3, hold_near=0.1, hold_near_roll_free=True)))}
+    off = dataclasses.replace(base.foot_lock, hold_near_roll_free=False, hold_near=None, hold_step_gap=None,
+                              land_gap=None)
+    runs = {name: foot_lock_keyword(dataclasses.replace(base, foot_lock=lock), inter, keyword) for name, lock in (
+        ("off", off), ("on", dataclasses.replace(off, **{option: 0.3})),
+        ("gated", dataclasses.replace(off, **{option: 0.3}, hold_near=0.1, hold_near_roll_free=True)))}
     calls = {name: seen for name, (seen, _) in runs.items()}
     assert calls["off"] and not any(calls["off"])
     assert any(calls["on"])
     assert calls["gated"] and not any(calls["gated"])
-    assert runs["gated"][1].hold_step_gap is None
+    assert getattr(runs["gated"][1], option) is None

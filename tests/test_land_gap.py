@@ -1,23 +1,17 @@
 """Steps near the grip that last one frame (FootLockConfig(land_gap=...)): the gap's decision (within d_l, boundary
 included; unmeasured gaps never count; off without the option), the landing's decision (a foot lifted in an earlier
 frame is put down at its target's horizontal point at the home height whatever its target's height, only in a new
-frame and only with ``land``; a foot that lifts in this frame is not put down in it), the settings' check, and the
-simulator passing the last frame's gaps (a standing Stubby pull-up gets ``land=True`` only with the option on and
-not gated by ``hold_near_roll_free``)."""
+frame and only with ``land``; a foot that lifts in this frame is not put down in it) and the settings' check. The
+simulator passing the last frame's gaps to ``land`` is tested with ``hold_step_gap``'s ``still`` in
+tests/test_hold_step_gap.py (one parametrized test for both options)."""
 
 from __future__ import annotations
-
-import dataclasses
 
 import numpy as np
 import pytest
 
-from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
-from socialaff_sim.sim.simulator import SimConfig
-
-from conftest import foot_lock_keyword
 
 HOME = (0.08, 0.08)
 ANKLES = np.array([[0.0, 0.1, 0.08], [0.0, -0.1, 0.08]])
@@ -63,19 +57,3 @@ def test_land_gap_is_checked() -> None:
     with pytest.raises(ConfigError, match="land_gap"):
         FootLockConfig(land_gap=-0.01)
     assert FootLockConfig().land_gap is None and FootLockConfig(land_gap=0.0).land_gap == 0.0
-
-
-def test_the_simulator_passes_the_last_frames_gaps_and_the_gate_drops_it_on_stubby() -> None:
-    """On a standing Stubby pull-up (spent instance pull_up_120) the foot lock gets ``land=True`` in some call only
-    with the option on; under ``hold_near_roll_free`` (Stubby's feet's roll is not freed) the option is dropped."""
-    inter = generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=121)).by_id("pull_up_120")
-    base = SimConfig.standing()
-    off = dataclasses.replace(base.foot_lock, hold_near_roll_free=False, hold_near=None)
-    runs = {name: foot_lock_keyword(dataclasses.replace(base, foot_lock=lock), inter, "land") for name, lock in (
-        ("off", off), ("on", dataclasses.replace(off, land_gap=0.3)),
-        ("gated", dataclasses.replace(off, land_gap=0.3, hold_near=0.1, hold_near_roll_free=True)))}
-    calls = {name: seen for name, (seen, _) in runs.items()}
-    assert calls["off"] and not any(calls["off"])
-    assert any(calls["on"])
-    assert calls["gated"] and not any(calls["gated"])
-    assert runs["gated"][1].land_gap is None
