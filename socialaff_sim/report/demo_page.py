@@ -52,8 +52,9 @@ def _subgoal_table(r: InteractionResult) -> str:
     failed_ref = _failures(r.reference)
     text += (f"<p class=\"note\">Failure conditions triggered — synthesized: {esc(', '.join(failed) or 'none')}; "
              f"ground-truth replay: {esc(', '.join(failed_ref) or 'none')}.</p>")
-    text += (f"<p class=\"note\">Outcome (the codes of docs/task_format.md) — synthesized: {esc(str(r.simulation.get('outcome', '–')))}; "
-             f"ground-truth replay: {esc(str(r.reference.get('outcome', '–')))}.</p>")
+    text += ("<p class=\"note\">Outcome (the codes of docs/task_format.md) — synthesized: "
+             f"{esc(str(r.simulation.get('outcome', '–')))}; ground-truth replay: "
+             f"{esc(str(r.reference.get('outcome', '–')))}.</p>")
     return text
 
 
@@ -72,9 +73,12 @@ def _physics_note(metrics: Mapping[str, Any]) -> str:
     cp = sup.get("contact_phase") or {}
     text = f"Physics mode: {sup.get('mode', 'not recorded')}."
     if cp.get("frames") and cp.get("outside_support_mean") is not None:
-        text += (f" Over the contact phase ({cp['frames']} frames with a sub-goal's contact held): outside support "
+        n = cp["frames"]
+        text += (f" Over the contact phase ({n} frame{'' if n == 1 else 's'} with a sub-goal's contact held): "
+                 "outside support "
                  f"{100 * cp['outside_support_mean']:.1f} % of the robot's weight on average (peak "
-                 f"{100 * cp['outside_support_peak']:.0f} %), harness off in {cp['released_frames']} frames, feet slid "
+                 f"{100 * cp['outside_support_peak']:.0f} %), harness off in {cp['released_frames']} frame"
+                 f"{'' if cp['released_frames'] == 1 else 's'}, feet slid "
                  f"{cp['foot_slide_cm']:.1f} cm (the ankle's path) and drifted {cp['foot_drift_cm']:.1f} cm"
                  + _slip_note(cp) + ", servos at up to "
                  f"{100 * cp['torque_ratio_max']:.0f} % of their torque limits, torso tilted up to "
