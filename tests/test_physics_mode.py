@@ -154,3 +154,17 @@ def test_the_demo_report_and_page_say_which_mode_ran_and_its_support(tmp_path: P
     assert "real weight, on the harness" in page and "No contact phase" in page and "2.3 %" not in page
     md = write_report(tmp_path / "report.md", [_result(none)], config).read_text()
     assert "| - |" in md and "on the harness" in md
+
+
+def test_the_demo_report_and_page_give_each_episodes_outcome_code(tmp_path: Path) -> None:
+    result = _result(None)
+    result.simulation.update(outcome="no_contact", subgoals=[dict(result.simulation["subgoals"][0], success=False)])
+    result.reference.update(outcome="success")
+    config = DemoConfig(baselines=("promp",), video=False)
+    page = write_demo_page(tmp_path, [result], config).read_text()
+    assert "synthesized: no_contact; ground-truth replay: success." in page
+    md = write_report(tmp_path / "report.md", [result], config).read_text()
+    assert "| 0/1 (outcome: no_contact) | 1/1 |" in md  # a success adds nothing; a failure keeps its own words
+    result.simulation.update(failures=[{"kind": "contact_force", "triggered": True}], outcome="contact_force")
+    md = write_report(tmp_path / "report.md", [result], config).read_text()
+    assert "| 0/1 (failure: contact_force) | 1/1 |" in md
