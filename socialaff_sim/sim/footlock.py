@@ -91,6 +91,18 @@ class FootLockConfig:
     """d_g [m]: with ``glide_step``, a glide steps only while its physical ankle frame stands farther than this
     (horizontally) from the new point; nearer, it is planted at once (a standing foot's creep of a few centimetres
     is left to the balance controller, which holds the foot where it stands). ``None``: wherever it stands."""
+    glide_gap_far: float | None = None
+    """d_gf [m]: with ``glide_step``, while no sub-goal's gap at the end of the last frame is within ``glide_far``
+    (the walk-up: the hands or the object still far apart, or no gap measured yet), a glide steps when its physical
+    ankle frame stands farther than this from the new point, in place of ``glide_gap``; within ``glide_far`` of a
+    meeting ``glide_gap`` decides as without it. A smaller gap in the walk-up keeps the feet up with a plan's late
+    approach (the standing demo's synthesized high five: the plan's feet 9–13 cm ahead of the physical ones at the
+    strike, within ``glide_gap`` 0.12), and none of its extra steps lands just before the touch, where a step is a catch
+    of the harness (high_five_146 with ``glide_gap`` 0.06; docs/design.md §5, issue 25, session 35, wip/hfwalk).
+    ``None``: ``glide_gap`` throughout."""
+    glide_far: float = 0.15
+    """d_f [m]: with ``glide_gap_far``, the sub-goals' gap above which (every measured gap) the walk-up's gap d_gf
+    applies."""
     restep_gap: float | None = None
     """d_r [m]: with ``glide_step``, a planted foot whose physical ankle frame stands farther than this
     (horizontally) from the point it is planted at (a glide step that landed short: the balance controller then
@@ -135,6 +147,10 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig: expected lift ≥ 0 and radius ≥ 0 in metres, found {self.lift}, {self.radius}")
         if self.glide_gap is not None and not self.glide_gap > 0.0:
             raise ConfigError(f"FootLockConfig.glide_gap: expected None or a distance > 0 m, found {self.glide_gap}")
+        if self.glide_gap_far is not None and not self.glide_gap_far > 0.0:
+            raise ConfigError(f"FootLockConfig.glide_gap_far: expected None or a distance > 0 m, found {self.glide_gap_far}")
+        if not self.glide_far >= 0.0:
+            raise ConfigError(f"FootLockConfig.glide_far: expected a distance ≥ 0 m, found {self.glide_far}")
         if self.restep_gap is not None and not self.restep_gap > 0.0:
             raise ConfigError(f"FootLockConfig.restep_gap: expected None or a distance > 0 m, found {self.restep_gap}")
         if self.glide_step is not None and not self.glide_step > 0.0:
@@ -194,6 +210,12 @@ class FootLock:
         d = self.config.land_gap
         return d is not None and any(g is not None and g <= d for g in gaps)
 
+    def walking_up(self, gaps: Iterable[float | None]) -> bool:
+        """Whether no sub-goal's gap in ``gaps`` (m; ``None``: not measured) is within ``glide_far`` (``glide_gap_far``
+        then decides a glide); ``False`` without ``glide_gap_far``."""
+        return self.config.glide_gap_far is not None and not any(g is not None and g <= self.config.glide_far
+                                                                 for g in gaps)
+
     def backing(self, ankles: np.ndarray, person: np.ndarray) -> tuple[bool, bool]:
         """For targets ``ankles`` (2, 3) (world, m) and the person at ``person`` (2,): whether each planted foot's
         target moves away from the person (its horizontal displacement from the planted point has a negative
@@ -209,7 +231,8 @@ class FootLock:
     def needs_physical(self) -> bool:
         """Whether :meth:`apply` needs the physical ankle frames (``glide_gap`` or ``restep_gap``)."""
         c = self.config
-        return c.glide_step is not None and (c.glide_gap is not None or c.restep_gap is not None)
+        return c.glide_step is not None and (c.glide_gap is not None or c.restep_gap is not None
+                                             or c.glide_gap_far is not None)
 
     @property
     def standing(self) -> tuple[bool, bool]:
@@ -218,7 +241,8 @@ class FootLock:
 
     def apply(self, ankles: np.ndarray, touching: bool = False, physical: np.ndarray | None = None,
               new_frame: bool = True, caught: bool = False, near: bool = False,
-              person: np.ndarray | None = None, land: bool = False, still: bool = False) -> np.ndarray:
+              person: np.ndarray | None = None, land: bool = False, still: bool = False,
+              far: bool = False) -> np.ndarray:
         """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted;
         ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted);
         ``physical`` (2, 3): the physical ankle frames (world, m), which ``glide_gap`` needs; ``new_frame``:
@@ -230,7 +254,8 @@ class FootLock:
         sub-goal's gap at the end of the last frame is within ``land_gap`` (:meth:`landing`): in a new frame, a foot
         not planted is then put down at its target's point; ``still``: a sub-goal's gap at the end of the last frame
         is within ``hold_step_gap`` (:meth:`stepless`): a planted foot's step then plants it at once at its target's
-        horizontal point (no foot is lifted, no glide steps)."""
+        horizontal point (no foot is lifted, no glide steps); ``far``: no sub-goal's gap at the end of the last frame
+        is within ``glide_far`` (:meth:`walking_up`): ``glide_gap_far`` then replaces ``glide_gap``."""
         if self.needs_physical and physical is None:
             raise SimulationError("FootLock.apply: glide_gap and restep_gap need the physical ankle frames")
         out = np.array(ankles, dtype=np.float64)
@@ -261,7 +286,7 @@ class FootLock:
             if held or still or (c.glide_until_contact and self._touched) or (c.plant_caught and caught):
                 self._last, self._wait = None, wait
             elif new_frame:
-                glide, wait = self._gliding(out, hold, physical)
+                glide, wait = self._gliding(out, hold, physical, far)
                 self._wait = wait
             else:
                 wait = self._wait
@@ -286,7 +311,7 @@ class FootLock:
                 self.planted[s] = None
         return out
 
-    def _gliding(self, ankles: np.ndarray, hold: float, physical: np.ndarray | None
+    def _gliding(self, ankles: np.ndarray, hold: float, physical: np.ndarray | None, far: bool = False
                  ) -> tuple[int | None, list[bool]]:
         """For targets ``ankles`` (2, 3): the foot (0 left, 1 right) that glide-steps this frame (else ``None``)
         and which planted feet are held where they stand instead of being planted again at their gliding target.
@@ -297,16 +322,17 @@ class FootLock:
         ankle frame (``physical`` (2, 3), world, m) stands farther than d_g from its target; with ``restep_gap`` a
         planted foot also glides (its distance the larger of the two) while its physical ankle frame stands farther
         than d_r from where it is planted, and such a foot does not count as standing for the other's step.
-        ``hold``: the planted feet's height bound."""
+        ``hold``: the planted feet's height bound; ``far``: ``glide_gap_far`` (when set) in place of d_g."""
         c = self.config
+        gap = c.glide_gap_far if far and c.glide_gap_far is not None else c.glide_gap
         last, self._last = self._last, None
         planted = [p is not None for p in self.planted]
         rise = ankles[:, 2] - self.home_height
         off = np.array([np.linalg.norm(ankles[s, :2] - p[:2]) if p is not None else 0.0
                         for s, p in enumerate(self.planted)])
         glides = np.array(planted) & (off > c.radius) & (rise <= c.lift)
-        if c.glide_gap is not None:  # a creep the standing foot stays within d_g of is planted at once
-            glides &= np.linalg.norm(ankles[:, :2] - np.asarray(physical)[:, :2], axis=1) > c.glide_gap
+        if gap is not None:  # a creep the standing foot stays within d_g of is planted at once
+            glides &= np.linalg.norm(ankles[:, :2] - np.asarray(physical)[:, :2], axis=1) > gap
         stays = np.array(planted) & (off <= c.radius) & (rise <= hold)
         if c.restep_gap is not None:  # a foot that landed short of where it is planted steps again
             short = np.array([np.linalg.norm(np.asarray(physical)[s, :2] - p[:2]) if p is not None else 0.0

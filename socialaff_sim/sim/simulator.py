@@ -254,7 +254,8 @@ class Simulator:
                                               near=last is not None and self._footlock.near(last.subgoal_gaps.values()),
                                               person=self._person_xy(t1) if self._footlock.config.hold_near is not None else None,
                                               land=last is not None and self._footlock.landing(last.subgoal_gaps.values()),
-                                              still=last is not None and self._footlock.stepless(last.subgoal_gaps.values()))
+                                              still=last is not None and self._footlock.stepless(last.subgoal_gaps.values()),
+                                              far=self._footlock.walking_up(() if last is None else last.subgoal_gaps.values()))
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
