@@ -1,8 +1,9 @@
-"""The walk-up's glide gap (FootLockConfig(glide_gap_far=..., glide_far=...)): the gaps' decision (no measured gap
-within d_f, boundary included as near; unmeasured gaps never count; off without the option), the glide's decision
-(far: a foot standing farther than d_gf from its target steps although within ``glide_gap``; near: ``glide_gap``
-decides), the physical frames it needs, the settings' check, and the simulator passing the last frame's gaps (a
-standing Stubby high five gets ``far=True`` in its walk-up and ``far=False`` near the meeting, only with the option)."""
+"""The walk-up's glide gap and the caught robot's (FootLockConfig(glide_gap_far=..., glide_gap_caught=...,
+glide_far=...)): the gaps' decision (no measured gap within d_f, boundary included as near; unmeasured gaps never
+count; off without either option), the glide's decision (far: a foot standing farther than d_gf from its target steps
+although within ``glide_gap``; near and caught: d_gc decides; near and released: ``glide_gap``), the physical frames
+they need, the settings' check, and the simulator passing the last frame's gaps (a standing Stubby high five gets
+``far=True`` in its walk-up and ``far=False`` near the meeting, only with an option)."""
 
 from __future__ import annotations
 
@@ -29,6 +30,8 @@ def test_walking_up_is_no_measured_gap_within_glide_far() -> None:
     assert not lock.walking_up([0.15]) and not lock.walking_up([0.6, 0.02]) and not lock.walking_up([-0.01])
     off = FootLock(HOME, dataclasses.replace(ON, glide_gap_far=None))
     assert not off.walking_up([0.9]) and not off.walking_up([])  # off: never
+    caught = FootLock(HOME, dataclasses.replace(ON, glide_gap_far=None, glide_gap_caught=0.06))
+    assert caught.walking_up([0.9]) and not caught.walking_up([0.1])  # glide_gap_caught needs the gaps too
 
 
 @pytest.mark.parametrize(("behind", "far", "steps"), [(0.081, True, 1), (0.059, True, 0), (0.081, False, 0),
@@ -49,11 +52,24 @@ def test_far_the_walk_ups_gap_decides_a_glide_near_the_meeting_glide_gap(behind:
         np.testing.assert_allclose(out, MOVED)
 
 
+@pytest.mark.parametrize(("behind", "far", "caught", "steps"), [
+    (0.081, False, True, 1), (0.059, False, True, 0),  # near and caught: d_gc = 6 cm decides
+    (0.081, False, False, 0), (0.121, False, False, 1),  # near and released: glide_gap's 12 cm
+    (0.081, True, False, 0), (0.081, True, True, 0)])  # far: d_gf (here unset: glide_gap), caught or not
+def test_near_the_meeting_a_caught_robots_glide_steps_beyond_glide_gap_caught(behind: float, far: bool, caught: bool,
+                                                                             steps: int) -> None:
+    lock = FootLock(HOME, dataclasses.replace(ON, glide_gap_far=None, glide_gap_caught=0.06))
+    assert lock.needs_physical
+    lock.apply(ANKLES, physical=ANKLES)
+    lock.apply(MOVED, physical=MOVED - [[0.0, 0.0, 0.0], [behind, 0.0, 0.0]], far=far, caught=caught)
+    assert lock.glide_steps == steps
+
+
 def test_without_the_option_far_changes_nothing() -> None:
     for far in (False, True):
         lock = FootLock(HOME, dataclasses.replace(ON, glide_gap_far=None))
         lock.apply(ANKLES, physical=ANKLES)
-        lock.apply(MOVED, physical=MOVED - [[0.0, 0.0, 0.0], [0.081, 0.0, 0.0]], far=far)
+        lock.apply(MOVED, physical=MOVED - [[0.0, 0.0, 0.0], [0.081, 0.0, 0.0]], far=far, caught=not far)
         assert lock.glide_steps == 0  # within glide_gap's 12 cm: planted at once
 
 
@@ -69,7 +85,11 @@ def test_glide_gap_far_needs_the_physical_frames_and_is_checked() -> None:
     for bad in (-0.01, float("nan")):
         with pytest.raises(ConfigError, match="glide_far"):
             FootLockConfig(glide_far=bad)
+        with pytest.raises(ConfigError, match="glide_gap_caught"):
+            FootLockConfig(glide_gap_caught=bad)
     assert FootLockConfig().glide_gap_far is None and FootLockConfig().glide_far == 0.15
+    assert FootLockConfig().glide_gap_caught is None
+    assert FootLock(HOME, FootLockConfig(glide_step=H, glide_gap_caught=0.06)).needs_physical
 
 
 def test_the_simulator_passes_far_from_the_last_frames_gaps() -> None:

@@ -101,8 +101,16 @@ class FootLockConfig:
     of the harness (high_five_146 with ``glide_gap`` 0.06; docs/design.md §5, issue 25, session 35, wip/hfwalk).
     ``None``: ``glide_gap`` throughout."""
     glide_far: float = 0.15
-    """d_f [m]: with ``glide_gap_far``, the sub-goals' gap above which (every measured gap) the walk-up's gap d_gf
-    applies."""
+    """d_f [m]: with ``glide_gap_far`` or ``glide_gap_caught``, the sub-goals' gap above which (every measured gap) the
+    walk-up's gap d_gf applies, and at or below which (any gap) the caught robot's d_gc does."""
+    glide_gap_caught: float | None = None
+    """d_gc [m]: with ``glide_step``, while some sub-goal's gap at the end of the last frame is within ``glide_far``
+    (the meeting near) and the harness holds a robot it has caught
+    (:attr:`~socialaff_sim.sim.harness_release.HarnessRelease.holds_caught`), a glide steps when its physical ankle
+    frame stands farther than this from the new point, in place of ``glide_gap``: a held robot's step costs no catch and
+    brings its feet up with a plan that approaches late (the standing demo's synthesized high five is held through its
+    strike, its feet 9–13 cm behind the plan's), while a released robot near the meeting steps only beyond
+    ``glide_gap`` (a step just before the touch is a catch: high_five_132, 146). ``None``: ``glide_gap``."""
     restep_gap: float | None = None
     """d_r [m]: with ``glide_step``, a planted foot whose physical ankle frame stands farther than this
     (horizontally) from the point it is planted at (a glide step that landed short: the balance controller then
@@ -147,6 +155,9 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig: expected lift ≥ 0 and radius ≥ 0 in metres, found {self.lift}, {self.radius}")
         if self.glide_gap is not None and not self.glide_gap > 0.0:
             raise ConfigError(f"FootLockConfig.glide_gap: expected None or a distance > 0 m, found {self.glide_gap}")
+        if self.glide_gap_caught is not None and not self.glide_gap_caught > 0.0:
+            raise ConfigError(f"FootLockConfig.glide_gap_caught: expected None or a distance > 0 m, found "
+                              f"{self.glide_gap_caught}")
         if self.glide_gap_far is not None and not self.glide_gap_far > 0.0:
             raise ConfigError(f"FootLockConfig.glide_gap_far: expected None or a distance > 0 m, found {self.glide_gap_far}")
         if not self.glide_far >= 0.0:
@@ -212,9 +223,10 @@ class FootLock:
 
     def walking_up(self, gaps: Iterable[float | None]) -> bool:
         """Whether no sub-goal's gap in ``gaps`` (m; ``None``: not measured) is within ``glide_far`` (``glide_gap_far``
-        then decides a glide); ``False`` without ``glide_gap_far``."""
-        return self.config.glide_gap_far is not None and not any(g is not None and g <= self.config.glide_far
-                                                                 for g in gaps)
+        then decides a glide; ``glide_gap_caught`` does not); ``False`` without either option."""
+        c = self.config
+        return ((c.glide_gap_far is not None or c.glide_gap_caught is not None)
+                and not any(g is not None and g <= c.glide_far for g in gaps))
 
     def backing(self, ankles: np.ndarray, person: np.ndarray) -> tuple[bool, bool]:
         """For targets ``ankles`` (2, 3) (world, m) and the person at ``person`` (2,): whether each planted foot's
@@ -231,8 +243,8 @@ class FootLock:
     def needs_physical(self) -> bool:
         """Whether :meth:`apply` needs the physical ankle frames (``glide_gap`` or ``restep_gap``)."""
         c = self.config
-        return c.glide_step is not None and (c.glide_gap is not None or c.restep_gap is not None
-                                             or c.glide_gap_far is not None)
+        return c.glide_step is not None and any(d is not None for d in (c.glide_gap, c.restep_gap, c.glide_gap_far,
+                                                                          c.glide_gap_caught))
 
     @property
     def standing(self) -> tuple[bool, bool]:
@@ -255,7 +267,9 @@ class FootLock:
         not planted is then put down at its target's point; ``still``: a sub-goal's gap at the end of the last frame
         is within ``hold_step_gap`` (:meth:`stepless`): a planted foot's step then plants it at once at its target's
         horizontal point (no foot is lifted, no glide steps); ``far``: no sub-goal's gap at the end of the last frame
-        is within ``glide_far`` (:meth:`walking_up`): ``glide_gap_far`` then replaces ``glide_gap``."""
+        is within ``glide_far`` (:meth:`walking_up`; the caller passes ``False`` without ``glide_gap_far`` and
+        ``glide_gap_caught``): ``glide_gap_far`` then replaces ``glide_gap``, and otherwise while ``caught``
+        ``glide_gap_caught`` does."""
         if self.needs_physical and physical is None:
             raise SimulationError("FootLock.apply: glide_gap and restep_gap need the physical ankle frames")
         out = np.array(ankles, dtype=np.float64)
@@ -286,7 +300,12 @@ class FootLock:
             if held or still or (c.glide_until_contact and self._touched) or (c.plant_caught and caught):
                 self._last, self._wait = None, wait
             elif new_frame:
-                glide, wait = self._gliding(out, hold, physical, far)
+                gap = c.glide_gap
+                if far and c.glide_gap_far is not None:
+                    gap = c.glide_gap_far
+                elif not far and caught and c.glide_gap_caught is not None:
+                    gap = c.glide_gap_caught
+                glide, wait = self._gliding(out, hold, physical, gap)
                 self._wait = wait
             else:
                 wait = self._wait
@@ -311,7 +330,7 @@ class FootLock:
                 self.planted[s] = None
         return out
 
-    def _gliding(self, ankles: np.ndarray, hold: float, physical: np.ndarray | None, far: bool = False
+    def _gliding(self, ankles: np.ndarray, hold: float, physical: np.ndarray | None, gap: float | None
                  ) -> tuple[int | None, list[bool]]:
         """For targets ``ankles`` (2, 3): the foot (0 left, 1 right) that glide-steps this frame (else ``None``)
         and which planted feet are held where they stand instead of being planted again at their gliding target.
@@ -322,9 +341,9 @@ class FootLock:
         ankle frame (``physical`` (2, 3), world, m) stands farther than d_g from its target; with ``restep_gap`` a
         planted foot also glides (its distance the larger of the two) while its physical ankle frame stands farther
         than d_r from where it is planted, and such a foot does not count as standing for the other's step.
-        ``hold``: the planted feet's height bound; ``far``: ``glide_gap_far`` (when set) in place of d_g."""
+        ``hold``: the planted feet's height bound; ``gap``: d_g (or ``glide_gap_far``/``glide_gap_caught`` in its
+        place, :meth:`apply`)."""
         c = self.config
-        gap = c.glide_gap_far if far and c.glide_gap_far is not None else c.glide_gap
         last, self._last = self._last, None
         planted = [p is not None for p in self.planted]
         rise = ankles[:, 2] - self.home_height
