@@ -16,7 +16,7 @@ from conftest import FOOT_ANKLES as ANKLES, FOOT_HOME as HOME, foot_lock_keyword
 from socialaff_sim.data.synthetic import generate_dataset
 from socialaff_sim.errors import ConfigError, SimulationError
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
-from socialaff_sim.sim.simulator import SimConfig
+from socialaff_sim.sim.simulator import SimConfig, Simulator
 
 H = 0.05
 ON = FootLockConfig(glide_step=H, glide_gap=0.12, glide_gap_far=0.06, glide_far=0.15)
@@ -104,3 +104,20 @@ def test_the_simulator_passes_far_from_the_last_frames_gaps() -> None:
     assert off and not any(off)
     assert on[0] and any(on) and not all(on)
     assert lock.glide_gap_far == 0.06
+
+
+@pytest.mark.parametrize(("causal_only", "placement", "kept"), [(True, 5, True), (True, None, False),
+                                                               (False, None, True)])
+def test_glide_gap_causal_only_drops_both_gaps_on_a_recordings_replay(causal_only: bool, placement: int | None,
+                                                                      kept: bool) -> None:
+    """A standing Stubby high five (spent instance high_five_001) reset as a causal source (``placement_frames``, as
+    the model's synthesis) keeps ``glide_gap_far`` and ``glide_gap_caught``; as a replay (no ``placement_frames``)
+    the simulator drops them under ``glide_gap_causal_only``, and keeps them without it."""
+    inter = next(i for i in generate_dataset(seed=0) if i.instance_id == "high_five_001")
+    base = SimConfig.standing()
+    lock = dataclasses.replace(base.foot_lock, glide_gap_far=0.06, glide_gap_caught=0.07,
+                               glide_gap_causal_only=causal_only)
+    sim = Simulator("ours", "high_five", dataclasses.replace(base, foot_lock=lock))
+    sim.reset(inter, placement_frames=placement)
+    got = sim._footlock.config
+    assert (got.glide_gap_far, got.glide_gap_caught) == ((0.06, 0.07) if kept else (None, None))

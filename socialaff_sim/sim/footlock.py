@@ -111,6 +111,13 @@ class FootLockConfig:
     brings its feet up with a plan that approaches late (the standing demo's synthesized high five is held through its
     strike, its feet 9–13 cm behind the plan's), while a released robot near the meeting steps only beyond
     ``glide_gap`` (a step just before the touch is a catch: high_five_132, 146). ``None``: ``glide_gap``."""
+    glide_gap_causal_only: bool = False
+    """[—]: ``glide_gap_far`` and ``glide_gap_caught`` act only in episodes whose source is causal (declares
+    ``placement_frames``, as the model's synthesis does: its walk-up glides its feet along the floor with its base),
+    not on a recording's replay, whose feet step (the simulator drops them there; as ``SimConfig.plan_feet_causal_only``
+    does ``restep_gap``). On ground truth they cost high fives: the feet kept up with the plan, the released body lags
+    behind them at the strike and is caught backward (high_five_241, 530; docs/design.md §5, session 35, wip/hfwalk).
+    ``False``: on every source."""
     restep_gap: float | None = None
     """d_r [m]: with ``glide_step``, a planted foot whose physical ankle frame stands farther than this
     (horizontally) from the point it is planted at (a glide step that landed short: the balance controller then

@@ -88,6 +88,7 @@ class Simulator:
         self.interaction = inter = interaction
         # Plans of a causal source (the model's synthesis) glide their feet (SimConfig.plan_feet_causal_only).
         self._plan_feet = not self.config.plan_feet_causal_only or placement_frames is not None
+        self._causal = placement_frames is not None  # (FootLockConfig.glide_gap_causal_only)
         place = self._reset_cache.get(inter, placement_frames)
         if place is None:
             place = build_placement(inter, placement_frames, stage.scene, stage.ik_scene.home_qpos, self.measurements,
@@ -155,6 +156,8 @@ class Simulator:
         lock = self.config.foot_lock
         if lock is not None and not self._plan_feet:
             lock = dataclasses.replace(lock, restep_gap=None)
+        if lock is not None and lock.glide_gap_causal_only and not self._causal:
+            lock = dataclasses.replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_causal_only=False)
         if lock is not None and lock.plant_caught_above and not self.task.counts_above:
             lock = dataclasses.replace(lock, plant_caught=False, plant_caught_above=False)
         self._lean = PlanLean(None if stage.stance is None else stage.stance.config, self.task.counts_above)
