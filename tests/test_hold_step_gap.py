@@ -121,3 +121,19 @@ def test_the_simulator_passes_the_last_frames_gaps_and_the_gate_drops_it_on_stub
     assert any(calls["on"])
     assert calls["gated"] and not any(calls["gated"])
     assert getattr(runs["gated"][1], option) is None
+
+
+@pytest.mark.parametrize("gaps", [None, [], [None], [0.35, None], [0.25], [0.08, 0.9], [1.2]])
+def test_the_gap_flags_are_the_four_tests_of_the_last_frames_gaps(gaps) -> None:  # noqa: ANN001
+    lock = FootLock(HOME, FootLockConfig(hold_lift=0.12, hold_in_contact=True, hold_near=0.1, land_gap=0.1,
+                                         hold_step_gap=0.3, glide_step=0.05, glide_gap=0.12, glide_gap_far=0.06,
+                                         glide_far=1.0))
+    flags = lock.gap_flags(None if gaps is None else iter(gaps))  # a view is read once per test: an iterator too
+    g = [] if gaps is None else gaps
+    measured = [x for x in g if x is not None]
+    expected = {"near": any(x <= 0.1 for x in measured), "land": any(x <= 0.1 for x in measured),
+                "still": any(x <= 0.3 for x in measured), "far": not any(x <= 1.0 for x in measured)}
+    assert flags == expected
+    if gaps is not None:
+        assert flags == {"near": lock.near(gaps), "land": lock.landing(gaps), "still": lock.stepless(gaps),
+                         "far": lock.walking_up(gaps)}

@@ -235,6 +235,15 @@ class FootLock:
         return ((c.glide_gap_far is not None or c.glide_gap_caught is not None)
                 and not any(g is not None and g <= c.glide_far for g in gaps))
 
+    def gap_flags(self, gaps: Iterable[float | None] | None) -> dict[str, bool]:
+        """:meth:`apply`'s keywords ``near``, ``land``, ``still`` and ``far`` from the last frame's sub-goal ``gaps``
+        (m; ``None`` in a gap: not measured; ``None`` for all: no frame yet), by :meth:`near`, :meth:`landing`,
+        :meth:`stepless` and :meth:`walking_up`."""
+        if gaps is None:
+            return {"near": False, "land": False, "still": False, "far": self.walking_up(())}
+        g = list(gaps)
+        return {"near": self.near(g), "land": self.landing(g), "still": self.stepless(g), "far": self.walking_up(g)}
+
     def backing(self, ankles: np.ndarray, person: np.ndarray) -> tuple[bool, bool]:
         """For targets ``ankles`` (2, 3) (world, m) and the person at ``person`` (2,): whether each planted foot's
         target moves away from the person (its horizontal displacement from the planted point has a negative

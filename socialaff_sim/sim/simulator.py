@@ -254,11 +254,8 @@ class Simulator:
             world[3:5] = self._footlock.apply(world[3:5], last is not None and any(last.subgoals_now.values()),
                                               physical, new_frame=not self._in_frame,
                                               caught=bal is not None and bal.harness.holds_caught,
-                                              near=last is not None and self._footlock.near(last.subgoal_gaps.values()),
                                               person=self._person_xy(t1) if self._footlock.config.hold_near is not None else None,
-                                              land=last is not None and self._footlock.landing(last.subgoal_gaps.values()),
-                                              still=last is not None and self._footlock.stepless(last.subgoal_gaps.values()),
-                                              far=self._footlock.walking_up(() if last is None else last.subgoal_gaps.values()))
+                                              **self._footlock.gap_flags(None if last is None else last.subgoal_gaps.values()))
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
