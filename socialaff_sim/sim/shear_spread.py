@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["shear_spread", "shear_spread_cost"]
+__all__ = ["feet_shear_cost", "shear_couple", "shear_couple_cost", "shear_spread", "shear_spread_cost"]
 
 
 def shear_spread_cost(edges: np.ndarray, weight: float) -> np.ndarray:
@@ -46,3 +46,54 @@ def shear_spread(forces: np.ndarray) -> float:
     if len(t) < 2:
         return 0.0
     return float(((t - t.mean(axis=0)) ** 2).sum())
+
+
+def shear_couple_cost(edges: np.ndarray, which: np.ndarray, pts: np.ndarray, weight: float,
+                      squeeze: bool = False) -> np.ndarray:
+    """(4P, 4P) W with ``½ β'ᵀ W β' = ½ w_c (n · s)²`` (``squeeze``: ``½ w_c ‖s‖²``) for the cone edges ``edges``
+    (P, 3, 4; world), each point's foot ``which`` (P,; 0 or 1) and its position ``pts`` (P, 3; world) and ``weight``
+    w_c [—] (``BalanceConfig.shear_couple``): s = (T₁ − T₀)/2 the two feet's shear resultants' internal split
+    (T_f = Σ_{p ∈ f} t_p, scaled as :func:`shear_spread_cost`'s), n the horizontal unit normal to the line between
+    the feet's contact centroids. n · s times that line's length is the feet's couple about the vertical (the moment
+    of T₀ and T₁ about their midpoint); ``squeeze`` adds the split along the line (the feet pushed apart or
+    together). A net horizontal force shared equally by the feet, and any shear moved between the points of one foot
+    that keeps its resultant, cost nothing. Zeros unless both feet have a point."""
+    P = len(edges)
+    K = 4 * P
+    which = np.asarray(which)
+    if P < 2 or not ((which == 0).any() and (which == 1).any()):
+        return np.zeros((K, K))
+    sign = np.where(which == 1, 0.5, -0.5)  # s = ½ T₁ − ½ T₀
+    u = (edges[:, :2, :] * sign[:, None, None]).transpose(1, 0, 2).reshape(2, K)  # (2, 4P): s per unit weight
+    if not squeeze:
+        line = pts[which == 1, :2].mean(axis=0) - pts[which == 0, :2].mean(axis=0)
+        n = np.array([-line[1], line[0]]) / max(float(np.hypot(*line)), 1e-9)
+        u = (n @ u)[None, :]
+    return weight * (u.T @ u)
+
+
+def shear_couple(forces: np.ndarray, which: np.ndarray, pts: np.ndarray, squeeze: bool = False) -> float:
+    """(n · s)² (``squeeze``: ‖s‖²), N², of the contact forces ``forces`` (P, 3; world) on the feet ``which`` at
+    ``pts`` (:func:`shear_couple_cost`'s s and n, summed foot by foot: the reference the tests hold it to)."""
+    f = np.asarray(forces, dtype=np.float64)[:, :2]
+    which = np.asarray(which)
+    if not ((which == 0).any() and (which == 1).any()):
+        return 0.0
+    s = 0.5 * (f[which == 1].sum(axis=0) - f[which == 0].sum(axis=0))
+    if squeeze:
+        return float(s @ s)
+    line = pts[which == 1, :2].mean(axis=0) - pts[which == 0, :2].mean(axis=0)
+    n = np.array([-line[1], line[0]]) / np.linalg.norm(line)
+    return float((n @ s) ** 2)
+
+
+def feet_shear_cost(spread: np.ndarray | None, spread_on: bool, couple: float | None, couple_on: bool,
+                    squeeze: bool, edges: np.ndarray, which: np.ndarray, pts: np.ndarray) -> np.ndarray | None:
+    """The balance QP's ``force_cost`` at one solve: ``spread`` (:func:`shear_spread_cost` of these edges, or
+    ``None``) where ``spread_on``, plus w_c = ``couple``'s :func:`shear_couple_cost` where ``couple_on``; ``None``
+    when neither applies."""
+    cost = spread if spread_on else None
+    if couple is not None and couple_on:
+        w = shear_couple_cost(edges, which, pts, couple, squeeze)
+        cost = w if cost is None else cost + w
+    return cost
