@@ -1,6 +1,6 @@
 """``BalanceConfig.shear_couple``: a cost on the two feet's planned shear resultants' split across the line between
-the feet (their couple about the vertical), ``shear_couple_squeeze`` the whole split, ``shear_couple_touched`` after
-the first touch (docs/design.md §5, issue 25, session 35, wip/pullslip3)."""
+the feet (their couple about the vertical), ``shear_couple_form`` the whole split or the whole moment,
+``shear_couple_touched`` after the first touch (docs/design.md §5, issue 25, session 35, wip/pullslip3)."""
 
 from __future__ import annotations
 
@@ -29,50 +29,53 @@ def _feet(rng: np.random.Generator, P: int) -> tuple[np.ndarray, np.ndarray]:
     return which, pts
 
 
-def _brute(forces: np.ndarray, which: np.ndarray, pts: np.ndarray, squeeze: bool) -> float:
-    """(n · s)² or ‖s‖² summed point by point, the normal from the feet's centroids' line (an independent reference:
-    the couple's moment about the midpoint over the line's length)."""
+def _brute(forces: np.ndarray, which: np.ndarray, pts: np.ndarray, form: str) -> float:
+    """q² summed point by point (an independent reference: the couple as the moment of the feet's resultants about
+    the centroids' midpoint over the line's length; the moment point by point with a cross product)."""
     T = [np.zeros(2), np.zeros(2)]
     c = [np.zeros(2), np.zeros(2)]
     for f, p, w in zip(forces, pts, which, strict=True):
         T[w] = T[w] + f[:2]
         c[w] = c[w] + p[:2] / np.count_nonzero(which == w)
     s = (T[1] - T[0]) / 2
-    if squeeze:
-        return float(s[0] ** 2 + s[1] ** 2)
     d = c[1] - c[0]
     mid = (c[0] + c[1]) / 2
+    if form == "moment":
+        return float(sum(np.cross(np.append(p[:2] - mid, 0.0), np.append(f[:2], 0.0))[2]
+                         for p, f in zip(pts, forces, strict=True)) ** 2 / float(d @ d))
+    if form == "split":
+        return float(s[0] ** 2 + s[1] ** 2)
     moment = sum(float((ci - mid)[0] * Ti[1] - (ci - mid)[1] * Ti[0]) for ci, Ti in zip(c, T, strict=True))  # z
     return moment ** 2 / float(d @ d)
 
 
-@pytest.mark.parametrize("squeeze", [False, True])
-def test_the_cost_is_the_feet_couple(rng, squeeze: bool) -> None:
+@pytest.mark.parametrize("form", ["couple", "split", "moment"])
+def test_the_cost_is_the_feet_couple(rng, form: str) -> None:
     # ½ β'ᵀWβ' against the brute-force couple (or whole split) of the forces E_p β_p, frames in any orientation.
     for P in (2, 3, 8):
         edges = _random_edges(rng, P)
         which, pts = _feet(rng, P)
         for w in (1.0, 42.0):
-            W = shear_couple_cost(edges, which, pts, w, squeeze)
+            W = shear_couple_cost(edges, which, pts, w, form)
             np.testing.assert_allclose(W, W.T, atol=1e-12)
             assert np.linalg.eigvalsh(W).min() > -1e-9
             for _ in range(4):
                 beta = rng.uniform(0.0, 3.0, 4 * P)
                 forces = np.einsum("pik,pk->pi", edges, beta.reshape(P, 4))
-                ref = _brute(forces, which, pts, squeeze)
+                ref = _brute(forces, which, pts, form)
                 assert beta @ W @ beta == pytest.approx(w * ref, rel=1e-9, abs=1e-12)
-                assert shear_couple(forces, which, pts, squeeze) == pytest.approx(ref, rel=1e-9, abs=1e-12)
+                assert shear_couple(forces, which, pts, form) == pytest.approx(ref, rel=1e-9, abs=1e-12)
 
 
 def test_the_net_and_the_within_foot_spread_cost_nothing_the_couple_does(rng) -> None:
     # Level floor, feet along y (centroids at y = ∓0.1): each foot the same resultant (the net shared) and shear moved
     # between the points of one foot (its resultant kept) are in W's null space; the feet's opposed x shears (a turn
-    # about the vertical) are not; the squeeze (opposed y shears, along the line) costs only with shear_couple_squeeze.
+    # about the vertical) are not; the squeeze (opposed y shears, along the line) costs only in the "split" form.
     P = 8
     edges = cone_edges(np.tile(np.eye(3)[[2, 0, 1]], (P, 1, 1)), 0.7)
     which = np.repeat([0, 1], 4)
     pts = np.column_stack([np.tile([-0.05, -0.02, 0.03, 0.04], 2), np.where(which == 1, 0.1, -0.1), np.zeros(P)])
-    W, Wsq = (shear_couple_cost(edges, which, pts, 1.0, sq) for sq in (False, True))
+    W, Wsq, Wm = (shear_couple_cost(edges, which, pts, 1.0, f) for f in ("couple", "split", "moment"))
     px, mx, py, my = np.array([1.2, 0.8, 1.0, 1.0]), np.array([0.8, 1.2, 1.0, 1.0]), np.array(
         [1.0, 1.0, 1.2, 0.8]), np.array([1.0, 1.0, 0.8, 1.2])
     net = np.tile(px, P)
@@ -81,7 +84,10 @@ def test_the_net_and_the_within_foot_spread_cost_nothing_the_couple_does(rng) ->
     squeeze = np.concatenate([np.tile(py, 4), np.tile(my, 4)])
     for beta in (net, within):
         assert beta @ W @ beta == pytest.approx(0.0, abs=1e-12) and beta @ Wsq @ beta == pytest.approx(0.0, abs=1e-12)
+    assert net @ Wm @ net == pytest.approx(0.0, abs=1e-12)
+    assert within @ Wm @ within > 1e-4  # the moment form charges a sole's own torsion
     assert turn @ W @ turn > 0.01 and turn @ Wsq @ turn == pytest.approx(turn @ W @ turn)
+    assert turn @ Wm @ turn > 0.01
     assert squeeze @ W @ squeeze == pytest.approx(0.0, abs=1e-12) and squeeze @ Wsq @ squeeze > 0.01
     # the spread's cost (shear_spread) charges the within-foot spread that this one leaves free
     assert within @ shear_spread_cost(edges, 1.0) @ within > 0.01
@@ -94,26 +100,28 @@ def test_feet_shear_cost_adds_what_is_on() -> None:
     which, pts = _feet(rng, 4)
     S = shear_spread_cost(edges, 2.0)
     C = shear_couple_cost(edges, which, pts, 5.0)
-    assert feet_shear_cost(None, True, None, True, False, edges, which, pts) is None
-    assert feet_shear_cost(S, False, 5.0, False, False, edges, which, pts) is None
-    assert feet_shear_cost(S, True, 5.0, False, False, edges, which, pts) is S
-    np.testing.assert_allclose(feet_shear_cost(None, True, 5.0, True, False, edges, which, pts), C)
-    np.testing.assert_allclose(feet_shear_cost(S, True, 5.0, True, False, edges, which, pts), S + C)
+    assert feet_shear_cost(None, True, None, True, "couple", edges, which, pts) is None
+    assert feet_shear_cost(S, False, 5.0, False, "couple", edges, which, pts) is None
+    assert feet_shear_cost(S, True, 5.0, False, "couple", edges, which, pts) is S
+    np.testing.assert_allclose(feet_shear_cost(None, True, 5.0, True, "couple", edges, which, pts), C)
+    np.testing.assert_allclose(feet_shear_cost(S, True, 5.0, True, "couple", edges, which, pts), S + C)
 
 
 def test_shear_couple_is_off_by_default_and_checked() -> None:
     base = SimConfig.standing().balance
     for c in (BalanceConfig(), base):
-        assert (c.shear_couple, c.shear_couple_squeeze, c.shear_couple_touched) == (None, False, False)
-    dataclasses.replace(base, shear_couple=50.0, shear_couple_squeeze=True, shear_couple_touched=True)
+        assert (c.shear_couple, c.shear_couple_touched) == (None, False)
+    assert base.shear_couple_form == "couple"
+    dataclasses.replace(base, shear_couple=50.0, shear_couple_form="moment", shear_couple_touched=True)
+    with pytest.raises(ConfigError, match="shear_couple_form"):
+        dataclasses.replace(base, shear_couple=50.0, shear_couple_form="torsion")
     for bad in (0.0, -1.0):
         with pytest.raises(ConfigError, match="shear_couple"):
             dataclasses.replace(base, shear_couple=bad)
     with pytest.raises(ConfigError, match="shear_couple"):
         dataclasses.replace(base, solver="lsq", shear_couple=50.0)
-    for flag in ("shear_couple_squeeze", "shear_couple_touched"):
-        with pytest.raises(ConfigError, match=flag):
-            dataclasses.replace(base, **{flag: True})
+    with pytest.raises(ConfigError, match="shear_couple_touched"):
+        dataclasses.replace(base, shear_couple_touched=True)
     with pytest.raises(ConfigError, match="shear_couple_touched"):
         dataclasses.replace(base, shear_couple=50.0, shear_couple_touched=True, arm_compensation=None,
                             compensation_gate=None, touch_friction=None)

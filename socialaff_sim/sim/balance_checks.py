@@ -9,6 +9,7 @@ from typing import Any
 
 from ..errors import ConfigError
 from ..inference.compiled import KERNELS
+from .shear_spread import FORMS
 
 __all__ = ["COM_REFERENCES", "SOLVERS", "check_balance_config"]
 
@@ -58,8 +59,9 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
     if c.shear_couple is not None and not (c.shear_couple > 0.0 and c.solver == "qp"):
         raise ConfigError(f"BalanceConfig.shear_couple: expected None or w_c > 0 with solver='qp', found "
                           f"{c.shear_couple} with solver {c.solver!r}")
-    if c.shear_couple_squeeze and c.shear_couple is None:
-        raise ConfigError("BalanceConfig.shear_couple_squeeze: needs shear_couple")
+    if c.shear_couple_form not in FORMS:
+        raise ConfigError(f"BalanceConfig.shear_couple_form: expected one of {', '.join(FORMS)}, found "
+                          f"{c.shear_couple_form!r}")
     if c.shear_couple_touched and (c.shear_couple is None or c.arm_compensation is None or c.compensation_gate is None):
         raise ConfigError("BalanceConfig.shear_couple_touched: needs shear_couple and the touch latch (arm_compensation "
                           "and compensation_gate)")

@@ -23,7 +23,7 @@ class BalanceConfig:
       angmom_root_still, angmom_about_feet,
       support_margin, external_forces, external_filter
     - Contact forces: solver, friction, touch_friction, shear_spread, shear_spread_touched, shear_couple,
-      shear_couple_squeeze, shear_couple_touched, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
+      shear_couple_form, shear_couple_touched, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, cop_foot_axes, cop_corner_share, min_foot_load, torque_fraction, flat_feet, yaw_first,
       flat_roll_free
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
@@ -145,9 +145,10 @@ class BalanceConfig:
     the larger part of the split traced in Stubby's pull-ups (docs/design.md §5, issue 25, session 35, wip/pullslip2
     and wip/pullslip3). A net force shared by the feet and the shear's distribution within a foot cost nothing.
     ``None``: no such cost."""
-    shear_couple_squeeze: bool = False
-    """[—]: ``shear_couple`` prices the whole split ‖s‖² (the couple and the squeeze along the feet's line), not only
-    its part across the line. ``False``: the couple only."""
+    shear_couple_form: str = "couple"
+    """[—]: what ``shear_couple`` prices (:func:`~.shear_spread.shear_couple_cost`): ``"couple"``: the split across
+    the feet's line; ``"split"``: the whole split ‖s‖² (the squeeze along the line too); ``"moment"``: the floor's
+    whole moment about the vertical through the feet's midpoint over their distance (each sole's torsion too)."""
     shear_couple_touched: bool = False
     """[—]: ``shear_couple``'s cost only once an arm has touched the person or the object in the episode (the latch
     ``touch_friction`` reads; needs ``arm_compensation`` and ``compensation_gate``). ``False``: at every solve."""

@@ -391,7 +391,7 @@ class BalanceController:
                                equalities=eq, inequalities=ineq, kernel=c.qp_kernel,
                                force_cost=feet_shear_cost(self._spread, touched or not c.shear_spread_touched,
                                                           c.shear_couple, touched or not c.shear_couple_touched,
-                                                          c.shear_couple_squeeze, edges, which, pts),
+                                                          c.shear_couple_form, edges, which, pts),
                                optional=None if eq is None or not c.yaw_first else yaw_rows(len(eq[1])))
         self.yaw_dropped_steps += int(res.optional_dropped)
         self.limit_steps += int(res.at_limit.any())
