@@ -9,6 +9,7 @@ from typing import Any
 
 from ..errors import ConfigError
 from ..inference.compiled import KERNELS
+from .shear_spread import FORMS
 
 __all__ = ["COM_REFERENCES", "SOLVERS", "check_balance_config"]
 
@@ -54,6 +55,15 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
                           f"{c.shear_spread} with solver {c.solver!r}")
     if c.shear_spread_touched and (c.shear_spread is None or c.arm_compensation is None or c.compensation_gate is None):
         raise ConfigError("BalanceConfig.shear_spread_touched: needs shear_spread and the touch latch (arm_compensation "
+                          "and compensation_gate)")
+    if c.shear_couple is not None and not (c.shear_couple > 0.0 and c.solver == "qp"):
+        raise ConfigError(f"BalanceConfig.shear_couple: expected None or w_c > 0 with solver='qp', found "
+                          f"{c.shear_couple} with solver {c.solver!r}")
+    if c.shear_couple_form not in FORMS:
+        raise ConfigError(f"BalanceConfig.shear_couple_form: expected one of {', '.join(FORMS)}, found "
+                          f"{c.shear_couple_form!r}")
+    if c.shear_couple_touched and (c.shear_couple is None or c.arm_compensation is None or c.compensation_gate is None):
+        raise ConfigError("BalanceConfig.shear_couple_touched: needs shear_couple and the touch latch (arm_compensation "
                           "and compensation_gate)")
     if c.qp_kernel not in KERNELS or (c.qp_kernel != "numpy" and c.solver != "qp"):
         raise ConfigError(f"BalanceConfig.qp_kernel: expected one of {', '.join(KERNELS)} (numba with solver='qp'), "

@@ -22,7 +22,8 @@ class BalanceConfig:
       plan_velocity_tilt, angmom_weight, angmom_bandwidth,
       angmom_root_still, angmom_about_feet,
       support_margin, external_forces, external_filter
-    - Contact forces: solver, friction, touch_friction, shear_spread, shear_spread_touched, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
+    - Contact forces: solver, friction, touch_friction, shear_spread, shear_spread_touched, shear_couple,
+      shear_couple_form, shear_couple_touched, w_dynamics, w_feet, w_com, w_torso, w_joint, upper_weight, w_force,
       cop_margin, cop_foot_axes, cop_corner_share, min_foot_load, torque_fraction, flat_feet, yaw_first,
       flat_roll_free
     - Self-collision: self_clearance, clearance_detection, clearance_bandwidth
@@ -137,6 +138,20 @@ class BalanceConfig:
     """[—]: ``shear_spread``'s cost only once an arm has touched the person or the object in the episode (the latch
     ``touch_friction`` reads; needs ``arm_compensation`` and ``compensation_gate``): a high five's strike, before the
     touch, as without it. ``False``: at every solve."""
+    shear_couple: float | None = None
+    """w_c [—]: ``qp``: a cost ½ w_c (n · s)² on the two feet's planned shear resultants' internal split
+    s = (T₁ − T₀)/2 across the line between the feet (n: its horizontal normal; forces divided by the robot's mass,
+    m/s², as ``shear_spread``'s; :func:`~.shear_spread.shear_couple_cost`): the feet's couple about the vertical,
+    the larger part of the split traced in Stubby's pull-ups (docs/design.md §5, issue 25, session 35, wip/pullslip2
+    and wip/pullslip3). A net force shared by the feet and the shear's distribution within a foot cost nothing.
+    ``None``: no such cost."""
+    shear_couple_form: str = "couple"
+    """[—]: what ``shear_couple`` prices (:func:`~.shear_spread.shear_couple_cost`): ``"couple"``: the split across
+    the feet's line; ``"split"``: the whole split ‖s‖² (the squeeze along the line too); ``"moment"``: the floor's
+    whole moment about the vertical through the feet's midpoint over their distance (each sole's torsion too)."""
+    shear_couple_touched: bool = False
+    """[—]: ``shear_couple``'s cost only once an arm has touched the person or the object in the episode (the latch
+    ``touch_friction`` reads; needs ``arm_compensation`` and ``compensation_gate``). ``False``: at every solve."""
     w_dynamics: float = 1000.0
     """[—]: weight of the equation of motion's unactuated rows (root) in the least squares (nearly hard)."""
     w_feet: float = 30.0

@@ -61,7 +61,7 @@ from .harness_release import HarnessRelease
 from .plan_velocity import PlanVelocity
 from .scene import Scene
 from .self_clearance import SelfClearance
-from .shear_spread import shear_spread_cost
+from .shear_spread import feet_shear_cost, shear_spread_cost
 from .support_box import SupportBox
 from .torque_hold import TorqueHold
 
@@ -389,7 +389,9 @@ class BalanceController:
                                cop_constraint_rows(c, pts, edges, foot, box.R, self._soles_now, d.xmat, self._feet,
                                                    self._foot_fwd, c.qp_kernel), foot, c.min_foot_load * self.mass * self._g,
                                equalities=eq, inequalities=ineq, kernel=c.qp_kernel,
-                               force_cost=self._spread if touched or not c.shear_spread_touched else None,
+                               force_cost=feet_shear_cost(self._spread, touched or not c.shear_spread_touched,
+                                                          c.shear_couple, touched or not c.shear_couple_touched,
+                                                          c.shear_couple_form, edges, which, pts),
                                optional=None if eq is None or not c.yaw_first else yaw_rows(len(eq[1])))
         self.yaw_dropped_steps += int(res.optional_dropped)
         self.limit_steps += int(res.at_limit.any())
