@@ -224,7 +224,8 @@ def test_the_gate_reaches_the_controller() -> None:
                                              plan_velocity_until_touch=False, plan_velocity_raised=None,
                                              plan_velocity_tilt=None, com_shift=None, shift_until_touch=False,
                                              hand_task_velocity_until_touch=False,
-                                             touch_friction=None)))  # (reads the gate's latch)
+                                             touch_friction=None, shear_couple=None,
+                                             shear_couple_touched=False)))  # (these read the gate's latch)
         assert sim._get_stage(inter).stepper.balance.compensation.gate == gate
 
 
@@ -257,7 +258,8 @@ def test_a_standing_robot_meets_the_high_five_its_turned_trunk_missed() -> None:
                                              plan_velocity_until_touch=False, plan_velocity_raised=None,
                                              plan_velocity_tilt=None, com_shift=None, shift_until_touch=False,
                                              hand_task_velocity_until_touch=False,
-                                             touch_friction=None)))  # as the rule found it
+                                             touch_friction=None, shear_couple=None,
+                                             shear_couple_touched=False)))  # as the rule found it
         met.append(run_episode(sim, GroundTruthSource(), inter)["success"])
         beta.append(max(float(np.max(r.completion)) for r in sim.results if r.completion is not None))
     assert met == [False, True, True]

@@ -70,7 +70,7 @@ def test_the_catch_is_unchanged(scene) -> None:  # noqa: ANN001
                                 {"release_tilt_touched": 4.0}, {"release_tilt_touched": 12.0},
                                 {"release_tilt_touched": 8.0, "compensation_gate": None, "shift_until_touch": False,
                                  "plan_velocity_until_touch": False, "hand_task_velocity_until_touch": False,
-                                 "touch_friction": None}])
+                                 "touch_friction": None, "shear_couple": None, "shear_couple_touched": False}])
 def test_release_tilt_touched_is_checked(kw) -> None:  # noqa: ANN001
     with pytest.raises(ConfigError, match="release_tilt_touched"):
         dataclasses.replace(BASE, **kw)

@@ -109,9 +109,10 @@ def test_feet_shear_cost_adds_what_is_on() -> None:
 
 def test_shear_couple_is_off_by_default_and_checked() -> None:
     base = SimConfig.standing().balance
-    for c in (BalanceConfig(), base):
-        assert (c.shear_couple, c.shear_couple_touched) == (None, False)
-    assert base.shear_couple_form == "couple"
+    c = BalanceConfig()
+    assert (c.shear_couple, c.shear_couple_touched, c.shear_couple_form) == (None, False, "couple")
+    # the standing mode's since rule #53 (session 35; pinned in tests/test_physics_mode.py)
+    assert (base.shear_couple, base.shear_couple_touched, base.shear_couple_form) == (300.0, True, "moment")
     dataclasses.replace(base, shear_couple=50.0, shear_couple_form="moment", shear_couple_touched=True)
     with pytest.raises(ConfigError, match="shear_couple_form"):
         dataclasses.replace(base, shear_couple=50.0, shear_couple_form="torsion")
@@ -121,10 +122,10 @@ def test_shear_couple_is_off_by_default_and_checked() -> None:
     with pytest.raises(ConfigError, match="shear_couple"):
         dataclasses.replace(base, solver="lsq", shear_couple=50.0)
     with pytest.raises(ConfigError, match="shear_couple_touched"):
-        dataclasses.replace(base, shear_couple_touched=True)
+        dataclasses.replace(base, shear_couple=None, shear_couple_touched=True)
     with pytest.raises(ConfigError, match="shear_couple_touched"):
         dataclasses.replace(base, shear_couple=50.0, shear_couple_touched=True, arm_compensation=None,
-                            compensation_gate=None, touch_friction=None)
+                            compensation_gate=None, touch_friction=None, shear_spread=None)
 
 
 @pytest.mark.parametrize("kernel", ["numpy", "numba"])
@@ -160,9 +161,11 @@ def test_the_controller_passes_the_couple_with_the_option_and_its_gate(scene: Sc
     # Stubby standing: without the option no cost; ungated every solve gets a cost whose form is the couple of the
     # solve's cones (a probe β across the feet against the brute-force couple needs the points: the cost's rank is
     # one and the net shared by the feet costs nothing); gated, none before the latch and one after it.
-    plain = _solves(scene, SimConfig.standing().balance, monkeypatch)
+    off = dataclasses.replace(SimConfig.standing().balance, shear_couple=None, shear_couple_touched=False,
+                              shear_couple_form="couple")  # (the standing mode's is on since rule #53)
+    plain = _solves(scene, off, monkeypatch)
     assert all(W is None for _, _, W in plain)
-    on = dataclasses.replace(SimConfig.standing().balance, shear_couple=60.0)
+    on = dataclasses.replace(off, shear_couple=60.0)
     for _, edges, W in _solves(scene, on, monkeypatch):
         assert W is not None and W.shape == (edges.size // 3, edges.size // 3)
         assert np.linalg.matrix_rank(W, tol=1e-9 * max(1.0, np.abs(W).max())) <= 1

@@ -77,7 +77,7 @@ def test_shear_spread_is_off_by_default_and_checked() -> None:
         dataclasses.replace(base, shear_spread_touched=True)
     with pytest.raises(ConfigError, match="shear_spread_touched"):  # nor without the touch latch
         dataclasses.replace(base, shear_spread=30.0, shear_spread_touched=True, arm_compensation=None,
-                            compensation_gate=None, touch_friction=None)
+                            compensation_gate=None, touch_friction=None, shear_couple_touched=False)
 
 
 def test_the_qp_trades_the_spread_for_its_tasks(rng) -> None:
@@ -146,7 +146,8 @@ def test_the_controller_passes_the_cost_only_with_the_option(scene: Scene, optio
     # Stubby standing under the controller: with the option every QP solve gets the spread's cost of the very cones it
     # solves with (checked against shear_spread_cost of the passed edges, and by the brute-force spread on a probe
     # β); without it, none. Inverting the decision fails either run.
-    seen = _solves(scene, dataclasses.replace(SimConfig.standing().balance, shear_spread=option), monkeypatch)
+    seen = _solves(scene, dataclasses.replace(SimConfig.standing().balance, shear_spread=option, shear_couple=None,
+                                              shear_couple_touched=False), monkeypatch)  # (the spread's cost alone)
     for _, edges, W in seen:
         if option is None:
             assert W is None
@@ -162,7 +163,8 @@ def test_shear_spread_touched_waits_for_the_touch(scene: Scene, touched: bool, m
     # With shear_spread_touched the solves before the latch get no cost and those after it get it; without the gate
     # every solve gets it, touched or not. Inverting the gate (the cost before the touch, or none after it) fails.
     w = 30.0
-    gated = dataclasses.replace(SimConfig.standing().balance, shear_spread=w, shear_spread_touched=True)
+    gated = dataclasses.replace(SimConfig.standing().balance, shear_spread=w, shear_spread_touched=True,
+                                shear_couple=None, shear_couple_touched=False)  # (the spread's cost alone)
     seen = _solves(scene, gated, monkeypatch, touch_after=80 if touched else None)
     before = [W for k, _, W in seen if k < 80]
     after = [(e, W) for k, e, W in seen if k >= 80]

@@ -131,10 +131,11 @@ def _run(inter, option: bool) -> tuple[Simulator, dict, list[bool]]:
     # as traced (before the centre of mass's forward shift and the walk-up's glide step joined the standing mode; with
     # the glide step this episode's slide goes 6.1 -> 6.5 cm: the walk-up puts the robot elsewhere; and on MuJoCo's
     # floor: on the standing mode's stiffer floor the feet slide 2.0 and 2.2 cm without and with the option; and
-    # before session 34's narrower cones after the touch)
+    # before session 34's narrower cones after the touch and session 35's priced yaw moment)
     cfg = SimConfig.standing(floor_time_constant=None)
     cfg = dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, yield_carried=option, com_shift=None,
-                                                               shift_until_touch=False, touch_friction=None),
+                                                               shift_until_touch=False, touch_friction=None,
+                                                               shear_couple=None, shear_couple_touched=False),
                               foot_lock=dataclasses.replace(cfg.foot_lock, glide_step=None))
     sim = Simulator(load_robot("ours"), "hand_over", cfg)
     carried: list[bool] = []  # the controller's flag as the frame stepper set it for each frame's last step

@@ -32,7 +32,8 @@ STANDING_BALANCE = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0, flat_f
                                  plan_velocity_raised=0.0, plan_velocity_tilt=4.0, flat_roll_free=True, hand_task=10.0,
                                  hand_task_roll_free=True, hand_task_arm_weight=0.1, hand_task_plan_velocity=True,
                                  hand_task_velocity_until_touch=True, tilt_from_plan=True,
-                                 touch_friction=0.35)
+                                 touch_friction=0.35, shear_couple=300.0, shear_couple_form="moment",
+                                 shear_couple_touched=True)
 """The balance controller of :meth:`SimConfig.standing`: the quadratic program with the feet flat on their soles,
 the arms kept 1 cm clear of the body, hands that give way (before a push tips the robot or twists its feet, also to
 the person's pull through an object both still hold), each arm's references made up for the trunk's pose error
@@ -46,7 +47,10 @@ H1's 392–423, session 33); Stubby's six-joint legs get none of it. The harness
 tilt from the plan's torso (``tilt_from_plan``), so that :data:`STANDING_STANCE`'s planned lean neither keeps the
 harness on nor makes it catch (rule on Stubby's 528–535, session 34). Once an arm has touched the person or the
 object, the floor forces the controller plans stay within a friction cone of 0.35 instead of 0.7, so a sole rocked
-onto an edge is not asked for the sideways force that slides it (rule on Stubby's and the H1's 560–575, session 34)."""
+onto an edge is not asked for the sideways force that slides it (rule on Stubby's and the H1's 560–575, session 34);
+and from then on the QP pays ½·300·q² for the floor's moment about the vertical through the feet's midpoint over the
+feet's distance, q (the feet's opposed shears that rock a sole onto its edge; rule #53 on Stubby's 672–687, session
+35)."""
 STANDING_FOOT_LOCK = FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05, glide_until_contact=True,
                                     glide_gap=0.12, hold_near=0.1, hold_near_roll_free=True, hold_step_gap=0.3)
 """The foot lock of :meth:`SimConfig.standing`: a planted foot stays planted up to 12 cm of recorded rise, and
