@@ -33,8 +33,8 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
     if not (c.hold_gain >= 0.0 and c.hold_near >= 0.0):
         raise ConfigError(f"BalanceConfig: expected hold_gain ≥ 0 and hold_near ≥ 0 m, found {c.hold_gain}, "
                           f"{c.hold_near}")
-    for name in ("joint_bandwidth", "torso_bandwidth", "com_bandwidth"):
-        if not getattr(c, name) > 0.0:
+    for name in ("joint_bandwidth", "torso_bandwidth", "com_bandwidth", "torso_bandwidth_roll_free"):
+        if getattr(c, name) is not None and not getattr(c, name) > 0.0:
             raise ConfigError(f"BalanceConfig.{name}: expected a frequency > 0 rad/s, found {getattr(c, name)}")
     for name in ("foot_damping", "foot_stiffness", "com_damping", "support_margin", "release_delay", "release_margin",
                  "catch_margin", "catch_blend", "external_filter", "w_feet", "w_com", "w_torso", "w_joint",

@@ -16,7 +16,7 @@ class BalanceConfig:
 
     Fields by concept
     -----------------
-    - Tracking: joint_bandwidth, torso_bandwidth, foot_damping, foot_stiffness
+    - Tracking: joint_bandwidth, torso_bandwidth, torso_bandwidth_roll_free, foot_damping, foot_stiffness
     - Balance: com_bandwidth, com_damping, com_reference, com_shift, shift_weight, shift_until_touch,
       com_plan_velocity, torso_plan_velocity, plan_velocity_until_touch, plan_velocity_raised,
       plan_velocity_tilt, angmom_weight, angmom_bandwidth,
@@ -43,6 +43,10 @@ class BalanceConfig:
     torso_bandwidth: float = 10.0
     """ω_o [rad/s]: the torso's wanted angular acceleration is ω_o² e − 2 ω_o ω, e the rotation vector (world)
     from its measured attitude to the IK's."""
+    torso_bandwidth_roll_free: float | None = None
+    """ω_r [rad/s]: ``torso_bandwidth`` on a robot whose feet's roll ``flat_roll_free`` frees (the H1, not Stubby): the
+    H1's torso, released, falls past the plan's strike lean (22° for 10°; docs/design.md §5, session 35,
+    wip/h1lean). ``None``: ``torso_bandwidth`` on every robot."""
     foot_damping: float = 20.0
     """k_f [1/s]: a planted foot's wanted acceleration (linear and angular) is −k_f times its velocity, plus
     the ``foot_stiffness`` term."""

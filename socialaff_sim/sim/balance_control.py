@@ -95,6 +95,9 @@ class BalanceController:
         self._roll_free = roll_free_axes(m, f.bodies, f.forward, scene.root_body) if self.config.flat_roll_free else None
         self.roll_freed = roll_freed(self._roll_free)
         """Whether ``flat_roll_free`` frees some foot's roll rows on this robot (a leg that cannot roll it: the H1)."""
+        self.torso_bandwidth = (self.config.torso_bandwidth_roll_free if self.roll_freed and
+                                self.config.torso_bandwidth_roll_free is not None else self.config.torso_bandwidth)
+        """[rad/s] The torso task's ω_o: ``torso_bandwidth_roll_free`` where this robot's roll is freed and it is set."""
         # the body both shoulders hang from (as SupportMeter measures tilt)
         self._torso = shared_ancestor(m, int(scene.limb_body_ids[0]), int(scene.limb_body_ids[1]), scene.root_body)
         upper = subtree_mask(m, self._torso)
@@ -343,7 +346,7 @@ class BalanceController:
         err = self._torso_goal @ d.xmat[self._torso].reshape(3, 3).T  # world rotation from now to the goal
         mujoco.mju_mat2Quat(self._quat, err.ravel())
         mujoco.mju_quat2Vel(self._rot, self._quat, 1.0)
-        wo = c.torso_bandwidth
+        wo = self.torso_bandwidth
         if c.torso_plan_velocity and moving:  # toward the plan's angular velocity, not toward rest
             tasks.append((Jt, wo * wo * self._rot + 2.0 * wo * (self.plan_velocity.torso - Jt @ qv), c.w_torso))  # type: ignore[union-attr]
         else:

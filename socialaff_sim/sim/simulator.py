@@ -160,8 +160,9 @@ class Simulator:
             lock = dataclasses.replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_causal_only=False)
         if lock is not None and lock.plant_caught_above and not self.task.counts_above:
             lock = dataclasses.replace(lock, plant_caught=False, plant_caught_above=False)
-        self._lean = PlanLean(None if stage.stance is None else stage.stance.config, self.task.counts_above)
         bal = stage.stepper.balance
+        self._lean = PlanLean(None if stage.stance is None else stage.stance.config, self.task.counts_above,
+                              bal is not None and bal.roll_freed)
         if bal is not None:  # release_tilt_touched: in a throw's catch only
             bal.harness.gate_touched(self.task.has_catch)
         if lock is not None and lock.hold_near_roll_free and not (bal is not None and bal.roll_freed):

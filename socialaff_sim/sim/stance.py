@@ -52,8 +52,8 @@ class StanceConfig:
     Fields by concept
     -----------------
     - Steady base: base_smoothing, base_over_feet
-    - The plan's lean: strike_lean, strike_lean_max, strike_lean_raised, strike_lean_above, strike_lean_out,
-      strike_lean_caught
+    - The plan's lean: strike_lean, strike_lean_max, strike_lean_max_roll_free, strike_lean_raised,
+      strike_lean_above, strike_lean_out, strike_lean_caught
     - Letting go: release, release_after, release_tilt, release_com, catch_tilt, leg_bandwidth
     - Balance while released: com_cost, com_gain
     """
@@ -80,6 +80,11 @@ class StanceConfig:
     upright."""
     strike_lean_max: float = 10.0
     """θ_max [deg]: ``strike_lean``'s largest lean."""
+    strike_lean_max_roll_free: float | None = None
+    """θ_r [deg]: on a robot whose feet's roll the balance controller frees (``BalanceConfig.flat_roll_free`` on legs
+    that cannot roll a foot: the H1, not Stubby), ``strike_lean``'s largest lean in place of ``strike_lean_max``: the
+    H1's torso, released, overshoots the plan's 10° lean to 20–24° at the strike and the harness catches it
+    (docs/design.md §5, issue 25, session 35, wip/h1lean). ``None``: ``strike_lean_max`` on every robot."""
     strike_lean_raised: float = 0.0
     """h_l [m]: ``strike_lean`` only for a wrist target at least this high above its shoulder (world heights)."""
     strike_lean_above: bool = False

@@ -63,11 +63,15 @@ class PlanLean:
     ramped out after the task's sub-goals are all met (``strike_lean_out``, :func:`lean_out`) or ended for the rest of
     the episode once the harness holds the robot caught after that meeting (``strike_lean_caught``)."""
 
-    def __init__(self, config: StanceConfig | None, counts_above: bool) -> None:
+    def __init__(self, config: StanceConfig | None, counts_above: bool, roll_freed: bool = False) -> None:
         self.config = config
         self.active = config is not None and config.strike_lean is not None and (
             not config.strike_lean_above or counts_above)
         """Whether this episode leans at all."""
+        self.most = 0.0 if config is None else (config.strike_lean_max_roll_free if roll_freed and (
+            config.strike_lean_max_roll_free is not None) else config.strike_lean_max)
+        """[deg] The largest lean: ``strike_lean_max_roll_free`` on a robot whose feet's roll is freed
+        (``roll_freed``) where set, else ``strike_lean_max``."""
         self.met: int | None = None
         """The frame by which every sub-goal was met (``None``: not yet)."""
         self.dropped = False
@@ -81,7 +85,7 @@ class PlanLean:
         c = self.config
         if not self.active or c is None:
             return 0.0
-        lean = strike_lean(targets, shoulders, c.strike_lean, c.strike_lean_max, c.strike_lean_raised)  # type: ignore[arg-type]
+        lean = strike_lean(targets, shoulders, c.strike_lean, self.most, c.strike_lean_raised)  # type: ignore[arg-type]
         if c.strike_lean_out is None and not c.strike_lean_caught:
             return lean
         if self.met is None and last is not None and last.subgoals and all(last.subgoals.values()):

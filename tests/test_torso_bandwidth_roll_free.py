@@ -1,0 +1,57 @@
+"""``BalanceConfig.torso_bandwidth_roll_free`` ω_r: the torso task's bandwidth on a robot whose feet's roll
+``flat_roll_free`` frees. The decision (the H1, skipped without ../shared/robots: ω_r; Stubby: ``torso_bandwidth``
+whatever ω_r; without ω_r ``torso_bandwidth``), the setting's check, and a standing Stubby episode with it identical
+step by step to one without, while ``torso_bandwidth`` itself at ω_r changes it (so the check can fail)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from conftest import frame_states, shared_robot
+from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
+from socialaff_sim.errors import ConfigError
+from socialaff_sim.retarget.robot import load_robot
+from socialaff_sim.sim.balance_config import BalanceConfig
+from socialaff_sim.sim.simulator import SimConfig, Simulator
+
+
+def _cfg(**balance: object) -> SimConfig:
+    cfg = SimConfig.standing()
+    return dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, **balance))
+
+
+def _high_five():  # noqa: ANN202
+    return list(generate_dataset(0, SyntheticConfig(interactions=("high_five",), instances_per_interaction=2)))[1]
+
+
+def test_the_setting_is_checked() -> None:
+    for bad in (0.0, -1.0):
+        with pytest.raises(ConfigError, match="torso_bandwidth_roll_free"):
+            BalanceConfig(torso_bandwidth_roll_free=bad)
+    assert BalanceConfig().torso_bandwidth_roll_free is None
+    assert SimConfig.standing().balance.torso_bandwidth_roll_free is None
+
+
+def test_the_bandwidth_by_robot() -> None:
+    inter = _high_five()
+    for omega, got in ((None, 10.0), (20.0, 10.0)):  # Stubby's feet roll: torso_bandwidth whatever ω_r
+        bal = Simulator("ours", "high_five", _cfg(torso_bandwidth_roll_free=omega))._get_stage(inter).stepper.balance
+        assert not bal.roll_freed and bal.torso_bandwidth == got
+    spec = load_robot("unitree_h1", mjcf=shared_robot("unitree_h1", "h1.xml"))
+    for omega, got in ((None, 10.0), (20.0, 20.0)):  # the H1's roll is freed: ω_r where set
+        bal = Simulator(spec, "high_five", _cfg(torso_bandwidth_roll_free=omega))._get_stage(inter).stepper.balance
+        assert bal.roll_freed and bal.torso_bandwidth == got
+
+
+def test_stubby_runs_bit_for_bit_as_without_it() -> None:
+    inter = _high_five()
+    base = frame_states(SimConfig.standing(), inter)
+    gated = frame_states(_cfg(torso_bandwidth_roll_free=20.0), inter)
+    assert len(base) == len(gated) > 10
+    for a, b in zip(base, gated, strict=True):
+        np.testing.assert_array_equal(a, b)
+    ungated = frame_states(_cfg(torso_bandwidth=20.0), inter)  # the same bandwidth for every robot changes Stubby
+    assert any(not np.array_equal(a, b) for a, b in zip(base, ungated))
