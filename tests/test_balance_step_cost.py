@@ -8,10 +8,10 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from socialaff_sim.sim import arm_compensation, balance_control, hand_yield
+from socialaff_sim.sim import arm_compensation, hand_yield
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.contact_qp import ActuatorLimits, cop_rows
-from socialaff_sim.sim.external_force import ExternalForces
+from socialaff_sim.sim.external_force import ExternalForces, FilteredExternal
 from socialaff_sim.sim.flat_feet import foot_rows
 from socialaff_sim.sim.scene import Scene
 from test_balance_control import _stand
@@ -139,13 +139,13 @@ def test_the_controller_reads_the_steps_contacts_once_and_hands_them_to_every_pa
             return _orig(self, m, contacts, *args)
 
         monkeypatch.setattr(cls, attr, spy)
-    orig_ext = balance_control.BalanceController._measure_external
+    orig_ext = FilteredExternal.measure
 
     def spy_ext(self, m, d, contacts):
         got["external"].append(contacts)
         return orig_ext(self, m, d, contacts)
 
-    monkeypatch.setattr(balance_control.BalanceController, "_measure_external", spy_ext)
+    monkeypatch.setattr(FilteredExternal, "measure", spy_ext)
     cfg = BalanceConfig(solver="qp", hand_yield=0.5, arm_compensation=1.0, external_forces=True)
     ctl, _, _ = _stand(scene, cfg, 0.2)
     assert ctl.steps == 50 and len(reads) > 0

@@ -52,7 +52,7 @@ from .com_reference import ComReference
 from .compiled_pieces import CompiledPieces
 from .contact_qp import ActuatorLimits, solve_contact_qp
 from .cop_constraints import cop_constraint_rows
-from .external_force import Contacts, ExternalForces, lean_offset
+from .external_force import ExternalForces, FilteredExternal, lean_offset
 from .feet_on_floor import FeetOnFloor
 from .flat_feet import flat_attitude, flat_contacts, foot_feedback, roll_free_axes, roll_freed, yaw_rows
 from .hand_task import HandTask, arm_row_scale, hand_task_wanted
@@ -110,6 +110,8 @@ class BalanceController:
         # the torso's up axis at home
         self._torso_up = scene.home_data().xmat[self._torso].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
         self._external = ExternalForces(scene)
+        self.external = FilteredExternal(self._external, self.config.external_filter)
+        """``external_forces``: the external contacts' filtered estimate (:mod:`~.external_force`)."""
         c = self.config
         self._clearance = None if c.self_clearance is None else SelfClearance.of_scene(
             scene, c.self_clearance, c.clearance_detection, c.clearance_bandwidth)
@@ -169,9 +171,7 @@ class BalanceController:
         """Whether the controller's torques drove the last step."""
         self._planted = (False, False)
         self._anchor: list[tuple[np.ndarray, np.ndarray]] | None = None
-        self._ext_gen = np.zeros(len(self.vadr))
-        self._ext_force = np.zeros(3)
-        self._ext_moment = np.zeros(3)
+        self.external.clear()
         self._torso_goal = np.eye(3)
         self.com.reset()
         self.steps = self.active_steps = 0
@@ -278,17 +278,9 @@ class BalanceController:
         if standing and self.compensation is not None:
             self.compensation.measure(m, contacts)  # type: ignore[arg-type]
         if standing and c.external_forces:
-            self._measure_external(m, d, contacts)  # type: ignore[arg-type]
+            self.external.measure(m, d, contacts)  # type: ignore[arg-type]
         else:
-            self._ext_gen[:], self._ext_force[:], self._ext_moment[:] = 0.0, 0.0, 0.0
-
-    def _measure_external(self, m: mujoco.MjModel, d: mujoco.MjData, contacts: Contacts) -> None:
-        """Fold the external contacts ``contacts`` of the step just taken into their low-pass filtered estimate."""
-        gen, pts, forces = self._external.measure(m, d, contacts)
-        a = math.exp(-m.opt.timestep / self.config.external_filter) if self.config.external_filter > 0 else 0.0
-        self._ext_gen = a * self._ext_gen + (1.0 - a) * gen
-        self._ext_force = a * self._ext_force + (1.0 - a) * forces.sum(axis=0)
-        self._ext_moment = a * self._ext_moment + (1.0 - a) * np.cross(pts, forces).sum(axis=0)
+            self.external.clear()
 
     def _torques(self, m: mujoco.MjModel, d: mujoco.MjData, q_ref: np.ndarray, qd_ref: np.ndarray, pts: np.ndarray,
                  frames: np.ndarray, which: np.ndarray, box: SupportBox, com: np.ndarray, jcom: np.ndarray,
@@ -302,7 +294,7 @@ class BalanceController:
         # The external forces as known loads on the root's rows only: the feet's forces then carry them, while the
         # joints stay as compliant as their PD (feeding them to the arms' rows stiffened the arms against the
         # person, who pushed back harder a step later).
-        h = d.qfrc_bias[va] - d.qfrc_passive[va] - np.where(self.unactuated, self._ext_gen, 0.0)
+        h = d.qfrc_bias[va] - d.qfrc_passive[va] - np.where(self.unactuated, self.external.gen, 0.0)
         qv = d.qvel[va]
         tasks: list[tuple[np.ndarray, np.ndarray, float]] = []
         if self._anchor is None:  # where the feet stand (level, at the home ankle height, with flat_feet)
@@ -332,7 +324,7 @@ class BalanceController:
         wc, zc = c.com_bandwidth, c.com_damping
         if c.external_forces:  # lean so that the feet carry the external forces' moment about the goal's point
             p = np.array([goal[0], goal[1], floor])
-            goal = goal + lean_offset(self._ext_moment, self._ext_force, p, self.mass * self._g)
+            goal = goal + lean_offset(self.external.moment, self.external.force, p, self.mass * self._g)
         goal = box.clip(goal, c.support_margin)
         touched = self.compensation is not None and bool(self.compensation.touched.any())  # the episode's latch
         moving = self.plan_velocity is not None and self.plan_velocity.follows(touched, self._step_tilt)

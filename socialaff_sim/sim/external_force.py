@@ -10,6 +10,7 @@ wrist force sensor's reading, one step old), low-pass filtered.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import mujoco
@@ -17,7 +18,7 @@ import numpy as np
 
 from .scene import Scene
 
-__all__ = ["Contacts", "ExternalForces", "lean_offset", "weld_force"]
+__all__ = ["Contacts", "ExternalForces", "FilteredExternal", "lean_offset", "weld_force"]
 
 
 class Contacts(NamedTuple):
@@ -90,6 +91,30 @@ class ExternalForces:
             return Contacts(np.zeros((0, 3)), np.zeros((0, 3)), none, none)
         return Contacts(np.array(pts), np.array(forces), np.array(geoms, dtype=np.int64),
                         np.array(others, dtype=np.int64))
+
+
+class FilteredExternal:
+    """The external contacts' low-pass filtered estimate the balance controller leans against
+    (``BalanceConfig.external_forces``): :attr:`gen` (nv_r,) their generalised force on the robot's coordinates (N,
+    N·m), :attr:`force` (3,) their resultant (N) and :attr:`moment` (3,) their moment about the world origin (N·m),
+    each an exponential average with time constant τ = ``time_constant`` (s; 0: the last step's alone)."""
+
+    def __init__(self, forces: ExternalForces, time_constant: float) -> None:
+        self.forces, self.time_constant = forces, float(time_constant)
+        self.gen, self.force, self.moment = np.zeros(len(forces.vadr)), np.zeros(3), np.zeros(3)
+
+    def clear(self) -> None:
+        """No external force (a new episode, or a step the robot does not stand)."""
+        self.gen[:], self.force[:], self.moment[:] = 0.0, 0.0, 0.0
+
+    def measure(self, m: mujoco.MjModel, d: mujoco.MjData, contacts: Contacts) -> None:
+        """Fold the external contacts ``contacts`` (:meth:`ExternalForces.contacts`) of the step just taken into the
+        estimate."""
+        gen, pts, forces = self.forces.measure(m, d, contacts)
+        a = math.exp(-m.opt.timestep / self.time_constant) if self.time_constant > 0 else 0.0
+        self.gen = a * self.gen + (1.0 - a) * gen
+        self.force = a * self.force + (1.0 - a) * forces.sum(axis=0)
+        self.moment = a * self.moment + (1.0 - a) * np.cross(pts, forces).sum(axis=0)
 
 
 def lean_offset(moment: np.ndarray, force: np.ndarray, point: np.ndarray, weight: float) -> np.ndarray:
