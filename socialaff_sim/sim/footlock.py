@@ -188,6 +188,12 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig.hold_near: expected None or a distance ≥ 0 m, found {self.hold_near}")
 
 
+def _within(distance: float | None, gaps: Iterable[float | None]) -> bool:
+    """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is at most ``distance`` (m; ``None``:
+    the option off, never)."""
+    return distance is not None and any(g is not None and g <= distance for g in gaps)
+
+
 class FootLock:
     """Holds standing ankle targets still (see the module docstring); :meth:`reset` per episode."""
 
@@ -213,27 +219,23 @@ class FootLock:
     def near(self, gaps: Iterable[float | None]) -> bool:
         """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``hold_near``; ``False``
         without it."""
-        d = self.config.hold_near
-        return d is not None and any(g is not None and g <= d for g in gaps)
+        return _within(self.config.hold_near, gaps)
 
     def stepless(self, gaps: Iterable[float | None]) -> bool:
         """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``hold_step_gap``; ``False``
         without it."""
-        d = self.config.hold_step_gap
-        return d is not None and any(g is not None and g <= d for g in gaps)
+        return _within(self.config.hold_step_gap, gaps)
 
     def landing(self, gaps: Iterable[float | None]) -> bool:
         """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``land_gap``; ``False``
         without it."""
-        d = self.config.land_gap
-        return d is not None and any(g is not None and g <= d for g in gaps)
+        return _within(self.config.land_gap, gaps)
 
     def walking_up(self, gaps: Iterable[float | None]) -> bool:
         """Whether no sub-goal's gap in ``gaps`` (m; ``None``: not measured) is within ``glide_far`` (``glide_gap_far``
         then decides a glide; ``glide_gap_caught`` does not); ``False`` without either option."""
         c = self.config
-        return ((c.glide_gap_far is not None or c.glide_gap_caught is not None)
-                and not any(g is not None and g <= c.glide_far for g in gaps))
+        return (c.glide_gap_far is not None or c.glide_gap_caught is not None) and not _within(c.glide_far, gaps)
 
     def gap_flags(self, gaps: Iterable[float | None] | None) -> dict[str, bool]:
         """:meth:`apply`'s keywords ``near``, ``land``, ``still`` and ``far`` from the last frame's sub-goal ``gaps``

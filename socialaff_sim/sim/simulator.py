@@ -248,9 +248,9 @@ class Simulator:
         tg = fill_targets(np.asarray(targets, dtype=np.float64), self._home_keys)
         world = self.frame_R.to_world(tg)
         plan_feet = world[3:5].copy()  # the plan's ankles, before the foot lock holds them
+        bal = stage.stepper.balance
         if self._footlock is not None:
             physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.needs_physical else None
-            bal = stage.stepper.balance
             last = self.results[-1] if self.results else None
             world[3:5] = self._footlock.apply(world[3:5], last is not None and any(last.subgoals_now.values()),
                                               physical, new_frame=not self._in_frame,
@@ -271,7 +271,6 @@ class Simulator:
                                                       frames[-1].tilt_deg if frames else 0.0,
                                                       ik.balance.box_centre(plan_feet, self._yaw) if self._plan_feet
                                                       else None, self._yaw)
-        bal = stage.stepper.balance
         lean = self._lean.frame(tg, stage.reach.shoulders, self.results[-1] if self.results else None,
                                 bal is not None and bal.harness.holds_caught, t1)
         res = ik.solve(world, self._yaw, dt=1.0 / fps if k == 0 else (n - k) / (n * fps), care=reachable, planted=planted,
