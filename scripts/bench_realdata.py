@@ -155,7 +155,7 @@ def _write(path: Path, doc: dict[str, Any]) -> None:
 def run(args: argparse.Namespace) -> int:
     out = Path(args.json)
     doc: dict[str, Any] = json.loads(out.read_text()) if out.exists() else {"rows": [], "folds": [], "runs": []}
-    done = {_key(r) for r in doc["rows"]}
+    done = {_key(r): r for r in doc["rows"]}  # every episode row by its key (those in the file are skipped)
     cache = Path(args.models)
     cache.mkdir(parents=True, exist_ok=True)
     mjcf = dict(item.split("=", 1) for item in args.mjcf)
@@ -176,6 +176,7 @@ def run(args: argparse.Namespace) -> int:
                     continue
                 insts = list(data.of_label(label).interactions)
                 plan = fold_plan(insts, split, label, args.seed)
+                named = split_name(split, insts)  # (the same for every episode of the class)
                 order = [(f, i) for f, _, test in plan for i in test][args.offset::args.every]
                 order = order[: args.limit] if args.limit is not None else order
                 if args.fit_only:
@@ -205,13 +206,13 @@ def run(args: argparse.Namespace) -> int:
                         metrics = run_episode(sim, src, inter)
                         row = {"robot": robot_name, "physics": args.physics, "dataset": dataset, "label": label,
                                "task": sim.task.interaction, "instance": inter.instance_id, "fold": f,
-                               "split": split_name(split, insts), "source": s, **episode_row(metrics),
+                               "split": named, "source": s, **episode_row(metrics),
                                "cpu_seconds": time.process_time() - c, "wall_seconds": time.perf_counter() - w}
                         doc["rows"].append(row)
-                        done.add(keys[s])
+                        done[keys[s]] = row
                     _write(out, doc)
                     if not args.quiet:
-                        gt, sy = (next(r for r in doc["rows"] if _key(r) == keys[s]) for s in SOURCES)
+                        gt, sy = (done[keys[s]] for s in SOURCES)
                         print(f"{robot_name} {dataset}/{label} fold {f} {inter.instance_id}: gt {gt['outcome'] or gt['success']}"
                               f", synth {sy['outcome'] or sy['success']}", flush=True)
     run_info.update(wall_seconds=time.perf_counter() - tic_wall, cpu_seconds=time.process_time() - tic_cpu)
