@@ -118,6 +118,13 @@ class FootLockConfig:
     does ``restep_gap``). On ground truth they cost high fives: the feet kept up with the plan, the released body lags
     behind them at the strike and is caught backward (high_five_241, 530; docs/design.md §5, session 35, wip/hfwalk).
     ``False``: on every source."""
+    glide_gap_above: bool = False
+    """[—]: ``glide_gap_far`` and ``glide_gap_caught`` act only in a task with a contact sub-goal counted above the
+    robot's shoulders (``SubgoalSpec.above``: the high five; the simulator drops them in any other task, as
+    ``plant_caught_above`` does ``plant_caught``): the smaller gaps keep a synthesized high five's feet up with its
+    plan's late approach to a raised palm (the standing demo's, met with them), while a hand over's, a throw's and a
+    handshake's walk-ups, which lost successes and support with them (high_five aside, rule #52 on 640–647), keep
+    ``glide_gap``. ``False``: in every task (docs/design.md §5, issue 25, session 36, wip/stubdef)."""
     restep_gap: float | None = None
     """d_r [m]: with ``glide_step``, a planted foot whose physical ankle frame stands farther than this
     (horizontally) from the point it is planted at (a glide step that landed short: the balance controller then
@@ -175,6 +182,8 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig.glide_step: expected None or a height > 0 m, found {self.glide_step}")
         if not (isinstance(self.glide_step_frames, int) and self.glide_step_frames >= 1):
             raise ConfigError(f"FootLockConfig.glide_step_frames: expected an integer ≥ 1, found {self.glide_step_frames}")
+        if self.glide_gap_above and self.glide_gap_far is None and self.glide_gap_caught is None:
+            raise ConfigError("FootLockConfig.glide_gap_above: needs glide_gap_far or glide_gap_caught")
         if self.plant_caught_above and not self.plant_caught:
             raise ConfigError("FootLockConfig.plant_caught_above: needs plant_caught")
         if self.hold_lift is not None and not self.hold_lift >= self.lift:

@@ -157,7 +157,10 @@ class Simulator:
         if lock is not None and not self._plan_feet:
             lock = dataclasses.replace(lock, restep_gap=None)
         if lock is not None and lock.glide_gap_causal_only and not self._causal:
-            lock = dataclasses.replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_causal_only=False)
+            lock = dataclasses.replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_causal_only=False,
+                                       glide_gap_above=False)
+        if lock is not None and lock.glide_gap_above and not self.task.counts_above:
+            lock = dataclasses.replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_above=False)
         if lock is not None and lock.plant_caught_above and not self.task.counts_above:
             lock = dataclasses.replace(lock, plant_caught=False, plant_caught_above=False)
         bal = stage.stepper.balance
