@@ -37,7 +37,9 @@ controller being run (e.g. ``flat_feet=True``, which needs the QP), ``--foot-loc
 the foot lock's (:class:`~socialaff_sim.sim.footlock.FootLockConfig`) for every mode, ``--stance FIELD=VALUE ...``
 the steadied base's (:class:`~socialaff_sim.sim.stance.StanceConfig`) for the modes that have one, ``--completion
 FIELD=VALUE ...`` the contact completion's (:class:`~socialaff_sim.retarget.contact_completion.ContactCompletionConfig`)
-for every mode that has one, ``--scaling FIELD=VALUE ...`` the key-joint scaler's
+for every mode that has one, ``--reach-lean [FIELD=VALUE ...]`` the plan's lean into a reach down and ahead
+(``SimConfig.reach_lean``, :class:`~socialaff_sim.sim.reach_lean.ReachLeanConfig`) for every mode, ``--scaling
+FIELD=VALUE ...`` the key-joint scaler's
 (:class:`~socialaff_sim.retarget.scaling_config.ScalingConfig`) for every mode, ``--labels`` picks
 interactions. After the per-interaction table, one line per robot and mode summarises the contact phases, and one
 more counts the episodes failing by each failure kind (self-collision, force on the person, a drop), and one
@@ -70,6 +72,7 @@ from socialaff_sim.retarget.model_source import model_source
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.footlock import FootLockConfig
+from socialaff_sim.sim.reach_lean import ReachLeanConfig
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.stage import key_frames
 from socialaff_sim.sim.balance_config import BalanceConfig
@@ -148,6 +151,9 @@ def main() -> None:
     p.add_argument("--completion", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="ContactCompletionConfig fields for every mode with the contact completion (Python "
                         "literals), e.g. reach_band=0.15")
+    p.add_argument("--reach-lean", nargs="*", default=None, metavar="FIELD=VALUE",
+                   help="SimConfig.reach_lean for every mode: ReachLeanConfig with these fields (Python literals; none: "
+                        "its defaults), e.g. most=20.0")
     p.add_argument("--scaling", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="ScalingConfig fields for every mode (Python literals), e.g. approach_extension=1.0")
     args = p.parse_args()
@@ -159,6 +165,10 @@ def main() -> None:
         over = field_settings(p, "--sim", SimConfig, args.sim)
         for mode, cfg in MODES.items():
             MODES[mode] = dataclasses.replace(cfg, **over)
+    if args.reach_lean is not None:
+        lean = ReachLeanConfig(**field_settings(p, "--reach-lean", ReachLeanConfig, args.reach_lean))
+        for mode, cfg in MODES.items():
+            MODES[mode] = dataclasses.replace(cfg, reach_lean=lean)
     if args.completion:
         over = field_settings(p, "--completion", ContactCompletionConfig, args.completion)
         for mode, cfg in MODES.items():

@@ -16,6 +16,7 @@ from ..retarget.robot import PHYSICS_MODES
 from ..retarget.scaling import ScalingConfig
 from .balance_config import BalanceConfig
 from .footlock import FootLockConfig
+from .reach_lean import ReachLeanConfig
 from .stance import StanceConfig
 from .support import FrameSupport
 
@@ -89,7 +90,7 @@ class SimConfig:
     - Physics: timestep, servo_bandwidth, hand_force, grip, compliant_person, floor_time_constant, settle_iterations
     - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth, stance,
       balance, plan_feet_causal_only
-    - Retargeting: ik, scaling, contact_completion
+    - Retargeting: ik, scaling, contact_completion, reach_lean
     """
 
     timestep: float = 0.004
@@ -146,6 +147,11 @@ class SimConfig:
     blended onto it (:mod:`~socialaff_sim.retarget.contact_completion`; applied by
     :meth:`~socialaff_sim.sim.simulator.Simulator.retarget`); ``None``: the scaled targets go to the IK as
     they are."""
+    reach_lean: ReachLeanConfig | None = None
+    """[—]: The plan's trunk leaned forward into a wrist target down and ahead that the upright arm cannot reach (a
+    seated person's hand below a tall robot's short arms; :mod:`~socialaff_sim.sim.reach_lean`), in either physics
+    mode; ``None`` (the default): the plan's trunk leans only by ``StanceConfig.strike_lean`` (docs/design.md §5,
+    issue 25, session 36, wip/h1pull)."""
     grip: bool = True
     """[—]: Whether a robot hand touching the object grips it (its grip weld switches on and stays on)."""
     compliant_person: bool = True

@@ -36,6 +36,7 @@ from .scoring import SubgoalScorer
 from .stage import Stage, contact_exemptions, key_frames, key_frames_at
 from .stage_build import build_stage
 from .footlock import FootLock
+from .reach_lean import ReachLean
 from .sim_config import SimConfig, StepResult
 from .strike_lean import PlanLean
 from .support import SupportMeter
@@ -166,6 +167,11 @@ class Simulator:
         bal = stage.stepper.balance
         self._lean = PlanLean(None if stage.stance is None else stage.stance.config, self.task.counts_above,
                               bal is not None and bal.roll_freed)
+        rl, m, ids = self.config.reach_lean, stage.scene.model, stage.scene.frame_ids
+        self._reach_lean = None if rl is None else ReachLean(rl, m, [int(m.site_bodyid[ids[k]]) if stage.scene.frame_kinds[k]
+                                                                 == "site" else int(ids[k]) for k in (3, 4)],
+                                                             stage.scene.root_body, stage.reach.arm, stage.reach.shoulders,
+                                                             self.task.chair)
         if bal is not None:  # release_tilt_touched: in a throw's catch only
             bal.harness.gate_touched(self.task.has_catch)
         if lock is not None and lock.hold_near_roll_free and not (bal is not None and bal.roll_freed):
@@ -276,6 +282,8 @@ class Simulator:
                                                       else None, self._yaw)
         lean = self._lean.frame(tg, stage.reach.shoulders, self.results[-1] if self.results else None,
                                 bal is not None and bal.harness.holds_caught, t1)
+        if self._reach_lean is not None:  # (SimConfig.reach_lean)
+            lean = max(lean, self._reach_lean.frame(tg))
         res = ik.solve(world, self._yaw, dt=1.0 / fps if k == 0 else (n - k) / (n * fps), care=reachable, planted=planted,
                        com_target=com_target, iterations=iterations, lean=lean,
                        com_cost=None if com_target is None else stage.stance.config.com_cost)  # type: ignore[union-attr]
