@@ -71,6 +71,20 @@ class FootLockConfig:
     held 8.5 of the high fives' 16.3 points (docs/design.md §5, issue 25, session 35, wip/h1hold). ``hold_near``'s
     backing steps are held where they stand as without it. ``None``: the targets decide. ``hold_near_roll_free``
     drops it with ``hold_near`` (on Stubby)."""
+    hold_step_flight: int | None = None
+    """L_f [frames]: in a task with a ``catch`` sub-goal (a thrown object), from this many frames before the frame in
+    which the person lets go of the object (0: from that frame; negative: after it) to the episode's end, a planted
+    foot does not step, as within ``hold_step_gap``: the plan steps, the foot stays planted (the caller passes
+    ``flight``, :meth:`FootLock.in_flight`). The recorded catcher steps toward the ball in its flight, 0–9 frames
+    after the release and 0–10 before the touch, at gaps beyond ``hold_step_gap``; on the H1 a step is a catch of the
+    harness, which holds the landed robot into the catch. Held steps lose the reach: on spent H1 throws 560–591 with
+    L_f = 0 the catches fell from 25 to 7 of 32 (the hands 2–28 cm short of the ball; docs/design.md §5, issue 25,
+    session 36, wip/h1throw; not adopted). ``None``: off. ``hold_near_roll_free`` drops it with ``hold_near`` (on
+    Stubby)."""
+    hold_step_flight_after: int = 0
+    """n_f [steps]: with ``hold_step_flight``, the flight's hold begins only once this many steps (a planted foot
+    unplanted, glide steps included) have begun since its first frame: the first n_f steps toward the ball are taken
+    as recorded, later ones are planted in the plan at once. 0: from the flight's first frame."""
     land_gap: float | None = None
     """d_l [m]: while a sub-goal's gap at the end of the last frame is at most this (the hands about to meet, in
     contact, or just parted), a foot that is not planted at a frame's start is put down at its target's horizontal
@@ -193,6 +207,12 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig.land_gap: expected None or a distance ≥ 0 m, found {self.land_gap}")
         if self.hold_step_gap is not None and not self.hold_step_gap >= 0.0:
             raise ConfigError(f"FootLockConfig.hold_step_gap: expected None or a distance ≥ 0 m, found {self.hold_step_gap}")
+        if self.hold_step_flight is not None and not isinstance(self.hold_step_flight, int):
+            raise ConfigError(f"FootLockConfig.hold_step_flight: expected None or an integer (frames), found "
+                              f"{self.hold_step_flight}")
+        if not (isinstance(self.hold_step_flight_after, int) and self.hold_step_flight_after >= 0):
+            raise ConfigError(f"FootLockConfig.hold_step_flight_after: expected an integer ≥ 0 (steps), found "
+                              f"{self.hold_step_flight_after}")
         if self.hold_near is not None and not self.hold_near >= 0.0:
             raise ConfigError(f"FootLockConfig.hold_near: expected None or a distance ≥ 0 m, found {self.hold_near}")
 
@@ -224,6 +244,9 @@ class FootLock:
         self._last: int | None = None  # the foot that glide-stepped in the last frame
         self._touched = False  # a sub-goal's contact has held in the episode (``glide_until_contact``)
         self._wait = [False, False]  # this frame's gliding feet held where they stand
+        self.steps = 0
+        """Steps begun in the episode (a planted foot unplanted, glide steps included)."""
+        self._flight_from: int | None = None  # ``steps`` at the flight's first frame (``hold_step_flight``)
 
     def near(self, gaps: Iterable[float | None]) -> bool:
         """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``hold_near``; ``False``
@@ -234,6 +257,18 @@ class FootLock:
         """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``hold_step_gap``; ``False``
         without it."""
         return _within(self.config.hold_step_gap, gaps)
+
+    def in_flight(self, frame: int, release_frame: int | None) -> bool:
+        """Whether the frame that ends at ``frame`` lies within ``hold_step_flight`` of a thrown object's release
+        (the person lets go at the start of frame ``release_frame`` − 1; ``None``: no thrown object): ``frame`` ≥
+        ``release_frame`` − L_f, and ``hold_step_flight_after`` steps begun since the first such frame (the first
+        call that finds ``frame`` in the flight marks it); ``False`` without the option."""
+        L = self.config.hold_step_flight
+        if L is None or release_frame is None or frame < release_frame - L:
+            return False
+        if self._flight_from is None:
+            self._flight_from = self.steps
+        return self.steps - self._flight_from >= self.config.hold_step_flight_after
 
     def landing(self, gaps: Iterable[float | None]) -> bool:
         """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``land_gap``; ``False``
@@ -281,7 +316,7 @@ class FootLock:
     def apply(self, ankles: np.ndarray, touching: bool = False, physical: np.ndarray | None = None,
               new_frame: bool = True, caught: bool = False, near: bool = False,
               person: np.ndarray | None = None, land: bool = False, still: bool = False,
-              far: bool = False) -> np.ndarray:
+              far: bool = False, flight: bool = False) -> np.ndarray:
         """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted;
         ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted);
         ``physical`` (2, 3): the physical ankle frames (world, m), which ``glide_gap`` needs; ``new_frame``:
@@ -296,12 +331,14 @@ class FootLock:
         horizontal point (no foot is lifted, no glide steps); ``far``: no sub-goal's gap at the end of the last frame
         is within ``glide_far`` (:meth:`walking_up`; the caller passes ``False`` without ``glide_gap_far`` and
         ``glide_gap_caught``): ``glide_gap_far`` then replaces ``glide_gap``, and otherwise while ``caught``
-        ``glide_gap_caught`` does."""
+        ``glide_gap_caught`` does; ``flight``: the frame lies in a thrown object's flight (:meth:`in_flight`): as
+        ``still``."""
         if self.needs_physical and physical is None:
             raise SimulationError("FootLock.apply: glide_gap and restep_gap need the physical ankle frames")
         out = np.array(ankles, dtype=np.float64)
         c = self.config
         held = touching and c.hold_in_contact
+        still = still or flight  # (hold_step_flight: the plan steps, the foot stays)
         back = (self.backing(out, person) if near and person is not None and c.hold_in_contact and not held
                 else (False, False))
         self._touched = self._touched or bool(touching)
@@ -349,11 +386,13 @@ class FootLock:
                 self._glide = (s, out[s].copy())
                 self._glide_left = c.glide_step_frames - 1
                 self.glide_steps += 1
+                self.steps += 1
             elif rise <= c.lift or (land and new_frame and p is None) or (still and p is not None):
                 # (land: lifted in an earlier frame; still: a step of a planted foot planted at once where it goes)
                 self.planted[s] = np.array([t[0], t[1], self.home_height[s]])
                 out[s] = self.planted[s]
             else:
+                self.steps += p is not None
                 self.planted[s] = None
         return out
 

@@ -175,8 +175,8 @@ class Simulator:
         if bal is not None:  # release_tilt_touched: in a throw's catch only
             bal.harness.gate_touched(self.task.has_catch)
         if lock is not None and lock.hold_near_roll_free and not (bal is not None and bal.roll_freed):
-            lock = dataclasses.replace(lock, hold_near=None, hold_near_roll_free=False,
-                                       land_gap=None, hold_step_gap=None)  # (Stubby: the gate's "no")
+            lock = dataclasses.replace(lock, hold_near=None, hold_near_roll_free=False, land_gap=None,
+                                       hold_step_gap=None, hold_step_flight=None)  # (Stubby: the gate's "no")
         self._footlock = None if lock is None else FootLock(
             (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), lock)
         if self.carry is not None and self.carry.release_frame == 0:
@@ -261,10 +261,13 @@ class Simulator:
         if self._footlock is not None:
             physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.needs_physical else None
             last = self.results[-1] if self.results else None
+            flight = self._footlock.in_flight(t1, self.carry.release_frame if self.carry is not None
+                                              and self.task.has_catch else None)  # (hold_step_flight)
             world[3:5] = self._footlock.apply(world[3:5], last is not None and any(last.subgoals_now.values()),
                                               physical, new_frame=not self._in_frame,
                                               caught=bal is not None and bal.harness.holds_caught,
                                               person=self._person_xy(t1) if self._footlock.config.hold_near is not None else None,
+                                              flight=flight,
                                               **self._footlock.gap_flags(None if last is None else last.subgoal_gaps.values()))
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
