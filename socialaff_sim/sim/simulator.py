@@ -15,7 +15,6 @@ become a frame's targets through :meth:`Simulator.retarget` (:mod:`~.frame_targe
 from __future__ import annotations
 
 import copy
-import dataclasses
 import time
 from pathlib import Path
 
@@ -154,17 +153,11 @@ class Simulator:
         self._q = q0.copy()
         self._released = False
         stage.start(q0, self.pose, self._yaw, self.task.chair, self.carry, self._park_radius)
-        lock = self.config.foot_lock
-        if lock is not None and not self._plan_feet:
-            lock = dataclasses.replace(lock, restep_gap=None)
-        if lock is not None and lock.glide_gap_causal_only and not self._causal:
-            lock = dataclasses.replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_causal_only=False,
-                                       glide_gap_above=False)
-        if lock is not None and lock.glide_gap_above and not self.task.counts_above:
-            lock = dataclasses.replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_above=False)
-        if lock is not None and lock.plant_caught_above and not self.task.counts_above:
-            lock = dataclasses.replace(lock, plant_caught=False, plant_caught_above=False)
         bal = stage.stepper.balance
+        lock = self.config.foot_lock
+        if lock is not None:
+            lock = lock.for_episode(plan_feet=self._plan_feet, causal=self._causal, counts_above=self.task.counts_above,
+                                    roll_freed=bal is not None and bal.roll_freed)
         self._lean = PlanLean(None if stage.stance is None else stage.stance.config, self.task.counts_above,
                               bal is not None and bal.roll_freed)
         rl, m, ids = self.config.reach_lean, stage.scene.model, stage.scene.frame_ids
@@ -174,9 +167,6 @@ class Simulator:
                                                              self.task.chair)
         if bal is not None:  # release_tilt_touched: in a throw's catch only
             bal.harness.gate_touched(self.task.has_catch)
-        if lock is not None and lock.hold_near_roll_free and not (bal is not None and bal.roll_freed):
-            lock = dataclasses.replace(lock, hold_near=None, hold_near_roll_free=False, land_gap=None,
-                                       hold_step_gap=None, hold_step_flight=None)  # (Stubby: the gate's "no")
         self._footlock = None if lock is None else FootLock(
             (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), lock)
         if self.carry is not None and self.carry.release_frame == 0:
