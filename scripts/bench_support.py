@@ -109,6 +109,16 @@ def _feet_offset(sim: Simulator, result: object, out: list[tuple[float, bool]]) 
                 any(result.subgoals_now.values())))  # type: ignore[attr-defined]
 
 
+def _per_frame(sim: Simulator) -> dict[str, list]:
+    """Per data frame with support figures: whether a sub-goal's contact holds now (0/1), the mean outside support
+    (fraction of the weight) and the feet's slide (cm): what ``judge_support.py`` compares over the contact frames
+    both arms share."""
+    frames = [r for r in sim.results if r.support is not None]
+    return {"frames_contact": [int(any(r.subgoals_now.values())) for r in frames],
+            "frames_support": [float(r.support.outside_mean) for r in frames],
+            "frames_slide_cm": [100.0 * float(r.support.slide) for r in frames]}
+
+
 def _models(p: argparse.ArgumentParser, items: list[str] | None) -> dict[str, str] | None:
     """``--model``'s paths by interaction ("" for one model for every interaction); ``None`` without ``--model``."""
     if items is None:
@@ -220,7 +230,7 @@ def main() -> None:
                                  "catches": None if bal is None else bal.harness.catches,
                                  "catch_reasons": None if bal is None else dict(bal.harness.catch_reasons),
                                  "released_steps": None if bal is None else bal.harness.released_steps,
-                                 **{k: cp[k] for k in KEYS}})
+                                 **{k: cp[k] for k in KEYS}, **_per_frame(sim)})
     print(f"{'robot':<12}{'mode':<8}{'interaction':<16}{'ok':>6}{'support mean':>14}{'peak':>8}{'slide cm':>10}"
           f"{'pen cm':>8}{'torque':>8}{'sat':>7}{'limit':>7}{'released':>10}{'sole slip cm':>14}{'steps':>7}")
     for robot in args.robots:

@@ -5,6 +5,10 @@ mode it prints: successes A → B with the episodes lost and gained; the failure
 difference B − A of the contact-phase outside support (points of the robot's weight) and of the feet's slide (cm)
 over the episodes with a contact phase in both, each with a 95 % percentile-bootstrap interval (10,000 resamples of
 the episodes, seeded); the arms' means and medians; the largest torso tilt of each arm; successes per interaction.
+Where both runs carry per-frame figures (``bench_support.py`` rows since session 36), it also prints the same two
+paired differences over the *shared contact frames*: per episode, only the data frames in which a sub-goal's contact
+holds in both arms (support: their mean; slide: their sum), so that a candidate that makes or lengthens a contact is
+compared with the baseline on the same frames, not on a longer phase.
 Usage::
 
     python scripts/judge_support.py A.json B.json [--robot ours] [--mode standing] [--label high_five] [--seed 0]
@@ -43,6 +47,21 @@ def bootstrap(d: np.ndarray, rng: np.random.Generator, resamples: int = 10_000) 
     return float(d.mean()), float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
 
 
+def shared_frames(ra: dict, rb: dict) -> tuple[float, float, float, float, int] | None:
+    """Over the data frames in which both rows' contact holds: (support A, support B) as the mean outside support
+    (points of the weight), (slide A, slide B) as the summed slide (cm), and the number of such frames; ``None`` when
+    a row lacks per-frame figures or no frame is shared."""
+    if any(k not in r for r in (ra, rb) for k in ("frames_contact", "frames_support", "frames_slide_cm")):
+        return None
+    n = min(len(ra["frames_contact"]), len(rb["frames_contact"]))
+    both = (np.asarray(ra["frames_contact"][:n], bool) & np.asarray(rb["frames_contact"][:n], bool))
+    if not both.any():
+        return None
+    sa, sb = (100.0 * float(np.mean(np.asarray(r["frames_support"][:n])[both])) for r in (ra, rb))
+    la, lb = (float(np.sum(np.asarray(r["frames_slide_cm"][:n])[both])) for r in (ra, rb))
+    return sa, sb, la, lb, int(both.sum())
+
+
 def report(a: dict[Key, dict], b: dict[Key, dict], keys: list[Key], seed: int) -> list[str]:
     """The lines for one robot and mode (``keys``: its paired episodes)."""
     lost = [k[3] for k in keys if a[k]["success"] and not b[k]["success"]]
@@ -73,10 +92,23 @@ def report(a: dict[Key, dict], b: dict[Key, dict], keys: list[Key], seed: int) -
         f"tilt max (deg) A {max(a[k]['episode_tilt_deg_max'] for k in keys):.1f} "
         f"B {max(b[k]['episode_tilt_deg_max'] for k in keys):.1f}",
         "per interaction (A/B of n): " + ", ".join(f"{lab} {x}/{y} of {n}" for lab, (x, y, n) in sorted(per.items())),
-    ] + ([  # runs before the outcome codes (sim/outcome.py) have none
+    ] + _shared_lines(a, b, keys, seed) + ([  # runs before the outcome codes (sim/outcome.py) have none
         f"outcomes A {dict(collections.Counter(a[k]['outcome'] for k in keys))}  "
         f"B {dict(collections.Counter(b[k]['outcome'] for k in keys))}"]
         if all("outcome" in a[k] and "outcome" in b[k] for k in keys) else [])
+
+
+def _shared_lines(a: dict[Key, dict], b: dict[Key, dict], keys: list[Key], seed: int) -> list[str]:
+    """The shared-contact-frames lines (:func:`shared_frames`), or none when the runs lack per-frame figures."""
+    if not all("frames_contact" in a[k] and "frames_contact" in b[k] for k in keys):
+        return []
+    got = [s for s in (shared_frames(a[k], b[k]) for k in keys) if s is not None]
+    arr = np.array([s[:4] for s in got]).reshape(-1, 4)
+    rng = np.random.default_rng(seed)
+    ds, ls, hs = bootstrap(arr[:, 1] - arr[:, 0], rng)
+    dl, ll, hl = bootstrap(arr[:, 3] - arr[:, 2], rng)
+    return [f"shared contact frames: {len(got)} episodes, {sum(s[4] for s in got)} frames; "
+            f"support (points) B-A {ds:+.2f} [{ls:+.2f}, {hs:+.2f}]; slide (cm) B-A {dl:+.2f} [{ll:+.2f}, {hl:+.2f}]"]
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -81,3 +81,56 @@ def test_outcome_codes_are_counted_only_when_both_runs_have_them(tmp_path: Path,
     old = [{k: v for k, v in r.items() if k != "outcome"} for r in a]  # a run from before the codes
     judge.main([_write(tmp_path / "a.json", old), _write(tmp_path / "b.json", b)])
     assert "outcomes" not in capsys.readouterr().out
+
+
+def _framed(row: dict, contact: list[int], support: list[float], slide: list[float]) -> dict:
+    return {**row, "frames_contact": contact, "frames_support": support, "frames_slide_cm": slide}
+
+
+def test_shared_frames_take_only_the_frames_both_arms_touch() -> None:
+    rng = np.random.default_rng(5)
+    ca, cb = rng.integers(0, 2, 40), rng.integers(0, 2, 40)
+    sa, sb, la, lb = (rng.random(40) for _ in range(4))
+    ra = _framed(_row("pull_up", 1, True, 0.0, 0.0), ca.tolist(), sa.tolist(), la.tolist())
+    rb = _framed(_row("pull_up", 1, True, 0.0, 0.0), cb.tolist(), sb.tolist(), lb.tolist())
+    got = judge.shared_frames(ra, rb)
+    idx = [i for i in range(40) if ca[i] and cb[i]]  # brute force: frame by frame
+    assert got is not None and got[4] == len(idx)
+    assert got[0] == pytest.approx(100 * sum(sa[i] for i in idx) / len(idx))
+    assert got[1] == pytest.approx(100 * sum(sb[i] for i in idx) / len(idx))
+    assert got[2] == pytest.approx(sum(la[i] for i in idx)) and got[3] == pytest.approx(sum(lb[i] for i in idx))
+
+
+def test_a_longer_contact_in_b_is_not_counted_against_it(tmp_path: Path, capsys) -> None:  # noqa: ANN001
+    # A touches in frames 2-3 only; B in 0-5 and slides 5 cm in each of its extra frames: over the shared frames the
+    # arms are equal, while the phase-summed slide (the older line) is 20 cm worse
+    a = [_framed(_row("hand_over", 1, False, 0.1, 2.0, contact=2), [0, 0, 1, 1, 0, 0], [0.1] * 6, [1.0] * 6)]
+    b = [_framed(_row("hand_over", 1, True, 0.1, 22.0, contact=6), [1] * 6, [0.1] * 6, [5.0, 5.0, 1.0, 1.0, 5.0, 5.0])]
+    judge.main([_write(tmp_path / "a.json", a), _write(tmp_path / "b.json", b)])
+    out = capsys.readouterr().out
+    assert "slide (cm) B-A +20.00" in out
+    assert "shared contact frames: 1 episodes, 2 frames; support (points) B-A +0.00 [+0.00, +0.00]; slide (cm) B-A +0.00" in out
+
+
+def test_no_shared_line_without_per_frame_figures_or_shared_frames(tmp_path: Path, capsys) -> None:  # noqa: ANN001
+    a = [_row("high_five", 1, True, 0.0, 1.0)]
+    judge.main([_write(tmp_path / "a.json", a), _write(tmp_path / "b.json", a)])
+    assert "shared contact frames" not in capsys.readouterr().out
+    ra = _framed(_row("high_five", 1, True, 0.0, 1.0), [1, 0], [0.0, 0.0], [0.0, 0.0])
+    rb = _framed(_row("high_five", 1, True, 0.0, 1.0), [0, 1], [0.0, 0.0], [0.0, 0.0])
+    assert judge.shared_frames(ra, rb) is None
+
+
+def test_bench_rows_carry_per_frame_figures_that_add_up_to_the_phase(tmp_path: Path, monkeypatch) -> None:  # noqa: ANN001
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "scripts"))
+    bench = load_script("bench_support")
+    out = tmp_path / "rows.json"
+    monkeypatch.setattr("sys.argv", ["bench_support.py", "--modes", "harness", "--per-label", "1", "--labels",
+                                     "shake_hands", "--json", str(out)])
+    bench.main()
+    (row,) = json.loads(out.read_text())["rows"]
+    c = np.asarray(row["frames_contact"], bool)
+    assert c.sum() == row["contact_frames"] > 0
+    assert len(row["frames_support"]) == len(row["frames_slide_cm"]) == c.size
+    assert np.sum(np.asarray(row["frames_slide_cm"])[c]) == pytest.approx(row["foot_slide_cm"], rel=1e-9, abs=1e-9)
+    assert np.mean(np.asarray(row["frames_support"])[c]) == pytest.approx(row["outside_support_mean"], rel=1e-9, abs=1e-12)
