@@ -89,7 +89,7 @@ class SimConfig:
     - Physics: timestep, servo_bandwidth, hand_force, grip, compliant_person, floor_time_constant, settle_iterations
     - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth, stance,
       balance, plan_feet_causal_only
-    - Retargeting: ik, scaling, contact_completion
+    - Retargeting: ik, scaling, contact_completion, trunk_vertices
     """
 
     timestep: float = 0.004
@@ -146,6 +146,15 @@ class SimConfig:
     blended onto it (:mod:`~socialaff_sim.retarget.contact_completion`; applied by
     :meth:`~socialaff_sim.sim.simulator.Simulator.retarget`); ``None``: the scaled targets go to the IK as
     they are."""
+    trunk_vertices: bool = False
+    """[—]: Whether the robot's trunk radius r_t (the horizontal extent of its collidable geoms but the arms about
+    the base's vertical axis, at home: :attr:`~socialaff_sim.sim.reach.ReachModel.trunk_radius`, which the
+    placement keeps the contact samples' wrists and the person's body clear of and the reach criterion reads) takes
+    a mesh geom's extent from the mesh's vertices rather than from its bounding sphere. A robot of primitive geoms
+    (Stubby) gets the same radius either way; the H1's, all meshes, is 0.537 m from its thighs' bounding spheres
+    against 0.322 m from the vertices (its feet), and every H1 hand over on 608–623 was placed by it, standing back
+    with the cup 0.7–1.0 m from its shoulders (arm 0.55 m; docs/design.md §5, "The H1's hand overs"). Off: the
+    bounding spheres."""
     grip: bool = True
     """[—]: Whether a robot hand touching the object grips it (its grip weld switches on and stays on)."""
     compliant_person: bool = True
