@@ -21,7 +21,8 @@ One JSON row per episode (robot, physics, data set, label, instance, fold, sourc
 time, sub-goals, failures, support figures, CPU and wall seconds). The JSON is rewritten after every instance
 and a rerun with the same ``--json`` skips the episodes it holds (restartable); ``--datasets``, ``--labels``,
 ``--robots``, ``--offset``, ``--limit`` and ``--every`` cut a run into chunks; ``--completion FIELD=VALUE``
-sets fields of the contact completion (``ContactCompletionConfig``) for a development or rule run. ``--table A.json [B.json ...]``
+sets fields of the contact completion (``ContactCompletionConfig``) and ``--sim FIELD=VALUE`` the simulator's own
+(``SimConfig``) for a development or rule run. ``--table A.json [B.json ...]``
 prints the per data set × label × robot table (scripts/_realdata_table.py); ``--fit-only`` fits and caches the
 models without running an episode (so that runs on two robots in parallel share them). Examples::
 
@@ -163,6 +164,8 @@ def run(args: argparse.Namespace) -> int:
     if args.completion_fields and config.contact_completion is not None:
         config = dataclasses.replace(config, contact_completion=dataclasses.replace(
             config.contact_completion, **args.completion_fields))
+    if args.sim_fields:
+        config = dataclasses.replace(config, **args.sim_fields)
     run_info = {"argv": sys.argv[1:], "seed": args.seed, "physics": args.physics, "n_folds": N_FOLDS,
                 "n_observed": DEFAULT_N_OBSERVED, "started": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())}
     tic_wall, tic_cpu = time.perf_counter(), time.process_time()
@@ -240,9 +243,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--fit-only", action="store_true", help="fit (and cache) every fold's model, run no episode")
     p.add_argument("--completion", nargs="*", default=[], metavar="FIELD=VALUE",
                    help="ContactCompletionConfig fields (Python literals), e.g. reach_carried=True")
+    p.add_argument("--sim", nargs="*", default=[], metavar="FIELD=VALUE",
+                   help="SimConfig's own fields (Python literals), e.g. trunk_vertices=True")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
     args.completion_fields = field_settings(p, "--completion", ContactCompletionConfig, args.completion)
+    args.sim_fields = field_settings(p, "--sim", SimConfig, args.sim)
     if args.table:
         rows = [r for path in args.table for r in json.loads(Path(path).read_text())["rows"]]
         print(format_tables(table_rows(rows, seed=args.interval_seed, pooled=True)))

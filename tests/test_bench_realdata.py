@@ -211,3 +211,13 @@ def test_an_episode_row_carries_the_metrics(bench) -> None:  # noqa: ANN001
     assert row["subgoals"] == {"hands_clasped": True} and row["subgoal_time_s"] == {"hands_clasped": 0.8}
     assert row["support"]["contact_outside_support_mean"] == 0.3 and row["support"]["outside_support_mean"] == 0.2
     assert row["max_force_on_human_n"] == 312.5
+
+
+def test_sim_flag_names_simconfig_fields_only(bench, capsys: pytest.CaptureFixture[str]) -> None:  # noqa: ANN001
+    """``--sim FIELD=VALUE`` sets ``SimConfig``'s own fields: one that is not a field exits 2 naming the flag."""
+    with pytest.raises(SystemExit) as err:
+        bench.main(["--sim", "no_such_field=True", "--json", "unused.json"])
+    assert err.value.code == 2 and "--sim" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as err:  # a ContactCompletionConfig field is not a SimConfig one
+        bench.main(["--sim", "reach_carried=True", "--json", "unused.json"])
+    assert err.value.code == 2

@@ -117,6 +117,21 @@ def _support(model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray, u: n
     return data.geom_xpos[geoms] @ u + reach
 
 
+def _mesh_support(model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """(G,) the support function h(u) = max over each geom of x·u (unit direction ``u`` (3,), world frame) with the
+    mesh geoms' exact value, the largest of their vertices' (a mesh collides as its convex hull, whose vertices are
+    among the mesh's), the other geoms as :func:`_support` has them."""
+    out = _support(model, data, geoms, u)
+    for i, g in enumerate(np.asarray(geoms, dtype=np.int64)):
+        mesh = int(model.geom_dataid[g])
+        if int(model.geom_type[g]) != int(mujoco.mjtGeom.mjGEOM_MESH) or mesh < 0:
+            continue
+        a, n = int(model.mesh_vertadr[mesh]), int(model.mesh_vertnum[mesh])
+        world = model.mesh_vert[a:a + n] @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g]
+        out[i] = float((world @ u).max())
+    return out
+
+
 def inner_capsules(model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Capsules inside ``geoms`` as segment ends a, b (G, 3) and radii (G,), world frame, metres.
@@ -170,9 +185,11 @@ def _base_parts(scene: Scene, core: np.ndarray, data: mujoco.MjData, base: np.nd
 
 
 def reach_model(scene: Scene, arm: float, leg: float, shoulders: np.ndarray, hips: np.ndarray,
-                clearance: float) -> ReachModel:
+                clearance: float, trunk_vertices: bool = False) -> ReachModel:
     """The :class:`ReachModel` of ``scene``'s robot at its home posture (measurements from
-    :func:`~socialaff_sim.retarget.scaling.measure_robot`)."""
+    :func:`~socialaff_sim.retarget.scaling.measure_robot`). ``trunk_vertices``: the trunk's radius takes a mesh
+    geom's extent from its vertices (:func:`_mesh_support`) instead of its bounding sphere
+    (``SimConfig.trunk_vertices``; a robot without mesh geoms gets the same radius either way)."""
     m = scene.model
     d = scene.home_data()
     mujoco.mj_comPos(m, d)
@@ -187,7 +204,8 @@ def reach_model(scene: Scene, arm: float, leg: float, shoulders: np.ndarray, hip
     arms = subtree_mask(m, int(scene.limb_body_ids[0])) | subtree_mask(m, int(scene.limb_body_ids[1]))
     trunk = np.flatnonzero(collide & ~arms[m.geom_bodyid])
     angles = np.linspace(0.0, 2 * np.pi, 16, endpoint=False)
-    radius = max(float((_support(m, d, trunk, np.array([np.cos(a), np.sin(a), 0.0]))
+    support = _mesh_support if trunk_vertices else _support
+    radius = max(float((support(m, d, trunk, np.array([np.cos(a), np.sin(a), 0.0]))
                         - base[:2] @ np.array([np.cos(a), np.sin(a)])).max()) for a in angles) if len(trunk) else 0.0
     # The wrist core: the deepest the wrist frame lies inside one of its arm's geoms.
     core = np.full(2, -1, dtype=np.int64)

@@ -90,7 +90,7 @@ class SimConfig:
     - Physics: timestep, servo_bandwidth, hand_force, grip, compliant_person, floor_time_constant, settle_iterations
     - Weight and support: gravity_compensation, harness_time_constant, foot_lock, stance_bandwidth, stance,
       balance, plan_feet_causal_only
-    - Retargeting: ik, scaling, contact_completion, reach_lean
+    - Retargeting: ik, scaling, contact_completion, reach_lean, trunk_vertices
     """
 
     timestep: float = 0.004
@@ -152,6 +152,15 @@ class SimConfig:
     seated person's hand below a tall robot's short arms; :mod:`~socialaff_sim.sim.reach_lean`), in either physics
     mode; ``None`` (the default): the plan's trunk leans only by ``StanceConfig.strike_lean`` (docs/design.md §5,
     issue 25, session 36, wip/h1pull)."""
+    trunk_vertices: bool = False
+    """[—]: Whether the robot's trunk radius r_t (the horizontal extent of its collidable geoms but the arms about
+    the base's vertical axis, at home: :attr:`~socialaff_sim.sim.reach.ReachModel.trunk_radius`, which the
+    placement keeps the contact samples' wrists and the person's body clear of and the reach criterion reads) takes
+    a mesh geom's extent from the mesh's vertices rather than from its bounding sphere. A robot of primitive geoms
+    (Stubby) gets the same radius either way; the H1's, all meshes, is 0.537 m from its thighs' bounding spheres
+    against 0.322 m from the vertices (its feet), and every H1 hand over on 608–623 was placed by it, standing back
+    with the cup 0.7–1.0 m from its shoulders (arm 0.55 m; docs/design.md §5, "The H1's hand overs"). Off: the
+    bounding spheres."""
     grip: bool = True
     """[—]: Whether a robot hand touching the object grips it (its grip weld switches on and stays on)."""
     compliant_person: bool = True

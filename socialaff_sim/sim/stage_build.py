@@ -64,7 +64,8 @@ def build_stage(
                                      ik_scene.frame_ids, ik_scene.limb_body_ids)
         home_keys = key_frames_at(ik_scene, ik_scene.home_qpos)
     meas = measurements
-    reach = reach_model(scene, meas.arm, meas.leg, meas.shoulders, meas.hips, config.ik.min_distance)
+    reach = reach_model(scene, meas.arm, meas.leg, meas.shoulders, meas.hips, config.ik.min_distance,
+                        config.trunk_vertices)
     if meas.trunk_radius == 0.0:
         meas = dataclasses.replace(meas, trunk_radius=reach.trunk_radius, height=reach.height,
                                    hand=float(np.mean(reach.hand_centre)))
