@@ -168,6 +168,7 @@ class Simulator:
                               bal is not None and bal.roll_freed)
         if bal is not None:  # release_tilt_touched: in a throw's catch only
             bal.harness.gate_touched(self.task.has_catch)
+            bal.harness.gate_settled(self.task.counts_above, self._causal)
         if lock is not None and lock.hold_near_roll_free and not (bal is not None and bal.roll_freed):
             lock = dataclasses.replace(lock, hold_near=None, hold_near_roll_free=False,
                                        land_gap=None, hold_step_gap=None)  # (Stubby: the gate's "no")
