@@ -117,6 +117,11 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
     if c.com_shift is not None and (c.com_reference != "plan" or not c.com_shift > 0.0):
         raise ConfigError(f"BalanceConfig.com_shift: needs com_reference='plan' and a distance > 0 m, found "
                           f"{c.com_shift!r} with com_reference {c.com_reference!r}")
+    if c.release_settled is not None and not c.release_settled > 0.0:
+        raise ConfigError(f"BalanceConfig.release_settled: expected None or a distance > 0 m, found "
+                          f"{c.release_settled!r}")
+    if (c.release_settled_above or c.release_settled_causal_only) and c.release_settled is None:
+        raise ConfigError("BalanceConfig.release_settled_above/_causal_only: needs release_settled")
     if c.hand_task is not None and not (c.hand_task > 0.0 and c.hand_task_bandwidth > 0.0):
         raise ConfigError(f"BalanceConfig: expected hand_task None or > 0 and hand_task_bandwidth > 0 rad/s, found "
                           f"{c.hand_task!r}, {c.hand_task_bandwidth}")

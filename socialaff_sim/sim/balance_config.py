@@ -31,7 +31,8 @@ class BalanceConfig:
     - Arms on a turned trunk: arm_compensation, compensation_release, compensation_gate,
       hand_task, hand_task_bandwidth, hand_task_touched, hand_task_roll_free,
       hand_task_arm_weight, hand_task_plan_velocity, hand_task_velocity_until_touch
-    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_tilt_touched,
+    - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_settled, release_settled_above,
+      release_settled_causal_only, release_tilt_touched,
       tilt_from_plan,
       catch_tilt, catch_margin, catch_blend, drive_harnessed
     - Rate: qp_every, hold_gain, hold_near, hold_touch, qp_kernel
@@ -298,6 +299,17 @@ class BalanceConfig:
     release_margin: float = 0.01
     """[m]: ... and while the capture point c + ċ/ω₀ (ω₀ = √(g / c_z)) lies this far inside the box of the
     feet's contact points."""
+    release_settled: float | None = None
+    """ρ [m]: the harness lets go only while the capture point also lies within ρ of the centre of mass
+    (|ξ − c| ≤ ρ, horizontal: the centre of mass moving at most ρ ω₀), so that a robot swinging back in the
+    harness (after a high five's strike) is not released mid-swing, its centre of mass carried on behind c*
+    (traced: docs/design.md §5, issue 25, session 36, wip/stubdef2). ``None``: no such bound."""
+    release_settled_above: bool = False
+    """[—]: ``release_settled`` only in a task with a contact sub-goal counted above the robot's shoulders (the
+    high five); the simulator drops it in any other task."""
+    release_settled_causal_only: bool = False
+    """[—]: ``release_settled`` only in an episode whose robot is driven by a causal synthesis (the simulator's
+    ``causal``); a replay of a recording (ground truth) keeps the release without it."""
     release_tilt_touched: float | None = None
     """θ_t [deg]: in a task with a ``catch`` sub-goal (an object thrown to the robot), on a robot whose flat feet's
     roll ``flat_roll_free`` frees (legs that cannot roll a foot: the H1), after an arm's first touch of the person or

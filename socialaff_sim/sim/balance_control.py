@@ -234,7 +234,7 @@ class BalanceController:
         if not (self._planted[0] and self._planted[1]):
             self._anchor = None  # a step: the feet are held where they next stand
         tilt = self._step_tilt = self._tilt(d)  # (the plan's velocities' tilt bound reads it in _torques)
-        box, capture = None, self._capture
+        box, capture, cxy = None, self._capture, None
         if standing:
             self._soles_now, box = feet.support(d, pts, which)  # the soles in the world (the _cop's bounds), the box
             com = d.subtree_com[self.scene.root_body]
@@ -244,8 +244,9 @@ class BalanceController:
             comvel = jcom @ d.qvel[self.vadr]
             height = max(float(com[2] - pts[:, 2].sum() / len(pts)), 1e-3)  # (the mean's arithmetic)
             capture = self._capture = com[:2] + comvel[:2] / math.sqrt(self._g / height)
+            cxy = com[:2]
         self.harness.decide(d, m.opt.timestep, standing, tilt, box, capture, self.harness.tilt_touched is not None
-                            and self.compensation is not None and bool(self.compensation.touched.any()))
+                            and self.compensation is not None and bool(self.compensation.touched.any()), cxy)
         released = self.harness.released
         self.active = standing and (released or c.drive_harnessed)
         if self.active:

@@ -4,7 +4,8 @@ caught robot is led back onto the IK's base.
 Decided per physics step (:class:`HarnessRelease`, owned by :class:`~.balance_control.BalanceController`): the weld
 lets go once both feet have been planted ``release_delay`` and the robot is steady (the torso within
 ``release_tilt``, or ``release_tilt_touched`` after a touch on a robot whose feet's roll the controller frees, the
-capture point inside the support box by ``release_margin``); it catches the robot again at
+capture point inside the support box by ``release_margin``, and with ``release_settled`` within that of the centre
+of mass); it catches the robot again at
 once when the torso tilts past ``catch_tilt``, the capture point leaves the box by more than ``catch_margin``, or a
 foot steps. A caught robot is held where it was caught and led onto the IK's base over ``catch_blend``, and the
 release waits its delay again.
@@ -31,6 +32,8 @@ class HarnessRelease:
         """[deg] ``release_tilt_touched`` where it acts (a robot whose feet's roll the controller frees, in a task
         with a catch sub-goal: :meth:`gate_touched`), else ``None``: the release's tilt bound after a touch
         (:meth:`release_tilt`)."""
+        self.settled = config.release_settled
+        """[m] ``release_settled`` where it acts (:meth:`gate_settled`), else ``None``."""
         self._root, self._mocap = scene.root_body, scene.anchor_mocap
         self._weld = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_EQUALITY, "robot_anchor")
         self.reset()
@@ -75,16 +78,30 @@ class HarnessRelease:
         robot); elsewhere :attr:`tilt_touched` is ``None``. Called by the simulator at each episode's start."""
         self.tilt_touched = self._tilt_touched if catch else None
 
+    def gate_settled(self, above: bool, causal: bool) -> None:
+        """``release_settled_above``: ``release_settled`` only in a task with a contact counted ``above`` the
+        shoulders; ``release_settled_causal_only``: only in an episode driven by a ``causal`` synthesis; elsewhere
+        :attr:`settled` is ``None``. Called by the simulator at each episode's start."""
+        c = self.config
+        keep = (above or not c.release_settled_above) and (causal or not c.release_settled_causal_only)
+        self.settled = c.release_settled if keep else None
+
+    def still(self, capture: np.ndarray, com: np.ndarray) -> bool:
+        """Whether the capture point (2,) lies within :attr:`settled` of the centre of mass (2,) (world, m)."""
+        dx, dy = float(capture[0] - com[0]), float(capture[1] - com[1])
+        return dx * dx + dy * dy <= self.settled * self.settled  # type: ignore[operator]
+
     def release_tilt(self, touched: bool) -> float:
         """[deg] The torso's tilt up to which the harness lets go: ``release_tilt``, or after an arm's first
         touch (``touched``) :attr:`tilt_touched` where set."""
         return self.tilt_touched if touched and self.tilt_touched is not None else self.config.release_tilt
 
     def decide(self, d: mujoco.MjData, dt: float, standing: bool, tilt: float, box: SupportBox | None,
-               capture: np.ndarray, touched: bool = False) -> None:
+               capture: np.ndarray, touched: bool = False, com: np.ndarray | None = None) -> None:
         """The step's decision after ``mj_step1``: ``standing`` (both feet planted and on the floor), the torso's
         ``tilt`` (degrees), the support ``box`` (``None`` unless standing) and the ``capture`` point (2,) (world, m);
-        ``dt`` (s) the physics step; ``touched``: an arm has touched the person or the object (:meth:`release_tilt`).
+        ``dt`` (s) the physics step; ``touched``: an arm has touched the person or the object (:meth:`release_tilt`);
+        ``com`` (2,) the centre of mass (world, m; needed with :attr:`settled` while standing).
         Switches the weld in ``d`` (with ``release``) and counts."""
         c = self.config
         self._engaged = self._engaged + dt if standing else 0.0
@@ -95,7 +112,8 @@ class HarnessRelease:
             self.released = tilt <= c.catch_tilt and box.inside(capture, -c.catch_margin)  # type: ignore[union-attr]
         else:
             self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and tilt <= self.release_tilt(touched)
-                             and box.inside(capture, c.release_margin))  # type: ignore[union-attr]
+                             and box.inside(capture, c.release_margin)  # type: ignore[union-attr]
+                             and (self.settled is None or self.still(capture, com)))  # type: ignore[arg-type]
         if was and not self.released:
             self.catches += 1
             self.catch_reasons["step" if not standing else "tilt" if tilt > c.catch_tilt else "capture"] += 1

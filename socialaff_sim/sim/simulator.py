@@ -165,8 +165,9 @@ class Simulator:
                                                                  == "site" else int(ids[k]) for k in (3, 4)],
                                                              stage.scene.root_body, stage.reach.arm, stage.reach.shoulders,
                                                              self.task.chair)
-        if bal is not None:  # release_tilt_touched: in a throw's catch only
+        if bal is not None:  # the harness's gates: release_tilt_touched (a throw's catch), release_settled (per task, source)
             bal.harness.gate_touched(self.task.has_catch)
+            bal.harness.gate_settled(self.task.counts_above, self._causal)
         self._footlock = None if lock is None else FootLock(
             (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), lock)
         if self.carry is not None and self.carry.release_frame == 0:
