@@ -206,6 +206,7 @@ class BalanceController:
         mujoco.mj_kinematics(m, p)
         mujoco.mj_comPos(m, p)
         self.com.begin_frame(p)
+        self.harness.see_plan(p)  # (release_settled_raised: the strike's frames)
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
         if self.hands is not None:  # hand_task: the plan's wrists at the frame's end
             self.hands.begin_frame(p, q_start, duration)
