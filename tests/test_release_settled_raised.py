@@ -37,11 +37,12 @@ def _plan(scene) -> tuple[mujoco.MjData, np.ndarray]:  # noqa: ANN001
 
 def test_the_settings_are_checked_and_off() -> None:
     for kw in ({"release_settled_raised": 0.0, "release_settled": None}, {"release_settled_raised": float("nan")},
-               {"release_settled_latch": True}):
-        with pytest.raises(ConfigError, match="release_settled_(raised|latch)"):
+               {"release_settled_latch": True}, {"release_settled_until_touch": True, "release_settled": None}):
+        with pytest.raises(ConfigError, match="release_settled_(raised|latch|until_touch)"):
             dataclasses.replace(ON, **kw)
     dataclasses.replace(ON, release_settled_raised=-0.2, release_settled_latch=True)
     assert STANDING_BALANCE.release_settled_raised is None and not STANDING_BALANCE.release_settled_latch
+    assert not STANDING_BALANCE.release_settled_until_touch
 
 
 def test_the_strike_is_a_plan_wrist_at_or_above_h_s(scene) -> None:  # noqa: ANN001
@@ -121,3 +122,49 @@ def test_the_controller_shows_each_plan() -> None:
         h.see_plan, h._probe = see, True
     run_episode(sim, GroundTruthSource(), next(i for i in data if i.instance_id == "high_five_001"), on_frame=hook)
     assert len(seen) > 10 and not any(seen[:3]) and any(seen)
+
+
+@pytest.mark.parametrize("until_touch", [False, True])
+def test_until_touch_lets_go_at_the_touch(scene, until_touch: bool) -> None:  # noqa: ANN001
+    """``release_settled_until_touch``: after a touch the bound no longer holds the robot (the capture point 5 cm off
+    the centre of mass, inside the box); before it, it does; without the option the touch changes nothing."""
+    config = dataclasses.replace(ON, release_settled_until_touch=until_touch)
+    for touched in (False, True):
+        h = HarnessRelease(scene, config)
+        d = mujoco.MjData(scene.model)
+        h.decide(d, 0.2, True, 0.0, BOX, np.array([-0.05, 0.0]), touched, np.zeros(2))
+        assert h.released == (until_touch and touched), (until_touch, touched)
+
+
+def test_the_controller_passes_the_touch_only_with_until_touch() -> None:
+    """A replayed high five (spent high_five_001) on Stubby, whose harness has no ``release_tilt_touched``: the
+    controller passes the arms' touch to the release's decision with ``release_settled_until_touch`` (some step
+    after the strike's touch), and ``False`` at every step without it (as before the option)."""
+    from socialaff_sim.data.synthetic import generate_dataset
+    from socialaff_sim.retarget.robot import load_robot
+    from socialaff_sim.retarget.sources import GroundTruthSource
+    from socialaff_sim.sim.episode import run_episode
+    from socialaff_sim.sim.simulator import SimConfig, Simulator
+
+    inter = next(i for i in generate_dataset(seed=0) if i.instance_id == "high_five_001")
+    seen = {}
+    for until in (False, True):
+        cfg = SimConfig.standing()
+        bal = dataclasses.replace(cfg.balance, release_settled=0.03, release_settled_until_touch=until)
+        sim = Simulator(load_robot("ours"), "high_five", dataclasses.replace(cfg, balance=bal))
+        got: list[bool] = []
+
+        def hook(s, r, sub) -> None:  # noqa: ANN001
+            h = s._stage.stepper.balance.harness
+            if getattr(h, "_probe", False):
+                return
+            orig = h.decide
+
+            def decide(*a, **k):  # noqa: ANN002, ANN003, ANN202
+                got.append(bool(a[6]))
+                return orig(*a, **k)
+            h.decide, h._probe = decide, True
+        run_episode(sim, GroundTruthSource(), inter, on_frame=hook)
+        seen[until] = got
+    assert seen[False] and not any(seen[False])
+    assert any(seen[True]) and not seen[True][0]

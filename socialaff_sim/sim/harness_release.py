@@ -130,7 +130,8 @@ class HarnessRelease:
         else:
             self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and tilt <= self.release_tilt(touched)
                              and box.inside(capture, c.release_margin)  # type: ignore[union-attr]
-                             and (self.settled is None or not self.strike or self.still(capture, com)))  # type: ignore[arg-type]
+                             and (self.settled is None or not self.strike or (touched and c.release_settled_until_touch)
+                                  or self.still(capture, com)))  # type: ignore[arg-type]
         if was and not self.released:
             self.catches += 1
             self.catch_reasons["step" if not standing else "tilt" if tilt > c.catch_tilt else "capture"] += 1
