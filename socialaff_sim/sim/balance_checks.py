@@ -122,6 +122,13 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
                           f"{c.release_settled!r}")
     if (c.release_settled_above or c.release_settled_causal_only) and c.release_settled is None:
         raise ConfigError("BalanceConfig.release_settled_above/_causal_only: needs release_settled")
+    if c.release_settled_raised is not None and (c.release_settled is None or not math.isfinite(c.release_settled_raised)):
+        raise ConfigError(f"BalanceConfig.release_settled_raised: needs release_settled and a finite height (m), found "
+                          f"{c.release_settled_raised!r}")
+    if c.release_settled_until_touch and c.release_settled is None:
+        raise ConfigError("BalanceConfig.release_settled_until_touch: needs release_settled")
+    if c.release_settled_latch and c.release_settled_raised is None:
+        raise ConfigError("BalanceConfig.release_settled_latch: needs release_settled_raised")
     if c.hand_task is not None and not (c.hand_task > 0.0 and c.hand_task_bandwidth > 0.0):
         raise ConfigError(f"BalanceConfig: expected hand_task None or > 0 and hand_task_bandwidth > 0 rad/s, found "
                           f"{c.hand_task!r}, {c.hand_task_bandwidth}")

@@ -32,7 +32,9 @@ class BalanceConfig:
       hand_task, hand_task_bandwidth, hand_task_touched, hand_task_roll_free,
       hand_task_arm_weight, hand_task_plan_velocity, hand_task_velocity_until_touch
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_settled, release_settled_above,
-      release_settled_causal_only, release_tilt_touched,
+      release_settled_causal_only, release_settled_raised, release_settled_latch,
+      release_settled_until_touch,
+      release_tilt_touched,
       tilt_from_plan,
       catch_tilt, catch_margin, catch_blend, drive_harnessed
     - Rate: qp_every, hold_gain, hold_near, hold_touch, qp_kernel
@@ -310,6 +312,18 @@ class BalanceConfig:
     release_settled_causal_only: bool = False
     """[—]: ``release_settled`` only in an episode whose robot is driven by a causal synthesis (the simulator's
     ``causal``); a replay of a recording (ground truth) keeps the release without it."""
+    release_settled_raised: float | None = None
+    """h_s [m]: ``release_settled`` only in a data frame whose plan (the IK's, at the frame's end) holds a wrist at
+    least h_s above that arm's shoulder (world heights; may be negative): the strike of a reach above the shoulder,
+    not the walk-up, whose first release the bound otherwise moves (high_five_760, docs/design.md §5, issue 25,
+    session 36, wip/stubdef3). With ``release_settled_latch`` from the first such frame on. ``None``: in every frame."""
+    release_settled_until_touch: bool = False
+    """[—]: ``release_settled`` not after an arm's first touch of the person or the object (the episode's latch of
+    ``arm_compensation``): the harness lets go at the touch as without the bound (high_five_752 held through its
+    first contact frames, docs/design.md §5, issue 25, session 36, wip/stubdef3)."""
+    release_settled_latch: bool = False
+    """[—]: with ``release_settled_raised``, the bound acts from the episode's first raised frame to its end (the
+    release after the strike's swing, when the plan's wrist may have come down), not only in raised frames."""
     release_tilt_touched: float | None = None
     """θ_t [deg]: in a task with a ``catch`` sub-goal (an object thrown to the robot), on a robot whose flat feet's
     roll ``flat_roll_free`` frees (legs that cannot roll a foot: the H1), after an arm's first touch of the person or

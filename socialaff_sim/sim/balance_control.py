@@ -206,6 +206,7 @@ class BalanceController:
         mujoco.mj_kinematics(m, p)
         mujoco.mj_comPos(m, p)
         self.com.begin_frame(p)
+        self.harness.see_plan(p)  # (release_settled_raised: the strike's frames)
         self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
         if self.hands is not None:  # hand_task: the plan's wrists at the frame's end
             self.hands.begin_frame(p, q_start, duration)
@@ -245,8 +246,9 @@ class BalanceController:
             height = max(float(com[2] - pts[:, 2].sum() / len(pts)), 1e-3)  # (the mean's arithmetic)
             capture = self._capture = com[:2] + comvel[:2] / math.sqrt(self._g / height)
             cxy = com[:2]
-        self.harness.decide(d, m.opt.timestep, standing, tilt, box, capture, self.harness.tilt_touched is not None
-                            and self.compensation is not None and bool(self.compensation.touched.any()), cxy)
+        touch = ((self.harness.tilt_touched is not None or c.release_settled_until_touch)
+                 and self.compensation is not None and bool(self.compensation.touched.any()))
+        self.harness.decide(d, m.opt.timestep, standing, tilt, box, capture, touch, cxy)
         released = self.harness.released
         self.active = standing and (released or c.drive_harnessed)
         if self.active:

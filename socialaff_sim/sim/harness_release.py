@@ -5,7 +5,7 @@ Decided per physics step (:class:`HarnessRelease`, owned by :class:`~.balance_co
 lets go once both feet have been planted ``release_delay`` and the robot is steady (the torso within
 ``release_tilt``, or ``release_tilt_touched`` after a touch on a robot whose feet's roll the controller frees, the
 capture point inside the support box by ``release_margin``, and with ``release_settled`` within that of the centre
-of mass); it catches the robot again at
+of mass, with ``release_settled_raised`` only in the strike's frames: :meth:`see_plan`); it catches the robot again at
 once when the torso tilts past ``catch_tilt``, the capture point leaves the box by more than ``catch_margin``, or a
 foot steps. A caught robot is held where it was caught and led onto the IK's base over ``catch_blend``, and the
 release waits its delay again.
@@ -16,6 +16,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from .arm_contacts import wrist_frames, wrist_positions
 from .balance_config import BalanceConfig
 from .scene import Scene
 from .support_box import SupportBox
@@ -34,6 +35,9 @@ class HarnessRelease:
         (:meth:`release_tilt`)."""
         self.settled = config.release_settled
         """[m] ``release_settled`` where it acts (:meth:`gate_settled`), else ``None``."""
+        self._raised = config.release_settled_raised
+        self._wrists = wrist_frames(scene) if self._raised is not None else []
+        self._shoulders = scene.limb_body_ids[:2]
         self._root, self._mocap = scene.root_body, scene.anchor_mocap
         self._weld = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_EQUALITY, "robot_anchor")
         self.reset()
@@ -48,6 +52,9 @@ class HarnessRelease:
         """Catches by cause: the torso's tilt, the capture point off the soles, a foot no longer planted."""
         self._engaged = 0.0  # (s) both feet planted for this long
         self._caught: tuple[np.ndarray, np.ndarray, float] | None = None  # the root's pose at the catch, time since
+        self.strike = self._raised is None
+        """Whether :attr:`settled` acts in this data frame (``release_settled_raised``: :meth:`see_plan`; without
+        it, always)."""
 
     @property
     def holds_caught(self) -> bool:
@@ -86,6 +93,16 @@ class HarnessRelease:
         keep = (above or not c.release_settled_above) and (causal or not c.release_settled_causal_only)
         self.settled = c.release_settled if keep else None
 
+    def see_plan(self, plan: mujoco.MjData) -> None:
+        """The IK's plan at a data frame's end (after ``mj_kinematics``): with ``release_settled_raised`` h_s,
+        :attr:`strike` is whether it holds a wrist at least h_s above that arm's shoulder (with
+        ``release_settled_latch``: whether any plan since :meth:`reset` has). Called by the controller per frame."""
+        if self._raised is None:
+            return
+        lift = wrist_positions(plan, self._wrists)[:, 2] - plan.xpos[self._shoulders, 2]
+        raised = bool((lift >= self._raised).any())
+        self.strike = raised or (self.config.release_settled_latch and self.strike)
+
     def still(self, capture: np.ndarray, com: np.ndarray) -> bool:
         """Whether the capture point (2,) lies within :attr:`settled` of the centre of mass (2,) (world, m)."""
         dx, dy = float(capture[0] - com[0]), float(capture[1] - com[1])
@@ -113,7 +130,8 @@ class HarnessRelease:
         else:
             self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and tilt <= self.release_tilt(touched)
                              and box.inside(capture, c.release_margin)  # type: ignore[union-attr]
-                             and (self.settled is None or self.still(capture, com)))  # type: ignore[arg-type]
+                             and (self.settled is None or not self.strike or (touched and c.release_settled_until_touch)
+                                  or self.still(capture, com)))  # type: ignore[arg-type]
         if was and not self.released:
             self.catches += 1
             self.catch_reasons["step" if not standing else "tilt" if tilt > c.catch_tilt else "capture"] += 1
