@@ -132,8 +132,9 @@ def test_the_gap_flags_are_the_four_tests_of_the_last_frames_gaps(gaps) -> None:
     g = [] if gaps is None else gaps
     measured = [x for x in g if x is not None]
     expected = {"near": any(x <= 0.1 for x in measured), "land": any(x <= 0.1 for x in measured),
-                "still": any(x <= 0.3 for x in measured), "far": not any(x <= 1.0 for x in measured)}
+                "still": any(x <= 0.3 for x in measured), "far": not any(x <= 1.0 for x in measured),
+                "still_caught": False}  # (hold_step_caught off: tests/test_hold_step_caught.py)
     assert flags == expected
     if gaps is not None:
         assert flags == {"near": lock.near(gaps), "land": lock.landing(gaps), "still": lock.stepless(gaps),
-                         "far": lock.walking_up(gaps)}
+                         "far": lock.walking_up(gaps), "still_caught": False}

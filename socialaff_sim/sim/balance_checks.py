@@ -117,6 +117,11 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
     if c.com_shift is not None and (c.com_reference != "plan" or not c.com_shift > 0.0):
         raise ConfigError(f"BalanceConfig.com_shift: needs com_reference='plan' and a distance > 0 m, found "
                           f"{c.com_shift!r} with com_reference {c.com_reference!r}")
+    if c.catch_follow_feet is not None and not c.catch_follow_feet >= 0.0:
+        raise ConfigError(f"BalanceConfig.catch_follow_feet: expected None or a distance ≥ 0 m, found "
+                          f"{c.catch_follow_feet!r}")
+    if c.catch_follow_chair and c.catch_follow_feet is None:
+        raise ConfigError("BalanceConfig.catch_follow_chair: needs catch_follow_feet")
     if c.release_settled is not None and not c.release_settled > 0.0:
         raise ConfigError(f"BalanceConfig.release_settled: expected None or a distance > 0 m, found "
                           f"{c.release_settled!r}")

@@ -36,7 +36,8 @@ class BalanceConfig:
       release_settled_until_touch,
       release_tilt_touched,
       tilt_from_plan,
-      catch_tilt, catch_margin, catch_blend, drive_harnessed
+      catch_tilt, catch_margin, catch_blend, catch_follow_feet,
+      catch_follow_chair, drive_harnessed
     - Rate: qp_every, hold_gain, hold_near, hold_touch, qp_kernel
     """
 
@@ -345,6 +346,21 @@ class BalanceConfig:
     """[s]: a caught robot is held where it is caught (the harness's anchor at its measured root), and the anchor
     then moves over this time onto the IK's base (0: at once onto the IK's base, which yanks the robot by as
     much as it strayed from the plan while released)."""
+    catch_follow_feet: float | None = None
+    """d_m [m]: while the harness holds a robot it has caught and a sub-goal's gap at the end of the last data frame
+    is at most this (the meeting near), its anchor (the IK's base, or the catch's blend onto it) is shifted
+    horizontally by the mean offset of the planted feet's physical ankle frames from their planted targets (as of the
+    data frame's start; no shift while neither foot is planted): the harness holds the root over the feet where they
+    stand, instead of leading it onto the plan's feet and dragging the planted feet after it (Stubby's pull-ups: 53 %
+    of the soles' slip while caught; docs/design.md §5, issue 25, session 36, wip/pullslide). In the walk-up (beyond
+    d_m) the harness carries the caught robot along its plan as without it (everywhere, the caught robot is held
+    behind its plan and never reaches the person). ``None``: the anchor is the IK's base."""
+    catch_follow_chair: bool = False
+    """[—]: ``catch_follow_feet`` only in a task whose person sits on a chair at the start (``TaskSpec.chair``: the
+    pull-up, where the person's pull drags the caught robot's feet); elsewhere the anchor is the IK's base as without
+    it (on spent 672–687 the ungated option raised the high fives' and handshakes' support, +4.4 and +6.3 points, and
+    lost shake_hands_675, ``contact_lost``: a robot caught just before a handshake or a strike and held behind its
+    plan's feet falls short of the person; wip/pullslide). ``False``: in every task."""
     drive_harnessed: bool = False
     """[—]: Whether the controller's torques drive the joints also while the harness holds a standing robot
     (``False``: the position servos and the standing feed-forward do, as without the controller)."""

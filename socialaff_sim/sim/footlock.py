@@ -94,13 +94,14 @@ class FootLock:
         return (c.glide_gap_far is not None or c.glide_gap_caught is not None) and not _within(c.glide_far, gaps)
 
     def gap_flags(self, gaps: Iterable[float | None] | None) -> dict[str, bool]:
-        """:meth:`apply`'s keywords ``near``, ``land``, ``still`` and ``far`` from the last frame's sub-goal ``gaps``
+        """:meth:`apply`'s keywords ``near``, ``land``, ``still``, ``far`` and ``still_caught`` (``hold_step_caught``) from the last frame's sub-goal ``gaps``
         (m; ``None`` in a gap: not measured; ``None`` for all: no frame yet), by :meth:`near`, :meth:`landing`,
         :meth:`stepless` and :meth:`walking_up`."""
         if gaps is None:
-            return {"near": False, "land": False, "still": False, "far": self.walking_up(())}
+            return {"near": False, "land": False, "still": False, "far": self.walking_up(()), "still_caught": False}
         g = list(gaps)
-        return {"near": self.near(g), "land": self.landing(g), "still": self.stepless(g), "far": self.walking_up(g)}
+        return {"near": self.near(g), "land": self.landing(g), "still": self.stepless(g), "far": self.walking_up(g),
+                "still_caught": _within(self.config.hold_step_caught, g)}
 
     def backing(self, ankles: np.ndarray, person: np.ndarray) -> tuple[bool, bool]:
         """For targets ``ankles`` (2, 3) (world, m) and the person at ``person`` (2,): whether each planted foot's
@@ -128,7 +129,7 @@ class FootLock:
     def apply(self, ankles: np.ndarray, touching: bool = False, physical: np.ndarray | None = None,
               new_frame: bool = True, caught: bool = False, near: bool = False,
               person: np.ndarray | None = None, land: bool = False, still: bool = False,
-              far: bool = False, flight: bool = False) -> np.ndarray:
+              far: bool = False, flight: bool = False, still_caught: bool = False) -> np.ndarray:
         """(2, 3) world ankle targets (left, right), m → the same with standing feet held where they were planted;
         ``touching``: a sub-goal's contact holds (with ``hold_in_contact``, planted feet then stay planted);
         ``physical`` (2, 3): the physical ankle frames (world, m), which ``glide_gap`` needs; ``new_frame``:
@@ -144,13 +145,14 @@ class FootLock:
         is within ``glide_far`` (:meth:`walking_up`; the caller passes ``False`` without ``glide_gap_far`` and
         ``glide_gap_caught``): ``glide_gap_far`` then replaces ``glide_gap``, and otherwise while ``caught``
         ``glide_gap_caught`` does; ``flight``: the frame lies in a thrown object's flight (:meth:`in_flight`): as
-        ``still``."""
+        ``still``; ``still_caught``: a sub-goal's gap at the end of the last frame is within ``hold_step_caught``: while
+        ``caught``, as ``still``."""
         if self.needs_physical and physical is None:
             raise SimulationError("FootLock.apply: glide_gap and restep_gap need the physical ankle frames")
         out = np.array(ankles, dtype=np.float64)
         c = self.config
         held = touching and c.hold_in_contact
-        still = still or flight  # (hold_step_flight: the plan steps, the foot stays)
+        still = still or flight or (still_caught and caught)  # (hold_step_flight, _caught: the foot stays)
         back = (self.backing(out, person) if near and person is not None and c.hold_in_contact and not held
                 else (False, False))
         self._touched = self._touched or bool(touching)

@@ -52,6 +52,14 @@ class FootLockConfig:
     held 8.5 of the high fives' 16.3 points (docs/design.md §5, issue 25, session 35, wip/h1hold). ``hold_near``'s
     backing steps are held where they stand as without it. ``None``: the targets decide. ``hold_near_roll_free``
     drops it with ``hold_near`` (on Stubby)."""
+    hold_step_caught: float | None = None
+    """d_c [m]: while the harness holds a robot it has caught
+    (:attr:`~socialaff_sim.sim.harness_release.HarnessRelease.holds_caught`) and a sub-goal's gap at the end of the
+    last frame is at most this, a planted foot does not step, as within ``hold_step_gap``: the plan steps, the foot
+    stays planted. A caught robot whose plan steps a foot forward near the meeting (the recorded helper's step) is led
+    by the harness onto its plan while its other foot, planted, is dragged along the floor (pull_up_561: 15 cm;
+    docs/design.md §5, issue 25, session 36, the lead; wip/pullslide). Not dropped by ``hold_near_roll_free`` (meant
+    for Stubby). ``None``: off."""
     hold_step_flight: int | None = None
     """L_f [frames]: in a task with a ``catch`` sub-goal (a thrown object), from this many frames before the frame in
     which the person lets go of the object (0: from that frame; negative: after it) to the episode's end, a planted
@@ -188,6 +196,9 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig.land_gap: expected None or a distance ≥ 0 m, found {self.land_gap}")
         if self.hold_step_gap is not None and not self.hold_step_gap >= 0.0:
             raise ConfigError(f"FootLockConfig.hold_step_gap: expected None or a distance ≥ 0 m, found {self.hold_step_gap}")
+        if self.hold_step_caught is not None and not self.hold_step_caught >= 0.0:
+            raise ConfigError(f"FootLockConfig.hold_step_caught: expected None or a distance ≥ 0 m, found "
+                              f"{self.hold_step_caught}")
         if self.hold_step_flight is not None and not isinstance(self.hold_step_flight, int):
             raise ConfigError(f"FootLockConfig.hold_step_flight: expected None or an integer (frames), found "
                               f"{self.hold_step_flight}")

@@ -38,6 +38,8 @@ class HarnessRelease:
         self._raised = config.release_settled_raised
         self._wrists = wrist_frames(scene) if self._raised is not None else []
         self._shoulders = scene.limb_body_ids[:2]
+        self.follow = config.catch_follow_feet
+        """[m] ``catch_follow_feet`` where it acts (:meth:`gate_follow`), else ``None``."""
         self._root, self._mocap = scene.root_body, scene.anchor_mocap
         self._weld = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_EQUALITY, "robot_anchor")
         self.reset()
@@ -55,6 +57,9 @@ class HarnessRelease:
         self.strike = self._raised is None
         """Whether :attr:`settled` acts in this data frame (``release_settled_raised``: :meth:`see_plan`; without
         it, always)."""
+        self.feet_offset = np.zeros(2)
+        """(2,) m: the planted feet's mean horizontal offset from their targets, set by the simulator each data frame
+        (``catch_follow_feet``; zero beyond d_m of a meeting)."""
 
     @property
     def holds_caught(self) -> bool:
@@ -64,7 +69,10 @@ class HarnessRelease:
 
     def blend_anchor(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
         """After a catch: the harness's anchor (which the stepper has set to the IK's base for this step) moved
-        from the root's pose at the catch onto it over ``catch_blend``."""
+        from the root's pose at the catch onto it over ``catch_blend``; with ``catch_follow_feet`` the IK's base
+        shifted by :attr:`feet_offset` while the robot is held caught."""
+        if self.follow is not None and self.holds_caught and self._mocap >= 0:  # over the feet as they stand
+            d.mocap_pos[self._mocap, :2] += self.feet_offset
         if self._caught is None or self.released or self._mocap < 0:
             self._caught = None
             return
@@ -84,6 +92,12 @@ class HarnessRelease:
         """``release_tilt_touched`` only in a task with a ``catch`` sub-goal (``catch``: an object thrown to the
         robot); elsewhere :attr:`tilt_touched` is ``None``. Called by the simulator at each episode's start."""
         self.tilt_touched = self._tilt_touched if catch else None
+
+    def gate_follow(self, chair: bool) -> None:
+        """``catch_follow_chair``: ``catch_follow_feet`` only in a task whose person sits on a ``chair`` at the start
+        (the pull-up); elsewhere :attr:`follow` is ``None``. Called by the simulator at each episode's start."""
+        c = self.config
+        self.follow = c.catch_follow_feet if chair or not c.catch_follow_chair else None
 
     def gate_settled(self, above: bool, causal: bool) -> None:
         """``release_settled_above``: ``release_settled`` only in a task with a contact counted ``above`` the
@@ -140,3 +154,14 @@ class HarnessRelease:
         if self._weld >= 0 and c.release:
             d.eq_active[self._weld] = 0 if self.released else 1
         self.released_steps += int(self.released)
+
+
+def planted_offset(physical: np.ndarray, targets: np.ndarray, standing: tuple[bool, bool]) -> np.ndarray:
+    """(2,) m: the mean horizontal offset of the planted feet's physical ankle frames ``physical`` (2, 3) from their
+    ankle targets ``targets`` (2, 3) (world, m), over the feet ``standing`` (left, right) marks planted; zero when
+    neither is (``catch_follow_feet``)."""
+    idx = [s for s in (0, 1) if standing[s]]
+    if not idx:
+        return np.zeros(2)
+    return np.mean(np.asarray(physical, dtype=np.float64)[idx, :2] - np.asarray(targets, dtype=np.float64)[idx, :2],
+                   axis=0)

@@ -35,6 +35,7 @@ from .scoring import SubgoalScorer
 from .stage import Stage, contact_exemptions, key_frames, key_frames_at
 from .stage_build import build_stage
 from .footlock import FootLock
+from .harness_release import planted_offset
 from .reach_lean import ReachLean
 from .sim_config import SimConfig, StepResult
 from .strike_lean import PlanLean
@@ -168,6 +169,7 @@ class Simulator:
         if bal is not None:  # the harness's gates: release_tilt_touched (a throw's catch), release_settled (per task, source)
             bal.harness.gate_touched(self.task.has_catch)
             bal.harness.gate_settled(self.task.counts_above, self._causal)
+            bal.harness.gate_follow(self.task.chair)
         self._footlock = None if lock is None else FootLock(
             (float(self._home_keys[3, 2]), float(self._home_keys[4, 2])), lock)
         if self.carry is not None and self.carry.release_frame == 0:
@@ -260,6 +262,11 @@ class Simulator:
                                               person=self._person_xy(t1) if self._footlock.config.hold_near is not None else None,
                                               flight=flight,
                                               **self._footlock.gap_flags(None if last is None else last.subgoal_gaps.values()))
+        d_m = None if bal is None else bal.harness.follow
+        if d_m is not None:  # (catch_follow_feet: near a meeting the caught robot is held over its feet)
+            near = self.results and any(g is not None and g <= d_m for g in self.results[-1].subgoal_gaps.values())
+            bal.harness.feet_offset = planted_offset(key_frames(stage.scene, stage.data)[3:5], world[3:5],
+                                                     self._footlock.standing if near and self._footlock else (False, False))
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
