@@ -65,8 +65,10 @@ def test_the_chair_gate(gated: bool, chair: bool, kept: bool) -> None:
     assert h.follow == (0.3 if kept else None)
 
 
-def test_off_by_default_and_checked() -> None:
-    assert BalanceConfig().catch_follow_feet is None and SimConfig.standing().balance.catch_follow_feet is None
+def test_off_by_default_on_in_the_standing_mode_and_checked() -> None:
+    assert BalanceConfig().catch_follow_feet is None and SimConfig().balance is None  # off but in the standing mode
+    assert (SimConfig.standing().balance.catch_follow_feet, SimConfig.standing().balance.catch_follow_chair) == (
+        0.3, True)  # rule #60 (session 36)
     with pytest.raises(ConfigError, match="catch_follow_feet"):
         BalanceConfig(catch_follow_feet=-0.01)
     assert BalanceConfig(catch_follow_feet=0.0).catch_follow_feet == 0.0

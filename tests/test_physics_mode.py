@@ -46,7 +46,9 @@ def test_the_default_is_the_harness_and_standing_is_a_named_preset() -> None:
                                       tilt_from_plan=True,  # session 34's rule on the strike's lean (wip/hf8)
                                       touch_friction=0.35,  # and its rule #47 on the cones after the touch
                                       # session 35's rule #53 (wip/pullslip3): the floor's yaw moment priced
-                                      shear_couple=300.0, shear_couple_form="moment", shear_couple_touched=True)
+                                      shear_couple=300.0, shear_couple_form="moment", shear_couple_touched=True,
+                                      # session 36's rule #60 (wip/pullslide): a caught pull-up held over its feet
+                                      catch_follow_feet=0.3, catch_follow_chair=True)
     assert d.stance == StanceConfig(release=False, strike_lean=30.0, strike_lean_above=True)  # the same rule's
     assert d.foot_lock == FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05,
                                          glide_until_contact=True, glide_gap=0.12,  # session 30's rule

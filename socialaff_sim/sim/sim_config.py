@@ -34,7 +34,7 @@ STANDING_BALANCE = BalanceConfig(solver="qp", sole_gap=0.01, w_torso=3.0, flat_f
                                  hand_task_roll_free=True, hand_task_arm_weight=0.1, hand_task_plan_velocity=True,
                                  hand_task_velocity_until_touch=True, tilt_from_plan=True,
                                  touch_friction=0.35, shear_couple=300.0, shear_couple_form="moment",
-                                 shear_couple_touched=True)
+                                 shear_couple_touched=True, catch_follow_feet=0.3, catch_follow_chair=True)
 """The balance controller of :meth:`SimConfig.standing`: the quadratic program with the feet flat on their soles,
 the arms kept 1 cm clear of the body, hands that give way (before a push tips the robot or twists its feet, also to
 the person's pull through an object both still hold), each arm's references made up for the trunk's pose error
@@ -51,7 +51,9 @@ object, the floor forces the controller plans stay within a friction cone of 0.3
 onto an edge is not asked for the sideways force that slides it (rule on Stubby's and the H1's 560–575, session 34);
 and from then on the QP pays ½·300·q² for the floor's moment about the vertical through the feet's midpoint over the
 feet's distance, q (the feet's opposed shears that rock a sole onto its edge; rule #53 on Stubby's 672–687, session
-35)."""
+35). In a task whose person sits on a chair (the pull-up), while the harness holds a robot it has caught within 0.3 m
+of a meeting, its anchor is shifted by the planted feet's offset from their targets: it holds the root over the feet
+where they stand instead of dragging them after the plan's step (rule #60 on Stubby's 800–815, session 36)."""
 STANDING_FOOT_LOCK = FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05, glide_until_contact=True,
                                     glide_gap=0.12, hold_near=0.1, hold_near_roll_free=True, hold_step_gap=0.3)
 """The foot lock of :meth:`SimConfig.standing`: a planted foot stays planted up to 12 cm of recorded rise, and
