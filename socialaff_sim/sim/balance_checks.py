@@ -181,6 +181,14 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
                           f"{c.angmom_weight!r}, {c.angmom_bandwidth}")
     if (c.angmom_root_still or c.angmom_about_feet) and c.angmom_weight is None:
         raise ConfigError("BalanceConfig.angmom_root_still / angmom_about_feet: need angmom_weight (the rows)")
+    if c.catch_tilt_lean_roll_free is not None and not (c.flat_roll_free and c.tilt_from_plan
+                                                        and 0.0 < c.catch_tilt_lean_roll_free <= 5.0):
+        raise ConfigError(f"BalanceConfig.catch_tilt_lean_roll_free: needs flat_roll_free (the robots it picks), "
+                          f"tilt_from_plan and a gain in (0, 5], found {c.catch_tilt_lean_roll_free!r}")
+    if c.catch_tilt_lean_touched and (c.catch_tilt_lean_roll_free is None or c.arm_compensation is None
+                                      or c.compensation_gate is None):
+        raise ConfigError("BalanceConfig.catch_tilt_lean_touched: needs catch_tilt_lean_roll_free, arm_compensation "
+                          "and compensation_gate (their touch latch)")
     if not 0.0 <= c.release_tilt <= c.catch_tilt < 90.0:
         raise ConfigError(f"BalanceConfig: expected 0 ≤ release_tilt ≤ catch_tilt < 90 degrees, found "
                           f"{c.release_tilt}, {c.catch_tilt}")

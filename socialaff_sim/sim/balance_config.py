@@ -36,7 +36,7 @@ class BalanceConfig:
       release_settled_until_touch,
       release_tilt_touched,
       tilt_from_plan,
-      catch_tilt, catch_margin, catch_blend, catch_follow_feet,
+      catch_tilt, catch_tilt_lean_roll_free, catch_tilt_lean_touched, catch_margin, catch_blend, catch_follow_feet,
       catch_follow_chair, drive_harnessed
     - Rate: qp_every, hold_gain, hold_near, hold_touch, qp_kernel
     """
@@ -340,6 +340,15 @@ class BalanceConfig:
     that turns about the vertical only) neither keeps the harness on nor makes it catch."""
     catch_tilt: float = 12.0
     """[deg]: a released robot whose torso tilts more than this is caught by the harness again at once."""
+    catch_tilt_lean_roll_free: float | None = None
+    """κ [—]: on a robot whose feet's roll ``flat_roll_free`` frees (the H1), with ``tilt_from_plan``, the catch's
+    tilt bound is ``catch_tilt`` + κ λ, λ the plan's torso lean from upright (deg; the IK's torso, the controller's
+    goal): the H1 over-follows the high five's strike lean (rule #45; its torso at ~22° for the plan's 10°, read
+    12–13° from the plan) and is caught for tilt at the strike (traced: docs/design.md §5, issue 25, session 35,
+    wip/h1lean; session 36, wip/h1hf). ``None``: ``catch_tilt`` throughout (Stubby always)."""
+    catch_tilt_lean_touched: bool = False
+    """[—]: ``catch_tilt_lean_roll_free`` only after an arm's first touch of the person or the object (the
+    compensation's touch latch): the catches before the touch, which hold the H1 on the plan into its reach, stay."""
     catch_margin: float = 0.03
     """[m]: ... as is one whose capture point leaves the contact box by more than this (a fall under way)."""
     catch_blend: float = 0.3

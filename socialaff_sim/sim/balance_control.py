@@ -248,7 +248,7 @@ class BalanceController:
             cxy = com[:2]
         touch = ((self.harness.tilt_touched is not None or c.release_settled_until_touch)
                  and self.compensation is not None and bool(self.compensation.touched.any()))
-        self.harness.decide(d, m.opt.timestep, standing, tilt, box, capture, touch, cxy)
+        self.harness.decide(d, m.opt.timestep, standing, tilt, box, capture, touch, cxy, self._catch_lean())
         released = self.harness.released
         self.active = standing and (released or c.drive_harnessed)
         if self.active:
@@ -403,6 +403,19 @@ class BalanceController:
         return res.tau[self._act_rows]
 
     # -- measurements ---------------------------------------------------------------------------------------
+    def _catch_lean(self) -> float:
+        """The plan's lean the harness's catch reads (``catch_tilt_lean_roll_free``; 0 where it does not act, or
+        with ``catch_tilt_lean_touched`` before an arm's first touch)."""
+        if self.harness.lean_gain is None or (self.config.catch_tilt_lean_touched and not (
+                self.compensation is not None and bool(self.compensation.touched.any()))):
+            return 0.0
+        return self._plan_lean()
+
+    def _plan_lean(self) -> float:
+        """The plan's torso angle from upright, degrees (``catch_tilt_lean_roll_free``'s λ)."""
+        up = float((self._torso_goal @ self._torso_up)[2])
+        return float(np.degrees(np.arccos(min(max(up, -1.0), 1.0))))
+
     def _tilt(self, d: mujoco.MjData) -> float:
         """The torso's angle from upright (with ``tilt_from_plan``: from the plan's torso attitude), degrees."""
         rot = d.xmat[self._torso].reshape(3, 3)

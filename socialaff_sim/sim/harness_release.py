@@ -6,7 +6,8 @@ lets go once both feet have been planted ``release_delay`` and the robot is stea
 ``release_tilt``, or ``release_tilt_touched`` after a touch on a robot whose feet's roll the controller frees, the
 capture point inside the support box by ``release_margin``, and with ``release_settled`` within that of the centre
 of mass, with ``release_settled_raised`` only in the strike's frames: :meth:`see_plan`); it catches the robot again at
-once when the torso tilts past ``catch_tilt``, the capture point leaves the box by more than ``catch_margin``, or a
+once when the torso tilts past ``catch_tilt`` (on the H1 with ``catch_tilt_lean_roll_free``: raised by the plan's
+lean), the capture point leaves the box by more than ``catch_margin``, or a
 foot steps. A caught robot is held where it was caught and led onto the IK's base over ``catch_blend``, and the
 release waits its delay again.
 """
@@ -33,6 +34,9 @@ class HarnessRelease:
         """[deg] ``release_tilt_touched`` where it acts (a robot whose feet's roll the controller frees, in a task
         with a catch sub-goal: :meth:`gate_touched`), else ``None``: the release's tilt bound after a touch
         (:meth:`release_tilt`)."""
+        self.lean_gain = config.catch_tilt_lean_roll_free if roll_freed else None
+        """[—] ``catch_tilt_lean_roll_free`` where it acts (a robot whose feet's roll the controller frees), else
+        ``None``: the catch's tilt bound grows with the plan's lean (:meth:`catch_tilt`)."""
         self.settled = config.release_settled
         """[m] ``release_settled`` where it acts (:meth:`gate_settled`), else ``None``."""
         self._raised = config.release_settled_raised
@@ -127,20 +131,29 @@ class HarnessRelease:
         touch (``touched``) :attr:`tilt_touched` where set."""
         return self.tilt_touched if touched and self.tilt_touched is not None else self.config.release_tilt
 
+    def catch_tilt(self, plan_lean: float) -> float:
+        """[deg] The torso's tilt past which a released robot is caught: ``catch_tilt``, plus :attr:`lean_gain`
+        times the plan's torso lean from upright ``plan_lean`` (deg) where set."""
+        c = self.config
+        return c.catch_tilt if self.lean_gain is None else c.catch_tilt + self.lean_gain * max(plan_lean, 0.0)
+
     def decide(self, d: mujoco.MjData, dt: float, standing: bool, tilt: float, box: SupportBox | None,
-               capture: np.ndarray, touched: bool = False, com: np.ndarray | None = None) -> None:
+               capture: np.ndarray, touched: bool = False, com: np.ndarray | None = None,
+               plan_lean: float = 0.0) -> None:
         """The step's decision after ``mj_step1``: ``standing`` (both feet planted and on the floor), the torso's
         ``tilt`` (degrees), the support ``box`` (``None`` unless standing) and the ``capture`` point (2,) (world, m);
         ``dt`` (s) the physics step; ``touched``: an arm has touched the person or the object (:meth:`release_tilt`);
-        ``com`` (2,) the centre of mass (world, m; needed with :attr:`settled` while standing).
+        ``com`` (2,) the centre of mass (world, m; needed with :attr:`settled` while standing); ``plan_lean`` (deg)
+        the plan's torso lean from upright (:meth:`catch_tilt`).
         Switches the weld in ``d`` (with ``release``) and counts."""
         c = self.config
+        catch_tilt = self.catch_tilt(plan_lean)
         self._engaged = self._engaged + dt if standing else 0.0
         was = self.released
         if not standing:
             self.released = False
         elif self.released:
-            self.released = tilt <= c.catch_tilt and box.inside(capture, -c.catch_margin)  # type: ignore[union-attr]
+            self.released = tilt <= catch_tilt and box.inside(capture, -c.catch_margin)  # type: ignore[union-attr]
         else:
             self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and tilt <= self.release_tilt(touched)
                              and box.inside(capture, c.release_margin)  # type: ignore[union-attr]
@@ -148,7 +161,7 @@ class HarnessRelease:
                                   or self.still(capture, com)))  # type: ignore[arg-type]
         if was and not self.released:
             self.catches += 1
-            self.catch_reasons["step" if not standing else "tilt" if tilt > c.catch_tilt else "capture"] += 1
+            self.catch_reasons["step" if not standing else "tilt" if tilt > catch_tilt else "capture"] += 1
             self._engaged = 0.0  # caught: the release waits its delay again
             self._caught = (d.xpos[self._root].copy(), d.xquat[self._root].copy(), 0.0)
         if self._weld >= 0 and c.release:

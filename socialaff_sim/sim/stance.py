@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from ..errors import ConfigError
 from .scene import Scene
 
 __all__ = ["StanceConfig", "StanceControl"]
@@ -52,8 +53,8 @@ class StanceConfig:
     Fields by concept
     -----------------
     - Steady base: base_smoothing, base_over_feet
-    - The plan's lean: strike_lean, strike_lean_max, strike_lean_max_roll_free, strike_lean_raised,
-      strike_lean_above, strike_lean_out, strike_lean_caught
+    - The plan's lean: strike_lean, strike_lean_max, strike_lean_max_roll_free, strike_lean_fall_roll_free,
+      strike_lean_raised, strike_lean_above, strike_lean_out, strike_lean_caught
     - Letting go: release, release_after, release_tilt, release_com, catch_tilt, leg_bandwidth
     - Balance while released: com_cost, com_gain
     """
@@ -85,6 +86,12 @@ class StanceConfig:
     that cannot roll a foot: the H1, not Stubby), ``strike_lean``'s largest lean in place of ``strike_lean_max``: the
     H1's torso, released, overshoots the plan's 10° lean to 20–24° at the strike and the harness catches it
     (docs/design.md §5, issue 25, session 35, wip/h1lean). ``None``: ``strike_lean_max`` on every robot."""
+    strike_lean_fall_roll_free: float | None = None
+    """δ [deg/frame]: on a robot whose feet's roll the balance controller frees (the H1, not Stubby), the plan's lean
+    (``strike_lean``) falls by at most δ per data frame (it rises as planned): the strike's wrist target dipping
+    below its shoulder for a frame or two dropped the H1's plan from 10° to upright at once, its torso, still leaned
+    15–19°, read that far from the plan, and the harness caught it at the touch (docs/design.md §5, issue 25,
+    session 36, wip/h1hf). ``None``: the lean as planned, frame by frame."""
     strike_lean_raised: float = 0.0
     """h_l [m]: ``strike_lean`` only for a wrist target at least this high above its shoulder (world heights)."""
     strike_lean_above: bool = False
@@ -119,6 +126,11 @@ class StanceConfig:
     of mass's horizontal offset from it (0: the middle itself; at 2, 33 % instead of 22 % outside support)."""
     leg_bandwidth: float = 10.0
     """ω_s [rad/s]: the leg servos' standing bandwidth when ``SimConfig.stance_bandwidth`` is ``None``."""
+
+    def __post_init__(self) -> None:
+        if self.strike_lean_fall_roll_free is not None and not self.strike_lean_fall_roll_free > 0.0:
+            raise ConfigError(f"StanceConfig.strike_lean_fall_roll_free: expected None or a rate > 0 deg/frame, "
+                              f"found {self.strike_lean_fall_roll_free!r}")
 
 
 class StanceControl:

@@ -72,6 +72,12 @@ class PlanLean:
             config.strike_lean_max_roll_free is not None) else config.strike_lean_max)
         """[deg] The largest lean: ``strike_lean_max_roll_free`` on a robot whose feet's roll is freed
         (``roll_freed``) where set, else ``strike_lean_max``."""
+        fall = None if config is None else config.strike_lean_fall_roll_free
+        self.fall = float(np.radians(fall)) if roll_freed and fall is not None else None
+        """[rad/frame] ``strike_lean_fall_roll_free`` where it acts (a robot whose feet's roll is freed), else
+        ``None``: the most the lean falls from one data frame to the next (:meth:`limit`)."""
+        self._last: tuple[int, float] | None = None  # (frame, lean) of the last frame before the one being solved
+        self._now: tuple[int, float] | None = None  # (frame, lean) of the latest call
         self.met: int | None = None
         """The frame by which every sub-goal was met (``None``: not yet)."""
         self.dropped = False
@@ -82,6 +88,22 @@ class PlanLean:
         """The lean θ (radians, ≥ 0) for frame ``t``'s robot-frame key-frame ``targets`` (5, 3) m and the shoulders'
         home offsets ``shoulders`` (2, 3) m, given the last frame's result ``last`` and whether the harness holds the
         robot caught (``caught``)."""
+        return self.limit(self._frame(targets, shoulders, last, caught, t), t)
+
+    def limit(self, lean: float, t: int) -> float:
+        """Frame ``t``'s lean ``lean`` (radians) falling at most :attr:`fall` per frame from the last earlier frame's
+        (a solve again within frame ``t`` is limited from the same earlier frame); without :attr:`fall` as given."""
+        if self.fall is None:
+            return lean
+        if self._now is not None and self._now[0] != t:
+            self._last = self._now
+        if self._last is not None:
+            lean = max(lean, self._last[1] - self.fall * max(t - self._last[0], 0))
+        self._now = (t, lean)
+        return lean
+
+    def _frame(self, targets: np.ndarray, shoulders: np.ndarray, last: StepResult | None, caught: bool,
+               t: int) -> float:
         c = self.config
         if not self.active or c is None:
             return 0.0
