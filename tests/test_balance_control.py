@@ -203,7 +203,7 @@ def test_centre_of_mass_feedback_brings_the_centre_of_mass_over_the_middle_of_th
     assert abs(np.linalg.norm(trace[-1][0][:2] - mid) - np.linalg.norm(trace[-5][0][:2] - mid)) <= 0.002
     assert trace[-1][0][0] - trace[0][0][0] >= 0.008  # forward, toward the middle
     assert ctl.harness.catches == 0 and ctl.harness.released and trace[-1][1] == 0
-    assert ctl._tilt(d) <= 2.0
+    assert ctl.attitude.tilt(d) <= 2.0
 
 
 def com_moved(scene: Scene, config: BalanceConfig, offset: np.ndarray | float, seconds: float = 2.0) -> tuple[np.ndarray, BalanceController]:
@@ -265,7 +265,7 @@ def test_a_pushed_robot_returns_to_its_stance_on_its_own_feet(scene: Scene) -> N
     assert max(dev) >= 0.015  # the push (16 N·s at the chest) moved it
     assert dev[-1] <= 0.005  # and it came back
     assert ctl.harness.catches == 0 and all(on == 0 for _, on in trace[2:])  # without the harness
-    assert ctl._tilt(d) <= 2.0
+    assert ctl.attitude.tilt(d) <= 2.0
 
 
 def test_harness_lets_go_of_a_steady_robot_after_the_delay_and_catches_a_falling_one(scene: Scene) -> None:

@@ -89,7 +89,7 @@ def test_the_plan_lean_against_a_rotation_by_hand() -> None:
     from socialaff_sim.sim.simulator import Simulator
 
     bal = Simulator("ours", "high_five", _cfg(catch_tilt_lean_roll_free=None))._get_stage(_high_five()).stepper.balance
-    up = bal._torso_up
+    up = bal.attitude.up
     for deg, axis in ((10.0, (0.0, 1.0, 0.0)), (25.0, (1.0, 0.0, 0.0)), (0.0, (0.0, 1.0, 0.0))):
         # a rotation by `deg` about a horizontal axis applied to the home torso (Rodrigues' formula by hand)
         k = np.array(axis)
@@ -99,8 +99,8 @@ def test_the_plan_lean_against_a_rotation_by_hand() -> None:
         home = np.eye(3)
         if abs(up[2]) < 0.999:  # a torso whose up axis is not the body's z: bring it upright first
             home = _align(up)
-        bal._torso_goal = r @ home
-        assert bal._plan_lean() == pytest.approx(deg, abs=1e-6)
+        bal.attitude.goal = r @ home
+        assert bal.attitude.plan_lean() == pytest.approx(deg, abs=1e-6)
 
 
 def _align(up: np.ndarray) -> np.ndarray:
@@ -164,8 +164,8 @@ def test_the_touched_gate() -> None:
         bal = Simulator(spec, "high_five", _cfg(catch_tilt_lean_roll_free=1.0, catch_tilt_lean_touched=touched_only)
                         )._get_stage(inter).stepper.balance
         t = np.radians(10.0)  # the plan 10° about y from upright
-        bal._torso_goal = np.array([[np.cos(t), 0, np.sin(t)], [0, 1, 0], [-np.sin(t), 0, np.cos(t)]]) @ _align(
-            bal._torso_up)
+        bal.attitude.goal = np.array([[np.cos(t), 0, np.sin(t)], [0, 1, 0], [-np.sin(t), 0, np.cos(t)]]) @ _align(
+            bal.attitude.up)
         bal.compensation.touched[:] = False
         assert bal._catch_lean() == (0.0 if touched_only else pytest.approx(10.0))
         bal.compensation.touched[0] = True

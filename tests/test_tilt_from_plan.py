@@ -46,4 +46,4 @@ def test_tilt_from_plan_reads_the_torsos_angle_from_the_plans_attitude(scene: Sc
         ctrl.begin_frame(plan.qpos[scene.robot_qadr].copy(), (True, True))
         want = (np.degrees(np.arccos(np.clip(now_turn.apply(EZ) @ plan_turn.apply(EZ), -1.0, 1.0))) if from_plan
                 else _reference_tilt(now_turn))
-        assert ctrl._tilt(now) == pytest.approx(want, abs=1e-4)
+        assert ctrl.attitude.tilt(now) == pytest.approx(want, abs=1e-4)

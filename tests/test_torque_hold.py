@@ -91,7 +91,7 @@ def test_the_controller_solves_one_driven_step_in_k_and_holds_the_rest(scene, mo
     # the release (a switch of the harness) may start a new count; otherwise every third driven step solves
     assert len(calls) <= ctl.active_steps // 3 + 3 and ctl.held_steps >= 2 * (ctl.active_steps // 3) - 4
     assert max(np.diff(calls)) <= 3  # never more than two held in a row
-    assert ctl._tilt(d) <= 2.0  # and it still stands upright
+    assert ctl.attitude.tilt(d) <= 2.0  # and it still stands upright
 
 
 def test_held_steps_give_the_servos_the_held_torques(scene, monkeypatch) -> None:

@@ -64,6 +64,7 @@ from .self_clearance import SelfClearance
 from .shear_spread import feet_shear_cost, shear_spread_cost
 from .support_box import SupportBox
 from .torque_hold import TorqueHold
+from .torso_attitude import TorsoAttitude
 
 __all__ = ["BalanceController", "BalanceConfig", "lean_offset"]
 
@@ -107,8 +108,8 @@ class BalanceController:
         self._gain = m.actuator_gainprm[ids, 0].copy()
         self._bias = m.actuator_biasprm[ids, :3].copy()
         self._act_q, self._act_v = np.asarray(scene.act_qadr), np.asarray(scene.act_vadr)
-        # the torso's up axis at home
-        self._torso_up = scene.home_data().xmat[self._torso].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0])
+        self.attitude = TorsoAttitude(scene, self._torso, self.config.tilt_from_plan)
+        """The torso's tilt and the plan's lean (:mod:`~.torso_attitude`)."""
         self._external = ExternalForces(scene)
         self.external = FilteredExternal(self._external, self.config.external_filter)
         """``external_forces``: the external contacts' filtered estimate (:mod:`~.external_force`)."""
@@ -172,7 +173,7 @@ class BalanceController:
         self._planted = (False, False)
         self._anchor: list[tuple[np.ndarray, np.ndarray]] | None = None
         self.external.clear()
-        self._torso_goal = np.eye(3)
+        self.attitude.goal = np.eye(3)
         self.com.reset()
         self.steps = self.active_steps = 0
         """Physics steps run; driven by the controller."""
@@ -207,7 +208,7 @@ class BalanceController:
         mujoco.mj_comPos(m, p)
         self.com.begin_frame(p)
         self.harness.see_plan(p)  # (release_settled_raised: the strike's frames)
-        self._torso_goal = p.xmat[self._torso].reshape(3, 3).copy()
+        self.attitude.goal = p.xmat[self._torso].reshape(3, 3).copy()
         if self.hands is not None:  # hand_task: the plan's wrists at the frame's end
             self.hands.begin_frame(p, q_start, duration)
         if self.angmom is not None:  # the plan's velocity over the frame (none without a start)
@@ -234,7 +235,7 @@ class BalanceController:
         standing = self._planted[0] and self._planted[1] and len(pts) > 0
         if not (self._planted[0] and self._planted[1]):
             self._anchor = None  # a step: the feet are held where they next stand
-        tilt = self._step_tilt = self._tilt(d)  # (the plan's velocities' tilt bound reads it in _torques)
+        tilt = self._step_tilt = self.attitude.tilt(d)  # (the plan's velocities' tilt bound reads it in _torques)
         box, capture, cxy = None, self._capture, None
         if standing:
             self._soles_now, box = feet.support(d, pts, which)  # the soles in the world (the _cop's bounds), the box
@@ -338,7 +339,7 @@ class BalanceController:
             tasks.append((jcom[:2], wc * wc * (goal - com[:2]) - 2.0 * zc * wc * comvel[:2], w_com))
         mujoco.mj_jacBody(m, d, self._jp, self._jr, self._torso)
         Jt = self._jr[:, va].copy()  # (C order, as jcom's)
-        err = self._torso_goal @ d.xmat[self._torso].reshape(3, 3).T  # world rotation from now to the goal
+        err = self.attitude.goal @ d.xmat[self._torso].reshape(3, 3).T  # world rotation from now to the goal
         mujoco.mju_mat2Quat(self._quat, err.ravel())
         mujoco.mju_quat2Vel(self._rot, self._quat, 1.0)
         wo = self.torso_bandwidth
@@ -409,18 +410,4 @@ class BalanceController:
         if self.harness.lean_gain is None or (self.config.catch_tilt_lean_touched and not (
                 self.compensation is not None and bool(self.compensation.touched.any()))):
             return 0.0
-        return self._plan_lean()
-
-    def _plan_lean(self) -> float:
-        """The plan's torso angle from upright, degrees (``catch_tilt_lean_roll_free``'s λ)."""
-        up = float((self._torso_goal @ self._torso_up)[2])
-        return float(np.degrees(np.arccos(min(max(up, -1.0), 1.0))))
-
-    def _tilt(self, d: mujoco.MjData) -> float:
-        """The torso's angle from upright (with ``tilt_from_plan``: from the plan's torso attitude), degrees."""
-        rot = d.xmat[self._torso].reshape(3, 3)
-        if self.config.tilt_from_plan:  # the angle between the torso's up axis now and in the plan (world)
-            up = float((rot @ self._torso_up) @ (self._torso_goal @ self._torso_up))
-        else:
-            up = float(rot[2] @ self._torso_up)
-        return float(np.degrees(np.arccos(min(max(up, -1.0), 1.0))))  # (np.clip's values, without its overhead)
+        return self.attitude.plan_lean()
