@@ -132,6 +132,22 @@ def foot_lock_keyword(cfg, inter, keyword: str):  # noqa: ANN001, ANN201 (SimCon
     return seen, config[0]
 
 
+def spy_harness_decide(record):  # noqa: ANN001, ANN201 (Callable[[tuple, dict], None] -> the on_frame hook)
+    """An ``on_frame`` hook for :func:`~socialaff_sim.sim.episode.run_episode` that wraps the standing controller's
+    ``HarnessRelease.decide`` once per episode and calls ``record(args, kwargs)`` before each of its decisions."""
+    def hook(s, r, e) -> None:  # noqa: ANN001
+        h = s._stage.stepper.balance.harness
+        if getattr(h, "_probe", False):
+            return
+        orig = h.decide
+
+        def decide(*a, **k):  # noqa: ANN002, ANN003, ANN202
+            record(a, k)
+            return orig(*a, **k)
+        h.decide, h._probe = decide, True
+    return hook
+
+
 def shared_robot(*parts: str) -> Path:
     """Path under ../shared/robots (the Unitree MJCF models); skips the test with a reason when it is absent."""
     path = SHARED_ROBOTS.joinpath(*parts)

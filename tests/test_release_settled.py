@@ -18,6 +18,8 @@ from socialaff_sim.sim.harness_release import HarnessRelease
 from socialaff_sim.sim.sim_config import STANDING_BALANCE
 from socialaff_sim.sim.support_box import SupportBox
 
+from conftest import spy_harness_decide
+
 BASE = STANDING_BALANCE
 ON = dataclasses.replace(BASE, release_settled=0.03)
 BOX = SupportBox(np.array([[-0.1, -0.15], [0.1, -0.15], [-0.1, 0.15], [0.1, 0.15]]), np.array([1.0, 0.0]))
@@ -113,17 +115,8 @@ def test_the_controller_passes_the_centre_of_mass_and_a_replayed_high_five_chang
         sim = Simulator("ours", "high_five", dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance,
                                                                                                   **balance)))
 
-        def hook(s, r, sub) -> None:  # noqa: ANN001
-            h = s._stage.stepper.balance.harness
-            if getattr(h, "_probe", False):
-                return
-            orig = h.decide
-
-            def decide(*a, **k):  # noqa: ANN002, ANN003, ANN202
-                coms.append((bool(a[2]), a[7] if len(a) > 7 else k.get("com")))
-                return orig(*a, **k)
-            h.decide, h._probe = decide, True
-        out.append(run_episode(sim, GroundTruthSource(), inter, on_frame=hook))
+        out.append(run_episode(sim, GroundTruthSource(), inter, on_frame=spy_harness_decide(
+            lambda a, k: coms.append((bool(a[2]), a[7] if len(a) > 7 else k.get("com"))))))
     assert any(out[0][k] != out[1][k] for k in ("support", "subgoals", "success", "failures"))
     standing = [c for s, c in coms if s]
     assert standing and all(c is not None and np.shape(c) == (2,) for c in standing)

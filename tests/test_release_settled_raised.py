@@ -18,6 +18,8 @@ from socialaff_sim.sim.harness_release import HarnessRelease
 from socialaff_sim.sim.sim_config import STANDING_BALANCE
 from socialaff_sim.sim.support_box import SupportBox
 
+from conftest import spy_harness_decide
+
 ON = dataclasses.replace(STANDING_BALANCE, release_settled=0.03)
 BOX = SupportBox(np.array([[-0.1, -0.15], [0.1, -0.15], [-0.1, 0.15], [0.1, 0.15]]), np.array([1.0, 0.0]))
 
@@ -154,17 +156,7 @@ def test_the_controller_passes_the_touch_only_with_until_touch() -> None:
         sim = Simulator(load_robot("ours"), "high_five", dataclasses.replace(cfg, balance=bal))
         got: list[bool] = []
 
-        def hook(s, r, sub) -> None:  # noqa: ANN001
-            h = s._stage.stepper.balance.harness
-            if getattr(h, "_probe", False):
-                return
-            orig = h.decide
-
-            def decide(*a, **k):  # noqa: ANN002, ANN003, ANN202
-                got.append(bool(a[6]))
-                return orig(*a, **k)
-            h.decide, h._probe = decide, True
-        run_episode(sim, GroundTruthSource(), inter, on_frame=hook)
+        run_episode(sim, GroundTruthSource(), inter, on_frame=spy_harness_decide(lambda a, k: got.append(bool(a[6]))))
         seen[until] = got
     assert seen[False] and not any(seen[False])
     assert any(seen[True]) and not seen[True][0]

@@ -19,7 +19,7 @@ from socialaff_sim.sim.harness_release import HarnessRelease
 from socialaff_sim.sim.sim_config import STANDING_BALANCE
 from socialaff_sim.sim.support_box import SupportBox
 
-from conftest import shared_robot
+from conftest import shared_robot, spy_harness_decide
 
 BASE = STANDING_BALANCE  # (flat_roll_free, arm_compensation and compensation_gate, which the option needs)
 ON = dataclasses.replace(BASE, release_tilt_touched=8.0)
@@ -90,17 +90,8 @@ def _throw(robot, instance: str, **balance):  # noqa: ANN001, ANN003, ANN202
     sim = Simulator(robot, "throw_catch", cfg)
     touched: list[bool] = []
 
-    def hook(s, r, sub) -> None:  # noqa: ANN001
-        h = s._stage.stepper.balance.harness
-        if getattr(h, "_probe", False):
-            return
-        orig = h.decide
-
-        def decide(*a, **k):  # noqa: ANN002, ANN003, ANN202
-            touched.append(bool(a[6]) if len(a) > 6 else bool(k.get("touched", False)))
-            return orig(*a, **k)
-        h.decide, h._probe = decide, True
-    m = run_episode(sim, GroundTruthSource(), inter, on_frame=hook)
+    m = run_episode(sim, GroundTruthSource(), inter, on_frame=spy_harness_decide(
+        lambda a, k: touched.append(bool(a[6]) if len(a) > 6 else bool(k.get("touched", False)))))
     return sim._stage.stepper.balance, m, touched
 
 
