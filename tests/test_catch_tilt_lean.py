@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from conftest import frame_states, shared_robot
+from conftest import frame_states, shared_robot, spy_harness_decide
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.sim.harness_release import HarnessRelease
 from socialaff_sim.sim.sim_config import STANDING_BALANCE
@@ -136,17 +136,8 @@ def test_the_gain_by_robot_and_the_lean_passed() -> None:
     sim = Simulator(spec, "high_five", _cfg(catch_tilt_lean_roll_free=1.0))
     leans: list[float] = []
 
-    def hook(s, r, e) -> None:  # noqa: ANN001
-        h = s._stage.stepper.balance.harness
-        if getattr(h, "_probe", False):
-            return
-        orig = h.decide
-
-        def decide(*a, **k):  # noqa: ANN002, ANN003, ANN202
-            leans.append(float(a[8]) if len(a) > 8 else float(k.get("plan_lean", 0.0)))
-            return orig(*a, **k)
-        h.decide, h._probe = decide, True
-    run_episode(sim, GroundTruthSource(), inter, on_frame=hook)
+    run_episode(sim, GroundTruthSource(), inter, on_frame=spy_harness_decide(
+        lambda a, k: leans.append(float(a[8]) if len(a) > 8 else float(k.get("plan_lean", 0.0)))))
     bal = sim._stage.stepper.balance
     assert bal.roll_freed and bal.harness.lean_gain == 1.0
     assert max(leans) > 3.0  # the high five's strike lean reaches the harness
