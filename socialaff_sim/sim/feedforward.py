@@ -41,10 +41,7 @@ class StandingFeedforward:
         self.scene = scene
         m = scene.model
         self._data = mujoco.MjData(m)
-        self._feet = []
-        for k in (3, 4):
-            fid = int(scene.frame_ids[k])
-            self._feet.append(int(m.site_bodyid[fid]) if scene.frame_kinds[k] == "site" else fid)
+        self._feet = [scene.frame_body(k) for k in (3, 4)]
         self._jacp = np.zeros((3, m.nv))
         self._jacr = np.zeros((3, m.nv))
         self._bias = np.zeros(m.nv)

@@ -26,8 +26,7 @@ class FeetOnFloor:
         self._feet: list[int] = []
         foot_geom = np.full(m.ngeom, -1, dtype=np.int64)
         for s, k in enumerate((3, 4)):
-            fid = int(scene.frame_ids[k])
-            body = int(m.site_bodyid[fid]) if scene.frame_kinds[k] == "site" else fid
+            body = scene.frame_body(k)
             self._feet.append(body)
             foot_geom[subtree_mask(m, body)[m.geom_bodyid] & scene.robot_geom] = s
         self._foot_geom = foot_geom

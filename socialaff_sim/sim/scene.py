@@ -136,6 +136,11 @@ class Scene:
     def n_bones(self) -> int:
         return self.body.n_bones
 
+    def frame_body(self, k: int) -> int:
+        """The body of the robot's key frame ``k`` (0 base, 1–2 wrists, 3–4 ankles): the frame itself, or a site's body."""
+        fid = int(self.frame_ids[k])
+        return int(self.model.site_bodyid[fid]) if self.frame_kinds[k] == "site" else fid
+
     def home_data(self) -> mujoco.MjData:
         """A new data of the scene, the robot at its home posture (the rest at ``qpos0``), its kinematics computed."""
         d = mujoco.MjData(self.model)

@@ -161,10 +161,9 @@ class Simulator:
                                     roll_freed=bal is not None and bal.roll_freed)
         self._lean = PlanLean(None if stage.stance is None else stage.stance.config, self.task.counts_above,
                               bal is not None and bal.roll_freed)
-        rl, m, ids = self.config.reach_lean, stage.scene.model, stage.scene.frame_ids
-        self._reach_lean = None if rl is None else ReachLean(rl, m, [int(m.site_bodyid[ids[k]]) if stage.scene.frame_kinds[k]
-                                                                 == "site" else int(ids[k]) for k in (3, 4)],
-                                                             stage.scene.root_body, stage.reach.arm, stage.reach.shoulders,
+        rl, sc = self.config.reach_lean, stage.scene
+        self._reach_lean = None if rl is None else ReachLean(rl, sc.model, [sc.frame_body(k) for k in (3, 4)],
+                                                             sc.root_body, stage.reach.arm, stage.reach.shoulders,
                                                              self.task.chair)
         if bal is not None:  # the harness's gates: release_tilt_touched (a throw's catch), release_settled (per task, source)
             bal.harness.gate_touched(self.task.has_catch)

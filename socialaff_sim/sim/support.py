@@ -111,8 +111,7 @@ class SupportMeter:
         self._root_lin = scene.robot_vadr[:3]
         self._feet = []
         for k in (3, 4):
-            fid = int(scene.frame_ids[k])
-            body = int(m.site_bodyid[fid]) if scene.frame_kinds[k] == "site" else fid
+            body = scene.frame_body(k)
             inside = subtree_mask(m, body)
             self._feet.append((body, inside[m.geom_bodyid] & scene.robot_geom))
         self._robot_geom = scene.robot_geom
