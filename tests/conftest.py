@@ -132,6 +132,21 @@ def foot_lock_keyword(cfg, inter, keyword: str):  # noqa: ANN001, ANN201 (SimCon
     return seen, config[0]
 
 
+def spy_ik_leans(monkeypatch: pytest.MonkeyPatch) -> list[float]:
+    """Record the ``lean`` every :meth:`RobotIK.solve` call gets (0 where none is passed), in order."""
+    from socialaff_sim.retarget.ik import RobotIK
+
+    leans: list[float] = []
+    orig_solve = RobotIK.solve
+
+    def spy(self, *a, **kw):  # noqa: ANN001, ANN002, ANN003
+        leans.append(kw.get("lean", 0.0))
+        return orig_solve(self, *a, **kw)
+
+    monkeypatch.setattr(RobotIK, "solve", spy)
+    return leans
+
+
 def spy_harness_decide(record):  # noqa: ANN001, ANN201 (Callable[[tuple, dict], None] -> the on_frame hook)
     """An ``on_frame`` hook for :func:`~socialaff_sim.sim.episode.run_episode` that wraps the standing controller's
     ``HarnessRelease.decide`` once per episode and calls ``record(args, kwargs)`` before each of its decisions."""

@@ -15,12 +15,13 @@ import pytest
 
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError
-from socialaff_sim.retarget.ik import RobotIK
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim import reach_lean as lean_module
 from socialaff_sim.sim.episode import run_episode
 from socialaff_sim.sim.reach_lean import ReachLeanConfig, least_lean, reach_lean, rolls_no_foot
 from socialaff_sim.sim.simulator import SimConfig, Simulator
+
+from conftest import spy_ik_leans
 
 SHOULDERS = np.array([[0.0, 0.21, 0.44], [0.0, -0.21, 0.44]])  # the H1's: 0.44 m above the base
 ARM = 0.554
@@ -150,18 +151,6 @@ def test_the_gate_picks_legs_that_cannot_roll_their_feet(joints: int, short: boo
     assert rolls_no_foot(m, [foot], base) is short
 
 
-def _spy_leans(monkeypatch: pytest.MonkeyPatch) -> list[float]:
-    leans: list[float] = []
-    orig_solve = RobotIK.solve
-
-    def spy(self, *a, **kw):  # noqa: ANN001, ANN002, ANN003
-        leans.append(kw.get("lean", 0.0))
-        return orig_solve(self, *a, **kw)
-
-    monkeypatch.setattr(RobotIK, "solve", spy)
-    return leans
-
-
 @pytest.mark.parametrize("option, gate, leaning", [
     (False, True, False),  # the option off: no lean, reach_lean never asked
     (True, True, False),  # on Stubby under the gate (its legs roll their feet): none
@@ -172,7 +161,7 @@ def test_the_simulator_leans_only_with_the_option_on_a_gated_robot(monkeypatch: 
     inter = list(generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=1)).of_label("pull_up"))[0]
     calls: list[int] = []
     monkeypatch.setattr(lean_module, "reach_lean", lambda *a: calls.append(1) or 0.25)  # a lean of 0.25 rad
-    leans = _spy_leans(monkeypatch)
+    leans = spy_ik_leans(monkeypatch)
     for mode in ("standing", "harness"):
         calls.clear()
         leans.clear()

@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
-from socialaff_sim.retarget.ik import RobotIK
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.retarget.sources import GroundTruthSource
 from socialaff_sim.sim import strike_lean as lean_module
@@ -23,6 +22,7 @@ from socialaff_sim.sim.simulator import SimConfig, Simulator
 from socialaff_sim.sim.stance import StanceConfig
 from socialaff_sim.sim.strike_lean import lean_out, strike_lean
 
+from conftest import spy_ik_leans
 from test_retarget_ik import LAYOUT, STICK_TOML, STICK_XML, ik_for
 
 
@@ -118,25 +118,12 @@ def test_the_config_defaults_lean_nothing() -> None:
     assert dataclasses.replace(c, strike_lean=30.0).strike_lean_max == 10.0
 
 
-def _spy_leans(monkeypatch: pytest.MonkeyPatch) -> list[float]:
-    """Record the ``lean`` every :meth:`RobotIK.solve` call gets (0 where none is passed), in order."""
-    leans: list[float] = []
-    orig_solve = RobotIK.solve
-
-    def spy(self, *a, **kw):  # noqa: ANN001, ANN002, ANN003
-        leans.append(kw.get("lean", 0.0))
-        return orig_solve(self, *a, **kw)
-
-    monkeypatch.setattr(RobotIK, "solve", spy)
-    return leans
-
-
 def test_the_simulator_leans_only_with_the_option(monkeypatch: pytest.MonkeyPatch) -> None:
     inter = list(generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=1)).of_label("high_five"))[0]
     calls: list[float] = []
     orig = lean_module.strike_lean
     monkeypatch.setattr(lean_module, "strike_lean", lambda *a: calls.append(orig(*a)) or calls[-1])
-    leans = _spy_leans(monkeypatch)
+    leans = spy_ik_leans(monkeypatch)
     base = SimConfig.standing()
     for stance, leaning in ((dataclasses.replace(base.stance, strike_lean=None), False),
                            (dataclasses.replace(base.stance, strike_lean=40.0), True)):
@@ -157,7 +144,7 @@ def test_the_lean_only_in_a_task_above_the_shoulders(monkeypatch: pytest.MonkeyP
                                                       leaning: bool) -> None:
     data = generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=146))
     inter = list(data.of_label(label))[145]  # shake_hands_145: its wrist target above the shoulder at frame 25
-    leans = _spy_leans(monkeypatch)
+    leans = spy_ik_leans(monkeypatch)
     base = SimConfig.standing()
     stance = dataclasses.replace(base.stance, strike_lean=40.0, strike_lean_above=above)
     run_episode(Simulator("ours", label, dataclasses.replace(base, stance=stance)), GroundTruthSource(), inter)
@@ -186,7 +173,7 @@ def test_the_simulator_ramps_the_lean_out_once_the_hands_have_met(monkeypatch: p
     base = SimConfig.standing()
     after: dict[object, list[float]] = {}
     for out in (None, 0):
-        leans = _spy_leans(monkeypatch)
+        leans = spy_ik_leans(monkeypatch)
         sim = Simulator("ours", "high_five", dataclasses.replace(
             base, stance=dataclasses.replace(base.stance, strike_lean=30.0, strike_lean_out=out)))
         met: list[int] = []
@@ -210,7 +197,7 @@ def _leans_of(monkeypatch: pytest.MonkeyPatch, instance: int, **stance: object) 
     inter = list(generate_dataset(seed=0, config=SyntheticConfig(instances_per_interaction=instance + 1))
                  .of_label("high_five"))[instance]
     base = SimConfig.standing()
-    leans = _spy_leans(monkeypatch)
+    leans = spy_ik_leans(monkeypatch)
     met: list[int] = []
 
     def on_frame(s, r, sub):  # noqa: ANN001
