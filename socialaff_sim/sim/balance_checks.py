@@ -44,16 +44,16 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
     if not (c.w_dynamics > 0.0 and c.w_force > 0.0):
         raise ConfigError(f"BalanceConfig: expected w_dynamics > 0 and w_force > 0, found {c.w_dynamics}, "
                           f"{c.w_force}")
+    latch = c.arm_compensation is not None and c.compensation_gate is not None  # the arms' touch latch (ArmCompensation)
     if not c.friction > 0.0:
         raise ConfigError(f"BalanceConfig.friction: expected μ > 0, found {c.friction}")
-    if c.touch_friction is not None and not (c.touch_friction > 0.0 and c.arm_compensation is not None
-                                             and c.compensation_gate is not None):
+    if c.touch_friction is not None and not (c.touch_friction > 0.0 and latch):
         raise ConfigError(f"BalanceConfig.touch_friction: expected None or μ_t > 0 with arm_compensation and "
                           f"compensation_gate (the touch latch), found {c.touch_friction}")
     if c.shear_spread is not None and not (c.shear_spread > 0.0 and c.solver == "qp"):
         raise ConfigError(f"BalanceConfig.shear_spread: expected None or w_s > 0 with solver='qp', found "
                           f"{c.shear_spread} with solver {c.solver!r}")
-    if c.shear_spread_touched and (c.shear_spread is None or c.arm_compensation is None or c.compensation_gate is None):
+    if c.shear_spread_touched and (c.shear_spread is None or not latch):
         raise ConfigError("BalanceConfig.shear_spread_touched: needs shear_spread and the touch latch (arm_compensation "
                           "and compensation_gate)")
     if c.shear_couple is not None and not (c.shear_couple > 0.0 and c.solver == "qp"):
@@ -62,7 +62,7 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
     if c.shear_couple_form not in FORMS:
         raise ConfigError(f"BalanceConfig.shear_couple_form: expected one of {', '.join(FORMS)}, found "
                           f"{c.shear_couple_form!r}")
-    if c.shear_couple_touched and (c.shear_couple is None or c.arm_compensation is None or c.compensation_gate is None):
+    if c.shear_couple_touched and (c.shear_couple is None or not latch):
         raise ConfigError("BalanceConfig.shear_couple_touched: needs shear_couple and the touch latch (arm_compensation "
                           "and compensation_gate)")
     if c.qp_kernel not in KERNELS or (c.qp_kernel != "numpy" and c.solver != "qp"):
@@ -137,13 +137,11 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
     if c.hand_task is not None and not (c.hand_task > 0.0 and c.hand_task_bandwidth > 0.0):
         raise ConfigError(f"BalanceConfig: expected hand_task None or > 0 and hand_task_bandwidth > 0 rad/s, found "
                           f"{c.hand_task!r}, {c.hand_task_bandwidth}")
-    if c.hand_task_touched and (c.hand_task is None or c.arm_compensation is None
-                                   or c.compensation_gate is None):
+    if c.hand_task_touched and (c.hand_task is None or not latch):
         raise ConfigError("BalanceConfig.hand_task_touched: needs hand_task, arm_compensation and compensation_gate "
                           "(their touch latch)")
     if c.release_tilt_touched is not None and not (
-            c.flat_roll_free and c.arm_compensation is not None and c.compensation_gate is not None
-            and c.release_tilt <= c.release_tilt_touched < c.catch_tilt):
+            c.flat_roll_free and latch and c.release_tilt <= c.release_tilt_touched < c.catch_tilt):
         raise ConfigError(f"BalanceConfig.release_tilt_touched: needs flat_roll_free (the robots it picks), "
                           f"arm_compensation and compensation_gate (their touch latch) and a tilt in [release_tilt, "
                           f"catch_tilt) degrees, found {c.release_tilt_touched!r}")
@@ -156,16 +154,13 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
                           f"factor in (0, 1], found {c.hand_task_arm_weight!r}")
     if c.hand_task_plan_velocity and c.hand_task is None:
         raise ConfigError("BalanceConfig.hand_task_plan_velocity: needs hand_task (the rows it moves)")
-    if c.hand_task_velocity_until_touch and (not c.hand_task_plan_velocity or c.arm_compensation is None
-                                                or c.compensation_gate is None):
+    if c.hand_task_velocity_until_touch and (not c.hand_task_plan_velocity or not latch):
         raise ConfigError("BalanceConfig.hand_task_velocity_until_touch: needs hand_task_plan_velocity, "
                           "arm_compensation and compensation_gate (their touch latch)")
-    if c.shift_until_touch and (c.com_shift is None or c.arm_compensation is None
-                                   or c.compensation_gate is None):
+    if c.shift_until_touch and (c.com_shift is None or not latch):
         raise ConfigError("BalanceConfig.shift_until_touch: needs com_shift, arm_compensation and compensation_gate "
                           "(their touch latch ends the approach)")
-    if c.plan_velocity_until_touch and (not (c.com_plan_velocity or c.torso_plan_velocity)
-                                           or c.arm_compensation is None or c.compensation_gate is None):
+    if c.plan_velocity_until_touch and (not (c.com_plan_velocity or c.torso_plan_velocity) or not latch):
         raise ConfigError("BalanceConfig.plan_velocity_until_touch: needs com_plan_velocity or torso_plan_velocity, "
                           "and arm_compensation and compensation_gate (their touch latch)")
     if c.plan_velocity_raised is not None and (not (c.com_plan_velocity or c.torso_plan_velocity)
@@ -185,8 +180,7 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
                                                         and 0.0 < c.catch_tilt_lean_roll_free <= 5.0):
         raise ConfigError(f"BalanceConfig.catch_tilt_lean_roll_free: needs flat_roll_free (the robots it picks), "
                           f"tilt_from_plan and a gain in (0, 5], found {c.catch_tilt_lean_roll_free!r}")
-    if c.catch_tilt_lean_touched and (c.catch_tilt_lean_roll_free is None or c.arm_compensation is None
-                                      or c.compensation_gate is None):
+    if c.catch_tilt_lean_touched and (c.catch_tilt_lean_roll_free is None or not latch):
         raise ConfigError("BalanceConfig.catch_tilt_lean_touched: needs catch_tilt_lean_roll_free, arm_compensation "
                           "and compensation_gate (their touch latch)")
     if not 0.0 <= c.release_tilt <= c.catch_tilt < 90.0:
