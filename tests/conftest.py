@@ -106,6 +106,18 @@ def frame_states(cfg, inter) -> list[np.ndarray]:  # noqa: ANN001 (SimConfig, In
     return states
 
 
+def assert_gate_keeps_stubby(inter, base, gated, ungated) -> None:  # noqa: ANN001 (Interaction, SimConfig × 3)
+    """A robot-gated option's check on Stubby: its states frame by frame (:func:`frame_states`) under ``gated`` equal
+    ``base``'s bit for bit, and under ``ungated`` (the change without its gate) differ somewhere, so the check can
+    fail."""
+    a, b = frame_states(base, inter), frame_states(gated, inter)
+    assert len(a) == len(b) > 10
+    for x, y in zip(a, b, strict=True):
+        np.testing.assert_array_equal(x, y)
+    u = frame_states(ungated, inter)
+    assert any(not np.array_equal(x, y) for x, y in zip(a, u))
+
+
 def foot_lock_keyword(cfg, inter, keyword: str):  # noqa: ANN001, ANN201 (SimConfig, Interaction, FootLockConfig)
     """Run a ground-truth episode of ``inter`` on Stubby under ``cfg`` and record, per :meth:`FootLock.apply` call, the
     truth of its keyword argument ``keyword`` (``False`` when not passed): (the calls' values, the foot lock's config
