@@ -26,10 +26,10 @@ import numpy as np
 from ..errors import SimulationError
 from .footlock_config import FootLockConfig
 
-__all__ = ["FootLock", "FootLockConfig"]
+__all__ = ["FootLock", "FootLockConfig", "within"]
 
 
-def _within(distance: float | None, gaps: Iterable[float | None]) -> bool:
+def within(distance: float | None, gaps: Iterable[float | None]) -> bool:
     """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is at most ``distance`` (m; ``None``:
     the option off, never)."""
     return distance is not None and any(g is not None and g <= distance for g in gaps)
@@ -63,12 +63,12 @@ class FootLock:
     def near(self, gaps: Iterable[float | None]) -> bool:
         """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``hold_near``; ``False``
         without it."""
-        return _within(self.config.hold_near, gaps)
+        return within(self.config.hold_near, gaps)
 
     def stepless(self, gaps: Iterable[float | None]) -> bool:
         """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``hold_step_gap``; ``False``
         without it."""
-        return _within(self.config.hold_step_gap, gaps)
+        return within(self.config.hold_step_gap, gaps)
 
     def in_flight(self, frame: int, release_frame: int | None) -> bool:
         """Whether the frame that ends at ``frame`` lies within ``hold_step_flight`` of a thrown object's release
@@ -85,13 +85,13 @@ class FootLock:
     def landing(self, gaps: Iterable[float | None]) -> bool:
         """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``land_gap``; ``False``
         without it."""
-        return _within(self.config.land_gap, gaps)
+        return within(self.config.land_gap, gaps)
 
     def walking_up(self, gaps: Iterable[float | None]) -> bool:
         """Whether no sub-goal's gap in ``gaps`` (m; ``None``: not measured) is within ``glide_far`` (``glide_gap_far``
         then decides a glide; ``glide_gap_caught`` does not); ``False`` without either option."""
         c = self.config
-        return (c.glide_gap_far is not None or c.glide_gap_caught is not None) and not _within(c.glide_far, gaps)
+        return (c.glide_gap_far is not None or c.glide_gap_caught is not None) and not within(c.glide_far, gaps)
 
     def gap_flags(self, gaps: Iterable[float | None] | None) -> dict[str, bool]:
         """:meth:`apply`'s keywords ``near``, ``land``, ``still``, ``far`` and ``still_caught`` (``hold_step_caught``) from the last frame's sub-goal ``gaps``
@@ -101,7 +101,7 @@ class FootLock:
             return {"near": False, "land": False, "still": False, "far": self.walking_up(()), "still_caught": False}
         g = list(gaps)
         return {"near": self.near(g), "land": self.landing(g), "still": self.stepless(g), "far": self.walking_up(g),
-                "still_caught": _within(self.config.hold_step_caught, g)}
+                "still_caught": within(self.config.hold_step_caught, g)}
 
     def backing(self, ankles: np.ndarray, person: np.ndarray) -> tuple[bool, bool]:
         """For targets ``ankles`` (2, 3) (world, m) and the person at ``person`` (2,): whether each planted foot's

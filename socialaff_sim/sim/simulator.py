@@ -34,7 +34,7 @@ from .reset_cache import ResetCache, Settled, build_placement
 from .scoring import SubgoalScorer
 from .stage import Stage, contact_exemptions, key_frames, key_frames_at
 from .stage_build import build_stage
-from .footlock import FootLock
+from .footlock import FootLock, within
 from .harness_release import planted_offset
 from .reach_lean import ReachLean
 from .sim_config import SimConfig, StepResult
@@ -250,6 +250,7 @@ class Simulator:
         world = self.frame_R.to_world(tg)
         plan_feet = world[3:5].copy()  # the plan's ankles, before the foot lock holds them
         bal = stage.stepper.balance
+        physical = None  # the physical ankle frames (world), read once when a foot-lock setting needs them
         if self._footlock is not None:
             physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.needs_physical else None
             last = self.results[-1] if self.results else None
@@ -263,9 +264,10 @@ class Simulator:
                                               **self._footlock.gap_flags(None if last is None else last.subgoal_gaps.values()))
         d_m = None if bal is None else bal.harness.follow
         if d_m is not None:  # (catch_follow_feet: near a meeting the caught robot is held over its feet)
-            near = self.results and any(g is not None and g <= d_m for g in self.results[-1].subgoal_gaps.values())
-            bal.harness.feet_offset = planted_offset(key_frames(stage.scene, stage.data)[3:5], world[3:5],
-                                                     self._footlock.standing if near and self._footlock else (False, False))
+            near = self._footlock is not None and bool(self.results) and within(d_m, self.results[-1].subgoal_gaps.values())
+            if near and physical is None:
+                physical = key_frames(stage.scene, stage.data)[3:5]
+            bal.harness.feet_offset = planted_offset(physical, world[3:5], self._footlock.standing) if near else np.zeros(2)
         seg_a, seg_b, radius = self._segments
         reachable = reachable_targets(stage.reach, tg, world, seg_a[t1], seg_b[t1], radius)
         ik = stage.ik
