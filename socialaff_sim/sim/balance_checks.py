@@ -145,6 +145,8 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
         raise ConfigError(f"BalanceConfig.release_tilt_touched: needs flat_roll_free (the robots it picks), "
                           f"arm_compensation and compensation_gate (their touch latch) and a tilt in [release_tilt, "
                           f"catch_tilt) degrees, found {c.release_tilt_touched!r}")
+    if c.release_tilt_touched_above and c.release_tilt_touched is None:
+        raise ConfigError("BalanceConfig.release_tilt_touched_above: needs release_tilt_touched")
     if c.hand_task_roll_free and (c.hand_task is None or not c.flat_roll_free):
         raise ConfigError("BalanceConfig.hand_task_roll_free: needs hand_task and flat_roll_free (the robots it "
                           "picks)")

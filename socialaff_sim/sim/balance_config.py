@@ -34,7 +34,7 @@ class BalanceConfig:
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_settled, release_settled_above,
       release_settled_causal_only, release_settled_raised, release_settled_latch,
       release_settled_until_touch,
-      release_tilt_touched,
+      release_tilt_touched, release_tilt_touched_above,
       tilt_from_plan,
       catch_tilt, catch_tilt_lean_roll_free, catch_tilt_lean_touched, catch_margin, catch_blend, catch_follow_feet,
       catch_follow_chair, drive_harnessed
@@ -334,6 +334,9 @@ class BalanceConfig:
     of its throws' contact-phase support (traced; docs/design.md §5, issue 25, session 34, wip/h1throw). ``None``:
     ``release_tilt`` throughout. Needs ``flat_roll_free``, ``arm_compensation`` and ``compensation_gate``; at least
     ``release_tilt``, below ``catch_tilt``."""
+    release_tilt_touched_above: bool = False
+    """[—]: ``release_tilt_touched`` in a task with a contact sub-goal counted above the robot's shoulders (the high
+    five: the H1 caught at the strike held past its touch) in place of a task with a ``catch`` sub-goal."""
     tilt_from_plan: bool = False
     """[—]: Whether ``release_tilt`` and ``catch_tilt`` read the torso's angle from the plan's torso attitude (the
     IK's, the controller's goal) rather than from upright: a lean the plan asks for (the H1 reaching with a spine

@@ -3,9 +3,10 @@ caught robot is led back onto the IK's base.
 
 Decided per physics step (:class:`HarnessRelease`, owned by :class:`~.balance_control.BalanceController`): the weld
 lets go once both feet have been planted ``release_delay`` and the robot is steady (the torso within
-``release_tilt``, or ``release_tilt_touched`` after a touch on a robot whose feet's roll the controller frees, the
-capture point inside the support box by ``release_margin``, and with ``release_settled`` within that of the centre
-of mass, with ``release_settled_raised`` only in the strike's frames: :meth:`see_plan`); it catches the robot again at
+``release_tilt``, or ``release_tilt_touched`` after a touch on a robot whose feet's roll the controller frees, in a
+throw (with ``release_tilt_touched_above``: a high five), the capture point inside the support box by
+``release_margin``, and with ``release_settled`` within that of the centre of mass, with ``release_settled_raised``
+only in the strike's frames: :meth:`see_plan`); it catches the robot again at
 once when the torso tilts past ``catch_tilt`` (on the H1 with ``catch_tilt_lean_roll_free``: raised by the plan's
 lean), the capture point leaves the box by more than ``catch_margin``, or a
 foot steps. A caught robot is held where it was caught and led onto the IK's base over ``catch_blend``, and the
@@ -32,8 +33,8 @@ class HarnessRelease:
         self._tilt_touched = config.release_tilt_touched if roll_freed else None
         self.tilt_touched = self._tilt_touched
         """[deg] ``release_tilt_touched`` where it acts (a robot whose feet's roll the controller frees, in a task
-        with a catch sub-goal: :meth:`gate_touched`), else ``None``: the release's tilt bound after a touch
-        (:meth:`release_tilt`)."""
+        with a catch sub-goal, with ``release_tilt_touched_above`` one counted above: :meth:`gate_touched`), else
+        ``None``: the release's tilt bound after a touch (:meth:`release_tilt`)."""
         self.lean_gain = config.catch_tilt_lean_roll_free if roll_freed else None
         """[—] ``catch_tilt_lean_roll_free`` where it acts (a robot whose feet's roll the controller frees), else
         ``None``: the catch's tilt bound grows with the plan's lean (:meth:`catch_tilt`)."""
@@ -92,10 +93,13 @@ class HarnessRelease:
         d.mocap_quat[k] = q / np.linalg.norm(q)
         self._caught = (pos, quat, t + m.opt.timestep)
 
-    def gate_touched(self, catch: bool) -> None:
+    def gate_touched(self, catch: bool, above: bool = False) -> None:
         """``release_tilt_touched`` only in a task with a ``catch`` sub-goal (``catch``: an object thrown to the
-        robot); elsewhere :attr:`tilt_touched` is ``None``. Called by the simulator at each episode's start."""
-        self.tilt_touched = self._tilt_touched if catch else None
+        robot), or with ``release_tilt_touched_above`` only in a task with a contact counted ``above`` the shoulders
+        (the high five); elsewhere :attr:`tilt_touched` is ``None``. Called by the simulator at each episode's
+        start."""
+        keep = above if self.config.release_tilt_touched_above else catch
+        self.tilt_touched = self._tilt_touched if keep else None
 
     def gate_follow(self, chair: bool) -> None:
         """``catch_follow_chair``: ``catch_follow_feet`` only in a task whose person sits on a ``chair`` at the start

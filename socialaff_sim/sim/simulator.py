@@ -166,7 +166,7 @@ class Simulator:
                                                              sc.root_body, stage.reach.arm, stage.reach.shoulders,
                                                              self.task.chair)
         if bal is not None:  # the harness's gates: release_tilt_touched (a throw's catch), release_settled (per task, source)
-            bal.harness.gate_touched(self.task.has_catch)
+            bal.harness.gate_touched(self.task.has_catch, self.task.counts_above)
             bal.harness.gate_settled(self.task.counts_above, self._causal)
             bal.harness.gate_follow(self.task.chair)
         self._footlock = None if lock is None else FootLock(
