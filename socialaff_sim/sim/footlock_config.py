@@ -52,6 +52,16 @@ class FootLockConfig:
     held 8.5 of the high fives' 16.3 points (docs/design.md §5, issue 25, session 35, wip/h1hold). ``hold_near``'s
     backing steps are held where they stand as without it. ``None``: the targets decide. ``hold_near_roll_free``
     drops it with ``hold_near`` (on Stubby)."""
+    hold_step_gap_glide: bool = False
+    """[—]: ``hold_step_gap`` kept on a robot whose feet's roll is not freed (Stubby, where ``hold_near_roll_free``
+    drops it) in an episode where ``glide_gap_far`` or ``glide_gap_caught`` act (after ``glide_gap_causal_only`` and
+    ``glide_gap_above``: a causal high five). The smaller glide gaps keep a synthesized high five's feet up with its
+    plan, but their extra glide steps fall also in the last half metre before the touch, where a step is a catch of
+    the harness (or restarts its release's delay) and the robot is then held through the touch at 40–100 % of its
+    weight (high_five_753, 756; docs/design.md §5, issue 25, session 37, wip/stubhf); within ``hold_step_gap`` of
+    the meeting no foot steps. Needs ``hold_step_gap``; nothing on Stubby without ``glide_gap_far`` or
+    ``glide_gap_caught``, nothing on a robot whose feet's roll is freed (it has ``hold_step_gap`` anyway). ``False``:
+    ``hold_near_roll_free`` drops ``hold_step_gap`` on such a robot in every episode, as without it."""
     hold_step_caught: float | None = None
     """d_c [m]: while the harness holds a robot it has caught
     (:attr:`~socialaff_sim.sim.harness_release.HarnessRelease.holds_caught`) and a sub-goal's gap at the end of the
@@ -205,6 +215,8 @@ class FootLockConfig:
         if not (isinstance(self.hold_step_flight_after, int) and self.hold_step_flight_after >= 0):
             raise ConfigError(f"FootLockConfig.hold_step_flight_after: expected an integer ≥ 0 (steps), found "
                               f"{self.hold_step_flight_after}")
+        if self.hold_step_gap_glide and self.hold_step_gap is None:
+            raise ConfigError("FootLockConfig.hold_step_gap_glide: needs hold_step_gap")
         if self.hold_near is not None and not self.hold_near >= 0.0:
             raise ConfigError(f"FootLockConfig.hold_near: expected None or a distance ≥ 0 m, found {self.hold_near}")
 
@@ -213,8 +225,8 @@ class FootLockConfig:
         source's feet are planned (``SimConfig.plan_feet_causal_only``; else no ``restep_gap``); ``causal``: the
         source is causal (``glide_gap_causal_only``); ``counts_above``: the task's contact counts above the
         shoulders (``glide_gap_above``, ``plant_caught_above``); ``roll_freed``: the balance controller frees the
-        feet's roll (``hold_near_roll_free``: else no ``hold_near``, ``land_gap``, ``hold_step_gap``,
-        ``hold_step_flight``)."""
+        feet's roll (``hold_near_roll_free``: else no ``hold_near``, ``land_gap``, ``hold_step_gap`` (but with
+        ``hold_step_gap_glide`` where the glide gaps act), ``hold_step_flight``)."""
         lock = self
         if not plan_feet:
             lock = replace(lock, restep_gap=None)
@@ -225,7 +237,9 @@ class FootLockConfig:
             lock = replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_above=False)
         if lock.plant_caught_above and not counts_above:
             lock = replace(lock, plant_caught=False, plant_caught_above=False)
-        if lock.hold_near_roll_free and not roll_freed:
-            lock = replace(lock, hold_near=None, hold_near_roll_free=False, land_gap=None, hold_step_gap=None,
-                           hold_step_flight=None)
+        if lock.hold_near_roll_free and not roll_freed:  # (hold_step_gap_glide: kept where the glide gaps act)
+            glides = lock.glide_gap_far is not None or lock.glide_gap_caught is not None
+            keep = lock.hold_step_gap if lock.hold_step_gap_glide and glides else None
+            lock = replace(lock, hold_near=None, hold_near_roll_free=False, land_gap=None, hold_step_gap=keep,
+                           hold_step_flight=None, hold_step_gap_glide=False)
         return lock
