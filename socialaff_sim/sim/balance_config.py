@@ -33,7 +33,7 @@ class BalanceConfig:
       hand_task_arm_weight, hand_task_plan_velocity, hand_task_velocity_until_touch
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_settled, release_settled_above,
       release_settled_causal_only, release_settled_raised, release_settled_latch,
-      release_settled_until_touch,
+      release_settled_until_touch, release_front_catch,
       release_tilt_touched,
       tilt_from_plan,
       catch_tilt, catch_tilt_lean_roll_free, catch_tilt_lean_touched, catch_margin, catch_blend, catch_follow_feet,
@@ -302,6 +302,12 @@ class BalanceConfig:
     release_margin: float = 0.01
     """[m]: ... and while the capture point c + ċ/ω₀ (ω₀ = √(g / c_z)) lies this far inside the box of the
     feet's contact points."""
+    release_front_catch: float | None = None
+    """m_f [m]: in a task with a ``catch`` sub-goal, on a robot whose flat feet's roll ``flat_roll_free`` frees (the
+    H1), the harness lets go only while the capture point also lies at least m_f behind the support box's front face
+    (along the heading): the H1 let go with it within 2 cm of the toes after its flight step is caught again 1–4
+    frames later, falling forward onto the ball (docs/design.md §5, issue 25, session 37, wip/h1throw2). ``None``:
+    ``release_margin`` alone. Needs ``flat_roll_free``; > 0."""
     release_settled: float | None = None
     """ρ [m]: the harness lets go only while the capture point also lies within ρ of the centre of mass
     (|ξ − c| ≤ ρ, horizontal: the centre of mass moving at most ρ ω₀), so that a robot swinging back in the

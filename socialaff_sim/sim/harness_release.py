@@ -4,8 +4,9 @@ caught robot is led back onto the IK's base.
 Decided per physics step (:class:`HarnessRelease`, owned by :class:`~.balance_control.BalanceController`): the weld
 lets go once both feet have been planted ``release_delay`` and the robot is steady (the torso within
 ``release_tilt``, or ``release_tilt_touched`` after a touch on a robot whose feet's roll the controller frees, the
-capture point inside the support box by ``release_margin``, and with ``release_settled`` within that of the centre
-of mass, with ``release_settled_raised`` only in the strike's frames: :meth:`see_plan`); it catches the robot again at
+capture point inside the support box by ``release_margin`` (with ``release_front_catch`` in a throw, on the H1:
+that far behind its front face), and with ``release_settled`` within that of the centre of mass, with
+``release_settled_raised`` only in the strike's frames: :meth:`see_plan`); it catches the robot again at
 once when the torso tilts past ``catch_tilt`` (on the H1 with ``catch_tilt_lean_roll_free``: raised by the plan's
 lean), the capture point leaves the box by more than ``catch_margin``, or a
 foot steps. A caught robot is held where it was caught and led onto the IK's base over ``catch_blend``, and the
@@ -34,6 +35,11 @@ class HarnessRelease:
         """[deg] ``release_tilt_touched`` where it acts (a robot whose feet's roll the controller frees, in a task
         with a catch sub-goal: :meth:`gate_touched`), else ``None``: the release's tilt bound after a touch
         (:meth:`release_tilt`)."""
+        self._front = config.release_front_catch if roll_freed else None
+        self.front = self._front
+        """[m] ``release_front_catch`` where it acts (a robot whose feet's roll the controller frees, in a task with a
+        catch sub-goal: :meth:`gate_touched`), else ``None``: the capture point's least distance behind the box's
+        front face for a release."""
         self.lean_gain = config.catch_tilt_lean_roll_free if roll_freed else None
         """[—] ``catch_tilt_lean_roll_free`` where it acts (a robot whose feet's roll the controller frees), else
         ``None``: the catch's tilt bound grows with the plan's lean (:meth:`catch_tilt`)."""
@@ -93,9 +99,11 @@ class HarnessRelease:
         self._caught = (pos, quat, t + m.opt.timestep)
 
     def gate_touched(self, catch: bool) -> None:
-        """``release_tilt_touched`` only in a task with a ``catch`` sub-goal (``catch``: an object thrown to the
-        robot); elsewhere :attr:`tilt_touched` is ``None``. Called by the simulator at each episode's start."""
+        """``release_tilt_touched`` and ``release_front_catch`` only in a task with a ``catch`` sub-goal (``catch``:
+        an object thrown to the robot); elsewhere :attr:`tilt_touched` and :attr:`front` are ``None``. Called by the
+        simulator at each episode's start."""
         self.tilt_touched = self._tilt_touched if catch else None
+        self.front = self._front if catch else None
 
     def gate_follow(self, chair: bool) -> None:
         """``catch_follow_chair``: ``catch_follow_feet`` only in a task whose person sits on a ``chair`` at the start
@@ -158,7 +166,8 @@ class HarnessRelease:
             self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and tilt <= self.release_tilt(touched)
                              and box.inside(capture, c.release_margin)  # type: ignore[union-attr]
                              and (self.settled is None or not self.strike or (touched and c.release_settled_until_touch)
-                                  or self.still(capture, com)))  # type: ignore[arg-type]
+                                  or self.still(capture, com))  # type: ignore[arg-type]
+                             and (self.front is None or box.behind_front(capture) >= self.front))  # type: ignore[union-attr]
         if was and not self.released:
             self.catches += 1
             self.catch_reasons["step" if not standing else "tilt" if tilt > catch_tilt else "capture"] += 1
