@@ -108,9 +108,9 @@ def _inter(label: str, instance: int):  # noqa: ANN202
 
 def test_stubby_runs_bit_for_bit_as_without_it() -> None:
     """Stubby's feet's roll is not freed: its standing throw (spent throw_catch_120) is the same, state for state;
-    a release margin raised for every robot changes it (so the check can fail)."""
+    a release margin of 12 cm for every robot changes it (so the check can fail)."""
     assert_gate_keeps_stubby(_inter("throw_catch", 120), _cfg(), _cfg(release_front_catch=0.05),
-                             _cfg(release_margin=0.05))
+                             _cfg(release_margin=0.12))
 
 
 def _run(spec, label: str, instance: int, **balance):  # noqa: ANN001, ANN003, ANN202
@@ -133,6 +133,6 @@ def test_the_h1_throw_gets_the_bound_and_changes() -> None:
     h_off, m_off = _run(spec, "throw_catch", 560)
     h_on, m_on = _run(spec, "throw_catch", 560, release_front_catch=0.05)
     assert h_off.front is None and h_on.front == 0.05
-    assert m_on["outside_support_mean"] != m_off["outside_support_mean"]
+    assert any(m_on[k] != m_off[k] for k in ("support", "subgoals", "success", "failures"))
     h_hs, _ = _run(spec, "shake_hands", 560, release_front_catch=0.05)
     assert h_hs.front is None
