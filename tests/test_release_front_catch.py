@@ -3,7 +3,9 @@ robot whose feet's roll is freed (``BalanceConfig.release_front_catch`` = m_f): 
 computation, the decision (boundary included; a point behind the back face or beside the box still held by
 ``release_margin``; off, on another robot or outside a catch task: ``release_margin`` alone), the catch unchanged,
 the settings' check, and the gates in episodes (Stubby's standing throw bit for bit as without the option while a
-release change for every robot changes it; the H1's throw gets m_f and changes, its handshake gets none)."""
+release change for every robot changes it; the H1's throw gets m_f and changes, its handshake gets none); and
+``release_ahead_catch`` = ρ_a (the capture point at most ρ_a ahead of the centre of mass along the heading): its
+decision, gates and check."""
 
 from __future__ import annotations
 
@@ -61,6 +63,54 @@ def test_the_release_waits_for_the_capture_point_behind_the_front_face(scene) ->
         assert _released(scene, ON, True, (x, y), catch=False)  # a task without a catch sub-goal
 
 
+AHEAD = dataclasses.replace(BASE, release_ahead_catch=0.05)
+
+
+def _released_moving(scene, config: BalanceConfig, roll_freed: bool, capture, com, catch: bool = True) -> bool:  # noqa: ANN001
+    h = HarnessRelease(scene, config, roll_freed)
+    h.gate_touched(catch)
+    d = mujoco.MjData(scene.model)
+    h.decide(d, 0.2, True, 0.0, BOX, np.asarray(capture, float), False, np.asarray(com, float))
+    return h.released
+
+
+def test_release_ahead_catch_waits_for_a_robot_not_moving_forward(scene) -> None:  # noqa: ANN001
+    """``release_ahead_catch`` ρ_a = 5 cm: let go only while the capture point lies at most ρ_a ahead of the centre of
+    mass along the heading (+x); behind it or sideways any distance is allowed."""
+    for capture, com, expected in (
+            ((0.04, 0.0), (0.0, 0.0), True),  # 4 cm ahead: let go
+            ((0.03, 0.0), (-0.02, 0.0), True),  # 5 cm: the bound included
+            ((0.04, 0.0), (-0.011, 0.0), False),  # 5.1 cm: held
+            ((0.05, 0.0), (-0.05, 0.0), False),  # 10 cm ahead: held
+            ((-0.05, 0.0), (0.05, 0.0), True),  # moving back 10 cm: let go
+            ((0.0, 0.1), (0.0, -0.05), True)):  # sideways 15 cm: let go
+        assert _released_moving(scene, AHEAD, True, capture, com) == expected, (capture, com)
+        assert _released_moving(scene, BASE, True, capture, com)  # off: let go
+        assert _released_moving(scene, AHEAD, False, capture, com)  # feet's roll not freed
+        assert _released_moving(scene, AHEAD, True, capture, com, catch=False)  # no catch sub-goal
+    h = HarnessRelease(scene, AHEAD, True)
+    assert h.ahead == 0.05
+    h.gate_touched(False)
+    assert h.ahead is None
+    for kw in ({"release_ahead_catch": -0.01}, {"release_ahead_catch": 0.05, "flat_roll_free": False,
+                                                 "hand_task_roll_free": False}):
+        with pytest.raises(ConfigError, match="release_ahead_catch"):
+            dataclasses.replace(BASE, **kw)
+    assert BASE.release_ahead_catch is None
+
+
+def test_release_front_long_bounds_only_a_long_box(scene) -> None:  # noqa: ANN001
+    """``release_front_long`` L_f: the front bound only while the box is at least L_f long along the heading (BOX:
+    0.2 m); a shorter box is let go within ``release_margin`` as without the bound."""
+    held = (0.08, 0.0)  # 2 cm behind the toes: m_f = 5 cm holds it
+    assert not _released(scene, dataclasses.replace(ON, release_front_long=0.2), True, held)  # 0.2 m: the bound acts
+    assert not _released(scene, dataclasses.replace(ON, release_front_long=0.0), True, held)
+    assert _released(scene, dataclasses.replace(ON, release_front_long=0.21), True, held)  # the box shorter: let go
+    for kw in ({"release_front_long": -0.1}, {"release_front_long": 0.35, "release_front_catch": None}):
+        with pytest.raises(ConfigError, match="release_front_long"):
+            dataclasses.replace(ON, **kw)
+
+
 def test_the_gate(scene) -> None:  # noqa: ANN001
     h = HarnessRelease(scene, ON, True)
     assert h.front == 0.05
@@ -107,9 +157,10 @@ def _inter(label: str, instance: int):  # noqa: ANN202
 
 
 def test_stubby_runs_bit_for_bit_as_without_it() -> None:
-    """Stubby's feet's roll is not freed: its standing throw (spent throw_catch_120) is the same, state for state;
-    a release margin of 12 cm for every robot changes it (so the check can fail)."""
-    assert_gate_keeps_stubby(_inter("throw_catch", 120), _cfg(), _cfg(release_front_catch=0.05),
+    """Stubby's feet's roll is not freed: its standing throw (spent throw_catch_120) is the same, state for state,
+    with either bound; a release margin of 12 cm for every robot changes it (so the check can fail)."""
+    assert_gate_keeps_stubby(_inter("throw_catch", 120), _cfg(), _cfg(release_front_catch=0.05, release_front_long=0.35,
+                                                                      release_ahead_catch=0.0),
                              _cfg(release_margin=0.12))
 
 

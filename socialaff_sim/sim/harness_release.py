@@ -40,6 +40,9 @@ class HarnessRelease:
         """[m] ``release_front_catch`` where it acts (a robot whose feet's roll the controller frees, in a task with a
         catch sub-goal: :meth:`gate_touched`), else ``None``: the capture point's least distance behind the box's
         front face for a release."""
+        self._ahead = config.release_ahead_catch if roll_freed else None
+        self.ahead = self._ahead
+        """[m] ``release_ahead_catch`` where it acts (as :attr:`front`), else ``None``."""
         self.lean_gain = config.catch_tilt_lean_roll_free if roll_freed else None
         """[—] ``catch_tilt_lean_roll_free`` where it acts (a robot whose feet's roll the controller frees), else
         ``None``: the catch's tilt bound grows with the plan's lean (:meth:`catch_tilt`)."""
@@ -99,11 +102,12 @@ class HarnessRelease:
         self._caught = (pos, quat, t + m.opt.timestep)
 
     def gate_touched(self, catch: bool) -> None:
-        """``release_tilt_touched`` and ``release_front_catch`` only in a task with a ``catch`` sub-goal (``catch``:
-        an object thrown to the robot); elsewhere :attr:`tilt_touched` and :attr:`front` are ``None``. Called by the
-        simulator at each episode's start."""
+        """``release_tilt_touched``, ``release_front_catch`` and ``release_ahead_catch`` only in a task with a
+        ``catch`` sub-goal (``catch``: an object thrown to the robot); elsewhere :attr:`tilt_touched`, :attr:`front`
+        and :attr:`ahead` are ``None``. Called by the simulator at each episode's start."""
         self.tilt_touched = self._tilt_touched if catch else None
         self.front = self._front if catch else None
+        self.ahead = self._ahead if catch else None
 
     def gate_follow(self, chair: bool) -> None:
         """``catch_follow_chair``: ``catch_follow_feet`` only in a task whose person sits on a ``chair`` at the start
@@ -167,7 +171,9 @@ class HarnessRelease:
                              and box.inside(capture, c.release_margin)  # type: ignore[union-attr]
                              and (self.settled is None or not self.strike or (touched and c.release_settled_until_touch)
                                   or self.still(capture, com))  # type: ignore[arg-type]
-                             and (self.front is None or box.behind_front(capture) >= self.front))  # type: ignore[union-attr]
+                             and (self.front is None or box.behind_front(capture) >= self.front  # type: ignore[union-attr]
+                                  or box.hi[0] - box.lo[0] < c.release_front_long)  # type: ignore[union-attr]
+                             and (self.ahead is None or box.R[0] @ (capture - com) <= self.ahead))  # type: ignore[union-attr, operator]
         if was and not self.released:
             self.catches += 1
             self.catch_reasons["step" if not standing else "tilt" if tilt > catch_tilt else "capture"] += 1
