@@ -140,6 +140,15 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
     if c.hand_task_touched and (c.hand_task is None or not latch):
         raise ConfigError("BalanceConfig.hand_task_touched: needs hand_task, arm_compensation and compensation_gate "
                           "(their touch latch)")
+    if c.release_front_catch is not None and not (c.flat_roll_free and c.release_front_catch > 0.0):
+        raise ConfigError(f"BalanceConfig.release_front_catch: needs flat_roll_free (the robots it picks) and a "
+                          f"distance > 0 m, found {c.release_front_catch!r}")
+    if c.release_front_long != 0.0 and not (c.release_front_catch is not None and c.release_front_long > 0.0):
+        raise ConfigError(f"BalanceConfig.release_front_long: needs release_front_catch and a length > 0 m (0: off), "
+                          f"found {c.release_front_long!r}")
+    if c.release_ahead_catch is not None and not (c.flat_roll_free and c.release_ahead_catch >= 0.0):
+        raise ConfigError(f"BalanceConfig.release_ahead_catch: needs flat_roll_free (the robots it picks) and a "
+                          f"distance ≥ 0 m, found {c.release_ahead_catch!r}")
     if c.release_tilt_touched is not None and not (
             c.flat_roll_free and latch and c.release_tilt <= c.release_tilt_touched < c.catch_tilt):
         raise ConfigError(f"BalanceConfig.release_tilt_touched: needs flat_roll_free (the robots it picks), "

@@ -33,7 +33,8 @@ class BalanceConfig:
       hand_task_arm_weight, hand_task_plan_velocity, hand_task_velocity_until_touch
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_settled, release_settled_above,
       release_settled_causal_only, release_settled_raised, release_settled_latch,
-      release_settled_until_touch,
+      release_settled_until_touch, release_front_catch, release_front_long,
+      release_ahead_catch,
       release_tilt_touched, release_tilt_touched_above,
       tilt_from_plan,
       catch_tilt, catch_tilt_lean_roll_free, catch_tilt_lean_touched, catch_margin, catch_blend, catch_follow_feet,
@@ -302,6 +303,15 @@ class BalanceConfig:
     release_margin: float = 0.01
     """[m]: ... and while the capture point c + ċ/ω₀ (ω₀ = √(g / c_z)) lies this far inside the box of the
     feet's contact points."""
+    release_front_catch: float | None = None
+    """m_f [m]: in a throw (a ``catch`` sub-goal), on a robot whose feet's roll ``flat_roll_free`` frees (the H1), the
+    harness lets go only while the capture point also lies m_f behind the support box's front face (docs/design.md
+    §5, session 37, wip/h1throw2: let go at the toes, it is caught again). ``None``: off. Needs ``flat_roll_free``."""
+    release_front_long: float = 0.0
+    """L_f [m]: ``release_front_catch`` only while the box is at least L_f long along the heading (0: always)."""
+    release_ahead_catch: float | None = None
+    """ρ_a [m]: as ``release_front_catch``, let go only while the capture point lies at most ρ_a ahead of the centre
+    of mass along the heading. ``None``: off. Needs ``flat_roll_free``."""
     release_settled: float | None = None
     """ρ [m]: the harness lets go only while the capture point also lies within ρ of the centre of mass
     (|ξ − c| ≤ ρ, horizontal: the centre of mass moving at most ρ ω₀), so that a robot swinging back in the

@@ -5,8 +5,9 @@ Decided per physics step (:class:`HarnessRelease`, owned by :class:`~.balance_co
 lets go once both feet have been planted ``release_delay`` and the robot is steady (the torso within
 ``release_tilt``, or ``release_tilt_touched`` after a touch on a robot whose feet's roll the controller frees, in a
 throw (with ``release_tilt_touched_above``: a high five), the capture point inside the support box by
-``release_margin``, and with ``release_settled`` within that of the centre of mass, with ``release_settled_raised``
-only in the strike's frames: :meth:`see_plan`); it catches the robot again at
+``release_margin`` (with ``release_front_catch`` in a throw, on the H1: that far behind its front face), and with
+``release_settled`` within that of the centre of mass, with ``release_settled_raised`` only in the strike's frames:
+:meth:`see_plan`); it catches the robot again at
 once when the torso tilts past ``catch_tilt`` (on the H1 with ``catch_tilt_lean_roll_free``: raised by the plan's
 lean), the capture point leaves the box by more than ``catch_margin``, or a
 foot steps. A caught robot is held where it was caught and led onto the IK's base over ``catch_blend``, and the
@@ -35,6 +36,14 @@ class HarnessRelease:
         """[deg] ``release_tilt_touched`` where it acts (a robot whose feet's roll the controller frees, in a task
         with a catch sub-goal, with ``release_tilt_touched_above`` one counted above: :meth:`gate_touched`), else
         ``None``: the release's tilt bound after a touch (:meth:`release_tilt`)."""
+        self._front = config.release_front_catch if roll_freed else None
+        self.front = self._front
+        """[m] ``release_front_catch`` where it acts (a robot whose feet's roll the controller frees, in a task with a
+        catch sub-goal: :meth:`gate_touched`), else ``None``: the capture point's least distance behind the box's
+        front face for a release."""
+        self._ahead = config.release_ahead_catch if roll_freed else None
+        self.ahead = self._ahead
+        """[m] ``release_ahead_catch`` where it acts (as :attr:`front`), else ``None``."""
         self.lean_gain = config.catch_tilt_lean_roll_free if roll_freed else None
         """[—] ``catch_tilt_lean_roll_free`` where it acts (a robot whose feet's roll the controller frees), else
         ``None``: the catch's tilt bound grows with the plan's lean (:meth:`catch_tilt`)."""
@@ -96,10 +105,13 @@ class HarnessRelease:
     def gate_touched(self, catch: bool, above: bool = False) -> None:
         """``release_tilt_touched`` only in a task with a ``catch`` sub-goal (``catch``: an object thrown to the
         robot), or with ``release_tilt_touched_above`` only in a task with a contact counted ``above`` the shoulders
-        (the high five); elsewhere :attr:`tilt_touched` is ``None``. Called by the simulator at each episode's
-        start."""
+        (the high five); ``release_front_catch`` and ``release_ahead_catch`` only in a task with a ``catch`` sub-goal;
+        elsewhere :attr:`tilt_touched`, :attr:`front` and :attr:`ahead` are ``None``. Called by the simulator at each
+        episode's start."""
         keep = above if self.config.release_tilt_touched_above else catch
         self.tilt_touched = self._tilt_touched if keep else None
+        self.front = self._front if catch else None
+        self.ahead = self._ahead if catch else None
 
     def gate_follow(self, chair: bool) -> None:
         """``catch_follow_chair``: ``catch_follow_feet`` only in a task whose person sits on a ``chair`` at the start
@@ -162,7 +174,10 @@ class HarnessRelease:
             self.released = (c.release and self._engaged >= c.release_delay - 1e-9 and tilt <= self.release_tilt(touched)
                              and box.inside(capture, c.release_margin)  # type: ignore[union-attr]
                              and (self.settled is None or not self.strike or (touched and c.release_settled_until_touch)
-                                  or self.still(capture, com)))  # type: ignore[arg-type]
+                                  or self.still(capture, com))  # type: ignore[arg-type]
+                             and (self.front is None or box.behind_front(capture) >= self.front  # type: ignore[union-attr]
+                                  or box.hi[0] - box.lo[0] < c.release_front_long)  # type: ignore[union-attr]
+                             and (self.ahead is None or box.R[0] @ (capture - com) <= self.ahead))  # type: ignore[union-attr, operator]
         if was and not self.released:
             self.catches += 1
             self.catch_reasons["step" if not standing else "tilt" if tilt > catch_tilt else "capture"] += 1

@@ -34,6 +34,10 @@ class SupportBox:
         lo, hi = np.minimum(lo, mid), np.maximum(hi, mid)
         return np.minimum(np.maximum(self.R @ p, lo), hi) @ self.R  # (np.clip's min(max(x, lo), hi))
 
+    def behind_front(self, p: np.ndarray) -> float:
+        """[m] How far ``p`` (2,) world lies behind the box's front face along the heading (negative: ahead of it)."""
+        return float(self.hi[0] - self.R[0] @ p)
+
     def inside(self, p: np.ndarray, margin: float) -> bool:
         """Whether ``p`` (2,) world lies inside the box shrunk by ``margin`` (grown where negative)."""
         x = self.R @ p
