@@ -52,6 +52,17 @@ class FootLockConfig:
     held 8.5 of the high fives' 16.3 points (docs/design.md §5, issue 25, session 35, wip/h1hold). ``hold_near``'s
     backing steps are held where they stand as without it. ``None``: the targets decide. ``hold_near_roll_free``
     drops it with ``hold_near`` (on Stubby)."""
+    hold_step_ahead: float | None = None
+    """k [frames]: with ``hold_step_gap`` d_s, a planted foot also does not step while a sub-goal's gap, extrapolated
+    k frames ahead from its last two frames' ends (g₁ − k·(g₀ − g₁), g₀ the earlier: a closing gap's is nearer),
+    is within d_s: a strike whose gap closes faster than d_s per frame (the H1's high_five_794: 0.83, 0.50, then
+    0.02 m, its step at the meeting caught by the harness into its lone contact frame) is held as one already within
+    it (docs/design.md §5, issue 25, session 37, wip/h1hf3). Nothing without ``hold_step_gap``; dropped with it (on
+    Stubby, by ``hold_near_roll_free``). ``None``: off, the last frame's gap alone decides."""
+    hold_step_ahead_above: bool = False
+    """[—]: ``hold_step_ahead`` only in a task whose contact counts above the shoulders (the high five's strike);
+    elsewhere dropped (:meth:`for_episode`). On the H1's spent 720–735 the pull-ups' steps it held raised their
+    support. ``False``: in every task."""
     hold_step_caught: float | None = None
     """d_c [m]: while the harness holds a robot it has caught
     (:attr:`~socialaff_sim.sim.harness_release.HarnessRelease.holds_caught`) and a sub-goal's gap at the end of the
@@ -196,6 +207,11 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig.land_gap: expected None or a distance ≥ 0 m, found {self.land_gap}")
         if self.hold_step_gap is not None and not self.hold_step_gap >= 0.0:
             raise ConfigError(f"FootLockConfig.hold_step_gap: expected None or a distance ≥ 0 m, found {self.hold_step_gap}")
+        if self.hold_step_ahead is not None and not self.hold_step_ahead >= 0.0:
+            raise ConfigError(f"FootLockConfig.hold_step_ahead: expected None or a number of frames ≥ 0, found "
+                              f"{self.hold_step_ahead}")
+        if self.hold_step_ahead_above and self.hold_step_ahead is None:
+            raise ConfigError("FootLockConfig.hold_step_ahead_above: needs hold_step_ahead")
         if self.hold_step_caught is not None and not self.hold_step_caught >= 0.0:
             raise ConfigError(f"FootLockConfig.hold_step_caught: expected None or a distance ≥ 0 m, found "
                               f"{self.hold_step_caught}")
@@ -212,9 +228,9 @@ class FootLockConfig:
         """The settings one episode runs with: the options whose gates say "no" dropped. ``plan_feet``: the
         source's feet are planned (``SimConfig.plan_feet_causal_only``; else no ``restep_gap``); ``causal``: the
         source is causal (``glide_gap_causal_only``); ``counts_above``: the task's contact counts above the
-        shoulders (``glide_gap_above``, ``plant_caught_above``); ``roll_freed``: the balance controller frees the
+        shoulders (``glide_gap_above``, ``plant_caught_above``, ``hold_step_ahead_above``); ``roll_freed``: the balance controller frees the
         feet's roll (``hold_near_roll_free``: else no ``hold_near``, ``land_gap``, ``hold_step_gap``,
-        ``hold_step_flight``)."""
+        ``hold_step_ahead``, ``hold_step_flight``)."""
         lock = self
         if not plan_feet:
             lock = replace(lock, restep_gap=None)
@@ -223,9 +239,11 @@ class FootLockConfig:
                            glide_gap_above=False)
         if lock.glide_gap_above and not counts_above:
             lock = replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_above=False)
+        if lock.hold_step_ahead_above and not counts_above:
+            lock = replace(lock, hold_step_ahead=None, hold_step_ahead_above=False)
         if lock.plant_caught_above and not counts_above:
             lock = replace(lock, plant_caught=False, plant_caught_above=False)
         if lock.hold_near_roll_free and not roll_freed:
             lock = replace(lock, hold_near=None, hold_near_roll_free=False, land_gap=None, hold_step_gap=None,
-                           hold_step_flight=None)
+                           hold_step_ahead=None, hold_step_ahead_above=False, hold_step_flight=None)
         return lock
