@@ -146,6 +146,15 @@ class FootLockConfig:
     conditions (one foot at a time, the other standing; with ``glide_until_contact`` only until the first
     contact). ``None``: it stays where it landed (a synthesized walk-up's feet end 15–30 cm behind the plan's,
     docs/design.md §5)."""
+    restep_above: bool = False
+    """[—]: ``restep_gap`` only in a task whose contact counts above the shoulders (the high five); elsewhere dropped
+    (:meth:`for_episode`). On the H1's spent 784–799 and 720–735 it re-stepped the high fives' walk-ups whose last
+    steps landed 32–37 cm short (the harness then held the root at the plan, the capture point outside the feet's
+    box, into the contact frames) and raised the hand overs' support (docs/design.md §5, session 37, wip/h1hf3).
+    ``False``: in every task."""
+    restep_roll_free: bool = False
+    """[—]: ``restep_gap`` only on a robot whose flat feet's roll the balance controller frees (the H1, not Stubby; as
+    ``hold_near_roll_free``). ``False``: on every robot."""
     glide_until_contact: bool = False
     """[—]: With ``glide_step``, glides step only until a sub-goal's contact first holds in the episode (the walk-up);
     afterwards they are planted at once as without ``glide_step``."""
@@ -192,6 +201,8 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig.glide_far: expected a distance ≥ 0 m, found {self.glide_far}")
         if self.restep_gap is not None and not self.restep_gap > 0.0:
             raise ConfigError(f"FootLockConfig.restep_gap: expected None or a distance > 0 m, found {self.restep_gap}")
+        if (self.restep_above or self.restep_roll_free) and self.restep_gap is None:
+            raise ConfigError("FootLockConfig.restep_above, restep_roll_free: need restep_gap")
         if self.glide_step is not None and not self.glide_step > 0.0:
             raise ConfigError(f"FootLockConfig.glide_step: expected None or a height > 0 m, found {self.glide_step}")
         if not (isinstance(self.glide_step_frames, int) and self.glide_step_frames >= 1):
@@ -228,17 +239,22 @@ class FootLockConfig:
         """The settings one episode runs with: the options whose gates say "no" dropped. ``plan_feet``: the
         source's feet are planned (``SimConfig.plan_feet_causal_only``; else no ``restep_gap``); ``causal``: the
         source is causal (``glide_gap_causal_only``); ``counts_above``: the task's contact counts above the
-        shoulders (``glide_gap_above``, ``plant_caught_above``, ``hold_step_ahead_above``); ``roll_freed``: the balance controller frees the
-        feet's roll (``hold_near_roll_free``: else no ``hold_near``, ``land_gap``, ``hold_step_gap``,
+        shoulders (``glide_gap_above``, ``plant_caught_above``, ``hold_step_ahead_above``, ``restep_above``);
+        ``roll_freed``: the balance controller frees the feet's roll (``restep_roll_free``; ``hold_near_roll_free``:
+        else no ``hold_near``, ``land_gap``, ``hold_step_gap``,
         ``hold_step_ahead``, ``hold_step_flight``)."""
         lock = self
         if not plan_feet:
-            lock = replace(lock, restep_gap=None)
+            lock = replace(lock, restep_gap=None, restep_above=False, restep_roll_free=False)
         if lock.glide_gap_causal_only and not causal:
             lock = replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_causal_only=False,
                            glide_gap_above=False)
         if lock.glide_gap_above and not counts_above:
             lock = replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_above=False)
+        if lock.restep_above and not counts_above:
+            lock = replace(lock, restep_gap=None, restep_above=False, restep_roll_free=False)
+        if lock.restep_roll_free and not roll_freed:
+            lock = replace(lock, restep_gap=None, restep_above=False, restep_roll_free=False)
         if lock.hold_step_ahead_above and not counts_above:
             lock = replace(lock, hold_step_ahead=None, hold_step_ahead_above=False)
         if lock.plant_caught_above and not counts_above:
