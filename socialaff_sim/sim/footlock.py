@@ -65,10 +65,19 @@ class FootLock:
         without it."""
         return within(self.config.hold_near, gaps)
 
-    def stepless(self, gaps: Iterable[float | None]) -> bool:
-        """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``hold_step_gap``; ``False``
-        without it."""
-        return within(self.config.hold_step_gap, gaps)
+    def stepless(self, gaps: Iterable[float | None], before: Iterable[float | None] | None = None) -> bool:
+        """Whether any of the sub-goals' ``gaps`` (m; ``None``: not measured) is within ``hold_step_gap``, or with
+        ``hold_step_ahead`` k and the same sub-goals' gaps a frame ``before`` (``None``: no such frame; paired by
+        position) one gap's extrapolation g₁ − k·(g₀ − g₁) is (an opening gap's is never nearer than g₁ itself);
+        ``False`` without ``hold_step_gap``."""
+        g = list(gaps)
+        c = self.config
+        if within(c.hold_step_gap, g):
+            return True
+        if c.hold_step_ahead is None or before is None:
+            return False
+        ahead = [g1 - c.hold_step_ahead * (g0 - g1) for g0, g1 in zip(before, g) if g0 is not None and g1 is not None]
+        return within(c.hold_step_gap, ahead)
 
     def in_flight(self, frame: int, release_frame: int | None) -> bool:
         """Whether the frame that ends at ``frame`` lies within ``hold_step_flight`` of a thrown object's release
@@ -93,14 +102,16 @@ class FootLock:
         c = self.config
         return (c.glide_gap_far is not None or c.glide_gap_caught is not None) and not within(c.glide_far, gaps)
 
-    def gap_flags(self, gaps: Iterable[float | None] | None) -> dict[str, bool]:
+    def gap_flags(self, gaps: Iterable[float | None] | None,
+                  before: Iterable[float | None] | None = None) -> dict[str, bool]:
         """:meth:`apply`'s keywords ``near``, ``land``, ``still``, ``far`` and ``still_caught`` (``hold_step_caught``) from the last frame's sub-goal ``gaps``
         (m; ``None`` in a gap: not measured; ``None`` for all: no frame yet), by :meth:`near`, :meth:`landing`,
-        :meth:`stepless` and :meth:`walking_up`."""
+        :meth:`stepless` (with the frame ``before``'s gaps of the same sub-goals, ``hold_step_ahead``) and
+        :meth:`walking_up`."""
         if gaps is None:
             return {"near": False, "land": False, "still": False, "far": self.walking_up(()), "still_caught": False}
         g = list(gaps)
-        return {"near": self.near(g), "land": self.landing(g), "still": self.stepless(g), "far": self.walking_up(g),
+        return {"near": self.near(g), "land": self.landing(g), "still": self.stepless(g, before), "far": self.walking_up(g),
                 "still_caught": within(self.config.hold_step_caught, g)}
 
     def backing(self, ankles: np.ndarray, person: np.ndarray) -> tuple[bool, bool]:

@@ -62,6 +62,17 @@ class FootLockConfig:
     the meeting no foot steps. Needs ``hold_step_gap``; nothing on Stubby without ``glide_gap_far`` or
     ``glide_gap_caught``, nothing on a robot whose feet's roll is freed (it has ``hold_step_gap`` anyway). ``False``:
     ``hold_near_roll_free`` drops ``hold_step_gap`` on such a robot in every episode, as without it."""
+    hold_step_ahead: float | None = None
+    """k [frames]: with ``hold_step_gap`` d_s, a planted foot also does not step while a sub-goal's gap, extrapolated
+    k frames ahead from its last two frames' ends (g₁ − k·(g₀ − g₁), g₀ the earlier: a closing gap's is nearer),
+    is within d_s: a strike whose gap closes faster than d_s per frame (the H1's high_five_794: 0.83, 0.50, then
+    0.02 m, its step at the meeting caught by the harness into its lone contact frame) is held as one already within
+    it (docs/design.md §5, issue 25, session 37, wip/h1hf3). Nothing without ``hold_step_gap``; dropped with it (on
+    Stubby, by ``hold_near_roll_free``). ``None``: off, the last frame's gap alone decides."""
+    hold_step_ahead_above: bool = False
+    """[—]: ``hold_step_ahead`` only in a task whose contact counts above the shoulders (the high five's strike);
+    elsewhere dropped (:meth:`for_episode`). On the H1's spent 720–735 the pull-ups' steps it held raised their
+    support. ``False``: in every task."""
     hold_step_caught: float | None = None
     """d_c [m]: while the harness holds a robot it has caught
     (:attr:`~socialaff_sim.sim.harness_release.HarnessRelease.holds_caught`) and a sub-goal's gap at the end of the
@@ -145,6 +156,15 @@ class FootLockConfig:
     conditions (one foot at a time, the other standing; with ``glide_until_contact`` only until the first
     contact). ``None``: it stays where it landed (a synthesized walk-up's feet end 15–30 cm behind the plan's,
     docs/design.md §5)."""
+    restep_above: bool = False
+    """[—]: ``restep_gap`` only in a task whose contact counts above the shoulders (the high five); elsewhere dropped
+    (:meth:`for_episode`). On the H1's spent 784–799 and 720–735 it re-stepped the high fives' walk-ups whose last
+    steps landed 32–37 cm short (the harness then held the root at the plan, the capture point outside the feet's
+    box, into the contact frames) and raised the hand overs' support (docs/design.md §5, session 37, wip/h1hf3).
+    ``False``: in every task."""
+    restep_roll_free: bool = False
+    """[—]: ``restep_gap`` only on a robot whose flat feet's roll the balance controller frees (the H1, not Stubby; as
+    ``hold_near_roll_free``). ``False``: on every robot."""
     glide_until_contact: bool = False
     """[—]: With ``glide_step``, glides step only until a sub-goal's contact first holds in the episode (the walk-up);
     afterwards they are planted at once as without ``glide_step``."""
@@ -191,6 +211,8 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig.glide_far: expected a distance ≥ 0 m, found {self.glide_far}")
         if self.restep_gap is not None and not self.restep_gap > 0.0:
             raise ConfigError(f"FootLockConfig.restep_gap: expected None or a distance > 0 m, found {self.restep_gap}")
+        if (self.restep_above or self.restep_roll_free) and self.restep_gap is None:
+            raise ConfigError("FootLockConfig.restep_above, restep_roll_free: need restep_gap")
         if self.glide_step is not None and not self.glide_step > 0.0:
             raise ConfigError(f"FootLockConfig.glide_step: expected None or a height > 0 m, found {self.glide_step}")
         if not (isinstance(self.glide_step_frames, int) and self.glide_step_frames >= 1):
@@ -206,6 +228,11 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig.land_gap: expected None or a distance ≥ 0 m, found {self.land_gap}")
         if self.hold_step_gap is not None and not self.hold_step_gap >= 0.0:
             raise ConfigError(f"FootLockConfig.hold_step_gap: expected None or a distance ≥ 0 m, found {self.hold_step_gap}")
+        if self.hold_step_ahead is not None and not self.hold_step_ahead >= 0.0:
+            raise ConfigError(f"FootLockConfig.hold_step_ahead: expected None or a number of frames ≥ 0, found "
+                              f"{self.hold_step_ahead}")
+        if self.hold_step_ahead_above and self.hold_step_ahead is None:
+            raise ConfigError("FootLockConfig.hold_step_ahead_above: needs hold_step_ahead")
         if self.hold_step_caught is not None and not self.hold_step_caught >= 0.0:
             raise ConfigError(f"FootLockConfig.hold_step_caught: expected None or a distance ≥ 0 m, found "
                               f"{self.hold_step_caught}")
@@ -224,22 +251,30 @@ class FootLockConfig:
         """The settings one episode runs with: the options whose gates say "no" dropped. ``plan_feet``: the
         source's feet are planned (``SimConfig.plan_feet_causal_only``; else no ``restep_gap``); ``causal``: the
         source is causal (``glide_gap_causal_only``); ``counts_above``: the task's contact counts above the
-        shoulders (``glide_gap_above``, ``plant_caught_above``); ``roll_freed``: the balance controller frees the
-        feet's roll (``hold_near_roll_free``: else no ``hold_near``, ``land_gap``, ``hold_step_gap`` (but with
-        ``hold_step_gap_glide`` where the glide gaps act), ``hold_step_flight``)."""
+        shoulders (``glide_gap_above``, ``plant_caught_above``, ``hold_step_ahead_above``, ``restep_above``);
+        ``roll_freed``: the balance controller frees the feet's roll (``restep_roll_free``; ``hold_near_roll_free``:
+        else no ``hold_near``, ``land_gap``, ``hold_step_gap`` (but with ``hold_step_gap_glide`` where the glide gaps
+        act), ``hold_step_ahead``, ``hold_step_flight``)."""
         lock = self
         if not plan_feet:
-            lock = replace(lock, restep_gap=None)
+            lock = replace(lock, restep_gap=None, restep_above=False, restep_roll_free=False)
         if lock.glide_gap_causal_only and not causal:
             lock = replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_causal_only=False,
                            glide_gap_above=False)
         if lock.glide_gap_above and not counts_above:
             lock = replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_above=False)
+        if lock.restep_above and not counts_above:
+            lock = replace(lock, restep_gap=None, restep_above=False, restep_roll_free=False)
+        if lock.restep_roll_free and not roll_freed:
+            lock = replace(lock, restep_gap=None, restep_above=False, restep_roll_free=False)
+        if lock.hold_step_ahead_above and not counts_above:
+            lock = replace(lock, hold_step_ahead=None, hold_step_ahead_above=False)
         if lock.plant_caught_above and not counts_above:
             lock = replace(lock, plant_caught=False, plant_caught_above=False)
         if lock.hold_near_roll_free and not roll_freed:  # (hold_step_gap_glide: kept where the glide gaps act)
             glides = lock.glide_gap_far is not None or lock.glide_gap_caught is not None
             keep = lock.hold_step_gap if lock.hold_step_gap_glide and glides else None
             lock = replace(lock, hold_near=None, hold_near_roll_free=False, land_gap=None, hold_step_gap=keep,
-                           hold_step_flight=None, hold_step_gap_glide=False)
+                           hold_step_ahead=None, hold_step_ahead_above=False, hold_step_flight=None,
+                           hold_step_gap_glide=False)
         return lock

@@ -261,7 +261,9 @@ class Simulator:
                                               caught=bal is not None and bal.harness.holds_caught,
                                               person=self._person_xy(t1) if self._footlock.config.hold_near is not None else None,
                                               flight=flight,
-                                              **self._footlock.gap_flags(None if last is None else last.subgoal_gaps.values()))
+                                              **self._footlock.gap_flags(None if last is None else last.subgoal_gaps.values(),
+                                                                         None if last is None or len(self.results) < 2 else  # (hold_step_ahead)
+                                                                         [self.results[-2].subgoal_gaps.get(k) for k in last.subgoal_gaps]))
         d_m = None if bal is None else bal.harness.follow
         if d_m is not None:  # (catch_follow_feet: near a meeting the caught robot is held over its feet)
             near = self._footlock is not None and bool(self.results) and within(d_m, self.results[-1].subgoal_gaps.values())
