@@ -90,7 +90,8 @@ def test_causal_only_leaves_a_recordings_replay_alone(ours, monkeypatch) -> None
     inter = list(generate_dataset(0).of_label("shake_hands"))[0]
     cfg = SimConfig.standing()
     cfg = dataclasses.replace(cfg, stance=dataclasses.replace(cfg.stance, base_over_feet=0.05),
-                              foot_lock=dataclasses.replace(cfg.foot_lock, restep_gap=0.08), plan_feet_causal_only=True)
+                              foot_lock=dataclasses.replace(cfg.foot_lock, restep_gap=0.08, restep_above=False,
+                                                            restep_roll_free=False), plan_feet_causal_only=True)
     sim = Simulator(ours, "shake_hands", cfg)
     seen = []
     for frames, on in ((None, False), (10, True)):  # a replay; a causal source that sees agent 1's first 10 frames

@@ -53,7 +53,9 @@ def test_the_default_is_the_harness_and_standing_is_a_named_preset() -> None:
     assert d.foot_lock == FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05,
                                          glide_until_contact=True, glide_gap=0.12,  # session 30's rule
                                          hold_near=0.1, hold_near_roll_free=True,  # session 33's (wip/h1pull)
-                                         hold_step_gap=0.3)  # session 35's rule #51 (wip/h1hold)
+                                         hold_step_gap=0.3,  # session 35's rule #51 (wip/h1hold)
+                                         # session 37's rule #64 (wip/h1hf3): the H1's short walk-up steps re-stepped
+                                         restep_gap=0.25, restep_above=True, restep_roll_free=True)
     assert not d.gravity_compensation
     assert h != d
     assert PHYSICS_CHOICES == PHYSICS_MODES  # the command line's --physics, written out to keep start-up light

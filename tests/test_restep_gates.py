@@ -41,12 +41,19 @@ def test_the_gates_keep_restep_gap_only_where_they_say(above: bool, roll_free: b
     assert out.glide_step == 0.05  # the glide step itself is not the gates'
 
 
-def test_the_gates_need_restep_gap_and_are_off_by_default() -> None:
+def test_the_gates_need_restep_gap_off_by_default_and_on_in_the_standing_mode() -> None:
     for kw in ({"restep_above": True}, {"restep_roll_free": True}):
         with pytest.raises(ConfigError, match="restep"):
             FootLockConfig(glide_step=0.05, **kw)
-    c = SimConfig.standing().foot_lock
+    c = FootLockConfig()
     assert c.restep_gap is None and not c.restep_above and not c.restep_roll_free
+    s = SimConfig.standing().foot_lock  # rule #64 (session 37) adopted them there
+    assert s.restep_gap == 0.25 and s.restep_above and s.restep_roll_free
+
+
+def _without_restep(cfg: SimConfig) -> SimConfig:
+    return dataclasses.replace(cfg, foot_lock=dataclasses.replace(cfg.foot_lock, restep_gap=None, restep_above=False,
+                                                                  restep_roll_free=False))
 
 
 def _high_five(n: int):  # noqa: ANN202
@@ -57,7 +64,7 @@ def test_stubby_is_bit_for_bit_with_the_robot_gate() -> None:
     """Stubby's standing high five (spent high_five_144): the same states with ``restep_gap`` and both gates (a high
     five keeps the task gate; Stubby's roll is not freed); without ``restep_roll_free`` they change (at 0.05 m, where
     Stubby's feet land short of it; at 0.25 m they never do on 144–151)."""
-    base = SimConfig.standing()
+    base = _without_restep(SimConfig.standing())
     on = dataclasses.replace(base, foot_lock=dataclasses.replace(base.foot_lock, restep_gap=0.05, restep_above=True,
                                                                  restep_roll_free=True))
     ungated = dataclasses.replace(on, foot_lock=dataclasses.replace(on.foot_lock, restep_roll_free=False))
@@ -79,9 +86,8 @@ def test_the_h1s_short_walk_up_is_restepped_in_a_high_five_only() -> None:
     spec = load_robot("unitree_h1", mjcf=shared_robot("unitree_h1", "h1.xml"))
     inter = _high_five(790)
     assert inter.instance_id == "high_five_789"
-    base = SimConfig.standing()
-    on = dataclasses.replace(base, foot_lock=dataclasses.replace(base.foot_lock, restep_gap=0.25, restep_above=True,
-                                                                 restep_roll_free=True))
+    on = SimConfig.standing()  # rule #64's settings
+    base = _without_restep(on)
     runs = {}
     for name, cfg in (("off", base), ("on", on)):
         sim = Simulator(spec, "high_five", cfg)

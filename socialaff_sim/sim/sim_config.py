@@ -55,14 +55,16 @@ feet's distance, q (the feet's opposed shears that rock a sole onto its edge; ru
 of a meeting, its anchor is shifted by the planted feet's offset from their targets: it holds the root over the feet
 where they stand instead of dragging them after the plan's step (rule #60 on Stubby's 800–815, session 36)."""
 STANDING_FOOT_LOCK = FootLockConfig(hold_lift=0.12, hold_in_contact=True, glide_step=0.05, glide_until_contact=True,
-                                    glide_gap=0.12, hold_near=0.1, hold_near_roll_free=True, hold_step_gap=0.3)
+                                    glide_gap=0.12, hold_near=0.1, hold_near_roll_free=True, hold_step_gap=0.3,
+                                    restep_gap=0.25, restep_above=True, restep_roll_free=True)
 """The foot lock of :meth:`SimConfig.standing`: a planted foot stays planted up to 12 cm of recorded rise, and
 whatever the recording's feet do while a sub-goal's contact holds; in the walk-up (before the first contact) a
 foot whose target glides along the floor while the physical foot stands more than 12 cm behind it steps (raised
 5 cm for a frame), so that the robot does not stay behind its plan; on a robot whose feet's roll is freed (the H1),
 a planted foot does not step away from the person while a sub-goal's gap is within 10 cm, and while a gap is
-within 30 cm a recorded step is planted in the plan at once while the physical foot stays (rule #51, session 35;
-docs/design.md §5, issue 25)."""
+within 30 cm a recorded step is planted in the plan at once while the physical foot stays (rule #51, session 35),
+and, in a high five on such a robot, a planted foot standing more than 25 cm from its planted point (a walk-up step
+that landed short) steps again until the first contact (rule #64, session 37; docs/design.md §5, issue 25)."""
 
 
 STANDING_STANCE = StanceConfig(release=False, strike_lean=30.0, strike_lean_above=True)
