@@ -256,17 +256,13 @@ class FootLockConfig:
         else no ``hold_near``, ``land_gap``, ``hold_step_gap`` (but with ``hold_step_gap_glide`` where the glide gaps
         act), ``hold_step_ahead``, ``hold_step_flight``)."""
         lock = self
-        if not plan_feet:
+        if not plan_feet or (lock.restep_above and not counts_above) or (lock.restep_roll_free and not roll_freed):
             lock = replace(lock, restep_gap=None, restep_above=False, restep_roll_free=False)
         if lock.glide_gap_causal_only and not causal:
             lock = replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_causal_only=False,
                            glide_gap_above=False)
         if lock.glide_gap_above and not counts_above:
             lock = replace(lock, glide_gap_far=None, glide_gap_caught=None, glide_gap_above=False)
-        if lock.restep_above and not counts_above:
-            lock = replace(lock, restep_gap=None, restep_above=False, restep_roll_free=False)
-        if lock.restep_roll_free and not roll_freed:
-            lock = replace(lock, restep_gap=None, restep_above=False, restep_roll_free=False)
         if lock.hold_step_ahead_above and not counts_above:
             lock = replace(lock, hold_step_ahead=None, hold_step_ahead_above=False)
         if lock.plant_caught_above and not counts_above:
