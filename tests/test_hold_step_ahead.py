@@ -114,9 +114,9 @@ def test_stubby_is_bit_for_bit_with_the_option() -> None:
     assert any(not np.array_equal(x, y) for x, y in zip(u, w))
 
 
-def test_the_simulator_passes_the_frame_before_the_lasts_gaps(monkeypatch: pytest.MonkeyPatch) -> None:
-    """On a standing Stubby high five (spent high_five_144): each ``gap_flags`` call gets the last frame's gaps and,
-    from the third frame on, the frame before's gaps of the same sub-goals (before it: ``None``)."""
+def _gap_flag_calls(cfg: SimConfig, monkeypatch: pytest.MonkeyPatch):  # noqa: ANN202
+    """Each ``gap_flags`` call's gaps, frame-before gaps and frame count on a standing Stubby high five (spent
+    high_five_144) run with ``cfg``, and each frame's gaps."""
     from socialaff_sim.retarget.sources import GroundTruthSource
     from socialaff_sim.sim.episode import run_episode
     from socialaff_sim.sim.simulator import Simulator
@@ -130,8 +130,20 @@ def test_the_simulator_passes_the_frame_before_the_lasts_gaps(monkeypatch: pytes
         return orig(self, gaps, before)
 
     monkeypatch.setattr(FootLock, "gap_flags", spy)
-    run_episode(Simulator("ours", "high_five", SimConfig.standing()), GroundTruthSource(), _high_five(145),
+    run_episode(Simulator("ours", "high_five", cfg), GroundTruthSource(), _high_five(145),
                 on_frame=lambda s, r, e: results.append(dict(r.subgoal_gaps)) if r is not None else None)
+    monkeypatch.undo()
+    return calls, results
+
+
+def test_the_simulator_passes_the_frame_before_the_lasts_gaps(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With ``hold_step_ahead`` acting (Stubby, ``hold_near_roll_free`` off so that it is kept): each ``gap_flags``
+    call gets the last frame's gaps and, from the third frame on, the frame before's gaps of the same sub-goals
+    (before it: ``None``). Without the option the frame before is not read: ``None`` in every call."""
+    base = SimConfig.standing()
+    on = dataclasses.replace(base, foot_lock=dataclasses.replace(base.foot_lock, hold_near_roll_free=False,
+                                                                 hold_step_ahead=1.0))
+    calls, results = _gap_flag_calls(on, monkeypatch)
     assert len(calls) > 10
     for gaps, before, n in calls:
         if n == 0:
@@ -141,6 +153,10 @@ def test_the_simulator_passes_the_frame_before_the_lasts_gaps(monkeypatch: pytes
         else:
             assert gaps == list(results[n - 1].values()) and before == [results[n - 2][k] for k in results[n - 1]]
     assert any(b is not None and any(x is not None for x in b) for _, b, _ in calls)
+    off_calls, off_results = _gap_flag_calls(base, monkeypatch)
+    assert len(off_calls) > 10
+    for gaps, before, n in off_calls:
+        assert before is None and gaps == (None if n == 0 else list(off_results[n - 1].values()))
 
 
 def test_the_h1s_step_at_the_strike_is_held() -> None:

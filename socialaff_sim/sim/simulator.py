@@ -254,6 +254,9 @@ class Simulator:
         if self._footlock is not None:
             physical = key_frames(stage.scene, stage.data)[3:5] if self._footlock.needs_physical else None
             last = self.results[-1] if self.results else None
+            before = None  # the frame before last's gaps of the same sub-goals, read only for hold_step_ahead
+            if self._footlock.config.hold_step_ahead is not None and len(self.results) > 1:
+                before = [self.results[-2].subgoal_gaps.get(k) for k in self.results[-1].subgoal_gaps]
             flight = self._footlock.in_flight(t1, self.carry.release_frame if self.carry is not None
                                               and self.task.has_catch else None)  # (hold_step_flight)
             world[3:5] = self._footlock.apply(world[3:5], last is not None and any(last.subgoals_now.values()),
@@ -262,8 +265,7 @@ class Simulator:
                                               person=self._person_xy(t1) if self._footlock.config.hold_near is not None else None,
                                               flight=flight,
                                               **self._footlock.gap_flags(None if last is None else last.subgoal_gaps.values(),
-                                                                         None if last is None or len(self.results) < 2 else  # (hold_step_ahead)
-                                                                         [self.results[-2].subgoal_gaps.get(k) for k in last.subgoal_gaps]))
+                                                                         before))
         d_m = None if bal is None else bal.harness.follow
         if d_m is not None:  # (catch_follow_feet: near a meeting the caught robot is held over its feet)
             near = self._footlock is not None and bool(self.results) and within(d_m, self.results[-1].subgoal_gaps.values())
