@@ -92,6 +92,25 @@ def shared_path(*parts: str) -> Path:
 SHARED_ROBOTS = Path(os.environ.get("SOCIALAFF_SHARED_ROBOTS", Path(__file__).resolve().parents[2] / "shared" / "robots"))
 
 
+def standing_with(part: str, **fields: object):  # noqa: ANN201 (SimConfig, imported lazily)
+    """``SimConfig.standing()`` with ``fields`` of its config ``part`` ("balance", "stance" or "foot_lock")
+    replaced."""
+    import dataclasses
+
+    from socialaff_sim.sim.sim_config import SimConfig
+
+    cfg = SimConfig.standing()
+    return dataclasses.replace(cfg, **{part: dataclasses.replace(getattr(cfg, part), **fields)})
+
+
+def synthetic_instance(label: str, k: int):  # noqa: ANN201 (Interaction, imported lazily)
+    """Instance ``k`` (0-based: ``synthetic_instance("high_five", 144)`` is high_five_144) of ``label`` in the
+    embedded synthetic dataset, seed 0, generated with that interaction alone as the physics tests name them."""
+    from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
+
+    return list(generate_dataset(0, SyntheticConfig(interactions=(label,), instances_per_interaction=k + 1)))[k]
+
+
 def frame_states(cfg, inter) -> list[np.ndarray]:  # noqa: ANN001 (SimConfig, Interaction: imported lazily)
     """The robot's and the scene's state (qpos, qvel, ctrl concatenated) after every frame of a ground-truth episode
     of ``inter`` on Stubby under ``cfg``: for checks that an option leaves a robot bit for bit as it was."""

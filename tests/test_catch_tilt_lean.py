@@ -9,16 +9,20 @@ fail); the H1's controller gets the gain and passes the plan's lean to the harne
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import mujoco
 import numpy as np
 import pytest
 
-from conftest import assert_gate_keeps_stubby, shared_robot, spy_harness_decide
+from conftest import assert_gate_keeps_stubby, shared_robot, spy_harness_decide, standing_with, synthetic_instance
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.sim.harness_release import HarnessRelease
 from socialaff_sim.sim.sim_config import STANDING_BALANCE
 from socialaff_sim.sim.support_box import SupportBox
+
+_cfg = functools.partial(standing_with, "balance")  # SimConfig.standing() with these balance fields
+
 
 ON = dataclasses.replace(STANDING_BALANCE, catch_tilt_lean_roll_free=1.0)
 BOX = SupportBox(np.array([[-0.1, -0.15], [0.1, -0.15], [-0.1, 0.15], [0.1, 0.15]]), np.array([1.0, 0.0]))
@@ -72,23 +76,11 @@ def test_the_setting_is_checked(kw) -> None:  # noqa: ANN001
     assert STANDING_BALANCE.catch_tilt_lean_roll_free is None
 
 
-def _cfg(**balance: object):  # noqa: ANN202
-    from socialaff_sim.sim.simulator import SimConfig
-
-    cfg = SimConfig.standing()
-    return dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, **balance))
-
-
-def _high_five():  # noqa: ANN202
-    from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
-
-    return list(generate_dataset(0, SyntheticConfig(interactions=("high_five",), instances_per_interaction=2)))[1]
-
-
 def test_the_plan_lean_against_a_rotation_by_hand() -> None:
     from socialaff_sim.sim.simulator import Simulator
 
-    bal = Simulator("ours", "high_five", _cfg(catch_tilt_lean_roll_free=None))._get_stage(_high_five()).stepper.balance
+    inter = synthetic_instance("high_five", 1)
+    bal = Simulator("ours", "high_five", _cfg(catch_tilt_lean_roll_free=None))._get_stage(inter).stepper.balance
     up = bal.attitude.up
     for deg, axis in ((10.0, (0.0, 1.0, 0.0)), (25.0, (1.0, 0.0, 0.0)), (0.0, (0.0, 1.0, 0.0))):
         # a rotation by `deg` about a horizontal axis applied to the home torso (Rodrigues' formula by hand)
@@ -112,7 +104,7 @@ def _align(up: np.ndarray) -> np.ndarray:
 
 
 def test_stubby_runs_bit_for_bit_as_without_it() -> None:
-    inter = _high_five()
+    inter = synthetic_instance("high_five", 1)
     # ungated: a changed catch for every robot
     assert_gate_keeps_stubby(inter, _cfg(), _cfg(catch_tilt_lean_roll_free=1.0), _cfg(catch_tilt=3.0, release_tilt=3.0))
 
@@ -123,7 +115,7 @@ def test_the_gain_by_robot_and_the_lean_passed() -> None:
     from socialaff_sim.sim.episode import run_episode
     from socialaff_sim.sim.simulator import Simulator
 
-    inter = _high_five()
+    inter = synthetic_instance("high_five", 1)
     assert Simulator("ours", "high_five", _cfg(catch_tilt_lean_roll_free=1.0))._get_stage(
         inter).stepper.balance.harness.lean_gain is None
     spec = load_robot("unitree_h1", mjcf=shared_robot("unitree_h1", "h1.xml"))
@@ -144,7 +136,7 @@ def test_the_touched_gate() -> None:
     from socialaff_sim.retarget.robot import load_robot
     from socialaff_sim.sim.simulator import Simulator
 
-    inter = _high_five()
+    inter = synthetic_instance("high_five", 1)
     spec = load_robot("unitree_h1", mjcf=shared_robot("unitree_h1", "h1.xml"))
     for touched_only in (True, False):
         bal = Simulator(spec, "high_five", _cfg(catch_tilt_lean_roll_free=1.0, catch_tilt_lean_touched=touched_only)

@@ -13,9 +13,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from conftest import assert_gate_keeps_stubby, shared_robot
+from conftest import assert_gate_keeps_stubby, shared_robot, synthetic_instance
 
-from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
 from socialaff_sim.errors import ConfigError, SimulationError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
@@ -35,10 +34,6 @@ def test_the_arms_rows_get_the_factor_and_no_other_row() -> None:
     assert arm_row_scale(scale, cols, None) is scale
 
 
-def _interaction(label: str, k: int = 1):  # noqa: ANN202
-    return list(generate_dataset(0, SyntheticConfig(interactions=(label,), instances_per_interaction=k + 1)))[k]
-
-
 _OFF = dict(flat_roll_free=False, hand_task=None, hand_task_roll_free=False, hand_task_arm_weight=None,
             hand_task_plan_velocity=False, hand_task_velocity_until_touch=False)
 
@@ -50,7 +45,7 @@ def _cfg(**over) -> SimConfig:  # noqa: ANN003
 
 
 def test_only_a_controller_with_the_hands_task_weights_its_arms_down() -> None:
-    inter = _interaction("shake_hands")
+    inter = synthetic_instance("shake_hands", 1)
     base = Simulator("ours", "shake_hands", _cfg())._get_stage(inter).stepper.balance
     # Stubby with the task (no gate): the arms' rows scaled by √0.1, the legs' and head's as before
     bal = Simulator("ours", "shake_hands", _cfg(hand_task=10.0, hand_task_arm_weight=0.1))._get_stage(
@@ -83,7 +78,7 @@ def test_settings_are_checked() -> None:
 
 
 def test_stubby_under_the_gate_runs_bit_for_bit_as_without_the_options() -> None:
-    inter = _interaction("shake_hands")
+    inter = synthetic_instance("shake_hands", 1)
     # ungated, Stubby's arms get the task and the lighter rows: its motion changes (so the check can fail)
     assert_gate_keeps_stubby(inter, _cfg(), _cfg(flat_roll_free=True, hand_task=10.0, hand_task_roll_free=True,
                                                  hand_task_arm_weight=0.1), _cfg(hand_task=10.0, hand_task_arm_weight=0.1))
@@ -96,7 +91,7 @@ def _chain_names(bal) -> list[list[str]]:  # noqa: ANN001
 
 
 def test_the_arms_chains_run_from_the_shoulder_to_the_wrist() -> None:
-    inter = _interaction("shake_hands")
+    inter = synthetic_instance("shake_hands", 1)
     bal = Simulator("ours", "shake_hands", _cfg(hand_task=10.0))._get_stage(inter).stepper.balance
     for side, names in zip(("left", "right"), _chain_names(bal), strict=True):
         assert names == [f"{side}_{j}" for j in ("shoulder_pitch", "shoulder_roll", "shoulder_yaw", "elbow",

@@ -11,8 +11,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from conftest import assert_gate_keeps_stubby, shared_robot
-from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
+from conftest import assert_gate_keeps_stubby, shared_robot, synthetic_instance
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
@@ -56,12 +55,8 @@ def test_settings_are_checked() -> None:
     assert not BalanceConfig().hand_task_roll_free
 
 
-def _interaction(label: str, k: int = 1):  # noqa: ANN202
-    return list(generate_dataset(0, SyntheticConfig(interactions=(label,), instances_per_interaction=k + 1)))[k]
-
-
 def test_the_controllers_built_with_it_stubby_none_the_h1_the_task() -> None:
-    inter = _interaction("shake_hands")
+    inter = synthetic_instance("shake_hands", 1)
     for gate, has in ((True, False), (False, True)):
         bal = Simulator("ours", "shake_hands", _paired(gate))._get_stage(inter).stepper.balance
         assert (bal.hands is not None) is has
@@ -72,6 +67,6 @@ def test_the_controllers_built_with_it_stubby_none_the_h1_the_task() -> None:
 
 
 def test_stubby_runs_bit_for_bit_as_without_either_option() -> None:
-    inter = _interaction("high_five")
+    inter = synthetic_instance("high_five", 1)
     # the same settings without the gate give Stubby the hands' rows, which change its motion (so the check can fail)
     assert_gate_keeps_stubby(inter, SimConfig.standing(), _paired(True), _paired(False))

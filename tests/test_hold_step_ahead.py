@@ -18,7 +18,7 @@ from socialaff_sim.errors import ConfigError
 from socialaff_sim.sim.footlock import FootLock, FootLockConfig
 from socialaff_sim.sim.simulator import SimConfig
 
-from conftest import assert_gate_keeps_stubby, shared_robot
+from conftest import assert_gate_keeps_stubby, shared_robot, synthetic_instance
 
 HOME = (0.08, 0.08)
 
@@ -93,10 +93,6 @@ def test_hold_step_ahead_above_needs_the_option() -> None:
     assert not FootLockConfig().hold_step_ahead_above
 
 
-def _high_five(n: int):  # noqa: ANN202
-    return list(generate_dataset(0, SyntheticConfig(interactions=("high_five",), instances_per_interaction=n)))[n - 1]
-
-
 def test_stubby_is_bit_for_bit_with_the_option() -> None:
     """Stubby's standing pull-up (spent pull_up_122): the same states with ``hold_step_ahead=1``; without the robot
     gate (``hold_near_roll_free=False``) they change, and the option itself changes them there (against the same
@@ -130,7 +126,7 @@ def _gap_flag_calls(cfg: SimConfig, monkeypatch: pytest.MonkeyPatch):  # noqa: A
         return orig(self, gaps, before)
 
     monkeypatch.setattr(FootLock, "gap_flags", spy)
-    run_episode(Simulator("ours", "high_five", cfg), GroundTruthSource(), _high_five(145),
+    run_episode(Simulator("ours", "high_five", cfg), GroundTruthSource(), synthetic_instance("high_five", 144),
                 on_frame=lambda s, r, e: results.append(dict(r.subgoal_gaps)) if r is not None else None)
     monkeypatch.undo()
     return calls, results
@@ -169,7 +165,7 @@ def test_the_h1s_step_at_the_strike_is_held() -> None:
     from socialaff_sim.sim.simulator import Simulator
 
     spec = load_robot("unitree_h1", mjcf=shared_robot("unitree_h1", "h1.xml"))
-    inter = _high_five(795)
+    inter = synthetic_instance("high_five", 794)
     assert inter.instance_id == "high_five_794"
     base = SimConfig.standing()
     runs = {}

@@ -10,6 +10,7 @@ decision, gates and check."""
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import mujoco
 import numpy as np
@@ -21,7 +22,10 @@ from socialaff_sim.sim.harness_release import HarnessRelease
 from socialaff_sim.sim.sim_config import STANDING_BALANCE
 from socialaff_sim.sim.support_box import SupportBox
 
-from conftest import assert_gate_keeps_stubby, shared_robot
+from conftest import assert_gate_keeps_stubby, shared_robot, standing_with
+
+_cfg = functools.partial(standing_with, "balance")  # SimConfig.standing() with these balance fields
+
 
 BASE = STANDING_BALANCE  # (flat_roll_free, which the option needs)
 ON = dataclasses.replace(BASE, release_front_catch=0.05)
@@ -140,13 +144,6 @@ def test_the_setting_is_checked(kw) -> None:  # noqa: ANN001
     with pytest.raises(ConfigError, match="release_front_catch"):
         dataclasses.replace(BASE, **kw)
     assert BASE.release_front_catch is None and BalanceConfig().release_front_catch is None
-
-
-def _cfg(**balance: object):  # noqa: ANN202
-    from socialaff_sim.sim.simulator import SimConfig
-
-    cfg = SimConfig.standing()
-    return dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, **balance))
 
 
 def _inter(label: str, instance: int):  # noqa: ANN202

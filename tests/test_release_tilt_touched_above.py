@@ -7,16 +7,20 @@ bit for bit, and the H1's: its high five gets θ_t and changes, its throw gets n
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import mujoco
 import numpy as np
 import pytest
 
-from conftest import assert_gate_keeps_stubby, shared_robot
+from conftest import assert_gate_keeps_stubby, shared_robot, standing_with, synthetic_instance
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.sim.harness_release import HarnessRelease
 from socialaff_sim.sim.sim_config import STANDING_BALANCE
 from socialaff_sim.sim.support_box import SupportBox
+
+_cfg = functools.partial(standing_with, "balance")  # SimConfig.standing() with these balance fields
+
 
 THROWS = dataclasses.replace(STANDING_BALANCE, release_tilt_touched=8.0)
 ABOVE = dataclasses.replace(THROWS, release_tilt_touched_above=True)
@@ -64,23 +68,10 @@ def test_release_tilt_touched_above_is_checked() -> None:
     assert ABOVE.release_tilt_touched_above
 
 
-def _cfg(**balance: object):  # noqa: ANN202
-    from socialaff_sim.sim.simulator import SimConfig
-
-    cfg = SimConfig.standing()
-    return dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, **balance))
-
-
-def _high_five(n: int = 2):  # noqa: ANN202
-    from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
-
-    return list(generate_dataset(0, SyntheticConfig(interactions=("high_five",), instances_per_interaction=n)))[n - 1]
-
-
 def test_stubby_runs_bit_for_bit_as_without_it() -> None:
     # ungated: the release's tilt raised for every robot, before and after the touch
-    assert_gate_keeps_stubby(_high_five(), _cfg(), _cfg(release_tilt_touched=8.0, release_tilt_touched_above=True),
-                             _cfg(release_tilt=8.0))
+    assert_gate_keeps_stubby(synthetic_instance("high_five", 1), _cfg(),
+                             _cfg(release_tilt_touched=8.0, release_tilt_touched_above=True), _cfg(release_tilt=8.0))
 
 
 KEYS = ("support", "subgoals", "success", "failures")
@@ -97,7 +88,7 @@ def test_the_h1_high_five_gets_the_bound_and_changes_its_throw_none() -> None:
     from socialaff_sim.sim.simulator import Simulator
 
     spec = load_robot("unitree_h1", mjcf=shared_robot("unitree_h1", "h1.xml"))
-    inter = _high_five(729)
+    inter = synthetic_instance("high_five", 728)
     assert inter.instance_id == "high_five_728"
     on = _cfg(release_tilt_touched=8.0, release_tilt_touched_above=True)
     runs = {}

@@ -15,7 +15,7 @@ from socialaff_sim.errors import ConfigError
 from socialaff_sim.sim.footlock import FootLockConfig
 from socialaff_sim.sim.simulator import SimConfig
 
-from conftest import assert_gate_keeps_stubby, shared_robot
+from conftest import assert_gate_keeps_stubby, shared_robot, synthetic_instance
 
 
 def _lock(**kw) -> FootLockConfig:  # noqa: ANN003
@@ -56,10 +56,6 @@ def _without_restep(cfg: SimConfig) -> SimConfig:
                                                                   restep_roll_free=False))
 
 
-def _high_five(n: int):  # noqa: ANN202
-    return list(generate_dataset(0, SyntheticConfig(interactions=("high_five",), instances_per_interaction=n)))[n - 1]
-
-
 def test_stubby_is_bit_for_bit_with_the_robot_gate() -> None:
     """Stubby's standing high five (spent high_five_144): the same states with ``restep_gap`` and both gates (a high
     five keeps the task gate; Stubby's roll is not freed); without ``restep_roll_free`` they change (at 0.05 m, where
@@ -68,7 +64,7 @@ def test_stubby_is_bit_for_bit_with_the_robot_gate() -> None:
     on = dataclasses.replace(base, foot_lock=dataclasses.replace(base.foot_lock, restep_gap=0.05, restep_above=True,
                                                                  restep_roll_free=True))
     ungated = dataclasses.replace(on, foot_lock=dataclasses.replace(on.foot_lock, restep_roll_free=False))
-    assert_gate_keeps_stubby(_high_five(145), base, on, ungated)
+    assert_gate_keeps_stubby(synthetic_instance("high_five", 144), base, on, ungated)
 
 
 KEYS = ("support", "subgoals", "success", "failures")
@@ -84,7 +80,7 @@ def test_the_h1s_short_walk_up_is_restepped_in_a_high_five_only() -> None:
     from socialaff_sim.sim.simulator import Simulator
 
     spec = load_robot("unitree_h1", mjcf=shared_robot("unitree_h1", "h1.xml"))
-    inter = _high_five(790)
+    inter = synthetic_instance("high_five", 789)
     assert inter.instance_id == "high_five_789"
     on = SimConfig.standing()  # rule #64's settings
     base = _without_restep(on)

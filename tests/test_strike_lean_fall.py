@@ -8,14 +8,18 @@ changes it, so that check can fail), the H1's plan gets δ."""
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 import pytest
 
-from conftest import assert_gate_keeps_stubby, shared_robot
+from conftest import assert_gate_keeps_stubby, shared_robot, standing_with, synthetic_instance
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.sim.sim_config import STANDING_STANCE
 from socialaff_sim.sim.strike_lean import PlanLean
+
+_cfg = functools.partial(standing_with, "stance")  # SimConfig.standing() with these stance fields
+
 
 ON = dataclasses.replace(STANDING_STANCE, strike_lean_fall_roll_free=2.0)
 
@@ -55,21 +59,8 @@ def test_the_setting_is_checked(bad: float) -> None:
     assert STANDING_STANCE.strike_lean_fall_roll_free is None
 
 
-def _cfg(**stance: object):  # noqa: ANN202
-    from socialaff_sim.sim.simulator import SimConfig
-
-    cfg = SimConfig.standing()
-    return dataclasses.replace(cfg, stance=dataclasses.replace(cfg.stance, **stance))
-
-
-def _high_five():  # noqa: ANN202
-    from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
-
-    return list(generate_dataset(0, SyntheticConfig(interactions=("high_five",), instances_per_interaction=2)))[1]
-
-
 def test_stubby_runs_bit_for_bit_as_without_it() -> None:
-    inter = _high_five()
+    inter = synthetic_instance("high_five", 1)
     # ungated: a changed lean for every robot changes Stubby
     assert_gate_keeps_stubby(inter, _cfg(), _cfg(strike_lean_fall_roll_free=2.0), _cfg(strike_lean_max=5.0))
 
@@ -78,7 +69,7 @@ def test_the_h1s_plan_gets_the_rate() -> None:
     from socialaff_sim.retarget.robot import load_robot
     from socialaff_sim.sim.simulator import Simulator
 
-    inter = _high_five()
+    inter = synthetic_instance("high_five", 1)
     spec = load_robot("unitree_h1", mjcf=shared_robot("unitree_h1", "h1.xml"))
     for robot, cfg, expected in (("ours", _cfg(strike_lean_fall_roll_free=2.0), None),
                                  (spec, _cfg(), None), (spec, _cfg(strike_lean_fall_roll_free=2.0), np.radians(2.0))):

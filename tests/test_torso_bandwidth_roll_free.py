@@ -5,25 +5,17 @@ step by step to one without, while ``torso_bandwidth`` itself at ω_r changes it
 
 from __future__ import annotations
 
-import dataclasses
+import functools
 
 import pytest
 
-from conftest import assert_gate_keeps_stubby, shared_robot
-from socialaff_sim.data.synthetic import SyntheticConfig, generate_dataset
+from conftest import assert_gate_keeps_stubby, shared_robot, standing_with, synthetic_instance
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.retarget.robot import load_robot
 from socialaff_sim.sim.balance_config import BalanceConfig
 from socialaff_sim.sim.simulator import SimConfig, Simulator
 
-
-def _cfg(**balance: object) -> SimConfig:
-    cfg = SimConfig.standing()
-    return dataclasses.replace(cfg, balance=dataclasses.replace(cfg.balance, **balance))
-
-
-def _high_five():  # noqa: ANN202
-    return list(generate_dataset(0, SyntheticConfig(interactions=("high_five",), instances_per_interaction=2)))[1]
+_cfg = functools.partial(standing_with, "balance")  # SimConfig.standing() with these balance fields
 
 
 def test_the_setting_is_checked() -> None:
@@ -35,7 +27,7 @@ def test_the_setting_is_checked() -> None:
 
 
 def test_the_bandwidth_by_robot() -> None:
-    inter = _high_five()
+    inter = synthetic_instance("high_five", 1)
     for omega, got in ((None, 10.0), (20.0, 10.0)):  # Stubby's feet roll: torso_bandwidth whatever ω_r
         bal = Simulator("ours", "high_five", _cfg(torso_bandwidth_roll_free=omega))._get_stage(inter).stepper.balance
         assert not bal.roll_freed and bal.torso_bandwidth == got
@@ -46,7 +38,7 @@ def test_the_bandwidth_by_robot() -> None:
 
 
 def test_stubby_runs_bit_for_bit_as_without_it() -> None:
-    inter = _high_five()
+    inter = synthetic_instance("high_five", 1)
     # ungated: the same bandwidth for every robot changes Stubby
     assert_gate_keeps_stubby(inter, SimConfig.standing(), _cfg(torso_bandwidth_roll_free=20.0),
                              _cfg(torso_bandwidth=20.0))
