@@ -165,6 +165,12 @@ class FootLockConfig:
     restep_roll_free: bool = False
     """[—]: ``restep_gap`` only on a robot whose flat feet's roll the balance controller frees (the H1, not Stubby; as
     ``hold_near_roll_free``). ``False``: on every robot."""
+    restep_chair: float | None = None
+    """d_c [m]: in a task whose person sits on a chair at the start (``TaskSpec.chair``: the pull-up), on a robot whose
+    flat feet's roll the balance controller does not free (Stubby), ``restep_gap`` = d_c whatever its own gates say
+    (a walk-up's foot left d_c behind its planted point steps again until the first contact); elsewhere dropped, and
+    ``restep_gap`` as its gates say (:meth:`for_episode`). Stubby's pull-ups' walk-up drags a sole left 20–40 cm
+    behind onto its toe (docs/design.md §5, session 38, wip/pullwalk2). ``None``: no such re-step."""
     glide_until_contact: bool = False
     """[—]: With ``glide_step``, glides step only until a sub-goal's contact first holds in the episode (the walk-up);
     afterwards they are planted at once as without ``glide_step``."""
@@ -213,6 +219,8 @@ class FootLockConfig:
             raise ConfigError(f"FootLockConfig.restep_gap: expected None or a distance > 0 m, found {self.restep_gap}")
         if (self.restep_above or self.restep_roll_free) and self.restep_gap is None:
             raise ConfigError("FootLockConfig.restep_above, restep_roll_free: need restep_gap")
+        if self.restep_chair is not None and not self.restep_chair > 0.0:
+            raise ConfigError(f"FootLockConfig.restep_chair: expected None or a distance > 0 m, found {self.restep_chair}")
         if self.glide_step is not None and not self.glide_step > 0.0:
             raise ConfigError(f"FootLockConfig.glide_step: expected None or a height > 0 m, found {self.glide_step}")
         if not (isinstance(self.glide_step_frames, int) and self.glide_step_frames >= 1):
@@ -247,15 +255,21 @@ class FootLockConfig:
         if self.hold_near is not None and not self.hold_near >= 0.0:
             raise ConfigError(f"FootLockConfig.hold_near: expected None or a distance ≥ 0 m, found {self.hold_near}")
 
-    def for_episode(self, *, plan_feet: bool, causal: bool, counts_above: bool, roll_freed: bool) -> FootLockConfig:
+    def for_episode(self, *, plan_feet: bool, causal: bool, counts_above: bool, roll_freed: bool,
+                    chair: bool = False) -> FootLockConfig:
         """The settings one episode runs with: the options whose gates say "no" dropped. ``plan_feet``: the
         source's feet are planned (``SimConfig.plan_feet_causal_only``; else no ``restep_gap``); ``causal``: the
         source is causal (``glide_gap_causal_only``); ``counts_above``: the task's contact counts above the
         shoulders (``glide_gap_above``, ``plant_caught_above``, ``hold_step_ahead_above``, ``restep_above``);
         ``roll_freed``: the balance controller frees the feet's roll (``restep_roll_free``; ``hold_near_roll_free``:
         else no ``hold_near``, ``land_gap``, ``hold_step_gap`` (but with ``hold_step_gap_glide`` where the glide gaps
-        act), ``hold_step_ahead``, ``hold_step_flight``)."""
+        act), ``hold_step_ahead``, ``hold_step_flight``); ``chair``: the person sits at the start (``restep_chair``,
+        with ``plan_feet`` and not ``roll_freed``)."""
         lock = self
+        if lock.restep_chair is not None:  # the pull-up's re-step on Stubby, in place of restep_gap's own gates
+            act = chair and plan_feet and not roll_freed
+            lock = replace(lock, restep_chair=None, **(dict(restep_gap=lock.restep_chair, restep_above=False,
+                                                             restep_roll_free=False) if act else {}))
         if not plan_feet or (lock.restep_above and not counts_above) or (lock.restep_roll_free and not roll_freed):
             lock = replace(lock, restep_gap=None, restep_above=False, restep_roll_free=False)
         if lock.glide_gap_causal_only and not causal:

@@ -158,7 +158,7 @@ class Simulator:
         lock = self.config.foot_lock
         if lock is not None:
             lock = lock.for_episode(plan_feet=self._plan_feet, causal=self._causal, counts_above=self.task.counts_above,
-                                    roll_freed=bal is not None and bal.roll_freed)
+                                    roll_freed=bal is not None and bal.roll_freed, chair=self.task.chair)
         self._lean = PlanLean(None if stage.stance is None else stage.stance.config, self.task.counts_above,
                               bal is not None and bal.roll_freed)
         rl, sc = self.config.reach_lean, stage.scene
