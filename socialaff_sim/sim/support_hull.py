@@ -14,6 +14,7 @@ contact-phase support from catches to holds rather than lowering it, and stays o
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 __all__ = ["convex_hull", "hull_depth", "sole_points"]
 
@@ -28,28 +29,17 @@ def sole_points(soles: list[np.ndarray | None], pts: np.ndarray, which: np.ndarr
     return np.vstack(out) if out else np.zeros((0, 2))
 
 
-def _cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
-    """z of (a − o) × (b − o): > 0 when o → a → b turns counter-clockwise."""
-    return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
-
-
 def convex_hull(points: np.ndarray) -> np.ndarray:
-    """(H, 2) the convex hull's vertices of ``points`` (K, 2), counter-clockwise, collinear points dropped (a monotone
-    chain over the points sorted by x, then y); fewer than three when the points span no area."""
-    p = np.unique(np.asarray(points, dtype=np.float64).reshape(-1, 2), axis=0)  # (sorted by x, then y)
+    """(H, 2) the convex hull's vertices of ``points`` (K, 2), counter-clockwise (Qhull, through
+    :class:`scipy.spatial.ConvexHull`, which lists a 2-D hull's vertices that way), collinear points dropped; fewer
+    than three (the distinct points, at most two of them) when the points span no area."""
+    p = np.unique(np.asarray(points, dtype=np.float64).reshape(-1, 2), axis=0)
     if len(p) < 3:
         return p
-    lower: list[np.ndarray] = []
-    for q in p:
-        while len(lower) >= 2 and _cross(lower[-2], lower[-1], q) <= 0.0:
-            lower.pop()
-        lower.append(q)
-    upper: list[np.ndarray] = []
-    for q in p[::-1]:
-        while len(upper) >= 2 and _cross(upper[-2], upper[-1], q) <= 0.0:
-            upper.pop()
-        upper.append(q)
-    return np.array(lower[:-1] + upper[:-1])
+    try:
+        return p[ConvexHull(p).vertices]
+    except QhullError:  # all on one line (or one point): no interior, as a hull of two vertices
+        return p[[0, -1]]
 
 
 def hull_depth(hull: np.ndarray, p: np.ndarray) -> float:
