@@ -146,9 +146,6 @@ def check_balance_config(c: Any) -> None:  # (a BalanceConfig; typed loosely: ba
     if c.release_front_long != 0.0 and not (c.release_front_catch is not None and c.release_front_long > 0.0):
         raise ConfigError(f"BalanceConfig.release_front_long: needs release_front_catch and a length > 0 m (0: off), "
                           f"found {c.release_front_long!r}")
-    if c.release_hull_roll_free is not None and not (c.flat_roll_free and c.release_hull_roll_free >= 0.0):
-        raise ConfigError(f"BalanceConfig.release_hull_roll_free: needs flat_roll_free (the robots it picks) and a "
-                          f"distance ≥ 0 m, found {c.release_hull_roll_free!r}")
     if c.release_ahead_catch is not None and not (c.flat_roll_free and c.release_ahead_catch >= 0.0):
         raise ConfigError(f"BalanceConfig.release_ahead_catch: needs flat_roll_free (the robots it picks) and a "
                           f"distance ≥ 0 m, found {c.release_ahead_catch!r}")

@@ -34,7 +34,7 @@ class BalanceConfig:
     - Harness: sole_gap, release, release_delay, release_tilt, release_margin, release_settled, release_settled_above,
       release_settled_causal_only, release_settled_raised, release_settled_latch,
       release_settled_until_touch, release_front_catch, release_front_long,
-      release_ahead_catch, release_hull_roll_free,
+      release_ahead_catch,
       release_tilt_touched, release_tilt_touched_above,
       tilt_from_plan,
       catch_tilt, catch_tilt_lean_roll_free, catch_tilt_lean_touched, catch_margin, catch_blend, catch_follow_feet,
@@ -312,11 +312,6 @@ class BalanceConfig:
     release_ahead_catch: float | None = None
     """ρ_a [m]: as ``release_front_catch``, let go only while the capture point lies at most ρ_a ahead of the centre
     of mass along the heading. ``None``: off. Needs ``flat_roll_free``."""
-    release_hull_roll_free: float | None = None
-    """m_h [m]: on a robot whose feet's roll ``flat_roll_free`` frees (the H1), the harness lets go only while the
-    capture point also lies at least m_h inside the convex hull of the soles on the floor (:mod:`~.support_hull`):
-    the box also counts the corners beside a staggered stance's feet, where the H1 was let go and fell forward
-    (docs/design.md §5, session 38, wip/h1wide; not adopted). ``None``: off. Needs ``flat_roll_free``."""
     release_settled: float | None = None
     """ρ [m]: the harness lets go only while the capture point also lies within ρ of the centre of mass
     (|ξ − c| ≤ ρ, horizontal: the centre of mass moving at most ρ ω₀), so that a robot swinging back in the

@@ -63,7 +63,6 @@ from .scene import Scene
 from .self_clearance import SelfClearance
 from .shear_spread import feet_shear_cost, shear_spread_cost
 from .support_box import SupportBox
-from .support_hull import sole_points
 from .torque_hold import TorqueHold
 from .torso_attitude import TorsoAttitude
 
@@ -250,8 +249,7 @@ class BalanceController:
             cxy = com[:2]
         touch = ((self.harness.tilt_touched is not None or c.release_settled_until_touch)
                  and self.compensation is not None and bool(self.compensation.touched.any()))
-        hull = sole_points(self._soles_now, pts, which) if standing and self.harness.hull is not None else None
-        self.harness.decide(d, m.opt.timestep, standing, tilt, box, capture, touch, cxy, self._catch_lean(), soles=hull)
+        self.harness.decide(d, m.opt.timestep, standing, tilt, box, capture, touch, cxy, self._catch_lean())
         released = self.harness.released
         self.active = standing and (released or c.drive_harnessed)
         if self.active:

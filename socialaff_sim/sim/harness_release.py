@@ -5,8 +5,7 @@ Decided per physics step (:class:`HarnessRelease`, owned by :class:`~.balance_co
 lets go once both feet have been planted ``release_delay`` and the robot is steady (the torso within
 ``release_tilt``, or ``release_tilt_touched`` after a touch on a robot whose feet's roll the controller frees, in a
 throw (with ``release_tilt_touched_above``: a high five), the capture point inside the support box by
-``release_margin`` (with ``release_front_catch`` in a throw, on the H1: that far behind its front face; with
-``release_hull_roll_free`` on the H1: that deep inside the soles' convex hull), and with
+``release_margin`` (with ``release_front_catch`` in a throw, on the H1: that far behind its front face), and with
 ``release_settled`` within that of the centre of mass, with ``release_settled_raised`` only in the strike's frames:
 :meth:`see_plan`); it catches the robot again at
 once when the torso tilts past ``catch_tilt`` (on the H1 with ``catch_tilt_lean_roll_free``: raised by the plan's
@@ -24,7 +23,6 @@ from .arm_contacts import wrist_frames, wrist_positions
 from .balance_config import BalanceConfig
 from .scene import Scene
 from .support_box import SupportBox
-from .support_hull import convex_hull, hull_depth
 
 
 class HarnessRelease:
@@ -46,9 +44,6 @@ class HarnessRelease:
         self._ahead = config.release_ahead_catch if roll_freed else None
         self.ahead = self._ahead
         """[m] ``release_ahead_catch`` where it acts (as :attr:`front`), else ``None``."""
-        self.hull = config.release_hull_roll_free if roll_freed else None
-        """[m] ``release_hull_roll_free`` where it acts (a robot whose feet's roll the controller frees), else ``None``:
-        the capture point's least depth inside the soles' convex hull for a release (:mod:`~.support_hull`)."""
         self.lean_gain = config.catch_tilt_lean_roll_free if roll_freed else None
         """[—] ``catch_tilt_lean_roll_free`` where it acts (a robot whose feet's roll the controller frees), else
         ``None``: the catch's tilt bound grows with the plan's lean (:meth:`catch_tilt`)."""
@@ -160,13 +155,12 @@ class HarnessRelease:
 
     def decide(self, d: mujoco.MjData, dt: float, standing: bool, tilt: float, box: SupportBox | None,
                capture: np.ndarray, touched: bool = False, com: np.ndarray | None = None,
-               plan_lean: float = 0.0, soles: np.ndarray | None = None) -> None:
+               plan_lean: float = 0.0) -> None:
         """The step's decision after ``mj_step1``: ``standing`` (both feet planted and on the floor), the torso's
         ``tilt`` (degrees), the support ``box`` (``None`` unless standing) and the ``capture`` point (2,) (world, m);
         ``dt`` (s) the physics step; ``touched``: an arm has touched the person or the object (:meth:`release_tilt`);
         ``com`` (2,) the centre of mass (world, m; needed with :attr:`settled` while standing); ``plan_lean`` (deg)
-        the plan's torso lean from upright (:meth:`catch_tilt`); ``soles`` (K, 2): points whose convex hull is the
-        feet's support polygon (world, m; :func:`~.support_hull.sole_points`; needed with :attr:`hull` while standing).
+        the plan's torso lean from upright (:meth:`catch_tilt`).
         Switches the weld in ``d`` (with ``release``) and counts."""
         c = self.config
         catch_tilt = self.catch_tilt(plan_lean)
@@ -183,8 +177,7 @@ class HarnessRelease:
                                   or self.still(capture, com))  # type: ignore[arg-type]
                              and (self.front is None or box.behind_front(capture) >= self.front  # type: ignore[union-attr]
                                   or box.hi[0] - box.lo[0] < c.release_front_long)  # type: ignore[union-attr]
-                             and (self.ahead is None or box.R[0] @ (capture - com) <= self.ahead)  # type: ignore[union-attr, operator]
-                             and (self.hull is None or hull_depth(convex_hull(soles), capture) >= self.hull))  # type: ignore[arg-type]
+                             and (self.ahead is None or box.R[0] @ (capture - com) <= self.ahead))  # type: ignore[union-attr, operator]
         if was and not self.released:
             self.catches += 1
             self.catch_reasons["step" if not standing else "tilt" if tilt > catch_tilt else "capture"] += 1
