@@ -18,7 +18,6 @@ import copy
 import time
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
 from ..data.interaction import Interaction
@@ -29,24 +28,24 @@ from .carry import CarryPlan, release_object
 from .frame_targets import FrameTargets, fill_targets
 from .human import HumanPose
 from .reach import reachable_targets
-from .scene import Scene, set_human_sizes
+from .scene import set_human_sizes
 from .reset_cache import ResetCache, Settled, build_placement
-from .scoring import SubgoalScorer
 from .stage import Stage, contact_exemptions, key_frames, key_frames_at
 from .stage_build import build_stage
 from .footlock import FootLock, within
 from .harness_release import planted_offset
 from .reach_lean import ReachLean
 from .sim_config import SimConfig, StepResult
+from .simulator_views import SimulatorViews
 from .strike_lean import PlanLean
-from .support import SupportMeter
 from .tasks import TaskSpec, load_task
 
 __all__ = ["SimConfig", "StepResult", "Simulator"]
 
 
-class Simulator:
-    """A robot facing a replayed human, stepped one data frame at a time."""
+class Simulator(SimulatorViews):
+    """A robot facing a replayed human, stepped one data frame at a time (what an observer reads of it:
+    :class:`~.simulator_views.SimulatorViews`)."""
 
     def __init__(self, robot: str | Path | RobotSpec, task: str | Path | TaskSpec, config: SimConfig | None = None) -> None:
         self.robot = robot if isinstance(robot, RobotSpec) else load_robot(robot)
@@ -215,10 +214,6 @@ class Simulator:
         self._require()
         return self._targets.object_anchors(frame)
 
-    def _require(self) -> None:
-        if self._stage is None or self.interaction is None:
-            raise SimulationError("call Simulator.reset(interaction) first")
-
     def step(self, targets: np.ndarray, subevent: str | None = None) -> StepResult:
         """Advance one data frame toward robot-frame ``targets`` (5, 3), metres (NaN rows: keep home offsets)."""
         self.solve(targets, subevent)
@@ -359,62 +354,3 @@ class Simulator:
         )
         self.results.append(result)
         return result
-
-    # -- observations -----------------------------------------------------------------
-    @property
-    def scene(self) -> Scene:
-        self._require()
-        return self._stage.scene  # type: ignore[union-attr]
-
-    @property
-    def data(self) -> mujoco.MjData:
-        self._require()
-        return self._stage.data  # type: ignore[union-attr]
-
-    @property
-    def support(self) -> SupportMeter:
-        """The outside-support and effort meter of the current scene."""
-        self._require()
-        return self._stage.stepper.support  # type: ignore[union-attr]
-
-    @property
-    def scorer(self) -> SubgoalScorer:
-        self._require()
-        return self._stage.scorer  # type: ignore[union-attr]
-
-    def _person_xy(self, frame: int) -> np.ndarray:
-        """(2,) the mean of agent 0's present key joints at ``frame``, horizontal, world, metres."""
-        return np.nanmean(self._person_keys[frame, :, :2], axis=0)
-
-    def human_key_joints(self, frame: int | None = None) -> np.ndarray:
-        """(5, 3) agent 0's key joints at ``frame`` (default: the current one), robot frame, metres (NaN if absent)."""
-        self._require()
-        t = self.frame if frame is None else frame
-        return self.frame_R.to_robot(self._person_keys[t])
-
-    def object_position(self) -> np.ndarray | None:
-        """(3,) the simulated object's centre, robot frame, metres; ``None`` without an object track."""
-        self._require()
-        if self.carry is None:
-            return None
-        return self.frame_R.to_robot(self.data.xpos[self.scene.object_body])
-
-    def robot_key_frames(self) -> np.ndarray:
-        """(5, 3) the robot's key frames in physics, robot frame, metres."""
-        return self.frame_R.to_robot(key_frames(self.scene, self.data))
-
-    def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
-        """Hinge angles (rad) and velocities (rad/s) of the robot, (n_joints,) each, in robot joint order."""
-        sc, d = self.scene, self.data
-        return d.qpos[sc.robot_qadr[7:]].copy(), d.qvel[sc.robot_vadr[6:]].copy()
-
-    @property
-    def home_key_frames(self) -> np.ndarray:
-        """(5, 3) the robot's key frames at its home posture, robot frame, metres (after the first reset)."""
-        self._require()
-        return self._home_keys.copy()
-
-    @property
-    def ik_qpos(self) -> np.ndarray:
-        """(nq_ik,) the latest IK solution (free joint then the IK's hinges), world frame."""
-        return self._q.copy()
