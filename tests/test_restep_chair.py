@@ -6,12 +6,11 @@ built independently, and Stubby's spent pull_up_812 (changed, more glide steps) 
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 import pytest
-from conftest import FOOT_ANKLES as ANKLES, frame_states, planted_lock, synthetic_instance
+from conftest import FOOT_ANKLES as ANKLES, frame_states, planted_lock, standing_with, synthetic_instance
 
 from socialaff_sim.errors import ConfigError
 from socialaff_sim.sim.footlock import FootLockConfig
@@ -21,7 +20,7 @@ D_C = 0.15  # not #64's 0.25, so that a re-step gap of d_c can only come from th
 
 
 def _lock(d_c: float | None = D_C) -> FootLockConfig:
-    return dataclasses.replace(SimConfig.standing().foot_lock, restep_chair=d_c)
+    return standing_with("foot_lock", restep_chair=d_c).foot_lock
 
 
 @pytest.mark.parametrize(("chair", "roll_freed", "plan_feet", "counts_above", "gap"), [
@@ -74,11 +73,9 @@ def test_the_pull_ups_gap_is_d_c_through_the_gate(extra: float, steps: int) -> N
 
 
 def _with(d_c: float | None = None, gap: float | None = None) -> SimConfig:
-    base = SimConfig.standing()
-    fl = base.foot_lock
     if gap is not None:  # restep_gap without any gate: what the option does, in every task
-        fl = dataclasses.replace(fl, restep_gap=gap, restep_above=False, restep_roll_free=False)
-    return dataclasses.replace(base, foot_lock=dataclasses.replace(fl, restep_chair=d_c))
+        return standing_with("foot_lock", restep_gap=gap, restep_above=False, restep_roll_free=False, restep_chair=d_c)
+    return standing_with("foot_lock", restep_chair=d_c)
 
 
 def test_stubbys_pull_up_changes_and_a_hand_over_is_bit_for_bit() -> None:

@@ -251,7 +251,7 @@ class Simulator(SimulatorViews):
             last = self.results[-1] if self.results else None
             before = None  # the frame before last's gaps of the same sub-goals, read only for hold_step_ahead
             if self._footlock.config.hold_step_ahead is not None and len(self.results) > 1:
-                before = [self.results[-2].subgoal_gaps.get(k) for k in self.results[-1].subgoal_gaps]
+                before = [self.results[-2].subgoal_gaps.get(name) for name in self.results[-1].subgoal_gaps]
             flight = self._footlock.in_flight(t1, self.carry.release_frame if self.carry is not None
                                               and self.task.has_catch else None)  # (hold_step_flight)
             world[3:5] = self._footlock.apply(world[3:5], last is not None and any(last.subgoals_now.values()),

@@ -11,6 +11,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from ..data.interaction import Interaction
 from ..errors import SimulationError
 from ..retarget.scaling import RobotFrame
 from .carry import CarryPlan
@@ -26,7 +27,7 @@ class SimulatorViews:
     """Read-only accessors of a simulator's current episode (a mixin of :class:`~.simulator.Simulator`)."""
 
     _stage: Stage | None
-    interaction: object | None
+    interaction: Interaction | None
     frame: int
     frame_R: RobotFrame
     carry: CarryPlan | None
