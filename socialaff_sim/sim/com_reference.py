@@ -4,7 +4,8 @@ Per data frame the IK's plan gives the middle of its feet p̄_plan and its centr
 (:meth:`ComReference.begin_frame`). Per physics step c* is, by ``com_reference``, that offset carried onto the
 physical feet, p̄ + (c_plan − p̄_plan) (``plan``), or the middle of the support box (``middle``); with ``com_shift``
 it is moved forward by the feet's shortfall behind the plan's, which also weights the centre of mass's rows
-(:mod:`~.com_shift`). The controller then leans it against the measured external forces
+(:mod:`~.com_shift`); with ``ReachLeanConfig.lead`` (:attr:`ComReference.lead`), in a leaned reach's grip, moved
+forward by d_g once an arm has touched. The controller then leans it against the measured external forces
 (:func:`~.external_force.lean_offset`) and clips it into the support box
 (:class:`~socialaff_sim.sim.balance_control.BalanceController`).
 """
@@ -30,6 +31,9 @@ class ComReference:
                  compensation: ArmCompensation | None) -> None:
         self.config = config
         self._feet, self._root, self._compensation = feet, root, compensation
+        self.lead: float | None = None
+        """d_g [m]: ``ReachLeanConfig.lead`` where it acts in this episode (set by the simulator at each episode's start),
+        else ``None``: :meth:`goal` moves c* d_g forward along the box's heading once an arm has touched."""
         self.reset()
 
     def reset(self) -> None:
@@ -44,10 +48,14 @@ class ComReference:
 
     def goal(self, d: mujoco.MjData, box: SupportBox) -> tuple[np.ndarray, float]:
         """A physics step's (2,) c* (world, m) before the lean and the box's clip, :meth:`reference` plus
-        :meth:`shift`'s shift, and the centre of mass's rows' weight; the feet of ``d`` read once for both."""
+        :meth:`shift`'s shift (and :attr:`lead` along the box's heading after an arm's first touch), and the centre of
+        mass's rows' weight; the feet of ``d`` read once for both."""
         feet = self._middle(d)
         s, w = self._shift(feet, box)
-        return self._reference(feet, box) + s, w
+        goal = self._reference(feet, box) + s
+        if self.lead is not None and self._compensation is not None and self._compensation.touched.any():
+            goal = goal + self.lead * box.R[0]  # (ReachLeanConfig.lead: the grip's reference toward the toes)
+        return goal, w
 
     def reference(self, d: mujoco.MjData, box: SupportBox) -> np.ndarray:
         """(2,) c* (world, m) before the shift, the lean and the box's clip, by ``com_reference``: the plan's offset

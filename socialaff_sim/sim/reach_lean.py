@@ -48,6 +48,7 @@ class ReachLeanConfig:
     - How far: most
     - Which reaches: ahead, below
     - Which robots and tasks: roll_free, seated_only
+    - The grip: lead
     """
 
     most: float = 30.0
@@ -64,12 +65,21 @@ class ReachLeanConfig:
     """[—]: Whether the lean acts only in a task whose person sits at the start (``TaskSpec.chair``: the pull-up),
     whose hands lie below a standing robot's reach. Off, handshakes, hand overs and throws lean too (development:
     the H1's hand overs met 7 → 16 of 16 but its handshakes' and throws' contact-phase support rose by 10 points)."""
+    lead: float | None = None
+    """d_g [m]: in the episodes the lean acts in (the gates above), once an arm has touched the person (the arms'
+    compensation's latch, ``BalanceConfig.arm_compensation``), the balance controller's centre-of-mass reference is
+    moved d_g forward along the support box's heading (:meth:`~.com_reference.ComReference.goal`, before the box's
+    clip): the leaned H1's grip is caught with its capture point behind its heels (the seated person's rising hand
+    presses the robot's hand back; docs/design.md §5, issue 25, session 39, wip/h1pull3). ``None``: no lead; without
+    a balance controller (the harness mode) nothing."""
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.most < 90.0:
             raise ConfigError(f"ReachLeanConfig.most: expected an angle in [0, 90) degrees, found {self.most}")
         if not np.isfinite(self.ahead) or not np.isfinite(self.below):
             raise ConfigError(f"ReachLeanConfig: expected finite ahead and below (m), found {self.ahead}, {self.below}")
+        if self.lead is not None and not 0.0 <= self.lead <= 0.2:
+            raise ConfigError(f"ReachLeanConfig.lead: expected None or a distance in [0, 0.2] m, found {self.lead}")
 
 
 def least_lean(d: np.ndarray, s: np.ndarray, arm: float) -> float:
