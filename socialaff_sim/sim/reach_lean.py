@@ -70,8 +70,8 @@ class ReachLeanConfig:
     compensation's latch, ``BalanceConfig.arm_compensation``), the balance controller's centre-of-mass reference is
     moved d_g forward along the support box's heading (:meth:`~.com_reference.ComReference.goal`, before the box's
     clip): the leaned H1's grip is caught with its capture point behind its heels (docs/design.md §5, issue 25,
-    session 39, wip/h1pull3; the force's direction was not recorded, so the cause is not traced). ``None``: no lead; without
-    a balance controller (the harness mode) nothing."""
+    session 39, wip/h1pull3; the force's direction was not recorded, so the cause is not traced). ``None``: no
+    lead; without a balance controller (the harness mode) nothing."""
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.most < 90.0:

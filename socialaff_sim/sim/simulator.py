@@ -164,10 +164,9 @@ class Simulator(SimulatorViews):
         self._reach_lean = None if rl is None else ReachLean(rl, sc.model, [sc.frame_body(k) for k in (3, 4)],
                                                              sc.root_body, stage.reach.arm, stage.reach.shoulders,
                                                              self.task.chair)
-        if bal is not None:  # (ReachLeanConfig.lead: the leaned grip's reference, where the lean acts)
-            leaning = rl is not None and self._reach_lean is not None and self._reach_lean.active
-            bal.com.lead = rl.lead if leaning and rl is not None else None
         if bal is not None:  # the harness's gates: release_tilt_touched (a throw's catch), release_settled (per task, source)
+            lean = self._reach_lean  # ReachLeanConfig.lead: the leaned grip's reference, only where the lean acts
+            bal.com.lead = lean.config.lead if lean is not None and lean.active else None
             bal.harness.gate_touched(self.task.has_catch, self.task.counts_above)
             bal.harness.gate_settled(self.task.counts_above, self._causal)
             bal.harness.gate_follow(self.task.chair)
